@@ -1,0 +1,137 @@
+//! `fivecal machine show FILE`: the parsed machine, its chain and its symbols.
+
+use anyhow::Context as _;
+use clap::Subcommand;
+use fivecal::kinematics::symbols::SymbolTable;
+use fivecal::{Kinematics, Machine};
+
+#[derive(Subcommand, Debug)]
+pub enum MachineCommand {
+    /// Print a machine file as parsed: axes, limits, pivot, tool, probe, the
+    /// kinematic chain and the error symbols it accepts. FILE is a path or a
+    /// built-in name (bc-trunnion, ac-trunnion, head-table, head-head).
+    Show {
+        /// Machine file or built-in name.
+        file: String,
+    },
+    /// List the built-in machines.
+    List,
+}
+
+pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
+    match cmd {
+        MachineCommand::List => {
+            for (name, _) in fivecal::machine::BUILTIN {
+                let m = Machine::builtin(name).expect("built-in machines are valid");
+                println!("{name:12} {}", m.description);
+            }
+            Ok(())
+        }
+        MachineCommand::Show { file } => {
+            let m =
+                Machine::load(&file).with_context(|| format!("cannot load machine `{file}`"))?;
+            print!("{}", show(&m));
+            Ok(())
+        }
+    }
+}
+
+fn limits(l: Option<(f64, f64)>) -> String {
+    match l {
+        None => "continuous".into(),
+        Some((a, b)) => format!("{a} .. {b} deg"),
+    }
+}
+
+pub fn show(m: &Machine) -> String {
+    use std::fmt::Write;
+    let k = Kinematics::new(m);
+    let sym = SymbolTable::for_kinematics(&k);
+    let mut s = String::new();
+    let _ = writeln!(s, "machine     {}", m.name);
+    let _ = writeln!(s, "            {}", m.description);
+    let _ = writeln!(
+        s,
+        "structure   {} (chain {}, workpiece to tool)",
+        m.structure, m.chain
+    );
+    let _ = writeln!(s, "controller  {}", m.dialect);
+    for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
+        let (a, b) = m.strokes[i];
+        let _ = writeln!(s, "axis {l}      {a} .. {b} mm (machine coordinates)");
+    }
+    for a in [&m.tilt, &m.c] {
+        let _ = writeln!(
+            s,
+            "axis {}      {}, about {}, in the {}, on {}, direction {:+}",
+            a.letter,
+            limits(a.limits),
+            a.about.letter(),
+            if a.on_table { "table" } else { "head" },
+            a.parent,
+            a.direction
+        );
+    }
+    let _ = writeln!(
+        s,
+        "pivot       W origin at X{} Y{} Z{} (machine coordinates)",
+        m.pivot.x, m.pivot.y, m.pivot.z
+    );
+    if m.pivot_length > 0.0 {
+        let _ = writeln!(s, "head        pivot length {} mm", m.pivot_length);
+    }
+    let _ = writeln!(
+        s,
+        "table       top at Z{} in W, radius {} mm",
+        m.table.surface, m.table.radius
+    );
+    let _ = writeln!(
+        s,
+        "tool        T{} {}: {:?} D{} L{}",
+        m.tool.number, m.tool.name, m.tool.kind, m.tool.diameter, m.tool.length
+    );
+    let _ = writeln!(
+        s,
+        "probe       T{} {}: ball D{} L{}",
+        m.probe.number, m.probe.name, m.probe.ball_diameter, m.probe.length
+    );
+    let _ = writeln!(
+        s,
+        "rapid       {} mm/min, {} deg/min",
+        m.rapid.linear, m.rapid.rotary
+    );
+    let _ = writeln!(
+        s,
+        "\nkinematic chain (mm, rad; tool = tool length {} mm):",
+        k.gauge_length()
+    );
+    for line in k.describe_chain().lines() {
+        let _ = writeln!(s, "  {line}");
+    }
+    let _ = writeln!(s, "\nlocation-error symbols:");
+    for l in &sym.location {
+        let terms: Vec<String> = l
+            .terms
+            .iter()
+            .map(|&(slot, c)| {
+                let n = k.slot_name(slot).unwrap_or_default();
+                if c < 0.0 { format!("-{n}") } else { n }
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "  {:9} = {:16} [{}]  {}",
+            l.name,
+            terms.join(" + "),
+            l.unit,
+            l.description
+        );
+    }
+    let _ = writeln!(s, "\nnot identifiable (rejected in error files):");
+    for (n, why) in &sym.not_identifiable {
+        let _ = writeln!(s, "  {n:9} {why}");
+    }
+    let maps: Vec<&str> = sym.maps.iter().map(|m| m.name.as_str()).collect();
+    let _ = writeln!(s, "\nposition-dependent symbols:\n  {}", maps.join(" "));
+    s
+}

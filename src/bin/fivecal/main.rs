@@ -1,0 +1,67 @@
+//! The `fivecal` binary: parses the command line, turns it into one
+//! validated configuration per command, calls the library and reports
+//! errors with their context chain. Exit codes: 0 success, 2 error.
+
+mod cmd;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Geometric calibration of five-axis machine tools: plan machining and
+/// probing tests as NC programs, simulate them, identify location errors and
+/// error maps with their uncertainty, discover missing effects, and rewrite
+/// NC programs so the identified errors cancel.
+#[derive(Parser, Debug)]
+#[command(name = "fivecal", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Write a test as an NC program for a controller, with its nominal
+    /// points, a CMM program, a 3-D model of the piece and a setup sheet.
+    Plan(cmd::pending::PendingArgs),
+    /// Run a plan on a virtual machine with known errors and write what a
+    /// CMM or the probe would have measured.
+    Simulate(cmd::pending::PendingArgs),
+    /// Identify location errors and error maps, with their uncertainty, from
+    /// CMM and probe files.
+    Analyze(cmd::pending::PendingArgs),
+    /// Rewrite NC programs so the identified errors cancel, or export them
+    /// as controller parameters.
+    Compensate(cmd::pending::PendingArgs),
+    /// Find where simulation and measurement disagree, name the missing
+    /// effect, add it to the model and show the gap shrink.
+    Discover(cmd::pending::PendingArgs),
+    /// Inspect machine files.
+    #[command(subcommand)]
+    Machine(cmd::machine::MachineCommand),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Plan(_) => cmd::pending::run("plan", 3),
+        Command::Simulate(_) => cmd::pending::run("simulate", 5),
+        Command::Analyze(_) => cmd::pending::run("analyze", 6),
+        Command::Compensate(_) => cmd::pending::run("compensate", 7),
+        Command::Discover(_) => cmd::pending::run("discover", 8),
+        Command::Machine(m) => cmd::machine::run(m),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            if err.chain().any(|e| {
+                e.downcast_ref::<std::io::Error>()
+                    .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            }) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("error: {err:#}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,688 @@
+//! Error files (SPEC section 3): the input of `simulate` (a truth file) and
+//! the output of `analyze` (a result file), in YAML or JSON.
+//!
+//! ```yaml
+//! machine: bc-trunnion
+//! location_errors:               # um / urad, SPEC section 2 symbols
+//!   EX0B: {value: 12.0, u: 0.4}  # u = standard uncertainty (k = 1)
+//!   EZ0B: -5.0                   # a truth file may give a bare number
+//! position_dependent:            # added to the location errors
+//!   EBB(B): {B: [-90, 0, 90], values: [8.0, 0.0, -6.0]}
+//!   EXC(B,C):
+//!     B: [0]
+//!     C: [0, 90, 180, 270]
+//!     values: [[1.0, -1.0, 1.0, -1.0]]
+//! effects:
+//!   thermal_drift: {EZ0B: {per: seq, rate: 1.5}}   # um per pose
+//!   linear_scale: {EXX: 4.0}                       # um/m
+//!   squareness: {EC(0X)Y: 15.0}                    # urad
+//!   straightness: {EYX: {X: [-100, 0, 100], values: [0.0, 2.0, 0.0]}}
+//!   tool_radius: 3.0                               # um
+//!   tool_length: -2.0                              # um
+//!   probe_pretravel: {X+: 1.0, X-: 1.0, Y+: 1.0, Y-: 1.0, Z-: 0.5}
+//!   noise: {cmm: 0.35, probe: 0.35}                # um, standard deviation
+//! ```
+//!
+//! Reading validates every name against the machine's symbols (unknown and
+//! non-identifiable symbols are rejected at their line) and builds the
+//! [`Model`] with its parameter vector; writing goes the other way, so
+//! `simulate` -> `analyze` is a round trip on the same shape.
+
+use std::path::Path;
+
+use indexmap::IndexMap;
+use serde::{Deserialize, Serialize};
+
+use crate::geom::Axis3;
+use crate::kinematics::Kinematics;
+use crate::kinematics::maps::{MapDim, MapGrid};
+use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS, Squareness};
+use crate::source::SourceError;
+
+/// A value with an optional standard uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quantity {
+    /// The value.
+    pub value: f64,
+    /// Standard uncertainty (k = 1), when known.
+    pub u: Option<f64>,
+}
+
+impl Quantity {
+    /// A value without uncertainty.
+    pub fn bare(value: f64) -> Quantity {
+        Quantity { value, u: None }
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(untagged)]
+enum QuantityRepr {
+    Bare(f64),
+    Full {
+        value: f64,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        u: Option<f64>,
+    },
+}
+
+impl Serialize for Quantity {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self.u {
+            None => QuantityRepr::Bare(self.value),
+            Some(u) => QuantityRepr::Full {
+                value: self.value,
+                u: Some(u),
+            },
+        }
+        .serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Quantity {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        match QuantityRepr::deserialize(d).map_err(|_| {
+            serde::de::Error::custom("expected a number or {value: <number>, u: <number>}")
+        })? {
+            QuantityRepr::Bare(v) => Ok(Quantity::bare(v)),
+            QuantityRepr::Full { value, u } => Ok(Quantity { value, u }),
+        }
+    }
+}
+
+/// Node values of a map: a list (one dimension) or a list of rows.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Values {
+    /// One dimension.
+    Flat(Vec<f64>),
+    /// Two dimensions, one row per node of the first.
+    Rows(Vec<Vec<f64>>),
+}
+
+impl Values {
+    fn flatten(&self) -> Vec<f64> {
+        match self {
+            Values::Flat(v) => v.clone(),
+            Values::Rows(r) => r.iter().flatten().copied().collect(),
+        }
+    }
+
+    fn shaped(flat: &[f64], dims: &[usize]) -> Values {
+        if dims.len() < 2 {
+            Values::Flat(flat.to_vec())
+        } else {
+            Values::Rows(flat.chunks(dims[1]).map(|c| c.to_vec()).collect())
+        }
+    }
+}
+
+/// A map over index angles (or over a linear axis, for straightness): the
+/// node lists keyed by axis letter, then `values` and optional `u`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MapEntry {
+    /// Node positions per axis letter (`B: [-90, 0, 90]`).
+    #[serde(flatten)]
+    pub nodes: IndexMap<String, Vec<f64>>,
+    /// Values at the nodes.
+    pub values: Values,
+    /// Standard uncertainties at the nodes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u: Option<Values>,
+}
+
+/// A thermal drift.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriftEntry {
+    /// `seq` or `minute`.
+    pub per: String,
+    /// Rate, symbol unit per `per`.
+    pub rate: Quantity,
+}
+
+/// Noise levels, um (standard deviation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Noise {
+    /// CMM probing noise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cmm: Option<f64>,
+    /// On-machine probe repeatability.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe: Option<f64>,
+}
+
+/// Further named effects.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Effects {
+    /// Drift of location symbols.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub thermal_drift: IndexMap<String, DriftEntry>,
+    /// EXX, EYY, EZZ, um/m.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub linear_scale: IndexMap<String, Quantity>,
+    /// EC(0X)Y, EB(0X)Z, EA(0Y)Z, urad.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub squareness: IndexMap<String, Quantity>,
+    /// EYX, EZX, EXY, EZY, EXZ, EYZ: um at positions along the moving axis.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub straightness: IndexMap<String, MapEntry>,
+    /// Tool radius error, um.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_radius: Option<Quantity>,
+    /// Tool length error, um.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_length: Option<Quantity>,
+    /// Probe pre-travel by approach direction, um.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub probe_pretravel: IndexMap<String, Quantity>,
+    /// Measurement noise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<Noise>,
+}
+
+impl Effects {
+    /// Whether nothing is set.
+    pub fn is_empty(&self) -> bool {
+        *self == Effects::default()
+    }
+}
+
+/// A symbol the test could not identify, with the reason (written by
+/// `analyze` instead of a number).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NotIdentified {
+    /// Symbol or combination.
+    pub symbol: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// An error file as written.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ErrorFile {
+    /// The machine it refers to.
+    pub machine: String,
+    /// Location errors, um / urad.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub location_errors: IndexMap<String, Quantity>,
+    /// Position-dependent errors, added to the location errors.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub position_dependent: IndexMap<String, MapEntry>,
+    /// Further effects.
+    #[serde(default, skip_serializing_if = "Effects::is_empty")]
+    pub effects: Effects,
+    /// What could not be identified (result files).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_identifiable: Vec<NotIdentified>,
+}
+
+/// An error file turned into a model and its parameter values.
+#[derive(Clone, Debug)]
+pub struct LoadedErrors {
+    /// The model (kinematics plus the file's effects).
+    pub model: Model,
+    /// Parameter values, model order, file units.
+    pub theta: Vec<f64>,
+    /// Standard uncertainties where the file has them.
+    pub u: Vec<Option<f64>>,
+    /// Noise levels.
+    pub noise: Noise,
+    /// What the file said was not identifiable.
+    pub not_identifiable: Vec<NotIdentified>,
+}
+
+fn axis_of(c: char) -> Option<Axis3> {
+    match c {
+        'X' => Some(Axis3::X),
+        'Y' => Some(Axis3::Y),
+        'Z' => Some(Axis3::Z),
+        _ => None,
+    }
+}
+
+impl ErrorFile {
+    /// Parses YAML (JSON is YAML too) without validating names.
+    pub fn parse(path: &Path, src: &str) -> Result<ErrorFile, SourceError> {
+        serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))
+    }
+
+    /// Reads a file.
+    pub fn read(path: &Path) -> Result<(ErrorFile, String), SourceError> {
+        let src = std::fs::read_to_string(path)
+            .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read error file: {e}")))?;
+        Ok((ErrorFile::parse(path, &src)?, src))
+    }
+
+    /// YAML text.
+    pub fn to_yaml(&self) -> String {
+        serde_yaml::to_string(self).expect("error files serialize")
+    }
+
+    /// Pretty JSON text.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("error files serialize")
+    }
+
+    /// Validates every name against the machine and builds the model.
+    /// `path` and `src` locate errors.
+    pub fn to_model(
+        &self,
+        kin: &Kinematics,
+        path: &Path,
+        src: &str,
+    ) -> Result<LoadedErrors, SourceError> {
+        let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
+        if self.machine != kin.machine().name {
+            return Err(err(
+                &["machine"],
+                format!(
+                    "error file is for machine `{}` but the machine in use is `{}`",
+                    self.machine,
+                    kin.machine().name
+                ),
+            ));
+        }
+        let mut model = Model::new(kin.clone(), Vec::new());
+        let sym = model.symbols.clone();
+        let mut theta = Vec::new();
+        let mut u = Vec::new();
+        let push = |q: &Quantity, theta: &mut Vec<f64>, u: &mut Vec<Option<f64>>, keys: &[&str]| {
+            if !q.value.is_finite() || q.u.is_some_and(|x| !x.is_finite() || x < 0.0) {
+                return Err(err(
+                    keys,
+                    "value must be a finite number and u a finite number >= 0".to_string(),
+                ));
+            }
+            theta.push(q.value);
+            u.push(q.u);
+            Ok(())
+        };
+
+        // Location errors.
+        let mut loc = Vec::new();
+        for (name, q) in &self.location_errors {
+            let i = sym
+                .location_index(name)
+                .map_err(|e| err(&["location_errors", name], e.to_string()))?;
+            if loc.contains(&i) {
+                return Err(err(
+                    &["location_errors", name],
+                    format!("{name} appears twice"),
+                ));
+            }
+            loc.push(i);
+            push(q, &mut theta, &mut u, &["location_errors", name])?;
+        }
+        if !loc.is_empty() {
+            model.push(Effect::Location { symbols: loc });
+        }
+
+        // Maps.
+        for (name, entry) in &self.position_dependent {
+            let keys = ["position_dependent", name.as_str()];
+            let i = sym.map_index(name).map_err(|e| err(&keys, e.to_string()))?;
+            let ms = &sym.maps[i];
+            let letters: Vec<String> = ms
+                .deps
+                .iter()
+                .map(|&d| {
+                    if d == 0 {
+                        sym.tilt.to_string()
+                    } else {
+                        "C".to_string()
+                    }
+                })
+                .collect();
+            for k in entry.nodes.keys() {
+                if !letters.contains(k) {
+                    return Err(err(
+                        &keys,
+                        format!(
+                            "{name} runs over {}; unexpected key `{k}` (expected {}, values and u)",
+                            letters.join(" and "),
+                            letters.join(", ")
+                        ),
+                    ));
+                }
+            }
+            let mut dims = Vec::new();
+            let mut perms = Vec::new();
+            for (l, &d) in letters.iter().zip(&ms.deps) {
+                let nodes = entry.nodes.get(l).ok_or_else(|| {
+                    err(
+                        &keys,
+                        format!("{name} needs its node angles `{l}: [...]` (degrees)"),
+                    )
+                })?;
+                // C wraps at 360; a tilt map must list its angles in order.
+                let (dim, order) = MapDim::sorted(d, nodes, d == 1)
+                    .and_then(|(dim, order)| {
+                        if d == 0 && order.iter().enumerate().any(|(i, &o)| i != o) {
+                            Err("node angles must be strictly increasing".to_string())
+                        } else {
+                            Ok((dim, order))
+                        }
+                    })
+                    .map_err(|e| {
+                        err(&[&keys[..], &[l.as_str()]].concat(), format!("{name}: {e}"))
+                    })?;
+                dims.push(dim);
+                perms.push(order);
+            }
+            let grid = MapGrid { dims };
+            let shape: Vec<usize> = grid.dims.iter().map(|d| d.nodes.len()).collect();
+            let vals = map_values(&entry.values, &shape, &perms, |m| {
+                err(&[&keys[..], &["values"]].concat(), format!("{name}: {m}"))
+            })?;
+            let us = match &entry.u {
+                None => vec![None; vals.len()],
+                Some(uv) => map_values(uv, &shape, &perms, |m| {
+                    err(&[&keys[..], &["u"]].concat(), format!("{name} u: {m}"))
+                })?
+                .into_iter()
+                .map(Some)
+                .collect(),
+            };
+            theta.extend(vals);
+            u.extend(us);
+            model.push(Effect::Map { symbol: i, grid });
+        }
+
+        // Effects.
+        let e = &self.effects;
+        for (name, d) in &e.thermal_drift {
+            let keys = ["effects", "thermal_drift", name.as_str()];
+            let i = sym
+                .location_index(name)
+                .map_err(|x| err(&keys, format!("thermal drift of {}", x)))?;
+            let basis = match d.per.as_str() {
+                "seq" => DriftBasis::Seq,
+                "minute" | "min" => DriftBasis::Minute,
+                other => {
+                    return Err(err(
+                        &[&keys[..], &["per"]].concat(),
+                        format!("drift `per: {other}`: expected seq or minute"),
+                    ));
+                }
+            };
+            push(&d.rate, &mut theta, &mut u, &keys)?;
+            model.push(Effect::Drift { symbol: i, basis });
+        }
+        for (name, q) in &e.linear_scale {
+            let keys = ["effects", "linear_scale", name.as_str()];
+            let axis = match name.as_str() {
+                "EXX" => Axis3::X,
+                "EYY" => Axis3::Y,
+                "EZZ" => Axis3::Z,
+                _ => {
+                    return Err(err(
+                        &keys,
+                        format!(
+                            "unknown linear scale error `{name}`: expected EXX, EYY or EZZ (um/m)"
+                        ),
+                    ));
+                }
+            };
+            push(q, &mut theta, &mut u, &keys)?;
+            model.push(Effect::Scale { axis });
+        }
+        for (name, q) in &e.squareness {
+            let keys = ["effects", "squareness", name.as_str()];
+            let kind = Squareness::from_symbol(name).ok_or_else(|| {
+                err(&keys, format!("unknown squareness error `{name}`: expected EC(0X)Y, EB(0X)Z or EA(0Y)Z (urad)"))
+            })?;
+            push(q, &mut theta, &mut u, &keys)?;
+            model.push(Effect::Squareness { kind });
+        }
+        for (name, entry) in &e.straightness {
+            let keys = ["effects", "straightness", name.as_str()];
+            let ch: Vec<char> = name.chars().collect();
+            let parsed = (ch.len() == 3 && ch[0] == 'E')
+                .then(|| (axis_of(ch[1]), axis_of(ch[2])))
+                .and_then(|(d, m)| Some((d?, m?)))
+                .filter(|(d, m)| d != m);
+            let Some((direction, moving)) = parsed else {
+                return Err(err(
+                    &keys,
+                    format!(
+                        "unknown straightness error `{name}`: expected EYX, EZX, EXY, EZY, EXZ or EYZ"
+                    ),
+                ));
+            };
+            let l = moving.letter().to_string();
+            for k in entry.nodes.keys() {
+                if *k != l {
+                    return Err(err(
+                        &keys,
+                        format!(
+                            "{name} runs along {l}; unexpected key `{k}` (expected {l}, values and u)"
+                        ),
+                    ));
+                }
+            }
+            let nodes = entry.nodes.get(&l).ok_or_else(|| {
+                err(
+                    &keys,
+                    format!("{name} needs its node positions `{l}: [...]` (mm)"),
+                )
+            })?;
+            let dim =
+                MapDim::new(0, nodes, false).map_err(|m| err(&keys, format!("{name}: {m}")))?;
+            let grid = MapGrid { dims: vec![dim] };
+            let ident = vec![(0..nodes.len()).collect::<Vec<_>>()];
+            let vals = map_values(&entry.values, &[nodes.len()], &ident, |m| {
+                err(&keys, format!("{name}: {m}"))
+            })?;
+            let us: Vec<Option<f64>> = match &entry.u {
+                None => vec![None; vals.len()],
+                Some(uv) => map_values(uv, &[nodes.len()], &ident, |m| {
+                    err(&keys, format!("{name} u: {m}"))
+                })?
+                .into_iter()
+                .map(Some)
+                .collect(),
+            };
+            theta.extend(vals);
+            u.extend(us);
+            model.push(Effect::Straightness {
+                moving,
+                direction,
+                nodes: grid.dims[0].nodes.clone(),
+            });
+        }
+        if let Some(q) = &e.tool_radius {
+            push(q, &mut theta, &mut u, &["effects", "tool_radius"])?;
+            model.push(Effect::ToolRadius);
+        }
+        if let Some(q) = &e.tool_length {
+            push(q, &mut theta, &mut u, &["effects", "tool_length"])?;
+            model.push(Effect::ToolLength);
+        }
+        if !e.probe_pretravel.is_empty() {
+            for k in e.probe_pretravel.keys() {
+                if !PROBE_DIRECTIONS.contains(&k.as_str()) {
+                    return Err(err(
+                        &["effects", "probe_pretravel", k],
+                        format!(
+                            "unknown approach direction `{k}`: expected {}",
+                            PROBE_DIRECTIONS.join(", ")
+                        ),
+                    ));
+                }
+            }
+            for d in PROBE_DIRECTIONS {
+                let q = e
+                    .probe_pretravel
+                    .get(d)
+                    .copied()
+                    .unwrap_or(Quantity::bare(0.0));
+                push(&q, &mut theta, &mut u, &["effects", "probe_pretravel", d])?;
+            }
+            model.push(Effect::ProbePretravel);
+        }
+        let noise = e.noise.clone().unwrap_or_default();
+        for (k, v) in [("cmm", noise.cmm), ("probe", noise.probe)] {
+            if v.is_some_and(|x| !(x.is_finite() && x >= 0.0)) {
+                return Err(err(
+                    &["effects", "noise", k],
+                    format!("noise {k} must be a standard deviation >= 0 um"),
+                ));
+            }
+        }
+        Ok(LoadedErrors {
+            model,
+            theta,
+            u,
+            noise,
+            not_identifiable: self.not_identifiable.clone(),
+        })
+    }
+
+    /// Loads and validates a file against a machine.
+    pub fn load(path: &Path, kin: &Kinematics) -> Result<LoadedErrors, SourceError> {
+        let (f, src) = ErrorFile::read(path)?;
+        f.to_model(kin, path, &src)
+    }
+
+    /// The file that describes `model` with values `theta` and
+    /// uncertainties `u` (the inverse of [`ErrorFile::to_model`]).
+    pub fn from_model(model: &Model, theta: &[f64], u: &[Option<f64>], noise: &Noise) -> ErrorFile {
+        let sym = &model.symbols;
+        let mut f = ErrorFile {
+            machine: model.kin.machine().name.clone(),
+            location_errors: IndexMap::new(),
+            position_dependent: IndexMap::new(),
+            effects: Effects::default(),
+            not_identifiable: Vec::new(),
+        };
+        let q = |i: usize| Quantity {
+            value: theta[i],
+            u: u[i],
+        };
+        for (ei, e) in model.effects.iter().enumerate() {
+            let r = model.param_range(ei);
+            let o = r.start;
+            match e {
+                Effect::Location { symbols } => {
+                    for (k, &s) in symbols.iter().enumerate() {
+                        f.location_errors
+                            .insert(sym.location[s].name.clone(), q(o + k));
+                    }
+                }
+                Effect::Map { symbol, grid } => {
+                    let ms = &sym.maps[*symbol];
+                    let mut nodes = IndexMap::new();
+                    for d in &grid.dims {
+                        let l = if d.angle == 0 {
+                            sym.tilt.to_string()
+                        } else {
+                            "C".to_string()
+                        };
+                        nodes.insert(l, d.nodes.clone());
+                    }
+                    let shape: Vec<usize> = grid.dims.iter().map(|d| d.nodes.len()).collect();
+                    let uu: Option<Vec<f64>> = u[r.clone()].iter().copied().collect();
+                    f.position_dependent.insert(
+                        ms.name.clone(),
+                        MapEntry {
+                            nodes,
+                            values: Values::shaped(&theta[r.clone()], &shape),
+                            u: uu.map(|v| Values::shaped(&v, &shape)),
+                        },
+                    );
+                }
+                Effect::Drift { symbol, basis } => {
+                    f.effects.thermal_drift.insert(
+                        sym.location[*symbol].name.clone(),
+                        DriftEntry {
+                            per: basis.name().to_string(),
+                            rate: q(o),
+                        },
+                    );
+                }
+                Effect::Scale { axis } => {
+                    f.effects
+                        .linear_scale
+                        .insert(format!("E{0}{0}", axis.letter()), q(o));
+                }
+                Effect::Squareness { kind } => {
+                    f.effects.squareness.insert(kind.symbol().to_string(), q(o));
+                }
+                Effect::Straightness {
+                    moving,
+                    direction,
+                    nodes,
+                } => {
+                    let mut n = IndexMap::new();
+                    n.insert(moving.letter().to_string(), nodes.clone());
+                    let uu: Option<Vec<f64>> = u[r.clone()].iter().copied().collect();
+                    f.effects.straightness.insert(
+                        format!("E{}{}", direction.letter(), moving.letter()),
+                        MapEntry {
+                            nodes: n,
+                            values: Values::Flat(theta[r.clone()].to_vec()),
+                            u: uu.map(Values::Flat),
+                        },
+                    );
+                }
+                Effect::ToolRadius => f.effects.tool_radius = Some(q(o)),
+                Effect::ToolLength => f.effects.tool_length = Some(q(o)),
+                Effect::ProbePretravel => {
+                    for (k, d) in PROBE_DIRECTIONS.iter().enumerate() {
+                        f.effects.probe_pretravel.insert(d.to_string(), q(o + k));
+                    }
+                }
+            }
+        }
+        if noise.cmm.is_some() || noise.probe.is_some() {
+            f.effects.noise = Some(noise.clone());
+        }
+        f
+    }
+}
+
+/// Checks the shape of node values and reorders them to the sorted node
+/// order (`perms[d][k]` = input index of sorted node `k` of dimension `d`).
+fn map_values<E>(
+    v: &Values,
+    shape: &[usize],
+    perms: &[Vec<usize>],
+    err: impl Fn(String) -> E,
+) -> Result<Vec<f64>, E> {
+    let ok_shape = match (v, shape.len()) {
+        (Values::Flat(x), 1) => x.len() == shape[0],
+        (Values::Rows(r), 2) => r.len() == shape[0] && r.iter().all(|row| row.len() == shape[1]),
+        // A single-row grid may be written flat.
+        (Values::Flat(x), 2) => shape[0] == 1 && x.len() == shape[1],
+        _ => false,
+    };
+    if !ok_shape {
+        let want = if shape.len() == 1 {
+            format!("a list of {} numbers", shape[0])
+        } else {
+            format!("{} rows of {} numbers", shape[0], shape[1])
+        };
+        return Err(err(format!("values must be {want} (one per node)")));
+    }
+    let flat = v.flatten();
+    if flat.iter().any(|x| !x.is_finite()) {
+        return Err(err("values must be finite numbers".to_string()));
+    }
+    let out = if shape.len() == 1 {
+        perms[0].iter().map(|&i| flat[i]).collect()
+    } else {
+        let mut out = Vec::with_capacity(flat.len());
+        for &i in &perms[0] {
+            for &j in &perms[1] {
+                out.push(flat[i * shape[1] + j]);
+            }
+        }
+        out
+    };
+    Ok(out)
+}

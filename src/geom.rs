@@ -1,0 +1,159 @@
+//! Rigid-body geometry shared by every module: the elementary homogeneous
+//! transforms of SPEC section 2 (`Dx`, `Dy`, `Dz`, `Da`, `Db`, `Dc` and their
+//! product `D`), unit conversions between the mm/deg of NC programs and the
+//! um/urad of error files, and small vector helpers.
+//!
+//! Transforms are `nalgebra::Isometry3<f64>` rather than raw 4x4 matrices so
+//! that products stay exactly rigid; the HTM of SPEC section 2 is
+//! `iso.to_homogeneous()`.
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+
+/// Millimetres per micrometre.
+pub const MM_PER_UM: f64 = 1e-3;
+/// Radians per microradian.
+pub const RAD_PER_URAD: f64 = 1e-6;
+
+/// A coordinate axis of a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Axis3 {
+    /// X
+    X,
+    /// Y
+    Y,
+    /// Z
+    Z,
+}
+
+impl Axis3 {
+    /// Unit vector along the axis.
+    pub fn unit(self) -> Vector3<f64> {
+        match self {
+            Axis3::X => Vector3::x(),
+            Axis3::Y => Vector3::y(),
+            Axis3::Z => Vector3::z(),
+        }
+    }
+
+    /// Index 0, 1, 2.
+    pub fn index(self) -> usize {
+        match self {
+            Axis3::X => 0,
+            Axis3::Y => 1,
+            Axis3::Z => 2,
+        }
+    }
+
+    /// The axis with index 0, 1 or 2.
+    pub fn from_index(i: usize) -> Axis3 {
+        match i {
+            0 => Axis3::X,
+            1 => Axis3::Y,
+            _ => Axis3::Z,
+        }
+    }
+
+    /// Letter of the linear axis (`X`, `Y`, `Z`).
+    pub fn letter(self) -> char {
+        ['X', 'Y', 'Z'][self.index()]
+    }
+
+    /// Letter of the rotation about this axis (`A`, `B`, `C`).
+    pub fn rot_letter(self) -> char {
+        ['A', 'B', 'C'][self.index()]
+    }
+}
+
+/// Translation along `axis` by `v` (mm): `Dx`, `Dy` or `Dz`.
+pub fn trans(axis: Axis3, v: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::from(axis.unit() * v),
+        UnitQuaternion::identity(),
+    )
+}
+
+/// Right-handed rotation about `axis` by `a` (rad): `Da`, `Db` or `Dc`.
+pub fn rot(axis: Axis3, a: f64) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::identity(),
+        UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_unchecked(axis.unit()), a),
+    )
+}
+
+/// `D(dx,dy,dz,a,b,c) = Dx Dy Dz Da Db Dc` of SPEC section 2 (mm, rad).
+pub fn d6(t: &[f64; 6]) -> Isometry3<f64> {
+    trans(Axis3::X, t[0])
+        * trans(Axis3::Y, t[1])
+        * trans(Axis3::Z, t[2])
+        * rot(Axis3::X, t[3])
+        * rot(Axis3::Y, t[4])
+        * rot(Axis3::Z, t[5])
+}
+
+/// Applies an isometry to a point given as a vector.
+pub fn apply(iso: &Isometry3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
+    (iso * Point3::from(*p)).coords
+}
+
+/// Degrees to radians.
+pub fn rad(deg: f64) -> f64 {
+    deg.to_radians()
+}
+
+/// Radians to degrees.
+pub fn deg(rad: f64) -> f64 {
+    rad.to_degrees()
+}
+
+/// Wraps an angle in degrees into `(-180, 180]`.
+pub fn wrap180(a: f64) -> f64 {
+    let mut r = a.rem_euclid(360.0);
+    if r > 180.0 {
+        r -= 360.0;
+    }
+    r
+}
+
+/// Two unit vectors orthogonal to `u` and to each other (a tangent basis).
+pub fn tangent_basis(u: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if u.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let b1 = u.cross(&helper).normalize();
+    let b2 = u.cross(&b1);
+    (b1, b2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn d6_is_the_product_of_the_six_elementary_transforms() {
+        let t = [1.0, -2.0, 3.0, 0.1, -0.2, 0.3];
+        let m = d6(&t).to_homogeneous();
+        let (ca, sa) = (t[3].cos(), t[3].sin());
+        let (cb, sb) = (t[4].cos(), t[4].sin());
+        let (cc, sc) = (t[5].cos(), t[5].sin());
+        let rx = nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, ca, -sa, 0.0, sa, ca);
+        let ry = nalgebra::Matrix3::new(cb, 0.0, sb, 0.0, 1.0, 0.0, -sb, 0.0, cb);
+        let rz = nalgebra::Matrix3::new(cc, -sc, 0.0, sc, cc, 0.0, 0.0, 0.0, 1.0);
+        let r = rx * ry * rz;
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((m[(i, j)] - r[(i, j)]).abs() < 1e-15);
+            }
+            assert!((m[(i, 3)] - t[i]).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn wrap180_maps_into_half_open_interval() {
+        assert_eq!(wrap180(190.0), -170.0);
+        assert_eq!(wrap180(-180.0), 180.0);
+        assert_eq!(wrap180(540.0), 180.0);
+        assert_eq!(wrap180(-10.0), -10.0);
+    }
+}

@@ -1,0 +1,78 @@
+//! File output that never leaves a half-written file and never overwrites an
+//! input: everything is written to a temporary file in the destination
+//! directory and renamed into place once complete.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Errors of the output helpers.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The output path names one of the inputs of the same run.
+    #[error("refusing to overwrite input file {0}")]
+    WouldOverwriteInput(PathBuf),
+    /// Any I/O failure, with the path.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The destination.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// Fails when `out` is one of `inputs` (compared after resolving links).
+pub fn ensure_not_input(out: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
+    if inputs.iter().any(|i| same_file(out, i)) {
+        return Err(OutputError::WouldOverwriteInput(out.to_path_buf()));
+    }
+    Ok(())
+}
+
+/// Writes `bytes` to `path` atomically (temporary file + rename), creating
+/// the parent directory when needed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let io = |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).map_err(io)?;
+    let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(io)?;
+    tmp.write_all(bytes).map_err(io)?;
+    tmp.as_file().sync_all().map_err(io)?;
+    tmp.persist(path).map_err(|e| io(e.error))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_and_refuses_inputs() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("sub/out.txt");
+        write_atomic(&p, b"hello").unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "hello");
+        assert!(matches!(
+            ensure_not_input(&p, &[p.as_path()]),
+            Err(OutputError::WouldOverwriteInput(_))
+        ));
+        let other = dir.path().join("other.txt");
+        assert!(ensure_not_input(&other, &[p.as_path()]).is_ok());
+        // No temporary files left behind.
+        let n = std::fs::read_dir(dir.path().join("sub")).unwrap().count();
+        assert_eq!(n, 1);
+    }
+}

@@ -1,0 +1,278 @@
+//! The chain as a list of elementary factors and its exact derivatives.
+
+use nalgebra::{Isometry3, Matrix3, SMatrix, Translation3, UnitQuaternion, Vector3};
+
+use super::{
+    Kinematics, N_VARS, PoseJacobian, SLOT_LIN, SLOT_TOOL_LENGTH, VAR_C, VAR_TILT, pose_of,
+};
+use crate::geom::Axis3;
+use crate::machine::{Machine, RotaryAxis, Structure};
+
+/// An elementary transform.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Op {
+    /// Translation along an axis.
+    T(Axis3),
+    /// Right-handed rotation about an axis.
+    R(Axis3),
+}
+
+/// One factor: `op(c0 + sum coef * var)`.
+#[derive(Clone, Debug)]
+struct Factor {
+    op: Op,
+    c0: f64,
+    terms: Vec<(usize, f64)>,
+}
+
+impl Factor {
+    fn value(&self, v: &[f64; N_VARS]) -> f64 {
+        self.terms
+            .iter()
+            .fold(self.c0, |acc, &(i, k)| acc + k * v[i])
+    }
+
+    fn iso(&self, x: f64) -> Isometry3<f64> {
+        match self.op {
+            Op::T(a) => {
+                Isometry3::from_parts(Translation3::from(a.unit() * x), UnitQuaternion::identity())
+            }
+            Op::R(a) => {
+                let (s, c) = (0.5 * x).sin_cos();
+                let e = a.unit() * s;
+                let q = nalgebra::Quaternion::new(c, e.x, e.y, e.z);
+                Isometry3::from_parts(Translation3::identity(), UnitQuaternion::new_unchecked(q))
+            }
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub(super) struct Chain {
+    factors: Vec<Factor>,
+}
+
+const SLOT0: usize = 5;
+const LIN_AXES: [Axis3; 3] = [Axis3::X, Axis3::Y, Axis3::Z];
+const ROT_AXES: [Axis3; 3] = [Axis3::X, Axis3::Y, Axis3::Z];
+
+fn slot(s: usize) -> usize {
+    SLOT0 + s
+}
+
+fn var_of(axis: &RotaryAxis) -> usize {
+    if axis.letter == 'C' { VAR_C } else { VAR_TILT }
+}
+
+/// `D(terms of link)`: Tx Ty Tz Rx Ry Rz.
+fn push_link(f: &mut Vec<Factor>, link: usize) {
+    for (k, &a) in LIN_AXES.iter().enumerate() {
+        f.push(Factor {
+            op: Op::T(a),
+            c0: 0.0,
+            terms: vec![(slot(link * 6 + k), 1.0)],
+        });
+    }
+    for (k, &a) in ROT_AXES.iter().enumerate() {
+        f.push(Factor {
+            op: Op::R(a),
+            c0: 0.0,
+            terms: vec![(slot(link * 6 + 3 + k), 1.0)],
+        });
+    }
+}
+
+/// `D(terms of link)^-1`: Rz(-c) Ry(-b) Rx(-a) Tz(-dz) Ty(-dy) Tx(-dx).
+fn push_link_inverse(f: &mut Vec<Factor>, link: usize) {
+    for k in (0..3).rev() {
+        f.push(Factor {
+            op: Op::R(ROT_AXES[k]),
+            c0: 0.0,
+            terms: vec![(slot(link * 6 + 3 + k), -1.0)],
+        });
+    }
+    for k in (0..3).rev() {
+        f.push(Factor {
+            op: Op::T(LIN_AXES[k]),
+            c0: 0.0,
+            terms: vec![(slot(link * 6 + k), -1.0)],
+        });
+    }
+}
+
+fn rotary(f: &mut Vec<Factor>, axis: &RotaryAxis, sign: f64) {
+    f.push(Factor {
+        op: Op::R(axis.about),
+        c0: 0.0,
+        terms: vec![(var_of(axis), sign * axis.direction)],
+    });
+}
+
+/// Builds the chain for the tool tip in W; returns it with the number of
+/// leading factors that make up `rTw^-1`.
+pub(super) fn build(m: &Machine, gauge_length: f64) -> (Chain, usize) {
+    let mut f = Vec::new();
+    // rTw^-1 = prod over table links, W side first, of R(+angle) * E^-1.
+    match m.structure {
+        Structure::TableTable => {
+            rotary(&mut f, &m.c, 1.0);
+            push_link_inverse(&mut f, 1);
+            rotary(&mut f, &m.tilt, 1.0);
+            push_link_inverse(&mut f, 0);
+        }
+        Structure::HeadTable => {
+            rotary(&mut f, &m.c, 1.0);
+            push_link_inverse(&mut f, 0);
+        }
+        Structure::HeadHead => {}
+    }
+    let table_factors = f.len();
+    for (k, &a) in LIN_AXES.iter().enumerate() {
+        f.push(Factor {
+            op: Op::T(a),
+            c0: 0.0,
+            terms: vec![(k, 1.0), (slot(SLOT_LIN + k), 1.0)],
+        });
+    }
+    if m.structure != Structure::TableTable {
+        let lh = m.pivot_length + gauge_length;
+        f.push(Factor {
+            op: Op::T(Axis3::Z),
+            c0: lh,
+            terms: vec![],
+        });
+        if m.structure == Structure::HeadHead {
+            push_link(&mut f, 0);
+            rotary(&mut f, &m.c, 1.0);
+        }
+        push_link(&mut f, 1);
+        rotary(&mut f, &m.tilt, 1.0);
+        push_link(&mut f, 2);
+        f.push(Factor {
+            op: Op::T(Axis3::Z),
+            c0: -lh,
+            terms: vec![],
+        });
+    }
+    f.push(Factor {
+        op: Op::T(Axis3::Z),
+        c0: 0.0,
+        terms: vec![(slot(SLOT_TOOL_LENGTH), -1.0)],
+    });
+    (Chain { factors: f }, table_factors)
+}
+
+impl Chain {
+    pub(super) fn eval(&self, v: &[f64; N_VARS]) -> Isometry3<f64> {
+        self.eval_prefix(v, self.factors.len())
+    }
+
+    pub(super) fn eval_prefix(&self, v: &[f64; N_VARS], n: usize) -> Isometry3<f64> {
+        let mut acc = Isometry3::identity();
+        for f in &self.factors[..n] {
+            let x = f.value(v);
+            if x != 0.0 {
+                acc *= f.iso(x);
+            }
+        }
+        acc
+    }
+
+    pub(super) fn jacobian(&self, v: &[f64; N_VARS]) -> PoseJacobian {
+        let n = self.factors.len();
+        let values: Vec<f64> = self.factors.iter().map(|f| f.value(v)).collect();
+        // Rotation of the prefix before each factor (P_{k-1}) and after (P_k).
+        let mut pre: Vec<Matrix3<f64>> = Vec::with_capacity(n + 1);
+        let mut acc = Isometry3::identity();
+        pre.push(Matrix3::identity());
+        for (f, &x) in self.factors.iter().zip(&values) {
+            acc *= f.iso(x);
+            pre.push(acc.rotation.to_rotation_matrix().into_inner());
+        }
+        let pose = pose_of(&acc);
+        let mut jt = SMatrix::<f64, 3, N_VARS>::zeros();
+        let mut ja = SMatrix::<f64, 3, N_VARS>::zeros();
+        // Suffix applied to the tip origin and to the tool axis.
+        let mut q = Vector3::zeros();
+        let mut u = Vector3::z();
+        for k in (0..n).rev() {
+            let f = &self.factors[k];
+            match f.op {
+                Op::T(a) => {
+                    let dt = pre[k] * a.unit();
+                    for &(i, c) in &f.terms {
+                        for r in 0..3 {
+                            jt[(r, i)] += c * dt[r];
+                        }
+                    }
+                    q += a.unit() * values[k];
+                }
+                Op::R(a) => {
+                    let e = a.unit();
+                    let dt = pre[k + 1] * e.cross(&q);
+                    let da = pre[k + 1] * e.cross(&u);
+                    for &(i, c) in &f.terms {
+                        for r in 0..3 {
+                            jt[(r, i)] += c * dt[r];
+                            ja[(r, i)] += c * da[r];
+                        }
+                    }
+                    let rot = f.iso(values[k]).rotation;
+                    q = rot * q;
+                    u = rot * u;
+                }
+            }
+        }
+        PoseJacobian {
+            pose,
+            tip: jt,
+            axis: ja,
+        }
+    }
+
+    pub(super) fn describe(&self, k: &Kinematics) -> String {
+        let m = k.machine();
+        let link = |l: usize| {
+            let names: Vec<String> = (0..6).map(|i| k.slot_name(l * 6 + i).unwrap()).collect();
+            format!("D({})", names.join(", "))
+        };
+        let r = |a: &RotaryAxis, table: bool| {
+            let s = if table { -a.direction } else { a.direction };
+            format!(
+                "D{}({}{})",
+                a.about.rot_letter().to_ascii_lowercase(),
+                if s < 0.0 { "-" } else { "" },
+                a.letter
+            )
+        };
+        let lh = m.pivot_length + k.gauge_length();
+        match m.structure {
+            Structure::TableTable => format!(
+                "rTw  = {} * {} * {} * {}\nrTw* = {} * {}\ntool = Trans(X + ex, Y + ey, Z + ez) * Dz(-dL)\nwq   = rTw^-1 * tool * 0",
+                link(0),
+                r(&m.tilt, true),
+                link(1),
+                r(&m.c, true),
+                r(&m.tilt, true),
+                r(&m.c, true)
+            ),
+            Structure::HeadTable => format!(
+                "rTw  = {} * {}\nrTw* = {}\ntool = Trans(X + ex, Y + ey, Z + ez) * Dz({lh}) * {} * {} * {} * Dz(-{lh}) * Dz(-dL)\nwq   = rTw^-1 * tool * 0",
+                link(0),
+                r(&m.c, true),
+                r(&m.c, true),
+                link(1),
+                r(&m.tilt, false),
+                link(2)
+            ),
+            Structure::HeadHead => format!(
+                "rTw  = I (fixed table)\ntool = Trans(X + ex, Y + ey, Z + ez) * Dz({lh}) * {} * {} * {} * {} * {} * Dz(-{lh}) * Dz(-dL)\nwq   = tool * 0",
+                link(0),
+                r(&m.c, false),
+                link(1),
+                r(&m.tilt, false),
+                link(2)
+            ),
+        }
+    }
+}

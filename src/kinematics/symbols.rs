@@ -1,0 +1,440 @@
+//! The error symbols of SPEC section 2 (ISO 230-1 style, e.g. `EX0B`,
+//! `EA(0B)C`, `EXC(B,C)`) and how each maps onto the model's error terms.
+//!
+//! A location symbol is a fixed linear combination of constant terms: most
+//! are one term, two are sums (`EB0B = b_BY + b_CB`, `EY0C = dy_BY + dy_CB`)
+//! because only the sum is observable. When a value is written into the
+//! model it goes to one *canonical* term of the combination (seed 001 table
+//! 1: `b_CB`, `dy_CB`), so `simulate` and `analyze` agree on the meaning.
+//! Map symbols name single terms as functions of the index angles.
+//!
+//! Head-table and head-head machines are this project's extension of the
+//! SPEC: their location symbols describe each head axis line relative to the
+//! spindle, since a constant offset of the whole head is a work-offset error
+//! that no test can see.
+
+use std::fmt;
+
+use super::{Kinematics, LINKS};
+use crate::geom::{MM_PER_UM, RAD_PER_URAD};
+use crate::machine::Structure;
+
+/// Unit of a symbol's value in error files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unit {
+    /// Micrometres (lengths).
+    Um,
+    /// Microradians (angles).
+    Urad,
+}
+
+impl Unit {
+    /// Model units (mm or rad) per file unit.
+    pub fn scale(self) -> f64 {
+        match self {
+            Unit::Um => MM_PER_UM,
+            Unit::Urad => RAD_PER_URAD,
+        }
+    }
+}
+
+impl fmt::Display for Unit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Unit::Um => "um",
+            Unit::Urad => "urad",
+        })
+    }
+}
+
+/// A location-error symbol.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LocationSymbol {
+    /// `EX0B`, ...
+    pub name: String,
+    /// Its value = sum of coef * term / unit scale.
+    pub terms: Vec<(usize, f64)>,
+    /// The term a value is written into, with its coefficient.
+    pub canonical: (usize, f64),
+    /// um or urad.
+    pub unit: Unit,
+    /// What it is.
+    pub description: String,
+}
+
+/// A position-dependent symbol: one term as a function of index angles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapSymbol {
+    /// `EXB(B)`, `ECC(B,C)`, ...
+    pub name: String,
+    /// The term slot.
+    pub slot: usize,
+    /// The angles it runs over (0 = tilt, 1 = C), in grid order.
+    pub deps: Vec<usize>,
+    /// um or urad.
+    pub unit: Unit,
+}
+
+/// Why a symbol name is not accepted.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SymbolError {
+    /// Not a symbol of this machine at all.
+    #[error("unknown symbol `{name}`: expected one of {expected}")]
+    Unknown {
+        /// The name.
+        name: String,
+        /// The accepted names.
+        expected: String,
+    },
+    /// A known quantity that tests of this kind cannot identify.
+    #[error("`{name}` is not identifiable on this machine: {reason}")]
+    NotIdentifiable {
+        /// The name.
+        name: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// All symbols of one machine.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SymbolTable {
+    /// Location symbols, in the order of SPEC section 2.
+    pub location: Vec<LocationSymbol>,
+    /// Map symbols.
+    pub maps: Vec<MapSymbol>,
+    /// Names that are recognized but rejected, with the reason.
+    pub not_identifiable: Vec<(String, String)>,
+    /// The machine's tilt-axis letter.
+    pub tilt: char,
+}
+
+const LIN: [char; 3] = ['X', 'Y', 'Z'];
+const ROT: [char; 3] = ['A', 'B', 'C'];
+
+fn s(link: usize, k: usize) -> usize {
+    link * 6 + k
+}
+
+impl SymbolTable {
+    /// The symbols of a machine.
+    pub fn for_kinematics(k: &Kinematics) -> SymbolTable {
+        let m = k.machine();
+        let t = m.tilt.letter;
+        let it = m.tilt.about.index();
+        let io = 1 - it;
+        let mut loc = Vec::new();
+        let mut add = |name: String,
+                       terms: Vec<(usize, f64)>,
+                       canonical: (usize, f64),
+                       unit,
+                       description: String| {
+            loc.push(LocationSymbol {
+                name,
+                terms,
+                canonical,
+                unit,
+                description,
+            })
+        };
+        let mut rej: Vec<(String, String)> = Vec::new();
+        let name = |slot: usize| k.slot_name(slot).unwrap_or_default();
+        match m.structure {
+            Structure::TableTable => {
+                let one = |slot| (vec![(slot, 1.0)], (slot, 1.0));
+                let (a, b) = one(s(0, io));
+                add(
+                    format!("E{}0{t}", LIN[io]),
+                    a,
+                    b,
+                    Unit::Um,
+                    format!("position of the {t}-axis average line in {}", LIN[io]),
+                );
+                let (a, b) = one(s(0, 2));
+                add(
+                    format!("EZ0{t}"),
+                    a,
+                    b,
+                    Unit::Um,
+                    format!("position of the {t}-axis average line in Z"),
+                );
+                let (a, b) = one(s(0, 3 + io));
+                add(
+                    format!("E{}0{t}", ROT[io]),
+                    a,
+                    b,
+                    Unit::Urad,
+                    format!(
+                        "orientation of the {t}-axis average line around {}",
+                        LIN[io]
+                    ),
+                );
+                let (a, b) = one(s(0, 5));
+                add(
+                    format!("EC0{t}"),
+                    a,
+                    b,
+                    Unit::Urad,
+                    format!("orientation of the {t}-axis average line around Z"),
+                );
+                add(
+                    format!("E{}0{t}", ROT[it]),
+                    vec![(s(0, 3 + it), 1.0), (s(1, 3 + it), 1.0)],
+                    (s(1, 3 + it), 1.0),
+                    Unit::Urad,
+                    format!("zero (angular positioning) error of {t}"),
+                );
+                let (a, b) = one(s(1, io));
+                add(
+                    format!("E{}(0{t})C", LIN[io]),
+                    a,
+                    b,
+                    Unit::Um,
+                    format!(
+                        "position of the C-axis average line from {t} in {}",
+                        LIN[io]
+                    ),
+                );
+                add(
+                    format!("E{}0C", LIN[it]),
+                    vec![(s(0, it), 1.0), (s(1, it), 1.0)],
+                    (s(1, it), 1.0),
+                    Unit::Um,
+                    format!("position of the C-axis average line in {}", LIN[it]),
+                );
+                let (a, b) = one(s(1, 3 + io));
+                add(
+                    format!("E{}(0{t})C", ROT[io]),
+                    a,
+                    b,
+                    Unit::Urad,
+                    format!("squareness of C to {t} (around {})", LIN[io]),
+                );
+                rej.push((
+                    format!("E{}0{t}", LIN[it]),
+                    format!("{} moves the C axis along the {t} axis; only its sum with {} is seen, reported as E{}0C", name(s(0, it)), name(s(1, it)), LIN[it]),
+                ));
+                for n in ["EZ0C".to_string(), format!("EZ(0{t})C")] {
+                    rej.push((n, format!("{} moves the C axis along its own direction, which changes nothing a test can see", name(s(1, 2)))));
+                }
+                for n in ["EC0C".to_string(), format!("EC(0{t})C")] {
+                    rej.push((n, format!("{} (the zero of C) is indistinguishable from the workpiece's own rotation on the table", name(s(1, 5)))));
+                }
+                rej.push((
+                    format!("E{}(0{t})C", ROT[it]),
+                    format!(
+                        "{} is seen only in its sum with {}, reported as E{}0{t}",
+                        name(s(1, 3 + it)),
+                        name(s(0, 3 + it)),
+                        ROT[it]
+                    ),
+                ));
+                rej.push((
+                    format!("E{}(0{t})C", LIN[it]),
+                    format!(
+                        "{} is seen only in its sum with {}, reported as E{}0C",
+                        name(s(1, it)),
+                        name(s(0, it)),
+                        LIN[it]
+                    ),
+                ));
+            }
+            Structure::HeadTable | Structure::HeadHead => {
+                let one = |slot, coef| (vec![(slot, coef)], (slot, coef));
+                if m.structure == Structure::HeadTable {
+                    for (i, what) in [(0usize, "position"), (1, "position")] {
+                        let (a, b) = one(s(0, i), 1.0);
+                        add(
+                            format!("E{}0C", LIN[i]),
+                            a,
+                            b,
+                            Unit::Um,
+                            format!("{what} of the C-table axis average line in {}", LIN[i]),
+                        );
+                    }
+                    for i in [0usize, 1] {
+                        let (a, b) = one(s(0, 3 + i), 1.0);
+                        add(
+                            format!("E{}0C", ROT[i]),
+                            a,
+                            b,
+                            Unit::Urad,
+                            format!(
+                                "orientation of the C-table axis average line around {}",
+                                LIN[i]
+                            ),
+                        );
+                    }
+                    rej.push(("EZ0C".into(), format!("{} moves the C table along its own axis, which a test cannot tell from a work-offset error", name(s(0, 2)))));
+                    rej.push(("EC0C".into(), format!("{} (the zero of a single C table) is indistinguishable from the workpiece's own rotation", name(s(0, 5)))));
+                } else {
+                    for i in [0usize, 1] {
+                        let (a, b) = one(s(1, i), -1.0);
+                        add(
+                            format!("E{}0C", LIN[i]),
+                            a,
+                            b,
+                            Unit::Um,
+                            format!(
+                                "position of the C-head axis line relative to the tool in {}",
+                                LIN[i]
+                            ),
+                        );
+                    }
+                    for i in [0usize, 1, 2] {
+                        let (a, b) = one(s(0, 3 + i), 1.0);
+                        let what = if i == 2 {
+                            "zero (angular positioning) error of the C head".to_string()
+                        } else {
+                            format!("orientation of the C-head axis line around {}", LIN[i])
+                        };
+                        add(format!("E{}0C", ROT[i]), a, b, Unit::Urad, what);
+                    }
+                    rej.push(("EZ0C".into(), format!("{} moves the C head along its own axis, which a test cannot tell from a work-offset error", name(s(0, 2)))));
+                    rej.push((format!("EC0{t}"), format!("{} turns the {t} axis about Z exactly as the zero of C does; reported as EC0C", name(s(1, 5)))));
+                }
+                let (a, b) = one(s(2, io), -1.0);
+                add(
+                    format!("E{}0{t}", LIN[io]),
+                    a,
+                    b,
+                    Unit::Um,
+                    format!(
+                        "position of the {t}-head axis line relative to the spindle axis in {}",
+                        LIN[io]
+                    ),
+                );
+                let (a, b) = one(s(2, 2), -1.0);
+                add(
+                    format!("EZ0{t}"),
+                    a,
+                    b,
+                    Unit::Um,
+                    format!(
+                        "height of the {t}-head axis line above the tool tip (pivot-length error; indistinguishable from a tool-length error)"
+                    ),
+                );
+                let (a, b) = one(s(1, 3 + io), 1.0);
+                add(
+                    format!("E{}0{t}", ROT[io]),
+                    a,
+                    b,
+                    Unit::Urad,
+                    format!("orientation of the {t}-head axis line around {}", LIN[io]),
+                );
+                if m.structure == Structure::HeadTable {
+                    let (a, b) = one(s(1, 5), 1.0);
+                    add(
+                        format!("EC0{t}"),
+                        a,
+                        b,
+                        Unit::Urad,
+                        format!("orientation of the {t}-head axis line around Z"),
+                    );
+                }
+                let (a, b) = one(s(1, 3 + it), 1.0);
+                add(
+                    format!("E{}0{t}", ROT[it]),
+                    a,
+                    b,
+                    Unit::Urad,
+                    format!("zero (angular positioning) error of the {t} head"),
+                );
+                let (a, b) = one(s(2, 3 + io), 1.0);
+                add(
+                    format!("E{}(0{t})S", ROT[io]),
+                    a,
+                    b,
+                    Unit::Urad,
+                    format!("squareness of the spindle axis to {t} (around {})", LIN[io]),
+                );
+                rej.push((
+                    format!("E{}0{t}", LIN[it]),
+                    if m.structure == Structure::HeadTable {
+                        format!("{} shifts the tool along the {t} axis by the same amount at every angle, which a test cannot tell from a work-offset error", name(s(2, it)))
+                    } else {
+                        format!("{} moves the tool along the {t} axis exactly as {} does; part of E{}0C", name(s(2, it)), name(s(1, it)), LIN[it])
+                    },
+                ));
+            }
+        }
+        let mut maps = Vec::new();
+        for (l, info) in k.links().iter().enumerate().take(LINKS) {
+            if info.map_deps.is_empty() {
+                continue;
+            }
+            let deps: Vec<String> = info
+                .map_deps
+                .iter()
+                .map(|&d| {
+                    if d == 0 {
+                        t.to_string()
+                    } else {
+                        "C".to_string()
+                    }
+                })
+                .collect();
+            for comp in 0..6 {
+                let letter = if comp < 3 { LIN[comp] } else { ROT[comp - 3] };
+                maps.push(MapSymbol {
+                    name: format!("E{letter}{}({})", info.child, deps.join(",")),
+                    slot: s(l, comp),
+                    deps: info.map_deps.clone(),
+                    unit: if comp < 3 { Unit::Um } else { Unit::Urad },
+                });
+            }
+        }
+        SymbolTable {
+            location: loc,
+            maps,
+            not_identifiable: rej,
+            tilt: t,
+        }
+    }
+
+    fn reject(&self, name: &str, expected: String) -> SymbolError {
+        if let Some((_, reason)) = self.not_identifiable.iter().find(|(n, _)| n == name) {
+            return SymbolError::NotIdentifiable {
+                name: name.to_string(),
+                reason: reason.clone(),
+            };
+        }
+        SymbolError::Unknown {
+            name: name.to_string(),
+            expected,
+        }
+    }
+
+    /// Index of a location symbol.
+    pub fn location_index(&self, name: &str) -> Result<usize, SymbolError> {
+        self.location.iter().position(|s| s.name == name).ok_or_else(|| {
+            if self.maps.iter().any(|m| m.name == name) {
+                return SymbolError::Unknown {
+                    name: name.to_string(),
+                    expected: format!("a location symbol ({}); `{name}` is a position-dependent symbol and belongs under position_dependent", self.location_names()),
+                };
+            }
+            self.reject(name, self.location_names())
+        })
+    }
+
+    /// Index of a map symbol.
+    pub fn map_index(&self, name: &str) -> Result<usize, SymbolError> {
+        self.maps
+            .iter()
+            .position(|s| s.name == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = self.maps.iter().map(|m| m.name.as_str()).collect();
+                self.reject(name, names.join(", "))
+            })
+    }
+
+    /// The location symbol names, comma-separated.
+    pub fn location_names(&self) -> String {
+        self.location
+            .iter()
+            .map(|s| s.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}

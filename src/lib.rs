@@ -1,0 +1,26 @@
+//! fivecal: geometric calibration of five-axis machine tools.
+//!
+//! The library is organised by capability. [`machine`] reads machine files;
+//! [`kinematics`] is the exact model of SPEC section 2 with its inverse and
+//! Jacobians; [`model`] adds the named effects (location errors, error maps,
+//! drift, linear-axis, tool and probe errors) that `simulate` runs forward,
+//! `analyze` inverts and `discover` searches; [`errorfile`] reads and writes
+//! the error files of SPEC section 3.
+//!
+//! Units: mm and degrees in NC programs, plans and machine files; um and
+//! urad in error files and model parameters; mm and rad inside the chain.
+
+#![warn(missing_docs)]
+
+pub mod errorfile;
+pub mod geom;
+pub mod io;
+pub mod kinematics;
+pub mod machine;
+pub mod model;
+pub mod source;
+
+pub use errorfile::ErrorFile;
+pub use kinematics::{Axes, Kinematics, Perturbation, ToolPose};
+pub use machine::{Dialect, Machine};
+pub use model::{Context, Effect, Model};

@@ -1,0 +1,382 @@
+//! The YAML form of a machine file and its validation into [`Machine`].
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use super::{Dialect, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
+use crate::geom::Axis3;
+use crate::source::SourceError;
+
+/// A machine file as written (see `examples/machines/*.yaml`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineFile {
+    /// Short name.
+    pub name: String,
+    /// One line on what it is.
+    #[serde(default)]
+    pub description: String,
+    /// `table-table`, `head-table` or `head-head`.
+    pub structure: Structure,
+    /// Kinematic chain from workpiece to tool (`F` = frame/bed), e.g. `CBYFXZ`.
+    pub chain: String,
+    /// Default dialect.
+    pub controller: Dialect,
+    /// Strokes of X, Y, Z (machine coordinates of the spindle gauge point), mm.
+    pub linear_axes: BTreeMap<String, [f64; 2]>,
+    /// The tilt axis and C: limits (deg, `null` for continuous) and direction.
+    pub rotary_axes: BTreeMap<String, RotaryAxisFile>,
+    /// Machine coordinates of the W origin, mm.
+    pub pivot: [f64; 3],
+    /// Head machines: rotation centre to spindle gauge line, mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head: Option<HeadFile>,
+    /// Table geometry.
+    pub table: Table,
+    /// Default tool.
+    pub tool: Tool,
+    /// Default probe.
+    pub probe: Probe,
+    /// Rapid rates.
+    #[serde(default)]
+    pub rapid: Rapid,
+}
+
+/// A rotary axis as written.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotaryAxisFile {
+    /// `[min, max]` in degrees, or `null` for a continuous axis.
+    pub limits: Option<[f64; 2]>,
+    /// +1 (SPEC convention) or -1.
+    #[serde(default = "one")]
+    pub direction: i32,
+}
+
+fn one() -> i32 {
+    1
+}
+
+/// Head data as written.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeadFile {
+    /// Rotation centre to spindle gauge line along the tool axis, mm.
+    pub pivot_length: f64,
+}
+
+pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
+    let f: MachineFile = serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))?;
+    let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
+
+    // Linear axes: exactly X, Y, Z with min < max.
+    let mut strokes = [(0.0, 0.0); 3];
+    for (k, v) in &f.linear_axes {
+        let i = match k.as_str() {
+            "X" => 0,
+            "Y" => 1,
+            "Z" => 2,
+            _ => {
+                return Err(err(
+                    &["linear_axes", k],
+                    format!("unknown linear axis `{k}`: expected X, Y and Z"),
+                ));
+            }
+        };
+        if !(v[0].is_finite() && v[1].is_finite() && v[0] < v[1]) {
+            return Err(err(
+                &["linear_axes", k],
+                format!(
+                    "stroke of {k} must be [min, max] with min < max, got [{}, {}]",
+                    v[0], v[1]
+                ),
+            ));
+        }
+        strokes[i] = (v[0], v[1]);
+    }
+    for l in ["X", "Y", "Z"] {
+        if !f.linear_axes.contains_key(l) {
+            return Err(err(
+                &["linear_axes"],
+                format!("linear axis {l} is missing: expected X, Y and Z"),
+            ));
+        }
+    }
+
+    // Chain: letters from workpiece to tool.
+    let chain = f.chain.trim().to_ascii_uppercase();
+    let letters: Vec<char> = chain.chars().collect();
+    let count = |c: char| letters.iter().filter(|&&x| x == c).count();
+    let tilt_letter = match (count('A'), count('B')) {
+        (1, 0) => 'A',
+        (0, 1) => 'B',
+        _ => {
+            return Err(err(
+                &["chain"],
+                format!("chain `{chain}` must contain exactly one tilt axis (A or B) and one C"),
+            ));
+        }
+    };
+    for c in ['F', 'X', 'Y', 'Z', 'C'] {
+        if count(c) != 1 {
+            return Err(err(
+                &["chain"],
+                format!(
+                    "chain `{chain}` must contain {c} exactly once (letters from workpiece to tool, F = machine frame)"
+                ),
+            ));
+        }
+    }
+    if letters.len() != 6 {
+        return Err(err(
+            &["chain"],
+            format!(
+                "chain `{chain}` has unexpected letters: expected the six letters F, X, Y, Z, C and A or B"
+            ),
+        ));
+    }
+    let pos = |c: char| letters.iter().position(|&x| x == c).unwrap();
+    let f_pos = pos('F');
+    let (t_pos, c_pos) = (pos(tilt_letter), pos('C'));
+    let derived = match (t_pos < f_pos, c_pos < f_pos) {
+        (true, true) => Structure::TableTable,
+        (false, true) => Structure::HeadTable,
+        (false, false) => Structure::HeadHead,
+        (true, false) => {
+            return Err(err(
+                &["chain"],
+                format!("chain `{chain}`: a tilting table under a C head is not supported"),
+            ));
+        }
+    };
+    if derived != f.structure {
+        return Err(err(
+            &["structure"],
+            format!(
+                "structure `{}` does not match chain `{chain}`, which describes a {derived} machine",
+                f.structure
+            ),
+        ));
+    }
+    // C must carry the tilt in head-head machines, and sit on the tilt in
+    // table-table machines (the order of SPEC section 2).
+    match derived {
+        Structure::TableTable if c_pos > t_pos => {
+            return Err(err(
+                &["chain"],
+                format!(
+                    "chain `{chain}`: the C table must sit on the tilt axis (C before {tilt_letter})"
+                ),
+            ));
+        }
+        Structure::HeadHead if c_pos > t_pos => {
+            return Err(err(
+                &["chain"],
+                format!(
+                    "chain `{chain}`: the tilt head must sit on the C head (C before {tilt_letter})"
+                ),
+            ));
+        }
+        _ => {}
+    }
+    // Parent: the neighbour towards F.
+    let parent = |p: usize| {
+        if p < f_pos {
+            letters[p + 1]
+        } else {
+            letters[p - 1]
+        }
+    };
+
+    // Rotary axes.
+    let mut tilt = None;
+    let mut c_axis = None;
+    for (k, v) in &f.rotary_axes {
+        let letter = match k.as_str() {
+            "A" | "B" | "C" => k.chars().next().unwrap(),
+            _ => {
+                return Err(err(
+                    &["rotary_axes", k],
+                    format!("unknown rotary axis `{k}`: expected {tilt_letter} and C"),
+                ));
+            }
+        };
+        if letter != 'C' && letter != tilt_letter {
+            return Err(err(
+                &["rotary_axes", k],
+                format!("rotary axis {k} is not in chain `{chain}` (expected {tilt_letter} and C)"),
+            ));
+        }
+        if v.direction != 1 && v.direction != -1 {
+            return Err(err(
+                &["rotary_axes", k, "direction"],
+                format!("direction of {k} must be 1 or -1, got {}", v.direction),
+            ));
+        }
+        let limits = match v.limits {
+            None => None,
+            Some([lo, hi]) => {
+                if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                    return Err(err(
+                        &["rotary_axes", k, "limits"],
+                        format!(
+                            "limits of {k} must be [min, max] in degrees with min < max, got [{lo}, {hi}]"
+                        ),
+                    ));
+                }
+                Some((lo, hi))
+            }
+        };
+        if letter != 'C' && limits.is_none() {
+            return Err(err(
+                &["rotary_axes", k, "limits"],
+                format!("the tilt axis {k} needs limits [min, max] in degrees"),
+            ));
+        }
+        let p = pos(letter);
+        let axis = RotaryAxis {
+            letter,
+            about: match letter {
+                'A' => Axis3::X,
+                'B' => Axis3::Y,
+                _ => Axis3::Z,
+            },
+            on_table: p < f_pos,
+            direction: v.direction as f64,
+            limits,
+            parent: parent(p),
+        };
+        if letter == 'C' {
+            c_axis = Some(axis);
+        } else {
+            tilt = Some(axis);
+        }
+    }
+    let tilt = tilt.ok_or_else(|| {
+        err(
+            &["rotary_axes"],
+            format!("rotary axis {tilt_letter} is missing"),
+        )
+    })?;
+    let c = c_axis.ok_or_else(|| err(&["rotary_axes"], "rotary axis C is missing".to_string()))?;
+
+    // Head.
+    let pivot_length = match (derived, &f.head) {
+        (Structure::TableTable, Some(_)) => {
+            return Err(err(
+                &["head"],
+                "a table-table machine has no head: remove `head`".to_string(),
+            ));
+        }
+        (Structure::TableTable, None) => 0.0,
+        (_, None) => {
+            return Err(err(
+                &["structure"],
+                format!(
+                    "a {derived} machine needs `head: {{pivot_length: ...}}` (rotation centre to spindle gauge line, mm)"
+                ),
+            ));
+        }
+        (_, Some(h)) => {
+            if !(h.pivot_length.is_finite() && h.pivot_length >= 0.0) {
+                return Err(err(
+                    &["head", "pivot_length"],
+                    format!(
+                        "pivot_length must be a length >= 0 mm, got {}",
+                        h.pivot_length
+                    ),
+                ));
+            }
+            h.pivot_length
+        }
+    };
+
+    if f.pivot.iter().any(|v| !v.is_finite()) {
+        return Err(err(
+            &["pivot"],
+            "pivot must be three finite numbers (mm)".to_string(),
+        ));
+    }
+    if !(f.table.radius.is_finite() && f.table.radius > 0.0 && f.table.surface.is_finite()) {
+        return Err(err(
+            &["table"],
+            "table needs a finite surface (mm) and a radius > 0 (mm)".to_string(),
+        ));
+    }
+    check_tool(&f.tool).map_err(|(k, m)| err(&["tool", k], m))?;
+    for (k, v) in [
+        ("ball_diameter", f.probe.ball_diameter),
+        ("length", f.probe.length),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(err(
+                &["probe", k],
+                format!("probe {k} must be > 0 mm, got {v}"),
+            ));
+        }
+    }
+    for (k, v) in [("linear", f.rapid.linear), ("rotary", f.rapid.rotary)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(err(
+                &["rapid", k],
+                format!("rapid {k} rate must be > 0, got {v}"),
+            ));
+        }
+    }
+
+    Ok(Machine {
+        name: f.name,
+        description: f.description,
+        structure: derived,
+        chain,
+        dialect: f.controller,
+        strokes,
+        tilt,
+        c,
+        pivot: Vector3::from(f.pivot),
+        pivot_length,
+        table: f.table,
+        tool: f.tool,
+        probe: f.probe,
+        rapid: f.rapid,
+        source: src.to_string(),
+    })
+}
+
+/// Checks a tool's numbers; returns the offending key and a message.
+pub(crate) fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
+    if !(t.diameter.is_finite() && t.diameter > 0.0) {
+        return Err((
+            "diameter",
+            format!("tool diameter must be > 0 mm, got {}", t.diameter),
+        ));
+    }
+    if !(t.length.is_finite() && t.length > 0.0) {
+        return Err((
+            "length",
+            format!("tool length must be > 0 mm, got {}", t.length),
+        ));
+    }
+    match (t.kind, t.corner_radius) {
+        (ToolKind::Bull, None) => {
+            return Err((
+                "corner_radius",
+                "a bull-nose tool needs corner_radius (mm)".to_string(),
+            ));
+        }
+        (ToolKind::Bull, Some(r)) if !(r > 0.0 && r < t.diameter / 2.0) => {
+            return Err((
+                "corner_radius",
+                format!(
+                    "corner_radius must be between 0 and half the diameter ({} mm), got {r}",
+                    t.diameter / 2.0
+                ),
+            ));
+        }
+        _ => {}
+    }
+    Ok(())
+}

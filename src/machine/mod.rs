@@ -1,0 +1,351 @@
+//! Machine files: the structure of a five-axis machine (which rotary axes
+//! sit on the table and which in the head), its strokes and rotary limits,
+//! where the table frame W sits in machine coordinates, its controller
+//! dialect and its default tool and probe.
+//!
+//! Machine files are YAML (see `examples/machines/`). The four example
+//! machines are compiled into the binary as built-in defaults, so
+//! `--machine bc-trunnion` works without any file on disk; a path always
+//! wins over a built-in name. Every supported machine has exactly one C axis
+//! (rotation about Z) and one tilt axis (A about X or B about Y); the
+//! structure says where each of them sits.
+
+mod file;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::geom::Axis3;
+use crate::source::SourceError;
+
+pub use file::MachineFile;
+
+/// Where the two rotary axes sit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Structure {
+    /// Tilting rotary table (trunnion): the tilt axis carries the C table.
+    TableTable,
+    /// Swivel (tilt) head and C rotary table.
+    HeadTable,
+    /// Both axes in the head: C head carrying the tilt head.
+    HeadHead,
+}
+
+impl fmt::Display for Structure {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Structure::TableTable => "table-table",
+            Structure::HeadTable => "head-table",
+            Structure::HeadHead => "head-head",
+        })
+    }
+}
+
+/// Controller dialect of generated and rewritten NC programs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dialect {
+    /// FANUC (ISO G-code with Custom Macro B).
+    Fanuc,
+    /// HEIDENHAIN TNC Klartext.
+    Heidenhain,
+    /// LinuxCNC rs274ngc.
+    Linuxcnc,
+}
+
+impl Dialect {
+    /// All dialects.
+    pub const ALL: [Dialect; 3] = [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc];
+
+    /// Lower-case name as used on the command line and in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Dialect::Fanuc => "fanuc",
+            Dialect::Heidenhain => "heidenhain",
+            Dialect::Linuxcnc => "linuxcnc",
+        }
+    }
+}
+
+impl fmt::Display for Dialect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Dialect {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "fanuc" => Ok(Dialect::Fanuc),
+            "heidenhain" => Ok(Dialect::Heidenhain),
+            "linuxcnc" => Ok(Dialect::Linuxcnc),
+            _ => Err(format!(
+                "unknown dialect `{s}`: expected fanuc, heidenhain or linuxcnc"
+            )),
+        }
+    }
+}
+
+/// Cutting-tool shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ToolKind {
+    /// Straight (flat) end mill.
+    Flat,
+    /// Ball end mill.
+    Ball,
+    /// Bull-nose (torus) end mill with a corner radius.
+    Bull,
+}
+
+/// A cutting tool.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tool {
+    /// Free text, shown in program headers and setup sheets.
+    pub name: String,
+    /// Shape.
+    pub kind: ToolKind,
+    /// Diameter, mm.
+    pub diameter: f64,
+    /// Gauge length (spindle gauge line to tip), mm.
+    pub length: f64,
+    /// Corner radius of a bull-nose tool, mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub corner_radius: Option<f64>,
+    /// Number of flutes (for feeds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flutes: Option<u32>,
+    /// Tool number used in tool calls.
+    #[serde(default = "default_tool_number")]
+    pub number: u32,
+}
+
+fn default_tool_number() -> u32 {
+    1
+}
+
+/// A touch-trigger probe.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Probe {
+    /// Free text.
+    pub name: String,
+    /// Calibrated ball diameter, mm.
+    pub ball_diameter: f64,
+    /// Gauge length (spindle gauge line to ball centre), mm.
+    pub length: f64,
+    /// Tool number of the probe.
+    #[serde(default = "default_probe_number")]
+    pub number: u32,
+}
+
+fn default_probe_number() -> u32 {
+    99
+}
+
+/// One rotary axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RotaryAxis {
+    /// `A`, `B` or `C`.
+    pub letter: char,
+    /// The machine axis it rotates about at zero position.
+    pub about: Axis3,
+    /// Whether it moves the workpiece (table) or the tool (head).
+    pub on_table: bool,
+    /// +1 when a positive command rotates as SPEC section 2 writes it
+    /// (`R(-angle)` for table axes, `R(+angle)` for head axes), -1 otherwise.
+    pub direction: f64,
+    /// Limits in degrees; `None` for a continuous axis.
+    pub limits: Option<(f64, f64)>,
+    /// The body it is mounted on, as a chain letter (`Y`, `Z`, `B`, ...),
+    /// used in error-term names such as `dx_BY`.
+    pub parent: char,
+}
+
+impl RotaryAxis {
+    /// Whether `angle` (deg) is inside the limits, with `tol` of slack.
+    pub fn within(&self, angle: f64, tol: f64) -> bool {
+        match self.limits {
+            None => true,
+            Some((lo, hi)) => angle >= lo - tol && angle <= hi + tol,
+        }
+    }
+}
+
+/// Table geometry, in W.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Table {
+    /// Z of the table top in W, mm.
+    pub surface: f64,
+    /// Radius of the usable table, mm.
+    pub radius: f64,
+}
+
+/// Rapid traverse rates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rapid {
+    /// Linear rapid, mm/min.
+    pub linear: f64,
+    /// Rotary rapid, deg/min.
+    pub rotary: f64,
+}
+
+impl Default for Rapid {
+    fn default() -> Self {
+        Rapid {
+            linear: 15000.0,
+            rotary: 3600.0,
+        }
+    }
+}
+
+/// A validated machine.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Machine {
+    /// Short name (`bc-trunnion`).
+    pub name: String,
+    /// One line on what it is.
+    pub description: String,
+    /// Where the rotary axes sit.
+    pub structure: Structure,
+    /// Kinematic chain from workpiece to tool, e.g. `CBYFXZ`.
+    pub chain: String,
+    /// Default dialect of its controller.
+    pub dialect: Dialect,
+    /// Strokes of X, Y, Z in machine coordinates of the spindle gauge point, mm.
+    pub strokes: [(f64, f64); 3],
+    /// The tilt axis (A or B).
+    pub tilt: RotaryAxis,
+    /// The C axis.
+    pub c: RotaryAxis,
+    /// Machine coordinates of the W origin (reached by the spindle gauge
+    /// point with all rotary axes at zero), mm.
+    pub pivot: Vector3<f64>,
+    /// Head machines: distance from the head's rotation centre to the
+    /// spindle gauge line along the tool axis, mm (0 for table-table).
+    pub pivot_length: f64,
+    /// Table geometry.
+    pub table: Table,
+    /// Default cutting tool.
+    pub tool: Tool,
+    /// Default probe.
+    pub probe: Probe,
+    /// Rapid rates.
+    pub rapid: Rapid,
+    /// The file text it was read from (for `machine show` and provenance).
+    pub source: String,
+}
+
+/// Why a machine could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum MachineError {
+    /// The file could not be read.
+    #[error("cannot read machine file {path}: {source}")]
+    Read {
+        /// The path.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Neither a file nor a built-in machine of that name exists.
+    #[error("no machine file `{0}` and no built-in machine of that name (built-in: {1})")]
+    NotFound(String, String),
+    /// The file is malformed or inconsistent.
+    #[error("{0}")]
+    Invalid(#[from] SourceError),
+}
+
+/// Built-in machines: (name, YAML text).
+pub const BUILTIN: [(&str, &str); 4] = [
+    (
+        "bc-trunnion",
+        include_str!("../../examples/machines/bc-trunnion.yaml"),
+    ),
+    (
+        "ac-trunnion",
+        include_str!("../../examples/machines/ac-trunnion.yaml"),
+    ),
+    (
+        "head-table",
+        include_str!("../../examples/machines/head-table.yaml"),
+    ),
+    (
+        "head-head",
+        include_str!("../../examples/machines/head-head.yaml"),
+    ),
+];
+
+impl Machine {
+    /// Parses and validates a machine file's text; `path` is used in errors.
+    pub fn from_yaml(path: &Path, src: &str) -> Result<Machine, MachineError> {
+        Ok(file::parse(path, src)?)
+    }
+
+    /// A built-in machine by name.
+    pub fn builtin(name: &str) -> Option<Machine> {
+        BUILTIN.iter().find(|(n, _)| *n == name).map(|(n, src)| {
+            Machine::from_yaml(Path::new(&format!("<built-in {n}>")), src)
+                .expect("built-in machine files are valid")
+        })
+    }
+
+    /// Loads a machine: a path when it exists, else a built-in name.
+    pub fn load(spec: &str) -> Result<Machine, MachineError> {
+        let path = Path::new(spec);
+        if path.exists() {
+            let src = std::fs::read_to_string(path).map_err(|source| MachineError::Read {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            return Machine::from_yaml(path, &src);
+        }
+        let stem = spec.strip_suffix(".yaml").unwrap_or(spec);
+        Machine::builtin(stem).ok_or_else(|| {
+            MachineError::NotFound(
+                spec.to_string(),
+                BUILTIN
+                    .iter()
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            )
+        })
+    }
+
+    /// Letter of the tilt axis (`A` or `B`).
+    pub fn tilt_letter(&self) -> char {
+        self.tilt.letter
+    }
+
+    /// Rotary axes in letter order (tilt first: A or B come before C).
+    pub fn rotary_letters(&self) -> [char; 2] {
+        [self.tilt.letter, 'C']
+    }
+
+    /// Whether the spindle gauge point, given in program coordinates (work
+    /// offset on the W origin at rotary zero), is inside the strokes.
+    /// Returns the first violation as (axis letter, machine coordinate,
+    /// stroke).
+    pub fn check_strokes(
+        &self,
+        gauge_point_prog: &Vector3<f64>,
+    ) -> Result<(), (char, f64, (f64, f64))> {
+        let m = gauge_point_prog + self.pivot;
+        for i in 0..3 {
+            let (lo, hi) = self.strokes[i];
+            if m[i] < lo - 1e-9 || m[i] > hi + 1e-9 {
+                return Err((Axis3::from_index(i).letter(), m[i], (lo, hi)));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,190 @@
+//! The one error model that `simulate` runs forward, `analyze` inverts and
+//! `discover` searches: the machine's exact kinematics plus a list of named
+//! [`Effect`]s, each owning a slice of the parameter vector.
+//!
+//! Every effect is linear in its own parameters at the level of the
+//! kinematic chain's [`Perturbation`] slots (a location error sets a term, a
+//! map node contributes through interpolation weights, a drift adds
+//! `rate * seq`, a scale error adds `EXX * x` to the X slide, ...). The
+//! chain itself is exact and nonlinear. So the tool pose's Jacobian with
+//! respect to the parameters is the chain's slot Jacobian times the sparse
+//! slot-per-parameter coefficients, with no approximation anywhere.
+//!
+//! Parameters are in the units of error files (um, urad, um/m, ...); the
+//! chain works in mm and rad.
+
+mod effect;
+
+use nalgebra::{DMatrix, Vector3};
+
+use crate::kinematics::symbols::SymbolTable;
+use crate::kinematics::{Axes, IkError, Kinematics, N_SLOTS, Perturbation, PoseJacobian, ToolPose};
+
+pub use effect::{DriftBasis, Effect, PROBE_DIRECTIONS, Squareness};
+
+/// Where and when the machine is: what the effects depend on.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Context {
+    /// Commanded axis values.
+    pub axes: Axes,
+    /// Execution order of the pose (SPEC `seq`).
+    pub seq: f64,
+    /// Elapsed time since the program started, minutes.
+    pub minutes: f64,
+    /// Probing: unit approach direction in the probe's own frame (the
+    /// machine frame when the head is at zero); `None` when not probing.
+    pub approach: Option<Vector3<f64>>,
+}
+
+impl Context {
+    /// A context at the given axes, sequence 0, time 0, not probing.
+    pub fn at(axes: Axes) -> Context {
+        Context {
+            axes,
+            ..Default::default()
+        }
+    }
+}
+
+/// Kinematics plus effects.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// The machine's kinematics.
+    pub kin: Kinematics,
+    /// Its symbols.
+    pub symbols: SymbolTable,
+    /// The effects, in order.
+    pub effects: Vec<Effect>,
+    offsets: Vec<usize>,
+}
+
+impl Model {
+    /// A model of `kin` with the given effects.
+    pub fn new(kin: Kinematics, effects: Vec<Effect>) -> Model {
+        let symbols = SymbolTable::for_kinematics(&kin);
+        let mut m = Model {
+            kin,
+            symbols,
+            effects,
+            offsets: Vec::new(),
+        };
+        m.reindex();
+        m
+    }
+
+    fn reindex(&mut self) {
+        self.offsets.clear();
+        let mut o = 0;
+        for e in &self.effects {
+            self.offsets.push(o);
+            o += e.n_params();
+        }
+        self.offsets.push(o);
+    }
+
+    /// Adds an effect; its parameters go at the end of the vector.
+    pub fn push(&mut self, e: Effect) {
+        self.effects.push(e);
+        self.reindex();
+    }
+
+    /// Total number of parameters.
+    pub fn n_params(&self) -> usize {
+        *self.offsets.last().unwrap_or(&0)
+    }
+
+    /// Index range of effect `i`'s parameters.
+    pub fn param_range(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i]..self.offsets[i + 1]
+    }
+
+    /// Parameter names, in vector order.
+    pub fn param_names(&self) -> Vec<String> {
+        self.effects
+            .iter()
+            .flat_map(|e| e.param_names(&self.symbols))
+            .collect()
+    }
+
+    /// Parameter units, in vector order.
+    pub fn param_units(&self) -> Vec<String> {
+        self.effects
+            .iter()
+            .flat_map(|e| e.param_units(&self.symbols))
+            .collect()
+    }
+
+    /// Sparse `d slot / d parameter` at a context: (slot, parameter, coefficient).
+    pub fn slot_coefficients(&self, ctx: &Context) -> Vec<(usize, usize, f64)> {
+        let mut out = Vec::new();
+        for (i, e) in self.effects.iter().enumerate() {
+            let o = self.offsets[i];
+            e.coefficients(&self.symbols, ctx, &mut |slot, p, c| {
+                out.push((slot, o + p, c))
+            });
+        }
+        out
+    }
+
+    /// The slot values for parameters `theta` at a context.
+    pub fn perturbation(&self, theta: &[f64], ctx: &Context) -> Perturbation {
+        debug_assert_eq!(theta.len(), self.n_params());
+        let mut p = Perturbation::zero();
+        for (i, e) in self.effects.iter().enumerate() {
+            let o = self.offsets[i];
+            e.coefficients(&self.symbols, ctx, &mut |slot, k, c| {
+                p.0[slot] += c * theta[o + k]
+            });
+        }
+        p
+    }
+
+    /// The actual tool pose in W at `ctx.axes`.
+    pub fn pose(&self, theta: &[f64], ctx: &Context) -> ToolPose {
+        self.kin.forward(&ctx.axes, &self.perturbation(theta, ctx))
+    }
+
+    /// The pose, the chain Jacobian, and the derivatives of tip and axis
+    /// with respect to the parameters (3 x n_params each).
+    pub fn pose_jacobian(
+        &self,
+        theta: &[f64],
+        ctx: &Context,
+    ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
+        let p = self.perturbation(theta, ctx);
+        let j = self.kin.jacobian(&ctx.axes, &p);
+        let n = self.n_params();
+        let mut jt = DMatrix::zeros(3, n);
+        let mut ja = DMatrix::zeros(3, n);
+        for (slot, k, c) in self.slot_coefficients(ctx) {
+            for r in 0..3 {
+                jt[(r, k)] += c * j.tip[(r, 5 + slot)];
+                ja[(r, k)] += c * j.axis[(r, 5 + slot)];
+            }
+        }
+        (j, jt, ja)
+    }
+
+    /// Axis values that put the actual tool at `target` at the given
+    /// sequence and time (errors depend on where the axes end up, so the
+    /// context follows the iteration).
+    pub fn inverse(
+        &self,
+        theta: &[f64],
+        target: &ToolPose,
+        hint: Option<&Axes>,
+        ctx: &Context,
+    ) -> Result<Axes, IkError> {
+        self.kin.inverse(target, hint, |a| {
+            self.perturbation(theta, &Context { axes: *a, ..*ctx })
+        })
+    }
+
+    /// Indices of the effects with the given identifier.
+    pub fn find(&self, id: &str) -> Option<usize> {
+        self.effects.iter().position(|e| e.id(&self.symbols) == id)
+    }
+}
+
+/// The number of perturbation slots, re-exported for sizing.
+pub const SLOTS: usize = N_SLOTS;

@@ -1,0 +1,201 @@
+//! Where in an input file something went wrong: the `file:line:column`
+//! prefix every user-facing parse or validation error carries, and a locator
+//! that finds the line of a key path in a YAML document.
+//!
+//! serde reports positions only for syntax and type errors; semantic checks
+//! (a limit the wrong way round, an unknown symbol used as a map key) happen
+//! after deserialization, when positions are gone. [`locate_yaml_key`]
+//! recovers them from the text, for the block and inline-flow styles our own
+//! files and hand-edited ones use.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// An error in an input file, pointing at a line and column (both 1-based;
+/// 0 when unknown).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourceError {
+    /// The file as the user named it.
+    pub path: PathBuf,
+    /// 1-based line, 0 when unknown.
+    pub line: usize,
+    /// 1-based column, 0 when unknown.
+    pub column: usize,
+    /// What was wrong and what was expected.
+    pub message: String,
+}
+
+impl SourceError {
+    /// An error at a known line and column.
+    pub fn new(path: &Path, line: usize, column: usize, message: impl Into<String>) -> Self {
+        SourceError {
+            path: path.to_path_buf(),
+            line,
+            column,
+            message: message.into(),
+        }
+    }
+
+    /// An error located at the YAML key path `keys` in `src` (or at the top
+    /// of the file when the key cannot be found).
+    pub fn at_key(path: &Path, src: &str, keys: &[&str], message: impl Into<String>) -> Self {
+        let (line, column) = locate_yaml_key(src, keys).unwrap_or((0, 0));
+        SourceError::new(path, line, column, message)
+    }
+
+    /// Converts a serde_yaml error, keeping its position.
+    pub fn from_yaml(path: &Path, err: &serde_yaml::Error) -> Self {
+        let (line, column) = err
+            .location()
+            .map(|l| (l.line(), l.column()))
+            .unwrap_or((0, 0));
+        // serde_yaml appends " at line L column C" to its message; drop it,
+        // the prefix says it already.
+        let mut msg = err.to_string();
+        if let Some(i) = msg.find(" at line ") {
+            msg.truncate(i);
+        }
+        SourceError::new(path, line, column, msg)
+    }
+}
+
+impl fmt::Display for SourceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (self.line, self.column) {
+            (0, _) => write!(f, "{}: {}", self.path.display(), self.message),
+            (l, 0) => write!(f, "{}:{}: {}", self.path.display(), l, self.message),
+            (l, c) => write!(f, "{}:{}:{}: {}", self.path.display(), l, c, self.message),
+        }
+    }
+}
+
+impl std::error::Error for SourceError {}
+
+fn indent_of(line: &str) -> usize {
+    line.len() - line.trim_start_matches(' ').len()
+}
+
+fn is_content(line: &str) -> bool {
+    let t = line.trim();
+    !t.is_empty() && !t.starts_with('#')
+}
+
+/// Finds `key:` as a mapping key in `text` (not inside a longer word),
+/// returning its byte offset.
+fn find_key_in(text: &str, key: &str) -> Option<usize> {
+    let candidates = [
+        format!("{key}:"),
+        format!("\"{key}\":"),
+        format!("'{key}':"),
+    ];
+    let mut best: Option<usize> = None;
+    for pat in &candidates {
+        let mut from = 0;
+        while let Some(i) = text[from..].find(pat.as_str()) {
+            let at = from + i;
+            let before_ok = at == 0 || {
+                let b = text.as_bytes()[at - 1];
+                b == b' ' || b == b'{' || b == b',' || b == b'-' || b == b'\t'
+            };
+            if before_ok {
+                best = Some(best.map_or(at, |x: usize| x.min(at)));
+                break;
+            }
+            from = at + 1;
+        }
+    }
+    best
+}
+
+/// Finds the 1-based (line, column) of the last key of `keys`, descending
+/// through nested block mappings (and inline flow mappings on a key's own
+/// line). Returns `None` when the path is not present as written.
+pub fn locate_yaml_key(src: &str, keys: &[&str]) -> Option<(usize, usize)> {
+    let lines: Vec<&str> = src.lines().collect();
+    let (mut start, mut end) = (0usize, lines.len());
+    let mut parent_indent: Option<usize> = None;
+    let mut found: Option<(usize, usize)> = None;
+    // When a key's value is inline on its line, deeper keys are searched in
+    // the rest of that line only.
+    let mut inline: Option<(usize, usize)> = None;
+    for key in keys {
+        if let Some((li, from)) = inline {
+            let rest = &lines[li][from..];
+            let off = find_key_in(rest, key)?;
+            found = Some((li + 1, from + off + 1));
+            inline = Some((li, from + off + key.len() + 1));
+            continue;
+        }
+        let mut hit = None;
+        for (i, line) in lines.iter().enumerate().take(end).skip(start) {
+            if !is_content(line) {
+                continue;
+            }
+            let ind = indent_of(line);
+            if parent_indent.is_some_and(|p| ind <= p) {
+                break;
+            }
+            let body = line.trim_start_matches(' ');
+            let body = body.strip_prefix("- ").unwrap_or(body);
+            let shift = line.len() - body.len();
+            let starts = body.starts_with(key)
+                || body.starts_with(&format!("\"{key}\""))
+                || body.starts_with(&format!("'{key}'"));
+            if starts && find_key_in(body, key) == Some(0) {
+                hit = Some((i, shift));
+                break;
+            }
+        }
+        let (i, col) = hit?;
+        found = Some((i + 1, col + 1));
+        let line = lines[i];
+        let after = col + key.len() + 1;
+        let rest = line.get(after..).unwrap_or("").trim();
+        if !rest.is_empty() && !rest.starts_with('#') {
+            inline = Some((i, after.min(line.len())));
+        } else {
+            parent_indent = Some(indent_of(line));
+            start = i + 1;
+            end = lines.len();
+        }
+    }
+    found
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DOC: &str = "name: m\nrotary_axes:\n  B: {limits: [-90, 90], direction: 1}\n  C:\n    limits: null\n    direction: -1\ntool:\n  diameter: 8\n";
+
+    #[test]
+    fn finds_block_and_inline_keys() {
+        assert_eq!(locate_yaml_key(DOC, &["name"]), Some((1, 1)));
+        assert_eq!(locate_yaml_key(DOC, &["rotary_axes", "B"]), Some((3, 3)));
+        assert_eq!(
+            locate_yaml_key(DOC, &["rotary_axes", "B", "limits"]),
+            Some((3, 7))
+        );
+        assert_eq!(
+            locate_yaml_key(DOC, &["rotary_axes", "B", "direction"]),
+            Some((3, 26))
+        );
+        assert_eq!(
+            locate_yaml_key(DOC, &["rotary_axes", "C", "direction"]),
+            Some((6, 5))
+        );
+        assert_eq!(locate_yaml_key(DOC, &["tool", "diameter"]), Some((8, 3)));
+    }
+
+    #[test]
+    fn does_not_cross_into_a_sibling_mapping() {
+        assert_eq!(locate_yaml_key(DOC, &["rotary_axes", "diameter"]), None);
+        assert_eq!(locate_yaml_key(DOC, &["tool", "limits"]), None);
+    }
+
+    #[test]
+    fn display_has_file_line_column() {
+        let e = SourceError::new(Path::new("m.yaml"), 3, 7, "expected two numbers");
+        assert_eq!(e.to_string(), "m.yaml:3:7: expected two numbers");
+    }
+}

@@ -1,0 +1,71 @@
+//! The binary as a user runs it.
+
+use assert_cmd::Command;
+
+pub fn fivecal() -> Command {
+    Command::cargo_bin("fivecal").unwrap()
+}
+
+#[test]
+fn help_lists_every_subcommand_with_what_it_does() {
+    let out = fivecal()
+        .arg("--help")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    for (cmd, what) in [
+        ("plan", "NC program"),
+        ("simulate", "virtual machine"),
+        ("analyze", "uncertainty"),
+        ("compensate", "NC programs"),
+        ("discover", "missing"),
+        ("machine", "machine files"),
+    ] {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with(cmd))
+            .unwrap_or_else(|| panic!("no `{cmd}` in\n{text}"));
+        assert!(line.contains(what), "`{cmd}` help line: {line}");
+    }
+}
+
+#[test]
+fn machine_show_prints_the_chain_and_symbols() {
+    let out = fivecal()
+        .args(["machine", "show", "bc-trunnion"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    assert!(text.contains("rTw  = D(dx_BY, dy_BY, dz_BY, a_BY, b_BY, c_BY) * Db(-B) * D(dx_CB, dy_CB, dz_CB, a_CB, b_CB, c_CB) * Dc(-C)"), "{text}");
+    assert!(text.contains("EB0B      = b_BY + b_CB"), "{text}");
+    assert!(
+        text.contains("EZ0C      dz_CB moves the C axis along its own direction"),
+        "{text}"
+    );
+}
+
+#[test]
+fn machine_show_of_a_bad_file_names_file_line_and_key() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/machines/reversed-limits.yaml");
+    let out = fivecal()
+        .args(["machine", "show"])
+        .arg(&p)
+        .assert()
+        .code(2)
+        .get_output()
+        .stderr
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    assert!(
+        text.contains("reversed-limits.yaml:7:7: limits of B must be [min, max]"),
+        "{text}"
+    );
+    assert!(!text.contains("panicked"), "{text}");
+}

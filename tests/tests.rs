@@ -1,0 +1,12 @@
+//! The one integration-test binary (as ripgrep and uv do): topic modules
+//! below, shared helpers in `util`, and `regression` for pinned cases named
+//! after what they pin.
+
+mod util;
+
+mod cli;
+mod errorfile;
+mod identifiability;
+mod kinematics;
+mod machine;
+mod regression;

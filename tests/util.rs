@@ -1,0 +1,67 @@
+//! Shared helpers: the example machines, seeded random errors, temp dirs.
+
+use fivecal::kinematics::{Kinematics, N_SLOTS, Perturbation, SLOT_LIN};
+use fivecal::{Axes, Machine};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+/// The four example machines.
+pub const MACHINES: [&str; 4] = ["bc-trunnion", "ac-trunnion", "head-table", "head-head"];
+
+pub fn machine(name: &str) -> Machine {
+    Machine::builtin(name).unwrap()
+}
+
+pub fn rng(seed: u64) -> StdRng {
+    StdRng::seed_from_u64(seed)
+}
+
+/// Random constant errors: every term of every link the machine has, up to
+/// `lin_um` (translations) and `ang_urad` (rotations), plus a tool-length
+/// error; in mm and rad.
+pub fn random_perturbation(
+    k: &Kinematics,
+    r: &mut StdRng,
+    lin_um: f64,
+    ang_urad: f64,
+) -> Perturbation {
+    let mut p = Perturbation::zero();
+    for slot in 0..SLOT_LIN {
+        if k.slot_name(slot).is_none() {
+            continue;
+        }
+        let s: f64 = r.random_range(-1.0..1.0);
+        p.0[slot] = if slot % 6 < 3 {
+            s * lin_um * 1e-3
+        } else {
+            s * ang_urad * 1e-6
+        };
+    }
+    p.0[fivecal::kinematics::SLOT_TOOL_LENGTH] = r.random_range(-1.0..1.0) * lin_um * 1e-3;
+    assert_eq!(p.0.len(), N_SLOTS);
+    p
+}
+
+/// Random axis values with the gauge point inside the strokes and the
+/// rotary axes inside their limits (C in [-180, 180) when continuous).
+pub fn random_axes(m: &Machine, r: &mut StdRng) -> Axes {
+    let mut xyz = [0.0; 3];
+    for (i, v) in xyz.iter_mut().enumerate() {
+        let (lo, hi) = m.strokes[i];
+        *v = r.random_range(lo..hi) - m.pivot[i];
+    }
+    let (tlo, thi) = m.tilt.limits.unwrap();
+    let (clo, chi) = m.c.limits.unwrap_or((-180.0, 180.0));
+    Axes::new(
+        xyz[0],
+        xyz[1],
+        xyz[2],
+        r.random_range(tlo..thi),
+        r.random_range(clo..chi),
+    )
+}
+
+#[allow(dead_code)]
+pub fn tempdir() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
