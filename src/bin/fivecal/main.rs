@@ -23,19 +23,19 @@ pub struct Cli {
 enum Command {
     /// Write a test as an NC program for a controller, with its nominal
     /// points, a CMM program, a 3-D model of the piece and a setup sheet.
-    Plan(cmd::pending::PendingArgs),
+    Plan(cmd::plan::PlanArgs),
     /// Run a plan on a virtual machine with known errors and write what a
     /// CMM or the probe would have measured.
-    Simulate(cmd::pending::PendingArgs),
+    Simulate(cmd::simulate::SimulateCli),
     /// Identify location errors and error maps, with their uncertainty, from
     /// CMM and probe files.
-    Analyze(cmd::pending::PendingArgs),
+    Analyze(cmd::analyze::AnalyzeCli),
     /// Rewrite NC programs so the identified errors cancel, or export them
     /// as controller parameters.
-    Compensate(cmd::pending::PendingArgs),
+    Compensate(cmd::compensate::CompensateArgs),
     /// Find where simulation and measurement disagree, name the missing
     /// effect, add it to the model and show the gap shrink.
-    Discover(cmd::pending::PendingArgs),
+    Discover(cmd::discover::DiscoverArgs),
     /// Inspect machine files.
     #[command(subcommand)]
     Machine(cmd::machine::MachineCommand),
@@ -44,11 +44,11 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Plan(_) => cmd::pending::run("plan", 3),
-        Command::Simulate(_) => cmd::pending::run("simulate", 5),
-        Command::Analyze(_) => cmd::pending::run("analyze", 6),
-        Command::Compensate(_) => cmd::pending::run("compensate", 7),
-        Command::Discover(_) => cmd::pending::run("discover", 8),
+        Command::Plan(a) => cmd::plan::run(a),
+        Command::Simulate(a) => cmd::simulate::run(a),
+        Command::Analyze(a) => cmd::analyze::run(a),
+        Command::Compensate(a) => cmd::compensate::run(a),
+        Command::Discover(a) => cmd::discover::run(a),
         Command::Machine(m) => cmd::machine::run(m),
     };
     match result {

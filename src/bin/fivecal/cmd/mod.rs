@@ -1,5 +1,12 @@
-//! One module per subcommand: its raw arguments, their validation into a
+//! One module per subcommand: its raw arguments, their validation into one
 //! configuration, and the call into the library.
 
+pub mod analyze;
+pub mod compensate;
+pub mod contour;
+pub mod discover;
 pub mod machine;
 pub mod pending;
+pub mod plan;
+pub mod simulate;
+pub mod simulate_nc;
