@@ -1,0 +1,191 @@
+//! The plan manifest, `<test>.plan.yaml`: what `plan` wrote and everything
+//! `simulate`, `analyze` and `discover` need to rebuild the plan exactly
+//! (the machine and template files are copied next to it, so a plan
+//! directory is self-contained and can be archived with its measurements).
+//!
+//! ```yaml
+//! fivecal_plan: 1
+//! test: stepped-square
+//! kind: machining
+//! machine: bc-trunnion
+//! machine_file: stepped-square.machine.yaml
+//! template_file: stepped-square.template.yaml
+//! dialect: fanuc
+//! kinematics: post
+//! tool: {name: D8 carbide end mill, kind: flat, diameter: 8.0, length: 60.0, number: 1}
+//! files: {program: stepped-square.nc, points: stepped-square.points.csv, dmis: stepped-square.dmi,
+//!         glb: stepped-square.glb, obj: stepped-square.obj, setup: stepped-square.md}
+//! poses:
+//!   - {pose: B0C0, seq: 0, tilt: 0.0, c: 0.0, start_min: 0.0, end_min: 2.5}
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use indexmap::IndexMap;
+use serde::{Deserialize, Serialize};
+
+use crate::machine::{Dialect, Probe, Tool};
+use crate::source::SourceError;
+
+/// Current manifest format version.
+pub const MANIFEST_VERSION: u32 = 1;
+
+/// Machining test (the CMM measures the finished piece) or on-machine
+/// probing (the probe measures in W at rotary zero).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TestKind {
+    /// A machined piece measured on a CMM.
+    Machining,
+    /// Touch-probing on the machine.
+    Probing,
+}
+
+/// How 3+2 positions are written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum KinematicsMode {
+    /// The post computes X, Y, Z and the rotary axes by inverse kinematics.
+    Post,
+    /// The controller's own tilted-plane or TCP functions do it.
+    Controller,
+}
+
+/// One pose (cut or station) in execution order.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseEntry {
+    /// Pose id, as in points.csv.
+    pub pose: String,
+    /// Execution order from 0.
+    pub seq: u32,
+    /// Tilt angle, deg.
+    pub tilt: f64,
+    /// C angle, deg.
+    pub c: f64,
+    /// Estimated minutes from program start when the pose begins.
+    pub start_min: f64,
+    /// ... and ends.
+    pub end_min: f64,
+}
+
+/// A plan manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// Format version ([`MANIFEST_VERSION`]).
+    pub fivecal_plan: u32,
+    /// Test name (`stepped-square`, `nine-section`, `probe-columns`, `probe-sphere`).
+    pub test: String,
+    /// Machining or probing.
+    pub kind: TestKind,
+    /// Machine name.
+    pub machine: String,
+    /// Copy of the machine file, relative to the manifest.
+    pub machine_file: PathBuf,
+    /// Copy of the template, relative to the manifest.
+    pub template_file: PathBuf,
+    /// Dialect of the program.
+    pub dialect: Dialect,
+    /// How 3+2 positions were written.
+    pub kinematics: KinematicsMode,
+    /// The cutting tool (machining tests).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool: Option<Tool>,
+    /// The probe (probing tests).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe: Option<Probe>,
+    /// Output files by role (`program`, `points`, `dmis`, `glb`, `obj`, `setup`, ...),
+    /// relative to the manifest.
+    pub files: IndexMap<String, PathBuf>,
+    /// Poses in execution order.
+    pub poses: Vec<PoseEntry>,
+}
+
+impl Manifest {
+    /// Parses a manifest.
+    pub fn parse(path: &Path, src: &str) -> Result<Manifest, SourceError> {
+        let m: Manifest =
+            serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))?;
+        if m.fivecal_plan != MANIFEST_VERSION {
+            return Err(SourceError::at_key(
+                path,
+                src,
+                &["fivecal_plan"],
+                format!(
+                    "plan manifest version {} is not supported (expected {MANIFEST_VERSION})",
+                    m.fivecal_plan
+                ),
+            ));
+        }
+        Ok(m)
+    }
+
+    /// Reads a manifest file.
+    pub fn read(path: &Path) -> Result<Manifest, SourceError> {
+        let src = std::fs::read_to_string(path)
+            .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read plan manifest: {e}")))?;
+        Manifest::parse(path, &src)
+    }
+
+    /// YAML text.
+    pub fn to_yaml(&self) -> String {
+        serde_yaml::to_string(self).expect("manifests serialize")
+    }
+
+    /// The path of a listed file, resolved against the manifest's directory.
+    pub fn resolve(&self, manifest_path: &Path, rel: &Path) -> PathBuf {
+        manifest_path.parent().unwrap_or(Path::new(".")).join(rel)
+    }
+
+    /// The path of the file with role `role`, if listed.
+    pub fn file(&self, manifest_path: &Path, role: &str) -> Option<PathBuf> {
+        self.files.get(role).map(|r| self.resolve(manifest_path, r))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trips_and_checks_the_version() {
+        let m = Manifest {
+            fivecal_plan: 1,
+            test: "stepped-square".into(),
+            kind: TestKind::Machining,
+            machine: "bc-trunnion".into(),
+            machine_file: "s.machine.yaml".into(),
+            template_file: "s.template.yaml".into(),
+            dialect: Dialect::Fanuc,
+            kinematics: KinematicsMode::Post,
+            tool: None,
+            probe: None,
+            files: [("points".to_string(), PathBuf::from("s.points.csv"))]
+                .into_iter()
+                .collect(),
+            poses: vec![PoseEntry {
+                pose: "B0C0".into(),
+                seq: 0,
+                tilt: 0.0,
+                c: 0.0,
+                start_min: 0.0,
+                end_min: 1.5,
+            }],
+        };
+        let text = m.to_yaml();
+        assert_eq!(Manifest::parse(Path::new("p.yaml"), &text).unwrap(), m);
+        let bad = text.replace("fivecal_plan: 1", "fivecal_plan: 7");
+        let e = Manifest::parse(Path::new("p.yaml"), &bad)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "p.yaml:1:1: plan manifest version 7 is not supported (expected 1)"
+        );
+        assert_eq!(
+            m.file(Path::new("dir/p.yaml"), "points").unwrap(),
+            PathBuf::from("dir/s.points.csv")
+        );
+    }
+}
