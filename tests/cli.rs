@@ -69,3 +69,58 @@ fn machine_show_of_a_bad_file_names_file_line_and_key() {
     );
     assert!(!text.contains("panicked"), "{text}");
 }
+
+#[test]
+fn completions_know_every_subcommand() {
+    for shell in ["bash", "zsh", "fish", "powershell", "elvish"] {
+        let out = fivecal()
+            .args(["completions", shell])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        let text = String::from_utf8(out).unwrap();
+        for sub in [
+            "plan",
+            "simulate",
+            "analyze",
+            "compensate",
+            "discover",
+            "machine",
+        ] {
+            assert!(text.contains(sub), "{shell} completions lack `{sub}`");
+        }
+    }
+    fivecal().args(["completions", "tcsh"]).assert().failure();
+}
+
+#[test]
+fn man_page_has_a_section_per_subcommand() {
+    let out = fivecal()
+        .arg("man")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    assert!(
+        text.starts_with(".ie") && text.contains(".TH fivecal 1"),
+        "{}",
+        &text[..200.min(text.len())]
+    );
+    for sub in [
+        "PLAN",
+        "SIMULATE",
+        "ANALYZE",
+        "COMPENSATE",
+        "DISCOVER",
+        "MACHINE",
+    ] {
+        assert!(
+            text.contains(&format!(".SH \"FIVECAL {sub}\"")),
+            "no section for {sub}"
+        );
+    }
+}

@@ -39,6 +39,10 @@ enum Command {
     /// Inspect machine files.
     #[command(subcommand)]
     Machine(cmd::machine::MachineCommand),
+    /// Print shell completions for bash, zsh, fish, powershell or elvish.
+    Completions(cmd::docs::CompletionsArgs),
+    /// Print the man page (roff) to standard output.
+    Man,
 }
 
 fn main() -> ExitCode {
@@ -50,6 +54,8 @@ fn main() -> ExitCode {
         Command::Compensate(a) => cmd::compensate::run(a),
         Command::Discover(a) => cmd::discover::run(a),
         Command::Machine(m) => cmd::machine::run(m),
+        Command::Completions(a) => cmd::docs::completions(a),
+        Command::Man => cmd::docs::man(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,6 +5,7 @@ pub mod analyze;
 pub mod compensate;
 pub mod contour;
 pub mod discover;
+pub mod docs;
 pub mod machine;
 pub mod pending;
 pub mod plan;

@@ -1,0 +1,36 @@
+//! `fivecal completions SHELL` and `fivecal man`: shell completions and a
+//! man page generated from the clap definitions, so they cannot drift from
+//! the real options.
+
+use std::io::Write;
+
+use clap::{Args, CommandFactory};
+use clap_complete::Shell;
+
+#[derive(Args, Debug)]
+pub struct CompletionsArgs {
+    /// bash, zsh, fish, powershell or elvish.
+    shell: Shell,
+}
+
+pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
+    let mut cmd = crate::Cli::command();
+    let mut out = std::io::stdout().lock();
+    clap_complete::generate(args.shell, &mut cmd, "fivecal", &mut out);
+    out.flush()?;
+    Ok(())
+}
+
+pub fn man() -> anyhow::Result<()> {
+    let cmd = crate::Cli::command();
+    let mut out = std::io::stdout().lock();
+    clap_mangen::Man::new(cmd.clone()).render(&mut out)?;
+    // One section per subcommand, as `man git` does it in one page.
+    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+        writeln!(out, ".SH \"FIVECAL {}\"", sub.get_name().to_uppercase())?;
+        clap_mangen::Man::new(sub.clone()).render_description_section(&mut out)?;
+        clap_mangen::Man::new(sub.clone()).render_options_section(&mut out)?;
+    }
+    out.flush()?;
+    Ok(())
+}
