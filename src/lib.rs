@@ -13,6 +13,7 @@
 #![warn(missing_docs)]
 
 pub mod errorfile;
+pub mod fit;
 pub mod formats;
 pub mod geom;
 pub mod io;

@@ -9,4 +9,5 @@ mod errorfile;
 mod identifiability;
 mod kinematics;
 mod machine;
+mod probe_fit;
 mod regression;
