@@ -20,6 +20,7 @@ pub mod io;
 pub mod kinematics;
 pub mod machine;
 pub mod model;
+pub mod probing;
 pub mod source;
 
 pub use errorfile::ErrorFile;

@@ -10,4 +10,5 @@ mod identifiability;
 mod kinematics;
 mod machine;
 mod probe_fit;
+mod probe_log;
 mod regression;

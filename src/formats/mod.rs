@@ -5,6 +5,7 @@
 pub mod manifest;
 pub mod measured;
 pub mod points;
+pub mod probe_log;
 
 /// A data line of a plain comma-separated file: its 1-based number and its
 /// fields with their 1-based columns (fields trimmed). Our CSV formats

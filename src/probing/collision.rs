@@ -1,0 +1,616 @@
+//! The collision checker: the probe (ball, stylus and body, each a capsule)
+//! against the setup (column boxes, the calibration sphere and its stem,
+//! the table), along any move of the machine.
+//!
+//! Everything is checked in W, where the setup stands still and the probe
+//! moves: its ball centre and axis at given axis values come from the
+//! nominal forward kinematics, so the same code serves table-table and head
+//! machines. A move is linear in the axis values, which is what G1 does
+//! and what G0 does when the program moves one group of axes at a time
+//! (the safe path never relies on the shape of a multi-axis rapid).
+//!
+//! With the rotary axes standing still, the probe only translates, and the
+//! volume a capsule sweeps is exactly a parallelogram grown by its radius;
+//! it is tested against each obstacle with GJK (the distance between two
+//! convex sets from their support functions), which gives lower and upper
+//! bounds on the distance and stops as soon as they decide the question.
+//! When a rotary axis moves, the move is sampled finely enough that no
+//! point of the probe travels more than 0.5 mm between samples, and the
+//! obstacles are grown by half that travel, which makes the test
+//! conservative.
+
+use std::fmt;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::kinematics::{Axes, Kinematics};
+
+/// A convex solid of the setup, in W.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Solid {
+    /// A box: centre, orientation (columns are the box's unit axes) and
+    /// half sizes along them.
+    Cuboid {
+        /// Centre, mm.
+        centre: Vector3<f64>,
+        /// Columns: the box axes in W.
+        axes: Matrix3<f64>,
+        /// Half sizes, mm.
+        half: Vector3<f64>,
+    },
+    /// A ball.
+    Ball {
+        /// Centre, mm.
+        centre: Vector3<f64>,
+        /// Radius, mm.
+        radius: f64,
+    },
+    /// A finite cylinder between the centres of its end discs.
+    Cylinder {
+        /// One end's centre, mm.
+        a: Vector3<f64>,
+        /// The other end's centre, mm.
+        b: Vector3<f64>,
+        /// Radius, mm.
+        radius: f64,
+    },
+}
+
+impl Solid {
+    /// The points of the solid span at most this far along `d` (unit)
+    /// from the origin: the support function.
+    fn support(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        match self {
+            Solid::Cuboid { centre, axes, half } => {
+                let mut p = *centre;
+                for i in 0..3 {
+                    let u = axes.column(i);
+                    let s = if u.dot(d) >= 0.0 { 1.0 } else { -1.0 };
+                    p += u * (s * half[i]);
+                }
+                p
+            }
+            Solid::Ball { centre, radius } => {
+                let n = d.norm();
+                if n > 0.0 {
+                    centre + d * (radius / n)
+                } else {
+                    *centre
+                }
+            }
+            Solid::Cylinder { a, b, radius } => {
+                let ax = (b - a).normalize();
+                let base = if d.dot(&(b - a)) >= 0.0 { b } else { a };
+                let radial = d - ax * ax.dot(d);
+                let n = radial.norm();
+                if n > 1e-12 {
+                    base + radial * (radius / n)
+                } else {
+                    *base
+                }
+            }
+        }
+    }
+
+    /// A centre and a radius of a ball that contains the solid.
+    pub fn bounding_ball(&self) -> (Vector3<f64>, f64) {
+        match self {
+            Solid::Cuboid { centre, half, .. } => (*centre, half.norm()),
+            Solid::Ball { centre, radius } => (*centre, *radius),
+            Solid::Cylinder { a, b, radius } => {
+                ((a + b) / 2.0, ((b - a).norm() / 2.0).hypot(*radius))
+            }
+        }
+    }
+
+    /// The largest coordinate of the solid along the unit direction `d`,
+    /// after the rigid map `m` (e.g. W to program coordinates).
+    pub fn extent_along(&self, m: &nalgebra::Isometry3<f64>, d: &Vector3<f64>) -> f64 {
+        let d_local = m.rotation.inverse() * d;
+        let p = self.support(&d_local);
+        (m * nalgebra::Point3::from(p)).coords.dot(d)
+    }
+
+    /// The largest distance of a point of the solid from `o`.
+    pub fn farthest_from(&self, o: &Vector3<f64>) -> f64 {
+        match self {
+            Solid::Cuboid { centre, axes, half } => {
+                let mut best = 0.0_f64;
+                for k in 0..8 {
+                    let s = Vector3::new(
+                        if k & 1 == 0 { -1.0 } else { 1.0 },
+                        if k & 2 == 0 { -1.0 } else { 1.0 },
+                        if k & 4 == 0 { -1.0 } else { 1.0 },
+                    );
+                    let p = centre + axes * s.component_mul(half);
+                    best = best.max((p - o).norm());
+                }
+                best
+            }
+            Solid::Ball { centre, radius } => (centre - o).norm() + radius,
+            Solid::Cylinder { a, b, radius } => {
+                // The farthest point lies on one of the two rim circles.
+                let ax = (b - a).normalize();
+                [a, b]
+                    .iter()
+                    .map(|e| {
+                        let v = *e - o;
+                        let along = v.dot(&ax);
+                        let radial = (v - ax * along).norm();
+                        along.hypot(radial + radius)
+                    })
+                    .fold(0.0, f64::max)
+            }
+        }
+    }
+}
+
+/// An obstacle: a named solid of the setup.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Obstacle {
+    /// Name shown in messages (`C1`, `sphere`, `stem`, `table`).
+    pub name: String,
+    /// Its shape in W.
+    pub solid: Solid,
+}
+
+/// Which part of the probe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbePart {
+    /// The stylus ball.
+    Ball,
+    /// The stylus shaft.
+    Stylus,
+    /// The probe body up to the spindle nose.
+    Body,
+}
+
+impl fmt::Display for ProbePart {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ProbePart::Ball => "stylus ball",
+            ProbePart::Stylus => "stylus",
+            ProbePart::Body => "probe body",
+        })
+    }
+}
+
+/// The probe as three capsules along its axis: the ball, the stylus shaft
+/// from the ball centre, and the body from the end of the stylus up to the
+/// spindle gauge line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProbeShape {
+    /// Ball radius, mm.
+    pub ball_radius: f64,
+    /// Ball centre to the probe body, mm.
+    pub stylus_length: f64,
+    /// Stylus shaft radius, mm.
+    pub stylus_radius: f64,
+    /// Length of the body (from the stylus end to the spindle), mm.
+    pub body_length: f64,
+    /// Body radius, mm.
+    pub body_radius: f64,
+}
+
+/// A capsule: a segment grown by a radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Capsule {
+    /// Which part it models.
+    pub part: ProbePart,
+    /// Segment start, mm.
+    pub a: Vector3<f64>,
+    /// Segment end, mm.
+    pub b: Vector3<f64>,
+    /// Radius, mm.
+    pub radius: f64,
+}
+
+impl ProbeShape {
+    /// The capsules with the ball centre at `ball` and the probe axis
+    /// (ball towards spindle, unit) `axis`.
+    pub fn capsules(&self, ball: &Vector3<f64>, axis: &Vector3<f64>) -> [Capsule; 3] {
+        let s = ball + axis * self.stylus_length;
+        [
+            Capsule {
+                part: ProbePart::Ball,
+                a: *ball,
+                b: *ball,
+                radius: self.ball_radius,
+            },
+            Capsule {
+                part: ProbePart::Stylus,
+                a: *ball,
+                b: s,
+                radius: self.stylus_radius,
+            },
+            Capsule {
+                part: ProbePart::Body,
+                a: s,
+                b: s + axis * self.body_length,
+                radius: self.body_radius,
+            },
+        ]
+    }
+}
+
+/// A collision found by the checker.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Collision {
+    /// The part of the probe.
+    pub part: ProbePart,
+    /// The obstacle's name.
+    pub obstacle: String,
+    /// Axes where it first happens along the move (to within 0.5 mm of
+    /// probe travel on a rotary move), mm/deg.
+    pub at: Axes,
+    /// The gap that was required, mm.
+    pub margin: f64,
+}
+
+impl fmt::Display for Collision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "the {} comes closer than {} mm to {} (at X{:.3} Y{:.3} Z{:.3} tilt {:.3} C {:.3})",
+            self.part,
+            self.margin.max(0.0),
+            self.obstacle,
+            self.at.xyz.x,
+            self.at.xyz.y,
+            self.at.xyz.z,
+            self.at.tilt,
+            self.at.c
+        )
+    }
+}
+
+/// Checks probe positions and moves against a setup.
+#[derive(Clone, Copy, Debug)]
+pub struct Checker<'a> {
+    kin: &'a Kinematics,
+    obstacles: &'a [Obstacle],
+    probe: &'a ProbeShape,
+}
+
+/// Largest travel of a probe point between two samples of a rotary move, mm.
+const SAMPLE_TRAVEL: f64 = 0.5;
+
+impl<'a> Checker<'a> {
+    /// A checker of `probe` (on the machine of `kin`, built with the probe's
+    /// gauge length) against `obstacles`.
+    pub fn new(kin: &'a Kinematics, obstacles: &'a [Obstacle], probe: &'a ProbeShape) -> Self {
+        Checker {
+            kin,
+            obstacles,
+            probe,
+        }
+    }
+
+    fn capsules_at(&self, axes: &Axes) -> [Capsule; 3] {
+        let pose = self.kin.forward_nominal(axes);
+        self.probe.capsules(&pose.tip, &pose.axis.normalize())
+    }
+
+    /// Whether the probe at `axes` keeps at least `margin` from every
+    /// obstacle; the first violation otherwise.
+    pub fn check_at(&self, axes: &Axes, margin: f64) -> Result<(), Collision> {
+        for cap in self.capsules_at(axes) {
+            for ob in self.obstacles {
+                let shape = Convex::Segment(cap.a, cap.b);
+                if within(&shape, &ob.solid, cap.radius + margin) {
+                    return Err(Collision {
+                        part: cap.part,
+                        obstacle: ob.name.clone(),
+                        at: *axes,
+                        margin,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the probe keeps at least `margin` from every obstacle along
+    /// the move from `from` to `to`, linear in the axis values. A negative
+    /// margin lets the probe come that close: a probing move ends with the
+    /// ball touching its surface.
+    pub fn check_move(&self, from: &Axes, to: &Axes, margin: f64) -> Result<(), Collision> {
+        let rotary = (from.tilt - to.tilt).abs() > 1e-12 || (from.c - to.c).abs() > 1e-12;
+        if !rotary {
+            let c0 = self.capsules_at(from);
+            let c1 = self.capsules_at(to);
+            for (a, b) in c0.iter().zip(&c1) {
+                let shape = Convex::Swept {
+                    a: a.a,
+                    e1: a.b - a.a,
+                    e2: b.a - a.a,
+                };
+                for ob in self.obstacles {
+                    let t = a.radius + margin;
+                    if within(&shape, &ob.solid, t) {
+                        // Where along the move: the shortest prefix of the
+                        // sweep that already collides.
+                        let (mut lo, mut hi) = (0.0, 1.0);
+                        for _ in 0..30 {
+                            let mid = 0.5 * (lo + hi);
+                            let part = Convex::Swept {
+                                a: a.a,
+                                e1: a.b - a.a,
+                                e2: (b.a - a.a) * mid,
+                            };
+                            if within(&part, &ob.solid, t) {
+                                hi = mid;
+                            } else {
+                                lo = mid;
+                            }
+                        }
+                        return Err(Collision {
+                            part: a.part,
+                            obstacle: ob.name.clone(),
+                            at: Axes {
+                                xyz: from.xyz + (to.xyz - from.xyz) * hi,
+                                ..*from
+                            },
+                            margin,
+                        });
+                    }
+                }
+            }
+            return Ok(());
+        }
+        let lerp = |s: f64| Axes {
+            xyz: from.xyz + (to.xyz - from.xyz) * s,
+            tilt: from.tilt + (to.tilt - from.tilt) * s,
+            c: from.c + (to.c - from.c) * s,
+        };
+        let travel = |n: usize| -> (Vec<[Capsule; 3]>, f64) {
+            let caps: Vec<[Capsule; 3]> = (0..=n)
+                .map(|i| self.capsules_at(&lerp(i as f64 / n as f64)))
+                .collect();
+            let mut worst = 0.0_f64;
+            for w in caps.windows(2) {
+                for (p, q) in w[0].iter().zip(&w[1]) {
+                    worst = worst.max((p.a - q.a).norm()).max((p.b - q.b).norm());
+                }
+            }
+            (caps, worst)
+        };
+        let (mut caps, worst) = travel(16);
+        let mut n = 16;
+        if worst > SAMPLE_TRAVEL {
+            n = ((16.0 * worst / SAMPLE_TRAVEL).ceil() as usize).max(17);
+            caps = travel(n).0;
+        }
+        // Between samples a point travels at most `worst'` along an arc,
+        // so it stays within about half of that of one of the samples.
+        let grow = 0.55 * SAMPLE_TRAVEL;
+        for (i, set) in caps.iter().enumerate() {
+            for cap in set {
+                let (cc, cr) = (
+                    (cap.a + cap.b) / 2.0,
+                    (cap.b - cap.a).norm() / 2.0 + cap.radius,
+                );
+                for ob in self.obstacles {
+                    let (oc, or) = ob.solid.bounding_ball();
+                    if (cc - oc).norm() > cr + or + margin + grow {
+                        continue;
+                    }
+                    let shape = Convex::Segment(cap.a, cap.b);
+                    if within(&shape, &ob.solid, cap.radius + margin + grow) {
+                        return Err(Collision {
+                            part: cap.part,
+                            obstacle: ob.name.clone(),
+                            at: lerp(i as f64 / n as f64),
+                            margin,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The moving side of a distance query.
+#[derive(Clone, Copy, Debug)]
+enum Convex {
+    /// A segment.
+    Segment(Vector3<f64>, Vector3<f64>),
+    /// The parallelogram `a + s e1 + t e2`, s, t in [0, 1]: a segment swept
+    /// along a straight move.
+    Swept {
+        a: Vector3<f64>,
+        e1: Vector3<f64>,
+        e2: Vector3<f64>,
+    },
+}
+
+impl Convex {
+    fn support(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        match self {
+            Convex::Segment(a, b) => {
+                if d.dot(b) > d.dot(a) {
+                    *b
+                } else {
+                    *a
+                }
+            }
+            Convex::Swept { a, e1, e2 } => {
+                let mut p = *a;
+                if d.dot(e1) > 0.0 {
+                    p += e1;
+                }
+                if d.dot(e2) > 0.0 {
+                    p += e2;
+                }
+                p
+            }
+        }
+    }
+}
+
+/// Whether the distance between `a` and `b` is at most `threshold` (GJK on
+/// the Minkowski difference, stopping as soon as the bounds decide; when
+/// it cannot decide within its iterations it answers yes, the safe side).
+fn within(a: &Convex, b: &Solid, threshold: f64) -> bool {
+    let support = |d: &Vector3<f64>| a.support(d) - b.support(&-d);
+    let mut simplex: Vec<Vector3<f64>> = Vec::with_capacity(4);
+    let mut v = support(&Vector3::x());
+    simplex.push(v);
+    for _ in 0..64 {
+        let vn = v.norm();
+        if vn <= threshold {
+            return true;
+        }
+        let w = support(&-v);
+        // Every point k of the difference has v.k >= v.w, so the distance
+        // is at least v.w / |v|.
+        let lower = v.dot(&w) / vn;
+        if lower > threshold {
+            return false;
+        }
+        if vn - lower <= 1e-9 * (1.0 + vn) {
+            return vn <= threshold;
+        }
+        if simplex
+            .iter()
+            .any(|p| (p - w).norm() <= 1e-12 * (1.0 + w.norm()))
+        {
+            return vn <= threshold + 1e-9;
+        }
+        simplex.push(w);
+        let (p, kept) = closest_on_simplex(&simplex);
+        simplex = kept;
+        v = p;
+        if v.norm() < 1e-12 {
+            return true;
+        }
+    }
+    true
+}
+
+/// The point of the convex hull of `s` (up to four points) nearest the
+/// origin, and the smallest subset of `s` whose hull contains it.
+fn closest_on_simplex(s: &[Vector3<f64>]) -> (Vector3<f64>, Vec<Vector3<f64>>) {
+    let n = s.len();
+    let mut best: Option<(f64, Vector3<f64>, u32)> = None;
+    for mask in 1u32..(1 << n) {
+        let idx: Vec<usize> = (0..n).filter(|i| mask & (1 << i) != 0).collect();
+        let Some(p) = affine_closest(&idx.iter().map(|&i| s[i]).collect::<Vec<_>>()) else {
+            continue;
+        };
+        let d = p.norm();
+        if best.as_ref().is_none_or(|b| d < b.0 - 1e-15) {
+            best = Some((d, p, mask));
+        }
+    }
+    let (_, p, mask) = best.expect("single points always qualify");
+    let kept = (0..n)
+        .filter(|i| mask & (1 << i) != 0)
+        .map(|i| s[i])
+        .collect();
+    (p, kept)
+}
+
+/// The point of the affine hull of `pts` nearest the origin when it lies
+/// inside their convex hull (all barycentric weights >= 0).
+fn affine_closest(pts: &[Vector3<f64>]) -> Option<Vector3<f64>> {
+    let p0 = pts[0];
+    let k = pts.len() - 1;
+    if k == 0 {
+        return Some(p0);
+    }
+    let e: Vec<Vector3<f64>> = pts[1..].iter().map(|p| p - p0).collect();
+    let mut g = nalgebra::DMatrix::<f64>::zeros(k, k);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(k);
+    for i in 0..k {
+        for j in 0..k {
+            g[(i, j)] = e[i].dot(&e[j]);
+        }
+        rhs[i] = -e[i].dot(&p0);
+    }
+    let scale = (0..k).map(|i| g[(i, i)]).fold(0.0, f64::max);
+    let det = g.determinant();
+    if scale == 0.0 || det.abs() <= 1e-12 * scale.powi(k as i32) {
+        return None;
+    }
+    let mu = g.lu().solve(&rhs)?;
+    let l0 = 1.0 - mu.iter().sum::<f64>();
+    if l0 < -1e-12 || mu.iter().any(|&m| m < -1e-12) {
+        return None;
+    }
+    let mut p = p0;
+    for i in 0..k {
+        p += e[i] * mu[i];
+    }
+    Some(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_box() -> Solid {
+        Solid::Cuboid {
+            centre: Vector3::zeros(),
+            axes: Matrix3::identity(),
+            half: Vector3::new(1.0, 2.0, 3.0),
+        }
+    }
+
+    #[test]
+    fn segment_box_distance_decisions_match_the_exact_distance() {
+        // A segment parallel to Z at x = 1 + g: distance to the box is g.
+        for g in [0.5, 0.999, 1.001, 2.0] {
+            let s = Convex::Segment(
+                Vector3::new(1.0 + g, 0.0, -1.0),
+                Vector3::new(1.0 + g, 0.0, 1.0),
+            );
+            assert_eq!(within(&s, &unit_box(), 1.0), g <= 1.0, "gap {g}");
+        }
+        // A segment passing the box's top corner (1, 2, 3) diagonally, at
+        // the corner's height: the nearest point is (2, 3, 3), sqrt(2) away.
+        let s = Convex::Segment(Vector3::new(0.0, 5.0, 3.0), Vector3::new(5.0, 0.0, 3.0));
+        let d = std::f64::consts::SQRT_2;
+        assert!(within(&s, &unit_box(), d + 1e-6));
+        assert!(!within(&s, &unit_box(), d - 1e-6));
+    }
+
+    #[test]
+    fn swept_segment_catches_a_box_between_its_ends() {
+        // The segment starts left of the box and ends right of it: neither
+        // end position touches, the sweep does.
+        let shape = Convex::Swept {
+            a: Vector3::new(-5.0, 0.0, 0.0),
+            e1: Vector3::new(0.0, 0.0, 1.0),
+            e2: Vector3::new(10.0, 0.0, 0.0),
+        };
+        assert!(within(&shape, &unit_box(), 0.1));
+        let above = Convex::Swept {
+            a: Vector3::new(-5.0, 0.0, 3.5),
+            e1: Vector3::new(0.0, 0.0, 1.0),
+            e2: Vector3::new(10.0, 0.0, 0.0),
+        };
+        assert!(!within(&above, &unit_box(), 0.4));
+        assert!(within(&above, &unit_box(), 0.6));
+    }
+
+    #[test]
+    fn cylinder_and_ball_supports_give_exact_distances() {
+        let cyl = Solid::Cylinder {
+            a: Vector3::new(0.0, 0.0, -1.0),
+            b: Vector3::new(0.0, 0.0, 1.0),
+            radius: 2.0,
+        };
+        let p = Convex::Segment(Vector3::new(3.0, 4.0, 0.0), Vector3::new(3.0, 4.0, 0.0));
+        assert!(within(&p, &cyl, 3.0 + 1e-6));
+        assert!(!within(&p, &cyl, 3.0 - 1e-6));
+        let ball = Solid::Ball {
+            centre: Vector3::new(0.0, 0.0, 10.0),
+            radius: 2.0,
+        };
+        let q = Convex::Segment(Vector3::new(0.0, -5.0, 14.0), Vector3::new(0.0, 5.0, 14.0));
+        assert!(within(&q, &ball, 2.0 + 1e-6));
+        assert!(!within(&q, &ball, 2.0 - 1e-6));
+    }
+}

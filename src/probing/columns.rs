@@ -1,0 +1,187 @@
+//! `probe-columns` (seed 000, section 3 and fig. 2): square columns on the
+//! rotary table, probed on their top and side faces at every pose of a
+//! tilt x C grid. The reference pose (the first, normally tilt = C = 0)
+//! probes every reference point; the other poses re-probe the same points
+//! wherever the probe reaches them, so that each point's displacement from
+//! its reference measurement shows the table's pose error (seed 000 eq.
+//! 7-8). With the default template that is 3 columns x 5 points = 15 at the
+//! reference pose, as in the seed, and fewer where faces turn away from the
+//! spindle or hide behind another column.
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+use super::collision::{Obstacle, ProbeShape, Solid};
+use super::path::{self, Candidate, PoseSpec};
+use super::template::{ColumnsTemplate, Side, StylusSpec};
+use super::{PlanError, ProbePlan, pose_id};
+use crate::kinematics::Kinematics;
+use crate::machine::Machine;
+
+/// Thickness of the table modelled below its surface, mm (the machine file
+/// gives only its top and radius).
+pub const TABLE_THICKNESS: f64 = 50.0;
+
+/// The table as an obstacle: a disc of the machine's table radius from its
+/// surface down by [`TABLE_THICKNESS`].
+pub fn table_obstacle(m: &Machine) -> Obstacle {
+    Obstacle {
+        name: "table".into(),
+        solid: Solid::Cylinder {
+            a: Vector3::new(0.0, 0.0, m.table.surface - TABLE_THICKNESS),
+            b: Vector3::new(0.0, 0.0, m.table.surface),
+            radius: m.table.radius,
+        },
+    }
+}
+
+/// The probe of the machine file with the template's stylus and body.
+pub(crate) fn probe_shape(
+    m: &Machine,
+    s: &StylusSpec,
+    err: impl Fn(&[&str], String) -> crate::source::SourceError,
+) -> Result<ProbeShape, PlanError> {
+    let r = m.probe.ball_diameter / 2.0;
+    if s.stylus_diameter >= m.probe.ball_diameter {
+        return Err(err(
+            &["probe", "stylus_diameter"],
+            format!(
+                "probe.stylus_diameter ({} mm) must be smaller than the ball of the machine's probe ({} mm)",
+                s.stylus_diameter, m.probe.ball_diameter
+            ),
+        )
+        .into());
+    }
+    let body_length = match s.body_length {
+        Some(l) => l,
+        None => {
+            let l = m.probe.length - s.stylus_length;
+            if l <= 0.0 {
+                return Err(err(
+                    &["probe", "stylus_length"],
+                    format!(
+                        "probe.stylus_length ({} mm) must be shorter than the probe's gauge length in the machine file ({} mm)",
+                        s.stylus_length, m.probe.length
+                    ),
+                )
+                .into());
+            }
+            l
+        }
+    };
+    Ok(ProbeShape {
+        ball_radius: r,
+        stylus_length: s.stylus_length,
+        stylus_radius: s.stylus_diameter / 2.0,
+        body_length,
+        body_radius: s.body_diameter / 2.0,
+    })
+}
+
+/// A column as a box in W, standing on the table surface.
+pub fn column_obstacle(m: &Machine, c: &super::template::ColumnSpec) -> Obstacle {
+    let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw.to_radians());
+    Obstacle {
+        name: c.name.clone(),
+        solid: Solid::Cuboid {
+            centre: Vector3::new(c.centre.x, c.centre.y, m.table.surface + c.height / 2.0),
+            axes: *rot.matrix(),
+            half: Vector3::new(c.size.x / 2.0, c.size.y / 2.0, c.height / 2.0),
+        },
+    }
+}
+
+/// The reference points of every column, in probing order: the top points
+/// (`t1`, `t2`, ...) then the sides in the template's order.
+fn reference_points(m: &Machine, t: &ColumnsTemplate) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for c in &t.columns {
+        let rot: Matrix3<f64> =
+            *Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw.to_radians()).matrix();
+        let top = m.table.surface + c.height;
+        let centre = Vector3::new(c.centre.x, c.centre.y, top);
+        for (k, off) in t.top.iter().enumerate() {
+            out.push(Candidate {
+                piece: c.name.clone(),
+                feature: format!("{}_t{}", c.name, k + 1),
+                contact_w: centre + rot * Vector3::new(off.x, off.y, 0.0),
+                normal_w: Vector3::z(),
+            });
+        }
+        for side in &t.sides {
+            let (n, half) = match side {
+                Side::XPlus => (Vector3::x(), c.size.x / 2.0),
+                Side::XMinus => (-Vector3::x(), c.size.x / 2.0),
+                Side::YPlus => (Vector3::y(), c.size.y / 2.0),
+                Side::YMinus => (-Vector3::y(), c.size.y / 2.0),
+            };
+            let n_w = rot * n;
+            out.push(Candidate {
+                piece: c.name.clone(),
+                feature: format!("{}_{}", c.name, side.feature()),
+                contact_w: centre + n_w * half - Vector3::z() * t.side_depth,
+                normal_w: n_w,
+            });
+        }
+    }
+    out
+}
+
+/// Plans the column test on machine `m`.
+pub fn plan(m: &Machine, t: &ColumnsTemplate) -> Result<ProbePlan, PlanError> {
+    let err = |k: &[&str], msg: String| t.source.error_at(k, msg);
+    let probe = probe_shape(m, &t.probe, err)?;
+    for (i, c) in t.columns.iter().enumerate() {
+        let (sn, cs) = c.yaw.to_radians().sin_cos();
+        let reach = [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)]
+            .iter()
+            .map(|(a, b)| {
+                let (x, y) = (a * c.size.x / 2.0, b * c.size.y / 2.0);
+                (c.centre.x + cs * x - sn * y).hypot(c.centre.y + sn * x + cs * y)
+            })
+            .fold(0.0, f64::max);
+        if reach > m.table.radius + 1e-9 {
+            return Err(t
+                .source
+                .error_at(
+                    &[&format!("columns[{i}]"), "centre"],
+                    format!(
+                        "column {} reaches {reach:.1} mm from the C axis, beyond the table of {} (radius {} mm)",
+                        c.name, m.name, m.table.radius
+                    ),
+                )
+                .into());
+        }
+    }
+    for (key, values, axis) in [("tilt", &t.tilts, &m.tilt), ("c", &t.cs, &m.c)] {
+        if let Some(v) = values.iter().find(|v| !axis.within(**v, 1e-9)) {
+            return Err(t
+                .source
+                .error_at(
+                    &["poses", key],
+                    format!(
+                        "poses.{key}: {} = {v} deg is outside the limits of {} ({:?})",
+                        axis.letter, m.name, axis.limits
+                    ),
+                )
+                .into());
+        }
+    }
+    let mut obstacles: Vec<Obstacle> = t.columns.iter().map(|c| column_obstacle(m, c)).collect();
+    obstacles.push(table_obstacle(m));
+    let refs = reference_points(m, t);
+    let letter = m.tilt_letter();
+    let mut specs = Vec::new();
+    for &tilt in &t.tilts {
+        for &c in &t.cs {
+            specs.push(PoseSpec {
+                id: pose_id(letter, tilt, c),
+                tilt,
+                c,
+                candidates: refs.clone(),
+            });
+        }
+    }
+    super::uniquify_ids(&mut specs);
+    let kin = Kinematics::with_gauge_length(m, m.probe.length);
+    path::build("probe-columns", kin, obstacles, probe, t.probing, specs)
+}

@@ -1,0 +1,346 @@
+//! On-machine probing, independent of any NC dialect: the two probing tests
+//! (square columns, seed 000 section 3; calibration sphere, seeds 003 and
+//! 004), what each touch is, the safe path through them, a collision
+//! checker for any path, and the expected run time. A post-processor turns
+//! a [`ProbePlan`] into a program move by move; the log readers of
+//! [`crate::formats::probe_log`] turn what that program records back into
+//! contact points.
+//!
+//! # Frames
+//! Nominal geometry is in W (SPEC section 1). The program's coordinates
+//! have the work offset on the W origin at rotary zero, so at a pose
+//! `(t, c)` a W point `q` is at `rTw*(t, c) q` ([`PoseFrame`]). The probe
+//! hangs along the spindle axis; on a head machine it tilts with the head
+//! and its ball is not at the commanded X, Y, Z ([`PoseFrame::commanded`]
+//! accounts for that). Every position of the plan is a [`Waypoint`]: the
+//! commanded axes, and the ball centre in W and in program coordinates.
+//!
+//! # What a touch is
+//! A [`Touch`] probes one nominal surface point `p` with outward unit
+//! normal `n` (both in W, as in `points.csv`). With ball radius `r`:
+//! - `start`: the ball centre at `p + (r + clearance) n`, reached by
+//!   positioning moves;
+//! - the probing move runs from `start` along `-n` (the approach) at the
+//!   probing feed towards `end = p + (r - overtravel) n`, and the controller
+//!   stops it at the contact, nominally the ball centre `contact = p + r n`;
+//! - then the probe retracts to `start` at the positioning feed.
+//!
+//! The controller records the ball centre at the trigger in program
+//! coordinates; the contact point is that minus `r` times `n` expressed in
+//! program coordinates at the pose (what the log readers compute).
+//!
+//! # The safe path
+//! [`ProbePlan::moves`] is the whole path in execution order, starting at
+//! [`ProbePlan::start`]. The program reaches `start` by raising Z to
+//! [`ProbePlan::safe_z`] first, then turning the rotary axes to the first
+//! pose, then moving X, Y. Then, per pose:
+//! - rapid in X, Y at `safe_z` above the first start point, rapid down to
+//!   the pose's clearance height [`Pose::clear_z`] (above every obstacle at
+//!   this pose with the margin, and above every start point), position
+//!   down to the start;
+//! - each touch: the probing move, the retract; then to the next start
+//!   point directly when that straight move keeps the margin from every
+//!   obstacle (around a column's corner, say), else up to `clear_z`,
+//!   across, and down (over the pieces);
+//! - after the last touch: up to `clear_z`, rapid up to `safe_z`, and a
+//!   rotary move (rotary axes only) to the next pose.
+//!
+//! At `safe_z` nothing can be hit whatever the rotary axes do: on a
+//! table-table machine the probe clears the ball about the W origin that
+//! holds everything on the table; on a head machine the probe's reach about
+//! the head pivot clears the top of the setup. Every move changes either
+//! the rotary axes or the linear ones; rapids only ever run at `clear_z` or
+//! `safe_z` or straight up and down, so the shape of a multi-axis rapid
+//! (FANUC's non-linear positioning) cannot matter. [`ProbePlan::check`]
+//! re-checks every move with the [`collision`] checker, and the planner
+//! refuses to return a plan that fails it or leaves the strokes.
+//!
+//! Touches the probe cannot make at a pose (a face turned away from the
+//! spindle, the stylus or body hitting a piece, the stem or the table on
+//! the way, a point out of stroke) are left out of that pose and listed in
+//! [`ProbePlan::skipped`] with the reason.
+//!
+//! # Labels and indices
+//! Poses are executed in order; [`Pose::seq`] counts from 0 and the pose id
+//! says where the machine is (`A-30C60`; `S07` for the seed 003 spiral).
+//! Touches are numbered in execution order: [`Touch::index`] counts from 1
+//! and is the touch's row among the data rows of `points.csv`
+//! ([`ProbePlan::points`]); [`Touch::label`] is `<pose>_<feature>`, e.g.
+//! `A-30C60_C2_xp` (column C2, the face whose normal is +X in W) or
+//! `A0C10_xm` (sphere, approach in -X). A label depends only on the pose
+//! and the feature, never on which other touches were possible. FANUC and
+//! HEIDENHAIN logs carry the index, LinuxCNC logs the label.
+
+pub mod collision;
+pub mod columns;
+pub mod frame;
+mod path;
+pub mod sphere;
+pub mod template;
+pub mod time;
+
+use std::ops::Range;
+
+use nalgebra::Vector3;
+
+use crate::formats::points::{PlanPoint, PlanPoints};
+use crate::kinematics::{Axes, Kinematics};
+use crate::source::SourceError;
+
+pub use collision::{Checker, Collision, Obstacle, ProbePart, ProbeShape, Solid};
+pub use frame::PoseFrame;
+pub use time::RunTime;
+
+/// How touches are made (the template's `probing:` section).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProbingSettings {
+    /// Gap between ball and surface at the start of a probing move, mm.
+    pub clearance: f64,
+    /// How far past the nominal surface the probing move is programmed, mm.
+    pub overtravel: f64,
+    /// Probing feed, mm/min.
+    pub feed: f64,
+    /// Feed of positioning moves below the clearance height, mm/min.
+    pub positioning_feed: f64,
+    /// Smallest gap every positioning move keeps from the setup, mm.
+    pub safe_margin: f64,
+    /// Time per touch beyond its moves (trigger, reversal, log write), s.
+    pub touch_overhead: f64,
+    /// Time per pose beyond its moves (rotary clamping, settling), s.
+    pub pose_overhead: f64,
+}
+
+/// A position of the path.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Waypoint {
+    /// Commanded axes (program coordinates, deg).
+    pub axes: Axes,
+    /// Ball centre in W, mm.
+    pub ball_w: Vector3<f64>,
+    /// Ball centre in program coordinates, mm.
+    pub ball_prog: Vector3<f64>,
+}
+
+/// One touch (see the module documentation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Touch {
+    /// 1-based execution order: the row in `points.csv`, the index logs carry.
+    pub index: usize,
+    /// Stable label `<pose>_<feature>`.
+    pub label: String,
+    /// Index of its pose in [`ProbePlan::poses`].
+    pub pose: usize,
+    /// The obstacle touched.
+    pub piece: String,
+    /// Feature name within the pose.
+    pub feature: String,
+    /// Nominal contact point in W, mm.
+    pub contact_w: Vector3<f64>,
+    /// Outward unit normal in W.
+    pub normal_w: Vector3<f64>,
+    /// Nominal contact point in program coordinates at the pose, mm.
+    pub contact_prog: Vector3<f64>,
+    /// Outward normal in program coordinates at the pose (the approach is
+    /// its opposite).
+    pub normal_prog: Vector3<f64>,
+    /// Ball at the clearance distance: where the probing move starts.
+    pub start: Waypoint,
+    /// Ball touching the nominal surface.
+    pub contact: Waypoint,
+    /// Ball at the overtravel: the probing move's programmed end.
+    pub end: Waypoint,
+    /// Probing feed, mm/min.
+    pub feed: f64,
+}
+
+/// A pose of the plan.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pose {
+    /// Id (`A-30C60`, `S07`, ...).
+    pub id: String,
+    /// Execution order, from 0.
+    pub seq: u32,
+    /// Tilt, deg.
+    pub tilt: f64,
+    /// C, deg.
+    pub c: f64,
+    /// Its touches in [`ProbePlan::touches`].
+    pub touches: Range<usize>,
+    /// Commanded Z of the clearance height at this pose, mm.
+    pub clear_z: f64,
+}
+
+/// What a move is, for the post-processor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MoveKind {
+    /// Rapid (G0) of the linear axes: straight up or down, or X, Y at a
+    /// clearance or safe height.
+    Rapid,
+    /// Rapid of the rotary axes only, at the safe height.
+    Rotary,
+    /// Linear move at the positioning feed (below the clearance height).
+    Position,
+    /// Probing move of touch `n` (index into [`ProbePlan::touches`]),
+    /// programmed to its `end`; the controller stops at the contact.
+    Probe(usize),
+    /// Back from the contact of touch `n` to its start, at the positioning
+    /// feed.
+    Retract(usize),
+}
+
+/// A move of the path.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Move {
+    /// What it is.
+    pub kind: MoveKind,
+    /// Where it starts (for a retract, the nominal contact).
+    pub from: Waypoint,
+    /// Where it is programmed to end.
+    pub to: Waypoint,
+    /// Index of its pose in [`ProbePlan::poses`].
+    pub pose: usize,
+}
+
+/// A touch (or a whole pose) the plan leaves out, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Skipped {
+    /// The pose id.
+    pub pose: String,
+    /// The label the touch would have had (the pose id for a whole pose).
+    pub label: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// Why a probing plan cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The template is malformed or does not fit the machine.
+    #[error("{0}")]
+    Template(#[from] SourceError),
+    /// The plan would leave the machine's travel.
+    #[error("{0}")]
+    Unreachable(String),
+    /// The planned path collides (a bug: the planner checks every move).
+    #[error("move {move_index} ({kind:?}) of the planned path collides: {collision}")]
+    Collision {
+        /// Index into [`ProbePlan::moves`].
+        move_index: usize,
+        /// Its kind.
+        kind: MoveKind,
+        /// What.
+        collision: Box<Collision>,
+    },
+}
+
+/// A probing plan: setup, touches and path.
+#[derive(Clone, Debug)]
+pub struct ProbePlan {
+    /// `probe-columns` or `probe-sphere`.
+    pub test: String,
+    /// The machine's kinematics with the probe's gauge length.
+    pub kin: Kinematics,
+    /// The setup in W: pieces, sphere and stem, table.
+    pub obstacles: Vec<Obstacle>,
+    /// The probe's shape.
+    pub probe: ProbeShape,
+    /// Distances, feeds and margins.
+    pub settings: ProbingSettings,
+    /// Commanded Z at which the rotary axes may move freely, mm.
+    pub safe_z: f64,
+    /// Where the path starts: above the first touch at `safe_z`, rotary
+    /// axes at the first pose.
+    pub start: Waypoint,
+    /// Poses in execution order.
+    pub poses: Vec<Pose>,
+    /// Touches in execution order.
+    pub touches: Vec<Touch>,
+    /// The path.
+    pub moves: Vec<Move>,
+    /// What was left out.
+    pub skipped: Vec<Skipped>,
+}
+
+impl ProbePlan {
+    /// The nominal points (SPEC section 3), one row per touch in execution
+    /// order: row `i` (from 1) is the touch with index `i`.
+    pub fn points(&self) -> PlanPoints {
+        PlanPoints {
+            tilt_letter: self.kin.machine().tilt_letter(),
+            points: self
+                .touches
+                .iter()
+                .map(|t| {
+                    let pose = &self.poses[t.pose];
+                    PlanPoint {
+                        label: t.label.clone(),
+                        pose: pose.id.clone(),
+                        seq: pose.seq,
+                        tilt: pose.tilt,
+                        c: pose.c,
+                        p: t.contact_w,
+                        n: t.normal_w,
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// Re-checks every move against the setup; empty for a plan the planner
+    /// returned.
+    pub fn check(&self) -> Vec<(usize, Collision)> {
+        path::check_moves(self)
+    }
+
+    /// Every waypoint outside the strokes or rotary limits, by move index.
+    pub fn check_limits(&self) -> Vec<(usize, String)> {
+        let m = self.kin.machine();
+        let mut out = Vec::new();
+        for (i, mv) in self.moves.iter().enumerate() {
+            for w in [&mv.from, &mv.to] {
+                if let Err(e) = path::check_strokes(&self.kin, &w.axes) {
+                    out.push((i, e));
+                }
+                for (axis, v) in [(&m.tilt, w.axes.tilt), (&m.c, w.axes.c)] {
+                    if !axis.within(v, 1e-9) {
+                        out.push((i, format!("{} = {v} is outside its limits", axis.letter)));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The expected run time from feeds, rapids and distances.
+    pub fn run_time(&self) -> RunTime {
+        time::estimate(self)
+    }
+
+    /// The pose frame of pose `i`.
+    pub fn frame(&self, i: usize) -> PoseFrame {
+        PoseFrame::new(&self.kin, self.poses[i].tilt, self.poses[i].c)
+    }
+}
+
+/// Makes pose ids unique by suffixing repeats with `.2`, `.3`, ...
+fn uniquify_ids(specs: &mut [path::PoseSpec]) {
+    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    for s in specs.iter_mut() {
+        let n = seen.entry(s.id.clone()).or_insert(0);
+        *n += 1;
+        if *n > 1 {
+            s.id = format!("{}.{}", s.id, n);
+        }
+    }
+}
+
+/// A pose id from its angles: `A-30C60`, `B0C0`, at most three decimals.
+pub fn pose_id(tilt_letter: char, tilt: f64, c: f64) -> String {
+    format!("{tilt_letter}{}C{}", short(tilt), short(c))
+}
+
+fn short(v: f64) -> String {
+    let s = format!("{v:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" { "0".into() } else { s.to_string() }
+}

@@ -1,0 +1,433 @@
+//! Turns the candidate touches of each pose into the plan: which touches
+//! the probe can make, their waypoints, and the safe path through them.
+
+use nalgebra::Vector3;
+
+use super::collision::{Checker, Collision, Obstacle, ProbeShape};
+use super::frame::PoseFrame;
+use super::{
+    Move, MoveKind, PlanError, Pose, ProbePlan, ProbingSettings, Skipped, Touch, Waypoint,
+};
+use crate::kinematics::{Axes, Kinematics};
+use crate::machine::Structure;
+
+/// A surface point that a pose may probe.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Candidate {
+    /// The obstacle it lies on.
+    pub piece: String,
+    /// Its name within the pose (`C1_t1`, `xp`, ...), the label's suffix.
+    pub feature: String,
+    /// Nominal contact point in W.
+    pub contact_w: Vector3<f64>,
+    /// Outward unit normal in W.
+    pub normal_w: Vector3<f64>,
+}
+
+/// A pose with its candidate touches in the order they are made.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct PoseSpec {
+    /// Pose id.
+    pub id: String,
+    /// Tilt, deg.
+    pub tilt: f64,
+    /// C, deg.
+    pub c: f64,
+    /// The candidates.
+    pub candidates: Vec<Candidate>,
+}
+
+fn waypoint(frame: &PoseFrame, ball_w: Vector3<f64>) -> Waypoint {
+    Waypoint {
+        axes: frame.commanded(&ball_w),
+        ball_w,
+        ball_prog: frame.to_prog(&ball_w),
+    }
+}
+
+/// The same X, Y (and angles) at commanded height `z`.
+fn at_z(frame: &PoseFrame, w: &Waypoint, z: f64) -> Waypoint {
+    let xyz = Vector3::new(w.axes.xyz.x, w.axes.xyz.y, z);
+    let ball_prog = frame.ball_prog(&xyz);
+    Waypoint {
+        axes: Axes {
+            xyz,
+            tilt: frame.tilt,
+            c: frame.c,
+        },
+        ball_w: frame.to_w(&ball_prog),
+        ball_prog,
+    }
+}
+
+/// Commanded Z at which the probe clears everything whatever the rotary
+/// axes do (see [`ProbePlan::safe_z`]).
+fn safe_z(kin: &Kinematics, obstacles: &[Obstacle], probe: &ProbeShape, margin: f64) -> f64 {
+    let m = kin.machine();
+    match m.structure {
+        Structure::TableTable => {
+            // Everything on the table turns about axes through the W origin
+            // and stays inside this sphere; the probe hangs straight down.
+            let r = obstacles
+                .iter()
+                .map(|o| o.solid.farthest_from(&Vector3::zeros()))
+                .fold(0.0, f64::max);
+            r + margin + probe.ball_radius
+        }
+        Structure::HeadTable | Structure::HeadHead => {
+            // The table turns (if at all) about Z, so nothing rises above
+            // its top; the probe swings about the head's pivot, `lh` above
+            // the commanded point, and stays inside a ball of radius `reach`.
+            let top = obstacles
+                .iter()
+                .map(|o| {
+                    o.solid
+                        .extent_along(&nalgebra::Isometry3::identity(), &Vector3::z())
+                })
+                .fold(f64::NEG_INFINITY, f64::max);
+            let lh = m.pivot_length + kin.gauge_length();
+            let ends = [
+                (0.0, probe.ball_radius),
+                (probe.stylus_length, probe.stylus_radius),
+                (probe.stylus_length, probe.body_radius),
+                (probe.stylus_length + probe.body_length, probe.body_radius),
+            ];
+            let reach = ends
+                .iter()
+                .map(|&(s, r)| (lh - s).abs() + r)
+                .fold(0.0, f64::max);
+            top + margin + reach - lh
+        }
+    }
+}
+
+/// Commanded Z at a pose above which the probe clears every obstacle.
+fn clear_z(frame: &PoseFrame, obstacles: &[Obstacle], probe: &ProbeShape, margin: f64) -> f64 {
+    let top = obstacles
+        .iter()
+        .map(|o| o.solid.extent_along(&frame.w_to_prog(), &Vector3::z()))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let caps = probe.capsules(&Vector3::zeros(), &frame.probe_axis_prog());
+    let down = caps
+        .iter()
+        .map(|c| c.radius - c.a.z.min(c.b.z))
+        .fold(0.0, f64::max);
+    top + margin + down - frame.head_offset().z
+}
+
+/// Rounds a height up to the next whole millimetre strictly above it, so
+/// that a clearance never sits exactly at the margin.
+fn round_up(z: f64) -> f64 {
+    (z + 1e-6).ceil()
+}
+
+/// Checks that the commanded point lies inside the strokes.
+pub(crate) fn check_strokes(kin: &Kinematics, axes: &Axes) -> Result<(), String> {
+    let gauge = axes.xyz + Vector3::z() * kin.gauge_length();
+    kin.machine()
+        .check_strokes(&gauge)
+        .map_err(|(axis, v, (lo, hi))| {
+            format!(
+                "{axis} would be at {v:.3} in machine coordinates, outside its stroke [{lo}, {hi}]"
+            )
+        })
+}
+
+struct Feasible {
+    touch: Touch,
+    above: Waypoint,
+}
+
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn build(
+    test: &str,
+    kin: Kinematics,
+    obstacles: Vec<Obstacle>,
+    probe: ProbeShape,
+    settings: ProbingSettings,
+    specs: Vec<PoseSpec>,
+) -> Result<ProbePlan, PlanError> {
+    let margin = settings.safe_margin;
+    let safe = round_up(safe_z(&kin, &obstacles, &probe, margin));
+    let checker = Checker::new(&kin, &obstacles, &probe);
+    let m = kin.machine();
+    let r = probe.ball_radius;
+
+    let mut skipped = Vec::new();
+    // Clearance heights first: the safe height must be at least as high
+    // as every pose's.
+    let mut framed = Vec::new();
+    let mut safe = safe;
+    for spec in specs {
+        for (axis, v) in [(&m.tilt, spec.tilt), (&m.c, spec.c)] {
+            if !axis.within(v, 1e-9) {
+                return Err(PlanError::Unreachable(format!(
+                    "pose {}: {} = {v} deg is outside the machine's limits {:?}",
+                    spec.id, axis.letter, axis.limits
+                )));
+            }
+        }
+        let frame = PoseFrame::new(&kin, spec.tilt, spec.c);
+        let mut clear = clear_z(&frame, &obstacles, &probe, margin);
+        // Traverse above every start point too, so that each start is
+        // reached by a descent.
+        for cand in &spec.candidates {
+            let start = cand.contact_w + cand.normal_w.normalize() * (r + settings.clearance);
+            clear = clear.max(frame.commanded(&start).xyz.z);
+        }
+        let clear = round_up(clear);
+        safe = safe.max(clear);
+        framed.push((spec, frame, clear));
+    }
+    let mut planned: Vec<(PoseSpec, PoseFrame, f64, Vec<Feasible>)> = Vec::new();
+    for (spec, frame, clear) in framed {
+        let mut ok = Vec::new();
+        for cand in &spec.candidates {
+            let label = format!("{}_{}", spec.id, cand.feature);
+            let n = cand.normal_w.normalize();
+            let start = waypoint(&frame, cand.contact_w + n * (r + settings.clearance));
+            let contact = waypoint(&frame, cand.contact_w + n * r);
+            let end = waypoint(&frame, cand.contact_w + n * (r - settings.overtravel));
+            let above = at_z(&frame, &start, clear);
+            let high = at_z(&frame, &start, safe);
+            let skip = |why: String| Skipped {
+                pose: spec.id.clone(),
+                label: label.clone(),
+                reason: why,
+            };
+            let mut why = None;
+            for (what, w) in [
+                ("start", &start),
+                ("overtravel end", &end),
+                ("clearance point", &above),
+                ("safe point", &high),
+            ] {
+                if let Err(e) = check_strokes(&kin, &w.axes) {
+                    why = Some(format!("{what}: {e}"));
+                    break;
+                }
+            }
+            if why.is_none() {
+                if let Err(c) = checker.check_move(&above.axes, &start.axes, margin) {
+                    why = Some(format!("going down to the start point, {c}"));
+                } else if let Err(c) = checker.check_move(&start.axes, &contact.axes, -1e-6) {
+                    why = Some(format!("on the probing move, {c}"));
+                }
+            }
+            if let Some(w) = why {
+                skipped.push(skip(w));
+                continue;
+            }
+            ok.push(Feasible {
+                touch: Touch {
+                    index: 0,
+                    label,
+                    pose: 0,
+                    piece: cand.piece.clone(),
+                    feature: cand.feature.clone(),
+                    contact_w: cand.contact_w,
+                    normal_w: n,
+                    contact_prog: frame.to_prog(&cand.contact_w),
+                    normal_prog: frame.dir_to_prog(&n),
+                    start,
+                    contact,
+                    end,
+                    feed: settings.feed,
+                },
+                above,
+            });
+        }
+        if ok.is_empty() {
+            skipped.push(Skipped {
+                pose: spec.id.clone(),
+                label: spec.id.clone(),
+                reason: "no touch of this pose is reachable without collision".into(),
+            });
+            continue;
+        }
+        planned.push((spec, frame, clear, ok));
+    }
+    if planned.is_empty() {
+        return Err(PlanError::Unreachable(
+            "no pose has a reachable touch".into(),
+        ));
+    }
+
+    let mut poses = Vec::new();
+    let mut touches = Vec::new();
+    let mut moves: Vec<Move> = Vec::new();
+    let first = &planned[0];
+    let start = at_z(&first.1, &first.3[0].touch.start, safe);
+    let mut here = start.clone();
+    let push =
+        |moves: &mut Vec<Move>, here: &mut Waypoint, kind: MoveKind, to: Waypoint, pose: usize| {
+            let still = (to.axes.xyz - here.axes.xyz).norm() < 1e-9
+                && (to.axes.tilt - here.axes.tilt).abs() < 1e-12
+                && (to.axes.c - here.axes.c).abs() < 1e-12;
+            if still && matches!(kind, MoveKind::Rapid | MoveKind::Position) {
+                return;
+            }
+            moves.push(Move {
+                kind,
+                from: here.clone(),
+                to: to.clone(),
+                pose,
+            });
+            *here = to;
+        };
+    for (k, (spec, frame, clear, feas)) in planned.into_iter().enumerate() {
+        if k > 0 {
+            let turned = at_z(&frame, &here, safe);
+            push(&mut moves, &mut here, MoveKind::Rotary, turned, k);
+        }
+        let first_start = &feas[0].touch.start;
+        push(
+            &mut moves,
+            &mut here,
+            MoveKind::Rapid,
+            at_z(&frame, first_start, safe),
+            k,
+        );
+        push(
+            &mut moves,
+            &mut here,
+            MoveKind::Rapid,
+            feas[0].above.clone(),
+            k,
+        );
+        push(
+            &mut moves,
+            &mut here,
+            MoveKind::Position,
+            first_start.clone(),
+            k,
+        );
+        let t0 = touches.len();
+        let count = feas.len();
+        for (i, f) in feas.iter().enumerate() {
+            let ti = touches.len();
+            let mut touch = f.touch.clone();
+            touch.index = ti + 1;
+            touch.pose = k;
+            push(
+                &mut moves,
+                &mut here,
+                MoveKind::Probe(ti),
+                touch.end.clone(),
+                k,
+            );
+            // The controller stops at the contact; retract from there.
+            here = touch.contact.clone();
+            push(
+                &mut moves,
+                &mut here,
+                MoveKind::Retract(ti),
+                touch.start.clone(),
+                k,
+            );
+            touches.push(touch);
+            if i + 1 < count {
+                let next = &feas[i + 1];
+                if checker
+                    .check_move(&here.axes, &next.touch.start.axes, margin)
+                    .is_ok()
+                {
+                    push(
+                        &mut moves,
+                        &mut here,
+                        MoveKind::Position,
+                        next.touch.start.clone(),
+                        k,
+                    );
+                } else {
+                    push(
+                        &mut moves,
+                        &mut here,
+                        MoveKind::Position,
+                        f.above.clone(),
+                        k,
+                    );
+                    push(
+                        &mut moves,
+                        &mut here,
+                        MoveKind::Rapid,
+                        next.above.clone(),
+                        k,
+                    );
+                    push(
+                        &mut moves,
+                        &mut here,
+                        MoveKind::Position,
+                        next.touch.start.clone(),
+                        k,
+                    );
+                }
+            } else {
+                push(
+                    &mut moves,
+                    &mut here,
+                    MoveKind::Position,
+                    f.above.clone(),
+                    k,
+                );
+                let up = at_z(&frame, &here, safe);
+                push(&mut moves, &mut here, MoveKind::Rapid, up, k);
+            }
+        }
+        poses.push(Pose {
+            id: spec.id,
+            seq: k as u32,
+            tilt: spec.tilt,
+            c: spec.c,
+            touches: t0..touches.len(),
+            clear_z: clear,
+        });
+    }
+    let plan = ProbePlan {
+        test: test.to_string(),
+        kin,
+        obstacles,
+        probe,
+        settings,
+        safe_z: safe,
+        start,
+        poses,
+        touches,
+        moves,
+        skipped,
+    };
+    if let Some((i, e)) = plan.check_limits().into_iter().next() {
+        return Err(PlanError::Unreachable(format!(
+            "move {i} of the path ({:?}) leaves the machine's travel: {e}",
+            plan.moves[i].kind
+        )));
+    }
+    if let Some((i, c)) = plan.check().into_iter().next() {
+        return Err(PlanError::Collision {
+            move_index: i,
+            kind: plan.moves[i].kind,
+            collision: Box::new(c),
+        });
+    }
+    Ok(plan)
+}
+
+/// Checks every move of a plan: probing moves up to the contact (the ball
+/// may touch), retracts likewise, everything else with the plan's margin.
+pub(crate) fn check_moves(plan: &ProbePlan) -> Vec<(usize, Collision)> {
+    let checker = Checker::new(&plan.kin, &plan.obstacles, &plan.probe);
+    let mut out = Vec::new();
+    for (i, mv) in plan.moves.iter().enumerate() {
+        let r = match mv.kind {
+            MoveKind::Probe(t) => {
+                checker.check_move(&mv.from.axes, &plan.touches[t].contact.axes, -1e-6)
+            }
+            MoveKind::Retract(_) => checker.check_move(&mv.from.axes, &mv.to.axes, -1e-6),
+            _ => checker.check_move(&mv.from.axes, &mv.to.axes, plan.settings.safe_margin),
+        };
+        if let Err(c) = r {
+            out.push((i, c));
+        }
+    }
+    out
+}
