@@ -11,4 +11,5 @@ mod kinematics;
 mod machine;
 mod probe_fit;
 mod probe_log;
+mod probe_plan;
 mod regression;

@@ -159,8 +159,10 @@ pub fn plan(m: &Machine, t: &ColumnsTemplate) -> Result<ProbePlan, PlanError> {
                 .error_at(
                     &["poses", key],
                     format!(
-                        "poses.{key}: {} = {v} deg is outside the limits of {} ({:?})",
-                        axis.letter, m.name, axis.limits
+                        "poses.{key}: {} = {v} deg is outside the limits of {} {}",
+                        axis.letter,
+                        m.name,
+                        super::limits_text(axis)
                     ),
                 )
                 .into());

@@ -334,6 +334,15 @@ fn uniquify_ids(specs: &mut [path::PoseSpec]) {
     }
 }
 
+/// A rotary axis's limits as a person writes them: `[-120, 30]`, or
+/// `continuous`.
+pub(crate) fn limits_text(axis: &crate::machine::RotaryAxis) -> String {
+    match axis.limits {
+        Some((lo, hi)) => format!("[{lo}, {hi}]"),
+        None => "continuous".into(),
+    }
+}
+
 /// A pose id from its angles: `A-30C60`, `B0C0`, at most three decimals.
 pub fn pose_id(tilt_letter: char, tilt: f64, c: f64) -> String {
     format!("{tilt_letter}{}C{}", short(tilt), short(c))

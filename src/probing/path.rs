@@ -162,8 +162,10 @@ pub(crate) fn build(
         for (axis, v) in [(&m.tilt, spec.tilt), (&m.c, spec.c)] {
             if !axis.within(v, 1e-9) {
                 return Err(PlanError::Unreachable(format!(
-                    "pose {}: {} = {v} deg is outside the machine's limits {:?}",
-                    spec.id, axis.letter, axis.limits
+                    "pose {}: {} = {v} deg is outside the machine's limits {}",
+                    spec.id,
+                    axis.letter,
+                    super::limits_text(axis)
                 )));
             }
         }
@@ -178,6 +180,18 @@ pub(crate) fn build(
         let clear = round_up(clear);
         safe = safe.max(clear);
         framed.push((spec, frame, clear));
+    }
+    // The safe height must be within the Z stroke: without it the rotary
+    // axes cannot turn safely anywhere.
+    {
+        let gauge = safe + kin.gauge_length() + m.pivot.z;
+        let (lo, hi) = m.strokes[2];
+        if gauge > hi + 1e-9 || gauge < lo - 1e-9 {
+            return Err(PlanError::Unreachable(format!(
+                "the probe clears the setup at every rotary position only above Z{safe} (program \
+                 coordinates), where Z would be at {gauge:.3} in machine coordinates, outside its stroke [{lo}, {hi}]"
+            )));
+        }
     }
     let mut planned: Vec<(PoseSpec, PoseFrame, f64, Vec<Feasible>)> = Vec::new();
     for (spec, frame, clear) in framed {
@@ -248,9 +262,11 @@ pub(crate) fn build(
         planned.push((spec, frame, clear, ok));
     }
     if planned.is_empty() {
-        return Err(PlanError::Unreachable(
-            "no pose has a reachable touch".into(),
-        ));
+        return Err(PlanError::Unreachable(format!(
+            "no pose has a reachable touch (the first one left out: {}: {})",
+            skipped.first().map_or("-", |s| s.label.as_str()),
+            skipped.first().map_or("-", |s| s.reason.as_str())
+        )));
     }
 
     let mut poses = Vec::new();

@@ -131,8 +131,10 @@ pub fn plan(m: &Machine, t: &SphereTemplate) -> Result<ProbePlan, PlanError> {
                     .error_at(
                         key,
                         format!(
-                            "pose {id}: {} = {v} deg is outside the limits of {} ({:?})",
-                            axis.letter, m.name, axis.limits
+                            "pose {id}: {} = {v} deg is outside the limits of {} {}",
+                            axis.letter,
+                            m.name,
+                            super::limits_text(axis)
                         ),
                     )
                     .into());
