@@ -86,7 +86,7 @@ fn column_plan_on_the_seeds_machine_probes_15_reference_points_and_revisits_them
     let refs = &plan.touches[reference.touches.clone()];
     for pose in &plan.poses {
         let n = pose.touches.len();
-        assert!((4..=15).contains(&n), "{}: {n} touches", pose.id);
+        assert!((1..=15).contains(&n), "{}: {n} touches", pose.id);
         if pose.tilt != 0.0 {
             assert!(n < 15, "{}: a tilted table turns faces away", pose.id);
         }
@@ -109,6 +109,32 @@ fn column_plan_on_the_seeds_machine_probes_15_reference_points_and_revisits_them
             s.reason.contains("comes closer than") || s.reason.contains("stroke"),
             "{s:?}"
         );
+    }
+    // Up to 30 deg from level every pose fixes the table's six pose
+    // components on its own; at -90 the columns hide each other and the
+    // plan says which poses only add to a joint identification.
+    for w in &plan.warnings {
+        assert!(w.starts_with("pose A-90"), "{w}");
+    }
+    for pose in &plan.poses {
+        if plan
+            .warnings
+            .iter()
+            .any(|w| w.starts_with(&format!("pose {}:", pose.id)))
+        {
+            continue;
+        }
+        // An independent look: six touches or more, normals along all
+        // three axes of W.
+        let ts = &plan.touches[pose.touches.clone()];
+        assert!(ts.len() >= 6, "{}", pose.id);
+        for axis in 0..3 {
+            assert!(
+                ts.iter().any(|t| t.normal_w[axis].abs() > 0.5),
+                "{} axis {axis}",
+                pose.id
+            );
+        }
     }
 }
 
@@ -243,7 +269,7 @@ fn sampled_gaps(plan: &ProbePlan) -> (f64, f64) {
         let mut prev: Option<(Vector3<f64>, Vector3<f64>)> = None;
         for k in 0..=64 {
             let pose = plan.kin.forward_nominal(&lerp(k as f64 / 64.0));
-            let end = pose.tip + pose.axis * (p.stylus_length + p.body_length);
+            let end = pose.tip + pose.axis * (p.stylus_length + p.body_length + p.spindle_length);
             if let Some((a, b)) = prev {
                 travel = travel.max((pose.tip - a).norm()).max((end - b).norm());
             }
@@ -275,7 +301,18 @@ fn sampled_gaps(plan: &ProbePlan) -> (f64, f64) {
                     0.5,
                     floor,
                 );
-                let gap = ball.min(stylus).min(body);
+                let g = p.stylus_length + p.body_length;
+                let spindle = part_gap(
+                    &pose.tip,
+                    &pose.axis,
+                    g,
+                    g + p.spindle_length,
+                    p.spindle_radius,
+                    &o.solid,
+                    0.5,
+                    floor,
+                );
+                let gap = ball.min(stylus).min(body).min(spindle);
                 if probe_move {
                     probe_gap = probe_gap.min(gap);
                 } else {
@@ -507,6 +544,7 @@ fn sphere_plan_follows_seed004_with_axis_parallel_touches_on_the_sphere() {
         let frame = plan.frame(i);
         assert!((fit.sphere.centre - frame.to_prog(&centre)).norm() < 1e-9);
     }
+    assert!(plan.warnings.is_empty(), "{:?}", plan.warnings);
     // Where a touch is left out, it is the one from the stem's side.
     for s in &plan.skipped {
         assert!(s.reason.contains("stem"), "{s:?}");

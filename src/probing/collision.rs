@@ -163,6 +163,8 @@ pub enum ProbePart {
     Stylus,
     /// The probe body up to the spindle nose.
     Body,
+    /// The spindle nose above the gauge line.
+    Spindle,
 }
 
 impl fmt::Display for ProbePart {
@@ -171,13 +173,15 @@ impl fmt::Display for ProbePart {
             ProbePart::Ball => "stylus ball",
             ProbePart::Stylus => "stylus",
             ProbePart::Body => "probe body",
+            ProbePart::Spindle => "spindle nose",
         })
     }
 }
 
-/// The probe as three capsules along its axis: the ball, the stylus shaft
-/// from the ball centre, and the body from the end of the stylus up to the
-/// spindle gauge line.
+/// The probe as four capsules along its axis: the ball, the stylus shaft
+/// from the ball centre, the body from the end of the stylus up to the
+/// spindle gauge line, and the spindle nose above it (what a probe on a
+/// tilted table meets first when it reaches between pieces).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProbeShape {
     /// Ball radius, mm.
@@ -190,6 +194,10 @@ pub struct ProbeShape {
     pub body_length: f64,
     /// Body radius, mm.
     pub body_radius: f64,
+    /// Length of the spindle nose modelled above the gauge line, mm.
+    pub spindle_length: f64,
+    /// Spindle nose radius, mm.
+    pub spindle_radius: f64,
 }
 
 /// A capsule: a segment grown by a radius.
@@ -208,8 +216,9 @@ pub struct Capsule {
 impl ProbeShape {
     /// The capsules with the ball centre at `ball` and the probe axis
     /// (ball towards spindle, unit) `axis`.
-    pub fn capsules(&self, ball: &Vector3<f64>, axis: &Vector3<f64>) -> [Capsule; 3] {
+    pub fn capsules(&self, ball: &Vector3<f64>, axis: &Vector3<f64>) -> [Capsule; 4] {
         let s = ball + axis * self.stylus_length;
+        let g = s + axis * self.body_length;
         [
             Capsule {
                 part: ProbePart::Ball,
@@ -226,8 +235,14 @@ impl ProbeShape {
             Capsule {
                 part: ProbePart::Body,
                 a: s,
-                b: s + axis * self.body_length,
+                b: g,
                 radius: self.body_radius,
+            },
+            Capsule {
+                part: ProbePart::Spindle,
+                a: g,
+                b: g + axis * self.spindle_length,
+                radius: self.spindle_radius,
             },
         ]
     }
@@ -286,7 +301,7 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn capsules_at(&self, axes: &Axes) -> [Capsule; 3] {
+    fn capsules_at(&self, axes: &Axes) -> [Capsule; 4] {
         let pose = self.kin.forward_nominal(axes);
         self.probe.capsules(&pose.tip, &pose.axis.normalize())
     }
@@ -363,8 +378,8 @@ impl<'a> Checker<'a> {
             tilt: from.tilt + (to.tilt - from.tilt) * s,
             c: from.c + (to.c - from.c) * s,
         };
-        let travel = |n: usize| -> (Vec<[Capsule; 3]>, f64) {
-            let caps: Vec<[Capsule; 3]> = (0..=n)
+        let travel = |n: usize| -> (Vec<[Capsule; 4]>, f64) {
+            let caps: Vec<[Capsule; 4]> = (0..=n)
                 .map(|i| self.capsules_at(&lerp(i as f64 / n as f64)))
                 .collect();
             let mut worst = 0.0_f64;

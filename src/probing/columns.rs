@@ -74,6 +74,8 @@ pub(crate) fn probe_shape(
         stylus_radius: s.stylus_diameter / 2.0,
         body_length,
         body_radius: s.body_diameter / 2.0,
+        spindle_length: s.spindle_length,
+        spindle_radius: s.spindle_diameter / 2.0,
     })
 }
 
@@ -185,5 +187,38 @@ pub fn plan(m: &Machine, t: &ColumnsTemplate) -> Result<ProbePlan, PlanError> {
     }
     super::uniquify_ids(&mut specs);
     let kin = Kinematics::with_gauge_length(m, m.probe.length);
-    path::build("probe-columns", kin, obstacles, probe, t.probing, specs)
+    let mut plan = path::build("probe-columns", kin, obstacles, probe, t.probing, specs)?;
+    plan.warnings = weak_poses(&plan);
+    Ok(plan)
+}
+
+/// Poses whose touches cannot fix the table's six-degree-of-freedom pose
+/// on their own (seed 000 eq. 7-10): a touch senses a small displacement
+/// `(d, theta)` of the table only through `n . (d + theta x p)`, so the
+/// rows `[n, p x n]` of a pose's touches must have rank 6. Such a pose
+/// still adds to a joint identification of the rotary axes' errors, but
+/// not to a per-pose error map.
+pub fn weak_poses(plan: &ProbePlan) -> Vec<String> {
+    let mut out = Vec::new();
+    for pose in &plan.poses {
+        let touches = &plan.touches[pose.touches.clone()];
+        let a = nalgebra::DMatrix::from_fn(touches.len().max(1), 6, |i, j| match touches.get(i) {
+            None => 0.0,
+            Some(t) => {
+                let m = t.contact_w.cross(&t.normal_w);
+                if j < 3 { t.normal_w[j] } else { m[j - 3] }
+            }
+        });
+        let sv = a.singular_values();
+        let top = sv.max();
+        let rank = sv.iter().filter(|s| **s > 1e-9 * top.max(1e-300)).count();
+        if rank < 6 {
+            out.push(format!(
+                "pose {}: its {} touches fix only {rank} of the table's 6 pose components",
+                pose.id,
+                touches.len()
+            ));
+        }
+    }
+    out
 }

@@ -259,6 +259,9 @@ pub struct ProbePlan {
     pub moves: Vec<Move>,
     /// What was left out.
     pub skipped: Vec<Skipped>,
+    /// Poses whose touches do not determine what the test measures there
+    /// on their own (see [`columns::weak_poses`], [`sphere::weak_poses`]).
+    pub warnings: Vec<String>,
 }
 
 impl ProbePlan {

@@ -91,6 +91,14 @@ fn safe_z(kin: &Kinematics, obstacles: &[Obstacle], probe: &ProbeShape, margin: 
                 (probe.stylus_length, probe.stylus_radius),
                 (probe.stylus_length, probe.body_radius),
                 (probe.stylus_length + probe.body_length, probe.body_radius),
+                (
+                    probe.stylus_length + probe.body_length,
+                    probe.spindle_radius,
+                ),
+                (
+                    probe.stylus_length + probe.body_length + probe.spindle_length,
+                    probe.spindle_radius,
+                ),
             ];
             let reach = ends
                 .iter()
@@ -411,6 +419,7 @@ pub(crate) fn build(
         touches,
         moves,
         skipped,
+        warnings: Vec::new(),
     };
     if let Some((i, e)) = plan.check_limits().into_iter().next() {
         return Err(PlanError::Unreachable(format!(

@@ -172,5 +172,28 @@ pub fn plan(m: &Machine, t: &SphereTemplate) -> Result<ProbePlan, PlanError> {
     super::uniquify_ids(&mut specs);
     let mut obstacles: Vec<Obstacle> = sphere_obstacles(m, t).into();
     obstacles.push(table_obstacle(m));
-    path::build("probe-sphere", kin, obstacles, probe, t.probing, specs)
+    let mut plan = path::build("probe-sphere", kin, obstacles, probe, t.probing, specs)?;
+    plan.warnings = weak_poses(&plan);
+    Ok(plan)
+}
+
+/// Poses whose touches do not determine the sphere's centre: fewer than
+/// four, or all on one plane.
+pub fn weak_poses(plan: &ProbePlan) -> Vec<String> {
+    plan.poses
+        .iter()
+        .filter_map(|pose| {
+            let pts: Vec<Vector3<f64>> = plan.touches[pose.touches.clone()]
+                .iter()
+                .map(|t| t.contact_w)
+                .collect();
+            crate::fit::fit_sphere_algebraic(&pts).err().map(|e| {
+                format!(
+                    "pose {}: its {} touches do not fix the sphere: {e}",
+                    pose.id,
+                    pts.len()
+                )
+            })
+        })
+        .collect()
 }

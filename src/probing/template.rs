@@ -146,6 +146,8 @@ struct ProbeFile {
     body_diameter: f64,
     #[serde(default)]
     body_length: Option<f64>,
+    spindle_diameter: f64,
+    spindle_length: f64,
 }
 
 #[derive(Deserialize)]
@@ -274,6 +276,10 @@ pub struct StylusSpec {
     pub body_diameter: f64,
     /// Body length, mm; `None`: up to the spindle gauge line.
     pub body_length: Option<f64>,
+    /// Diameter of the spindle nose, mm.
+    pub spindle_diameter: f64,
+    /// Length of the spindle nose modelled above the gauge line, mm.
+    pub spindle_length: f64,
 }
 
 /// A square column.
@@ -476,11 +482,25 @@ fn stylus(src: &TemplateSource, p: &ProbeFile) -> Result<StylusSpec, SourceError
     if let Some(l) = p.body_length {
         positive(src, &k("body_length"), l, "probe.body_length")?;
     }
+    positive(
+        src,
+        &k("spindle_diameter"),
+        p.spindle_diameter,
+        "probe.spindle_diameter",
+    )?;
+    positive(
+        src,
+        &k("spindle_length"),
+        p.spindle_length,
+        "probe.spindle_length",
+    )?;
     Ok(StylusSpec {
         stylus_length: p.stylus_length,
         stylus_diameter: p.stylus_diameter,
         body_diameter: p.body_diameter,
         body_length: p.body_length,
+        spindle_diameter: p.spindle_diameter,
+        spindle_length: p.spindle_length,
     })
 }
 
