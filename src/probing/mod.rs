@@ -1,7 +1,9 @@
 //! On-machine probing, independent of any NC dialect: the two probing tests
 //! (square columns, seed 000 section 3; calibration sphere, seeds 003 and
 //! 004), what each touch is, the safe path through them, a collision
-//! checker for any path, and the expected run time. A post-processor turns
+//! checker for any path (the probe's ball, stylus, body and spindle nose as
+//! capsules against column boxes, the sphere, its stem and the table), and
+//! the expected run time. A post-processor turns
 //! a [`ProbePlan`] into a program move by move; the log readers of
 //! [`crate::formats::probe_log`] turn what that program records back into
 //! contact points.
@@ -58,7 +60,37 @@
 //! Touches the probe cannot make at a pose (a face turned away from the
 //! spindle, the stylus or body hitting a piece, the stem or the table on
 //! the way, a point out of stroke) are left out of that pose and listed in
-//! [`ProbePlan::skipped`] with the reason.
+//! [`ProbePlan::skipped`] with the reason. A pose whose remaining touches
+//! cannot fix on their own what the test measures there (the table's six
+//! pose components for the columns, the sphere's centre) is kept, for a
+//! joint identification, and named in [`ProbePlan::warnings`].
+//!
+//! # For the post-processor
+//! Per [`MoveKind`]: `Rapid` is a G0 (or `L ... FMAX`) of X, Y, Z; `Rotary`
+//! a G0 of the rotary axes alone, between the stored angles (at `safe_z`
+//! any direction of rotation is safe, so a controller's shortest-path mode
+//! does no harm); `Position` and `Retract` are linear moves at
+//! [`ProbingSettings::positioning_feed`]; `Probe(i)` is the dialect's
+//! probing move (`G31`, `G38.2`, `TCH PROBE`) to `to`, the touch's
+//! overtravel end, at [`Touch::feed`], followed by the log statements of
+//! [`crate::formats::probe_log`] for touch `i` (its [`Touch::index`] or
+//! [`Touch::label`]). The program runs with the work offset on the W origin
+//! at rotary zero and without TCP (the rotary axes stand still while
+//! probing, and the logs are read as commanded positions); on FANUC every
+//! commanded coordinate must pass
+//! [`crate::formats::probe_log::fanuc::fits_field`].
+//!
+//! # Machines
+//! The planner works in W through the machine's kinematics, so one code
+//! serves every structure. On the table-table machines of the seeds
+//! (`ac-trunnion`, `bc-trunnion`) the rotary axes move the pieces and each
+//! pose shows the table's pose error, as the seeds intend. On `head-table`
+//! the C table turns the pieces and the tilting head turns the probe; the
+//! touches measure both. On `head-head` the pieces never move: every pose
+//! probes the same points with the head turned, which measures the head's
+//! location errors at one place. The sphere test is the natural test there
+//! (as in head-calibration cycles); the column pattern plans and checks as
+//! well, but its many faces add little over the sphere's five touches.
 //!
 //! # Labels and indices
 //! Poses are executed in order; [`Pose::seq`] counts from 0 and the pose id
