@@ -3,7 +3,7 @@
 //! beyond the last measured tilt angle.
 //!
 //! Interpolation is linear in the node values, so a map is a linear
-//! function of its parameters: [`AngleMap::weights`] gives the coefficients
+//! function of its parameters: [`MapGrid::weights`] gives the coefficients
 //! that identification needs for its Jacobian.
 
 use serde::{Deserialize, Serialize};
