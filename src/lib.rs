@@ -19,7 +19,10 @@ pub mod geom;
 pub mod io;
 pub mod kinematics;
 pub mod machine;
+pub mod mesh;
 pub mod model;
+pub mod plan;
+pub mod post;
 pub mod probing;
 pub mod source;
 

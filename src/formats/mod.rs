@@ -2,6 +2,7 @@
 //! reader turns its format into the canonical meaning of SPEC section 3
 //! and reports bad input as `file:line:column: what was expected`.
 
+pub mod dmis_program;
 pub mod manifest;
 pub mod measured;
 pub mod points;

@@ -1,15 +1,195 @@
-//! `fivecal plan` (issue 3).
+//! `fivecal plan <test>`: writes a machining test as an NC program with its
+//! nominal points, CMM program, 3-D model and setup sheet. Raw arguments are
+//! turned into one validated [`PlanConfig`] in [`config`], then the library
+//! plans and writes.
 
-use clap::Args;
+use std::path::{Path, PathBuf};
 
-use super::pending::PendingArgs;
+use anyhow::{Context as _, bail};
+use clap::{Args, ValueEnum};
+use fivecal::formats::manifest::KinematicsMode;
+use fivecal::machine::{Machine, Tool};
+use fivecal::plan::template::check_tool;
+use fivecal::plan::{PlanConfig, Template, plan};
+use fivecal::post::PostDefinition;
+use fivecal::source::SourceError;
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum KinematicsArg {
+    /// fivecal computes X, Y, Z and the rotary axes from the machine file.
+    Post,
+    /// The controller's tilted plane (G68.2 / PLANE SPATIAL) or TCP does it.
+    Controller,
+}
 
 #[derive(Args, Debug)]
 pub struct PlanArgs {
-    #[command(flatten)]
-    pending: PendingArgs,
+    /// The test: stepped-square (seed 001) or nine-section (seed 004).
+    test: String,
+    /// Machine file, or a built-in machine (bc-trunnion, ac-trunnion,
+    /// head-table, head-head).
+    #[arg(long, default_value = "bc-trunnion")]
+    machine: String,
+    /// Controller dialect: fanuc, heidenhain or linuxcnc [default: the
+    /// machine file's controller].
+    #[arg(long)]
+    dialect: Option<String>,
+    /// Output directory.
+    #[arg(long, default_value = ".")]
+    out: PathBuf,
+    /// How 3+2 positions are written.
+    #[arg(long, value_enum, default_value = "post")]
+    kinematics: KinematicsArg,
+    /// Test template file replacing the built-in one (copy
+    /// templates/<test>.yaml and edit it).
+    #[arg(long)]
+    template: Option<PathBuf>,
+    /// Postprocessor definition file (copy postprocessors/<dialect>.yaml and
+    /// edit it), or a built-in dialect name.
+    #[arg(long)]
+    postprocessor: Option<String>,
+    /// Tool replacing the template's: `machine` (the machine file's tool), a
+    /// YAML tool file, or an inline mapping such as
+    /// '{name: D6 ball, kind: ball, diameter: 6, length: 50}'.
+    #[arg(long)]
+    tool: Option<String>,
 }
 
-pub fn run(_args: PlanArgs) -> anyhow::Result<()> {
-    super::pending::run("plan", 3)
+/// The validated configuration of one `plan` run.
+struct Config {
+    plan: PlanConfig,
+    out: PathBuf,
+    inputs: Vec<PathBuf>,
+}
+
+fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
+    if spec == "machine" {
+        return Ok((machine.tool.clone(), None));
+    }
+    let (path, text, file) = if Path::new(spec).exists() {
+        let p = PathBuf::from(spec);
+        let t =
+            std::fs::read_to_string(&p).with_context(|| format!("cannot read tool file {spec}"))?;
+        (p.clone(), t, Some(p))
+    } else if spec.trim_start().starts_with('{') {
+        (PathBuf::from("<--tool>"), spec.to_string(), None)
+    } else {
+        bail!(
+            "--tool `{spec}`: expected `machine`, a tool file, or an inline mapping such as '{{name: D6 ball, kind: ball, diameter: 6, length: 50}}'"
+        );
+    };
+    let tool: Tool = serde_yaml::from_str(&text).map_err(|e| SourceError::from_yaml(&path, &e))?;
+    check_tool(&tool).map_err(|(k, m)| SourceError::at_key(&path, &text, &[k], m))?;
+    Ok((tool, file))
+}
+
+fn config(a: PlanArgs) -> anyhow::Result<Config> {
+    let mut inputs = Vec::new();
+    let machine = Machine::load(&a.machine)
+        .with_context(|| format!("cannot load machine `{}`", a.machine))?;
+    if Path::new(&a.machine).exists() {
+        inputs.push(PathBuf::from(&a.machine));
+    }
+    let template = match &a.template {
+        Some(p) => {
+            inputs.push(p.clone());
+            let t = Template::parse(
+                p,
+                &std::fs::read_to_string(p).with_context(|| format!("cannot read template {}", p.display()))?,
+            )?;
+            if t.test != a.test {
+                bail!(
+                    "{}: the template is for test `{}`, but the command asks for `{}`",
+                    p.display(),
+                    t.test,
+                    a.test
+                );
+            }
+            t
+        }
+        None => Template::builtin(&a.test).with_context(|| {
+            format!(
+                "unknown test `{}`: expected stepped-square or nine-section (or pass --template FILE)",
+                a.test
+            )
+        })?,
+    };
+    let dialect = a
+        .dialect
+        .as_deref()
+        .map(|d| d.parse::<fivecal::Dialect>().map_err(anyhow::Error::msg))
+        .transpose()?;
+    let post = match &a.postprocessor {
+        Some(spec) => {
+            if Path::new(spec).exists() {
+                inputs.push(PathBuf::from(spec));
+            }
+            let p = PostDefinition::load(spec)?;
+            if let Some(d) = dialect
+                && d != p.dialect
+            {
+                bail!(
+                    "--dialect {d} contradicts --postprocessor {spec}, which writes {}",
+                    p.dialect
+                );
+            }
+            p
+        }
+        None => PostDefinition::builtin(dialect.unwrap_or(machine.dialect)),
+    };
+    let tool = match &a.tool {
+        Some(spec) => {
+            let (t, file) = parse_tool(spec, &machine)?;
+            inputs.extend(file);
+            Some(t)
+        }
+        None => None,
+    };
+    Ok(Config {
+        plan: PlanConfig {
+            machine,
+            template,
+            post,
+            kinematics: match a.kinematics {
+                KinematicsArg::Post => KinematicsMode::Post,
+                KinematicsArg::Controller => KinematicsMode::Controller,
+            },
+            tool,
+        },
+        out: a.out,
+        inputs,
+    })
+}
+
+pub fn run(args: PlanArgs) -> anyhow::Result<()> {
+    let cfg = config(args)?;
+    let p = &cfg.plan;
+    let planned = plan(p).with_context(|| {
+        format!(
+            "cannot plan {} on {} ({})",
+            p.template.test, p.machine.name, p.post.dialect
+        )
+    })?;
+    let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
+    let written = planned.write(&cfg.out, &planned.test, &inputs)?;
+    println!(
+        "{} on {}: {} poses, {} points, about {:.0} min ({} dialect, kinematics {})",
+        planned.test,
+        planned.machine.name,
+        planned.poses.len(),
+        planned.points.len(),
+        planned.run_minutes,
+        planned.dialect,
+        match planned.kinematics {
+            KinematicsMode::Post => "post",
+            KinematicsMode::Controller => "controller",
+        }
+    );
+    for n in &planned.notes {
+        println!("note: {n}");
+    }
+    for w in written {
+        println!("wrote {}", w.display());
+    }
+    Ok(())
 }

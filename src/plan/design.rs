@@ -1,0 +1,190 @@
+//! A test's design in W, before kinematics: the piece, the poses with their
+//! cutting strokes as tool-tip paths, and the points. Each test module
+//! (`stepped_square`, `nine_section`) produces one; `program` turns it into
+//! machine moves and a program.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::cutter::ToolPart;
+use super::template::{Clearance, Cutting, TemplateKind, ToolChoice};
+use super::{Pass, PlanConfig, PlanError};
+use crate::geom::{self, Axis3};
+use crate::kinematics::Kinematics;
+use crate::machine::{Machine, Tool};
+use crate::mesh::Cuboid;
+
+/// A continuous cutting path: entered by feed from the clearance plane
+/// above `start` (along the tool axis), left by a rapid lift.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Stroke {
+    /// First tool-tip position, W.
+    pub start: Vector3<f64>,
+    /// Following tool-tip positions with the pass of the segment ending there.
+    pub segs: Vec<(Vector3<f64>, Pass)>,
+}
+
+/// One pose of the design.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct PoseDesign {
+    pub id: String,
+    pub tilt: f64,
+    pub c: f64,
+    /// Tool axis in W.
+    pub axis: Vector3<f64>,
+    /// Program frame (columns in W).
+    pub frame: Matrix3<f64>,
+    pub feature: String,
+    pub strokes: Vec<Stroke>,
+}
+
+/// One point of the design.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct PointDesign {
+    pub label: String,
+    pub pose: usize,
+    pub p: Vector3<f64>,
+    pub n: Vector3<f64>,
+    pub surface: String,
+    pub part: ToolPart,
+}
+
+/// A test's design.
+#[derive(Clone, Debug)]
+pub(crate) struct Design {
+    pub title: String,
+    pub description: String,
+    pub program_number: u32,
+    pub tool: Tool,
+    pub cutting: Cutting,
+    pub clearance: Clearance,
+    pub stock: Cuboid,
+    pub fixture: Option<Cuboid>,
+    pub solid: crate::mesh::Solid,
+    /// The piece's boundary polygons.
+    pub csg: crate::mesh::Csg,
+    /// Mesh group names by tag.
+    pub groups: BTreeMap<u32, String>,
+    pub poses: Vec<PoseDesign>,
+    pub points: Vec<PointDesign>,
+    pub notes: Vec<String>,
+    /// One line on the stock and fixturing for the header and setup sheet.
+    pub stock_text: String,
+}
+
+/// The tool of a plan: `--tool`, else the template's, else the machine's.
+pub(crate) fn tool_of(cfg: &PlanConfig, choice: &ToolChoice) -> Tool {
+    match (&cfg.tool, choice) {
+        (Some(t), _) => t.clone(),
+        (None, ToolChoice::Tool(t)) => t.clone(),
+        (None, ToolChoice::Machine) => cfg.machine.tool.clone(),
+    }
+}
+
+/// The nominal tool frame in W at (tilt, c): columns are the machine's
+/// X, Y and the tool axis as seen from the table. It is the program frame
+/// of a tilted working plane at that pose.
+pub(crate) fn pose_frame(k: &Kinematics, tilt: f64, c: f64) -> Matrix3<f64> {
+    let m = k.machine();
+    let table = k
+        .nominal_table_transform(tilt, c)
+        .rotation
+        .to_rotation_matrix()
+        .into_inner();
+    let mut head = Matrix3::identity();
+    if !m.c.on_table {
+        head *= geom::rot(Axis3::Z, m.c.direction * geom::rad(c))
+            .rotation
+            .to_rotation_matrix()
+            .into_inner();
+    }
+    if !m.tilt.on_table {
+        head *= geom::rot(m.tilt.about, m.tilt.direction * geom::rad(tilt))
+            .rotation
+            .to_rotation_matrix()
+            .into_inner();
+    }
+    clean(table.transpose() * head)
+}
+
+/// Rounds entries within 1e-12 of -1, 0, 1 so that right-angle poses
+/// are exactly axis-aligned.
+fn clean(mut m: Matrix3<f64>) -> Matrix3<f64> {
+    for v in m.iter_mut() {
+        for t in [-1.0, 0.0, 1.0] {
+            if (*v - t).abs() < 1e-12 {
+                *v = t;
+            }
+        }
+    }
+    m
+}
+
+/// Checks a rotary angle against the machine's limits.
+pub(crate) fn within_limits(m: &Machine, letter: char, angle: f64) -> Result<(), String> {
+    let axis = if letter == 'C' { &m.c } else { &m.tilt };
+    if axis.within(angle, 1e-9) {
+        return Ok(());
+    }
+    let (lo, hi) = axis.limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    Err(format!(
+        "{letter} = {angle} is outside the limits [{lo}, {hi}] of machine {}",
+        m.name
+    ))
+}
+
+/// Pose id `B90C180`, `A-30C270`.
+pub(crate) fn pose_id(letter: char, tilt: f64, c: f64) -> String {
+    format!("{letter}{}C{}", short(tilt), short(c))
+}
+
+/// A number without trailing zeros (`90`, `-22.5`).
+pub(crate) fn short(v: f64) -> String {
+    let s = crate::formats::points::fmt_num(v, 6);
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s.is_empty() || s == "-" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
+}
+
+/// Dispatches to the test's designer.
+pub(crate) fn design(cfg: &PlanConfig, raise: f64) -> Result<Design, PlanError> {
+    match &cfg.template.kind {
+        TemplateKind::SteppedSquare(t) => super::stepped_square::design(cfg, t, raise),
+        TemplateKind::NineSection(t) => super::nine_section::design(cfg, t, raise),
+    }
+}
+
+/// Group names of a design's mesh: stock, then the pose ids.
+pub(crate) fn groups(poses: &[String]) -> BTreeMap<u32, String> {
+    let mut g = BTreeMap::new();
+    let _ = g.insert(0, "stock".to_string());
+    for (i, id) in poses.iter().enumerate() {
+        let _ = g.insert(i as u32 + 1, id.clone());
+    }
+    g
+}
+
+/// A label suffix for a W direction: `XP`, `XN`, ... or `None` when the
+/// direction is not along an axis.
+pub(crate) fn dir_code(n: &Vector3<f64>) -> Option<&'static str> {
+    const CODES: [(&str, &str); 3] = [("XP", "XN"), ("YP", "YN"), ("ZP", "ZN")];
+    (0..3).find_map(|i| {
+        if (n[i].abs() - 1.0).abs() < 1e-9 {
+            Some(if n[i] > 0.0 { CODES[i].0 } else { CODES[i].1 })
+        } else {
+            None
+        }
+    })
+}
+
+/// Human name of a W direction (`+X`, or the vector).
+pub(crate) fn dir_name(n: &Vector3<f64>) -> String {
+    match dir_code(n) {
+        Some(c) => format!("{}{}", if c.ends_with('P') { "+" } else { "-" }, &c[..1]),
+        None => format!("({:.3}, {:.3}, {:.3})", n.x, n.y, n.z),
+    }
+}

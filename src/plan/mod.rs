@@ -1,0 +1,392 @@
+//! Planning the machining tests: the stepped-square test of seed 001 and the
+//! nine-section test of seed 004, for any supported machine and dialect.
+//!
+//! [`plan`] turns a [`PlanConfig`] (machine, template, postprocessor,
+//! kinematics mode, optional tool) into a [`PlannedTest`]: the poses, the
+//! toolpath, the NC program, the nominal piece and its CMM points with their
+//! provenance. [`PlannedTest::write`] writes the plan's files and
+//! [`load`] rebuilds the very same `PlannedTest` from a written manifest.
+//!
+//! # For the simulator and the analyzer: what a `PlannedTest` holds
+//!
+//! Frames and units follow SPEC: W is the table frame (origin at the
+//! nominal intersection of the rotary axes, Z along C, parallel to the
+//! machine frame at rotary zero); lengths mm, angles deg.
+//!
+//! * `machine`, `tool` ([`crate::machine::Tool`], its gauge length is the
+//!   one the kinematics must use: `Kinematics::with_gauge_length(&machine,
+//!   tool.length)`), `cutter` (the tool's exact solid, [`Cutter`]).
+//! * `poses`: [`PlannedPose`] in execution order, each with `seq`, `tilt`,
+//!   `c`, estimated `start_min`/`end_min` from program start, the nominal
+//!   tool axis in W (`tool_axis`), the program frame of `--kinematics
+//!   controller` (`frame`), and its `moves`: the commanded path at that
+//!   pose, from the position after the rotary index (`start`) to the retract
+//!   to the safe height. Each [`PathMove`] gives the end point as machine
+//!   axis values (`axes`: X, Y, Z in program coordinates with the work
+//!   offset on the W origin at rotary zero, what the axes really execute in
+//!   both kinematics modes), as written in the program (`program`), and as
+//!   the nominal tool tip in W (`tip`); `rapid` or `feed`; and the `pass`
+//!   (air, entry, rough, finish, zero cut). A move goes in a straight line
+//!   in axis space from the previous move's `axes` (or `start`); the rotary
+//!   axes do not move within a pose. To machine with an erroneous machine,
+//!   run each cutting move's end points through `Kinematics::forward` with
+//!   the errors (at the pose's `seq`/minutes for drift): the actual tool
+//!   sweeps the segment between them with a fixed axis.
+//! * `piece`: the nominal finished piece ([`Piece`]): the `stock` and
+//!   `fixture` boxes, an exact point-membership `solid`, the boundary
+//!   `faces` (planar convex patches with their plane, outline in W and the
+//!   tag of the pose that cut them, 0 for uncut stock) and the `mesh`
+//!   written to `.obj`/`.glb`.
+//! * `points`: [`PlannedPoint`] in points.csv order: the SPEC plan point
+//!   (label, pose, seq, angles, nominal point and outward normal in W) and
+//!   its [`Provenance`]: the pose index that cut it, the tool part that made
+//!   the surface there ([`ToolPart`]: flank, flat end, ball, torus), and
+//!   every generating move ([`Generator`]: the move index in that pose's
+//!   `moves`, the parameter `t` along it, the nominal tool tip and axis in W
+//!   and the axis values at that instant, and the pass). Several
+//!   generators mean several passes touched the point (roughing at the same
+//!   floor level, finishing, the zero cut); the surface left is the envelope
+//!   of all of them: for an erroneous machine, the actual surface along the
+//!   nominal normal is the least `s` over the generators of
+//!   `cutter.entry_along(a, b, axis, p - n, n, ...)` with the actual
+//!   segment `a -> b` and axis (see [`Cutter::entry_along`]). No other
+//!   pose's tool comes within 0.05 mm of a plan point (checked at planning).
+//! * `toolpath`: the whole program as neutral [`crate::post::Op`]s and
+//!   `program`: its rendered text.
+//!
+//! The nominal points lie on the piece exactly (1e-9 mm): each is checked
+//! against the solid (material below, air above along the normal), against
+//! the generating tool (zero distance) and against the mesh in the tests.
+
+mod cutter;
+mod design;
+mod load;
+mod nine_section;
+mod outputs;
+mod program;
+mod stepped_square;
+pub mod template;
+
+use std::path::PathBuf;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::formats::manifest::{KinematicsMode, TestKind};
+use crate::formats::points::{PlanPoint, PlanPoints};
+use crate::kinematics::{Axes, IkError};
+use crate::machine::{Dialect, Machine, Tool};
+use crate::mesh::{Cuboid, Mesh, Solid};
+use crate::post::{Op, PostDefinition, PostError, ProgramInfo, RenderedProgram};
+use crate::source::SourceError;
+
+pub use cutter::{Cutter, ToolPart};
+pub use load::{LoadError, load};
+pub use template::{Template, TemplateError};
+
+/// Everything `plan` needs, validated.
+#[derive(Clone, Debug)]
+pub struct PlanConfig {
+    /// The machine.
+    pub machine: Machine,
+    /// The test template.
+    pub template: Template,
+    /// The postprocessor definition (its dialect is the program's).
+    pub post: PostDefinition,
+    /// How 3+2 positions are written.
+    pub kinematics: KinematicsMode,
+    /// A tool replacing the template's.
+    pub tool: Option<Tool>,
+}
+
+/// What a move is for. Rapids run only above the stock's extent along the
+/// tool axis (the clearance plane) or at the safe height.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pass {
+    /// Positioning, not cutting (rapids, retracts).
+    Air,
+    /// Feed from the clearance plane to the start of a stroke.
+    Entry,
+    /// Feed from the end of a stroke back to the clearance plane.
+    Exit,
+    /// Roughing.
+    Rough,
+    /// Finishing.
+    Finish,
+    /// The finishing pass repeated with zero radial depth.
+    ZeroCut,
+}
+
+/// One commanded move at a pose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathMove {
+    /// Rapid (true) or feed.
+    pub rapid: bool,
+    /// Feed, mm/min (the machine's linear rapid rate for rapids).
+    pub feed: f64,
+    /// What it is for.
+    pub pass: Pass,
+    /// End point as machine axis values.
+    pub axes: Axes,
+    /// End point as written in the program (program frame of the mode).
+    pub program: Vector3<f64>,
+    /// End point as the nominal tool tip in W.
+    pub tip: Vector3<f64>,
+}
+
+/// One rotary pose (a cut) in execution order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedPose {
+    /// Pose id, as in points.csv.
+    pub id: String,
+    /// Execution order from 0.
+    pub seq: u32,
+    /// Tilt, deg.
+    pub tilt: f64,
+    /// C, deg.
+    pub c: f64,
+    /// Estimated minutes from program start when the pose begins (rotary index).
+    pub start_min: f64,
+    /// ... and ends (after the retract).
+    pub end_min: f64,
+    /// Nominal tool axis in W (tip towards spindle).
+    pub tool_axis: Vector3<f64>,
+    /// Program frame of `--kinematics controller` (columns: its X, Y, Z in W).
+    pub frame: Matrix3<f64>,
+    /// What the pose cuts.
+    pub feature: String,
+    /// Position after the rotary index, at the safe height.
+    pub start: Axes,
+    /// The moves, ending with the retract.
+    pub moves: Vec<PathMove>,
+}
+
+impl PlannedPose {
+    /// Start and end axis values of move `i`.
+    pub fn segment(&self, i: usize) -> (Axes, Axes) {
+        let a = if i == 0 {
+            self.start
+        } else {
+            self.moves[i - 1].axes
+        };
+        (a, self.moves[i].axes)
+    }
+
+    /// Start and end nominal tool tips in W of move `i`.
+    pub fn tip_segment(&self, i: usize, start_tip: Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let a = if i == 0 {
+            start_tip
+        } else {
+            self.moves[i - 1].tip
+        };
+        (a, self.moves[i].tip)
+    }
+}
+
+/// A nominal tool position that generated a surface point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Generator {
+    /// Index of the move in the pose's `moves`.
+    pub move_index: usize,
+    /// Parameter along the move, 0 at its start, 1 at its end.
+    pub t: f64,
+    /// Nominal tool tip in W at that instant.
+    pub tip: Vector3<f64>,
+    /// Nominal tool axis in W.
+    pub axis: Vector3<f64>,
+    /// Axis values at that instant.
+    pub axes: Axes,
+    /// The pass of the move.
+    pub pass: Pass,
+}
+
+/// Which pose and which part of the tool made a surface point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Provenance {
+    /// Index into `PlannedTest::poses`.
+    pub pose: usize,
+    /// The tool part that made the surface.
+    pub part: ToolPart,
+    /// Every move of that pose that touches the point, in execution order.
+    pub generators: Vec<Generator>,
+}
+
+/// A plan point with its provenance.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedPoint {
+    /// The SPEC plan point.
+    pub point: PlanPoint,
+    /// The surface it lies on (`wall +X`, `floor`, `section 3`, ...).
+    pub surface: String,
+    /// Who made it.
+    pub provenance: Provenance,
+}
+
+/// A planar face patch of the nominal piece.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Face {
+    /// Tag: 0 for uncut stock, else 1 + the index of the pose that cut it.
+    pub tag: u32,
+    /// Outward unit normal in W.
+    pub normal: Vector3<f64>,
+    /// Plane offset: `normal . x = offset` on the face, mm.
+    pub offset: f64,
+    /// Convex outline in W, counter-clockwise seen from outside.
+    pub outline: Vec<Vector3<f64>>,
+}
+
+/// The nominal finished piece.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piece {
+    /// The stock block.
+    pub stock: Cuboid,
+    /// The riser under it, if any.
+    pub fixture: Option<Cuboid>,
+    /// Exact point membership.
+    pub solid: Solid,
+    /// Boundary patches.
+    pub faces: Vec<Face>,
+    /// Triangle mesh (what `.obj` and `.glb` hold).
+    pub mesh: Mesh,
+}
+
+/// A planned test.
+#[derive(Clone, Debug)]
+pub struct PlannedTest {
+    /// Test name.
+    pub test: String,
+    /// Machining or probing.
+    pub kind: TestKind,
+    /// The machine.
+    pub machine: Machine,
+    /// The template.
+    pub template: Template,
+    /// The postprocessor.
+    pub post: PostDefinition,
+    /// The dialect.
+    pub dialect: Dialect,
+    /// How 3+2 positions are written.
+    pub kinematics: KinematicsMode,
+    /// The tool.
+    pub tool: Tool,
+    /// The tool's solid.
+    pub cutter: Cutter,
+    /// Program Z of the safe height.
+    pub safe_z: f64,
+    /// Poses in execution order.
+    pub poses: Vec<PlannedPose>,
+    /// The nominal piece.
+    pub piece: Piece,
+    /// Plan points with provenance.
+    pub points: Vec<PlannedPoint>,
+    /// The neutral toolpath of the whole program.
+    pub toolpath: Vec<Op>,
+    /// What the program header says.
+    pub info: ProgramInfo,
+    /// The rendered program.
+    pub program: RenderedProgram,
+    /// Notes for the setup sheet (adaptations to the machine, warnings).
+    pub notes: Vec<String>,
+    /// Estimated run time, min.
+    pub run_minutes: f64,
+    /// The stock and its fixturing, in words.
+    pub stock_text: String,
+    /// Why the safe height is safe, in words.
+    pub safe_reason: String,
+}
+
+/// Why a plan failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// A bad template value (points into the template).
+    #[error("{0}")]
+    Template(#[from] SourceError),
+    /// The request cannot be carried out on this machine.
+    #[error("{0}")]
+    Impossible(String),
+    /// A move is outside a linear axis' stroke.
+    #[error(
+        "pose {pose}: {what} needs {axis} = {value:.3} (machine coordinate of the spindle gauge point), outside the {axis} stroke [{lo}, {hi}] of {machine}"
+    )]
+    Stroke {
+        /// Pose id.
+        pose: String,
+        /// Which move.
+        what: String,
+        /// Axis letter.
+        axis: char,
+        /// Machine coordinate needed, mm.
+        value: f64,
+        /// Stroke minimum.
+        lo: f64,
+        /// Stroke maximum.
+        hi: f64,
+        /// Machine name.
+        machine: String,
+    },
+    /// Inverse kinematics failed.
+    #[error("{context}: {source}")]
+    Kinematics {
+        /// Where.
+        context: String,
+        /// Cause.
+        source: IkError,
+    },
+    /// The postprocessor could not render the toolpath.
+    #[error("{0}")]
+    Post(#[from] PostError),
+}
+
+impl PlannedTest {
+    /// The plan points as SPEC points.csv.
+    pub fn plan_points(&self) -> PlanPoints {
+        PlanPoints {
+            tilt_letter: self.machine.tilt_letter(),
+            points: self.points.iter().map(|p| p.point.clone()).collect(),
+        }
+    }
+
+    /// The pose with id `id`.
+    pub fn pose(&self, id: &str) -> Option<&PlannedPose> {
+        self.poses.iter().find(|p| p.id == id)
+    }
+
+    /// Output file names by role, for a plan named `stem`.
+    pub fn file_names(&self, stem: &str) -> Vec<(&'static str, PathBuf)> {
+        outputs::file_names(self, stem)
+    }
+}
+
+/// Plans a test. With `stock.raise` in the template, a piece the spindle
+/// cannot reach low enough within the Z stroke is put on a higher riser.
+pub fn plan(cfg: &PlanConfig) -> Result<PlannedTest, PlanError> {
+    let (raise_allowed, base) = match &cfg.template.kind {
+        template::TemplateKind::SteppedSquare(t) => (t.stock.raise, t.stock.fixture_height),
+        template::TemplateKind::NineSection(t) => (t.stock.raise, t.stock.fixture_height),
+    };
+    let mut raise = 0.0;
+    for _ in 0..8 {
+        let design = design::design(cfg, raise)?;
+        match program::assemble(cfg, design) {
+            Err(PlanError::Stroke {
+                axis: 'Z',
+                value,
+                lo,
+                ..
+            }) if raise_allowed && value < lo => {
+                raise += ((lo - value) / 5.0).ceil() * 5.0 + 5.0;
+            }
+            Ok(mut p) if raise > 0.0 => {
+                p.notes.push(format!(
+                    "the riser is {} mm instead of {} mm, so that the spindle reaches every pose within the Z stroke",
+                    design::short(base + raise),
+                    design::short(base)
+                ));
+                return Ok(p);
+            }
+            other => return other,
+        }
+    }
+    let design = design::design(cfg, raise)?;
+    program::assemble(cfg, design)
+}

@@ -1,0 +1,396 @@
+//! The nine-section test of seed 004 (section 6, fig. 11, table 4): the top
+//! face of a square block is cut in 3 x 3 sections, each at its own rotary
+//! pose, with a ball or bull-nose end mill; section 1, the reference, is the
+//! centre one at tilt = C = 0. All sections are cut to the same nominal
+//! height, so the height of each section relative to section 1 shows the
+//! machine's error at that pose.
+//!
+//! Each section (2..9) is put in the free cell its tool leans towards, so
+//! the shank leans away from the rest of the piece. A section is cut by a
+//! zigzag raster of contact-point passes spaced `stepover` apart, exactly on
+//! the cell's borders, entered from outside the block where the cell
+//! touches an edge (section 1 in the middle is entered by a plunge). The
+//! points lie on raster passes, where the surface is exactly at the nominal
+//! height (between passes the scallops stand higher), and away from the
+//! borders by at least the tool radius, so no neighbouring section's tool
+//! touches them.
+
+use nalgebra::Vector3;
+
+use super::PlanConfig;
+use super::cutter::ToolPart;
+use super::design::{
+    Design, PointDesign, PoseDesign, Stroke, dir_name, groups, pose_frame, short, tool_of,
+    within_limits,
+};
+use super::template::NineSection;
+use super::{Pass, PlanError};
+use crate::kinematics::Kinematics;
+use crate::machine::ToolKind;
+use crate::mesh::{Csg, Cuboid, Plane, Polygon, Solid};
+
+/// The tool tip that puts the lowest point of a ball or bull-nose tool with
+/// axis `u` at the contact point `c` on a horizontal face.
+pub(crate) fn tip_for_contact(
+    c: &Vector3<f64>,
+    u: &Vector3<f64>,
+    radius: f64,
+    corner: f64,
+) -> Vector3<f64> {
+    let z = Vector3::z();
+    let w = u * z.dot(u) - z;
+    let w = if w.norm() < 1e-12 {
+        Vector3::zeros()
+    } else {
+        w.normalize()
+    };
+    c + z * corner - u * corner - w * (radius - corner)
+}
+
+const CELLS: [(i32, i32); 8] = [
+    (0, 1),
+    (-1, 1),
+    (-1, 0),
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (1, 0),
+    (1, 1),
+];
+
+pub(crate) fn design(cfg: &PlanConfig, t: &NineSection, raise: f64) -> Result<Design, PlanError> {
+    let riser = t.stock.fixture_height + raise;
+    let m = &cfg.machine;
+    let src = &cfg.template.source;
+    let tool = tool_of(cfg, &t.tool);
+    if tool.kind == ToolKind::Flat {
+        return Err(PlanError::Impossible(format!(
+            "the nine-section test needs a ball or bull-nose end mill (seed 004: round-tip tool); tool T{} `{}` is flat",
+            tool.number, tool.name
+        )));
+    }
+    let k = Kinematics::with_gauge_length(m, tool.length);
+    let letter = m.tilt_letter();
+    let radius = tool.diameter / 2.0;
+    let corner = match tool.kind {
+        ToolKind::Ball => radius,
+        _ => tool.corner_radius.unwrap_or(0.0),
+    };
+    let size = t.stock.size;
+    let l = size / 2.0;
+    let w = size / 3.0;
+    let zb = m.table.surface + riser;
+    let zt = zb + t.stock.height;
+    let h = zt - t.depth;
+    if t.depth >= t.stock.height {
+        return Err(src
+            .error(
+                &["depth"],
+                format!(
+                    "depth {} mm must be less than the stock height {} mm",
+                    t.depth, t.stock.height
+                ),
+            )
+            .into());
+    }
+    let margin = t.point_margin.max(radius + 0.5);
+    let d = w / 2.0 - margin;
+    if d < 0.5 {
+        return Err(src
+            .error(
+                &["stock", "size"],
+                format!(
+                    "sections of {} mm (stock.size {size} / 3) leave no room for points {margin} mm (at least the tool radius + 0.5) from their borders: stock.size must be at least {}",
+                    short(w),
+                    short(6.0 * (margin + 0.5))
+                ),
+            )
+            .into());
+    }
+    if t.points_per_section > 9 {
+        return Err(src
+            .error(
+                &["points", "per_section"],
+                format!("at most 9 points per section, got {}", t.points_per_section),
+            )
+            .into());
+    }
+
+    let mut sections = vec![(0.0, 0.0)];
+    sections.extend(t.sections.iter().map(|s| (s.tilt, s.c)));
+    let mut notes = Vec::new();
+    let mut leans = Vec::new();
+    let mut frames = Vec::new();
+    for (i, &(tilt, c)) in sections.iter().enumerate() {
+        within_limits(m, letter, tilt)
+            .and_then(|_| within_limits(m, 'C', c))
+            .map_err(|e| src.error(&["sections"], format!("section {}: {e}", i + 1)))?;
+        let f = pose_frame(&k, tilt, c);
+        let u: Vector3<f64> = f.column(2).into_owned();
+        if u.z < 75f64.to_radians().cos() {
+            return Err(src
+                .error(
+                    &["sections"],
+                    format!(
+                        "section {} ({letter} = {tilt}, C = {c}) tilts the tool {:.1} deg from the top face's normal: at most 75 deg",
+                        i + 1,
+                        u.z.clamp(-1.0, 1.0).acos().to_degrees()
+                    ),
+                )
+                .into());
+        }
+        let lean = Vector3::new(u.x, u.y, 0.0);
+        leans.push(if lean.norm() < 1e-9 {
+            Vector3::zeros()
+        } else {
+            lean.normalize()
+        });
+        frames.push(f);
+    }
+    // Sections 2..9 to the eight outer cells so that the tools lean
+    // outwards as well as possible (the best of all 8! assignments; the
+    // first in lexicographic order wins ties).
+    let score = |cell: (i32, i32), lean: &Vector3<f64>| {
+        Vector3::new(cell.0 as f64, cell.1 as f64, 0.0)
+            .normalize()
+            .dot(lean)
+    };
+    let mut best: (f64, Vec<usize>) = (f64::NEG_INFINITY, Vec::new());
+    let mut perm: Vec<usize> = Vec::new();
+    let mut used = [false; 8];
+    fn search(
+        perm: &mut Vec<usize>,
+        used: &mut [bool; 8],
+        acc: f64,
+        eval: &dyn Fn(usize, usize) -> f64,
+        best: &mut (f64, Vec<usize>),
+    ) {
+        if perm.len() == 8 {
+            if acc > best.0 + 1e-9 {
+                *best = (acc, perm.clone());
+            }
+            return;
+        }
+        for c in 0..8 {
+            if !used[c] {
+                used[c] = true;
+                let s = eval(perm.len(), c);
+                perm.push(c);
+                search(perm, used, acc + s, eval, best);
+                perm.pop();
+                used[c] = false;
+            }
+        }
+    }
+    let eval = |section: usize, cell: usize| score(CELLS[cell], &leans[section + 1]);
+    search(&mut perm, &mut used, 0.0, &eval, &mut best);
+    let mut cells = vec![(0, 0)];
+    for (k, &c) in best.1.iter().enumerate() {
+        if score(CELLS[c], &leans[k + 1]) < -1e-9 {
+            notes.push(format!(
+                "section {} ({letter} = {}, C = {}) leans its tool towards the piece centre: no free cell lies the way it leans",
+                k + 2,
+                sections[k + 1].0,
+                sections[k + 1].1
+            ));
+        }
+        cells.push(CELLS[c]);
+    }
+
+    let air = t.clearance.rapid.max(1.0);
+    let so_n = (w / t.cutting.stepover).ceil().max(1.0) as usize;
+    let so = w / so_n as f64;
+    let mut poses = Vec::new();
+    let mut points = Vec::new();
+    let part_at = |u: &Vector3<f64>| match tool.kind {
+        ToolKind::Ball => ToolPart::Ball,
+        _ if (u - Vector3::z()).norm() < 1e-12 => ToolPart::FlatEnd,
+        _ => ToolPart::Torus,
+    };
+    for (i, (&(tilt, c), &(ci, cj))) in sections.iter().zip(&cells).enumerate() {
+        let f = frames[i];
+        let u: Vector3<f64> = f.column(2).into_owned();
+        let (cx, cy) = (ci as f64 * w, cj as f64 * w);
+        // Raster along x when the cell touches a side at x = +-L (enter
+        // there), else along y when it touches y = +-L, else (the centre)
+        // along x with a plunge.
+        let along_x = ci != 0 || cj == 0;
+        let (outer, inner, across_lo) = if along_x {
+            let outer = if ci != 0 {
+                ci as f64 * (l + radius + air)
+            } else {
+                cx - w / 2.0
+            };
+            let inner = if ci != 0 {
+                ci as f64 * (w / 2.0)
+            } else {
+                cx + w / 2.0
+            };
+            (outer, inner, cy - w / 2.0)
+        } else {
+            (
+                cj as f64 * (l + radius + air),
+                cj as f64 * (w / 2.0),
+                cx - w / 2.0,
+            )
+        };
+        let contact = |along: f64, across: f64| {
+            if along_x {
+                Vector3::new(along, across, h)
+            } else {
+                Vector3::new(across, along, h)
+            }
+        };
+        let tip = |p: Vector3<f64>| tip_for_contact(&p, &u, radius, corner);
+        let start = tip(contact(outer, across_lo));
+        let mut segs = Vec::new();
+        for kk in 0..=so_n {
+            let across = across_lo + kk as f64 * so;
+            let (from, to) = if kk % 2 == 0 {
+                (outer, inner)
+            } else {
+                (inner, outer)
+            };
+            if kk > 0 {
+                segs.push((tip(contact(from, across)), Pass::Finish));
+            }
+            segs.push((tip(contact(to, across)), Pass::Finish));
+        }
+        let id = format!("S{}", i + 1);
+        let lean = Vector3::new(u.x, u.y, 0.0);
+        poses.push(PoseDesign {
+            id: id.clone(),
+            tilt,
+            c,
+            axis: u,
+            frame: f,
+            feature: format!(
+                "section {}{}: cell {}, {} x {} mm at Z{} in W{}",
+                i + 1,
+                if i == 0 { " (reference)" } else { "" },
+                cell_name(ci, cj),
+                short(w),
+                short(w),
+                short(h),
+                if lean.norm() > 1e-9 {
+                    format!(", tool leaning {}", dir_name(&lean.normalize()))
+                } else {
+                    String::new()
+                }
+            ),
+            strokes: vec![Stroke { start, segs }],
+        });
+        // Points: centre, corners, then edge middles, on raster passes.
+        let offsets = [
+            (0.0, 0.0),
+            (d, d),
+            (-d, d),
+            (-d, -d),
+            (d, -d),
+            (d, 0.0),
+            (0.0, d),
+            (-d, 0.0),
+            (0.0, -d),
+        ];
+        for (n, &(ox, oy)) in offsets.iter().take(t.points_per_section).enumerate() {
+            let (mut x, mut y) = (cx + ox, cy + oy);
+            // Snap the across coordinate onto the nearest pass.
+            if along_x {
+                y = across_lo + ((y - across_lo) / so).round() * so;
+            } else {
+                x = across_lo + ((x - across_lo) / so).round() * so;
+            }
+            points.push(PointDesign {
+                label: format!("{id}-{}", n + 1),
+                pose: i,
+                p: Vector3::new(x, y, h),
+                n: Vector3::z(),
+                surface: format!("section {}", i + 1),
+                part: part_at(&u),
+            });
+        }
+    }
+
+    // The piece: the block cut down to h; the top split by section.
+    let stock = Cuboid::aligned(Vector3::new(-l, -l, zb), Vector3::new(l, l, zt), 0);
+    let piece = Cuboid::aligned(Vector3::new(-l, -l, zb), Vector3::new(l, l, h), 0);
+    let solid = Solid::Cuboid(piece.clone());
+    let mut polys: Vec<Polygon> = Solid::Cuboid(piece)
+        .to_csg()
+        .polygons
+        .into_iter()
+        .filter(|p| p.plane.n.z < 0.5)
+        .collect();
+    for (i, &(ci, cj)) in cells.iter().enumerate() {
+        let (cx, cy) = (ci as f64 * w, cj as f64 * w);
+        let (x0, x1, y0, y1) = (cx - w / 2.0, cx + w / 2.0, cy - w / 2.0, cy + w / 2.0);
+        polys.push(Polygon {
+            vertices: vec![
+                Vector3::new(x0, y0, h),
+                Vector3::new(x1, y0, h),
+                Vector3::new(x1, y1, h),
+                Vector3::new(x0, y1, h),
+            ],
+            plane: Plane {
+                n: Vector3::z(),
+                w: h,
+            },
+            tag: i as u32 + 1,
+        });
+    }
+    let ids: Vec<String> = poses.iter().map(|p| p.id.clone()).collect();
+    let csg = Csg { polygons: polys };
+    let groups = groups(&ids);
+    let fixture = (riser > 0.0).then(|| {
+        Cuboid::aligned(
+            Vector3::new(-l, -l, m.table.surface),
+            Vector3::new(l, l, zb),
+            u32::MAX,
+        )
+    });
+    Ok(Design {
+        title: "nine-section machining test (seed 004, Cubas Brizuela & Yeh)".into(),
+        description: format!(
+            "9 sections of {} x {} mm cut to Z{} in W; {} CMM points; result: each section's height relative to section 1",
+            short(w),
+            short(w),
+            short(h),
+            points.len()
+        ),
+        program_number: 1002,
+        tool,
+        cutting: t.cutting.clone(),
+        clearance: t.clearance.clone(),
+        stock,
+        fixture,
+        solid,
+        csg,
+        groups,
+        poses,
+        points,
+        notes,
+        stock_text: format!(
+            "block {} x {} x {} mm, centred on the C axis, on a {} mm riser (bottom at Z{} in W); cut {} mm deep",
+            short(size),
+            short(size),
+            short(t.stock.height),
+            short(riser),
+            short(zb),
+            short(t.depth)
+        ),
+    })
+}
+
+fn cell_name(i: i32, j: i32) -> &'static str {
+    match (i, j) {
+        (0, 0) => "centre",
+        (0, 1) => "+Y edge",
+        (0, -1) => "-Y edge",
+        (1, 0) => "+X edge",
+        (-1, 0) => "-X edge",
+        (1, 1) => "+X+Y corner",
+        (-1, 1) => "-X+Y corner",
+        (-1, -1) => "-X-Y corner",
+        _ => "+X-Y corner",
+    }
+}

@@ -1,0 +1,280 @@
+//! The files a plan writes, all deterministic (no dates, no random ids) and
+//! each written atomically: the program, points.csv, the manifest with the
+//! copies of machine, template and postprocessor, the DMIS program, the
+//! piece as `.obj` and `.glb`, and the setup sheet.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use indexmap::IndexMap;
+
+use super::PlannedTest;
+use super::design::short;
+use crate::formats::dmis_program::{self, DmisMoves};
+use crate::formats::manifest::{MANIFEST_VERSION, Manifest, PoseEntry};
+use crate::io::{OutputError, ensure_not_input, write_atomic};
+
+pub(crate) fn file_names(t: &PlannedTest, stem: &str) -> Vec<(&'static str, PathBuf)> {
+    let mut v = vec![
+        (
+            "program",
+            PathBuf::from(format!("{stem}.{}", t.post.extension)),
+        ),
+        ("points", PathBuf::from(format!("{stem}.points.csv"))),
+        ("dmis", PathBuf::from(format!("{stem}.dmi"))),
+        ("glb", PathBuf::from(format!("{stem}.glb"))),
+        ("obj", PathBuf::from(format!("{stem}.obj"))),
+        ("setup", PathBuf::from(format!("{stem}.md"))),
+        ("postprocessor", PathBuf::from(format!("{stem}.post.yaml"))),
+    ];
+    for a in &t.program.aux {
+        v.push(("log_format", PathBuf::from(&a.name)));
+    }
+    v
+}
+
+fn round(v: f64, d: i32) -> f64 {
+    let f = 10f64.powi(d);
+    (v * f).round() / f
+}
+
+impl PlannedTest {
+    /// The manifest of this plan written under the name `stem`.
+    pub fn manifest(&self, stem: &str) -> Manifest {
+        let files: IndexMap<String, PathBuf> = self
+            .file_names(stem)
+            .into_iter()
+            .map(|(r, p)| (r.to_string(), p))
+            .collect();
+        Manifest {
+            fivecal_plan: MANIFEST_VERSION,
+            test: self.test.clone(),
+            kind: self.kind,
+            machine: self.machine.name.clone(),
+            machine_file: PathBuf::from(format!("{stem}.machine.yaml")),
+            template_file: PathBuf::from(format!("{stem}.template.yaml")),
+            dialect: self.dialect,
+            kinematics: self.kinematics,
+            tool: Some(self.tool.clone()),
+            probe: None,
+            files,
+            poses: self
+                .poses
+                .iter()
+                .map(|p| PoseEntry {
+                    pose: p.id.clone(),
+                    seq: p.seq,
+                    tilt: p.tilt,
+                    c: p.c,
+                    start_min: round(p.start_min, 3),
+                    end_min: round(p.end_min, 3),
+                })
+                .collect(),
+        }
+    }
+
+    /// The DMIS program measuring every plan point.
+    pub fn dmis_program(&self, stem: &str) -> String {
+        let top = self
+            .piece
+            .mesh
+            .triangles
+            .iter()
+            .flat_map(|t| t.v.iter().map(|v| v.z))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let comments = vec![
+            format!("fivecal plan: {} on {}: {} points", self.test, self.machine.name, self.points.len()),
+            "nominal points in W (mm): align the part frame to W before running (origin on the C axis, Z along C)".to_string(),
+            "each point is probed once along its outward normal; report FA(label) for fivecal analyze".to_string(),
+        ];
+        dmis_program::program(
+            stem,
+            &comments,
+            &self.plan_points().points,
+            DmisMoves {
+                approach: 5.0,
+                clear_z: top + 20.0,
+            },
+        )
+    }
+
+    /// The points.csv text.
+    pub fn points_csv(&self) -> String {
+        let head = format!(
+            "{} on {} (fivecal plan): nominal points in W, mm; n = outward unit normal",
+            self.test, self.machine.name
+        );
+        self.plan_points().to_csv(&[head.as_str()])
+    }
+
+    /// The setup sheet (Markdown).
+    pub fn setup_sheet(&self, stem: &str) -> String {
+        let m = &self.machine;
+        let t = &self.tool;
+        let letter = m.tilt_letter();
+        let mut s = String::new();
+        let _ = writeln!(s, "# {} on {}\n", self.test, m.name);
+        let _ = writeln!(
+            s,
+            "{}\n",
+            self.info.lines[0].trim_start_matches("fivecal plan: ")
+        );
+        let _ = writeln!(
+            s,
+            "Program `{stem}.{}` ({} dialect, postprocessor `{}`, kinematics {}).\n",
+            self.post.extension,
+            self.dialect,
+            self.post.name,
+            match self.kinematics {
+                crate::formats::manifest::KinematicsMode::Post => "post",
+                crate::formats::manifest::KinematicsMode::Controller => "controller",
+            }
+        );
+        let _ = writeln!(s, "## Stock and fixturing\n");
+        let _ = writeln!(s, "- {}.", self.stock_text);
+        let _ = writeln!(
+            s,
+            "- Clamp the riser to the {} table and the block to the riser so that the block's top and four sides are free; nothing may stand higher than the block.",
+            m.name
+        );
+        let _ = writeln!(s, "\n## Tool\n");
+        let _ = writeln!(
+            s,
+            "- T{}: {} ({:?}, D{}{}, gauge length {} mm; set its length offset).",
+            t.number,
+            t.name,
+            t.kind,
+            short(t.diameter),
+            t.corner_radius
+                .map(|r| format!(" R{}", short(r)))
+                .unwrap_or_default(),
+            short(t.length)
+        );
+        let cut = match &self.template.kind {
+            super::template::TemplateKind::SteppedSquare(t) => &t.cutting,
+            super::template::TemplateKind::NineSection(t) => &t.cutting,
+        };
+        let _ = writeln!(
+            s,
+            "- {} rpm, feed {} mm/min, plunge {} mm/min, coolant {}.",
+            short(cut.spindle),
+            short(cut.feed),
+            short(cut.plunge_feed),
+            cut.coolant.name()
+        );
+        let _ = writeln!(s, "\n## Zero point\n");
+        let _ = writeln!(
+            s,
+            "- Work offset G54 (HEIDENHAIN preset 1) on the W origin at {letter} = C = 0: the machine file's pivot, spindle gauge point at machine X{} Y{} Z{}. W's axes are parallel to the machine's at rotary zero; Z runs along C.",
+            short(m.pivot.x),
+            short(m.pivot.y),
+            short(m.pivot.z)
+        );
+        let _ = writeln!(
+            s,
+            "- Safe height Z{} (program): {}.",
+            short(round(self.safe_z, 3)),
+            self.safe_reason
+        );
+        let _ = writeln!(s, "\n## Run\n");
+        let _ = writeln!(
+            s,
+            "Estimated run time {} min (feeds and rapids at their nominal rates, no acceleration).\n",
+            short(round(self.run_minutes, 1))
+        );
+        let _ = writeln!(
+            s,
+            "| seq | pose | {letter} | C | start min | end min | cut |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+        for p in &self.poses {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {} |",
+                p.seq,
+                p.id,
+                short(p.tilt),
+                short(p.c),
+                short(round(p.start_min, 1)),
+                short(round(p.end_min, 1)),
+                p.feature
+            );
+        }
+        let _ = writeln!(s, "\n## Measuring\n");
+        let _ = writeln!(
+            s,
+            "- {} points in `{stem}.points.csv` (nominal, in W, with outward normals); `{stem}.dmi` probes each once along its normal.",
+            self.points.len()
+        );
+        let _ = writeln!(
+            s,
+            "- The CMM frame may be placed anywhere: `fivecal analyze` finds the placement itself. Align roughly to W so the probing moves start in air."
+        );
+        let _ = writeln!(
+            s,
+            "- Nominal piece: `{stem}.obj`, `{stem}.glb` (one group per pose, `stock` for uncut faces)."
+        );
+        if !self.notes.is_empty() {
+            let _ = writeln!(s, "\n## Notes\n");
+            for n in &self.notes {
+                let _ = writeln!(s, "- {n}");
+            }
+        }
+        s
+    }
+
+    /// Every output file: (name relative to the plan directory, bytes).
+    pub fn outputs(&self, stem: &str) -> Vec<(PathBuf, Vec<u8>)> {
+        let title = format!("{} on {} (fivecal)", self.test, self.machine.name);
+        let manifest = self.manifest(stem);
+        let mut v: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+        for (role, path) in self.file_names(stem) {
+            let bytes = match role {
+                "program" => self.program.text.clone().into_bytes(),
+                "points" => self.points_csv().into_bytes(),
+                "dmis" => self.dmis_program(stem).into_bytes(),
+                "glb" => self.piece.mesh.to_glb(&title),
+                "obj" => self.piece.mesh.to_obj(&title).into_bytes(),
+                "setup" => self.setup_sheet(stem).into_bytes(),
+                "postprocessor" => self.post.source.clone().into_bytes(),
+                _ => continue,
+            };
+            v.push((path, bytes));
+        }
+        for a in &self.program.aux {
+            v.push((PathBuf::from(&a.name), a.text.clone().into_bytes()));
+        }
+        v.push((
+            manifest.machine_file.clone(),
+            self.machine.source.clone().into_bytes(),
+        ));
+        v.push((
+            manifest.template_file.clone(),
+            self.template.source.text.clone().into_bytes(),
+        ));
+        v.push((
+            PathBuf::from(format!("{stem}.plan.yaml")),
+            manifest.to_yaml().into_bytes(),
+        ));
+        v
+    }
+
+    /// Writes every output into `dir`, refusing to overwrite any of
+    /// `inputs`; the manifest is written last. Returns the paths written.
+    pub fn write(
+        &self,
+        dir: &Path,
+        stem: &str,
+        inputs: &[&Path],
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let outs = self.outputs(stem);
+        let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
+        for p in &paths {
+            ensure_not_input(p, inputs)?;
+        }
+        for ((_, bytes), p) in outs.iter().zip(&paths) {
+            write_atomic(p, bytes)?;
+        }
+        Ok(paths)
+    }
+}

@@ -1,0 +1,663 @@
+//! From a design in W to machine moves and a program: the safe height, the
+//! approach and retract at every pose, inverse kinematics (or the tilted
+//! frame of `--kinematics controller`), stroke and rapid-collision checks,
+//! the neutral toolpath, the time estimate and the provenance of every
+//! point.
+
+use nalgebra::Vector3;
+
+use super::cutter::Cutter;
+use super::design::{Design, PoseDesign, short};
+use super::{
+    Face, Generator, Pass, PathMove, Piece, PlanConfig, PlanError, PlannedPoint, PlannedPose,
+    PlannedTest, Provenance,
+};
+use crate::formats::manifest::{KinematicsMode, TestKind};
+use crate::formats::points::PlanPoint;
+use crate::kinematics::{Axes, Kinematics, ToolPose};
+use crate::machine::{Machine, Structure, ToolKind};
+use crate::mesh::{Cuboid, Mesh};
+use crate::post::{ControllerKinematics, Coolant, Op, ProgramInfo, Target};
+
+/// Tolerance of "the tool touches the point", mm.
+const TOUCH: f64 = 1e-6;
+/// No other pose's tool may pass closer than this above a point, mm.
+const SEPARATION: f64 = 0.05;
+
+/// The safe height (program Z) and why it is safe.
+fn safe_height(m: &Machine, d: &Design) -> (f64, String) {
+    let mut corners = corners_of(&d.stock);
+    if let Some(f) = &d.fixture {
+        corners.extend(corners_of(f));
+    }
+    match m.structure {
+        Structure::TableTable => {
+            let rim = m.table.radius.hypot(m.table.surface);
+            let r = corners.iter().map(|c| c.norm()).fold(rim, f64::max);
+            (
+                r + d.clearance.safe,
+                format!(
+                    "{} mm beyond the {} mm sphere the table, riser and block sweep when the rotary axes turn",
+                    short(d.clearance.safe),
+                    short((r * 1000.0).round() / 1000.0)
+                ),
+            )
+        }
+        _ => {
+            let top = corners.iter().map(|c| c.z).fold(m.table.surface, f64::max);
+            (
+                top + d.clearance.safe,
+                format!("{} mm above the block", short(d.clearance.safe)),
+            )
+        }
+    }
+}
+
+fn corners_of(b: &Cuboid) -> Vec<Vector3<f64>> {
+    (0..8)
+        .map(|i| {
+            let s = Vector3::new(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            );
+            b.center + b.axes * s.component_mul(&b.half)
+        })
+        .collect()
+}
+
+fn box_distance(b: &Cuboid, p: &Vector3<f64>) -> f64 {
+    let u = b.local(p);
+    Vector3::new(
+        (u.x.abs() - b.half.x).max(0.0),
+        (u.y.abs() - b.half.y).max(0.0),
+        (u.z.abs() - b.half.z).max(0.0),
+    )
+    .norm()
+}
+
+/// Whether the tool moving from tip `a` to tip `b` with axis `u` comes
+/// into the box. Exact when the whole move lies beyond the box along the
+/// tool axis (the tool extends only that way from its tip); otherwise the
+/// tool's surface is sampled (0.5 mm along the move and the axis, 24
+/// points around) and must stay 0.05 mm clear.
+fn rapid_hits(
+    cutter: &Cutter,
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    u: &Vector3<f64>,
+    bx: &Cuboid,
+) -> bool {
+    let beyond = corners_of(bx)
+        .iter()
+        .map(|c| u.dot(c))
+        .fold(f64::NEG_INFINITY, f64::max);
+    if u.dot(a) >= beyond && u.dot(b) >= beyond {
+        return false;
+    }
+    let (e1, e2) = crate::geom::tangent_basis(u);
+    let n = ((b - a).norm() / 0.5).ceil().max(1.0) as usize;
+    let m = (cutter.length / 0.5).ceil().max(1.0) as usize;
+    for i in 0..=n {
+        let tip = a + (b - a) * (i as f64 / n as f64);
+        for j in 0..=m {
+            let q = tip + u * (cutter.length * j as f64 / m as f64);
+            if box_distance(bx, &q) < cutter.radius + 0.05 {
+                // Only now look at the surface around this axis point.
+                let hit = (0..24).any(|k| {
+                    let ang = k as f64 * std::f64::consts::TAU / 24.0;
+                    let p = q + (e1 * ang.cos() + e2 * ang.sin()) * cutter.radius;
+                    box_distance(bx, &p) < 0.05
+                }) || box_distance(bx, &q) < 0.05;
+                if hit {
+                    return true;
+                }
+            }
+        }
+    }
+    false
+}
+
+pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<PlannedTest, PlanError> {
+    let m = &cfg.machine;
+    let post = &cfg.post;
+    let tool = d.tool.clone();
+    let k = Kinematics::with_gauge_length(m, tool.length);
+    let cutter = Cutter::of(&tool);
+    let letter = m.tilt_letter();
+    if cfg.kinematics == KinematicsMode::Controller && post.controller == ControllerKinematics::None
+    {
+        return Err(PlanError::Impossible(format!(
+            "--kinematics controller: the {} postprocessor has no tilted-plane or TCP function (`controller: none`; stock LinuxCNC has neither G68.2 nor G43.4), so the program must position the axes itself: use --kinematics post",
+            post.name
+        )));
+    }
+
+    // Safe height and the room above it.
+    let (safe_z, safe_why) = safe_height(m, &d);
+    let z_top = m.strokes[2].1 - m.pivot.z;
+    let room = z_top - safe_z;
+    if tool.length > room {
+        return Err(PlanError::Impossible(format!(
+            "tool length {} mm is longer than the clearance of {} mm between the safe height Z{} ({safe_why}) and the spindle's highest position (gauge point at Z{} in program coordinates, machine Z {}) on {}",
+            short(tool.length),
+            short((room * 1000.0).round() / 1000.0),
+            short((safe_z * 1000.0).round() / 1000.0),
+            short((z_top * 1000.0).round() / 1000.0),
+            short(m.strokes[2].1),
+            m.name
+        )));
+    }
+    let gauge = |a: &Axes| a.xyz + Vector3::z() * tool.length;
+    let check_strokes = |pose: &str, what: &str, a: &Axes| -> Result<(), PlanError> {
+        m.check_strokes(&gauge(a))
+            .map_err(|(axis, value, (lo, hi))| PlanError::Stroke {
+                pose: pose.to_string(),
+                what: what.to_string(),
+                axis,
+                value,
+                lo,
+                hi,
+                machine: m.name.clone(),
+            })
+    };
+
+    let mut all_corners = corners_of(&d.stock);
+    if let Some(f) = &d.fixture {
+        all_corners.extend(corners_of(f));
+    }
+
+    // Poses: moves in W and axes.
+    let mut poses: Vec<PlannedPose> = Vec::new();
+    let mut prev_xy: Option<(f64, f64)> = None;
+    for (seq, pd) in d.poses.iter().enumerate() {
+        let u = pd.axis;
+        let level = all_corners
+            .iter()
+            .map(|c| u.dot(c))
+            .fold(f64::NEG_INFINITY, f64::max)
+            + d.clearance.rapid;
+        let lift = |p: &Vector3<f64>| p + u * (level - u.dot(p)).max(0.0);
+        let mut hint = Axes {
+            xyz: Vector3::zeros(),
+            tilt: pd.tilt,
+            c: pd.c,
+        };
+        let mut ik = |tip: &Vector3<f64>, what: &str| -> Result<Axes, PlanError> {
+            let a = k
+                .inverse_nominal(&ToolPose { tip: *tip, axis: u }, Some(&hint))
+                .map_err(|source| PlanError::Kinematics {
+                    context: format!("pose {}: {what}", pd.id),
+                    source,
+                })?;
+            if (a.tilt - pd.tilt).abs() > 1e-7 || (a.c - pd.c).abs() > 1e-7 {
+                return Err(PlanError::Impossible(format!(
+                    "pose {}: inverse kinematics reaches the tool axis at {letter} = {:.6}, C = {:.6} instead of the pose's {letter} = {}, C = {}",
+                    pd.id, a.tilt, a.c, pd.tilt, pd.c
+                )));
+            }
+            let a = Axes {
+                tilt: pd.tilt,
+                c: pd.c,
+                ..a
+            };
+            hint = a;
+            Ok(a)
+        };
+        let first = pd
+            .strokes
+            .first()
+            .ok_or_else(|| PlanError::Impossible(format!("pose {} has no cut", pd.id)))?;
+        let approach = ik(&lift(&first.start), "approach")?;
+        let safe_axes = Axes {
+            xyz: Vector3::new(approach.xyz.x, approach.xyz.y, safe_z),
+            ..approach
+        };
+        let (sx, sy) = prev_xy.unwrap_or((approach.xyz.x, approach.xyz.y));
+        let start = Axes {
+            xyz: Vector3::new(sx, sy, safe_z),
+            tilt: pd.tilt,
+            c: pd.c,
+        };
+        let mut moves: Vec<PathMove> = Vec::new();
+        let mk = |axes: Axes, tip: Vector3<f64>, rapid: bool, feed: f64, pass: Pass| PathMove {
+            rapid,
+            feed,
+            pass,
+            axes,
+            program: axes.xyz,
+            tip,
+        };
+        let rapid = m.rapid.linear;
+        moves.push(mk(
+            safe_axes,
+            k.forward_nominal(&safe_axes).tip,
+            true,
+            rapid,
+            Pass::Air,
+        ));
+        moves.push(mk(approach, lift(&first.start), true, rapid, Pass::Air));
+        for (j, s) in pd.strokes.iter().enumerate() {
+            if j > 0 {
+                let p = lift(&s.start);
+                moves.push(mk(ik(&p, "move over")?, p, true, rapid, Pass::Air));
+            }
+            moves.push(mk(
+                ik(&s.start, "entry")?,
+                s.start,
+                false,
+                d.cutting.plunge_feed,
+                Pass::Entry,
+            ));
+            for (p, pass) in &s.segs {
+                moves.push(mk(ik(p, "cut")?, *p, false, d.cutting.feed, *pass));
+            }
+            // Out of the cut at feed: the tool may still rub material it
+            // just cut around; rapids only start above the stock.
+            let last = s.segs.last().map_or(s.start, |x| x.0);
+            let p = lift(&last);
+            moves.push(mk(
+                ik(&p, "exit")?,
+                p,
+                false,
+                d.cutting.plunge_feed,
+                Pass::Exit,
+            ));
+        }
+        let last = moves.last().expect("moves").axes;
+        let retract = Axes {
+            xyz: Vector3::new(last.xyz.x, last.xyz.y, safe_z),
+            ..last
+        };
+        moves.push(mk(
+            retract,
+            k.forward_nominal(&retract).tip,
+            true,
+            rapid,
+            Pass::Air,
+        ));
+        prev_xy = Some((retract.xyz.x, retract.xyz.y));
+
+        // Program coordinates of the mode (the retract is written untilted).
+        let n = moves.len();
+        if cfg.kinematics == KinematicsMode::Controller {
+            for mv in moves.iter_mut().take(n - 1) {
+                mv.program = match post.controller {
+                    ControllerKinematics::TiltedPlane => pd.frame.transpose() * mv.tip,
+                    _ => mv.tip,
+                };
+            }
+        }
+
+        // Checks: strokes everywhere, rapids clear of stock and riser.
+        check_strokes(&pd.id, "the position after the rotary index", &start)?;
+        let mut prev_tip = k.forward_nominal(&start).tip;
+        for (i, mv) in moves.iter().enumerate() {
+            check_strokes(&pd.id, &format!("move {}", i + 1), &mv.axes)?;
+            if mv.rapid {
+                let mut boxes = vec![&d.stock];
+                boxes.extend(d.fixture.as_ref());
+                for bx in boxes {
+                    if rapid_hits(&cutter, &prev_tip, &mv.tip, &u, bx) {
+                        return Err(PlanError::Impossible(format!(
+                            "pose {}: rapid move {} from ({:.3}, {:.3}, {:.3}) to ({:.3}, {:.3}, {:.3}) in W would run the tool into the stock or riser",
+                            pd.id,
+                            i + 1,
+                            prev_tip.x,
+                            prev_tip.y,
+                            prev_tip.z,
+                            mv.tip.x,
+                            mv.tip.y,
+                            mv.tip.z
+                        )));
+                    }
+                }
+            }
+            prev_tip = mv.tip;
+        }
+
+        poses.push(PlannedPose {
+            id: pd.id.clone(),
+            seq: seq as u32,
+            tilt: pd.tilt,
+            c: pd.c,
+            start_min: 0.0,
+            end_min: 0.0,
+            tool_axis: u,
+            frame: pd.frame,
+            feature: pd.feature.clone(),
+            start,
+            moves,
+        });
+    }
+
+    // Neutral toolpath.
+    let mut ops = vec![
+        Op::ToolCall {
+            number: tool.number,
+            name: tool.name.clone(),
+            rpm: Some(d.cutting.spindle),
+        },
+        Op::SpindleOn {
+            rpm: d.cutting.spindle,
+        },
+    ];
+    if d.cutting.coolant != Coolant::Off {
+        ops.push(Op::Coolant(d.cutting.coolant));
+    }
+    ops.push(Op::Retract { z: safe_z });
+    for p in &poses {
+        ops.push(Op::Section(format!(
+            "pose {} (seq {}): {letter} = {}, C = {}: {}",
+            p.id,
+            p.seq,
+            short(p.tilt),
+            short(p.c),
+            p.feature
+        )));
+        ops.push(Op::Rotary {
+            tilt: p.tilt,
+            c: p.c,
+        });
+        let controller = cfg.kinematics == KinematicsMode::Controller;
+        if controller {
+            ops.push(match post.controller {
+                ControllerKinematics::TiltedPlane => Op::TiltedPlane {
+                    rotation: p.frame,
+                    origin: Vector3::zeros(),
+                    tilt: p.tilt,
+                    c: p.c,
+                },
+                _ => Op::TcpOn,
+            });
+        }
+        let n = p.moves.len();
+        for mv in &p.moves[..n - 1] {
+            let to = Target::xyz(mv.program);
+            ops.push(if mv.rapid {
+                Op::Rapid(to)
+            } else {
+                Op::Feed { to, feed: mv.feed }
+            });
+        }
+        if controller {
+            ops.push(match post.controller {
+                ControllerKinematics::TiltedPlane => Op::TiltedPlaneOff,
+                _ => Op::TcpOff,
+            });
+        }
+        ops.push(Op::Retract { z: safe_z });
+    }
+
+    // Time estimate.
+    let mut minutes = 0.1; // tool change
+    let mut at = Axes::default();
+    let mut first = true;
+    for p in &mut poses {
+        p.start_min = minutes;
+        let (dt, dc) = ((p.tilt - at.tilt).abs(), (p.c - at.c).abs());
+        minutes += dt.max(dc) / m.rapid.rotary;
+        let mut cur = if first {
+            p.start
+        } else {
+            Axes {
+                tilt: p.tilt,
+                c: p.c,
+                ..at
+            }
+        };
+        first = false;
+        for mv in &p.moves {
+            minutes += (mv.axes.xyz - cur.xyz).norm() / mv.feed;
+            cur = mv.axes;
+        }
+        at = cur;
+        p.end_min = minutes;
+    }
+    let run_minutes = minutes;
+
+    // Provenance of every point, and its place on the piece.
+    let mut points = Vec::new();
+    for pt in &d.points {
+        points.push(provenance(&cutter, &k, &d.poses, &poses, pt, &d)?);
+    }
+
+    // The piece.
+    let mesh = Mesh::from_csg(&d.csg, d.groups.clone());
+    let faces = d
+        .csg
+        .polygons
+        .iter()
+        .filter(|p| p.area() > 1e-10)
+        .map(|p| Face {
+            tag: p.tag,
+            normal: p.plane.n,
+            offset: p.plane.w,
+            outline: p.vertices.clone(),
+        })
+        .collect();
+    let piece = Piece {
+        stock: d.stock.clone(),
+        fixture: d.fixture.clone(),
+        solid: d.solid.clone(),
+        faces,
+        mesh,
+    };
+
+    // Header and program.
+    let kin_text = match cfg.kinematics {
+        KinematicsMode::Post => format!(
+            "kinematics post: X Y Z {letter} C computed by fivecal from the machine file (inverse kinematics); no TCP, no tilted plane"
+        ),
+        KinematicsMode::Controller => match post.controller {
+            ControllerKinematics::TiltedPlane => "kinematics controller: rotary axes indexed, then the control's tilted working plane; X Y Z in the plane frame".to_string(),
+            _ => "kinematics controller: rotary axes indexed, then the control's TCP; X Y Z in the work frame".into(),
+        },
+    };
+    let kind = match tool.kind {
+        ToolKind::Flat => "flat end mill".to_string(),
+        ToolKind::Ball => "ball end mill".to_string(),
+        ToolKind::Bull => format!(
+            "bull-nose end mill R{}",
+            short(tool.corner_radius.unwrap_or(0.0))
+        ),
+    };
+    let ids: Vec<&str> = poses.iter().map(|p| p.id.as_str()).collect();
+    let stem = cfg.template.test.clone();
+    let info = ProgramInfo {
+        name: stem.clone(),
+        number: d.program_number,
+        title: format!("{} {}", cfg.template.test, m.name),
+        lines: vec![
+            format!("fivecal plan: {}", d.title),
+            d.description.clone(),
+            format!("machine {}: {}", m.name, m.description),
+            format!("dialect {}, postprocessor {}", post.dialect, post.name),
+            kin_text,
+            format!(
+                "tool T{}: {}, {kind} D{} gauge length {} mm, {} rpm, feed {} mm/min",
+                tool.number,
+                tool.name,
+                short(tool.diameter),
+                short(tool.length),
+                short(d.cutting.spindle),
+                short(d.cutting.feed)
+            ),
+            format!(
+                "zero point: work offset G54 (preset 1) on the W origin at {letter} = C = 0, pivot of the machine file X{} Y{} Z{} (gauge point)",
+                short(m.pivot.x),
+                short(m.pivot.y),
+                short(m.pivot.z)
+            ),
+            format!("stock: {}", d.stock_text),
+            format!(
+                "safe height Z{}: {}",
+                short((safe_z * 1000.0).round() / 1000.0),
+                safe_why
+            ),
+            format!(
+                "{} poses {}, estimated run time {} min",
+                poses.len(),
+                ids.join(" "),
+                short(run_minutes.round())
+            ),
+        ],
+        stock_min: d.stock.center - d.stock.half,
+        stock_max: d.stock.center + d.stock.half,
+        tilt_letter: letter,
+    };
+    let program = post.render(&info, &ops)?;
+
+    Ok(PlannedTest {
+        test: cfg.template.test.clone(),
+        kind: TestKind::Machining,
+        machine: m.clone(),
+        template: cfg.template.clone(),
+        post: post.clone(),
+        dialect: post.dialect,
+        kinematics: cfg.kinematics,
+        tool,
+        cutter,
+        safe_z,
+        poses,
+        piece,
+        points,
+        toolpath: ops,
+        info,
+        program,
+        notes: d.notes,
+        run_minutes,
+        stock_text: d.stock_text,
+        safe_reason: safe_why,
+    })
+}
+
+/// The swept bounding box of a move, inflated by the tool radius.
+fn swept_box(
+    c: &Cutter,
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    u: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let pts = [a, b, &(a + u * c.length), &(b + u * c.length)];
+    let mut lo = *pts[0];
+    let mut hi = *pts[0];
+    for p in pts {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    let r = Vector3::repeat(c.radius + 1e-6);
+    (lo - r, hi + r)
+}
+
+fn provenance(
+    cutter: &Cutter,
+    k: &Kinematics,
+    designs: &[PoseDesign],
+    poses: &[PlannedPose],
+    pt: &super::design::PointDesign,
+    d: &Design,
+) -> Result<PlannedPoint, PlanError> {
+    let bug = |msg: String| PlanError::Impossible(format!("point {}: {msg}", pt.label));
+    // Material below, air above.
+    let eps = 1e-4;
+    if !d.solid.contains(&(pt.p - pt.n * eps)) || d.solid.contains(&(pt.p + pt.n * eps)) {
+        return Err(bug(format!(
+            "({:.4}, {:.4}, {:.4}) with normal {:?} is not on the piece's surface",
+            pt.p.x, pt.p.y, pt.p.z, pt.n
+        )));
+    }
+    let reach = 1.0;
+    let mut generators = Vec::new();
+    for (pi, pose) in poses.iter().enumerate() {
+        let u = pose.tool_axis;
+        let mut prev = k.forward_nominal(&pose.start).tip;
+        let mut prev_axes = pose.start;
+        for (mi, mv) in pose.moves.iter().enumerate() {
+            let (a, b) = (prev, mv.tip);
+            let (a_axes, b_axes) = (prev_axes, mv.axes);
+            prev = mv.tip;
+            prev_axes = mv.axes;
+            if mv.rapid {
+                continue;
+            }
+            let (lo, hi) = swept_box(cutter, &a, &b, &u);
+            let near = (0..3).all(|i| pt.p[i] + reach >= lo[i] && pt.p[i] - reach <= hi[i]);
+            if !near {
+                continue;
+            }
+            let (dist, t) = cutter.swept_distance(&a, &b, &u, &pt.p);
+            if dist > reach {
+                continue;
+            }
+            let Some(s) = cutter.entry_along(&a, &b, &u, &pt.p, &pt.n, -reach, reach) else {
+                continue;
+            };
+            if s < -TOUCH {
+                return Err(bug(format!(
+                    "move {} of pose {} cuts {:.6} mm below it",
+                    mi + 1,
+                    pose.id,
+                    -s
+                )));
+            }
+            if pi != pt.pose && s < SEPARATION {
+                return Err(bug(format!(
+                    "move {} of pose {} passes {:.6} mm above it, so the point would not tell pose {} from pose {}",
+                    mi + 1,
+                    pose.id,
+                    s,
+                    designs[pt.pose].id,
+                    pose.id
+                )));
+            }
+            if pi == pt.pose && s <= TOUCH {
+                let tip = a + (b - a) * t;
+                let axes = Axes {
+                    xyz: a_axes.xyz + (b_axes.xyz - a_axes.xyz) * t,
+                    ..b_axes
+                };
+                generators.push(Generator {
+                    move_index: mi,
+                    t,
+                    tip,
+                    axis: u,
+                    axes,
+                    pass: mv.pass,
+                });
+            }
+        }
+    }
+    let Some(last) = generators.last() else {
+        return Err(bug(format!(
+            "no move of pose {} touches it",
+            designs[pt.pose].id
+        )));
+    };
+    let part = cutter.part_at(&last.tip, &last.axis, &pt.p);
+    if part != pt.part {
+        return Err(bug(format!(
+            "it was meant to be made by the tool's {} but the {} touches it",
+            pt.part.name(),
+            part.name()
+        )));
+    }
+    let pose = &poses[pt.pose];
+    Ok(PlannedPoint {
+        point: PlanPoint {
+            label: pt.label.clone(),
+            pose: pose.id.clone(),
+            seq: pose.seq,
+            tilt: pose.tilt,
+            c: pose.c,
+            p: pt.p,
+            n: pt.n,
+        },
+        surface: pt.surface.clone(),
+        provenance: Provenance {
+            pose: pt.pose,
+            part,
+            generators,
+        },
+    })
+}

@@ -1,0 +1,292 @@
+//! The post-processor engine: a controller-neutral toolpath ([`Op`]) rendered
+//! to a dialect by a definition in `postprocessors/` ([`PostDefinition`]).
+//!
+//! Plans (machining and probing) emit only neutral ops, in program
+//! coordinates (mm, deg; work offset on the W origin at rotary zero, or in
+//! the tilted-plane frame while a [`Op::TiltedPlane`] is active). A
+//! definition is a YAML file with the dialect's number formats, block
+//! numbering, comment rules, line-length limit and one MiniJinja template
+//! per op; the three built-in definitions (`fanuc`, `heidenhain`,
+//! `linuxcnc`) are embedded in the binary, and a user can copy one, edit it
+//! and pass it by path. The engine, not the templates, enforces the safety
+//! rules every program must keep: a [`Op::Retract`] before every
+//! [`Op::Rotary`] index (no move in between), no rotary index while a tilted
+//! plane or TCP is active, no cutting move without a spindle, no probe move
+//! with the spindle on, no log line without an open log, and every block
+//! within the line-length limit.
+//!
+//! What each op becomes in the built-in definitions:
+//!
+//! | op | FANUC | HEIDENHAIN | LinuxCNC |
+//! |---|---|---|---|
+//! | `Rapid` / `Feed` | `G0 X..` / `G1 X.. F..` | `L X+.. R0 FMAX` / `L X+.. R0 F..` | `G0` / `G1` |
+//! | `Retract` | `G0 Z..` | `L Z+.. R0 FMAX` | `G0 Z..` |
+//! | `Rotary` | `G0 B.. C..` | `L B+.. C+.. R0 FMAX` | `G0 B.. C..` |
+//! | `TiltedPlane` | `G68.2 X0 Y0 Z0 I J K` + `G53.1` | `PLANE SPATIAL SPA SPB SPC STAY` | (none: refused) |
+//! | `TcpOn` | `G43.4 H..` | `FUNCTION TCPM ...` | (none: refused) |
+//! | `ProbeMove` | `G31 X.. F..` | `TCH PROBE 0.0 REF. PLANE Q.. Z-` / `0.1 X.. Y.. Z..` | `G38.2 X.. F..` |
+//! | `ProbeRead` | `#101=#5061` ... | `FN 18: SYSREAD Q101 = ID360 NR1 IDX1` ... | `#101=#5061` ... |
+//! | `LogOpen` | `POPEN` | (format file written next to the program) | `(LOGOPEN,name.txt)` |
+//! | `LogPoint` | `DPRNT[label*#101[44]*...]` | `QS1900 = "label"` + `FN 16: F-PRINT` | `(LOG,label #101 ...)` |
+//! | `LogClose` | `PCLOS` | (nothing) | `(LOGCLOSE)` |
+//!
+//! HEIDENHAIN logging writes one line per point through `FN 16: F-PRINT`
+//! with a format file (`<program>.a`) that [`PostDefinition::render`]
+//! returns as an auxiliary file; its syntax (`"%S %9.4LF ...",QS1900,Q..;`)
+//! follows the TNC manuals' examples and should be checked on the target
+//! control (see `notes/nc-dialects.md` section 2.6).
+
+mod definition;
+mod number;
+mod render;
+
+use nalgebra::{Matrix3, Vector3};
+
+pub use definition::{ControllerKinematics, DefinitionError, PostDefinition, TEMPLATE_NAMES};
+pub use number::{NumberFormat, PointRule};
+pub use render::{AuxFile, PostError, ProgramInfo, RenderedProgram};
+
+/// Coolant (or air blow) kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Coolant {
+    /// No coolant.
+    Off,
+    /// Flood coolant.
+    Flood,
+    /// Mist.
+    Mist,
+    /// Air blow (seed 001).
+    Air,
+}
+
+impl Coolant {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Coolant::Off => "off",
+            Coolant::Flood => "flood",
+            Coolant::Mist => "mist",
+            Coolant::Air => "air",
+        }
+    }
+}
+
+/// A linear move's target in program coordinates; `None` keeps an axis.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Target {
+    /// X, mm.
+    pub x: Option<f64>,
+    /// Y, mm.
+    pub y: Option<f64>,
+    /// Z, mm.
+    pub z: Option<f64>,
+}
+
+impl Target {
+    /// All three axes.
+    pub fn xyz(p: Vector3<f64>) -> Target {
+        Target {
+            x: Some(p.x),
+            y: Some(p.y),
+            z: Some(p.z),
+        }
+    }
+}
+
+/// One controller-neutral operation. Coordinates are program coordinates
+/// (mm, deg).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Op {
+    /// A comment block.
+    Comment(String),
+    /// A structure comment opening a section of the program (a pose).
+    Section(String),
+    /// Tool change (also for probes), with the spindle speed the tool
+    /// will run at (HEIDENHAIN writes it into `TOOL CALL`).
+    ToolCall {
+        /// Tool number.
+        number: u32,
+        /// Free text.
+        name: String,
+        /// Spindle speed, rpm (`None` for probes).
+        rpm: Option<f64>,
+    },
+    /// Spindle on, clockwise.
+    SpindleOn {
+        /// rpm.
+        rpm: f64,
+    },
+    /// Spindle stop.
+    SpindleOff,
+    /// Coolant on (or off with [`Coolant::Off`]).
+    Coolant(Coolant),
+    /// Rapid linear move.
+    Rapid(Target),
+    /// Feed linear move.
+    Feed {
+        /// Target.
+        to: Target,
+        /// Feed, mm/min.
+        feed: f64,
+    },
+    /// Rapid move along program Z to the safe height; required before
+    /// every rotary index.
+    Retract {
+        /// Program Z of the safe height, mm.
+        z: f64,
+    },
+    /// Index the rotary axes (tilt, then C), deg.
+    Rotary {
+        /// Tilt axis (A or B), deg.
+        tilt: f64,
+        /// C, deg.
+        c: f64,
+    },
+    /// Activate a tilted working plane: the program frame becomes `origin`
+    /// + `rotation` (columns: the plane's X, Y, Z axes in the work frame).
+    TiltedPlane {
+        /// Plane axes in the work coordinate system (W at rotary zero).
+        rotation: Matrix3<f64>,
+        /// Plane origin in the work coordinate system, mm.
+        origin: Vector3<f64>,
+        /// The rotary angles the plane is meant for (already indexed).
+        tilt: f64,
+        /// C, deg.
+        c: f64,
+    },
+    /// Cancel the tilted working plane.
+    TiltedPlaneOff,
+    /// Tool centre point control on (coordinates in the work frame).
+    TcpOn,
+    /// Tool centre point control off.
+    TcpOff,
+    /// Probe move towards `to` until contact (FANUC `G31`, LinuxCNC
+    /// `G38.2`, HEIDENHAIN `TCH PROBE 0`).
+    ProbeMove {
+        /// End point if no contact, program coordinates, mm.
+        to: Vector3<f64>,
+        /// Probing feed, mm/min.
+        feed: f64,
+        /// Unit approach direction in program coordinates.
+        direction: Vector3<f64>,
+    },
+    /// Store the last probed position (X, Y, Z) in three variables.
+    ProbeRead {
+        /// Variable numbers for X, Y, Z (`#n` on FANUC/LinuxCNC, `Qn` on HEIDENHAIN).
+        vars: [u32; 3],
+    },
+    /// Open the measurement log.
+    LogOpen {
+        /// Log file name without extension.
+        name: String,
+    },
+    /// Write one labelled line `label x y z` from three variables.
+    LogPoint {
+        /// Point label (upper-case letters, digits and `-` print on every control).
+        label: String,
+        /// Variables holding X, Y, Z.
+        vars: [u32; 3],
+    },
+    /// Close the measurement log.
+    LogClose,
+    /// Dwell, seconds.
+    Dwell(f64),
+    /// Program stop with a message (tool check, part turnover, ...).
+    Stop(String),
+}
+
+impl Op {
+    /// Whether the op moves the machine.
+    pub fn is_motion(&self) -> bool {
+        matches!(
+            self,
+            Op::Rapid(_)
+                | Op::Feed { .. }
+                | Op::Retract { .. }
+                | Op::Rotary { .. }
+                | Op::ProbeMove { .. }
+        )
+    }
+}
+
+/// Rotating Z-X'-Z'' Euler angles (deg) of a rotation: `R = Rz(i) Rx(j) Rz(k)`
+/// (FANUC `G68.2 I J K`).
+pub fn euler_zxz(r: &Matrix3<f64>) -> [f64; 3] {
+    let j = r[(2, 2)].clamp(-1.0, 1.0).acos();
+    let (i, k) = if j.sin().abs() > 1e-12 {
+        (r[(0, 2)].atan2(-r[(1, 2)]), r[(2, 0)].atan2(r[(2, 1)]))
+    } else if r[(2, 2)] > 0.0 {
+        (0.0, r[(1, 0)].atan2(r[(0, 0)]))
+    } else {
+        (0.0, (-r[(0, 1)]).atan2(r[(0, 0)]))
+    };
+    [clean_deg(i), clean_deg(j), clean_deg(k)]
+}
+
+/// Static X, then Y, then Z angles (deg) of a rotation: `R = Rz(c) Ry(b) Rx(a)`
+/// (HEIDENHAIN `PLANE SPATIAL SPA SPB SPC`).
+pub fn euler_spatial(r: &Matrix3<f64>) -> [f64; 3] {
+    let sb = (-r[(2, 0)]).clamp(-1.0, 1.0);
+    let b = sb.asin();
+    let (a, c) = if b.cos().abs() > 1e-12 {
+        (r[(2, 1)].atan2(r[(2, 2)]), r[(1, 0)].atan2(r[(0, 0)]))
+    } else if sb > 0.0 {
+        // R = Ry(90) Rx(a - c) Rz-part folded into a.
+        (r[(0, 1)].atan2(r[(1, 1)]), 0.0)
+    } else {
+        ((-r[(0, 1)]).atan2(r[(1, 1)]), 0.0)
+    };
+    [clean_deg(a), clean_deg(b), clean_deg(c)]
+}
+
+/// Degrees from radians with tiny values and negative zero cleaned, so
+/// that 90-degree poses print as exact numbers.
+fn clean_deg(rad: f64) -> f64 {
+    let d = rad.to_degrees();
+    let r = (d * 1e9).round() / 1e9;
+    if r == 0.0 { 0.0 } else { r }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::{Axis3, rot};
+
+    fn m(axis: Axis3, deg: f64) -> Matrix3<f64> {
+        rot(axis, deg.to_radians())
+            .rotation
+            .to_rotation_matrix()
+            .into_inner()
+    }
+
+    #[test]
+    fn euler_angles_compose_back() {
+        let cases = [
+            (10.0, 20.0, 30.0),
+            (-90.0, 90.0, 0.0),
+            (0.0, 0.0, 45.0),
+            (170.0, -35.0, -120.0),
+            (0.0, 90.0, 0.0),
+            (0.0, -90.0, 30.0),
+            (0.0, 180.0, 20.0),
+        ];
+        for (a, b, c) in cases {
+            let r = m(Axis3::Z, a) * m(Axis3::Y, b) * m(Axis3::X, c);
+            let [i, j, k] = euler_zxz(&r);
+            let back = m(Axis3::Z, i) * m(Axis3::X, j) * m(Axis3::Z, k);
+            assert!((back - r).norm() < 1e-9, "zxz {a} {b} {c}: {i} {j} {k}");
+            let [sa, sb, sc] = euler_spatial(&r);
+            let back = m(Axis3::Z, sc) * m(Axis3::Y, sb) * m(Axis3::X, sa);
+            assert!((back - r).norm() < 1e-9, "xyz {a} {b} {c}: {sa} {sb} {sc}");
+        }
+    }
+
+    #[test]
+    fn a_b90_table_pose_is_a_plain_spb90_plane() {
+        // B = 90 on a B/C table: the plane is the W frame turned by +90 about Y.
+        let r = m(Axis3::Y, 90.0);
+        assert_eq!(euler_spatial(&r), [0.0, 90.0, 0.0]);
+        assert_eq!(euler_zxz(&r), [90.0, 90.0, -90.0]);
+    }
+}

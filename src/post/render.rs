@@ -1,0 +1,710 @@
+//! Rendering a neutral toolpath with a definition: templates per op, modal
+//! coordinate words, block numbers, comment sanitizing, the line-length
+//! limit, and the safety rules of the engine.
+
+use minijinja::{Value, context};
+use nalgebra::Vector3;
+
+use super::definition::PostDefinition;
+use super::{Coolant, Op, Target, euler_spatial, euler_zxz};
+use crate::source::SourceError;
+
+/// What the program is, for its header.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProgramInfo {
+    /// Program name (the file stem; HEIDENHAIN `BEGIN PGM` name).
+    pub name: String,
+    /// Program number (FANUC `O` number).
+    pub number: u32,
+    /// One-line title.
+    pub title: String,
+    /// Header lines saying what the program is (test, machine, dialect,
+    /// tool, zero point, ...), written as comments.
+    pub lines: Vec<String>,
+    /// Stock box in the work frame, mm (HEIDENHAIN `BLK FORM`).
+    pub stock_min: Vector3<f64>,
+    /// Stock box maximum corner.
+    pub stock_max: Vector3<f64>,
+    /// Letter of the tilt axis (`A` or `B`).
+    pub tilt_letter: char,
+}
+
+/// A file that belongs with a program (the HEIDENHAIN FN 16 format file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct AuxFile {
+    /// File name (no directory).
+    pub name: String,
+    /// Its text.
+    pub text: String,
+}
+
+/// A rendered program.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderedProgram {
+    /// The program text, one block per line, ending with a newline.
+    pub text: String,
+    /// Files to write next to it.
+    pub aux: Vec<AuxFile>,
+}
+
+/// Why a toolpath could not be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum PostError {
+    /// A template failed (points into the definition file).
+    #[error("{0}")]
+    Template(#[from] SourceError),
+    /// The toolpath breaks a rule of the engine.
+    #[error("postprocessor {post}: op {index} ({op}): {message}")]
+    Rule {
+        /// Definition name.
+        post: String,
+        /// Index of the op in the toolpath.
+        index: usize,
+        /// Short op name.
+        op: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// A block is longer than the definition allows.
+    #[error(
+        "postprocessor {post}: block `{block}` has {len} characters, over the limit of {limit}"
+    )]
+    LineTooLong {
+        /// Definition name.
+        post: String,
+        /// The block.
+        block: String,
+        /// Its length.
+        len: usize,
+        /// The limit.
+        limit: usize,
+    },
+}
+
+fn op_name(op: &Op) -> &'static str {
+    match op {
+        Op::Comment(_) => "comment",
+        Op::Section(_) => "section",
+        Op::ToolCall { .. } => "tool_call",
+        Op::SpindleOn { .. } => "spindle_on",
+        Op::SpindleOff => "spindle_off",
+        Op::Coolant(_) => "coolant",
+        Op::Rapid(_) => "rapid",
+        Op::Feed { .. } => "feed",
+        Op::Retract { .. } => "retract",
+        Op::Rotary { .. } => "rotary",
+        Op::TiltedPlane { .. } => "tilted_plane",
+        Op::TiltedPlaneOff => "tilted_plane_off",
+        Op::TcpOn => "tcp_on",
+        Op::TcpOff => "tcp_off",
+        Op::ProbeMove { .. } => "probe_move",
+        Op::ProbeRead { .. } => "probe_read",
+        Op::LogOpen { .. } => "log_open",
+        Op::LogPoint { .. } => "log_point",
+        Op::LogClose => "log_close",
+        Op::Dwell(_) => "dwell",
+        Op::Stop(_) => "stop",
+    }
+}
+
+/// Output lines with block numbers and the length limit.
+struct Blocks<'a> {
+    def: &'a PostDefinition,
+    text: String,
+    next: u64,
+}
+
+impl<'a> Blocks<'a> {
+    fn new(def: &'a PostDefinition) -> Self {
+        Blocks {
+            def,
+            text: String::new(),
+            next: def.block_numbers.as_ref().map_or(0, |b| b.start),
+        }
+    }
+
+    /// The line with its block number, without committing it.
+    fn numbered(&self, line: &str) -> (String, bool) {
+        let Some(b) = &self.def.block_numbers else {
+            return (line.to_string(), false);
+        };
+        let continuation = line.starts_with(' ') || line.starts_with('\t');
+        if continuation
+            || b.skip
+                .iter()
+                .any(|s| !s.is_empty() && line.starts_with(s.as_str()))
+        {
+            return (line.to_string(), false);
+        }
+        (format!("{}{} {}", b.prefix, self.next, line), true)
+    }
+
+    fn fits(&self, line: &str) -> bool {
+        self.numbered(line).0.chars().count() <= self.def.line_limit
+    }
+
+    fn push(&mut self, line: &str) -> Result<(), PostError> {
+        let (full, used) = self.numbered(line);
+        let len = full.chars().count();
+        if len > self.def.line_limit {
+            return Err(PostError::LineTooLong {
+                post: self.def.name.clone(),
+                block: full,
+                len,
+                limit: self.def.line_limit,
+            });
+        }
+        if used {
+            let b = self.def.block_numbers.as_ref().expect("numbered");
+            self.next += b.step;
+            if self.next > b.max {
+                self.next = b.start;
+            }
+        }
+        self.text.push_str(&full);
+        self.text.push('\n');
+        Ok(())
+    }
+
+    /// Pushes every non-blank line of a rendered template.
+    fn push_all(&mut self, rendered: &str) -> Result<(), PostError> {
+        for line in rendered.lines() {
+            let line = line.trim_end();
+            if !line.trim().is_empty() {
+                self.push(line)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl PostDefinition {
+    /// Comment text as this control accepts it.
+    pub fn sanitize_comment(&self, text: &str) -> String {
+        let rules = &self.comment;
+        let mut s: String = text
+            .chars()
+            .map(|c| {
+                let c = if rules.upper {
+                    c.to_ascii_uppercase()
+                } else {
+                    c
+                };
+                let ok = if rules.allowed.is_empty() {
+                    (' '..='~').contains(&c)
+                } else {
+                    rules.allowed.contains(c)
+                };
+                if ok && !rules.forbidden.contains(c) {
+                    c
+                } else {
+                    ' '
+                }
+            })
+            .collect();
+        while s.contains("  ") {
+            s = s.replace("  ", " ");
+        }
+        s.trim().to_string()
+    }
+
+    fn words(&self, t: &Target, last: &mut [Option<String>; 3]) -> (String, [String; 3]) {
+        let mut parts = Vec::new();
+        let mut each: [String; 3] = Default::default();
+        for (i, (letter, v)) in [('X', t.x), ('Y', t.y), ('Z', t.z)].into_iter().enumerate() {
+            let Some(v) = v else { continue };
+            let w = format!("{letter}{}", self.numbers.length.format(v));
+            if last[i].as_deref() != Some(w.as_str()) {
+                parts.push(w.clone());
+                each[i] = w.clone();
+                last[i] = Some(w);
+            }
+        }
+        (parts.join(" "), each)
+    }
+
+    /// Renders a toolpath to program text.
+    pub fn render(&self, info: &ProgramInfo, ops: &[Op]) -> Result<RenderedProgram, PostError> {
+        let mut out = Blocks::new(self);
+        let head = header_context(self, info);
+        out.push_all(&self.render_template("header", head.clone())?)?;
+        for line in &info.lines {
+            self.push_comment(&mut out, "comment", line)?;
+        }
+        out.push_all(&self.render_template("preamble", head.clone())?)?;
+
+        let rule = |index: usize, op: &Op, message: String| PostError::Rule {
+            post: self.name.clone(),
+            index,
+            op: op_name(op),
+            message,
+        };
+        let mut last: [Option<String>; 3] = Default::default();
+        let mut last_feed: Option<String> = None;
+        let mut retracted = true;
+        let mut plane = false;
+        let mut tcp = false;
+        let mut spindle = false;
+        let mut log: Option<String> = None;
+        let mut log_used: Option<String> = None;
+        for (index, op) in ops.iter().enumerate() {
+            let need = |name: &str| -> Result<(), PostError> {
+                if self.has(name) {
+                    Ok(())
+                } else {
+                    Err(rule(
+                        index,
+                        op,
+                        format!(
+                            "the {} postprocessor has no `{name}` template, so it cannot write this op",
+                            self.name
+                        ),
+                    ))
+                }
+            };
+            match op {
+                Op::Comment(t) => self.push_comment(&mut out, "comment", t)?,
+                Op::Section(t) => {
+                    let name = if self.has("section") {
+                        "section"
+                    } else {
+                        "comment"
+                    };
+                    self.push_comment(&mut out, name, t)?;
+                }
+                Op::ToolCall { number, name, rpm } => {
+                    let ctx = context! {
+                        number => *number,
+                        name => self.sanitize_comment(name),
+                        rpm => *rpm,
+                    };
+                    out.push_all(&self.render_template("tool_call", ctx)?)?;
+                    last = Default::default();
+                    last_feed = None;
+                }
+                Op::SpindleOn { rpm } => {
+                    out.push_all(&self.render_template("spindle_on", context! { rpm => *rpm })?)?;
+                    spindle = true;
+                }
+                Op::SpindleOff => {
+                    out.push_all(&self.render_template("spindle_off", context! {})?)?;
+                    spindle = false;
+                }
+                Op::Coolant(Coolant::Off) => {
+                    out.push_all(&self.render_template("coolant_off", context! {})?)?
+                }
+                Op::Coolant(k) => {
+                    let code = match k {
+                        Coolant::Flood => &self.coolant.flood,
+                        Coolant::Mist => &self.coolant.mist,
+                        _ => &self.coolant.air,
+                    };
+                    let ctx = context! { code => code.as_str(), kind => k.name() };
+                    out.push_all(&self.render_template("coolant_on", ctx)?)?;
+                }
+                Op::Rapid(t) => {
+                    let (words, [x, y, z]) = self.words(t, &mut last);
+                    if !words.is_empty() {
+                        let ctx = context! { words, x, y, z };
+                        out.push_all(&self.render_template("rapid", ctx)?)?;
+                        retracted = false;
+                    }
+                }
+                Op::Feed { to, feed } => {
+                    if !(feed.is_finite() && *feed > 0.0) {
+                        return Err(rule(
+                            index,
+                            op,
+                            format!("feed must be > 0 mm/min, got {feed}"),
+                        ));
+                    }
+                    let (words, [x, y, z]) = self.words(to, &mut last);
+                    if !words.is_empty() {
+                        let fw = self.numbers.feed.format(*feed);
+                        let new_feed = last_feed.as_deref() != Some(fw.as_str());
+                        last_feed = Some(fw);
+                        let ctx = context! { words, x, y, z, f => *feed, new_feed };
+                        out.push_all(&self.render_template("feed", ctx)?)?;
+                        retracted = false;
+                    }
+                }
+                Op::Retract { z } => {
+                    let t = Target {
+                        z: Some(*z),
+                        ..Target::default()
+                    };
+                    // A retract is always written, even when Z is unchanged:
+                    // it is the marker the safety rule and readers rely on.
+                    last[2] = None;
+                    let (words, _) = self.words(&t, &mut last);
+                    let ctx = context! { words, z => *z };
+                    out.push_all(&self.render_template("retract", ctx)?)?;
+                    retracted = true;
+                }
+                Op::Rotary { tilt, c } => {
+                    if !retracted {
+                        return Err(rule(
+                            index,
+                            op,
+                            "a rotary index must follow a retract to the safe height, with no move in between".into(),
+                        ));
+                    }
+                    if plane {
+                        return Err(rule(
+                            index,
+                            op,
+                            "cancel the tilted working plane before indexing the rotary axes"
+                                .into(),
+                        ));
+                    }
+                    let a = &self.numbers.angle;
+                    let words =
+                        format!("{}{} C{}", info.tilt_letter, a.format(*tilt), a.format(*c));
+                    let ctx = context! {
+                        words,
+                        tilt => *tilt,
+                        c => *c,
+                        tilt_letter => info.tilt_letter.to_string(),
+                    };
+                    out.push_all(&self.render_template("rotary", ctx)?)?;
+                    last = Default::default();
+                }
+                Op::TiltedPlane {
+                    rotation,
+                    origin,
+                    tilt,
+                    c,
+                } => {
+                    need("tilted_plane")?;
+                    if plane || tcp {
+                        return Err(rule(
+                            index,
+                            op,
+                            "a tilted plane or TCP is already active".into(),
+                        ));
+                    }
+                    let [i, j, k] = euler_zxz(rotation);
+                    let [spa, spb, spc] = euler_spatial(rotation);
+                    let ctx = context! {
+                        i, j, k, spa, spb, spc,
+                        x => origin.x, y => origin.y, z => origin.z,
+                        tilt => *tilt, c => *c,
+                        tilt_letter => info.tilt_letter.to_string(),
+                    };
+                    out.push_all(&self.render_template("tilted_plane", ctx)?)?;
+                    plane = true;
+                    last = Default::default();
+                }
+                Op::TiltedPlaneOff => {
+                    need("tilted_plane_off")?;
+                    out.push_all(&self.render_template("tilted_plane_off", context! {})?)?;
+                    plane = false;
+                    last = Default::default();
+                }
+                Op::TcpOn => {
+                    need("tcp_on")?;
+                    if plane || tcp {
+                        return Err(rule(
+                            index,
+                            op,
+                            "a tilted plane or TCP is already active".into(),
+                        ));
+                    }
+                    out.push_all(&self.render_template("tcp_on", context! {})?)?;
+                    tcp = true;
+                    last = Default::default();
+                }
+                Op::TcpOff => {
+                    need("tcp_off")?;
+                    out.push_all(&self.render_template("tcp_off", context! {})?)?;
+                    tcp = false;
+                    last = Default::default();
+                }
+                Op::ProbeMove {
+                    to,
+                    feed,
+                    direction,
+                } => {
+                    need("probe_move")?;
+                    if spindle {
+                        return Err(rule(
+                            index,
+                            op,
+                            "probe moves need the spindle stopped".into(),
+                        ));
+                    }
+                    if !(feed.is_finite() && *feed > 0.0) {
+                        return Err(rule(
+                            index,
+                            op,
+                            format!("probing feed must be > 0 mm/min, got {feed}"),
+                        ));
+                    }
+                    let d = direction.normalize();
+                    let axis = (0..3).find(|&i| (d[i].abs() - 1.0).abs() < 1e-9);
+                    if self.probe_axis_aligned && axis.is_none() {
+                        return Err(rule(
+                            index,
+                            op,
+                            format!(
+                                "the {} control probes along one axis only; direction ({:.4}, {:.4}, {:.4}) is not along X, Y or Z",
+                                self.name, d.x, d.y, d.z
+                            ),
+                        ));
+                    }
+                    let (axis_letter, sign) = match axis {
+                        Some(i) => (
+                            ["X", "Y", "Z"][i].to_string(),
+                            if d[i] > 0.0 { "+" } else { "-" }.to_string(),
+                        ),
+                        None => (String::new(), String::new()),
+                    };
+                    // Probe moves always state every axis: the target is
+                    // what the controller compares the contact against.
+                    last = Default::default();
+                    let (words, _) = self.words(&Target::xyz(*to), &mut last);
+                    let ctx = context! {
+                        words,
+                        x => to.x, y => to.y, z => to.z,
+                        f => *feed,
+                        axis => axis_letter,
+                        sign,
+                        aligned => axis.is_some(),
+                    };
+                    out.push_all(&self.render_template("probe_move", ctx)?)?;
+                    retracted = false;
+                    // The machine stops wherever contact happens.
+                    last = Default::default();
+                }
+                Op::ProbeRead { vars } => {
+                    need("probe_read")?;
+                    let ctx = context! { x => vars[0], y => vars[1], z => vars[2] };
+                    out.push_all(&self.render_template("probe_read", ctx)?)?;
+                }
+                Op::LogOpen { name } => {
+                    if log.is_some() {
+                        return Err(rule(index, op, "a log is already open".into()));
+                    }
+                    if self.has("log_open") {
+                        out.push_all(
+                            &self
+                                .render_template("log_open", context! { name => name.as_str() })?,
+                        )?;
+                    }
+                    log = Some(name.clone());
+                    log_used = Some(name.clone());
+                }
+                Op::LogPoint { label, vars } => {
+                    need("log_point")?;
+                    let Some(name) = &log else {
+                        return Err(rule(index, op, "no log is open (LogOpen first)".into()));
+                    };
+                    if !crate::formats::valid_label(label) {
+                        return Err(rule(
+                            index,
+                            op,
+                            format!("label `{label}` must be letters, digits, `_`, `.` and `-`"),
+                        ));
+                    }
+                    let ctx = context! {
+                        label => label.as_str(),
+                        name => name.as_str(),
+                        x => vars[0], y => vars[1], z => vars[2],
+                    };
+                    out.push_all(&self.render_template("log_point", ctx)?)?;
+                }
+                Op::LogClose => {
+                    let Some(name) = log.take() else {
+                        return Err(rule(index, op, "no log is open".into()));
+                    };
+                    if self.has("log_close") {
+                        out.push_all(&self.render_template("log_close", context! { name })?)?;
+                    }
+                }
+                Op::Dwell(s) => {
+                    need("dwell")?;
+                    out.push_all(&self.render_template("dwell", context! { seconds => *s })?)?;
+                }
+                Op::Stop(t) => {
+                    need("stop")?;
+                    let ctx = context! { text => self.sanitize_comment(t) };
+                    out.push_all(&self.render_template("stop", ctx)?)?;
+                }
+            }
+        }
+        if let Some(name) = log {
+            return Err(PostError::Rule {
+                post: self.name.clone(),
+                index: ops.len(),
+                op: "log_close",
+                message: format!("log `{name}` is never closed"),
+            });
+        }
+        if plane || tcp {
+            return Err(PostError::Rule {
+                post: self.name.clone(),
+                index: ops.len(),
+                op: "footer",
+                message: "the program ends with a tilted plane or TCP still active".into(),
+            });
+        }
+        out.push_all(&self.render_template("footer", head)?)?;
+        let mut aux = Vec::new();
+        if let Some(name) = log_used
+            && self.has("log_format")
+        {
+            let text = self.render_template("log_format", context! { name => name.as_str() })?;
+            aux.push(AuxFile {
+                name: format!("{name}.a"),
+                text: format!("{}\n", text.trim_end()),
+            });
+        }
+        Ok(RenderedProgram {
+            text: out.text,
+            aux,
+        })
+    }
+
+    /// A comment, wrapped at spaces into as many blocks as it takes to
+    /// keep every block within the line limit.
+    fn push_comment(
+        &self,
+        out: &mut Blocks<'_>,
+        template: &str,
+        text: &str,
+    ) -> Result<(), PostError> {
+        let fits = |out: &Blocks<'_>, t: &str| -> Result<bool, PostError> {
+            let rendered = self.render_template(template, context! { text => t })?;
+            Ok(rendered
+                .lines()
+                .filter(|l| !l.trim().is_empty())
+                .all(|l| out.fits(l.trim_end())))
+        };
+        let mut rest = self.sanitize_comment(text);
+        while !rest.is_empty() {
+            // The longest prefix that fits, cut at a space when there is one.
+            let chars: Vec<char> = rest.chars().collect();
+            let (mut lo, mut hi) = (0usize, chars.len());
+            while lo < hi {
+                let mid = (lo + hi).div_ceil(2);
+                let t: String = chars[..mid].iter().collect();
+                if fits(out, &t)? {
+                    lo = mid;
+                } else {
+                    hi = mid - 1;
+                }
+            }
+            if lo == 0 {
+                return Err(PostError::LineTooLong {
+                    post: self.name.clone(),
+                    block: self.render_template(template, context! { text => "" })?,
+                    len: self.line_limit + 1,
+                    limit: self.line_limit,
+                });
+            }
+            let mut cut = lo;
+            if cut < chars.len()
+                && let Some(sp) = chars[..cut].iter().rposition(|&c| c == ' ')
+                && sp > 0
+            {
+                cut = sp;
+            }
+            let line: String = chars[..cut].iter().collect();
+            let rendered = self.render_template(template, context! { text => line.trim() })?;
+            out.push_all(&rendered)?;
+            rest = chars[cut..].iter().collect::<String>().trim().to_string();
+        }
+        Ok(())
+    }
+}
+
+fn header_context(def: &PostDefinition, info: &ProgramInfo) -> Value {
+    let v = |p: &Vector3<f64>| context! { x => p.x, y => p.y, z => p.z };
+    context! {
+        program => info.name.as_str(),
+        number => info.number,
+        title => def.sanitize_comment(&info.title),
+        stock_min => v(&info.stock_min),
+        stock_max => v(&info.stock_max),
+        tilt_letter => info.tilt_letter.to_string(),
+        extension => def.extension.as_str(),
+    }
+}
+
+/// One sample context per template, with every variable the engine passes,
+/// for validating definitions at load time.
+pub(super) fn sample_contexts(def: &PostDefinition) -> Vec<(&'static str, Value)> {
+    let info = ProgramInfo {
+        name: "sample".into(),
+        number: 1,
+        title: "sample".into(),
+        lines: vec![],
+        stock_min: Vector3::new(-50.0, -50.0, 0.0),
+        stock_max: Vector3::new(50.0, 50.0, 70.0),
+        tilt_letter: 'B',
+    };
+    let head = header_context(def, &info);
+    let words = || "X1. Y2. Z3.".to_string();
+    vec![
+        ("header", head.clone()),
+        ("preamble", head.clone()),
+        ("footer", head),
+        ("comment", context! { text => "sample" }),
+        ("section", context! { text => "sample" }),
+        (
+            "tool_call",
+            context! { number => 1u32, name => "sample", rpm => Some(1000.0) },
+        ),
+        (
+            "tool_call",
+            context! { number => 1u32, name => "sample", rpm => None::<f64> },
+        ),
+        ("spindle_on", context! { rpm => 1000.0 }),
+        ("spindle_off", context! {}),
+        ("coolant_on", context! { code => "M8", kind => "flood" }),
+        ("coolant_off", context! {}),
+        (
+            "rapid",
+            context! { words => words(), x => "X1.", y => "", z => "" },
+        ),
+        (
+            "feed",
+            context! { words => words(), x => "X1.", y => "", z => "", f => 100.0, new_feed => true },
+        ),
+        ("retract", context! { words => "Z100.", z => 100.0 }),
+        (
+            "rotary",
+            context! { words => "B0. C0.", tilt => 0.0, c => 0.0, tilt_letter => "B" },
+        ),
+        (
+            "tilted_plane",
+            context! {
+                i => 0.0, j => 90.0, k => 0.0, spa => 0.0, spb => 90.0, spc => 0.0,
+                x => 0.0, y => 0.0, z => 0.0, tilt => 90.0, c => 0.0, tilt_letter => "B",
+            },
+        ),
+        ("tilted_plane_off", context! {}),
+        ("tcp_on", context! {}),
+        ("tcp_off", context! {}),
+        (
+            "probe_move",
+            context! {
+                words => words(), x => 1.0, y => 2.0, z => 3.0, f => 100.0,
+                axis => "Z", sign => "-", aligned => true,
+            },
+        ),
+        (
+            "probe_read",
+            context! { x => 101u32, y => 102u32, z => 103u32 },
+        ),
+        ("log_open", context! { name => "sample" }),
+        (
+            "log_point",
+            context! { label => "P1", name => "sample", x => 101u32, y => 102u32, z => 103u32 },
+        ),
+        ("log_close", context! { name => "sample" }),
+        ("log_format", context! { name => "sample" }),
+        ("dwell", context! { seconds => 1.0 }),
+        ("stop", context! { text => "sample" }),
+    ]
+}
