@@ -18,10 +18,10 @@ use crate::source::SourceError;
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     /// A file of the plan is missing or malformed.
-    #[error("{0}")]
+    #[error(transparent)]
     Source(#[from] SourceError),
     /// The machine copy is malformed.
-    #[error("{0}")]
+    #[error(transparent)]
     Machine(#[from] MachineError),
     /// Planning again failed.
     #[error("{path}: cannot rebuild the plan: {source}")]

@@ -299,7 +299,7 @@ pub struct PlannedTest {
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     /// A bad template value (points into the template).
-    #[error("{0}")]
+    #[error(transparent)]
     Template(#[from] SourceError),
     /// The request cannot be carried out on this machine.
     #[error("{0}")]
@@ -333,7 +333,7 @@ pub enum PlanError {
         source: IkError,
     },
     /// The postprocessor could not render the toolpath.
-    #[error("{0}")]
+    #[error(transparent)]
     Post(#[from] PostError),
 }
 

@@ -234,7 +234,7 @@ pub enum TemplateError {
         source: std::io::Error,
     },
     /// Malformed template.
-    #[error("{0}")]
+    #[error(transparent)]
     Invalid(#[from] SourceError),
 }
 

@@ -176,7 +176,7 @@ pub enum DefinitionError {
         source: std::io::Error,
     },
     /// Malformed definition or template.
-    #[error("{0}")]
+    #[error(transparent)]
     Invalid(#[from] SourceError),
 }
 

@@ -51,7 +51,7 @@ pub struct RenderedProgram {
 #[derive(Debug, thiserror::Error)]
 pub enum PostError {
     /// A template failed (points into the definition file).
-    #[error("{0}")]
+    #[error(transparent)]
     Template(#[from] SourceError),
     /// The toolpath breaks a rule of the engine.
     #[error("postprocessor {post}: op {index} ({op}): {message}")]
