@@ -849,3 +849,93 @@ fn cli_writes_every_output_and_reports_bad_input_with_a_position() {
             .contains("refusing to overwrite input file")
     );
 }
+
+#[test]
+fn the_cmm_program_reaches_every_point_through_free_space() {
+    for m in ["bc-trunnion", "head-head"] {
+        for test in TESTS {
+            let t = planned(m, test, Dialect::Fanuc);
+            let dmi = t.dmis_program(test);
+            // Per point: up, free, start of the probing move.
+            let gotos: Vec<Vector3<f64>> = dmi
+                .lines()
+                .filter_map(|l| l.strip_prefix("GOTO/CART,"))
+                .map(|v| {
+                    let f: Vec<f64> = v.split(',').map(|x| x.parse().unwrap()).collect();
+                    Vector3::new(f[0], f[1], f[2])
+                })
+                .collect();
+            assert_eq!(gotos.len(), 5 * t.points.len());
+            for (i, p) in t.points.iter().enumerate() {
+                let g = &gotos[5 * i..5 * i + 3];
+                assert!((g[2] - (p.point.p + p.point.n * 5.0)).norm() < 1e-6);
+                for w in g.windows(2) {
+                    let n = ((w[1] - w[0]).norm() / 0.25).ceil() as usize;
+                    for k in 0..=n {
+                        let q = w[0] + (w[1] - w[0]) * (k as f64 / n.max(1) as f64);
+                        assert!(
+                            !t.piece.solid.contains(&q),
+                            "{m} {test} {}: the probe passes through the piece at {q:?}",
+                            p.point.label
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn tcp_definitions_write_work_frame_coordinates() {
+    for (d, on, off) in [
+        (Dialect::Fanuc, "G43.4 H1", "G43 H1"),
+        (
+            Dialect::Heidenhain,
+            "FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS",
+            "FUNCTION RESET TCPM",
+        ),
+    ] {
+        let mut cfg = config(
+            "bc-trunnion",
+            "stepped-square",
+            d,
+            KinematicsMode::Controller,
+        );
+        let src = cfg
+            .post
+            .source
+            .replace("controller: tilted_plane", "controller: tcp");
+        cfg.post = PostDefinition::parse(Path::new("tcp.yaml"), &src).unwrap();
+        let t = plan(&cfg).unwrap();
+        assert_eq!(t.program.text.matches(on).count(), 12, "{d}");
+        assert!(t.program.text.contains(off));
+        for p in &t.poses {
+            let n = p.moves.len();
+            for mv in &p.moves[..n - 1] {
+                assert_eq!(mv.program, mv.tip);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_bull_nose_cuts_the_nine_sections_with_its_flat_end_and_its_torus() {
+    let mut cfg = config(
+        "head-table",
+        "nine-section",
+        Dialect::Heidenhain,
+        KinematicsMode::Post,
+    );
+    cfg.tool = Some(machine("head-table").tool);
+    let t = plan(&cfg).unwrap();
+    assert_eq!(t.tool.kind, fivecal::machine::ToolKind::Bull);
+    for p in &t.points {
+        let pose = &t.poses[p.provenance.pose];
+        let expected = if pose.tool_axis == Vector3::z() {
+            ToolPart::FlatEnd
+        } else {
+            ToolPart::Torus
+        };
+        assert_eq!(p.provenance.part, expected, "{}", p.point.label);
+    }
+}

@@ -10,7 +10,7 @@ use indexmap::IndexMap;
 
 use super::PlannedTest;
 use super::design::short;
-use crate::formats::dmis_program::{self, DmisMoves};
+use crate::formats::dmis_program::{self, DmisMoves, Probing};
 use crate::formats::manifest::{MANIFEST_VERSION, Manifest, PoseEntry};
 use crate::io::{OutputError, ensure_not_input, write_atomic};
 
@@ -73,15 +73,42 @@ impl PlannedTest {
         }
     }
 
-    /// The DMIS program measuring every plan point.
+    /// The DMIS program measuring every plan point. Each point is reached
+    /// from above along the way its pose's tool came in (its tool axis).
     pub fn dmis_program(&self, stem: &str) -> String {
-        let top = self
-            .piece
-            .mesh
-            .triangles
+        let approach = 5.0;
+        let mut corners = Vec::new();
+        for b in std::iter::once(&self.piece.stock).chain(self.piece.fixture.as_ref()) {
+            for i in 0..8 {
+                let s = nalgebra::Vector3::new(
+                    if i & 1 == 0 { -1.0 } else { 1.0 },
+                    if i & 2 == 0 { -1.0 } else { 1.0 },
+                    if i & 4 == 0 { -1.0 } else { 1.0 },
+                );
+                corners.push(b.center + b.axes * s.component_mul(&b.half));
+            }
+        }
+        let top = corners
             .iter()
-            .flat_map(|t| t.v.iter().map(|v| v.z))
+            .map(|c| c.z)
             .fold(f64::NEG_INFINITY, f64::max);
+        let items: Vec<Probing> = self
+            .points
+            .iter()
+            .map(|p| {
+                let u = self.poses[p.provenance.pose].tool_axis;
+                let start = p.point.p + p.point.n * approach;
+                let level = corners
+                    .iter()
+                    .map(|c| u.dot(c))
+                    .fold(f64::NEG_INFINITY, f64::max)
+                    + 10.0;
+                Probing {
+                    point: p.point.clone(),
+                    free: start + u * (level - u.dot(&start)).max(0.0),
+                }
+            })
+            .collect();
         let comments = vec![
             format!("fivecal plan: {} on {}: {} points", self.test, self.machine.name, self.points.len()),
             "nominal points in W (mm): align the part frame to W before running (origin on the C axis, Z along C)".to_string(),
@@ -90,9 +117,9 @@ impl PlannedTest {
         dmis_program::program(
             stem,
             &comments,
-            &self.plan_points().points,
+            &items,
             DmisMoves {
-                approach: 5.0,
+                approach,
                 clear_z: top + 20.0,
             },
         )

@@ -6,7 +6,7 @@
 
 use nalgebra::Vector3;
 
-use super::cutter::Cutter;
+use super::cutter::{Cutter, ToolPart};
 use super::design::{Design, PoseDesign, short};
 use super::{
     Face, Generator, Pass, PathMove, Piece, PlanConfig, PlanError, PlannedPoint, PlannedPose,
@@ -532,6 +532,20 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<PlannedTest, PlanE
     })
 }
 
+/// The move parameter where the tool axis passes closest to `p`, or
+/// `None` for a move along the axis.
+fn closest_axis_t(
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    u: &Vector3<f64>,
+    p: &Vector3<f64>,
+) -> Option<f64> {
+    let perp = |v: Vector3<f64>| v - u * u.dot(&v);
+    let (pa, ba) = (perp(p - a), perp(b - a));
+    let bb = ba.norm_squared();
+    (bb > 1e-18).then(|| (pa.dot(&ba) / bb).clamp(0.0, 1.0))
+}
+
 /// The swept bounding box of a move, inflated by the tool radius.
 fn swept_box(
     c: &Cutter,
@@ -612,6 +626,14 @@ fn provenance(
                 )));
             }
             if pi == pt.pose && s <= TOUCH {
+                // Where the tool axis passes closest: on a flat end the
+                // touch spans an interval, and its middle is the position
+                // that made the point (the rim touches at its ends).
+                let t = closest_axis_t(&a, &b, &u, &pt.p)
+                    .filter(|&tc| {
+                        cutter.signed_distance(&(a + (b - a) * tc), &u, &pt.p).abs() <= TOUCH
+                    })
+                    .unwrap_or(t);
                 let tip = a + (b - a) * t;
                 let axes = Axes {
                     xyz: a_axes.xyz + (b_axes.xyz - a_axes.xyz) * t,
@@ -634,7 +656,25 @@ fn provenance(
             designs[pt.pose].id
         )));
     };
-    let part = cutter.part_at(&last.tip, &last.axis, &pt.p);
+    // The part that touches the point in most generating positions: a flat
+    // end sweeping over a floor also touches it with its rim once, at the
+    // edge of its sweep, and that does not make the rim the maker.
+    let order = [
+        ToolPart::FlatEnd,
+        ToolPart::Ball,
+        ToolPart::Torus,
+        ToolPart::Flank,
+        ToolPart::Corner,
+    ];
+    let counts = order.map(|part| {
+        generators
+            .iter()
+            .filter(|g| cutter.part_at(&g.tip, &g.axis, &pt.p) == part)
+            .count()
+    });
+    let best = (0..order.len()).fold(0, |b, i| if counts[i] > counts[b] { i } else { b });
+    let part = order[best];
+    let _ = last;
     if part != pt.part {
         return Err(bug(format!(
             "it was meant to be made by the tool's {} but the {} touches it",

@@ -247,6 +247,7 @@ impl PostDefinition {
         let mut spindle = false;
         let mut log: Option<String> = None;
         let mut log_used: Option<String> = None;
+        let mut tool_number: u32 = 0;
         for (index, op) in ops.iter().enumerate() {
             let need = |name: &str| -> Result<(), PostError> {
                 if self.has(name) {
@@ -273,6 +274,7 @@ impl PostDefinition {
                     self.push_comment(&mut out, name, t)?;
                 }
                 Op::ToolCall { number, name, rpm } => {
+                    tool_number = *number;
                     let ctx = context! {
                         number => *number,
                         name => self.sanitize_comment(name),
@@ -410,13 +412,15 @@ impl PostDefinition {
                             "a tilted plane or TCP is already active".into(),
                         ));
                     }
-                    out.push_all(&self.render_template("tcp_on", context! {})?)?;
+                    let ctx = context! { number => tool_number };
+                    out.push_all(&self.render_template("tcp_on", ctx)?)?;
                     tcp = true;
                     last = Default::default();
                 }
                 Op::TcpOff => {
                     need("tcp_off")?;
-                    out.push_all(&self.render_template("tcp_off", context! {})?)?;
+                    let ctx = context! { number => tool_number };
+                    out.push_all(&self.render_template("tcp_off", ctx)?)?;
                     tcp = false;
                     last = Default::default();
                 }
@@ -684,8 +688,8 @@ pub(super) fn sample_contexts(def: &PostDefinition) -> Vec<(&'static str, Value)
             },
         ),
         ("tilted_plane_off", context! {}),
-        ("tcp_on", context! {}),
-        ("tcp_off", context! {}),
+        ("tcp_on", context! { number => 1u32 }),
+        ("tcp_off", context! { number => 1u32 }),
         (
             "probe_move",
             context! {

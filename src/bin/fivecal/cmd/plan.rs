@@ -3,6 +3,7 @@
 //! turned into one validated [`PlanConfig`] in [`config`], then the library
 //! plans and writes.
 
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
@@ -171,8 +172,13 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         )
     })?;
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
-    let written = planned.write(&cfg.out, &planned.test, &inputs)?;
-    println!(
+    // The error already names the path and its cause.
+    let written = planned
+        .write(&cfg.out, &planned.test, &inputs)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
         "{} on {}: {} poses, {} points, about {:.0} min ({} dialect, kinematics {})",
         planned.test,
         planned.machine.name,
@@ -184,12 +190,12 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             KinematicsMode::Post => "post",
             KinematicsMode::Controller => "controller",
         }
-    );
+    )?;
     for n in &planned.notes {
-        println!("note: {n}");
+        writeln!(out, "note: {n}")?;
     }
     for w in written {
-        println!("wrote {}", w.display());
+        writeln!(out, "wrote {}", w.display())?;
     }
     Ok(())
 }
