@@ -224,11 +224,36 @@ fn nine_section_on_ac_trunnion_has_nine_sections_with_section_1_at_zero() {
     }
 }
 
+/// A top-only stepped square with squares turned by 30 degrees.
+fn turned_squares() -> PlannedTest {
+    let src = Template::builtin("stepped-square").unwrap().source.text;
+    let text = src
+        .replace("tilt: auto ", "tilt: [0] ")
+        .replace("c: [0, 90, 180, 270]", "c: [0, 30, 60]")
+        .replace("first_size: 40 ", "first_size: 20 ")
+        .replace("size_increment: 12 ", "size_increment: 15 ");
+    let mut cfg = config(
+        "bc-trunnion",
+        "stepped-square",
+        Dialect::Linuxcnc,
+        KinematicsMode::Post,
+    );
+    cfg.template = Template::parse(Path::new("turned.yaml"), &text).unwrap();
+    plan(&cfg).unwrap()
+}
+
 #[test]
 fn every_point_lies_on_the_written_piece_with_its_normal_out_of_the_material() {
+    let mut plans: Vec<PlannedTest> = Vec::new();
     for m in MACHINES {
         for test in TESTS {
-            let t = planned(m, test, Dialect::Linuxcnc);
+            plans.push(planned(m, test, Dialect::Linuxcnc));
+        }
+    }
+    plans.push(turned_squares());
+    for t in plans {
+        let (m, test) = (t.machine.name.clone(), t.test.clone());
+        {
             let (_keep, dir) = written(&t);
             let pts = PlanPoints::read(&dir.join(format!("{test}.points.csv"))).unwrap();
             assert_eq!(pts.points.len(), t.points.len());
@@ -937,5 +962,44 @@ fn a_bull_nose_cuts_the_nine_sections_with_its_flat_end_and_its_torus() {
             ToolPart::Torus
         };
         assert_eq!(p.provenance.part, expected, "{}", p.point.label);
+    }
+}
+
+/// The stepped-square poses a table-table machine gets, relative to the
+/// reference pose, identify its eight location errors (SPEC section 2),
+/// also where tilt +90 is out of reach (ac-trunnion: A = 0, -90 only).
+#[test]
+fn the_stepped_square_poses_identify_eight_location_terms_on_both_trunnions() {
+    for m in ["bc-trunnion", "ac-trunnion"] {
+        let t = planned(m, "stepped-square", Dialect::Fanuc);
+        let k = Kinematics::with_gauge_length(&t.machine, t.tool.length);
+        let jac = |tilt: f64, c: f64, q: &Vector3<f64>| {
+            let commanded = k.nominal_table_transform(tilt, c) * nalgebra::Point3::from(*q);
+            let a = fivecal::Axes {
+                xyz: commanded.coords,
+                tilt,
+                c,
+            };
+            k.jacobian(&a, &fivecal::Perturbation::zero())
+                .tip
+                .columns(5, 12)
+                .into_owned()
+        };
+        let mut rows = Vec::new();
+        for pose in &t.poses {
+            for p in t.points.iter().filter(|p| p.point.pose == pose.id) {
+                let d = jac(pose.tilt, pose.c, &p.point.p) - jac(0.0, 0.0, &p.point.p);
+                rows.push((p.point.n.transpose() * d).into_owned());
+            }
+        }
+        let j = DMatrix::from_rows(&rows);
+        let sv = j.svd(false, false).singular_values;
+        let rank = sv.iter().filter(|&&s| s > 1e-9 * sv.max()).count();
+        assert_eq!(
+            rank,
+            8,
+            "{m}: {} poses see {rank} of the twelve constant terms",
+            t.poses.len()
+        );
     }
 }

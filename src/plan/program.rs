@@ -604,6 +604,16 @@ fn provenance(
             if dist > reach {
                 continue;
             }
+            if pi != pt.pose && dist < SEPARATION {
+                return Err(bug(format!(
+                    "move {} of pose {} passes {:.6} mm from it, so the point would not tell pose {} from pose {}",
+                    mi + 1,
+                    pose.id,
+                    dist,
+                    designs[pt.pose].id,
+                    pose.id
+                )));
+            }
             let Some(s) = cutter.entry_along(&a, &b, &u, &pt.p, &pt.n, -reach, reach) else {
                 continue;
             };
