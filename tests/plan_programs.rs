@@ -39,7 +39,10 @@ fn run_rs274(t: &PlannedTest) -> Vec<Canon> {
         ),
     )
     .unwrap();
+    // rs274 keeps its tool table in $HOME/.tool.mmap, truncating it on
+    // start: parallel runs sharing a home race on it, so each gets its own.
     let out = Command::new("rs274")
+        .env("HOME", dir.path())
         .arg("-t")
         .arg(&tbl)
         .arg("-g")

@@ -108,7 +108,9 @@ fn linuxcnc_probes_with_g38_2_and_logs_with_logopen() {
     std::fs::write(&prog, t).unwrap();
     let tbl = dir.path().join("tool.tbl");
     std::fs::write(&tbl, "T99 P99 Z0 D6 ;probe\n").unwrap();
+    // rs274 keeps its tool table in $HOME/.tool.mmap: one home per run.
     let out = std::process::Command::new("rs274")
+        .env("HOME", dir.path())
         .arg("-t")
         .arg(&tbl)
         .arg("-g")
