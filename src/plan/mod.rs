@@ -46,11 +46,18 @@
 //!   and the axis values at that instant, and the pass). Several
 //!   generators mean several passes touched the point (roughing at the same
 //!   floor level, finishing, the zero cut); the surface left is the envelope
-//!   of all of them: for an erroneous machine, the actual surface along the
-//!   nominal normal is the least `s` over the generators of
-//!   `cutter.entry_along(a, b, axis, p - n, n, ...)` with the actual
-//!   segment `a -> b` and axis (see [`Cutter::entry_along`]). No other
-//!   pose's tool comes within 0.05 mm of a plan point (checked at planning).
+//!   of all of them. For an erroneous machine: for each generator take its
+//!   move's end points (`pose.segment(move_index)`), run both through
+//!   `Kinematics::forward` with the errors to get the actual tips `a`, `b`
+//!   and axis, and find where the actual sweep meets the nominal normal line
+//!   with `cutter.entry_along(&a, &b, &axis, &(p - n), &n, 0.0, 2.0)` (the
+//!   line starts 1 mm inside the material); the least result minus 1 over
+//!   all generators is the actual surface's offset along `n` (negative: cut
+//!   deeper). See [`Cutter::entry_along`] and the test
+//!   `provenance_gives_the_simulator_the_exact_surface_of_an_erroneous_machine`.
+//!   No other pose's tool comes within 0.05 mm of a plan point (checked at
+//!   planning), so errors below that size cannot hand a point to another
+//!   pose.
 //! * `toolpath`: the whole program as neutral [`crate::post::Op`]s and
 //!   `program`: its rendered text.
 //!
@@ -170,16 +177,6 @@ impl PlannedPose {
             self.moves[i - 1].axes
         };
         (a, self.moves[i].axes)
-    }
-
-    /// Start and end nominal tool tips in W of move `i`.
-    pub fn tip_segment(&self, i: usize, start_tip: Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-        let a = if i == 0 {
-            start_tip
-        } else {
-            self.moves[i - 1].tip
-        };
-        (a, self.moves[i].tip)
     }
 }
 

@@ -86,8 +86,9 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
 
 fn config(a: PlanArgs) -> anyhow::Result<Config> {
     let mut inputs = Vec::new();
+    // Flattened: MachineError repeats its cause as its source.
     let machine = Machine::load(&a.machine)
-        .with_context(|| format!("cannot load machine `{}`", a.machine))?;
+        .map_err(|e| anyhow::anyhow!("cannot load machine `{}`: {e}", a.machine))?;
     if Path::new(&a.machine).exists() {
         inputs.push(PathBuf::from(&a.machine));
     }
