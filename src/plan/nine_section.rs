@@ -370,7 +370,7 @@ pub(crate) fn design(cfg: &PlanConfig, t: &NineSection, raise: f64) -> Result<De
         points,
         notes,
         stock_text: format!(
-            "block {} x {} x {} mm, centred on the C axis, on a {} mm riser (bottom at Z{} in W); cut {} mm deep",
+            "block {} x {} x {} mm, centred on the W origin in X and Y, on a {} mm riser (bottom at Z{} in W); cut {} mm deep",
             short(size),
             short(size),
             short(t.stock.height),

@@ -595,7 +595,7 @@ pub(crate) fn design(cfg: &PlanConfig, t: &SteppedSquare, raise: f64) -> Result<
         points,
         notes,
         stock_text: format!(
-            "block {} x {} x {} mm, centred on the C axis, on a {} mm riser (bottom at Z{} in W)",
+            "block {} x {} x {} mm, centred on the W origin in X and Y, on a {} mm riser (bottom at Z{} in W)",
             short(size),
             short(size),
             short(t.stock.height),
