@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use fivecal::Dialect;
+use fivecal::formats::probe_log::{Logged, fanuc, heidenhain, linuxcnc};
 use fivecal::post::{Coolant, Op, PostDefinition, PostError, ProgramInfo, Target};
 use nalgebra::{Matrix3, Vector3};
 
@@ -34,7 +35,8 @@ fn probing_ops() -> Vec<Op> {
         Op::Retract { z: 150.0 },
         Op::Rotary { tilt: 0.0, c: 90.0 },
         Op::LogOpen {
-            name: "probe-demo-log".into(),
+            name: "probe-demo".into(),
+            test: "probe-demo".into(),
         },
         Op::Rapid(Target::xyz(Vector3::new(10.0, -20.0, 80.0))),
         Op::Feed {
@@ -50,8 +52,8 @@ fn probing_ops() -> Vec<Op> {
             vars: [101, 102, 103],
         },
         Op::LogPoint {
-            label: "S1-ZP1".into(),
-            vars: [101, 102, 103],
+            index: 7,
+            label: "A0C90_xm".into(),
         },
         Op::Rapid(Target {
             z: Some(80.0),
@@ -66,41 +68,66 @@ fn render(d: Dialect, ops: &[Op]) -> Result<fivecal::post::RenderedProgram, Post
     PostDefinition::builtin(d).render(&info(), ops)
 }
 
+/// The blocks of `expected` appear in `text` one after another, in order.
+fn blocks_in_order(text: &str, expected: &[String]) -> bool {
+    let body: Vec<String> = text
+        .lines()
+        .map(|l| {
+            // Drop a block number (`N120 ` or HEIDENHAIN's `12 `).
+            let t = l.trim_start_matches('N');
+            match t.split_once(' ') {
+                Some((n, rest)) if n.chars().all(|c| c.is_ascii_digit()) && !n.is_empty() => {
+                    rest.to_string()
+                }
+                _ => l.to_string(),
+            }
+        })
+        .collect();
+    body.windows(expected.len()).any(|w| w == expected)
+}
+
 #[test]
-fn fanuc_probes_with_g31_reads_5061_and_logs_with_dprnt() {
+fn fanuc_probes_with_g31_and_logs_what_the_fanuc_reader_reads() {
     let p = render(Dialect::Fanuc, &probing_ops()).unwrap();
     let t = &p.text;
     for expected in [
         "T99 M6",
         "G0 B0. C90.",
-        "PCLOS\nN",
-        "POPEN",
         "G31 X10. Y-20. Z65. F100.",
         "#101=#5061",
-        "#102=#5062",
         "#103=#5063",
-        "DPRNT[S1-ZP1*#101[44]*#102[44]*#103[44]]",
+        "PCLOS",
     ] {
         assert!(t.contains(expected), "`{expected}` missing in\n{t}");
     }
-    let pclos = t.rfind("PCLOS").unwrap();
-    assert!(pclos > t.find("DPRNT").unwrap());
+    assert!(blocks_in_order(t, &fanuc::open_blocks("probe-demo")), "{t}");
+    assert!(blocks_in_order(t, &fanuc::touch_blocks(7)), "{t}");
+    assert!(blocks_in_order(t, &fanuc::close_blocks()), "{t}");
+    assert!(t.find("G31").unwrap() < t.find("DPRNT[T#199").unwrap());
     assert!(p.aux.is_empty());
 }
 
 #[test]
-fn linuxcnc_probes_with_g38_2_and_logs_with_logopen() {
+fn linuxcnc_probes_with_g38_2_and_logs_what_the_linuxcnc_reader_reads() {
     let p = render(Dialect::Linuxcnc, &probing_ops()).unwrap();
     let t = &p.text;
-    for expected in [
-        "(LOGOPEN,probe-demo-log.txt)",
-        "G38.2 X10.0000 Y-20.0000 Z65.0000 F100.0",
-        "#101=#5061",
-        "(LOG,S1-ZP1 #101 #102 #103)",
-        "(LOGCLOSE)",
-    ] {
-        assert!(t.contains(expected), "`{expected}` missing in\n{t}");
-    }
+    assert!(
+        t.contains("G38.2 X10.0000 Y-20.0000 Z65.0000 F100.0"),
+        "{t}"
+    );
+    assert!(t.contains("#101=#5061"), "{t}");
+    assert!(
+        blocks_in_order(
+            t,
+            &linuxcnc::open_lines("probe-demo", "probe-demo.log", None)
+        ),
+        "{t}"
+    );
+    assert!(
+        blocks_in_order(t, &[linuxcnc::touch_line("A0C90_xm")]),
+        "{t}"
+    );
+    assert!(blocks_in_order(t, &linuxcnc::close_lines(false)), "{t}");
     // LinuxCNC's own interpreter accepts it (its simulated probe trips at
     // the programmed point).
     let dir = tempdir();
@@ -132,7 +159,7 @@ fn linuxcnc_probes_with_g38_2_and_logs_with_logopen() {
 }
 
 #[test]
-fn heidenhain_probes_with_cycle_0_reads_id360_and_prints_with_fn16() {
+fn heidenhain_probes_with_cycle_0_and_logs_what_the_heidenhain_reader_reads() {
     let p = render(Dialect::Heidenhain, &probing_ops()).unwrap();
     let t = &p.text;
     for expected in [
@@ -140,18 +167,41 @@ fn heidenhain_probes_with_cycle_0_reads_id360_and_prints_with_fn16() {
         "TCH PROBE 0.0 REF. PLANE Q1999 Z-",
         "TCH PROBE 0.1 X+10.000 Y-20.000 Z+65.000",
         "FN 18: SYSREAD Q101 = ID360 NR1 IDX1",
-        "FN 18: SYSREAD Q103 = ID360 NR1 IDX3",
-        "DECLARE STRING QS1900 = \"S1-ZP1\"",
-        "FN 16: F-PRINT probe-demo-log.A / probe-demo-log.TXT",
     ] {
         assert!(t.contains(expected), "`{expected}` missing in\n{t}");
     }
-    assert_eq!(p.aux.len(), 1);
-    assert_eq!(p.aux[0].name, "probe-demo-log.a");
+    let dir = r"TNC:\fivecal\";
+    let out = format!("{dir}probe-demo.txt");
     assert!(
-        p.aux[0]
-            .text
-            .contains("\"%S %9.4LF %9.4LF %9.4LF\",QS1900,Q1901,Q1902,Q1903;")
+        blocks_in_order(
+            t,
+            &[heidenhain::f_print(
+                &format!("{dir}probe-demo-head.A"),
+                &out
+            )]
+        ),
+        "{t}"
+    );
+    let mut touch = heidenhain::cycle0_reads();
+    touch.extend(heidenhain::touch_statements(
+        7,
+        &format!("{dir}probe-demo-touch.A"),
+        &out,
+    ));
+    assert!(blocks_in_order(t, &touch), "{t}");
+    let aux: Vec<(&str, &str)> = p
+        .aux
+        .iter()
+        .map(|a| (a.name.as_str(), a.text.as_str()))
+        .collect();
+    let touch_file = heidenhain::touch_format_file(Logged::Contact);
+    let head_file = heidenhain::header_format_file("probe-demo");
+    assert_eq!(
+        aux,
+        [
+            ("probe-demo-head.a", head_file.as_str()),
+            ("probe-demo-touch.a", touch_file.as_str())
+        ]
     );
     // Block numbers run 0, 1, 2, ... from BEGIN PGM to END PGM.
     let numbered: Vec<&str> = t.lines().filter(|l| !l.starts_with(' ')).collect();
@@ -212,12 +262,18 @@ fn the_engine_refuses_unsafe_or_unfinished_sequences() {
         ),
         (
             vec![Op::LogPoint {
+                index: 1,
                 label: "P1".into(),
-                vars: [1, 2, 3],
             }],
             "no log is open",
         ),
-        (vec![Op::LogOpen { name: "x".into() }], "never closed"),
+        (
+            vec![Op::LogOpen {
+                name: "x".into(),
+                test: "x".into(),
+            }],
+            "never closed",
+        ),
         (
             vec![
                 Op::TiltedPlane {

@@ -16,7 +16,7 @@ use crate::machine::Dialect;
 use crate::source::{SourceError, locate_yaml_key};
 
 /// Every template a definition may hold, with whether it is required.
-pub const TEMPLATE_NAMES: [(&str, bool); 26] = [
+pub const TEMPLATE_NAMES: [(&str, bool); 27] = [
     ("header", true),
     ("preamble", true),
     ("footer", true),
@@ -40,7 +40,8 @@ pub const TEMPLATE_NAMES: [(&str, bool); 26] = [
     ("log_open", false),
     ("log_point", false),
     ("log_close", false),
-    ("log_format", false),
+    ("log_header_format", false),
+    ("log_touch_format", false),
     ("dwell", false),
     ("stop", false),
 ];

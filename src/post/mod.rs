@@ -26,15 +26,17 @@
 //! | `TcpOn` | `G43.4 H..` | `FUNCTION TCPM ...` | (none: refused) |
 //! | `ProbeMove` | `G31 X.. F..` | `TCH PROBE 0.0 REF. PLANE Q.. Z-` / `0.1 X.. Y.. Z..` | `G38.2 X.. F..` |
 //! | `ProbeRead` | `#101=#5061` ... | `FN 18: SYSREAD Q101 = ID360 NR1 IDX1` ... | `#101=#5061` ... |
-//! | `LogOpen` | `POPEN` | (format file written next to the program) | `(LOGOPEN,name.txt)` |
-//! | `LogPoint` | `DPRNT[label*#101[44]*...]` | `QS1900 = "label"` + `FN 16: F-PRINT` | `(LOG,label #101 ...)` |
+//! | `LogOpen` | `POPEN`, `DPRNT[FIVECAL*TEST]` | `FN 16: F-PRINT <log>-head.A / <log>.txt` | `(LOGOPEN,<log>.log)`, `(LOG,FIVECAL test)` |
+//! | `LogPoint` | `#199=i`, `DPRNT[T#199[50]*X#5061[44]*...]` | `FN 18` reads of ID360, `Q1900 = i`, `FN 16: F-PRINT <log>-touch.A / ...` | `(LOG,T label X#5061 Y#5062 Z#5063)` |
 //! | `LogClose` | `PCLOS` | (nothing) | `(LOGCLOSE)` |
 //!
-//! HEIDENHAIN logging writes one line per point through `FN 16: F-PRINT`
-//! with a format file (`<program>.a`) that [`PostDefinition::render`]
-//! returns as an auxiliary file; its syntax (`"%S %9.4LF ...",QS1900,Q..;`)
-//! follows the TNC manuals' examples and should be checked on the target
-//! control (see `notes/nc-dialects.md` section 2.6).
+//! The log lines are exactly what [`crate::formats::probe_log`] reads
+//! (FANUC and HEIDENHAIN by touch index, LinuxCNC by label; HEIDENHAIN's
+//! cycle-0 touch point is already radius-compensated and logged as a `K`
+//! line). HEIDENHAIN prints through two format files that
+//! [`PostDefinition::render`] returns as auxiliary files (`<log>-head.a`,
+//! `<log>-touch.a`); their syntax follows the TNC manuals' examples and
+//! should be checked on the target control (`notes/nc-dialects.md` 2.6).
 
 mod definition;
 mod number;
@@ -176,17 +178,21 @@ pub enum Op {
         /// Variable numbers for X, Y, Z (`#n` on FANUC/LinuxCNC, `Qn` on HEIDENHAIN).
         vars: [u32; 3],
     },
-    /// Open the measurement log.
+    /// Open the measurement log and write its header line `FIVECAL <test>`.
     LogOpen {
         /// Log file name without extension.
         name: String,
+        /// Test name for the header.
+        test: String,
     },
-    /// Write one labelled line `label x y z` from three variables.
+    /// Log the last probed position as touch `index` / `label` (FANUC and
+    /// HEIDENHAIN lines carry the index, LinuxCNC lines the label; the
+    /// readers of [`crate::formats::probe_log`] read them back).
     LogPoint {
-        /// Point label (upper-case letters, digits and `-` print on every control).
+        /// 1-based touch index: the row in points.csv.
+        index: usize,
+        /// Point label.
         label: String,
-        /// Variables holding X, Y, Z.
-        vars: [u32; 3],
     },
     /// Close the measurement log.
     LogClose,

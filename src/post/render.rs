@@ -246,7 +246,7 @@ impl PostDefinition {
         let mut tcp = false;
         let mut spindle = false;
         let mut log: Option<String> = None;
-        let mut log_used: Option<String> = None;
+        let mut log_used: Option<(String, String)> = None;
         let mut tool_number: u32 = 0;
         for (index, op) in ops.iter().enumerate() {
             let need = |name: &str| -> Result<(), PostError> {
@@ -485,20 +485,21 @@ impl PostDefinition {
                     let ctx = context! { x => vars[0], y => vars[1], z => vars[2] };
                     out.push_all(&self.render_template("probe_read", ctx)?)?;
                 }
-                Op::LogOpen { name } => {
+                Op::LogOpen { name, test } => {
                     if log.is_some() {
                         return Err(rule(index, op, "a log is already open".into()));
                     }
                     if self.has("log_open") {
-                        out.push_all(
-                            &self
-                                .render_template("log_open", context! { name => name.as_str() })?,
-                        )?;
+                        let ctx = context! { name => name.as_str(), test => test.as_str() };
+                        out.push_all(&self.render_template("log_open", ctx)?)?;
                     }
                     log = Some(name.clone());
-                    log_used = Some(name.clone());
+                    log_used = Some((name.clone(), test.clone()));
                 }
-                Op::LogPoint { label, vars } => {
+                Op::LogPoint {
+                    index: touch,
+                    label,
+                } => {
                     need("log_point")?;
                     let Some(name) = &log else {
                         return Err(rule(index, op, "no log is open (LogOpen first)".into()));
@@ -511,9 +512,9 @@ impl PostDefinition {
                         ));
                     }
                     let ctx = context! {
+                        index => *touch,
                         label => label.as_str(),
                         name => name.as_str(),
-                        x => vars[0], y => vars[1], z => vars[2],
                     };
                     out.push_all(&self.render_template("log_point", ctx)?)?;
                 }
@@ -554,14 +555,18 @@ impl PostDefinition {
         }
         out.push_all(&self.render_template("footer", head)?)?;
         let mut aux = Vec::new();
-        if let Some(name) = log_used
-            && self.has("log_format")
-        {
-            let text = self.render_template("log_format", context! { name => name.as_str() })?;
-            aux.push(AuxFile {
-                name: format!("{name}.a"),
-                text: format!("{}\n", text.trim_end()),
-            });
+        if let Some((name, test)) = log_used {
+            for (template, suffix) in [("log_header_format", "head"), ("log_touch_format", "touch")]
+            {
+                if self.has(template) {
+                    let ctx = context! { name => name.as_str(), test => test.as_str() };
+                    let text = self.render_template(template, ctx)?;
+                    aux.push(AuxFile {
+                        name: format!("{name}-{suffix}.a"),
+                        text: format!("{}\n", text.trim_end()),
+                    });
+                }
+            }
         }
         Ok(RenderedProgram {
             text: out.text,
@@ -701,13 +706,20 @@ pub(super) fn sample_contexts(def: &PostDefinition) -> Vec<(&'static str, Value)
             "probe_read",
             context! { x => 101u32, y => 102u32, z => 103u32 },
         ),
-        ("log_open", context! { name => "sample" }),
+        ("log_open", context! { name => "sample", test => "sample" }),
         (
             "log_point",
-            context! { label => "P1", name => "sample", x => 101u32, y => 102u32, z => 103u32 },
+            context! { index => 1usize, label => "P1", name => "sample" },
         ),
         ("log_close", context! { name => "sample" }),
-        ("log_format", context! { name => "sample" }),
+        (
+            "log_header_format",
+            context! { name => "sample", test => "sample" },
+        ),
+        (
+            "log_touch_format",
+            context! { name => "sample", test => "sample" },
+        ),
         ("dwell", context! { seconds => 1.0 }),
         ("stop", context! { text => "sample" }),
     ]
