@@ -12,12 +12,12 @@ pub enum OutputError {
     #[error("refusing to overwrite input file {0}")]
     WouldOverwriteInput(PathBuf),
     /// Any I/O failure, with the path.
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}: {cause}")]
     Io {
         /// The destination.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, not chained, so it prints once).
+        cause: std::io::Error,
     },
 }
 
@@ -39,9 +39,9 @@ pub fn ensure_not_input(out: &Path, inputs: &[&Path]) -> Result<(), OutputError>
 /// Writes `bytes` to `path` atomically (temporary file + rename), creating
 /// the parent directory when needed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    let io = |source| OutputError::Io {
+    let io = |cause| OutputError::Io {
         path: path.to_path_buf(),
-        source,
+        cause,
     };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),

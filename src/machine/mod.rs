@@ -249,18 +249,18 @@ pub struct Machine {
 #[derive(Debug, thiserror::Error)]
 pub enum MachineError {
     /// The file could not be read.
-    #[error("cannot read machine file {path}: {source}")]
+    #[error("cannot read machine file {path}: {cause}")]
     Read {
         /// The path.
         path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
+        /// The cause (in the message, not chained, so it prints once).
+        cause: std::io::Error,
     },
     /// Neither a file nor a built-in machine of that name exists.
     #[error("no machine file `{0}` and no built-in machine of that name (built-in: {1})")]
     NotFound(String, String),
     /// The file is malformed or inconsistent.
-    #[error("{0}")]
+    #[error(transparent)]
     Invalid(#[from] SourceError),
 }
 
@@ -302,9 +302,9 @@ impl Machine {
     pub fn load(spec: &str) -> Result<Machine, MachineError> {
         let path = Path::new(spec);
         if path.exists() {
-            let src = std::fs::read_to_string(path).map_err(|source| MachineError::Read {
+            let src = std::fs::read_to_string(path).map_err(|cause| MachineError::Read {
                 path: path.to_path_buf(),
-                source,
+                cause,
             })?;
             return Machine::from_yaml(path, &src);
         }
