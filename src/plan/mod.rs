@@ -1,5 +1,15 @@
-//! Planning the machining tests: the stepped-square test of seed 001 and the
-//! nine-section test of seed 004, for any supported machine and dialect.
+//! Planning the tests as NC programs, for any supported machine and
+//! dialect: the machining tests (the stepped-square test of seed 001 and
+//! the nine-section test of seed 004: [`plan`], [`PlannedTest`]) and the
+//! on-machine probing tests (square columns, seed 000, and the calibration
+//! sphere, seeds 003 and 004: [`plan_probing`], [`PlannedProbing`]; the
+//! [`probing`] module says what the program does and what a simulator
+//! finds in a probing plan).
+//!
+//! Every plan directory holds a manifest `<test>.plan.yaml`; [`load_any`]
+//! rebuilds the plan it describes, of either kind, as a [`LoadedPlan`]
+//! (`Machining` or `Probing`), exactly as `plan` made it; [`load`] and
+//! [`load_probing`] do the same for one kind.
 //!
 //! [`plan`] turns a [`PlanConfig`] (machine, template, postprocessor,
 //! kinematics mode, optional tool) into a [`PlannedTest`]: the poses, the
@@ -7,7 +17,7 @@
 //! provenance. [`PlannedTest::write`] writes the plan's files and
 //! [`load`] rebuilds the very same `PlannedTest` from a written manifest.
 //!
-//! # For the simulator and the analyzer: what a `PlannedTest` holds
+//! # For the simulator and the analyzer: what a machining `PlannedTest` holds
 //!
 //! Frames and units follow SPEC: W is the table frame (origin at the
 //! nominal intersection of the rotary axes, Z along C, parallel to the
@@ -70,6 +80,8 @@ mod design;
 mod load;
 mod nine_section;
 mod outputs;
+pub mod probing;
+mod probing_outputs;
 mod program;
 mod stepped_square;
 pub mod template;
@@ -87,7 +99,10 @@ use crate::post::{Op, PostDefinition, PostError, ProgramInfo, RenderedProgram};
 use crate::source::SourceError;
 
 pub use cutter::{Cutter, ToolPart};
-pub use load::{LoadError, load};
+pub use load::{LoadError, LoadedPlan, load, load_any, load_probing};
+pub use probing::{
+    PlannedProbing, ProbingConfig, ProbingPose, Setup, SetupColumn, SetupSphere, plan_probing,
+};
 pub use template::{Template, TemplateError};
 
 /// Everything `plan` needs, validated.
@@ -332,6 +347,9 @@ pub enum PlanError {
     /// The postprocessor could not render the toolpath.
     #[error(transparent)]
     Post(#[from] PostError),
+    /// The probing planner refused (template, reach, collision).
+    #[error(transparent)]
+    Probing(#[from] crate::probing::PlanError),
 }
 
 impl PlannedTest {

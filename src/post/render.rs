@@ -477,8 +477,10 @@ impl PostDefinition {
                     };
                     out.push_all(&self.render_template("probe_move", ctx)?)?;
                     retracted = false;
-                    // The machine stops wherever contact happens.
+                    // The machine stops wherever contact happens, and the
+                    // probing feed is modal now: the next feed move names its own.
                     last = Default::default();
+                    last_feed = None;
                 }
                 Op::ProbeRead { vars } => {
                     need("probe_read")?;

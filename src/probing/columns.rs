@@ -13,7 +13,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use super::collision::{Obstacle, ProbeShape, Solid};
 use super::path::{self, Candidate, PoseSpec};
 use super::template::{ColumnsTemplate, Side, StylusSpec};
-use super::{PlanError, ProbePlan, pose_id};
+use super::{ControlLimits, PlanError, ProbePlan, pose_id};
 use crate::kinematics::Kinematics;
 use crate::machine::Machine;
 
@@ -128,8 +128,19 @@ fn reference_points(m: &Machine, t: &ColumnsTemplate) -> Vec<Candidate> {
     out
 }
 
-/// Plans the column test on machine `m`.
+/// Plans the column test on machine `m` for a control that probes in any
+/// direction.
 pub fn plan(m: &Machine, t: &ColumnsTemplate) -> Result<ProbePlan, PlanError> {
+    plan_with(m, t, &ControlLimits::default())
+}
+
+/// Plans the column test on machine `m` for a control with `limits`
+/// (touches it cannot make are left out, with the reason).
+pub fn plan_with(
+    m: &Machine,
+    t: &ColumnsTemplate,
+    limits: &ControlLimits,
+) -> Result<ProbePlan, PlanError> {
     let err = |k: &[&str], msg: String| t.source.error_at(k, msg);
     let probe = probe_shape(m, &t.probe, err)?;
     for (i, c) in t.columns.iter().enumerate() {
@@ -187,7 +198,15 @@ pub fn plan(m: &Machine, t: &ColumnsTemplate) -> Result<ProbePlan, PlanError> {
     }
     super::uniquify_ids(&mut specs);
     let kin = Kinematics::with_gauge_length(m, m.probe.length);
-    let mut plan = path::build("probe-columns", kin, obstacles, probe, t.probing, specs)?;
+    let mut plan = path::build(
+        "probe-columns",
+        kin,
+        obstacles,
+        probe,
+        t.probing,
+        specs,
+        limits,
+    )?;
     plan.warnings = weak_poses(&plan);
     Ok(plan)
 }

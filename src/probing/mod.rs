@@ -106,6 +106,7 @@
 pub mod collision;
 pub mod columns;
 pub mod frame;
+pub mod model;
 mod path;
 pub mod sphere;
 pub mod template;
@@ -140,6 +141,16 @@ pub struct ProbingSettings {
     pub touch_overhead: f64,
     /// Time per pose beyond its moves (rotary clamping, settling), s.
     pub pose_overhead: f64,
+}
+
+/// What the control can and cannot do, as far as the plan is concerned.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ControlLimits {
+    /// The control probes along one program axis only (HEIDENHAIN's touch
+    /// probe cycle 0, [`crate::post::PostDefinition::probe_axis_aligned`]):
+    /// a touch whose approach is oblique in program coordinates is left
+    /// out of its pose and listed in [`ProbePlan::skipped`].
+    pub axis_aligned_probing: bool,
 }
 
 /// A position of the path.
@@ -354,6 +365,18 @@ impl ProbePlan {
     /// The pose frame of pose `i`.
     pub fn frame(&self, i: usize) -> PoseFrame {
         PoseFrame::new(&self.kin, self.poses[i].tilt, self.poses[i].c)
+    }
+}
+
+/// Plans either test on machine `m` for a control with `limits`.
+pub fn plan(
+    m: &crate::machine::Machine,
+    t: &template::ProbeTemplate,
+    limits: &ControlLimits,
+) -> Result<ProbePlan, PlanError> {
+    match t {
+        template::ProbeTemplate::Columns(t) => columns::plan_with(m, t, limits),
+        template::ProbeTemplate::Sphere(t) => sphere::plan_with(m, t, limits),
     }
 }
 

@@ -6,7 +6,8 @@ use nalgebra::Vector3;
 use super::collision::{Checker, Collision, Obstacle, ProbeShape};
 use super::frame::PoseFrame;
 use super::{
-    Move, MoveKind, PlanError, Pose, ProbePlan, ProbingSettings, Skipped, Touch, Waypoint,
+    ControlLimits, Move, MoveKind, PlanError, Pose, ProbePlan, ProbingSettings, Skipped, Touch,
+    Waypoint,
 };
 use crate::kinematics::{Axes, Kinematics};
 use crate::machine::Structure;
@@ -129,6 +130,13 @@ fn round_up(z: f64) -> f64 {
     (z + 1e-6).ceil()
 }
 
+/// Whether a unit direction runs along X, Y or Z (as the post engine
+/// decides it for a control that probes along one axis only).
+pub(crate) fn axis_aligned(d: &Vector3<f64>) -> bool {
+    let d = d.normalize();
+    (0..3).any(|i| (d[i].abs() - 1.0).abs() < 1e-9)
+}
+
 /// Checks that the commanded point lies inside the strokes.
 pub(crate) fn check_strokes(kin: &Kinematics, axes: &Axes) -> Result<(), String> {
     let gauge = axes.xyz + Vector3::z() * kin.gauge_length();
@@ -154,6 +162,7 @@ pub(crate) fn build(
     probe: ProbeShape,
     settings: ProbingSettings,
     specs: Vec<PoseSpec>,
+    limits: &ControlLimits,
 ) -> Result<ProbePlan, PlanError> {
     let margin = settings.safe_margin;
     let safe = round_up(safe_z(&kin, &obstacles, &probe, margin));
@@ -218,12 +227,23 @@ pub(crate) fn build(
                 reason: why,
             };
             let mut why = None;
+            let n_prog = frame.dir_to_prog(&n);
+            if limits.axis_aligned_probing && !axis_aligned(&n_prog) {
+                why = Some(format!(
+                    "the control probes along X, Y or Z only, and this approach runs along \
+                     ({:.4}, {:.4}, {:.4}) in program coordinates",
+                    -n_prog.x, -n_prog.y, -n_prog.z
+                ));
+            }
             for (what, w) in [
                 ("start", &start),
                 ("overtravel end", &end),
                 ("clearance point", &above),
                 ("safe point", &high),
             ] {
+                if why.is_some() {
+                    break;
+                }
                 if let Err(e) = check_strokes(&kin, &w.axes) {
                     why = Some(format!("{what}: {e}"));
                     break;

@@ -27,7 +27,7 @@ use super::columns::{probe_shape, table_obstacle};
 use super::frame::PoseFrame;
 use super::path::{self, Candidate, PoseSpec};
 use super::template::{SpherePattern, SphereTemplate};
-use super::{PlanError, ProbePlan, pose_id};
+use super::{ControlLimits, PlanError, ProbePlan, pose_id};
 use crate::kinematics::Kinematics;
 use crate::machine::Machine;
 
@@ -98,8 +98,18 @@ pub fn poses(m: &Machine, t: &SphereTemplate) -> Vec<(String, f64, f64)> {
     }
 }
 
-/// Plans the sphere test on machine `m`.
+/// Plans the sphere test on machine `m` for a control that probes in any
+/// direction.
 pub fn plan(m: &Machine, t: &SphereTemplate) -> Result<ProbePlan, PlanError> {
+    plan_with(m, t, &ControlLimits::default())
+}
+
+/// Plans the sphere test on machine `m` for a control with `limits`.
+pub fn plan_with(
+    m: &Machine,
+    t: &SphereTemplate,
+    limits: &ControlLimits,
+) -> Result<ProbePlan, PlanError> {
     let err = |k: &[&str], msg: String| t.source.error_at(k, msg);
     let probe = probe_shape(m, &t.probe, err)?;
     let centre = sphere_centre(m, t);
@@ -172,7 +182,15 @@ pub fn plan(m: &Machine, t: &SphereTemplate) -> Result<ProbePlan, PlanError> {
     super::uniquify_ids(&mut specs);
     let mut obstacles: Vec<Obstacle> = sphere_obstacles(m, t).into();
     obstacles.push(table_obstacle(m));
-    let mut plan = path::build("probe-sphere", kin, obstacles, probe, t.probing, specs)?;
+    let mut plan = path::build(
+        "probe-sphere",
+        kin,
+        obstacles,
+        probe,
+        t.probing,
+        specs,
+        limits,
+    )?;
     plan.warnings = weak_poses(&plan);
     Ok(plan)
 }

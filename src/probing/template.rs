@@ -865,3 +865,77 @@ impl SphereTemplate {
         }
     }
 }
+
+/// Either probing template, chosen by its `test:` key.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ProbeTemplate {
+    /// `probe-columns`.
+    Columns(ColumnsTemplate),
+    /// `probe-sphere`.
+    Sphere(SphereTemplate),
+}
+
+/// The names of the probing tests.
+pub const PROBING_TESTS: [&str; 2] = ["probe-columns", "probe-sphere"];
+
+impl ProbeTemplate {
+    /// The built-in template of a probing test.
+    pub fn builtin(test: &str) -> Option<ProbeTemplate> {
+        match test {
+            "probe-columns" => Some(ProbeTemplate::Columns(ColumnsTemplate::builtin())),
+            "probe-sphere" => Some(ProbeTemplate::Sphere(SphereTemplate::builtin())),
+            _ => None,
+        }
+    }
+
+    /// Parses a template of either test, as its `test:` key says.
+    pub fn parse(source: TemplateSource) -> Result<ProbeTemplate, SourceError> {
+        #[derive(Deserialize)]
+        struct Head {
+            #[serde(default)]
+            test: Option<String>,
+        }
+        let head: Head = serde_yaml::from_str(&source.text)
+            .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
+        match head.test.as_deref() {
+            Some("probe-columns") => ColumnsTemplate::parse(source).map(ProbeTemplate::Columns),
+            Some("probe-sphere") => SphereTemplate::parse(source).map(ProbeTemplate::Sphere),
+            Some(other) => Err(source.error_at(
+                &["test"],
+                format!(
+                    "`test: {other}` is not a probing test: expected probe-columns or probe-sphere"
+                ),
+            )),
+            None => Err(SourceError::new(
+                &source.path,
+                1,
+                1,
+                "a probing template needs `test: probe-columns` or `test: probe-sphere`",
+            )),
+        }
+    }
+
+    /// The test name.
+    pub fn test(&self) -> &'static str {
+        match self {
+            ProbeTemplate::Columns(_) => "probe-columns",
+            ProbeTemplate::Sphere(_) => "probe-sphere",
+        }
+    }
+
+    /// Where it came from, with its text.
+    pub fn source(&self) -> &TemplateSource {
+        match self {
+            ProbeTemplate::Columns(t) => &t.source,
+            ProbeTemplate::Sphere(t) => &t.source,
+        }
+    }
+
+    /// Its probing settings.
+    pub fn probing(&self) -> &ProbingSettings {
+        match self {
+            ProbeTemplate::Columns(t) => &t.probing,
+            ProbeTemplate::Sphere(t) => &t.probing,
+        }
+    }
+}

@@ -26,6 +26,9 @@ pub struct RunTime {
     pub poses: Vec<(f64, f64)>,
     /// Number of touches.
     pub touches: usize,
+    /// Per touch of the plan: minutes from the start when the probe
+    /// reaches its nominal contact (for effects that drift with time).
+    pub touch_min: Vec<f64>,
 }
 
 impl RunTime {
@@ -44,6 +47,7 @@ pub(crate) fn estimate(plan: &ProbePlan) -> RunTime {
     let s = &plan.settings;
     let (mut rapid_s, mut positioning_s, mut probing_s, mut overhead_s) = (0.0, 0.0, 0.0, 0.0);
     let mut poses = vec![(f64::NAN, 0.0); plan.poses.len()];
+    let mut touch_min = vec![0.0; plan.touches.len()];
     let mut t = 0.0;
     for mv in &plan.moves {
         let d = mv.to.axes.xyz - mv.from.axes.xyz;
@@ -71,6 +75,7 @@ pub(crate) fn estimate(plan: &ProbePlan) -> RunTime {
                 let touch = &plan.touches[i];
                 let v = (touch.contact.axes.xyz - mv.from.axes.xyz).norm() / touch.feed * 60.0;
                 probing_s += v;
+                touch_min[i] = (t + v) / 60.0;
                 overhead_s += s.touch_overhead;
                 v + s.touch_overhead
             }
@@ -91,5 +96,6 @@ pub(crate) fn estimate(plan: &ProbePlan) -> RunTime {
         overhead_s,
         poses,
         touches: plan.touches.len(),
+        touch_min,
     }
 }

@@ -12,10 +12,12 @@
 //! | dialect | log line | NC that writes it |
 //! |---|---|---|
 //! | FANUC | `T    17 X   33.0000 Y-  45.0000 Z  135.0021` | [`fanuc::touch_blocks`]: `#199=17`, `DPRNT[T#199[50]*X#5061[44]*Y#5062[44]*Z#5063[44]]` |
-//! | HEIDENHAIN | `T17 X33,0000 Y-45,0000 Z135,0021` | [`heidenhain::touch_format_file`] (`.A`) and [`heidenhain::touch_statements`] (`FN 16: F-PRINT`) |
+//! | HEIDENHAIN | `K17 X33,0000 Y-45,0000 Z132,0021` (cycle 0's compensated touch point; `T` for ball centres) | [`heidenhain::cycle0_reads`], [`heidenhain::touch_format_file`] (`.A`) and [`heidenhain::touch_statements`] (`FN 16: F-PRINT`) |
 //! | LinuxCNC | `T A0C0_C1_xp X33.000000 Y-45.000000 Z135.002100` | [`linuxcnc::touch_line`]: `(LOG,T A0C0_C1_xp X#5061 Y#5062 Z#5063)` |
 //!
 //! and a header line `FIVECAL <test>` at the start of each run.
+//! [`write::LogFormat`] writes these logs as the control would, for a
+//! simulator.
 //!
 //! # From ball centre to contact point
 //! The controller records the probe-ball centre `b` (in program
@@ -51,6 +53,7 @@
 pub mod fanuc;
 pub mod heidenhain;
 pub mod linuxcnc;
+pub mod write;
 
 use std::collections::HashMap;
 use std::path::Path;

@@ -1,7 +1,9 @@
 //! `fivecal plan <test>`: writes a machining test as an NC program with its
-//! nominal points, CMM program, 3-D model and setup sheet. Raw arguments are
-//! turned into one validated [`PlanConfig`] in [`config`], then the library
-//! plans and writes.
+//! nominal points, CMM program, 3-D model and setup sheet, or a probing test
+//! as an NC program that logs its touches, with its nominal points, a 3-D
+//! model of the setup and a setup sheet. Raw arguments are turned into one
+//! validated configuration ([`PlanConfig`] or [`ProbingConfig`]) in
+//! [`config`], then the library plans and writes.
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -11,11 +13,12 @@ use clap::{Args, ValueEnum};
 use fivecal::formats::manifest::KinematicsMode;
 use fivecal::machine::{Machine, Tool};
 use fivecal::plan::template::check_tool;
-use fivecal::plan::{PlanConfig, Template, plan};
+use fivecal::plan::{PlanConfig, ProbingConfig, Template, plan, plan_probing};
 use fivecal::post::PostDefinition;
+use fivecal::probing::template::{PROBING_TESTS, ProbeTemplate, TemplateSource};
 use fivecal::source::SourceError;
 
-#[derive(Clone, Copy, Debug, ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum KinematicsArg {
     /// fivecal computes X, Y, Z and the rotary axes from the machine file.
     Post,
@@ -25,7 +28,8 @@ enum KinematicsArg {
 
 #[derive(Args, Debug)]
 pub struct PlanArgs {
-    /// The test: stepped-square (seed 001) or nine-section (seed 004).
+    /// The test: stepped-square (seed 001), nine-section (seed 004),
+    /// probe-columns (seed 000) or probe-sphere (seeds 003, 004).
     test: String,
     /// Machine file, or a built-in machine (bc-trunnion, ac-trunnion,
     /// head-table, head-head).
@@ -38,9 +42,10 @@ pub struct PlanArgs {
     /// Output directory.
     #[arg(long, default_value = ".")]
     out: PathBuf,
-    /// How 3+2 positions are written.
-    #[arg(long, value_enum, default_value = "post")]
-    kinematics: KinematicsArg,
+    /// How 3+2 positions are written (machining tests; probing programs
+    /// always position the axes themselves) [default: post].
+    #[arg(long, value_enum)]
+    kinematics: Option<KinematicsArg>,
     /// Test template file replacing the built-in one (copy
     /// templates/<test>.yaml and edit it).
     #[arg(long)]
@@ -49,16 +54,23 @@ pub struct PlanArgs {
     /// edit it), or a built-in dialect name.
     #[arg(long)]
     postprocessor: Option<String>,
-    /// Tool replacing the template's: `machine` (the machine file's tool), a
-    /// YAML tool file, or an inline mapping such as
-    /// '{name: D6 ball, kind: ball, diameter: 6, length: 50}'.
+    /// Tool replacing the template's (machining tests): `machine` (the
+    /// machine file's tool), a YAML tool file, or an inline mapping such as
+    /// '{name: D6 ball, kind: ball, diameter: 6, length: 50}'. Probing
+    /// tests use the machine file's probe.
     #[arg(long)]
     tool: Option<String>,
 }
 
+/// What one `plan` run plans.
+enum Job {
+    Machining(PlanConfig),
+    Probing(ProbingConfig),
+}
+
 /// The validated configuration of one `plan` run.
 struct Config {
-    plan: PlanConfig,
+    job: Job,
     out: PathBuf,
     inputs: Vec<PathBuf>,
 }
@@ -92,30 +104,6 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
     if Path::new(&a.machine).exists() {
         inputs.push(PathBuf::from(&a.machine));
     }
-    let template = match &a.template {
-        Some(p) => {
-            inputs.push(p.clone());
-            let t = Template::parse(
-                p,
-                &std::fs::read_to_string(p).with_context(|| format!("cannot read template {}", p.display()))?,
-            )?;
-            if t.test != a.test {
-                bail!(
-                    "{}: the template is for test `{}`, but the command asks for `{}`",
-                    p.display(),
-                    t.test,
-                    a.test
-                );
-            }
-            t
-        }
-        None => Template::builtin(&a.test).with_context(|| {
-            format!(
-                "unknown test `{}`: expected stepped-square or nine-section (or pass --template FILE)",
-                a.test
-            )
-        })?,
-    };
     let dialect = a
         .dialect
         .as_deref()
@@ -139,6 +127,75 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         }
         None => PostDefinition::builtin(dialect.unwrap_or(machine.dialect)),
     };
+    if PROBING_TESTS.contains(&a.test.as_str()) {
+        if a.kinematics == Some(KinematicsArg::Controller) {
+            bail!(
+                "--kinematics controller: the {} program positions every axis itself (no TCP, no tilted plane), so that the log records positions in the work offset on W",
+                a.test
+            );
+        }
+        if a.tool.is_some() {
+            bail!(
+                "--tool: the {} test uses the machine file's probe (`probe:` in {}), not a cutting tool",
+                a.test,
+                machine.name
+            );
+        }
+        let template = match &a.template {
+            Some(p) => {
+                inputs.push(p.clone());
+                let text = std::fs::read_to_string(p)
+                    .with_context(|| format!("cannot read template {}", p.display()))?;
+                let t = ProbeTemplate::parse(TemplateSource {
+                    path: p.clone(),
+                    text,
+                })?;
+                if t.test() != a.test {
+                    bail!(
+                        "{}: the template is for test `{}`, but the command asks for `{}`",
+                        p.display(),
+                        t.test(),
+                        a.test
+                    );
+                }
+                t
+            }
+            None => ProbeTemplate::builtin(&a.test).expect("a probing test has a template"),
+        };
+        return Ok(Config {
+            job: Job::Probing(ProbingConfig {
+                machine,
+                template,
+                post,
+            }),
+            out: a.out,
+            inputs,
+        });
+    }
+    let template = match &a.template {
+        Some(p) => {
+            inputs.push(p.clone());
+            let t = Template::parse(
+                p,
+                &std::fs::read_to_string(p).with_context(|| format!("cannot read template {}", p.display()))?,
+            )?;
+            if t.test != a.test {
+                bail!(
+                    "{}: the template is for test `{}`, but the command asks for `{}`",
+                    p.display(),
+                    t.test,
+                    a.test
+                );
+            }
+            t
+        }
+        None => Template::builtin(&a.test).with_context(|| {
+            format!(
+                "unknown test `{}`: expected stepped-square, nine-section, probe-columns or probe-sphere (or pass --template FILE)",
+                a.test
+            )
+        })?,
+    };
     let tool = match &a.tool {
         Some(spec) => {
             let (t, file) = parse_tool(spec, &machine)?;
@@ -148,16 +205,16 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         None => None,
     };
     Ok(Config {
-        plan: PlanConfig {
+        job: Job::Machining(PlanConfig {
             machine,
             template,
             post,
-            kinematics: match a.kinematics {
+            kinematics: match a.kinematics.unwrap_or(KinematicsArg::Post) {
                 KinematicsArg::Post => KinematicsMode::Post,
                 KinematicsArg::Controller => KinematicsMode::Controller,
             },
             tool,
-        },
+        }),
         out: a.out,
         inputs,
     })
@@ -165,14 +222,17 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let cfg = config(args)?;
-    let p = &cfg.plan;
+    let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
+    let p = match &cfg.job {
+        Job::Machining(p) => p,
+        Job::Probing(p) => return run_probing(p, &cfg.out, &inputs),
+    };
     let planned = plan(p).with_context(|| {
         format!(
             "cannot plan {} on {} ({})",
             p.template.test, p.machine.name, p.post.dialect
         )
     })?;
-    let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
     // The error already names the path and its cause.
     let written = planned
         .write(&cfg.out, &planned.test, &inputs)
@@ -191,6 +251,38 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             KinematicsMode::Post => "post",
             KinematicsMode::Controller => "controller",
         }
+    )?;
+    for n in &planned.notes {
+        writeln!(out, "note: {n}")?;
+    }
+    for w in written {
+        writeln!(out, "wrote {}", w.display())?;
+    }
+    Ok(())
+}
+
+fn run_probing(p: &ProbingConfig, out_dir: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
+    let planned = plan_probing(p).with_context(|| {
+        format!(
+            "cannot plan {} on {} ({})",
+            p.template.test(),
+            p.machine.name,
+            p.post.dialect
+        )
+    })?;
+    let written = planned
+        .write(out_dir, &planned.test, inputs)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "{} on {}: {} poses, {} touches, about {:.0} min ({} dialect)",
+        planned.test,
+        planned.machine.name,
+        planned.plan.poses.len(),
+        planned.plan.touches.len(),
+        planned.run_minutes(),
+        planned.dialect
     )?;
     for n in &planned.notes {
         writeln!(out, "note: {n}")?;

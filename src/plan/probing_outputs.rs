@@ -1,0 +1,305 @@
+//! The files a probing plan writes, deterministic and each written
+//! atomically: the program (and HEIDENHAIN's format files), points.csv,
+//! the setup as `.obj` and `.glb`, the setup sheet, and the manifest with
+//! copies of the machine file, template and postprocessor.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use indexmap::IndexMap;
+
+use super::design::short;
+use super::probing::{PlannedProbing, Setup};
+use crate::formats::manifest::{KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry, TestKind};
+use crate::io::{OutputError, ensure_not_input, write_atomic};
+
+fn round(v: f64, d: i32) -> f64 {
+    let f = 10f64.powi(d);
+    (v * f).round() / f
+}
+
+impl PlannedProbing {
+    /// Output file names by role, for a plan named `stem`.
+    pub fn file_names(&self, stem: &str) -> Vec<(&'static str, PathBuf)> {
+        let mut v = vec![
+            (
+                "program",
+                PathBuf::from(format!("{stem}.{}", self.post.extension)),
+            ),
+            ("points", PathBuf::from(format!("{stem}.points.csv"))),
+            ("glb", PathBuf::from(format!("{stem}.glb"))),
+            ("obj", PathBuf::from(format!("{stem}.obj"))),
+            ("setup", PathBuf::from(format!("{stem}.md"))),
+            ("postprocessor", PathBuf::from(format!("{stem}.post.yaml"))),
+        ];
+        for a in &self.program.aux {
+            v.push(("log_format", PathBuf::from(&a.name)));
+        }
+        v
+    }
+
+    /// The manifest of this plan written under the name `stem`.
+    pub fn manifest(&self, stem: &str) -> Manifest {
+        let files: IndexMap<String, PathBuf> = self
+            .file_names(stem)
+            .into_iter()
+            .map(|(r, p)| (r.to_string(), p))
+            .collect();
+        Manifest {
+            fivecal_plan: MANIFEST_VERSION,
+            test: self.test.clone(),
+            kind: TestKind::Probing,
+            machine: self.machine.name.clone(),
+            machine_file: PathBuf::from(format!("{stem}.machine.yaml")),
+            template_file: PathBuf::from(format!("{stem}.template.yaml")),
+            dialect: self.dialect,
+            kinematics: KinematicsMode::Post,
+            tool: None,
+            probe: Some(self.probe.clone()),
+            files,
+            poses: self
+                .poses()
+                .iter()
+                .map(|p| PoseEntry {
+                    pose: p.id.clone(),
+                    seq: p.seq,
+                    tilt: p.tilt,
+                    c: p.c,
+                    start_min: round(p.start_min, 3),
+                    end_min: round(p.end_min, 3),
+                })
+                .collect(),
+        }
+    }
+
+    /// The points.csv text.
+    pub fn points_csv(&self) -> String {
+        let head = format!(
+            "{} on {} (fivecal plan): nominal contact points in W, mm; n = outward unit normal; row i = touch i",
+            self.test, self.machine.name
+        );
+        self.plan_points().to_csv(&[head.as_str()])
+    }
+
+    /// The setup sheet (Markdown).
+    pub fn setup_sheet(&self, stem: &str) -> String {
+        let m = &self.machine;
+        let p = &self.probe;
+        let s = &self.plan.settings;
+        let letter = m.tilt_letter();
+        let mut o = String::new();
+        let _ = writeln!(o, "# {} on {}\n", self.test, m.name);
+        let _ = writeln!(
+            o,
+            "{}\n",
+            self.info.lines[0].trim_start_matches("fivecal plan: ")
+        );
+        let _ = writeln!(
+            o,
+            "Program `{stem}.{}` ({} dialect, postprocessor `{}`): {} poses, {} touches.\n",
+            self.post.extension,
+            self.dialect,
+            self.post.name,
+            self.plan.poses.len(),
+            self.plan.touches.len()
+        );
+        let _ = writeln!(o, "## Setup\n");
+        for l in self.setup.describe() {
+            let _ = writeln!(o, "- {l}.");
+        }
+        let place = s.overtravel.min(s.safe_margin);
+        match &self.setup {
+            Setup::Columns(_) => {
+                let _ = writeln!(
+                    o,
+                    "- Fix each column to the {} table within {} mm of its nominal place and square to the table: the probing moves start {} mm from the nominal faces and run {} mm past them, and the moves between touches keep {} mm from them.",
+                    m.name,
+                    short(place),
+                    short(s.clearance),
+                    short(s.overtravel),
+                    short(s.safe_margin)
+                );
+            }
+            Setup::Sphere(_) => {
+                let _ = writeln!(
+                    o,
+                    "- Clamp the stem to the {} table so that the sphere's centre lies within {} mm of its nominal place; nothing else may stand on the table.",
+                    m.name,
+                    short(place)
+                );
+            }
+        }
+        let _ = writeln!(
+            o,
+            "- Nothing else may stand on the table within the probe's reach: the path is checked against these pieces and the table only.\n- 3-D model of the setup: `{stem}.obj`, `{stem}.glb` (one group per piece)."
+        );
+        let _ = writeln!(o, "\n## Probe\n");
+        let _ = writeln!(
+            o,
+            "- T{}: {}, calibrated ball D{}, gauge length {} mm (set its length offset; calibrate its radius and trigger points before the run).",
+            p.number,
+            p.name,
+            short(p.ball_diameter),
+            short(p.length)
+        );
+        let _ = writeln!(
+            o,
+            "- Each touch starts {} mm from the nominal surface, approaches along the surface normal at {} mm/min and is programmed {} mm past it; positioning at {} mm/min below the clearance height, rapids above it.",
+            short(s.clearance),
+            short(s.feed),
+            short(s.overtravel),
+            short(s.positioning_feed)
+        );
+        let _ = writeln!(o, "\n## Zero point\n");
+        let _ = writeln!(
+            o,
+            "- Work offset G54 (HEIDENHAIN preset 1) on the W origin at {letter} = C = 0: the machine file's pivot, spindle gauge point at machine X{} Y{} Z{}. No TCP, no tilted plane.",
+            short(m.pivot.x),
+            short(m.pivot.y),
+            short(m.pivot.z)
+        );
+        let _ = writeln!(
+            o,
+            "- Safe height Z{} (program): {}. The rotary axes move only there.",
+            short(round(self.plan.safe_z, 3)),
+            self.safe_reason
+        );
+        let _ = writeln!(o, "\n## Log\n");
+        let fmt = self.log_format();
+        let example = self
+            .plan
+            .touches
+            .first()
+            .map(|t| fmt.touch_line(t, &t.contact.axes.xyz, self.plan.probe.ball_radius));
+        let (where_, how) = match self.dialect {
+            crate::machine::Dialect::Fanuc => (
+                "the POPEN output channel (parameter No. 0020: RS-232C, memory card or data server)".to_string(),
+                "DPRNT prints the touch index (row of points.csv) and the skip position #5061-#5063",
+            ),
+            crate::machine::Dialect::Heidenhain => (
+                format!(
+                    "TNC:\\fivecal\\{}.txt; copy the format files {} to TNC:\\fivecal\\ first",
+                    super::probing::log_name(&self.test),
+                    self.program
+                        .aux
+                        .iter()
+                        .map(|a| format!("`{}`", a.name))
+                        .collect::<Vec<_>>()
+                        .join(" and ")
+                ),
+                "FN 16 prints the touch index and cycle 0's touch point (ID360 NR1)",
+            ),
+            crate::machine::Dialect::Linuxcnc => (
+                format!(
+                    "`{}.log` in LinuxCNC's working directory",
+                    super::probing::log_name(&self.test)
+                ),
+                "LOG writes the touch label and the probe position #5061-#5063",
+            ),
+        };
+        let _ = writeln!(o, "- Written to {where_}: {how}.");
+        if let Some(e) = example {
+            let _ = writeln!(
+                o,
+                "- The first line after the header `FIVECAL {}` reads, for a touch right on the nominal surface: `{e}`.",
+                self.test
+            );
+        }
+        let _ = writeln!(
+            o,
+            "- `fivecal::formats::probe_log` reads it back into contact points joined to `{stem}.points.csv`."
+        );
+        let rt = &self.run_time;
+        let _ = writeln!(o, "\n## Run\n");
+        let _ = writeln!(
+            o,
+            "Estimated run time {} min for {} touches, {} s per touch (rapids {} min, positioning {} min, probing {} min, overheads {} min; no acceleration). Seed 000 reports 219 points in about 28 min (7.7 s per touch).\n",
+            short(round(rt.total_min, 1)),
+            rt.touches,
+            short(round(rt.per_touch_s(), 1)),
+            short(round(rt.rapid_s / 60.0, 1)),
+            short(round(rt.positioning_s / 60.0, 1)),
+            short(round(rt.probing_s / 60.0, 1)),
+            short(round(rt.overhead_s / 60.0, 1))
+        );
+        let _ = writeln!(
+            o,
+            "| seq | pose | {letter} | C | touches | start min | end min |"
+        );
+        let _ = writeln!(o, "|---|---|---|---|---|---|---|");
+        for p in self.poses() {
+            let _ = writeln!(
+                o,
+                "| {} | {} | {} | {} | {} | {} | {} |",
+                p.seq,
+                p.id,
+                short(p.tilt),
+                short(p.c),
+                p.touches.len(),
+                short(round(p.start_min, 1)),
+                short(round(p.end_min, 1))
+            );
+        }
+        if !self.notes.is_empty() {
+            let _ = writeln!(o, "\n## Notes\n");
+            for n in &self.notes {
+                let _ = writeln!(o, "- {n}");
+            }
+        }
+        o
+    }
+
+    /// Every output file: (name relative to the plan directory, bytes).
+    pub fn outputs(&self, stem: &str) -> Vec<(PathBuf, Vec<u8>)> {
+        let title = format!("{} on {} (fivecal)", self.test, self.machine.name);
+        let manifest = self.manifest(stem);
+        let mut v: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+        for (role, path) in self.file_names(stem) {
+            let bytes = match role {
+                "program" => self.program.text.clone().into_bytes(),
+                "points" => self.points_csv().into_bytes(),
+                "glb" => self.mesh.to_glb(&title),
+                "obj" => self.mesh.to_obj(&title).into_bytes(),
+                "setup" => self.setup_sheet(stem).into_bytes(),
+                "postprocessor" => self.post.source.clone().into_bytes(),
+                _ => continue,
+            };
+            v.push((path, bytes));
+        }
+        for a in &self.program.aux {
+            v.push((PathBuf::from(&a.name), a.text.clone().into_bytes()));
+        }
+        v.push((
+            manifest.machine_file.clone(),
+            self.machine.source.clone().into_bytes(),
+        ));
+        v.push((
+            manifest.template_file.clone(),
+            self.template.source().text.clone().into_bytes(),
+        ));
+        v.push((
+            PathBuf::from(format!("{stem}.plan.yaml")),
+            manifest.to_yaml().into_bytes(),
+        ));
+        v
+    }
+
+    /// Writes every output into `dir`, refusing to overwrite any of
+    /// `inputs`; the manifest is written last. Returns the paths written.
+    pub fn write(
+        &self,
+        dir: &Path,
+        stem: &str,
+        inputs: &[&Path],
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let outs = self.outputs(stem);
+        let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
+        for p in &paths {
+            ensure_not_input(p, inputs)?;
+        }
+        for ((_, bytes), p) in outs.iter().zip(&paths) {
+            write_atomic(p, bytes)?;
+        }
+        Ok(paths)
+    }
+}
