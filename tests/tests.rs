@@ -15,4 +15,5 @@ mod post;
 mod probe_fit;
 mod probe_log;
 mod probe_plan;
+mod probe_programs;
 mod regression;
