@@ -1,14 +1,16 @@
 //! Probe logs as worked examples: each dialect's log of the six touches in
 //! `fixtures/probe/small.points.csv` (ac-trunnion, ball radius 3 mm), read
 //! into the contact points of `small.measured.csv`; malformed lines
-//! rejected at file:line:column; logs that do not fit the plan refused.
+//! rejected at file:line:column; logs that do not fit the plan refused;
+//! and the writers a simulator uses, printing exactly what each control
+//! prints, read back through the readers.
 
 use std::path::Path;
 
 use fivecal::formats::measured;
 use fivecal::formats::points::PlanPoints;
 use fivecal::formats::probe_log::{
-    self, Logged, ProbeLog, ReadOptions, Repeats, fanuc, heidenhain, linuxcnc,
+    self, Logged, ProbeLog, ReadOptions, Repeats, fanuc, heidenhain, linuxcnc, write,
 };
 use fivecal::kinematics::Kinematics;
 use fivecal::machine::Dialect;
@@ -446,4 +448,170 @@ fn every_touch_of_a_plan_reads_back_through_each_dialect() {
             }
         }
     }
+}
+
+// ---------------------------------------------------------------- writers
+
+/// The log of a whole plan as its program makes the control write it, for
+/// positions offset from each nominal surface by a known amount along the
+/// normal; the reader turns it back into exactly those contact points.
+fn round_trip(p: &fivecal::plan::PlannedProbing, fmt: &write::LogFormat, what: &str) {
+    let offset = |i: usize| 0.001 * ((i * 53) % 1801) as f64 - 0.9; // -0.9 .. +0.9 mm
+    let plan = &p.plan;
+    let recorded: Vec<_> = plan
+        .touches
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let ball_w = t.contact.ball_w + t.normal_w * offset(i);
+            (t, plan.frame(t.pose).commanded(&ball_w).xyz)
+        })
+        .collect();
+    let text = fmt.write(plan, recorded);
+    let log = probe_log::read(
+        p.dialect,
+        Path::new("log"),
+        &text,
+        &p.plan_points(),
+        &plan.kin,
+        &p.read_options(),
+    )
+    .unwrap_or_else(|e| panic!("{what}: {e}\n{}", &text[..text.len().min(400)]));
+    assert!(
+        log.missing.is_empty() && log.notes.is_empty(),
+        "{what}: {log:?}"
+    );
+    // Four decimals (FANUC, HEIDENHAIN) or six (LinuxCNC) per coordinate.
+    let tol = if p.dialect == Dialect::Linuxcnc {
+        2e-6
+    } else {
+        2e-4
+    };
+    for (i, (got, t)) in log.points.iter().zip(&plan.touches).enumerate() {
+        let want = t.contact_prog + t.normal_prog * offset(i);
+        assert_eq!(got.label, t.label);
+        assert!(
+            (got.p - want).norm() < tol,
+            "{what} {}: {:?} vs {want:?}",
+            t.label,
+            got.p
+        );
+    }
+}
+
+#[test]
+fn log_writers_round_trip_through_the_readers_in_every_dialect_and_control_setting() {
+    use crate::probe_programs::probing;
+    for (m, test, d) in [
+        ("ac-trunnion", "probe-columns", Dialect::Fanuc),
+        ("head-table", "probe-sphere", Dialect::Fanuc),
+        ("ac-trunnion", "probe-columns", Dialect::Heidenhain),
+        ("head-table", "probe-sphere", Dialect::Heidenhain),
+        ("head-table", "probe-columns", Dialect::Linuxcnc),
+        ("head-head", "probe-sphere", Dialect::Linuxcnc),
+    ] {
+        let p = probing(m, test, d);
+        let base = p.log_format();
+        assert_eq!(base, write::LogFormat::builtin(d));
+        let mut variants = vec![base];
+        variants.push(write::LogFormat {
+            prt: fanuc::Prt::Suppressed,
+            tape_marks: false,
+            ..base
+        });
+        variants.push(write::LogFormat {
+            comma: false,
+            logged: Logged::BallCentre,
+            crlf: true,
+            ..base
+        });
+        for f in variants {
+            round_trip(&p, &f, &format!("{test} on {m} ({d}, {f:?})"));
+        }
+    }
+}
+
+/// What the writers print, to the character: FANUC's padded fields and
+/// tape marks, HEIDENHAIN's compensated `K` line with decimal commas,
+/// LinuxCNC's `%lf` with the label.
+#[test]
+fn log_writers_print_exactly_what_the_control_prints() {
+    use crate::probe_programs::probing;
+    let first = |p: &fivecal::plan::PlannedProbing| {
+        let t = &p.plan.touches[0];
+        p.log_format().write(&p.plan, [(t, t.contact.axes.xyz)])
+    };
+    // C1's top at Z100: the ball centre at Z103 when it touches.
+    let f = probing("ac-trunnion", "probe-columns", Dialect::Fanuc);
+    assert_eq!(
+        first(&f),
+        "%\nFIVECAL PROBE-COLUMNS\nT     1 X-  60.0000 Y-  45.0000 Z  103.0000\n%\n"
+    );
+    // The sphere (D30, centre X100 Z100): touched in +X at X85, ball centre
+    // X82; cycle 0 reports the point compensated by the ball radius.
+    let h = probing("head-table", "probe-sphere", Dialect::Heidenhain);
+    assert_eq!(
+        first(&h),
+        "FIVECAL probe-sphere\nK1 X85,0000 Y0,0000 Z100,0000\n"
+    );
+    let l = probing("ac-trunnion", "probe-sphere", Dialect::Linuxcnc);
+    assert_eq!(
+        first(&l),
+        "FIVECAL probe-sphere\nT A0C0_xp X82.000000 Y0.000000 Z50.000000\n"
+    );
+}
+
+/// A HEIDENHAIN definition whose format file prints ball centres (`T`)
+/// gets logs of `T` lines, which read back with the radius applied.
+#[test]
+fn the_log_format_follows_the_programs_format_file() {
+    use fivecal::plan::{ProbingConfig, plan_probing};
+    use fivecal::post::PostDefinition;
+    use fivecal::probing::template::ProbeTemplate;
+    let builtin = PostDefinition::builtin(Dialect::Heidenhain);
+    let src = builtin.source.replace("\"K%D X", "\"T%D X");
+    assert_ne!(src, builtin.source);
+    let post = PostDefinition::parse(Path::new("t.yaml"), &src).unwrap();
+    let p = plan_probing(&ProbingConfig {
+        machine: machine("bc-trunnion"),
+        template: ProbeTemplate::builtin("probe-sphere").unwrap(),
+        post,
+    })
+    .unwrap();
+    let f = p.log_format();
+    assert_eq!(f.logged, Logged::BallCentre);
+    let t = &p.plan.touches[0];
+    assert!(
+        f.touch_line(t, &t.contact.axes.xyz, 3.0)
+            .starts_with("T1 X")
+    );
+    round_trip(&p, &f, "T lines");
+}
+
+/// FANUC drops the high digits of a value wider than its field; the writer
+/// does the same, and the reader refuses the line it cannot trust.
+#[test]
+fn a_value_too_wide_for_dprnt_loses_its_high_digits_and_the_log_is_refused() {
+    use crate::probe_programs::probing;
+    let p = probing("ac-trunnion", "probe-columns", Dialect::Fanuc);
+    let f = p.log_format();
+    let t = &p.plan.touches[0];
+    // X-60 + 20000 = 19940 mm has five integer digits: DPRNT prints 9940.
+    let wide = t.contact.axes.xyz + Vector3::new(20000.0, 0.0, 0.0);
+    assert_eq!(
+        f.touch_line(t, &wide, 3.0),
+        "T     1 X 9940.0000 Y-  45.0000 Z  103.0000"
+    );
+    let text = f.write(&p.plan, [(t, wide)]);
+    let e = probe_log::read(
+        Dialect::Fanuc,
+        Path::new("wide.log"),
+        &text,
+        &p.plan_points(),
+        &p.plan.kin,
+        &p.read_options(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.starts_with("wide.log:3:1: touch 1 (A0C0_C1_t1)"), "{e}");
 }
