@@ -14,6 +14,7 @@ mod plan_programs;
 mod post;
 mod probe_fit;
 mod probe_log;
+mod probe_outputs;
 mod probe_plan;
 mod probe_programs;
 mod regression;

@@ -356,19 +356,44 @@ fn probing(manifest_path: &Path, man: Manifest) -> Result<PlannedProbing, LoadEr
         &planned.manifest(&planned.test).poses,
         &c.man,
     )?;
-    // The touches must be the rows of the written points.csv.
+    // The touches must be the rows of the written points.csv (to its six
+    // decimals), so that a log's indices and labels mean what they meant.
     if let Some(p) = c.man.file(manifest_path, "points")
         && p.exists()
     {
         let written = PlanPoints::read(&p)?;
-        let labels = |v: &PlanPoints| v.points.iter().map(|x| x.label.clone()).collect::<Vec<_>>();
-        if labels(&written) != labels(&planned.plan_points()) {
+        let rebuilt = planned.plan_points();
+        if written.points.len() != rebuilt.points.len() {
             return Err(mismatch(format!(
-                "{} holds {} points, the rebuilt plan {} touches with other labels or in another order",
+                "{} holds {} points, the rebuilt plan {} touches",
                 p.display(),
                 written.points.len(),
-                planned.plan.touches.len()
+                rebuilt.points.len()
             )));
+        }
+        for (i, (w, r)) in written.points.iter().zip(&rebuilt.points).enumerate() {
+            let same = w.label == r.label
+                && w.pose == r.pose
+                && w.seq == r.seq
+                && (w.tilt - r.tilt).abs() < 1e-6
+                && (w.c - r.c).abs() < 1e-6
+                && (w.p - r.p).norm() < 1e-5
+                && (w.n - r.n).norm() < 1e-8;
+            if !same {
+                return Err(mismatch(format!(
+                    "row {} of {} is {} at ({:.6}, {:.6}, {:.6}), the rebuilt touch {} at ({:.6}, {:.6}, {:.6})",
+                    i + 1,
+                    p.display(),
+                    w.label,
+                    w.p.x,
+                    w.p.y,
+                    w.p.z,
+                    r.label,
+                    r.p.x,
+                    r.p.y,
+                    r.p.z
+                )));
+            }
         }
     }
     Ok(planned)
