@@ -529,6 +529,12 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
     ]);
     assert!(e.contains("A = -130 deg is outside the limits"), "{e}");
     assert!(!e.contains("panicked"), "{e}");
+    // An output never overwrites an input: the template's own copy.
+    let own = dir.path().join("probe-sphere.template.yaml");
+    std::fs::write(&own, fivecal::probing::template::BUILTIN_SPHERE).unwrap();
+    let e = run(&["plan", "probe-sphere", "--template", own.to_str().unwrap()]);
+    assert!(e.contains("refusing to overwrite input file"), "{e}");
+    assert!(!dir.path().join("probe-sphere.plan.yaml").exists());
 }
 
 /// A postprocessor whose control probes in any direction keeps the column
