@@ -66,7 +66,8 @@
 //! joint identification, and named in [`ProbePlan::warnings`].
 //!
 //! # For the post-processor
-//! Per [`MoveKind`]: `Rapid` is a G0 (or `L ... FMAX`) of X, Y, Z; `Rotary`
+//! [`crate::plan::probing`] renders a plan through the post engine as
+//! follows. Per [`MoveKind`]: `Rapid` is a G0 (or `L ... FMAX`) of X, Y, Z; `Rotary`
 //! a G0 of the rotary axes alone, between the stored angles (at `safe_z`
 //! any direction of rotation is safe, so a controller's shortest-path mode
 //! does no harm); `Position` and `Retract` are linear moves at
