@@ -44,6 +44,7 @@ fn probing_ops() -> Vec<Op> {
             feed: 1000.0,
         },
         Op::ProbeMove {
+            from: Vector3::new(10.0, -20.0, 75.0),
             to: Vector3::new(10.0, -20.0, 65.0),
             feed: 100.0,
             direction: -Vector3::z(),
@@ -165,7 +166,7 @@ fn heidenhain_probes_with_cycle_0_and_logs_what_the_heidenhain_reader_reads() {
     for expected in [
         "TOOL CALL 99 Z\n",
         "TCH PROBE 0.0 REF. PLANE Q1999 Z-",
-        "TCH PROBE 0.1 X+10.000 Y-20.000 Z+65.000",
+        "TCH PROBE 0.1 X+10.000 Y-20.000 Z+75.000",
         "FN 18: SYSREAD Q101 = ID360 NR1 IDX1",
     ] {
         assert!(t.contains(expected), "`{expected}` missing in\n{t}");
@@ -215,6 +216,7 @@ fn heidenhain_probes_with_cycle_0_and_logs_what_the_heidenhain_reader_reads() {
 fn heidenhain_refuses_a_probe_move_off_the_axes() {
     let mut ops = probing_ops();
     ops[6] = Op::ProbeMove {
+        from: Vector3::new(10.0, -20.0, 75.0),
         to: Vector3::new(12.0, -20.0, 65.0),
         feed: 100.0,
         direction: Vector3::new(0.2, 0.0, -1.0).normalize(),
@@ -253,6 +255,7 @@ fn the_engine_refuses_unsafe_or_unfinished_sequences() {
             vec![
                 Op::SpindleOn { rpm: 1000.0 },
                 Op::ProbeMove {
+                    from: Vector3::new(0.0, 0.0, 10.0),
                     to: Vector3::zeros(),
                     feed: 50.0,
                     direction: -Vector3::z(),

@@ -394,9 +394,14 @@ fn heidenhain_blocks(text: &str) -> Vec<Block<'_>> {
 /// probe move, recognised by `is_probe`, from its touch's start point to
 /// its end point at the pose's angles, and followed by `log(index)` (the
 /// touch's log statements, in order).
+/// `pre_position`: the probe block names the point the probe starts from
+/// (HEIDENHAIN cycle 0 rapids there first, so it must be where the probe
+/// already stands, and it returns there after the touch); otherwise the
+/// probe block names the end of the probing move.
 fn check_rules(
     p: &PlannedProbing,
     blocks: &[Block<'_>],
+    pre_position: bool,
     is_probe: impl Fn(&Block<'_>) -> bool,
     log: impl Fn(usize) -> Vec<String>,
 ) -> Result<(), String> {
@@ -464,8 +469,13 @@ fn check_rules(
                 let from = Vector3::new(bx, by, bz);
                 let to = Vector3::new(xv, yv, zv);
                 let pose = &plan.poses[t.pose];
+                let named = if pre_position {
+                    t.start.axes.xyz
+                } else {
+                    t.end.axes.xyz
+                };
                 if (from - t.start.axes.xyz).norm() > 1e-3
-                    || (to - t.end.axes.xyz).norm() > 1e-3
+                    || (to - named).norm() > 1e-3
                     || tilt != Some(pose.tilt)
                     || c != Some(pose.c)
                 {
@@ -576,6 +586,7 @@ fn check_fanuc(p: &PlannedProbing) -> Result<(), String> {
     check_rules(
         p,
         &blocks,
+        false,
         |b| b.code.starts_with("G31 "),
         |k| {
             vec![
@@ -645,6 +656,7 @@ fn check_heidenhain(p: &PlannedProbing) -> Result<(), String> {
     check_rules(
         p,
         &blocks,
+        true,
         |b| b.code.starts_with("TCH PROBE 0.1"),
         |k| {
             vec![

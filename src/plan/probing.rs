@@ -406,6 +406,7 @@ fn toolpath(plan: &ProbePlan, probe: &Probe, log: &str) -> Vec<Op> {
             MoveKind::Probe(i) => {
                 let t = &plan.touches[i];
                 ops.push(Op::ProbeMove {
+                    from: t.start.axes.xyz,
                     to,
                     feed: t.feed,
                     direction: -t.normal_prog,
@@ -509,15 +510,6 @@ pub fn plan_probing(cfg: &ProbingConfig) -> Result<PlannedProbing, PlanError> {
     let mesh = model::setup_mesh(&mesh_obstacles);
 
     let mut notes = skipped_notes(&plan);
-    if post.dialect == Dialect::Heidenhain {
-        // The built-in definition writes each probing move's end point into
-        // `TCH PROBE 0.1`; the TNC manuals call that point the position the
-        // probe is brought to before probing. Until that is settled on a
-        // control, say so where the user reads before the first run.
-        notes.push(
-            "check on the control before the first run: `TCH PROBE 0.1` holds each probing move's programmed end (the clearance point is reached by the block before it); if your control pre-positions to the 0.1 point before probing, give the postprocessor's probe_move the start point instead".to_string(),
-        );
-    }
     notes.extend(plan.warnings.iter().cloned());
     let letter = m.tilt_letter();
     let safe_reason = match m.structure {

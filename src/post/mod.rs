@@ -24,7 +24,7 @@
 //! | `Rotary` | `G0 B.. C..` | `L B+.. C+.. R0 FMAX` | `G0 B.. C..` |
 //! | `TiltedPlane` | `G68.2 X0 Y0 Z0 I J K` + `G53.1` | `PLANE SPATIAL SPA SPB SPC STAY` | (none: refused) |
 //! | `TcpOn` | `G43.4 H..` | `FUNCTION TCPM ...` | (none: refused) |
-//! | `ProbeMove` | `G31 X.. F..` | `TCH PROBE 0.0 REF. PLANE Q.. Z-` / `0.1 X.. Y.. Z..` | `G38.2 X.. F..` |
+//! | `ProbeMove` | `G31 X.. F..` | `TCH PROBE 0.0 REF. PLANE Q.. Z-` / `0.1` start point | `G38.2 X.. F..` |
 //! | `ProbeRead` | `#101=#5061` ... | `FN 18: SYSREAD Q101 = ID360 NR1 IDX1` ... | `#101=#5061` ... |
 //! | `LogOpen` | `POPEN`, `DPRNT[FIVECAL*TEST]` | `FN 16: F-PRINT <log>-head.A / <log>.txt` | `(LOGOPEN,<log>.log)`, `(LOG,FIVECAL test)` |
 //! | `LogPoint` | `#199=i`, `DPRNT[T#199[50]*X#5061[44]*...]` | `FN 18` reads of ID360, `Q1900 = i`, `FN 16: F-PRINT <log>-touch.A / ...` | `(LOG,T label X#5061 Y#5062 Z#5063)` |
@@ -166,6 +166,11 @@ pub enum Op {
     /// Probe move towards `to` until contact (FANUC `G31`, LinuxCNC
     /// `G38.2`, HEIDENHAIN `TCH PROBE 0`).
     ProbeMove {
+        /// Where the probing move starts (the probe is already there),
+        /// program coordinates, mm. HEIDENHAIN's cycle 0 takes this as its
+        /// pre-position point (`TCH PROBE 0.1`), which it reaches at rapid
+        /// before probing along the axis of `TCH PROBE 0.0`.
+        from: Vector3<f64>,
         /// End point if no contact, program coordinates, mm.
         to: Vector3<f64>,
         /// Probing feed, mm/min.

@@ -425,6 +425,7 @@ impl PostDefinition {
                     last = Default::default();
                 }
                 Op::ProbeMove {
+                    from,
                     to,
                     feed,
                     direction,
@@ -470,6 +471,7 @@ impl PostDefinition {
                     let ctx = context! {
                         words,
                         x => to.x, y => to.y, z => to.z,
+                        sx => from.x, sy => from.y, sz => from.z,
                         f => *feed,
                         axis => axis_letter,
                         sign,
@@ -700,7 +702,8 @@ pub(super) fn sample_contexts(def: &PostDefinition) -> Vec<(&'static str, Value)
         (
             "probe_move",
             context! {
-                words => words(), x => 1.0, y => 2.0, z => 3.0, f => 100.0,
+                words => words(), x => 1.0, y => 2.0, z => 3.0,
+                sx => 1.0, sy => 2.0, sz => 8.0, f => 100.0,
                 axis => "Z", sign => "-", aligned => true,
             },
         ),
