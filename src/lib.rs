@@ -21,6 +21,7 @@ pub mod kinematics;
 pub mod machine;
 pub mod mesh;
 pub mod model;
+pub mod nc;
 pub mod plan;
 pub mod post;
 pub mod probing;

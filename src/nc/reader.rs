@@ -1,0 +1,92 @@
+//! Reading a program one block at a time.
+
+use std::io::{self, BufRead};
+
+use super::Block;
+use crate::machine::Dialect;
+
+/// Reads blocks from a buffered reader: a line with its line ending; on
+/// HEIDENHAIN also the lines a trailing `~` continues onto. Memory use is
+/// one block, whatever the file size.
+pub struct BlockReader<R> {
+    input: R,
+    dialect: Dialect,
+    next_line: usize,
+}
+
+impl<R: BufRead> BlockReader<R> {
+    /// A reader of `dialect` blocks.
+    pub fn new(input: R, dialect: Dialect) -> BlockReader<R> {
+        BlockReader {
+            input,
+            dialect,
+            next_line: 1,
+        }
+    }
+
+    /// Reads the next block's text into `block` (tokens are left to the
+    /// parser); `false` at the end of the input.
+    pub fn read(&mut self, block: &mut Block) -> io::Result<bool> {
+        block.text.clear();
+        block.line = self.next_line;
+        loop {
+            let start = block.text.len();
+            let n = self.input.read_until(b'\n', &mut block.text)?;
+            if n == 0 {
+                break;
+            }
+            self.next_line += 1;
+            if self.dialect != Dialect::Heidenhain || !continues(&block.text[start..]) {
+                break;
+            }
+        }
+        Ok(!block.text.is_empty())
+    }
+}
+
+/// Whether a HEIDENHAIN line ends with `~` (before spaces and its ending).
+fn continues(line: &[u8]) -> bool {
+    let mut end = line.len();
+    while end > 0 && matches!(line[end - 1], b'\n' | b'\r' | b' ' | b'\t') {
+        end -= 1;
+    }
+    end > 0 && line[end - 1] == b'~' && line.ends_with(b"\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn blocks(src: &str, d: Dialect) -> Vec<(usize, String)> {
+        let mut r = BlockReader::new(src.as_bytes(), d);
+        let mut b = Block::default();
+        let mut out = Vec::new();
+        while r.read(&mut b).unwrap() {
+            out.push((b.line, String::from_utf8(b.text.clone()).unwrap()));
+        }
+        out
+    }
+
+    #[test]
+    fn lines_keep_their_endings_and_the_last_may_have_none() {
+        let got = blocks("G0 X1\r\nG1 X2\nM30", Dialect::Fanuc);
+        assert_eq!(
+            got,
+            vec![
+                (1, "G0 X1\r\n".to_string()),
+                (2, "G1 X2\n".to_string()),
+                (3, "M30".to_string())
+            ]
+        );
+    }
+
+    #[test]
+    fn heidenhain_continuation_lines_join_their_block() {
+        let src = "5 CYCL DEF 200 DRILLING ~\n  Q200=+2 ;SET-UP CLEARANCE ~\n  Q201=-20 ;DEPTH\n6 L Z+100 R0 FMAX\n";
+        let got = blocks(src, Dialect::Heidenhain);
+        assert_eq!(got.len(), 2);
+        assert_eq!(got[0].0, 1);
+        assert_eq!(got[1].0, 4);
+        assert!(got[0].1.ends_with("DEPTH\n"));
+    }
+}
