@@ -12,6 +12,7 @@
 
 #![warn(missing_docs)]
 
+pub mod compensate;
 pub mod errorfile;
 pub mod fit;
 pub mod formats;

@@ -9,6 +9,7 @@ mod errorfile;
 mod identifiability;
 mod kinematics;
 mod machine;
+mod nc;
 mod plan;
 mod plan_programs;
 mod post;

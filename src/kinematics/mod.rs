@@ -26,6 +26,7 @@
 //! model, used by identification and by Newton's method.
 
 mod chain;
+pub mod fast;
 mod inverse;
 pub mod maps;
 pub mod symbols;

@@ -207,8 +207,6 @@ fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
             | HhKind::Cp
             | HhKind::Cr
             | HhKind::Ct
-            | HhKind::Rnd
-            | HhKind::Chf
             | HhKind::Appr
             | HhKind::Dep
             | HhKind::M => path_words(&lx, b, kw_end, &mut seg)?,

@@ -1,0 +1,102 @@
+//! Edits to one block: replaced byte ranges and inserted text, applied in
+//! one pass when the block is written. Everything not edited is copied
+//! byte for byte.
+
+use std::io::{self, Write};
+
+use crate::nc::{Block, Span};
+
+#[derive(Clone, Copy, Debug)]
+struct Edit {
+    start: u32,
+    end: u32,
+    text: (u32, u32),
+    seq: u32,
+}
+
+/// The edits of one block (buffers are reused from block to block).
+#[derive(Default, Debug)]
+pub struct Edits {
+    items: Vec<Edit>,
+    buf: Vec<u8>,
+}
+
+impl Edits {
+    /// Forgets all edits.
+    pub fn clear(&mut self) {
+        self.items.clear();
+        self.buf.clear();
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// Replaces `span` with what `f` writes.
+    pub fn replace(&mut self, span: Span, f: impl FnOnce(&mut Vec<u8>)) {
+        let a = self.buf.len() as u32;
+        f(&mut self.buf);
+        let b = self.buf.len() as u32;
+        let seq = self.items.len() as u32;
+        self.items.push(Edit {
+            start: span.start,
+            end: span.end,
+            text: (a, b),
+            seq,
+        });
+    }
+
+    /// Inserts what `f` writes at byte `at` (after earlier insertions at the
+    /// same place).
+    pub fn insert(&mut self, at: u32, f: impl FnOnce(&mut Vec<u8>)) {
+        self.replace(Span { start: at, end: at }, f);
+    }
+
+    /// Deletes `span`.
+    pub fn delete(&mut self, span: Span) {
+        self.replace(span, |_| {});
+    }
+
+    /// Writes the block with the edits applied.
+    pub fn write_block<W: Write>(&mut self, block: &Block, out: &mut W) -> io::Result<()> {
+        if self.items.is_empty() {
+            return out.write_all(&block.text);
+        }
+        self.items
+            .sort_unstable_by_key(|e| (e.start, e.end != e.start, e.seq));
+        let mut at = 0usize;
+        for e in &self.items {
+            let (s, t) = (e.start as usize, e.end as usize);
+            if s < at {
+                // Overlapping edits would be a bug upstream; never lose text.
+                continue;
+            }
+            out.write_all(&block.text[at..s])?;
+            out.write_all(&self.buf[e.text.0 as usize..e.text.1 as usize])?;
+            at = t;
+        }
+        out.write_all(&block.text[at..])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn replaces_inserts_and_deletes_in_order() {
+        let block = Block {
+            text: b"G1 X1. Y2.\n".to_vec(),
+            ..Default::default()
+        };
+        let mut e = Edits::default();
+        e.replace(Span { start: 4, end: 6 }, |b| b.extend_from_slice(b"1.5"));
+        e.insert(10, |b| b.extend_from_slice(b" Z3."));
+        e.insert(10, |b| b.extend_from_slice(b" C4."));
+        e.delete(Span { start: 0, end: 3 });
+        let mut out = Vec::new();
+        e.write_block(&block, &mut out).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap(), "X1.5 Y2. Z3. C4.\n");
+    }
+}

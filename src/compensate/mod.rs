@@ -1,0 +1,227 @@
+//! Rewriting NC programs so that the identified errors cancel.
+//!
+//! For every move the program asks for a tool pose through the nominal
+//! kinematics: the tip and axis the nominal machine would reach at the
+//! programmed axis values (post-side programs), or the programmed tip in W
+//! with the tool axis of the programmed rotary positions (tool centre point
+//! control: G43.4, M128, FUNCTION TCPM; G43.5 gives the axis as a vector).
+//! [`Solver`] finds the axis values that reach that pose on the machine
+//! with the identified errors; for TCP programs the rewritten coordinates
+//! are the W coordinates the *nominal* controller kinematics turns into
+//! those axis values, so the controller's own TCP does the rest.
+//!
+//! Between end points the controller interpolates the written values
+//! linearly (axis values, or tip and rotary positions under TCP), so the
+//! actual path bends away from the intended one where the rotary axes move.
+//! A linear move is subdivided until every piece stays within the
+//! tolerance of the intended path; an arc is kept when the rewritten arc
+//! stays within it (rotary axes fixed: the correction is then a rigid
+//! motion) and linearized otherwise. Inverse-time feeds are recomputed for
+//! the pieces so that the block takes as long as before.
+//!
+//! Moves that cannot be rewritten (expression coordinates, unknown words,
+//! positions that are not statically known, transformations that are not
+//! modelled) are left exactly as written and reported with their line
+//! numbers. A correction larger than the configured limit stops the run
+//! with the line named, and nothing is written. The rewrite streams: one
+//! block is in memory at a time.
+
+mod edit;
+mod engine;
+mod frame;
+mod output;
+pub mod simulate;
+mod solver;
+
+use std::fmt;
+use std::path::PathBuf;
+
+use nalgebra::Vector3;
+
+pub use engine::Compensator;
+pub use output::AtomicOutput;
+pub use solver::{Solution, Solver};
+
+use crate::kinematics::{Axes, ToolPose};
+use crate::machine::Dialect;
+use crate::nc::modal::Tcp;
+use crate::source::SourceError;
+
+/// How the program's coordinates are meant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coordinates {
+    /// As the program switches TCP on and off (G43.4/G43.5, M128/TCPM).
+    Auto,
+    /// Always axis positions (a post-side program), whatever TCP code it has.
+    Axes,
+    /// Always tool-tip coordinates in W (a controller whose kinematics
+    /// always runs TCP, e.g. LinuxCNC with trt-kins).
+    Tcp,
+}
+
+/// Settings of a rewrite.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// The dialect.
+    pub dialect: Dialect,
+    /// Reject words and codes the parser does not know.
+    pub strict: bool,
+    /// Largest allowed distance of the actual tool-tip path from the
+    /// intended one, mm.
+    pub tolerance: f64,
+    /// Largest allowed correction: um for X, Y, Z and urad for the rotary
+    /// axes (1 urad = 1 um/m).
+    pub max_correction: f64,
+    /// Where the program zero lies in W at rotary zero, mm (0 for programs
+    /// whose work offset is on the W origin, as `fivecal plan` writes them).
+    pub origin: Vector3<f64>,
+    /// Decimals written for linear axes (at least; more if the program
+    /// already writes more).
+    pub linear_decimals: u8,
+    /// Decimals written for rotary axes and tool vectors (at least).
+    pub rotary_decimals: u8,
+    /// How coordinates are meant.
+    pub coordinates: Coordinates,
+    /// Largest C swing accepted for an exact correction next to the tilt
+    /// singularity, deg; beyond it C is held (see [`Solver`]).
+    pub max_c_swing: f64,
+    /// FANUC axis values without a decimal point: mm per unit, or `None`
+    /// to leave such moves as written.
+    pub fanuc_integer_unit: Option<f64>,
+}
+
+impl Settings {
+    /// Defaults for a dialect: 1 um tolerance, 200 um / 200 urad limit,
+    /// 4 decimals in mm and 6 in degrees (0.1 um and 0.02 urad, so rounding
+    /// stays well inside 0.1 um and 0.1 urad), C held beyond a 1 deg swing.
+    pub fn new(dialect: Dialect) -> Settings {
+        Settings {
+            dialect,
+            strict: false,
+            tolerance: 0.001,
+            max_correction: 200.0,
+            origin: Vector3::zeros(),
+            linear_decimals: 4,
+            rotary_decimals: 6,
+            coordinates: Coordinates::Auto,
+            max_c_swing: 1.0,
+            fanuc_integer_unit: None,
+        }
+    }
+}
+
+/// One written end point, for callers that check or trace a rewrite.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vertex {
+    /// Line of the source block.
+    pub line: usize,
+    /// The nominal axes (or, under TCP, tip in W and rotary positions) the
+    /// program asked for at this point, mm and deg.
+    pub nominal: Axes,
+    /// What was written, in the same frame, after rounding.
+    pub written: Axes,
+    /// The tool pose the point is meant to reach, in W.
+    pub target: ToolPose,
+    /// TCP mode of the point.
+    pub tcp: Tcp,
+    /// C was held next to the singularity.
+    pub held_c: bool,
+    /// An end point of a piece inserted by subdivision or linearization.
+    pub inserted: bool,
+}
+
+/// The largest correction and where.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Largest {
+    /// Value (um or urad).
+    pub value: f64,
+    /// Source line.
+    pub line: usize,
+}
+
+/// What a rewrite did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Summary {
+    /// Blocks read.
+    pub blocks: usize,
+    /// Moves found.
+    pub moves: usize,
+    /// Blocks rewritten.
+    pub changed: usize,
+    /// Blocks inserted (pieces of subdivided moves and linearized arcs,
+    /// HEIDENHAIN circle centres).
+    pub inserted: usize,
+    /// Source lines of subdivided linear moves.
+    pub subdivided: Vec<usize>,
+    /// Source lines of linearized arcs.
+    pub linearized: Vec<usize>,
+    /// Largest correction of X, Y, Z (length of the correction vector), um.
+    pub largest_linear: Option<Largest>,
+    /// Largest correction of a rotary axis, urad.
+    pub largest_rotary: Option<Largest>,
+    /// Moves left as written, grouped by reason, with their lines.
+    pub skipped: Vec<(String, Vec<usize>)>,
+    /// Lines where C was held next to the tilt singularity.
+    pub held_c: Vec<usize>,
+    /// Largest remaining tool-axis error where C was held, urad.
+    pub held_c_axis_error: f64,
+    /// Whether the closed-form fast path was used.
+    pub fast_path: bool,
+    /// Effects of the error file that a rewrite cannot cancel, with why.
+    pub not_compensated: Vec<String>,
+}
+
+impl Summary {
+    /// Number of moves left as written.
+    pub fn skipped_count(&self) -> usize {
+        self.skipped.iter().map(|(_, l)| l.len()).sum()
+    }
+}
+
+/// Why a rewrite failed.
+#[derive(Debug)]
+pub enum CompensateError {
+    /// A malformed program (file:line:column: what was expected).
+    Syntax(SourceError),
+    /// A correction above the limit.
+    TooLarge {
+        /// The program.
+        path: PathBuf,
+        /// Its line.
+        line: usize,
+        /// What and how much.
+        what: String,
+    },
+    /// A move that cannot be followed within the tolerance.
+    Tolerance {
+        /// The program.
+        path: PathBuf,
+        /// Its line.
+        line: usize,
+        /// Why.
+        what: String,
+    },
+    /// Reading or writing failed.
+    Io(std::io::Error),
+}
+
+impl fmt::Display for CompensateError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CompensateError::Syntax(e) => write!(f, "{e}"),
+            CompensateError::TooLarge { path, line, what }
+            | CompensateError::Tolerance { path, line, what } => {
+                write!(f, "{}:{line}: {what}", path.display())
+            }
+            CompensateError::Io(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for CompensateError {}
+
+impl From<std::io::Error> for CompensateError {
+    fn from(e: std::io::Error) -> Self {
+        CompensateError::Io(e)
+    }
+}

@@ -1,0 +1,356 @@
+//! Running an NC program on a machine with known errors (`fivecal simulate
+//! nc`): where the tool tip actually goes, and how far that is from where
+//! the nominal machine would put it; and what a CMM would measure on a
+//! part cut that way.
+//!
+//! The controller is modelled as it interpolates: axis values linearly
+//! between end points (post-side programs), or tip and rotary positions
+//! linearly with its nominal kinematics turning them into axis values
+//! (TCP); arcs in their plane. The machine is the exact model with the
+//! errors. Samples are taken at every end point and, with a step, along
+//! feed moves.
+
+use std::io::BufRead;
+use std::path::Path;
+
+use indexmap::IndexMap;
+use nalgebra::Vector3;
+
+use super::frame::{ArcGeo, Frame, Path2, known};
+use super::solver::Solver;
+use super::{Coordinates, Largest};
+use crate::kinematics::{Axes, ToolPose};
+use crate::machine::Dialect;
+use crate::model::Model;
+use crate::nc::modal::{AXES, Event, Modal, ModalSettings, MoveKind, Skip, Tcp};
+use crate::nc::{Block, BlockReader, Syntax};
+use crate::source::SourceError;
+
+/// Settings of a simulation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimSettings {
+    /// Dialect.
+    pub dialect: Dialect,
+    /// Reject unknown words.
+    pub strict: bool,
+    /// Program zero in W at rotary zero, mm.
+    pub origin: Vector3<f64>,
+    /// How coordinates are meant.
+    pub coordinates: Coordinates,
+    /// FANUC axis values without a decimal point (mm per unit).
+    pub fanuc_integer_unit: Option<f64>,
+    /// Sampling step along feed moves, mm of tool-tip path (0: end points only).
+    pub step: f64,
+}
+
+impl SimSettings {
+    /// Defaults: end points only.
+    pub fn new(dialect: Dialect) -> SimSettings {
+        SimSettings {
+            dialect,
+            strict: false,
+            origin: Vector3::zeros(),
+            coordinates: Coordinates::Auto,
+            fanuc_integer_unit: None,
+            step: 0.0,
+        }
+    }
+}
+
+/// One point along the program.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Source line.
+    pub line: usize,
+    /// Fraction of the block's move (1 at its end point).
+    pub fraction: f64,
+    /// Whether the move is a cutting (feed) move.
+    pub feed: bool,
+    /// Where the nominal machine puts the tool.
+    pub nominal: ToolPose,
+    /// Where the machine with the errors puts it.
+    pub actual: ToolPose,
+}
+
+impl Sample {
+    /// Tool-tip error, mm.
+    pub fn error(&self) -> Vector3<f64> {
+        self.actual.tip - self.nominal.tip
+    }
+
+    /// Tool-axis error, rad.
+    pub fn axis_error(&self) -> f64 {
+        self.actual
+            .axis
+            .normalize()
+            .dot(&self.nominal.axis.normalize())
+            .clamp(-1.0, 1.0)
+            .acos()
+    }
+}
+
+/// What a simulation found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SimSummary {
+    /// Blocks read.
+    pub blocks: usize,
+    /// Moves simulated.
+    pub moves: usize,
+    /// Samples taken.
+    pub samples: usize,
+    /// Mean tool-tip error, um.
+    pub mean_um: f64,
+    /// RMS tool-tip error, um.
+    pub rms_um: f64,
+    /// Largest tool-tip error, um, and its line.
+    pub max_um: Option<Largest>,
+    /// Largest tool-axis error, urad.
+    pub max_axis_urad: f64,
+    /// Moves that could not be simulated, by reason, with lines.
+    pub skipped: Vec<(String, Vec<usize>)>,
+}
+
+/// A program runner for one machine with one set of errors.
+#[derive(Clone, Debug)]
+pub struct Simulator {
+    solver: Solver,
+    settings: SimSettings,
+    tool_length: f64,
+    tilt: usize,
+}
+
+impl Simulator {
+    /// A runner for `model` with parameters `theta`.
+    pub fn new(model: &Model, theta: &[f64], settings: SimSettings) -> Simulator {
+        let m = model.kin.machine();
+        Simulator {
+            solver: Solver::new(model, theta, 360.0),
+            tool_length: model.kin.gauge_length(),
+            tilt: if m.tilt.letter == 'A' { 3 } else { 4 },
+            settings,
+        }
+    }
+
+    fn frame(&self, modal: &Modal) -> Frame {
+        let tcp = match self.settings.coordinates {
+            Coordinates::Auto => modal.tcp,
+            Coordinates::Axes => Tcp::Off,
+            Coordinates::Tcp if modal.tcp == Tcp::Off => Tcp::Axes,
+            Coordinates::Tcp => modal.tcp,
+        };
+        Frame {
+            u: modal.units.mm(),
+            shift: modal.total_shift(),
+            origin: self.settings.origin,
+            tlc: if tcp == Tcp::Off && !modal.tool_length {
+                self.tool_length
+            } else {
+                0.0
+            },
+            tcp,
+            tilt: self.tilt,
+        }
+    }
+
+    /// Nominal and actual pose for a commanded point (program frame).
+    fn poses(&self, f: &Frame, p: &[f64; 6], vector: Option<Vector3<f64>>) -> (ToolPose, ToolPose) {
+        let a = f.model(p);
+        match f.tcp {
+            Tcp::Off => (self.solver.nominal_pose(&a), self.solver.actual_pose(&a)),
+            _ => {
+                let nominal = ToolPose {
+                    tip: a.xyz,
+                    axis: vector.unwrap_or_else(|| self.solver.nominal_pose(&a).axis),
+                };
+                let xyz = self
+                    .solver
+                    .nominal()
+                    .position(&a.xyz, a.tilt, a.c, &Vector3::zeros());
+                (nominal, self.solver.actual_pose(&Axes { xyz, ..a }))
+            }
+        }
+    }
+
+    /// Runs the program, calling `sink` with every sample.
+    pub fn run<R: BufRead>(
+        &self,
+        path: &Path,
+        input: R,
+        sink: &mut dyn FnMut(&Sample),
+    ) -> Result<SimSummary, SourceError> {
+        let m = self.solver.kinematics().machine();
+        let mut modal = Modal::new(ModalSettings {
+            dialect: self.settings.dialect,
+            rotary: [m.tilt.letter as u8, b'C'],
+            fanuc_integer_unit: self.settings.fanuc_integer_unit,
+        });
+        let syntax = Syntax {
+            dialect: self.settings.dialect,
+            strict: self.settings.strict,
+        };
+        let mut reader = BlockReader::new(input, self.settings.dialect);
+        let mut block = Block::default();
+        let mut summary = SimSummary::default();
+        let mut skipped: IndexMap<String, Vec<usize>> = IndexMap::new();
+        let (mut sum, mut sum2) = (0.0, 0.0);
+        let mut vector_rot: Option<(f64, f64)> = None;
+        let read_err =
+            |e: std::io::Error| SourceError::new(path, 0, 0, format!("cannot read: {e}"));
+        while reader.read(&mut block).map_err(read_err)? {
+            syntax.parse(&mut block).map_err(|e| {
+                let (line, column) = block.locate(e.offset);
+                SourceError::new(path, line, column, e.message)
+            })?;
+            summary.blocks += 1;
+            for si in 0..block.segments.len() {
+                let seg = block.segments[si];
+                let mv = match modal.step(&block, &seg) {
+                    Event::Move(mv) => mv,
+                    Event::Skip(s) => {
+                        skipped.entry(s.to_string()).or_default().push(block.line);
+                        continue;
+                    }
+                    _ => continue,
+                };
+                let f = self.frame(&modal);
+                let mut end = mv.end;
+                let mut vector = None;
+                if f.tcp == Tcp::Vector {
+                    let Some((v, _)) = mv.tool_vector else {
+                        continue;
+                    };
+                    let v = Vector3::new(v[0], v[1], v[2]).normalize();
+                    let (t0, c0) = vector_rot.unwrap_or((0.0, 0.0));
+                    let r = Axes::new(0.0, 0.0, 0.0, t0, c0);
+                    let Ok(a) = self.solver.nominal().inverse(
+                        &ToolPose {
+                            tip: Vector3::zeros(),
+                            axis: v,
+                        },
+                        &r,
+                    ) else {
+                        skipped
+                            .entry("tool direction out of reach".into())
+                            .or_default()
+                            .push(block.line);
+                        continue;
+                    };
+                    end[f.tilt] = Some(a.tilt);
+                    end[5] = Some(a.c);
+                    vector_rot = Some((a.tilt, a.c));
+                    vector = Some(v);
+                }
+                if let Some(&a) = f.axes().iter().find(|&&a| end[a].is_none()) {
+                    skipped
+                        .entry(Skip::PositionUnknown(AXES[a]).to_string())
+                        .or_default()
+                        .push(block.line);
+                    continue;
+                }
+                summary.moves += 1;
+                let p1 = known(&end);
+                let start_known = f.axes().iter().all(|&a| mv.start[a].is_some());
+                let p0 = known(&mv.start);
+                let feed = !matches!(mv.kind, MoveKind::Rapid);
+                let path2 = match mv.kind {
+                    MoveKind::Arc(arc) => Path2::Arc {
+                        p0,
+                        p1,
+                        geo: ArcGeo::new(arc.plane.axes(), arc.center, &p0, &p1, arc.cw, arc.turns),
+                    },
+                    _ => Path2::Line { p0, p1 },
+                };
+                let n = if feed && start_known && self.settings.step > 0.0 {
+                    let (a, _) = self.poses(&f, &p0, vector);
+                    let (b, _) = self.poses(&f, &p1, vector);
+                    let len = match path2 {
+                        Path2::Arc { geo, .. } => {
+                            (geo.sweep.abs() * geo.rs.max(geo.re) * f.u).max((b.tip - a.tip).norm())
+                        }
+                        _ => (b.tip - a.tip).norm(),
+                    };
+                    ((len / self.settings.step).ceil() as usize).clamp(1, 100_000)
+                } else {
+                    1
+                };
+                for k in 1..=n {
+                    let s = k as f64 / n as f64;
+                    let p = if n == 1 { p1 } else { path2.at(s) };
+                    let (nominal, actual) = self.poses(&f, &p, vector);
+                    let sample = Sample {
+                        line: block.line,
+                        fraction: s,
+                        feed,
+                        nominal,
+                        actual,
+                    };
+                    let e = sample.error().norm() * 1e3;
+                    sum += e;
+                    sum2 += e * e;
+                    summary.samples += 1;
+                    if summary.max_um.is_none_or(|l| e > l.value) {
+                        summary.max_um = Some(Largest {
+                            value: e,
+                            line: block.line,
+                        });
+                    }
+                    summary.max_axis_urad = summary.max_axis_urad.max(sample.axis_error() * 1e6);
+                    sink(&sample);
+                }
+            }
+        }
+        if summary.samples > 0 {
+            summary.mean_um = sum / summary.samples as f64;
+            summary.rms_um = (sum2 / summary.samples as f64).sqrt();
+        }
+        summary.skipped = skipped.into_iter().collect();
+        Ok(summary)
+    }
+}
+
+/// What a CMM would measure at the nominal surface points `points` on a
+/// part cut by the tool path `samples` (in order), for a tool that cuts at
+/// its tip with its axis along the surface normal (a ball-end or flat tool
+/// held normal to the surface): the surface moves by the tip's error along
+/// the tool axis. Each point takes the nearest approach of the actual tip
+/// path (feed moves only); a point farther than `max_distance` (mm) from it
+/// is an error.
+pub fn measure_surface(
+    samples: &[Sample],
+    points: &[(String, Vector3<f64>)],
+    max_distance: f64,
+) -> Result<Vec<(String, Vector3<f64>)>, String> {
+    let mut out = Vec::with_capacity(points.len());
+    for (label, q) in points {
+        let mut best: Option<(f64, Vector3<f64>, Vector3<f64>)> = None;
+        for w in samples.windows(2) {
+            let (a, b) = (&w[0], &w[1]);
+            if !b.feed {
+                continue;
+            }
+            let d = b.actual.tip - a.actual.tip;
+            let len2 = d.norm_squared();
+            let t = if len2 > 0.0 {
+                ((q - a.actual.tip).dot(&d) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let p = a.actual.tip + d * t;
+            let dist = (p - q).norm();
+            if best.is_none_or(|(bd, _, _)| dist < bd) {
+                let axis = (a.actual.axis * (1.0 - t) + b.actual.axis * t).normalize();
+                best = Some((dist, p, axis));
+            }
+        }
+        let Some((dist, p, n)) = best else {
+            return Err("the program has no feed moves to cut a surface".into());
+        };
+        if dist > max_distance {
+            return Err(format!(
+                "point {label} is {dist:.3} mm from the tool path (more than {max_distance} mm): not a point this program cuts"
+            ));
+        }
+        out.push((label.clone(), q + n * (p - q).dot(&n)));
+    }
+    Ok(out)
+}

@@ -1,0 +1,273 @@
+//! Axis values that put the actual tool where the nominal program meant it,
+//! on the machine with the identified errors.
+//!
+//! Location errors, a tool-length error and linear-axis errors (scale,
+//! squareness, straightness) leave the rotary link transforms constant, so
+//! the closed form of [`FastChain`] is exact; linear-axis errors that
+//! depend on X, Y, Z are folded in by a short fixed-point iteration on the
+//! position alone (the orientation does not depend on them). Error maps over
+//! the rotary angles go through the model's own inverse.
+//!
+//! Next to the tilt singularity (tool axis along C) the exact solution
+//! nearest the nominal axes may need C to turn a long way for a few urad of
+//! orientation, or may not exist (`IkError::OutOfReach`). The policy: when
+//! the exact solution would move C by more than `max_c_swing` from its
+//! nominal value, or there is none, C is held at its nominal value, the
+//! tilt is the one that brings the tool axis closest to the target, and X,
+//! Y, Z put the tool tip exactly on target. The tip is then exact; the
+//! remaining tool-axis error is at most the orientation error of the
+//! machine there, and it is reported.
+
+use nalgebra::Vector3;
+
+use crate::kinematics::fast::FastChain;
+use crate::kinematics::{Axes, IkError, Kinematics, SLOT_LIN, ToolPose};
+use crate::model::{Context, Effect, Model};
+
+/// How the actual machine is evaluated (one per solver: the size
+/// difference between the variants does not matter).
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+enum Actual {
+    /// Constant link errors (closed form), optionally with linear-axis
+    /// errors that depend on X, Y, Z.
+    Fast {
+        chain: FastChain,
+        lin: Option<(Model, Vec<f64>)>,
+    },
+    /// Errors that depend on the rotary angles: the model itself.
+    Exact { model: Model, theta: Vec<f64> },
+}
+
+/// A corrected configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Solution {
+    /// Axis values on the erroneous machine.
+    pub axes: Axes,
+    /// C was held at its nominal value (singularity policy): the remaining
+    /// angle between actual and target tool axis, rad.
+    pub held_c: Option<f64>,
+}
+
+/// Nominal and actual kinematics of one machine with one error model.
+#[derive(Clone, Debug)]
+pub struct Solver {
+    kin: Kinematics,
+    nominal: FastChain,
+    actual: Actual,
+    max_c_swing: f64,
+}
+
+impl Solver {
+    /// The solver for `model` with parameters `theta` (file units). Thermal
+    /// drift is evaluated at its start (sequence 0, minute 0).
+    pub fn new(model: &Model, theta: &[f64], max_c_swing_deg: f64) -> Solver {
+        let kin = model.kin.clone();
+        let nominal = FastChain::nominal(&kin);
+        let maps = model
+            .effects
+            .iter()
+            .any(|e| matches!(e, Effect::Map { .. }));
+        let lin_varies = model.effects.iter().any(|e| {
+            matches!(
+                e,
+                Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
+            )
+        });
+        let actual = if maps {
+            Actual::Exact {
+                model: model.clone(),
+                theta: theta.to_vec(),
+            }
+        } else {
+            let p = model.perturbation(theta, &Context::default());
+            Actual::Fast {
+                chain: FastChain::new(&kin, &p),
+                lin: lin_varies.then(|| (model.clone(), theta.to_vec())),
+            }
+        };
+        Solver {
+            kin,
+            nominal,
+            actual,
+            max_c_swing: max_c_swing_deg,
+        }
+    }
+
+    /// Whether the closed-form fast path is in use.
+    pub fn is_fast(&self) -> bool {
+        matches!(self.actual, Actual::Fast { lin: None, .. })
+    }
+
+    /// The kinematics.
+    pub fn kinematics(&self) -> &Kinematics {
+        &self.kin
+    }
+
+    /// The nominal chain (what the controller believes).
+    pub fn nominal(&self) -> &FastChain {
+        &self.nominal
+    }
+
+    fn lin_at(&self, axes: &Axes) -> Vector3<f64> {
+        match &self.actual {
+            Actual::Fast { chain, lin: None } => chain.linear(),
+            Actual::Fast {
+                lin: Some((model, theta)),
+                ..
+            } => model.perturbation(theta, &Context::at(*axes)).linear(),
+            Actual::Exact { model, theta } => {
+                model.perturbation(theta, &Context::at(*axes)).linear()
+            }
+        }
+    }
+
+    /// The actual tool pose at `axes`.
+    pub fn actual_pose(&self, axes: &Axes) -> ToolPose {
+        match &self.actual {
+            Actual::Fast { chain, lin: None } => chain.forward(axes),
+            Actual::Fast { chain, .. } => chain.forward_lin(axes, &self.lin_at(axes)),
+            Actual::Exact { model, theta } => model.pose(theta, &Context::at(*axes)),
+        }
+    }
+
+    /// The nominal tool pose at `axes`.
+    pub fn nominal_pose(&self, axes: &Axes) -> ToolPose {
+        self.nominal.forward(axes)
+    }
+
+    /// The exact inverse nearest `reference`.
+    fn inverse_exact(&self, target: &ToolPose, reference: &Axes) -> Result<Axes, IkError> {
+        match &self.actual {
+            Actual::Fast { chain, lin: None } => chain.inverse(target, reference),
+            Actual::Fast { chain, .. } => {
+                let mut a = chain.inverse(target, reference)?;
+                self.refine_position(chain, target, &mut a);
+                Ok(a)
+            }
+            Actual::Exact { model, theta } => {
+                model.inverse(theta, target, Some(reference), &Context::at(*reference))
+            }
+        }
+    }
+
+    /// X, Y, Z for the tip with the rotary axes fixed, iterating on the
+    /// linear-axis errors that depend on the position.
+    fn refine_position(&self, chain: &FastChain, target: &ToolPose, a: &mut Axes) {
+        for _ in 0..8 {
+            let lin = self.lin_at(a);
+            let next = chain.position(&target.tip, a.tilt, a.c, &lin);
+            let done = (next - a.xyz).norm() < 1e-13;
+            a.xyz = next;
+            if done {
+                break;
+            }
+        }
+    }
+
+    /// The chain with the link errors at the given angles (for error maps).
+    fn chain_at(&self, axes: &Axes) -> FastChain {
+        match &self.actual {
+            Actual::Fast { chain, .. } => chain.clone(),
+            Actual::Exact { model, theta } => {
+                let mut p = model.perturbation(theta, &Context::at(*axes));
+                for k in 0..3 {
+                    p.0[SLOT_LIN + k] = 0.0;
+                }
+                FastChain::new(&self.kin, &p)
+            }
+        }
+    }
+
+    /// Axis values with C held at `c`: best tilt, exact tip.
+    fn hold_c(&self, target: &ToolPose, nominal: &Axes) -> Result<Axes, IkError> {
+        let u = target.axis.normalize();
+        let mut a = *nominal;
+        let fixed;
+        let chain = match &self.actual {
+            Actual::Fast { chain, .. } => chain,
+            Actual::Exact { .. } => {
+                // The link errors depend on the tilt: iterate.
+                let mut ch = self.chain_at(&a);
+                for _ in 0..6 {
+                    a.tilt = ch.tilt_for_c(&u, a.c);
+                    ch = self.chain_at(&a);
+                }
+                fixed = ch;
+                &fixed
+            }
+        };
+        a.tilt = chain.tilt_for_c(&u, a.c);
+        let m = self.kin.machine();
+        if !m.tilt.within(a.tilt, 1e-9) {
+            let (lo, hi) = m.tilt.limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+            return Err(IkError::TiltOutOfLimits {
+                ux: u.x,
+                uy: u.y,
+                uz: u.z,
+                letter: m.tilt.letter,
+                angle: a.tilt,
+                alt: a.tilt,
+                lo,
+                hi,
+            });
+        }
+        a.xyz = chain.position(&target.tip, a.tilt, a.c, &Vector3::zeros());
+        for _ in 0..8 {
+            let lin = self.lin_at(&a);
+            let ch = self.chain_at(&a);
+            let next = ch.position(&target.tip, a.tilt, a.c, &lin);
+            let done = (next - a.xyz).norm() < 1e-13;
+            a.xyz = next;
+            if done {
+                break;
+            }
+        }
+        Ok(a)
+    }
+
+    /// The corrected axes for `target`, nearest the nominal axes `nominal`,
+    /// with the singularity policy of the module documentation.
+    pub fn solve(&self, target: &ToolPose, nominal: &Axes) -> Result<Solution, IkError> {
+        let exact = self.inverse_exact(target, nominal);
+        match exact {
+            Ok(a) if (a.c - nominal.c).abs() <= self.max_c_swing => Ok(Solution {
+                axes: a,
+                held_c: None,
+            }),
+            Ok(_) | Err(IkError::OutOfReach { .. }) | Err(IkError::NoConvergence { .. }) => {
+                let a = self.hold_c(target, nominal)?;
+                let got = self.actual_pose(&a).axis;
+                let residual = got
+                    .normalize()
+                    .dot(&target.axis.normalize())
+                    .clamp(-1.0, 1.0)
+                    .acos();
+                Ok(Solution {
+                    axes: a,
+                    held_c: Some(residual),
+                })
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// X, Y, Z that put the tip at `tip` with the rotary axes fixed.
+    pub fn position_at(&self, tip: &Vector3<f64>, tilt: f64, c: f64) -> Vector3<f64> {
+        let mut a = Axes {
+            xyz: Vector3::zeros(),
+            tilt,
+            c,
+        };
+        let chain = self.chain_at(&a);
+        a.xyz = chain.position(tip, tilt, c, &self.lin_at(&a));
+        if !self.is_fast() {
+            let target = ToolPose {
+                tip: *tip,
+                axis: Vector3::z(),
+            };
+            self.refine_position(&chain, &target, &mut a);
+        }
+        a.xyz
+    }
+}

@@ -1,0 +1,329 @@
+//! The NC parser on the test corpus (`tests/fixtures/nc/`): programs
+//! written for the purpose in all three dialects, covering every construct
+//! of issue 7 (macro programs, o-words, Klartext cycles with `~`, CRLF
+//! files, files without a trailing newline, non-UTF-8 comments).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use fivecal::compensate::{Compensator, Settings};
+use fivecal::errorfile::ErrorFile;
+use fivecal::kinematics::Kinematics;
+use fivecal::model::Model;
+use fivecal::nc::modal::{Event, FeedMode, Modal, ModalSettings, Tcp};
+use fivecal::nc::{Block, BlockReader, Flow, HhKind, Stmt, Syntax, TokenKind};
+use fivecal::{Dialect, Machine};
+
+pub fn fixture(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/nc")
+        .join(rel)
+}
+
+/// Every corpus program with its dialect and the machine it is written for.
+pub fn corpus() -> Vec<(PathBuf, Dialect, &'static str)> {
+    let mut out = Vec::new();
+    for (dir, d, m) in [
+        ("fanuc", Dialect::Fanuc, "bc-trunnion"),
+        ("linuxcnc", Dialect::Linuxcnc, "bc-trunnion"),
+        ("heidenhain", Dialect::Heidenhain, "head-table"),
+    ] {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(fixture(dir))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        files.sort();
+        for f in files {
+            out.push((f, d, m));
+        }
+    }
+    assert!(out.len() >= 11, "corpus went missing: {out:?}");
+    out
+}
+
+fn blocks(path: &Path, d: Dialect, strict: bool) -> Vec<Block> {
+    let bytes = std::fs::read(path).unwrap();
+    let mut r = BlockReader::new(bytes.as_slice(), d);
+    let syn = Syntax { dialect: d, strict };
+    let mut out = Vec::new();
+    let mut b = Block::default();
+    while r.read(&mut b).unwrap() {
+        syn.parse(&mut b).unwrap_or_else(|e| {
+            panic!("{}:{}: {}", path.display(), b.locate(e.offset).0, e.message)
+        });
+        out.push(b.clone());
+    }
+    out
+}
+
+#[test]
+fn every_corpus_program_parses_strictly_and_its_tokens_reprint_it_exactly() {
+    for (path, d, _) in corpus() {
+        let original = std::fs::read(&path).unwrap();
+        let mut again = Vec::new();
+        for b in blocks(&path, d, true) {
+            let mut one = Vec::new();
+            b.reprint(&mut one);
+            assert_eq!(one, b.text, "{}:{}", path.display(), b.line);
+            again.extend_from_slice(&one);
+        }
+        assert_eq!(again, original, "{}", path.display());
+    }
+}
+
+fn zero_model(machine: &str, with_file: bool) -> (Model, Vec<f64>) {
+    let k = Kinematics::new(&Machine::builtin(machine).unwrap());
+    if !with_file {
+        return (Model::new(k, vec![]), vec![]);
+    }
+    // Every location symbol present with the value zero.
+    let model = Model::new(k.clone(), vec![]);
+    let mut src = format!("machine: {machine}\nlocation_errors:\n");
+    for s in &model.symbols.location {
+        src.push_str(&format!("  {}: 0.0\n", s.name));
+    }
+    let l = ErrorFile::parse(Path::new("zero.yaml"), &src)
+        .unwrap()
+        .to_model(&k, Path::new("zero.yaml"), &src)
+        .unwrap();
+    (l.model, l.theta)
+}
+
+#[test]
+fn zero_errors_rewrite_every_corpus_program_byte_for_byte() {
+    for (path, d, machine) in corpus() {
+        for with_file in [false, true] {
+            let (model, theta) = zero_model(machine, with_file);
+            let c = Compensator::new(&model, &theta, Settings::new(d));
+            let input = std::fs::read(&path).unwrap();
+            let mut out = Vec::new();
+            let s = c.run(&path, input.as_slice(), &mut out).unwrap();
+            assert!(
+                out == input,
+                "{}: output differs:\n{}",
+                path.display(),
+                String::from_utf8_lossy(&out)
+            );
+            assert_eq!(s.changed, 0, "{}", path.display());
+            assert_eq!(s.inserted, 0, "{}", path.display());
+        }
+    }
+}
+
+/// The corpus must keep covering what issue 7 lists: fail loudly if a
+/// construct disappears from it.
+#[test]
+fn the_corpus_covers_every_construct_of_the_issue() {
+    let mut seen: BTreeSet<String> = BTreeSet::new();
+    for (path, d, _) in corpus() {
+        let raw = std::fs::read(&path).unwrap();
+        if raw.windows(2).any(|w| w == b"\r\n") {
+            seen.insert(format!("{d} crlf"));
+        }
+        if !raw.ends_with(b"\n") {
+            seen.insert(format!("{d} no trailing newline"));
+        }
+        if std::str::from_utf8(&raw).is_err() {
+            seen.insert(format!("{d} non-utf8"));
+        }
+        for b in blocks(&path, d, false) {
+            for t in &b.tokens {
+                let k = match t.kind {
+                    TokenKind::Word(_)
+                    | TokenKind::Space
+                    | TokenKind::LineEnd
+                    | TokenKind::Text => continue,
+                    TokenKind::BlockNumber(_) => "block number".to_string(),
+                    other => format!("{other:?}"),
+                };
+                seen.insert(format!("{d} {k}"));
+                let text = String::from_utf8_lossy(b.bytes(t.span)).to_string();
+                if t.kind == TokenKind::Keyword {
+                    seen.insert(format!(
+                        "{d} kw {}",
+                        text.split_whitespace().next().unwrap_or("").to_uppercase()
+                    ));
+                }
+            }
+            for (_, w) in b.words(&b.segments[0]) {
+                let lex = String::from_utf8_lossy(b.bytes(w.value_span)).to_string();
+                if lex.ends_with('.') {
+                    seen.insert(format!("{d} trailing point"));
+                }
+                if lex.starts_with('.') || lex.starts_with("-.") {
+                    seen.insert(format!("{d} no leading zero"));
+                }
+                if w.value == fivecal::nc::Value::Expr {
+                    seen.insert(format!("{d} expression value"));
+                }
+                if w.incremental {
+                    seen.insert(format!("{d} incremental word"));
+                }
+            }
+            for s in &b.segments {
+                let name = match s.stmt {
+                    Stmt::Hh(HhKind::CyclDef { number, .. }) => format!("CyclDef {number}"),
+                    Stmt::Hh(HhKind::Fn(n)) => format!("Fn {n}"),
+                    other => format!("{other:?}"),
+                };
+                seen.insert(format!("{d} {name}"));
+            }
+        }
+    }
+    let need = [
+        // FANUC
+        "fanuc Percent",
+        "fanuc ProgramNumber",
+        "fanuc block number",
+        "fanuc BlockDelete",
+        "fanuc Comment",
+        "fanuc Eob",
+        "fanuc crlf",
+        "fanuc no trailing newline",
+        "fanuc trailing point",
+        "fanuc no leading zero",
+        "fanuc expression value",
+        "fanuc Assign",
+        "fanuc Flow(Jump)",
+        "fanuc Flow(Branch)",
+        "fanuc Flow(LoopStart)",
+        "fanuc Flow(LoopEnd)",
+        "fanuc Output",
+        "fanuc kw IF",
+        "fanuc kw GOTO",
+        "fanuc kw WHILE",
+        "fanuc kw DPRNT",
+        "fanuc kw POPEN",
+        "fanuc kw PCLOS",
+        "fanuc kw THEN",
+        // LinuxCNC
+        "linuxcnc Percent",
+        "linuxcnc ProgramNumber",
+        "linuxcnc Comment",
+        "linuxcnc BlockDelete",
+        "linuxcnc block number",
+        "linuxcnc crlf",
+        "linuxcnc no trailing newline",
+        "linuxcnc Assign",
+        "linuxcnc Param",
+        "linuxcnc expression value",
+        "linuxcnc Flow(Label)",
+        "linuxcnc Flow(Call)",
+        "linuxcnc Flow(Return)",
+        "linuxcnc Flow(LoopStart)",
+        "linuxcnc Flow(LoopEnd)",
+        "linuxcnc Flow(Branch)",
+        // HEIDENHAIN
+        "heidenhain Hh(BeginPgm)",
+        "heidenhain Hh(EndPgm)",
+        "heidenhain Hh(BlkForm)",
+        "heidenhain Hh(ToolCall)",
+        "heidenhain Hh(ToolDef)",
+        "heidenhain Hh(L)",
+        "heidenhain Hh(C)",
+        "heidenhain Hh(Cc)",
+        "heidenhain Hh(Cp)",
+        "heidenhain Hh(Cr)",
+        "heidenhain Hh(Ct)",
+        "heidenhain Hh(Lp)",
+        "heidenhain Hh(Rnd)",
+        "heidenhain Hh(Chf)",
+        "heidenhain Hh(Appr)",
+        "heidenhain Hh(Dep)",
+        "heidenhain CyclDef 7",
+        "heidenhain CyclDef 19",
+        "heidenhain CyclDef 200",
+        "heidenhain CyclDef 247",
+        "heidenhain Hh(CyclCall)",
+        "heidenhain Hh(Plane)",
+        "heidenhain Hh(PlaneReset)",
+        "heidenhain Hh(M)",
+        "heidenhain Hh(FunctionTcpm)",
+        "heidenhain Hh(FunctionResetTcpm)",
+        "heidenhain Fn 0",
+        "heidenhain Fn 9",
+        "heidenhain Fn 16",
+        "heidenhain Fn 18",
+        "heidenhain Hh(Q)",
+        "heidenhain Hh(Lbl)",
+        "heidenhain Hh(CallLbl)",
+        "heidenhain Hh(CallPgm)",
+        "heidenhain Hh(TchProbe)",
+        "heidenhain Hh(Comment)",
+        "heidenhain Hh(Structure)",
+        "heidenhain Continuation",
+        "heidenhain BlockDelete",
+        "heidenhain crlf",
+        "heidenhain no trailing newline",
+        "heidenhain non-utf8",
+        "heidenhain incremental word",
+        "heidenhain expression value",
+    ];
+    let missing: Vec<&str> = need
+        .iter()
+        .copied()
+        .filter(|n| !seen.contains(*n))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "not covered: {missing:?}\nseen: {seen:?}"
+    );
+}
+
+#[test]
+fn modal_state_along_the_five_axis_fanuc_program() {
+    let path = fixture("fanuc/five_axis_tcp.nc");
+    let mut m = Modal::new(ModalSettings {
+        dialect: Dialect::Fanuc,
+        rotary: [b'B', b'C'],
+        fanuc_integer_unit: None,
+    });
+    let mut at = std::collections::HashMap::new();
+    for b in blocks(&path, Dialect::Fanuc, true) {
+        for s in &b.segments {
+            let ev = m.step(&b, s);
+            at.insert(b.line, (m.clone(), ev));
+        }
+    }
+    let state = |line: usize| &at[&line].0;
+    let event = |line: usize| at[&line].1;
+    assert_eq!(state(5).tcp, Tcp::Off);
+    assert_eq!(state(6).tcp, Tcp::Axes);
+    assert!(matches!(event(7), Event::Move(_)));
+    assert_eq!(state(15).tcp, Tcp::Off);
+    assert!(!state(15).tool_length);
+    assert!(state(16).tool_length);
+    assert_eq!(state(18).feed_mode, FeedMode::InverseTime);
+    assert_eq!(state(20).feed_mode, FeedMode::PerMinute);
+    assert!(!state(21).absolute);
+    assert!(state(23).absolute);
+    assert_eq!(state(24).tcp, Tcp::Vector);
+    assert_eq!(event(27), Event::Quiet);
+    assert_eq!(state(3).work_offset, 540);
+}
+
+#[test]
+fn control_flow_in_the_corpus_is_classified() {
+    let flows: Vec<Flow> = blocks(&fixture("linuxcnc/owords.ngc"), Dialect::Linuxcnc, true)
+        .iter()
+        .flat_map(|b| {
+            b.segments
+                .iter()
+                .filter_map(|s| match s.stmt {
+                    Stmt::Flow(f) => Some(f),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    for f in [
+        Flow::Label,
+        Flow::Return,
+        Flow::Call,
+        Flow::LoopStart,
+        Flow::LoopEnd,
+        Flow::Branch,
+    ] {
+        assert!(flows.contains(&f), "{f:?} in {flows:?}");
+    }
+}
