@@ -5,6 +5,7 @@
 mod util;
 
 mod cli;
+mod compensate;
 mod errorfile;
 mod identifiability;
 mod kinematics;

@@ -114,6 +114,7 @@ impl Compensator {
             emit_motion: None,
             emit_pole: None,
             vector_rot: None,
+            last_held: false,
             eol: b"\n",
             eol_known: false,
             hh_offset: 0,
@@ -158,6 +159,8 @@ struct Run<'a, 'o> {
     emit_motion: Option<Motion>,
     emit_pole: Option<[f64; 2]>,
     vector_rot: Option<(f64, f64)>,
+    /// The last written end point had C held.
+    last_held: bool,
     eol: &'static [u8],
     eol_known: bool,
     hh_offset: i64,
@@ -243,7 +246,8 @@ impl Run<'_, '_> {
                 self.summary.moves += 1;
                 self.skip(block, seg, s.to_string(), &before);
             }
-            Event::Quiet | Event::None => self.follow(block, seg, &before),
+            Event::Quiet => self.follow(block, seg, &before, true),
+            Event::None => self.follow(block, seg, &before, false),
         }
         if self.heidenhain() {
             if let Stmt::Hh(HhKind::Cc) = seg.stmt {
@@ -300,13 +304,25 @@ impl Run<'_, '_> {
                 self.insert_pole(block, p);
             }
         }
-        self.follow(block, seg, before);
+        self.follow(block, seg, before, true);
     }
 
     /// Follows a statement that is left as written: the controller moves
     /// where the words say, from wherever the previous blocks left it.
-    fn follow(&mut self, block: &Block, seg: &Segment, before: &[Option<f64>; 6]) {
+    fn follow(&mut self, block: &Block, seg: &Segment, before: &[Option<f64>; 6], moved: bool) {
         let after = self.modal.pos;
+        if !moved {
+            // No motion (a pole, a shift, a cycle definition): positions
+            // change only where the frame changed.
+            for i in 0..6 {
+                self.emit[i] = match after[i] {
+                    None => None,
+                    Some(a) if before[i] != Some(a) => Some(a),
+                    Some(_) => self.emit[i],
+                };
+            }
+            return;
+        }
         let mut named = [false; 6];
         let mut inc = [false; 6];
         for (_, w) in block.words(seg) {
@@ -336,6 +352,7 @@ impl Run<'_, '_> {
             };
         }
         self.vector_rot = None;
+        self.last_held = false;
     }
 
     fn frame(&self) -> Frame {
@@ -403,29 +420,70 @@ impl Run<'_, '_> {
         f: &Frame,
         p: &[f64; 6],
         vector: Option<Vector3<f64>>,
+        hold: Option<f64>,
     ) -> Result<Point, String> {
         let nominal = f.model(p);
         let target = self.target(f, &nominal, vector);
-        let sol = self.solver().solve(&target, &nominal).map_err(|e| {
-            format!("no axis values reach the intended tool pose on this machine ({e})")
-        })?;
+        let why = |e| format!("no axis values reach the intended tool pose on this machine ({e})");
+        let sol = match hold {
+            Some(dc) => self.solver().solve_held(
+                &target,
+                &Axes {
+                    c: nominal.c + dc,
+                    ..nominal
+                },
+            ),
+            None => self.solver().solve(&target, &nominal),
+        }
+        .map_err(why)?;
+        let mut pt = self.point(f, nominal, target, &sol);
+        let (lin, rot) = Self::size(&pt);
+        let limit = self.settings().max_correction;
+        if sol.held_c.is_none() && lin > limit && rot <= limit {
+            // A swing of C that drags X, Y, Z past the limit (the tool
+            // turns little, the table a lot): hold C if that keeps the
+            // correction inside.
+            if let Ok(held) = self.solver().solve_held(&target, &nominal) {
+                let alt = self.point(f, nominal, target, &held);
+                if !self.exceeds(&alt) {
+                    pt = alt;
+                }
+            }
+        }
+        Ok(pt)
+    }
+
+    fn point(&self, f: &Frame, nominal: Axes, target: ToolPose, sol: &super::Solution) -> Point {
         let written = self.written_model(f, &sol.axes);
-        Ok(Point {
+        Point {
             nominal,
             target,
             written,
             program: f.program(&written),
             held: sol.held_c,
-        })
+        }
+    }
+
+    /// Size of a correction: X, Y, Z (um, length of the vector) and the
+    /// change of tool orientation the rotary corrections make (urad; a C
+    /// correction counts with the sine of the tilt, since next to the
+    /// singular tilt turning C barely turns the tool).
+    fn size(pt: &Point) -> (f64, f64) {
+        let lin_um = (pt.written.xyz - pt.nominal.xyz).norm() * 1e3;
+        let dt = (pt.written.tilt - pt.nominal.tilt).to_radians().abs();
+        let dc = (pt.written.c - pt.nominal.c).to_radians().abs()
+            * pt.nominal.tilt.to_radians().sin().abs();
+        (lin_um, dt.max(dc) * 1e6)
+    }
+
+    fn exceeds(&self, pt: &Point) -> bool {
+        let (l, r) = Self::size(pt);
+        let limit = self.settings().max_correction;
+        l > limit || r > limit
     }
 
     fn check_limit(&mut self, pt: &Point, line: usize) -> Result<(), CompensateError> {
-        let lin_um = (pt.written.xyz - pt.nominal.xyz).norm() * 1e3;
-        let rot_urad = (pt.written.tilt - pt.nominal.tilt)
-            .abs()
-            .max((pt.written.c - pt.nominal.c).abs())
-            .to_radians()
-            * 1e6;
+        let (lin_um, rot_urad) = Self::size(pt);
         let limit = self.settings().max_correction;
         let m = self.solver().kinematics().machine();
         if lin_um > limit {
@@ -442,7 +500,7 @@ impl Run<'_, '_> {
                 path: self.path.to_path_buf(),
                 line,
                 what: format!(
-                    "correction of {rot_urad:.1} urad in {} or C exceeds --max-correction {limit} urad; nothing written",
+                    "correction of the tool orientation by {rot_urad:.1} urad ({} and C) exceeds --max-correction {limit} urad; nothing written",
                     m.tilt.letter
                 ),
             });
@@ -529,6 +587,13 @@ impl Run<'_, '_> {
     ) -> Result<Vec<(f64, Point)>, CompensateError> {
         let tol = self.settings().tolerance;
         let mut n = n0.max(1);
+        // Where C is held at either end, the pieces do not switch between
+        // held and exact solutions (which would jump): the correction of C
+        // ramps from its value at the start to its value at the end, the
+        // tilt is the best for that C and the tip stays exact.
+        let ramp = end.held.is_some() || self.last_held;
+        let dc0 = w0[5] - path.at(0.0)[5];
+        let dc1 = end.written.c - end.nominal.c;
         loop {
             let mut pts = Vec::with_capacity(n);
             for k in 1..=n {
@@ -536,7 +601,8 @@ impl Run<'_, '_> {
                 if k == n {
                     pts.push((1.0, *end));
                 } else {
-                    let p = self.correct(f, &path.at(u), vector).map_err(|what| {
+                    let hold = ramp.then_some(dc0 + u * (dc1 - dc0));
+                    let p = self.correct(f, &path.at(u), vector, hold).map_err(|what| {
                         CompensateError::Tolerance {
                             path: self.path.to_path_buf(),
                             line,
@@ -639,7 +705,7 @@ impl Run<'_, '_> {
             }
         }
         let p1 = known(&end);
-        let pt = match self.correct(&f, &p1, vector) {
+        let pt = match self.correct(&f, &p1, vector, None) {
             Ok(p) => p,
             Err(reason) => {
                 self.skip(block, seg, reason, before);
@@ -665,6 +731,9 @@ impl Run<'_, '_> {
             MoveKind::Linear => {
                 let path = Path2::Line { p0, p1 };
                 let pieces = self.pieces(&f, &path, &w0, &pt, 1, vector, line)?;
+                for (_, p) in &pieces {
+                    self.check_limit(p, line)?;
+                }
                 if pieces.len() == 1 {
                     self.write_end(block, seg, mv, &f, &pt, false);
                     return Ok(false);
@@ -754,6 +823,9 @@ impl Run<'_, '_> {
         };
         let n0 = ((geo.sweep.abs() / step.max(1e-4)).ceil() as usize).max(2);
         let pieces = self.pieces(f, &path, w0, pt, n0, None, line)?;
+        for (_, p) in &pieces {
+            self.check_limit(p, line)?;
+        }
         self.summary.linearized.push(line);
         self.write_pieces(block, seg, mv, f, &pieces, true);
         Ok(true)
@@ -911,6 +983,7 @@ impl Run<'_, '_> {
             held_c: pt.held.is_some(),
             inserted,
         };
+        self.last_held = pt.held.is_some();
         (self.observer)(&v);
     }
 

@@ -69,8 +69,8 @@ pub struct Settings {
     /// Largest allowed distance of the actual tool-tip path from the
     /// intended one, mm.
     pub tolerance: f64,
-    /// Largest allowed correction: um for X, Y, Z and urad for the rotary
-    /// axes (1 urad = 1 um/m).
+    /// Largest allowed correction: um for X, Y, Z and urad for the change
+    /// of tool orientation the rotary corrections make (1 urad = 1 um/m).
     pub max_correction: f64,
     /// Where the program zero lies in W at rotary zero, mm (0 for programs
     /// whose work offset is on the W origin, as `fivecal plan` writes them).
@@ -91,7 +91,7 @@ pub struct Settings {
 }
 
 impl Settings {
-    /// Defaults for a dialect: 1 um tolerance, 200 um / 200 urad limit,
+    /// Defaults for a dialect: 1 um tolerance, 500 um / 500 urad limit,
     /// 4 decimals in mm and 6 in degrees (0.1 um and 0.02 urad, so rounding
     /// stays well inside 0.1 um and 0.1 urad), C held beyond a 1 deg swing.
     pub fn new(dialect: Dialect) -> Settings {
@@ -99,7 +99,7 @@ impl Settings {
             dialect,
             strict: false,
             tolerance: 0.001,
-            max_correction: 200.0,
+            max_correction: 500.0,
             origin: Vector3::zeros(),
             linear_decimals: 4,
             rotary_decimals: 6,
@@ -157,7 +157,7 @@ pub struct Summary {
     pub linearized: Vec<usize>,
     /// Largest correction of X, Y, Z (length of the correction vector), um.
     pub largest_linear: Option<Largest>,
-    /// Largest correction of a rotary axis, urad.
+    /// Largest correction of the tool orientation by the rotary axes, urad.
     pub largest_rotary: Option<Largest>,
     /// Moves left as written, grouped by reason, with their lines.
     pub skipped: Vec<(String, Vec<usize>)>,

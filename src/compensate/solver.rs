@@ -16,7 +16,9 @@
 //! tilt is the one that brings the tool axis closest to the target, and X,
 //! Y, Z put the tool tip exactly on target. The tip is then exact; the
 //! remaining tool-axis error is at most the orientation error of the
-//! machine there, and it is reported.
+//! machine there, and it is reported. The rewriter also holds C when the
+//! exact solution's swing would push the correction past its limit while
+//! the held one stays inside.
 
 use nalgebra::Vector3;
 
@@ -236,20 +238,27 @@ impl Solver {
                 held_c: None,
             }),
             Ok(_) | Err(IkError::OutOfReach { .. }) | Err(IkError::NoConvergence { .. }) => {
-                let a = self.hold_c(target, nominal)?;
-                let got = self.actual_pose(&a).axis;
-                let residual = got
-                    .normalize()
-                    .dot(&target.axis.normalize())
-                    .clamp(-1.0, 1.0)
-                    .acos();
-                Ok(Solution {
-                    axes: a,
-                    held_c: Some(residual),
-                })
+                self.solve_held(target, nominal)
             }
             Err(e) => Err(e),
         }
+    }
+
+    /// The correction with C held at its nominal value (the fallback of
+    /// the singularity policy, also used when the exact solution's swing of
+    /// C would exceed the correction limit).
+    pub fn solve_held(&self, target: &ToolPose, nominal: &Axes) -> Result<Solution, IkError> {
+        let a = self.hold_c(target, nominal)?;
+        let got = self.actual_pose(&a).axis;
+        let residual = got
+            .normalize()
+            .dot(&target.axis.normalize())
+            .clamp(-1.0, 1.0)
+            .acos();
+        Ok(Solution {
+            axes: a,
+            held_c: Some(residual),
+        })
     }
 
     /// X, Y, Z that put the tip at `tip` with the rotary axes fixed.

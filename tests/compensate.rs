@@ -1,0 +1,750 @@
+//! Compensation with known errors: the rewritten program, run on the
+//! erroneous machine, puts the tool where the original program meant it;
+//! paths stay within the tolerance; arcs, inverse-time feeds, the tilt
+//! singularity, expressions, streaming.
+
+use std::cell::Cell;
+use std::io::{BufReader, Read, Write};
+use std::path::Path;
+use std::rc::Rc;
+
+use fivecal::compensate::simulate::{Sample, SimSettings, Simulator};
+use fivecal::compensate::{Compensator, Coordinates, Settings, Summary, Vertex};
+use fivecal::errorfile::{ErrorFile, LoadedErrors};
+use fivecal::kinematics::fast::FastChain;
+use fivecal::kinematics::{Kinematics, ToolPose};
+use fivecal::model::{Context, Model};
+use fivecal::nc::modal::Tcp;
+use fivecal::{Axes, Dialect, Machine};
+use nalgebra::Vector3;
+use rand::RngExt;
+
+use crate::util::{machine, rng};
+
+/// Random location errors on every symbol of the machine (um, urad), plus
+/// optional extra YAML.
+pub fn errors(m: &str, seed: u64, size: f64, extra: &str) -> LoadedErrors {
+    let k = Kinematics::new(&machine(m));
+    let model = Model::new(k.clone(), vec![]);
+    let mut r = rng(seed);
+    let mut src = format!("machine: {m}\nlocation_errors:\n");
+    for s in &model.symbols.location {
+        let v: f64 = r.random_range(-1.0..1.0) * size;
+        src.push_str(&format!("  {}: {v:.3}\n", s.name));
+    }
+    src.push_str(extra);
+    ErrorFile::parse(Path::new("truth.yaml"), &src)
+        .unwrap()
+        .to_model(&k, Path::new("truth.yaml"), &src)
+        .unwrap()
+}
+
+/// Tilt range of the generated programs per machine (inside the limits,
+/// away from the singular tilt).
+fn tilt_range(m: &Machine) -> (f64, f64) {
+    match m.name.as_str() {
+        "bc-trunnion" | "head-head" => (10.0, 40.0),
+        _ => (-40.0, -10.0),
+    }
+}
+
+/// A 5-axis finishing pass: the tip runs around a wavy ring on the table,
+/// the tool tilted 10..40 deg and C turning; `tcp` writes tip coordinates
+/// in W with rotary positions, otherwise the nominal axis values.
+pub fn five_axis_program(m: &Machine, d: Dialect, tcp: bool, n: usize) -> String {
+    ring_program(m, d, tcp, n, 30.0)
+}
+
+/// As [`five_axis_program`] with the ring radius given, mm.
+pub fn ring_program(m: &Machine, d: Dialect, tcp: bool, n: usize, radius: f64) -> String {
+    let k = Kinematics::new(m);
+    let nominal = FastChain::nominal(&k);
+    let (t0, t1) = tilt_range(m);
+    let tl = m.tilt.letter;
+    let mut lines: Vec<String> = Vec::new();
+    let pose = |i: usize| {
+        let s = i as f64 / n as f64;
+        let ang = s * 1.6 * std::f64::consts::PI;
+        let q = Vector3::new(
+            radius * ang.cos(),
+            radius * ang.sin(),
+            6.0 + 3.0 * (3.0 * ang).sin(),
+        );
+        let t = t0 + (t1 - t0) * (0.5 + 0.5 * (2.0 * ang).sin());
+        let c = 20.0 + 150.0 * s;
+        let xyz = nominal.position(&q, t, c, &Vector3::zeros());
+        if tcp { (q, t, c) } else { (xyz, t, c) }
+    };
+    let fmt = |v: f64, hh: bool| {
+        if hh {
+            format!("{v:+.4}")
+        } else {
+            format!("{v:.4}")
+        }
+    };
+    let hh = d == Dialect::Heidenhain;
+    match d {
+        Dialect::Fanuc => {
+            lines.push("%".into());
+            lines.push("O5001 (GENERATED 5-AXIS RING)".into());
+            lines.push("G90 G21 G17 G94 G54".into());
+            lines.push(if tcp { "G43.4 H1" } else { "G43 H1" }.into());
+        }
+        Dialect::Linuxcnc => {
+            lines.push("(generated 5-axis ring)".into());
+            lines.push("G21 G90 G17 G94 G54 G43".into());
+        }
+        Dialect::Heidenhain => {
+            lines.push("BEGIN PGM RING MM".into());
+            if tcp {
+                lines.push("M128".into());
+            }
+        }
+    }
+    for i in 0..=n {
+        let (p, t, c) = pose(i);
+        let words = format!(
+            "X{} Y{} Z{} {tl}{} C{}",
+            fmt(p.x, hh),
+            fmt(p.y, hh),
+            fmt(p.z, hh),
+            fmt(t, hh),
+            fmt(c, hh)
+        );
+        lines.push(match (d, i) {
+            (Dialect::Heidenhain, 0) => format!("L {words} R0 FMAX"),
+            (Dialect::Heidenhain, 1) => format!("L {words} F500"),
+            (Dialect::Heidenhain, _) => format!("L {words}"),
+            (_, 0) => format!("G0 {words}"),
+            (_, 1) => format!("G1 {words} F500."),
+            _ => words,
+        });
+    }
+    match d {
+        Dialect::Fanuc => {
+            lines.push("G49".into());
+            lines.push("M30".into());
+            lines.push("%".into());
+        }
+        Dialect::Linuxcnc => lines.push("M2".into()),
+        Dialect::Heidenhain => lines.push("END PGM RING MM".into()),
+    }
+    if hh {
+        lines = lines
+            .into_iter()
+            .enumerate()
+            .map(|(i, l)| format!("{i} {l}"))
+            .collect();
+    }
+    lines.join("\n") + "\n"
+}
+
+pub fn compensate(
+    l: &LoadedErrors,
+    settings: Settings,
+    program: &str,
+) -> (String, Summary, Vec<Vertex>) {
+    let c = Compensator::new(&l.model, &l.theta, settings);
+    let mut out = Vec::new();
+    let mut vs = Vec::new();
+    let s = c
+        .run_observed(
+            Path::new("test.nc"),
+            program.as_bytes(),
+            &mut out,
+            &mut |v| vs.push(*v),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    (String::from_utf8(out).unwrap(), s, vs)
+}
+
+/// The actual pose of a written vertex, computed independently of the
+/// rewriter: post-side through the model; under TCP through the generic
+/// nominal inverse (the controller) and then the model.
+fn actual_of(l: &LoadedErrors, v: &Vertex) -> ToolPose {
+    let k = &l.model.kin;
+    let axes = match v.tcp {
+        Tcp::Off => v.written,
+        _ => {
+            let axis = k.forward_nominal(&v.written).axis;
+            k.inverse_nominal(
+                &ToolPose {
+                    tip: v.written.xyz,
+                    axis,
+                },
+                Some(&v.written),
+            )
+            .unwrap()
+        }
+    };
+    l.model.pose(&l.theta, &Context::at(axes))
+}
+
+fn angle(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.normalize().dot(&b.normalize()).clamp(-1.0, 1.0).acos()
+}
+
+pub fn simulate(
+    model: &Model,
+    theta: &[f64],
+    d: Dialect,
+    coords: Coordinates,
+    program: &str,
+    step: f64,
+) -> Vec<Sample> {
+    let mut s = SimSettings::new(d);
+    s.coordinates = coords;
+    s.step = step;
+    let sim = Simulator::new(model, theta, s);
+    let mut out = Vec::new();
+    sim.run(Path::new("p.nc"), program.as_bytes(), &mut |x| out.push(*x))
+        .unwrap();
+    out
+}
+
+fn seg_dist(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    let d = b - a;
+    let t = if d.norm_squared() > 0.0 {
+        ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + d * t - p).norm()
+}
+
+/// Checks the rewrite of `program` independently: the original simulated on
+/// the nominal machine gives the intended end points and path; the rewrite
+/// simulated on the erroneous machine must reach every intended end point
+/// (in order) within 0.1 um and 0.1 urad and never leave the intended path
+/// by more than the tolerance.
+fn check_against_simulation(
+    l: &LoadedErrors,
+    d: Dialect,
+    coords: Coordinates,
+    program: &str,
+    rewritten: &str,
+    tol: f64,
+    what: &str,
+) {
+    check_held(l, d, coords, program, rewritten, tol, &[], what)
+}
+
+/// As [`check_against_simulation`]; at the `held` lines (C held next to the
+/// singularity) only the tip is checked.
+#[allow(clippy::too_many_arguments)]
+fn check_held(
+    l: &LoadedErrors,
+    d: Dialect,
+    coords: Coordinates,
+    program: &str,
+    rewritten: &str,
+    tol: f64,
+    held: &[usize],
+    what: &str,
+) {
+    let nominal_model = Model::new(l.model.kin.clone(), vec![]);
+    let intended = simulate(&nominal_model, &[], d, coords, program, 0.01);
+    let actual = simulate(&l.model, &l.theta, d, coords, rewritten, 0.1);
+    let ends: Vec<&Sample> = intended.iter().filter(|s| s.fraction == 1.0).collect();
+    let mut j = 0;
+    for e in &ends {
+        let axis_tol = if held.contains(&e.line) { 1e-3 } else { 1e-7 };
+        let found = actual[j..].iter().position(|a| {
+            (a.actual.tip - e.nominal.tip).norm() < 1e-4
+                && angle(&a.actual.axis, &e.nominal.axis) < axis_tol
+        });
+        let Some(k) = found else {
+            let near = actual
+                .iter()
+                .map(|a| (a.actual.tip - e.nominal.tip).norm())
+                .fold(f64::INFINITY, f64::min);
+            panic!(
+                "{what}: intended end point of line {} not reached (nearest {:.3e} mm)",
+                e.line, near
+            );
+        };
+        j += k + 1;
+    }
+    // Path: every actual sample of a feed move near the intended polyline.
+    let mut worst: f64 = 0.0;
+    let mut at: usize = 0;
+    for a in actual.iter().filter(|s| s.feed) {
+        let mut best = f64::INFINITY;
+        let lo = at.saturating_sub(50);
+        for i in lo..intended.len().saturating_sub(1) {
+            let dist = seg_dist(
+                &a.actual.tip,
+                &intended[i].nominal.tip,
+                &intended[i + 1].nominal.tip,
+            );
+            if dist < best {
+                best = dist;
+                at = i;
+            }
+            if i > at + 400 {
+                break;
+            }
+        }
+        worst = worst.max(best);
+    }
+    assert!(
+        worst <= tol * 1.02 + 2e-5,
+        "{what}: path leaves the intended one by {:.3} um",
+        worst * 1e3
+    );
+}
+
+#[test]
+fn compensated_programs_reach_the_nominal_points_on_the_erroneous_machine() {
+    let mut subdivided = 0;
+    for (mi, name) in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"]
+        .iter()
+        .enumerate()
+    {
+        let m = machine(name);
+        let l = errors(name, 40 + mi as u64, 60.0, "");
+        for d in Dialect::ALL {
+            for tcp in [false, true] {
+                let program = ring_program(&m, d, tcp, 16, 80.0);
+                let coords = if tcp && d == Dialect::Linuxcnc {
+                    Coordinates::Tcp
+                } else {
+                    Coordinates::Auto
+                };
+                let mut settings = Settings::new(d);
+                settings.coordinates = coords;
+                let (out, s, vs) = compensate(&l, settings.clone(), &program);
+                let what = format!("{name} {d} tcp={tcp}");
+                assert_eq!(s.skipped_count(), 0, "{what}: {:?}", s.skipped);
+                assert!(s.changed > 15, "{what}: {s:?}");
+                assert!(s.held_c.is_empty(), "{what}");
+                for v in &vs {
+                    let a = actual_of(&l, v);
+                    assert!(
+                        (a.tip - v.target.tip).norm() < 1e-4,
+                        "{what} line {}: tip off by {:.3e} mm",
+                        v.line,
+                        (a.tip - v.target.tip).norm()
+                    );
+                    assert!(
+                        angle(&a.axis, &v.target.axis) < 1e-7,
+                        "{what} line {}: axis off by {:.3e} rad",
+                        v.line,
+                        angle(&a.axis, &v.target.axis)
+                    );
+                }
+                subdivided += s.subdivided.len();
+                check_against_simulation(&l, d, coords, &program, &out, settings.tolerance, &what);
+            }
+        }
+    }
+    assert!(
+        subdivided > 0,
+        "the programs should need subdivision somewhere"
+    );
+}
+
+#[test]
+fn linear_axis_errors_and_a_tool_length_error_are_compensated_too() {
+    let name = "bc-trunnion";
+    let extra = "effects:\n  linear_scale: {EXX: 40.0, EZZ: -25.0}\n  squareness: {EC(0X)Y: 30.0}\n  tool_length: 15.0\n";
+    let l = errors(name, 7, 30.0, extra);
+    let m = machine(name);
+    for tcp in [false, true] {
+        let program = five_axis_program(&m, Dialect::Fanuc, tcp, 40);
+        let (out, s, vs) = compensate(&l, Settings::new(Dialect::Fanuc), &program);
+        assert!(
+            !s.fast_path,
+            "position-dependent linear errors leave the pure closed form"
+        );
+        for v in &vs {
+            let a = actual_of(&l, v);
+            assert!((a.tip - v.target.tip).norm() < 1e-4, "line {}", v.line);
+            assert!(angle(&a.axis, &v.target.axis) < 1e-7, "line {}", v.line);
+        }
+        check_against_simulation(
+            &l,
+            Dialect::Fanuc,
+            Coordinates::Auto,
+            &program,
+            &out,
+            1e-3,
+            "linear errors",
+        );
+    }
+}
+
+#[test]
+fn a_looser_tolerance_needs_fewer_pieces_and_is_still_kept() {
+    let m = machine("bc-trunnion");
+    let l = errors("bc-trunnion", 11, 80.0, "");
+    let program = ring_program(&m, Dialect::Linuxcnc, false, 6, 80.0);
+    let mut counts = Vec::new();
+    for tol_um in [0.5, 2.0, 20.0] {
+        let mut s = Settings::new(Dialect::Linuxcnc);
+        s.tolerance = tol_um * 1e-3;
+        let (out, sum, _) = compensate(&l, s, &program);
+        check_against_simulation(
+            &l,
+            Dialect::Linuxcnc,
+            Coordinates::Auto,
+            &program,
+            &out,
+            tol_um * 1e-3,
+            &format!("tolerance {tol_um} um"),
+        );
+        counts.push(sum.inserted);
+    }
+    assert!(
+        counts[0] > counts[1] && counts[1] >= counts[2],
+        "{counts:?}"
+    );
+}
+
+fn arc_program() -> String {
+    "%\nO6001 (ARCS AT FIXED ROTARY POSITIONS)\nG90 G21 G17 G94 G54 G43 H1\nG0 X20. Y0. Z5. B30. C40.\nG1 Z1. F300.\nG3 X-20. Y0. I-20. J0\nG2 X0. Y-20. R20.\nG1 X0. Y-30. Z1.\nM30\n%\n".into()
+}
+
+#[test]
+fn arcs_are_kept_where_exact_and_linearized_where_not() {
+    // At fixed rotary positions an exact correction of a table-table
+    // machine leaves only a turn about the tool axis (the G17 normal) and a
+    // shift: the corrected arc is the same arc moved, so it stays an arc,
+    // and the simulation below confirms its path.
+    let src = "machine: bc-trunnion\nlocation_errors: {EX0B: 30.0, EZ0B: -20.0, EX(0B)C: 15.0, EY0C: -25.0, EA0B: 150.0, EC0B: -90.0, EA(0B)C: 60.0}\n";
+    let k = Kinematics::new(&machine("bc-trunnion"));
+    let l = ErrorFile::parse(Path::new("t.yaml"), src)
+        .unwrap()
+        .to_model(&k, Path::new("t.yaml"), src)
+        .unwrap();
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Fanuc), &arc_program());
+    assert!(s.linearized.is_empty(), "{s:?}\n{out}");
+    assert!(
+        out.contains("G3 X") && out.contains("G2 X") && out.contains(" R20"),
+        "{out}"
+    );
+    assert_ne!(out, arc_program());
+    check_against_simulation(
+        &l,
+        Dialect::Fanuc,
+        Coordinates::Auto,
+        &arc_program(),
+        &out,
+        1e-3,
+        "arcs at fixed rotary positions",
+    );
+    // An arc that also turns the rotary axes is not an arc on the erroneous
+    // machine: it is linearized, every piece within the tolerance.
+    let program = arc_program().replace("G3 X-20. Y0. I-20. J0", "G3 X-20. Y0. I-20. J0 B40. C60.");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Fanuc), &program);
+    assert_eq!(s.linearized, vec![6], "{s:?}");
+    assert!(!out.contains("G3") && !out.contains("I-20"), "{out}");
+    assert!(
+        out.contains("G2 X"),
+        "the next arc runs at fixed rotary positions again: {out}"
+    );
+    check_against_simulation(
+        &l,
+        Dialect::Fanuc,
+        Coordinates::Auto,
+        &program,
+        &out,
+        1e-3,
+        "5-axis arc",
+    );
+}
+
+#[test]
+fn heidenhain_circles_get_a_corrected_pole_and_renumbered_blocks() {
+    let program = "0 BEGIN PGM ARC MM\n1 L X+20 Y+0 Z+5 B+0 C+0 R0 FMAX\n2 L Z+1 F300\n3 CC X+0 Y+0\n4 C X-20 Y+0 DR+\n5 CR X+0 Y-20 R+20 DR-\n6 L X+0 Y-30 Z+1 B-20 C+90\n7 END PGM ARC MM\n";
+    let src = "machine: head-table\nlocation_errors: {EX0C: 30.0, EY0C: -20.0, EX0B: 15.0}\n";
+    let k = Kinematics::new(&machine("head-table"));
+    let l = ErrorFile::parse(Path::new("t.yaml"), src)
+        .unwrap()
+        .to_model(&k, Path::new("t.yaml"), src)
+        .unwrap();
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    assert!(s.linearized.is_empty(), "{s:?}\n{out}");
+    // The pole moves with the table error: a CC block is inserted before
+    // the circle and every block after it is renumbered.
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[4].starts_with("4 CC X"), "{out}");
+    assert!(lines[5].starts_with("5 C X"), "{out}");
+    assert!(lines.last().unwrap().starts_with("8 END PGM"), "{out}");
+    for (i, line) in lines.iter().enumerate() {
+        assert!(line.starts_with(&format!("{i} ")), "block {i}: {line}");
+    }
+    check_against_simulation(
+        &l,
+        Dialect::Heidenhain,
+        Coordinates::Auto,
+        program,
+        &out,
+        1e-3,
+        "heidenhain circles",
+    );
+}
+
+#[test]
+fn inverse_time_feeds_keep_each_block_s_time_when_it_is_subdivided() {
+    let program = "G21 G90 G17 G54 G43\nG0 X80 Y0 Z40 B10 C0\nG93 G1 X40 Y60 Z20 B80 C180 F6\nG1 X-60 Y-40 Z10 B20 C300 F4\nG94 G1 Z40 F1000\nM2\n";
+    let l = errors("bc-trunnion", 3, 60.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Linuxcnc), program);
+    assert_eq!(s.subdivided.len(), 2, "{s:?}\n{out}");
+    // Group the output by source block: inserted pieces follow their block.
+    let mut groups: Vec<Vec<f64>> = Vec::new();
+    for line in out.lines() {
+        let f = line
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix('F'))
+            .map(|v| v.parse::<f64>().unwrap());
+        if line.contains("G93") || line.starts_with("G1 X-") {
+            groups.push(Vec::new());
+        }
+        if line.contains("G94") {
+            break;
+        }
+        if let (Some(g), Some(f)) = (groups.last_mut(), f) {
+            g.push(f);
+        }
+    }
+    assert_eq!(groups.len(), 2, "{out}");
+    for (g, f0) in groups.iter().zip([6.0, 4.0]) {
+        assert!(g.len() > 1, "{out}");
+        let time: f64 = g.iter().map(|f| 1.0 / f).sum();
+        assert!(
+            (time - 1.0 / f0).abs() < 1e-3 * time,
+            "pieces {g:?} take {time} min, the block {}",
+            1.0 / f0
+        );
+    }
+}
+
+#[test]
+fn expression_and_variable_blocks_are_left_untouched_and_reported() {
+    let program = "%\nO7001\nG90 G21 G54 G43 H1\nG0 X10. Y10. Z30. B10. C20.\nG1 X[#1+2.] Y10. F300.\nG1 X12. Y#2 Z20.\n#3=5.\nG1 X12. Y12. Z20. B10. C20.\nM30\n%\n";
+    let l = errors("bc-trunnion", 5, 40.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Fanuc), program);
+    let (a, b): (Vec<&str>, Vec<&str>) = (program.lines().collect(), out.lines().collect());
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        if x.contains('#') {
+            assert_eq!(x, y, "expression block rewritten");
+        }
+    }
+    let expr: Vec<usize> = s
+        .skipped
+        .iter()
+        .filter(|(r, _)| r.contains("expressions or variables"))
+        .flat_map(|(_, l)| l.clone())
+        .collect();
+    assert_eq!(expr, vec![5, 6], "{s:?}");
+    // The next block names every axis again and is compensated.
+    assert_ne!(a[7], b[7]);
+    assert!(s.skipped_count() == 2, "{s:?}");
+}
+
+#[test]
+fn next_to_the_tilt_singularity_c_is_held_and_the_tip_is_still_exact() {
+    // Orientation errors make the tool axis along C reachable only with C
+    // swung far from its nominal value (or not at all).
+    let src = "machine: bc-trunnion\nlocation_errors: {EA0B: 80.0, EC0B: -60.0, EB0B: 50.0, EA(0B)C: 90.0, EX0B: 30.0, EY0C: -20.0}\n";
+    let k = Kinematics::new(&machine("bc-trunnion"));
+    let l = ErrorFile::parse(Path::new("t.yaml"), src)
+        .unwrap()
+        .to_model(&k, Path::new("t.yaml"), src)
+        .unwrap();
+    // Lines 2-4: tool along C, a direction these errors cannot reach at
+    // all (held, whatever the swing). Lines 5-6: reachable, but only with
+    // C turned by degrees (held by the swing limit). Line 7: tilted, exact.
+    let program = "G21 G90 G17 G54 G43\nG0 X0 Y0 Z30 B0 C0\nG1 Z2 F300\nG1 X10 C40\nG1 X20 Y5 B0.05 C80\nG1 X25 Y10 B0.08 C120\nG1 X30 Y10 B30 C130\nM2\n";
+    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Linuxcnc), program);
+    assert!(!s.held_c.is_empty(), "{s:?}");
+    assert!(
+        !s.held_c.contains(&7),
+        "a tilted tool is corrected exactly: {s:?}"
+    );
+    let nominal = Kinematics::new(&machine("bc-trunnion"));
+    for v in &vs {
+        let a = actual_of(&l, v);
+        assert!(
+            (a.tip - v.target.tip).norm() < 1e-4,
+            "line {}: the tip must be exact",
+            v.line
+        );
+        if v.held_c {
+            assert!(
+                (v.written.c - v.nominal.c).abs() < 1e-9,
+                "line {}: C must not move",
+                v.line
+            );
+            // Holding C never leaves the axis worse than not compensating.
+            let uncompensated = l.model.pose(&l.theta, &Context::at(v.nominal)).axis;
+            let target = nominal.forward_nominal(&v.nominal).axis;
+            assert!(
+                angle(&a.axis, &v.target.axis) <= angle(&uncompensated, &target) + 1e-9,
+                "line {}: held-C axis error {:.1} urad exceeds the uncompensated {:.1} urad",
+                v.line,
+                angle(&a.axis, &v.target.axis) * 1e6,
+                angle(&uncompensated, &target) * 1e6
+            );
+        } else {
+            assert!(angle(&a.axis, &v.target.axis) < 1e-7, "line {}", v.line);
+        }
+    }
+    assert!(
+        s.held_c_axis_error > 0.0 && s.held_c_axis_error < 300.0,
+        "{s:?}"
+    );
+    // With an unlimited swing the exact solution is taken where it exists:
+    // C turns a long way for micro-radians.
+    let mut free = Settings::new(Dialect::Linuxcnc);
+    free.max_c_swing = 360.0;
+    free.max_correction = 1e7;
+    let (_, s2, vs2) = compensate(&l, free, program);
+    assert_eq!(s.held_c, vec![2, 3, 4, 5, 6], "{out}");
+    // Out of reach stays held; line 5 ramps C from its held start to its
+    // exact end, so its pieces count as held.
+    assert_eq!(s2.held_c, vec![2, 3, 4, 5]);
+    assert!(
+        vs2.iter().any(|v| (v.written.c - v.nominal.c).abs() > 1.0),
+        "{out}"
+    );
+}
+
+#[test]
+fn zero_errors_leave_generated_programs_untouched() {
+    let m = machine("head-table");
+    let model = Model::new(Kinematics::new(&m), vec![]);
+    let l = LoadedErrors {
+        model,
+        theta: vec![],
+        u: vec![],
+        noise: Default::default(),
+        not_identifiable: vec![],
+    };
+    for d in Dialect::ALL {
+        for tcp in [false, true] {
+            let p = five_axis_program(&m, d, tcp, 30);
+            let (out, s, _) = compensate(&l, Settings::new(d), &p);
+            assert_eq!(out, p);
+            assert_eq!(s.changed, 0);
+        }
+    }
+}
+
+/// A program produced on the fly, never held in memory.
+struct Generated {
+    blocks: usize,
+    next: usize,
+    buf: Vec<u8>,
+    pos: usize,
+    produced: Rc<Cell<usize>>,
+}
+
+impl Read for Generated {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        if self.pos == self.buf.len() {
+            if self.next >= self.blocks {
+                return Ok(0);
+            }
+            let i = self.next as f64;
+            self.buf = format!(
+                "X{:.4} Y{:.4} Z{:.4} B{:.4} C{:.4}\n",
+                20.0 * (i * 0.01).cos(),
+                20.0 * (i * 0.01).sin(),
+                5.0 + (i * 0.003).sin(),
+                20.0 + 10.0 * (i * 0.002).sin(),
+                (i * 0.05) % 360.0
+            )
+            .into_bytes();
+            if self.next == 0 {
+                self.buf = b"G21 G90 G94 G54 G43\nG1 X20 Y0 Z5 B20 C0 F1000\n".to_vec();
+            }
+            self.next += 1;
+            self.pos = 0;
+        }
+        let n = out.len().min(self.buf.len() - self.pos);
+        out[..n].copy_from_slice(&self.buf[self.pos..self.pos + n]);
+        self.pos += n;
+        self.produced.set(self.produced.get() + n);
+        Ok(n)
+    }
+}
+
+struct Lag {
+    produced: Rc<Cell<usize>>,
+    written: usize,
+    max_lag: usize,
+}
+
+impl Write for Lag {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.written += b.len();
+        self.max_lag = self
+            .max_lag
+            .max(self.produced.get().saturating_sub(self.written));
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn the_rewrite_streams_output_keeps_up_with_input() {
+    let l = errors("bc-trunnion", 9, 30.0, "");
+    let produced = Rc::new(Cell::new(0));
+    let input = BufReader::new(Generated {
+        blocks: 200_000,
+        next: 0,
+        buf: Vec::new(),
+        pos: 0,
+        produced: produced.clone(),
+    });
+    let mut sink = Lag {
+        produced: produced.clone(),
+        written: 0,
+        max_lag: 0,
+    };
+    let mut s = Settings::new(Dialect::Linuxcnc);
+    s.tolerance = 0.01;
+    let c = Compensator::new(&l.model, &l.theta, s);
+    let sum = c.run(Path::new("gen.ngc"), input, &mut sink).unwrap();
+    assert!(sum.blocks > 200_000);
+    assert!(produced.get() > 8_000_000, "{}", produced.get());
+    // Never more than a read buffer and a block behind: memory does not
+    // grow with the program.
+    assert!(
+        sink.max_lag < 16 * 1024,
+        "output lagged input by {} bytes",
+        sink.max_lag
+    );
+}
+
+#[test]
+fn heidenhain_tcpm_program_is_compensated_with_renumbering() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/nc/heidenhain/tcpm.h");
+    let program = std::fs::read_to_string(&path).unwrap();
+    let l = errors("head-table", 21, 40.0, "");
+    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Heidenhain), &program);
+    assert!(s.changed > 5, "{s:?}");
+    for v in &vs {
+        let a = actual_of(&l, v);
+        assert!((a.tip - v.target.tip).norm() < 1e-4, "line {}", v.line);
+    }
+    for (i, line) in out.lines().enumerate() {
+        assert!(line.starts_with(&format!("{i} ")), "{out}");
+    }
+    check_held(
+        &l,
+        Dialect::Heidenhain,
+        Coordinates::Auto,
+        &program,
+        &out,
+        1e-3,
+        &s.held_c,
+        "tcpm.h",
+    );
+    let _ = Axes::default();
+}
