@@ -536,7 +536,7 @@ fn expression_and_variable_blocks_are_left_untouched_and_reported() {
         .skipped
         .iter()
         .filter(|(r, _)| r.contains("expressions or variables"))
-        .flat_map(|(_, l)| l.clone())
+        .flat_map(|(_, l)| l.first.clone())
         .collect();
     assert_eq!(expr, vec![5, 6], "{s:?}");
     // The next block names every axis again and is compensated.
@@ -743,8 +743,71 @@ fn heidenhain_tcpm_program_is_compensated_with_renumbering() {
         &program,
         &out,
         1e-3,
-        &s.held_c,
+        &s.held_c.first,
         "tcpm.h",
     );
     let _ = Axes::default();
+}
+
+/// The bound that lets short blocks skip the path check must never be
+/// below the true deviation: random moves of every size on every machine.
+#[test]
+fn the_deviation_bound_is_an_upper_bound() {
+    use fivecal::compensate::Solver;
+    let mut tight = 0;
+    for (mi, name) in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"]
+        .iter()
+        .enumerate()
+    {
+        let m = machine(name);
+        let mut r = rng(500 + mi as u64);
+        for case in 0..400 {
+            let l = errors(name, 600 + case, 80.0, "");
+            let solver = Solver::new(&l.model, &l.theta, 360.0);
+            assert!(solver.is_fast());
+            let n0 = crate::util::random_axes(&m, &mut r);
+            let (t0, t1) = tilt_range(&m);
+            let n0 = Axes {
+                tilt: r.random_range(t0..t1),
+                ..n0
+            };
+            let scale: f64 = [0.01, 0.1, 1.0, 10.0][case as usize % 4];
+            let n1 = Axes {
+                xyz: n0.xyz
+                    + Vector3::new(
+                        r.random_range(-1.0..1.0),
+                        r.random_range(-1.0..1.0),
+                        r.random_range(-1.0..1.0),
+                    ) * scale
+                        * 5.0,
+                tilt: (n0.tilt + r.random_range(-1.0..1.0) * scale).clamp(t0, t1),
+                c: n0.c + r.random_range(-1.0..1.0) * scale * 3.0,
+            };
+            let solve = |n: &Axes| solver.solve(&solver.nominal_pose(n), n).unwrap().axes;
+            let (w0, w1) = (solve(&n0), solve(&n1));
+            let lerp = |a: &Axes, b: &Axes, s: f64| Axes {
+                xyz: a.xyz + (b.xyz - a.xyz) * s,
+                tilt: a.tilt + (b.tilt - a.tilt) * s,
+                c: a.c + (b.c - a.c) * s,
+            };
+            let mut worst: f64 = 0.0;
+            for k in 0..=16 {
+                let s = k as f64 / 16.0;
+                let d = (solver.actual_pose(&lerp(&w0, &w1, s)).tip
+                    - solver.nominal_pose(&lerp(&n0, &n1, s)).tip)
+                    .norm();
+                worst = worst.max(d);
+            }
+            let bound = solver.deviation_bound(&n0, &n1, &w0, &w1, 1e-9);
+            assert!(
+                worst <= bound,
+                "{name} case {case}: deviation {worst:.3e} mm above the bound {bound:.3e} mm"
+            );
+            if scale <= 0.1 && bound < 1e-4 {
+                tight += 1;
+            }
+        }
+    }
+    // And it is useful: short blocks are settled by it.
+    assert!(tight > 600, "{tight}");
 }

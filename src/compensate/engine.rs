@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use super::edit::Edits;
 use super::frame::{ArcGeo, Frame, Path2, known, lerp, round_to};
 use super::solver::Solver;
-use super::{CompensateError, Coordinates, Largest, Settings, Summary, Vertex};
+use super::{CompensateError, Coordinates, Largest, Lines, Settings, Summary, Vertex};
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
 use crate::model::{Effect, Model};
@@ -168,7 +168,7 @@ struct Run<'a, 'o> {
     after: i64,
     edits: Edits,
     summary: Summary,
-    skipped: IndexMap<String, Vec<usize>>,
+    skipped: IndexMap<String, Lines>,
     observer: &'o mut dyn FnMut(&Vertex),
 }
 
@@ -471,8 +471,13 @@ impl Run<'_, '_> {
     fn size(pt: &Point) -> (f64, f64) {
         let lin_um = (pt.written.xyz - pt.nominal.xyz).norm() * 1e3;
         let dt = (pt.written.tilt - pt.nominal.tilt).to_radians().abs();
-        let dc = (pt.written.c - pt.nominal.c).to_radians().abs()
-            * pt.nominal.tilt.to_radians().sin().abs();
+        let dc = (pt.written.c - pt.nominal.c).to_radians().abs();
+        // |dc sin t| cannot exceed dt when dc does not: skip the sine then.
+        let dc = if dc <= dt {
+            0.0
+        } else {
+            dc * pt.nominal.tilt.to_radians().sin().abs()
+        };
         (lin_um, dt.max(dc) * 1e6)
     }
 
@@ -522,9 +527,7 @@ impl Run<'_, '_> {
             });
         }
         if let Some(h) = pt.held {
-            if self.summary.held_c.last() != Some(&line) {
-                self.summary.held_c.push(line);
-            }
+            self.summary.held_c.push(line);
             self.summary.held_c_axis_error = self.summary.held_c_axis_error.max(h * 1e6);
         }
         Ok(())
@@ -570,6 +573,22 @@ impl Run<'_, '_> {
         } else {
             mid
         }
+    }
+
+    /// Whether a line needs no subdivision by the cheap bound of
+    /// [`Solver::deviation_bound`] (post-side, constant errors): most blocks
+    /// of a real program are short and are settled here without evaluating
+    /// the path.
+    fn short_enough(&self, f: &Frame, p0: &[f64; 6], w0: &[f64; 6], end: &Point) -> bool {
+        if f.tcp != Tcp::Off || !self.solver().is_fast() {
+            return false;
+        }
+        let (n0, w0m) = (f.model(p0), f.model(w0));
+        // The written start may be off by the rounding of its lexemes.
+        let ends = 1e-4;
+        self.solver()
+            .deviation_bound(&n0, &end.nominal, &w0m, &end.written, ends)
+            <= self.settings().tolerance / 2.0
     }
 
     /// Pieces (end points) along `path` from the written start `w0` so that
@@ -730,8 +749,12 @@ impl Run<'_, '_> {
             }
             MoveKind::Linear => {
                 let path = Path2::Line { p0, p1 };
+                if self.short_enough(&f, &p0, &w0, &pt) {
+                    self.write_end(block, seg, mv, &f, &pt, false);
+                    return Ok(false);
+                }
                 let pieces = self.pieces(&f, &path, &w0, &pt, 1, vector, line)?;
-                for (_, p) in &pieces {
+                for (_, p) in &pieces[..pieces.len() - 1] {
                     self.check_limit(p, line)?;
                 }
                 if pieces.len() == 1 {
@@ -823,7 +846,7 @@ impl Run<'_, '_> {
         };
         let n0 = ((geo.sweep.abs() / step.max(1e-4)).ceil() as usize).max(2);
         let pieces = self.pieces(f, &path, w0, pt, n0, None, line)?;
-        for (_, p) in &pieces {
+        for (_, p) in &pieces[..pieces.len() - 1] {
             self.check_limit(p, line)?;
         }
         self.summary.linearized.push(line);
@@ -831,7 +854,7 @@ impl Run<'_, '_> {
         Ok(true)
     }
 
-    fn decimals(&self, axis: usize, lexeme: Option<&[u8]>) -> u8 {
+    fn decimals(&self, axis: usize, lexeme: Option<&NumStyle>) -> u8 {
         let base = if axis < 3 {
             self.settings().linear_decimals
                 + if self.modal.units == crate::nc::modal::Units::Inch {
@@ -842,15 +865,12 @@ impl Run<'_, '_> {
         } else {
             self.settings().rotary_decimals
         };
-        lexeme
-            .map(|l| number::read(l).style.decimals)
-            .unwrap_or(0)
-            .max(base)
+        lexeme.map(|l| l.decimals).unwrap_or(0).max(base)
     }
 
     fn style_of(&self, block: &Block, seg: &Segment, mv: &Move, axis: usize) -> NumStyle {
         let from = |ti: usize| match block.tokens[ti].kind {
-            TokenKind::Word(w) => Some(number::read(block.bytes(w.value_span)).style),
+            TokenKind::Word(w) => Some(w.style),
             _ => None,
         };
         if let Some(s) = mv.words[axis].and_then(from) {
@@ -911,9 +931,8 @@ impl Run<'_, '_> {
                     let TokenKind::Word(w) = block.tokens[ti].kind else {
                         continue;
                     };
-                    let lex = block.bytes(w.value_span);
-                    let d = self.decimals(a, Some(lex));
-                    let half = 0.5 * 10f64.powi(-(d as i32));
+                    let d = self.decimals(a, Some(&w.style));
+                    let half = number::half_unit(d);
                     let inc = mv.incremental[a];
                     let (Some(e_end), Some(s)) = (mv.end[a], mv.start[a].or(Some(0.0))) else {
                         continue;
@@ -927,7 +946,7 @@ impl Run<'_, '_> {
                         emitted[a] = Some(base + orig);
                     } else {
                         let new = round_to(v - base, d);
-                        let style = number::read(lex).style;
+                        let style = w.style;
                         self.edits
                             .replace(w.value_span, |b| number::write(b, new, d, &style, rules));
                         emitted[a] = Some(base + new);
@@ -935,7 +954,7 @@ impl Run<'_, '_> {
                 }
                 None => {
                     let d = self.decimals(a, None);
-                    let half = 0.5 * 10f64.powi(-(d as i32));
+                    let half = number::half_unit(d);
                     let Some(pv) = prev[a] else { continue };
                     let nv = round_to(v, d);
                     if (v - pv).abs() >= half {
@@ -1023,13 +1042,12 @@ impl Run<'_, '_> {
             let TokenKind::Word(w) = block.tokens[ti].kind else {
                 continue;
             };
-            let lex = block.bytes(w.value_span);
-            let style = number::read(lex).style;
+            let style = w.style;
             let d = style.decimals.max(self.settings().rotary_decimals + 2);
             let crate::nc::Value::Num(orig) = w.value else {
                 continue;
             };
-            if (v[k] - orig).abs() >= 0.5 * 10f64.powi(-(d as i32)) {
+            if (v[k] - orig).abs() >= number::half_unit(d) {
                 self.edits
                     .replace(w.value_span, |b| number::write(b, v[k], d, &style, rules));
             }
@@ -1054,7 +1072,7 @@ impl Run<'_, '_> {
         if self.heidenhain() && arc.radius_word.is_none() {
             // C around the pole: the pole itself moves.
             let d = self.decimals(0, None);
-            let half = 0.5 * 10f64.powi(-(d as i32));
+            let half = number::half_unit(d);
             let c = [round_to(cstar[0], d), round_to(cstar[1], d)];
             let differs = self
                 .emit_pole
@@ -1067,15 +1085,14 @@ impl Run<'_, '_> {
             let TokenKind::Word(w) = block.tokens[ri].kind else {
                 return;
             };
-            let lex = block.bytes(w.value_span);
-            let d = self.decimals(0, Some(lex));
+            let d = self.decimals(0, Some(&w.style));
             let crate::nc::Value::Num(orig) = w.value else {
                 return;
             };
             let r = (w0[a0] - cstar[0]).hypot(w0[a1] - cstar[1]) * orig.signum();
             let new = round_to(r, d);
-            if (r - orig).abs() >= 0.5 * 10f64.powi(-(d as i32)) {
-                let style = number::read(lex).style;
+            if (r - orig).abs() >= number::half_unit(d) {
+                let style = w.style;
                 self.edits
                     .replace(w.value_span, |b| number::write(b, new, d, &style, rules));
             }
@@ -1093,14 +1110,13 @@ impl Run<'_, '_> {
                         let TokenKind::Word(w) = block.tokens[ti].kind else {
                             continue;
                         };
-                        let lex = block.bytes(w.value_span);
-                        let d = self.decimals(0, Some(lex));
+                        let d = self.decimals(0, Some(&w.style));
                         let crate::nc::Value::Num(orig) = w.value else {
                             continue;
                         };
                         let new = round_to(new_v, d);
-                        if (new_v - orig).abs() >= 0.5 * 10f64.powi(-(d as i32)) {
-                            let style = number::read(lex).style;
+                        if (new_v - orig).abs() >= number::half_unit(d) {
+                            let style = w.style;
                             self.edits
                                 .replace(w.value_span, |b| number::write(b, new, d, &style, rules));
                         }
@@ -1108,7 +1124,7 @@ impl Run<'_, '_> {
                     None => {
                         let d = self.decimals(0, None);
                         let new = round_to(new_v, d);
-                        if new_v.abs() >= 0.5 * 10f64.powi(-(d as i32)) || self.modal.arc_absolute {
+                        if new_v.abs() >= number::half_unit(d) || self.modal.arc_absolute {
                             inserts.push((
                                 letters[axis],
                                 new,
@@ -1237,7 +1253,7 @@ impl Run<'_, '_> {
             let TokenKind::Word(w) = block.tokens[ti].kind else {
                 return;
             };
-            let style = number::read(block.bytes(w.value_span)).style;
+            let style = w.style;
             let d = style.decimals.max(3);
             self.edits
                 .replace(w.value_span, |b| number::write(b, fv, d, &style, rules));
@@ -1295,12 +1311,12 @@ impl Run<'_, '_> {
             for a in f.axes() {
                 let d = self.decimals(
                     a,
-                    mv.words[a].and_then(|ti| match block.tokens[ti].kind {
-                        TokenKind::Word(w) => Some(block.bytes(w.value_span)),
+                    mv.words[a].and_then(|ti| match &block.tokens[ti].kind {
+                        TokenKind::Word(w) => Some(&w.style),
                         _ => None,
                     }),
                 );
-                let half = 0.5 * 10f64.powi(-(d as i32));
+                let half = number::half_unit(d);
                 let nv = round_to(p.program[a], d);
                 let Some(pv) = prev[a] else { continue };
                 if (p.program[a] - pv).abs() < half {
@@ -1324,7 +1340,7 @@ impl Run<'_, '_> {
                 let TokenKind::Word(w) = block.tokens[ti].kind else {
                     continue;
                 };
-                let style = number::read(block.bytes(w.value_span)).style;
+                let style = w.style;
                 text.push(b' ');
                 text.push(if lower { b'f' } else { b'F' });
                 number::write(&mut text, fv, style.decimals.max(3), &style, rules);

@@ -55,8 +55,15 @@ pub(crate) fn lerp(a: &[f64; 6], b: &[f64; 6], s: f64) -> [f64; 6] {
 }
 
 pub(crate) fn round_to(v: f64, d: u8) -> f64 {
-    let k = 10f64.powi(d as i32);
-    (v * k).round() / k
+    let k = crate::nc::number::pow10(d);
+    let x = v * k;
+    // A cast rounds without a libm call on baseline x86-64.
+    if x.abs() < 4.0e15 {
+        let r = (x + 0.5f64.copysign(x)) as i64 as f64;
+        r / k
+    } else {
+        x.round() / k
+    }
 }
 
 pub(crate) fn known(p: &[Option<f64>; 6]) -> [f64; 6] {

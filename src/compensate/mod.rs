@@ -130,6 +130,69 @@ pub struct Vertex {
     pub inserted: bool,
 }
 
+/// Line numbers of a kind of event: how many there were and the first
+/// [`Lines::KEPT`] of them (so a summary does not grow with the program).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Lines {
+    /// How many.
+    pub count: usize,
+    /// The first ones, in order.
+    pub first: Vec<usize>,
+    last: Option<usize>,
+}
+
+impl Lines {
+    /// How many line numbers are kept.
+    pub const KEPT: usize = 200;
+
+    /// Records `line` (a repeat of the last line is not counted again).
+    pub fn push(&mut self, line: usize) {
+        if self.last == Some(line) {
+            return;
+        }
+        self.last = Some(line);
+        self.count += 1;
+        if self.first.len() < Self::KEPT {
+            self.first.push(line);
+        }
+    }
+
+    /// Number recorded.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Whether none.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Whether `line` is among the kept ones.
+    pub fn contains(&self, line: &usize) -> bool {
+        self.first.contains(line)
+    }
+
+    /// The kept lines as text: `12, 14, 19` (and `... (n more)`).
+    pub fn list(&self) -> String {
+        let mut s: String = self
+            .first
+            .iter()
+            .map(|l| l.to_string())
+            .collect::<Vec<_>>()
+            .join(", ");
+        if self.count > self.first.len() {
+            s.push_str(&format!(" ... ({} more)", self.count - self.first.len()));
+        }
+        s
+    }
+}
+
+impl PartialEq<Vec<usize>> for Lines {
+    fn eq(&self, other: &Vec<usize>) -> bool {
+        self.count == other.len() && self.first == *other
+    }
+}
+
 /// The largest correction and where.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Largest {
@@ -152,17 +215,17 @@ pub struct Summary {
     /// HEIDENHAIN circle centres).
     pub inserted: usize,
     /// Source lines of subdivided linear moves.
-    pub subdivided: Vec<usize>,
+    pub subdivided: Lines,
     /// Source lines of linearized arcs.
-    pub linearized: Vec<usize>,
+    pub linearized: Lines,
     /// Largest correction of X, Y, Z (length of the correction vector), um.
     pub largest_linear: Option<Largest>,
     /// Largest correction of the tool orientation by the rotary axes, urad.
     pub largest_rotary: Option<Largest>,
     /// Moves left as written, grouped by reason, with their lines.
-    pub skipped: Vec<(String, Vec<usize>)>,
+    pub skipped: Vec<(String, Lines)>,
     /// Lines where C was held next to the tilt singularity.
-    pub held_c: Vec<usize>,
+    pub held_c: Lines,
     /// Largest remaining tool-axis error where C was held, urad.
     pub held_c_axis_error: f64,
     /// Whether the closed-form fast path was used.
@@ -174,7 +237,7 @@ pub struct Summary {
 impl Summary {
     /// Number of moves left as written.
     pub fn skipped_count(&self) -> usize {
-        self.skipped.iter().map(|(_, l)| l.len()).sum()
+        self.skipped.iter().map(|(_, l)| l.count).sum()
     }
 }
 

@@ -18,7 +18,7 @@ use nalgebra::Vector3;
 
 use super::frame::{ArcGeo, Frame, Path2, known};
 use super::solver::Solver;
-use super::{Coordinates, Largest};
+use super::{Coordinates, Largest, Lines};
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
 use crate::model::Model;
@@ -107,7 +107,7 @@ pub struct SimSummary {
     /// Largest tool-axis error, urad.
     pub max_axis_urad: f64,
     /// Moves that could not be simulated, by reason, with lines.
-    pub skipped: Vec<(String, Vec<usize>)>,
+    pub skipped: Vec<(String, Lines)>,
 }
 
 /// A program runner for one machine with one set of errors.
@@ -191,7 +191,7 @@ impl Simulator {
         let mut reader = BlockReader::new(input, self.settings.dialect);
         let mut block = Block::default();
         let mut summary = SimSummary::default();
-        let mut skipped: IndexMap<String, Vec<usize>> = IndexMap::new();
+        let mut skipped: IndexMap<String, Lines> = IndexMap::new();
         let (mut sum, mut sum2) = (0.0, 0.0);
         let mut vector_rot: Option<(f64, f64)> = None;
         let read_err =

@@ -58,6 +58,12 @@ pub struct Solver {
     nominal: FastChain,
     actual: Actual,
     max_c_swing: f64,
+    /// Sum of the angular link errors, rad (fast path).
+    eps: f64,
+    /// Sum of the translational errors, mm (fast path).
+    offsets: f64,
+    /// Lever of the head (pivot plus tool length), mm.
+    lever: f64,
 }
 
 impl Solver {
@@ -76,6 +82,19 @@ impl Solver {
                 Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
             )
         });
+        let p0 = model.perturbation(theta, &Context::default());
+        let eps: f64 = (0..3)
+            .flat_map(|l| (3..6).map(move |k| l * 6 + k))
+            .map(|i| p0.0[i].abs())
+            .sum();
+        let offsets: f64 = (0..3)
+            .flat_map(|l| (0..3).map(move |k| l * 6 + k))
+            .map(|i| p0.0[i].abs())
+            .sum::<f64>()
+            + p0.linear().norm()
+            + p0.0[crate::kinematics::SLOT_TOOL_LENGTH].abs();
+        let m = kin.machine();
+        let lever = m.pivot_length + kin.gauge_length();
         let actual = if maps {
             Actual::Exact {
                 model: model.clone(),
@@ -93,7 +112,60 @@ impl Solver {
             nominal,
             actual,
             max_c_swing: max_c_swing_deg,
+            eps,
+            offsets,
+            lever,
         }
+    }
+
+    /// An upper bound of how far the actual tip strays, half-way along a
+    /// move, from the intended path when the controller interpolates axis
+    /// values linearly from `w0` to `w1` where the nominal program goes from
+    /// `n0` to `n1` (post-side, both ends exact up to `ends`, mm). Infinite
+    /// unless the errors are constant (closed-form fast path).
+    ///
+    /// With `F(s) = A(w(s)) - N(n(s))`, `|F(1/2)| <= (|F(0)| + |F(1)|) / 2 +
+    /// max|F''| / 8`. Both chains are rotations by angles linear in `s`
+    /// applied to positions linear in `s`, so with `K` the rotary step (sum
+    /// of |dt| and |dc|, rad), `k` the difference of the two rotary steps,
+    /// `V`, `dV` the linear steps and their difference, `L` the lever arm,
+    /// `d`, `g` the largest position and angle correction and `eps`, `e`
+    /// the angular and translational errors:
+    /// `|F''| <= 2 (4 eps V K + dV K + V k) + K^2 (4 eps L + e + d + g L) + L (2K + k) k`.
+    /// The bound is checked against the exact deviation in the tests.
+    pub fn deviation_bound(&self, n0: &Axes, n1: &Axes, w0: &Axes, w1: &Axes, ends: f64) -> f64 {
+        if !self.is_fast() {
+            return f64::INFINITY;
+        }
+        let rot = |a: &Axes, b: &Axes| {
+            (b.tilt - a.tilt).to_radians().abs() + (b.c - a.c).to_radians().abs()
+        };
+        let kn = rot(n0, n1);
+        let kw = rot(w0, w1);
+        let k = kn.max(kw);
+        let kappa = ((w1.tilt - w0.tilt) - (n1.tilt - n0.tilt))
+            .to_radians()
+            .abs()
+            + ((w1.c - w0.c) - (n1.c - n0.c)).to_radians().abs();
+        let (dn, dw) = (n1.xyz - n0.xyz, w1.xyz - w0.xyz);
+        let v = dn.norm().max(dw.norm());
+        let dv = (dw - dn).norm();
+        let l = n0
+            .xyz
+            .norm()
+            .max(n1.xyz.norm())
+            .max(w0.xyz.norm())
+            .max(w1.xyz.norm())
+            + self.lever
+            + self.offsets
+            + 1.0;
+        let d = (w0.xyz - n0.xyz).norm().max((w1.xyz - n1.xyz).norm());
+        let g = rot(n0, w0).max(rot(n1, w1));
+        let e = self.eps;
+        let f2 = 2.0 * (4.0 * e * v * k + dv * k + v * kappa)
+            + k * k * (4.0 * e * l + self.offsets + d + g * l)
+            + l * (2.0 * k + kappa) * kappa;
+        ends + f2 / 8.0
     }
 
     /// Whether the closed-form fast path is in use.

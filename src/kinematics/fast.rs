@@ -251,26 +251,37 @@ impl FastChain {
     /// that point the tool along `u`, or `None` when no tilt reaches it.
     /// `c_ref` (deg) is used when C is indeterminate (tool along the C axis).
     pub fn orientation_roots(&self, u: &Vector3<f64>, c_ref: f64) -> Option<[(f64, f64); 2]> {
+        self.roots(u, c_ref).map(|r| r.map(|x| (x.tilt, x.c)))
+    }
+
+    /// The roots with the sines and cosines of their chain angles, so that
+    /// the position needs no more trigonometry.
+    fn roots(&self, u: &Vector3<f64>, c_ref: f64) -> Option<[Root; 2]> {
         let up = self.m.transpose() * u;
         let rhs = (up.z - self.alpha) / self.r;
         if rhs.is_nan() || rhs.abs() > 1.0 + 1e-12 {
             return None;
         }
         let half = rhs.clamp(-1.0, 1.0).acos();
-        let az_u = up.y.atan2(up.x);
-        let u_xy = up.x.hypot(up.y);
+        let u_xy = (up.x * up.x + up.y * up.y).sqrt();
         let root = |phi: f64| {
-            let (s, c) = phi.sin_cos();
-            let w = self.n * (self.v_par + self.v_perp * c + self.e_x_v * s);
-            let psi = if w.x.hypot(w.y) < 1e-14 || u_xy < 1e-14 {
-                self.dc * geom::rad(c_ref)
+            let (sp, cp) = phi.sin_cos();
+            let w = self.n * (self.v_par + self.v_perp * cp + self.e_x_v * sp);
+            let w_xy = (w.x * w.x + w.y * w.y).sqrt();
+            // psi = azimuth(up) - azimuth(w), from the unit vectors.
+            let (ss, cs) = if w_xy < 1e-14 || u_xy < 1e-14 {
+                (self.dc * geom::rad(c_ref)).sin_cos()
             } else {
-                az_u - w.y.atan2(w.x)
+                let (cu, su) = (up.x / u_xy, up.y / u_xy);
+                let (cw, sw) = (w.x / w_xy, w.y / w_xy);
+                (su * cw - cu * sw, cu * cw + su * sw)
             };
-            (
-                geom::wrap180(geom::deg(phi / self.dt)),
-                geom::deg(psi / self.dc),
-            )
+            let psi = ss.atan2(cs);
+            Root {
+                tilt: geom::wrap180(geom::deg(phi / self.dt)),
+                c: geom::deg(psi / self.dc),
+                sc: [sp, cp, ss, cs],
+            }
         };
         Some([root(self.phi0 + half), root(self.phi0 - half)])
     }
@@ -289,30 +300,31 @@ impl FastChain {
     /// the rotary limits.
     pub fn inverse(&self, target: &ToolPose, reference: &Axes) -> Result<Axes, IkError> {
         let u = target.axis.normalize();
-        let Some(roots) = self.orientation_roots(&u, reference.c) else {
+        let Some(roots) = self.roots(&u, reference.c) else {
             return Err(IkError::OutOfReach {
                 ux: u.x,
                 uy: u.y,
                 uz: u.z,
             });
         };
-        let mut best: Option<(f64, f64, f64)> = None;
+        let mut best: Option<(f64, f64, f64, [f64; 4])> = None;
         let mut c_err = None;
-        for (t, c) in roots {
+        for r in &roots {
+            let t = r.tilt;
             if !within(self.tilt_limits, t) {
                 continue;
             }
-            match nearest_turn(c, reference.c, self.c_limits) {
+            match nearest_turn(r.c, reference.c, self.c_limits) {
                 Some(c) => {
                     let d = (t - reference.tilt).abs() + (c - reference.c).abs();
                     if best.is_none_or(|b| d < b.0 - 1e-12) {
-                        best = Some((d, t, c));
+                        best = Some((d, t, c, r.sc));
                     }
                 }
-                None => c_err = Some(c),
+                None => c_err = Some(r.c),
             }
         }
-        let Some((_, tilt, c)) = best else {
+        let Some((_, tilt, c, sc)) = best else {
             if let (Some(c), Some((lo, hi))) = (c_err, self.c_limits) {
                 return Err(IkError::COutOfLimits {
                     angle: c.rem_euclid(360.0),
@@ -328,18 +340,28 @@ impl FastChain {
                 uy: u.y,
                 uz: u.z,
                 letter: self.tilt_letter,
-                angle: roots[0].0,
-                alt: roots[1].0,
+                angle: roots[0].tilt,
+                alt: roots[1].tilt,
                 lo,
                 hi,
             });
         };
+        let (t, h) = self.parts_sc(sc[0], sc[1], sc[2], sc[3]);
         Ok(Axes {
-            xyz: self.position(&target.tip, tilt, c, &self.lin),
+            xyz: t.r.transpose() * (target.tip - t.t) - h.t - self.lin,
             tilt,
             c,
         })
     }
+}
+
+/// One closed-form root: angles (deg) and the sine and cosine of the chain
+/// angles (tilt, then C, with their directions).
+#[derive(Clone, Copy, Debug)]
+struct Root {
+    tilt: f64,
+    c: f64,
+    sc: [f64; 4],
 }
 
 fn within(limits: Option<(f64, f64)>, a: f64) -> bool {

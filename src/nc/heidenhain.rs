@@ -312,15 +312,16 @@ fn keyword(lx: &Lx, i: usize) -> Result<(HhKind, usize), BlockError> {
     Ok((HhKind::Other, i))
 }
 
-/// A signed number or Q parameter value at `i`: (value, end).
-fn value_at(s: &[u8], i: usize) -> Option<(Value, usize)> {
+/// A signed number or Q parameter value at `i`: (value, style, end).
+fn value_at(s: &[u8], i: usize) -> Option<(Value, number::NumStyle, usize)> {
     let n = number::lex_len(&s[i..]);
     if n > 0 {
         let after = s.get(i + n).copied();
         if after.is_some_and(|c| c == b'.' || c.is_ascii_digit()) {
             return None;
         }
-        return Some((Value::Num(number::read(&s[i..i + n]).value), i + n));
+        let lx = number::read(&s[i..i + n]);
+        return Some((Value::Num(lx.value), lx.style, i + n));
     }
     // [+-]Q<n>, QL<n>, QR<n>
     let mut j = i;
@@ -337,7 +338,7 @@ fn value_at(s: &[u8], i: usize) -> Option<(Value, usize)> {
             j += 1;
         }
         if j > d0 {
-            return Some((Value::Expr, j));
+            return Some((Value::Expr, number::NumStyle::default(), j));
         }
     }
     None
@@ -388,6 +389,7 @@ fn path_words(
                     incremental,
                     value: Value::None,
                     value_span: Span::new(vend, vend),
+                    style: number::NumStyle::default(),
                 }),
                 start,
                 vend,
@@ -456,13 +458,14 @@ fn path_words(
             continue;
         }
         match value_at(s, k) {
-            Some((value, vend)) if at_boundary(s, vend) => {
+            Some((value, style, vend)) if at_boundary(s, vend) => {
                 b.push(
                     TokenKind::Word(Word {
                         addr: Addr::new(addr),
                         incremental,
                         value,
                         value_span: Span::new(k, vend),
+                        style,
                     }),
                     start,
                     vend,
@@ -609,12 +612,14 @@ fn push_atom(b: &mut Block, s: &[u8], i: usize, e: usize) {
         let n = number::lex_len(v);
         if n > 0 && n == v.len() {
             let name = std::str::from_utf8(&a[..letters]).unwrap_or("");
+            let lx = number::read(v);
             b.push(
                 TokenKind::Word(Word {
                     addr: Addr::new(name),
                     incremental: false,
-                    value: Value::Num(number::read(v).value),
+                    value: Value::Num(lx.value),
                     value_span: Span::new(i + letters, e),
+                    style: lx.style,
                 }),
                 i,
                 e,

@@ -104,10 +104,9 @@ impl<'a> Lexer<'a> {
     }
 
     /// The value of a word starting at `i` (after the address and spaces).
-    fn value(&self, i: usize, letter: u8) -> Result<(Value, usize), BlockError> {
+    fn value(&self, i: usize, letter: u8) -> Result<(Value, number::NumStyle, usize), BlockError> {
         let rest = &self.s[i..self.n];
-        let n = number::lex_len(rest);
-        if n > 0 {
+        if let Some((lx, n)) = number::scan(rest) {
             if rest
                 .get(n)
                 .is_some_and(|c| *c == b'.' || c.is_ascii_digit())
@@ -123,11 +122,10 @@ impl<'a> Lexer<'a> {
                     ));
                 }
             }
-            let lx = number::read(&rest[..n]);
-            return Ok((Value::Num(lx.value), i + n));
+            return Ok((Value::Num(lx.value), lx.style, i + n));
         }
         if let Some(n) = expr::real_value_len(rest) {
-            return Ok((Value::Expr, i + n));
+            return Ok((Value::Expr, number::NumStyle::default(), i + n));
         }
         let shown = &rest[..word_end(rest).max(rest.len().min(1))];
         Err(BlockError::new(
@@ -594,12 +592,13 @@ fn words(lx: &Lexer, b: &mut Block, mut i: usize, seg: &mut Seg) -> Result<usize
         } else if c.is_ascii_alphabetic() {
             let letter = c.to_ascii_uppercase();
             let j = lx.spaces(i + 1);
-            let (value, end) = lx.value(j, letter)?;
+            let (value, style, end) = lx.value(j, letter)?;
             let w = Word {
                 addr: Addr::letter(letter),
                 incremental: false,
                 value,
                 value_span: Span::new(j, end),
+                style,
             };
             let unknown = if letter == b'O' {
                 Some("an O word inside a block (program numbers and o-words start a line)")

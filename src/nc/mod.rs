@@ -125,6 +125,8 @@ pub struct Word {
     pub value: Value,
     /// Where the value's lexeme is (empty for [`Value::None`]).
     pub value_span: Span,
+    /// How a literal value is written (default otherwise).
+    pub style: number::NumStyle,
 }
 
 /// What a token is.

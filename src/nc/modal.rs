@@ -348,13 +348,10 @@ impl Modal {
 
     /// The value of an axis word in program units (deg for rotary axes),
     /// or why it has none.
-    fn axis_value(&self, block: &Block, w: &Word) -> Result<f64, Skip> {
+    fn axis_value(&self, w: &Word) -> Result<f64, Skip> {
         match w.value {
             Value::Num(v) => {
-                if self.settings.dialect == Dialect::Fanuc
-                    && v != 0.0
-                    && !block.bytes(w.value_span).contains(&b'.')
-                {
+                if self.settings.dialect == Dialect::Fanuc && v != 0.0 && !w.style.point {
                     return match self.settings.fanuc_integer_unit {
                         Some(k) => Ok(v * k / self.units.mm()),
                         None => Err(Skip::FanucInteger),
@@ -635,7 +632,7 @@ impl Modal {
                 // G52: local coordinate system (absolute values; X0 cancels).
                 for (_, w) in block.words(seg) {
                     if let Some(i) = self.axis_index(w.addr).filter(|&i| i < 3) {
-                        match self.axis_value(block, &w) {
+                        match self.axis_value(&w) {
                             Ok(v) => {
                                 if let Some(p) = self.pos[i] {
                                     self.pos[i] = Some(p + self.local_shift[i] - v);
@@ -654,7 +651,7 @@ impl Modal {
                 // G92: the current position becomes the value given.
                 for (_, w) in block.words(seg) {
                     if let Some(i) = self.axis_index(w.addr) {
-                        match (self.axis_value(block, &w), self.pos[i]) {
+                        match (self.axis_value(&w), self.pos[i]) {
                             (Ok(v), Some(p)) if i < 3 => {
                                 self.shift[i] += p - v;
                                 self.pos[i] = Some(v);
@@ -686,7 +683,7 @@ impl Modal {
                 continue;
             };
             let inc = w.incremental || !self.absolute;
-            self.pos[i] = match (self.axis_value(block, &w), self.pos[i]) {
+            self.pos[i] = match (self.axis_value(&w), self.pos[i]) {
                 (Ok(v), Some(p)) if inc => Some(p + v),
                 (Ok(v), _) if !inc => Some(v),
                 _ => None,
@@ -741,7 +738,7 @@ impl Modal {
                 if !self.machine_axis(i) {
                     skip.get_or_insert(Skip::UnknownAxis(AXES[i]));
                 }
-                match self.axis_value(block, &w) {
+                match self.axis_value(&w) {
                     Ok(v) => {
                         mv.end[i] = if self.absolute {
                             Some(v)
@@ -759,14 +756,14 @@ impl Modal {
             match letter {
                 b'I' | b'J' | b'K' => {
                     let k = (letter - b'I') as usize;
-                    match self.axis_value(block, &w) {
+                    match self.axis_value(&w) {
                         Ok(v) => ijk[k] = Some((ti, v)),
                         Err(s) => {
                             skip.get_or_insert(s);
                         }
                     }
                 }
-                b'R' => match self.axis_value(block, &w) {
+                b'R' => match self.axis_value(&w) {
                     Ok(v) => r_word = Some((ti, v)),
                     Err(s) => {
                         skip.get_or_insert(s);
@@ -909,7 +906,7 @@ impl Modal {
                         continue;
                     };
                     any = true;
-                    match self.axis_value(block, &w) {
+                    match self.axis_value(&w) {
                         Ok(v) => {
                             p[i] = if w.incremental {
                                 self.pos[i].map(|q| q + v)
@@ -1087,7 +1084,7 @@ impl Modal {
                 if !self.machine_axis(i) {
                     skip.get_or_insert(Skip::UnknownAxis(AXES[i]));
                 }
-                match self.axis_value(block, &w) {
+                match self.axis_value(&w) {
                     Ok(v) => {
                         mv.end[i] = if w.incremental {
                             mv.start[i].map(|p| p + v)

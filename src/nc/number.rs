@@ -37,6 +37,19 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
+/// `10^d` for `d` up to 22 (exact), else `powi`.
+pub fn pow10(d: u8) -> f64 {
+    POW10
+        .get(d as usize)
+        .copied()
+        .unwrap_or_else(|| 10f64.powi(d as i32))
+}
+
+/// Half a unit of the last of `d` decimals.
+pub fn half_unit(d: u8) -> f64 {
+    0.5 / pow10(d)
+}
+
 /// Length of the numeric lexeme at the start of `s` (`[+-]? (d+ (. d*)? | . d+)`),
 /// or 0 when there is none. Spaces are not allowed inside.
 pub fn lex_len(s: &[u8]) -> usize {
@@ -61,6 +74,68 @@ pub fn lex_len(s: &[u8]) -> usize {
         return j;
     }
     if int_digits == 0 { 0 } else { i }
+}
+
+/// Lexes and reads the number at the start of `s` in one pass: the lexeme
+/// and its length, or `None` (the same acceptance as [`lex_len`]).
+pub fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
+    let mut style = NumStyle::default();
+    let mut i = 0;
+    let mut neg = false;
+    match s.first() {
+        Some(b'+') => {
+            style.plus = true;
+            i = 1;
+        }
+        Some(b'-') => {
+            neg = true;
+            i = 1;
+        }
+        _ => {}
+    }
+    let sign = i;
+    let mut mant: u64 = 0;
+    let d0 = i;
+    while i < s.len() && s[i].is_ascii_digit() {
+        mant = mant.wrapping_mul(10).wrapping_add((s[i] - b'0') as u64);
+        i += 1;
+    }
+    let int_digits = i - d0;
+    let mut dec = 0usize;
+    if i < s.len() && s[i] == b'.' {
+        let f0 = i + 1;
+        let mut j = f0;
+        while j < s.len() && s[j].is_ascii_digit() {
+            mant = mant.wrapping_mul(10).wrapping_add((s[j] - b'0') as u64);
+            j += 1;
+        }
+        dec = j - f0;
+        if int_digits == 0 && dec == 0 {
+            return None;
+        }
+        style.point = true;
+        style.trailing_zeros = dec > 0 && s[j - 1] == b'0';
+        i = j;
+    } else if int_digits == 0 {
+        return None;
+    }
+    style.no_leading_zero = int_digits == 0;
+    style.decimals = dec.min(255) as u8;
+    let value = if int_digits + dec <= 15 && dec < POW10.len() {
+        mant as f64 / POW10[dec]
+    } else {
+        std::str::from_utf8(&s[sign..i])
+            .ok()
+            .and_then(|t| t.parse::<f64>().ok())
+            .unwrap_or(f64::NAN)
+    };
+    Some((
+        Lexeme {
+            value: if neg { -value } else { value },
+            style,
+        },
+        i,
+    ))
 }
 
 /// Reads a numeric lexeme that [`lex_len`] accepted in full.
@@ -131,7 +206,13 @@ pub struct WriteRules {
 /// appending to `out`. Trailing zeros are kept only when `like` had them.
 pub fn write(out: &mut Vec<u8>, value: f64, decimals: u8, like: &NumStyle, rules: WriteRules) {
     let d = decimals.min(15) as usize;
-    let scaled = (value.abs() * POW10[d]).round();
+    let x = value.abs() * POW10[d];
+    // Round by a cast: no libm call.
+    let scaled = if x < 4.0e15 {
+        (x + 0.5) as u64 as f64
+    } else {
+        x.round()
+    };
     let negative = value < 0.0 && scaled != 0.0;
     if !scaled.is_finite() || scaled >= 9.0e18 {
         // Out of any controller's range: fall back to plain formatting.
@@ -231,6 +312,34 @@ mod tests {
         assert_eq!(lex_len(b"-"), 0);
         assert_eq!(lex_len(b"1.2.3"), 3);
         assert_eq!(lex_len(b"12X"), 2);
+    }
+
+    #[test]
+    fn one_pass_scan_agrees_with_lex_and_read() {
+        for s in [
+            "1.",
+            ".5",
+            "-.5",
+            "+10.250",
+            "123",
+            "0.1",
+            "-12.3456789012345678",
+            ".",
+            "-",
+            "1.2.3",
+            "12X",
+            "+Q1",
+        ] {
+            let b = s.as_bytes();
+            let n = lex_len(b);
+            match scan(b) {
+                Some((lx, len)) => {
+                    assert_eq!(len, n, "{s}");
+                    assert_eq!(lx, read(&b[..n]), "{s}");
+                }
+                None => assert_eq!(n, 0, "{s}"),
+            }
+        }
     }
 
     #[test]
