@@ -13,6 +13,7 @@
 #![warn(missing_docs)]
 
 pub mod compensate;
+pub mod contour;
 pub mod errorfile;
 pub mod fit;
 pub mod formats;

@@ -28,6 +28,7 @@
 
 mod edit;
 mod engine;
+pub mod export;
 mod frame;
 mod output;
 pub mod simulate;
