@@ -88,7 +88,8 @@ impl Mesh {
             let base = mesh.vertices.len() as u32;
             let p = &m.mesh.positions;
             for v in p.chunks_exact(3) {
-                mesh.vertices.push(Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64));
+                mesh.vertices
+                    .push(Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64));
             }
             for t in m.mesh.indices.chunks_exact(3) {
                 mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
@@ -109,7 +110,8 @@ impl Mesh {
             path: path.to_path_buf(),
             message,
         };
-        let doc = gltf::Gltf::from_slice(&bytes).map_err(|e| fmt(format!("not a readable glTF model: {e}")))?;
+        let doc = gltf::Gltf::from_slice(&bytes)
+            .map_err(|e| fmt(format!("not a readable glTF model: {e}")))?;
         let mut buffers: Vec<Vec<u8>> = Vec::new();
         for b in doc.buffers() {
             let data = match b.source() {
@@ -119,11 +121,14 @@ impl Mesh {
                     .ok_or_else(|| fmt("the GLB has no binary chunk".into()))?,
                 gltf::buffer::Source::Uri(uri) => {
                     if let Some(rest) = uri.strip_prefix("data:") {
-                        let b64 = rest
-                            .split_once(";base64,")
-                            .map(|x| x.1)
-                            .ok_or_else(|| fmt(format!("buffer {}: only base64 data URIs are supported", b.index())))?;
-                        base64_decode(b64).ok_or_else(|| fmt(format!("buffer {}: bad base64 data", b.index())))?
+                        let b64 = rest.split_once(";base64,").map(|x| x.1).ok_or_else(|| {
+                            fmt(format!(
+                                "buffer {}: only base64 data URIs are supported",
+                                b.index()
+                            ))
+                        })?;
+                        base64_decode(b64)
+                            .ok_or_else(|| fmt(format!("buffer {}: bad base64 data", b.index())))?
                     } else {
                         let p = path.parent().unwrap_or(Path::new(".")).join(uri);
                         std::fs::read(&p).map_err(|e| MeshError::Read {
@@ -151,9 +156,12 @@ impl Mesh {
                     if prim.mode() != gltf::mesh::Mode::Triangles {
                         continue;
                     }
-                    let pos = prim
-                        .get(&gltf::Semantic::Positions)
-                        .ok_or_else(|| fmt(format!("mesh {}: a primitive without positions", me.index())))?;
+                    let pos = prim.get(&gltf::Semantic::Positions).ok_or_else(|| {
+                        fmt(format!(
+                            "mesh {}: a primitive without positions",
+                            me.index()
+                        ))
+                    })?;
                     let base = mesh.vertices.len() as u32;
                     for p in read_vec3(&pos, &buffers).map_err(&fmt)? {
                         let q = world.transform_point(&Point3::from(p));
@@ -166,7 +174,10 @@ impl Mesh {
                     };
                     for t in idx.chunks_exact(3) {
                         if t.iter().any(|&i| i >= n) {
-                            return Err(fmt(format!("mesh {}: a triangle index beyond its vertices", me.index())));
+                            return Err(fmt(format!(
+                                "mesh {}: a triangle index beyond its vertices",
+                                me.index()
+                            )));
                         }
                         mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
                     }
@@ -238,8 +249,18 @@ impl Mesh {
             })
         };
         let pv = view(&mut root, 0, pos_len, json::buffer::Target::ArrayBuffer);
-        let iv = view(&mut root, pos_len, idx_len, json::buffer::Target::ElementArrayBuffer);
-        let accessor = |root: &mut json::Root, v, count: usize, ct, ty, minmax: Option<([f32; 3], [f32; 3])>| {
+        let iv = view(
+            &mut root,
+            pos_len,
+            idx_len,
+            json::buffer::Target::ElementArrayBuffer,
+        );
+        let accessor = |root: &mut json::Root,
+                        v,
+                        count: usize,
+                        ct,
+                        ty,
+                        minmax: Option<([f32; 3], [f32; 3])>| {
             root.push(json::Accessor {
                 buffer_view: Some(v),
                 byte_offset: Some(USize64(0)),
@@ -272,7 +293,8 @@ impl Mesh {
             None,
         );
         let prim = json::mesh::Primitive {
-            attributes: std::iter::once((Valid(json::mesh::Semantic::Positions), positions)).collect(),
+            attributes: std::iter::once((Valid(json::mesh::Semantic::Positions), positions))
+                .collect(),
             extensions: Default::default(),
             extras: Default::default(),
             indices: Some(indices),
@@ -312,16 +334,27 @@ impl Mesh {
     }
 }
 
-fn accessor_bytes<'a>(a: &gltf::Accessor, buffers: &'a [Vec<u8>], elem: usize) -> Result<(&'a [u8], usize), String> {
-    let v = a
-        .view()
-        .ok_or_else(|| format!("accessor {}: sparse accessors without a buffer view are not supported", a.index()))?;
+fn accessor_bytes<'a>(
+    a: &gltf::Accessor,
+    buffers: &'a [Vec<u8>],
+    elem: usize,
+) -> Result<(&'a [u8], usize), String> {
+    let v = a.view().ok_or_else(|| {
+        format!(
+            "accessor {}: sparse accessors without a buffer view are not supported",
+            a.index()
+        )
+    })?;
     let buf = buffers
         .get(v.buffer().index())
         .ok_or_else(|| format!("accessor {}: missing buffer", a.index()))?;
     let stride = v.stride().unwrap_or(elem);
     let start = v.offset() + a.offset();
-    let need = if a.count() == 0 { 0 } else { start + stride * (a.count() - 1) + elem };
+    let need = if a.count() == 0 {
+        0
+    } else {
+        start + stride * (a.count() - 1) + elem
+    };
     if need > buf.len() || need > v.offset() + v.length() {
         return Err(format!("accessor {}: data runs past its buffer", a.index()));
     }
@@ -329,11 +362,18 @@ fn accessor_bytes<'a>(a: &gltf::Accessor, buffers: &'a [Vec<u8>], elem: usize) -
 }
 
 fn read_vec3(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<Vector3<f64>>, String> {
-    if a.data_type() != gltf::accessor::DataType::F32 || a.dimensions() != gltf::accessor::Dimensions::Vec3 {
-        return Err(format!("accessor {}: positions must be float VEC3", a.index()));
+    if a.data_type() != gltf::accessor::DataType::F32
+        || a.dimensions() != gltf::accessor::Dimensions::Vec3
+    {
+        return Err(format!(
+            "accessor {}: positions must be float VEC3",
+            a.index()
+        ));
     }
     let (bytes, stride) = accessor_bytes(a, buffers, 12)?;
-    let f = |b: &[u8], k: usize| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]) as f64;
+    let f = |b: &[u8], k: usize| {
+        f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]) as f64
+    };
     Ok((0..a.count())
         .map(|i| {
             let e = &bytes[i * stride..i * stride + 12];
@@ -348,7 +388,12 @@ fn read_indices(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, Str
         DataType::U8 => 1,
         DataType::U16 => 2,
         DataType::U32 => 4,
-        _ => return Err(format!("accessor {}: indices must be unsigned integers", a.index())),
+        _ => {
+            return Err(format!(
+                "accessor {}: indices must be unsigned integers",
+                a.index()
+            ));
+        }
     };
     let (bytes, stride) = accessor_bytes(a, buffers, size)?;
     Ok((0..a.count())
@@ -374,7 +419,10 @@ fn base64_decode(s: &str) -> Option<Vec<u8>> {
             _ => return None,
         })
     };
-    let clean: Vec<u8> = s.bytes().filter(|c| !c.is_ascii_whitespace() && *c != b'=').collect();
+    let clean: Vec<u8> = s
+        .bytes()
+        .filter(|c| !c.is_ascii_whitespace() && *c != b'=')
+        .collect();
     let mut out = Vec::with_capacity(clean.len() * 3 / 4);
     for chunk in clean.chunks(4) {
         let mut acc = 0u32;
@@ -404,7 +452,12 @@ enum Feature {
 
 /// Closest point on triangle (a, b, c) to p (Ericson, Real-Time Collision
 /// Detection, 5.1.5), with the feature it lies on.
-fn closest_on_triangle(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>, c: &Vector3<f64>) -> (Vector3<f64>, Feature) {
+fn closest_on_triangle(
+    p: &Vector3<f64>,
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    c: &Vector3<f64>,
+) -> (Vector3<f64>, Feature) {
     let ab = b - a;
     let ac = c - a;
     let ap = p - a;
@@ -501,21 +554,39 @@ impl Surface {
         let triangles: Vec<[u32; 3]> = mesh
             .triangles
             .iter()
-            .map(|t| [remap[t[0] as usize], remap[t[1] as usize], remap[t[2] as usize]])
+            .map(|t| {
+                [
+                    remap[t[0] as usize],
+                    remap[t[1] as usize],
+                    remap[t[2] as usize],
+                ]
+            })
             .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
             .collect();
         let mut face_normals = Vec::with_capacity(triangles.len());
         let mut vertex_normals = vec![Vector3::zeros(); vertices.len()];
         let mut edge_normals: HashMap<(u32, u32), Vector3<f64>> = HashMap::new();
         for t in &triangles {
-            let p = [vertices[t[0] as usize], vertices[t[1] as usize], vertices[t[2] as usize]];
+            let p = [
+                vertices[t[0] as usize],
+                vertices[t[1] as usize],
+                vertices[t[2] as usize],
+            ];
             let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
-            let n = if n.norm() > 0.0 { n.normalize() } else { Vector3::zeros() };
+            let n = if n.norm() > 0.0 {
+                n.normalize()
+            } else {
+                Vector3::zeros()
+            };
             face_normals.push(n);
             for k in 0..3 {
                 let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
                 let (u, v) = ((b - a), (c - a));
-                let angle = if u.norm() > 0.0 && v.norm() > 0.0 { u.angle(&v) } else { 0.0 };
+                let angle = if u.norm() > 0.0 && v.norm() > 0.0 {
+                    u.angle(&v)
+                } else {
+                    0.0
+                };
                 vertex_normals[t[k] as usize] += n * angle;
                 let (i, j) = (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]));
                 *edge_normals.entry((i, j)).or_insert_with(Vector3::zeros) += n;
@@ -554,7 +625,13 @@ impl Surface {
         self.nodes = nodes;
     }
 
-    fn split(&mut self, nodes: &mut Vec<Node>, centers: &[Vector3<f64>], start: usize, count: usize) -> usize {
+    fn split(
+        &mut self,
+        nodes: &mut Vec<Node>,
+        centers: &[Vector3<f64>],
+        start: usize,
+        count: usize,
+    ) -> usize {
         let mut lo = Vector3::repeat(f64::INFINITY);
         let mut hi = Vector3::repeat(f64::NEG_INFINITY);
         for &i in &self.order[start..start + count] {
@@ -640,11 +717,19 @@ impl Surface {
                 self.edge_normals[&(a.min(b), a.max(b))]
             }
         };
-        let sign = if (p - q).dot(&normal) < 0.0 { -1.0 } else { 1.0 };
+        let sign = if (p - q).dot(&normal) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         Closest {
             point: q,
             distance: sign * d2.sqrt(),
-            normal: if normal.norm() > 0.0 { normal.normalize() } else { normal },
+            normal: if normal.norm() > 0.0 {
+                normal.normalize()
+            } else {
+                normal
+            },
         }
     }
 }
@@ -680,7 +765,10 @@ pub struct ContourSummary {
 }
 
 /// Contour errors of labelled measured points against a surface.
-pub fn evaluate(surface: &Surface, points: &[(String, Vector3<f64>)]) -> (Vec<ContourPoint>, ContourSummary) {
+pub fn evaluate(
+    surface: &Surface,
+    points: &[(String, Vector3<f64>)],
+) -> (Vec<ContourPoint>, ContourSummary) {
     let out: Vec<ContourPoint> = points
         .iter()
         .map(|(label, p)| {
@@ -742,7 +830,10 @@ mod tests {
         ] {
             triangles.extend(f);
         }
-        Mesh { vertices, triangles }
+        Mesh {
+            vertices,
+            triangles,
+        }
     }
 
     #[test]
@@ -758,7 +849,11 @@ mod tests {
         ];
         for (p, want) in cases {
             let c = s.closest(&p);
-            assert!((c.distance - want).abs() < 1e-12, "{p:?}: {} want {want}", c.distance);
+            assert!(
+                (c.distance - want).abs() < 1e-12,
+                "{p:?}: {} want {want}",
+                c.distance
+            );
         }
     }
 

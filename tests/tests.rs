@@ -6,6 +6,7 @@ mod util;
 
 mod cli;
 mod compensate;
+mod compensate_cli;
 mod errorfile;
 mod identifiability;
 mod kinematics;

@@ -992,7 +992,8 @@ impl Run<'_, '_> {
         written: &[Option<f64>; 6],
         inserted: bool,
     ) {
-        let w = f.model(&known(written));
+        let program = known(written);
+        let w = f.model(&program);
         let v = Vertex {
             line,
             nominal: pt.nominal,
@@ -1001,6 +1002,8 @@ impl Run<'_, '_> {
             tcp: f.tcp,
             held_c: pt.held.is_some(),
             inserted,
+            nominal_program: f.program(&pt.nominal),
+            program,
         };
         self.last_held = pt.held.is_some();
         (self.observer)(&v);
@@ -1259,7 +1262,7 @@ impl Run<'_, '_> {
                 .replace(w.value_span, |b| number::write(b, fv, d, &style, rules));
         }
         self.emit = emitted;
-        self.observe(block.line, f, &first, &emitted, false);
+        self.observe(block.line, f, &first, &emitted, pieces.len() > 1);
         // The following pieces, as new blocks after this statement.
         let at = self.insert_point(block, seg);
         let eob = block
@@ -1289,7 +1292,8 @@ impl Run<'_, '_> {
         let lower = self.lower(block, seg);
         let rapid = matches!(mv.kind, MoveKind::Rapid);
         let mut text = Vec::new();
-        for (u, p) in &pieces[1..] {
+        let last = pieces.len() - 1;
+        for (i, (u, p)) in pieces.iter().enumerate().skip(1) {
             let fv = feed_for(*u);
             let prev = self.emit;
             text.extend_from_slice(self.eol);
@@ -1352,7 +1356,7 @@ impl Run<'_, '_> {
                 text.push(b';');
             }
             self.emit = emitted;
-            self.observe(block.line, f, p, &emitted, true);
+            self.observe(block.line, f, p, &emitted, i != last);
             if hh {
                 self.after += 1;
             }

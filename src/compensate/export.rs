@@ -59,7 +59,11 @@ impl AxisLine {
     }
 
     /// The feet of the common perpendicular of two lines (on self, on other).
-    pub fn common_perpendicular(&self, other: &AxisLine, near: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    pub fn common_perpendicular(
+        &self,
+        other: &AxisLine,
+        near: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
         let (d1, d2) = (self.dir, other.dir);
         let r = self.point - other.point;
         let (a, b, c) = (d1.dot(&d1), d1.dot(&d2), d2.dot(&d2));
@@ -91,7 +95,10 @@ pub struct Geometry {
 
 fn rigid(p: &Perturbation, l: usize) -> (Matrix3<f64>, Vector3<f64>) {
     let iso = d6(&p.link(l));
-    (iso.rotation.to_rotation_matrix().into_inner(), iso.translation.vector)
+    (
+        iso.rotation.to_rotation_matrix().into_inner(),
+        iso.translation.vector,
+    )
 }
 
 /// The axis lines of `kin` with the constant errors `p`, at rotary zero.
@@ -114,7 +121,10 @@ pub fn geometry(kin: &Kinematics, p: &Perturbation) -> Geometry {
                 point: pivot + d0 + r0 * d1,
                 dir: r0 * r1 * z,
             },
-            spindle: AxisLine { point: pivot, dir: z },
+            spindle: AxisLine {
+                point: pivot,
+                dir: z,
+            },
         },
         Structure::HeadTable => {
             // Tool side at X, Y, Z = 0 (the tip on the W origin when the
@@ -203,7 +213,12 @@ fn v3(v: &Vector3<f64>) -> String {
 }
 
 /// The corrected pivot data of `dialect`'s controller, as text.
-pub fn export(model: &Model, theta: &[f64], dialect: Dialect, source: &str) -> Result<String, ExportError> {
+pub fn export(
+    model: &Model,
+    theta: &[f64],
+    dialect: Dialect,
+    source: &str,
+) -> Result<String, ExportError> {
     let kin = &model.kin;
     let m = kin.machine();
     let p = model.perturbation(theta, &Context::default());
@@ -218,7 +233,11 @@ pub fn export(model: &Model, theta: &[f64], dialect: Dialect, source: &str) -> R
     let _ = c;
     let header = |s: &mut String, title: &str, comment: &str| {
         let _ = writeln!(s, "{comment} {title}");
-        let _ = writeln!(s, "{comment} machine {} ({}), errors from {source}", m.name, m.structure);
+        let _ = writeln!(
+            s,
+            "{comment} machine {} ({}), errors from {source}",
+            m.name, m.structure
+        );
         let _ = writeln!(
             s,
             "{comment} values in mm, machine coordinates; nominal pivot (machine file): {}",
@@ -227,18 +246,29 @@ pub fn export(model: &Model, theta: &[f64], dialect: Dialect, source: &str) -> R
     };
     match dialect {
         Dialect::Fanuc => {
-            header(&mut s, "fivecal: FANUC tool centre point control parameters (30i-class, A-79348E)", "#");
+            header(
+                &mut s,
+                "fivecal: FANUC tool centre point control parameters (30i-class, A-79348E)",
+                "#",
+            );
             let (a, b) = g.tilt.common_perpendicular(&g.c, &m.pivot);
             let _ = writeln!(s, "#");
             match m.structure {
                 Structure::TableTable => {
-                    let _ = writeln!(s, "19680 = 12            # mechanical unit: two table rotary axes ({} master, C slave)", m.tilt.letter);
+                    let _ = writeln!(
+                        s,
+                        "19680 = 12            # mechanical unit: two table rotary axes ({} master, C slave)",
+                        m.tilt.letter
+                    );
                     let (an, bn) = nominal.tilt.common_perpendicular(&nominal.c, &m.pivot);
                     for (k, (v, vn)) in [(a, an), (b - a, bn - an)].iter().enumerate() {
                         for i in 0..3 {
                             let no = 19700 + 3 * k + i;
                             let what = if k == 0 {
-                                format!("rotary table position ({}-axis line, point nearest the C axis)", m.tilt.letter)
+                                format!(
+                                    "rotary table position ({}-axis line, point nearest the C axis)",
+                                    m.tilt.letter
+                                )
                             } else {
                                 format!("intersection offset {} axis -> C axis", m.tilt.letter)
                             };
@@ -255,7 +285,11 @@ pub fn export(model: &Model, theta: &[f64], dialect: Dialect, source: &str) -> R
                     }
                 }
                 Structure::HeadTable => {
-                    let _ = writeln!(s, "19680 = 21            # mechanical unit: mixed ({} head master, C table slave)", m.tilt.letter);
+                    let _ = writeln!(
+                        s,
+                        "19680 = 21            # mechanical unit: mixed ({} head master, C table slave)",
+                        m.tilt.letter
+                    );
                     let c_pt = g.c.nearest(&m.pivot);
                     let cn = nominal.c.nearest(&m.pivot);
                     for i in 0..3 {
@@ -283,7 +317,11 @@ pub fn export(model: &Model, theta: &[f64], dialect: Dialect, source: &str) -> R
                     }
                 }
                 Structure::HeadHead => {
-                    let _ = writeln!(s, "19680 = 2             # mechanical unit: two tool rotary axes (C master, {} slave)", m.tilt.letter);
+                    let _ = writeln!(
+                        s,
+                        "19680 = 2             # mechanical unit: two tool rotary axes (C master, {} slave)",
+                        m.tilt.letter
+                    );
                     let (d, e) = g.spindle.common_perpendicular(&g.tilt, &m.pivot);
                     let (e2, f) = g.tilt.common_perpendicular(&g.c, &m.pivot);
                     let _ = e2;
@@ -310,59 +348,100 @@ pub fn export(model: &Model, theta: &[f64], dialect: Dialect, source: &str) -> R
                 }
             }
             let _ = writeln!(s, "#");
-            let _ = writeln!(s, "# Not held by these parameters (positions only): the rotary axes' orientations and zero");
-            let _ = writeln!(s, "# points, and everything below; rewrite programs with `fivecal compensate` for them.");
+            let _ = writeln!(
+                s,
+                "# Not held by these parameters (positions only): the rotary axes' orientations and zero"
+            );
+            let _ = writeln!(
+                s,
+                "# points, and everything below; rewrite programs with `fivecal compensate` for them."
+            );
             for b in &beyond {
                 let _ = writeln!(s, "#   {b}");
             }
         }
         Dialect::Heidenhain => {
-            header(&mut s, "fivecal: HEIDENHAIN kinematics description, corrected rotary-axis transformations", ";");
+            header(
+                &mut s,
+                "fivecal: HEIDENHAIN kinematics description, corrected rotary-axis transformations",
+                ";",
+            );
             let _ = writeln!(s, ";");
-            let _ = writeln!(s, "; Chain from the machine base: each rotary axis is preceded by its position (TRANS X/Y/Z,");
-            let _ = writeln!(s, "; mm) and its orientation (TRANS A/B/C, deg), as in the kinematics table (KEY TRANS).");
-            let rows = |s: &mut String, name: &str, line: &AxisLine, nom: &AxisLine, about_tilt: bool| {
-                let q = line.nearest(&nom.point);
-                for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
-                    let _ = writeln!(
-                        s,
-                        "TRANS  {l}  {:+.4}    ; {name} axis position, correction {:+.4} um",
-                        q[i],
-                        (q[i] - nom.point[i]) * 1e3
-                    );
-                }
-                // Orientation: the rotation taking the nominal direction to the actual.
-                let axis = nom.dir.cross(&line.dir);
-                for (i, l) in ['A', 'B', 'C'].iter().enumerate() {
-                    if about_tilt && i == m.tilt.about.index() {
-                        continue;
+            let _ = writeln!(
+                s,
+                "; Chain from the machine base: each rotary axis is preceded by its position (TRANS X/Y/Z,"
+            );
+            let _ = writeln!(
+                s,
+                "; mm) and its orientation (TRANS A/B/C, deg), as in the kinematics table (KEY TRANS)."
+            );
+            let rows =
+                |s: &mut String, name: &str, line: &AxisLine, nom: &AxisLine, about_tilt: bool| {
+                    let q = line.nearest(&nom.point);
+                    for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
+                        let _ = writeln!(
+                            s,
+                            "TRANS  {l}  {:+.4}    ; {name} axis position, correction {:+.4} um",
+                            q[i],
+                            (q[i] - nom.point[i]) * 1e3
+                        );
                     }
-                    let _ = writeln!(
-                        s,
-                        "TRANS  {l}  {:+.6}  ; {name} axis orientation, {:+.2} urad",
-                        axis[i].to_degrees(),
-                        axis[i] * 1e6
-                    );
-                }
-            };
+                    // Orientation: the rotation taking the nominal direction to the actual.
+                    let axis = nom.dir.cross(&line.dir);
+                    for (i, l) in ['A', 'B', 'C'].iter().enumerate() {
+                        if about_tilt && i == m.tilt.about.index() {
+                            continue;
+                        }
+                        let _ = writeln!(
+                            s,
+                            "TRANS  {l}  {:+.6}  ; {name} axis orientation, {:+.2} urad",
+                            axis[i].to_degrees(),
+                            axis[i] * 1e6
+                        );
+                    }
+                };
             let _ = writeln!(s, ";");
             match m.structure {
                 Structure::TableTable => {
-                    rows(&mut s, &m.tilt.letter.to_string(), &g.tilt, &nominal.tilt, true);
+                    rows(
+                        &mut s,
+                        &m.tilt.letter.to_string(),
+                        &g.tilt,
+                        &nominal.tilt,
+                        true,
+                    );
                     rows(&mut s, "C", &g.c, &nominal.c, false);
                 }
                 Structure::HeadTable => {
                     rows(&mut s, "C", &g.c, &nominal.c, false);
-                    rows(&mut s, &m.tilt.letter.to_string(), &g.tilt, &nominal.tilt, true);
+                    rows(
+                        &mut s,
+                        &m.tilt.letter.to_string(),
+                        &g.tilt,
+                        &nominal.tilt,
+                        true,
+                    );
                 }
                 Structure::HeadHead => {
                     rows(&mut s, "C", &g.c, &nominal.c, false);
-                    rows(&mut s, &m.tilt.letter.to_string(), &g.tilt, &nominal.tilt, true);
+                    rows(
+                        &mut s,
+                        &m.tilt.letter.to_string(),
+                        &g.tilt,
+                        &nominal.tilt,
+                        true,
+                    );
                 }
             }
             let _ = writeln!(s, ";");
-            let _ = writeln!(s, "; KinematicsOpt (cycle 452) adjusts only the TRANS X/Y/Z entries; the orientation rows and");
-            let _ = writeln!(s, "; the axes' zero points need the machine tool builder (protected table). Not held at all:");
+            let _ = writeln!(
+                s,
+                "; KinematicsOpt (cycle 452) adjusts only the TRANS X/Y/Z entries; the orientation rows and"
+            );
+            let _ = writeln!(
+                s,
+                "; the axes' zero points need the machine tool builder (protected table). Not held at all:"
+            );
             for b in beyond.iter().filter(|b| !b.contains("urad")) {
                 let _ = writeln!(s, ";   {b}");
             }
@@ -381,26 +460,53 @@ pub fn export(model: &Model, theta: &[f64], dialect: Dialect, source: &str) -> R
                 'A' => "xyzac-trt-kins",
                 _ => "xyzbc-trt-kins",
             };
-            header(&mut s, &format!("fivecal: LinuxCNC {kins} pivot offsets (HAL)"), "#");
+            header(
+                &mut s,
+                &format!("fivecal: LinuxCNC {kins} pivot offsets (HAL)"),
+                "#",
+            );
             // C rotates about (x-rot-point, y-rot-point); the tilt axis runs
             // through (rot-point + offset) along its own direction.
             let ct = g.c.nearest(&g.tilt.nearest(&m.pivot));
             let tilt_pt = g.tilt.nearest(&ct);
             let cn = nominal.c.nearest(&m.pivot);
-            let _ = writeln!(s, "setp {kins}.x-rot-point {:+.4}   # C axis X (nominal {:+.4})", ct.x, cn.x);
-            let _ = writeln!(s, "setp {kins}.y-rot-point {:+.4}   # C axis Y (nominal {:+.4})", ct.y, cn.y);
-            let _ = writeln!(s, "setp {kins}.z-rot-point {:+.4}   # Z where the {} axis crosses (nominal {:+.4})", tilt_pt.z, m.tilt.letter, cn.z);
+            let _ = writeln!(
+                s,
+                "setp {kins}.x-rot-point {:+.4}   # C axis X (nominal {:+.4})",
+                ct.x, cn.x
+            );
+            let _ = writeln!(
+                s,
+                "setp {kins}.y-rot-point {:+.4}   # C axis Y (nominal {:+.4})",
+                ct.y, cn.y
+            );
+            let _ = writeln!(
+                s,
+                "setp {kins}.z-rot-point {:+.4}   # Z where the {} axis crosses (nominal {:+.4})",
+                tilt_pt.z, m.tilt.letter, cn.z
+            );
             match m.tilt.letter {
                 'A' => {
-                    let _ = writeln!(s, "setp {kins}.y-offset {:+.4}   # A axis Y minus C axis Y", tilt_pt.y - ct.y);
+                    let _ = writeln!(
+                        s,
+                        "setp {kins}.y-offset {:+.4}   # A axis Y minus C axis Y",
+                        tilt_pt.y - ct.y
+                    );
                 }
                 _ => {
-                    let _ = writeln!(s, "setp {kins}.x-offset {:+.4}   # B axis X minus C axis X", tilt_pt.x - ct.x);
+                    let _ = writeln!(
+                        s,
+                        "setp {kins}.x-offset {:+.4}   # B axis X minus C axis X",
+                        tilt_pt.x - ct.x
+                    );
                 }
             }
             let _ = writeln!(s, "setp {kins}.z-offset {:+.4}", 0.0);
             let _ = writeln!(s, "#");
-            let _ = writeln!(s, "# trt-kins takes no orientation errors and no zero-point errors of the rotary axes; not held:");
+            let _ = writeln!(
+                s,
+                "# trt-kins takes no orientation errors and no zero-point errors of the rotary axes; not held:"
+            );
             for b in &beyond {
                 let _ = writeln!(s, "#   {b}");
             }

@@ -127,8 +127,14 @@ pub struct Vertex {
     pub tcp: Tcp,
     /// C was held next to the singularity.
     pub held_c: bool,
-    /// An end point of a piece inserted by subdivision or linearization.
+    /// An end point inside a move that was subdivided or linearized (the
+    /// move's own end point is the last of its pieces and is not inserted).
     pub inserted: bool,
+    /// The nominal point in program coordinates (X Y Z A B C, program
+    /// units and frame; NaN for an axis the machine does not have).
+    pub nominal_program: [f64; 6],
+    /// What the controller has after this point, in program coordinates.
+    pub program: [f64; 6],
 }
 
 /// Line numbers of a kind of event: how many there were and the first

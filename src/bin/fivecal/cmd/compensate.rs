@@ -1,15 +1,366 @@
-//! `fivecal compensate` (issue 7).
+//! `fivecal compensate`: rewrite an NC program so the identified errors
+//! cancel, and/or export them as a controller's pivot parameters.
+//!
+//! The raw arguments become one validated [`Config`] here (and the machine,
+//! error and program options shared with `simulate nc` in [`Common`]); the
+//! library does the work.
 
-use clap::Args;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
 
-use super::pending::PendingArgs;
+use anyhow::{Context as _, bail};
+use clap::{Args, ValueEnum};
+use fivecal::compensate::{AtomicOutput, Compensator, Coordinates, Settings, Summary, export};
+use fivecal::errorfile::{ErrorFile, LoadedErrors};
+use fivecal::{Dialect, Kinematics, Machine};
+use nalgebra::Vector3;
+
+/// How program coordinates are meant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CoordsArg {
+    /// As the program switches tool centre point control on and off
+    /// (G43.4/G43.5, M128, FUNCTION TCPM).
+    Auto,
+    /// Axis positions throughout (post-side program).
+    Axes,
+    /// Tool-tip coordinates in W throughout (a controller whose kinematics
+    /// always runs TCP, e.g. LinuxCNC trt-kins).
+    Tcp,
+}
+
+/// Options shared by `compensate` and `simulate nc`.
+#[derive(Args, Debug)]
+pub struct MachineArgs {
+    /// Machine file or built-in name (bc-trunnion, ac-trunnion, head-table, head-head).
+    #[arg(long, value_name = "M.yaml")]
+    pub machine: String,
+    /// Controller dialect of the program [default: the machine's].
+    #[arg(long, value_name = "D", value_parser = ["fanuc", "heidenhain", "linuxcnc"])]
+    pub dialect: Option<String>,
+    /// Where the program zero lies in W at rotary zero, mm [default: 0,0,0,
+    /// as `fivecal plan` writes programs].
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub origin: Option<String>,
+    /// How the program's coordinates are meant.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub coordinates: CoordsArg,
+    /// FANUC axis words without a decimal point: `mm` (calculator-type
+    /// input), `um` (IS-B increments) or `0.1um` (IS-C); without it such
+    /// moves are left as written and reported.
+    #[arg(long, value_name = "UNIT", value_parser = ["mm", "um", "0.1um"])]
+    pub integer_unit: Option<String>,
+    /// Gauge length of the tool in use, mm [default: the machine file's tool].
+    #[arg(long, value_name = "MM")]
+    pub tool_length: Option<f64>,
+    /// Reject words and codes fivecal does not know instead of keeping them.
+    #[arg(long)]
+    pub strict: bool,
+}
+
+/// The validated shared options.
+pub struct Common {
+    pub machine: Machine,
+    pub kin: Kinematics,
+    pub dialect: Dialect,
+    pub origin: Vector3<f64>,
+    pub coordinates: Coordinates,
+    pub integer_unit: Option<f64>,
+    pub strict: bool,
+    /// Input files of the run (never to be overwritten).
+    pub inputs: Vec<PathBuf>,
+}
+
+fn parse_triple(s: &str, what: &str) -> anyhow::Result<Vector3<f64>> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .ok()
+        .filter(|v: &Vec<f64>| v.len() == 3 && v.iter().all(|x| x.is_finite()))
+        .with_context(|| format!("{what} `{s}`: expected three numbers X,Y,Z (mm)"))?;
+    Ok(Vector3::new(v[0], v[1], v[2]))
+}
+
+impl MachineArgs {
+    pub fn validate(&self) -> anyhow::Result<Common> {
+        let machine = Machine::load(&self.machine)
+            .with_context(|| format!("cannot load machine `{}`", self.machine))?;
+        let kin = match self.tool_length {
+            Some(l) if l.is_finite() && l > 0.0 => Kinematics::with_gauge_length(&machine, l),
+            Some(l) => bail!("--tool-length {l}: expected a gauge length > 0 mm"),
+            None => Kinematics::new(&machine),
+        };
+        let dialect = match &self.dialect {
+            Some(d) => d.parse::<Dialect>().map_err(anyhow::Error::msg)?,
+            None => machine.dialect,
+        };
+        let origin = match &self.origin {
+            Some(s) => parse_triple(s, "--origin")?,
+            None => Vector3::zeros(),
+        };
+        let integer_unit = self.integer_unit.as_deref().map(|u| match u {
+            "mm" => 1.0,
+            "um" => 0.001,
+            _ => 0.0001,
+        });
+        let mut inputs = Vec::new();
+        if Path::new(&self.machine).exists() {
+            inputs.push(PathBuf::from(&self.machine));
+        }
+        Ok(Common {
+            machine,
+            kin,
+            dialect,
+            origin,
+            coordinates: match self.coordinates {
+                CoordsArg::Auto => Coordinates::Auto,
+                CoordsArg::Axes => Coordinates::Axes,
+                CoordsArg::Tcp => Coordinates::Tcp,
+            },
+            integer_unit,
+            strict: self.strict,
+            inputs,
+        })
+    }
+}
+
+/// Loads an error file against the machine.
+pub fn load_errors(path: &Path, kin: &Kinematics) -> anyhow::Result<LoadedErrors> {
+    Ok(ErrorFile::load(path, kin)?)
+}
 
 #[derive(Args, Debug)]
 pub struct CompensateArgs {
+    /// NC program to rewrite (optional with --export).
+    #[arg(value_name = "IN")]
+    input: Option<PathBuf>,
+    /// The rewritten program (never the input; written only when complete).
+    #[arg(short, long, value_name = "OUT")]
+    output: Option<PathBuf>,
     #[command(flatten)]
-    pending: PendingArgs,
+    machine: MachineArgs,
+    /// Error file: an `analyze` result (or a truth file).
+    #[arg(long, value_name = "RESULT.yaml")]
+    errors: PathBuf,
+    /// Largest distance of the actual tool-tip path from the intended one
+    /// between end points, um; longer moves are subdivided, arcs linearized.
+    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    tolerance: f64,
+    /// Stop with the line named when a correction exceeds this: um for X, Y,
+    /// Z, urad for the tool orientation.
+    #[arg(long, value_name = "UM", default_value_t = 500.0)]
+    max_correction: f64,
+    /// Decimals written: LIN[,ROT] (mm, deg) [default: 4,6; more when the
+    /// program writes more].
+    #[arg(long, value_name = "LIN,ROT")]
+    decimals: Option<String>,
+    /// Next to the tilt singularity, the largest turn of C accepted for an
+    /// exact correction, deg; beyond it C is held and only the tool tip is
+    /// corrected exactly.
+    #[arg(long, value_name = "DEG", default_value_t = 1.0)]
+    max_c_swing: f64,
+    /// Also write the location errors as the corrected pivot parameters of
+    /// this controller.
+    #[arg(long, value_name = "CONTROLLER", value_parser = ["fanuc", "heidenhain", "linuxcnc"])]
+    export: Option<String>,
+    /// Where --export writes [default: standard output without a program,
+    /// else next to OUT as OUT.<controller>.txt].
+    #[arg(long, value_name = "FILE")]
+    export_to: Option<PathBuf>,
 }
 
-pub fn run(_args: CompensateArgs) -> anyhow::Result<()> {
-    super::pending::run("compensate", 7)
+/// What to do, validated.
+pub struct Config {
+    common: Common,
+    errors_path: PathBuf,
+    errors: LoadedErrors,
+    settings: Settings,
+    rewrite: Option<(PathBuf, PathBuf)>,
+    export: Option<(Dialect, Option<PathBuf>)>,
+}
+
+impl CompensateArgs {
+    fn validate(self) -> anyhow::Result<Config> {
+        let mut common = self.machine.validate()?;
+        let errors = load_errors(&self.errors, &common.kin)?;
+        common.inputs.push(self.errors.clone());
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            bail!("--tolerance {}: expected a distance > 0 um", self.tolerance);
+        }
+        if !(self.max_correction.is_finite() && self.max_correction > 0.0) {
+            bail!(
+                "--max-correction {}: expected a limit > 0 um",
+                self.max_correction
+            );
+        }
+        if !(self.max_c_swing.is_finite() && self.max_c_swing >= 0.0) {
+            bail!(
+                "--max-c-swing {}: expected an angle >= 0 deg",
+                self.max_c_swing
+            );
+        }
+        let mut settings = Settings::new(common.dialect);
+        settings.strict = common.strict;
+        settings.tolerance = self.tolerance * 1e-3;
+        settings.max_correction = self.max_correction;
+        settings.origin = common.origin;
+        settings.coordinates = common.coordinates;
+        settings.max_c_swing = self.max_c_swing;
+        settings.fanuc_integer_unit = common.integer_unit;
+        if let Some(d) = &self.decimals {
+            let parts: Vec<Option<u8>> =
+                d.split(',').map(|x| x.trim().parse::<u8>().ok()).collect();
+            match parts.as_slice() {
+                [Some(l)] if *l <= 9 => settings.linear_decimals = *l,
+                [Some(l), Some(r)] if *l <= 9 && *r <= 9 => {
+                    settings.linear_decimals = *l;
+                    settings.rotary_decimals = *r;
+                }
+                _ => bail!("--decimals `{d}`: expected LIN or LIN,ROT, each 0 to 9"),
+            }
+        }
+        let export = match &self.export {
+            Some(d) => Some((
+                d.parse::<Dialect>().map_err(anyhow::Error::msg)?,
+                self.export_to.clone(),
+            )),
+            None if self.export_to.is_some() => bail!("--export-to needs --export CONTROLLER"),
+            None => None,
+        };
+        let rewrite = match (self.input, self.output) {
+            (Some(i), Some(o)) => {
+                let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
+                inputs.push(&i);
+                fivecal::io::ensure_not_input(&o, &inputs)?;
+                if !i.exists() {
+                    bail!("cannot read program {}: no such file", i.display());
+                }
+                common.inputs.push(i.clone());
+                Some((i, o))
+            }
+            (Some(i), None) => bail!(
+                "{}: name the rewritten program with -o OUT (the input is never overwritten)",
+                i.display()
+            ),
+            (None, Some(_)) => {
+                bail!("-o names the rewritten program: give the program to rewrite (IN) too")
+            }
+            (None, None) if export.is_some() => None,
+            (None, None) => {
+                bail!("nothing to do: give a program (IN -o OUT) and/or --export CONTROLLER")
+            }
+        };
+        // With a program, the parameters go next to the rewritten one.
+        let export = export.map(|(d, target)| {
+            let target = target.or_else(|| {
+                rewrite.as_ref().map(|(_, out)| {
+                    let mut name = out.as_os_str().to_owned();
+                    name.push(format!(".{d}.txt"));
+                    PathBuf::from(name)
+                })
+            });
+            (d, target)
+        });
+        Ok(Config {
+            common,
+            errors_path: self.errors,
+            errors,
+            settings,
+            rewrite,
+            export,
+        })
+    }
+}
+
+pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
+    let cfg = args.validate()?;
+    if let Some((input, output)) = &cfg.rewrite {
+        let file = File::open(input)
+            .with_context(|| format!("cannot read program {}", input.display()))?;
+        let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, cfg.settings.clone());
+        let mut out = AtomicOutput::create(output)?;
+        // On any error `out` is dropped: its temporary file goes, nothing is written.
+        let summary = c.run(input, BufReader::with_capacity(1 << 16, file), &mut out)?;
+        out.commit()?;
+        print!("{}", describe(&summary, input, output, &cfg));
+    }
+    if let Some((d, target)) = &cfg.export {
+        let text = export::export(
+            &cfg.errors.model,
+            &cfg.errors.theta,
+            *d,
+            &cfg.errors_path.display().to_string(),
+        )?;
+        match target {
+            Some(p) => {
+                let inputs: Vec<&Path> = cfg.common.inputs.iter().map(|p| p.as_path()).collect();
+                fivecal::io::ensure_not_input(p, &inputs)?;
+                fivecal::io::write_atomic(p, text.as_bytes())?;
+                println!("{d} parameters written to {}", p.display());
+            }
+            None => print!("{text}"),
+        }
+    }
+    Ok(())
+}
+
+/// The summary a user reads after a rewrite.
+fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
+    use std::fmt::Write;
+    let mut t = String::new();
+    let m = &cfg.common.machine;
+    let _ = writeln!(
+        t,
+        "compensated {} -> {} ({}, machine {}, errors {})",
+        input.display(),
+        output.display(),
+        cfg.settings.dialect,
+        m.name,
+        cfg.errors_path.display()
+    );
+    let _ = writeln!(
+        t,
+        "  {} blocks, {} moves: {} blocks changed, {} blocks added ({} moves subdivided, {} arcs linearized) to stay within {} um",
+        s.blocks,
+        s.moves,
+        s.changed,
+        s.inserted,
+        s.subdivided.len(),
+        s.linearized.len(),
+        cfg.settings.tolerance * 1e3
+    );
+    match (s.largest_linear, s.largest_rotary) {
+        (Some(l), Some(r)) => {
+            let _ = writeln!(
+                t,
+                "  largest correction: {:.2} um in X, Y, Z (line {}); {:.2} urad of tool orientation (line {})",
+                l.value, l.line, r.value, r.line
+            );
+        }
+        _ => {
+            let _ = writeln!(t, "  no move was corrected");
+        }
+    }
+    if !s.held_c.is_empty() {
+        let _ = writeln!(
+            t,
+            "  C held next to the tilt singularity (tool along C) in {} moves (lines {}): tip exact, tool axis within {:.1} urad",
+            s.held_c.len(),
+            s.held_c.list(),
+            s.held_c_axis_error
+        );
+    }
+    if s.skipped.is_empty() {
+        let _ = writeln!(t, "  no move left as written");
+    } else {
+        let _ = writeln!(t, "  {} moves left as written:", s.skipped_count());
+        for (reason, lines) in &s.skipped {
+            let _ = writeln!(t, "    {reason}: lines {}", lines.list());
+        }
+    }
+    for n in &s.not_compensated {
+        let _ = writeln!(t, "  not compensated: {n}");
+    }
+    t
 }

@@ -1,15 +1,91 @@
-//! `fivecal analyze contour` (issue 7): contour errors against a part model.
+//! `fivecal analyze contour`: contour errors of CMM points against a part
+//! model (seed 002): each point's signed distance to the design surface,
+//! with mean, maximum and RMS.
 
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::Context as _;
 use clap::Args;
-
-use super::pending::PendingArgs;
+use fivecal::contour::{Mesh, Surface, evaluate};
+use fivecal::formats::measured;
 
 #[derive(Args, Debug)]
 pub struct ContourArgs {
-    #[command(flatten)]
-    pending: PendingArgs,
+    /// Design model of the part (.obj, .gltf or .glb), in the CMM's frame.
+    #[arg(long, value_name = "PART.obj|PART.glb")]
+    model: PathBuf,
+    /// Measured points, canonical CSV `label,x,y,z`.
+    #[arg(long, value_name = "CMM.csv")]
+    measured: PathBuf,
+    /// Write each point's contour error as CSV.
+    #[arg(short, long, value_name = "ERRORS.csv")]
+    output: Option<PathBuf>,
 }
 
-pub fn run(_args: ContourArgs) -> anyhow::Result<()> {
-    super::pending::run("analyze contour", 7)
+pub fn run(args: ContourArgs) -> anyhow::Result<()> {
+    if let Some(o) = &args.output {
+        fivecal::io::ensure_not_input(o, &[&args.model, &args.measured])?;
+    }
+    let mesh = Mesh::load(&args.model)?;
+    let src = std::fs::read_to_string(&args.measured)
+        .with_context(|| format!("cannot read {}", args.measured.display()))?;
+    let points = measured::parse_csv(&args.measured, &src)?;
+    anyhow::ensure!(
+        !points.is_empty(),
+        "{}: no measured points",
+        args.measured.display()
+    );
+    let surface = Surface::new(&mesh);
+    let pts: Vec<(String, nalgebra::Vector3<f64>)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let label = if p.label.is_empty() {
+                format!("#{}", i + 1)
+            } else {
+                p.label.clone()
+            };
+            (label, p.p)
+        })
+        .collect();
+    let (per_point, s) = evaluate(&surface, &pts);
+    if let Some(o) = &args.output {
+        let mut t = String::from(
+            "# contour error = signed distance to the design surface, um (positive: material left)\nlabel,x,y,z,error\n",
+        );
+        for p in &per_point {
+            let _ = writeln!(
+                t,
+                "{},{:.6},{:.6},{:.6},{:.4}",
+                p.label,
+                p.measured.x,
+                p.measured.y,
+                p.measured.z,
+                p.error * 1e3
+            );
+        }
+        fivecal::io::write_atomic(o, t.as_bytes())?;
+    }
+    println!(
+        "contour errors of {} ({} points) against {} ({} triangles)",
+        args.measured.display(),
+        s.n,
+        args.model.display(),
+        mesh.triangles.len()
+    );
+    println!("  mean |error| {:.4} mm", s.mean_abs);
+    println!(
+        "  max  |error| {:.4} mm (point {})",
+        s.max_abs.0, s.max_abs.1
+    );
+    println!("  RMS          {:.4} mm", s.rms);
+    println!(
+        "  signed: mean {:+.4} mm, from {:+.4} to {:+.4} mm",
+        s.mean, s.range.0, s.range.1
+    );
+    if let Some(o) = &args.output {
+        println!("  per point: {}", o.display());
+    }
+    Ok(())
 }

@@ -1,16 +1,167 @@
-//! `fivecal simulate nc` (issue 7): the predicted tool-tip error along a
-//! program.
+//! `fivecal simulate nc`: the predicted tool-tip error along an NC program
+//! on a machine with known errors, and what a CMM would measure on a part
+//! cut by it.
 
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, bail};
 use clap::Args;
+use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
+use fivecal::formats::measured::{self, MeasuredPoint};
 
-use super::pending::PendingArgs;
+use super::compensate::{MachineArgs, load_errors};
 
 #[derive(Args, Debug)]
 pub struct SimulateNcArgs {
     #[command(flatten)]
-    pending: PendingArgs,
+    machine: MachineArgs,
+    /// Error file of the machine (a truth file, or an analyze result).
+    #[arg(long, value_name = "TRUTH.yaml")]
+    errors: PathBuf,
+    /// The NC program to run.
+    #[arg(long, value_name = "P.nc")]
+    program: PathBuf,
+    /// Sample feed moves every STEP mm of tool path as well as at their end
+    /// points.
+    #[arg(long, value_name = "MM", default_value_t = 0.0)]
+    step: f64,
+    /// Write every sample (nominal tip and axis, tip error) as CSV.
+    #[arg(short, long, value_name = "ERRORS.csv")]
+    output: Option<PathBuf>,
+    /// Nominal surface points a CMM measures on the part the program cuts
+    /// (canonical `label,x,y,z`, in W): with --measured, write what it would
+    /// find (the tool cutting at its tip, normal to the surface).
+    #[arg(long, value_name = "POINTS.csv", requires = "measured")]
+    cmm: Option<PathBuf>,
+    /// Where the simulated CMM points go (canonical `label,x,y,z`).
+    #[arg(long, value_name = "CMM.csv", requires = "cmm")]
+    measured: Option<PathBuf>,
+    /// Largest distance of a CMM point from the tool path, mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.5)]
+    max_distance: f64,
 }
 
-pub fn run(_args: SimulateNcArgs) -> anyhow::Result<()> {
-    super::pending::run("simulate nc", 7)
+pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
+    let common = args.machine.validate()?;
+    let errors = load_errors(&args.errors, &common.kin)?;
+    if !(args.step.is_finite() && args.step >= 0.0) {
+        bail!("--step {}: expected a distance >= 0 mm", args.step);
+    }
+    let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
+    inputs.push(&args.errors);
+    inputs.push(&args.program);
+    if let Some(c) = &args.cmm {
+        inputs.push(c);
+    }
+    for out in [&args.output, &args.measured].into_iter().flatten() {
+        fivecal::io::ensure_not_input(out, &inputs)?;
+    }
+    let cmm_points = match &args.cmm {
+        Some(p) => {
+            let src = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read {}", p.display()))?;
+            Some(measured::parse_csv(p, &src)?)
+        }
+        None => None,
+    };
+    let mut settings = SimSettings::new(common.dialect);
+    settings.strict = common.strict;
+    settings.origin = common.origin;
+    settings.coordinates = common.coordinates;
+    settings.fanuc_integer_unit = common.integer_unit;
+    settings.step = args.step;
+    let sim = Simulator::new(&errors.model, &errors.theta, settings);
+    let file = File::open(&args.program)
+        .with_context(|| format!("cannot read program {}", args.program.display()))?;
+    // Samples are kept only when a CSV or the CMM points need them.
+    let keep = args.output.is_some() || cmm_points.is_some();
+    let mut samples: Vec<Sample> = Vec::new();
+    let summary = sim.run(&args.program, BufReader::new(file), &mut |s| {
+        if keep {
+            samples.push(*s);
+        }
+    })?;
+    if let Some(out) = &args.output {
+        let mut t = String::new();
+        let _ = writeln!(
+            t,
+            "# fivecal simulate nc: {} on {} with {}",
+            args.program.display(),
+            common.machine.name,
+            args.errors.display()
+        );
+        let _ = writeln!(
+            t,
+            "# nominal tip x,y,z (mm) and axis i,j,k in W; error = actual - nominal (um, urad)"
+        );
+        t.push_str("line,fraction,x,y,z,i,j,k,ex,ey,ez,error,axis_error\n");
+        for s in &samples {
+            let (n, e) = (&s.nominal, s.error() * 1e3);
+            let _ = writeln!(
+                t,
+                "{},{:.4},{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.4},{:.4},{:.4},{:.4},{:.3}",
+                s.line,
+                s.fraction,
+                n.tip.x,
+                n.tip.y,
+                n.tip.z,
+                n.axis.x,
+                n.axis.y,
+                n.axis.z,
+                e.x,
+                e.y,
+                e.z,
+                e.norm(),
+                s.axis_error() * 1e6
+            );
+        }
+        fivecal::io::write_atomic(out, t.as_bytes())?;
+    }
+    if let (Some(points), Some(out)) = (&cmm_points, &args.measured) {
+        let pts: Vec<(String, nalgebra::Vector3<f64>)> =
+            points.iter().map(|p| (p.label.clone(), p.p)).collect();
+        let got = measure_surface(&samples, &pts, args.max_distance).map_err(anyhow::Error::msg)?;
+        let mp: Vec<MeasuredPoint> = got
+            .into_iter()
+            .map(|(label, p)| MeasuredPoint { label, p, line: 0 })
+            .collect();
+        let comment = format!(
+            "simulated CMM points: {} cut by {} on {} with {}",
+            args.cmm.as_ref().unwrap().display(),
+            args.program.display(),
+            common.machine.name,
+            args.errors.display()
+        );
+        fivecal::io::write_atomic(out, measured::to_csv(&mp, &[&comment]).as_bytes())?;
+    }
+    println!(
+        "simulated {} on {} with {}",
+        args.program.display(),
+        common.machine.name,
+        args.errors.display()
+    );
+    println!(
+        "  {} blocks, {} moves, {} samples",
+        summary.blocks, summary.moves, summary.samples
+    );
+    match summary.max_um {
+        Some(m) => println!(
+            "  tool-tip error: mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad",
+            summary.mean_um, summary.rms_um, m.value, m.line, summary.max_axis_urad
+        ),
+        None => println!("  no move could be simulated"),
+    }
+    for (reason, lines) in &summary.skipped {
+        println!("  not simulated: {reason}: lines {}", lines.list());
+    }
+    if let Some(out) = &args.output {
+        println!("  samples written to {}", out.display());
+    }
+    if let Some(out) = &args.measured {
+        println!("  simulated CMM points written to {}", out.display());
+    }
+    Ok(())
 }

@@ -1,0 +1,423 @@
+//! `fivecal compensate` as a user runs it: summaries, malformed programs,
+//! the correction limit, never overwriting an input, parameter export; and
+//! LinuxCNC's own interpreter on a compensated program.
+
+use std::path::{Path, PathBuf};
+use std::process::Command as Proc;
+
+use fivecal::compensate::{Compensator, Settings, Vertex};
+use fivecal::errorfile::ErrorFile;
+use fivecal::kinematics::Kinematics;
+use fivecal::{Dialect, Machine};
+
+use crate::cli::fivecal;
+use crate::nc::fixture;
+use crate::util::tempdir;
+
+const ERRORS: &str = "machine: bc-trunnion\nlocation_errors: {EX0B: 30.0, EZ0B: -20.0, EA0B: 40.0, EC0B: -25.0, EB0B: 15.0, EX(0B)C: 12.0, EY0C: -18.0, EA(0B)C: 35.0}\n";
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn stderr_of(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).to_string()
+}
+
+/// Nothing but the inputs in the directory: no output, no temporary file.
+fn only(dir: &Path, names: &[&str]) {
+    let mut got: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    got.sort();
+    let mut want: Vec<String> = names.iter().map(|s| s.to_string()).collect();
+    want.sort();
+    assert_eq!(got, want, "files left in {}", dir.display());
+}
+
+#[test]
+fn malformed_programs_fail_with_file_line_column_and_write_nothing() {
+    for (name, extra, want) in [
+        (
+            "unclosed_comment.nc",
+            vec!["--dialect", "fanuc"],
+            "unclosed_comment.nc:4:14: unclosed comment",
+        ),
+        (
+            "bad_number.ngc",
+            vec!["--dialect", "linuxcnc"],
+            "bad_number.ngc:3:5: bad number `1.2.3` after X",
+        ),
+        (
+            "unknown_word.ngc",
+            vec!["--dialect", "linuxcnc", "--strict"],
+            "unknown_word.ngc:3:7: unknown word `E5`",
+        ),
+        (
+            "unknown_gcode.nc",
+            vec!["--dialect", "fanuc", "--strict"],
+            "unknown_gcode.nc:5:1: unknown word `G12.7`",
+        ),
+        (
+            "unknown_block.h",
+            vec!["--dialect", "heidenhain", "--strict"],
+            "unknown_block.h:3:3: unknown block `LX`",
+        ),
+    ] {
+        let dir = tempdir();
+        let prog = dir.path().join(name);
+        std::fs::copy(fixture(&format!("bad/{name}")), &prog).unwrap();
+        let errs = write(dir.path(), "e.yaml", ERRORS);
+        let machine = if name.ends_with(".h") {
+            "head-table"
+        } else {
+            "bc-trunnion"
+        };
+        let errs = if machine == "head-table" {
+            write(
+                dir.path(),
+                "e.yaml",
+                "machine: head-table\nlocation_errors: {EX0C: 10.0}\n",
+            )
+        } else {
+            errs
+        };
+        let out = fivecal()
+            .args(["compensate", "--machine", machine, "--errors"])
+            .arg(&errs)
+            .arg(&prog)
+            .arg("-o")
+            .arg(dir.path().join("out.nc"))
+            .args(&extra)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{name}: {}", stderr_of(&out));
+        let err = stderr_of(&out);
+        assert!(err.contains(want), "{name}: want `{want}` in\n{err}");
+        assert!(!err.contains("panicked"), "{err}");
+        only(dir.path(), &[name, "e.yaml"]);
+    }
+}
+
+#[test]
+fn unknown_words_outside_strict_mode_are_kept_and_reported() {
+    let dir = tempdir();
+    let prog = dir.path().join("p.ngc");
+    std::fs::copy(fixture("bad/unknown_word.ngc"), &prog).unwrap();
+    let errs = write(dir.path(), "e.yaml", ERRORS);
+    let out = fivecal()
+        .args([
+            "compensate",
+            "--machine",
+            "bc-trunnion",
+            "--dialect",
+            "linuxcnc",
+            "--errors",
+        ])
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(dir.path().join("out.ngc"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("the block has a word fivecal does not know: lines 3"),
+        "{text}"
+    );
+    let written = std::fs::read_to_string(dir.path().join("out.ngc")).unwrap();
+    assert!(written.contains("G1 X1 E5 F100"), "{written}");
+}
+
+#[test]
+fn a_correction_above_the_limit_stops_with_the_line_named() {
+    let dir = tempdir();
+    let prog = dir.path().join("five_axis.ngc");
+    std::fs::copy(fixture("linuxcnc/five_axis.ngc"), &prog).unwrap();
+    let errs = write(
+        dir.path(),
+        "e.yaml",
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 300.0}\n",
+    );
+    let out = fivecal()
+        .args([
+            "compensate",
+            "--machine",
+            "bc-trunnion",
+            "--dialect",
+            "linuxcnc",
+            "--max-correction",
+            "100",
+            "--errors",
+        ])
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(dir.path().join("out.ngc"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr_of(&out);
+    assert!(
+        err.contains(
+            "five_axis.ngc:3: correction of 300.0 um in X, Y, Z exceeds --max-correction 100 um"
+        ),
+        "{err}"
+    );
+    only(dir.path(), &["five_axis.ngc", "e.yaml"]);
+}
+
+#[test]
+fn the_input_is_never_overwritten() {
+    let dir = tempdir();
+    let prog = dir.path().join("p.ngc");
+    std::fs::copy(fixture("linuxcnc/five_axis.ngc"), &prog).unwrap();
+    let before = std::fs::read(&prog).unwrap();
+    let errs = write(dir.path(), "e.yaml", ERRORS);
+    for target in [prog.clone(), errs.clone()] {
+        let out = fivecal()
+            .args(["compensate", "--machine", "bc-trunnion", "--errors"])
+            .arg(&errs)
+            .arg(&prog)
+            .arg("-o")
+            .arg(&target)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        assert!(
+            stderr_of(&out).contains("refusing to overwrite input"),
+            "{}",
+            stderr_of(&out)
+        );
+    }
+    assert_eq!(std::fs::read(&prog).unwrap(), before);
+}
+
+#[test]
+fn the_summary_names_changes_corrections_and_skipped_lines() {
+    let dir = tempdir();
+    let prog = write(
+        dir.path(),
+        "p.nc",
+        "%\nO1\nG90 G21 G54 G43 H1\nG0 X10. Y10. Z30. B20. C20.\nG1 X[#1+2.] F300.\nG1 X12. Y10. Z20. B25. C40.\nG1 X15. Y12. Z18. B30. C50.\nM30\n%\n",
+    );
+    let errs = write(dir.path(), "e.yaml", ERRORS);
+    let out_path = dir.path().join("out.nc");
+    let out = fivecal()
+        .args(["compensate", "--machine", "bc-trunnion", "--errors"])
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(&out_path)
+        .args(["--export", "fanuc"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let text = String::from_utf8(out.stdout).unwrap();
+    for want in [
+        "9 blocks, 4 moves: 3 blocks changed",
+        "largest correction:",
+        "um in X, Y, Z (line",
+        "urad of tool orientation",
+        "1 moves left as written:",
+        "coordinates are expressions or variables: lines 5",
+        "fanuc parameters written to",
+    ] {
+        assert!(text.contains(want), "`{want}` missing from\n{text}");
+    }
+    let params = std::fs::read_to_string(dir.path().join("out.nc.fanuc.txt")).unwrap();
+    assert!(params.contains("19700 = +0.0300"), "{params}");
+    assert!(params.contains("EA0B = 40.00 urad"), "{params}");
+}
+
+#[test]
+fn zero_errors_through_the_command_line_leave_the_program_as_it_was() {
+    let dir = tempdir();
+    let errs = write(
+        dir.path(),
+        "zero.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: 0.0, EY0C: 0.0}\n",
+    );
+    let prog = fixture("heidenhain/klartext.h");
+    let out_path = dir.path().join("out.h");
+    let out = fivecal()
+        .args(["compensate", "--machine", "head-table", "--errors"])
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(&out_path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    assert_eq!(
+        std::fs::read(&out_path).unwrap(),
+        std::fs::read(&prog).unwrap()
+    );
+}
+
+#[test]
+fn linuxcnc_export_refuses_head_machines_and_names_what_trt_kins_cannot_hold() {
+    let dir = tempdir();
+    let errs = write(
+        dir.path(),
+        "e.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: 10.0}\n",
+    );
+    let out = fivecal()
+        .args([
+            "compensate",
+            "--machine",
+            "head-table",
+            "--export",
+            "linuxcnc",
+            "--errors",
+        ])
+        .arg(&errs)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr_of(&out).contains("tilting-table machines"),
+        "{}",
+        stderr_of(&out)
+    );
+    let errs = write(dir.path(), "b.yaml", ERRORS);
+    let out = fivecal()
+        .args([
+            "compensate",
+            "--machine",
+            "bc-trunnion",
+            "--export",
+            "linuxcnc",
+            "--errors",
+        ])
+        .arg(&errs)
+        .output()
+        .unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("setp xyzbc-trt-kins.x-rot-point +0.0420"),
+        "{text}"
+    );
+    assert!(
+        text.contains("setp xyzbc-trt-kins.x-offset -0.0120"),
+        "{text}"
+    );
+    assert!(
+        text.contains("trt-kins takes no orientation errors"),
+        "{text}"
+    );
+}
+
+/// `STRAIGHT_TRAVERSE`, `STRAIGHT_FEED` and `ARC_FEED` end points of an
+/// rs274 canonical trace: (X, Y, Z, B, C).
+fn trace(program: &Path) -> Vec<[f64; 5]> {
+    let dir = program.parent().unwrap();
+    let canon = dir.join(format!(
+        "{}.canon",
+        program.file_name().unwrap().to_string_lossy()
+    ));
+    let status = Proc::new("rs274")
+        .arg("-g")
+        .arg(program)
+        .arg(&canon)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("LinuxCNC's rs274 (package linuxcnc-uspace) must be installed for this test");
+    assert!(
+        status.status.success(),
+        "rs274 rejected {}: {}",
+        program.display(),
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let text = std::fs::read_to_string(&canon).unwrap();
+    let mut out = Vec::new();
+    for line in text.lines() {
+        let Some(open) = line.find('(') else { continue };
+        let call = line[..open].split_whitespace().last().unwrap_or("");
+        let args: Vec<f64> = line[open + 1..line.rfind(')').unwrap()]
+            .split(',')
+            .filter_map(|x| x.trim().parse().ok())
+            .collect();
+        match call {
+            "STRAIGHT_TRAVERSE" | "STRAIGHT_FEED" => {
+                out.push([args[0], args[1], args[2], args[4], args[5]])
+            }
+            // ARC_FEED(first_end, second_end, first_axis, second_axis, rotation, axis_end, a, b, c)
+            "ARC_FEED" => out.push([args[0], args[1], args[5], args[7], args[8]]),
+            _ => {}
+        }
+    }
+    out
+}
+
+#[test]
+fn rs274_runs_the_compensated_program_and_its_trace_differs_by_the_predicted_corrections() {
+    let dir = tempdir();
+    let original = dir.path().join("five_axis.ngc");
+    std::fs::copy(fixture("linuxcnc/five_axis.ngc"), &original).unwrap();
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let l = ErrorFile::parse(Path::new("e.yaml"), ERRORS)
+        .unwrap()
+        .to_model(&k, Path::new("e.yaml"), ERRORS)
+        .unwrap();
+    let c = Compensator::new(&l.model, &l.theta, Settings::new(Dialect::Linuxcnc));
+    let mut out = Vec::new();
+    let mut vs: Vec<Vertex> = Vec::new();
+    let input = std::fs::read(&original).unwrap();
+    let s = c
+        .run_observed(&original, input.as_slice(), &mut out, &mut |v| vs.push(*v))
+        .unwrap();
+    assert!(s.inserted > 0 && s.skipped.is_empty(), "{s:?}");
+    let compensated = dir.path().join("compensated.ngc");
+    std::fs::write(&compensated, &out).unwrap();
+
+    let (t0, t1) = (trace(&original), trace(&compensated));
+    // Every written end point is one move of the compensated trace...
+    assert_eq!(t1.len(), vs.len(), "one traced move per written end point");
+    let axes = [0usize, 1, 2, 4, 5];
+    for (m, v) in t1.iter().zip(&vs) {
+        for (k, &a) in axes.iter().enumerate() {
+            // rs274 prints 4 decimals.
+            assert!(
+                (m[k] - v.program[a]).abs() <= 0.5e-4 + 1e-9,
+                "line {}: traced {:?} written {:?}",
+                v.line,
+                m,
+                v.program
+            );
+        }
+    }
+    // ... and at the original end points the two traces differ exactly by
+    // the predicted corrections.
+    let ends: Vec<&Vertex> = vs.iter().filter(|v| !v.inserted).collect();
+    assert_eq!(t0.len(), ends.len());
+    let comp_at_ends: Vec<&[f64; 5]> = t1
+        .iter()
+        .zip(&vs)
+        .filter(|(_, v)| !v.inserted)
+        .map(|(m, _)| m)
+        .collect();
+    let mut largest: f64 = 0.0;
+    for ((m0, m1), v) in t0.iter().zip(comp_at_ends).zip(&ends) {
+        for (k, &a) in axes.iter().enumerate() {
+            let traced = m1[k] - m0[k];
+            let predicted = v.program[a] - v.nominal_program[a];
+            largest = largest.max(predicted.abs());
+            assert!(
+                (traced - predicted).abs() <= 1e-4 + 1e-9,
+                "line {} axis {}: traces differ by {traced}, predicted {predicted}",
+                v.line,
+                ['X', 'Y', 'Z', 'A', 'B', 'C'][a]
+            );
+        }
+    }
+    assert!(
+        largest > 0.01,
+        "the corrections are visible in the trace: {largest}"
+    );
+}
