@@ -7,6 +7,7 @@ mod util;
 mod cli;
 mod compensate;
 mod compensate_cli;
+mod contour;
 mod errorfile;
 mod identifiability;
 mod kinematics;

@@ -149,7 +149,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     );
     match summary.max_um {
         Some(m) => println!(
-            "  tool-tip error: mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad",
+            "  tool-tip error (actual minus where the nominal machine puts the program as written): mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad",
             summary.mean_um, summary.rms_um, m.value, m.line, summary.max_axis_urad
         ),
         None => println!("  no move could be simulated"),
