@@ -268,8 +268,15 @@ fn bench(c: &mut Criterion<ThreadCpu>) {
         b.iter(|| reprint(Program::new(&lines, BLOCKS)))
     });
     g.finish();
+}
 
-    // One inverse: closed form against the generic Newton-polished one.
+/// One inverse: closed form against the generic Newton-polished one
+/// (wall-clock time: each call is far shorter than the CPU-time clock's
+/// resolution).
+fn bench_ik(c: &mut Criterion) {
+    let m = Machine::builtin("bc-trunnion").unwrap();
+    let kin = Kinematics::new(&m);
+    let l = errors(&kin);
     let p = l.model.perturbation(&l.theta, &Context::default());
     let fast = FastChain::new(&kin, &p);
     let a = Axes::new(35.0, -20.0, 40.0, 37.5, 123.0);
@@ -294,4 +301,5 @@ criterion_group! {
     config = Criterion::default().with_measurement(ThreadCpu { wall: WallTime });
     targets = bench
 }
-criterion_main!(benches);
+criterion_group!(micro, bench_ik);
+criterion_main!(benches, micro);

@@ -262,6 +262,10 @@ impl Run<'_, '_> {
     /// ISO: a block that relies on the modal motion mode gets the program's
     /// motion word back when a linearized arc changed the mode in force.
     fn fix_motion_word(&mut self, block: &Block, seg: &Segment) {
+        if self.emit_motion == self.modal.motion {
+            // Nothing to restore, and nothing changes by recording it.
+            return;
+        }
         let has_axis = block
             .words(seg)
             .any(|(_, w)| w.addr.as_letter().is_some_and(|l| AXES.contains(&l)));
@@ -473,10 +477,13 @@ impl Run<'_, '_> {
         let dt = (pt.written.tilt - pt.nominal.tilt).to_radians().abs();
         let dc = (pt.written.c - pt.nominal.c).to_radians().abs();
         // |dc sin t| cannot exceed dt when dc does not: skip the sine then.
+        // |sin t| of the nominal tilt from the target's tool axis: every
+        // nominal chain turns +Z by the tilt first (z component cos t).
         let dc = if dc <= dt {
             0.0
         } else {
-            dc * pt.nominal.tilt.to_radians().sin().abs()
+            let uz = pt.target.axis.z / pt.target.axis.norm();
+            dc * (1.0 - uz * uz).max(0.0).sqrt()
         };
         (lin_um, dt.max(dc) * 1e6)
     }

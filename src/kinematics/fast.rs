@@ -49,6 +49,15 @@ fn rot(axis: Axis3, a: f64) -> Matrix3<f64> {
     }
 }
 
+/// `v` turned about `axis` by the angle with sine `s` and cosine `c`.
+fn rot_vec(axis: Axis3, s: f64, c: f64, v: &Vector3<f64>) -> Vector3<f64> {
+    match axis {
+        Axis3::X => Vector3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z),
+        Axis3::Y => Vector3::new(c * v.x + s * v.z, v.y, -s * v.x + c * v.z),
+        Axis3::Z => Vector3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z),
+    }
+}
+
 fn rot_sc(axis: Axis3, s: f64, c: f64) -> Matrix3<f64> {
     match axis {
         Axis3::X => Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c),
@@ -74,6 +83,8 @@ pub struct FastChain {
     ei: [Rigid; 3],
     tilt_limits: Option<(f64, f64)>,
     c_limits: Option<(f64, f64)>,
+    /// No errors at all: forward kinematics takes a shortcut.
+    exact_nominal: bool,
     // Orientation equation u = M Rz(psi) N R_T(phi) v.
     m: Matrix3<f64>,
     n: Matrix3<f64>,
@@ -119,7 +130,9 @@ impl FastChain {
         let alpha = n3.dot(&v_par);
         let beta = n3.dot(&v_perp);
         let gamma = n3.dot(&e_x_v);
+        let exact_nominal = p.0.iter().all(|&x| x == 0.0);
         FastChain {
+            exact_nominal,
             structure: m.structure,
             tilt_about: m.tilt.about,
             tilt_letter: m.tilt.letter,
@@ -227,11 +240,63 @@ impl FastChain {
     /// Forward kinematics with a given linear-axis error (for errors that
     /// depend on X, Y, Z), mm.
     pub fn forward_lin(&self, a: &Axes, lin: &Vector3<f64>) -> ToolPose {
+        if self.exact_nominal && *lin == Vector3::zeros() {
+            return self.forward_nominal(a);
+        }
         let (t, h) = self.parts(a.tilt, a.c);
         ToolPose {
             tip: t.apply(&(a.xyz + lin + h.t)),
             axis: t.r * (h.r * Vector3::z()),
         }
+    }
+
+    /// [`FastChain::position`] from the sines and cosines of the chain
+    /// angles, undoing the chain with rotations of vectors (no matrix
+    /// products).
+    fn position_sc(&self, tip: &Vector3<f64>, sc: [f64; 4], lin: &Vector3<f64>) -> Vector3<f64> {
+        let (st, ct, ss, cs) = (sc[0], sc[1], sc[2], sc[3]);
+        let z = Vector3::z();
+        let tail = -(self.lh + self.dl) * z;
+        let rt = |v: &Vector3<f64>| rot_vec(self.tilt_about, st, ct, v);
+        let rt_inv = |v: &Vector3<f64>| rot_vec(self.tilt_about, -st, ct, v);
+        let rz = |v: &Vector3<f64>| rot_vec(Axis3::Z, ss, cs, v);
+        let rz_inv = |v: &Vector3<f64>| rot_vec(Axis3::Z, -ss, cs, v);
+        match self.structure {
+            Structure::TableTable => {
+                // tip = Rz (E1^-1 (Rt (E0^-1 p)))
+                let (i0, i1) = (&self.ei[0], &self.ei[1]);
+                let v = i1.r.tr_mul(&(rz_inv(tip) - i1.t));
+                i0.r.tr_mul(&(rt_inv(&v) - i0.t)) - tail - lin
+            }
+            Structure::HeadTable => {
+                let i0 = &self.ei[0];
+                let (e1, e2) = (&self.e[1], &self.e[2]);
+                let ht = self.lh * z + e1.t + e1.r * rt(&(e2.t + e2.r * tail));
+                i0.r.tr_mul(&(rz_inv(tip) - i0.t)) - ht - lin
+            }
+            Structure::HeadHead => {
+                let (e0, e1, e2) = (&self.e[0], &self.e[1], &self.e[2]);
+                let ht = self.lh * z + e0.t + e0.r * rz(&(e1.t + e1.r * rt(&(e2.t + e2.r * tail))));
+                tip - ht - lin
+            }
+        }
+    }
+
+    /// Forward kinematics without errors: the rotations applied to vectors
+    /// directly (what a controller computes, and the target of every block).
+    fn forward_nominal(&self, a: &Axes) -> ToolPose {
+        let (st, ct) = (self.dt * geom::rad(a.tilt)).sin_cos();
+        let (sc, cc) = (self.dc * geom::rad(a.c)).sin_cos();
+        let z = Vector3::z();
+        let rt = |v: Vector3<f64>| rot_vec(self.tilt_about, st, ct, &v);
+        let rz = |v: Vector3<f64>| rot_vec(Axis3::Z, sc, cc, &v);
+        let axis = rz(rt(z));
+        let tip = match self.structure {
+            Structure::TableTable => rz(rt(a.xyz)),
+            Structure::HeadTable => rz(a.xyz + self.lh * z + rt(-self.lh * z)),
+            Structure::HeadHead => a.xyz + self.lh * z + rz(rt(-self.lh * z)),
+        };
+        ToolPose { tip, axis }
     }
 
     /// X, Y, Z that put the tip at `tip` with the rotary axes at (tilt, c)
@@ -257,33 +322,46 @@ impl FastChain {
     /// The roots with the sines and cosines of their chain angles, so that
     /// the position needs no more trigonometry.
     fn roots(&self, u: &Vector3<f64>, c_ref: f64) -> Option<[Root; 2]> {
+        let b = self.branches(u)?;
+        Some([self.root(&b, 0, c_ref), self.root(&b, 1, c_ref)])
+    }
+
+    /// The tilt equation's two solutions `phi0 +- acos(..)`, before C.
+    fn branches(&self, u: &Vector3<f64>) -> Option<Branches> {
         let up = self.m.transpose() * u;
         let rhs = (up.z - self.alpha) / self.r;
         if rhs.is_nan() || rhs.abs() > 1.0 + 1e-12 {
             return None;
         }
         let half = rhs.clamp(-1.0, 1.0).acos();
-        let u_xy = (up.x * up.x + up.y * up.y).sqrt();
-        let root = |phi: f64| {
-            let (sp, cp) = phi.sin_cos();
-            let w = self.n * (self.v_par + self.v_perp * cp + self.e_x_v * sp);
-            let w_xy = (w.x * w.x + w.y * w.y).sqrt();
-            // psi = azimuth(up) - azimuth(w), from the unit vectors.
-            let (ss, cs) = if w_xy < 1e-14 || u_xy < 1e-14 {
-                (self.dc * geom::rad(c_ref)).sin_cos()
-            } else {
-                let (cu, su) = (up.x / u_xy, up.y / u_xy);
-                let (cw, sw) = (w.x / w_xy, w.y / w_xy);
-                (su * cw - cu * sw, cu * cw + su * sw)
-            };
-            let psi = ss.atan2(cs);
-            Root {
-                tilt: geom::wrap180(geom::deg(phi / self.dt)),
-                c: geom::deg(psi / self.dc),
-                sc: [sp, cp, ss, cs],
-            }
+        let phi = [self.phi0 + half, self.phi0 - half];
+        Some(Branches {
+            up,
+            u_xy: (up.x * up.x + up.y * up.y).sqrt(),
+            phi,
+            tilt: phi.map(|p| geom::wrap180(geom::deg(p / self.dt))),
+        })
+    }
+
+    /// Root `k` of the branches: C from the azimuth.
+    fn root(&self, b: &Branches, k: usize, c_ref: f64) -> Root {
+        let (sp, cp) = b.phi[k].sin_cos();
+        let w = self.n * (self.v_par + self.v_perp * cp + self.e_x_v * sp);
+        let w_xy = (w.x * w.x + w.y * w.y).sqrt();
+        // psi = azimuth(up) - azimuth(w), from the unit vectors.
+        let (ss, cs) = if w_xy < 1e-14 || b.u_xy < 1e-14 {
+            (self.dc * geom::rad(c_ref)).sin_cos()
+        } else {
+            let (cu, su) = (b.up.x / b.u_xy, b.up.y / b.u_xy);
+            let (cw, sw) = (w.x / w_xy, w.y / w_xy);
+            (su * cw - cu * sw, cu * cw + su * sw)
         };
-        Some([root(self.phi0 + half), root(self.phi0 - half)])
+        let psi = ss.atan2(cs);
+        Root {
+            tilt: b.tilt[k],
+            c: geom::deg(psi / self.dc),
+            sc: [sp, cp, ss, cs],
+        }
     }
 
     /// The tilt (deg) that brings the tool axis closest to `u` with C held
@@ -300,31 +378,47 @@ impl FastChain {
     /// the rotary limits.
     pub fn inverse(&self, target: &ToolPose, reference: &Axes) -> Result<Axes, IkError> {
         let u = target.axis.normalize();
-        let Some(roots) = self.roots(&u, reference.c) else {
+        let Some(br) = self.branches(&u) else {
             return Err(IkError::OutOfReach {
                 ux: u.x,
                 uy: u.y,
                 uz: u.z,
             });
         };
-        let mut best: Option<(f64, f64, f64, [f64; 4])> = None;
+        // The branch whose tilt is nearer the reference first; the other
+        // needs its C (trigonometry) only if it could still be nearer: its
+        // distance is at least its tilt difference.
+        let order = if (br.tilt[1] - reference.tilt).abs() < (br.tilt[0] - reference.tilt).abs() {
+            [1, 0]
+        } else {
+            [0, 1]
+        };
+        let mut best: Option<(f64, f64, f64, [f64; 4], usize)> = None;
         let mut c_err = None;
-        for r in &roots {
-            let t = r.tilt;
+        for k in order {
+            let t = br.tilt[k];
             if !within(self.tilt_limits, t) {
                 continue;
             }
+            if best.is_some_and(|b| (t - reference.tilt).abs() > b.0 + 1e-9) {
+                continue;
+            }
+            let r = self.root(&br, k, reference.c);
             match nearest_turn(r.c, reference.c, self.c_limits) {
                 Some(c) => {
                     let d = (t - reference.tilt).abs() + (c - reference.c).abs();
-                    if best.is_none_or(|b| d < b.0 - 1e-12) {
-                        best = Some((d, t, c, r.sc));
+                    // Ties go to the first branch, as in the generic inverse.
+                    let better =
+                        best.is_none_or(|b| d < b.0 - 1e-12 || (d < b.0 + 1e-12 && k < b.4));
+                    if better {
+                        best = Some((d, t, c, r.sc, k));
                     }
                 }
                 None => c_err = Some(r.c),
             }
         }
-        let Some((_, tilt, c, sc)) = best else {
+        let roots = br.tilt;
+        let Some((_, tilt, c, sc, _)) = best else {
             if let (Some(c), Some((lo, hi))) = (c_err, self.c_limits) {
                 return Err(IkError::COutOfLimits {
                     angle: c.rem_euclid(360.0),
@@ -340,19 +434,27 @@ impl FastChain {
                 uy: u.y,
                 uz: u.z,
                 letter: self.tilt_letter,
-                angle: roots[0].tilt,
-                alt: roots[1].tilt,
+                angle: roots[0],
+                alt: roots[1],
                 lo,
                 hi,
             });
         };
-        let (t, h) = self.parts_sc(sc[0], sc[1], sc[2], sc[3]);
         Ok(Axes {
-            xyz: t.r.transpose() * (target.tip - t.t) - h.t - self.lin,
+            xyz: self.position_sc(&target.tip, sc, &self.lin),
             tilt,
             c,
         })
     }
+}
+
+/// The two tilt branches of an orientation.
+#[derive(Clone, Copy, Debug)]
+struct Branches {
+    up: Vector3<f64>,
+    u_xy: f64,
+    phi: [f64; 2],
+    tilt: [f64; 2],
 }
 
 /// One closed-form root: angles (deg) and the sine and cosine of the chain
@@ -434,6 +536,47 @@ mod tests {
                 let a = random_axes(&m, &mut r);
                 let want = k.forward(&a, &p);
                 let got = f.forward(&a);
+                assert!((got.tip - want.tip).norm() < 1e-10, "{name} {a:?}");
+                assert!((got.axis - want.axis).norm() < 1e-14, "{name} {a:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn position_by_rotating_vectors_equals_position_by_matrices() {
+        for (mi, name) in MACHINES.iter().enumerate() {
+            let m = Machine::builtin(name).unwrap();
+            let k = Kinematics::new(&m);
+            let mut r = StdRng::seed_from_u64(950 + mi as u64);
+            for _ in 0..500 {
+                let f = FastChain::new(&k, &random_p(&k, &mut r));
+                let a = random_axes(&m, &mut r);
+                let tip = Vector3::new(
+                    r.random_range(-100.0..100.0),
+                    r.random_range(-100.0..100.0),
+                    r.random_range(-50.0..50.0),
+                );
+                let lin = Vector3::new(0.01, -0.02, 0.005);
+                let phi = f.dt * geom::rad(a.tilt);
+                let psi = f.dc * geom::rad(a.c);
+                let sc = [phi.sin(), phi.cos(), psi.sin(), psi.cos()];
+                let want = f.position(&tip, a.tilt, a.c, &lin);
+                let got = f.position_sc(&tip, sc, &lin);
+                assert!((got - want).norm() < 1e-10, "{name}: {got} {want}");
+            }
+        }
+    }
+
+    #[test]
+    fn nominal_shortcut_equals_the_generic_chain() {
+        for (mi, name) in MACHINES.iter().enumerate() {
+            let m = Machine::builtin(name).unwrap();
+            let k = Kinematics::new(&m);
+            let f = FastChain::nominal(&k);
+            let mut r = StdRng::seed_from_u64(900 + mi as u64);
+            for _ in 0..2000 {
+                let a = random_axes(&m, &mut r);
+                let (want, got) = (k.forward_nominal(&a), f.forward(&a));
                 assert!((got.tip - want.tip).norm() < 1e-10, "{name} {a:?}");
                 assert!((got.axis - want.axis).norm() < 1e-14, "{name} {a:?}");
             }

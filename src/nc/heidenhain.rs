@@ -166,9 +166,11 @@ fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
         while j < s.len() && s[j].is_ascii_digit() {
             j += 1;
         }
-        let num = std::str::from_utf8(&s[i..j])
-            .ok()
-            .and_then(|t| t.parse::<u32>().ok())
+        let num = s[i..j]
+            .iter()
+            .try_fold(0u32, |acc, &c| {
+                acc.checked_mul(10)?.checked_add((c - b'0') as u32)
+            })
             .unwrap_or(u32::MAX);
         b.push(TokenKind::BlockNumber(num), i, j);
         i = sp(b, j);

@@ -228,9 +228,11 @@ fn segment(lx: &Lexer, b: &mut Block, mut i: usize, first: bool) -> Result<usize
     }
     if i < n && (s[i] == b'N' || s[i] == b'n') && i + 1 < n && s[i + 1].is_ascii_digit() {
         let j = lx.digits(i + 1);
-        let num = std::str::from_utf8(&s[i + 1..j])
-            .ok()
-            .and_then(|t| t.parse::<u32>().ok())
+        let num = s[i + 1..j]
+            .iter()
+            .try_fold(0u32, |acc, &c| {
+                acc.checked_mul(10)?.checked_add((c - b'0') as u32)
+            })
             .unwrap_or(u32::MAX);
         b.push(TokenKind::BlockNumber(num), i, j);
         i = sp(b, j);
@@ -307,6 +309,14 @@ fn fanuc_body(lx: &Lexer, b: &mut Block, i: usize, seg: &mut Seg) -> Result<usiz
     if rest[0] == b'#' {
         seg.stmt = Stmt::Assign;
         return fanuc_assign(lx, b, i);
+    }
+    // Statement keywords start with one of these letters; most blocks are
+    // words and skip the comparisons.
+    if !matches!(
+        rest[0].to_ascii_uppercase(),
+        b'I' | b'G' | b'W' | b'D' | b'E' | b'B' | b'P'
+    ) {
+        return words(lx, b, i, seg);
     }
     let kw = |k: &str| starts_with_ci(rest, k);
     if kw("IF") && !rest.get(2).is_some_and(|c| c.is_ascii_digit()) {

@@ -337,8 +337,15 @@ impl Modal {
     }
 
     fn axis_index(&self, addr: Addr) -> Option<usize> {
-        let l = addr.as_letter()?;
-        AXES.iter().position(|&a| a == l)
+        match addr.as_letter()? {
+            b'X' => Some(0),
+            b'Y' => Some(1),
+            b'Z' => Some(2),
+            b'A' => Some(3),
+            b'B' => Some(4),
+            b'C' => Some(5),
+            _ => None,
+        }
     }
 
     /// Whether the axis letter is one the machine has.

@@ -37,6 +37,13 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
+/// "00" to "99".
+const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
+2021222324252627282930313233343536373839\
+4041424344454647484950515253545556575859\
+6061626364656667686970717273747576777879\
+8081828384858687888990919293949596979899";
+
 /// `10^d` for `d` up to 22 (exact), else `powi`.
 pub fn pow10(d: u8) -> f64 {
     POW10
@@ -207,45 +214,55 @@ pub struct WriteRules {
 pub fn write(out: &mut Vec<u8>, value: f64, decimals: u8, like: &NumStyle, rules: WriteRules) {
     let d = decimals.min(15) as usize;
     let x = value.abs() * POW10[d];
-    // Round by a cast: no libm call.
-    let scaled = if x < 4.0e15 {
-        (x + 0.5) as u64 as f64
-    } else {
-        x.round()
-    };
-    let negative = value < 0.0 && scaled != 0.0;
-    if !scaled.is_finite() || scaled >= 9.0e18 {
-        // Out of any controller's range: fall back to plain formatting.
+    if x.is_nan() || x >= 4.0e15 {
+        // Out of any controller's range: plain formatting.
         out.extend_from_slice(format!("{value:.d$}").as_bytes());
         return;
     }
-    let n = scaled as u64;
-    let p = 10u64.pow(d as u32);
-    let (int, mut frac) = (n / p, n % p);
+    // Round by a cast (no libm call), through i64 (native conversion).
+    let n = (x + 0.5) as i64 as u64;
+    let negative = value < 0.0 && n != 0;
     if negative {
         out.push(b'-');
     } else if like.plus || rules.force_plus {
         out.push(b'+');
     }
+    // All digits at once, at least d + 1 of them (`0.0012`), then split:
+    // two digits per division by the constant 100.
+    let mut buf = [b'0'; 24];
+    let mut i = buf.len();
+    let mut m = n;
+    while m >= 100 {
+        let k = (m % 100) as usize * 2;
+        m /= 100;
+        i -= 2;
+        buf[i..i + 2].copy_from_slice(&PAIRS[k..k + 2]);
+    }
+    if m >= 10 {
+        let k = m as usize * 2;
+        i -= 2;
+        buf[i..i + 2].copy_from_slice(&PAIRS[k..k + 2]);
+    } else {
+        i -= 1;
+        buf[i] = b'0' + m as u8;
+    }
+    // Leading zeros up to d + 1 digits (the buffer is zero-filled).
+    i = i.min(buf.len() - (d + 1));
+    let digits = &buf[i..];
+    let (int, frac) = digits.split_at(digits.len() - d);
     let mut keep = d;
     if !like.trailing_zeros {
-        while keep > 0 && frac % 10 == 0 {
-            frac /= 10;
+        while keep > 0 && frac[keep - 1] == b'0' {
             keep -= 1;
         }
     }
-    if int != 0 || !like.no_leading_zero || keep == 0 {
-        push_u64(out, int);
+    let int_zero = int == b"0";
+    if !int_zero || !like.no_leading_zero || keep == 0 {
+        out.extend_from_slice(int);
     }
     if keep > 0 {
         out.push(b'.');
-        let mut buf = [b'0'; 20];
-        let mut f = frac;
-        for k in (0..keep).rev() {
-            buf[k] = b'0' + (f % 10) as u8;
-            f /= 10;
-        }
-        out.extend_from_slice(&buf[..keep]);
+        out.extend_from_slice(&frac[..keep]);
     } else if rules.force_point || (like.point && like.decimals == 0) {
         // `X1.` stays `X2.`; `X1.5` becoming whole is written `X2`.
         out.push(b'.');
@@ -338,6 +355,29 @@ mod tests {
                     assert_eq!(lx, read(&b[..n]), "{s}");
                 }
                 None => assert_eq!(n, 0, "{s}"),
+            }
+        }
+    }
+
+    #[test]
+    fn written_values_read_back_within_half_a_unit() {
+        let fixed = lex("1.000").style;
+        let mut x = 0.123_456_789f64;
+        for k in 0..20_000 {
+            // A deterministic spread of magnitudes and signs.
+            x = (x * 7919.0 + 0.618_033_988_7).fract();
+            let v = (x - 0.5) * 10f64.powi(k % 7 - 1);
+            for d in [0u8, 1, 3, 4, 6, 9] {
+                let mut out = Vec::new();
+                write(&mut out, v, d, &fixed, ISO);
+                let s = String::from_utf8(out).unwrap();
+                let back: f64 = s.parse().unwrap_or_else(|_| panic!("{s}"));
+                assert!(
+                    (back - v).abs() <= 0.5 / pow10(d) + v.abs() * 2e-15 + 1e-15,
+                    "{v} with {d}: {s}"
+                );
+                let frac = s.split('.').nth(1).unwrap_or("");
+                assert_eq!(frac.len(), d as usize, "{v} with {d}: {s}");
             }
         }
     }
