@@ -811,3 +811,31 @@ fn the_deviation_bound_is_an_upper_bound() {
     // And it is useful: short blocks are settled by it.
     assert!(tight > 600, "{tight}");
 }
+
+/// Error maps go through the model's own (Newton) inverse, constant errors
+/// through the closed form: the same errors given either way must give the
+/// same program.
+#[test]
+fn the_exact_path_for_error_maps_agrees_with_the_closed_form() {
+    let k = Kinematics::new(&machine("head-table"));
+    let load = |src: &str| {
+        ErrorFile::parse(Path::new("t.yaml"), src)
+            .unwrap()
+            .to_model(&k, Path::new("t.yaml"), src)
+            .unwrap()
+    };
+    let constant = load(
+        "machine: head-table\nlocation_errors: {EX0C: 28.0, EY0C: -35.0, EA0C: 45.0, EA0B: 60.0, EX0B: 22.0}\n",
+    );
+    let as_maps = load(
+        "machine: head-table\nlocation_errors: {EA0B: 60.0, EX0B: 22.0}\nposition_dependent:\n  EXC(C): {C: [0, 120, 240], values: [28.0, 28.0, 28.0]}\n  EYC(C): {C: [0, 120, 240], values: [-35.0, -35.0, -35.0]}\n  EAC(C): {C: [0, 120, 240], values: [45.0, 45.0, 45.0]}\n",
+    );
+    let program = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/nc/heidenhain/tcpm.h"),
+    )
+    .unwrap();
+    let (a, sa, _) = compensate(&constant, Settings::new(Dialect::Heidenhain), &program);
+    let (b, sb, _) = compensate(&as_maps, Settings::new(Dialect::Heidenhain), &program);
+    assert!(sa.fast_path && !sb.fast_path);
+    assert_eq!(a, b);
+}

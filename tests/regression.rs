@@ -62,3 +62,69 @@ position_dependent:
     }
     assert_eq!(checked, 72);
 }
+
+/// A HEIDENHAIN `CC` between moves names X and Y but moves nothing: it
+/// once reset the tracked (corrected) position to the nominal one, so the
+/// next circle started 50 um off and could not be followed at all (issue 7).
+#[test]
+fn compensate_heidenhain_pole_block_keeps_the_corrected_position() {
+    let program = "0 BEGIN PGM ARC MM\n1 L X+20 Y+0 Z+5 B+0 C+0 R0 FMAX\n2 L Z+1 F300\n3 CC X+0 Y+0\n4 C X-20 Y+0 DR+\n5 END PGM ARC MM\n";
+    let src = "machine: head-table\nlocation_errors: {EX0C: 30.0, EY0C: -20.0, EX0B: 15.0}\n";
+    let k = Kinematics::new(&Machine::builtin("head-table").unwrap());
+    let l = ErrorFile::parse(Path::new("t"), src)
+        .unwrap()
+        .to_model(&k, Path::new("t"), src)
+        .unwrap();
+    let c = fivecal::compensate::Compensator::new(
+        &l.model,
+        &l.theta,
+        fivecal::compensate::Settings::new(fivecal::Dialect::Heidenhain),
+    );
+    let mut out = Vec::new();
+    let s = c
+        .run(Path::new("arc.h"), program.as_bytes(), &mut out)
+        .unwrap();
+    assert!(s.linearized.is_empty(), "{s:?}");
+}
+
+/// With zero errors a corrected value differs from the written one only by
+/// rounding; comparing rounded values added words where a lexeme had more
+/// decimals than the output resolution (`Y1.23455`, issue 7).
+#[test]
+fn compensate_zero_errors_keep_lexemes_finer_than_the_output_resolution() {
+    let program = "G21 G90 G54 G43\nG0 X1.23455 Y1.23455 Z30.00005 B10.0000005 C20.0000005\nG1 X2.5 F100\nM2\n";
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let model = fivecal::model::Model::new(k, vec![]);
+    let c = fivecal::compensate::Compensator::new(
+        &model,
+        &[],
+        fivecal::compensate::Settings::new(fivecal::Dialect::Linuxcnc),
+    );
+    let mut out = Vec::new();
+    c.run(Path::new("p.ngc"), program.as_bytes(), &mut out)
+        .unwrap();
+    assert_eq!(String::from_utf8(out).unwrap(), program);
+}
+
+/// Leaving a move where C is held (tool along C, out of reach) for one
+/// that is corrected exactly once jumped C between solutions inside the
+/// move, and no subdivision could follow it (issue 7): C now ramps.
+#[test]
+fn compensate_leaving_the_singularity_ramps_c_instead_of_jumping() {
+    let src = "machine: bc-trunnion\nlocation_errors: {EA0B: 80.0, EC0B: -60.0, EB0B: 50.0, EA(0B)C: 90.0}\n";
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let l = ErrorFile::parse(Path::new("t"), src)
+        .unwrap()
+        .to_model(&k, Path::new("t"), src)
+        .unwrap();
+    let mut s = fivecal::compensate::Settings::new(fivecal::Dialect::Linuxcnc);
+    s.max_c_swing = 360.0;
+    s.max_correction = 1e7;
+    let c = fivecal::compensate::Compensator::new(&l.model, &l.theta, s);
+    let program = "G21 G90 G54 G43\nG0 X10 Y0 Z30 B0 C40\nG1 X20 Y5 B0.05 C80 F300\nM2\n";
+    let mut out = Vec::new();
+    let sum = c
+        .run(Path::new("p.ngc"), program.as_bytes(), &mut out)
+        .unwrap();
+    assert!(sum.held_c.contains(&3), "{sum:?}");
+}
