@@ -321,7 +321,10 @@ fn trace(program: &Path) -> Vec<[f64; 5]> {
         "{}.canon",
         program.file_name().unwrap().to_string_lossy()
     ));
+    // rs274 keeps its tool table in $HOME/.tool.mmap, truncating it on
+    // start: each run gets its own home so parallel runs do not race.
     let status = Proc::new("rs274")
+        .env("HOME", dir)
         .arg("-g")
         .arg(program)
         .arg(&canon)
