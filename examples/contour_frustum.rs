@@ -14,9 +14,9 @@ use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use fivecal::contour::Mesh;
 use fivecal::formats::measured::{self, MeasuredPoint};
 use fivecal::kinematics::fast::FastChain;
+use fivecal::mesh::{Mesh, Triangle};
 use fivecal::{Axes, Kinematics, Machine, ToolPose};
 use nalgebra::Vector3;
 
@@ -61,30 +61,30 @@ fn corner(k: usize, z: f64) -> Vector3<f64> {
     )
 }
 
+/// The part as triangles with outward normals, one group per face.
 fn mesh() -> Mesh {
-    let mut vertices = Vec::new();
-    for z in [0.0, H] {
-        for k in 0..N {
-            vertices.push(corner(k, z));
-        }
-    }
-    vertices.push(Vector3::new(0.0, 0.0, 0.0));
-    vertices.push(Vector3::new(0.0, 0.0, H));
-    let (bc, tc) = (2 * N as u32, 2 * N as u32 + 1);
     let mut triangles = Vec::new();
-    for k in 0..N as u32 {
-        let k1 = (k + 1) % N as u32;
-        let n = N as u32;
+    let mut push = |v: [Vector3<f64>; 3], tag: u32| {
+        let n = (v[1] - v[0]).cross(&(v[2] - v[0])).normalize();
+        triangles.push(Triangle { v, n, tag });
+    };
+    let (bottom, top) = (Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.0, 0.0, H));
+    for k in 0..N {
+        let (a0, b0) = (corner(k, 0.0), corner(k + 1, 0.0));
+        let (a1, b1) = (corner(k, H), corner(k + 1, H));
         // Side face k runs from corner k to corner k+1, outward.
-        triangles.push([k, k1, n + k1]);
-        triangles.push([k, n + k1, n + k]);
-        triangles.push([bc, k1, k]);
-        triangles.push([tc, n + k, n + k1]);
+        push([a0, b0, b1], k as u32 + 1);
+        push([a0, b1, a1], k as u32 + 1);
+        push([bottom, b0, a0], 0);
+        push([top, a1, b1], N as u32 + 1);
     }
-    Mesh {
-        vertices,
-        triangles,
+    let mut groups = std::collections::BTreeMap::new();
+    groups.insert(0, "bottom".to_string());
+    groups.insert(N as u32 + 1, "top".to_string());
+    for k in 0..N {
+        groups.insert(k as u32 + 1, format!("face{}", k + 1));
     }
+    Mesh { triangles, groups }
 }
 
 fn main() -> std::io::Result<()> {
@@ -95,11 +95,9 @@ fn main() -> std::io::Result<()> {
     let nominal = FastChain::nominal(&kin);
 
     let mesh = mesh();
-    std::fs::write(
-        dir.join("frustum.obj"),
-        mesh.to_obj("fivecal example: ten-sided frustum, faces 45 to 60 deg from the table, 15 mm high\nW frame: origin on the C axis at the table top, mm"),
-    )?;
-    std::fs::write(dir.join("frustum.glb"), mesh.to_glb())?;
+    let title = "fivecal example: ten-sided frustum, faces 45 to 60 deg from the table, 15 mm high";
+    std::fs::write(dir.join("frustum.obj"), mesh.to_obj(title))?;
+    std::fs::write(dir.join("frustum.glb"), mesh.to_glb(title))?;
 
     // The program: tip on the face, tool along its normal.
     let mut blocks: Vec<String> = vec![

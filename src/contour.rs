@@ -190,147 +190,23 @@ impl Mesh {
         Ok(mesh)
     }
 
-    /// The mesh as OBJ text.
-    pub fn to_obj(&self, comment: &str) -> String {
-        let mut s = String::new();
-        for line in comment.lines() {
-            s.push_str(&format!("# {line}\n"));
-        }
-        for v in &self.vertices {
-            s.push_str(&format!("v {:.6} {:.6} {:.6}\n", v.x, v.y, v.z));
-        }
-        for t in &self.triangles {
-            s.push_str(&format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1));
-        }
-        s
-    }
-
-    /// The mesh as a binary glTF (GLB), positions as f32.
-    pub fn to_glb(&self) -> Vec<u8> {
-        use gltf_json as json;
-        use json::validation::Checked::Valid;
-        use json::validation::USize64;
-        let mut bin: Vec<u8> = Vec::new();
-        let mut min = [f32::MAX; 3];
-        let mut max = [f32::MIN; 3];
-        for v in &self.vertices {
-            for i in 0..3 {
-                let x = v[i] as f32;
-                min[i] = min[i].min(x);
-                max[i] = max[i].max(x);
-                bin.extend_from_slice(&x.to_le_bytes());
+    /// The mesh of a triangle soup (as [`crate::mesh::Mesh`] holds it);
+    /// equal positions become one vertex.
+    pub fn from_triangles<'a>(triangles: impl IntoIterator<Item = &'a [Vector3<f64>; 3]>) -> Mesh {
+        let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut mesh = Mesh::default();
+        for t in triangles {
+            let mut f = [0u32; 3];
+            for (k, v) in t.iter().enumerate() {
+                let key = [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                f[k] = *ids.entry(key).or_insert_with(|| {
+                    mesh.vertices.push(*v);
+                    (mesh.vertices.len() - 1) as u32
+                });
             }
+            mesh.triangles.push(f);
         }
-        let pos_len = bin.len();
-        for t in &self.triangles {
-            for &i in t {
-                bin.extend_from_slice(&i.to_le_bytes());
-            }
-        }
-        let idx_len = bin.len() - pos_len;
-        let mut root = json::Root::default();
-        let buffer = root.push(json::Buffer {
-            byte_length: USize64::from(bin.len()),
-            extensions: Default::default(),
-            extras: Default::default(),
-            name: None,
-            uri: None,
-        });
-        let view = |root: &mut json::Root, offset: usize, len: usize, target| {
-            root.push(json::buffer::View {
-                buffer,
-                byte_length: USize64::from(len),
-                byte_offset: Some(USize64::from(offset)),
-                byte_stride: None,
-                extensions: Default::default(),
-                extras: Default::default(),
-                name: None,
-                target: Some(Valid(target)),
-            })
-        };
-        let pv = view(&mut root, 0, pos_len, json::buffer::Target::ArrayBuffer);
-        let iv = view(
-            &mut root,
-            pos_len,
-            idx_len,
-            json::buffer::Target::ElementArrayBuffer,
-        );
-        let accessor = |root: &mut json::Root,
-                        v,
-                        count: usize,
-                        ct,
-                        ty,
-                        minmax: Option<([f32; 3], [f32; 3])>| {
-            root.push(json::Accessor {
-                buffer_view: Some(v),
-                byte_offset: Some(USize64(0)),
-                count: USize64::from(count),
-                component_type: Valid(json::accessor::GenericComponentType(ct)),
-                extensions: Default::default(),
-                extras: Default::default(),
-                type_: Valid(ty),
-                min: minmax.map(|m| json::Value::from(Vec::from(m.0))),
-                max: minmax.map(|m| json::Value::from(Vec::from(m.1))),
-                name: None,
-                normalized: false,
-                sparse: None,
-            })
-        };
-        let positions = accessor(
-            &mut root,
-            pv,
-            self.vertices.len(),
-            json::accessor::ComponentType::F32,
-            json::accessor::Type::Vec3,
-            Some((min, max)),
-        );
-        let indices = accessor(
-            &mut root,
-            iv,
-            self.triangles.len() * 3,
-            json::accessor::ComponentType::U32,
-            json::accessor::Type::Scalar,
-            None,
-        );
-        let prim = json::mesh::Primitive {
-            attributes: std::iter::once((Valid(json::mesh::Semantic::Positions), positions))
-                .collect(),
-            extensions: Default::default(),
-            extras: Default::default(),
-            indices: Some(indices),
-            material: None,
-            mode: Valid(json::mesh::Mode::Triangles),
-            targets: None,
-        };
-        let mesh = root.push(json::Mesh {
-            extensions: Default::default(),
-            extras: Default::default(),
-            name: Some("part".into()),
-            primitives: vec![prim],
-            weights: None,
-        });
-        let node = root.push(json::Node {
-            mesh: Some(mesh),
-            ..Default::default()
-        });
-        let scene = root.push(json::Scene {
-            extensions: Default::default(),
-            extras: Default::default(),
-            name: None,
-            nodes: vec![node],
-        });
-        root.scene = Some(scene);
-        let json = json::serialize::to_string(&root).expect("a glTF document serializes");
-        let glb = gltf::binary::Glb {
-            header: gltf::binary::Header {
-                magic: *b"glTF",
-                version: 2,
-                length: 0,
-            },
-            json: std::borrow::Cow::Owned(json.into_bytes()),
-            bin: Some(std::borrow::Cow::Owned(bin)),
-        };
-        glb.to_vec().expect("a GLB of this size serializes")
+        mesh
     }
 }
 
@@ -857,19 +733,38 @@ mod tests {
         }
     }
 
+    /// The models `fivecal plan` writes (through [`crate::mesh::Mesh`]) read
+    /// back here, OBJ and GLB alike.
     #[test]
-    fn glb_and_obj_round_trip() {
+    fn models_written_by_the_mesh_module_read_back() {
         let dir = tempfile::tempdir().unwrap();
-        let m = cube();
+        let c = cube();
+        let triangles = c
+            .triangles
+            .iter()
+            .map(|t| {
+                let v = t.map(|i| c.vertices[i as usize]);
+                crate::mesh::Triangle {
+                    v,
+                    n: (v[1] - v[0]).cross(&(v[2] - v[0])).normalize(),
+                    tag: 0,
+                }
+            })
+            .collect();
+        let m = crate::mesh::Mesh {
+            triangles,
+            groups: Default::default(),
+        };
         let obj = dir.path().join("c.obj");
         std::fs::write(&obj, m.to_obj("cube")).unwrap();
         let glb = dir.path().join("c.glb");
-        std::fs::write(&glb, m.to_glb()).unwrap();
+        std::fs::write(&glb, m.to_glb("cube")).unwrap();
         for p in [obj, glb] {
             let back = Mesh::load(&p).unwrap();
             assert_eq!(back.triangles.len(), 12, "{p:?}");
             let s = Surface::new(&back);
             assert!((s.closest(&Vector3::new(5., 5., 12.)).distance - 2.0).abs() < 1e-6);
+            assert!((s.closest(&Vector3::new(5., 5., 9.)).distance + 1.0).abs() < 1e-6);
         }
     }
 

@@ -19,9 +19,9 @@ pub struct AtomicOutput {
 impl AtomicOutput {
     /// Starts writing `path` (creating its directory when needed).
     pub fn create(path: &Path) -> Result<AtomicOutput, OutputError> {
-        let io = |source| OutputError::Io {
+        let io = |cause| OutputError::Io {
             path: path.to_path_buf(),
-            source,
+            cause,
         };
         let dir = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -37,9 +37,9 @@ impl AtomicOutput {
 
     /// Moves the complete file into place.
     pub fn commit(self) -> Result<(), OutputError> {
-        let io = |source| OutputError::Io {
+        let io = |cause| OutputError::Io {
             path: self.path.clone(),
-            source,
+            cause,
         };
         let tmp = self.file.into_inner().map_err(|e| io(e.into_error()))?;
         tmp.as_file().sync_all().map_err(io)?;
