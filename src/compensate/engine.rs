@@ -90,7 +90,7 @@ impl Compensator {
         input: R,
         output: &mut W,
     ) -> Result<Summary, CompensateError> {
-        self.run_observed(path, input, output, &mut |_| {})
+        self.run_inner(path, input, output, None)
     }
 
     /// As [`Compensator::run`], calling `observer` with every end point written.
@@ -100,6 +100,16 @@ impl Compensator {
         input: R,
         output: &mut W,
         observer: &mut dyn FnMut(&Vertex),
+    ) -> Result<Summary, CompensateError> {
+        self.run_inner(path, input, output, Some(observer))
+    }
+
+    fn run_inner<R: BufRead, W: Write>(
+        &self,
+        path: &Path,
+        input: R,
+        output: &mut W,
+        observer: Option<&mut dyn FnMut(&Vertex)>,
     ) -> Result<Summary, CompensateError> {
         let m = self.solver.kinematics().machine();
         let mut run = Run {
@@ -169,7 +179,7 @@ struct Run<'a, 'o> {
     edits: Edits,
     summary: Summary,
     skipped: IndexMap<String, Lines>,
-    observer: &'o mut dyn FnMut(&Vertex),
+    observer: Option<&'o mut dyn FnMut(&Vertex)>,
 }
 
 impl Run<'_, '_> {
@@ -999,6 +1009,10 @@ impl Run<'_, '_> {
         written: &[Option<f64>; 6],
         inserted: bool,
     ) {
+        self.last_held = pt.held.is_some();
+        let Some(observer) = self.observer.as_mut() else {
+            return;
+        };
         let program = known(written);
         let w = f.model(&program);
         let v = Vertex {
@@ -1012,8 +1026,7 @@ impl Run<'_, '_> {
             nominal_program: f.program(&pt.nominal),
             program,
         };
-        self.last_held = pt.held.is_some();
-        (self.observer)(&v);
+        observer(&v);
     }
 
     fn write_end(
