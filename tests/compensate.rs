@@ -839,3 +839,41 @@ fn the_exact_path_for_error_maps_agrees_with_the_closed_form() {
     assert!(sa.fast_path && !sb.fast_path);
     assert_eq!(a, b);
 }
+
+/// FANUC reads `X10` as 10 mm or 10 um by a parameter: such moves are left
+/// alone unless the unit is given, and rewritten values always carry a
+/// decimal point (unambiguous in both modes).
+#[test]
+fn fanuc_integer_words_need_their_unit() {
+    let program = "%\nO8001\nG90 G21 G54 G43 H1\nG0 X10 Y20 Z30 B20 C40\nG1 X12 F300\nM30\n%\n";
+    let l = errors("bc-trunnion", 13, 40.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Fanuc), program);
+    assert_eq!(out, program);
+    assert!(
+        s.skipped
+            .iter()
+            .any(|(r, lines)| r.contains("decimal point") && lines.len() == 2),
+        "{s:?}"
+    );
+    let mut mm = Settings::new(Dialect::Fanuc);
+    mm.fanuc_integer_unit = Some(1.0);
+    let (out, s, vs) = compensate(&l, mm, program);
+    assert_eq!(s.skipped_count(), 0, "{s:?}");
+    let line = out.lines().nth(3).unwrap();
+    for w in line.split_whitespace().skip(1) {
+        assert!(w.contains('.'), "{line}");
+    }
+    for v in &vs {
+        let a = actual_of(&l, v);
+        assert!((a.tip - v.target.tip).norm() < 1e-4);
+    }
+    // In least input increments (um), X10 is 0.01 mm.
+    let mut um = Settings::new(Dialect::Fanuc);
+    um.fanuc_integer_unit = Some(0.001);
+    let (_, _, vs) = compensate(&l, um, program);
+    assert!(
+        (vs[0].nominal_program[0] - 0.010).abs() < 1e-12,
+        "{:?}",
+        vs[0].nominal_program
+    );
+}
