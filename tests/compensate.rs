@@ -877,3 +877,35 @@ fn fanuc_integer_words_need_their_unit() {
         vs[0].nominal_program
     );
 }
+
+/// A face machined with the tilt at its limit (B = 90 on the trunnion):
+/// the correction needs B a few urad beyond, so B is held at the limit,
+/// C and X, Y, Z are corrected and the tip is exact.
+#[test]
+fn at_the_tilt_limit_the_tilt_is_held_and_the_tip_is_still_exact() {
+    let src = "machine: bc-trunnion\nlocation_errors: {EX0B: 30.0, EZ0B: -20.0, EA0B: 40.0, EC0B: -25.0, EB0B: 15.0, EX(0B)C: 12.0, EY0C: -18.0, EA(0B)C: 35.0}\n";
+    let k = Kinematics::new(&machine("bc-trunnion"));
+    let l = ErrorFile::parse(Path::new("t.yaml"), src)
+        .unwrap()
+        .to_model(&k, Path::new("t.yaml"), src)
+        .unwrap();
+    let program =
+        "G21 G90 G17 G54 G43\nG0 X100 Y0 Z20 B90 C0\nG1 X100 Y10 Z20 F300\nG1 X100 Y20 Z25\nM2\n";
+    let (_, s, vs) = compensate(&l, Settings::new(Dialect::Linuxcnc), program);
+    assert_eq!(s.skipped_count(), 0, "{s:?}");
+    assert_eq!(s.held_tilt, vec![2, 3, 4], "{s:?}");
+    for v in &vs {
+        assert_eq!(v.written.tilt, 90.0, "line {}", v.line);
+        let a = actual_of(&l, v);
+        assert!((a.tip - v.target.tip).norm() < 1e-4, "line {}", v.line);
+        assert!(
+            angle(&a.axis, &v.target.axis) < 0.1f64.to_radians(),
+            "line {}",
+            v.line
+        );
+    }
+    assert!(
+        s.held_tilt_axis_error > 0.0 && s.held_tilt_axis_error < 100.0,
+        "{s:?}"
+    );
+}

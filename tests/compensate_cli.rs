@@ -424,3 +424,86 @@ fn rs274_runs_the_compensated_program_and_its_trace_differs_by_the_predicted_cor
         "the corrections are visible in the trace: {largest}"
     );
 }
+
+/// The programs `fivecal plan` writes are what `compensate` meets first:
+/// all three dialects parse strictly, come back byte for byte with zero
+/// errors, and are compensated everywhere the position is known (B = 90
+/// faces with B held at its limit); rs274 runs the LinuxCNC one.
+#[test]
+fn planned_stepped_square_programs_are_compensated_in_every_dialect() {
+    let dir = tempdir();
+    let d = dir.path();
+    let zero = write(
+        d,
+        "zero.yaml",
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 0.0}\n",
+    );
+    let errs = write(d, "e.yaml", ERRORS);
+    for (dialect, ext) in [("fanuc", "nc"), ("heidenhain", "h"), ("linuxcnc", "ngc")] {
+        let out = d.join(format!("ss-{dialect}"));
+        let st = fivecal()
+            .args([
+                "plan",
+                "stepped-square",
+                "--machine",
+                "bc-trunnion",
+                "--dialect",
+                dialect,
+                "--out",
+            ])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(st.status.success(), "{}", stderr_of(&st));
+        let prog = out.join(format!("stepped-square.{ext}"));
+        let same = d.join(format!("zero.{ext}"));
+        let st = fivecal()
+            .args([
+                "compensate",
+                "--machine",
+                "bc-trunnion",
+                "--strict",
+                "--dialect",
+                dialect,
+                "--errors",
+            ])
+            .arg(&zero)
+            .arg(&prog)
+            .arg("-o")
+            .arg(&same)
+            .output()
+            .unwrap();
+        assert!(st.status.success(), "{dialect}: {}", stderr_of(&st));
+        assert_eq!(
+            std::fs::read(&same).unwrap(),
+            std::fs::read(&prog).unwrap(),
+            "{dialect}"
+        );
+        let comp = d.join(format!("comp.{ext}"));
+        let st = fivecal()
+            .args([
+                "compensate",
+                "--machine",
+                "bc-trunnion",
+                "--dialect",
+                dialect,
+                "--errors",
+            ])
+            .arg(&errs)
+            .arg(&prog)
+            .arg("-o")
+            .arg(&comp)
+            .output()
+            .unwrap();
+        assert!(st.status.success(), "{dialect}: {}", stderr_of(&st));
+        let text = String::from_utf8(st.stdout).unwrap();
+        assert!(text.contains("B held at its limit"), "{dialect}: {text}");
+        assert!(
+            text.contains("2 moves left as written"),
+            "{dialect}: {text}"
+        );
+        if dialect == "linuxcnc" {
+            assert_eq!(trace(&comp).len(), trace(&prog).len());
+        }
+    }
+}

@@ -40,6 +40,7 @@ struct Point {
     /// Written values in program units and frame (unrounded).
     program: [f64; 6],
     held: Option<f64>,
+    held_tilt: Option<f64>,
 }
 
 impl Compensator {
@@ -475,6 +476,7 @@ impl Run<'_, '_> {
             written,
             program: f.program(&written),
             held: sol.held_c,
+            held_tilt: sol.held_tilt,
         }
     }
 
@@ -546,6 +548,10 @@ impl Run<'_, '_> {
         if let Some(h) = pt.held {
             self.summary.held_c.push(line);
             self.summary.held_c_axis_error = self.summary.held_c_axis_error.max(h * 1e6);
+        }
+        if let Some(h) = pt.held_tilt {
+            self.summary.held_tilt.push(line);
+            self.summary.held_tilt_axis_error = self.summary.held_tilt_axis_error.max(h * 1e6);
         }
         Ok(())
     }

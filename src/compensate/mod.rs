@@ -179,16 +179,19 @@ impl Lines {
         self.first.contains(line)
     }
 
-    /// The kept lines as text: `12, 14, 19` (and `... (n more)`).
+    /// The first lines as text: `12, 14, 19` (at most 25, then `... (n more)`).
     pub fn list(&self) -> String {
+        const SHOWN: usize = 25;
         let mut s: String = self
             .first
             .iter()
+            .take(SHOWN)
             .map(|l| l.to_string())
             .collect::<Vec<_>>()
             .join(", ");
-        if self.count > self.first.len() {
-            s.push_str(&format!(" ... ({} more)", self.count - self.first.len()));
+        let shown = self.first.len().min(SHOWN);
+        if self.count > shown {
+            s.push_str(&format!(" ... ({} more)", self.count - shown));
         }
         s
     }
@@ -235,6 +238,10 @@ pub struct Summary {
     pub held_c: Lines,
     /// Largest remaining tool-axis error where C was held, urad.
     pub held_c_axis_error: f64,
+    /// Lines where the tilt was held at its limit.
+    pub held_tilt: Lines,
+    /// Largest remaining tool-axis error there, urad.
+    pub held_tilt_axis_error: f64,
     /// Whether the closed-form fast path was used.
     pub fast_path: bool,
     /// Effects of the error file that a rewrite cannot cancel, with why.

@@ -18,13 +18,20 @@
 //! remaining tool-axis error is at most the orientation error of the
 //! machine there, and it is reported. The rewriter also holds C when the
 //! exact solution's swing would push the correction past its limit while
-//! the held one stays inside.
+//! the held one stays inside. At the other end of the tilt's range, where a
+//! program runs the tilt to its limit and the correction needs a few urad
+//! beyond it, the tilt is held at the limit with the tip exact.
 
 use nalgebra::Vector3;
 
 use crate::kinematics::fast::FastChain;
 use crate::kinematics::{Axes, IkError, Kinematics, SLOT_LIN, ToolPose};
 use crate::model::{Context, Effect, Model};
+
+/// How far beyond its limit (deg) a tilt may be needed and still be held
+/// at the limit: more than an error model's few hundred urad means a
+/// program that leaves the tilt's range, not a correction.
+pub const TILT_OVERRUN: f64 = 0.1;
 
 /// How the actual machine is evaluated (one per solver: the size
 /// difference between the variants does not matter).
@@ -49,6 +56,10 @@ pub struct Solution {
     /// C was held at its nominal value (singularity policy): the remaining
     /// angle between actual and target tool axis, rad.
     pub held_c: Option<f64>,
+    /// The tilt was held at its limit (the exact correction lies a little
+    /// beyond it): the remaining angle between actual and target tool
+    /// axis, rad.
+    pub held_tilt: Option<f64>,
 }
 
 /// Nominal and actual kinematics of one machine with one error model.
@@ -308,12 +319,73 @@ impl Solver {
             Ok(a) if (a.c - nominal.c).abs() <= self.max_c_swing => Ok(Solution {
                 axes: a,
                 held_c: None,
+                held_tilt: None,
             }),
             Ok(_) | Err(IkError::OutOfReach { .. }) | Err(IkError::NoConvergence { .. }) => {
-                self.solve_held(target, nominal)
+                // (An exact solution far in C may be the other branch,
+                // flipped by 180 deg because the near one lies past the
+                // tilt's limit: then the limit is what holds.)
+                match self.solve_held(target, nominal) {
+                    Err(e @ IkError::TiltOutOfLimits { .. }) => {
+                        self.at_tilt_limit(target, nominal).ok_or(e)
+                    }
+                    other => other,
+                }
+            }
+            Err(e @ IkError::TiltOutOfLimits { .. }) => {
+                self.at_tilt_limit(target, nominal).ok_or(e)
             }
             Err(e) => Err(e),
         }
+    }
+
+    /// A program that runs the tilt to its limit (a face machined at
+    /// B = 90) may need the tilt a few urad beyond it on the erroneous
+    /// machine. Up to [`TILT_OVERRUN`] beyond, the tilt is held at the limit,
+    /// C takes the exact solution's value and the tip is exact; the tool
+    /// axis is then off by the overrun. Further beyond, there is no
+    /// correction (the move is left as written).
+    fn at_tilt_limit(&self, target: &ToolPose, nominal: &Axes) -> Option<Solution> {
+        let m = self.kin.machine();
+        let (lo, hi) = m.tilt.limits?;
+        let u = target.axis.normalize();
+        let chain = self.chain_at(nominal);
+        let roots = chain.orientation_roots(&u, nominal.c)?;
+        let dist = |&(t, c): &(f64, f64)| {
+            (t - nominal.tilt).abs() + crate::geom::wrap180(c - nominal.c).abs()
+        };
+        let (t, c) = roots
+            .into_iter()
+            .min_by(|a, b| dist(a).total_cmp(&dist(b)))?;
+        let held = t.clamp(lo, hi);
+        if (t - held).abs() > TILT_OVERRUN {
+            return None;
+        }
+        let c = nominal.c + crate::geom::wrap180(c - nominal.c);
+        if !m.c.within(c, 1e-9) {
+            return None;
+        }
+        let mut a = Axes {
+            xyz: nominal.xyz,
+            tilt: held,
+            c,
+        };
+        a.xyz = chain.position(&target.tip, a.tilt, a.c, &Vector3::zeros());
+        for _ in 0..8 {
+            let lin = self.lin_at(&a);
+            let next = self.chain_at(&a).position(&target.tip, a.tilt, a.c, &lin);
+            let done = (next - a.xyz).norm() < 1e-13;
+            a.xyz = next;
+            if done {
+                break;
+            }
+        }
+        let got = self.actual_pose(&a).axis.normalize();
+        Some(Solution {
+            axes: a,
+            held_c: None,
+            held_tilt: Some(got.dot(&u).clamp(-1.0, 1.0).acos()),
+        })
     }
 
     /// The correction with C held at its nominal value (the fallback of
@@ -330,6 +402,7 @@ impl Solver {
         Ok(Solution {
             axes: a,
             held_c: Some(residual),
+            held_tilt: None,
         })
     }
 

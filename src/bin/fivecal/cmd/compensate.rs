@@ -351,6 +351,16 @@ fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
             s.held_c_axis_error
         );
     }
+    if !s.held_tilt.is_empty() {
+        let _ = writeln!(
+            t,
+            "  {} held at its limit (the correction needs it a little beyond) in {} moves (lines {}): tip exact, tool axis within {:.1} urad",
+            m.tilt.letter,
+            s.held_tilt.len(),
+            s.held_tilt.list(),
+            s.held_tilt_axis_error
+        );
+    }
     if s.skipped.is_empty() {
         let _ = writeln!(t, "  no move left as written");
     } else {
