@@ -327,3 +327,44 @@ fn control_flow_in_the_corpus_is_classified() {
         assert!(flows.contains(&f), "{f:?} in {flows:?}");
     }
 }
+
+/// The probing programs `fivecal plan` writes (issue 4's golden files) are
+/// programs `compensate` meets: they parse strictly, come back byte for
+/// byte with zero errors, and the probe cycles forget only what they move
+/// (TCH PROBE 0 and G31 leave the rotary axes known), so almost every move
+/// is compensable.
+#[test]
+fn golden_probing_programs_parse_strictly_and_come_back_unchanged() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/probe/golden");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        let d = match path.extension().and_then(|e| e.to_str()) {
+            Some("nc") => Dialect::Fanuc,
+            Some("h") => Dialect::Heidenhain,
+            Some("ngc") => Dialect::Linuxcnc,
+            _ => continue,
+        };
+        let machine = name.split('.').nth(1).unwrap();
+        blocks(&path, d, true);
+        let (model, theta) = zero_model(machine, true);
+        let mut settings = Settings::new(d);
+        settings.strict = true;
+        let c = Compensator::new(&model, &theta, settings);
+        let input = std::fs::read(&path).unwrap();
+        let mut out = Vec::new();
+        let s = c.run(&path, input.as_slice(), &mut out).unwrap();
+        assert!(out == input, "{name}: output differs");
+        assert_eq!(s.changed, 0, "{name}");
+        assert!(
+            s.skipped_count() * 100 <= s.moves,
+            "{name}: {} of {} moves left as written: {:?}",
+            s.skipped_count(),
+            s.moves,
+            s.skipped
+        );
+        seen += 1;
+    }
+    assert!(seen >= 2, "no golden probing programs in {}", dir.display());
+}

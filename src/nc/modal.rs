@@ -980,13 +980,22 @@ impl Modal {
                 self.set_tcp(Tcp::Off);
                 Event::None
             }
-            HhKind::ToolCall | HhKind::TchProbe | HhKind::CyclCall => {
-                self.forget();
-                if kind == HhKind::TchProbe {
-                    Event::Quiet
+            HhKind::TchProbe => {
+                // Touch probe cycles 0 (reference plane) and 1 (polar
+                // datum plane) move the linear axes only; the others may
+                // turn a rotary axis (403, 405) or move anywhere.
+                if matches!(tch_probe_number(&block.text), Some(0 | 1)) {
+                    self.pos[0] = None;
+                    self.pos[1] = None;
+                    self.pos[2] = None;
                 } else {
-                    Event::None
+                    self.forget();
                 }
+                Event::Quiet
+            }
+            HhKind::ToolCall | HhKind::CyclCall => {
+                self.forget();
+                Event::None
             }
             HhKind::Lbl | HhKind::CallLbl | HhKind::CallPgm | HhKind::Stop => {
                 self.forget();
@@ -1266,6 +1275,20 @@ pub fn center_from_radius(s: [f64; 2], e: [f64; 2], r: f64, cw: bool) -> Option<
     Some([mx + sgn * h * ux, my + sgn * h * uy])
 }
 
+/// The cycle number of a `TCH PROBE n.m` block.
+fn tch_probe_number(text: &[u8]) -> Option<u32> {
+    let up = text.to_ascii_uppercase();
+    let at = up.windows(9).position(|w| w == b"TCH PROBE")? + 9;
+    let rest = &up[at..];
+    let start = rest.iter().position(|b| !b.is_ascii_whitespace())?;
+    let digits: Vec<u8> = rest[start..]
+        .iter()
+        .take_while(|b| b.is_ascii_digit())
+        .copied()
+        .collect();
+    std::str::from_utf8(&digits).ok()?.parse().ok()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1400,6 +1423,39 @@ mod tests {
         assert_eq!(m.start, [None; 6]);
         assert_eq!(m.end[0], Some(5.0));
         assert_eq!(m.end[1], None);
+    }
+
+    #[test]
+    fn probing_forgets_only_what_the_probe_moves() {
+        // TCH PROBE 0 moves the linear axes only: B and C stay known.
+        let (ev, _) = run(
+            "0 BEGIN PGM T MM\n1 L X+10 Y+0 Z+5 B+0 C+30 R0 FMAX\n2 TCH PROBE 0.0 REF. PLANE Q1 X+\n3 TCH PROBE 0.1 X+0 Y+0 Z+5\n4 L X+1 Y+2 Z+3 R0 F100\n5 TCH PROBE 403 ROT IN ROTARY AXIS ~\n  Q263=+0 ;1ST POINT 1ST AXIS\n6 L X+1 Y+2 Z+3 R0 F100\n7 END PGM T MM\n",
+            Dialect::Heidenhain,
+        );
+        assert_eq!(ev[2], Event::Quiet);
+        let m = mv(&ev[4]);
+        assert_eq!(&m.start[..3], &[None; 3]);
+        assert_eq!(m.start[4], Some(0.0));
+        assert_eq!(m.start[5], Some(30.0));
+        // Cycle 403 may turn the table: everything is forgotten.
+        assert_eq!(mv(&ev[6]).start, [None; 6]);
+        assert_eq!(
+            tch_probe_number(b"12 TCH PROBE 1.0 POLAR DATUM PLANE"),
+            Some(1)
+        );
+        assert_eq!(
+            tch_probe_number(b"TCH PROBE 412 DATUM CIRC. CENTER"),
+            Some(412)
+        );
+        // G31 forgets the axes it names.
+        let (ev, _) = run(
+            "G0 X1. Y2. Z3. B0 C0\nG31 Z-10. F100.\nG1 X2.\n",
+            Dialect::Fanuc,
+        );
+        let m = mv(&ev[2]);
+        assert_eq!(m.start[0], Some(1.0));
+        assert_eq!(m.start[2], None);
+        assert_eq!(m.start[5], Some(0.0));
     }
 
     #[test]
