@@ -2,7 +2,10 @@
 //! reader turns its format into the canonical meaning of SPEC section 3
 //! and reports bad input as `file:line:column: what was expected`.
 
+pub mod detect;
+pub mod dmis;
 pub mod dmis_program;
+pub mod heights;
 pub mod manifest;
 pub mod measured;
 pub mod points;
