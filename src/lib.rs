@@ -24,6 +24,7 @@ pub mod machine;
 pub mod mesh;
 pub mod model;
 pub mod nc;
+pub mod placement;
 pub mod plan;
 pub mod post;
 pub mod probing;
