@@ -18,6 +18,7 @@ pub mod errorfile;
 pub mod fit;
 pub mod formats;
 pub mod geom;
+pub mod identify;
 pub mod io;
 pub mod kinematics;
 pub mod machine;

@@ -1,0 +1,205 @@
+//! The `global` method: one nonlinear least-squares fit of every measured
+//! point to the exact forward model, the CMM placement of a machined piece
+//! estimated with the parameters as six nuisance parameters.
+//!
+//! Each residual is the signed distance of a measured point from its
+//! predicted surface, along the predicted normal (um). The placement is
+//! `P = P0 D(rho)`, with `P0` from the reference features
+//! ([`super::initial_placement`]) and `rho` in um and urad; any motion of
+//! every pose together is absorbed by `rho`, which is how the fit is
+//! "relative to the reference pose".
+
+use std::cell::RefCell;
+
+use faer::Mat;
+use nalgebra::{Isometry3, Point3, Vector3};
+
+use super::forward::{ForwardError, ForwardModel};
+use super::lsq::{self, Problem};
+use super::rigid::{d6_um, face_residual};
+use super::{Dataset, Identification, IdentifyError, Method, Setup, identifiability, two_stage};
+use crate::formats::manifest::TestKind;
+
+/// Names of the placement nuisance parameters.
+pub const PLACEMENT_NAMES: [&str; 6] = [
+    "placement.dx",
+    "placement.dy",
+    "placement.dz",
+    "placement.a",
+    "placement.b",
+    "placement.c",
+];
+
+struct GlobalProblem<'a> {
+    fm: &'a dyn ForwardModel,
+    data: &'a Dataset,
+    /// Observed points before the nuisance placement (`P0^-1 m`, or `m`).
+    u: Vec<Vector3<f64>>,
+    minutes: Vec<f64>,
+    placement: bool,
+    n: usize,
+    error: RefCell<Option<ForwardError>>,
+}
+
+impl Problem for GlobalProblem<'_> {
+    fn n_residuals(&self) -> usize {
+        self.u.len()
+    }
+
+    fn n_params(&self) -> usize {
+        self.n + if self.placement { 6 } else { 0 }
+    }
+
+    fn eval(&self, x: &[f64], r: &mut [f64], mut jac: Option<&mut Mat<f64>>) {
+        let theta = &x[..self.n];
+        let rho = if self.placement {
+            [
+                x[self.n],
+                x[self.n + 1],
+                x[self.n + 2],
+                x[self.n + 3],
+                x[self.n + 4],
+                x[self.n + 5],
+            ]
+        } else {
+            [0.0; 6]
+        };
+        for k in 0..self.u.len() {
+            let point = self.data.point(k);
+            let pred = match self.fm.predict(theta, point, self.minutes[k]) {
+                Ok(p) => p,
+                Err(e) => {
+                    *self.error.borrow_mut() = Some(e);
+                    r[k] = f64::NAN;
+                    continue;
+                }
+            };
+            let f = face_residual(&rho, &pred.point, &pred.normal, &self.u[k]);
+            r[k] = f.r;
+            if let Some(j) = jac.as_deref_mut() {
+                for c in 0..self.n {
+                    let mut v = 0.0;
+                    for i in 0..3 {
+                        v += f.d_q[i] * pred.d_point[(i, c)] + f.d_n[i] * pred.d_normal[(i, c)];
+                    }
+                    j[(k, c)] = v;
+                }
+                if self.placement {
+                    for i in 0..6 {
+                        j[(k, self.n + i)] = f.d_rho[i];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Runs the global fit with the forward model `fm` (whose model must be
+/// `setup.model`).
+pub fn identify(
+    fm: &dyn ForwardModel,
+    setup: &Setup,
+    data: &Dataset,
+    opts: &lsq::Options,
+) -> Result<Identification, IdentifyError> {
+    super::check_data(data, Method::Global)?;
+    let n = setup.model.n_params();
+    if fm.model().n_params() != n {
+        return Err(IdentifyError::Data(
+            "the forward model's parameters differ from the setup's".into(),
+        ));
+    }
+    let placement = data.kind == TestKind::Machining;
+    let p0 = if placement {
+        Some(super::initial_placement(data)?)
+    } else {
+        None
+    };
+    let u: Vec<Vector3<f64>> = data
+        .obs
+        .iter()
+        .map(|o| match &p0 {
+            Some(p) => (p.inverse() * Point3::from(o.m)).coords,
+            None => o.m,
+        })
+        .collect();
+    let mut minutes = vec![0.0; data.obs.len()];
+    for pose in &data.poses {
+        for &k in &pose.obs {
+            minutes[k] = pose.minutes;
+        }
+    }
+    let problem = GlobalProblem {
+        fm,
+        data,
+        u,
+        minutes,
+        placement,
+        n,
+        error: RefCell::new(None),
+    };
+    let extra = if placement { 6 } else { 0 };
+    let basis = setup.basis(extra);
+    let x0 = vec![0.0; n + extra];
+    let sol = lsq::solve(&problem, &x0, Some(&basis), opts);
+    if let Some(e) = problem.error.borrow_mut().take()
+        && !sol.cost.is_finite()
+    {
+        return Err(e.into());
+    }
+    let design = lsq::design(&sol.jacobian, Some(&basis), opts.rank_rtol);
+    // What the test can identify is a property of its design, judged at
+    // the nominal machine: at the estimate, the exact model couples unseen
+    // directions to seen ones by terms of the order of the errors (1e-4),
+    // which says nothing about the test.
+    let mut r0 = vec![0.0; data.obs.len()];
+    let mut j0 = Mat::<f64>::zeros(data.obs.len(), n + extra);
+    problem.eval(&x0, &mut r0, Some(&mut j0));
+    let nominal = lsq::design(&j0, Some(&basis), opts.rank_rtol);
+    let m = data.obs.len();
+    let dof = m.saturating_sub(design.rank);
+    let mut notes = Vec::new();
+    let s2 = if dof > 0 {
+        sol.cost / dof as f64
+    } else {
+        notes.push(
+            "as many unknowns as measurements: the residuals cannot scale the covariance".into(),
+        );
+        f64::NAN
+    };
+    let mut names = setup.model.param_names();
+    if placement {
+        names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));
+    }
+    let report = identifiability::report(
+        &nominal,
+        m,
+        n,
+        &names,
+        &setup.constraint_names,
+        &setup.quality_axes(),
+    );
+    let cov = design.cov_unit.view((0, 0), (n, n)).into_owned() * s2;
+    let placement_iso: Option<Isometry3<f64>> = p0.map(|p| p * d6_um(&sol.x[n..n + 6]));
+    if !sol.converged {
+        notes.push(format!(
+            "the fit stopped after {} steps without converging",
+            sol.iterations
+        ));
+    }
+    let poses = two_stage::pose_fits(data, &setup.model.kin, placement_iso.as_ref());
+    Ok(Identification {
+        method: Method::Global,
+        model: setup.model.clone(),
+        theta: sol.x[..n].to_vec(),
+        cov,
+        cov_unit: design.cov_unit.view((0, 0), (n, n)).into_owned(),
+        identifiability: report,
+        sigma_um: s2.sqrt(),
+        dof,
+        residuals: sol.residuals.clone(),
+        poses,
+        placement: placement_iso,
+        notes,
+    })
+}

@@ -1,0 +1,384 @@
+//! What a test can and cannot identify, reported before any number: the
+//! rank and condition number of the column-scaled design, which parameters
+//! are identifiable, the parameter combinations that change no measurement
+//! (named in SPEC symbols and model terms), the identifiable combinations
+//! of the parameters that are not identifiable alone, the enumeration of
+//! identifiable parameter sets of seed 003 section 4, and a pose-quality
+//! figure per rotary axis.
+//!
+//! **Pose quality.** HEIDENHAIN KinematicsOpt (cycle 451) reports a
+//! dimensionless *valuation number* per rotary axis: how well the measuring
+//! positions determine the machine's changeable transformations; its manual
+//! asks for at least 2 and calls 4 or more desirable, and suggests a larger
+//! measuring range or more points when it is low. HEIDENHAIN does not
+//! publish the formula, so ours is defined openly and on the same scale:
+//!
+//! ```text
+//! Q_axis = 1 / max_k sqrt( [(J^T J)^+]_kk )
+//! ```
+//!
+//! over the axis's location symbols `k`, with `J` the design in um per
+//! parameter, angles converted to length at a reference lever of
+//! [`QUALITY_LEVER_MM`] (1 urad = 0.1 um at 100 mm). It is the factor by
+//! which the worst-determined parameter of the axis is more certain than one
+//! probed point: with 1 um of noise per point, that parameter's standard
+//! uncertainty is `1/Q` um (or `1/Q` * 10 urad). It grows with the square
+//! root of the number of points and with the measuring range, as the
+//! valuation number does; 0 means an axis parameter is not identifiable.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::lsq::Design;
+
+/// Lever at which angles become lengths in the pose-quality figure, mm.
+pub const QUALITY_LEVER_MM: f64 = 100.0;
+
+/// Whether each parameter is identifiable, with its name.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ParamStatus {
+    /// Parameter name (symbol, `symbol@angles` for map nodes, or a nuisance name).
+    pub name: String,
+    /// Whether the test determines it.
+    pub identifiable: bool,
+}
+
+/// The pose-quality figure of one rotary axis.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct AxisQuality {
+    /// Axis letter.
+    pub axis: char,
+    /// The figure (see the module documentation); 0 = not identifiable.
+    pub quality: f64,
+    /// The symbol that limits it.
+    pub worst: String,
+}
+
+/// The identifiability report of one design.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Identifiability {
+    /// Number of measurements (residual rows).
+    pub observations: usize,
+    /// Number of parameters, nuisance included.
+    pub parameters: usize,
+    /// Parameters left free by the constraints.
+    pub free: usize,
+    /// Rank of the column-scaled design.
+    pub rank: usize,
+    /// Condition number of the column-scaled design (kept singular values).
+    pub condition: f64,
+    /// The constraints that define the parameters (seeds' averaging).
+    pub constraints: Vec<String>,
+    /// Each parameter.
+    pub params: Vec<ParamStatus>,
+    /// Parameter combinations that change no measurement.
+    pub null_combinations: Vec<String>,
+    /// Combinations of non-identifiable parameters that are identifiable.
+    pub identifiable_combinations: Vec<String>,
+    /// Pose quality per rotary axis.
+    pub pose_quality: Vec<AxisQuality>,
+}
+
+impl Identifiability {
+    /// Whether parameter `i` is identifiable.
+    pub fn is_identifiable(&self, i: usize) -> bool {
+        self.params[i].identifiable
+    }
+
+    /// Human-readable report.
+    pub fn render(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "identifiability: {} measurements, {} parameters ({} free after {} constraints), rank {}, condition number {:.3e}",
+            self.observations,
+            self.parameters,
+            self.free,
+            self.constraints.len(),
+            self.rank,
+            self.condition
+        );
+        let not: Vec<&str> = self
+            .params
+            .iter()
+            .filter(|p| !p.identifiable)
+            .map(|p| p.name.as_str())
+            .collect();
+        if not.is_empty() {
+            let _ = writeln!(s, "  every parameter is identifiable");
+        } else {
+            let _ = writeln!(s, "  not identifiable: {}", not.join(", "));
+        }
+        for c in &self.null_combinations {
+            let _ = writeln!(s, "  unseen combination: {c}");
+        }
+        for c in &self.identifiable_combinations {
+            let _ = writeln!(s, "  identifiable combination: {c}");
+        }
+        for q in &self.pose_quality {
+            let _ = writeln!(
+                s,
+                "  pose quality {}: {:.2} (limited by {}; >= 2 needed, >= 4 desirable)",
+                q.axis, q.quality, q.worst
+            );
+        }
+        s
+    }
+}
+
+/// Formats a linear combination `sum c_k name_k` with the largest
+/// coefficient 1, dropping negligible terms.
+pub fn combination(coef: &[f64], names: &[String]) -> String {
+    let max = coef.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    if max == 0.0 {
+        return "0".into();
+    }
+    let mut s = String::new();
+    for (c, n) in coef.iter().zip(names) {
+        let v = c / max;
+        if v.abs() < 1e-6 {
+            continue;
+        }
+        let mag = v.abs();
+        let sign = if v < 0.0 { "-" } else { "+" };
+        if s.is_empty() {
+            if v < 0.0 {
+                s.push('-');
+            }
+        } else {
+            s.push_str(&format!(" {sign} "));
+        }
+        if (mag - 1.0).abs() < 1e-9 {
+            s.push_str(n);
+        } else {
+            s.push_str(&format!("{mag:.4} {n}"));
+        }
+    }
+    s
+}
+
+/// Rows of the reduced row echelon form of `m` (rows: vectors), each with
+/// its pivot scaled to 1; near-zero rows dropped.
+fn rref(mut m: DMatrix<f64>) -> Vec<DVector<f64>> {
+    let (rows, cols) = m.shape();
+    let mut r = 0;
+    for c in 0..cols {
+        if r == rows {
+            break;
+        }
+        let (piv, val) = (r..rows)
+            .map(|i| (i, m[(i, c)].abs()))
+            .fold((r, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+        if val < 1e-9 {
+            continue;
+        }
+        m.swap_rows(r, piv);
+        let p = m[(r, c)];
+        for j in 0..cols {
+            m[(r, j)] /= p;
+        }
+        for i in 0..rows {
+            if i != r {
+                let f = m[(i, c)];
+                if f != 0.0 {
+                    for j in 0..cols {
+                        let v = m[(r, j)];
+                        m[(i, j)] -= f * v;
+                    }
+                }
+            }
+        }
+        r += 1;
+    }
+    (0..r).map(|i| m.row(i).transpose()).collect()
+}
+
+/// Builds the report from the design's analysis.
+///
+/// `names`: every parameter (the `n_model` model parameters first, then
+/// nuisance; identifiable combinations are sought among model parameters);
+/// `axes`: for the pose-quality figure, each rotary axis with the indices of
+/// its location symbols and whether each is an angle; `length_scale`:
+/// nothing, lengths are um and angles urad.
+pub fn report(
+    d: &Design,
+    observations: usize,
+    n_model: usize,
+    names: &[String],
+    constraints: &[String],
+    axes: &[(char, Vec<(usize, bool)>)],
+) -> Identifiability {
+    let n = names.len();
+    // A parameter is identifiable when no unseen direction moves it.
+    let ident: Vec<bool> = (0..n)
+        .map(|k| (0..d.null.ncols()).all(|c| d.null[(k, c)].abs() < 1e-7))
+        .collect();
+    let null_combinations: Vec<String> = if d.null.ncols() == 0 {
+        Vec::new()
+    } else {
+        rref(d.null.transpose())
+            .iter()
+            .map(|v| {
+                format!(
+                    "{} (changing these together changes no measurement)",
+                    combination(v.as_slice(), names)
+                )
+            })
+            .collect()
+    };
+    // Identifiable combinations among the non-identifiable parameters:
+    // coefficient vectors c on them with c . v = 0 for every unseen v.
+    let group: Vec<usize> = (0..n_model.min(n)).filter(|&k| !ident[k]).collect();
+    let mut identifiable_combinations = Vec::new();
+    if !group.is_empty() {
+        let vg = DMatrix::from_fn(group.len(), d.null.ncols(), |i, c| d.null[(group[i], c)]);
+        // Null space of vg^T, within the group.
+        let g = &vg * vg.transpose();
+        let e = g.symmetric_eigen();
+        let max = e.eigenvalues.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let vecs: Vec<DVector<f64>> = (0..group.len())
+            .filter(|&k| e.eigenvalues[k].abs() < 1e-10 * max.max(1e-300))
+            .map(|k| e.eigenvectors.column(k).into_owned())
+            .collect();
+        if !vecs.is_empty() {
+            let m = DMatrix::from_columns(&vecs).transpose();
+            let gnames: Vec<String> = group.iter().map(|&k| names[k].clone()).collect();
+            for v in rref(m) {
+                identifiable_combinations.push(combination(v.as_slice(), &gnames));
+            }
+        }
+    }
+    let pose_quality = axes
+        .iter()
+        .map(|(axis, syms)| {
+            let mut worst = (String::new(), 0.0f64);
+            let mut unseen = None;
+            for &(k, angle) in syms {
+                if !ident[k] {
+                    unseen = Some(names[k].clone());
+                    continue;
+                }
+                let f = if angle { QUALITY_LEVER_MM * 1e-3 } else { 1.0 };
+                let u = d.cov_unit[(k, k)].max(0.0).sqrt() * f;
+                if u > worst.1 {
+                    worst = (names[k].clone(), u);
+                }
+            }
+            match unseen {
+                Some(name) => AxisQuality {
+                    axis: *axis,
+                    quality: 0.0,
+                    worst: name,
+                },
+                None => AxisQuality {
+                    axis: *axis,
+                    quality: if worst.1 > 0.0 { 1.0 / worst.1 } else { 0.0 },
+                    worst: worst.0,
+                },
+            }
+        })
+        .collect();
+    Identifiability {
+        observations,
+        parameters: n,
+        free: d.free,
+        rank: d.rank,
+        condition: d.condition,
+        constraints: constraints.to_vec(),
+        params: names
+            .iter()
+            .zip(&ident)
+            .map(|(n, &i)| ParamStatus {
+                name: n.clone(),
+                identifiable: i,
+            })
+            .collect(),
+        null_combinations,
+        identifiable_combinations,
+        pose_quality,
+    }
+}
+
+/// Seed 003 section 4: among the columns `candidates` of a design `j`
+/// (rows: measurements), every set of `size` columns that, together with
+/// the always-included columns `fixed` (nuisance), has full column rank.
+/// Returns the sets (as indices into `candidates`) and the number tried.
+pub fn identifiable_sets(
+    j: &DMatrix<f64>,
+    candidates: &[usize],
+    fixed: &[usize],
+    size: usize,
+) -> (Vec<Vec<usize>>, usize) {
+    let mut out = Vec::new();
+    let mut tried = 0;
+    let n = candidates.len();
+    if size > n {
+        return (out, 0);
+    }
+    let mut idx: Vec<usize> = (0..size).collect();
+    loop {
+        tried += 1;
+        let cols: Vec<usize> = fixed
+            .iter()
+            .copied()
+            .chain(idx.iter().map(|&i| candidates[i]))
+            .collect();
+        let mut m = DMatrix::from_fn(j.nrows(), cols.len(), |r, c| j[(r, cols[c])]);
+        for mut col in m.column_iter_mut() {
+            let nrm = col.norm();
+            if nrm > 0.0 {
+                col /= nrm;
+            }
+        }
+        let sv = m.svd(false, false).singular_values;
+        let max = sv.max();
+        if sv.iter().all(|&s| s > 1e-9 * max) {
+            out.push(idx.clone());
+        }
+        // Next combination.
+        let mut i = size;
+        loop {
+            if i == 0 {
+                return (out, tried);
+            }
+            i -= 1;
+            if idx[i] != i + n - size {
+                break;
+            }
+            if i == 0 && idx[0] == n - size {
+                return (out, tried);
+            }
+        }
+        idx[i] += 1;
+        for k in i + 1..size {
+            idx[k] = idx[k - 1] + 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn combinations_read_like_the_symbols() {
+        let names: Vec<String> = ["dy_BY", "dy_CB", "EX0B"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        assert_eq!(combination(&[0.7, -0.7, 0.0], &names), "dy_BY - dy_CB");
+        assert_eq!(
+            combination(&[0.5, 1.0, 1e-9], &names),
+            "0.5000 dy_BY + dy_CB"
+        );
+    }
+
+    #[test]
+    fn enumerates_the_sets_of_full_rank() {
+        // Columns 0 and 1 are the same: sets {0,2} and {1,2} work, {0,1} not.
+        let j = DMatrix::from_row_slice(3, 3, &[1., 1., 0., 2., 2., 1., 0., 0., 1.]);
+        let (sets, tried) = identifiable_sets(&j, &[0, 1, 2], &[], 2);
+        assert_eq!(tried, 3);
+        assert_eq!(sets, vec![vec![0, 2], vec![1, 2]]);
+    }
+}

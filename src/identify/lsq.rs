@@ -1,0 +1,456 @@
+//! The pure numerical core of every identification: nonlinear least
+//! squares by Gauss-Newton with a Levenberg-Marquardt fallback, in the
+//! basis of the singular value decomposition of the column-scaled Jacobian
+//! (faer), optionally restricted to the subspace `x = x0 + N z` that linear
+//! equality constraints leave free.
+//!
+//! Column scaling (each column of `J N` to unit length) makes the steps,
+//! the rank decision and the condition number independent of units. A
+//! direction whose scaled singular value falls below `rank_rtol` times the
+//! largest is not identifiable: the step never moves along it (minimum-norm
+//! steps), and the covariance and [`Design::null`] report it. Everything
+//! here works on plain slices and matrices; the callers in `identify` give
+//! it meaning.
+
+use faer::Mat;
+use nalgebra::{DMatrix, DVector};
+
+/// A least-squares problem: residuals and their Jacobian at a point.
+pub trait Problem {
+    /// Number of residuals.
+    fn n_residuals(&self) -> usize;
+    /// Number of parameters.
+    fn n_params(&self) -> usize;
+    /// Writes the residuals at `x` into `r` and, when asked, the Jacobian
+    /// `d r / d x` into `jac` (`n_residuals x n_params`).
+    fn eval(&self, x: &[f64], r: &mut [f64], jac: Option<&mut Mat<f64>>);
+}
+
+/// Options of [`solve`].
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// Maximum number of accepted steps.
+    pub max_iter: usize,
+    /// Relative singular value below which a direction is not identifiable.
+    pub rank_rtol: f64,
+    /// Stop when the scaled step is below this (relative).
+    pub xtol: f64,
+    /// Stop when the cost decreases by less than this (relative).
+    pub ftol: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            max_iter: 50,
+            rank_rtol: 1e-9,
+            xtol: 1e-12,
+            ftol: 1e-14,
+        }
+    }
+}
+
+/// The solution of [`solve`].
+#[derive(Clone, Debug)]
+pub struct Solution {
+    /// The parameters.
+    pub x: Vec<f64>,
+    /// Residuals at `x`.
+    pub residuals: Vec<f64>,
+    /// Jacobian at `x`.
+    pub jacobian: Mat<f64>,
+    /// Sum of squared residuals.
+    pub cost: f64,
+    /// Accepted steps.
+    pub iterations: usize,
+    /// Whether a stopping test (rather than `max_iter`) ended the run.
+    pub converged: bool,
+}
+
+fn cost(r: &[f64]) -> f64 {
+    r.iter().map(|v| v * v).sum()
+}
+
+/// `J N` (or `J` when there is no basis).
+fn reduce(j: &Mat<f64>, basis: Option<&DMatrix<f64>>) -> Mat<f64> {
+    match basis {
+        None => j.clone(),
+        Some(n) => {
+            let (m, p) = (j.nrows(), n.ncols());
+            let mut out = Mat::<f64>::zeros(m, p);
+            for c in 0..p {
+                for k in 0..n.nrows() {
+                    let w = n[(k, c)];
+                    if w != 0.0 {
+                        for r in 0..m {
+                            out[(r, c)] += j[(r, k)] * w;
+                        }
+                    }
+                }
+            }
+            out
+        }
+    }
+}
+
+/// The scaled SVD of a (reduced) Jacobian.
+struct ScaledSvd {
+    scale: Vec<f64>,
+    u: Mat<f64>,
+    s: Vec<f64>,
+    v: Mat<f64>,
+    rank: usize,
+}
+
+fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
+    let (m, p) = (jz.nrows(), jz.ncols());
+    let mut scale = vec![1.0; p];
+    let mut js = jz.clone();
+    for (c, sc) in scale.iter_mut().enumerate() {
+        let nrm = (0..m).map(|r| jz[(r, c)].powi(2)).sum::<f64>().sqrt();
+        if nrm > 0.0 {
+            *sc = nrm;
+            for r in 0..m {
+                js[(r, c)] /= nrm;
+            }
+        }
+    }
+    if m < p {
+        // Pad with zero rows so that the thin SVD has p singular values.
+        let mut padded = Mat::<f64>::zeros(p, p);
+        for r in 0..m {
+            for c in 0..p {
+                padded[(r, c)] = js[(r, c)];
+            }
+        }
+        js = padded;
+    }
+    let svd = js.thin_svd().expect("SVD of a finite matrix converges");
+    let sd = svd.S().column_vector();
+    let s: Vec<f64> = (0..sd.nrows()).map(|i| sd[i]).collect();
+    let smax = s.first().copied().unwrap_or(0.0);
+    let rank = s.iter().filter(|&&x| x > rtol * smax && x > 0.0).count();
+    let u = svd.U().to_owned();
+    let v = svd.V().to_owned();
+    // Keep only the rows of U that belong to real residuals.
+    let u = if m < p {
+        Mat::from_fn(m, u.ncols(), |r, c| u[(r, c)])
+    } else {
+        u
+    };
+    ScaledSvd {
+        scale,
+        u,
+        s,
+        v,
+        rank,
+    }
+}
+
+/// The step `dz` minimising `|r + J N dz|^2 + lambda |D dz|^2` within the
+/// identifiable subspace.
+fn step(sv: &ScaledSvd, r: &[f64], lambda: f64) -> Vec<f64> {
+    let p = sv.scale.len();
+    let mut ds = vec![0.0; p];
+    for k in 0..sv.rank {
+        let utr: f64 = (0..r.len()).map(|i| sv.u[(i, k)] * r[i]).sum();
+        let s = sv.s[k];
+        let f = s / (s * s + lambda);
+        for (j, d) in ds.iter_mut().enumerate() {
+            *d -= sv.v[(j, k)] * f * utr;
+        }
+    }
+    ds.iter().zip(&sv.scale).map(|(d, s)| d / s).collect()
+}
+
+fn expand(x0: &[f64], dz: &[f64], basis: Option<&DMatrix<f64>>) -> Vec<f64> {
+    match basis {
+        None => x0.iter().zip(dz).map(|(a, b)| a + b).collect(),
+        Some(n) => {
+            let mut x = x0.to_vec();
+            for (c, d) in dz.iter().enumerate() {
+                for (k, xk) in x.iter_mut().enumerate() {
+                    *xk += n[(k, c)] * d;
+                }
+            }
+            x
+        }
+    }
+}
+
+/// Minimises the sum of squared residuals from `x0`, moving only within
+/// `x0 + span(basis)` when a basis is given (columns: free directions).
+pub fn solve<P: Problem + ?Sized>(
+    problem: &P,
+    x0: &[f64],
+    basis: Option<&DMatrix<f64>>,
+    opts: &Options,
+) -> Solution {
+    let (m, n) = (problem.n_residuals(), problem.n_params());
+    assert_eq!(x0.len(), n);
+    let mut x = x0.to_vec();
+    let mut r = vec![0.0; m];
+    let mut jac = Mat::<f64>::zeros(m, n);
+    problem.eval(&x, &mut r, Some(&mut jac));
+    let mut c = cost(&r);
+    let mut lambda = 0.0;
+    let mut iterations = 0;
+    let mut converged = false;
+    let mut trial_r = vec![0.0; m];
+    'outer: while iterations < opts.max_iter {
+        let sv = scaled_svd(&reduce(&jac, basis), opts.rank_rtol);
+        let mut tries = 0;
+        loop {
+            let dz = step(&sv, &r, lambda);
+            let scaled_norm: f64 = dz
+                .iter()
+                .zip(&sv.scale)
+                .map(|(d, s)| (d * s).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let xn = expand(&x, &dz, basis);
+            problem.eval(&xn, &mut trial_r, None);
+            let cn = cost(&trial_r);
+            if cn.is_finite() && cn <= c {
+                let reduction = c - cn;
+                x = xn;
+                std::mem::swap(&mut r, &mut trial_r);
+                c = cn;
+                iterations += 1;
+                lambda = if lambda > 0.0 { lambda * 0.1 } else { 0.0 };
+                problem.eval(&x, &mut r, Some(&mut jac));
+                let xnorm: f64 = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if scaled_norm <= opts.xtol * (1.0 + xnorm)
+                    || reduction <= opts.ftol * c.max(1e-300)
+                {
+                    converged = true;
+                    break 'outer;
+                }
+                break;
+            }
+            // The Gauss-Newton step failed: damp (Levenberg-Marquardt).
+            tries += 1;
+            if tries > 40 {
+                converged = true;
+                break 'outer;
+            }
+            let smax = sv.s.first().copied().unwrap_or(1.0);
+            lambda = if lambda == 0.0 {
+                1e-6 * smax * smax
+            } else {
+                lambda * 10.0
+            };
+        }
+    }
+    Solution {
+        x,
+        residuals: r,
+        jacobian: jac,
+        cost: c,
+        iterations,
+        converged,
+    }
+}
+
+/// What the Jacobian says about the parameters: rank, conditioning, the
+/// unit-noise covariance in the identifiable subspace and the directions
+/// no measurement sees.
+#[derive(Clone, Debug)]
+pub struct Design {
+    /// Singular values of the column-scaled (and constraint-reduced)
+    /// design, largest first.
+    pub singular_values: Vec<f64>,
+    /// Number of identifiable directions.
+    pub rank: usize,
+    /// Number of free directions (parameters minus constraints).
+    pub free: usize,
+    /// Largest over smallest kept singular value.
+    pub condition: f64,
+    /// `(J^T J)^+` in parameter space, restricted to the identifiable
+    /// subspace (multiply by the residual variance).
+    pub cov_unit: DMatrix<f64>,
+    /// Orthonormal basis (columns) of the parameter directions that change
+    /// no residual and respect the constraints.
+    pub null: DMatrix<f64>,
+}
+
+/// Analyses a Jacobian (with optional constraint basis).
+pub fn design(jac: &Mat<f64>, basis: Option<&DMatrix<f64>>, rtol: f64) -> Design {
+    let n = jac.ncols();
+    let jz = reduce(jac, basis);
+    let p = jz.ncols();
+    let sv = scaled_svd(&jz, rtol);
+    let nb = match basis {
+        Some(b) => b.clone(),
+        None => DMatrix::identity(n, n),
+    };
+    // x-space direction of scaled z-direction v: N D^-1 v.
+    let to_x = |k: usize, sigma_pow: i32| -> DVector<f64> {
+        let z = DVector::from_fn(p, |j, _| sv.v[(j, k)] / sv.scale[j]);
+        let s = if sigma_pow == 0 {
+            1.0
+        } else {
+            sv.s[k].powi(sigma_pow)
+        };
+        &nb * z * s
+    };
+    let mut cov = DMatrix::zeros(n, n);
+    for k in 0..sv.rank {
+        let w = to_x(k, -1);
+        cov += &w * w.transpose();
+    }
+    let mut nulls: Vec<DVector<f64>> = (sv.rank..p).map(|k| to_x(k, 0)).collect();
+    // Orthonormalise the null directions in x-space.
+    let mut basis_out: Vec<DVector<f64>> = Vec::new();
+    for v in nulls.iter_mut() {
+        let mut w = v.clone();
+        for b in &basis_out {
+            w -= b * b.dot(&w);
+        }
+        let nrm = w.norm();
+        if nrm > 1e-12 {
+            basis_out.push(w / nrm);
+        }
+    }
+    let null = if basis_out.is_empty() {
+        DMatrix::zeros(n, 0)
+    } else {
+        DMatrix::from_columns(&basis_out)
+    };
+    let smax = sv.s.first().copied().unwrap_or(0.0);
+    let smin = if sv.rank > 0 { sv.s[sv.rank - 1] } else { 0.0 };
+    Design {
+        singular_values: sv.s.clone(),
+        rank: sv.rank,
+        free: p,
+        condition: if smin > 0.0 {
+            smax / smin
+        } else {
+            f64::INFINITY
+        },
+        cov_unit: cov,
+        null,
+    }
+}
+
+/// Orthonormal basis (columns) of `{x : C x = 0}` for a constraint matrix
+/// `C` (rows: constraints).
+pub fn constraint_basis(c: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = c.ncols();
+    if c.nrows() == 0 {
+        return DMatrix::identity(n, n);
+    }
+    // Null space of C from the SVD of C^T C (n x n, small).
+    let ctc = c.transpose() * c;
+    let e = ctc.symmetric_eigen();
+    let max = e.eigenvalues.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+    let cols: Vec<DVector<f64>> = (0..n)
+        .filter(|&k| e.eigenvalues[k].abs() <= 1e-10 * max.max(1e-300))
+        .map(|k| e.eigenvectors.column(k).into_owned())
+        .collect();
+    if cols.is_empty() {
+        DMatrix::zeros(n, 0)
+    } else {
+        DMatrix::from_columns(&cols)
+    }
+}
+
+/// Converts a faer matrix into nalgebra's.
+pub fn to_nalgebra(m: &Mat<f64>) -> DMatrix<f64> {
+    DMatrix::from_fn(m.nrows(), m.ncols(), |r, c| m[(r, c)])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Fits y = a * exp(b t) (nonlinear) and checks against the known answer.
+    struct Exp {
+        t: Vec<f64>,
+        y: Vec<f64>,
+    }
+
+    impl Problem for Exp {
+        fn n_residuals(&self) -> usize {
+            self.t.len()
+        }
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn eval(&self, x: &[f64], r: &mut [f64], jac: Option<&mut Mat<f64>>) {
+            for (i, (&t, &y)) in self.t.iter().zip(&self.y).enumerate() {
+                r[i] = x[0] * (x[1] * t).exp() - y;
+            }
+            if let Some(j) = jac {
+                for (i, &t) in self.t.iter().enumerate() {
+                    j[(i, 0)] = (x[1] * t).exp();
+                    j[(i, 1)] = x[0] * t * (x[1] * t).exp();
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn converges_from_far_on_a_nonlinear_fit() {
+        let t: Vec<f64> = (0..20).map(|i| i as f64 * 0.1).collect();
+        let y = t.iter().map(|t| 2.5 * (-1.3 * t).exp()).collect();
+        let p = Exp { t, y };
+        let s = solve(&p, &[1.0, 0.5], None, &Options::default());
+        assert!(s.converged);
+        assert!(
+            (s.x[0] - 2.5).abs() < 1e-10 && (s.x[1] + 1.3).abs() < 1e-10,
+            "{:?}",
+            s.x
+        );
+    }
+
+    /// r = A x - b with a column that duplicates another: one direction is
+    /// not identifiable and the step leaves it alone.
+    struct Lin {
+        a: DMatrix<f64>,
+        b: DVector<f64>,
+    }
+
+    impl Problem for Lin {
+        fn n_residuals(&self) -> usize {
+            self.a.nrows()
+        }
+        fn n_params(&self) -> usize {
+            self.a.ncols()
+        }
+        fn eval(&self, x: &[f64], r: &mut [f64], jac: Option<&mut Mat<f64>>) {
+            let rv = &self.a * DVector::from_column_slice(x) - &self.b;
+            r.copy_from_slice(rv.as_slice());
+            if let Some(j) = jac {
+                for i in 0..self.a.nrows() {
+                    for k in 0..self.a.ncols() {
+                        j[(i, k)] = self.a[(i, k)];
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rank_deficient_directions_are_reported_and_left_alone() {
+        let a = DMatrix::from_row_slice(4, 3, &[1., 1., 0., 2., 2., 1., 0., 0., 1., 1., 1., 3.]);
+        let b = DVector::from_column_slice(&[2., 5., 1., 5.]);
+        let p = Lin { a: a.clone(), b };
+        let s = solve(&p, &[0.0; 3], None, &Options::default());
+        // x0 + x1 is determined (= 2), x0 - x1 is not and stays at 0.
+        assert!((s.x[0] + s.x[1] - 2.0).abs() < 1e-12 && (s.x[0] - s.x[1]).abs() < 1e-12);
+        let d = design(&s.jacobian, None, 1e-9);
+        assert_eq!((d.rank, d.free), (2, 3));
+        let v = d.null.column(0);
+        assert!((v[0] + v[1]).abs() < 1e-12 && v[2].abs() < 1e-12);
+        // With the constraint x0 = x1 the problem becomes fully determined.
+        let c = DMatrix::from_row_slice(1, 3, &[1.0, -1.0, 0.0]);
+        let nb = constraint_basis(&c);
+        let d = design(&s.jacobian, Some(&nb), 1e-9);
+        assert_eq!((d.rank, d.free), (2, 2));
+        // Covariance against the closed form (A^T A)^-1 on the subspace.
+        let an = &a * &nb;
+        let closed = &nb * (an.transpose() * &an).try_inverse().unwrap() * nb.transpose();
+        assert!((d.cov_unit - closed).norm() < 1e-10);
+    }
+}

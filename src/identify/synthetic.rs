@@ -1,0 +1,260 @@
+//! Synthetic measurements from the foundation's model, for tests, the
+//! Monte-Carlo uncertainty and benchmarks until the simulator exists.
+//!
+//! They are exact for what the foundation models: the tool (or probe)
+//! point of every plan point is the model's exact pose at that point's own
+//! commanded position (so location errors, maps, drift and linear-axis
+//! errors all act where they act), the machined face there is the face
+//! through that point turned by the pose's `rTw^-1 rTw*`, and the CMM (or
+//! the probe) measures along the nominal normal, with Gaussian noise along
+//! it. What they leave out is what only the simulator can do: the tool's
+//! shape sweeping the surface, probe pre-travel, tool deflection.
+//!
+//! The module also builds the plan point sets of the tests the planner will
+//! write (a stepped-square-like piece, a calibration sphere), so that
+//! identification can be exercised before the planner lands.
+
+use std::collections::HashMap;
+
+use nalgebra::{Isometry3, Point3, Vector3};
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+
+use crate::formats::measured::MeasuredPoint;
+use crate::formats::points::{PlanPoint, PlanPoints};
+use crate::kinematics::{Axes, Kinematics};
+use crate::model::{Context, Model};
+
+fn context(model: &Model, p: &PlanPoint, commanded: Vector3<f64>, minutes: f64) -> Context {
+    let _ = model;
+    Context {
+        axes: Axes {
+            xyz: commanded,
+            tilt: p.tilt,
+            c: p.c,
+        },
+        seq: p.seq as f64,
+        minutes,
+        approach: None,
+    }
+}
+
+fn noise<R: Rng + ?Sized>(sigma_um: f64, rng: &mut R) -> f64 {
+    if sigma_um > 0.0 {
+        Normal::new(0.0, sigma_um * 1e-3).unwrap().sample(rng)
+    } else {
+        0.0
+    }
+}
+
+/// A machined piece measured on a CMM: the measured point of each plan
+/// point, in the CMM frame (`placement`: W to CMM), labelled.
+pub fn machined<R: Rng + ?Sized>(
+    model: &Model,
+    theta: &[f64],
+    plan: &PlanPoints,
+    minutes: &HashMap<String, f64>,
+    noise_um: f64,
+    placement: &Isometry3<f64>,
+    rng: &mut R,
+) -> Vec<MeasuredPoint> {
+    let k = &model.kin;
+    plan.points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let nominal = k.nominal_table_transform(p.tilt, p.c);
+            let commanded = (nominal * Point3::from(p.p)).coords;
+            let min = minutes.get(&p.pose).copied().unwrap_or(0.0);
+            let ctx = context(model, p, commanded, min);
+            let pert = model.perturbation(theta, &ctx);
+            let tip = k.forward(&ctx.axes, &pert).tip;
+            let m = k.table_transform(p.tilt, p.c, &pert).inverse() * nominal;
+            let nm = m.rotation * p.n;
+            let s = nm.dot(&(tip - p.p)) / nm.dot(&p.n);
+            let w = p.p + p.n * (s + noise(noise_um, rng));
+            MeasuredPoint {
+                label: p.label.clone(),
+                p: (placement * Point3::from(w)).coords,
+                line: i + 1,
+            }
+        })
+        .collect()
+}
+
+/// On-machine probing of plane faces: the contact point of each plan point
+/// in W at rotary zero (the probe's commanded position, ball radius
+/// applied), the piece set up at `setup` (W to where it really sits).
+pub fn probed<R: Rng + ?Sized>(
+    model: &Model,
+    theta: &[f64],
+    plan: &PlanPoints,
+    minutes: &HashMap<String, f64>,
+    noise_um: f64,
+    setup: &Isometry3<f64>,
+    rng: &mut R,
+) -> Vec<MeasuredPoint> {
+    let k = &model.kin;
+    plan.points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let nominal = k.nominal_table_transform(p.tilt, p.c);
+            let q0 = (nominal * Point3::from(p.p)).coords;
+            let d = nominal.rotation * p.n;
+            let min = minutes.get(&p.pose).copied().unwrap_or(0.0);
+            let ctx = context(model, p, q0, min);
+            let pert = model.perturbation(theta, &ctx);
+            let t = k.table_transform(p.tilt, p.c, &pert) * setup;
+            // The probe's actual position is its commanded one plus the
+            // linear-axis error there: contact when that reaches the face.
+            let face = (t * Point3::from(p.p)).coords - pert.linear();
+            let nf = t.rotation * p.n;
+            let s = nf.dot(&(face - q0)) / nf.dot(&d);
+            MeasuredPoint {
+                label: p.label.clone(),
+                p: q0 + d * (s + noise(noise_um, rng)),
+                line: i + 1,
+            }
+        })
+        .collect()
+}
+
+/// On-machine probing of a calibration sphere of radius `radius` (contact
+/// points, ball radius applied) whose centre sits at `centre` in W.
+#[allow(clippy::too_many_arguments)]
+pub fn probed_sphere<R: Rng + ?Sized>(
+    model: &Model,
+    theta: &[f64],
+    plan: &PlanPoints,
+    centre: &Vector3<f64>,
+    radius: f64,
+    noise_um: f64,
+    rng: &mut R,
+) -> Vec<MeasuredPoint> {
+    let k = &model.kin;
+    plan.points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let nominal = k.nominal_table_transform(p.tilt, p.c);
+            let q0 = (nominal * Point3::from(p.p)).coords;
+            let d = nominal.rotation * p.n;
+            let ctx = context(model, p, q0, 0.0);
+            let pert = model.perturbation(theta, &ctx);
+            let c = (k.table_transform(p.tilt, p.c, &pert) * Point3::from(*centre)).coords
+                - pert.linear();
+            // |q0 + s d - c| = r, the root nearest the nominal contact.
+            let w = q0 - c;
+            let b = w.dot(&d);
+            let disc = (b * b - (w.norm_squared() - radius * radius)).max(0.0);
+            let s1 = -b + disc.sqrt();
+            let s2 = -b - disc.sqrt();
+            let s = if s1.abs() < s2.abs() { s1 } else { s2 };
+            MeasuredPoint {
+                label: p.label.clone(),
+                p: q0 + d * (s + noise(noise_um, rng)),
+                line: i + 1,
+            }
+        })
+        .collect()
+}
+
+fn push_pose(
+    out: &mut Vec<PlanPoint>,
+    pose: &str,
+    seq: u32,
+    tilt: f64,
+    c: f64,
+    pts: &[(Vector3<f64>, Vector3<f64>)],
+) {
+    for (k, (p, n)) in pts.iter().enumerate() {
+        out.push(PlanPoint {
+            label: format!("{pose}_{:02}", k + 1),
+            pose: pose.to_string(),
+            seq,
+            tilt,
+            c,
+            p: *p,
+            n: n.normalize(),
+        });
+    }
+}
+
+/// A stepped-square-like piece (seed 001 fig. 2-4) for a table-table
+/// machine: at every tilt in `tilts` and C in `cs`, a square step of
+/// half-width `half` mm milled with X and Y moves only, its centre `h` mm
+/// from the pivot along the tool axis (each pose at its own height, so the
+/// steps do not overlap). Each step has four floor points (normal: the tool
+/// axis) and two points on each of its four walls (normals: machine X and
+/// Y seen from W), twelve points, observing all six motions of the pose.
+pub fn stepped_square(kin: &Kinematics, tilts: &[f64], cs: &[f64], half: f64) -> PlanPoints {
+    let mut out = Vec::new();
+    let mut seq = 0;
+    let letter = kin.machine().tilt.letter;
+    for &t in tilts {
+        for &c in cs {
+            let inv = kin.nominal_table_transform(t, c).inverse();
+            let u = inv.rotation * Vector3::z();
+            let e1 = inv.rotation * Vector3::x();
+            let e2 = inv.rotation * Vector3::y();
+            let h = 60.0 - 2.5 * seq as f64;
+            let centre = (inv * Point3::new(0.0, 0.0, h)).coords;
+            let mut pts = Vec::new();
+            for (a, b) in [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)] {
+                pts.push((
+                    centre + e1 * (a * (half + 6.0)) + e2 * (b * (half + 6.0)),
+                    u,
+                ));
+            }
+            for (dir, side) in [(e1, e2), (-e1, e2), (e2, e1), (-e2, e1)] {
+                for s in [-0.6, 0.6] {
+                    pts.push((centre + dir * half + side * (s * half) + u * 2.5, dir));
+                }
+            }
+            let pose = format!("{letter}{}C{}", t as i64, c as i64).replace('-', "m");
+            push_pose(&mut out, &pose, seq, t, c, &pts);
+            seq += 1;
+        }
+    }
+    PlanPoints {
+        tilt_letter: letter,
+        points: out,
+    }
+}
+
+/// A calibration sphere of radius `radius` at `centre` (W), probed at
+/// five points (X+, X-, Y+, Y- at its equator and Z- on top, approach
+/// directions in the machine frame) at every pose in `poses` ((tilt, C)).
+pub fn sphere_plan(
+    kin: &Kinematics,
+    centre: &Vector3<f64>,
+    radius: f64,
+    poses: &[(f64, f64)],
+) -> PlanPoints {
+    let mut out = Vec::new();
+    let letter = kin.machine().tilt.letter;
+    for (seq, &(t, c)) in poses.iter().enumerate() {
+        let nominal = kin.nominal_table_transform(t, c);
+        let inv = nominal.inverse();
+        let cm = (nominal * Point3::from(*centre)).coords;
+        let mut pts = Vec::new();
+        // Outward normals (machine frame): the probe approaches along -n.
+        for d in [
+            -Vector3::x(),
+            Vector3::x(),
+            -Vector3::y(),
+            Vector3::y(),
+            Vector3::z(),
+        ] {
+            let pm = cm + d * radius;
+            pts.push(((inv * Point3::from(pm)).coords, inv.rotation * d));
+        }
+        let pose = format!("{letter}{}C{}", t as i64, c as i64).replace('-', "m");
+        push_pose(&mut out, &pose, seq as u32, t, c, &pts);
+    }
+    PlanPoints {
+        tilt_letter: letter,
+        points: out,
+    }
+}
