@@ -30,6 +30,7 @@ pub mod plan;
 pub mod post;
 pub mod probing;
 pub mod source;
+pub mod uncertainty;
 
 pub use errorfile::ErrorFile;
 pub use kinematics::{Axes, Kinematics, Perturbation, ToolPose};

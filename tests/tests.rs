@@ -10,6 +10,7 @@ mod compensate_cli;
 mod contour;
 mod errorfile;
 mod identifiability;
+mod identify;
 mod kinematics;
 mod machine;
 mod nc;

@@ -65,3 +65,23 @@ pub fn random_axes(m: &Machine, r: &mut StdRng) -> Axes {
 pub fn tempdir() -> tempfile::TempDir {
     tempfile::tempdir().unwrap()
 }
+
+/// A random rigid placement on a CMM: any rotation, offset up to `offset` mm.
+#[allow(dead_code)]
+pub fn random_placement(r: &mut StdRng, offset: f64) -> nalgebra::Isometry3<f64> {
+    let axis = nalgebra::Vector3::new(
+        r.random_range(-1.0..1.0),
+        r.random_range(-1.0..1.0),
+        r.random_range(-1.0..1.0),
+    )
+    .normalize();
+    let angle = r.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+    let t = nalgebra::Vector3::new(
+        r.random_range(-1.0..1.0),
+        r.random_range(-1.0..1.0),
+        r.random_range(-1.0..1.0),
+    )
+    .normalize()
+        * offset;
+    nalgebra::Isometry3::new(t, axis * angle)
+}

@@ -1,0 +1,160 @@
+//! Uncertainty of the identified parameters.
+//!
+//! Every method returns the covariance of its estimate, scaled by the
+//! residuals (`Identification::cov`): what the measurement noise alone
+//! allows. The systematic contributors of the seeds (linear-axis errors,
+//! squareness, setup) only show in a Monte-Carlo study: draw a machine that
+//! has the identified errors plus random contributors ([`contributors`]),
+//! simulate the test, identify again, and take the spread of the estimates
+//! ([`montecarlo`]). Until the simulator lands, [`synthetic_run`] simulates
+//! with the foundation's model ([`crate::identify::synthetic`]); the
+//! simulator will plug into [`montecarlo::run`] the same way.
+
+pub mod contributors;
+pub mod montecarlo;
+
+use std::collections::HashMap;
+
+use nalgebra::{DMatrix, Isometry3, Vector3};
+use rand::Rng;
+
+use crate::formats::detect::PointSet;
+use crate::formats::manifest::TestKind;
+use crate::formats::points::PlanPoints;
+use crate::identify::forward::RigidPoseMachining;
+use crate::identify::sphere::SphereOptions;
+use crate::identify::{
+    self, Dataset, Identification, IdentifyError, Method, Setup, lsq, synthetic,
+};
+use crate::model::Model;
+
+pub use contributors::{Contributors, Disturbance};
+pub use montecarlo::{McOptions, McResult};
+
+/// Runs one identification method on a dataset.
+pub fn identify_with(
+    method: Method,
+    setup: &Setup,
+    data: &Dataset,
+    sphere: &SphereOptions,
+) -> Result<Identification, IdentifyError> {
+    let opts = lsq::Options::default();
+    match method {
+        Method::Global => {
+            let fm = RigidPoseMachining::new(setup.model.clone())?;
+            identify::global::identify(&fm, setup, data, &opts)
+        }
+        Method::TwoStage => identify::two_stage::identify(setup, data, &opts),
+        Method::Sphere => identify::sphere::identify(setup, data, sphere),
+    }
+}
+
+/// What a synthetic Monte-Carlo run needs to know about the test.
+#[derive(Clone, Debug)]
+pub struct SyntheticTest<'a> {
+    /// The identification whose values are taken as the truth.
+    pub estimate: &'a Identification,
+    /// The parameterisation to identify again.
+    pub setup: &'a Setup,
+    /// The measured dataset (its observed points are simulated).
+    pub data: &'a Dataset,
+    /// The method.
+    pub method: Method,
+    /// Sphere-method options.
+    pub sphere: SphereOptions,
+    /// For a sphere test: the sphere's centre in W and its radius, mm.
+    pub sphere_geometry: Option<(Vector3<f64>, f64)>,
+    /// The contributors.
+    pub contributors: Contributors,
+}
+
+/// The plan restricted to the points that were measured, so a synthetic
+/// run measures what the real one did.
+fn measured_plan(data: &Dataset) -> PlanPoints {
+    PlanPoints {
+        tilt_letter: data.plan.tilt_letter,
+        points: data
+            .obs
+            .iter()
+            .map(|o| data.plan.points[o.plan].clone())
+            .collect(),
+    }
+}
+
+/// One synthetic run: the identified values (non-identifiable ones at
+/// zero) plus one draw of the contributors, simulated with the foundation
+/// model, identified again; returns the estimate (NaN where not
+/// identifiable).
+pub fn synthetic_run<R: Rng + ?Sized>(
+    t: &SyntheticTest<'_>,
+    rng: &mut R,
+) -> Result<Vec<f64>, String> {
+    let est = t.estimate;
+    let kin = &est.model.kin;
+    let d = t.contributors.sample(kin, rng);
+    let mut effects = est.model.effects.clone();
+    effects.extend(d.effects.iter().cloned());
+    let truth = Model::new(kin.clone(), effects);
+    let mut theta: Vec<f64> = est
+        .theta
+        .iter()
+        .enumerate()
+        .map(|(i, v)| if est.identifiable(i) { *v } else { 0.0 })
+        .collect();
+    theta.extend_from_slice(&d.theta);
+    let plan = measured_plan(t.data);
+    let minutes: HashMap<String, f64> = t
+        .data
+        .poses
+        .iter()
+        .map(|p| (p.id.clone(), p.minutes))
+        .collect();
+    let points = match (t.data.kind, t.method) {
+        (TestKind::Probing, Method::Sphere) => {
+            let (c, r) = t
+                .sphere_geometry
+                .ok_or("a sphere run needs the sphere's position and radius")?;
+            synthetic::probed_sphere(&truth, &theta, &plan, &c, r, d.noise_um, rng)
+        }
+        (TestKind::Probing, _) => {
+            synthetic::probed(&truth, &theta, &plan, &minutes, d.noise_um, &d.setup, rng)
+        }
+        (TestKind::Machining, _) => {
+            let placement = est.placement.unwrap_or_else(Isometry3::identity);
+            synthetic::machined(&truth, &theta, &plan, &minutes, d.noise_um, &placement, rng)
+        }
+    };
+    let set = PointSet {
+        format: "synthetic",
+        points,
+        labeled: true,
+        nominals: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let mins: HashMap<String, (f64, f64)> =
+        minutes.iter().map(|(k, v)| (k.clone(), (*v, *v))).collect();
+    let data = identify::data::join(
+        &t.data.plan,
+        t.data.kind,
+        &mins,
+        &[("synthetic".into(), set)],
+        &|p| p.p,
+    )
+    .map_err(|e| e.to_string())?;
+    let r = identify_with(t.method, t.setup, &data, &t.sphere).map_err(|e| e.to_string())?;
+    Ok((0..r.theta.len())
+        .map(|i| {
+            if r.identifiable(i) {
+                r.theta[i]
+            } else {
+                f64::NAN
+            }
+        })
+        .collect())
+}
+
+/// The Cramér-Rao bound of the parameters for noise `sigma_um` per point:
+/// the covariance of an efficient estimator, `sigma^2 (J^T J)^+`.
+pub fn cramer_rao(est: &Identification, sigma_um: f64) -> DMatrix<f64> {
+    &est.cov_unit * (sigma_um * sigma_um)
+}
