@@ -29,6 +29,7 @@ pub mod placement;
 pub mod plan;
 pub mod post;
 pub mod probing;
+pub mod report;
 pub mod source;
 pub mod uncertainty;
 

@@ -1,0 +1,437 @@
+//! The `--report DIR` output of `analyze`: an HTML page with SVG plots (the
+//! measured deviations of every pose magnified, the location errors and the
+//! error maps against angle with their error bars, the residuals) and a
+//! `.glb` of the measured points with the deviations magnified and
+//! coloured. Every file is written atomically.
+
+pub mod glb;
+pub mod plots;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Point3, Vector3};
+
+use crate::errorfile::ErrorFile;
+use crate::formats::manifest::TestKind;
+use crate::identify::{Dataset, Identification};
+use crate::io::{OutputError, write_atomic};
+use crate::kinematics::symbols::Unit;
+use crate::model::Effect;
+use crate::uncertainty::McResult;
+use glb::ShownPoint;
+use plots::ViewPoint;
+
+/// What goes into a report.
+pub struct ReportInput<'a> {
+    /// Page title (test and piece).
+    pub title: String,
+    /// The measurements.
+    pub data: &'a Dataset,
+    /// The identification.
+    pub est: &'a Identification,
+    /// The uncertainties reported (Monte Carlo or covariance).
+    pub u: Vec<Option<f64>>,
+    /// The Monte-Carlo study, if run.
+    pub mc: Option<&'a McResult>,
+    /// The error file written.
+    pub error_file: &'a ErrorFile,
+}
+
+/// Why a report could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// Writing failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// A plot failed.
+    #[error("plot {0}: {1}")]
+    Plot(String, String),
+}
+
+/// Each observation's nominal point, normal and measured deviation along
+/// the normal (um), in the frame the piece is drawn in: W for a machined
+/// piece (through the identified placement), the machine frame for
+/// probing.
+pub fn deviations(data: &Dataset, est: &Identification) -> Vec<ShownPoint> {
+    let kin = &est.model.kin;
+    (0..data.obs.len())
+        .map(|k| {
+            let p = data.point(k);
+            let m = data.obs[k].m;
+            match data.kind {
+                TestKind::Machining => {
+                    let w = match &est.placement {
+                        Some(pl) => (pl.inverse() * Point3::from(m)).coords,
+                        None => m,
+                    };
+                    ShownPoint {
+                        nominal: p.p,
+                        normal: p.n,
+                        deviation_um: p.n.dot(&(w - p.p)) * 1e3,
+                    }
+                }
+                TestKind::Probing => {
+                    let t = kin.nominal_table_transform(p.tilt, p.c);
+                    let q = (t * Point3::from(p.p)).coords;
+                    let n = t.rotation * p.n;
+                    ShownPoint {
+                        nominal: q,
+                        normal: n,
+                        deviation_um: n.dot(&(m - q)) * 1e3,
+                    }
+                }
+            }
+        })
+        .collect()
+}
+
+/// A round magnification (1, 2 or 5 times a power of ten) that shows the
+/// largest deviation at about `fraction` of `extent_mm`.
+pub fn magnification(max_dev_um: f64, extent_mm: f64, fraction: f64) -> f64 {
+    if max_dev_um <= 0.0 || extent_mm <= 0.0 {
+        return 1.0;
+    }
+    let raw = fraction * extent_mm / (max_dev_um * 1e-3);
+    let p = 10f64.powf(raw.log10().floor());
+    let m = raw / p;
+    let step = if m >= 5.0 {
+        5.0
+    } else if m >= 2.0 {
+        2.0
+    } else {
+        1.0
+    };
+    (step * p).max(1.0)
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn fmt_opt(u: Option<f64>) -> String {
+    u.map_or("-".into(), |u| format!("{u:.3}"))
+}
+
+/// Writes the report into `dir`; returns the files written.
+pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportError> {
+    let mut files = Vec::new();
+    let put = |name: &str, bytes: &[u8], files: &mut Vec<PathBuf>| -> Result<(), ReportError> {
+        let p = dir.join(name);
+        write_atomic(&p, bytes)?;
+        files.push(p);
+        Ok(())
+    };
+    let est = r.est;
+    let data = r.data;
+    let names = est.model.param_names();
+    let units = est.model.param_units();
+    let plot = |name: &str, res: Result<String, String>| {
+        res.map_err(|e| ReportError::Plot(name.into(), e))
+    };
+
+    // Location errors, lengths and angles apart.
+    let mut figs: Vec<(String, String)> = Vec::new();
+    if let Some(e) = est.model.find("location") {
+        let range = est.model.param_range(e);
+        if let Effect::Location { symbols } = &est.model.effects[e] {
+            for (unit, title) in [
+                (Unit::Um, "location errors: positions"),
+                (Unit::Urad, "location errors: orientations"),
+            ] {
+                let items: Vec<(String, f64, Option<f64>)> = symbols
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, s)| est.model.symbols.location[**s].unit == unit)
+                    .filter(|(k, _)| est.identifiable(range.start + k))
+                    .map(|(k, s)| {
+                        let i = range.start + k;
+                        (
+                            est.model.symbols.location[*s].name.clone(),
+                            est.theta[i],
+                            r.u[i],
+                        )
+                    })
+                    .collect();
+                if !items.is_empty() {
+                    let file = format!("location-{unit}.svg");
+                    put(
+                        &file,
+                        plot(
+                            &file,
+                            plots::values_with_bars(title, &unit.to_string(), &items),
+                        )?
+                        .as_bytes(),
+                        &mut files,
+                    )?;
+                    figs.push((
+                        file,
+                        format!("{title} (error bars: standard uncertainty, k = 1)"),
+                    ));
+                }
+            }
+        }
+    }
+    // Maps against angle.
+    for (ei, e) in est.model.effects.iter().enumerate() {
+        let Effect::Map { symbol, grid } = e else {
+            continue;
+        };
+        let ms = &est.model.symbols.maps[*symbol];
+        let range = est.model.param_range(ei);
+        let tilt = est.model.symbols.tilt;
+        let node = |i: usize| -> Option<plots::MapNode> {
+            let k = range.start + i;
+            est.identifiable(k).then(|| {
+                let a = grid.node_angles(i);
+                (a.last().map_or(0.0, |x| x.1), est.theta[k], r.u[k])
+            })
+        };
+        let rows: Vec<(String, Vec<plots::MapNode>)> = if grid.dims.len() == 1 {
+            vec![(String::new(), (0..grid.len()).filter_map(node).collect())]
+        } else {
+            let nc = grid.dims[1].nodes.len();
+            grid.dims[0]
+                .nodes
+                .iter()
+                .enumerate()
+                .map(|(row, t)| {
+                    (
+                        format!("{tilt} = {t}"),
+                        (0..nc).filter_map(|c| node(row * nc + c)).collect(),
+                    )
+                })
+                .collect()
+        };
+        if rows.iter().all(|r| r.1.is_empty()) {
+            continue;
+        }
+        let x_desc = if grid.dims.len() == 1 {
+            format!("{tilt}, deg")
+        } else {
+            "C, deg".into()
+        };
+        let file = format!("map-{}.svg", ms.name.replace(['(', ')', ','], "_"));
+        put(
+            &file,
+            plot(
+                &file,
+                plots::map_plot(&ms.name, &x_desc, &ms.unit.to_string(), &rows),
+            )?
+            .as_bytes(),
+            &mut files,
+        )?;
+        figs.push((
+            file,
+            format!(
+                "{} against angle (added to the location error; error bars k = 1)",
+                ms.name
+            ),
+        ));
+    }
+    // Deviations of every pose, magnified.
+    let shown = deviations(data, est);
+    let max_dev = shown
+        .iter()
+        .fold(0.0f64, |a, p| a.max(p.deviation_um.abs()));
+    let extent = {
+        let (lo, hi) = shown.iter().fold(
+            (
+                Vector3::repeat(f64::INFINITY),
+                Vector3::repeat(f64::NEG_INFINITY),
+            ),
+            |(lo, hi), p| (lo.inf(&p.nominal), hi.sup(&p.nominal)),
+        );
+        (hi - lo).max()
+    };
+    let mag = magnification(max_dev, extent.max(1.0), 0.08);
+    let kin = &est.model.kin;
+    let mut pose_figs = Vec::new();
+    for pose in &data.poses {
+        let inv = kin.nominal_table_transform(pose.tilt, pose.c).inverse();
+        let (e1, e2, u) = match data.kind {
+            TestKind::Machining => (
+                inv.rotation * Vector3::x(),
+                inv.rotation * Vector3::y(),
+                inv.rotation * Vector3::z(),
+            ),
+            TestKind::Probing => (Vector3::x(), Vector3::y(), Vector3::z()),
+        };
+        let view = |a: &Vector3<f64>, b: &Vector3<f64>| -> Vec<ViewPoint> {
+            pose.obs
+                .iter()
+                .map(|&k| {
+                    let s = &shown[k];
+                    let d = s.normal * (s.deviation_um * 1e-3 * mag);
+                    ViewPoint {
+                        nominal: (s.nominal.dot(a), s.nominal.dot(b)),
+                        shift: (d.dot(a), d.dot(b)),
+                        deviation_um: s.deviation_um,
+                    }
+                })
+                .collect()
+        };
+        let title = format!(
+            "pose {} ({} = {}, C = {}): deviations x{mag}",
+            pose.id, data.plan.tilt_letter, pose.tilt, pose.c
+        );
+        let views = vec![
+            ("along the tool axis (X, Y)".to_string(), view(&e1, &e2)),
+            ("side (X, Z)".to_string(), view(&e1, &u)),
+        ];
+        let file = format!("pose-{}.svg", pose.id);
+        put(
+            &file,
+            plot(&file, plots::pose_plot(&title, &views, max_dev))?.as_bytes(),
+            &mut files,
+        )?;
+        pose_figs.push(file);
+    }
+    // Residuals.
+    let groups: Vec<(String, Vec<(usize, f64)>)> = {
+        let mut i = 0;
+        data.poses
+            .iter()
+            .map(|p| {
+                let v = p
+                    .obs
+                    .iter()
+                    .map(|&k| {
+                        i += 1;
+                        (i - 1, est.residuals.get(k).copied().unwrap_or(f64::NAN))
+                    })
+                    .collect();
+                (p.id.clone(), v)
+            })
+            .collect()
+    };
+    put(
+        "residuals.svg",
+        plot("residuals.svg", plots::residual_plot(&groups, est.sigma_um))?.as_bytes(),
+        &mut files,
+    )?;
+    put("piece.glb", &glb::glb(&shown, mag), &mut files)?;
+
+    // The page.
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}th{{background:#eee}}td.l{{text-align:left}}pre{{background:#f6f6f6;padding:8px}}.grid{{display:flex;flex-wrap:wrap}}.grid img{{width:540px}}</style></head><body>\n<h1>{t}</h1>\n",
+        t = esc(&r.title)
+    );
+    let _ = writeln!(
+        h,
+        "<p>Machine <b>{}</b>, method <b>{}</b>, {} points in {} poses from {}.</p>",
+        esc(&kin.machine().name),
+        est.method,
+        data.obs.len(),
+        data.poses.len(),
+        esc(&data
+            .files
+            .iter()
+            .map(|f| f.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", "))
+    );
+    let _ = writeln!(
+        h,
+        "<h2>What the test identifies</h2>\n<pre>{}</pre>",
+        esc(&est.identifiability.render())
+    );
+    let _ = writeln!(
+        h,
+        "<h2>Results</h2>\n<p>Residual standard deviation {:.3} um ({} degrees of freedom). Uncertainties are standard uncertainties (k = 1){}.</p>",
+        est.sigma_um,
+        est.dof,
+        match r.mc {
+            Some(mc) => format!(" from a Monte-Carlo study of {} runs", mc.runs),
+            None => " from the residual-scaled covariance".into(),
+        }
+    );
+    h.push_str("<table><tr><th>parameter</th><th>value</th><th>u</th><th>unit</th></tr>\n");
+    for i in 0..est.theta.len() {
+        if est.identifiable(i) {
+            let _ = writeln!(
+                h,
+                "<tr><td class=l>{}</td><td>{:.3}</td><td>{}</td><td class=l>{}</td></tr>",
+                esc(&names[i]),
+                est.theta[i],
+                fmt_opt(r.u[i]),
+                units[i]
+            );
+        } else {
+            let _ = writeln!(
+                h,
+                "<tr><td class=l>{}</td><td>not identifiable</td><td></td><td class=l>{}</td></tr>",
+                esc(&names[i]),
+                units[i]
+            );
+        }
+    }
+    h.push_str("</table>\n");
+    if !r.error_file.not_identifiable.is_empty() {
+        h.push_str("<h3>Not identifiable</h3><ul>\n");
+        for n in &r.error_file.not_identifiable {
+            let _ = writeln!(h, "<li><b>{}</b>: {}</li>", esc(&n.symbol), esc(&n.reason));
+        }
+        h.push_str("</ul>\n");
+    }
+    h.push_str("<div class=grid>\n");
+    for (f, cap) in &figs {
+        let _ = writeln!(
+            h,
+            "<figure><img src=\"{f}\" alt=\"{c}\"><figcaption>{c}</figcaption></figure>",
+            c = esc(cap)
+        );
+    }
+    h.push_str("</div>\n");
+    let _ = writeln!(
+        h,
+        "<h2>Measured deviations, magnified x{mag}</h2>\n<p>Dots: nominal points; circles: measured points with the deviation along the normal magnified (blue: into the material, red: proud). The same in 3-D: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>"
+    );
+    for f in &pose_figs {
+        let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
+    }
+    h.push_str("</div>\n<h2>Residuals</h2>\n<img src=\"residuals.svg\" alt=\"residuals\">\n");
+    h.push_str("<table><tr><th>pose</th><th>face</th><th>points</th><th>mean um</th><th>rms um</th><th>max um</th></tr>\n");
+    for row in est.residual_table(data) {
+        let _ = writeln!(
+            h,
+            "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
+            esc(&row.pose),
+            esc(&row.face),
+            row.points,
+            row.mean_um,
+            row.rms_um,
+            row.max_um
+        );
+    }
+    h.push_str("</table>\n");
+    let notes: Vec<&String> = data.warnings.iter().chain(&est.notes).collect();
+    if !notes.is_empty() {
+        h.push_str("<h2>Notes</h2><ul>\n");
+        for n in notes {
+            let _ = writeln!(h, "<li>{}</li>", esc(n));
+        }
+        h.push_str("</ul>\n");
+    }
+    h.push_str("</body></html>\n");
+    put("index.html", h.as_bytes(), &mut files)?;
+    Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn magnification_is_round_and_shows_the_deviation_at_the_fraction() {
+        // 10 um on a 100 mm piece at 8 %: 800 -> 500.
+        assert_eq!(magnification(10.0, 100.0, 0.08), 500.0);
+        assert_eq!(magnification(40.0, 100.0, 0.08), 200.0);
+        assert_eq!(magnification(0.0, 100.0, 0.08), 1.0);
+    }
+}
