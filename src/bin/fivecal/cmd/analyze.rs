@@ -1,17 +1,35 @@
-//! `fivecal analyze` (issue 6): identify errors from measurements. The
-//! `contour` mode (issue 7) lives in `contour.rs`.
+//! `fivecal analyze` (issue 6): identify location errors and error maps,
+//! with their uncertainty, from CMM and probe files. The raw arguments are
+//! validated into one [`Config`] here; everything else is the library's.
+//! The `contour` mode (issue 7) lives in `contour.rs`.
 
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
-
-use super::pending::PendingArgs;
+use fivecal::errorfile::{ErrorFile, Noise};
+use fivecal::formats::detect::{self, Measurement, PointSet};
+use fivecal::formats::heights::SectionHeight;
+use fivecal::formats::manifest::{Manifest, TestKind};
+use fivecal::formats::points::PlanPoints;
+use fivecal::identify::nine_section::NineSection;
+use fivecal::identify::series::Series;
+use fivecal::identify::sphere::{CircleMethod, SphereOptions};
+use fivecal::identify::{self, Dataset, Method, Setup};
+use fivecal::io::{ensure_not_input, write_atomic};
+use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
+use fivecal::{Kinematics, Machine};
+use nalgebra::{Point3, Vector3};
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct AnalyzeCli {
     #[command(subcommand)]
     mode: Option<AnalyzeMode>,
+    // Boxed: the many options would make `Command` lopsided.
     #[command(flatten)]
-    args: AnalyzeArgs,
+    args: Box<AnalyzeArgs>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -21,15 +39,469 @@ enum AnalyzeMode {
     Contour(super::contour::ContourArgs),
 }
 
+/// Identify location errors and error maps from measurements of a plan.
 #[derive(Args, Debug)]
 pub struct AnalyzeArgs {
-    #[command(flatten)]
-    pending: PendingArgs,
+    /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
+    #[arg(long, value_name = "PLAN", required = true)]
+    plan: Option<PathBuf>,
+    /// Measurement files: DMIS output, CSV `label,x,y,z`, probe logs,
+    /// nine-section heights `section,height_um`, or a plain point list
+    /// (joined by nearest nominal point). The format is recognized from the
+    /// content. Several files make one piece unless --series is given.
+    #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
+    measured: Vec<PathBuf>,
+    /// The result: an error file (SPEC section 3), or the nine-section
+    /// statistics, or with --series the series table.
+    #[arg(long, value_name = "RESULT.yaml", required = true)]
+    out: Option<PathBuf>,
+    /// Write the result as JSON instead of YAML.
+    #[arg(long)]
+    json: bool,
+    /// Also write an HTML report with SVG plots and a .glb of the piece.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// two-stage (the seeds' own), global (one fit of all points, the
+    /// default) or sphere (seed 004, for a calibration-sphere test).
+    #[arg(long, value_name = "METHOD")]
+    method: Option<String>,
+    /// Run a Monte-Carlo uncertainty study of N runs (seeded, parallel) over
+    /// the contributors; its spread becomes the reported `u`.
+    #[arg(long, value_name = "N")]
+    mc: Option<usize>,
+    /// Seed of the Monte-Carlo study.
+    #[arg(long, value_name = "SEED", default_value_t = 1)]
+    seed: u64,
+    /// Contributors of the Monte-Carlo study: `seed001` (table 4, machining
+    /// default), `seed000` (table 4, probing default), `noise` (residual
+    /// sigma only), or a YAML file of `uncertainty::Contributors`.
+    #[arg(long, value_name = "PRESET|FILE")]
+    contributors: Option<String>,
+    /// Error maps to identify with the location errors, comma-separated
+    /// SPEC symbols (`EBB(B),EXC(B,C)`), on the grid of the plan's angles.
+    #[arg(long, value_name = "SYMBOLS", value_delimiter = ',')]
+    maps: Vec<String>,
+    /// Each measured file is one piece of a series of the same plan (seed
+    /// 001 section 4): identify each and tabulate how the errors move.
+    #[arg(long)]
+    series: bool,
+    /// An earlier result (e.g. a cold probing run) to compare with.
+    #[arg(long, value_name = "RESULT.yaml")]
+    compare: Option<PathBuf>,
+    /// Sphere method: how the axis lines are fitted to the centres:
+    /// robust (default), least-squares, or combinations (seed 004's).
+    #[arg(long, value_name = "FIT", default_value = "robust")]
+    circle_fit: String,
+}
+
+/// The validated configuration of one `analyze` run.
+struct Config {
+    manifest_path: PathBuf,
+    manifest: Manifest,
+    kin: Kinematics,
+    plan: Option<PlanPoints>,
+    measured: Vec<PathBuf>,
+    out: PathBuf,
+    json: bool,
+    report: Option<PathBuf>,
+    method: Method,
+    mc: Option<McOptions>,
+    /// `None`: measurement noise only, at the residual sigma.
+    contributors: Option<Contributors>,
+    maps: Vec<String>,
+    series: bool,
+    compare: Option<PathBuf>,
+    sphere: SphereOptions,
+}
+
+fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
+    let manifest_path = a.plan.context("--plan is required")?;
+    let out = a.out.context("--out is required")?;
+    let manifest = Manifest::read(&manifest_path)?;
+    let machine_path = manifest.resolve(&manifest_path, &manifest.machine_file);
+    if !machine_path.exists() {
+        bail!(
+            "{}: the plan's copy of the machine file, {}, is missing",
+            manifest_path.display(),
+            machine_path.display()
+        );
+    }
+    let machine = Machine::load(&machine_path.to_string_lossy()).with_context(|| {
+        format!(
+            "cannot load the plan's machine file {}",
+            machine_path.display()
+        )
+    })?;
+    let gauge = match manifest.kind {
+        TestKind::Machining => manifest
+            .tool
+            .as_ref()
+            .map_or(machine.tool.length, |t| t.length),
+        TestKind::Probing => manifest
+            .probe
+            .as_ref()
+            .map_or(machine.probe.length, |p| p.length),
+    };
+    let kin = Kinematics::with_gauge_length(&machine, gauge);
+    let nine = manifest.test == "nine-section";
+    let plan = if nine {
+        None
+    } else {
+        let p = manifest.file(&manifest_path, "points").with_context(|| {
+            format!(
+                "{}: the manifest lists no `points` file",
+                manifest_path.display()
+            )
+        })?;
+        let plan = PlanPoints::read(&p)?;
+        if plan.tilt_letter != machine.tilt.letter {
+            bail!(
+                "{}: the points are for a machine with a {} axis, the plan's machine has {}",
+                p.display(),
+                plan.tilt_letter,
+                machine.tilt.letter
+            );
+        }
+        Some(plan)
+    };
+    let method = match &a.method {
+        Some(m) => m.parse::<Method>().map_err(anyhow::Error::msg)?,
+        None if manifest.test == "probe-sphere" => Method::Sphere,
+        None => Method::Global,
+    };
+    if method == Method::Sphere && manifest.kind != TestKind::Probing {
+        bail!(
+            "--method sphere needs a probing plan (a calibration sphere); {} is a {} test",
+            manifest.test,
+            "machining"
+        );
+    }
+    if method == Method::Sphere && !a.maps.is_empty() {
+        bail!(
+            "--maps needs the two-stage or global method; the sphere method identifies location errors only"
+        );
+    }
+    let circle = a
+        .circle_fit
+        .parse::<CircleMethod>()
+        .map_err(anyhow::Error::msg)?;
+    let contributors = match a.contributors.as_deref() {
+        None => Some(match manifest.kind {
+            TestKind::Machining => Contributors::seed001(),
+            TestKind::Probing => Contributors::seed000(),
+        }),
+        Some("seed001") => Some(Contributors::seed001()),
+        Some("seed000") => Some(Contributors::seed000()),
+        Some("noise") => None,
+        Some(path) => {
+            let src = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read contributors file {path}"))?;
+            Some(
+                serde_yaml::from_str(&src)
+                    .map_err(|e| fivecal::source::SourceError::from_yaml(Path::new(path), &e))?,
+            )
+        }
+    };
+    let mc = match a.mc {
+        Some(0) => bail!("--mc needs at least 2 runs"),
+        Some(1) => bail!("--mc needs at least 2 runs"),
+        Some(n) => Some(McOptions {
+            runs: n,
+            seed: a.seed,
+            progress: true,
+        }),
+        None => None,
+    };
+    let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
+    inputs.push(&manifest_path);
+    ensure_not_input(&out, &inputs)?;
+    if a.series && a.measured.len() < 2 {
+        bail!("--series needs two or more measured files, one per piece");
+    }
+    Ok(Config {
+        manifest_path,
+        manifest,
+        kin,
+        plan,
+        measured: a.measured,
+        out,
+        json: a.json,
+        report: a.report,
+        method,
+        mc,
+        contributors,
+        maps: a.maps,
+        series: a.series,
+        compare: a.compare,
+        sphere: SphereOptions { circle },
+    })
 }
 
 pub fn run(cli: AnalyzeCli) -> anyhow::Result<()> {
     match cli.mode {
         Some(AnalyzeMode::Contour(a)) => super::contour::run(a),
-        None => super::pending::run("analyze", 6),
+        None => analyze(validate(*cli.args)?),
     }
+}
+
+fn serialize<T: serde::Serialize>(v: &T, json: bool) -> anyhow::Result<String> {
+    Ok(if json {
+        serde_json::to_string_pretty(v)? + "\n"
+    } else {
+        serde_yaml::to_string(v)?
+    })
+}
+
+fn analyze(c: Config) -> anyhow::Result<()> {
+    let mut sets: Vec<(PathBuf, PointSet)> = Vec::new();
+    let mut heights: Vec<(PathBuf, Vec<SectionHeight>)> = Vec::new();
+    for f in &c.measured {
+        match detect::read_measurement(f)? {
+            Measurement::Points(s) => sets.push((f.clone(), s)),
+            Measurement::Heights(h) => heights.push((f.clone(), h)),
+        }
+    }
+    if !heights.is_empty() {
+        if !sets.is_empty() {
+            bail!("nine-section heights and measured points cannot be analysed together");
+        }
+        return nine_section(&c, &heights);
+    }
+    let Some(plan) = &c.plan else {
+        bail!(
+            "{}: a nine-section plan takes section heights (section,height_um), not points",
+            c.manifest_path.display()
+        );
+    };
+    let minutes: HashMap<String, (f64, f64)> = c
+        .manifest
+        .poses
+        .iter()
+        .map(|p| (p.pose.clone(), (p.start_min, p.end_min)))
+        .collect();
+    let kin = &c.kin;
+    let nominal = |p: &fivecal::formats::points::PlanPoint| -> Vector3<f64> {
+        match c.manifest.kind {
+            TestKind::Machining => p.p,
+            TestKind::Probing => {
+                (kin.nominal_table_transform(p.tilt, p.c) * Point3::from(p.p)).coords
+            }
+        }
+    };
+    let pieces: Vec<Vec<(PathBuf, PointSet)>> = if c.series {
+        sets.into_iter().map(|s| vec![s]).collect()
+    } else {
+        vec![sets]
+    };
+    let mut results: Vec<(String, ErrorFile)> = Vec::new();
+    for (i, piece) in pieces.iter().enumerate() {
+        let data = identify::data::join(plan, c.manifest.kind, &minutes, piece, &nominal)?;
+        for w in &data.warnings {
+            eprintln!("warning: {w}");
+        }
+        let name = piece[0].0.display().to_string();
+        let f = one_piece(&c, &data, if c.series { Some(i + 1) } else { None })?;
+        results.push((name, f));
+    }
+    if c.series {
+        let series = Series::new(&results);
+        print!("\nseries of {} pieces:\n{}", results.len(), series.render());
+        for (k, (_, f)) in results.iter().enumerate() {
+            let p = piece_path(&c.out, k + 1, c.json);
+            write_atomic(&p, serialize(f, c.json)?.as_bytes())?;
+        }
+        write_atomic(&c.out, serialize(&series, c.json)?.as_bytes())?;
+        println!(
+            "wrote {} and one error file per piece beside it",
+            c.out.display()
+        );
+    } else {
+        let f = &results[0].1;
+        write_atomic(
+            &c.out,
+            (if c.json {
+                f.to_json() + "\n"
+            } else {
+                f.to_yaml()
+            })
+            .as_bytes(),
+        )?;
+        println!("wrote {}", c.out.display());
+    }
+    if let Some(cmp) = &c.compare {
+        let before = ErrorFile::load(cmp, kin)?;
+        let before = ErrorFile::from_model(&before.model, &before.theta, &before.u, &before.noise);
+        let mut rows = vec![(cmp.display().to_string(), before)];
+        rows.extend(results.iter().cloned());
+        print!(
+            "\ncomparison (change from the first column):\n{}",
+            Series::new(&rows).render()
+        );
+    }
+    Ok(())
+}
+
+fn piece_path(out: &Path, k: usize, json: bool) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or("result".into(), |s| s.to_string_lossy().to_string());
+    let ext = if json { "json" } else { "yaml" };
+    out.with_file_name(format!("{stem}.{k}.{ext}"))
+}
+
+fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result<ErrorFile> {
+    let setup = Setup::new(&c.kin, &data.poses, &c.maps)?;
+    let est = uncertainty::identify_with(c.method, &setup, data, &c.sphere)?;
+    if let Some(k) = piece {
+        println!("== piece {k}: {}", data.files[0].display());
+    }
+    print!("{}", est.summary());
+    let mut u = est.u();
+    let mut mc_result = None;
+    if let Some(opts) = &c.mc {
+        let contributors = c
+            .contributors
+            .clone()
+            .unwrap_or_else(|| Contributors::noise_only(est.sigma_um));
+        let sphere_geometry =
+            (c.method == identify::Method::Sphere).then(|| sphere_geometry(&est, data));
+        let t = SyntheticTest {
+            estimate: &est,
+            setup: &setup,
+            data,
+            method: c.method,
+            sphere: c.sphere,
+            sphere_geometry,
+            contributors,
+        };
+        let mc = uncertainty::montecarlo::run(opts, est.theta.len(), |_, r| {
+            uncertainty::synthetic_run(&t, r)
+        });
+        if mc.runs < 2 {
+            bail!(
+                "the Monte-Carlo study failed: {}",
+                mc.failed
+                    .1
+                    .clone()
+                    .unwrap_or_else(|| "no run returned estimates".into())
+            );
+        }
+        if mc.failed.0 > 0 {
+            eprintln!(
+                "warning: {} of {} Monte-Carlo runs failed (first: {})",
+                mc.failed.0,
+                opts.runs,
+                mc.failed.1.clone().unwrap_or_default()
+            );
+        }
+        println!(
+            "monte carlo: {} runs (seed {}), synthetic measurements from the model (the simulator's forward model is not yet available)",
+            mc.runs, opts.seed
+        );
+        for s in Contributors::unmapped() {
+            println!("  not included: {s}");
+        }
+        let names = est.model.param_names();
+        for i in 0..u.len() {
+            if est.identifiable(i) {
+                println!(
+                    "  {:<24} u(covariance) {:>8.3}   u(monte carlo) {:>8.3}",
+                    names[i],
+                    u[i].unwrap_or(f64::NAN),
+                    mc.std[i]
+                );
+                u[i] = mc.std[i].is_finite().then_some(mc.std[i]);
+            }
+        }
+        mc_result = Some(mc);
+    }
+    println!("residuals by pose and face (um):");
+    println!(
+        "  {:<12} {:<22} {:>6} {:>9} {:>9} {:>9}",
+        "pose", "face", "points", "mean", "rms", "max"
+    );
+    for r in est.residual_table(data) {
+        println!(
+            "  {:<12} {:<22} {:>6} {:>9.3} {:>9.3} {:>9.3}",
+            r.pose, r.face, r.points, r.mean_um, r.rms_um, r.max_um
+        );
+    }
+    let mut f = est.error_file(Some(&u));
+    let sigma = (est.sigma_um.is_finite()).then_some(est.sigma_um);
+    f.effects.noise = Some(match data.kind {
+        TestKind::Machining => Noise {
+            cmm: sigma,
+            probe: None,
+        },
+        TestKind::Probing => Noise {
+            cmm: None,
+            probe: sigma,
+        },
+    });
+    if let Some(dir) = &c.report {
+        let dir = match piece {
+            Some(k) => dir.join(format!("piece{k}")),
+            None => dir.clone(),
+        };
+        let input = fivecal::report::ReportInput {
+            title: format!("{}: {}", c.manifest.test, data.files[0].display()),
+            data,
+            est: &est,
+            u: u.clone(),
+            mc: mc_result.as_ref(),
+            error_file: &f,
+        };
+        let files = fivecal::report::write(&dir, &input)?;
+        println!(
+            "report: {} ({} files)",
+            dir.join("index.html").display(),
+            files.len()
+        );
+    }
+    Ok(f)
+}
+
+/// The sphere's centre in W and its radius, from the identification's
+/// per-pose centres (the reference pose) and the contact points.
+fn sphere_geometry(est: &identify::Identification, data: &Dataset) -> (Vector3<f64>, f64) {
+    let pose = &data.poses[0];
+    let pts: Vec<Vector3<f64>> = pose.obs.iter().map(|&k| data.obs[k].m).collect();
+    let s = identify::sphere::fit_sphere(&pts).expect("the sphere method fitted this pose");
+    let t = est.model.kin.nominal_table_transform(pose.tilt, pose.c);
+    ((t.inverse() * Point3::from(s.centre)).coords, s.radius)
+}
+
+fn nine_section(c: &Config, heights: &[(PathBuf, Vec<SectionHeight>)]) -> anyhow::Result<()> {
+    if c.manifest.test != "nine-section" {
+        bail!(
+            "{}: section heights belong to a nine-section plan, this plan is `{}`",
+            heights[0].0.display(),
+            c.manifest.test
+        );
+    }
+    let stats: Vec<NineSection> = heights.iter().map(|(_, h)| NineSection::new(h)).collect();
+    for ((p, _), s) in heights.iter().zip(&stats) {
+        println!("{}:\n{}", p.display(), s.render());
+    }
+    if stats.len() > 1 {
+        let r = stats.last().unwrap().improvement_over(&stats[0]);
+        println!(
+            "rate of improvement from the first to the last: AVG {:.2} %, MAX {:.2} %, RMS {:.2} %",
+            r[0], r[1], r[2]
+        );
+    }
+    #[derive(serde::Serialize)]
+    struct Out<'a> {
+        nine_section: Vec<(String, &'a NineSection)>,
+    }
+    let out = Out {
+        nine_section: heights
+            .iter()
+            .zip(&stats)
+            .map(|((p, _), s)| (p.display().to_string(), s))
+            .collect(),
+    };
+    write_atomic(&c.out, serialize(&out, c.json)?.as_bytes())?;
+    println!("wrote {}", c.out.display());
+    Ok(())
 }
