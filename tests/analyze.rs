@@ -681,3 +681,42 @@ fn drift_per_pose_is_identified_by_the_rigid_pose_model() {
     assert!((est.theta[8] - 1.5).abs() < 1e-6, "{}", est.summary());
     let _ = Model::new(k, vec![]);
 }
+
+#[test]
+fn the_sample_data_in_examples_analyze_returns_its_truth() {
+    // `examples/analyze/` (written by `cargo run --example
+    // synthetic_measurements`) is what the README points newcomers to.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze");
+    let dir = tempdir();
+    for (test, file, machine_name, maps) in [
+        ("stepped-square", "piece1.dmo", "bc-trunnion", "EBB(B)"),
+        ("probe-sphere", "sphere.csv", "ac-trunnion", ""),
+    ] {
+        let out = dir.path().join(format!("{test}.yaml"));
+        let mut cmd = fivecal();
+        cmd.args(["analyze", "--plan"])
+            .arg(root.join(test).join(format!("{test}.plan.yaml")))
+            .arg("--measured")
+            .arg(root.join(test).join(file))
+            .arg("--out")
+            .arg(&out);
+        if !maps.is_empty() {
+            cmd.args(["--maps", maps]);
+        }
+        cmd.assert().success();
+        let k = Kinematics::new(&machine(machine_name));
+        let got = ErrorFile::load(&out, &k).unwrap();
+        let truth = ErrorFile::load(&root.join(test).join("truth.yaml"), &k).unwrap();
+        assert_eq!(got.model.param_names(), truth.model.param_names());
+        for i in 0..got.theta.len() {
+            let u = got.u[i].unwrap();
+            assert!(
+                (got.theta[i] - truth.theta[i]).abs() < 4.0 * u,
+                "{test} {}: {} ({u}) vs {}",
+                got.model.param_names()[i],
+                got.theta[i],
+                truth.theta[i]
+            );
+        }
+    }
+}

@@ -168,15 +168,15 @@ fn rigid_pose_model_jacobian_matches_finite_differences() {
     theta.extend([30.0, -5.0, -25.0]);
     let fm = RigidPoseMachining::new(model).unwrap();
     for p in plan.points.iter().step_by(7) {
-        let pred = fm.predict(&theta, p, 0.0).unwrap();
+        let pred = fm.predict(&theta, &[], p, 0.0).unwrap();
         for j in 0..theta.len() {
             let h = 1e-2;
             let mut tp = theta.clone();
             tp[j] += h;
             let mut tm = theta.clone();
             tm[j] -= h;
-            let a = fm.predict(&tp, p, 0.0).unwrap();
-            let b = fm.predict(&tm, p, 0.0).unwrap();
+            let a = fm.predict(&tp, &[], p, 0.0).unwrap();
+            let b = fm.predict(&tm, &[], p, 0.0).unwrap();
             let fd = (a.point - b.point) / (2.0 * h);
             let fdn = (a.normal - b.normal) / (2.0 * h);
             let an = pred.d_point.column(j);
@@ -538,5 +538,97 @@ fn placement_is_found_for_any_rotation_and_a_one_metre_offset() {
         );
         assert!(u.matches.iter().enumerate().all(|(i, &j)| i == j));
         let _ = Isometry3::<f64>::identity();
+    }
+}
+
+/// Seed 000's stations: A = 0, -30, -60, -90 x C = 0, 60, ..., 300.
+fn column_poses() -> Vec<(f64, f64)> {
+    let mut p = Vec::new();
+    for a in [0.0, -30.0, -60.0, -90.0] {
+        for i in 0..6 {
+            p.push((a, 60.0 * i as f64));
+        }
+    }
+    p
+}
+
+#[test]
+fn rigid_pose_probing_jacobian_matches_finite_differences() {
+    use fivecal::identify::forward::RigidPoseProbing;
+    let k = Kinematics::with_gauge_length(&machine("ac-trunnion"), 110.0);
+    let plan = synthetic::columns(&k, &column_poses());
+    let fm = RigidPoseProbing::new(truth_model(&k, vec![])).unwrap();
+    let mut x = AC_TRUTH.to_vec();
+    let setup = [30.0, -20.0, 80.0, 150.0, -90.0, 200.0];
+    x.extend(setup);
+    for p in plan.points.iter().step_by(23) {
+        let pred = fm.predict(&x[..8], &x[8..], p, 0.0).unwrap();
+        for j in 0..14 {
+            let h = 1e-2;
+            let (mut xp, mut xm) = (x.clone(), x.clone());
+            xp[j] += h;
+            xm[j] -= h;
+            let a = fm.predict(&xp[..8], &xp[8..], p, 0.0).unwrap();
+            let b = fm.predict(&xm[..8], &xm[8..], p, 0.0).unwrap();
+            let fd = (a.point - b.point) / (2.0 * h);
+            let fdn = (a.normal - b.normal) / (2.0 * h);
+            assert!(
+                (fd - pred.d_point.column(j)).norm() < 1e-9,
+                "{} {j}: {fd} vs {}",
+                p.label,
+                pred.d_point.column(j)
+            );
+            // The normal is a difference of two points ~200 mm from the
+            // origin: round-off limits the finite difference to ~1e-11.
+            assert!(
+                (fdn - pred.d_normal.column(j)).norm() < 1e-10,
+                "{} normal {j}",
+                p.label
+            );
+        }
+    }
+}
+
+#[test]
+fn column_probing_on_ac_trunnion_recovers_the_eight_symbols_with_any_setup() {
+    let k = Kinematics::with_gauge_length(&machine("ac-trunnion"), 110.0);
+    let plan = synthetic::columns(&k, &column_poses());
+    let truth = truth_model(&k, vec![]);
+    let names = truth.param_names();
+    let truth_named: Vec<(String, f64)> = names.iter().cloned().zip(AC_TRUTH).collect();
+    for seed in 0..3 {
+        let mut r = rng(40 + seed);
+        // The columns sit where they were clamped: 0.1 mm and 0.2 mrad off.
+        let setup = Isometry3::new(
+            Vector3::new(0.08, -0.05, 0.1),
+            Vector3::new(2e-4, -1e-4, 1.5e-4),
+        );
+        let pts = synthetic::probed(
+            &truth,
+            &AC_TRUTH,
+            &plan,
+            &HashMap::new(),
+            0.35,
+            &setup,
+            &mut r,
+        );
+        let data = dataset(&plan, TestKind::Probing, pts);
+        let s = Setup::new(&k, &data.poses, &[]).unwrap();
+        for method in [Method::Global, Method::TwoStage] {
+            let est = run(method, &s, &data);
+            assert_eq!(
+                est.identifiability.rank,
+                est.identifiability.free,
+                "{}",
+                est.identifiability.render()
+            );
+            for (name, z) in normalized_errors(&est, &truth_named) {
+                assert!(
+                    z < 4.0,
+                    "seed {seed} {method}: {name} off by {z:.2} u\n{}",
+                    est.summary()
+                );
+            }
+        }
     }
 }

@@ -128,3 +128,58 @@ fn compensate_leaving_the_singularity_ramps_c_instead_of_jumping() {
         .unwrap();
     assert!(sum.held_c.contains(&3), "{sum:?}");
 }
+
+/// Judged at the estimate, the exact model couples the directions a test
+/// cannot see to those it can by terms of the order of the errors (1e-4
+/// here): cuts at B = 0 only then reported every symbol, EY0C included, as
+/// not identifiable (found while building the analyzer). Identifiability is
+/// a property of the design at the nominal machine.
+#[test]
+fn identifiability_is_judged_at_the_nominal_design_not_at_the_estimate() {
+    use fivecal::identify::{Method, Setup, synthetic};
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let plan = synthetic::stepped_square(&k, &[0.0], &[0.0, 90.0, 180.0, 270.0], 15.0);
+    let truth = fivecal::Model::new(
+        k.clone(),
+        vec![fivecal::Effect::Location {
+            symbols: (0..8).collect(),
+        }],
+    );
+    // Large errors, to make the coupling at the estimate large.
+    let theta = [120.0, -400.0, 800.0, -600.0, 1500.0, 250.0, -180.0, 450.0];
+    let pts = synthetic::machined(
+        &truth,
+        &theta,
+        &plan,
+        &Default::default(),
+        0.0,
+        &nalgebra::Isometry3::identity(),
+        &mut crate::util::rng(1),
+    );
+    let set = fivecal::formats::detect::PointSet {
+        format: "synthetic",
+        points: pts,
+        labeled: true,
+        nominals: Vec::new(),
+        warnings: Vec::new(),
+    };
+    let data = fivecal::identify::data::join(
+        &plan,
+        fivecal::formats::manifest::TestKind::Machining,
+        &Default::default(),
+        &[("pinned".into(), set)],
+        &|p| p.p,
+    )
+    .unwrap();
+    let setup = Setup::new(&k, &data.poses, &[]).unwrap();
+    let est =
+        fivecal::uncertainty::identify_with(Method::Global, &setup, &data, &Default::default())
+            .unwrap();
+    let (v, u) = est.get("EY0C").unwrap();
+    assert!(u.is_some(), "{}", est.identifiability.render());
+    // Exact only to second order: the unseen splits (EX0B against
+    // EX(0B)C, ...) take the minimum-norm values, and with 1.5 mrad and
+    // 0.4 mm errors their products move what is seen by ~0.6 um.
+    assert!((v + 180.0).abs() < 1.0, "EY0C = {v}");
+    assert_eq!(est.identifiability.rank, 10);
+}

@@ -11,7 +11,9 @@
 //! nominal face moved by `rTw^-1 rTw*` (SPEC section 2) and the CMM measures
 //! along the nominal normal. The simulator supplies the general model (tool
 //! radius and shape, linear-axis errors along the path, probing with
-//! pre-travel) through the same trait.
+//! pre-travel) through the same trait. [`RigidPoseProbing`] is the same
+//! for on-machine probing of a piece set up anywhere on the table, the
+//! setup being six nuisance parameters of the model.
 
 use nalgebra::{DMatrix, Point3, Vector3};
 
@@ -29,9 +31,9 @@ pub struct Prediction {
     pub point: Vector3<f64>,
     /// Unit normal of the actual surface at that point (same frame).
     pub normal: Vector3<f64>,
-    /// `d point / d theta`, 3 x n (mm per parameter unit).
+    /// `d point / d (theta, nuisance)`, 3 x (n + nuisance) (mm per unit).
     pub d_point: DMatrix<f64>,
-    /// `d normal / d theta`, 3 x n.
+    /// `d normal / d (theta, nuisance)`, 3 x (n + nuisance).
     pub d_normal: DMatrix<f64>,
 }
 
@@ -44,10 +46,10 @@ pub enum ForwardError {
     )]
     UnsupportedEffect(String),
     /// The machine structure is not served.
-    #[error("the rigid-pose machining model serves table-table machines only, not {0}")]
+    #[error("the rigid-pose model serves table-table machines only, not {0}")]
     UnsupportedMachine(String),
     /// The normal line of a point does not meet its moved face.
-    #[error("the normal line of `{0}` does not meet its machined face")]
+    #[error("the normal line of `{0}` does not meet its face")]
     NoIntersection(String),
     /// Anything the implementor needs to report.
     #[error("{0}")]
@@ -58,22 +60,87 @@ pub enum ForwardError {
 ///
 /// Implementors predict, for a plan point, the measured point and the
 /// actual surface normal there as exact functions of the parameters
-/// `theta` of [`ForwardModel::model`] (file units: um, urad, ...), with the
-/// exact derivatives. The identification adds the CMM placement (machined
-/// pieces) and compares along the predicted normal, so the tangential
-/// position of the predicted point does not matter, only that it lies on
-/// the predicted surface.
+/// `theta` of [`ForwardModel::model`] (file units: um, urad, ...) and of
+/// their own nuisance parameters (e.g. the setup of a probed piece), with
+/// the exact derivatives. The identification adds the CMM placement of a
+/// machined piece and compares along the predicted normal, so the
+/// tangential position of the predicted point does not matter, only that it
+/// lies on the predicted surface.
 pub trait ForwardModel: Sync {
     /// The model; `theta` has `model().n_params()` entries in its order.
     fn model(&self) -> &Model;
+    /// Names of the model's own nuisance parameters (um, urad), estimated
+    /// with `theta` and reported only through identifiability.
+    fn nuisance_names(&self) -> Vec<String> {
+        Vec::new()
+    }
     /// The predicted measurement of `point`, taken at `minutes` from the
     /// start of the program (the middle of its pose).
     fn predict(
         &self,
         theta: &[f64],
+        nuisance: &[f64],
         point: &PlanPoint,
         minutes: f64,
     ) -> Result<Prediction, ForwardError>;
+}
+
+fn check_rigid(model: &Model) -> Result<(), ForwardError> {
+    let m = model.kin.machine();
+    if m.structure != Structure::TableTable {
+        return Err(ForwardError::UnsupportedMachine(m.structure.to_string()));
+    }
+    for e in &model.effects {
+        match e {
+            Effect::Location { .. } | Effect::Map { .. } | Effect::Drift { .. } => {}
+            other => {
+                return Err(ForwardError::UnsupportedEffect(other.id(&model.symbols)));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn context(point: &PlanPoint, xyz: Vector3<f64>, minutes: f64) -> Context {
+    Context {
+        axes: Axes {
+            xyz,
+            tilt: point.tilt,
+            c: point.c,
+        },
+        seq: point.seq as f64,
+        minutes,
+        approach: None,
+    }
+}
+
+/// The intersection of the line `q0 + s d` with the plane through `y` with
+/// normal `nm`, and its derivative given those of `y` and `nm`.
+fn intersect(
+    label: &str,
+    q0: &Vector3<f64>,
+    d: &Vector3<f64>,
+    y: &Vector3<f64>,
+    dy: &DMatrix<f64>,
+    nm: &Vector3<f64>,
+    dn: &DMatrix<f64>,
+) -> Result<(Vector3<f64>, DMatrix<f64>), ForwardError> {
+    let den = nm.dot(d);
+    if den.abs() < 1e-6 {
+        return Err(ForwardError::NoIntersection(label.to_string()));
+    }
+    let s = nm.dot(&(y - q0)) / den;
+    let cols = dy.ncols();
+    let mut dp = DMatrix::zeros(3, cols);
+    for j in 0..cols {
+        let dnj = dn.column(j);
+        let dnum = dnj.dot(&(y - q0)) + nm.dot(&dy.column(j));
+        let ds = (dnum - s * dnj.dot(d)) / den;
+        for r in 0..3 {
+            dp[(r, j)] = d[r] * ds;
+        }
+    }
+    Ok((q0 + d * s, dp))
 }
 
 /// The rigid-pose machining model (see the module documentation).
@@ -86,18 +153,7 @@ impl RigidPoseMachining {
     /// Wraps a model, refusing effects that vary within a pose and
     /// machines other than table-table ones.
     pub fn new(model: Model) -> Result<RigidPoseMachining, ForwardError> {
-        let m = model.kin.machine();
-        if m.structure != Structure::TableTable {
-            return Err(ForwardError::UnsupportedMachine(m.structure.to_string()));
-        }
-        for e in &model.effects {
-            match e {
-                Effect::Location { .. } | Effect::Map { .. } | Effect::Drift { .. } => {}
-                other => {
-                    return Err(ForwardError::UnsupportedEffect(other.id(&model.symbols)));
-                }
-            }
-        }
+        check_rigid(&model)?;
         Ok(RigidPoseMachining { model })
     }
 
@@ -111,17 +167,9 @@ impl RigidPoseMachining {
     ) -> (Vector3<f64>, DMatrix<f64>) {
         let k = &self.model.kin;
         let commanded = k.nominal_table_transform(point.tilt, point.c) * Point3::from(*q);
-        let ctx = Context {
-            axes: Axes {
-                xyz: commanded.coords,
-                tilt: point.tilt,
-                c: point.c,
-            },
-            seq: point.seq as f64,
-            minutes,
-            approach: None,
-        };
-        let (pj, jt, _) = self.model.pose_jacobian(theta, &ctx);
+        let (pj, jt, _) = self
+            .model
+            .pose_jacobian(theta, &context(point, commanded.coords, minutes));
         (pj.pose.tip, jt)
     }
 }
@@ -134,6 +182,7 @@ impl ForwardModel for RigidPoseMachining {
     fn predict(
         &self,
         theta: &[f64],
+        _nuisance: &[f64],
         point: &PlanPoint,
         minutes: f64,
     ) -> Result<Prediction, ForwardError> {
@@ -144,31 +193,88 @@ impl ForwardModel for RigidPoseMachining {
         let (qn, dqn) = self.moved(theta, point, minutes, &(p + n));
         let nm = qn - qm;
         let dnm = &dqn - &dq;
-        // Intersection of the nominal normal line p + s n with the moved
-        // face {x : nm . (x - qm) = 0}.
-        let den = nm.dot(&n);
-        if den.abs() < 1e-6 {
-            return Err(ForwardError::NoIntersection(point.label.clone()));
-        }
-        let num = nm.dot(&(qm - p));
-        let s = num / den;
-        let cols = dq.ncols();
-        let mut d_point = DMatrix::zeros(3, cols);
-        for j in 0..cols {
-            let dnj = dnm.column(j);
-            let dqj = dq.column(j);
-            let dnum = dnj.dot(&(qm - p)) + nm.dot(&dqj);
-            let dden = dnj.dot(&n);
-            let ds = (dnum - s * dden) / den;
-            for r in 0..3 {
-                d_point[(r, j)] = n[r] * ds;
-            }
-        }
+        // The CMM measures along the nominal normal line p + s n.
+        let (point_w, d_point) = intersect(&point.label, &p, &n, &qm, &dq, &nm, &dnm)?;
         Ok(Prediction {
-            point: p + n * s,
+            point: point_w,
             normal: nm,
             d_point,
             d_normal: dnm,
+        })
+    }
+}
+
+/// Names of the setup nuisance of [`RigidPoseProbing`].
+pub const SETUP_NAMES: [&str; 6] = [
+    "setup.dx", "setup.dy", "setup.dz", "setup.a", "setup.b", "setup.c",
+];
+
+/// The rigid-pose probing model: a piece fixed on the table of a
+/// table-table machine, set up at `D(setup)` from its nominal place (six
+/// nuisance numbers, um and urad), probed on the machine along the nominal
+/// approach `-rTw* n` with errors constant within each pose. The contact
+/// point, reported in W at rotary zero, is the intersection of the approach
+/// line through `rTw* p` with the face through `rTw D(setup) p`.
+#[derive(Clone, Debug)]
+pub struct RigidPoseProbing {
+    model: Model,
+}
+
+impl RigidPoseProbing {
+    /// Wraps a model (same restrictions as [`RigidPoseMachining`]).
+    pub fn new(model: Model) -> Result<RigidPoseProbing, ForwardError> {
+        check_rigid(&model)?;
+        Ok(RigidPoseProbing { model })
+    }
+}
+
+impl ForwardModel for RigidPoseProbing {
+    fn model(&self) -> &Model {
+        &self.model
+    }
+
+    fn nuisance_names(&self) -> Vec<String> {
+        SETUP_NAMES.iter().map(|s| s.to_string()).collect()
+    }
+
+    fn predict(
+        &self,
+        theta: &[f64],
+        nuisance: &[f64],
+        point: &PlanPoint,
+        minutes: f64,
+    ) -> Result<Prediction, ForwardError> {
+        let k = &self.model.kin;
+        let n = theta.len();
+        let nominal = k.nominal_table_transform(point.tilt, point.c);
+        let q0 = (nominal * Point3::from(point.p)).coords;
+        let dir = nominal.rotation * point.n;
+        let ctx = context(point, q0, minutes);
+        let rtw = k.table_transform(point.tilt, point.c, &self.model.perturbation(theta, &ctx));
+        let r = rtw.rotation.to_rotation_matrix().into_inner();
+        // A W point x sits at y = rTw x in the machine frame. The tool
+        // Jacobian gives d(rTw^-1 y)/d theta at fixed y, and
+        // rTw^-1 y = x gives dy = -R d(rTw^-1 y).
+        let face = |x: &Vector3<f64>, dx: &nalgebra::Matrix3x6<f64>| {
+            let y = (rtw * Point3::from(*x)).coords;
+            let (_, jt, _) = self.model.pose_jacobian(theta, &context(point, y, minutes));
+            let mut dy = DMatrix::zeros(3, n + 6);
+            dy.view_mut((0, 0), (3, n)).copy_from(&(-r * jt));
+            dy.view_mut((0, n), (3, 6)).copy_from(&(r * dx));
+            (y, dy)
+        };
+        let (gp, dgp) = super::rigid::d6_apply(nuisance, &point.p);
+        let (gpn, dgpn) = super::rigid::d6_apply(nuisance, &(point.p + point.n));
+        let (y, dy) = face(&gp, &dgp);
+        let (y2, dy2) = face(&gpn, &dgpn);
+        let nm = y2 - y;
+        let dn = &dy2 - &dy;
+        let (p, dp) = intersect(&point.label, &q0, &dir, &y, &dy, &nm, &dn)?;
+        Ok(Prediction {
+            point: p,
+            normal: nm,
+            d_point: dp,
+            d_normal: dn,
         })
     }
 }

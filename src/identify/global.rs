@@ -38,6 +38,8 @@ struct GlobalProblem<'a> {
     minutes: Vec<f64>,
     placement: bool,
     n: usize,
+    /// Number of the forward model's own nuisance parameters.
+    k: usize,
     error: RefCell<Option<ForwardError>>,
 }
 
@@ -47,26 +49,21 @@ impl Problem for GlobalProblem<'_> {
     }
 
     fn n_params(&self) -> usize {
-        self.n + if self.placement { 6 } else { 0 }
+        self.n + self.k + if self.placement { 6 } else { 0 }
     }
 
     fn eval(&self, x: &[f64], r: &mut [f64], mut jac: Option<&mut Mat<f64>>) {
         let theta = &x[..self.n];
+        let nuisance = &x[self.n..self.n + self.k];
+        let o = self.n + self.k;
         let rho = if self.placement {
-            [
-                x[self.n],
-                x[self.n + 1],
-                x[self.n + 2],
-                x[self.n + 3],
-                x[self.n + 4],
-                x[self.n + 5],
-            ]
+            [x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5]]
         } else {
             [0.0; 6]
         };
         for k in 0..self.u.len() {
             let point = self.data.point(k);
-            let pred = match self.fm.predict(theta, point, self.minutes[k]) {
+            let pred = match self.fm.predict(theta, nuisance, point, self.minutes[k]) {
                 Ok(p) => p,
                 Err(e) => {
                     *self.error.borrow_mut() = Some(e);
@@ -77,7 +74,7 @@ impl Problem for GlobalProblem<'_> {
             let f = face_residual(&rho, &pred.point, &pred.normal, &self.u[k]);
             r[k] = f.r;
             if let Some(j) = jac.as_deref_mut() {
-                for c in 0..self.n {
+                for c in 0..o {
                     let mut v = 0.0;
                     for i in 0..3 {
                         v += f.d_q[i] * pred.d_point[(i, c)] + f.d_n[i] * pred.d_normal[(i, c)];
@@ -86,7 +83,7 @@ impl Problem for GlobalProblem<'_> {
                 }
                 if self.placement {
                     for i in 0..6 {
-                        j[(k, self.n + i)] = f.d_rho[i];
+                        j[(k, o + i)] = f.d_rho[i];
                     }
                 }
             }
@@ -129,6 +126,8 @@ pub fn identify(
             minutes[k] = pose.minutes;
         }
     }
+    let nuisance_names = fm.nuisance_names();
+    let k = nuisance_names.len();
     let problem = GlobalProblem {
         fm,
         data,
@@ -136,9 +135,10 @@ pub fn identify(
         minutes,
         placement,
         n,
+        k,
         error: RefCell::new(None),
     };
-    let extra = if placement { 6 } else { 0 };
+    let extra = k + if placement { 6 } else { 0 };
     let basis = setup.basis(extra);
     let x0 = vec![0.0; n + extra];
     let sol = lsq::solve(&problem, &x0, Some(&basis), opts);
@@ -168,6 +168,7 @@ pub fn identify(
         f64::NAN
     };
     let mut names = setup.model.param_names();
+    names.extend(nuisance_names);
     if placement {
         names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));
     }
@@ -180,7 +181,7 @@ pub fn identify(
         &setup.quality_axes(),
     );
     let cov = design.cov_unit.view((0, 0), (n, n)).into_owned() * s2;
-    let placement_iso: Option<Isometry3<f64>> = p0.map(|p| p * d6_um(&sol.x[n..n + 6]));
+    let placement_iso: Option<Isometry3<f64>> = p0.map(|p| p * d6_um(&sol.x[n + k..n + k + 6]));
     if !sol.converged {
         notes.push(format!(
             "the fit stopped after {} steps without converging",

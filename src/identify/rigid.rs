@@ -43,6 +43,38 @@ pub fn d6_inverse_um(iso: &Isometry3<f64>) -> [f64; 6] {
     ]
 }
 
+/// `D(x) q` (x in um and urad, q in mm) and its derivative with respect to
+/// the six numbers (mm per um or urad), 3 x 6.
+pub fn d6_apply(x: &[f64], q: &Vector3<f64>) -> (Vector3<f64>, nalgebra::Matrix3x6<f64>) {
+    let (a, b, c) = (x[3] * 1e-6, x[4] * 1e-6, x[5] * 1e-6);
+    let ra = geom::rot(Axis3::X, a)
+        .rotation
+        .to_rotation_matrix()
+        .into_inner();
+    let rb = geom::rot(Axis3::Y, b)
+        .rotation
+        .to_rotation_matrix()
+        .into_inner();
+    let rc = geom::rot(Axis3::Z, c)
+        .rotation
+        .to_rotation_matrix()
+        .into_inner();
+    let t = Vector3::new(x[0], x[1], x[2]) * 1e-3;
+    let mut j = nalgebra::Matrix3x6::zeros();
+    for i in 0..3 {
+        j[(i, i)] = 1e-3;
+    }
+    let cols = [
+        skew(&Vector3::x()) * ra * rb * rc * q,
+        ra * skew(&Vector3::y()) * rb * rc * q,
+        ra * rb * skew(&Vector3::z()) * rc * q,
+    ];
+    for (k, col) in cols.iter().enumerate() {
+        j.set_column(3 + k, &(col * 1e-6));
+    }
+    (t + ra * rb * rc * q, j)
+}
+
 fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
@@ -115,6 +147,21 @@ mod tests {
         let back = d6_inverse(&geom::d6(&x));
         for i in 0..6 {
             assert!((back[i] - x[i]).abs() < 1e-14, "{i}: {back:?}");
+        }
+    }
+
+    #[test]
+    fn d6_apply_is_d6_and_its_derivative() {
+        let x = [5.0, -3.0, 2.0, 300.0, -200.0, 700.0];
+        let q = Vector3::new(40.0, -10.0, 25.0);
+        let (v, j) = d6_apply(&x, &q);
+        assert!((v - (d6_um(&x) * nalgebra::Point3::from(q)).coords).norm() < 1e-12);
+        for k in 0..6 {
+            let (mut p, mut m) = (x, x);
+            p[k] += 1e-2;
+            m[k] -= 1e-2;
+            let fd = (d6_apply(&p, &q).0 - d6_apply(&m, &q).0) / 2e-2;
+            assert!((fd - j.column(k)).norm() < 1e-12, "{k}");
         }
     }
 

@@ -258,3 +258,49 @@ pub fn sphere_plan(
         points: out,
     }
 }
+
+/// Three square columns on one base (seed 000 fig. 2), probed on the
+/// machine at every pose in `poses` ((tilt, C)): on each column two points
+/// on each side face (at two heights) and one on top, keeping only the
+/// faces a probe coming from above can reach (machine-frame normal not
+/// pointing down).
+pub fn columns(kin: &Kinematics, poses: &[(f64, f64)]) -> PlanPoints {
+    let m = kin.machine();
+    let base = m.table.surface;
+    let centres = [(80.0, 0.0), (-40.0, 69.3), (-40.0, -69.3)];
+    let (half, height) = (20.0, 100.0);
+    let mut all: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
+    for (cx, cy) in centres {
+        for (n, off) in [
+            (Vector3::<f64>::x(), Vector3::new(half, 0.0, 0.0)),
+            (-Vector3::x(), Vector3::new(-half, 0.0, 0.0)),
+            (Vector3::y(), Vector3::new(0.0, half, 0.0)),
+            (-Vector3::y(), Vector3::new(0.0, -half, 0.0)),
+        ] {
+            for (z, t) in [(0.4, 0.5), (0.8, -0.5)] {
+                let side = Vector3::new(-n.y, n.x, 0.0) * (t * half);
+                all.push((Vector3::new(cx, cy, base + z * height) + off + side, n));
+            }
+        }
+        all.push((
+            Vector3::new(cx + 5.0, cy - 5.0, base + height),
+            Vector3::z(),
+        ));
+    }
+    let letter = m.tilt.letter;
+    let mut out = Vec::new();
+    for (seq, &(t, c)) in poses.iter().enumerate() {
+        let r = kin.nominal_table_transform(t, c).rotation;
+        let pts: Vec<(Vector3<f64>, Vector3<f64>)> = all
+            .iter()
+            .filter(|(_, n)| (r * n).z > -0.3)
+            .copied()
+            .collect();
+        let pose = format!("{letter}{}C{}", t as i64, c as i64).replace('-', "m");
+        push_pose(&mut out, &pose, seq as u32, t, c, &pts);
+    }
+    PlanPoints {
+        tilt_letter: letter,
+        points: out,
+    }
+}

@@ -21,7 +21,7 @@ use rand::Rng;
 use crate::formats::detect::PointSet;
 use crate::formats::manifest::TestKind;
 use crate::formats::points::PlanPoints;
-use crate::identify::forward::RigidPoseMachining;
+use crate::identify::forward::{RigidPoseMachining, RigidPoseProbing};
 use crate::identify::sphere::SphereOptions;
 use crate::identify::{
     self, Dataset, Identification, IdentifyError, Method, Setup, lsq, synthetic,
@@ -40,10 +40,16 @@ pub fn identify_with(
 ) -> Result<Identification, IdentifyError> {
     let opts = lsq::Options::default();
     match method {
-        Method::Global => {
-            let fm = RigidPoseMachining::new(setup.model.clone())?;
-            identify::global::identify(&fm, setup, data, &opts)
-        }
+        Method::Global => match data.kind {
+            TestKind::Machining => {
+                let fm = RigidPoseMachining::new(setup.model.clone())?;
+                identify::global::identify(&fm, setup, data, &opts)
+            }
+            TestKind::Probing => {
+                let fm = RigidPoseProbing::new(setup.model.clone())?;
+                identify::global::identify(&fm, setup, data, &opts)
+            }
+        },
         Method::TwoStage => identify::two_stage::identify(setup, data, &opts),
         Method::Sphere => identify::sphere::identify(setup, data, sphere),
     }
