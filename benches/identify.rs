@@ -1,0 +1,129 @@
+//! Speed of identification on the synthetic tests: the global and
+//! two-stage fits of a stepped-square piece (144 points, with a B-axis
+//! map), the sphere method (49 positions), the unlabelled placement search,
+//! and a full-size Monte-Carlo study (200 runs) of the global fit.
+
+use std::collections::HashMap;
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fivecal::formats::detect::PointSet;
+use fivecal::formats::manifest::TestKind;
+use fivecal::formats::points::PlanPoints;
+use fivecal::identify::sphere::SphereOptions;
+use fivecal::identify::{Dataset, Method, Setup, data, synthetic};
+use fivecal::kinematics::Kinematics;
+use fivecal::model::{Effect, Model};
+use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
+use fivecal::{Machine, placement};
+use nalgebra::{Isometry3, Vector3};
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+
+fn dataset(
+    plan: &PlanPoints,
+    kind: TestKind,
+    pts: Vec<fivecal::formats::measured::MeasuredPoint>,
+) -> Dataset {
+    let set = PointSet {
+        format: "synthetic",
+        points: pts,
+        labeled: true,
+        nominals: Vec::new(),
+        warnings: Vec::new(),
+    };
+    data::join(
+        plan,
+        kind,
+        &HashMap::new(),
+        &[("bench".into(), set)],
+        &|p| p.p,
+    )
+    .unwrap()
+}
+
+fn bench(c: &mut Criterion) {
+    let mut rng = StdRng::seed_from_u64(1);
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let plan = synthetic::stepped_square(&k, &[-90.0, 0.0, 90.0], &[0.0, 90.0, 180.0, 270.0], 15.0);
+    let truth = Model::new(
+        k.clone(),
+        vec![Effect::Location {
+            symbols: (0..8).collect(),
+        }],
+    );
+    let theta = [12.0, -40.0, 80.0, -60.0, 150.0, 25.0, -18.0, 45.0];
+    let pl = Isometry3::new(
+        Vector3::new(600.0, -300.0, 200.0),
+        Vector3::new(0.3, 1.2, -2.0),
+    );
+    let pts = synthetic::machined(&truth, &theta, &plan, &HashMap::new(), 0.35, &pl, &mut rng);
+    let measured: Vec<Vector3<f64>> = pts.iter().map(|p| p.p).collect();
+    let d = dataset(&plan, TestKind::Machining, pts);
+    let setup = Setup::new(&k, &d.poses, &["EBB(B)".to_string()]).unwrap();
+    let so = SphereOptions::default();
+    c.bench_function("global stepped square 144 points + EBB(B)", |b| {
+        b.iter(|| uncertainty::identify_with(Method::Global, black_box(&setup), &d, &so).unwrap())
+    });
+    c.bench_function("two-stage stepped square 144 points + EBB(B)", |b| {
+        b.iter(|| uncertainty::identify_with(Method::TwoStage, black_box(&setup), &d, &so).unwrap())
+    });
+    let noms: Vec<(Vector3<f64>, Vector3<f64>)> = plan.points.iter().map(|p| (p.p, p.n)).collect();
+    c.bench_function("placement without labels, 144 points", |b| {
+        b.iter(|| placement::place_unlabeled(black_box(&noms), &measured).unwrap())
+    });
+
+    let ka = Kinematics::with_gauge_length(&Machine::builtin("ac-trunnion").unwrap(), 110.0);
+    let mut poses: Vec<(f64, f64)> = (0..36).map(|i| (0.0, 10.0 * i as f64)).collect();
+    poses.extend(
+        (0..13)
+            .map(|i| (-90.0 + 10.0 * i as f64, 0.0))
+            .filter(|p| p.0 != 0.0),
+    );
+    let centre = Vector3::new(120.0, -40.0, 60.0);
+    let splan = synthetic::sphere_plan(&ka, &centre, 15.0, &poses);
+    let struth = Model::new(
+        ka.clone(),
+        vec![Effect::Location {
+            symbols: (0..8).collect(),
+        }],
+    );
+    let stheta = [15.0, -30.0, 60.0, -90.0, 120.0, 20.0, -25.0, 40.0];
+    let spts = synthetic::probed_sphere(&struth, &stheta, &splan, &centre, 15.0, 0.35, &mut rng);
+    let sd = dataset(&splan, TestKind::Probing, spts);
+    let ssetup = Setup::new(&ka, &sd.poses, &[]).unwrap();
+    c.bench_function("sphere method, 49 positions, robust", |b| {
+        b.iter(|| uncertainty::identify_with(Method::Sphere, black_box(&ssetup), &sd, &so).unwrap())
+    });
+
+    let loc = Setup::new(&k, &d.poses, &[]).unwrap();
+    let est = uncertainty::identify_with(Method::Global, &loc, &d, &so).unwrap();
+    let t = SyntheticTest {
+        estimate: &est,
+        setup: &loc,
+        data: &d,
+        method: Method::Global,
+        sphere: so,
+        sphere_geometry: None,
+        contributors: Contributors::seed001(),
+    };
+    let mut group = c.benchmark_group("monte carlo");
+    group.sample_size(10);
+    group.bench_function("200 runs of the global fit, seed 001 table 4", |b| {
+        b.iter(|| {
+            uncertainty::montecarlo::run(
+                &McOptions {
+                    runs: 200,
+                    seed: 3,
+                    progress: false,
+                },
+                est.theta.len(),
+                |_, r| uncertainty::synthetic_run(&t, r),
+            )
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
