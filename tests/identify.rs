@@ -632,3 +632,40 @@ fn column_probing_on_ac_trunnion_recovers_the_eight_symbols_with_any_setup() {
         }
     }
 }
+
+#[test]
+fn sphere_method_uncertainty_agrees_with_a_seeded_spread() {
+    let (k, data, centre) = sphere_data(0.35, 12);
+    let setup = Setup::new(&k, &data.poses, &[]).unwrap();
+    let est = run(Method::Sphere, &setup, &data);
+    let t = SyntheticTest {
+        estimate: &est,
+        setup: &setup,
+        data: &data,
+        method: Method::Sphere,
+        sphere: SphereOptions::default(),
+        sphere_geometry: Some((centre, 15.0)),
+        contributors: Contributors::noise_only(0.35),
+    };
+    let mc = fivecal::uncertainty::montecarlo::run(
+        &McOptions {
+            runs: 60,
+            seed: 9,
+            progress: false,
+        },
+        8,
+        |_, r| uncertainty::synthetic_run(&t, r),
+    );
+    assert_eq!(mc.failed.0, 0, "{:?}", mc.failed.1);
+    for i in 0..8 {
+        let u = est.u()[i].unwrap();
+        let ratio = mc.std[i] / u;
+        assert!(
+            (ratio - 1.0).abs() < 0.3,
+            "{}: spread {:.3} vs u {:.3}",
+            est.model.param_names()[i],
+            mc.std[i],
+            u
+        );
+    }
+}

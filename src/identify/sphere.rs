@@ -785,30 +785,73 @@ pub fn identify(
         .ok_or_else(|| IdentifyError::Data("the centres do not determine a circle".into()))?;
     let mut notes = fitted.notes.clone();
     let theta = symbols_from_lines(model, &fitted.tilt, &fitted.c, g.t0, span);
-    // Linear propagation of the centres' covariance through the circle
-    // fits (final weights fixed) and the line inversion.
+    // Linear propagation of the centres' covariance: through each circle
+    // fit (final weights fixed) to its line, then through the line
+    // inversion, d theta = Jr^-1 d gap (Jr: the inversion's Jacobian).
     let n = theta.len();
-    let used: Vec<usize> = g.tilt_idx.iter().chain(&g.c_idx).copied().collect();
-    let mut jac = DMatrix::zeros(n, 3 * used.len());
-    let eval = |cs: &[Vector3<f64>]| -> Option<Vec<f64>> {
-        let gg = groups(data, cs).ok()?;
-        let f = lines(&gg, model, opts.circle, Some((&fitted.w_tilt, &fitted.w_c)))?;
-        Some(symbols_from_lines(model, &f.tilt, &f.c, gg.t0, span))
+    let mut used: Vec<usize> = g.tilt_idx.iter().chain(&g.c_idx).copied().collect();
+    used.sort_unstable();
+    used.dedup();
+    let tilt_hint = model.kin.machine().tilt.about.unit();
+    let c_hint = model.kin.nominal_table_transform(g.t0, 0.0).rotation * Vector3::z();
+    let refit = |axis: &AxisCentres, hint: &Vector3<f64>, w: &[f64]| -> Option<Line> {
+        match opts.circle {
+            CircleMethod::Combinations => {
+                combinations_line(axis, hint, &Vector3::zeros()).map(|x| x.0)
+            }
+            _ => fit_circle_weighted(&axis.centres, w, hint).map(|c| Line {
+                point: c.centre,
+                dir: c.normal,
+            }),
+        }
     };
+    let mut dl = DMatrix::zeros(8, 3 * used.len());
     let h = 1e-5;
     for (u, &j) in used.iter().enumerate() {
         for i in 0..3 {
-            let mut cp = centres.clone();
-            cp[j][i] += h;
-            let mut cm = centres.clone();
-            cm[j][i] -= h;
-            if let (Some(a), Some(b)) = (eval(&cp), eval(&cm)) {
-                for k in 0..n {
-                    jac[(k, 3 * u + i)] += (a[k] - b[k]) / (2.0 * h);
+            for (row, axis, idx, base, hint, w) in [
+                (
+                    0,
+                    &g.tilt,
+                    &g.tilt_idx,
+                    &fitted.tilt,
+                    &tilt_hint,
+                    &fitted.w_tilt,
+                ),
+                (4, &g.c, &g.c_idx, &fitted.c, &c_hint, &fitted.w_c),
+            ] {
+                let Some(pos) = idx.iter().position(|&x| x == j) else {
+                    continue;
+                };
+                let (mut ap, mut am) = (axis.clone(), axis.clone());
+                ap.centres[pos][i] += h;
+                am.centres[pos][i] -= h;
+                if let (Some(lp), Some(lm)) = (refit(&ap, hint, w), refit(&am, hint, w)) {
+                    let (gp, gm) = (line_gap(&lp, base), line_gap(&lm, base));
+                    for r in 0..4 {
+                        dl[(row + r, 3 * u + i)] = (gp[r] - gm[r]) / (2.0 * h);
+                    }
                 }
             }
         }
     }
+    let lp = LineProblem {
+        model,
+        tilt: fitted.tilt,
+        c: fitted.c,
+        t0: g.t0,
+        span,
+    };
+    let mut r0 = [0.0; 8];
+    let mut jr = Mat::<f64>::zeros(8, n);
+    lp.eval(&theta, &mut r0, Some(&mut jr));
+    let jr = lsq::to_nalgebra(&jr);
+    let jr_inv = jr
+        .clone()
+        .svd(true, true)
+        .pseudo_inverse(1e-12 * jr.norm())
+        .unwrap_or_else(|_| DMatrix::zeros(n, 8));
+    let jac = &jr_inv * dl;
     let mut cc = DMatrix::zeros(3 * used.len(), 3 * used.len());
     for (u, &j) in used.iter().enumerate() {
         let c = spheres[j].cov_unit * (sigma_mm * sigma_mm);
