@@ -17,7 +17,7 @@ use fivecal::identify::data::join;
 use fivecal::identify::nine_section::NineSection;
 use fivecal::identify::synthetic;
 use fivecal::kinematics::Kinematics;
-use fivecal::model::{DriftBasis, Effect, Model};
+use fivecal::model::{DriftBasis, Effect};
 use fivecal::{Dialect, Machine};
 use nalgebra::Vector3;
 
@@ -207,7 +207,7 @@ fn a_file_from_a_different_plan_is_refused() {
     .to_string();
     assert!(e.starts_with("m.dmo:110:1: the nominal of"), "{e}");
     // Unlabelled points that do not fit the piece.
-    let (plan, pts, _) = machined_points(3);
+    let (_, pts, _) = machined_points(3);
     let other = synthetic::stepped_square(
         &Kinematics::new(&machine("bc-trunnion")),
         &[0.0],
@@ -679,7 +679,6 @@ fn drift_per_pose_is_identified_by_the_rigid_pose_model() {
     let fm = fivecal::identify::forward::RigidPoseMachining::new(model).unwrap();
     let est = fivecal::identify::global::identify(&fm, &setup, &data, &Default::default()).unwrap();
     assert!((est.theta[8] - 1.5).abs() < 1e-6, "{}", est.summary());
-    let _ = Model::new(k, vec![]);
 }
 
 #[test]

@@ -183,3 +183,37 @@ fn identifiability_is_judged_at_the_nominal_design_not_at_the_estimate() {
     assert!((v + 180.0).abs() < 1.0, "EY0C = {v}");
     assert_eq!(est.identifiability.rank, 10);
 }
+
+/// A DMIS point at 1e250 mm (a corrupted file) overflowed the placement
+/// arithmetic and nalgebra's SVD iterated forever on the NaNs (found while
+/// testing bad input). Coordinates beyond 100 m are refused at the join.
+#[test]
+fn dmis_point_at_1e250_mm_is_refused_instead_of_hanging_the_svd() {
+    use fivecal::formats::detect::{Measurement, parse_measurement};
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let plan = fivecal::identify::synthetic::stepped_square(&k, &[0.0], &[0.0, 90.0], 15.0);
+    let mut src = String::from("DMISMN/'corrupt',04.0\nUNITS/MM,ANGDEC\n");
+    for (i, p) in plan.points.iter().enumerate() {
+        let x = if i == 3 { 1e250 } else { p.p.x };
+        src.push_str(&format!(
+            "FA({})=FEAT/POINT,CART,{x},{},{}\n",
+            p.label, p.p.y, p.p.z
+        ));
+    }
+    let Measurement::Points(set) = parse_measurement(Path::new("c.dmo"), &src).unwrap() else {
+        panic!("points expected");
+    };
+    let e = fivecal::identify::data::join(
+        &plan,
+        fivecal::formats::manifest::TestKind::Machining,
+        &Default::default(),
+        &[("c.dmo".into(), set)],
+        &|p| p.p,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.starts_with("c.dmo:6:1: a coordinate of 1.000000e250 mm"),
+        "{e}"
+    );
+}

@@ -19,6 +19,10 @@ use crate::formats::points::{PlanPoint, PlanPoints};
 use crate::placement;
 use crate::source::SourceError;
 
+/// Coordinates beyond this (mm) are not measurements of a machine tool or
+/// a piece on a CMM; they are refused before any arithmetic can overflow.
+pub const MAX_COORDINATE_MM: f64 = 1.0e5;
+
 /// One measured point and the plan point it measures.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Observation {
@@ -112,7 +116,34 @@ pub fn join(
     let mut obs: Vec<Observation> = Vec::new();
     let mut seen: HashMap<usize, (usize, usize)> = HashMap::new();
     let mut warnings = Vec::new();
+    for p in &plan.points {
+        if p.p.amax() > MAX_COORDINATE_MM {
+            return Err(SourceError::new(
+                Path::new("<plan points>"),
+                0,
+                0,
+                format!(
+                    "plan point `{}` lies {:.0} mm from W: beyond {MAX_COORDINATE_MM} mm no machine tool reaches",
+                    p.label,
+                    p.p.norm()
+                ),
+            ));
+        }
+    }
     for (fi, (path, set)) in files.iter().enumerate() {
+        for p in &set.points {
+            if p.p.amax() > MAX_COORDINATE_MM {
+                return Err(SourceError::new(
+                    path,
+                    p.line,
+                    1,
+                    format!(
+                        "a coordinate of {:.6e} mm is beyond any CMM ({MAX_COORDINATE_MM} mm): expected a measured point in mm",
+                        p.p.amax()
+                    ),
+                ));
+            }
+        }
         for w in &set.warnings {
             warnings.push(format!("{}: {w}", path.display()));
         }

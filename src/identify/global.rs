@@ -142,10 +142,13 @@ pub fn identify(
     let basis = setup.basis(extra);
     let x0 = vec![0.0; n + extra];
     let sol = lsq::solve(&problem, &x0, Some(&basis), opts);
-    if let Some(e) = problem.error.borrow_mut().take()
-        && !sol.cost.is_finite()
-    {
-        return Err(e.into());
+    if !sol.cost.is_finite() {
+        return Err(match problem.error.borrow_mut().take() {
+            Some(e) => e.into(),
+            None => {
+                IdentifyError::Data("the fit failed: the residuals are not finite numbers".into())
+            }
+        });
     }
     let design = lsq::design(&sol.jacobian, Some(&basis), opts.rank_rtol);
     // What the test can identify is a property of its design, judged at

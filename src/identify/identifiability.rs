@@ -8,10 +8,12 @@
 //!
 //! **Pose quality.** HEIDENHAIN KinematicsOpt (cycle 451) reports a
 //! dimensionless *valuation number* per rotary axis: how well the measuring
-//! positions determine the machine's changeable transformations; its manual
-//! asks for at least 2 and calls 4 or more desirable, and suggests a larger
-//! measuring range or more points when it is low. HEIDENHAIN does not
-//! publish the formula, so ours is defined openly and on the same scale:
+//! positions determine the machine's changeable transformations. As we
+//! recall its touch-probe cycles manual (the text could not be checked
+//! while writing this), it asks for at least 2, calls 4 or more desirable,
+//! and suggests a larger measuring range or more points when the number is
+//! low; the formula is not published. Ours is defined openly, on that
+//! scale:
 //!
 //! ```text
 //! Q_axis = 1 / max_k sqrt( [(J^T J)^+]_kk )
@@ -25,6 +27,8 @@
 //! uncertainty is `1/Q` um (or `1/Q` * 10 urad). It grows with the square
 //! root of the number of points and with the measuring range, as the
 //! valuation number does; 0 means an axis parameter is not identifiable.
+//! (For the sphere method the design's measurements are the sphere
+//! centres, so there the figure is per um of noise of a centre.)
 
 use nalgebra::{DMatrix, DVector};
 

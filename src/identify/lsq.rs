@@ -104,6 +104,17 @@ struct ScaledSvd {
 
 fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
     let (m, p) = (jz.nrows(), jz.ncols());
+    let finite = (0..p).all(|c| (0..m).all(|r| jz[(r, c)].is_finite()));
+    if !finite {
+        // A Jacobian that overflowed (absurd input) identifies nothing.
+        return ScaledSvd {
+            scale: vec![1.0; p],
+            u: Mat::zeros(m, p),
+            s: vec![0.0; p],
+            v: Mat::identity(p, p),
+            rank: 0,
+        };
+    }
     let mut scale = vec![1.0; p];
     let mut js = jz.clone();
     for (c, sc) in scale.iter_mut().enumerate() {
@@ -125,7 +136,15 @@ fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
         }
         js = padded;
     }
-    let svd = js.thin_svd().expect("SVD of a finite matrix converges");
+    let Ok(svd) = js.thin_svd() else {
+        return ScaledSvd {
+            scale,
+            u: Mat::zeros(m, p),
+            s: vec![0.0; p],
+            v: Mat::identity(p, p),
+            rank: 0,
+        };
+    };
     let sd = svd.S().column_vector();
     let s: Vec<f64> = (0..sd.nrows()).map(|i| sd[i]).collect();
     let smax = s.first().copied().unwrap_or(0.0);

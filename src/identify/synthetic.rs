@@ -25,8 +25,7 @@ use crate::formats::points::{PlanPoint, PlanPoints};
 use crate::kinematics::{Axes, Kinematics};
 use crate::model::{Context, Model};
 
-fn context(model: &Model, p: &PlanPoint, commanded: Vector3<f64>, minutes: f64) -> Context {
-    let _ = model;
+fn context(p: &PlanPoint, commanded: Vector3<f64>, minutes: f64) -> Context {
     Context {
         axes: Axes {
             xyz: commanded,
@@ -66,7 +65,7 @@ pub fn machined<R: Rng + ?Sized>(
             let nominal = k.nominal_table_transform(p.tilt, p.c);
             let commanded = (nominal * Point3::from(p.p)).coords;
             let min = minutes.get(&p.pose).copied().unwrap_or(0.0);
-            let ctx = context(model, p, commanded, min);
+            let ctx = context(p, commanded, min);
             let pert = model.perturbation(theta, &ctx);
             let tip = k.forward(&ctx.axes, &pert).tip;
             let m = k.table_transform(p.tilt, p.c, &pert).inverse() * nominal;
@@ -103,7 +102,7 @@ pub fn probed<R: Rng + ?Sized>(
             let q0 = (nominal * Point3::from(p.p)).coords;
             let d = nominal.rotation * p.n;
             let min = minutes.get(&p.pose).copied().unwrap_or(0.0);
-            let ctx = context(model, p, q0, min);
+            let ctx = context(p, q0, min);
             let pert = model.perturbation(theta, &ctx);
             let t = k.table_transform(p.tilt, p.c, &pert) * setup;
             // The probe's actual position is its commanded one plus the
@@ -140,7 +139,7 @@ pub fn probed_sphere<R: Rng + ?Sized>(
             let nominal = k.nominal_table_transform(p.tilt, p.c);
             let q0 = (nominal * Point3::from(p.p)).coords;
             let d = nominal.rotation * p.n;
-            let ctx = context(model, p, q0, 0.0);
+            let ctx = context(p, q0, 0.0);
             let pert = model.perturbation(theta, &ctx);
             let c = (k.table_transform(p.tilt, p.c, &pert) * Point3::from(*centre)).coords
                 - pert.linear();

@@ -88,7 +88,7 @@ fn stage1_frame(
         }
         TestKind::Probing => {
             let t = kin.nominal_table_transform(p.tilt, p.c);
-            ((m), (t * Point3::from(p.p)).coords, t.rotation * p.n)
+            (m, (t * Point3::from(p.p)).coords, t.rotation * p.n)
         }
     }
 }
@@ -298,6 +298,11 @@ pub fn identify(
     let n = setup.model.n_params();
     let basis = setup.basis(6);
     let sol = lsq::solve(&st2, &vec![0.0; n + 6], Some(&basis), opts);
+    if !sol.cost.is_finite() || fits.iter().any(|f| !f.rms_um.is_finite()) {
+        return Err(IdentifyError::Data(
+            "the fit failed: the residuals are not finite numbers".into(),
+        ));
+    }
     let design = lsq::design(&sol.jacobian, Some(&basis), opts.rank_rtol);
     // Identifiability is judged on the design at the nominal machine (see
     // `global`).

@@ -74,7 +74,10 @@ pub struct AnalyzeArgs {
     seed: u64,
     /// Contributors of the Monte-Carlo study: `seed001` (table 4, machining
     /// default), `seed000` (table 4, probing default), `noise` (residual
-    /// sigma only), or a YAML file of `uncertainty::Contributors`.
+    /// sigma only), or a YAML file with the keys `distribution` (uniform or
+    /// normal), `linear_scale_um_per_m`, `straightness_um`,
+    /// `squareness_urad`, `noise_um`, and optionally `setup_position_um` and
+    /// `setup_orientation_urad` (three numbers each).
     #[arg(long, value_name = "PRESET|FILE")]
     contributors: Option<String>,
     /// Error maps to identify with the location errors, comma-separated
