@@ -52,7 +52,7 @@ fn dmis_output_with_real_world_quirks_reads_like_the_cmm_meant_it() {
     assert_eq!(set.points[1].line, 16);
     assert_eq!(set.points[2].p, Vector3::new(1.5, 2.25, -3.0));
     // The nominal with its extra trailing field is read too.
-    assert_eq!(set.nominals[0].1, Vector3::new(13.9113, -4.2534, 39.7862));
+    assert_eq!(set.nominals[0].p, Vector3::new(13.9113, -4.2534, 39.7862));
     // `,$$` continuations are read, and said.
     assert!(
         set.warnings.iter().any(|w| w.contains("`,$$`")),
@@ -189,11 +189,12 @@ fn a_file_from_a_different_plan_is_refused() {
         .enumerate()
         .map(|(i, p)| {
             let shift = if i == 10 { 0.5 } else { 0.0 };
-            (
-                p.label.clone(),
-                p.p + Vector3::new(shift, 0.0, 0.0),
-                100 + i,
-            )
+            dmis::Nominal {
+                label: p.label.clone(),
+                p: p.p + Vector3::new(shift, 0.0, 0.0),
+                n: Some(p.n),
+                line: 100 + i,
+            }
         })
         .collect();
     let e = join(
@@ -717,5 +718,183 @@ fn the_sample_data_in_examples_analyze_returns_its_truth() {
                 truth.theta[i]
             );
         }
+    }
+}
+
+/// The planner's own stepped square (issue 3): `fivecal plan`, then a piece
+/// machined with the eight errors and a B-axis map, measured in DMIS, then
+/// `fivecal analyze` on the plan directory as written.
+#[test]
+fn analyze_measures_of_a_plan_written_by_fivecal_plan() {
+    let dir = tempdir();
+    let plan_dir = dir.path().join("ss");
+    fivecal()
+        .args([
+            "plan",
+            "stepped-square",
+            "--machine",
+            "bc-trunnion",
+            "--out",
+        ])
+        .arg(&plan_dir)
+        .assert()
+        .success();
+    let manifest = plan_dir.join("stepped-square.plan.yaml");
+    let plan = PlanPoints::read(&plan_dir.join("stepped-square.points.csv")).unwrap();
+    let k = Kinematics::new(&machine("bc-trunnion"));
+    let sym = fivecal::model::Model::new(k.clone(), vec![]).symbols;
+    let grid = fivecal::kinematics::maps::MapGrid {
+        dims: vec![fivecal::kinematics::maps::MapDim::new(0, &[-90.0, 0.0, 90.0], false).unwrap()],
+    };
+    let truth = truth_model(
+        &k,
+        vec![Effect::Map {
+            symbol: sym.map_index("EBB(B)").unwrap(),
+            grid,
+        }],
+    );
+    let mut theta = BC_TRUTH.to_vec();
+    theta.extend([30.0, -8.0, -22.0]);
+    let mut r = rng(77);
+    let placement = random_placement(&mut r, 700.0);
+    let pts = synthetic::machined(
+        &truth,
+        &theta,
+        &plan,
+        &HashMap::new(),
+        0.35,
+        &placement,
+        &mut r,
+    );
+    let measured = dir.path().join("piece.dmo");
+    write_dmis(&measured, &plan, &pts);
+    let out = dir.path().join("result.yaml");
+    for method in ["global", "two-stage"] {
+        fivecal()
+            .args(["analyze", "--plan"])
+            .arg(&manifest)
+            .arg("--measured")
+            .arg(&measured)
+            .arg("--out")
+            .arg(&out)
+            .args(["--maps", "EBB(B)", "--method", method])
+            .assert()
+            .success();
+        let l = ErrorFile::load(&out, &k).unwrap();
+        let names = l.model.param_names();
+        assert_eq!(names.len(), 11);
+        for i in 0..11 {
+            let u = l.u[i].unwrap();
+            assert!(
+                (l.theta[i] - theta[i]).abs() < 4.0 * u,
+                "{method} {}: {} ({u}) vs {}",
+                names[i],
+                l.theta[i],
+                theta[i]
+            );
+        }
+    }
+}
+
+/// The planner's nine-section piece (seed 004 section 6) machined with
+/// location errors and measured on a CMM in DMIS: the section heights are
+/// the deviations along the nominal directions relative to section 1,
+/// whatever the CMM alignment.
+#[test]
+fn nine_section_heights_from_the_cmm_output_of_a_planned_piece() {
+    let dir = tempdir();
+    let plan_dir = dir.path().join("nine");
+    fivecal()
+        .args(["plan", "nine-section", "--machine", "ac-trunnion", "--out"])
+        .arg(&plan_dir)
+        .assert()
+        .success();
+    let plan = PlanPoints::read(&plan_dir.join("nine-section.points.csv")).unwrap();
+    let k = Kinematics::new(&machine("ac-trunnion"));
+    let truth = truth_model(&k, vec![]);
+    let mut r = rng(9);
+    // The independent computation: the model's deviation of each point
+    // along its normal, in W, averaged per section.
+    let exact = synthetic::machined(
+        &truth,
+        &AC_TRUTH,
+        &plan,
+        &HashMap::new(),
+        0.0,
+        &nalgebra::Isometry3::identity(),
+        &mut r,
+    );
+    let mut per: Vec<(String, f64, usize)> = Vec::new();
+    for (m, p) in exact.iter().zip(&plan.points) {
+        let d = p.n.dot(&(m.p - p.p)) * 1e3;
+        match per.iter_mut().find(|x| x.0 == p.pose) {
+            Some(x) => {
+                x.1 += d;
+                x.2 += 1;
+            }
+            None => per.push((p.pose.clone(), d, 1)),
+        }
+    }
+    let want: Vec<f64> = per
+        .iter()
+        .map(|x| x.1 / x.2 as f64 - per[0].1 / per[0].2 as f64)
+        .collect();
+    assert!(
+        want.iter().any(|h| h.abs() > 1.0),
+        "the errors should show: {want:?}"
+    );
+    // Measured on a CMM whose alignment puts the piece anywhere.
+    let placement = random_placement(&mut r, 400.0);
+    let pts = synthetic::machined(
+        &truth,
+        &AC_TRUTH,
+        &plan,
+        &HashMap::new(),
+        0.0,
+        &placement,
+        &mut r,
+    );
+    let dp: Vec<DmisPoint> = pts
+        .iter()
+        .zip(&plan.points)
+        .map(|(m, p)| DmisPoint {
+            label: m.label.clone(),
+            nominal: (
+                (placement * nalgebra::Point3::from(p.p)).coords,
+                placement.rotation * p.n,
+            ),
+            actual: m.p,
+        })
+        .collect();
+    let measured = dir.path().join("nine.dmo");
+    std::fs::write(
+        &measured,
+        dmis::write_output(
+            &dp,
+            &WriteOptions {
+                decimals: 6,
+                ..Default::default()
+            },
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("nine.yaml");
+    fivecal()
+        .args(["analyze", "--plan"])
+        .arg(plan_dir.join("nine-section.plan.yaml"))
+        .arg("--measured")
+        .arg(&measured)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(predicates::str::contains("AVG"));
+    let v: serde_yaml::Value =
+        serde_yaml::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let sections = &v["nine_section"][0][1]["sections"];
+    for (i, h) in want.iter().enumerate() {
+        let got = sections[i][1].as_f64().unwrap();
+        // The DMIS file keeps six decimals of a mm: 0.5 nm per coordinate.
+        assert!((got - h).abs() < 0.01, "section {}: {got} vs {h}", i + 1);
     }
 }

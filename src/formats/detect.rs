@@ -27,7 +27,7 @@ pub struct PointSet {
     pub labeled: bool,
     /// Nominal positions the file itself states, by label (DMIS `F(..)`):
     /// used to check that the file belongs to the plan.
-    pub nominals: Vec<(String, Vector3<f64>, usize)>,
+    pub nominals: Vec<dmis::Nominal>,
     /// Quirks met while reading.
     pub warnings: Vec<String>,
 }

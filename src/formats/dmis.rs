@@ -177,6 +177,19 @@ pub struct FeatureData {
     pub line: usize,
 }
 
+/// A nominal point as a measurement file states it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Nominal {
+    /// Label.
+    pub label: String,
+    /// Position in the file's frame, mm.
+    pub p: Vector3<f64>,
+    /// Unit direction (the surface normal the CMM probed along), if given.
+    pub n: Option<Vector3<f64>>,
+    /// 1-based line.
+    pub line: usize,
+}
+
 /// A label with its nominal and actual data.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DmisFeature {
@@ -230,13 +243,19 @@ impl DmisOutput {
             .collect()
     }
 
-    /// Nominal point positions by label (the CMM program's nominals).
-    pub fn nominal_points(&self) -> Vec<(String, Vector3<f64>, usize)> {
+    /// Nominal points by label (the CMM program's nominals, in its
+    /// alignment), with their directions where given.
+    pub fn nominal_points(&self) -> Vec<Nominal> {
         self.features
             .iter()
             .filter_map(|f| {
                 let n = f.nominal.as_ref()?;
-                (n.kind == FeatureKind::Point).then(|| (f.label.clone(), n.xyz, n.line))
+                (n.kind == FeatureKind::Point).then(|| Nominal {
+                    label: f.label.clone(),
+                    p: n.xyz,
+                    n: n.ijk,
+                    line: n.line,
+                })
             })
             .collect()
     }

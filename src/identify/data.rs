@@ -265,7 +265,7 @@ fn check_labels(
     let pairs: Vec<(usize, Vector3<f64>, usize)> = set
         .nominals
         .iter()
-        .filter_map(|(l, v, line)| by_label.get(l.as_str()).map(|&i| (i, *v, *line)))
+        .filter_map(|n| by_label.get(n.label.as_str()).map(|&i| (i, n.p, n.line)))
         .collect();
     if pairs.len() >= 3 {
         let w: Vec<Vector3<f64>> = pairs.iter().map(|x| plan.points[x.0].p).collect();

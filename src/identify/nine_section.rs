@@ -3,8 +3,18 @@
 //! the signed heights), MAX (largest absolute height) and RMS (root mean
 //! square), all over every section including section 1 itself, as the
 //! seed's table computes them.
+//!
+//! The heights come either as measured (`section,height_um`) or from the
+//! CMM's DMIS output of the planner's nine-section points: each point's
+//! deviation along its nominal direction, in the CMM program's alignment
+//! (the piece's datum, as the micrometer's), averaged per section and taken
+//! relative to section 1. A best fit of the sections themselves would
+//! remove their common tilt, which is part of what the test shows, so
+//! points without nominals are refused.
 
+use crate::formats::detect::PointSet;
 use crate::formats::heights::SectionHeight;
+use crate::formats::points::PlanPoints;
 
 /// The statistics of one nine-section piece.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -30,6 +40,58 @@ impl NineSection {
             max_um: v.iter().fold(0.0f64, |a, b| a.max(b.abs())),
             rms_um: (v.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
         }
+    }
+
+    /// The statistics from the DMIS output of a nine-section piece: the
+    /// sections are the plan's poses in execution order (section 1
+    /// first), each point's deviation is along the file's own nominal
+    /// direction. Fails, saying why, when a point lacks its nominal.
+    pub fn from_deviations(plan: &PlanPoints, set: &PointSet) -> Result<NineSection, String> {
+        let mut poses: Vec<(u32, String)> = Vec::new();
+        for p in &plan.points {
+            if !poses.iter().any(|q| q.1 == p.pose) {
+                poses.push((p.seq, p.pose.clone()));
+            }
+        }
+        poses.sort();
+        let mut sums = vec![(0.0, 0usize); poses.len()];
+        for m in &set.points {
+            let Some(pp) = plan.points.iter().find(|p| p.label == m.label) else {
+                return Err(format!(
+                    "line {}: `{}` is not a point of the plan",
+                    m.line, m.label
+                ));
+            };
+            let Some((p, n)) = set
+                .nominals
+                .iter()
+                .find(|n| n.label == m.label)
+                .and_then(|n| Some((n.p, n.n?)))
+            else {
+                return Err(format!(
+                    "line {}: `{}` has no nominal point and direction: nine-section heights need the CMM's DMIS output (F and FA) or section,height_um",
+                    m.line, m.label
+                ));
+            };
+            let k = poses.iter().position(|q| q.1 == pp.pose).unwrap_or(0);
+            sums[k].0 += n.dot(&(m.p - p)) * 1e3;
+            sums[k].1 += 1;
+        }
+        if sums[0].1 == 0 {
+            return Err(format!("section 1 (pose {}) was not measured", poses[0].1));
+        }
+        let reference = sums[0].0 / sums[0].1 as f64;
+        let heights: Vec<SectionHeight> = sums
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.1 > 0)
+            .map(|(i, s)| SectionHeight {
+                section: i as u32 + 1,
+                height_um: s.0 / s.1 as f64 - reference,
+                line: 0,
+            })
+            .collect();
+        Ok(NineSection::new(&heights))
     }
 
     /// The rate of improvement of each statistic from `before` to `self`,

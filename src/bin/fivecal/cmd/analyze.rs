@@ -146,26 +146,26 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             .map_or(machine.probe.length, |p| p.length),
     };
     let kin = Kinematics::with_gauge_length(&machine, gauge);
-    let nine = manifest.test == "nine-section";
-    let plan = if nine {
-        None
-    } else {
-        let p = manifest.file(&manifest_path, "points").with_context(|| {
-            format!(
-                "{}: the manifest lists no `points` file",
-                manifest_path.display()
-            )
-        })?;
-        let plan = PlanPoints::read(&p)?;
-        if plan.tilt_letter != machine.tilt.letter {
-            bail!(
-                "{}: the points are for a machine with a {} axis, the plan's machine has {}",
-                p.display(),
-                plan.tilt_letter,
-                machine.tilt.letter
-            );
+    // A nine-section plan may come without points: its heights are
+    // measured with a micrometer.
+    let plan = match manifest.file(&manifest_path, "points") {
+        None if manifest.test == "nine-section" => None,
+        None => bail!(
+            "{}: the manifest lists no `points` file",
+            manifest_path.display()
+        ),
+        Some(p) => {
+            let plan = PlanPoints::read(&p)?;
+            if plan.tilt_letter != machine.tilt.letter {
+                bail!(
+                    "{}: the points are for a machine with a {} axis, the plan's machine has {}",
+                    p.display(),
+                    plan.tilt_letter,
+                    machine.tilt.letter
+                );
+            }
+            Some(plan)
         }
-        Some(plan)
     };
     let method = match &a.method {
         Some(m) => m.parse::<Method>().map_err(anyhow::Error::msg)?,
@@ -296,6 +296,21 @@ fn analyze(c: Config) -> anyhow::Result<()> {
     } else {
         vec![sets]
     };
+    if c.manifest.test == "nine-section" {
+        // The CMM's deviations of the nine sections: heights relative to
+        // section 1, one file per piece.
+        let mut stats = Vec::new();
+        for piece in &pieces {
+            // Joining checks labels and nominals against the plan.
+            let _ = identify::data::join(plan, c.manifest.kind, &minutes, piece, &nominal)?;
+            for (path, set) in piece {
+                let s = NineSection::from_deviations(plan, set)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+                stats.push((path.clone(), s));
+            }
+        }
+        return write_nine_section(&c, &stats);
+    }
     let mut results: Vec<(String, ErrorFile)> = Vec::new();
     for (i, piece) in pieces.iter().enumerate() {
         let data = identify::data::join(plan, c.manifest.kind, &minutes, piece, &nominal)?;
@@ -482,12 +497,20 @@ fn nine_section(c: &Config, heights: &[(PathBuf, Vec<SectionHeight>)]) -> anyhow
             c.manifest.test
         );
     }
-    let stats: Vec<NineSection> = heights.iter().map(|(_, h)| NineSection::new(h)).collect();
-    for ((p, _), s) in heights.iter().zip(&stats) {
+    let stats: Vec<(PathBuf, NineSection)> = heights
+        .iter()
+        .map(|(p, h)| (p.clone(), NineSection::new(h)))
+        .collect();
+    write_nine_section(c, &stats)
+}
+
+/// Prints and writes nine-section statistics (one entry per piece).
+fn write_nine_section(c: &Config, stats: &[(PathBuf, NineSection)]) -> anyhow::Result<()> {
+    for (p, s) in stats {
         println!("{}:\n{}", p.display(), s.render());
     }
     if stats.len() > 1 {
-        let r = stats.last().unwrap().improvement_over(&stats[0]);
+        let r = stats.last().unwrap().1.improvement_over(&stats[0].1);
         println!(
             "rate of improvement from the first to the last: AVG {:.2} %, MAX {:.2} %, RMS {:.2} %",
             r[0], r[1], r[2]
@@ -498,10 +521,9 @@ fn nine_section(c: &Config, heights: &[(PathBuf, Vec<SectionHeight>)]) -> anyhow
         nine_section: Vec<(String, &'a NineSection)>,
     }
     let out = Out {
-        nine_section: heights
+        nine_section: stats
             .iter()
-            .zip(&stats)
-            .map(|((p, _), s)| (p.display().to_string(), s))
+            .map(|(p, s)| (p.display().to_string(), s))
             .collect(),
     };
     write_atomic(&c.out, serialize(&out, c.json)?.as_bytes())?;
