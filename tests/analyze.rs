@@ -296,6 +296,18 @@ pub fn plan_dir(
     machine_name: &str,
     plan: &PlanPoints,
 ) -> PathBuf {
+    plan_dir_with(dir, test, kind, machine_name, plan, "# synthetic\n")
+}
+
+/// [`plan_dir`] with the template copy's text.
+pub fn plan_dir_with(
+    dir: &Path,
+    test: &str,
+    kind: TestKind,
+    machine_name: &str,
+    plan: &PlanPoints,
+    template: &str,
+) -> PathBuf {
     let m = Machine::builtin(machine_name).unwrap();
     let src = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -303,7 +315,7 @@ pub fn plan_dir(
     )
     .unwrap();
     std::fs::write(dir.join(format!("{test}.machine.yaml")), src).unwrap();
-    std::fs::write(dir.join(format!("{test}.template.yaml")), "# synthetic\n").unwrap();
+    std::fs::write(dir.join(format!("{test}.template.yaml")), template).unwrap();
     std::fs::write(
         dir.join(format!("{test}.points.csv")),
         plan.to_csv(&["synthetic"]),
@@ -563,12 +575,13 @@ fn sphere_test_on_ac_trunnion_from_the_command_line() {
     let plan = synthetic::sphere_plan(&k, &centre, 15.0, &sphere_poses());
     let truth = truth_model(&k, vec![]);
     let pts = synthetic::probed_sphere(&truth, &AC_TRUTH, &plan, &centre, 15.0, 0.35, &mut rng(8));
-    let manifest = plan_dir(
+    let manifest = plan_dir_with(
         dir.path(),
         "probe-sphere",
         TestKind::Probing,
         "ac-trunnion",
         &plan,
+        fivecal::probing::template::BUILTIN_SPHERE,
     );
     let measured = dir.path().join("sphere.csv");
     std::fs::write(
@@ -690,7 +703,7 @@ fn the_sample_data_in_examples_analyze_returns_its_truth() {
     let dir = tempdir();
     for (test, file, machine_name, maps) in [
         ("stepped-square", "piece1.dmo", "bc-trunnion", "EBB(B)"),
-        ("probe-sphere", "sphere.csv", "ac-trunnion", ""),
+        ("probe-sphere", "PROBE.TXT", "ac-trunnion", ""),
     ] {
         let out = dir.path().join(format!("{test}.yaml"));
         let mut cmd = fivecal();
@@ -896,5 +909,136 @@ fn nine_section_heights_from_the_cmm_output_of_a_planned_piece() {
         let got = sections[i][1].as_f64().unwrap();
         // The DMIS file keeps six decimals of a mm: 0.5 nm per coordinate.
         assert!((got - h).abs() < 0.01, "section {}: {got} vs {h}", i + 1);
+    }
+}
+
+/// The planner's own sphere test on `ac-trunnion` (issue 4's
+/// `probing::sphere::plan`, seed 004's 36 + 13 positions): the touches as
+/// the FANUC program logs them (ball centres, DPRNT), read through the
+/// probe-log reader against the plan, identified by the sphere method.
+#[test]
+fn sphere_test_of_a_probing_plan_from_its_fanuc_probe_log() {
+    use fivecal::formats::probe_log::fanuc;
+    use fivecal::probing::template::{BUILTIN_SPHERE, SphereTemplate};
+    let m = machine("ac-trunnion");
+    let t = SphereTemplate::builtin();
+    let pplan = fivecal::probing::sphere::plan(&m, &t).unwrap();
+    let plan = pplan.points();
+    let k = &pplan.kin;
+    let centre = fivecal::probing::sphere::sphere_centre(&m, &t);
+    let truth = truth_model(k, vec![]);
+    let mut r = rng(31);
+    let contacts = synthetic::probed_sphere(
+        &truth,
+        &AC_TRUTH,
+        &plan,
+        &centre,
+        t.diameter / 2.0,
+        0.35,
+        &mut r,
+    );
+    // The controller logs the ball centre: contact + radius along the
+    // touch's normal in program coordinates.
+    let ball = m.probe.ball_diameter / 2.0;
+    let mut log = String::from("%\nFIVECAL PROBE-SPHERE\n");
+    for (c, p) in contacts.iter().zip(&plan.points) {
+        let n = k.nominal_table_transform(p.tilt, p.c).rotation * p.n;
+        let b = c.p + n * ball;
+        let index = plan.points.iter().position(|q| q.label == p.label).unwrap() + 1;
+        log += &(fanuc::touch_line(index, &b, fanuc::Prt::Spaces) + "\n");
+    }
+    log += "%\n";
+    let dir = tempdir();
+    let manifest = plan_dir_with(
+        dir.path(),
+        "probe-sphere",
+        TestKind::Probing,
+        "ac-trunnion",
+        &plan,
+        BUILTIN_SPHERE,
+    );
+    let measured = dir.path().join("PROBE.TXT");
+    std::fs::write(&measured, log).unwrap();
+    let out = dir.path().join("result.yaml");
+    fivecal()
+        .args(["analyze", "--plan"])
+        .arg(&manifest)
+        .arg("--measured")
+        .arg(&measured)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(predicates::str::contains("method sphere"));
+    let l = ErrorFile::load(&out, k).unwrap();
+    for (i, t) in AC_TRUTH.iter().enumerate() {
+        let u = l.u[i].unwrap();
+        assert!(
+            (l.theta[i] - t).abs() < 4.0 * u,
+            "{}: {} ({u}) vs {t}",
+            l.model.param_names()[i],
+            l.theta[i]
+        );
+    }
+}
+
+/// The planner's three-column probing test on `ac-trunnion` (seed 000's
+/// stations): contact points as CSV, identified by the two-stage and the
+/// global method with the columns set up 0.1 mm off.
+#[test]
+fn column_probing_of_a_probing_plan_by_both_methods() {
+    use fivecal::probing::template::{BUILTIN_COLUMNS, ColumnsTemplate};
+    let m = machine("ac-trunnion");
+    let pplan = fivecal::probing::columns::plan(&m, &ColumnsTemplate::builtin()).unwrap();
+    let plan = pplan.points();
+    let k = &pplan.kin;
+    let truth = truth_model(k, vec![]);
+    let mut r = rng(32);
+    let setup = nalgebra::Isometry3::new(
+        Vector3::new(0.06, -0.08, 0.1),
+        Vector3::new(1e-4, -2e-4, 1e-4),
+    );
+    let pts = synthetic::probed(
+        &truth,
+        &AC_TRUTH,
+        &plan,
+        &HashMap::new(),
+        0.35,
+        &setup,
+        &mut r,
+    );
+    let dir = tempdir();
+    let manifest = plan_dir_with(
+        dir.path(),
+        "probe-columns",
+        TestKind::Probing,
+        "ac-trunnion",
+        &plan,
+        BUILTIN_COLUMNS,
+    );
+    let measured = dir.path().join("columns.csv");
+    std::fs::write(&measured, measured::to_csv(&pts, &[])).unwrap();
+    let out = dir.path().join("result.yaml");
+    for method in ["two-stage", "global"] {
+        fivecal()
+            .args(["analyze", "--plan"])
+            .arg(&manifest)
+            .arg("--measured")
+            .arg(&measured)
+            .arg("--out")
+            .arg(&out)
+            .args(["--method", method])
+            .assert()
+            .success();
+        let l = ErrorFile::load(&out, k).unwrap();
+        for (i, t) in AC_TRUTH.iter().enumerate() {
+            let u = l.u[i].unwrap();
+            assert!(
+                (l.theta[i] - t).abs() < 4.0 * u,
+                "{method} {}: {} ({u}) vs {t}",
+                l.model.param_names()[i],
+                l.theta[i]
+            );
+        }
     }
 }

@@ -4,8 +4,10 @@
 //! Every format is a [`Reader`] in one registry, [`readers`], tried in
 //! order: the first whose `sniff` accepts the text reads it. Specific
 //! formats come first, the plain point list (any three numbers per line)
-//! last. The probe-log readers of `src/formats/probe_log/` plug in at the
-//! marked place in [`readers`].
+//! last. Formats keyed to the plan (the probe logs of
+//! [`super::probe_log`], whose lines name touches by index or label and
+//! hold ball centres) read with a [`ReadContext`] that carries the plan,
+//! the kinematics with the probe, the dialect and the probing options.
 
 use std::path::Path;
 
@@ -13,8 +15,27 @@ use nalgebra::Vector3;
 
 use super::heights::{self, SectionHeight};
 use super::measured::{self, MeasuredPoint};
-use super::{csv_lines, dmis, parse_finite};
+use super::points::PlanPoints;
+use super::{csv_lines, dmis, parse_finite, probe_log};
+use crate::kinematics::Kinematics;
+use crate::machine::Dialect;
 use crate::source::SourceError;
+
+/// What a reader may need beyond the text: the plan and, for probe logs,
+/// the machine's kinematics with the probe's gauge length, the dialect of
+/// the program that wrote the log and the probing options.
+#[derive(Clone, Copy, Default)]
+pub struct ReadContext<'a> {
+    /// The plan's points.
+    pub plan: Option<&'a PlanPoints>,
+    /// Kinematics with the probe's gauge length.
+    pub kin: Option<&'a Kinematics>,
+    /// Dialect of the plan's program.
+    pub dialect: Option<Dialect>,
+    /// Probe-log options (ball radius, probing window); set for probing
+    /// plans only.
+    pub probe: Option<&'a probe_log::ReadOptions>,
+}
 
 /// Points read from one file.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,16 +68,154 @@ pub trait Reader: Sync {
     fn name(&self) -> &'static str;
     /// One line on what the format is, for "expected ..." messages.
     fn describe(&self) -> &'static str;
-    /// Whether the text is in this format.
-    fn sniff(&self, src: &str) -> bool;
+    /// Whether the text is in this format (in this context).
+    fn sniff(&self, src: &str, ctx: &ReadContext<'_>) -> bool;
     /// Reads it.
-    fn read(&self, path: &Path, src: &str) -> Result<Measurement, SourceError>;
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError>;
 }
 
 struct Dmis;
 struct Canonical;
 struct Heights;
+struct ProbeLog;
+struct ProbeFile;
 struct Plain;
+
+/// The first lines with content (FANUC punch leaders, `%` tape marks and
+/// blank lines skipped).
+fn content_lines(src: &str) -> impl Iterator<Item = &str> {
+    src.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "%" && !l.chars().all(|c| c.is_control()))
+}
+
+/// A touch line of one of our probe logs: `T` then a key, then X, Y, Z.
+fn looks_like_touch(line: &str) -> bool {
+    let Some(rest) = line.strip_prefix('T') else {
+        return false;
+    };
+    let rest = rest.trim_start();
+    let key_end = rest.find(char::is_whitespace).unwrap_or(rest.len());
+    let after = rest[key_end..].trim_start();
+    key_end > 0 && after.starts_with('X') && after.contains('Y') && after.contains('Z')
+}
+
+fn probe_context<'a>(
+    path: &Path,
+    ctx: &ReadContext<'a>,
+    what: &str,
+) -> Result<(&'a PlanPoints, &'a Kinematics, &'a probe_log::ReadOptions), SourceError> {
+    match (ctx.plan, ctx.kin, ctx.probe) {
+        (Some(p), Some(k), Some(o)) => Ok((p, k, o)),
+        _ => Err(SourceError::new(
+            path,
+            0,
+            0,
+            format!(
+                "this is {what}: it is read against its probing plan (the plan gives the probe, the dialect and the touches)"
+            ),
+        )),
+    }
+}
+
+fn log_points(log: probe_log::ProbeLog, format: &'static str) -> Measurement {
+    let mut warnings = log.notes;
+    if !log.missing.is_empty() {
+        warnings.push(format!(
+            "{} planned touches are not in the log (first: `{}`)",
+            log.missing.len(),
+            log.missing[0]
+        ));
+    }
+    Measurement::Points(PointSet {
+        format,
+        points: log.points,
+        labeled: true,
+        nominals: Vec::new(),
+        warnings,
+    })
+}
+
+impl Reader for ProbeLog {
+    fn name(&self) -> &'static str {
+        "probe-log"
+    }
+    fn describe(&self) -> &'static str {
+        "a probe log of our probing programs (FIVECAL header, T lines)"
+    }
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
+        content_lines(src).take(5).any(|l| {
+            l.get(..8)
+                .is_some_and(|h| h.eq_ignore_ascii_case("FIVECAL "))
+                || looks_like_touch(l)
+        })
+    }
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
+        let (plan, kin, opts) = probe_context(path, ctx, "a probe log")?;
+        // The plan's dialect first; a log of another dialect is still read
+        // when its lines say which it is.
+        let mut order = vec![Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc];
+        if let Some(d) = ctx.dialect {
+            order.retain(|x| *x != d);
+            order.insert(0, d);
+        }
+        let mut first_error = None;
+        for d in order {
+            match probe_log::read(d, path, src, plan, kin, opts) {
+                Ok(log) => return Ok(log_points(log, "probe-log")),
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        Err(first_error.expect("three dialects were tried"))
+    }
+}
+
+impl Reader for ProbeFile {
+    fn name(&self) -> &'static str {
+        "probe-file"
+    }
+    fn describe(&self) -> &'static str {
+        "a LinuxCNC PROBEOPEN file (of a LinuxCNC probing plan)"
+    }
+    fn sniff(&self, src: &str, ctx: &ReadContext<'_>) -> bool {
+        // Only a LinuxCNC probing plan makes numbers-only files mean ball
+        // centres in touch order.
+        ctx.probe.is_some()
+            && ctx.dialect == Some(Dialect::Linuxcnc)
+            && content_lines(src)
+                .filter(|l| !l.starts_with('#'))
+                .take(3)
+                .all(|l| {
+                    let f: Vec<&str> = l.split_whitespace().collect();
+                    (f.len() == 3 || f.len() == 9) && f.iter().all(|x| x.parse::<f64>().is_ok())
+                })
+    }
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
+        let (plan, kin, opts) = probe_context(path, ctx, "a PROBEOPEN file")?;
+        let raw = probe_log::linuxcnc::parse_probe_file(path, src, plan.tilt_letter)?;
+        Ok(log_points(
+            probe_log::join(path, &raw, plan, kin, opts)?,
+            "probe-file",
+        ))
+    }
+}
 
 impl Reader for Dmis {
     fn name(&self) -> &'static str {
@@ -65,10 +224,15 @@ impl Reader for Dmis {
     fn describe(&self) -> &'static str {
         "DMIS output (F(..)/FA(..) statements)"
     }
-    fn sniff(&self, src: &str) -> bool {
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
         dmis::looks_like_dmis(src)
     }
-    fn read(&self, path: &Path, src: &str) -> Result<Measurement, SourceError> {
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        _: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
         let o = dmis::parse(path, src)?;
         let points = o.measured_points();
         if points.is_empty() {
@@ -115,14 +279,19 @@ impl Reader for Canonical {
     fn describe(&self) -> &'static str {
         "CSV with a header label,x,y,z"
     }
-    fn sniff(&self, src: &str) -> bool {
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
         header_fields(src).is_some_and(|h| {
             ["label", "x", "y", "z"]
                 .iter()
                 .all(|n| h.iter().any(|c| c == n))
         })
     }
-    fn read(&self, path: &Path, src: &str) -> Result<Measurement, SourceError> {
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        _: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
         Ok(Measurement::Points(PointSet {
             format: "csv",
             points: measured::parse_csv(path, src)?,
@@ -140,10 +309,15 @@ impl Reader for Heights {
     fn describe(&self) -> &'static str {
         "nine-section heights (header section,height_um)"
     }
-    fn sniff(&self, src: &str) -> bool {
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
         heights::looks_like_heights(src)
     }
-    fn read(&self, path: &Path, src: &str) -> Result<Measurement, SourceError> {
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        _: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
         Ok(Measurement::Heights(heights::parse(path, src)?))
     }
 }
@@ -177,7 +351,7 @@ impl Reader for Plain {
     fn describe(&self) -> &'static str {
         "a plain point list (x y z per line, no labels)"
     }
-    fn sniff(&self, src: &str) -> bool {
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
         let mut data = src
             .lines()
             .map(str::trim)
@@ -198,7 +372,12 @@ impl Reader for Plain {
         };
         (header || numeric(first)) && data.next().is_some_and(numeric)
     }
-    fn read(&self, path: &Path, src: &str) -> Result<Measurement, SourceError> {
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        _: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
         let mut points = Vec::new();
         let mut first = true;
         for (i, raw) in src.lines().enumerate() {
@@ -245,31 +424,49 @@ impl Reader for Plain {
 pub fn readers() -> Vec<&'static dyn Reader> {
     vec![
         &Dmis, &Heights, &Canonical,
-        // Issue 4: the probe-log readers of `src/formats/probe_log/`
-        // (FANUC/Haas DPRNT, LinuxCNC PROBEOPEN, HEIDENHAIN FN 16) go here,
-        // before the plain point list, which accepts any three numbers per
-        // line. Each returns `Measurement::Points` with labels (contact
-        // points in W at rotary zero, SPEC section 3).
-        &Plain,
+        // The probe logs of `src/formats/probe_log/` (FANUC DPRNT,
+        // HEIDENHAIN FN 16, LinuxCNC LOG and PROBEOPEN), before the plain
+        // point list, which accepts any three numbers per line. They return
+        // labelled contact points in W at rotary zero (SPEC section 3).
+        &ProbeLog, &ProbeFile, &Plain,
     ]
 }
 
 /// The reader that accepts `src`, if any.
 pub fn detect(src: &str) -> Option<&'static dyn Reader> {
-    readers().into_iter().find(|r| r.sniff(src))
+    detect_in(src, &ReadContext::default())
+}
+
+/// The reader that accepts `src` in a context.
+pub fn detect_in(src: &str, ctx: &ReadContext<'_>) -> Option<&'static dyn Reader> {
+    readers().into_iter().find(|r| r.sniff(src, ctx))
 }
 
 /// Reads a measurement file in whatever format it is.
 pub fn read_measurement(path: &Path) -> Result<Measurement, SourceError> {
+    read_measurement_in(path, &ReadContext::default())
+}
+
+/// Reads a measurement file in whatever format it is, in a context.
+pub fn read_measurement_in(path: &Path, ctx: &ReadContext<'_>) -> Result<Measurement, SourceError> {
     let src = std::fs::read_to_string(path)
         .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read: {e}")))?;
-    parse_measurement(path, &src)
+    parse_measurement_in(path, &src, ctx)
 }
 
 /// Reads measurement text in whatever format it is.
 pub fn parse_measurement(path: &Path, src: &str) -> Result<Measurement, SourceError> {
-    match detect(src) {
-        Some(r) => r.read(path, src),
+    parse_measurement_in(path, src, &ReadContext::default())
+}
+
+/// Reads measurement text in whatever format it is, in a context.
+pub fn parse_measurement_in(
+    path: &Path,
+    src: &str,
+    ctx: &ReadContext<'_>,
+) -> Result<Measurement, SourceError> {
+    match detect_in(src, ctx) {
+        Some(r) => r.read(path, src, ctx),
         None => {
             let expected: Vec<&str> = readers().iter().map(|r| r.describe()).collect();
             Err(SourceError::new(

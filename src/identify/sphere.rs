@@ -36,6 +36,7 @@ use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Vector3};
 use super::lsq::{self, Problem};
 use super::result::PoseFit;
 use super::{Dataset, Identification, IdentifyError, Method, Setup, identifiability};
+use crate::fit::SphereCheck;
 use crate::geom::{tangent_basis, wrap180};
 use crate::kinematics::Axes;
 use crate::model::{Context, Effect, Model};
@@ -88,60 +89,29 @@ pub struct Sphere {
     pub cov_unit: Matrix3<f64>,
 }
 
-struct SphereProblem<'a> {
-    pts: &'a [Vector3<f64>],
-}
-
-impl Problem for SphereProblem<'_> {
-    fn n_residuals(&self) -> usize {
-        self.pts.len()
-    }
-    fn n_params(&self) -> usize {
-        4
-    }
-    fn eval(&self, x: &[f64], r: &mut [f64], mut jac: Option<&mut Mat<f64>>) {
-        let c = Vector3::new(x[0], x[1], x[2]);
-        for (k, p) in self.pts.iter().enumerate() {
-            let d = p - c;
-            let dn = d.norm();
-            r[k] = dn - x[3];
-            if let Some(j) = jac.as_deref_mut() {
-                for i in 0..3 {
-                    j[(k, i)] = -d[i] / dn;
-                }
-                j[(k, 3)] = -1.0;
-            }
-        }
-    }
-}
-
-/// Fits a sphere (free radius) to at least four points.
+/// Fits a sphere (free radius) to at least four points: the geometric
+/// least-squares fit of [`crate::fit::fit_sphere`], with the centre's
+/// covariance per unit noise from the fit's Jacobian at the solution.
 pub fn fit_sphere(pts: &[Vector3<f64>]) -> Option<Sphere> {
-    if pts.len() < 4 {
-        return None;
+    let fit = crate::fit::fit_sphere(pts).ok()?;
+    let c = fit.sphere.centre;
+    // Rows d(|p - c| - r)/d(c, r) = (-(p - c)/|p - c|, -1).
+    let mut jtj = nalgebra::Matrix4::<f64>::zeros();
+    for p in pts {
+        let d = p - c;
+        let n = d.norm();
+        if n == 0.0 {
+            return None;
+        }
+        let row = nalgebra::Vector4::new(-d.x / n, -d.y / n, -d.z / n, -1.0);
+        jtj += row * row.transpose();
     }
-    // Algebraic start: |p|^2 + D.p + E = 0, linear in (D, E); shifted to the
-    // centroid for conditioning.
-    let g = pts.iter().sum::<Vector3<f64>>() / pts.len() as f64;
-    let a = DMatrix::from_fn(pts.len(), 4, |r, c| {
-        let q = pts[r] - g;
-        if c < 3 { q[c] } else { 1.0 }
-    });
-    let b = nalgebra::DVector::from_fn(pts.len(), |r, _| -(pts[r] - g).norm_squared());
-    let sol = a.svd(true, true).solve(&b, 1e-12).ok()?;
-    let c0 = g - Vector3::new(sol[0], sol[1], sol[2]) * 0.5;
-    let r0 = ((c0 - g).norm_squared() - sol[3]).max(0.0).sqrt();
-    let p = SphereProblem { pts };
-    let s = lsq::solve(&p, &[c0.x, c0.y, c0.z, r0], None, &lsq::Options::default());
-    let d = lsq::design(&s.jacobian, None, 1e-12);
-    if d.rank < 4 {
-        return None;
-    }
+    let inv = jtj.try_inverse()?;
     Some(Sphere {
-        centre: Vector3::new(s.x[0], s.x[1], s.x[2]),
-        radius: s.x[3],
-        rss: s.cost,
-        cov_unit: d.cov_unit.fixed_view::<3, 3>(0, 0).into_owned(),
+        centre: c,
+        radius: fit.sphere.radius,
+        rss: fit.residuals.iter().map(|r| r * r).sum(),
+        cov_unit: inv.fixed_view::<3, 3>(0, 0).into_owned(),
     })
 }
 
@@ -335,23 +305,6 @@ pub fn fit_circle(pts: &[Vector3<f64>], robust: bool, hint: &Vector3<f64>) -> Op
     Some(c)
 }
 
-/// The circle through three points.
-fn circle3(
-    a: &Vector3<f64>,
-    b: &Vector3<f64>,
-    c: &Vector3<f64>,
-) -> Option<(Vector3<f64>, Vector3<f64>)> {
-    let (ab, ac) = (b - a, c - a);
-    let n = ab.cross(&ac);
-    let nn = n.norm_squared();
-    if nn < 1e-18 {
-        return None;
-    }
-    let centre =
-        a + (n.cross(&ab) * ac.norm_squared() + ac.cross(&n) * ab.norm_squared()) / (2.0 * nn);
-    Some((centre, n / nn.sqrt()))
-}
-
 /// One axis's centres with their index angles.
 #[derive(Clone, Debug)]
 pub struct AxisCentres {
@@ -393,11 +346,14 @@ pub fn combinations_line(
                 if gaps.iter().any(|&g| g < 30.0 - 1e-9) {
                     continue;
                 }
-                let Some((c, mut nrm)) =
-                    circle3(&axis.centres[i], &axis.centres[j], &axis.centres[k])
-                else {
+                let Ok(circle) = crate::fit::circle_through_three(
+                    &axis.centres[i],
+                    &axis.centres[j],
+                    &axis.centres[k],
+                ) else {
                     continue;
                 };
+                let (c, mut nrm) = (circle.centre, circle.normal);
                 if nrm.dot(hint) < 0.0 {
                     nrm = -nrm;
                 }
@@ -580,12 +536,17 @@ pub fn symbols_from_lines(
 pub struct SphereOptions {
     /// How the lines are fitted.
     pub circle: CircleMethod,
+    /// The plausibility check of each pose's sphere (a controller's
+    /// sphere check, with the sphere's radius for contact points): a pose
+    /// that fails it is reported.
+    pub check: Option<SphereCheck>,
 }
 
 impl Default for SphereOptions {
     fn default() -> Self {
         SphereOptions {
             circle: CircleMethod::Robust,
+            check: None,
         }
     }
 }
@@ -753,6 +714,7 @@ pub fn identify(
     let model = &setup.model;
     // Sphere centre per pose.
     let mut spheres = Vec::new();
+    let mut notes = Vec::new();
     for pose in &data.poses {
         let pts: Vec<Vector3<f64>> = pose.obs.iter().map(|&k| data.obs[k].m).collect();
         let s = fit_sphere(&pts).ok_or_else(|| {
@@ -762,6 +724,14 @@ pub fn identify(
                 pts.len()
             ))
         })?;
+        if let Some(check) = &opts.check
+            && let Err(bad) = check.check(&pose.id, &pts)
+        {
+            notes.push(format!(
+                "pose {} fails the sphere check: {} (the robust circle fit sets a bad centre aside)",
+                bad.pose, bad.reason
+            ));
+        }
         spheres.push(s);
     }
     let rss: f64 = spheres.iter().map(|s| s.rss).sum();
@@ -783,7 +753,7 @@ pub fn identify(
     );
     let fitted = lines(&g, model, opts.circle, None)
         .ok_or_else(|| IdentifyError::Data("the centres do not determine a circle".into()))?;
-    let mut notes = fitted.notes.clone();
+    notes.extend(fitted.notes.iter().cloned());
     let theta = symbols_from_lines(model, &fitted.tilt, &fitted.c, g.t0, span);
     // Linear propagation of the centres' covariance: through each circle
     // fit (final weights fixed) to its line, then through the line
@@ -992,8 +962,8 @@ mod tests {
             .collect();
         let ls = fit_circle(&pts, false, &Vector3::z()).unwrap();
         assert!((ls.centre - centre).norm() < 1e-9 && (ls.normal - n).norm() < 1e-12);
-        let (c3, n3) = circle3(&pts[0], &pts[4], &pts[8]).unwrap();
-        assert!((c3 - centre).norm() < 1e-9 && (n3 - n).norm() < 1e-9);
+        let c3 = crate::fit::circle_through_three(&pts[0], &pts[4], &pts[8]).unwrap();
+        assert!((c3.centre - centre).norm() < 1e-9 && c3.normal.cross(&n).norm() < 1e-9);
         pts[3] += n * 0.05;
         let rb = fit_circle(&pts, true, &Vector3::z()).unwrap();
         assert_eq!(rb.weights[3], 0.0);

@@ -9,15 +9,17 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
 use fivecal::errorfile::{ErrorFile, Noise};
-use fivecal::formats::detect::{self, Measurement, PointSet};
+use fivecal::formats::detect::{self, Measurement, PointSet, ReadContext};
 use fivecal::formats::heights::SectionHeight;
 use fivecal::formats::manifest::{Manifest, TestKind};
 use fivecal::formats::points::PlanPoints;
+use fivecal::formats::probe_log;
 use fivecal::identify::nine_section::NineSection;
 use fivecal::identify::series::Series;
 use fivecal::identify::sphere::{CircleMethod, SphereOptions};
 use fivecal::identify::{self, Dataset, Method, Setup};
 use fivecal::io::{ensure_not_input, write_atomic};
+use fivecal::probing::template::{ColumnsTemplate, SphereTemplate, TemplateSource};
 use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
 use fivecal::{Kinematics, Machine};
 use nalgebra::{Point3, Vector3};
@@ -115,6 +117,8 @@ struct Config {
     series: bool,
     compare: Option<PathBuf>,
     sphere: SphereOptions,
+    /// For a probing plan: how its probe logs are read.
+    probe_log: Option<probe_log::ReadOptions>,
 }
 
 fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
@@ -188,6 +192,42 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         .circle_fit
         .parse::<CircleMethod>()
         .map_err(anyhow::Error::msg)?;
+    // A probing plan's template gives the probing window the logs are
+    // checked against and, for a sphere, the sphere's size.
+    let mut sphere_check = None;
+    let probe_log = if manifest.kind == TestKind::Probing {
+        let ball = manifest
+            .probe
+            .as_ref()
+            .map_or(machine.probe.ball_diameter, |p| p.ball_diameter)
+            / 2.0;
+        let tpath = manifest.resolve(&manifest_path, &manifest.template_file);
+        let text = std::fs::read_to_string(&tpath)
+            .with_context(|| format!("cannot read the plan's template copy {}", tpath.display()))?;
+        let source = TemplateSource { path: tpath, text };
+        let settings = match manifest.test.as_str() {
+            "probe-sphere" => {
+                let t = SphereTemplate::parse(source)?;
+                // Contact points lie on the sphere itself.
+                sphere_check = Some(fivecal::fit::SphereCheck {
+                    expected_radius: t.diameter / 2.0,
+                    radius_tolerance: t.radius_tolerance,
+                    form_tolerance: t.form_tolerance,
+                });
+                t.probing
+            }
+            "probe-columns" => ColumnsTemplate::parse(source)?.probing,
+            other => bail!(
+                "{}: unknown probing test `{other}`",
+                manifest_path.display()
+            ),
+        };
+        let mut o = probe_log::ReadOptions::for_plan(&settings, ball);
+        o.test = Some(manifest.test.clone());
+        Some(o)
+    } else {
+        None
+    };
     let contributors = match a.contributors.as_deref() {
         None => Some(match manifest.kind {
             TestKind::Machining => Contributors::seed001(),
@@ -236,7 +276,11 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         maps: a.maps,
         series: a.series,
         compare: a.compare,
-        sphere: SphereOptions { circle },
+        sphere: SphereOptions {
+            circle,
+            check: sphere_check,
+        },
+        probe_log,
     })
 }
 
@@ -258,8 +302,14 @@ fn serialize<T: serde::Serialize>(v: &T, json: bool) -> anyhow::Result<String> {
 fn analyze(c: Config) -> anyhow::Result<()> {
     let mut sets: Vec<(PathBuf, PointSet)> = Vec::new();
     let mut heights: Vec<(PathBuf, Vec<SectionHeight>)> = Vec::new();
+    let ctx = ReadContext {
+        plan: c.plan.as_ref(),
+        kin: Some(&c.kin),
+        dialect: Some(c.manifest.dialect),
+        probe: c.probe_log.as_ref(),
+    };
     for f in &c.measured {
-        match detect::read_measurement(f)? {
+        match detect::read_measurement_in(f, &ctx)? {
             Measurement::Points(s) => sets.push((f.clone(), s)),
             Measurement::Heights(h) => heights.push((f.clone(), h)),
         }
