@@ -994,17 +994,30 @@ fn column_probing_of_a_probing_plan_by_both_methods() {
     let k = &pplan.kin;
     let truth = truth_model(k, vec![]);
     let mut r = rng(32);
-    let setup = nalgebra::Isometry3::new(
-        Vector3::new(0.06, -0.08, 0.1),
-        Vector3::new(1e-4, -2e-4, 1e-4),
-    );
-    let pts = synthetic::probed(
+    // Each column clamped on its own, a tenth of a millimetre off.
+    let mut setups: HashMap<String, nalgebra::Isometry3<f64>> = HashMap::new();
+    for t in &pplan.touches {
+        let k = setups.len() as f64;
+        setups.entry(t.piece.clone()).or_insert_with(|| {
+            nalgebra::Isometry3::new(
+                Vector3::new(0.06 - 0.05 * k, -0.08 + 0.07 * k, 0.1 - 0.04 * k),
+                Vector3::new(1e-4 * (k - 1.0), -2e-4 + 1e-4 * k, 1e-4),
+            )
+        });
+    }
+    assert_eq!(setups.len(), 3, "three columns");
+    let piece: HashMap<String, String> = pplan
+        .touches
+        .iter()
+        .map(|t| (t.label.clone(), t.piece.clone()))
+        .collect();
+    let pts = synthetic::probed_with(
         &truth,
         &AC_TRUTH,
         &plan,
         &HashMap::new(),
         0.35,
-        &setup,
+        &|p| setups[&piece[&p.label]],
         &mut r,
     );
     let dir = tempdir();
@@ -1020,7 +1033,7 @@ fn column_probing_of_a_probing_plan_by_both_methods() {
     std::fs::write(&measured, measured::to_csv(&pts, &[])).unwrap();
     let out = dir.path().join("result.yaml");
     for method in ["two-stage", "global"] {
-        fivecal()
+        let o = fivecal()
             .args(["analyze", "--plan"])
             .arg(&manifest)
             .arg("--measured")
@@ -1029,7 +1042,14 @@ fn column_probing_of_a_probing_plan_by_both_methods() {
             .arg(&out)
             .args(["--method", method])
             .assert()
-            .success();
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        let text = String::from_utf8_lossy(&o);
+        if method == "two-stage" {
+            assert!(text.contains("seed 000"), "{text}");
+        }
         let l = ErrorFile::load(&out, k).unwrap();
         for (i, t) in AC_TRUTH.iter().enumerate() {
             let u = l.u[i].unwrap();

@@ -70,6 +70,11 @@ pub struct Dataset {
     /// Things the user should know (unlabelled joins, quirks, unmeasured
     /// plan points).
     pub warnings: Vec<String>,
+    /// The separately set-up pieces of a probing test (one name for a
+    /// single piece).
+    pub pieces: Vec<String>,
+    /// The piece of each plan point (index into `pieces`).
+    pub piece_of: Vec<usize>,
 }
 
 impl Dataset {
@@ -85,6 +90,34 @@ impl Dataset {
             .iter()
             .position(|p| p.tilt.abs() < 1e-9 && crate::geom::wrap180(p.c).abs() < 1e-9)
             .unwrap_or(0)
+    }
+
+    /// Assigns the plan points to separately set-up pieces (by label, e.g.
+    /// from the probing plan's touches); fails naming a point without one.
+    pub fn set_pieces(&mut self, piece: &HashMap<String, String>) -> Result<(), String> {
+        let mut names: Vec<String> = Vec::new();
+        let mut of = Vec::with_capacity(self.plan.points.len());
+        for p in &self.plan.points {
+            let Some(name) = piece.get(&p.label) else {
+                return Err(format!("plan point `{}` belongs to no piece", p.label));
+            };
+            let i = match names.iter().position(|n| n == name) {
+                Some(i) => i,
+                None => {
+                    names.push(name.clone());
+                    names.len() - 1
+                }
+            };
+            of.push(i);
+        }
+        self.pieces = names;
+        self.piece_of = of;
+        Ok(())
+    }
+
+    /// The piece of observation `k`.
+    pub fn piece(&self, k: usize) -> usize {
+        self.piece_of[self.obs[k].plan]
     }
 
     /// `file:line` of observation `k`.
@@ -227,6 +260,8 @@ pub fn join(
         obs,
         poses,
         warnings,
+        pieces: vec!["piece".into()],
+        piece_of: vec![0; plan.points.len()],
     })
 }
 

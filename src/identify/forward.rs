@@ -209,22 +209,40 @@ pub const SETUP_NAMES: [&str; 6] = [
     "setup.dx", "setup.dy", "setup.dz", "setup.a", "setup.b", "setup.c",
 ];
 
-/// The rigid-pose probing model: a piece fixed on the table of a
-/// table-table machine, set up at `D(setup)` from its nominal place (six
-/// nuisance numbers, um and urad), probed on the machine along the nominal
-/// approach `-rTw* n` with errors constant within each pose. The contact
-/// point, reported in W at rotary zero, is the intersection of the approach
-/// line through `rTw* p` with the face through `rTw D(setup) p`.
+/// The rigid-pose probing model: pieces fixed on the table of a
+/// table-table machine, each set up at `D(setup)` from its nominal place
+/// (six nuisance numbers per piece, um and urad), probed on the machine
+/// along the nominal approach `-rTw* n` with errors constant within each
+/// pose. The contact point, reported in W at rotary zero, is the
+/// intersection of the approach line through `rTw* p` with the face
+/// through `rTw D(setup) p`.
 #[derive(Clone, Debug)]
 pub struct RigidPoseProbing {
     model: Model,
+    pieces: Vec<String>,
+    piece_of: std::collections::HashMap<String, usize>,
 }
 
 impl RigidPoseProbing {
-    /// Wraps a model (same restrictions as [`RigidPoseMachining`]).
+    /// One piece (or pieces fixed together), with the restrictions of
+    /// [`RigidPoseMachining`].
     pub fn new(model: Model) -> Result<RigidPoseProbing, ForwardError> {
+        RigidPoseProbing::with_pieces(model, vec!["piece".into()], Default::default())
+    }
+
+    /// Separately set-up pieces: their names, and the piece of each plan
+    /// point by label (points not listed belong to the first).
+    pub fn with_pieces(
+        model: Model,
+        pieces: Vec<String>,
+        piece_of: std::collections::HashMap<String, usize>,
+    ) -> Result<RigidPoseProbing, ForwardError> {
         check_rigid(&model)?;
-        Ok(RigidPoseProbing { model })
+        Ok(RigidPoseProbing {
+            model,
+            pieces,
+            piece_of,
+        })
     }
 }
 
@@ -234,7 +252,17 @@ impl ForwardModel for RigidPoseProbing {
     }
 
     fn nuisance_names(&self) -> Vec<String> {
-        SETUP_NAMES.iter().map(|s| s.to_string()).collect()
+        if self.pieces.len() == 1 {
+            return SETUP_NAMES.iter().map(|s| s.to_string()).collect();
+        }
+        self.pieces
+            .iter()
+            .flat_map(|p| {
+                SETUP_NAMES
+                    .iter()
+                    .map(move |s| s.replacen("setup", &format!("setup[{p}]"), 1))
+            })
+            .collect()
     }
 
     fn predict(
@@ -246,6 +274,10 @@ impl ForwardModel for RigidPoseProbing {
     ) -> Result<Prediction, ForwardError> {
         let k = &self.model.kin;
         let n = theta.len();
+        let total = n + 6 * self.pieces.len();
+        let piece = self.piece_of.get(&point.label).copied().unwrap_or(0);
+        let o = n + 6 * piece;
+        let setup = &nuisance[6 * piece..6 * piece + 6];
         let nominal = k.nominal_table_transform(point.tilt, point.c);
         let q0 = (nominal * Point3::from(point.p)).coords;
         let dir = nominal.rotation * point.n;
@@ -258,13 +290,13 @@ impl ForwardModel for RigidPoseProbing {
         let face = |x: &Vector3<f64>, dx: &nalgebra::Matrix3x6<f64>| {
             let y = (rtw * Point3::from(*x)).coords;
             let (_, jt, _) = self.model.pose_jacobian(theta, &context(point, y, minutes));
-            let mut dy = DMatrix::zeros(3, n + 6);
+            let mut dy = DMatrix::zeros(3, total);
             dy.view_mut((0, 0), (3, n)).copy_from(&(-r * jt));
-            dy.view_mut((0, n), (3, 6)).copy_from(&(r * dx));
+            dy.view_mut((0, o), (3, 6)).copy_from(&(r * dx));
             (y, dy)
         };
-        let (gp, dgp) = super::rigid::d6_apply(nuisance, &point.p);
-        let (gpn, dgpn) = super::rigid::d6_apply(nuisance, &(point.p + point.n));
+        let (gp, dgp) = super::rigid::d6_apply(setup, &point.p);
+        let (gpn, dgpn) = super::rigid::d6_apply(setup, &(point.p + point.n));
         let (y, dy) = face(&gp, &dgp);
         let (y2, dy2) = face(&gpn, &dgpn);
         let nm = y2 - y;

@@ -150,15 +150,21 @@ pub fn identify(
             }
         });
     }
-    let design = lsq::design(&sol.jacobian, Some(&basis), opts.rank_rtol);
     // What the test can identify is a property of its design, judged at
     // the nominal machine: at the estimate, the exact model couples unseen
     // directions to seen ones by terms of the order of the errors (1e-4),
-    // which says nothing about the test.
+    // which says nothing about the test. The covariance is taken at the
+    // estimate with that rank.
     let mut r0 = vec![0.0; data.obs.len()];
     let mut j0 = Mat::<f64>::zeros(data.obs.len(), n + extra);
     problem.eval(&x0, &mut r0, Some(&mut j0));
     let nominal = lsq::design(&j0, Some(&basis), opts.rank_rtol);
+    let design = lsq::design_ranked(
+        &sol.jacobian,
+        Some(&basis),
+        opts.rank_rtol,
+        Some(nominal.rank),
+    );
     let m = data.obs.len();
     let dof = m.saturating_sub(design.rank);
     let mut notes = Vec::new();

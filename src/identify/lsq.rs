@@ -117,12 +117,23 @@ fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
     }
     let mut scale = vec![1.0; p];
     let mut js = jz.clone();
+    let norms: Vec<f64> = (0..p)
+        .map(|c| (0..m).map(|r| jz[(r, c)].powi(2)).sum::<f64>().sqrt())
+        .collect();
+    let max_norm = norms.iter().copied().fold(0.0, f64::max);
     for (c, sc) in scale.iter_mut().enumerate() {
-        let nrm = (0..m).map(|r| jz[(r, c)].powi(2)).sum::<f64>().sqrt();
-        if nrm > 0.0 {
+        let nrm = norms[c];
+        if nrm > 1e-12 * max_norm {
             *sc = nrm;
             for r in 0..m {
                 js[(r, c)] /= nrm;
+            }
+        } else {
+            // A column of round-off (a normal's 6e-17 component, say) is a
+            // parameter nothing sees; scaled up it would pass for a strong
+            // direction.
+            for r in 0..m {
+                js[(r, c)] = 0.0;
             }
         }
     }
@@ -216,8 +227,17 @@ pub fn solve<P: Problem + ?Sized>(
     let mut iterations = 0;
     let mut converged = false;
     let mut trial_r = vec![0.0; m];
+    let mut start_rank: Option<usize> = None;
     'outer: while iterations < opts.max_iter {
-        let sv = scaled_svd(&reduce(&jac, basis), opts.rank_rtol);
+        let mut sv = scaled_svd(&reduce(&jac, basis), opts.rank_rtol);
+        // The rank is decided once, at the start: away from it, the exact
+        // model couples unseen directions to seen ones by terms of the
+        // order of the parameters, which would otherwise turn a null
+        // direction into a barely-seen one and send the step far along it.
+        match start_rank {
+            None => start_rank = Some(sv.rank),
+            Some(r) => sv.rank = sv.rank.min(r),
+        }
         let mut tries = 0;
         loop {
             let dz = step(&sv, &r, lambda);
@@ -295,10 +315,25 @@ pub struct Design {
 
 /// Analyses a Jacobian (with optional constraint basis).
 pub fn design(jac: &Mat<f64>, basis: Option<&DMatrix<f64>>, rtol: f64) -> Design {
+    design_ranked(jac, basis, rtol, None)
+}
+
+/// [`design`] keeping at most `max_rank` directions: the covariance at an
+/// estimate, with the rank of the design at the nominal machine (see
+/// [`solve`]).
+pub fn design_ranked(
+    jac: &Mat<f64>,
+    basis: Option<&DMatrix<f64>>,
+    rtol: f64,
+    max_rank: Option<usize>,
+) -> Design {
     let n = jac.ncols();
     let jz = reduce(jac, basis);
     let p = jz.ncols();
-    let sv = scaled_svd(&jz, rtol);
+    let mut sv = scaled_svd(&jz, rtol);
+    if let Some(r) = max_rank {
+        sv.rank = sv.rank.min(r);
+    }
     let nb = match basis {
         Some(b) => b.clone(),
         None => DMatrix::identity(n, n),
@@ -448,6 +483,18 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A rotated normal's 6e-17 component once made a column of round-off
+    /// pass for a strong direction, and the step went 1e10 along it.
+    #[test]
+    fn a_column_of_round_off_is_not_a_direction() {
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 6e-17, 2.0, -3e-17, 0.5, 1e-17]);
+        let b = DVector::from_column_slice(&[1.0, 2.0, 0.5]);
+        let s = solve(&Lin { a, b }, &[0.0; 2], None, &Options::default());
+        assert!((s.x[0] - 1.0).abs() < 1e-12 && s.x[1] == 0.0, "{:?}", s.x);
+        let d = design(&s.jacobian, None, 1e-9);
+        assert_eq!(d.rank, 1);
     }
 
     #[test]

@@ -19,6 +19,11 @@ use crate::model::{Effect, Model};
 pub struct PoseFit {
     /// Pose id.
     pub pose: String,
+    /// Index of the pose in the dataset.
+    #[serde(skip)]
+    pub pose_index: usize,
+    /// Index of the piece (probing with separately set-up pieces).
+    pub piece: usize,
     /// Execution order.
     pub seq: u32,
     /// Tilt angle, deg.
@@ -219,6 +224,10 @@ impl Identification {
             for &k in &pose.obs {
                 let face = face_name(&data.point(k).n);
                 let r = self.residuals.get(k).copied().unwrap_or(f64::NAN);
+                if !r.is_finite() {
+                    // A point the method could not use.
+                    continue;
+                }
                 match rows.iter_mut().find(|x| x.0 == pose.id && x.1 == face) {
                     Some(x) => x.2.push(r),
                     None => rows.push((pose.id.clone(), face, vec![r])),

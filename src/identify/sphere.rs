@@ -889,6 +889,8 @@ pub fn identify(
         let uc = sigma_mm * 1e3;
         poses.push(PoseFit {
             pose: pose.id.clone(),
+            pose_index: poses.len(),
+            piece: 0,
             seq: pose.seq,
             tilt: pose.tilt,
             c: pose.c,

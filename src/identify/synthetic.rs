@@ -93,6 +93,20 @@ pub fn probed<R: Rng + ?Sized>(
     setup: &Isometry3<f64>,
     rng: &mut R,
 ) -> Vec<MeasuredPoint> {
+    probed_with(model, theta, plan, minutes, noise_um, &|_| *setup, rng)
+}
+
+/// [`probed`] with pieces set up separately: `setup` gives the setup of
+/// the piece each plan point is on.
+pub fn probed_with<R: Rng + ?Sized>(
+    model: &Model,
+    theta: &[f64],
+    plan: &PlanPoints,
+    minutes: &HashMap<String, f64>,
+    noise_um: f64,
+    setup: &dyn Fn(&PlanPoint) -> Isometry3<f64>,
+    rng: &mut R,
+) -> Vec<MeasuredPoint> {
     let k = &model.kin;
     plan.points
         .iter()
@@ -104,7 +118,7 @@ pub fn probed<R: Rng + ?Sized>(
             let min = minutes.get(&p.pose).copied().unwrap_or(0.0);
             let ctx = context(p, q0, min);
             let pert = model.perturbation(theta, &ctx);
-            let t = k.table_transform(p.tilt, p.c, &pert) * setup;
+            let t = k.table_transform(p.tilt, p.c, &pert) * setup(p);
             // The probe's actual position is its commanded one plus the
             // linear-axis error there: contact when that reaches the face.
             let face = (t * Point3::from(p.p)).coords - pert.linear();

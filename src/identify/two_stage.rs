@@ -3,22 +3,33 @@
 //! **Stage 1** (seed 001 eq. 7-9, seed 000 eq. 7-10): for each pose, the
 //! six numbers `xi = (dx, dy, dz, a, b, c)` of the rigid motion `D(xi)` that
 //! best moves the pose's nominal faces onto its measured points, by exact
-//! point-to-plane least squares. A machined piece is compared in W (after
-//! the CMM placement), a probed piece in the machine frame (nominal points
-//! at `rTw* p`). Motions the pose's faces do not observe (a single face, say)
-//! get no number; the pose's information matrix carries that on.
+//! point-to-plane least squares. Motions the pose's faces do not observe (a
+//! single face, say) get no number; the pose's information matrix carries
+//! that on. The nominal points depend on the test ([`Frame`]):
+//!
+//! - a machined piece is compared in W, after the CMM placement;
+//! - probing, when the touches name their feature (`<pose>_<feature>`, as
+//!   the probing planner labels them) and the reference pose touched the
+//!   same features: seed 000's form (eq. 5-8), the point measured at the
+//!   reference pose carried to the pose by the nominal rotation,
+//!   `rTw*_j rTw*_ref^-1 p_ref`, in the machine frame. The setup of every
+//!   piece cancels, however many pieces were clamped separately;
+//! - probing otherwise: the nominal point `rTw*_j p`, the piece (one rigid
+//!   setup) estimated in stage 2.
 //!
 //! **Stage 2** (seed 001 eq. 10, seed 000 eq. 13-17): the parameters whose
 //! exact model reproduces the stage-1 motions, weighted by each pose's
-//! information: for a machined piece `D(xi_j) = G rTw_j^-1 rTw*_j`, for
-//! probing `D(xi_j) = rTw_j G rTw*_j^-1`. Seed 001 eq. 10 subtracts the
+//! information: for a machined piece `D(xi_j) = G rTw_j^-1 rTw*_j`; for
+//! seed 000's form `D(xi_j) = rTw_j rTw_ref^-1 rTw*_ref rTw*_j^-1`; for
+//! plain probing `D(xi_j) = rTw_j G rTw*_j^-1`. Seed 001 eq. 10 subtracts the
 //! reference pose's motion; here `G` (six nuisance numbers: the reference
-//! pose's own displacement, or the piece's setup error when probing) is
-//! estimated with the parameters, so the reference step's own measurement
-//! noise is weighted like any other pose's rather than copied into all of
-//! them. The maps carry the seeds' averaging constraints ([`super::Setup`]),
-//! which is what separates the tilt-axis and C-axis errors in seed 000
-//! eq. 16-17.
+//! pose's own displacement, or the piece's setup error) is estimated with
+//! the parameters, so the reference step's own measurement noise is
+//! weighted like any other pose's rather than copied into all of them. The
+//! maps carry the seeds' averaging constraints ([`super::Setup`]), which is
+//! what separates the tilt-axis and C-axis errors in seed 000 eq. 16-17.
+
+use std::collections::HashMap;
 
 use faer::Mat;
 use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector3};
@@ -41,6 +52,109 @@ pub const REFERENCE_NAMES: [&str; 6] = [
     "reference.b",
     "reference.c",
 ];
+
+/// How stage 1 frames the nominal points (see the module documentation).
+#[derive(Clone, Debug)]
+pub enum Frame {
+    /// A machined piece in W, placed on the CMM by this placement.
+    Piece(Option<Isometry3<f64>>),
+    /// Probing against the nominal points `rTw* p`.
+    Probed,
+    /// Probing relative to the reference pose (seed 000).
+    Relative {
+        /// Index of the reference pose.
+        reference: usize,
+        /// The points measured there, by feature.
+        measured: HashMap<String, Vector3<f64>>,
+    },
+}
+
+/// The feature a touch probes: its label without the `<pose>_` prefix.
+fn feature(data: &Dataset, k: usize) -> Option<&str> {
+    let p = data.point(k);
+    p.label.strip_prefix(&p.pose)?.strip_prefix('_')
+}
+
+impl Frame {
+    /// The frame a dataset is analysed in: seed 000's relative form for a
+    /// probing test whose touches are mostly tied to the reference pose by
+    /// their feature names.
+    pub fn for_data(data: &Dataset, placement: Option<Isometry3<f64>>) -> Frame {
+        match data.kind {
+            TestKind::Machining => Frame::Piece(placement),
+            TestKind::Probing => {
+                let reference = data.reference_pose();
+                let measured: HashMap<String, Vector3<f64>> = data.poses[reference]
+                    .obs
+                    .iter()
+                    .filter_map(|&k| Some((feature(data, k)?.to_string(), data.obs[k].m)))
+                    .collect();
+                let others: Vec<usize> = data
+                    .poses
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| *i != reference)
+                    .flat_map(|(_, p)| p.obs.iter().copied())
+                    .collect();
+                let tied = others
+                    .iter()
+                    .filter(|&&k| feature(data, k).is_some_and(|f| measured.contains_key(f)))
+                    .count();
+                if !others.is_empty() && 2 * tied >= others.len() {
+                    Frame::Relative {
+                        reference,
+                        measured,
+                    }
+                } else {
+                    Frame::Probed
+                }
+            }
+        }
+    }
+
+    /// Number of stage-2 nuisance numbers.
+    fn nuisance(&self) -> usize {
+        match self {
+            Frame::Relative { .. } => 0,
+            _ => 6,
+        }
+    }
+
+    /// The observed point, nominal point and nominal normal of observation
+    /// `k`, or `None` when this frame cannot use it.
+    fn observation(
+        &self,
+        data: &Dataset,
+        kin: &Kinematics,
+        k: usize,
+    ) -> Option<(Vector3<f64>, Vector3<f64>, Vector3<f64>)> {
+        let p = data.point(k);
+        let m = data.obs[k].m;
+        match self {
+            Frame::Piece(placement) => {
+                let u = match placement {
+                    Some(pl) => (pl.inverse() * Point3::from(m)).coords,
+                    None => m,
+                };
+                Some((u, p.p, p.n))
+            }
+            Frame::Probed => {
+                let t = kin.nominal_table_transform(p.tilt, p.c);
+                Some((m, (t * Point3::from(p.p)).coords, t.rotation * p.n))
+            }
+            Frame::Relative {
+                reference,
+                measured,
+            } => {
+                let r = &data.poses[*reference];
+                let p_ref = measured.get(feature(data, k)?)?;
+                let t = kin.nominal_table_transform(p.tilt, p.c);
+                let carry = t * kin.nominal_table_transform(r.tilt, r.c).inverse();
+                Some((m, (carry * Point3::from(*p_ref)).coords, t.rotation * p.n))
+            }
+        }
+    }
+}
 
 struct PoseProblem {
     q: Vec<Vector3<f64>>,
@@ -68,72 +182,67 @@ impl Problem for PoseProblem {
     }
 }
 
-/// The observed point, nominal point and nominal normal of observation `k`
-/// in the frame stage 1 compares them in.
-fn stage1_frame(
-    data: &Dataset,
-    kin: &Kinematics,
-    placement: Option<&Isometry3<f64>>,
-    k: usize,
-) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
-    let p = data.point(k);
-    let m = data.obs[k].m;
-    match data.kind {
-        TestKind::Machining => {
-            let u = match placement {
-                Some(pl) => (pl.inverse() * Point3::from(m)).coords,
-                None => m,
-            };
-            (u, p.p, p.n)
-        }
-        TestKind::Probing => {
-            let t = kin.nominal_table_transform(p.tilt, p.c);
-            (m, (t * Point3::from(p.p)).coords, t.rotation * p.n)
-        }
-    }
-}
-
-/// Stage 1: the motion of every pose, with its uncertainty from the pooled
-/// residual variance of all poses.
+/// Stage 1 in the frame [`Frame::for_data`] chooses (used by every method
+/// for the per-pose plots).
 pub fn pose_fits(
     data: &Dataset,
     kin: &Kinematics,
     placement: Option<&Isometry3<f64>>,
 ) -> Vec<PoseFit> {
+    pose_fits_in(data, kin, &Frame::for_data(data, placement.copied()))
+}
+
+/// Stage 1: the motion of every pose, with its uncertainty from the pooled
+/// residual variance of all poses. In seed 000's form the reference pose,
+/// which defines the frame, has no fit of its own.
+pub fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<PoseFit> {
     let mut fits = Vec::new();
     let mut rss = 0.0;
     let mut dof = 0usize;
     let mut designs = Vec::new();
-    for pose in &data.poses {
+    for (pi, pose) in data.poses.iter().enumerate() {
+        if matches!(frame, Frame::Relative { reference, .. } if *reference == pi) {
+            continue;
+        }
         let mut pp = PoseProblem {
             q: Vec::new(),
             n: Vec::new(),
             u: Vec::new(),
         };
         for &k in &pose.obs {
-            let (u, q, n) = stage1_frame(data, kin, placement, k);
-            pp.u.push(u);
-            pp.q.push(q);
-            pp.n.push(n);
+            if let Some((u, q, n)) = frame.observation(data, kin, k) {
+                pp.u.push(u);
+                pp.q.push(q);
+                pp.n.push(n);
+            }
+        }
+        if pp.q.is_empty() {
+            continue;
         }
         let sol = lsq::solve(&pp, &[0.0; 6], None, &lsq::Options::default());
-        let d = lsq::design(&sol.jacobian, None, 1e-9);
+        let mut j0 = Mat::<f64>::zeros(pp.q.len(), 6);
+        let mut r0 = vec![0.0; pp.q.len()];
+        pp.eval(&[0.0; 6], &mut r0, Some(&mut j0));
+        let rank0 = lsq::design(&j0, None, 1e-9).rank;
+        let d = lsq::design_ranked(&sol.jacobian, None, 1e-9, Some(rank0));
         rss += sol.cost;
-        dof += pose.obs.len().saturating_sub(d.rank);
+        dof += pp.q.len().saturating_sub(d.rank);
         let j = lsq::to_nalgebra(&sol.jacobian);
         let info = j.transpose() * &j;
         let mut xi = [0.0; 6];
         xi.copy_from_slice(&sol.x);
         fits.push(PoseFit {
             pose: pose.id.clone(),
+            pose_index: pi,
+            piece: 0,
             seq: pose.seq,
             tilt: pose.tilt,
             c: pose.c,
             xi,
             u: [None; 6],
             observed: d.rank,
-            points: pose.obs.len(),
-            rms_um: (sol.cost / pose.obs.len().max(1) as f64).sqrt(),
+            points: pp.q.len(),
+            rms_um: (sol.cost / pp.q.len() as f64).sqrt(),
             info,
         });
         designs.push(d);
@@ -165,40 +274,53 @@ struct PoseObs {
     w: DMatrix<f64>,
 }
 
-/// The motion `D(xi)` the model predicts for a pose (um, urad).
-fn predicted(model: &Model, kind: TestKind, theta: &[f64], g: &[f64], pose: &PoseObs) -> [f64; 6] {
-    let (tilt, c) = (pose.tilt, pose.c);
+/// The exact `rTw` of the model at a pose.
+fn rtw(model: &Model, theta: &[f64], tilt: f64, c: f64, seq: u32, minutes: f64) -> Isometry3<f64> {
     let ctx = Context {
         axes: Axes::new(0.0, 0.0, 0.0, tilt, c),
-        seq: pose.seq as f64,
-        minutes: pose.minutes,
+        seq: seq as f64,
+        minutes,
         approach: None,
     };
-    let p = model.perturbation(theta, &ctx);
-    let rtw = model.kin.table_transform(tilt, c, &p);
-    let nominal = model.kin.nominal_table_transform(tilt, c);
-    let gi = d6_um(g);
-    let iso = match kind {
-        TestKind::Machining => gi * rtw.inverse() * nominal,
-        TestKind::Probing => rtw * gi * nominal.inverse(),
-    };
-    d6_inverse_um(&iso)
+    model
+        .kin
+        .table_transform(tilt, c, &model.perturbation(theta, &ctx))
 }
 
 struct Stage2<'a> {
     model: &'a Model,
-    kind: TestKind,
+    frame: &'a Frame,
+    data: &'a Dataset,
     poses: Vec<PoseObs>,
     rows: usize,
 }
 
 impl Stage2<'_> {
+    /// The motion `D(xi)` the model predicts for a pose (um, urad).
+    fn predicted(&self, theta: &[f64], g: &[f64], pose: &PoseObs) -> [f64; 6] {
+        let m = self.model;
+        let a = rtw(m, theta, pose.tilt, pose.c, pose.seq, pose.minutes);
+        let nominal = m.kin.nominal_table_transform(pose.tilt, pose.c);
+        let iso = match self.frame {
+            Frame::Piece(_) => d6_um(g) * a.inverse() * nominal,
+            Frame::Probed => a * d6_um(g) * nominal.inverse(),
+            Frame::Relative { reference, .. } => {
+                let r = &self.data.poses[*reference];
+                let a_ref = rtw(m, theta, r.tilt, r.c, r.seq, r.minutes);
+                let n_ref = m.kin.nominal_table_transform(r.tilt, r.c);
+                a * a_ref.inverse() * n_ref * nominal.inverse()
+            }
+        };
+        d6_inverse_um(&iso)
+    }
+
     fn residuals(&self, x: &[f64], r: &mut [f64]) {
         let n = self.model.n_params();
-        let (theta, g) = (&x[..n], &x[n..n + 6]);
+        let (theta, g) = (&x[..n], &x[n..]);
+        let g = if g.is_empty() { &[0.0; 6][..] } else { g };
         let mut row = 0;
         for pose in &self.poses {
-            let f = predicted(self.model, self.kind, theta, g, pose);
+            let f = self.predicted(theta, g, pose);
             let d = DVector::from_fn(6, |i, _| pose.xi[i] - f[i]);
             let e = &pose.w * d;
             for v in e.iter() {
@@ -214,7 +336,7 @@ impl Problem for Stage2<'_> {
         self.rows
     }
     fn n_params(&self) -> usize {
-        self.model.n_params() + 6
+        self.model.n_params() + self.frame.nuisance()
     }
     fn eval(&self, x: &[f64], r: &mut [f64], jac: Option<&mut Mat<f64>>) {
         self.residuals(x, r);
@@ -266,7 +388,36 @@ pub fn identify(
         TestKind::Machining => Some(super::initial_placement(data)?),
         TestKind::Probing => None,
     };
-    let fits = pose_fits(data, kin, placement.as_ref());
+    let frame = Frame::for_data(data, placement);
+    let mut notes = Vec::new();
+    match &frame {
+        Frame::Relative { reference, .. } => {
+            let unused = data
+                .obs
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| {
+                    !data.poses[*reference].obs.contains(k)
+                        && frame.observation(data, kin, *k).is_none()
+                })
+                .count();
+            notes.push(format!(
+                "stage 1 relative to the touches of pose {} (seed 000): the setup of the pieces cancels{}",
+                data.poses[*reference].id,
+                if unused > 0 {
+                    format!("; {unused} touches of features not touched there are not used")
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        Frame::Probed if data.pieces.len() > 1 => notes.push(format!(
+            "the {} pieces are taken as one rigid setup: their touches cannot be tied to the reference pose by feature (use the global method, which estimates each piece's setup)",
+            data.pieces.len()
+        )),
+        _ => {}
+    }
+    let fits = pose_fits_in(data, kin, &frame);
     let stage1_dof: usize = fits
         .iter()
         .map(|f| f.points.saturating_sub(f.observed))
@@ -277,7 +428,8 @@ pub fn identify(
         .sum();
     let mut poses = Vec::new();
     let mut rows = 0;
-    for (f, pose) in fits.iter().zip(&data.poses) {
+    for f in &fits {
+        let pose = &data.poses[f.pose_index];
         let w = weight_rows(&f.info);
         rows += w.nrows();
         poses.push(PoseObs {
@@ -289,29 +441,35 @@ pub fn identify(
             w,
         });
     }
+    let k = frame.nuisance();
     let st2 = Stage2 {
         model: &setup.model,
-        kind: data.kind,
+        frame: &frame,
+        data,
         poses,
         rows,
     };
     let n = setup.model.n_params();
-    let basis = setup.basis(6);
-    let sol = lsq::solve(&st2, &vec![0.0; n + 6], Some(&basis), opts);
+    let basis = setup.basis(k);
+    let sol = lsq::solve(&st2, &vec![0.0; n + k], Some(&basis), opts);
     if !sol.cost.is_finite() || fits.iter().any(|f| !f.rms_um.is_finite()) {
         return Err(IdentifyError::Data(
             "the fit failed: the residuals are not finite numbers".into(),
         ));
     }
-    let design = lsq::design(&sol.jacobian, Some(&basis), opts.rank_rtol);
     // Identifiability is judged on the design at the nominal machine (see
-    // `global`).
-    let x0 = vec![0.0; n + 6];
+    // `global`), and the covariance at the estimate keeps that rank.
+    let x0 = vec![0.0; n + k];
     let mut r0 = vec![0.0; rows];
-    let mut j0 = Mat::<f64>::zeros(rows, n + 6);
+    let mut j0 = Mat::<f64>::zeros(rows, n + k);
     st2.eval(&x0, &mut r0, Some(&mut j0));
     let nominal = lsq::design(&j0, Some(&basis), opts.rank_rtol);
-    let mut notes = Vec::new();
+    let design = lsq::design_ranked(
+        &sol.jacobian,
+        Some(&basis),
+        opts.rank_rtol,
+        Some(nominal.rank),
+    );
     let sigma1 = if stage1_dof > 0 {
         (stage1_rss / stage1_dof as f64).sqrt()
     } else {
@@ -331,7 +489,9 @@ pub fn identify(
         sigma1 * sigma1
     };
     let mut names = setup.model.param_names();
-    names.extend(REFERENCE_NAMES.iter().map(|s| s.to_string()));
+    if k > 0 {
+        names.extend(REFERENCE_NAMES.iter().map(|s| s.to_string()));
+    }
     let report = identifiability::report(
         &nominal,
         rows,
@@ -342,35 +502,34 @@ pub fn identify(
     );
     let cov = design.cov_unit.view((0, 0), (n, n)).into_owned() * s2;
     let theta = sol.x[..n].to_vec();
-    let g = &sol.x[n..n + 6];
-    // Point residuals of the final model, for the residual table.
-    let rigid = RigidPoseMachining::new(setup.model.clone())?;
-    let mut residuals = vec![f64::NAN; data.obs.len()];
-    for pose in &data.poses {
-        for &k in &pose.obs {
-            let p = data.point(k);
-            let (u, _, _) = stage1_frame(data, kin, placement.as_ref(), k);
-            residuals[k] = match data.kind {
-                TestKind::Machining => {
-                    let (q, _) = rigid.moved(&theta, p, pose.minutes, &p.p);
-                    let (qn, _) = rigid.moved(&theta, p, pose.minutes, &(p.p + p.n));
-                    face_residual(g, &q, &(qn - q), &u).r
-                }
-                TestKind::Probing => {
-                    let ctx = Context {
-                        axes: Axes::new(0.0, 0.0, 0.0, p.tilt, p.c),
-                        seq: p.seq as f64,
-                        minutes: pose.minutes,
-                        approach: None,
-                    };
-                    let rtw =
-                        kin.table_transform(p.tilt, p.c, &setup.model.perturbation(&theta, &ctx));
-                    let t = rtw * d6_um(g);
-                    let q = (t * Point3::from(p.p)).coords;
-                    let nn = t.rotation * p.n;
-                    nn.dot(&(u - q)) * 1e3
-                }
-            };
+    let g: Vec<f64> = if k > 0 {
+        sol.x[n..n + 6].to_vec()
+    } else {
+        vec![0.0; 6]
+    };
+    // Point residuals of the final model, for the residual table: each
+    // point against its face moved as the model predicts for its pose.
+    let mut residuals = vec![0.0; data.obs.len()];
+    for (pi, pose) in data.poses.iter().enumerate() {
+        let po = PoseObs {
+            tilt: pose.tilt,
+            c: pose.c,
+            seq: pose.seq,
+            minutes: pose.minutes,
+            xi: [0.0; 6],
+            w: DMatrix::zeros(0, 6),
+        };
+        let xi = st2.predicted(&theta, &g, &po);
+        for &kk in &pose.obs {
+            if matches!(&frame, Frame::Relative { reference, .. } if *reference == pi) {
+                // The reference touches define the frame.
+                continue;
+            }
+            if let Some((u, q, nn)) = frame.observation(data, kin, kk) {
+                residuals[kk] = face_residual(&xi, &q, &nn, &u).r;
+            } else {
+                residuals[kk] = f64::NAN;
+            }
         }
     }
     if !sol.converged {

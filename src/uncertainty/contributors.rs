@@ -176,6 +176,16 @@ impl Contributors {
                 }
             }
         }
+        Disturbance {
+            effects,
+            theta,
+            noise_um: self.noise_um,
+            setup: self.sample_setup(rng),
+        }
+    }
+
+    /// Draws the setup error of one probed piece.
+    pub fn sample_setup<R: Rng + ?Sized>(&self, rng: &mut R) -> Isometry3<f64> {
         let normal = |v: f64, rng: &mut R| {
             if v > 0.0 {
                 Normal::new(0.0, v).unwrap().sample(rng)
@@ -187,11 +197,6 @@ impl Contributors {
         let o = self.setup_orientation_urad;
         let t = Vector3::new(normal(p[0], rng), normal(p[1], rng), normal(p[2], rng)) * 1e-3;
         let r = Vector3::new(normal(o[0], rng), normal(o[1], rng), normal(o[2], rng)) * 1e-6;
-        Disturbance {
-            effects,
-            theta,
-            noise_um: self.noise_um,
-            setup: Isometry3::new(t, r),
-        }
+        Isometry3::new(t, r)
     }
 }

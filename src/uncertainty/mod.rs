@@ -46,7 +46,18 @@ pub fn identify_with(
                 identify::global::identify(&fm, setup, data, &opts)
             }
             TestKind::Probing => {
-                let fm = RigidPoseProbing::new(setup.model.clone())?;
+                let piece_of = data
+                    .plan
+                    .points
+                    .iter()
+                    .zip(&data.piece_of)
+                    .map(|(p, &k)| (p.label.clone(), k))
+                    .collect();
+                let fm = RigidPoseProbing::with_pieces(
+                    setup.model.clone(),
+                    data.pieces.clone(),
+                    piece_of,
+                )?;
                 identify::global::identify(&fm, setup, data, &opts)
             }
         },
@@ -123,7 +134,23 @@ pub fn synthetic_run<R: Rng + ?Sized>(
             synthetic::probed_sphere(&truth, &theta, &plan, &c, r, d.noise_um, rng)
         }
         (TestKind::Probing, _) => {
-            synthetic::probed(&truth, &theta, &plan, &minutes, d.noise_um, &d.setup, rng)
+            // Each separately clamped piece sits where its own clamping put it.
+            let mut setups = vec![d.setup];
+            for _ in 1..t.data.pieces.len() {
+                setups.push(t.contributors.sample_setup(rng));
+            }
+            let piece_of: HashMap<&str, usize> = t
+                .data
+                .plan
+                .points
+                .iter()
+                .zip(&t.data.piece_of)
+                .map(|(p, &k)| (p.label.as_str(), k))
+                .collect();
+            let setup = |p: &crate::formats::points::PlanPoint| {
+                setups[piece_of.get(p.label.as_str()).copied().unwrap_or(0)]
+            };
+            synthetic::probed_with(&truth, &theta, &plan, &minutes, d.noise_um, &setup, rng)
         }
         (TestKind::Machining, _) => {
             let placement = est.placement.unwrap_or_else(Isometry3::identity);
@@ -147,6 +174,9 @@ pub fn synthetic_run<R: Rng + ?Sized>(
         &|p| p.p,
     )
     .map_err(|e| e.to_string())?;
+    let mut data = data;
+    data.pieces = t.data.pieces.clone();
+    data.piece_of = t.data.piece_of.clone();
     let r = identify_with(t.method, t.setup, &data, &t.sphere).map_err(|e| e.to_string())?;
     Ok((0..r.theta.len())
         .map(|i| {

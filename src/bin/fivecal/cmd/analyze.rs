@@ -119,6 +119,9 @@ struct Config {
     sphere: SphereOptions,
     /// For a probing plan: how its probe logs are read.
     probe_log: Option<probe_log::ReadOptions>,
+    /// For a probing plan of separately set-up pieces: the piece of each
+    /// touch, by label.
+    pieces: Option<HashMap<String, String>>,
 }
 
 fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
@@ -195,6 +198,7 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     // A probing plan's template gives the probing window the logs are
     // checked against and, for a sphere, the sphere's size.
     let mut sphere_check = None;
+    let mut pieces = None;
     let probe_log = if manifest.kind == TestKind::Probing {
         let ball = manifest
             .probe
@@ -216,7 +220,26 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
                 });
                 t.probing
             }
-            "probe-columns" => ColumnsTemplate::parse(source)?.probing,
+            "probe-columns" => {
+                let t = ColumnsTemplate::parse(source)?;
+                // The columns are clamped one by one: each has its own
+                // setup. The plan rebuilt from the copies says which touch
+                // is on which.
+                match fivecal::probing::columns::plan(&machine, &t) {
+                    Ok(p) => {
+                        pieces = Some(
+                            p.touches
+                                .iter()
+                                .map(|t| (t.label.clone(), t.piece.clone()))
+                                .collect(),
+                        )
+                    }
+                    Err(e) => eprintln!(
+                        "warning: cannot rebuild the probing plan ({e}); the columns are taken as one rigid setup"
+                    ),
+                }
+                t.probing
+            }
             other => bail!(
                 "{}: unknown probing test `{other}`",
                 manifest_path.display()
@@ -281,6 +304,7 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             check: sphere_check,
         },
         probe_log,
+        pieces,
     })
 }
 
@@ -363,7 +387,12 @@ fn analyze(c: Config) -> anyhow::Result<()> {
     }
     let mut results: Vec<(String, ErrorFile)> = Vec::new();
     for (i, piece) in pieces.iter().enumerate() {
-        let data = identify::data::join(plan, c.manifest.kind, &minutes, piece, &nominal)?;
+        let mut data = identify::data::join(plan, c.manifest.kind, &minutes, piece, &nominal)?;
+        if let Some(map) = &c.pieces
+            && let Err(e) = data.set_pieces(map)
+        {
+            eprintln!("warning: {e}: the points are taken as one rigid setup");
+        }
         for w in &data.warnings {
             eprintln!("warning: {w}");
         }
