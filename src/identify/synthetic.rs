@@ -304,13 +304,22 @@ pub fn columns(kin: &Kinematics, poses: &[(f64, f64)]) -> PlanPoints {
     let mut out = Vec::new();
     for (seq, &(t, c)) in poses.iter().enumerate() {
         let r = kin.nominal_table_transform(t, c).rotation;
-        let pts: Vec<(Vector3<f64>, Vector3<f64>)> = all
-            .iter()
-            .filter(|(_, n)| (r * n).z > -0.3)
-            .copied()
-            .collect();
         let pose = format!("{letter}{}C{}", t as i64, c as i64).replace('-', "m");
-        push_pose(&mut out, &pose, seq as u32, t, c, &pts);
+        // Labels `<pose>_P<n>` with n the point of the piece, the same at
+        // every pose, as the probing planner's `<pose>_<feature>`.
+        for (i, (p, n)) in all.iter().enumerate() {
+            if (r * n).z > -0.3 {
+                out.push(PlanPoint {
+                    label: format!("{pose}_P{:02}", i + 1),
+                    pose: pose.clone(),
+                    seq: seq as u32,
+                    tilt: t,
+                    c,
+                    p: *p,
+                    n: *n,
+                });
+            }
+        }
     }
     PlanPoints {
         tilt_letter: letter,

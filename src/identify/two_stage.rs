@@ -75,6 +75,17 @@ fn feature(data: &Dataset, k: usize) -> Option<&str> {
     p.label.strip_prefix(&p.pose)?.strip_prefix('_')
 }
 
+/// The reference pose's touch of the same feature as touch `k`, when it is
+/// the same point of the piece (same nominal point and normal in W).
+fn reference_touch(data: &Dataset, reference: usize, k: usize) -> Option<usize> {
+    let f = feature(data, k)?;
+    let p = data.point(k);
+    data.poses[reference].obs.iter().copied().find(|&r| {
+        let q = data.point(r);
+        feature(data, r) == Some(f) && (q.p - p.p).norm() < 1e-6 && (q.n - p.n).norm() < 1e-9
+    })
+}
+
 impl Frame {
     /// The frame a dataset is analysed in: seed 000's relative form for a
     /// probing test whose touches are mostly tied to the reference pose by
@@ -98,7 +109,7 @@ impl Frame {
                     .collect();
                 let tied = others
                     .iter()
-                    .filter(|&&k| feature(data, k).is_some_and(|f| measured.contains_key(f)))
+                    .filter(|&&k| reference_touch(data, reference, k).is_some())
                     .count();
                 if !others.is_empty() && 2 * tied >= others.len() {
                     Frame::Relative {
@@ -147,6 +158,7 @@ impl Frame {
                 measured,
             } => {
                 let r = &data.poses[*reference];
+                reference_touch(data, *reference, k)?;
                 let p_ref = measured.get(feature(data, k)?)?;
                 let t = kin.nominal_table_transform(p.tilt, p.c);
                 let carry = t * kin.nominal_table_transform(r.tilt, r.c).inverse();
@@ -196,6 +208,19 @@ pub fn pose_fits(
 /// residual variance of all poses. In seed 000's form the reference pose,
 /// which defines the frame, has no fit of its own.
 pub fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<PoseFit> {
+    stage1(data, kin, frame).0
+}
+
+/// What stage 2's covariance needs of a stage-1 fit: the observations it
+/// used and the linear map `P` from their residuals to the six numbers
+/// (`d xi = -P d r`).
+struct Stage1Map {
+    obs: Vec<usize>,
+    p: DMatrix<f64>,
+}
+
+fn stage1(data: &Dataset, kin: &Kinematics, frame: &Frame) -> (Vec<PoseFit>, Vec<Stage1Map>) {
+    let mut maps = Vec::new();
     let mut fits = Vec::new();
     let mut rss = 0.0;
     let mut dof = 0usize;
@@ -209,11 +234,13 @@ pub fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<Pose
             n: Vec::new(),
             u: Vec::new(),
         };
+        let mut used = Vec::new();
         for &k in &pose.obs {
             if let Some((u, q, n)) = frame.observation(data, kin, k) {
                 pp.u.push(u);
                 pp.q.push(q);
                 pp.n.push(n);
+                used.push(k);
             }
         }
         if pp.q.is_empty() {
@@ -229,6 +256,10 @@ pub fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<Pose
         dof += pp.q.len().saturating_sub(d.rank);
         let j = lsq::to_nalgebra(&sol.jacobian);
         let info = j.transpose() * &j;
+        maps.push(Stage1Map {
+            obs: used,
+            p: &d.cov_unit * j.transpose(),
+        });
         let mut xi = [0.0; 6];
         xi.copy_from_slice(&sol.x);
         fits.push(PoseFit {
@@ -260,7 +291,7 @@ pub fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<Pose
             }
         }
     }
-    fits
+    (fits, maps)
 }
 
 /// A pose as stage 2 sees it: where and when, its stage-1 motion and the
@@ -417,7 +448,7 @@ pub fn identify(
         )),
         _ => {}
     }
-    let fits = pose_fits_in(data, kin, &frame);
+    let (fits, maps) = stage1(data, kin, &frame);
     let stage1_dof: usize = fits
         .iter()
         .map(|f| f.points.saturating_sub(f.observed))
@@ -500,7 +531,45 @@ pub fn identify(
         &setup.constraint_names,
         &setup.quality_axes(),
     );
-    let cov = design.cov_unit.view((0, 0), (n, n)).into_owned() * s2;
+    let mut cov_unit = design.cov_unit.view((0, 0), (n, n)).into_owned();
+    let mut cov = &cov_unit * s2;
+    if let Frame::Relative { reference, .. } = &frame {
+        // Every pose's motion carries the reference touches' own noise:
+        // the motions are correlated through it, and treating them as
+        // independent would understate the uncertainty. Propagate instead:
+        // theta = M xi (stage 2 linearized), xi_j = -P_j r_j (stage 1), and
+        // r_k = e_k - e_ref(k) for a touch k and its reference touch, with
+        // every touch's noise independent, sigma^2 each.
+        let ref_of = |k: usize| reference_touch(data, *reference, k);
+        let n_xi = 6 * maps.len();
+        let mut z = DMatrix::zeros(n_xi, data.obs.len());
+        for (j, mp) in maps.iter().enumerate() {
+            for (c, &k) in mp.obs.iter().enumerate() {
+                let pcol = mp.p.column(c);
+                for i in 0..6 {
+                    z[(6 * j + i, k)] -= pcol[i];
+                    if let Some(rk) = ref_of(k) {
+                        z[(6 * j + i, rk)] += pcol[i];
+                    }
+                }
+            }
+        }
+        // Stage 2: d theta = C J2^T W d xi, W stacking each pose's rows.
+        let j2 = lsq::to_nalgebra(&sol.jacobian);
+        let mut w_all = DMatrix::zeros(rows, n_xi);
+        let mut row = 0;
+        for (j, f) in fits.iter().enumerate() {
+            let w = weight_rows(&f.info);
+            w_all.view_mut((row, 6 * j), (w.nrows(), 6)).copy_from(&w);
+            row += w.nrows();
+        }
+        let m = design.cov_unit.view((0, 0), (n, n + k)).into_owned() * j2.transpose() * w_all;
+        let mz = &m * z;
+        cov_unit = &mz * mz.transpose();
+        // Stage-1 residuals are a touch's noise minus its reference's:
+        // twice the touches' variance.
+        cov = &cov_unit * (0.5 * sigma1 * sigma1);
+    }
     let theta = sol.x[..n].to_vec();
     let g: Vec<f64> = if k > 0 {
         sol.x[n..n + 6].to_vec()
@@ -543,9 +612,15 @@ pub fn identify(
         model: setup.model.clone(),
         theta,
         cov,
-        cov_unit: design.cov_unit.view((0, 0), (n, n)).into_owned(),
+        cov_unit,
         identifiability: report,
-        sigma_um: sigma1,
+        // Per touch: in seed 000's form a stage-1 residual holds two
+        // touches' noise.
+        sigma_um: if matches!(frame, Frame::Relative { .. }) {
+            sigma1 / 2f64.sqrt()
+        } else {
+            sigma1
+        },
         dof: stage1_dof,
         residuals,
         poses: fits,
