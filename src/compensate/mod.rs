@@ -30,7 +30,6 @@ mod edit;
 mod engine;
 pub mod export;
 mod frame;
-mod output;
 pub mod simulate;
 mod solver;
 
@@ -39,8 +38,8 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 
+pub use crate::io::AtomicOutput;
 pub use engine::Compensator;
-pub use output::AtomicOutput;
 pub use solver::{Solution, Solver};
 
 use crate::kinematics::{Axes, ToolPose};

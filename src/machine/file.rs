@@ -347,7 +347,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
 }
 
 /// Checks a tool's numbers; returns the offending key and a message.
-pub(crate) fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
+pub fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
     if !(t.diameter.is_finite() && t.diameter > 0.0) {
         return Err((
             "diameter",

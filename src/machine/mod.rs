@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use crate::geom::Axis3;
 use crate::source::SourceError;
 
-pub use file::MachineFile;
+pub use file::{MachineFile, check_tool};
 
 /// Where the two rotary axes sit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -335,30 +335,10 @@ impl Mesh {
                     target: Some(Valid(json::buffer::Target::ArrayBuffer)),
                 })
             };
-            let accessor = |root: &mut json::Root,
-                            view: json::Index<json::buffer::View>,
-                            minmax: Option<([f32; 3], [f32; 3])>| {
-                root.push(json::Accessor {
-                    buffer_view: Some(view),
-                    byte_offset: Some(USize64(0)),
-                    count: USize64::from(p.count),
-                    component_type: Valid(json::accessor::GenericComponentType(
-                        json::accessor::ComponentType::F32,
-                    )),
-                    extensions: Default::default(),
-                    extras: Default::default(),
-                    type_: Valid(json::accessor::Type::Vec3),
-                    min: minmax.map(|m| json::Value::from(Vec::from(m.0))),
-                    max: minmax.map(|m| json::Value::from(Vec::from(m.1))),
-                    name: None,
-                    normalized: false,
-                    sparse: None,
-                })
-            };
             let pv = view(&mut root, p.pos.0, p.pos.1);
-            let pa = accessor(&mut root, pv, Some((p.pos.2, p.pos.3)));
+            let pa = vec3_accessor(&mut root, pv, 0, p.count, Some((p.pos.2, p.pos.3)));
             let nv = view(&mut root, p.nor.0, p.nor.1);
-            let na = accessor(&mut root, nv, None);
+            let na = vec3_accessor(&mut root, nv, 0, p.count, None);
             let primitive = json::mesh::Primitive {
                 attributes: {
                     let mut map = BTreeMap::new();
@@ -471,6 +451,35 @@ fn ray_hits(o: &Vector3<f64>, d: &Vector3<f64>, t: &[Vector3<f64>; 3]) -> bool {
         return false;
     }
     f * e2.dot(&q) > 1e-12
+}
+
+/// A `VEC3` float accessor of `count` items at `offset` bytes into `view`.
+pub(crate) fn vec3_accessor(
+    root: &mut gltf_json::Root,
+    view: gltf_json::Index<gltf_json::buffer::View>,
+    offset: usize,
+    count: usize,
+    minmax: Option<([f32; 3], [f32; 3])>,
+) -> gltf_json::Index<gltf_json::Accessor> {
+    use gltf_json as json;
+    use json::validation::Checked::Valid;
+    use json::validation::USize64;
+    root.push(json::Accessor {
+        buffer_view: Some(view),
+        byte_offset: Some(USize64::from(offset)),
+        count: USize64::from(count),
+        component_type: Valid(json::accessor::GenericComponentType(
+            json::accessor::ComponentType::F32,
+        )),
+        extensions: Default::default(),
+        extras: Default::default(),
+        type_: Valid(json::accessor::Type::Vec3),
+        min: minmax.map(|m| json::Value::from(Vec::from(m.0))),
+        max: minmax.map(|m| json::Value::from(Vec::from(m.1))),
+        name: None,
+        normalized: false,
+        sparse: None,
+    })
 }
 
 #[cfg(test)]

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use indexmap::IndexMap;
 
-use super::PlannedTest;
 use super::design::short;
+use super::{PlannedTest, RenderedProgram};
 use crate::formats::dmis_program::{self, DmisMoves, Probing};
 use crate::formats::manifest::{MANIFEST_VERSION, Manifest, PoseEntry};
 use crate::io::{OutputError, ensure_not_input, write_atomic};
@@ -268,21 +268,14 @@ impl PlannedTest {
             };
             v.push((path, bytes));
         }
-        for a in &self.program.aux {
-            v.push((PathBuf::from(&a.name), a.text.clone().into_bytes()));
-        }
-        v.push((
-            manifest.machine_file.clone(),
-            self.machine.source.clone().into_bytes(),
-        ));
-        v.push((
-            manifest.template_file.clone(),
-            self.template.source.text.clone().into_bytes(),
-        ));
-        v.push((
-            PathBuf::from(format!("{stem}.plan.yaml")),
-            manifest.to_yaml().into_bytes(),
-        ));
+        push_common(
+            &mut v,
+            &self.program,
+            &manifest,
+            &self.machine.source,
+            &self.template.source.text,
+            stem,
+        );
         v
     }
 
@@ -294,14 +287,51 @@ impl PlannedTest {
         stem: &str,
         inputs: &[&Path],
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let outs = self.outputs(stem);
-        let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
-        for p in &paths {
-            ensure_not_input(p, inputs)?;
-        }
-        for ((_, bytes), p) in outs.iter().zip(&paths) {
-            write_atomic(p, bytes)?;
-        }
-        Ok(paths)
+        write_all(dir, &self.outputs(stem), inputs)
     }
+}
+
+/// The files every plan writes after its own: the program's auxiliary
+/// files, copies of the machine and template (so the plan directory is
+/// self-contained) and, last, the manifest.
+pub(super) fn push_common(
+    v: &mut Vec<(PathBuf, Vec<u8>)>,
+    program: &RenderedProgram,
+    manifest: &Manifest,
+    machine_source: &str,
+    template_source: &str,
+    stem: &str,
+) {
+    for a in &program.aux {
+        v.push((PathBuf::from(&a.name), a.text.clone().into_bytes()));
+    }
+    v.push((
+        manifest.machine_file.clone(),
+        machine_source.as_bytes().to_vec(),
+    ));
+    v.push((
+        manifest.template_file.clone(),
+        template_source.as_bytes().to_vec(),
+    ));
+    v.push((
+        PathBuf::from(format!("{stem}.plan.yaml")),
+        manifest.to_yaml().into_bytes(),
+    ));
+}
+
+/// Writes `outs` into `dir` in order, after checking that none of them
+/// would overwrite one of `inputs`, so a refusal writes nothing.
+pub(super) fn write_all(
+    dir: &Path,
+    outs: &[(PathBuf, Vec<u8>)],
+    inputs: &[&Path],
+) -> Result<Vec<PathBuf>, OutputError> {
+    let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
+    for p in &paths {
+        ensure_not_input(p, inputs)?;
+    }
+    for ((_, bytes), p) in outs.iter().zip(&paths) {
+        write_atomic(p, bytes)?;
+    }
+    Ok(paths)
 }

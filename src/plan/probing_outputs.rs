@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 use indexmap::IndexMap;
 
 use super::design::short;
+use super::outputs::push_common;
 use super::probing::{PlannedProbing, Setup};
 use crate::formats::manifest::{KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry, TestKind};
-use crate::io::{OutputError, ensure_not_input, write_atomic};
+use crate::io::OutputError;
 
 fn round(v: f64, d: i32) -> f64 {
     let f = 10f64.powi(d);
@@ -266,21 +267,14 @@ impl PlannedProbing {
             };
             v.push((path, bytes));
         }
-        for a in &self.program.aux {
-            v.push((PathBuf::from(&a.name), a.text.clone().into_bytes()));
-        }
-        v.push((
-            manifest.machine_file.clone(),
-            self.machine.source.clone().into_bytes(),
-        ));
-        v.push((
-            manifest.template_file.clone(),
-            self.template.source().text.clone().into_bytes(),
-        ));
-        v.push((
-            PathBuf::from(format!("{stem}.plan.yaml")),
-            manifest.to_yaml().into_bytes(),
-        ));
+        push_common(
+            &mut v,
+            &self.program,
+            &manifest,
+            &self.machine.source,
+            &self.template.source().text,
+            stem,
+        );
         v
     }
 
@@ -292,14 +286,6 @@ impl PlannedProbing {
         stem: &str,
         inputs: &[&Path],
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let outs = self.outputs(stem);
-        let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
-        for p in &paths {
-            ensure_not_input(p, inputs)?;
-        }
-        for ((_, bytes), p) in outs.iter().zip(&paths) {
-            write_atomic(p, bytes)?;
-        }
-        Ok(paths)
+        super::outputs::write_all(dir, &self.outputs(stem), inputs)
     }
 }

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+pub use crate::machine::check_tool;
 use crate::machine::{Tool, ToolKind};
 use crate::post::Coolant;
 use crate::source::SourceError;
@@ -386,36 +387,6 @@ fn tool_choice(src: &TemplateSource, v: &serde_yaml::Value) -> Result<ToolChoice
     })?;
     check_tool(&tool).map_err(|(k, m)| src.error(&["tool", k], m))?;
     Ok(ToolChoice::Tool(tool))
-}
-
-/// Checks a tool's numbers; returns the offending key and a message.
-pub fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
-    if !(t.diameter.is_finite() && t.diameter > 0.0) {
-        return Err((
-            "diameter",
-            format!("tool diameter must be > 0 mm, got {}", t.diameter),
-        ));
-    }
-    if !(t.length.is_finite() && t.length > 0.0) {
-        return Err((
-            "length",
-            format!("tool length must be > 0 mm, got {}", t.length),
-        ));
-    }
-    match (t.kind, t.corner_radius) {
-        (ToolKind::Bull, None) => Err((
-            "corner_radius",
-            "a bull-nose tool needs corner_radius (mm)".to_string(),
-        )),
-        (ToolKind::Bull, Some(r)) if !(r > 0.0 && r < t.diameter / 2.0) => Err((
-            "corner_radius",
-            format!(
-                "corner_radius must be between 0 and half the diameter ({} mm), got {r}",
-                t.diameter / 2.0
-            ),
-        )),
-        _ => Ok(()),
-    }
 }
 
 fn tilt_set(src: &TemplateSource, v: &serde_yaml::Value) -> Result<TiltSet, SourceError> {

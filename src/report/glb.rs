@@ -33,31 +33,6 @@ pub fn diverging(t: f64) -> [f32; 3] {
     }
 }
 
-fn accessor(
-    root: &mut json::Root,
-    view: json::Index<json::buffer::View>,
-    offset: usize,
-    count: usize,
-    minmax: Option<([f32; 3], [f32; 3])>,
-) -> json::Index<json::Accessor> {
-    root.push(json::Accessor {
-        buffer_view: Some(view),
-        byte_offset: Some(USize64::from(offset)),
-        count: USize64::from(count),
-        component_type: Valid(json::accessor::GenericComponentType(
-            json::accessor::ComponentType::F32,
-        )),
-        extensions: Default::default(),
-        extras: Default::default(),
-        type_: Valid(json::accessor::Type::Vec3),
-        min: minmax.map(|m| json::Value::from(Vec::from(m.0))),
-        max: minmax.map(|m| json::Value::from(Vec::from(m.1))),
-        name: None,
-        normalized: false,
-        sparse: None,
-    })
-}
-
 /// Builds the `.glb` bytes. `magnification` multiplies the deviations.
 pub fn glb(points: &[ShownPoint], magnification: f64) -> Vec<u8> {
     let max_dev = points
@@ -115,8 +90,8 @@ pub fn glb(points: &[ShownPoint], magnification: f64) -> Vec<u8> {
         name: None,
         target: Some(Valid(json::buffer::Target::ArrayBuffer)),
     });
-    let positions = accessor(&mut root, view, 0, n, Some((min, max)));
-    let colours = accessor(&mut root, view, 12 * n, n, None);
+    let positions = crate::mesh::vec3_accessor(&mut root, view, 0, n, Some((min, max)));
+    let colours = crate::mesh::vec3_accessor(&mut root, view, 12 * n, n, None);
     let attributes = || {
         let mut map = BTreeMap::new();
         map.insert(Valid(json::mesh::Semantic::Positions), positions);

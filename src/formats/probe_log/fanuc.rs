@@ -53,8 +53,8 @@ use nalgebra::Vector3;
 use nom::Parser;
 
 use super::{
-    LogRecord, Logged, RawLog, TouchKey, blanks, end_of_line, expect, header, index, is_empty_line,
-    line_error, lines, xyz,
+    LogRecord, Logged, RawLog, TouchKey, blanks, end_of_line, expect, index, line_error,
+    parse_touch_lines, xyz,
 };
 use crate::source::SourceError;
 
@@ -159,18 +159,7 @@ pub fn touch_line(index: usize, ball: &Vector3<f64>, prt: Prt) -> String {
 
 /// Parses a DPRNT log.
 pub fn parse(path: &Path, src: &str) -> Result<RawLog, SourceError> {
-    let mut records = Vec::new();
-    let mut headers = Vec::new();
-    for (no, line) in lines(src) {
-        if is_empty_line(line) {
-            continue;
-        }
-        if let Some(name) = header(line) {
-            headers.push((no, name));
-            continue;
-        }
-        let body = blanks(line).map(|(r, _)| r).unwrap_or(line);
-        let column = line[..line.len() - body.len()].chars().count() + 1;
+    parse_touch_lines(src, |no, line, body, column| {
         let mut touch = (
             expect(
                 "`T` and the touch index",
@@ -185,16 +174,15 @@ pub fn parse(path: &Path, src: &str) -> Result<RawLog, SourceError> {
         let (_, (k, p, ())) = touch
             .parse(body)
             .map_err(|e| line_error(path, no, line, e, TOUCH_LINE))?;
-        records.push(LogRecord {
+        Ok(LogRecord {
             key: TouchKey::Index(k),
             position: p,
             logged: Logged::BallCentre,
             rotary: None,
             line: no,
             column,
-        });
-    }
-    Ok(RawLog { records, headers })
+        })
+    })
 }
 
 #[cfg(test)]

@@ -52,8 +52,8 @@ use nalgebra::Vector3;
 use nom::Parser;
 
 use super::{
-    LogRecord, Logged, RawLog, TouchKey, blanks, end_of_line, expect, header, index, is_empty_line,
-    line_error, lines, xyz,
+    LogRecord, Logged, RawLog, TouchKey, blanks, end_of_line, expect, index, line_error,
+    parse_touch_lines, xyz,
 };
 use crate::source::SourceError;
 
@@ -121,18 +121,7 @@ pub fn touch_line(index: usize, p: &Vector3<f64>, logged: Logged, comma: bool) -
 
 /// Parses an `FN 16` log (decimal points or commas).
 pub fn parse(path: &Path, src: &str) -> Result<RawLog, SourceError> {
-    let mut records = Vec::new();
-    let mut headers = Vec::new();
-    for (no, line) in lines(src) {
-        if is_empty_line(line) {
-            continue;
-        }
-        if let Some(name) = header(line) {
-            headers.push((no, name));
-            continue;
-        }
-        let body = blanks(line).map(|(r, _)| r).unwrap_or(line);
-        let column = line[..line.len() - body.len()].chars().count() + 1;
+    parse_touch_lines(src, |no, line, body, column| {
         let tag = nom::branch::alt((
             nom::combinator::value(Logged::BallCentre, nom::character::complete::char('T')),
             nom::combinator::value(Logged::Contact, nom::character::complete::char('K')),
@@ -148,14 +137,13 @@ pub fn parse(path: &Path, src: &str) -> Result<RawLog, SourceError> {
         let (_, ((logged, k), p, ())) = touch
             .parse(body)
             .map_err(|e| line_error(path, no, line, e, TOUCH_LINE))?;
-        records.push(LogRecord {
+        Ok(LogRecord {
             key: TouchKey::Index(k),
             position: p,
             logged,
             rotary: None,
             line: no,
             column,
-        });
-    }
-    Ok(RawLog { records, headers })
+        })
+    })
 }

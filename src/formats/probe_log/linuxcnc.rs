@@ -43,8 +43,8 @@ use nalgebra::Vector3;
 use nom::Parser;
 
 use super::{
-    LogRecord, Logged, RawLog, TouchKey, blanks, blanks1, end_of_line, expect, header,
-    is_empty_line, line_error, lines, number, xyz,
+    LogRecord, Logged, RawLog, TouchKey, blanks, blanks1, end_of_line, expect, is_empty_line,
+    line_error, lines, number, parse_touch_lines, xyz,
 };
 use crate::formats::valid_label;
 use crate::source::SourceError;
@@ -94,17 +94,7 @@ pub fn log_line(label: &str, ball: &Vector3<f64>) -> String {
 
 /// Parses a `LOG` file.
 pub fn parse_log(path: &Path, src: &str) -> Result<RawLog, SourceError> {
-    let mut records = Vec::new();
-    let mut headers = Vec::new();
-    for (no, line) in lines(src) {
-        if is_empty_line(line) {
-            continue;
-        }
-        if let Some(name) = header(line) {
-            headers.push((no, name));
-            continue;
-        }
-        let body = blanks(line).map(|(r, _)| r).unwrap_or(line);
+    parse_touch_lines(src, |no, line, body, _| {
         let label_of = |i| {
             nom::bytes::complete::take_while1(|c: char| {
                 c.is_ascii_alphanumeric() || c == '_' || c == '.' || c == '-'
@@ -129,16 +119,15 @@ pub fn parse_log(path: &Path, src: &str) -> Result<RawLog, SourceError> {
             .chars()
             .count()
             + 1;
-        records.push(LogRecord {
+        Ok(LogRecord {
             key: TouchKey::Label(label.to_string()),
             position: p,
             logged: Logged::BallCentre,
             rotary: None,
             line: no,
             column,
-        });
-    }
-    Ok(RawLog { records, headers })
+        })
+    })
 }
 
 /// Parses a `PROBEOPEN` file: per line three (`X Y Z`) or nine (`X Y Z A

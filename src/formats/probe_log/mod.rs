@@ -517,6 +517,31 @@ pub(crate) fn lines(src: &str) -> impl Iterator<Item = (usize, &str)> {
         .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
 }
 
+/// Walks a log the way every dialect's log is laid out: blank lines and
+/// tape marks skipped, `FIVECAL <test>` header lines kept, and every other
+/// line handed to `touch` with its number, the whole line, the line after
+/// its leading blanks, and that body's 1-based column.
+pub(crate) fn parse_touch_lines(
+    src: &str,
+    mut touch: impl FnMut(usize, &str, &str, usize) -> Result<LogRecord, SourceError>,
+) -> Result<RawLog, SourceError> {
+    let mut records = Vec::new();
+    let mut headers = Vec::new();
+    for (no, line) in lines(src) {
+        if is_empty_line(line) {
+            continue;
+        }
+        if let Some(name) = header(line) {
+            headers.push((no, name));
+            continue;
+        }
+        let body = blanks(line).map(|(r, _)| r).unwrap_or(line);
+        let column = line[..line.len() - body.len()].chars().count() + 1;
+        records.push(touch(no, line, body, column)?);
+    }
+    Ok(RawLog { records, headers })
+}
+
 /// Whether a line carries nothing (blanks, control characters, or a
 /// FANUC tape mark `%`).
 pub(crate) fn is_empty_line(l: &str) -> bool {
