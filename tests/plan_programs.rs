@@ -4,7 +4,6 @@
 //! rule tests (decimal points, signs, block numbers, line length, a retract
 //! before every rotary move, every axis value inside the machine's limits).
 
-use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
 use fivecal::formats::manifest::KinematicsMode;
@@ -182,33 +181,7 @@ fn rs274_accepts_every_linuxcnc_program_and_its_moves_reproduce_the_cuts() {
 // ---------------------------------------------------------------- golden files
 
 fn golden(name: &str, text: &str) {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/plan/golden")
-        .join(name);
-    if std::env::var_os("FIVECAL_BLESS").is_some() {
-        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        std::fs::write(&path, text).unwrap();
-        return;
-    }
-    let want = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!(
-            "{}: {e} (run with FIVECAL_BLESS=1 to create it)",
-            path.display()
-        )
-    });
-    if want != text {
-        let line = want
-            .lines()
-            .zip(text.lines())
-            .position(|(a, b)| a != b)
-            .unwrap_or(want.lines().count().min(text.lines().count()));
-        panic!(
-            "{name} differs from its golden file at line {}:\n  golden: {:?}\n  now:    {:?}\n(FIVECAL_BLESS=1 rewrites it after a deliberate change)",
-            line + 1,
-            want.lines().nth(line),
-            text.lines().nth(line)
-        );
-    }
+    crate::util::golden("tests/fixtures/plan/golden", name, text);
 }
 
 #[test]

@@ -7,7 +7,6 @@
 //! move, angles and strokes inside the machine's limits, each probing move
 //! followed by the log statements of its touch).
 
-use std::path::PathBuf;
 use std::process::{Command, Stdio};
 
 use fivecal::plan::{PlannedProbing, ProbingConfig, plan_probing};
@@ -250,33 +249,7 @@ fn the_trace_check_catches_a_descent_into_a_column_and_a_skewed_probe_move() {
 // ---------------------------------------------------------------- golden files
 
 fn golden(name: &str, text: &str) {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/probe/golden")
-        .join(name);
-    if std::env::var_os("FIVECAL_BLESS").is_some() {
-        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        std::fs::write(&path, text).unwrap();
-        return;
-    }
-    let want = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!(
-            "{}: {e} (run with FIVECAL_BLESS=1 to create it)",
-            path.display()
-        )
-    });
-    if want != text {
-        let line = want
-            .lines()
-            .zip(text.lines())
-            .position(|(a, b)| a != b)
-            .unwrap_or(want.lines().count().min(text.lines().count()));
-        panic!(
-            "{name} differs from its golden file at line {}:\n  golden: {:?}\n  now:    {:?}\n(FIVECAL_BLESS=1 rewrites it after a deliberate change)",
-            line + 1,
-            want.lines().nth(line),
-            text.lines().nth(line)
-        );
-    }
+    crate::util::golden("tests/fixtures/probe/golden", name, text);
 }
 
 #[test]

@@ -85,3 +85,35 @@ pub fn random_placement(r: &mut StdRng, offset: f64) -> nalgebra::Isometry3<f64>
         * offset;
     nalgebra::Isometry3::new(t, axis * angle)
 }
+
+/// Compares `text` with the golden file `dir/name` (relative to the
+/// crate); `FIVECAL_BLESS=1` rewrites it after a deliberate change.
+pub fn golden(dir: &str, name: &str, text: &str) {
+    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join(dir)
+        .join(name);
+    if std::env::var_os("FIVECAL_BLESS").is_some() {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, text).unwrap();
+        return;
+    }
+    let want = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (run with FIVECAL_BLESS=1 to create it)",
+            path.display()
+        )
+    });
+    if want != text {
+        let line = want
+            .lines()
+            .zip(text.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or(want.lines().count().min(text.lines().count()));
+        panic!(
+            "{name} differs from its golden file at line {}:\n  golden: {:?}\n  now:    {:?}\n(FIVECAL_BLESS=1 rewrites it after a deliberate change)",
+            line + 1,
+            want.lines().nth(line),
+            text.lines().nth(line)
+        );
+    }
+}
