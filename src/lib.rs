@@ -30,6 +30,7 @@ pub mod plan;
 pub mod post;
 pub mod probing;
 pub mod report;
+pub mod simulate;
 pub mod source;
 pub mod uncertainty;
 

@@ -24,3 +24,5 @@ mod probe_outputs;
 mod probe_plan;
 mod probe_programs;
 mod regression;
+mod simulate;
+mod simulate_forward;

@@ -26,6 +26,26 @@ pub struct SectionHeight {
     pub line: usize,
 }
 
+/// Writes a heights file: optional `#` comments, the header
+/// `section,height_um`, one line per section (um, four decimals).
+pub fn to_csv(heights: &[SectionHeight], comments: &[&str]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    for c in comments {
+        let _ = writeln!(s, "# {c}");
+    }
+    s.push_str("section,height_um\n");
+    for h in heights {
+        let _ = writeln!(
+            s,
+            "{},{}",
+            h.section,
+            super::points::fmt_num(h.height_um, 4)
+        );
+    }
+    s
+}
+
 /// Whether the text is a heights file (its header names `section` and
 /// `height_um`).
 pub fn looks_like_heights(src: &str) -> bool {

@@ -66,6 +66,32 @@ pub fn identify_with(
     }
 }
 
+/// Whether the rigid-pose forward models refuse `model` (effects that vary
+/// within a pose, head machines): the global method then needs the plan
+/// for the simulator's general forward model.
+pub fn rigid_refuses(model: &Model) -> bool {
+    RigidPoseMachining::new(model.clone()).is_err()
+}
+
+/// [`identify_with`], with the plan at hand: where the rigid-pose models
+/// refuse the model, the global method inverts the simulator's general
+/// forward model ([`crate::simulate::forward`]) instead.
+pub fn identify_with_plan(
+    method: Method,
+    setup: &Setup,
+    data: &Dataset,
+    sphere: &SphereOptions,
+    plan: Option<&crate::plan::LoadedPlan>,
+) -> Result<Identification, IdentifyError> {
+    if let (Method::Global, Some(plan)) = (method, plan)
+        && rigid_refuses(&setup.model)
+    {
+        let fm = crate::simulate::forward::for_plan(&setup.model, plan)?;
+        return identify::global::identify(fm.as_ref(), setup, data, &lsq::Options::default());
+    }
+    identify_with(method, setup, data, sphere)
+}
+
 /// What a synthetic Monte-Carlo run needs to know about the test.
 #[derive(Clone, Debug)]
 pub struct SyntheticTest<'a> {

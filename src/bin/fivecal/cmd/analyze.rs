@@ -448,7 +448,14 @@ fn piece_path(out: &Path, k: usize, json: bool) -> PathBuf {
 
 fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result<ErrorFile> {
     let setup = Setup::new(&c.kin, &data.poses, &c.maps)?;
-    let est = uncertainty::identify_with(c.method, &setup, data, &c.sphere)?;
+    // The global method on a model the rigid-pose models refuse (a head
+    // machine) inverts the simulator's forward model, which needs the plan.
+    let plan = if c.method == identify::Method::Global && uncertainty::rigid_refuses(&setup.model) {
+        Some(fivecal::plan::load_any(&c.manifest_path)?)
+    } else {
+        None
+    };
+    let est = uncertainty::identify_with_plan(c.method, &setup, data, &c.sphere, plan.as_ref())?;
     if let Some(k) = piece {
         println!("== piece {k}: {}", data.files[0].display());
     }

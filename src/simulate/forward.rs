@@ -1,0 +1,820 @@
+//! The general forward model: for every plan point of any test on any
+//! machine, the measurement the simulator would return (noise off, CMM
+//! placement removed), as a function of every effect's parameters, with its
+//! exact Jacobian. It implements [`ForwardModel`], so `analyze`'s global
+//! method and `discover` invert it like the rigid-pose models, without their
+//! restrictions.
+//!
+//! # Machining ([`MachiningForward`])
+//! A plan point knows which moves cut it and with which part of the tool
+//! ([`crate::plan::Provenance`]). For each generating move the actual tool
+//! is taken at the generating instant through the same code path as the
+//! simulator ([`super::cutting::Cutting`]: commanded axes, time, context,
+//! `Model::pose_jacobian`): its tip, its axis, and the actual direction of
+//! its path there (a chord of the actual path about the instant, within the
+//! affine piece of the move, so that linear-axis errors act where the tool
+//! really is during the cut, not at the nominal surface point). The surface
+//! that move leaves along the point's nominal normal line is then exact:
+//! - flank: the envelope of the cylinder is the plane through the axis line
+//!   offset by the actual radius, with the normal perpendicular to the
+//!   actual tool axis and the actual path direction;
+//! - flat end: the disc's plane where the path keeps perpendicular to the
+//!   axis, else the lower sheet of its swept rim (`Z = kX - |k| sqrt(R^2 -
+//!   Y^2)` in the tool's frame, `k` the path's slope along the axis): a
+//!   tilted end mill cuts with its edge;
+//! - ball: the capsule around the path of the ball's centre;
+//! - torus and sharp corner: the exact swept solid of the tool along the
+//!   local path ([`crate::plan::Cutter::entry_along`]) with the derivative
+//!   from the envelope theorem.
+//!
+//! The deepest of the generating moves gives the measured point. All of
+//! this is exact where the actual path is straight (every effect except
+//! drift per minute, which bends it by second-order amounts); the
+//! Jacobian is the exact derivative of the prediction (the path direction
+//! differentiated through the chord), `d_normal` is first order (the tool's
+//! rotation) except on the flank, where it is exact.
+//!
+//! # Probing ([`ProbingForward`])
+//! Each touch's ball runs along its commanded line; the contact with the
+//! face (a plane through the piece's setup, six nuisance numbers per
+//! column, um and urad, as `RigidPoseProbing`) or with the sphere (three
+//! nuisance numbers, its centre's offset in um) is solved by Newton's
+//! method on the exact ball centre, then pre-travel is added along the
+//! line, and the point is what the log reader reports: the ball centre in
+//! program coordinates minus the ball radius along the nominal normal.
+//!
+//! # Time
+//! `predict` receives the minutes `analyze` assigns to the point's pose
+//! (the middle of its manifest interval); the model moves the clock to the
+//! instant of the cut or touch by the plan's own timeline, so drift per
+//! minute acts when the tool really was there.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use nalgebra::{DMatrix, DVector, Point3, Vector3};
+
+use super::cutting::{Cutting, actual_cutter};
+use super::machining::LINE_DEPTH;
+use super::probing::Probing;
+use crate::formats::points::PlanPoint;
+use crate::identify::forward::{ForwardError, ForwardModel, Prediction, SETUP_NAMES};
+use crate::identify::rigid::d6_apply;
+use crate::kinematics::Kinematics;
+use crate::model::Model;
+use crate::plan::{Cutter, LoadedPlan, PlannedPoint, PlannedProbing, PlannedTest, Setup, ToolPart};
+
+/// The model of `errors` rebuilt on the kinematics a plan runs with (its
+/// tool's or probe's gauge length), after checking the machine.
+pub fn model_for(kin: Kinematics, model: &Model) -> Result<Model, ForwardError> {
+    if kin.machine().name != model.kin.machine().name {
+        return Err(ForwardError::Other(format!(
+            "the errors are for machine `{}` but the plan runs on `{}`",
+            model.kin.machine().name,
+            kin.machine().name
+        )));
+    }
+    Ok(Model::new(kin, model.effects.clone()))
+}
+
+/// The forward model of a loaded plan, of either kind.
+pub fn for_plan(model: &Model, plan: &LoadedPlan) -> Result<Box<dyn ForwardModel>, ForwardError> {
+    Ok(match plan {
+        LoadedPlan::Machining(t) => {
+            Box::new(MachiningForward::new(model, Arc::new((**t).clone()))?)
+        }
+        LoadedPlan::Probing(p) => Box::new(ProbingForward::new(model, Arc::new((**p).clone()))?),
+    })
+}
+
+/// One generating move's prediction: offset along the nominal normal and
+/// its derivative, the surface normal and its derivative.
+struct Local {
+    s: f64,
+    ds: DVector<f64>,
+    normal: Vector3<f64>,
+    dnormal: DMatrix<f64>,
+}
+
+fn col(m: &DMatrix<f64>, j: usize) -> Vector3<f64> {
+    Vector3::new(m[(0, j)], m[(1, j)], m[(2, j)])
+}
+
+fn set_col(m: &mut DMatrix<f64>, j: usize, v: &Vector3<f64>) {
+    for r in 0..3 {
+        m[(r, j)] = v[r];
+    }
+}
+
+/// The general machining forward model (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct MachiningForward {
+    cut: Cutting,
+    index: HashMap<String, usize>,
+    radius_grad: Vec<f64>,
+    /// Per plan point, the moves that may leave its surface.
+    candidates: Vec<Vec<Candidate>>,
+}
+
+/// A move that may leave a point's surface: the point's generators, and
+/// the moves of its pose that pass near it (a neighbouring raster pass cuts
+/// deepest when the errors shift the raster sideways by half a stepover).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Candidate {
+    mv: usize,
+    /// The instant taken as the local origin of the move.
+    t: f64,
+    part: ToolPart,
+    /// One of the point's generators (always valid) or a neighbour (valid
+    /// only where its contact falls within the move).
+    generator: bool,
+}
+
+/// Moves of a point's pose within this nominal distance of it are
+/// candidates besides its generators, mm.
+const CANDIDATE_REACH: f64 = 0.15;
+
+fn candidates_of(cut: &Cutting, pp: &PlannedPoint) -> Vec<Candidate> {
+    let plan = &cut.plan;
+    let pose = pp.provenance.pose;
+    let p = pp.point.p;
+    let mut out: Vec<Candidate> = pp
+        .provenance
+        .generators
+        .iter()
+        .map(|g| Candidate {
+            mv: g.move_index,
+            t: g.t,
+            part: pp.provenance.part,
+            generator: true,
+        })
+        .collect();
+    for (mi, mv) in plan.poses[pose].moves.iter().enumerate() {
+        if mv.rapid || out.iter().any(|c| c.mv == mi) {
+            continue;
+        }
+        let (a, b, u) = cut.nominal_segment(pose, mi);
+        let (d, t_min) = plan.cutter.swept_distance(&a, &b, &u, &p);
+        if d > CANDIDATE_REACH {
+            continue;
+        }
+        // Where the axis passes closest (the middle of a flat end's touch).
+        let perp = |v: Vector3<f64>| v - u * u.dot(&v);
+        let (pa, ba) = (perp(p - a), perp(b - a));
+        let t = if ba.norm_squared() > 1e-18 {
+            (pa.dot(&ba) / ba.norm_squared()).clamp(0.0, 1.0)
+        } else {
+            t_min
+        };
+        // A neighbouring pass cuts the same surface with the same part of
+        // the tool; where it does not, its contact falls off the move or off
+        // that part, and the candidate drops out.
+        let part = pp.provenance.part;
+        out.push(Candidate {
+            mv: mi,
+            t,
+            part,
+            generator: false,
+        });
+    }
+    out
+}
+
+impl MachiningForward {
+    /// The model of `model`'s effects on the plan's machine and tool.
+    pub fn new(model: &Model, plan: Arc<PlannedTest>) -> Result<MachiningForward, ForwardError> {
+        let kin = Kinematics::with_gauge_length(&plan.machine, plan.tool.length);
+        let model = model_for(kin, model)?;
+        let index = plan
+            .points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.point.label.clone(), i))
+            .collect();
+        let cut = Cutting::new(model, plan);
+        let radius_grad = cut.radius_gradient();
+        let candidates = cut
+            .plan
+            .points
+            .iter()
+            .map(|pp| candidates_of(&cut, pp))
+            .collect();
+        Ok(MachiningForward {
+            cut,
+            index,
+            radius_grad,
+            candidates,
+        })
+    }
+
+    /// The plan.
+    pub fn plan(&self) -> &PlannedTest {
+        &self.cut.plan
+    }
+
+    /// The minutes `analyze` gives the pose of a plan point (the middle of
+    /// its manifest interval).
+    pub fn minutes(&self, label: &str) -> Option<f64> {
+        let i = *self.index.get(label)?;
+        Some(
+            self.cut
+                .timeline
+                .mid(self.cut.plan.points[i].provenance.pose),
+        )
+    }
+
+    fn local(
+        &self,
+        theta: &[f64],
+        pp: &PlannedPoint,
+        g: &Candidate,
+        offset: f64,
+    ) -> Result<Option<Local>, ForwardError> {
+        let cut = &self.cut;
+        let model = &cut.model;
+        let label = &pp.point.label;
+        let (p, n) = (pp.point.p, pp.point.n);
+        let pose = pp.provenance.pose;
+        let mv = g.mv;
+        let np = model.n_params();
+        // The tool at the generating instant.
+        let (pj, jt, ja) = model.pose_jacobian(theta, &cut.context(pose, mv, g.t, offset));
+        let tip = pj.pose.tip;
+        let u = pj.pose.axis;
+        // The actual path direction: a chord about the instant within the
+        // affine piece (exact on a straight piece, second-order on a bent one).
+        let (lo, hi) = cut.piece(pose, mv, g.t);
+        let (na, nb, _) = cut.nominal_segment(pose, mv);
+        let len = (nb - na).norm().max(1e-9);
+        let h = (0.5_f64).min(1.0 / len);
+        let (t1, t2) = ((g.t - h).max(lo), (g.t + h).min(hi));
+        if t2 - t1 < 1e-12 {
+            return Err(ForwardError::Other(format!(
+                "{label}: its generating move {} has no length",
+                mv + 1
+            )));
+        }
+        let (p1, j1, _) = model.pose_jacobian(theta, &cut.context(pose, mv, t1, offset));
+        let (p2, j2, _) = model.pose_jacobian(theta, &cut.context(pose, mv, t2, offset));
+        let v = (p2.pose.tip - p1.pose.tip) / (t2 - t1);
+        let dv = (&j2 - &j1) / (t2 - t1);
+        let dr = cut.radius_error(theta);
+        let ra_grad = &self.radius_grad;
+        let nominal = &cut.plan.cutter;
+        let ra = nominal.radius + dr;
+        let rot_normal = |normal: &Vector3<f64>| {
+            let mut d = DMatrix::zeros(3, np);
+            for j in 0..np {
+                let w = u.cross(&col(&ja, j));
+                set_col(&mut d, j, &w.cross(normal));
+            }
+            d
+        };
+        // A neighbour counts only where its contact instant lies on the move.
+        let on_move = |tau: f64| g.generator || (g.t + tau >= -1e-9 && g.t + tau <= 1.0 + 1e-9);
+        let vv = v.norm_squared();
+        let miss = |e: ForwardError| if g.generator { Err(e) } else { Ok(None) };
+        match g.part {
+            ToolPart::Flank => {
+                let w = u.cross(&v);
+                let wn = w.norm();
+                if wn < 1e-9 {
+                    return miss(ForwardError::Other(format!(
+                        "{label}: the tool moves along its own axis where its flank cuts"
+                    )));
+                }
+                let sign = if w.dot(&n) < 0.0 { -1.0 } else { 1.0 };
+                let m = w * (sign / wn);
+                let mn = m.dot(&n);
+                if mn.abs() < 1e-6 {
+                    return miss(ForwardError::NoIntersection(label.clone()));
+                }
+                let s = (m.dot(&(tip - p)) - ra) / mn;
+                if !on_move((p + n * s - tip).dot(&v) / vv) {
+                    return Ok(None);
+                }
+                let mut ds = DVector::zeros(np);
+                let mut dm = DMatrix::zeros(3, np);
+                for j in 0..np {
+                    let dw = (col(&ja, j).cross(&v) + u.cross(&col(&dv, j))) * sign;
+                    let dmj = (dw - m * m.dot(&dw)) / wn;
+                    set_col(&mut dm, j, &dmj);
+                    ds[j] =
+                        (dmj.dot(&(tip - p)) + m.dot(&col(&jt, j)) - ra_grad[j] - s * dmj.dot(&n))
+                            / mn;
+                }
+                Ok(Some(Local {
+                    s,
+                    ds,
+                    normal: m,
+                    dnormal: dm,
+                }))
+            }
+            ToolPart::FlatEnd => {
+                let beta = v.dot(&u);
+                let vp = v - u * beta;
+                let alpha = vp.norm();
+                if alpha < 1e-9 {
+                    return miss(ForwardError::Other(format!(
+                        "{label}: the tool plunges along its axis where its end cuts"
+                    )));
+                }
+                let ev = vp / alpha;
+                let ew = u.cross(&ev);
+                let k = beta / alpha;
+                // Below 1e-12 the edge term is under 1e-11 mm: the disc's plane.
+                let (ak, sk) = if k.abs() < 1e-12 {
+                    (0.0, 0.0)
+                } else {
+                    (k.abs(), k.signum())
+                };
+                // The flat part of the end: the whole end of a flat end mill,
+                // the core of a bull-nose (its torus rounds the rim, which
+                // lowers the edge by r (1 - cos) of the path's slope: below
+                // 1e-7 mm for slopes under 1e-3).
+                let rf = ra - nominal.corner;
+                let parts = |s: f64| {
+                    let x = p + n * s - tip;
+                    let y = ew.dot(&x);
+                    let sq = (rf * rf - y * y).max(0.0).sqrt();
+                    (x, ev.dot(&x), y, u.dot(&x), sq)
+                };
+                let f = |s: f64| {
+                    let (_, xx, _, zz, sq) = parts(s);
+                    zz - k * xx + ak * sq
+                };
+                let fp = |s: f64| {
+                    let (_, _, y, _, sq) = parts(s);
+                    let edge = if sq > 1e-12 {
+                        ak * y * ew.dot(&n) / sq
+                    } else {
+                        0.0
+                    };
+                    u.dot(&n) - k * ev.dot(&n) - edge
+                };
+                let mut s = 0.0;
+                for _ in 0..60 {
+                    let d = f(s) / fp(s);
+                    s -= d;
+                    if d.abs() < 1e-15 {
+                        break;
+                    }
+                }
+                let (x, xx, y, _, sq) = parts(s);
+                if !g.generator {
+                    // Under the disc, and cut while the tool was on the move.
+                    if y.abs() > rf {
+                        return Ok(None);
+                    }
+                    let (t_lo, t_hi) = if ak == 0.0 {
+                        ((xx - sq) / alpha, (xx + sq) / alpha)
+                    } else {
+                        let tau = (xx - sk * sq) / alpha;
+                        (tau, tau)
+                    };
+                    if g.t + t_hi < -1e-9 || g.t + t_lo > 1.0 + 1e-9 {
+                        return Ok(None);
+                    }
+                }
+                let fps = fp(s);
+                let mut ds = DVector::zeros(np);
+                for j in 0..np {
+                    let (dtip, du, dvj) = (col(&jt, j), col(&ja, j), col(&dv, j));
+                    let dbeta = dvj.dot(&u) + v.dot(&du);
+                    let dvp = dvj - u * dbeta - du * beta;
+                    let dalpha = ev.dot(&dvp);
+                    let dev = (dvp - ev * ev.dot(&dvp)) / alpha;
+                    let dew = du.cross(&ev) + u.cross(&dev);
+                    let dk = (dbeta - k * dalpha) / alpha;
+                    let dx = -dtip;
+                    let mut df =
+                        du.dot(&x) + u.dot(&dx) - dk * xx - k * (dev.dot(&x) + ev.dot(&dx))
+                            + sk * dk * sq;
+                    if sq > 1e-12 {
+                        df += ak * (rf * ra_grad[j] - y * (dew.dot(&x) + ew.dot(&dx))) / sq;
+                    }
+                    ds[j] = -df / fps;
+                }
+                let edge = if sq > 1e-12 { ak * y / sq } else { 0.0 };
+                let normal = (u - ev * k - ew * edge).normalize();
+                Ok(Some(Local {
+                    s,
+                    ds,
+                    normal,
+                    dnormal: rot_normal(&normal),
+                }))
+            }
+            ToolPart::Ball => {
+                let c = tip + u * ra;
+                let vn = v.norm();
+                let vh = v / vn;
+                let perp = |x: &Vector3<f64>| x - vh * vh.dot(x);
+                let a = perp(&n);
+                let b = perp(&(p - c));
+                let (aa, ab, bb) = (a.dot(&a), a.dot(&b), b.dot(&b) - ra * ra);
+                let disc = ab * ab - aa * bb;
+                if aa < 1e-12 || disc < 0.0 {
+                    return miss(ForwardError::NoIntersection(label.clone()));
+                }
+                let s = (-ab - disc.sqrt()) / aa;
+                let w = p + n * s - c;
+                if !on_move(w.dot(&v) / vv) {
+                    return Ok(None);
+                }
+                let wp = perp(&w);
+                let dgs = 2.0 * wp.dot(&n);
+                let mut ds = DVector::zeros(np);
+                for j in 0..np {
+                    let dc = col(&jt, j) + u * ra_grad[j] + col(&ja, j) * ra;
+                    let dvh = (col(&dv, j) - vh * vh.dot(&col(&dv, j))) / vn;
+                    let dg =
+                        2.0 * (-wp.dot(&dc) - vh.dot(&w) * wp.dot(&dvh)) - 2.0 * ra * ra_grad[j];
+                    ds[j] = -dg / dgs;
+                }
+                let normal = wp.normalize();
+                Ok(Some(Local {
+                    s,
+                    ds,
+                    normal,
+                    dnormal: rot_normal(&normal),
+                }))
+            }
+            ToolPart::Torus | ToolPart::Corner => {
+                let cutter = actual_cutter(nominal, dr);
+                let vn = v.norm();
+                let w = (cutter.radius + 2.0) / vn;
+                let (tl, th) = ((lo - g.t).max(-w), (hi - g.t).min(w));
+                let a = tip + v * tl;
+                let b = tip + v * th;
+                let q0 = p - n * LINE_DEPTH;
+                let Some(e) = cutter.entry_along(&a, &b, &u, &q0, &n, 0.0, 2.0 * LINE_DEPTH) else {
+                    return miss(ForwardError::NoIntersection(label.clone()));
+                };
+                let s = e - LINE_DEPTH;
+                let x = q0 + n * e;
+                let (_, tt) = cutter.swept_distance(&a, &b, &u, &x);
+                let tau = tl + tt * (th - tl);
+                let tc = tip + v * tau;
+                let (gq, gu, gr) = sd_gradient(&cutter, &tc, &u, &x);
+                let den = gq.dot(&n);
+                if den.abs() < 1e-9 {
+                    return miss(ForwardError::NoIntersection(label.clone()));
+                }
+                let mut ds = DVector::zeros(np);
+                for j in 0..np {
+                    let dtip = col(&jt, j) + col(&dv, j) * tau;
+                    let dsd = -gq.dot(&dtip) + gu.dot(&col(&ja, j)) + gr * ra_grad[j];
+                    ds[j] = -dsd / den;
+                }
+                let normal = -gq;
+                Ok(Some(Local {
+                    s,
+                    ds,
+                    normal,
+                    dnormal: rot_normal(&normal),
+                }))
+            }
+        }
+    }
+}
+
+/// The gradient of [`Cutter::signed_distance`] at `q` with respect to `q`,
+/// to the axis, and to the outer radius (corner fixed).
+fn sd_gradient(
+    c: &Cutter,
+    tip: &Vector3<f64>,
+    axis: &Vector3<f64>,
+    q: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>, f64) {
+    let d = q - tip;
+    let zeta = d.dot(axis);
+    let wv = d - axis * zeta;
+    let rho = wv.norm();
+    let er = if rho > 1e-15 {
+        wv / rho
+    } else {
+        crate::geom::tangent_basis(axis).0
+    };
+    let r = c.corner;
+    let core = c.radius - r;
+    let cz = 0.5 * (r + c.length);
+    let hz = 0.5 * (c.length - r);
+    let dx = rho - core;
+    let sz = if zeta >= cz { 1.0 } else { -1.0 };
+    let dz = (zeta - cz).abs() - hz;
+    let (g_rho, g_zeta) = if dx > 0.0 && dz > 0.0 {
+        let o = dx.hypot(dz);
+        (dx / o, dz * sz / o)
+    } else if dx > 0.0 {
+        (1.0, 0.0)
+    } else if dz > 0.0 {
+        (0.0, sz)
+    } else if dx > dz {
+        (1.0, 0.0)
+    } else {
+        (0.0, sz)
+    };
+    let gq = er * g_rho + axis * g_zeta;
+    let gu = d * g_zeta - er * (g_rho * zeta);
+    (gq, gu, -g_rho)
+}
+
+impl ForwardModel for MachiningForward {
+    fn model(&self) -> &Model {
+        &self.cut.model
+    }
+
+    fn predict(
+        &self,
+        theta: &[f64],
+        _nuisance: &[f64],
+        point: &PlanPoint,
+        minutes: f64,
+    ) -> Result<Prediction, ForwardError> {
+        self.surfaces(theta, point, minutes)?
+            .into_iter()
+            .map(|(_, p)| p)
+            .min_by(|a, b| a.offset.total_cmp(&b.offset))
+            .map(|p| p.prediction)
+            .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))
+    }
+}
+
+/// What one move leaves at a plan point: the offset of its surface along
+/// the nominal normal (mm, negative: deeper) and the prediction if it were
+/// the deepest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MoveSurface {
+    /// Offset along the nominal normal, mm.
+    pub offset: f64,
+    /// The measured point, normal and derivatives if this move made it.
+    pub prediction: Prediction,
+}
+
+impl MachiningForward {
+    /// The surface each move that may cut `point` leaves along its nominal
+    /// normal line, by move index (in the point's pose): its generators and
+    /// the neighbouring passes whose contact falls on the move. The
+    /// measured point is the deepest ([`ForwardModel::predict`]); each is a
+    /// smooth function of the parameters, the envelope has a kink where two
+    /// of them tie.
+    pub fn surfaces(
+        &self,
+        theta: &[f64],
+        point: &PlanPoint,
+        minutes: f64,
+    ) -> Result<Vec<(usize, MoveSurface)>, ForwardError> {
+        let i = *self.index.get(&point.label).ok_or_else(|| {
+            ForwardError::Other(format!("`{}` is not a point of the plan", point.label))
+        })?;
+        let pp = &self.cut.plan.points[i];
+        let offset = minutes - self.cut.timeline.mid(pp.provenance.pose);
+        let n = pp.point.n;
+        let mut out = Vec::new();
+        for g in &self.candidates[i] {
+            let Some(l) = self.local(theta, pp, g, offset)? else {
+                continue;
+            };
+            let np = l.ds.len();
+            let mut d_point = DMatrix::zeros(3, np);
+            for j in 0..np {
+                set_col(&mut d_point, j, &(n * l.ds[j]));
+            }
+            out.push((
+                g.mv,
+                MoveSurface {
+                    offset: l.s,
+                    prediction: Prediction {
+                        point: pp.point.p + n * l.s,
+                        normal: l.normal,
+                        d_point,
+                        d_normal: l.dnormal,
+                    },
+                },
+            ));
+        }
+        Ok(out)
+    }
+}
+
+/// The general probing forward model (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct ProbingForward {
+    probing: Probing,
+    index: HashMap<String, usize>,
+    /// Start of each piece's nuisance block, and the total.
+    offsets: Vec<usize>,
+}
+
+impl ProbingForward {
+    /// The model of `model`'s effects on the plan's machine and probe.
+    pub fn new(model: &Model, plan: Arc<PlannedProbing>) -> Result<ProbingForward, ForwardError> {
+        let model = model_for(plan.plan.kin.clone(), model)?;
+        let index = plan
+            .plan
+            .touches
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (t.label.clone(), i))
+            .collect();
+        let probing = Probing::new(model, plan);
+        let size = probing.nuisance_size();
+        let mut offsets = vec![0];
+        for _ in &probing.pieces {
+            offsets.push(offsets.last().unwrap() + size);
+        }
+        Ok(ProbingForward {
+            probing,
+            index,
+            offsets,
+        })
+    }
+
+    /// The plan.
+    pub fn plan(&self) -> &PlannedProbing {
+        &self.probing.plan
+    }
+
+    /// The minutes `analyze` gives the pose of a touch (the middle of its
+    /// manifest interval).
+    pub fn minutes(&self, label: &str) -> Option<f64> {
+        Some(self.probing.pose_mid(*self.index.get(label)?))
+    }
+
+    /// The nuisance vector of the pieces' actual setups (W nominal to W
+    /// actual, one per piece as [`super::SimOutput::setups`] gives them).
+    pub fn nuisance_of(&self, setups: &[nalgebra::Isometry3<f64>]) -> Vec<f64> {
+        match &self.probing.plan.setup {
+            Setup::Columns(_) => setups
+                .iter()
+                .flat_map(crate::identify::rigid::d6_inverse_um)
+                .collect(),
+            Setup::Sphere(s) => setups
+                .iter()
+                .flat_map(|iso| {
+                    let d = (iso * Point3::from(s.centre)).coords - s.centre;
+                    [d.x * 1e3, d.y * 1e3, d.z * 1e3]
+                })
+                .collect(),
+        }
+    }
+}
+
+impl Probing {
+    fn nuisance_size(&self) -> usize {
+        match self.plan.setup {
+            Setup::Columns(_) => 6,
+            Setup::Sphere(_) => 3,
+        }
+    }
+}
+
+impl ForwardModel for ProbingForward {
+    fn model(&self) -> &Model {
+        &self.probing.model
+    }
+
+    fn nuisance_names(&self) -> Vec<String> {
+        let pr = &self.probing;
+        let names: Vec<&str> = SETUP_NAMES[..pr.nuisance_size()].to_vec();
+        if pr.pieces.len() == 1 {
+            return names.iter().map(|s| s.to_string()).collect();
+        }
+        pr.pieces
+            .iter()
+            .flat_map(|p| {
+                names
+                    .iter()
+                    .map(move |s| s.replacen("setup", &format!("setup[{p}]"), 1))
+            })
+            .collect()
+    }
+
+    fn predict(
+        &self,
+        theta: &[f64],
+        nuisance: &[f64],
+        point: &PlanPoint,
+        minutes: f64,
+    ) -> Result<Prediction, ForwardError> {
+        let pr = &self.probing;
+        let i = *self.index.get(&point.label).ok_or_else(|| {
+            ForwardError::Other(format!("`{}` is not a touch of the plan", point.label))
+        })?;
+        let touch = &pr.plan.plan.touches[i];
+        let np = theta.len();
+        let total = np + *self.offsets.last().unwrap();
+        let piece = pr.piece_of[i];
+        let o = self.offsets[piece];
+        let size = pr.nuisance_size();
+        let nu = &nuisance[o..o + size];
+        let offset = minutes - pr.pose_mid(i);
+        let r = pr.plan.plan.probe.ball_radius;
+        let (_, dir, _) = pr.line(i);
+        // The actual surface: a face plane (point, normal and their
+        // derivatives in the nuisance), or the sphere's centre.
+        // One value on the stack per prediction: size does not matter.
+        #[allow(clippy::large_enum_variant)]
+        enum Surf {
+            Plane {
+                y: Vector3<f64>,
+                dy: nalgebra::Matrix3x6<f64>,
+                m: Vector3<f64>,
+                dm: nalgebra::Matrix3x6<f64>,
+            },
+            Sphere {
+                centre: Vector3<f64>,
+                radius: f64,
+            },
+        }
+        let surf = match &pr.plan.setup {
+            Setup::Columns(_) => {
+                let (y, dy) = d6_apply(nu, &touch.contact_w);
+                let (y2, dy2) = d6_apply(nu, &(touch.contact_w + touch.normal_w));
+                Surf::Plane {
+                    y,
+                    dy,
+                    m: y2 - y,
+                    dm: dy2 - dy,
+                }
+            }
+            Setup::Sphere(s) => Surf::Sphere {
+                centre: s.centre + Vector3::new(nu[0], nu[1], nu[2]) * 1e-3,
+                radius: s.diameter / 2.0,
+            },
+        };
+        let g = |c: &Vector3<f64>| match &surf {
+            Surf::Plane { y, m, .. } => m.dot(&(c - y)) - r,
+            Surf::Sphere { centre, radius } => (c - centre).norm() - radius - r,
+        };
+        let h = 1e-3;
+        let slope = |tau: f64| {
+            let c1 = pr.ball(theta, i, tau - h, offset);
+            let c2 = pr.ball(theta, i, tau + h, offset);
+            (g(&c2) - g(&c1)) / (2.0 * h)
+        };
+        let mut tau = pr.nominal_tau(i);
+        for _ in 0..30 {
+            let gp = slope(tau);
+            if gp.abs() < 1e-9 {
+                return Err(ForwardError::NoIntersection(point.label.clone()));
+            }
+            let d = g(&pr.ball(theta, i, tau, offset)) / gp;
+            tau -= d;
+            if d.abs() < 1e-14 {
+                break;
+            }
+        }
+        let gp = slope(tau);
+        let (pj, jt, _) = pr.model.pose_jacobian(theta, &pr.context(i, tau, offset));
+        let c = pj.pose.tip;
+        let mut dg = DVector::zeros(total);
+        let normal_w;
+        let mut dnormal_w = DMatrix::zeros(3, total);
+        match &surf {
+            Surf::Plane { y, dy, m, dm } => {
+                for j in 0..np {
+                    dg[j] = m.dot(&col(&jt, j));
+                }
+                for k in 0..6 {
+                    let dmk = dm.column(k).into_owned();
+                    dg[np + o + k] = dmk.dot(&(c - y)) - m.dot(&dy.column(k).into_owned());
+                    set_col(&mut dnormal_w, np + o + k, &dmk);
+                }
+                normal_w = *m;
+            }
+            Surf::Sphere { centre, .. } => {
+                let e = (c - centre).normalize();
+                for j in 0..np {
+                    dg[j] = e.dot(&col(&jt, j));
+                }
+                for k in 0..3 {
+                    dg[np + o + k] = -e[k] * 1e-3;
+                }
+                normal_w = e;
+            }
+        }
+        let (pt, dpt) = pr.pretravel(theta, i);
+        let tau_t = tau + pt;
+        let frame = pr.frame(i);
+        let reported = pr.reported(i, &pr.recorded(i, tau_t));
+        let mut d_point = DMatrix::zeros(3, total);
+        for j in 0..total {
+            let mut dt = -dg[j] / gp;
+            if j < np {
+                dt += dpt[j];
+            }
+            set_col(&mut d_point, j, &(dir * dt));
+        }
+        let mut d_normal = DMatrix::zeros(3, total);
+        for j in 0..total {
+            set_col(&mut d_normal, j, &frame.dir_to_prog(&col(&dnormal_w, j)));
+        }
+        Ok(Prediction {
+            point: reported,
+            normal: frame.dir_to_prog(&normal_w),
+            d_point,
+            d_normal,
+        })
+    }
+}
