@@ -26,3 +26,4 @@ mod probe_programs;
 mod regression;
 mod simulate;
 mod simulate_forward;
+mod simulate_outputs;

@@ -79,32 +79,37 @@ impl FromStr for Format {
     }
 }
 
+/// Whether a test of `kind` named `test` can be written as `format`, and
+/// if not, why.
+pub fn check(format: Format, kind: TestKind, test: &str) -> Result<(), SimError> {
+    let refuse = |why: &str| {
+        Err(SimError::Format(format!(
+            "{format} output: {why} ({test} is a {} test)",
+            match kind {
+                TestKind::Machining => "machining",
+                TestKind::Probing => "probing",
+            }
+        )))
+    };
+    match format {
+        Format::Csv => Ok(()),
+        Format::Dmis if kind != TestKind::Machining => {
+            refuse("a CMM measures machined pieces; on-machine probing writes a log or CSV")
+        }
+        Format::Log if kind != TestKind::Probing => {
+            refuse("only on-machine probing writes a probe log; a CMM writes CSV or DMIS")
+        }
+        Format::Heights if test != "nine-section" => {
+            refuse("section heights belong to the nine-section test")
+        }
+        _ => Ok(()),
+    }
+}
+
 impl SimOutput {
     /// Whether this run can be written as `format`, and if not, why.
     pub fn check_format(&self, format: Format) -> Result<(), SimError> {
-        let refuse = |why: &str| {
-            Err(SimError::Format(format!(
-                "{format} output: {why} ({} is a {} test)",
-                self.test,
-                match self.kind {
-                    TestKind::Machining => "machining",
-                    TestKind::Probing => "probing",
-                }
-            )))
-        };
-        match format {
-            Format::Csv => Ok(()),
-            Format::Dmis if self.kind != TestKind::Machining => {
-                refuse("a CMM measures machined pieces; on-machine probing writes a log or CSV")
-            }
-            Format::Log if self.log.is_none() => {
-                refuse("only on-machine probing writes a probe log; a CMM writes CSV or DMIS")
-            }
-            Format::Heights if self.heights.is_none() => {
-                refuse("section heights belong to the nine-section test")
-            }
-            _ => Ok(()),
-        }
+        check(format, self.kind, &self.test)
     }
 
     /// The text of the output in `format`.

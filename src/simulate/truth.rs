@@ -65,23 +65,23 @@ pub fn example(kin: &Kinematics) -> String {
     let _ = writeln!(w, "position_dependent:");
     let (lo, hi) = m.tilt.limits.unwrap_or((-90.0, 90.0));
     let tilt_nodes = [lo.max(-90.0), 0.0, hi.min(90.0)];
-    let nodes = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    // A tilt map in urad over three tilt angles, and a C map in um over
+    // four C angles (one node of any other angle it runs over).
     let tilt_map = sym
         .maps
         .iter()
-        .find(|ms| ms.deps == [0] && ms.unit == Unit::Urad);
+        .filter(|ms| ms.deps.contains(&0) && ms.unit == Unit::Urad)
+        .min_by_key(|ms| ms.deps.len());
     if let Some(ms) = tilt_map {
-        let _ = writeln!(
+        map_entry(
             w,
-            "  {}: {{{t}: [{}], values: [20.0, 0.0, -15.0]}}   # {}",
-            ms.name,
-            nodes(&tilt_nodes),
-            ms.unit
+            &ms.name,
+            &ms.deps,
+            t,
+            &tilt_nodes,
+            &[0.0, 180.0],
+            &[20.0, 0.0, -15.0],
+            ms.unit,
         );
     }
     let c_map = sym
@@ -89,33 +89,16 @@ pub fn example(kin: &Kinematics) -> String {
         .iter()
         .find(|ms| ms.deps.contains(&1) && ms.unit == Unit::Um);
     if let Some(ms) = c_map {
-        let _ = writeln!(w, "  {}:                       # {}", ms.name, ms.unit);
-        if ms.deps.len() == 2 {
-            let first = if ms.deps[0] == 0 { t } else { 'C' };
-            let second = if ms.deps[1] == 0 { t } else { 'C' };
-            let _ = writeln!(
-                w,
-                "    {first}: [{}]",
-                if first == 'C' { "0, 90, 180, 270" } else { "0" }
-            );
-            let _ = writeln!(
-                w,
-                "    {second}: [{}]",
-                if second == 'C' {
-                    "0, 90, 180, 270"
-                } else {
-                    "0"
-                }
-            );
-            if first == 'C' {
-                let _ = writeln!(w, "    values: [[2.0], [-1.0], [-2.0], [1.0]]");
-            } else {
-                let _ = writeln!(w, "    values: [[2.0, -1.0, -2.0, 1.0]]");
-            }
-        } else {
-            let _ = writeln!(w, "    C: [0, 90, 180, 270]");
-            let _ = writeln!(w, "    values: [2.0, -1.0, -2.0, 1.0]");
-        }
+        map_entry(
+            w,
+            &ms.name,
+            &ms.deps,
+            t,
+            &[0.0],
+            &[0.0, 90.0, 180.0, 270.0],
+            &[2.0, -1.0, -2.0, 1.0],
+            ms.unit,
+        );
     }
     let first = &sym.location[0].name;
     let second = &sym.location[1].name;
@@ -193,4 +176,48 @@ pub fn example(kin: &Kinematics) -> String {
     );
     let _ = writeln!(w, "  noise: {{cmm: 0.35, probe: 0.35}}");
     s
+}
+
+/// One map of `position_dependent`: its node lists in the symbol's order
+/// (tilt nodes for angle 0, C nodes for angle 1) and values along the
+/// varying dimension, `pattern` repeated (halved on a second row).
+#[allow(clippy::too_many_arguments)]
+fn map_entry(
+    w: &mut String,
+    name: &str,
+    deps: &[usize],
+    tilt: char,
+    tilt_nodes: &[f64],
+    c_nodes: &[f64],
+    pattern: &[f64],
+    unit: Unit,
+) {
+    let nodes_of = |d: usize| if d == 0 { tilt_nodes } else { c_nodes };
+    let letter = |d: usize| if d == 0 { tilt } else { 'C' };
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let value = |i: usize| pattern[i % pattern.len()];
+    let _ = writeln!(w, "  {name}:   # {unit} at each node");
+    for &d in deps {
+        let _ = writeln!(w, "    {}: [{}]", letter(d), list(nodes_of(d)));
+    }
+    if deps.len() == 1 {
+        let v: Vec<f64> = (0..nodes_of(deps[0]).len()).map(value).collect();
+        let _ = writeln!(w, "    values: [{}]", list(&v));
+    } else {
+        let (rows, cols) = (nodes_of(deps[0]).len(), nodes_of(deps[1]).len());
+        let row = |r: usize| {
+            let k = if r.is_multiple_of(2) { 1.0 } else { 0.5 };
+            let v: Vec<f64> = (0..cols)
+                .map(|c| if cols > 1 { value(c) * k } else { value(r) })
+                .collect();
+            format!("[{}]", list(&v))
+        };
+        let all: Vec<String> = (0..rows).map(row).collect();
+        let _ = writeln!(w, "    values: [{}]", all.join(", "));
+    }
 }
