@@ -394,3 +394,87 @@ fn cli_truth_example_loads_back_with_every_effect_on_every_machine() {
         assert_eq!((l.noise.cmm, l.noise.probe), (Some(0.35), Some(0.35)));
     }
 }
+
+/// The walk-through of `examples/simulate/README.md`, as written: plan the
+/// stepped square, simulate it on the machine of `truth.yaml` (DMIS
+/// output), analyze it with the B map: every location error comes back
+/// within four standard uncertainties (the map's mean moves into EB0B, so
+/// EB0B is compared with 150 plus that mean).
+#[test]
+fn the_examples_walk_through_gives_the_truth_back() {
+    let dir = tempdir();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let truth_path = root.join("examples/simulate/truth.yaml");
+    let plans = dir.path().join("plans/ss");
+    fivecal()
+        .args([
+            "plan",
+            "stepped-square",
+            "--machine",
+            "bc-trunnion",
+            "--dialect",
+            "fanuc",
+            "--out",
+        ])
+        .arg(&plans)
+        .assert()
+        .success();
+    let manifest = plans.join("stepped-square.plan.yaml");
+    let piece = dir.path().join("piece.dmo");
+    let a = fivecal()
+        .args(["simulate", "--plan"])
+        .arg(&manifest)
+        .arg("--errors")
+        .arg(&truth_path)
+        .arg("--out")
+        .arg(&piece)
+        .args(["--seed", "1"])
+        .assert()
+        .success();
+    let said = String::from_utf8_lossy(&a.get_output().stdout).to_string();
+    assert!(
+        said.contains(
+            "144 points of the machined piece, measured on a CMM (part frame aligned on W)"
+        ),
+        "{said}"
+    );
+    let result = dir.path().join("result.yaml");
+    fivecal()
+        .args(["analyze", "--plan"])
+        .arg(&manifest)
+        .arg("--measured")
+        .arg(&piece)
+        .arg("--out")
+        .arg(&result)
+        .args(["--maps", "EBB(B)"])
+        .assert()
+        .success();
+    let got = ErrorFile::read(&result).unwrap().0;
+    let want = ErrorFile::read(&truth_path).unwrap().0;
+    let map = &want.position_dependent["EBB(B)"];
+    let fivecal::errorfile::Values::Flat(v) = &map.values else {
+        panic!()
+    };
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    for (name, q) in &want.location_errors {
+        let t = q.value + if name == "EB0B" { mean } else { 0.0 };
+        let e = &got.location_errors[name];
+        let u = e.u.unwrap();
+        assert!(
+            (e.value - t).abs() < 4.0 * u,
+            "{name}: {:.3} +- {u:.3}, truth {t:.3}",
+            e.value
+        );
+    }
+}
+
+/// `examples/simulate/truth-all-effects.yaml` is what `--truth-example`
+/// prints for the B/C trunnion (kept true by this test).
+#[test]
+fn the_examples_truth_file_is_the_truth_example() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file =
+        std::fs::read_to_string(root.join("examples/simulate/truth-all-effects.yaml")).unwrap();
+    let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    assert_eq!(file, simulate::truth::example(&kin));
+}

@@ -115,7 +115,7 @@ impl SimOutput {
     /// The text of the output in `format`.
     pub fn render(&self, format: Format) -> Result<String, SimError> {
         self.check_format(format)?;
-        let head = self.comments();
+        let head = self.comments(format);
         Ok(match format {
             Format::Csv => {
                 let c: Vec<&str> = head.iter().map(|s| s.as_str()).collect();
@@ -155,12 +155,15 @@ impl SimOutput {
         Ok(())
     }
 
-    fn comments(&self) -> Vec<String> {
+    fn comments(&self, format: Format) -> Vec<String> {
         let mut v = vec![format!(
             "fivecal simulate: {} on {}, seed {}",
             self.test, self.machine, self.seed
         )];
         v.push(match self.kind {
+            _ if format == Format::Heights => {
+                "height of each section relative to section 1, um (its points' mean deviation along the normal)".to_string()
+            }
             TestKind::Machining if self.placement == nalgebra::Isometry3::identity() => {
                 "machined piece measured on a CMM, part frame aligned on W (mm)".to_string()
             }

@@ -67,11 +67,13 @@ pub fn example(kin: &Kinematics) -> String {
     let tilt_nodes = [lo.max(-90.0), 0.0, hi.min(90.0)];
     // A tilt map in urad over three tilt angles, and a C map in um over
     // four C angles (one node of any other angle it runs over).
+    // Preferably the tilt axis' own angular positioning error (EBB(B)).
+    let own = format!("E{}{t}", m.tilt.about.rot_letter());
     let tilt_map = sym
         .maps
         .iter()
         .filter(|ms| ms.deps.contains(&0) && ms.unit == Unit::Urad)
-        .min_by_key(|ms| ms.deps.len());
+        .min_by_key(|ms| (!ms.name.starts_with(&own), ms.deps.len()));
     if let Some(ms) = tilt_map {
         map_entry(
             w,

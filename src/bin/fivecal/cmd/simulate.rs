@@ -189,6 +189,11 @@ fn simulate(c: Config) -> anyhow::Result<()> {
 
 fn summary(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) {
     let what = match out.kind {
+        TestKind::Machining if format == Format::Heights => format!(
+            "heights of {} sections from {} points of the machined piece",
+            out.heights.as_ref().map_or(0, |h| h.len()),
+            out.points.len()
+        ),
         TestKind::Machining => format!(
             "{} points of the machined piece, measured on a CMM ({})",
             out.points.len(),
