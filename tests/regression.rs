@@ -217,3 +217,77 @@ fn dmis_point_at_1e250_mm_is_refused_instead_of_hanging_the_svd() {
         "{e}"
     );
 }
+
+/// Large rotary errors slide the nine-section's ball raster sideways by
+/// more than half its stepover: at section 8's second point the pass next
+/// to the one that made it (move 133 of pose S8, not 135) cuts deepest,
+/// and the forward model must consider it as the simulator does (found
+/// when the forward model took only the point's generators: 0.43 um off).
+#[test]
+fn neighbouring_ball_pass_cuts_deepest_when_errors_shift_the_nine_section_raster() {
+    use fivecal::simulate::{self, SimOptions, forward};
+    let plan = crate::simulate::planned("bc-trunnion", "nine-section");
+    let errors = crate::simulate::truth(
+        &plan,
+        "location_errors: {EX0B: 50, EZ0B: -50, EA0B: 200, EC0B: -200, EB0B: 200, EX(0B)C: 50, EY0C: -50, EA(0B)C: 200}\n",
+    );
+    let fivecal::plan::LoadedPlan::Machining(t) = &*plan else {
+        unreachable!()
+    };
+    let fm =
+        forward::MachiningForward::new(&errors.model, std::sync::Arc::new((**t).clone())).unwrap();
+    let i = t
+        .points
+        .iter()
+        .position(|p| p.point.label == "S8-2")
+        .unwrap();
+    let p = &t.points[i];
+    assert_eq!(p.provenance.generators[0].move_index, 135);
+    let mid = plan
+        .poses()
+        .iter()
+        .find(|e| e.pose == p.point.pose)
+        .map(|e| 0.5 * (e.start_min + e.end_min))
+        .unwrap();
+    let surfaces = fm.surfaces(&errors.theta, &p.point, mid).unwrap();
+    let (deepest, s) = surfaces
+        .iter()
+        .min_by(|a, b| a.1.offset.total_cmp(&b.1.offset))
+        .unwrap();
+    assert_eq!(*deepest, 133);
+    let out = simulate::run(&plan, &errors, &SimOptions::exact()).unwrap();
+    assert!((s.prediction.point - out.points_w[i]).norm() < 1e-9);
+}
+
+/// With drift per minute the actual path bends and the simulator searches
+/// the instants itself; on a flat end's plateau the closest instant to the
+/// nominal point is where the end's rim grazes the probing line, and the
+/// search must minimise the entry, not the distance (found on head-table's
+/// side step B-90C0: no cut reached the point).
+#[test]
+fn flat_end_plateau_under_drift_per_minute_is_found_where_the_end_grazes_the_line() {
+    use fivecal::simulate::{self, SimOptions, forward};
+    let plan = crate::simulate::planned("head-table", "stepped-square");
+    let errors = crate::simulate::truth(
+        &plan,
+        "effects: {thermal_drift: {EZ0B: {per: seq, rate: 5}, EX0C: {per: minute, rate: 2}, EA0C: {per: minute, rate: 10}}}\n",
+    );
+    let out = simulate::run(&plan, &errors, &SimOptions::exact()).unwrap();
+    let points = plan.plan_points();
+    let i = points
+        .points
+        .iter()
+        .position(|p| p.label == "B-90C0-XN1")
+        .unwrap();
+    let p = &points.points[i];
+    let mid = plan
+        .poses()
+        .iter()
+        .find(|e| e.pose == p.pose)
+        .map(|e| 0.5 * (e.start_min + e.end_min))
+        .unwrap();
+    let fm = forward::for_plan(&errors.model, &plan).unwrap();
+    let pred = fm.predict(&errors.theta, &[], p, mid).unwrap();
+    assert!((pred.point - out.points_w[i]).norm() < 1e-6);
+    assert!(p.n.dot(&(out.points_w[i] - p.p)) > 0.01);
+}

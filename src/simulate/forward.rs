@@ -27,12 +27,22 @@
 //!   local path ([`crate::plan::Cutter::entry_along`]) with the derivative
 //!   from the envelope theorem.
 //!
-//! The deepest of the generating moves gives the measured point. All of
-//! this is exact where the actual path is straight (every effect except
-//! drift per minute, which bends it by second-order amounts); the
-//! Jacobian is the exact derivative of the prediction (the path direction
-//! differentiated through the chord), `d_normal` is first order (the tool's
-//! rotation) except on the flank, where it is exact.
+//! The moves considered are the point's generators and the other passes of
+//! its pose that come within 0.15 mm of it with the same part of the tool
+//! (large errors slide a ball's raster sideways, and the neighbouring pass
+//! then cuts deepest); the deepest gives the measured point
+//! ([`MachiningForward::surfaces`] lists them all). All of this is exact
+//! where the actual path is straight (every effect except drift per minute,
+//! which bends it by second-order amounts), but for a bull-nose's flat end
+//! under a slope `k` of the path along the axis, whose torus rounds the rim
+//! by `r k^2` (4e-8 mm at 200 urad). The Jacobian is the exact derivative of
+//! each move's surface (the path direction differentiated through the
+//! chord; the envelope has kinks where two passes tie); `d_normal` is first
+//! order (the tool's rotation) except on the flank, where it is exact.
+//!
+//! Other poses are not considered: the planner keeps every other pose's
+//! tool 0.05 mm from each point, which errors below that cannot bridge (the
+//! simulator, which sweeps every move, would see it).
 //!
 //! # Probing ([`ProbingForward`])
 //! Each touch's ball runs along its commanded line; the contact with the

@@ -1,6 +1,6 @@
 //! On-machine probing on the machine with errors: each touch's probing
-//! move runs along its commanded line (from [`Touch::start`] towards
-//! [`Touch::end`], rotary axes still), the actual ball centre is the exact
+//! move runs along its commanded line (from [`crate::probing::Touch::start`] towards
+//! [`crate::probing::Touch::end`], rotary axes still), the actual ball centre is the exact
 //! model's tool point there, and the probe triggers where the ball meets
 //! the actual surface of the pieces (each set up with its own error) or of
 //! the sphere (with its form error), then travels on by its pre-travel.
