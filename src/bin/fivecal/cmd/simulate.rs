@@ -213,7 +213,11 @@ fn summary(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) {
             {
                 "pieces at their nominal places".to_string()
             } else {
-                format!("{} pieces set up with seeded errors", out.setups.len())
+                let n = out.setups.len();
+                format!(
+                    "{n} {} set up with seeded errors",
+                    if n == 1 { "piece" } else { "pieces" }
+                )
             }
         ),
     };
