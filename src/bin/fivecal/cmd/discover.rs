@@ -1,15 +1,171 @@
-//! `fivecal discover` (issue 8).
+//! `fivecal discover` (issue 8): find the effect the model is missing, add
+//! it, show the gap shrink. The raw arguments are validated into one
+//! [`Config`] here; everything else is the library's
+//! ([`fivecal::discover`]).
 
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, bail};
 use clap::Args;
+use fivecal::discover::{self, DiscoverOptions, Inputs};
+use fivecal::errorfile::Noise;
+use fivecal::formats::manifest::TestKind;
+use fivecal::io::{ensure_not_input, write_atomic};
 
-use super::pending::PendingArgs;
-
+/// Find where model and measurement disagree, name the missing effect, add
+/// it and show the gap shrink.
 #[derive(Args, Debug)]
 pub struct DiscoverArgs {
-    #[command(flatten)]
-    pending: PendingArgs,
+    /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
+    #[arg(long, value_name = "PLAN", required = true)]
+    plan: Option<PathBuf>,
+    /// Measurement files of one piece or probing run (DMIS output, CSV
+    /// `label,x,y,z`, probe logs, plain point lists), recognized from their
+    /// content.
+    #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
+    measured: Vec<PathBuf>,
+    /// The starting model, comma-separated: `location` (the location errors
+    /// the test identifies) and candidate names (`map.EBB(B)`,
+    /// `drift.EZ0B/seq`, ...).
+    #[arg(
+        long,
+        value_name = "EFFECTS",
+        value_delimiter = ',',
+        default_value = "location"
+    )]
+    start: Vec<String>,
+    /// Try only these candidates: names or families (`drift`, `map`,
+    /// `scale`, `squareness`, `straightness`, `tool_radius`, ...).
+    #[arg(long, value_name = "CANDIDATES", value_delimiter = ',')]
+    candidates: Vec<String>,
+    /// Leave these candidates out (names or families).
+    #[arg(long, value_name = "CANDIDATES", value_delimiter = ',')]
+    exclude: Vec<String>,
+    /// Significance level of each step, after the adjustment for the number
+    /// of candidates tried.
+    #[arg(long, value_name = "ALPHA", default_value_t = 0.01)]
+    alpha: f64,
+    /// Stop after this many steps.
+    #[arg(long, value_name = "N", default_value_t = 12)]
+    max_steps: usize,
+    /// Write the story as JSON to standard output instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Also write an HTML report (the gap per step, residual patterns
+    /// before and after) into this directory.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// Write the final model as an error file (SPEC section 3; JSON if the
+    /// name ends in `.json`, else YAML).
+    #[arg(long, value_name = "RESULT.yaml")]
+    out: Option<PathBuf>,
 }
 
-pub fn run(_args: DiscoverArgs) -> anyhow::Result<()> {
-    super::pending::run("discover", 8)
+/// The validated configuration of one `discover` run.
+struct Config {
+    manifest: PathBuf,
+    measured: Vec<PathBuf>,
+    options: DiscoverOptions,
+    json: bool,
+    report: Option<PathBuf>,
+    out: Option<PathBuf>,
+}
+
+fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
+    let manifest = a.plan.context("--plan is required")?;
+    if !(a.alpha > 0.0 && a.alpha < 1.0) {
+        bail!(
+            "--alpha {}: expected a significance level between 0 and 1 (e.g. 0.01)",
+            a.alpha
+        );
+    }
+    if a.max_steps == 0 {
+        bail!("--max-steps must be at least 1");
+    }
+    if a.start.iter().all(|s| s.trim().is_empty()) {
+        bail!("--start names no effect: expected `location` and/or candidate names");
+    }
+    let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
+    inputs.push(&manifest);
+    if let Some(out) = &a.out {
+        ensure_not_input(out, &inputs)?;
+    }
+    if let Some(dir) = &a.report {
+        ensure_not_input(&dir.join("index.html"), &inputs)?;
+    }
+    let trim = |v: Vec<String>| -> Vec<String> {
+        v.into_iter()
+            .map(|s| s.trim().to_string())
+            .filter(|s| !s.is_empty())
+            .collect()
+    };
+    Ok(Config {
+        manifest,
+        measured: a.measured,
+        options: DiscoverOptions {
+            start: trim(a.start),
+            only: trim(a.candidates),
+            exclude: trim(a.exclude),
+            alpha: a.alpha,
+            max_steps: a.max_steps,
+            ..DiscoverOptions::default()
+        },
+        json: a.json,
+        report: a.report,
+        out: a.out,
+    })
+}
+
+pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
+    let mut c = validate(args)?;
+    let inputs = Inputs::load(&c.manifest, &c.measured)?;
+    for w in &inputs.data.warnings {
+        eprintln!("warning: {w}");
+    }
+    c.options.test = inputs.plan.test().to_string();
+    let d = discover::run(&inputs.kin, &inputs.data, &c.options)?;
+    if c.json {
+        println!("{}", serde_json::to_string_pretty(&d.story)?);
+    } else {
+        print!("{}", d.story.render());
+    }
+    let say = |s: String| {
+        if c.json {
+            eprintln!("{s}");
+        } else {
+            println!("{s}");
+        }
+    };
+    if let Some(out) = &c.out {
+        let est = d.identification(&inputs.data);
+        let mut f = est.error_file(None);
+        let sigma = est.sigma_um.is_finite().then_some(est.sigma_um);
+        f.effects.noise = Some(match inputs.data.kind {
+            TestKind::Machining => Noise {
+                cmm: sigma,
+                probe: None,
+            },
+            TestKind::Probing => Noise {
+                cmm: None,
+                probe: sigma,
+            },
+        });
+        let json = out.extension().is_some_and(|e| e == "json");
+        let text = if json {
+            f.to_json() + "\n"
+        } else {
+            f.to_yaml()
+        };
+        write_atomic(out, text.as_bytes())?;
+        say(format!("wrote {}", out.display()));
+    }
+    if let Some(dir) = &c.report {
+        let files = discover::report::write(dir, &d, &inputs.data)?;
+        say(format!(
+            "report: {} ({} files)",
+            dir.join("index.html").display(),
+            files.len()
+        ));
+    }
+    Ok(())
 }

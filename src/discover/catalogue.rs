@@ -1,0 +1,269 @@
+//! The candidate effects `discover` tries: the model's own catalogue of
+//! named effects ([`crate::model::Effect`], shared with `simulate`)
+//! instantiated for one machine and one test: each location symbol's
+//! thermal drift per pose and per minute, the linear axes' scale,
+//! squareness and straightness, the tilt-axis and C-axis error maps on the
+//! plan's angles, the tool's radius and length, the probe's pre-travel.
+//!
+//! Some candidates carry their own defining constraints, so that they mean
+//! what their symbols mean and do not duplicate the model: a map averages
+//! to zero over its angles (seed 001 eq. 1, seed 000 eq. 1; the location
+//! error stays the axis average line), a straightness is taken from its
+//! least-squares reference line (ISO 230-1: its mean and slope are a
+//! position and a squareness, not a straightness).
+
+use nalgebra::{DVector, Point3};
+
+use crate::formats::manifest::TestKind;
+use crate::geom::Axis3;
+use crate::identify::{Dataset, Setup};
+use crate::kinematics::Kinematics;
+use crate::model::{DriftBasis, Effect, Squareness};
+
+/// One candidate effect.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Candidate {
+    /// Unique name in the story: the effect's identifier, with `/seq` or
+    /// `/minute` for a drift (`drift.EZ0B/seq`).
+    pub name: String,
+    /// The effect.
+    pub effect: Effect,
+    /// Defining constraints on the effect's own parameters (rows of
+    /// coefficients, one per parameter) and what each says.
+    pub constraints: Vec<(Vec<f64>, String)>,
+    /// What it is, in words.
+    pub description: String,
+}
+
+impl Candidate {
+    fn new(name: String, effect: Effect, description: String) -> Candidate {
+        Candidate {
+            name,
+            effect,
+            constraints: Vec::new(),
+            description,
+        }
+    }
+
+    /// Whether `pattern` selects this candidate: its full name, its
+    /// effect identifier, or a family prefix (`drift`, `map`, `scale`,
+    /// `squareness`, `straightness`, `drift.EZ0B`).
+    pub fn matches(&self, pattern: &str, id: &str) -> bool {
+        let p = pattern.trim();
+        self.name == p
+            || id == p
+            || self.name.starts_with(&format!("{p}."))
+            || self.name.starts_with(&format!("{p}/"))
+    }
+}
+
+/// The candidates for one test, and what the user should know about the
+/// choice.
+#[derive(Clone, Debug, Default)]
+pub struct Catalogue {
+    /// The candidates, in catalogue order.
+    pub candidates: Vec<Candidate>,
+    /// Notes (e.g. why the per-minute drifts are not offered).
+    pub notes: Vec<String>,
+}
+
+/// The commanded machine position of a plan point: `rTw* p` (SPEC section
+/// 2; for head machines the table part of the chain, which is what the
+/// straightness nodes need to span).
+fn commanded(kin: &Kinematics, tilt: f64, c: f64, p: &nalgebra::Vector3<f64>) -> [f64; 3] {
+    let q = kin.nominal_table_transform(tilt, c) * Point3::from(*p);
+    [q.x, q.y, q.z]
+}
+
+/// Whether `y` is an affine function of `x` (to round-off).
+fn affine(x: &[f64], y: &[f64]) -> bool {
+    let n = x.len() as f64;
+    if x.len() < 2 {
+        return true;
+    }
+    let mx = x.iter().sum::<f64>() / n;
+    let my = y.iter().sum::<f64>() / n;
+    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
+    let syy: f64 = y.iter().map(|v| (v - my).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    if syy <= 1e-18 * (1.0 + my * my) || sxx <= 1e-18 {
+        return true;
+    }
+    let r2 = sxy * sxy / (sxx * syy);
+    1.0 - r2 < 1e-12
+}
+
+/// The catalogue for a test of `kind` on the machine of `kin`, measured as
+/// in `data` (its poses give the map grids, the times and the axis ranges).
+pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
+    let mut out = Catalogue::default();
+    let sym = crate::model::Model::new(kin.clone(), Vec::new()).symbols;
+    let seqs: Vec<f64> = data.poses.iter().map(|p| p.seq as f64).collect();
+    let mins: Vec<f64> = data.poses.iter().map(|p| p.minutes).collect();
+    let timed = mins.iter().any(|m| (m - mins[0]).abs() > 1e-9);
+    let minutes_as_seq = timed && affine(&seqs, &mins);
+    if !timed {
+        out.notes
+            .push("the plan gives no times: drifts are tried per pose (seq) only".to_string());
+    } else if minutes_as_seq {
+        out.notes.push(
+            "the poses' times are proportional to their order: a drift per minute is a drift per pose (seq) on this test, so it is tried per pose only"
+                .to_string(),
+        );
+    }
+    for (i, ls) in sym.location.iter().enumerate() {
+        let mut bases = vec![DriftBasis::Seq];
+        if timed && !minutes_as_seq {
+            bases.push(DriftBasis::Minute);
+        }
+        for basis in bases {
+            let per = match basis {
+                DriftBasis::Seq => "per pose in execution order (seq)",
+                DriftBasis::Minute => "per minute",
+            };
+            out.candidates.push(Candidate::new(
+                format!("drift.{}/{}", ls.name, basis.name()),
+                Effect::Drift { symbol: i, basis },
+                format!("thermal drift of {} ({}) {per}", ls.name, ls.description),
+            ));
+        }
+    }
+    for axis in [Axis3::X, Axis3::Y, Axis3::Z] {
+        out.candidates.push(Candidate::new(
+            format!("scale.E{0}{0}", axis.letter()),
+            Effect::Scale { axis },
+            format!(
+                "linear positioning (scale) error of the {} axis",
+                axis.letter()
+            ),
+        ));
+    }
+    for kind in Squareness::ALL {
+        let what = match kind {
+            Squareness::CXY => "squareness of Y to X",
+            Squareness::BXZ => "squareness of Z to X",
+            Squareness::AYZ => "squareness of Z to Y",
+        };
+        out.candidates.push(Candidate::new(
+            format!("squareness.{}", kind.symbol()),
+            Effect::Squareness { kind },
+            what.to_string(),
+        ));
+    }
+    // Straightness: five nodes over the commanded range of the moving axis.
+    let cmd: Vec<[f64; 3]> = data
+        .obs
+        .iter()
+        .map(|o| {
+            let p = &data.plan.points[o.plan];
+            commanded(kin, p.tilt, p.c, &p.p)
+        })
+        .collect();
+    for moving in [Axis3::X, Axis3::Y, Axis3::Z] {
+        let i = moving.index();
+        let (lo, hi) = cmd.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, q| {
+            (a.0.min(q[i]), a.1.max(q[i]))
+        });
+        if hi - lo <= 1.0 || !(hi - lo).is_finite() {
+            continue;
+        }
+        let nodes: Vec<f64> = (0..5)
+            .map(|k| ((lo + (hi - lo) * k as f64 / 4.0) * 1e3).round() / 1e3)
+            .collect();
+        let mean = nodes.iter().sum::<f64>() / nodes.len() as f64;
+        for direction in [Axis3::X, Axis3::Y, Axis3::Z] {
+            if direction == moving {
+                continue;
+            }
+            let mut c = Candidate::new(
+                format!("straightness.E{}{}", direction.letter(), moving.letter()),
+                Effect::Straightness {
+                    moving,
+                    direction,
+                    nodes: nodes.clone(),
+                },
+                format!(
+                    "straightness of the {} axis in {} (5 nodes from {:.0} to {:.0} mm)",
+                    moving.letter(),
+                    direction.letter(),
+                    lo,
+                    hi
+                ),
+            );
+            c.constraints = vec![
+                (
+                    vec![1.0; nodes.len()],
+                    "a straightness has no mean (that is a position)".to_string(),
+                ),
+                (
+                    nodes.iter().map(|x| x - mean).collect(),
+                    "a straightness has no slope (that is a squareness)".to_string(),
+                ),
+            ];
+            out.candidates.push(c);
+        }
+    }
+    // Maps on the plan's angles, with the seeds' averaging constraints
+    // (built by the identification's own setup, so both agree).
+    for ms in &sym.maps {
+        let Ok(s) = Setup::new(kin, &data.poses, std::slice::from_ref(&ms.name)) else {
+            continue;
+        };
+        let Some(ei) = s.model.find(&format!("map.{}", ms.name)) else {
+            continue;
+        };
+        let r = s.model.param_range(ei);
+        if r.len() < 2 {
+            continue;
+        }
+        let mut c = Candidate::new(
+            format!("map.{}", ms.name),
+            s.model.effects[ei].clone(),
+            format!(
+                "error map of {} over {} index-angle nodes, added to the location error",
+                ms.name,
+                r.len()
+            ),
+        );
+        for (row, name) in s.constraints.row_iter().zip(&s.constraint_names) {
+            let v: DVector<f64> = row.transpose().rows(r.start, r.len()).into_owned();
+            c.constraints.push((v.as_slice().to_vec(), name.clone()));
+        }
+        out.candidates.push(c);
+    }
+    if data.kind == TestKind::Machining {
+        out.candidates.push(Candidate::new(
+            "tool_radius".into(),
+            Effect::ToolRadius,
+            "tool radius error (actual minus nominal)".into(),
+        ));
+    }
+    out.candidates.push(Candidate::new(
+        "tool_length".into(),
+        Effect::ToolLength,
+        match data.kind {
+            TestKind::Machining => "tool length error (actual minus nominal)".into(),
+            TestKind::Probing => "probe length error (actual minus nominal)".into(),
+        },
+    ));
+    if data.kind == TestKind::Probing {
+        out.candidates.push(Candidate::new(
+            "probe_pretravel".into(),
+            Effect::ProbePretravel,
+            "probe pre-travel by approach direction (trigger beyond contact)".into(),
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn affine_tells_proportional_times_from_uneven_ones() {
+        assert!(affine(&[0.0, 1.0, 2.0], &[1.0, 3.0, 5.0]));
+        assert!(!affine(&[0.0, 1.0, 2.0], &[1.0, 3.0, 5.5]));
+        assert!(affine(&[0.0, 1.0, 2.0], &[2.0, 2.0, 2.0]));
+    }
+}

@@ -1,0 +1,692 @@
+//! `discover`: find where the model and the measurements disagree, name the
+//! missing effect, add it, and show the gap shrink.
+//!
+//! Starting from a model (by default the location errors the test
+//! identifies), the loop fits the model, measures the gap ([`gap`]: the
+//! residuals overall and by pose, face, direction and sequence), and tries
+//! every candidate effect of the shared catalogue ([`catalogue`]) in
+//! parallel: it checks that the candidate is identifiable alongside the
+//! model (rank increase, the combinations the test does not see, the
+//! canonical and the largest pairwise correlation with what the model
+//! already does; seed 003's rank analysis of parameter sets), refits with
+//! it, and tests the reduction of the gap ([`stats`]: F-test with
+//! Bonferroni's adjustment over the candidates of the round, and the BIC).
+//! The significant candidate with the lowest BIC is then checked against
+//! every other significant one by fitting both together (does each add to
+//! the other?); when the data cannot tell two apart, the discovery says so
+//! and stops rather than pick one. Otherwise the effect is added and the
+//! loop repeats until no candidate is significant. The result is a
+//! [`Story`] ([`story`]) and the fits behind it; [`report`] draws it.
+
+pub mod catalogue;
+pub mod fit;
+pub mod gap;
+pub mod inputs;
+pub mod report;
+pub mod stats;
+pub mod story;
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+use crate::formats::manifest::TestKind;
+use crate::identify::identifiability::combination;
+use crate::identify::{Dataset, Identification, Method, two_stage};
+use crate::kinematics::Kinematics;
+use crate::model::{Effect, Model};
+
+pub use catalogue::{Candidate, Catalogue};
+pub use fit::{Fit, FitError, Fitter, Spec};
+pub use gap::{Gap, GapSize};
+pub use inputs::{InputError, Inputs};
+pub use story::{Story, Trial, Verdict};
+
+/// What a discovery is asked to do.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiscoverOptions {
+    /// The starting model: `location` (the location errors the test
+    /// identifies) and any candidate names.
+    pub start: Vec<String>,
+    /// Only these candidates (names or family prefixes: `drift`,
+    /// `map.EBB(B)`, `scale`); empty: the whole catalogue.
+    pub only: Vec<String>,
+    /// Candidates left out (names or prefixes).
+    pub exclude: Vec<String>,
+    /// Significance level of a step (after the adjustment for the number
+    /// of candidates tried).
+    pub alpha: f64,
+    /// At most this many steps.
+    pub max_steps: usize,
+    /// A candidate whose every new direction has a canonical correlation
+    /// above this with what the model already does is refused as nearly
+    /// aliased.
+    pub near_alias: f64,
+    /// Test name for the story.
+    pub test: String,
+}
+
+impl Default for DiscoverOptions {
+    fn default() -> Self {
+        DiscoverOptions {
+            start: vec!["location".into()],
+            only: Vec::new(),
+            exclude: Vec::new(),
+            alpha: 0.01,
+            max_steps: 12,
+            near_alias: 0.999,
+            test: String::new(),
+        }
+    }
+}
+
+/// Why a discovery cannot run.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DiscoverError {
+    /// A fit failed.
+    #[error(transparent)]
+    Fit(#[from] FitError),
+    /// The starting model cannot be built.
+    #[error("{0}")]
+    Start(String),
+    /// The options are not usable.
+    #[error("{0}")]
+    Options(String),
+}
+
+/// The story and the fits behind it.
+#[derive(Clone, Debug)]
+pub struct Discovery {
+    /// The story.
+    pub story: Story,
+    /// The fit of the starting model, then the fit after each step.
+    pub fits: Vec<Fit>,
+}
+
+impl Discovery {
+    /// The fit of the starting model.
+    pub fn start(&self) -> &Fit {
+        &self.fits[0]
+    }
+
+    /// The final fit.
+    pub fn end(&self) -> &Fit {
+        self.fits.last().expect("a discovery has a starting fit")
+    }
+
+    /// The final model as an identification (for the error file and the
+    /// report).
+    pub fn identification(&self, data: &Dataset) -> Identification {
+        identification(self.end(), data)
+    }
+}
+
+/// A fit as the identification's result type.
+pub fn identification(f: &Fit, data: &Dataset) -> Identification {
+    let n = f.n;
+    let poses = two_stage::pose_fits(data, &f.spec.model.kin, f.placement.as_ref());
+    let mut notes = Vec::new();
+    if !f.converged {
+        notes.push("the final fit stopped without converging".to_string());
+    }
+    Identification {
+        method: Method::Global,
+        model: f.spec.model.clone(),
+        theta: f.theta().to_vec(),
+        cov: f.cov(),
+        cov_unit: f.cov_unit.view((0, 0), (n, n)).into_owned(),
+        identifiability: f.identifiability.clone(),
+        sigma_um: f.sigma(),
+        dof: f.dof(),
+        residuals: f.residuals.clone(),
+        poses,
+        placement: f.placement,
+        notes,
+    }
+}
+
+/// The values of effect `ei` of a fit.
+fn effect_values(f: &Fit, ei: usize) -> Vec<story::Value> {
+    let r = f.spec.model.param_range(ei);
+    let names = f.spec.model.param_names();
+    let units = f.spec.model.param_units();
+    r.map(|i| story::Value {
+        name: names[i].clone(),
+        value: f.x[i],
+        u: f.u(i),
+        unit: units[i].clone(),
+    })
+    .collect()
+}
+
+fn state(kin: &Kinematics, data: &Dataset, f: &Fit) -> story::State {
+    story::State {
+        model: f.spec.names.clone(),
+        values: (0..f.spec.names.len())
+            .flat_map(|ei| effect_values(f, ei))
+            .collect(),
+        gap: gap::gap(kin, data, &f.residuals),
+        sigma_um: f.sigma(),
+        dof: f.dof(),
+    }
+}
+
+/// A candidate tried against a model.
+struct Tried {
+    trial: Trial,
+    fit: Option<Fit>,
+}
+
+fn refused(name: &str, reason: String) -> Tried {
+    Tried {
+        trial: Trial {
+            name: name.to_string(),
+            verdict: Verdict::Refused,
+            reason: Some(reason),
+            gap_after: None,
+            test: None,
+            p_adjusted: None,
+            alongside: None,
+        },
+        fit: None,
+    }
+}
+
+/// Orthonormal basis (columns) of the column space of `a`, columns scaled
+/// to unit length first, directions below `rtol` of the largest dropped.
+fn column_space(a: &DMatrix<f64>, rtol: f64) -> DMatrix<f64> {
+    let mut a = a.clone();
+    for mut c in a.column_iter_mut() {
+        let n = c.norm();
+        if n > 0.0 {
+            c /= n;
+        }
+    }
+    if a.ncols() == 0 || a.nrows() == 0 {
+        return DMatrix::zeros(a.nrows(), 0);
+    }
+    let rows = a.nrows();
+    let svd = a.svd(true, false);
+    let u = svd.u.expect("asked for U");
+    let smax = svd.singular_values.max();
+    let keep: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&i| svd.singular_values[i] > rtol * smax && smax > 0.0)
+        .collect();
+    DMatrix::from_fn(rows, keep.len(), |r, c| u[(r, keep[c])])
+}
+
+/// Tries `cand` on top of `base`: identifiability alongside the model,
+/// then the fit and the comparison. `near_alias`: refuse above this
+/// canonical correlation (`None`: fit anyway, as the encompassing test
+/// needs).
+fn try_candidate(
+    fitter: &Fitter<'_>,
+    base: &Fit,
+    cand: &Candidate,
+    near_alias: Option<f64>,
+) -> Tried {
+    let mut spec = base.spec.clone();
+    spec.push(&cand.name, cand.effect.clone(), cand.constraints.clone());
+    let ei = spec.names.len() - 1;
+    let mut prep = match fitter.prepare(spec) {
+        Ok(p) => p,
+        Err(FitError::Forward(e)) => {
+            return refused(
+                &cand.name,
+                format!("the forward model cannot apply it ({e})"),
+            );
+        }
+        Err(e) => return refused(&cand.name, format!("the fit cannot be made ({e})")),
+    };
+    let xr = prep.spec.model.param_range(ei);
+    let cand_names: Vec<String> = prep.names[xr.clone()].to_vec();
+    let (d, _, _) = prep.design();
+    if d.rank <= base.rank {
+        let setup = prep.spec.setup();
+        let rep = crate::identify::identifiability::report(
+            &d,
+            fitter.len(),
+            prep.n,
+            &prep.names,
+            &setup.constraint_names,
+            &[],
+        );
+        let why: Vec<String> = rep
+            .null_combinations
+            .iter()
+            .filter(|c| cand_names.iter().any(|n| c.contains(n.as_str())))
+            .cloned()
+            .collect();
+        return refused(
+            &cand.name,
+            if why.is_empty() {
+                "no measurement of this test sees it".to_string()
+            } else {
+                format!("not identifiable alongside the model: {}", why.join("; "))
+            },
+        );
+    }
+    // Combinations of the candidate's parameters that the test does not
+    // see (alone or traded against the model's) are fixed at zero, each
+    // named: what is left is what the test identifies.
+    let mut unseen = Vec::new();
+    if d.null.ncols() > 0 {
+        let vc = d.null.rows(xr.start, xr.len()).into_owned();
+        let svd = vc.svd(true, false);
+        let u = svd.u.expect("asked for U");
+        for (i, s) in svd.singular_values.iter().enumerate() {
+            if *s > 1e-6 {
+                let row: Vec<f64> = u.column(i).iter().copied().collect();
+                let what = combination(&row, &cand_names);
+                unseen.push(what.clone());
+                prep.spec.constraints[ei]
+                    .push((row, format!("{what} = 0: this test does not see it")));
+            }
+        }
+    }
+    let (d, basis, ranges) = prep.design();
+    let rank_increase = d.rank.saturating_sub(base.rank);
+    // Canonical correlation of the candidate's free directions with
+    // everything else (model and nuisance), in the scaled design.
+    let jz = crate::identify::lsq::to_nalgebra(&prep.j0) * &basis;
+    let zc = ranges[ei].clone();
+    let others: Vec<usize> = (0..jz.ncols()).filter(|c| !zc.contains(c)).collect();
+    let a = DMatrix::from_fn(jz.nrows(), others.len(), |r, c| jz[(r, others[c])]);
+    let b = jz.columns(zc.start, zc.len()).into_owned();
+    let qa = column_space(&a, 1e-9);
+    let qb = column_space(&b, 1e-9);
+    let canonical = if qa.ncols() == 0 || qb.ncols() == 0 {
+        0.0
+    } else {
+        (qa.transpose() * &qb).singular_values().max().min(1.0)
+    };
+    let mut largest: Option<story::Correlation> = None;
+    for i in xr.clone() {
+        let vi = d.cov_unit[(i, i)];
+        if vi <= 0.0 {
+            continue;
+        }
+        for j in (0..prep.names.len()).filter(|j| !xr.contains(j)) {
+            let vj = d.cov_unit[(j, j)];
+            if vj <= 0.0 {
+                continue;
+            }
+            let c = d.cov_unit[(i, j)] / (vi * vj).sqrt();
+            if largest.as_ref().is_none_or(|l| c.abs() > l.value.abs()) {
+                largest = Some(story::Correlation {
+                    parameter: prep.names[i].clone(),
+                    with: prep.names[j].clone(),
+                    value: c,
+                });
+            }
+        }
+    }
+    let alongside = story::Alongside {
+        parameters: xr.len(),
+        rank_increase,
+        canonical_correlation: canonical,
+        largest_correlation: largest,
+        unseen,
+        condition: d.condition,
+    };
+    if let Some(limit) = near_alias
+        && canonical > limit
+    {
+        let with = alongside
+            .largest_correlation
+            .as_ref()
+            .map(|c| {
+                format!(
+                    "; largest correlation {:.4}, {} with {}",
+                    c.value, c.parameter, c.with
+                )
+            })
+            .unwrap_or_default();
+        let mut t = refused(
+            &cand.name,
+            format!(
+                "nearly aliased with the model: canonical correlation {canonical:.5} (limit {limit}){with}: the test cannot separate them"
+            ),
+        );
+        t.trial.alongside = Some(alongside);
+        return t;
+    }
+    match prep.fit() {
+        Ok(f) => {
+            let cmp = stats::compare(fitter.len(), base.rss, base.rank, f.rss, f.rank);
+            Tried {
+                trial: Trial {
+                    name: cand.name.clone(),
+                    verdict: Verdict::NotSignificant,
+                    reason: None,
+                    gap_after: Some(gap::size(&f.residuals)),
+                    test: Some(cmp),
+                    p_adjusted: None,
+                    alongside: Some(alongside),
+                },
+                fit: Some(f),
+            }
+        }
+        Err(e) => refused(&cand.name, format!("the fit failed ({e})")),
+    }
+}
+
+fn selected(c: &Candidate, opts: &DiscoverOptions, sym: &Model) -> bool {
+    let id = c.effect.id(&sym.symbols);
+    let hit = |p: &String| c.matches(p, &id);
+    (opts.only.is_empty() || opts.only.iter().any(hit)) && !opts.exclude.iter().any(hit)
+}
+
+/// The starting model: the location errors the test identifies (those it
+/// does not are left out, with the reason), then any named candidates.
+fn start(
+    fitter: &Fitter<'_>,
+    kin: &Kinematics,
+    cat: &Catalogue,
+    names: &[String],
+    notes: &mut Vec<String>,
+) -> Result<Fit, DiscoverError> {
+    let model = Model::new(kin.clone(), Vec::new());
+    let mut spec = Spec::empty(model.clone());
+    let location = names.iter().any(|n| n == "location");
+    if location {
+        let all: Vec<usize> = (0..model.symbols.location.len()).collect();
+        spec.push(
+            "location",
+            Effect::Location {
+                symbols: all.clone(),
+            },
+            Vec::new(),
+        );
+        let f = fitter.prepare(spec.clone())?.fit()?;
+        let seen: Vec<usize> = all
+            .iter()
+            .copied()
+            .filter(|&i| f.identifiability.is_identifiable(i))
+            .collect();
+        if seen.len() < all.len() {
+            for &i in all.iter().filter(|i| !seen.contains(i)) {
+                let name = &model.symbols.location[i].name;
+                let why = f
+                    .identifiability
+                    .null_combinations
+                    .iter()
+                    .find(|c| c.contains(name.as_str()))
+                    .cloned()
+                    .unwrap_or_else(|| "the test does not see it".into());
+                notes.push(format!("{name} is left out of the starting model: {why}"));
+            }
+            spec = Spec::empty(model.clone());
+            spec.push("location", Effect::Location { symbols: seen }, Vec::new());
+        }
+    }
+    let mut fit = fitter.prepare(spec)?.fit()?;
+    for n in names.iter().filter(|n| *n != "location") {
+        let Some(c) = cat.candidates.iter().find(|c| &c.name == n) else {
+            let known: Vec<&str> = cat.candidates.iter().map(|c| c.name.as_str()).collect();
+            return Err(DiscoverError::Start(format!(
+                "`{n}` is not a candidate of this test: expected `location` or one of {}",
+                known.join(", ")
+            )));
+        };
+        let t = try_candidate(fitter, &fit, c, None);
+        match t.fit {
+            Some(f) => fit = f,
+            None => {
+                return Err(DiscoverError::Start(format!(
+                    "cannot start with `{n}`: {}",
+                    t.trial.reason.unwrap_or_default()
+                )));
+            }
+        }
+    }
+    if fit.spec.names.is_empty() {
+        return Err(DiscoverError::Start(
+            "the starting model is empty: name `location` or candidates".into(),
+        ));
+    }
+    Ok(fit)
+}
+
+/// Runs a discovery on the measurements of one test.
+pub fn run(
+    kin: &Kinematics,
+    data: &Dataset,
+    opts: &DiscoverOptions,
+) -> Result<Discovery, DiscoverError> {
+    if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
+        return Err(DiscoverError::Options(format!(
+            "alpha must lie between 0 and 1, not {}",
+            opts.alpha
+        )));
+    }
+    let fitter = Fitter::new(data)?;
+    let cat = catalogue::catalogue(kin, data);
+    let mut notes = cat.notes.clone();
+    let model0 = Model::new(kin.clone(), Vec::new());
+    for n in opts.only.iter().chain(&opts.exclude) {
+        if !cat
+            .candidates
+            .iter()
+            .any(|c| c.matches(n, &c.effect.id(&model0.symbols)))
+        {
+            return Err(DiscoverError::Options(format!(
+                "`{n}` names no candidate of this test: expected one of {}",
+                cat.candidates
+                    .iter()
+                    .map(|c| c.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+    }
+    let mut current = start(&fitter, kin, &cat, &opts.start, &mut notes)?;
+    let start_state = state(kin, data, &current);
+    let mut fits = vec![current.clone()];
+    let mut steps: Vec<story::Step> = Vec::new();
+    let mut ambiguity = None;
+    let n = fitter.len();
+    let stop;
+    let last_round;
+    loop {
+        let pool: Vec<&Candidate> = cat
+            .candidates
+            .iter()
+            .filter(|c| current.spec.find(&c.name).is_none())
+            .filter(|c| selected(c, opts, &model0))
+            .collect();
+        let mut tried: Vec<Tried> = pool
+            .par_iter()
+            .map(|c| try_candidate(&fitter, &current, c, Some(opts.near_alias)))
+            .collect();
+        let m = tried.iter().filter(|t| t.fit.is_some()).count();
+        for t in tried.iter_mut() {
+            if let Some(c) = &t.trial.test {
+                let pa = stats::adjusted(c.p, m);
+                t.trial.p_adjusted = Some(pa);
+                if pa < opts.alpha && c.delta_bic < 0.0 {
+                    t.trial.verdict = Verdict::Significant;
+                }
+            }
+        }
+        let mut sig: Vec<usize> = (0..tried.len())
+            .filter(|&i| tried[i].trial.verdict == Verdict::Significant)
+            .collect();
+        if sig.is_empty() {
+            let best = tried
+                .iter()
+                .filter_map(|t| {
+                    t.trial
+                        .test
+                        .as_ref()
+                        .map(|c| (t.trial.name.clone(), c.p, t.trial.p_adjusted.unwrap_or(1.0)))
+                })
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            stop = match best {
+                Some((name, p, pa)) => format!(
+                    "no candidate is significant at alpha = {} (the best, {name}, has p = {}, {} after the adjustment for {m} candidates)",
+                    opts.alpha,
+                    story_p(p),
+                    story_p(pa)
+                ),
+                None => "no candidate is left to try".to_string(),
+            };
+            last_round = tried.into_iter().map(|t| t.trial).collect();
+            break;
+        }
+        sig.sort_by(|&a, &b| {
+            let ba = tried[a].trial.test.as_ref().map_or(0.0, |c| c.delta_bic);
+            let bb = tried[b].trial.test.as_ref().map_or(0.0, |c| c.delta_bic);
+            ba.total_cmp(&bb)
+        });
+        // The encompassing test: the best fitted together with each rival.
+        let pool_idx = |name: &str| pool.iter().position(|c| c.name == name).unwrap();
+        let mut best = sig[0];
+        let mut rivals: Vec<story::Rival> = Vec::new();
+        let mut same: Vec<usize> = Vec::new();
+        let mut switched = false;
+        let mut k = 1;
+        while k < sig.len() {
+            let c = sig[k];
+            if c == best {
+                k += 1;
+                continue;
+            }
+            let fb = tried[best].fit.as_ref().expect("tested");
+            let fc = tried[c].fit.as_ref().expect("tested");
+            let both = try_candidate(&fitter, fb, pool[pool_idx(&tried[c].trial.name)], None);
+            let (rss_both, rank_both) = match &both.fit {
+                Some(f) => (f.rss, f.rank),
+                // Nothing of the rival is seen beside the best: together
+                // they are the best alone.
+                None => (fb.rss, fb.rank),
+            };
+            let p_c_over_b = stats::compare(n, fb.rss, fb.rank, rss_both, rank_both).p;
+            let p_b_over_c = stats::compare(n, fc.rss, fc.rank, rss_both, rank_both).p;
+            let b_adds = p_b_over_c < opts.alpha;
+            let c_adds = p_c_over_b < opts.alpha;
+            let (bn, cn) = (tried[best].trial.name.clone(), tried[c].trial.name.clone());
+            let verdict = match (b_adds, c_adds) {
+                (true, false) => {
+                    format!("{bn} explains it away: {cn} adds nothing to {bn}, {bn} adds to {cn}")
+                }
+                (true, true) => {
+                    "a different effect: each adds to the other (it may come next)".to_string()
+                }
+                (false, false) => {
+                    format!("indistinguishable from {bn} on this test: neither adds to the other")
+                }
+                (false, true) => format!("{cn} explains {bn} away"),
+            };
+            if !b_adds && c_adds && !switched {
+                // The rival encompasses the best: it becomes the best and
+                // the checks start again.
+                switched = true;
+                best = c;
+                rivals.clear();
+                same.clear();
+                k = 0;
+                continue;
+            }
+            if !b_adds && !c_adds {
+                same.push(c);
+            }
+            rivals.push(story::Rival {
+                name: cn,
+                gap_after: gap::size(&fc.residuals),
+                p_effect_over_rival: p_b_over_c,
+                p_rival_over_effect: p_c_over_b,
+                verdict,
+            });
+            k += 1;
+        }
+        let bf = tried[best].fit.clone().expect("tested");
+        let ei = bf.spec.names.len() - 1;
+        let before = gap::gap(kin, data, &current.residuals);
+        if !same.is_empty() {
+            let mut cands = vec![best];
+            cands.extend(&same);
+            let list: Vec<String> = cands.iter().map(|&i| tried[i].trial.name.clone()).collect();
+            ambiguity = Some(story::Ambiguity {
+                candidates: cands
+                    .iter()
+                    .map(|&i| {
+                        let f = tried[i].fit.as_ref().expect("tested");
+                        story::AmbiguousCandidate {
+                            name: tried[i].trial.name.clone(),
+                            values: effect_values(f, f.spec.names.len() - 1),
+                            gap_after: gap::size(&f.residuals),
+                        }
+                    })
+                    .collect(),
+                reason: format!(
+                    "the gap ({}) is explained as well by {} as by each other; fitted together, neither adds to the other, so this test cannot tell which is at work. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or add a test that separates them",
+                    before.summary,
+                    list.join(" or ")
+                ),
+            });
+            stop = format!(
+                "ambiguous: {} explain the gap equally; nothing is added",
+                list.join(", ")
+            );
+            last_round = tried.into_iter().map(|t| t.trial).collect();
+            break;
+        }
+        let t = &tried[best].trial;
+        let cand = pool[pool_idx(&t.name)];
+        steps.push(story::Step {
+            step: steps.len() + 1,
+            name: t.name.clone(),
+            effect: cand.effect.id(&model0.symbols),
+            description: cand.description.clone(),
+            values: effect_values(&bf, ei),
+            gap_before: before.size(),
+            gap_after: gap::size(&bf.residuals),
+            concentrated: before.summary.clone(),
+            test: t.test.expect("tested"),
+            p_adjusted: t.p_adjusted.expect("tested"),
+            tested: m,
+            alongside: t.alongside.clone().expect("tested"),
+            rivals,
+            trials: tried.iter().map(|t| t.trial.clone()).collect(),
+        });
+        current = bf;
+        fits.push(current.clone());
+        if steps.len() >= opts.max_steps {
+            stop = format!("stopped after {} steps (--max-steps)", opts.max_steps);
+            last_round = Vec::new();
+            break;
+        }
+    }
+    let end_state = state(kin, data, &current);
+    let story = Story {
+        test: opts.test.clone(),
+        machine: kin.machine().name.clone(),
+        points: n,
+        poses: data.poses.len(),
+        alpha: opts.alpha,
+        start: start_state,
+        steps,
+        end: end_state,
+        stop,
+        ambiguity,
+        last_round,
+        notes: {
+            if data.kind == TestKind::Probing && data.pieces.len() > 1 {
+                notes.push(format!(
+                    "{} separately set-up pieces, each with its own setup (nuisance)",
+                    data.pieces.len()
+                ));
+            }
+            notes
+        },
+    };
+    Ok(Discovery { story, fits })
+}
+
+fn story_p(p: f64) -> String {
+    if p < 1e-3 {
+        format!("{p:.1e}")
+    } else {
+        format!("{p:.3}")
+    }
+}
