@@ -9,6 +9,7 @@ mod cli;
 mod compensate;
 mod compensate_cli;
 mod contour;
+mod discover;
 mod errorfile;
 mod identifiability;
 mod identify;

@@ -360,6 +360,14 @@ impl<'a> Fitter<'a> {
         let nuisance = fm.nuisance_names();
         let k = nuisance.len();
         let mut names = spec.model.param_names();
+        // A drift's parameter is named with its clock: the same symbol may
+        // drift per pose and per minute.
+        for (ei, e) in spec.model.effects.iter().enumerate() {
+            if let Effect::Drift { basis, .. } = e {
+                let i = spec.model.param_range(ei).start;
+                names[i] = format!("{}/{}", names[i], basis.name());
+            }
+        }
         names.extend(nuisance);
         if self.p0.is_some() {
             names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));

@@ -33,7 +33,7 @@ use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::combination;
 use crate::identify::{Dataset, Identification, Method, two_stage};
 use crate::kinematics::Kinematics;
-use crate::model::{Effect, Model};
+use crate::model::{DriftBasis, Effect, Model};
 
 pub use catalogue::{Candidate, Catalogue};
 pub use fit::{Fit, FitError, Fitter, Spec};
@@ -147,10 +147,9 @@ pub fn identification(f: &Fit, data: &Dataset) -> Identification {
 /// The values of effect `ei` of a fit.
 fn effect_values(f: &Fit, ei: usize) -> Vec<story::Value> {
     let r = f.spec.model.param_range(ei);
-    let names = f.spec.model.param_names();
     let units = f.spec.model.param_units();
     r.map(|i| story::Value {
-        name: names[i].clone(),
+        name: f.names[i].clone(),
         value: f.x[i],
         u: f.u(i),
         unit: units[i].clone(),
@@ -168,6 +167,16 @@ fn state(kin: &Kinematics, data: &Dataset, f: &Fit) -> story::State {
         sigma_um: f.sigma(),
         dof: f.dof(),
     }
+}
+
+/// The best candidate of a round against its significant rivals.
+#[derive(Default)]
+struct Rivalry {
+    rivals: Vec<(usize, story::Rival)>,
+    /// Rivals the data cannot tell from the best.
+    same: Vec<usize>,
+    /// A rival that explains the best away.
+    encompassed_by: Option<usize>,
 }
 
 /// A candidate tried against a model.
@@ -540,65 +549,109 @@ pub fn run(
         });
         // The encompassing test: the best fitted together with each rival.
         let pool_idx = |name: &str| pool.iter().position(|c| c.name == name).unwrap();
+        let rivalry = |best: usize| -> Rivalry {
+            let mut out = Rivalry::default();
+            for &c in sig.iter().filter(|&&c| c != best) {
+                let fb = tried[best].fit.as_ref().expect("tested");
+                let fc = tried[c].fit.as_ref().expect("tested");
+                let both = try_candidate(&fitter, fb, pool[pool_idx(&tried[c].trial.name)], None);
+                let (rss_both, rank_both) = match &both.fit {
+                    Some(f) => (f.rss, f.rank),
+                    // Nothing of the rival is seen beside the best:
+                    // together they are the best alone.
+                    None => (fb.rss, fb.rank),
+                };
+                let p_c_over_b = stats::compare(n, fb.rss, fb.rank, rss_both, rank_both).p;
+                let p_b_over_c = stats::compare(n, fc.rss, fc.rank, rss_both, rank_both).p;
+                // At the round's adjusted level: overriding the ranking
+                // by the BIC, or calling two candidates different, needs
+                // the evidence a step needs.
+                let b_adds = stats::adjusted(p_b_over_c, m) < opts.alpha;
+                let c_adds = stats::adjusted(p_c_over_b, m) < opts.alpha;
+                let (bn, cn) = (tried[best].trial.name.clone(), tried[c].trial.name.clone());
+                let verdict = match (b_adds, c_adds) {
+                    (true, false) => {
+                        format!(
+                            "{bn} explains it away: {cn} adds nothing to {bn}, {bn} adds to {cn}"
+                        )
+                    }
+                    (true, true) => {
+                        "a different effect: each adds to the other (it may come next)".to_string()
+                    }
+                    (false, false) => format!(
+                        "indistinguishable from {bn} on this test: neither adds to the other"
+                    ),
+                    (false, true) => format!("{cn} explains {bn} away"),
+                };
+                if !b_adds && c_adds && out.encompassed_by.is_none() {
+                    out.encompassed_by = Some(c);
+                }
+                if !b_adds && !c_adds {
+                    out.same.push(c);
+                }
+                out.rivals.push((
+                    c,
+                    story::Rival {
+                        name: cn,
+                        gap_after: gap::size(&fc.residuals),
+                        p_effect_over_rival: p_b_over_c,
+                        p_rival_over_effect: p_c_over_b,
+                        verdict,
+                    },
+                ));
+            }
+            out
+        };
+        let id_of = |i: usize| {
+            pool[pool_idx(&tried[i].trial.name)]
+                .effect
+                .id(&model0.symbols)
+        };
+        let basis_of = |i: usize| match pool[pool_idx(&tried[i].trial.name)].effect {
+            Effect::Drift { basis, .. } => Some(basis),
+            _ => None,
+        };
         let mut best = sig[0];
-        let mut rivals: Vec<story::Rival> = Vec::new();
-        let mut same: Vec<usize> = Vec::new();
-        let mut switched = false;
-        let mut k = 1;
-        while k < sig.len() {
-            let c = sig[k];
-            if c == best {
-                k += 1;
-                continue;
-            }
-            let fb = tried[best].fit.as_ref().expect("tested");
-            let fc = tried[c].fit.as_ref().expect("tested");
-            let both = try_candidate(&fitter, fb, pool[pool_idx(&tried[c].trial.name)], None);
-            let (rss_both, rank_both) = match &both.fit {
-                Some(f) => (f.rss, f.rank),
-                // Nothing of the rival is seen beside the best: together
-                // they are the best alone.
-                None => (fb.rss, fb.rank),
-            };
-            let p_c_over_b = stats::compare(n, fb.rss, fb.rank, rss_both, rank_both).p;
-            let p_b_over_c = stats::compare(n, fc.rss, fc.rank, rss_both, rank_both).p;
-            let b_adds = p_b_over_c < opts.alpha;
-            let c_adds = p_c_over_b < opts.alpha;
-            let (bn, cn) = (tried[best].trial.name.clone(), tried[c].trial.name.clone());
-            let verdict = match (b_adds, c_adds) {
-                (true, false) => {
-                    format!("{bn} explains it away: {cn} adds nothing to {bn}, {bn} adds to {cn}")
-                }
-                (true, true) => {
-                    "a different effect: each adds to the other (it may come next)".to_string()
-                }
-                (false, false) => {
-                    format!("indistinguishable from {bn} on this test: neither adds to the other")
-                }
-                (false, true) => format!("{cn} explains {bn} away"),
-            };
-            if !b_adds && c_adds && !switched {
-                // The rival encompasses the best: it becomes the best and
-                // the checks start again.
-                switched = true;
-                best = c;
-                rivals.clear();
-                same.clear();
-                k = 0;
-                continue;
-            }
-            if !b_adds && !c_adds {
-                same.push(c);
-            }
-            rivals.push(story::Rival {
-                name: cn,
-                gap_after: gap::size(&fc.residuals),
-                p_effect_over_rival: p_b_over_c,
-                p_rival_over_effect: p_c_over_b,
-                verdict,
-            });
-            k += 1;
+        let mut r = rivalry(best);
+        // A rival that explains the best away becomes the best (once: two
+        // candidates cannot each explain the other away).
+        if let Some(c) = r.encompassed_by {
+            best = c;
+            r = rivalry(best);
         }
+        // The same drift on the other clock (per pose or per minute) is
+        // the same effect, not a rival cause: when the test cannot tell
+        // the clocks apart (poses of nearly equal duration), the drift is
+        // kept per pose, as the seeds' thermal tests count it, and the
+        // story says so.
+        if basis_of(best) == Some(DriftBasis::Minute)
+            && let Some(&c) = r
+                .same
+                .iter()
+                .find(|&&c| id_of(c) == id_of(best) && basis_of(c) == Some(DriftBasis::Seq))
+        {
+            best = c;
+            r = rivalry(best);
+        }
+        let same: Vec<usize> = r
+            .same
+            .iter()
+            .copied()
+            .filter(|&c| id_of(c) != id_of(best))
+            .collect();
+        let rivals: Vec<story::Rival> = r
+            .rivals
+            .into_iter()
+            .map(|(c, mut rv)| {
+                if id_of(c) == id_of(best) && r.same.contains(&c) {
+                    rv.verdict = format!(
+                        "the same effect on another clock, indistinguishable on this test (its poses take nearly equal times): kept as {}",
+                        tried[best].trial.name
+                    );
+                }
+                rv
+            })
+            .collect();
         let bf = tried[best].fit.clone().expect("tested");
         let ei = bf.spec.names.len() - 1;
         let before = gap::gap(kin, data, &current.residuals);
