@@ -10,6 +10,7 @@ mod compensate;
 mod compensate_cli;
 mod contour;
 mod discover;
+mod discover_cli;
 mod errorfile;
 mod identifiability;
 mod identify;

@@ -297,8 +297,12 @@ impl Story {
                 "  alongside the model: +{} direction(s), canonical correlation {:.3}{corr}",
                 a.rank_increase, a.canonical_correlation
             );
-            for u in &a.unseen {
-                let _ = writeln!(s, "  unseen, fixed: {u}");
+            if !a.unseen.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "  {} combination(s) of its values unseen by this test, fixed at zero",
+                    a.unseen.len()
+                );
             }
             for r in st.rivals.iter().take(4) {
                 let _ = writeln!(

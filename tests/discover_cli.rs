@@ -1,0 +1,232 @@
+//! `fivecal discover` as a user runs it, on the worked example of
+//! `examples/discover/` (a planned stepped square whose machine hides a
+//! drift of EZ0B and a B-axis positioning map; the truth is in
+//! `truth.yaml` beside it).
+
+use std::path::{Path, PathBuf};
+
+use fivecal::errorfile::ErrorFile;
+use fivecal::kinematics::Kinematics;
+
+use crate::cli::fivecal;
+use crate::util::{machine, tempdir};
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples/discover")
+        .join(name)
+}
+
+fn args(extra: &[&str]) -> Vec<String> {
+    let mut v: Vec<String> = vec![
+        "discover".into(),
+        "--plan".into(),
+        example("stepped-square.plan.yaml").display().to_string(),
+        "--measured".into(),
+        example("piece.dmo").display().to_string(),
+    ];
+    v.extend(extra.iter().map(|s| s.to_string()));
+    v
+}
+
+#[test]
+fn the_worked_example_tells_the_story_the_readme_shows() {
+    let out = fivecal()
+        .args(args(&[]))
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    let story = std::fs::read_to_string(example("story.txt")).unwrap();
+    assert_eq!(text, story, "examples/discover/story.txt is out of date");
+    // The effects the truth hides, the larger first.
+    let truth = std::fs::read_to_string(example("truth.yaml")).unwrap();
+    assert!(truth.contains("thermal_drift") && truth.contains("EBB(B)"));
+    let s1 = text.find("step 1: add drift.EZ0B/seq").unwrap();
+    let s2 = text.find("step 2: add map.EBB(B)").unwrap();
+    assert!(s1 < s2 && !text.contains("step 3"));
+}
+
+#[test]
+fn json_story_has_the_steps_with_values_uncertainties_and_gaps() {
+    let out = fivecal()
+        .args(args(&["--json"]))
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let j: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let steps = j["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 2);
+    assert_eq!(steps[0]["name"], "drift.EZ0B/seq");
+    assert_eq!(steps[1]["name"], "map.EBB(B)");
+    for st in steps {
+        let values = st["values"].as_array().unwrap();
+        assert!(!values.is_empty());
+        for v in values {
+            assert!(v["value"].is_f64() && v["u"].as_f64().unwrap() > 0.0, "{v}");
+        }
+        let (b, a) = (&st["gap_before"], &st["gap_after"]);
+        assert!(a["rms_um"].as_f64().unwrap() < b["rms_um"].as_f64().unwrap());
+        assert!(a["max_um"].as_f64().unwrap() < b["max_um"].as_f64().unwrap());
+    }
+    // The gap of one step is the gap before the next.
+    assert_eq!(steps[0]["gap_after"], steps[1]["gap_before"]);
+    assert_eq!(steps[1]["gap_after"]["rms_um"], j["end"]["gap"]["rms_um"]);
+}
+
+#[test]
+fn out_writes_the_final_model_as_an_error_file_and_report_draws_the_gap() {
+    let dir = tempdir();
+    let out = dir.path().join("discovered.yaml");
+    let report = dir.path().join("report");
+    fivecal()
+        .args(args(&[
+            "--out",
+            out.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ]))
+        .assert()
+        .success();
+    // The error file reads back with the effects found, values within
+    // four u of the truth.
+    let m = machine("bc-trunnion");
+    let kin = Kinematics::with_gauge_length(&m, 60.0);
+    let found = ErrorFile::load(&out, &kin).unwrap();
+    let truth = ErrorFile::load(&example("truth.yaml"), &kin).unwrap();
+    let names = found.model.param_names();
+    for name in [
+        "drift.EZ0B",
+        "EBB(B)@B=-90",
+        "EBB(B)@B=0",
+        "EBB(B)@B=90",
+        "EZ0B",
+    ] {
+        let i = names.iter().position(|n| n == name).unwrap();
+        let t = truth
+            .model
+            .param_names()
+            .iter()
+            .position(|n| n == name)
+            .unwrap();
+        let u = found.u[i].unwrap();
+        assert!(
+            (found.theta[i] - truth.theta[t]).abs() < 4.0 * u,
+            "{name}: {} +- {u} against {}",
+            found.theta[i],
+            truth.theta[t]
+        );
+    }
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    for s in [
+        "gap.svg",
+        "residuals-before.svg",
+        "residuals-after.svg",
+        "drift.EZ0B/seq",
+        "map.EBB(B)",
+    ] {
+        assert!(html.contains(s), "{s}");
+    }
+    let svg = std::fs::read_to_string(report.join("gap.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("+map.EBB(B)"));
+}
+
+#[test]
+fn candidates_and_start_steer_the_search() {
+    // Only maps: the drift is not tried, so the map comes alone and the
+    // gap stays above the noise.
+    let out = fivecal()
+        .args(args(&["--candidates", "map", "--json"]))
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let j: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    let names: Vec<&str> = j["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    assert!(names.iter().all(|n| n.starts_with("map.")), "{names:?}");
+    assert!(j["end"]["gap"]["rms_um"].as_f64().unwrap() > 0.5);
+    // Starting from the drift, the map is what is left to find.
+    let out = fivecal()
+        .args(args(&["--start", "location,drift.EZ0B/seq", "--json"]))
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let j: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert_eq!(j["start"]["model"][1], "drift.EZ0B/seq");
+    assert_eq!(j["steps"][0]["name"], "map.EBB(B)");
+    assert_eq!(j["steps"].as_array().unwrap().len(), 1);
+}
+
+#[test]
+fn bad_requests_fail_with_the_reason_and_write_nothing() {
+    let dir = tempdir();
+    let out = dir.path().join("r.yaml");
+    let o = out.to_str().unwrap();
+    for (extra, expected) in [
+        (
+            vec!["--alpha", "1.5"],
+            "--alpha 1.5: expected a significance level between 0 and 1",
+        ),
+        (
+            vec!["--candidates", "spindle_growth"],
+            "`spindle_growth` names no candidate of this test",
+        ),
+        (
+            vec!["--start", "location,map.EQQ(B)"],
+            "`map.EQQ(B)` is not a candidate of this test",
+        ),
+    ] {
+        let mut a: Vec<&str> = extra.clone();
+        a.extend(["--out", o]);
+        let err = fivecal()
+            .args(args(&a))
+            .assert()
+            .code(2)
+            .get_output()
+            .stderr
+            .clone();
+        let err = String::from_utf8(err).unwrap();
+        assert!(err.contains(expected), "{extra:?}: {err}");
+        assert!(!out.exists());
+    }
+    // The input is never overwritten.
+    let piece = example("piece.dmo");
+    let err = fivecal()
+        .args(args(&["--out", piece.to_str().unwrap()]))
+        .assert()
+        .code(2)
+        .get_output()
+        .stderr
+        .clone();
+    assert!(String::from_utf8(err).unwrap().contains("input"));
+    // A measurement of another plan is refused, naming the file and line.
+    let other =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze/probe-sphere/PROBE.TXT");
+    let err = fivecal()
+        .args([
+            "discover",
+            "--plan",
+            example("stepped-square.plan.yaml").to_str().unwrap(),
+            "--measured",
+            other.to_str().unwrap(),
+        ])
+        .assert()
+        .code(2)
+        .get_output()
+        .stderr
+        .clone();
+    let err = String::from_utf8(err).unwrap();
+    assert!(err.contains("PROBE.TXT:"), "{err}");
+}
