@@ -362,3 +362,36 @@ fn drift_on_the_column_probing_test_is_named_with_each_column_set_up_apart() {
         twin.verdict
     );
 }
+
+#[test]
+fn effects_a_test_cannot_tell_apart_are_reported_and_none_is_picked() {
+    // A stepped square cut at B = 0 only (C = 0, 90, 180, 270): the B
+    // axis's and the C axis's X positions move the piece alike, so the
+    // test cannot say which of them drifts; the C-axis X map can mimic any
+    // such per-pose shift too.
+    let kin = Kinematics::new(&machine("bc-trunnion"));
+    let plan = synthetic::stepped_square(&kin, &[0.0], &[0.0, 90.0, 180.0, 270.0], 15.0);
+    let (model, theta) = truth(&kin, &[(drift(&kin, "EX0B"), vec![1.0])]);
+    let data = crate::identify::machined(&model, &theta, &plan, NOISE, 5);
+    let d = discover::run(&kin, &data, &DiscoverOptions::default()).unwrap();
+    let s = &d.story;
+    assert!(s.steps.is_empty(), "{}", s.render());
+    let a = s.ambiguity.as_ref().expect("an ambiguity");
+    let names: Vec<&str> = a.candidates.iter().map(|c| c.name.as_str()).collect();
+    for n in ["drift.EX0B/seq", "drift.EX(0B)C/seq"] {
+        assert!(names.contains(&n), "{names:?}");
+    }
+    // Each explains the gap down to the noise, and says so.
+    for c in &a.candidates {
+        assert!(c.gap_after.rms_um < 1.2 * NOISE, "{}", c.name);
+    }
+    assert!(s.stop.starts_with("ambiguous"));
+    // The starting model keeps one of each pair the test cannot separate.
+    assert!(
+        s.notes
+            .iter()
+            .any(|n| n.starts_with("EX(0B)C is left out") && n.contains("EX0B - EX(0B)C")),
+        "{:?}",
+        s.notes
+    );
+}

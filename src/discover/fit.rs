@@ -461,3 +461,44 @@ impl Prepared<'_> {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Machine;
+    use crate::kinematics::Kinematics;
+
+    #[test]
+    fn basis_is_block_diagonal_and_respects_each_effects_constraints() {
+        let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+        let mut spec = Spec::empty(Model::new(kin, Vec::new()));
+        spec.push(
+            "location",
+            Effect::Location {
+                symbols: vec![0, 1],
+            },
+            Vec::new(),
+        );
+        let grid = crate::kinematics::maps::MapGrid {
+            dims: vec![
+                crate::kinematics::maps::MapDim::new(0, &[-90.0, 0.0, 90.0], false).unwrap(),
+            ],
+        };
+        spec.push(
+            "map.EBB(B)",
+            Effect::Map { symbol: 4, grid },
+            vec![(vec![1.0, 1.0, 1.0], "averages to zero".into())],
+        );
+        let (b, ranges) = spec.basis(6);
+        assert_eq!(b.shape(), (2 + 3 + 6, 2 + 2 + 6));
+        assert_eq!(ranges, vec![0..2, 2..4]);
+        // Orthonormal columns; the map's span its own rows and sum to zero.
+        assert!((b.transpose() * &b - DMatrix::identity(10, 10)).norm() < 1e-12);
+        for c in 2..4 {
+            let col = b.column(c);
+            assert!(col.rows(0, 2).norm() < 1e-15 && col.rows(5, 6).norm() < 1e-15);
+            assert!(col.rows(2, 3).sum().abs() < 1e-12);
+        }
+        assert_eq!(spec.setup().constraints.shape(), (1, 5));
+    }
+}

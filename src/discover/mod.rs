@@ -398,6 +398,10 @@ fn start(
     let mut spec = Spec::empty(model.clone());
     let location = names.iter().any(|n| n == "location");
     if location {
+        // Seed 003's question, answered greedily in SPEC order: the
+        // largest set of location symbols the test identifies together.
+        // A symbol that adds no direction to those kept is left out; what
+        // it does is carried by the kept ones it is aliased with.
         let all: Vec<usize> = (0..model.symbols.location.len()).collect();
         spec.push(
             "location",
@@ -406,26 +410,50 @@ fn start(
             },
             Vec::new(),
         );
-        let f = fitter.prepare(spec.clone())?.fit()?;
-        let seen: Vec<usize> = all
-            .iter()
-            .copied()
-            .filter(|&i| f.identifiability.is_identifiable(i))
-            .collect();
-        if seen.len() < all.len() {
-            for &i in all.iter().filter(|i| !seen.contains(i)) {
+        let prep = fitter.prepare(spec.clone())?;
+        let (d, _, _) = prep.design();
+        let j = crate::identify::lsq::to_nalgebra(&prep.j0);
+        let nuisance: Vec<usize> = (prep.n..prep.n + prep.extra).collect();
+        let rank_of = |cols: &[usize]| -> usize {
+            let a = DMatrix::from_fn(j.nrows(), cols.len(), |r, c| j[(r, cols[c])]);
+            column_space(&a, fitter.opts.rank_rtol).ncols()
+        };
+        let mut kept: Vec<usize> = Vec::new();
+        let mut cols = nuisance.clone();
+        let mut rank = rank_of(&cols);
+        for &i in &all {
+            cols.push(i);
+            let r = rank_of(&cols);
+            if r > rank {
+                kept.push(i);
+                rank = r;
+            } else {
+                cols.pop();
+            }
+        }
+        if kept.len() < all.len() {
+            let rep = crate::identify::identifiability::report(
+                &d,
+                fitter.len(),
+                prep.n,
+                &prep.names,
+                &[],
+                &[],
+            );
+            for &i in all.iter().filter(|i| !kept.contains(i)) {
                 let name = &model.symbols.location[i].name;
-                let why = f
-                    .identifiability
+                let why = rep
                     .null_combinations
                     .iter()
                     .find(|c| c.contains(name.as_str()))
                     .cloned()
-                    .unwrap_or_else(|| "the test does not see it".into());
-                notes.push(format!("{name} is left out of the starting model: {why}"));
+                    .unwrap_or_else(|| "no measurement of this test sees it".into());
+                notes.push(format!(
+                    "{name} is left out of the starting model: this test does not separate it from the symbols kept ({why})"
+                ));
             }
             spec = Spec::empty(model.clone());
-            spec.push("location", Effect::Location { symbols: seen }, Vec::new());
+            spec.push("location", Effect::Location { symbols: kept }, Vec::new());
         }
     }
     let mut fit = fitter.prepare(spec)?.fit()?;
@@ -672,7 +700,7 @@ pub fn run(
                     })
                     .collect(),
                 reason: format!(
-                    "the gap ({}) is explained as well by {} as by each other; fitted together, neither adds to the other, so this test cannot tell which is at work. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or add a test that separates them",
+                    "the gap ({}) is explained equally by {}: fitted together, none adds significantly to another, so this test cannot tell which is at work. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or add a test that separates them",
                     before.summary,
                     list.join(" or ")
                 ),
@@ -741,5 +769,26 @@ fn story_p(p: f64) -> String {
         format!("{p:.1e}")
     } else {
         format!("{p:.3}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn canonical_correlation_is_the_cosine_of_the_smallest_angle() {
+        // span(a) = the x-y plane; b's column leaves it at 30 degrees, at
+        // any length.
+        let a = DMatrix::from_row_slice(4, 2, &[1.0, 1.0, 0.0, 2.0, 0.0, 0.0, 0.0, 0.0]);
+        let t = 30f64.to_radians();
+        let b = DMatrix::from_row_slice(4, 1, &[5.0 * t.cos(), 0.0, 5.0 * t.sin(), 0.0]);
+        let (qa, qb) = (column_space(&a, 1e-9), column_space(&b, 1e-9));
+        assert_eq!((qa.ncols(), qb.ncols()), (2, 1));
+        let c = (qa.transpose() * &qb).singular_values().max();
+        assert!((c - t.cos()).abs() < 1e-12);
+        // A repeated column adds no direction.
+        let r = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 1.0, 2.0, 0.0, 0.0]);
+        assert_eq!(column_space(&r, 1e-9).ncols(), 1);
     }
 }
