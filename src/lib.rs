@@ -14,6 +14,7 @@
 
 pub mod compensate;
 pub mod contour;
+pub mod demo;
 pub mod discover;
 pub mod errorfile;
 pub mod fit;

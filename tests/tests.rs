@@ -25,6 +25,7 @@ mod probe_log;
 mod probe_outputs;
 mod probe_plan;
 mod probe_programs;
+mod readme;
 mod regression;
 mod simulate;
 mod simulate_forward;

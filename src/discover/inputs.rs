@@ -45,13 +45,7 @@ pub struct Inputs {
     pub data: Dataset,
 }
 
-/// The kinematics a plan runs with: its tool's or probe's gauge length.
-pub fn plan_kinematics(plan: &LoadedPlan) -> Kinematics {
-    match plan {
-        LoadedPlan::Machining(t) => Kinematics::with_gauge_length(&t.machine, t.tool.length),
-        LoadedPlan::Probing(p) => p.plan.kin.clone(),
-    }
-}
+pub use crate::simulate::plan_kinematics;
 
 /// How the probe logs of a probing plan are read.
 fn probe_options(plan: &LoadedPlan) -> Option<ReadOptions> {

@@ -36,6 +36,9 @@ enum Command {
     /// Find where simulation and measurement disagree, name the missing
     /// effect, add it to the model and show the gap shrink.
     Discover(cmd::discover::DiscoverArgs),
+    /// Run the whole job on the built-in example machine: plan, simulate,
+    /// analyze, discover and compensate, with a one-screen summary.
+    Demo(cmd::demo::DemoArgs),
     /// Inspect machine files.
     #[command(subcommand)]
     Machine(cmd::machine::MachineCommand),
@@ -53,6 +56,7 @@ fn main() -> ExitCode {
         Command::Analyze(a) => cmd::analyze::run(a),
         Command::Compensate(a) => cmd::compensate::run(a),
         Command::Discover(a) => cmd::discover::run(a),
+        Command::Demo(a) => cmd::demo::run(a),
         Command::Machine(m) => cmd::machine::run(m),
         Command::Completions(a) => cmd::docs::completions(a),
         Command::Man => cmd::docs::man(),

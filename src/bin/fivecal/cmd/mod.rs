@@ -4,10 +4,10 @@
 pub mod analyze;
 pub mod compensate;
 pub mod contour;
+pub mod demo;
 pub mod discover;
 pub mod docs;
 pub mod machine;
-pub mod pending;
 pub mod plan;
 pub mod simulate;
 pub mod simulate_nc;

@@ -1,0 +1,538 @@
+//! `fivecal demo`: the whole mission on the built-in `bc-trunnion` machine
+//! with a built-in truth, as a newcomer's first run: plan the FANUC
+//! stepped-square test, machine and measure it on the virtual machine,
+//! identify the location errors with their uncertainty, discover the
+//! effect the starting model lacks, and compensate an example five-axis
+//! program, comparing where its tool tip goes before and after.
+//!
+//! Every step goes through the same library calls and files as the
+//! commands a user runs by hand (`plan`, `simulate`, `analyze`, `discover`,
+//! `compensate`, `simulate nc`), so the demo is also their end-to-end test.
+
+pub mod program;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use nalgebra::Vector3;
+
+use crate::compensate::simulate::{SimSettings, Simulator};
+use crate::compensate::{AtomicOutput, Compensator, Settings};
+use crate::discover::{self, DiscoverOptions, Discovery, GapSize};
+use crate::errorfile::{ErrorFile, LoadedErrors};
+use crate::formats::manifest::KinematicsMode;
+use crate::identify::{Identification, Method, Setup};
+use crate::io::write_atomic;
+use crate::kinematics::Kinematics;
+use crate::machine::{Dialect, Machine};
+use crate::plan::{self, PlanConfig, Template};
+use crate::post::PostDefinition;
+use crate::simulate::{self, Format, SimOptions};
+
+/// The built-in truth: eight location errors and a thermal drift of EZ0B
+/// that the starting model lacks (`examples/demo/truth.yaml`).
+pub const TRUTH: &str = include_str!("../../examples/demo/truth.yaml");
+
+/// The machine the demo runs on.
+pub const MACHINE: &str = "bc-trunnion";
+
+/// What to run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DemoConfig {
+    /// Where every artefact goes.
+    pub out: PathBuf,
+    /// Seed of the simulation (placement on the CMM, noise).
+    pub seed: u64,
+}
+
+/// The steps, in order, for progress displays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Writing the test's program, points and manifest.
+    Plan,
+    /// Machining and measuring on the virtual machine.
+    Simulate,
+    /// Identifying the location errors.
+    Analyze,
+    /// Searching for the missing effect.
+    Discover,
+    /// Rewriting the example program and checking it.
+    Compensate,
+}
+
+impl Stage {
+    /// All stages in order.
+    pub const ALL: [Stage; 5] = [
+        Stage::Plan,
+        Stage::Simulate,
+        Stage::Analyze,
+        Stage::Discover,
+        Stage::Compensate,
+    ];
+
+    /// What the stage does, for a progress line.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Stage::Plan => "plan the stepped-square test (FANUC)",
+            Stage::Simulate => "machine it on the virtual machine and measure it on a CMM",
+            Stage::Analyze => "identify the location errors with their uncertainty",
+            Stage::Discover => "discover what the model is missing",
+            Stage::Compensate => "compensate an example five-axis program",
+        }
+    }
+}
+
+/// Why the demo stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum DemoError {
+    /// A step failed; the message names it and its cause.
+    #[error("{stage}: {message}")]
+    Step {
+        /// The step.
+        stage: &'static str,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// Attaches the stage to a failure.
+trait AtStage<T> {
+    fn at(self, stage: Stage) -> Result<T, DemoError>;
+}
+
+impl<T, E: std::fmt::Display> AtStage<T> for Result<T, E> {
+    fn at(self, stage: Stage) -> Result<T, DemoError> {
+        self.map_err(|e| DemoError::Step {
+            stage: stage.describe(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// One location error: the truth, the first analysis and the final model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// SPEC symbol.
+    pub symbol: String,
+    /// Unit (um or urad).
+    pub unit: String,
+    /// The truth.
+    pub truth: f64,
+    /// The analysis with the starting model: value and standard
+    /// uncertainty (`None` when not identifiable).
+    pub analyzed: Option<(f64, f64)>,
+    /// After discovery.
+    pub discovered: Option<(f64, f64)>,
+}
+
+/// How far a program's tool tip runs from the intended path, um.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathError {
+    /// RMS over the samples.
+    pub rms_um: f64,
+    /// Largest.
+    pub max_um: f64,
+    /// Samples.
+    pub samples: usize,
+}
+
+/// A fitted parameter of a discovered effect: name, value, and the truth
+/// where the truth has it.
+pub type FoundValue = (String, f64, Option<f64>);
+
+/// Everything the demo found, and where it put the files.
+#[derive(Clone, Debug)]
+pub struct Demo {
+    /// Location errors.
+    pub rows: Vec<Row>,
+    /// The effects discovery added, with their fitted values and the
+    /// truth where the truth has them.
+    pub added: Vec<(String, Vec<FoundValue>)>,
+    /// The truth's effects beyond the location errors (id, parameter,
+    /// value).
+    pub hidden: Vec<(String, String, f64)>,
+    /// The gap before discovery.
+    pub gap_before: GapSize,
+    /// The gap after.
+    pub gap_after: GapSize,
+    /// The simulated CMM noise, um.
+    pub noise_um: f64,
+    /// The example program's tool-tip deviation before compensation.
+    pub tip_before: PathError,
+    /// After.
+    pub tip_after: PathError,
+    /// The discovery's story, as printed by `fivecal discover`.
+    pub story: String,
+    /// Files written, relative to the output directory.
+    pub files: Vec<PathBuf>,
+    /// The output directory.
+    pub out: PathBuf,
+}
+
+/// Runs the demo, calling `progress` as each stage starts.
+pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, DemoError> {
+    let out = &cfg.out;
+    let mut files: Vec<PathBuf> = Vec::new();
+
+    progress(Stage::Plan);
+    let e = Stage::Plan;
+    let machine = Machine::builtin(MACHINE)
+        .ok_or("the built-in machine is missing")
+        .at(e)?;
+    let template = Template::builtin("stepped-square")
+        .ok_or("the built-in stepped-square template is missing")
+        .at(e)?;
+    let planned = plan::plan(&PlanConfig {
+        machine: machine.clone(),
+        template,
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .at(e)?;
+    let plan_dir = out.join("plan");
+    for p in planned.write(&plan_dir, &planned.test, &[]).at(e)? {
+        files.push(rel(out, &p));
+    }
+    let manifest_path = plan_dir.join(format!("{}.plan.yaml", planned.test));
+    let loaded = plan::load_any(&manifest_path).at(e)?;
+
+    progress(Stage::Simulate);
+    let e = Stage::Simulate;
+    let kin = simulate::plan_kinematics(&loaded);
+    let truth_path = out.join("truth.yaml");
+    write_atomic(&truth_path, TRUTH.as_bytes()).at(e)?;
+    files.push(rel(out, &truth_path));
+    let truth = ErrorFile::load(&truth_path, &kin).at(e)?;
+    let sim = simulate::run(
+        &loaded,
+        &truth,
+        &SimOptions {
+            seed: cfg.seed,
+            ..SimOptions::default()
+        },
+    )
+    .at(e)?;
+    let measured = out.join("measured.dmo");
+    sim.write(Format::Dmis, &measured).at(e)?;
+    files.push(rel(out, &measured));
+
+    progress(Stage::Analyze);
+    let e = Stage::Analyze;
+    let data = discover::Inputs::load(&manifest_path, std::slice::from_ref(&measured))
+        .at(e)?
+        .data;
+    let setup = Setup::new(&kin, &data.poses, &[]).at(e)?;
+    let est = crate::uncertainty::identify_with(Method::Global, &setup, &data, &Default::default())
+        .at(e)?;
+    let result = est.error_file(None);
+    let result_path = out.join("analyzed.yaml");
+    write_atomic(&result_path, result.to_yaml().as_bytes()).at(e)?;
+    files.push(rel(out, &result_path));
+    let report_dir = out.join("report");
+    let u = est.u();
+    for p in crate::report::write(
+        &report_dir,
+        &crate::report::ReportInput {
+            title: format!("{}: {}", planned.test, measured.display()),
+            data: &data,
+            est: &est,
+            u: u.clone(),
+            mc: None,
+            error_file: &result,
+        },
+    )
+    .at(e)?
+    {
+        files.push(rel(out, &p));
+    }
+
+    progress(Stage::Discover);
+    let e = Stage::Discover;
+    let discovery = discover::run(&kin, &data, &DiscoverOptions::default()).at(e)?;
+    let story = discovery.story.render();
+    let story_path = out.join("discover.txt");
+    write_atomic(&story_path, story.as_bytes()).at(e)?;
+    files.push(rel(out, &story_path));
+    let final_est = discovery.identification(&data);
+    let final_file = final_est.error_file(None);
+    let final_path = out.join("discovered.yaml");
+    write_atomic(&final_path, final_file.to_yaml().as_bytes()).at(e)?;
+    files.push(rel(out, &final_path));
+
+    progress(Stage::Compensate);
+    let e = Stage::Compensate;
+    let tool_kin = Kinematics::new(&machine);
+    let text = program::frustum_program(&tool_kin).at(e)?;
+    let original = out.join("frustum.nc");
+    write_atomic(&original, text.as_bytes()).at(e)?;
+    files.push(rel(out, &original));
+    let identified = ErrorFile::load(&final_path, &tool_kin).at(e)?;
+    let compensated = out.join("frustum.compensated.nc");
+    let c = Compensator::new(
+        &identified.model,
+        &identified.theta,
+        Settings::new(Dialect::Fanuc),
+    );
+    let mut w = AtomicOutput::create(&compensated).at(e)?;
+    c.run(&original, text.as_bytes(), &mut w).at(e)?;
+    w.commit().at(e)?;
+    files.push(rel(out, &compensated));
+    let truth_tool = ErrorFile::load(&truth_path, &tool_kin).at(e)?;
+    let (tip_before, tip_after) = tip_errors(&truth_tool, &original, &compensated).at(e)?;
+
+    Ok(Demo {
+        rows: rows(&truth, &est, &final_est),
+        added: added(&discovery, &truth),
+        hidden: hidden(&truth),
+        gap_before: GapSize {
+            rms_um: discovery.story.start.gap.rms_um,
+            max_um: discovery.story.start.gap.max_um,
+        },
+        gap_after: GapSize {
+            rms_um: discovery.story.end.gap.rms_um,
+            max_um: discovery.story.end.gap.max_um,
+        },
+        noise_um: truth.noise.cmm.unwrap_or(simulate::DEFAULT_NOISE_UM),
+        tip_before,
+        tip_after,
+        story,
+        files,
+        out: out.clone(),
+    })
+}
+
+fn rel(base: &Path, p: &Path) -> PathBuf {
+    p.strip_prefix(base).unwrap_or(p).to_path_buf()
+}
+
+fn value(est: &Identification, name: &str) -> Option<(f64, f64)> {
+    match est.get(name) {
+        Some((v, Some(u))) => Some((v, u)),
+        _ => None,
+    }
+}
+
+fn rows(truth: &LoadedErrors, first: &Identification, last: &Identification) -> Vec<Row> {
+    let names = truth.model.param_names();
+    let units = truth.model.param_units();
+    let range = match truth.model.find("location") {
+        Some(i) => truth.model.param_range(i),
+        None => 0..0,
+    };
+    range
+        .map(|i| Row {
+            symbol: names[i].clone(),
+            unit: units[i].clone(),
+            truth: truth.theta[i],
+            analyzed: value(first, &names[i]),
+            discovered: value(last, &names[i]),
+        })
+        .collect()
+}
+
+fn hidden(truth: &LoadedErrors) -> Vec<(String, String, f64)> {
+    let m = &truth.model;
+    let names = m.param_names();
+    let mut v = Vec::new();
+    for (k, eff) in m.effects.iter().enumerate() {
+        let id = eff.id(&m.symbols);
+        if id == "location" {
+            continue;
+        }
+        for i in m.param_range(k) {
+            v.push((id.clone(), names[i].clone(), truth.theta[i]));
+        }
+    }
+    v
+}
+
+fn added(d: &Discovery, truth: &LoadedErrors) -> Vec<(String, Vec<FoundValue>)> {
+    let tn = truth.model.param_names();
+    d.story
+        .steps
+        .iter()
+        .map(|s| {
+            let vals = s
+                .values
+                .iter()
+                .map(|v| {
+                    let t = tn.iter().position(|n| *n == v.name).map(|i| truth.theta[i]);
+                    (v.name.clone(), v.value, t)
+                })
+                .collect();
+            (s.effect.clone(), vals)
+        })
+        .collect()
+}
+
+/// The tool-tip path of `program` on the machine of `errors` with
+/// parameters `theta` (`actual`) or on the nominal machine: feed samples
+/// every half millimetre.
+fn tips(
+    errors: &LoadedErrors,
+    theta: &[f64],
+    program: &Path,
+    actual: bool,
+) -> Result<Vec<Vector3<f64>>, String> {
+    let mut s = SimSettings::new(Dialect::Fanuc);
+    s.step = 0.5;
+    let sim = Simulator::new(&errors.model, theta, s);
+    let text =
+        std::fs::read_to_string(program).map_err(|e| format!("{}: {e}", program.display()))?;
+    let mut v = Vec::new();
+    sim.run(program, text.as_bytes(), &mut |x| {
+        // The intended path includes where each feed move starts (the end
+        // of the move before it, a rapid, say).
+        if x.feed || (!actual && x.fraction == 1.0) {
+            v.push(if actual { x.actual.tip } else { x.nominal.tip });
+        }
+    })
+    .map_err(|e| e.to_string())?;
+    Ok(v)
+}
+
+/// The distance of each point of `path` from the polyline `intended`.
+fn deviation(intended: &[Vector3<f64>], path: &[Vector3<f64>]) -> PathError {
+    let mut sum = 0.0;
+    let mut max: f64 = 0.0;
+    for p in path {
+        let mut best = f64::INFINITY;
+        for w in intended.windows(2) {
+            let d = w[1] - w[0];
+            let l2 = d.norm_squared();
+            let t = if l2 > 0.0 {
+                ((p - w[0]).dot(&d) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            best = best.min((w[0] + d * t - p).norm());
+        }
+        let um = best * 1e3;
+        sum += um * um;
+        max = max.max(um);
+    }
+    PathError {
+        rms_um: (sum / path.len().max(1) as f64).sqrt(),
+        max_um: max,
+        samples: path.len(),
+    }
+}
+
+/// How far the original and the compensated program put the tool tip from
+/// the path the original asks for, on the machine of the truth.
+fn tip_errors(
+    truth: &LoadedErrors,
+    original: &Path,
+    compensated: &Path,
+) -> Result<(PathError, PathError), String> {
+    let zero = vec![0.0; truth.theta.len()];
+    let intended = tips(truth, &zero, original, false)?;
+    let before = tips(truth, &truth.theta, original, true)?;
+    let after = tips(truth, &truth.theta, compensated, true)?;
+    Ok((deviation(&intended, &before), deviation(&intended, &after)))
+}
+
+impl Demo {
+    /// The one-screen summary.
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "fivecal demo: stepped-square test on the virtual {MACHINE} (FANUC), CMM noise {:.2} um",
+            self.noise_um
+        );
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "location errors       truth   analyzed (u)         after discovery (u)   |err|/u"
+        );
+        for r in &self.rows {
+            let f = |v: Option<(f64, f64)>| match v {
+                Some((x, u)) => format!("{x:>8.2} ({u:>5.2})"),
+                None => format!("{:>16}", "not identifiable"),
+            };
+            let z = match r.discovered {
+                Some((x, u)) if u > 0.0 => format!("{:>6.1}", (x - r.truth).abs() / u),
+                _ => "     -".into(),
+            };
+            let _ = writeln!(
+                s,
+                "  {:<8} {:<5} {:>8.2}   {}     {}    {z}",
+                r.symbol,
+                r.unit,
+                r.truth,
+                f(r.analyzed),
+                f(r.discovered)
+            );
+        }
+        let _ = writeln!(s);
+        let hidden: Vec<String> = self
+            .hidden
+            .iter()
+            .map(|(id, p, v)| format!("{id} ({p} = {v})"))
+            .collect();
+        let _ = writeln!(s, "hidden in the truth: {}", hidden.join(", "));
+        if self.added.is_empty() {
+            let _ = writeln!(s, "discovered: nothing");
+        }
+        for (id, vals) in &self.added {
+            let v: Vec<String> = vals
+                .iter()
+                .map(|(n, x, t)| match t {
+                    Some(t) => format!("{n} = {x:.3} (truth {t})"),
+                    None => format!("{n} = {x:.3}"),
+                })
+                .collect();
+            let _ = writeln!(s, "discovered: {id}: {}", v.join(", "));
+        }
+        let _ = writeln!(
+            s,
+            "gap (measured - model): {:.2} um RMS, {:.2} um max before discovery; {:.2} um RMS, {:.2} um max after",
+            self.gap_before.rms_um,
+            self.gap_before.max_um,
+            self.gap_after.rms_um,
+            self.gap_after.max_um
+        );
+        let _ = writeln!(
+            s,
+            "example program frustum.nc, tool tip from the intended path: {:.1} um RMS, {:.1} um max as written; {:.1} um RMS, {:.1} um max compensated",
+            self.tip_before.rms_um,
+            self.tip_before.max_um,
+            self.tip_after.rms_um,
+            self.tip_after.max_um
+        );
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "files in {}: plan/ (program, points, DMIS, model, setup sheet), measured.dmo, analyzed.yaml, report/index.html, discover.txt, discovered.yaml, frustum.nc, frustum.compensated.nc",
+            self.out.display()
+        );
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Distances from an L-shaped path, by hand: beside the first leg, past
+    /// the corner, and on the path.
+    #[test]
+    fn deviation_is_the_distance_to_the_nearest_segment() {
+        let l = [
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(10.0, 0.0, 0.0),
+            Vector3::new(10.0, 10.0, 0.0),
+        ];
+        let pts = [
+            Vector3::new(5.0, 0.003, 0.0),
+            Vector3::new(10.004, 5.0, 0.0),
+            Vector3::new(10.0, 2.0, 0.0),
+        ];
+        let d = deviation(&l, &pts);
+        assert!((d.max_um - 4.0).abs() < 1e-9, "{d:?}");
+        assert!((d.rms_um - ((9.0 + 16.0) / 3.0f64).sqrt()).abs() < 1e-9);
+        assert_eq!(d.samples, 3);
+    }
+}

@@ -1,0 +1,98 @@
+//! The README's two commands, run from the README's own text, so the
+//! README cannot drift from what the tool does.
+
+use std::path::Path;
+use std::process::Command;
+
+use assert_cmd::cargo::CommandCargoExt;
+use fivecal::errorfile::ErrorFile;
+use fivecal::{Kinematics, Machine};
+
+/// The command on the first indented line after `<!-- marker -->`, read
+/// the way `.ci/run` reads the test command.
+fn command_after(marker: &str) -> Vec<String> {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
+        .expect("README.md");
+    let mut lines = readme
+        .lines()
+        .skip_while(|l| !l.contains(&format!("<!-- {marker} -->")));
+    lines
+        .next()
+        .unwrap_or_else(|| panic!("README.md has no <!-- {marker} --> marker"));
+    let line = lines
+        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with("```"))
+        .expect("a command after the marker");
+    line.split_whitespace().map(str::to_string).collect()
+}
+
+/// `cargo run --release -- demo`, run as written (the built binary stands
+/// for `cargo run --release`) in an empty directory: it finishes, leaves
+/// its files in `fivecal-demo/`, and the errors it identifies are within
+/// four standard uncertainties of the built-in truth.
+#[test]
+fn the_readme_demo_command_runs_the_whole_job() {
+    let words = command_after("demo-command");
+    assert_eq!(
+        &words[..4],
+        ["cargo", "run", "--release", "--"],
+        "{words:?}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::cargo_bin("fivecal")
+        .unwrap()
+        .args(&words[4..])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let demo = dir.path().join("fivecal-demo");
+    for f in [
+        "plan/stepped-square.nc",
+        "plan/stepped-square.points.csv",
+        "measured.dmo",
+        "analyzed.yaml",
+        "report/index.html",
+        "discover.txt",
+        "discovered.yaml",
+        "frustum.nc",
+        "frustum.compensated.nc",
+    ] {
+        assert!(demo.join(f).is_file(), "{f} missing; stdout:\n{stdout}");
+    }
+    let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let truth = ErrorFile::load(&demo.join("truth.yaml"), &kin).unwrap();
+    let (found, _) = ErrorFile::read(&demo.join("discovered.yaml")).unwrap();
+    let names = truth.model.param_names();
+    for (sym, q) in &found.location_errors {
+        let i = names.iter().position(|n| n == sym).unwrap();
+        let u = q.u.expect("an uncertainty");
+        assert!(
+            (q.value - truth.theta[i]).abs() <= 4.0 * u,
+            "{sym}: {} +- {u} against the truth {}\n{stdout}",
+            q.value,
+            truth.theta[i]
+        );
+    }
+    assert_eq!(found.location_errors.len(), 8, "{stdout}");
+    assert!(stdout.contains("discovered: drift.EZ0B"), "{stdout}");
+}
+
+/// The test command is what `.ci/run` runs; here it must at least be a
+/// cargo test command that builds as written.
+#[test]
+fn the_readme_test_command_builds_the_tests() {
+    let words = command_after("test-command");
+    assert_eq!(&words[..2], ["cargo", "test"], "{words:?}");
+    let status = Command::new(env!("CARGO"))
+        .args(&words[1..])
+        .arg("--no-run")
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+}
