@@ -9,6 +9,8 @@
 //! | squareness | `squareness.EC(0X)Y`, `EB(0X)Z`, `EA(0Y)Z` | +-15 urad | 30 urad (3 um/100 mm) |
 //! | non-systematic (probing, CMM) | noise along the normal | sigma 0.35 um | 0.7 um |
 //! | test-piece setup (probing) | rigid displacement of the piece | - | 10, 10, 120 um; 100 urad |
+//! | directional pre-travel variation (probing) | `probe_pretravel` per approach direction | - | 0 (compensated, seed 000 section 6) |
+//! | form of a calibration sphere | the simulator's sphere form error | - | - |
 //!
 //! Not mapped, because the foundation has no effect for them: the periodic
 //! terms of positioning and straightness (0.5 um in seed 001), the angular
@@ -57,6 +59,15 @@ pub struct Contributors {
     /// Setup error of a probed piece: orientation about X, Y, Z (urad).
     #[serde(default)]
     pub setup_orientation_urad: [f64; 3],
+    /// Directional pre-travel variation of the probe (um, per approach
+    /// direction, drawn as the systematic contributors): what is left after
+    /// the probe's calibration. Only the simulator applies it.
+    #[serde(default)]
+    pub pretravel_um: f64,
+    /// Form error of a probed calibration sphere (um, largest radial
+    /// deviation). Only the simulator applies it.
+    #[serde(default)]
+    pub sphere_form_um: f64,
 }
 
 /// One drawn machine: extra effects with their values, noise and setup.
@@ -83,6 +94,8 @@ impl Contributors {
             noise_um: 0.35,
             setup_position_um: [0.0; 3],
             setup_orientation_urad: [0.0; 3],
+            pretravel_um: 0.0,
+            sphere_form_um: 0.0,
         }
     }
 
@@ -96,6 +109,8 @@ impl Contributors {
             noise_um: 0.7,
             setup_position_um: [10.0, 10.0, 120.0],
             setup_orientation_urad: [100.0, 100.0, 100.0],
+            pretravel_um: 0.0,
+            sphere_form_um: 0.0,
         }
     }
 
@@ -109,6 +124,8 @@ impl Contributors {
             noise_um,
             setup_position_um: [0.0; 3],
             setup_orientation_urad: [0.0; 3],
+            pretravel_um: 0.0,
+            sphere_form_um: 0.0,
         }
     }
 
@@ -182,6 +199,19 @@ impl Contributors {
             noise_um: self.noise_um,
             setup: self.sample_setup(rng),
         }
+    }
+
+    /// Draws the directional pre-travel variation: the `probe_pretravel`
+    /// effect with one value per approach direction, `None` when the
+    /// contributors have none.
+    pub fn sample_pretravel<R: Rng + ?Sized>(&self, rng: &mut R) -> Option<(Effect, Vec<f64>)> {
+        if self.pretravel_um <= 0.0 {
+            return None;
+        }
+        let v = (0..Effect::ProbePretravel.n_params())
+            .map(|_| self.draw(self.pretravel_um, rng))
+            .collect();
+        Some((Effect::ProbePretravel, v))
     }
 
     /// Draws the setup error of one probed piece.

@@ -10,6 +10,7 @@
 //! with the foundation's model ([`crate::identify::synthetic`]); the
 //! simulator will plug into [`montecarlo::run`] the same way.
 
+pub mod bound;
 pub mod contributors;
 pub mod montecarlo;
 
@@ -28,6 +29,7 @@ use crate::identify::{
 };
 use crate::model::Model;
 
+pub use bound::{Bound, cramer_rao_bound};
 pub use contributors::{Contributors, Disturbance};
 pub use montecarlo::{McOptions, McResult};
 
