@@ -79,27 +79,42 @@ pub fn cramer_rao_bound(
             minutes[o] = pose.minutes;
         }
     }
-    let mut j = Mat::<f64>::zeros(m, n + extra);
-    for (row, &t) in minutes.iter().enumerate() {
-        let pred = fm.predict(theta, nuisance, data.point(row), t)?;
-        // Noise-free: the measured point is the predicted one, so only the
-        // derivatives of the point-to-face residual matter.
-        let f = face_residual(&[0.0; 6], &pred.point, &pred.normal, &pred.point);
-        for c in 0..n + k {
-            let mut v = 0.0;
-            for i in 0..3 {
-                v += f.d_q[i] * pred.d_point[(i, c)] + f.d_n[i] * pred.d_normal[(i, c)];
+    let jacobian = |theta: &[f64], nuisance: &[f64]| -> Result<Mat<f64>, IdentifyError> {
+        let mut j = Mat::<f64>::zeros(m, n + extra);
+        for (row, &t) in minutes.iter().enumerate() {
+            let pred = fm.predict(theta, nuisance, data.point(row), t)?;
+            // Noise-free: the measured point is the predicted one, so only
+            // the derivatives of the point-to-face residual matter.
+            let f = face_residual(&[0.0; 6], &pred.point, &pred.normal, &pred.point);
+            for c in 0..n + k {
+                let mut v = 0.0;
+                for i in 0..3 {
+                    v += f.d_q[i] * pred.d_point[(i, c)] + f.d_n[i] * pred.d_normal[(i, c)];
+                }
+                j[(row, c)] = v;
             }
-            j[(row, c)] = v;
-        }
-        if placement {
-            for i in 0..6 {
-                j[(row, n + k + i)] = f.d_rho[i];
+            if placement {
+                for i in 0..6 {
+                    j[(row, n + k + i)] = f.d_rho[i];
+                }
             }
         }
-    }
+        Ok(j)
+    };
     let basis = setup.basis(extra);
-    let design = lsq::design(&j, Some(&basis), lsq::Options::default().rank_rtol);
+    let rtol = lsq::Options::default().rank_rtol;
+    // What the design identifies is judged at the nominal machine, as the
+    // methods judge it: at the true errors the exact model couples unseen
+    // directions (a column's setup along its own faces) to seen ones by
+    // terms of the order of the errors, which would count them as
+    // identifiable with huge variances and inflate the bound.
+    let nominal = lsq::design(&jacobian(&vec![0.0; n], &vec![0.0; k])?, Some(&basis), rtol);
+    let design = lsq::design_ranked(
+        &jacobian(theta, nuisance)?,
+        Some(&basis),
+        rtol,
+        Some(nominal.rank),
+    );
     let mut names = setup.model.param_names();
     names.extend(names_nuisance);
     if placement {
@@ -110,7 +125,7 @@ pub fn cramer_rao_bound(
         );
     }
     let report = identifiability::report(
-        &design,
+        &nominal,
         m,
         n,
         &names,
