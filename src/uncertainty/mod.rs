@@ -6,13 +6,16 @@
 //! squareness, setup) only show in a Monte-Carlo study: draw a machine that
 //! has the identified errors plus random contributors ([`contributors`]),
 //! simulate the test, identify again, and take the spread of the estimates
-//! ([`montecarlo`]). Until the simulator lands, [`synthetic_run`] simulates
-//! with the foundation's model ([`crate::identify::synthetic`]); the
-//! simulator will plug into [`montecarlo::run`] the same way.
+//! ([`montecarlo`]). [`simulated`] runs the plan again on the simulator
+//! for that; [`synthetic_run`] (the foundation's rigid-pose model,
+//! [`crate::identify::synthetic`]) remains for a points file whose plan
+//! cannot be rebuilt. [`bound`] gives the Cramér-Rao bound of a test's
+//! design, the floor under every method's uncertainty.
 
 pub mod bound;
 pub mod contributors;
 pub mod montecarlo;
+pub mod simulated;
 
 use std::collections::HashMap;
 
@@ -217,8 +220,11 @@ pub fn synthetic_run<R: Rng + ?Sized>(
         .collect())
 }
 
-/// The Cramér-Rao bound of the parameters for noise `sigma_um` per point:
-/// the covariance of an efficient estimator, `sigma^2 (J^T J)^+`.
+/// The method's own covariance for noise `sigma_um` per point,
+/// `sigma^2 cov_unit`: the Cramér-Rao bound when the method is efficient
+/// (the global fit), above it otherwise (seed 000's two-stage form, the
+/// sphere method). The bound of the design itself is
+/// [`cramer_rao_bound`].
 pub fn cramer_rao(est: &Identification, sigma_um: f64) -> DMatrix<f64> {
     &est.cov_unit * (sigma_um * sigma_um)
 }
