@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
-use fivecal::errorfile::{ErrorFile, Noise};
+use fivecal::errorfile::{ErrorFile, Noise, NotIdentified};
 use fivecal::formats::detect::{self, Measurement, PointSet, ReadContext};
 use fivecal::formats::heights::SectionHeight;
 use fivecal::formats::manifest::{Manifest, TestKind};
@@ -20,6 +20,7 @@ use fivecal::identify::sphere::{CircleMethod, SphereOptions};
 use fivecal::identify::{self, Dataset, Method, Setup};
 use fivecal::io::{ensure_not_input, write_atomic};
 use fivecal::probing::template::{ColumnsTemplate, SphereTemplate, TemplateSource};
+use fivecal::uncertainty::simulated::SimulatedTest;
 use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
 use fivecal::{Kinematics, Machine};
 use nalgebra::{Point3, Vector3};
@@ -67,8 +68,11 @@ pub struct AnalyzeArgs {
     /// default) or sphere (seed 004, for a calibration-sphere test).
     #[arg(long, value_name = "METHOD")]
     method: Option<String>,
-    /// Run a Monte-Carlo uncertainty study of N runs (seeded, parallel) over
-    /// the contributors; its spread becomes the reported `u`.
+    /// Run a Monte-Carlo uncertainty study of N runs (seeded, parallel): the
+    /// plan is run again on the simulator with the estimated errors plus a
+    /// draw of the contributors, and identified again; the spread becomes
+    /// the reported `u`. (A points file whose plan cannot be rebuilt from
+    /// the manifest falls back to the rigid-pose model, and says so.)
     #[arg(long, value_name = "N")]
     mc: Option<usize>,
     /// Seed of the Monte-Carlo study.
@@ -79,7 +83,8 @@ pub struct AnalyzeArgs {
     /// sigma only), or a YAML file with the keys `distribution` (uniform or
     /// normal), `linear_scale_um_per_m`, `straightness_um`,
     /// `squareness_urad`, `noise_um`, and optionally `setup_position_um` and
-    /// `setup_orientation_urad` (three numbers each).
+    /// `setup_orientation_urad` (three numbers each), `pretravel_um`
+    /// (directional pre-travel variation) and `sphere_form_um`.
     #[arg(long, value_name = "PRESET|FILE")]
     contributors: Option<String>,
     /// Error maps to identify with the location errors, comma-separated
@@ -467,20 +472,51 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
             .contributors
             .clone()
             .unwrap_or_else(|| Contributors::noise_only(est.sigma_um));
-        let sphere_geometry =
-            (c.method == identify::Method::Sphere).then(|| sphere_geometry(&est, data));
-        let t = SyntheticTest {
-            estimate: &est,
-            setup: &setup,
-            data,
-            method: c.method,
-            sphere: c.sphere,
-            sphere_geometry,
-            contributors,
+        // The Monte Carlo runs the plan again on the simulator when the
+        // plan can be rebuilt from its manifest (it always can for what
+        // `fivecal plan` wrote); a points file without its template leaves
+        // the synthetic model of the foundation, and the run says so.
+        let rebuilt = simulator_plan(c, data);
+        let (mc, how) = match &rebuilt {
+            Ok(plan) => {
+                let t = SimulatedTest::from_estimate(
+                    plan,
+                    &est,
+                    &setup,
+                    data,
+                    c.sphere,
+                    contributors.clone(),
+                );
+                (
+                    uncertainty::montecarlo::run(opts, est.theta.len(), |_, r| {
+                        uncertainty::simulated::simulated_run(&t, r)
+                    }),
+                    "on the simulator (the plan run again with the estimate and the contributors)"
+                        .to_string(),
+                )
+            }
+            Err(e) => {
+                let sphere_geometry =
+                    (c.method == identify::Method::Sphere).then(|| sphere_geometry(&est, data));
+                let t = SyntheticTest {
+                    estimate: &est,
+                    setup: &setup,
+                    data,
+                    method: c.method,
+                    sphere: c.sphere,
+                    sphere_geometry,
+                    contributors: contributors.clone(),
+                };
+                (
+                    uncertainty::montecarlo::run(opts, est.theta.len(), |_, r| {
+                        uncertainty::synthetic_run(&t, r)
+                    }),
+                    format!(
+                        "with synthetic measurements from the rigid-pose model, not the simulator: the plan cannot be rebuilt from its manifest ({e})"
+                    ),
+                )
+            }
         };
-        let mc = uncertainty::montecarlo::run(opts, est.theta.len(), |_, r| {
-            uncertainty::synthetic_run(&t, r)
-        });
         if mc.runs < 2 {
             bail!(
                 "the Monte-Carlo study failed: {}",
@@ -498,10 +534,12 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
                 mc.failed.1.clone().unwrap_or_default()
             );
         }
-        println!(
-            "monte carlo: {} runs (seed {}), synthetic measurements from the model (the simulator's forward model is not yet available)",
-            mc.runs, opts.seed
-        );
+        println!("monte carlo: {} runs (seed {}) {how}", mc.runs, opts.seed);
+        if rebuilt.is_err() {
+            for s in ["directional pre-travel", "the sphere's form error"] {
+                println!("  not included: {s} (only the simulator applies it)");
+            }
+        }
         for s in Contributors::unmapped() {
             println!("  not included: {s}");
         }
@@ -565,6 +603,25 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
     Ok(f)
 }
 
+/// The plan rebuilt for the simulator from the manifest's copies, if it is
+/// the plan the points file describes (same labels at the same places).
+fn simulator_plan(c: &Config, data: &Dataset) -> Result<fivecal::plan::LoadedPlan, String> {
+    let plan = fivecal::plan::load_any(&c.manifest_path).map_err(|e| e.to_string())?;
+    let rebuilt = plan.plan_points();
+    let same = rebuilt.points.len() == data.plan.points.len()
+        && rebuilt
+            .points
+            .iter()
+            .zip(&data.plan.points)
+            .all(|(a, b)| a.label == b.label && (a.p - b.p).norm() < 1e-5);
+    if !same {
+        return Err(
+            "the points file is not the one the plan's template gives (edited by hand?)".into(),
+        );
+    }
+    Ok(plan)
+}
+
 /// The sphere's centre in W and its radius, from the identification's
 /// per-pose centres (the reference pose) and the contact points.
 fn sphere_geometry(est: &identify::Identification, data: &Dataset) -> (Vector3<f64>, f64) {
@@ -602,15 +659,39 @@ fn write_nine_section(c: &Config, stats: &[(PathBuf, NineSection)]) -> anyhow::R
             r[0], r[1], r[2]
         );
     }
+    // The test validates (seed 004 section 6): it evaluates the machine and
+    // identifies nothing, which the result says rather than print numbers.
+    let reason = "the nine-section test gives section heights, from which no location error can be \
+                  separated (seed 004 validates with it); identify with the stepped-square, \
+                  column or sphere test";
+    let not_identifiable: Vec<NotIdentified> =
+        fivecal::kinematics::symbols::SymbolTable::for_kinematics(&c.kin)
+            .location
+            .iter()
+            .map(|l| NotIdentified {
+                symbol: l.name.clone(),
+                reason: reason.into(),
+            })
+            .collect();
+    println!(
+        "not identifiable: {} ({reason})",
+        not_identifiable
+            .iter()
+            .map(|n| n.symbol.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     #[derive(serde::Serialize)]
     struct Out<'a> {
         nine_section: Vec<(String, &'a NineSection)>,
+        not_identifiable: Vec<NotIdentified>,
     }
     let out = Out {
         nine_section: stats
             .iter()
             .map(|(p, s)| (p.display().to_string(), s))
             .collect(),
+        not_identifiable,
     };
     write_atomic(&c.out, serialize(&out, c.json)?.as_bytes())?;
     println!("wrote {}", c.out.display());
