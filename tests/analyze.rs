@@ -608,6 +608,12 @@ fn sphere_test_on_ac_trunnion_from_the_command_line() {
         text.contains("method sphere") && text.contains("monte carlo: 6 runs"),
         "{text}"
     );
+    // This plan directory has no template to rebuild the plan from: the
+    // study falls back to the rigid-pose model and says so.
+    assert!(
+        text.contains("not the simulator: the plan cannot be rebuilt"),
+        "{text}"
+    );
     let l = ErrorFile::load(&out, &k).unwrap();
     let names = l.model.param_names();
     assert_eq!(

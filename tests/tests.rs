@@ -5,6 +5,7 @@
 mod util;
 
 mod analyze;
+mod analyze_sim;
 mod cli;
 mod compensate;
 mod compensate_cli;
