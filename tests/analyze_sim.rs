@@ -6,9 +6,9 @@
 //! and every probed piece clamped with its own setup error, then analysed
 //! as a user would.
 //!
-//! Sizes: recovery over 20 seeds as the issue asks; the spread of the
-//! estimates over [`SPREAD_RUNS`] simulations (the 200-run study is
-//! `cargo run --release --example analyze_study`, quoted in the README).
+//! Sizes: recovery over 20 seeds and the spread of 200 simulations, as the
+//! issue asks (the simulator is fast enough); `cargo run --release
+//! --example analyze_study` prints the same studies as tables.
 
 use std::path::Path;
 
@@ -25,12 +25,14 @@ use crate::cli::fivecal;
 use crate::simulate::{planned, truth};
 use crate::util::{random_placement, rng, tempdir};
 
-/// Simulations in the suite's spread test. A standard deviation from `N`
-/// runs is known to `1/sqrt(2(N-1))`: 7.1 % for 100 runs, so the 25 %
-/// band of [`SPREAD_TOLERANCE`] is 3.5 of its standard errors wide.
-const SPREAD_RUNS: usize = 100;
+/// Simulations in the suite's spread tests: the issue's full 200 (a run of
+/// the simulator and both identifications takes a few tens of ms). A
+/// standard deviation from `N` runs is known to `1/sqrt(2(N-1))`, 5.0 %
+/// for 200, so the issue's 20 % band ([`SPREAD_TOLERANCE`]) is four of its
+/// standard errors wide.
+const SPREAD_RUNS: usize = 200;
 /// See [`SPREAD_RUNS`].
-const SPREAD_TOLERANCE: f64 = 0.25;
+const SPREAD_TOLERANCE: f64 = 0.20;
 
 /// All eight B/C location errors (5-50 um, 20-200 urad).
 const BC_ERRORS: &str = "location_errors:
@@ -235,8 +237,9 @@ fn uncertainty_agrees(machine: &str, test: &str, errors: &str, seed: u64, method
                 s.method,
                 s.runs
             );
-            // No method beats the bound (the mean reported u carries the
-            // residual sigma's 1/sqrt(2 dof), under 8 % here).
+            // No method beats the bound (each run's u carries its residual
+            // sigma, known to 1/sqrt(2 dof); their mean over the runs is
+            // known far better than the 8 % allowed here).
             assert!(
                 u > 0.92 * crb,
                 "{test} {} {name}: reported u {u:.3} below the Cramer-Rao bound {crb:.3}",
