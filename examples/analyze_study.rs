@@ -2,17 +2,18 @@
 //! simulator (the test suite runs them sized down, see
 //! `tests/analyze_sim.rs`):
 //!
-//! 1. recovery: the planners' stepped square on `bc-trunnion` and column
-//!    probing on `ac-trunnion`, all eight location errors set, 0.35 um of
-//!    noise, 20 seeds, every method that applies: how many symbols fall
-//!    within two and four reported standard uncertainties of the truth;
+//! 1. recovery: the planners' stepped square on `bc-trunnion`, column
+//!    probing and the calibration sphere on `ac-trunnion`, all eight
+//!    location errors set, 0.35 um of noise, 20 seeds, every method that
+//!    applies: how many symbols fall within two and four reported standard
+//!    uncertainties of the truth;
 //! 2. spread: 200 seeded simulations of each test (noise only), each
-//!    identified by both methods: the spread of the estimates against the
+//!    identified by every method: the spread of the estimates against the
 //!    mean reported uncertainty and the Cramér-Rao bound of the design
 //!    (from the simulator's forward model).
 //!
 //! Run `cargo run --release --example analyze_study [RUNS]` (RUNS = 200 by
-//! default; about 10 minutes on two cores).
+//! default; under a minute on two cores).
 
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::formats::manifest::KinematicsMode;
@@ -95,15 +96,25 @@ fn options(seed: u64) -> SimOptions {
     }
 }
 
+fn short(m: Method) -> &'static str {
+    match m {
+        Method::Global => "G",
+        Method::TwoStage => "2S",
+        Method::Sphere => "S",
+    }
+}
+
 fn main() {
     let runs: usize = std::env::args()
         .nth(1)
         .map(|s| s.parse().expect("RUNS: a number of simulations"))
         .unwrap_or(200);
-    let methods = [Method::Global, Method::TwoStage];
-    for (machine, test, errors) in [
-        ("bc-trunnion", "stepped-square", BC_ERRORS),
-        ("ac-trunnion", "probe-columns", AC_ERRORS),
+    let both = [Method::Global, Method::TwoStage];
+    let sphere = [Method::Sphere, Method::Global];
+    for (machine, test, errors, methods) in [
+        ("bc-trunnion", "stepped-square", BC_ERRORS, &both),
+        ("ac-trunnion", "probe-columns", AC_ERRORS, &both),
+        ("ac-trunnion", "probe-sphere", AC_ERRORS, &sphere),
     ] {
         let plan = planned(machine, test);
         let t = truth(&plan, errors);
@@ -163,7 +174,7 @@ fn main() {
         let start = std::time::Instant::now();
         let studies = simulated::study(
             &st,
-            &methods,
+            methods,
             &McOptions {
                 runs,
                 seed: 2026,
@@ -174,31 +185,28 @@ fn main() {
             "spread of {runs} simulations ({:.0} s): spread / mean reported u, mean reported u / Cramer-Rao bound",
             start.elapsed().as_secs_f64()
         );
-        println!(
-            "  {:<9} {:>8} {:>8} | {:>8} {:>8} {:>7} {:>7} | {:>8} {:>8} {:>7} {:>7}",
-            "symbol",
-            "truth",
-            "CRB",
-            "G spread",
-            "G u",
-            "sp/u",
-            "u/CRB",
-            "2S sprd",
-            "2S u",
-            "sp/u",
-            "u/CRB"
-        );
+        let mut head = format!("  {:<9} {:>8} {:>8}", "symbol", "truth", "CRB");
+        for m in methods {
+            head += &format!(
+                " | {:>10} {:>8} {:>7} {:>7}",
+                format!("{} spread", short(*m)),
+                format!("{} u", short(*m)),
+                "sp/u",
+                "u/CRB"
+            );
+        }
+        println!("{head}");
         let mut worst = [0.0f64; 4];
         for (i, name) in names.iter().enumerate() {
             let crb = bound.u(i).unwrap_or(f64::NAN);
-            let mut line = format!("  {name:<9} {:>8.1} {crb:>8.3} |", t.theta[i]);
+            let mut line = format!("  {name:<9} {:>8.1} {crb:>8.3}", t.theta[i]);
             for (k, s) in studies.iter().enumerate() {
                 let (sp, u) = (s.spread[i], s.mean_u[i]);
                 worst[2 * k] = worst[2 * k].max((sp / u - 1.0).abs());
                 worst[2 * k + 1] = worst[2 * k + 1].max((u / crb - 1.0).abs());
-                line += &format!(" {sp:>8.3} {u:>8.3} {:>7.3} {:>7.3} |", sp / u, u / crb);
+                line += &format!(" | {sp:>10.3} {u:>8.3} {:>7.3} {:>7.3}", sp / u, u / crb);
             }
-            println!("{}", line.trim_end_matches(" |"));
+            println!("{line}");
         }
         for (k, s) in studies.iter().enumerate() {
             println!(
