@@ -1,21 +1,30 @@
 //! Speed of identification on the synthetic tests: the global and
 //! two-stage fits of a stepped-square piece (144 points, with a B-axis
 //! map), the sphere method (49 positions), the unlabelled placement search,
-//! and a full-size Monte-Carlo study (200 runs) of the global fit.
+//! and a full-size Monte-Carlo study (200 runs) of the global fit; and on
+//! the simulator: one run of the planner's stepped square simulated and
+//! identified, and the 200-run Monte Carlo `analyze --mc 200` makes of it
+//! with seed 001's contributors.
 
 use std::collections::HashMap;
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use fivecal::errorfile::ErrorFile;
 use fivecal::formats::detect::PointSet;
+use fivecal::formats::manifest::KinematicsMode;
 use fivecal::formats::manifest::TestKind;
 use fivecal::formats::points::PlanPoints;
 use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Dataset, Method, Setup, data, synthetic};
 use fivecal::kinematics::Kinematics;
 use fivecal::model::{Effect, Model};
+use fivecal::plan::{LoadedPlan, PlanConfig, Template};
+use fivecal::post::PostDefinition;
+use fivecal::simulate::{self, SimOptions};
+use fivecal::uncertainty::simulated::{self, SimulatedTest};
 use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
-use fivecal::{Machine, placement};
+use fivecal::{Dialect, Machine, placement};
 use nalgebra::{Isometry3, Vector3};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
@@ -122,6 +131,59 @@ fn bench(c: &mut Criterion) {
             )
         })
     });
+    group.finish();
+
+    // The simulator: the planner's stepped square on bc-trunnion.
+    let m = Machine::builtin("bc-trunnion").unwrap();
+    let plan = LoadedPlan::Machining(Box::new(
+        fivecal::plan::plan(&PlanConfig {
+            machine: m,
+            template: Template::builtin("stepped-square").unwrap(),
+            post: PostDefinition::builtin(Dialect::Fanuc),
+            kinematics: KinematicsMode::Post,
+            tool: None,
+        })
+        .unwrap(),
+    ));
+    let kin = simulate::plan_kinematics(&plan);
+    let src = "machine: bc-trunnion\nlocation_errors: {EX0B: 12, EZ0B: -40, EA0B: 80, EC0B: -60, EB0B: 150, EX(0B)C: 25, EY0C: -18, EA(0B)C: 45}\n";
+    let path = std::path::Path::new("truth.yaml");
+    let truth = ErrorFile::parse(path, src)
+        .and_then(|f| f.to_model(&kin, path, src))
+        .unwrap();
+    let out = simulate::run(&plan, &truth, &SimOptions::default()).unwrap();
+    let sd = simulated::plan_dataset(&plan, "sim", out.points).unwrap();
+    let ssetup = Setup::new(&kin, &sd.poses, &[]).unwrap();
+    c.bench_function(
+        "simulate the planned stepped square and identify (global)",
+        |b| {
+            b.iter(|| {
+                let out = simulate::run(black_box(&plan), &truth, &SimOptions::default()).unwrap();
+                let d = simulated::plan_dataset(&plan, "sim", out.points).unwrap();
+                uncertainty::identify_with(Method::Global, &ssetup, &d, &so).unwrap()
+            })
+        },
+    );
+    let est = uncertainty::identify_with(Method::Global, &ssetup, &sd, &so).unwrap();
+    let t = SimulatedTest::from_estimate(&plan, &est, &ssetup, &sd, so, Contributors::seed001());
+    let mut group = c.benchmark_group("monte carlo on the simulator");
+    group.sample_size(10);
+    group.bench_function(
+        "200 runs of the planned stepped square, seed 001 table 4",
+        |b| {
+            b.iter(|| {
+                uncertainty::montecarlo::run(
+                    &McOptions {
+                        runs: 200,
+                        seed: 3,
+                        progress: false,
+                    },
+                    est.theta.len(),
+                    |_, r| simulated::simulated_run(&t, r),
+                )
+            })
+        },
+    );
     group.finish();
 }
 
