@@ -23,6 +23,12 @@ use crate::source::SourceError;
 /// a piece on a CMM; they are refused before any arithmetic can overflow.
 pub const MAX_COORDINATE_MM: f64 = 1.0e5;
 
+/// Measured points of a machined piece land within a fraction of a
+/// millimetre of their nominal points once the piece is placed (machine
+/// errors move them by tens of um); farther means they do not measure this
+/// plan's piece, mm.
+pub const FIT_LIMIT_MM: f64 = 1.0;
+
 /// One measured point and the plan point it measures.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Observation {
@@ -189,7 +195,11 @@ pub fn join(
             ));
         }
         let matched: Vec<usize> = if set.labeled {
-            check_labels(plan, &by_label, path, set)?
+            let m = check_labels(plan, &by_label, path, set)?;
+            if kind == TestKind::Machining {
+                check_fit(plan, path, set, &m)?;
+            }
+            m
         } else {
             match_unlabeled(plan, kind, path, set, nominal, &mut warnings)?
         };
@@ -331,6 +341,43 @@ fn check_labels(
     Ok(out)
 }
 
+/// Labelled points of a machined piece against the plan's geometry: the
+/// same labels on another piece (a plan made from an edited template) would
+/// otherwise be identified as huge errors. The piece is placed on all
+/// points (Kabsch) and every point must lie within [`FIT_LIMIT_MM`] of its
+/// nominal point; a file too small to place is left to the identification.
+fn check_fit(
+    plan: &PlanPoints,
+    path: &Path,
+    set: &PointSet,
+    matched: &[usize],
+) -> Result<(), SourceError> {
+    let noms: Vec<Vector3<f64>> = matched.iter().map(|&i| plan.points[i].p).collect();
+    let meas: Vec<Vector3<f64>> = set.points.iter().map(|p| p.p).collect();
+    let Ok(iso) = placement::kabsch(&noms, &meas) else {
+        return Ok(());
+    };
+    let (worst, d) = noms
+        .iter()
+        .zip(&meas)
+        .map(|(n, m)| ((iso * nalgebra::Point3::from(*n)).coords - m).norm())
+        .enumerate()
+        .fold((0, 0.0f64), |a, (k, d)| if d > a.1 { (k, d) } else { a });
+    if d > FIT_LIMIT_MM {
+        let p = &set.points[worst];
+        return Err(SourceError::new(
+            path,
+            p.line,
+            1,
+            format!(
+                "`{}` lies {d:.3} mm from its nominal point once the piece is placed (limit {FIT_LIMIT_MM} mm): the points do not measure this plan's piece; this file belongs to a different plan, or its labels are mixed up",
+                plan.points[matched[worst]].label
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn match_unlabeled(
     plan: &PlanPoints,
     kind: TestKind,
@@ -376,9 +423,6 @@ fn match_unlabeled(
             (out, dist)
         }
     };
-    // Measured points land within a fraction of a millimetre of their
-    // nominal point; farther means they do not measure this plan's piece.
-    const FIT_LIMIT_MM: f64 = 1.0;
     let (worst, max_distance) =
         distances.iter().enumerate().fold(
             (0, 0.0f64),
