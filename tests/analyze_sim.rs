@@ -16,7 +16,7 @@ use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Dataset, Identification, Method, Setup};
 use fivecal::plan::LoadedPlan;
-use fivecal::simulate::{self, Format, Placement, SimOptions};
+use fivecal::simulate::{self, Placement, SimOptions};
 use fivecal::uncertainty::simulated::{self, SimulatedTest};
 use fivecal::uncertainty::{self, Contributors, McOptions};
 use nalgebra::DMatrix;
@@ -466,19 +466,25 @@ fn plan_with_cli(
     dir.join(format!("{test}.plan.yaml"))
 }
 
-/// What `fivecal simulate` writes for a plan and a truth file (through
-/// the library: the measurement file as the simulator renders it), in the
-/// format the file name says.
+/// `fivecal simulate` of a plan with a truth file (0.35 um of noise, the
+/// truth's default; the format from the file name).
 fn simulate_with_cli(manifest: &Path, truth: &Path, out: &Path, seed: u64) {
     simulate_as(manifest, truth, out, seed, None);
 }
 
-fn simulate_as(manifest: &Path, truth: &Path, out: &Path, seed: u64, format: Option<Format>) {
-    let plan = fivecal::plan::load_any(manifest).unwrap();
-    let errors = ErrorFile::load(truth, &simulate::plan_kinematics(&plan)).unwrap();
-    let run = simulate::run(&plan, &errors, &options(seed)).unwrap();
-    let format = format.unwrap_or_else(|| Format::for_path(out, plan.kind()));
-    run.write(format, out).unwrap();
+fn simulate_as(manifest: &Path, truth: &Path, out: &Path, seed: u64, format: Option<&str>) {
+    let mut cmd = fivecal();
+    cmd.args(["simulate", "--plan"])
+        .arg(manifest)
+        .arg("--errors")
+        .arg(truth)
+        .arg("--out")
+        .arg(out)
+        .args(["--seed", &seed.to_string()]);
+    if let Some(f) = format {
+        cmd.args(["--format", f]);
+    }
+    cmd.assert().success();
 }
 
 fn analyze_with_cli(
@@ -608,7 +614,7 @@ fn nine_section_heights_identify_no_symbol_and_print_none() {
     let truth = dir.path().join("truth.yaml");
     std::fs::write(&truth, format!("machine: ac-trunnion\n{AC_ERRORS}")).unwrap();
     let heights = dir.path().join("heights.csv");
-    simulate_as(&manifest, &truth, &heights, 3, Some(Format::Heights));
+    simulate_as(&manifest, &truth, &heights, 3, Some("heights"));
     let out = dir.path().join("nine.yaml");
     let a = analyze_with_cli(&manifest, &heights, &out, &[]).success();
     let stdout = String::from_utf8(a.get_output().stdout.clone()).unwrap();
@@ -717,9 +723,11 @@ fn simulated_cmm_files_with_a_missing_label_a_nan_a_duplicate_or_a_non_numeric_f
 
 #[test]
 fn a_simulated_file_from_a_different_plan_is_refused() {
-    // The stepped square of ac-trunnion measured, analysed against the
-    // plan of bc-trunnion; and the piece of a plan with a smaller
-    // reference step (another template).
+    // The stepped square of ac-trunnion analysed against the plan of
+    // bc-trunnion (other labels); and the piece of a plan made from an
+    // edited template, a reference step 36 mm wide instead of 40: the same
+    // labels, another piece. DMIS output carries its nominals, a CSV only
+    // its geometry; both are refused, naming a line.
     let dir = tempdir();
     let bc = plan_with_cli(
         &dir.path().join("bc"),
@@ -733,16 +741,47 @@ fn a_simulated_file_from_a_different_plan_is_refused() {
         "ac-trunnion",
         None,
     );
-    let truth = dir.path().join("truth.yaml");
-    std::fs::write(&truth, format!("machine: ac-trunnion\n{AC_ERRORS}")).unwrap();
-    for name in ["other.dmo", "other.csv"] {
+    let template = dir.path().join("narrow.yaml");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("templates/stepped-square.yaml"),
+    )
+    .unwrap();
+    let edited = text.replacen("first_size: 40", "first_size: 36", 1);
+    assert_ne!(edited, text);
+    std::fs::write(&template, edited).unwrap();
+    let narrow = plan_with_cli(
+        &dir.path().join("narrow"),
+        "stepped-square",
+        "bc-trunnion",
+        Some(&template),
+    );
+    let ac_truth = dir.path().join("ac.yaml");
+    std::fs::write(&ac_truth, format!("machine: ac-trunnion\n{AC_ERRORS}")).unwrap();
+    let bc_truth = dir.path().join("bc.yaml");
+    std::fs::write(&bc_truth, format!("machine: bc-trunnion\n{BC_ERRORS}")).unwrap();
+    for (plan, truth, name, what) in [
+        (&ac, &ac_truth, "ac.dmo", "is not a point of the plan"),
+        (&ac, &ac_truth, "ac.csv", "is not a point of the plan"),
+        (
+            &narrow,
+            &bc_truth,
+            "narrow.dmo",
+            "different plan's CMM program",
+        ),
+        (
+            &narrow,
+            &bc_truth,
+            "narrow.csv",
+            "do not measure this plan's piece",
+        ),
+    ] {
         let measured = dir.path().join(name);
-        simulate_with_cli(&ac, &truth, &measured, 1);
+        simulate_with_cli(plan, truth, &measured, 1);
         let out = dir.path().join("r.yaml");
         let a = analyze_with_cli(&bc, &measured, &out, &[]).code(2);
         let e = String::from_utf8(a.get_output().stderr.clone()).unwrap();
         assert!(
-            e.contains(name) && e.contains("different plan"),
+            e.contains(&format!("{name}:")) && e.contains(what) && e.contains("different plan"),
             "{name}: {e}"
         );
         assert!(!out.exists());
