@@ -703,8 +703,8 @@ fn drift_per_pose_is_identified_by_the_rigid_pose_model() {
 
 #[test]
 fn the_sample_data_in_examples_analyze_returns_its_truth() {
-    // `examples/analyze/` (written by `cargo run --example
-    // synthetic_measurements`) is what the README points newcomers to.
+    // `examples/analyze/` (planned by `fivecal plan`, measured by `fivecal
+    // simulate` with `truth.yaml`) is what the README points newcomers to.
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze");
     let dir = tempdir();
     for (test, file, machine_name, maps) in [
