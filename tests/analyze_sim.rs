@@ -558,6 +558,50 @@ fn monte_carlo_of_analyze_runs_the_plan_again_on_the_simulator() {
 }
 
 #[test]
+fn monte_carlo_with_seed_000_contributors_widens_u_beyond_the_noise_for_column_probing() {
+    // The default contributors of a probing plan (seed 000 table 4: linear
+    // scale 10 um/m, straightness 2 um, squareness 30 urad, 0.7 um of
+    // noise, each column clamped anew): the linear axes' errors reach the
+    // location errors (a squareness is an orientation error the test
+    // cannot tell from the axes'), so the Monte-Carlo u is several times
+    // the noise-only u for every symbol.
+    let dir = tempdir();
+    let manifest = plan_with_cli(
+        &dir.path().join("plan"),
+        "probe-columns",
+        "ac-trunnion",
+        None,
+    );
+    let truth = dir.path().join("truth.yaml");
+    std::fs::write(&truth, format!("machine: ac-trunnion\n{AC_ERRORS}")).unwrap();
+    let log = dir.path().join("PROBE.TXT");
+    simulate_with_cli(&manifest, &truth, &log, 2);
+    let plain = dir.path().join("plain.yaml");
+    analyze_with_cli(&manifest, &log, &plain, &[]).success();
+    let out = dir.path().join("mc.yaml");
+    let a = analyze_with_cli(&manifest, &log, &out, &["--mc", "16"]).success();
+    let text = String::from_utf8(a.get_output().stdout.clone()).unwrap();
+    assert!(text.contains("16 runs (seed 1) on the simulator"), "{text}");
+    let k = fivecal::Kinematics::with_gauge_length(
+        &fivecal::Machine::builtin("ac-trunnion").unwrap(),
+        fivecal::Machine::builtin("ac-trunnion")
+            .unwrap()
+            .probe
+            .length,
+    );
+    let mc = ErrorFile::load(&out, &k).unwrap();
+    let cov = ErrorFile::load(&plain, &k).unwrap();
+    for (i, name) in mc.model.param_names().iter().enumerate() {
+        let (u_mc, u_cov) = (mc.u[i].unwrap(), cov.u[i].unwrap());
+        // 16 runs know a spread to +-18 %; the smallest ratio seen is 4.
+        assert!(
+            u_mc > 2.0 * u_cov,
+            "{name}: Monte Carlo u {u_mc:.3}, noise-only u {u_cov:.3}"
+        );
+    }
+}
+
+#[test]
 fn a_test_at_one_tilt_angle_reports_the_tilt_axis_as_not_identifiable_never_as_a_number() {
     // A stepped square cut at B = 0 only: the C axis is seen at B = 0, the B
     // axis not at all. The result lists the B-axis symbols with the reason
