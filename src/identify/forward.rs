@@ -209,6 +209,22 @@ pub const SETUP_NAMES: [&str; 6] = [
     "setup.dx", "setup.dy", "setup.dz", "setup.a", "setup.b", "setup.c",
 ];
 
+/// The names of each piece's setup nuisance: `names` as they are for a
+/// single piece, `setup[<piece>].dx` ... for several.
+pub fn setup_names(names: &[&str], pieces: &[String]) -> Vec<String> {
+    if pieces.len() == 1 {
+        return names.iter().map(|s| s.to_string()).collect();
+    }
+    pieces
+        .iter()
+        .flat_map(|p| {
+            names
+                .iter()
+                .map(move |s| s.replacen("setup", &format!("setup[{p}]"), 1))
+        })
+        .collect()
+}
+
 /// The rigid-pose probing model: pieces fixed on the table of a
 /// table-table machine, each set up at `D(setup)` from its nominal place
 /// (six nuisance numbers per piece, um and urad), probed on the machine
@@ -252,17 +268,7 @@ impl ForwardModel for RigidPoseProbing {
     }
 
     fn nuisance_names(&self) -> Vec<String> {
-        if self.pieces.len() == 1 {
-            return SETUP_NAMES.iter().map(|s| s.to_string()).collect();
-        }
-        self.pieces
-            .iter()
-            .flat_map(|p| {
-                SETUP_NAMES
-                    .iter()
-                    .map(move |s| s.replacen("setup", &format!("setup[{p}]"), 1))
-            })
-            .collect()
+        setup_names(&SETUP_NAMES, &self.pieces)
     }
 
     fn predict(

@@ -686,18 +686,7 @@ impl ForwardModel for ProbingForward {
 
     fn nuisance_names(&self) -> Vec<String> {
         let pr = &self.probing;
-        let names: Vec<&str> = SETUP_NAMES[..pr.nuisance_size()].to_vec();
-        if pr.pieces.len() == 1 {
-            return names.iter().map(|s| s.to_string()).collect();
-        }
-        pr.pieces
-            .iter()
-            .flat_map(|p| {
-                names
-                    .iter()
-                    .map(move |s| s.replacen("setup", &format!("setup[{p}]"), 1))
-            })
-            .collect()
+        crate::identify::forward::setup_names(&SETUP_NAMES[..pr.nuisance_size()], &pr.pieces)
     }
 
     fn predict(
