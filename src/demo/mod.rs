@@ -249,7 +249,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
 
     progress(Stage::Discover);
     let e = Stage::Discover;
-    let discovery = discover::run(&kin, &data, &DiscoverOptions::default()).at(e)?;
+    let discovery = discover::run(&kin, &data, Some(&loaded), &DiscoverOptions::default()).at(e)?;
     let story = discovery.story.render();
     let story_path = out.join("discover.txt");
     write_atomic(&story_path, story.as_bytes()).at(e)?;

@@ -10,7 +10,9 @@
 //! to zero over its angles (seed 001 eq. 1, seed 000 eq. 1; the location
 //! error stays the axis average line), a straightness is taken from its
 //! least-squares reference line (ISO 230-1: its mean and slope are a
-//! position and a squareness, not a straightness).
+//! position and a squareness, not a straightness), the line fitted over the
+//! positions where the test senses it: a few sampled positions are all a
+//! test can tell a squareness by.
 
 use nalgebra::{DVector, Point3};
 
@@ -18,6 +20,7 @@ use crate::formats::manifest::TestKind;
 use crate::geom::Axis3;
 use crate::identify::{Dataset, Setup};
 use crate::kinematics::Kinematics;
+use crate::kinematics::maps::MapDim;
 use crate::model::{DriftBasis, Effect, Squareness};
 
 /// One candidate effect.
@@ -150,13 +153,25 @@ pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
             what.to_string(),
         ));
     }
-    // Straightness: five nodes over the commanded range of the moving axis.
+    // Straightness: five nodes over the commanded range of the moving axis,
+    // taken from its least-squares reference line over the positions where
+    // the test senses it (each measured point weighted by the square of its
+    // normal's component along the straightness direction), so that on this
+    // test it is neither a position nor a squareness.
     let cmd: Vec<[f64; 3]> = data
         .obs
         .iter()
         .map(|o| {
             let p = &data.plan.points[o.plan];
             commanded(kin, p.tilt, p.c, &p.p)
+        })
+        .collect();
+    let normals: Vec<nalgebra::Vector3<f64>> = data
+        .obs
+        .iter()
+        .map(|o| {
+            let p = &data.plan.points[o.plan];
+            kin.nominal_table_transform(p.tilt, p.c).rotation * p.n
         })
         .collect();
     for moving in [Axis3::X, Axis3::Y, Axis3::Z] {
@@ -170,10 +185,28 @@ pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
         let nodes: Vec<f64> = (0..5)
             .map(|k| ((lo + (hi - lo) * k as f64 / 4.0) * 1e3).round() / 1e3)
             .collect();
-        let mean = nodes.iter().sum::<f64>() / nodes.len() as f64;
+        let dim = MapDim {
+            angle: 0,
+            nodes: nodes.clone(),
+            periodic: false,
+        };
         for direction in [Axis3::X, Axis3::Y, Axis3::Z] {
             if direction == moving {
                 continue;
+            }
+            let j = direction.index();
+            let sense: Vec<f64> = normals.iter().map(|n| n[j] * n[j]).collect();
+            let total: f64 = sense.iter().sum();
+            if total < 1e-9 {
+                continue;
+            }
+            let mean = cmd.iter().zip(&sense).map(|(q, w)| w * q[i]).sum::<f64>() / total;
+            let (mut level, mut slope) = (vec![0.0; nodes.len()], vec![0.0; nodes.len()]);
+            for (q, s) in cmd.iter().zip(&sense) {
+                for (k, w) in dim.weights(q[i]) {
+                    level[k] += s * w;
+                    slope[k] += s * w * (q[i] - mean);
+                }
             }
             let mut c = Candidate::new(
                 format!("straightness.E{}{}", direction.letter(), moving.letter()),
@@ -192,12 +225,14 @@ pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
             );
             c.constraints = vec![
                 (
-                    vec![1.0; nodes.len()],
-                    "a straightness has no mean (that is a position)".to_string(),
+                    level,
+                    "a straightness has no mean where the test senses it (that is a position)"
+                        .to_string(),
                 ),
                 (
-                    nodes.iter().map(|x| x - mean).collect(),
-                    "a straightness has no slope (that is a squareness)".to_string(),
+                    slope,
+                    "a straightness has no slope where the test senses it (that is a squareness)"
+                        .to_string(),
                 ),
             ];
             out.candidates.push(c);

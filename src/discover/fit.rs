@@ -1,55 +1,111 @@
-//! Fitting a model to a test's measurements, sized for the hundreds of
-//! refits a discovery makes: the `global` identification (one nonlinear
-//! least-squares fit of every point to the exact forward model, the CMM
-//! placement of a machined piece and the forward model's own nuisance
-//! estimated with the parameters; residuals in um along the predicted
-//! normal) with the placement's starting point found once per dataset, the
-//! design at the nominal machine kept for the identifiability analysis,
-//! and no per-pose fits.
+//! Fitting models to a test's measurements, sized for the hundreds of fits
+//! a discovery makes.
+//!
+//! Every model a discovery fits is a subset of one catalogue model: the
+//! machine's location symbols (one effect each) followed by every candidate
+//! effect. Effects add their slot contributions linearly, so a model's
+//! prediction is the catalogue model's with the other effects' parameters
+//! at zero. The forward model is therefore built once, and its Jacobian at
+//! the nominal machine (every parameter, the forward model's nuisance, the
+//! CMM placement of a machined piece) computed once; a model's design is a
+//! choice of columns.
+//!
+//! The fit is the `global` identification's (one least-squares fit of
+//! every point, residuals in um along the predicted normal, the placement
+//! `P0 D(rho)` with `P0` from the reference features), solved by
+//! Gauss-Newton steps on the exact residuals and Jacobians, with step
+//! halving where a step fails, until the sum of squares stops falling. The
+//! rank and the directions the test does not see come from the nominal
+//! design, as in `global` ("what the test identifies is a property of its
+//! design"), and every step and the covariance are taken with that rank.
+//!
+//! A round of the search tries every candidate on the current model. One
+//! evaluation of the catalogue model at the current estimate gives every
+//! candidate's Jacobian columns there, and each candidate is first judged
+//! by one Gauss-Newton step from the current estimate ([`Fitter::step`]):
+//! the current model is converged, and an added effect enters the chain
+//! linearly in its own parameters, so the step lands within parts in 10^8
+//! of the sum of squares the iterated fit reaches. The candidates that
+//! come near significance, and every model the story reports, are then
+//! iterated exactly ([`Fitter::fit`]).
 //!
 //! The forward model is chosen in one place, [`forward_model`]: the
-//! rigid-pose models of `identify::forward` until the simulator's general
-//! model lands.
+//! simulator's general model ([`crate::simulate::forward`]) whenever the
+//! plan is known, which applies every effect of the catalogue as the
+//! virtual machine does; the rigid-pose models of `identify::forward`
+//! (location errors, maps, drift) for bare point sets.
 
-use std::cell::RefCell;
 use std::ops::Range;
+use std::sync::Arc;
 
 use faer::Mat;
-use nalgebra::{DMatrix, Isometry3, Point3, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector3};
 
+use super::catalogue::Candidate;
 use crate::formats::manifest::TestKind;
 use crate::identify::forward::{ForwardError, ForwardModel, RigidPoseMachining, RigidPoseProbing};
 use crate::identify::global::PLACEMENT_NAMES;
 use crate::identify::identifiability::{self, Identifiability};
-use crate::identify::lsq::{self, Design, Problem};
+use crate::identify::lsq::{self, Design};
 use crate::identify::rigid::{d6_um, face_residual};
 use crate::identify::{Dataset, IdentifyError, Setup, initial_placement};
+use crate::kinematics::Kinematics;
 use crate::model::{Effect, Model};
+use crate::plan::{LoadedPlan, PlannedProbing, PlannedTest};
+use crate::simulate::forward::{MachiningForward, ProbingForward};
 
-/// The forward model `discover` fits with: the one seam to change when a
-/// more general model is available.
-pub fn forward_model(model: Model, data: &Dataset) -> Result<Box<dyn ForwardModel>, ForwardError> {
-    match data.kind {
-        TestKind::Machining => Ok(Box::new(RigidPoseMachining::new(model)?)),
-        TestKind::Probing => {
-            let piece_of = data
-                .plan
-                .points
-                .iter()
-                .zip(&data.piece_of)
-                .map(|(p, &k)| (p.label.clone(), k))
-                .collect();
-            Ok(Box::new(RigidPoseProbing::with_pieces(
-                model,
-                data.pieces.clone(),
-                piece_of,
-            )?))
+/// The plan of a test, shared by every forward model built on it.
+#[derive(Clone, Debug)]
+pub enum PlanRef {
+    /// A machining test.
+    Machining(Arc<PlannedTest>),
+    /// A probing test.
+    Probing(Arc<PlannedProbing>),
+}
+
+impl PlanRef {
+    /// Shares a loaded plan.
+    pub fn new(plan: &LoadedPlan) -> PlanRef {
+        match plan {
+            LoadedPlan::Machining(t) => PlanRef::Machining(Arc::new((**t).clone())),
+            LoadedPlan::Probing(p) => PlanRef::Probing(Arc::new((**p).clone())),
         }
     }
 }
 
+/// The forward model `discover` fits with: the one seam between the
+/// search and the physics.
+pub fn forward_model(
+    model: Model,
+    data: &Dataset,
+    plan: Option<&PlanRef>,
+) -> Result<Box<dyn ForwardModel>, ForwardError> {
+    match plan {
+        Some(PlanRef::Machining(t)) => Ok(Box::new(MachiningForward::new(&model, t.clone())?)),
+        Some(PlanRef::Probing(p)) => Ok(Box::new(ProbingForward::new(&model, p.clone())?)),
+        None => match data.kind {
+            TestKind::Machining => Ok(Box::new(RigidPoseMachining::new(model)?)),
+            TestKind::Probing => {
+                let piece_of = data
+                    .plan
+                    .points
+                    .iter()
+                    .zip(&data.piece_of)
+                    .map(|(p, &k)| (p.label.clone(), k))
+                    .collect();
+                Ok(Box::new(RigidPoseProbing::with_pieces(
+                    model,
+                    data.pieces.clone(),
+                    piece_of,
+                )?))
+            }
+        },
+    }
+}
+
 /// A model to fit: effects in order, each with its story name and its own
-/// defining constraints.
+/// defining constraints, and where its parameters sit in the catalogue
+/// model.
 #[derive(Clone, Debug)]
 pub struct Spec {
     /// The model.
@@ -59,25 +115,11 @@ pub struct Spec {
     /// Per effect: constraint rows on its own parameters, with what each
     /// says.
     pub constraints: Vec<Vec<(Vec<f64>, String)>>,
+    /// Per parameter, its index in the catalogue model.
+    full: Vec<usize>,
 }
 
 impl Spec {
-    /// An empty model of `model.kin`.
-    pub fn empty(model: Model) -> Spec {
-        Spec {
-            model: Model::new(model.kin.clone(), Vec::new()),
-            names: Vec::new(),
-            constraints: Vec::new(),
-        }
-    }
-
-    /// Appends an effect.
-    pub fn push(&mut self, name: &str, effect: Effect, constraints: Vec<(Vec<f64>, String)>) {
-        self.model.push(effect);
-        self.names.push(name.to_string());
-        self.constraints.push(constraints);
-    }
-
     /// Index of the effect named `name`.
     pub fn find(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
@@ -90,14 +132,13 @@ impl Spec {
     pub fn basis(&self, extra: usize) -> (DMatrix<f64>, Vec<Range<usize>>) {
         let n = self.model.n_params();
         let mut blocks = Vec::new();
-        let mut free = 0;
         for (ei, rows) in self.constraints.iter().enumerate() {
             let r = self.model.param_range(ei);
             let c = DMatrix::from_fn(rows.len(), r.len(), |i, j| rows[i].0[j]);
-            let b = lsq::constraint_basis(&c);
-            blocks.push((r, b));
+            blocks.push((r, lsq::constraint_basis(&c)));
         }
         let mut ranges = Vec::new();
+        let mut free = 0;
         for (_, b) in &blocks {
             ranges.push(free..free + b.ncols());
             free += b.ncols();
@@ -137,14 +178,6 @@ impl Spec {
             constraint_names: names,
         }
     }
-
-    /// All constraint names, in order.
-    pub fn constraint_names(&self) -> Vec<String> {
-        self.constraints
-            .iter()
-            .flat_map(|c| c.iter().map(|x| x.1.clone()))
-            .collect()
-    }
 }
 
 /// Why a fit cannot be made.
@@ -159,94 +192,6 @@ pub enum FitError {
     /// The residuals are not finite.
     #[error("the fit failed: the residuals are not finite numbers")]
     NotFinite,
-}
-
-/// The dataset prepared once for every fit: the observed points before the
-/// nuisance placement and each observation's time.
-pub struct Fitter<'a> {
-    /// The measurements.
-    pub data: &'a Dataset,
-    p0: Option<Isometry3<f64>>,
-    u: Vec<Vector3<f64>>,
-    minutes: Vec<f64>,
-    /// Least-squares options.
-    pub opts: lsq::Options,
-}
-
-struct FitProblem<'a> {
-    fm: &'a dyn ForwardModel,
-    f: &'a Fitter<'a>,
-    n: usize,
-    k: usize,
-    error: RefCell<Option<ForwardError>>,
-}
-
-impl Problem for FitProblem<'_> {
-    fn n_residuals(&self) -> usize {
-        self.f.u.len()
-    }
-
-    fn n_params(&self) -> usize {
-        self.n + self.k + if self.f.p0.is_some() { 6 } else { 0 }
-    }
-
-    fn eval(&self, x: &[f64], r: &mut [f64], mut jac: Option<&mut Mat<f64>>) {
-        let theta = &x[..self.n];
-        let nuisance = &x[self.n..self.n + self.k];
-        let o = self.n + self.k;
-        let placement = self.f.p0.is_some();
-        let rho = if placement {
-            [x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5]]
-        } else {
-            [0.0; 6]
-        };
-        for k in 0..self.f.u.len() {
-            let point = self.f.data.point(k);
-            let pred = match self.fm.predict(theta, nuisance, point, self.f.minutes[k]) {
-                Ok(p) => p,
-                Err(e) => {
-                    *self.error.borrow_mut() = Some(e);
-                    r[k] = f64::NAN;
-                    continue;
-                }
-            };
-            let fr = face_residual(&rho, &pred.point, &pred.normal, &self.f.u[k]);
-            r[k] = fr.r;
-            if let Some(j) = jac.as_deref_mut() {
-                for c in 0..o {
-                    let mut v = 0.0;
-                    for i in 0..3 {
-                        v += fr.d_q[i] * pred.d_point[(i, c)] + fr.d_n[i] * pred.d_normal[(i, c)];
-                    }
-                    j[(k, c)] = v;
-                }
-                if placement {
-                    for i in 0..6 {
-                        j[(k, o + i)] = fr.d_rho[i];
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// A model ready to fit: its forward model and its design at the nominal
-/// machine.
-pub struct Prepared<'a> {
-    fitter: &'a Fitter<'a>,
-    /// The model.
-    pub spec: Spec,
-    fm: Box<dyn ForwardModel>,
-    /// Names of every parameter: the model's, the forward model's
-    /// nuisance, the placement.
-    pub names: Vec<String>,
-    /// Number of model parameters.
-    pub n: usize,
-    k: usize,
-    /// Number of nuisance parameters (forward model's and placement).
-    pub extra: usize,
-    /// The Jacobian at the nominal machine (all parameters).
-    pub j0: Mat<f64>,
 }
 
 /// A fitted model.
@@ -267,13 +212,14 @@ pub struct Fit {
     pub rss: f64,
     /// Rank of the design at the nominal machine (free directions seen).
     pub rank: usize,
-    /// `(J^T J)^+` at the estimate, every parameter (per um^2 of noise).
+    /// `(J^T J)^+` (per um^2 of noise) at the estimate, every parameter.
     pub cov_unit: DMatrix<f64>,
-    /// What the test identifies of this model.
-    pub identifiability: Identifiability,
+    /// The design at the nominal machine.
+    pub design: Design,
     /// The CMM placement (W to CMM) of a machined piece.
     pub placement: Option<Isometry3<f64>>,
-    /// Whether a stopping test ended the fit.
+    /// Whether the fit was iterated until the sum of squares stopped
+    /// falling (false for a one-step screening).
     pub converged: bool,
 }
 
@@ -296,11 +242,23 @@ impl Fit {
         }
     }
 
+    /// Whether parameter `i` is identifiable (no unseen direction moves
+    /// it; the rule of [`identifiability::report`]).
+    pub fn identifiable(&self, i: usize) -> bool {
+        (0..self.design.null.ncols()).all(|c| self.design.null[(i, c)].abs() < 1e-7)
+    }
+
+    /// Whether model parameter `i` is fixed by the constraints (no free
+    /// direction moves it: a value the test does not see, held at zero).
+    pub fn fixed(&self, i: usize) -> bool {
+        let (b, _) = self.spec.basis(0);
+        b.row(i).norm() < 1e-9
+    }
+
     /// Standard uncertainty of model parameter `i` (residual-scaled),
-    /// `None` where the test does not identify it.
+    /// `None` where the test does not identify it or it is fixed.
     pub fn u(&self, i: usize) -> Option<f64> {
-        self.identifiability
-            .is_identifiable(i)
+        (self.identifiable(i) && !self.fixed(i))
             .then(|| (self.cov_unit[(i, i)].max(0.0)).sqrt() * self.sigma())
     }
 
@@ -309,12 +267,106 @@ impl Fit {
         let s2 = self.sigma().powi(2);
         self.cov_unit.view((0, 0), (self.n, self.n)).into_owned() * s2
     }
+
+    /// What the test identifies of this model.
+    pub fn identifiability(&self) -> Identifiability {
+        let setup = self.spec.setup();
+        identifiability::report(
+            &self.design,
+            self.residuals.len(),
+            self.n,
+            &self.names,
+            &setup.constraint_names,
+            &setup.quality_axes(),
+        )
+    }
+}
+
+/// The dataset prepared once for every fit: the catalogue model's forward
+/// model and nominal Jacobian, the observed points before the nuisance
+/// placement and each observation's time.
+pub struct Fitter<'a> {
+    /// The measurements.
+    pub data: &'a Dataset,
+    kin: Kinematics,
+    /// Parameter range of each catalogue effect.
+    ranges: Vec<Range<usize>>,
+    n_full: usize,
+    /// Catalogue index of each candidate, by candidate name.
+    index: std::collections::HashMap<String, usize>,
+    fm: Box<dyn ForwardModel>,
+    /// Forward-model nuisance and placement names.
+    extra_names: Vec<String>,
+    k: usize,
+    p0: Option<Isometry3<f64>>,
+    u: Vec<Vector3<f64>>,
+    minutes: Vec<f64>,
+    /// `d r / d (theta_full, nuisance, placement)` at the nominal machine.
+    j0: DMatrix<f64>,
+    /// Least-squares options.
+    pub opts: lsq::Options,
 }
 
 impl<'a> Fitter<'a> {
-    /// Prepares `data`: the placement's starting point of a machined piece
-    /// from its reference features.
-    pub fn new(data: &'a Dataset) -> Result<Fitter<'a>, FitError> {
+    /// Prepares `data` (measured with `plan`, when known) for the models
+    /// made of the machine's location symbols and `candidates`. Returns the
+    /// candidates the forward model cannot apply, with the reason; they
+    /// are left out of the catalogue model.
+    pub fn new(
+        kin: &Kinematics,
+        data: &'a Dataset,
+        plan: Option<&LoadedPlan>,
+        candidates: &[Candidate],
+    ) -> Result<(Fitter<'a>, Vec<(String, String)>), FitError> {
+        let plan = plan.map(PlanRef::new);
+        let sym = Model::new(kin.clone(), Vec::new()).symbols;
+        let location: Vec<Effect> = (0..sym.location.len())
+            .map(|s| Effect::Location { symbols: vec![s] })
+            .collect();
+        // The catalogue model, without the candidates the forward model
+        // refuses (it names the first it cannot apply).
+        let mut served: Vec<&Candidate> = candidates.iter().collect();
+        let mut refused = Vec::new();
+        let fm = loop {
+            let mut effects = location.clone();
+            effects.extend(served.iter().map(|c| c.effect.clone()));
+            let model = Model::new(kin.clone(), effects);
+            match forward_model(model, data, plan.as_ref()) {
+                Ok(fm) => break fm,
+                Err(ForwardError::UnsupportedEffect(id)) => {
+                    let before = served.len();
+                    served.retain(|c| {
+                        if c.effect.id(&sym) == id {
+                            refused.push((
+                                c.name.clone(),
+                                format!(
+                                    "the forward model cannot apply it ({})",
+                                    ForwardError::UnsupportedEffect(id.clone())
+                                ),
+                            ));
+                            false
+                        } else {
+                            true
+                        }
+                    });
+                    if served.len() == before {
+                        return Err(ForwardError::UnsupportedEffect(id).into());
+                    }
+                }
+                Err(e) => return Err(e.into()),
+            }
+        };
+        let mut full = location;
+        full.extend(served.iter().map(|c| c.effect.clone()));
+        let count = full.len();
+        let model = Model::new(kin.clone(), full);
+        let ranges: Vec<Range<usize>> = (0..count).map(|i| model.param_range(i)).collect();
+        let n_full = model.n_params();
+        let index = served
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (c.name.clone(), sym.location.len() + i))
+            .collect();
         let p0 = match data.kind {
             TestKind::Machining => Some(initial_placement(data)?),
             TestKind::Probing => None,
@@ -333,13 +385,31 @@ impl<'a> Fitter<'a> {
                 minutes[k] = pose.minutes;
             }
         }
-        Ok(Fitter {
+        let mut extra_names = fm.nuisance_names();
+        let k = extra_names.len();
+        if p0.is_some() {
+            extra_names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));
+        }
+        let mut f = Fitter {
             data,
+            kin: kin.clone(),
+            ranges,
+            n_full,
+            index,
+            fm,
+            extra_names,
+            k,
             p0,
             u,
             minutes,
+            j0: DMatrix::zeros(0, 0),
             opts: lsq::Options::default(),
-        })
+        };
+        let mut r = vec![0.0; f.len()];
+        let mut j = DMatrix::zeros(f.len(), n_full + f.extra());
+        f.eval_full(&vec![0.0; n_full + f.extra()], &mut r, Some(&mut j))?;
+        f.j0 = j;
+        Ok((f, refused))
     }
 
     /// Number of observations.
@@ -352,143 +422,322 @@ impl<'a> Fitter<'a> {
         self.u.is_empty()
     }
 
-    /// Builds the forward model of `spec` and its design at the nominal
-    /// machine.
-    pub fn prepare(&self, spec: Spec) -> Result<Prepared<'_>, FitError> {
-        let fm = forward_model(spec.model.clone(), self.data)?;
-        let n = spec.model.n_params();
-        let nuisance = fm.nuisance_names();
-        let k = nuisance.len();
+    /// Number of nuisance parameters (forward model's and placement).
+    pub fn extra(&self) -> usize {
+        self.extra_names.len()
+    }
+
+    /// Whether the catalogue model holds the candidate `name`.
+    pub fn serves(&self, name: &str) -> bool {
+        self.index.contains_key(name)
+    }
+
+    /// A model of location symbols `symbols` (indices into the machine's).
+    pub fn location(&self, symbols: &[usize]) -> Spec {
+        let mut model = Model::new(self.kin.clone(), Vec::new());
+        model.push(Effect::Location {
+            symbols: symbols.to_vec(),
+        });
+        Spec {
+            model,
+            names: vec!["location".into()],
+            constraints: vec![Vec::new()],
+            full: symbols.iter().map(|&s| self.ranges[s].start).collect(),
+        }
+    }
+
+    /// `spec` with candidate `c` appended (`None` if the catalogue model
+    /// does not hold it).
+    pub fn extend(&self, spec: &Spec, c: &Candidate) -> Option<Spec> {
+        let &i = self.index.get(&c.name)?;
+        let mut s = spec.clone();
+        s.model.push(c.effect.clone());
+        s.names.push(c.name.clone());
+        s.constraints.push(c.constraints.clone());
+        s.full.extend(self.ranges[i].clone());
+        Some(s)
+    }
+
+    /// Names of every parameter of `spec` (a drift's with its clock: the
+    /// same symbol may drift per pose and per minute), then the nuisance.
+    pub fn names(&self, spec: &Spec) -> Vec<String> {
         let mut names = spec.model.param_names();
-        // A drift's parameter is named with its clock: the same symbol may
-        // drift per pose and per minute.
         for (ei, e) in spec.model.effects.iter().enumerate() {
             if let Effect::Drift { basis, .. } = e {
                 let i = spec.model.param_range(ei).start;
                 names[i] = format!("{}/{}", names[i], basis.name());
             }
         }
-        names.extend(nuisance);
-        if self.p0.is_some() {
-            names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));
-        }
-        let extra = names.len() - n;
-        let problem = FitProblem {
-            fm: fm.as_ref(),
-            f: self,
-            n,
-            k,
-            error: RefCell::new(None),
+        names.extend(self.extra_names.iter().cloned());
+        names
+    }
+
+    /// The catalogue columns of `spec`'s parameters, then the nuisance.
+    fn columns(&self, spec: &Spec) -> Vec<usize> {
+        spec.full
+            .iter()
+            .copied()
+            .chain(self.n_full..self.n_full + self.extra())
+            .collect()
+    }
+
+    /// The nominal Jacobian's columns of `spec` (and the nuisance).
+    pub fn jacobian0(&self, spec: &Spec) -> DMatrix<f64> {
+        let cols = self.columns(spec);
+        DMatrix::from_fn(self.len(), cols.len(), |r, c| self.j0[(r, cols[c])])
+    }
+
+    /// The design of `spec` at the nominal machine, its constraint basis
+    /// and the basis columns of each effect.
+    pub fn design(&self, spec: &Spec) -> (Design, DMatrix<f64>, Vec<Range<usize>>) {
+        let (basis, ranges) = spec.basis(self.extra());
+        let j = self.jacobian0(spec);
+        let jm = Mat::<f64>::from_fn(j.nrows(), j.ncols(), |r, c| j[(r, c)]);
+        (
+            lsq::design(&jm, Some(&basis), self.opts.rank_rtol),
+            basis,
+            ranges,
+        )
+    }
+
+    /// Residuals (and the Jacobian) of the catalogue model at `x` (its
+    /// parameters, then nuisance and placement).
+    fn eval_full(
+        &self,
+        x: &[f64],
+        r: &mut [f64],
+        mut jac: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), FitError> {
+        let n = self.n_full;
+        let theta = &x[..n];
+        let nuisance = &x[n..n + self.k];
+        let o = n + self.k;
+        let rho = if self.p0.is_some() {
+            [x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5]]
+        } else {
+            [0.0; 6]
         };
-        let m = self.u.len();
-        let mut r = vec![0.0; m];
-        let mut j0 = Mat::<f64>::zeros(m, n + extra);
-        problem.eval(&vec![0.0; n + extra], &mut r, Some(&mut j0));
-        if let Some(e) = problem.error.into_inner() {
-            return Err(e.into());
+        for (k, rk) in r.iter_mut().enumerate() {
+            let point = self.data.point(k);
+            let pred = self.fm.predict(theta, nuisance, point, self.minutes[k])?;
+            let fr = face_residual(&rho, &pred.point, &pred.normal, &self.u[k]);
+            *rk = fr.r;
+            if let Some(j) = jac.as_deref_mut() {
+                for c in 0..o {
+                    let mut v = 0.0;
+                    for i in 0..3 {
+                        v += fr.d_q[i] * pred.d_point[(i, c)] + fr.d_n[i] * pred.d_normal[(i, c)];
+                    }
+                    j[(k, c)] = v;
+                }
+                if self.p0.is_some() {
+                    for i in 0..6 {
+                        j[(k, o + i)] = fr.d_rho[i];
+                    }
+                }
+            }
         }
         if r.iter().any(|v| !v.is_finite()) {
             return Err(FitError::NotFinite);
         }
-        Ok(Prepared {
-            fitter: self,
-            spec,
-            fm,
-            names,
+        Ok(())
+    }
+
+    /// The catalogue vector of `spec`'s parameters `x`.
+    fn scatter(&self, spec: &Spec, x: &[f64]) -> Vec<f64> {
+        let mut full = vec![0.0; self.n_full + self.extra()];
+        for (c, v) in self.columns(spec).into_iter().zip(x) {
+            full[c] = *v;
+        }
+        full
+    }
+
+    /// Residuals (and the Jacobian) of `spec` at its parameters `x`.
+    fn eval(
+        &self,
+        spec: &Spec,
+        x: &[f64],
+        r: &mut [f64],
+        jac: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), FitError> {
+        let full = self.scatter(spec, x);
+        match jac {
+            None => self.eval_full(&full, r, None),
+            Some(j) => {
+                let mut jf = DMatrix::zeros(self.len(), full.len());
+                self.eval_full(&full, r, Some(&mut jf))?;
+                for (c, fc) in self.columns(spec).into_iter().enumerate() {
+                    j.set_column(c, &jf.column(fc));
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Residuals and Jacobian (the spec's columns) at `x`.
+    fn eval_jac(&self, spec: &Spec, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), FitError> {
+        let mut r = vec![0.0; self.len()];
+        let mut j = DMatrix::zeros(self.len(), x.len());
+        self.eval(spec, x, &mut r, Some(&mut j))?;
+        Ok((r, j))
+    }
+
+    /// The Gauss-Newton step at a Jacobian, within the free directions the
+    /// nominal design sees (`rank` of them), and the pseudo-inverse it
+    /// used.
+    fn gn_step(
+        &self,
+        j: &DMatrix<f64>,
+        r: &[f64],
+        basis: &DMatrix<f64>,
+        rank: usize,
+    ) -> (DVector<f64>, DMatrix<f64>) {
+        let jm = Mat::<f64>::from_fn(j.nrows(), j.ncols(), |a, b| j[(a, b)]);
+        let d = lsq::design_ranked(&jm, Some(basis), self.opts.rank_rtol, Some(rank));
+        let g = j.tr_mul(&DVector::from_column_slice(r));
+        (-(&d.cov_unit * g), d.cov_unit)
+    }
+
+    fn finish(
+        &self,
+        spec: &Spec,
+        x: Vec<f64>,
+        residuals: Vec<f64>,
+        design: Design,
+        cov_unit: DMatrix<f64>,
+        converged: bool,
+    ) -> Fit {
+        let n = spec.model.n_params();
+        let placement = self.p0.map(|p0| p0 * d6_um(&x[n + self.k..n + self.k + 6]));
+        let rss = residuals.iter().map(|v| v * v).sum();
+        Fit {
+            spec: spec.clone(),
+            names: self.names(spec),
             n,
-            k,
-            extra,
-            j0,
-        })
+            residuals,
+            rss,
+            rank: design.rank,
+            cov_unit,
+            design,
+            placement,
+            converged,
+            x,
+        }
+    }
+
+    /// Fits `spec` exactly, from `start` (its parameters, e.g. a smaller
+    /// model's estimate padded with zeros; they must satisfy the
+    /// constraints) or from the nominal machine. The covariance is taken at
+    /// the estimate.
+    pub fn fit(&self, spec: &Spec, start: Option<Vec<f64>>) -> Result<Fit, FitError> {
+        let (d, basis, _) = self.design(spec);
+        let p = spec.model.n_params() + self.extra();
+        let mut x = start.unwrap_or_else(|| vec![0.0; p]);
+        let (mut r, mut j) = self.eval_jac(spec, &x)?;
+        let mut cost: f64 = r.iter().map(|v| v * v).sum();
+        let mut converged = false;
+        let mut cov = DMatrix::zeros(p, p);
+        for _ in 0..self.opts.max_iter {
+            let (dx, c) = self.gn_step(&j, &r, &basis, d.rank);
+            cov = c;
+            let mut t = 1.0;
+            let mut accepted = None;
+            for _ in 0..12 {
+                let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, b)| a + t * b).collect();
+                let (rn, jn) = self.eval_jac(spec, &xn)?;
+                let cn: f64 = rn.iter().map(|v| v * v).sum();
+                if cn <= cost {
+                    accepted = Some((xn, rn, jn, cn));
+                    break;
+                }
+                t *= 0.5;
+            }
+            let Some((xn, rn, jn, cn)) = accepted else {
+                // No step lowers the sum of squares: at the minimum, to
+                // round-off.
+                converged = true;
+                break;
+            };
+            let gain = cost - cn;
+            x = xn;
+            r = rn;
+            j = jn;
+            cost = cn;
+            let xnorm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if gain <= 1e-10 * cost.max(1e-300) || t * dx.norm() <= 1e-12 * (1.0 + xnorm) {
+                converged = true;
+                let (_, c) = self.gn_step(&j, &r, &basis, d.rank);
+                cov = c;
+                break;
+            }
+        }
+        Ok(self.finish(spec, x, r, d, cov, converged))
+    }
+
+    /// The catalogue model's residuals and Jacobian at `fit`'s estimate
+    /// (every other effect at zero): every candidate's columns there.
+    pub fn linearize(&self, fit: &Fit) -> Result<Linearization, FitError> {
+        let x = self.scatter(&fit.spec, &fit.x);
+        let mut r = vec![0.0; self.len()];
+        let mut j = DMatrix::zeros(self.len(), x.len());
+        self.eval_full(&x, &mut r, Some(&mut j))?;
+        Ok(Linearization { r, j })
+    }
+
+    /// One Gauss-Newton step for `spec` (a model that extends `base`) from
+    /// `base`'s estimate, with the Jacobian of `lin` (taken there): the
+    /// residuals it predicts, their sum of squares, and the parameters.
+    /// Not converged by definition; [`Fitter::fit`] iterates.
+    pub fn step(&self, spec: &Spec, base: &Fit, lin: &Linearization) -> Fit {
+        let (d, basis, _) = self.design(spec);
+        let cols = self.columns(spec);
+        let j = DMatrix::from_fn(self.len(), cols.len(), |r, c| lin.j[(r, cols[c])]);
+        let (dx, cov) = self.gn_step(&j, &lin.r, &basis, d.rank);
+        let mut x = base.theta().to_vec();
+        x.extend(std::iter::repeat_n(0.0, spec.model.n_params() - base.n));
+        x.extend_from_slice(&base.x[base.n..]);
+        for (xi, di) in x.iter_mut().zip(dx.iter()) {
+            *xi += di;
+        }
+        let pred = DVector::from_column_slice(&lin.r) + &j * &dx;
+        self.finish(spec, x, pred.as_slice().to_vec(), d, cov, false)
     }
 }
 
-impl Prepared<'_> {
-    /// The design at the nominal machine with the model's constraints, and
-    /// the basis columns of each effect.
-    pub fn design(&self) -> (Design, DMatrix<f64>, Vec<Range<usize>>) {
-        let (basis, ranges) = self.spec.basis(self.extra);
-        let d = lsq::design(&self.j0, Some(&basis), self.fitter.opts.rank_rtol);
-        (d, basis, ranges)
-    }
-
-    /// The fit: from the nominal machine (so that the rank decided at the
-    /// start is the design's; see [`lsq::solve`]), the covariance at the
-    /// estimate with that rank.
-    pub fn fit(&self) -> Result<Fit, FitError> {
-        let (d0, basis, _) = self.design();
-        let f = self.fitter;
-        let problem = FitProblem {
-            fm: self.fm.as_ref(),
-            f,
-            n: self.n,
-            k: self.k,
-            error: RefCell::new(None),
-        };
-        let x0 = vec![0.0; self.n + self.extra];
-        let sol = lsq::solve(&problem, &x0, Some(&basis), &f.opts);
-        if !sol.cost.is_finite() {
-            return Err(match problem.error.into_inner() {
-                Some(e) => e.into(),
-                None => FitError::NotFinite,
-            });
-        }
-        let design =
-            lsq::design_ranked(&sol.jacobian, Some(&basis), f.opts.rank_rtol, Some(d0.rank));
-        let setup = self.spec.setup();
-        let report = identifiability::report(
-            &d0,
-            f.u.len(),
-            self.n,
-            &self.names,
-            &setup.constraint_names,
-            &setup.quality_axes(),
-        );
-        let o = self.n + self.k;
-        let placement = f.p0.map(|p| p * d6_um(&sol.x[o..o + 6]));
-        Ok(Fit {
-            spec: self.spec.clone(),
-            x: sol.x.clone(),
-            n: self.n,
-            names: self.names.clone(),
-            residuals: sol.residuals,
-            rss: sol.cost,
-            rank: d0.rank,
-            cov_unit: design.cov_unit,
-            identifiability: report,
-            placement,
-            converged: sol.converged,
-        })
-    }
+/// The catalogue model linearized at an estimate.
+#[derive(Clone, Debug)]
+pub struct Linearization {
+    r: Vec<f64>,
+    j: DMatrix<f64>,
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::Machine;
-    use crate::kinematics::Kinematics;
 
     #[test]
     fn basis_is_block_diagonal_and_respects_each_effects_constraints() {
         let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
-        let mut spec = Spec::empty(Model::new(kin, Vec::new()));
-        spec.push(
-            "location",
-            Effect::Location {
-                symbols: vec![0, 1],
-            },
-            Vec::new(),
-        );
+        let mut model = Model::new(kin, Vec::new());
+        model.push(Effect::Location {
+            symbols: vec![0, 1],
+        });
         let grid = crate::kinematics::maps::MapGrid {
             dims: vec![
                 crate::kinematics::maps::MapDim::new(0, &[-90.0, 0.0, 90.0], false).unwrap(),
             ],
         };
-        spec.push(
-            "map.EBB(B)",
-            Effect::Map { symbol: 4, grid },
-            vec![(vec![1.0, 1.0, 1.0], "averages to zero".into())],
-        );
+        model.push(Effect::Map { symbol: 4, grid });
+        let spec = Spec {
+            model,
+            names: vec!["location".into(), "map.EBB(B)".into()],
+            constraints: vec![
+                Vec::new(),
+                vec![(vec![1.0, 1.0, 1.0], "averages to zero".into())],
+            ],
+            full: (0..5).collect(),
+        };
         let (b, ranges) = spec.basis(6);
         assert_eq!(b.shape(), (2 + 3 + 6, 2 + 2 + 6));
         assert_eq!(ranges, vec![0..2, 2..4]);

@@ -240,6 +240,32 @@ fn summarize(g: &Gap) -> String {
         parts.push(format!("concentrated {}", high.join("; ")));
     }
     parts.extend(low);
+    // A group whose residuals share a sign is displaced as a whole (a
+    // tool that cuts every wall deeper, a pre-travel on every touch of an
+    // approach): its mean stands out from the noise of a mean of that
+    // many points (3.5 standard errors) and is half the overall RMS or
+    // more.
+    let mut shifted: Vec<&Group> = g
+        .by_face
+        .iter()
+        .filter(|x| {
+            let se = g.rms_um / (x.points.max(1) as f64).sqrt();
+            x.mean_um.abs() > 3.5 * se && x.mean_um.abs() >= 0.5 * g.rms_um
+        })
+        .collect();
+    shifted.sort_by(|a, b| b.mean_um.abs().total_cmp(&a.mean_um.abs()));
+    if !shifted.is_empty() {
+        let list: Vec<String> = shifted
+            .iter()
+            .take(4)
+            .map(|x| format!("{} {:+.2} um", x.name, x.mean_um))
+            .collect();
+        parts.push(format!(
+            "faces shifted as a whole (mean residual: {}{})",
+            list.join(", "),
+            if shifted.len() > 4 { ", ..." } else { "" }
+        ));
+    }
     if g.by_sequence.len() == 3 {
         // A drift shifts the late poses against the early ones: the mean
         // residuals of the first and the last third part by more than

@@ -56,6 +56,19 @@ fn probe_options(plan: &LoadedPlan) -> Option<ReadOptions> {
 }
 
 impl Inputs {
+    /// Runs a discovery on these inputs (the story's test named after the
+    /// plan).
+    pub fn discover(
+        &self,
+        opts: &super::DiscoverOptions,
+    ) -> Result<super::Discovery, super::DiscoverError> {
+        let opts = super::DiscoverOptions {
+            test: self.plan.test().to_string(),
+            ..opts.clone()
+        };
+        super::run(&self.kin, &self.data, Some(&self.plan), &opts)
+    }
+
     /// Reads the plan of `manifest` and the measurement files.
     pub fn load(manifest: &Path, measured: &[PathBuf]) -> Result<Inputs, InputError> {
         let plan = crate::plan::load_any(manifest)?;

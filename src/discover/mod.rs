@@ -2,21 +2,24 @@
 //! missing effect, add it, and show the gap shrink.
 //!
 //! Starting from a model (by default the location errors the test
-//! identifies), the loop fits the model, measures the gap ([`gap`]: the
-//! residuals overall and by pose, face, direction and sequence), and tries
-//! every candidate effect of the shared catalogue ([`catalogue`]) in
-//! parallel: it checks that the candidate is identifiable alongside the
-//! model (rank increase, the combinations the test does not see, the
-//! canonical and the largest pairwise correlation with what the model
-//! already does; seed 003's rank analysis of parameter sets), refits with
-//! it, and tests the reduction of the gap ([`stats`]: F-test with
-//! Bonferroni's adjustment over the candidates of the round, and the BIC).
-//! The significant candidate with the lowest BIC is then checked against
-//! every other significant one by fitting both together (does each add to
-//! the other?); when the data cannot tell two apart, the discovery says so
-//! and stops rather than pick one. Otherwise the effect is added and the
-//! loop repeats until no candidate is significant. The result is a
-//! [`Story`] ([`story`]) and the fits behind it; [`report`] draws it.
+//! identifies: seed 003's question of which parameter sets a test can
+//! identify, answered greedily in SPEC order), the loop fits the model,
+//! measures the gap ([`gap`]: the residuals overall and by pose, face,
+//! direction and sequence), and tries every candidate effect of the shared
+//! catalogue ([`catalogue`]) in parallel: it checks that the candidate is
+//! identifiable alongside the model (rank increase, the combinations the
+//! test does not see, fixed at zero and named, the canonical and the
+//! largest pairwise correlation with what the model already does), fits it
+//! ([`fit`]: screened by one Gauss-Newton step from the current estimate,
+//! iterated where it comes near significance), and tests the reduction of
+//! the gap ([`stats`]: F-test with Bonferroni's adjustment over the
+//! candidates of the round, and the BIC). The significant candidate with
+//! the lowest BIC is then checked against every other significant one by
+//! fitting both together (does each add to the other?); when the data
+//! cannot tell two different effects apart, the discovery says so and
+//! stops rather than pick one. Otherwise the effect is added and the loop
+//! repeats until no candidate is significant. The result is a [`Story`]
+//! ([`story`]) and the fits behind it; [`report`] draws it.
 
 pub mod catalogue;
 pub mod fit;
@@ -29,11 +32,13 @@ pub mod story;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
+use crate::errorfile::{ErrorFile, Noise, NotIdentified};
 use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::combination;
 use crate::identify::{Dataset, Identification, Method, two_stage};
 use crate::kinematics::Kinematics;
-use crate::model::{DriftBasis, Effect, Model};
+use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS};
+use crate::plan::LoadedPlan;
 
 pub use catalogue::{Candidate, Catalogue};
 pub use fit::{Fit, FitError, Fitter, Spec};
@@ -118,7 +123,59 @@ impl Discovery {
     pub fn identification(&self, data: &Dataset) -> Identification {
         identification(self.end(), data)
     }
+
+    /// The final model as an error file (SPEC section 3): every value the
+    /// test identifies with its `u`; a value the test does not see is
+    /// written without `u` (or left out, where absence means zero) and
+    /// listed under `not_identifiable` with the reason, as is every
+    /// combination of values it does not see.
+    pub fn error_file(&self, data: &Dataset) -> ErrorFile {
+        let f = self.end();
+        let est = identification(f, data);
+        let u: Vec<Option<f64>> = (0..f.n).map(|i| f.u(i)).collect();
+        let mut file = est.error_file(Some(&u));
+        for (ei, e) in f.spec.model.effects.iter().enumerate() {
+            let r = f.spec.model.param_range(ei);
+            for i in r.clone().filter(|&i| f.fixed(i)) {
+                if let Effect::ProbePretravel = e {
+                    let d = PROBE_DIRECTIONS[i - r.start];
+                    file.effects.probe_pretravel.shift_remove(d);
+                }
+                file.not_identifiable.push(NotIdentified {
+                    symbol: f.names[i].clone(),
+                    reason: "this test does not see it: fixed at zero".into(),
+                });
+            }
+            for (_, why) in f.spec.constraints[ei]
+                .iter()
+                .filter(|(_, w)| w.ends_with(UNSEEN))
+            {
+                if r.clone().any(|i| f.fixed(i)) && !why.contains(" + ") && !why.contains(" - ") {
+                    continue;
+                }
+                file.not_identifiable.push(NotIdentified {
+                    symbol: f.spec.names[ei].clone(),
+                    reason: why.clone(),
+                });
+            }
+        }
+        let sigma = f.sigma().is_finite().then_some(f.sigma());
+        file.effects.noise = Some(match data.kind {
+            TestKind::Machining => Noise {
+                cmm: sigma,
+                probe: None,
+            },
+            TestKind::Probing => Noise {
+                cmm: None,
+                probe: sigma,
+            },
+        });
+        file
+    }
 }
+
+/// How a constraint fixing a combination the test does not see ends.
+const UNSEEN: &str = "= 0: this test does not see it";
 
 /// A fit as the identification's result type.
 pub fn identification(f: &Fit, data: &Dataset) -> Identification {
@@ -134,7 +191,7 @@ pub fn identification(f: &Fit, data: &Dataset) -> Identification {
         theta: f.theta().to_vec(),
         cov: f.cov(),
         cov_unit: f.cov_unit.view((0, 0), (n, n)).into_owned(),
-        identifiability: f.identifiability.clone(),
+        identifiability: f.identifiability(),
         sigma_um: f.sigma(),
         dof: f.dof(),
         residuals: f.residuals.clone(),
@@ -153,6 +210,13 @@ fn effect_values(f: &Fit, ei: usize) -> Vec<story::Value> {
         value: f.x[i],
         u: f.u(i),
         unit: units[i].clone(),
+        note: if f.fixed(i) {
+            Some("not seen by this test: fixed at zero".into())
+        } else if !f.identifiable(i) {
+            Some("not identifiable".into())
+        } else {
+            None
+        },
     })
     .collect()
 }
@@ -223,6 +287,16 @@ fn column_space(a: &DMatrix<f64>, rtol: f64) -> DMatrix<f64> {
     DMatrix::from_fn(rows, keep.len(), |r, c| u[(r, keep[c])])
 }
 
+/// How a candidate's fit is made.
+#[derive(Clone, Copy)]
+enum Mode<'a> {
+    /// One Gauss-Newton step from the base's estimate, with the catalogue
+    /// model linearized there.
+    Screen(&'a fit::Linearization),
+    /// Iterated to convergence.
+    Exact,
+}
+
 /// Tries `cand` on top of `base`: identifiability alongside the model,
 /// then the fit and the comparison. `near_alias`: refuse above this
 /// canonical correlation (`None`: fit anyway, as the encompassing test
@@ -232,30 +306,23 @@ fn try_candidate(
     base: &Fit,
     cand: &Candidate,
     near_alias: Option<f64>,
+    mode: Mode<'_>,
 ) -> Tried {
-    let mut spec = base.spec.clone();
-    spec.push(&cand.name, cand.effect.clone(), cand.constraints.clone());
-    let ei = spec.names.len() - 1;
-    let mut prep = match fitter.prepare(spec) {
-        Ok(p) => p,
-        Err(FitError::Forward(e)) => {
-            return refused(
-                &cand.name,
-                format!("the forward model cannot apply it ({e})"),
-            );
-        }
-        Err(e) => return refused(&cand.name, format!("the fit cannot be made ({e})")),
+    let Some(mut spec) = fitter.extend(&base.spec, cand) else {
+        return refused(&cand.name, "the forward model cannot apply it".into());
     };
-    let xr = prep.spec.model.param_range(ei);
-    let cand_names: Vec<String> = prep.names[xr.clone()].to_vec();
-    let (d, _, _) = prep.design();
+    let ei = spec.names.len() - 1;
+    let xr = spec.model.param_range(ei);
+    let names = fitter.names(&spec);
+    let cand_names: Vec<String> = names[xr.clone()].to_vec();
+    let (d, _, _) = fitter.design(&spec);
     if d.rank <= base.rank {
-        let setup = prep.spec.setup();
+        let setup = spec.setup();
         let rep = crate::identify::identifiability::report(
             &d,
             fitter.len(),
-            prep.n,
-            &prep.names,
+            spec.model.n_params(),
+            &names,
             &setup.constraint_names,
             &[],
         );
@@ -287,16 +354,15 @@ fn try_candidate(
                 let row: Vec<f64> = u.column(i).iter().copied().collect();
                 let what = combination(&row, &cand_names);
                 unseen.push(what.clone());
-                prep.spec.constraints[ei]
-                    .push((row, format!("{what} = 0: this test does not see it")));
+                spec.constraints[ei].push((row, format!("{what} = 0: this test does not see it")));
             }
         }
     }
-    let (d, basis, ranges) = prep.design();
+    let (d, basis, ranges) = fitter.design(&spec);
     let rank_increase = d.rank.saturating_sub(base.rank);
     // Canonical correlation of the candidate's free directions with
     // everything else (model and nuisance), in the scaled design.
-    let jz = crate::identify::lsq::to_nalgebra(&prep.j0) * &basis;
+    let jz = fitter.jacobian0(&spec) * &basis;
     let zc = ranges[ei].clone();
     let others: Vec<usize> = (0..jz.ncols()).filter(|c| !zc.contains(c)).collect();
     let a = DMatrix::from_fn(jz.nrows(), others.len(), |r, c| jz[(r, others[c])]);
@@ -314,7 +380,7 @@ fn try_candidate(
         if vi <= 0.0 {
             continue;
         }
-        for j in (0..prep.names.len()).filter(|j| !xr.contains(j)) {
+        for j in (0..names.len()).filter(|j| !xr.contains(j)) {
             let vj = d.cov_unit[(j, j)];
             if vj <= 0.0 {
                 continue;
@@ -322,8 +388,8 @@ fn try_candidate(
             let c = d.cov_unit[(i, j)] / (vi * vj).sqrt();
             if largest.as_ref().is_none_or(|l| c.abs() > l.value.abs()) {
                 largest = Some(story::Correlation {
-                    parameter: prep.names[i].clone(),
-                    with: prep.names[j].clone(),
+                    parameter: names[i].clone(),
+                    with: names[j].clone(),
                     value: c,
                 });
             }
@@ -359,7 +425,17 @@ fn try_candidate(
         t.trial.alongside = Some(alongside);
         return t;
     }
-    match prep.fit() {
+    let fitted = match mode {
+        Mode::Screen(lin) => Ok(fitter.step(&spec, base, lin)),
+        Mode::Exact => {
+            // From the model's estimate, the candidate at zero.
+            let mut start = base.theta().to_vec();
+            start.extend(std::iter::repeat_n(0.0, xr.len()));
+            start.extend_from_slice(&base.x[base.n..]);
+            fitter.fit(&spec, Some(start))
+        }
+    };
+    match fitted {
         Ok(f) => {
             let cmp = stats::compare(fitter.len(), base.rss, base.rank, f.rss, f.rank);
             Tried {
@@ -395,68 +471,60 @@ fn start(
     notes: &mut Vec<String>,
 ) -> Result<Fit, DiscoverError> {
     let model = Model::new(kin.clone(), Vec::new());
-    let mut spec = Spec::empty(model.clone());
-    let location = names.iter().any(|n| n == "location");
-    if location {
-        // Seed 003's question, answered greedily in SPEC order: the
-        // largest set of location symbols the test identifies together.
-        // A symbol that adds no direction to those kept is left out; what
-        // it does is carried by the kept ones it is aliased with.
-        let all: Vec<usize> = (0..model.symbols.location.len()).collect();
-        spec.push(
-            "location",
-            Effect::Location {
-                symbols: all.clone(),
-            },
-            Vec::new(),
-        );
-        let prep = fitter.prepare(spec.clone())?;
-        let (d, _, _) = prep.design();
-        let j = crate::identify::lsq::to_nalgebra(&prep.j0);
-        let nuisance: Vec<usize> = (prep.n..prep.n + prep.extra).collect();
-        let rank_of = |cols: &[usize]| -> usize {
-            let a = DMatrix::from_fn(j.nrows(), cols.len(), |r, c| j[(r, cols[c])]);
-            column_space(&a, fitter.opts.rank_rtol).ncols()
-        };
-        let mut kept: Vec<usize> = Vec::new();
-        let mut cols = nuisance.clone();
-        let mut rank = rank_of(&cols);
-        for &i in &all {
-            cols.push(i);
-            let r = rank_of(&cols);
-            if r > rank {
-                kept.push(i);
-                rank = r;
-            } else {
-                cols.pop();
-            }
-        }
-        if kept.len() < all.len() {
-            let rep = crate::identify::identifiability::report(
-                &d,
-                fitter.len(),
-                prep.n,
-                &prep.names,
-                &[],
-                &[],
-            );
-            for &i in all.iter().filter(|i| !kept.contains(i)) {
-                let name = &model.symbols.location[i].name;
-                let why = rep
-                    .null_combinations
-                    .iter()
-                    .find(|c| c.contains(name.as_str()))
-                    .cloned()
-                    .unwrap_or_else(|| "no measurement of this test sees it".into());
-                notes.push(format!(
-                    "{name} is left out of the starting model: this test does not separate it from the symbols kept ({why})"
-                ));
-            }
-            spec = Spec::empty(model.clone());
-            spec.push("location", Effect::Location { symbols: kept }, Vec::new());
+    if !names.iter().any(|n| n == "location") {
+        return Err(DiscoverError::Start(
+            "the starting model needs `location`: every other effect is added to the location errors".into(),
+        ));
+    }
+    // Seed 003's question, answered greedily in SPEC order: the largest
+    // set of location symbols the test identifies together. A symbol that
+    // adds no direction to those kept is left out; what it does is carried
+    // by the kept ones it is aliased with.
+    let all: Vec<usize> = (0..model.symbols.location.len()).collect();
+    let spec_all = fitter.location(&all);
+    let j = fitter.jacobian0(&spec_all);
+    let rank_of = |cols: &[usize]| -> usize {
+        let a = DMatrix::from_fn(j.nrows(), cols.len(), |r, c| j[(r, cols[c])]);
+        column_space(&a, fitter.opts.rank_rtol).ncols()
+    };
+    let mut kept: Vec<usize> = Vec::new();
+    let mut cols: Vec<usize> = (all.len()..j.ncols()).collect();
+    let mut rank = rank_of(&cols);
+    for &i in &all {
+        cols.push(i);
+        let r = rank_of(&cols);
+        if r > rank {
+            kept.push(i);
+            rank = r;
+        } else {
+            cols.pop();
         }
     }
-    let mut fit = fitter.prepare(spec)?.fit()?;
+    if kept.len() < all.len() {
+        let (d, _, _) = fitter.design(&spec_all);
+        let rep = crate::identify::identifiability::report(
+            &d,
+            fitter.len(),
+            all.len(),
+            &fitter.names(&spec_all),
+            &[],
+            &[],
+        );
+        for &i in all.iter().filter(|i| !kept.contains(i)) {
+            let name = &model.symbols.location[i].name;
+            let why = rep
+                .null_combinations
+                .iter()
+                .find(|c| c.contains(name.as_str()))
+                .cloned()
+                .unwrap_or_else(|| "no measurement of this test sees it".into());
+            notes.push(format!(
+                "{name} is left out of the starting model: this test does not separate it from the symbols kept ({why})"
+            ));
+        }
+    }
+    let spec = fitter.location(&kept);
+    let mut fit = fitter.fit(&spec, None)?;
     for n in names.iter().filter(|n| *n != "location") {
         let Some(c) = cat.candidates.iter().find(|c| &c.name == n) else {
             let known: Vec<&str> = cat.candidates.iter().map(|c| c.name.as_str()).collect();
@@ -465,7 +533,7 @@ fn start(
                 known.join(", ")
             )));
         };
-        let t = try_candidate(fitter, &fit, c, None);
+        let t = try_candidate(fitter, &fit, c, None, Mode::Exact);
         match t.fit {
             Some(f) => fit = f,
             None => {
@@ -476,18 +544,16 @@ fn start(
             }
         }
     }
-    if fit.spec.names.is_empty() {
-        return Err(DiscoverError::Start(
-            "the starting model is empty: name `location` or candidates".into(),
-        ));
-    }
     Ok(fit)
 }
 
-/// Runs a discovery on the measurements of one test.
+/// Runs a discovery on the measurements of one test, fitted with the
+/// simulator's general forward model when the plan is given (else with
+/// the rigid-pose models, which serve location errors, maps and drift).
 pub fn run(
     kin: &Kinematics,
     data: &Dataset,
+    plan: Option<&LoadedPlan>,
     opts: &DiscoverOptions,
 ) -> Result<Discovery, DiscoverError> {
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
@@ -496,7 +562,6 @@ pub fn run(
             opts.alpha
         )));
     }
-    let fitter = Fitter::new(data)?;
     let cat = catalogue::catalogue(kin, data);
     let mut notes = cat.notes.clone();
     let model0 = Model::new(kin.clone(), Vec::new());
@@ -516,6 +581,16 @@ pub fn run(
             )));
         }
     }
+    // The catalogue model holds the candidates the search may try and those
+    // the start names.
+    let wanted: Vec<Candidate> = cat
+        .candidates
+        .iter()
+        .filter(|c| selected(c, opts, &model0) || opts.start.contains(&c.name))
+        .cloned()
+        .collect();
+    let (fitter, unserved) = Fitter::new(kin, data, plan, &wanted)?;
+    let unserved: std::collections::HashMap<String, String> = unserved.into_iter().collect();
     let mut current = start(&fitter, kin, &cat, &opts.start, &mut notes)?;
     let start_state = state(kin, data, &current);
     let mut fits = vec![current.clone()];
@@ -531,11 +606,51 @@ pub fn run(
             .filter(|c| current.spec.find(&c.name).is_none())
             .filter(|c| selected(c, opts, &model0))
             .collect();
+        // Every candidate screened by one Gauss-Newton step from the
+        // current estimate; those that come near significance (adjusted p
+        // below 100 alpha) fitted again, iterated.
+        let lin = fitter.linearize(&current)?;
         let mut tried: Vec<Tried> = pool
             .par_iter()
-            .map(|c| try_candidate(&fitter, &current, c, Some(opts.near_alias)))
+            .map(|c| match unserved.get(&c.name) {
+                Some(why) => refused(&c.name, why.clone()),
+                None => try_candidate(
+                    &fitter,
+                    &current,
+                    c,
+                    Some(opts.near_alias),
+                    Mode::Screen(&lin),
+                ),
+            })
             .collect();
         let m = tried.iter().filter(|t| t.fit.is_some()).count();
+        let near: Vec<usize> = (0..tried.len())
+            .filter(|&i| {
+                tried[i]
+                    .trial
+                    .test
+                    .as_ref()
+                    .is_some_and(|c| stats::adjusted(c.p, m) < 100.0 * opts.alpha)
+            })
+            .collect();
+        let exact: Vec<(usize, Tried)> = near
+            .par_iter()
+            .map(|&i| {
+                (
+                    i,
+                    try_candidate(
+                        &fitter,
+                        &current,
+                        pool[i],
+                        Some(opts.near_alias),
+                        Mode::Exact,
+                    ),
+                )
+            })
+            .collect();
+        for (i, t) in exact {
+            tried[i] = t;
+        }
         for t in tried.iter_mut() {
             if let Some(c) = &t.trial.test {
                 let pa = stats::adjusted(c.p, m);
@@ -582,7 +697,13 @@ pub fn run(
             for &c in sig.iter().filter(|&&c| c != best) {
                 let fb = tried[best].fit.as_ref().expect("tested");
                 let fc = tried[c].fit.as_ref().expect("tested");
-                let both = try_candidate(&fitter, fb, pool[pool_idx(&tried[c].trial.name)], None);
+                let both = try_candidate(
+                    &fitter,
+                    fb,
+                    pool[pool_idx(&tried[c].trial.name)],
+                    None,
+                    Mode::Exact,
+                );
                 let (rss_both, rank_both) = match &both.fit {
                     Some(f) => (f.rss, f.rank),
                     // Nothing of the rival is seen beside the best:

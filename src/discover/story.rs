@@ -19,6 +19,9 @@ pub struct Value {
     pub u: Option<f64>,
     /// Unit (um, urad, um/m, um/seq, ...).
     pub unit: String,
+    /// Why there is no `u`, where the test does not see the value.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
 }
 
 /// A correlation with a named parameter.
@@ -228,8 +231,11 @@ fn values(s: &mut String, v: &[Value], indent: &str) {
             None => {
                 let _ = writeln!(
                     s,
-                    "{indent}{:<24} {:>10} {:<9} (not identifiable)",
-                    x.name, "-", x.unit
+                    "{indent}{:<24} {:>10.3} {:<9} ({})",
+                    x.name,
+                    x.value,
+                    x.unit,
+                    x.note.as_deref().unwrap_or("not identifiable")
                 );
             }
         }

@@ -8,8 +8,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, bail};
 use clap::Args;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
-use fivecal::errorfile::Noise;
-use fivecal::formats::manifest::TestKind;
 use fivecal::io::{ensure_not_input, write_atomic};
 
 /// Find where model and measurement disagree, name the missing effect, add
@@ -117,13 +115,12 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
 }
 
 pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
-    let mut c = validate(args)?;
+    let c = validate(args)?;
     let inputs = Inputs::load(&c.manifest, &c.measured)?;
     for w in &inputs.data.warnings {
         eprintln!("warning: {w}");
     }
-    c.options.test = inputs.plan.test().to_string();
-    let d = discover::run(&inputs.kin, &inputs.data, &c.options)?;
+    let d = inputs.discover(&c.options)?;
     if c.json {
         println!("{}", serde_json::to_string_pretty(&d.story)?);
     } else {
@@ -137,19 +134,7 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         }
     };
     if let Some(out) = &c.out {
-        let est = d.identification(&inputs.data);
-        let mut f = est.error_file(None);
-        let sigma = est.sigma_um.is_finite().then_some(est.sigma_um);
-        f.effects.noise = Some(match inputs.data.kind {
-            TestKind::Machining => Noise {
-                cmm: sigma,
-                probe: None,
-            },
-            TestKind::Probing => Noise {
-                cmm: None,
-                probe: sigma,
-            },
-        });
+        let f = d.error_file(&inputs.data);
         let json = out.extension().is_some_and(|e| e == "json");
         let text = if json {
             f.to_json() + "\n"
