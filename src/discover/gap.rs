@@ -169,6 +169,9 @@ pub fn gap(kin: &Kinematics, data: &Dataset, r: &[f64]) -> Gap {
     g
 }
 
+/// Fewest points a group must have to be named.
+const MIN_POINTS: usize = 4;
+
 /// Whether a group's residuals differ from the overall level by more than
 /// chance: with every residual of variance `ms` (the overall mean square),
 /// `points * (rms/overall)^2` follows chi-square with `points` degrees of
@@ -177,7 +180,9 @@ pub fn gap(kin: &Kinematics, data: &Dataset, r: &[f64]) -> Gap {
 /// (`high`) or at most 0.6 times (`!high`) the overall RMS to be worth
 /// naming.
 fn stands_out(g: &Group, rms: f64, groups: usize, high: bool) -> bool {
-    if g.points == 0 || rms <= 0.0 {
+    // A group of a few points (a touch of a sphere is its own "face") says
+    // nothing about a pattern.
+    if g.points < MIN_POINTS || rms <= 0.0 {
         return false;
     }
     let ratio = g.rms_um / rms;
@@ -249,7 +254,10 @@ fn summarize(g: &Gap) -> String {
         .by_face
         .iter()
         .filter(|x| {
-            let se = g.rms_um / (x.points.max(1) as f64).sqrt();
+            if x.points < MIN_POINTS {
+                return false;
+            }
+            let se = g.rms_um / (x.points as f64).sqrt();
             x.mean_um.abs() > 3.5 * se && x.mean_um.abs() >= 0.5 * g.rms_um
         })
         .collect();
