@@ -7,8 +7,8 @@
 //!   radius), from the algebraic fit (seed 004 eq. 3.1-3.2) refined
 //!   geometrically. Seed 004 averages four 4-point fits instead; with five
 //!   points the least-squares fit is the same estimate with less variance.
-//!   (The sphere fit lives here until `src/fit/` of the probing issue lands;
-//!   the two are to be merged.)
+//!   The fit is [`crate::fit::fit_sphere`]; [`fit_sphere`] adds the
+//!   centre's covariance the line fits weigh by.
 //! - Axis lines: the centres at one tilt angle and many C angles lie on a
 //!   circle about the C axis; those at one C angle and many tilt angles on an
 //!   arc about the tilt axis. A 3-D circle fit (plane and circle together,
