@@ -139,6 +139,24 @@ pub(crate) fn pose_id(letter: char, tilt: f64, c: f64) -> String {
     format!("{letter}{}C{}", short(tilt), short(c))
 }
 
+/// `v` rounded to `d` decimals.
+pub(crate) fn round(v: f64, d: i32) -> f64 {
+    let f = 10f64.powi(d);
+    (v * f).round() / f
+}
+
+/// The setup sheet's closing `## Notes` list, if there are notes.
+pub(crate) fn push_notes(s: &mut String, notes: &[String]) {
+    use std::fmt::Write as _;
+    if notes.is_empty() {
+        return;
+    }
+    let _ = writeln!(s, "\n## Notes\n");
+    for n in notes {
+        let _ = writeln!(s, "- {n}");
+    }
+}
+
 /// A number without trailing zeros (`90`, `-22.5`).
 pub(crate) fn short(v: f64) -> String {
     let s = crate::formats::points::fmt_num(v, 6);

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use indexmap::IndexMap;
 
-use super::design::short;
+use super::design::{push_notes, round, short};
 use super::{PlannedTest, RenderedProgram};
 use crate::formats::dmis_program::{self, DmisMoves, Probing};
 use crate::formats::manifest::{MANIFEST_VERSION, Manifest, PoseEntry};
@@ -31,11 +31,6 @@ pub(crate) fn file_names(t: &PlannedTest, stem: &str) -> Vec<(&'static str, Path
         v.push(("log_format", PathBuf::from(&a.name)));
     }
     v
-}
-
-fn round(v: f64, d: i32) -> f64 {
-    let f = 10f64.powi(d);
-    (v * f).round() / f
 }
 
 impl PlannedTest {
@@ -241,12 +236,7 @@ impl PlannedTest {
             s,
             "- Nominal piece: `{stem}.obj`, `{stem}.glb` (one group per pose, `stock` for uncut faces)."
         );
-        if !self.notes.is_empty() {
-            let _ = writeln!(s, "\n## Notes\n");
-            for n in &self.notes {
-                let _ = writeln!(s, "- {n}");
-            }
-        }
+        push_notes(&mut s, &self.notes);
         s
     }
 

@@ -8,16 +8,11 @@ use std::path::{Path, PathBuf};
 
 use indexmap::IndexMap;
 
-use super::design::short;
+use super::design::{push_notes, round, short};
 use super::outputs::push_common;
 use super::probing::{PlannedProbing, Setup};
 use crate::formats::manifest::{KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry, TestKind};
 use crate::io::OutputError;
-
-fn round(v: f64, d: i32) -> f64 {
-    let f = 10f64.powi(d);
-    (v * f).round() / f
-}
 
 impl PlannedProbing {
     /// Output file names by role, for a plan named `stem`.
@@ -241,12 +236,7 @@ impl PlannedProbing {
                 short(round(p.end_min, 1))
             );
         }
-        if !self.notes.is_empty() {
-            let _ = writeln!(o, "\n## Notes\n");
-            for n in &self.notes {
-                let _ = writeln!(o, "- {n}");
-            }
-        }
+        push_notes(&mut o, &self.notes);
         o
     }
 
