@@ -21,7 +21,7 @@ use fivecal::model::{DriftBasis, Effect};
 use fivecal::{Dialect, Machine};
 use nalgebra::Vector3;
 
-use crate::cli::fivecal;
+use crate::cli::{analyze_cmd, fivecal};
 use crate::identify::{AC_TRUTH, BC_TRUTH, sphere_poses, stepped_plan, truth_model};
 use crate::util::{machine, random_placement, rng, tempdir};
 
@@ -386,13 +386,7 @@ fn analyze_a_stepped_square_from_dmis_end_to_end() {
     write_dmis(&measured, &plan, &pts);
     let out = dir.path().join("result.yaml");
     let report = dir.path().join("report");
-    let o = fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&measured)
-        .arg("--out")
-        .arg(&out)
+    let o = analyze_cmd(&manifest, &measured, &out)
         .arg("--report")
         .arg(&report)
         .args(["--maps", "EBB(B)"])
@@ -446,13 +440,7 @@ fn analyze_a_stepped_square_from_dmis_end_to_end() {
     assert!(html.contains("<img src=\"pose-Bm90C0.svg\"") && html.contains("EA(0B)C"));
     // The same as JSON, by the two-stage method.
     let outj = dir.path().join("result.json");
-    fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&measured)
-        .arg("--out")
-        .arg(&outj)
+    analyze_cmd(&manifest, &measured, &outj)
         .args(["--json", "--method", "two-stage"])
         .assert()
         .success();
@@ -476,13 +464,7 @@ fn analyze_refuses_bad_input_with_file_and_line_and_writes_nothing() {
     let measured = dir.path().join("other.csv");
     std::fs::write(&measured, measured::to_csv(&pts, &[])).unwrap();
     let out = dir.path().join("result.yaml");
-    let e = fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&measured)
-        .arg("--out")
-        .arg(&out)
+    let e = analyze_cmd(&manifest, &measured, &out)
         .assert()
         .code(2)
         .get_output()
@@ -495,13 +477,7 @@ fn analyze_refuses_bad_input_with_file_and_line_and_writes_nothing() {
     );
     assert!(!out.exists());
     // Never overwrite an input.
-    fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&measured)
-        .arg("--out")
-        .arg(&measured)
+    analyze_cmd(&manifest, &measured, &measured)
         .assert()
         .code(2)
         .stderr(predicates::str::contains(
@@ -590,13 +566,7 @@ fn sphere_test_on_ac_trunnion_from_the_command_line() {
     )
     .unwrap();
     let out = dir.path().join("result.yaml");
-    let o = fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&measured)
-        .arg("--out")
-        .arg(&out)
+    let o = analyze_cmd(&manifest, &measured, &out)
         .args(["--mc", "6"])
         .assert()
         .success()
@@ -652,13 +622,7 @@ fn nine_section_heights_from_the_command_line() {
     )
     .unwrap();
     let out = dir.path().join("nine.yaml");
-    fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&h)
-        .arg("--out")
-        .arg(&out)
+    analyze_cmd(&manifest, &h, &out)
         .assert()
         .success()
         .stdout(predicates::str::contains(
@@ -789,13 +753,7 @@ fn analyze_measures_of_a_plan_written_by_fivecal_plan() {
     write_dmis(&measured, &plan, &pts);
     let out = dir.path().join("result.yaml");
     for method in ["global", "two-stage"] {
-        fivecal()
-            .args(["analyze", "--plan"])
-            .arg(&manifest)
-            .arg("--measured")
-            .arg(&measured)
-            .arg("--out")
-            .arg(&out)
+        analyze_cmd(&manifest, &measured, &out)
             .args(["--maps", "EBB(B)", "--method", method])
             .assert()
             .success();
@@ -966,13 +924,7 @@ fn sphere_test_of_a_probing_plan_from_its_fanuc_probe_log() {
     let measured = dir.path().join("PROBE.TXT");
     std::fs::write(&measured, log).unwrap();
     let out = dir.path().join("result.yaml");
-    fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&measured)
-        .arg("--out")
-        .arg(&out)
+    analyze_cmd(&manifest, &measured, &out)
         .assert()
         .success()
         .stdout(predicates::str::contains("method sphere"));
@@ -1039,13 +991,7 @@ fn column_probing_of_a_probing_plan_by_both_methods() {
     std::fs::write(&measured, measured::to_csv(&pts, &[])).unwrap();
     let out = dir.path().join("result.yaml");
     for method in ["two-stage", "global"] {
-        let o = fivecal()
-            .args(["analyze", "--plan"])
-            .arg(&manifest)
-            .arg("--measured")
-            .arg(&measured)
-            .arg("--out")
-            .arg(&out)
+        let o = analyze_cmd(&manifest, &measured, &out)
             .args(["--method", method])
             .assert()
             .success()

@@ -21,7 +21,7 @@ use fivecal::uncertainty::simulated::{self, SimulatedTest};
 use fivecal::uncertainty::{self, Contributors, McOptions};
 use nalgebra::DMatrix;
 
-use crate::cli::fivecal;
+use crate::cli::{analyze_cmd, fivecal};
 use crate::simulate::{planned, truth};
 use crate::util::{random_placement, rng, tempdir};
 
@@ -493,15 +493,7 @@ fn analyze_with_cli(
     out: &Path,
     extra: &[&str],
 ) -> assert_cmd::assert::Assert {
-    fivecal()
-        .args(["analyze", "--plan"])
-        .arg(manifest)
-        .arg("--measured")
-        .arg(measured)
-        .arg("--out")
-        .arg(out)
-        .args(extra)
-        .assert()
+    analyze_cmd(manifest, measured, out).args(extra).assert()
 }
 
 #[test]

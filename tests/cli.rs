@@ -6,6 +6,23 @@ pub fn fivecal() -> Command {
     Command::cargo_bin("fivecal").unwrap()
 }
 
+/// `fivecal analyze --plan MANIFEST --measured FILE --out OUT`, to which a
+/// test adds its own options.
+pub fn analyze_cmd(
+    manifest: &std::path::Path,
+    measured: &std::path::Path,
+    out: &std::path::Path,
+) -> Command {
+    let mut c = fivecal();
+    c.args(["analyze", "--plan"])
+        .arg(manifest)
+        .arg("--measured")
+        .arg(measured)
+        .arg("--out")
+        .arg(out);
+    c
+}
+
 #[test]
 fn help_lists_every_subcommand_with_what_it_does() {
     let out = fivecal()

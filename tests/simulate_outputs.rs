@@ -12,7 +12,7 @@ use fivecal::plan::LoadedPlan;
 use fivecal::simulate::{self, Format, Placement, SimOptions, SimOutput};
 use fivecal::{Dialect, Kinematics, Machine};
 
-use crate::cli::fivecal;
+use crate::cli::{analyze_cmd, fivecal};
 use crate::probe_programs::probing;
 use crate::simulate::{planned, truth};
 use crate::util::{MACHINES, tempdir};
@@ -439,13 +439,7 @@ fn the_examples_walk_through_gives_the_truth_back() {
         "{said}"
     );
     let result = dir.path().join("result.yaml");
-    fivecal()
-        .args(["analyze", "--plan"])
-        .arg(&manifest)
-        .arg("--measured")
-        .arg(&piece)
-        .arg("--out")
-        .arg(&result)
+    analyze_cmd(&manifest, &piece, &result)
         .args(["--maps", "EBB(B)"])
         .assert()
         .success();
