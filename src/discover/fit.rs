@@ -39,16 +39,16 @@ use std::ops::Range;
 use std::sync::Arc;
 
 use faer::Mat;
-use nalgebra::{DMatrix, DVector, Isometry3, Point3, Vector3};
+use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use super::catalogue::Candidate;
-use crate::formats::manifest::TestKind;
-use crate::identify::forward::{ForwardError, ForwardModel, RigidPoseMachining, RigidPoseProbing};
+use crate::identify::forward::{ForwardError, ForwardModel};
 use crate::identify::global::PLACEMENT_NAMES;
+use crate::identify::global::{Observed, observed};
 use crate::identify::identifiability::{self, Identifiability};
 use crate::identify::lsq::{self, Design};
 use crate::identify::rigid::{d6_um, face_residual};
-use crate::identify::{Dataset, IdentifyError, Setup, initial_placement};
+use crate::identify::{Dataset, IdentifyError, Setup};
 use crate::kinematics::Kinematics;
 use crate::model::{Effect, Model};
 use crate::plan::{LoadedPlan, PlannedProbing, PlannedTest};
@@ -83,23 +83,7 @@ pub fn forward_model(
     match plan {
         Some(PlanRef::Machining(t)) => Ok(Box::new(MachiningForward::new(&model, t.clone())?)),
         Some(PlanRef::Probing(p)) => Ok(Box::new(ProbingForward::new(&model, p.clone())?)),
-        None => match data.kind {
-            TestKind::Machining => Ok(Box::new(RigidPoseMachining::new(model)?)),
-            TestKind::Probing => {
-                let piece_of = data
-                    .plan
-                    .points
-                    .iter()
-                    .zip(&data.piece_of)
-                    .map(|(p, &k)| (p.label.clone(), k))
-                    .collect();
-                Ok(Box::new(RigidPoseProbing::with_pieces(
-                    model,
-                    data.pieces.clone(),
-                    piece_of,
-                )?))
-            }
-        },
+        None => crate::identify::forward::rigid_for(model, data),
     }
 }
 
@@ -367,24 +351,7 @@ impl<'a> Fitter<'a> {
             .enumerate()
             .map(|(i, c)| (c.name.clone(), sym.location.len() + i))
             .collect();
-        let p0 = match data.kind {
-            TestKind::Machining => Some(initial_placement(data)?),
-            TestKind::Probing => None,
-        };
-        let u = data
-            .obs
-            .iter()
-            .map(|o| match &p0 {
-                Some(p) => (p.inverse() * Point3::from(o.m)).coords,
-                None => o.m,
-            })
-            .collect();
-        let mut minutes = vec![0.0; data.obs.len()];
-        for pose in &data.poses {
-            for &k in &pose.obs {
-                minutes[k] = pose.minutes;
-            }
-        }
+        let Observed { p0, u, minutes } = observed(data)?;
         let mut extra_names = fm.nuisance_names();
         let k = extra_names.len();
         if p0.is_some() {

@@ -316,3 +316,31 @@ impl ForwardModel for RigidPoseProbing {
         })
     }
 }
+
+/// The rigid-pose model of a dataset's test: [`RigidPoseMachining`] for a
+/// machined piece, [`RigidPoseProbing`] with one setup per separately
+/// set-up piece for on-machine probing.
+pub fn rigid_for(
+    model: Model,
+    data: &crate::identify::Dataset,
+) -> Result<Box<dyn ForwardModel>, ForwardError> {
+    match data.kind {
+        crate::formats::manifest::TestKind::Machining => {
+            Ok(Box::new(RigidPoseMachining::new(model)?))
+        }
+        crate::formats::manifest::TestKind::Probing => {
+            let piece_of = data
+                .plan
+                .points
+                .iter()
+                .zip(&data.piece_of)
+                .map(|(p, &k)| (p.label.clone(), k))
+                .collect();
+            Ok(Box::new(RigidPoseProbing::with_pieces(
+                model,
+                data.pieces.clone(),
+                piece_of,
+            )?))
+        }
+    }
+}

@@ -30,6 +30,41 @@ pub const PLACEMENT_NAMES: [&str; 6] = [
     "placement.c",
 ];
 
+/// What a fit compares its predictions with: the starting CMM placement
+/// `P0` of a machined piece (from the reference features), the observed
+/// points taken back through it, and each observation's pose time.
+pub struct Observed {
+    /// `P0`, for a machined piece; `None` for on-machine probing.
+    pub p0: Option<Isometry3<f64>>,
+    /// Observed points, `P0^-1 m` (or `m`).
+    pub u: Vec<Vector3<f64>>,
+    /// Minutes from the program start at the middle of each observation's pose.
+    pub minutes: Vec<f64>,
+}
+
+/// [`Observed`] for a dataset.
+pub fn observed(data: &Dataset) -> Result<Observed, IdentifyError> {
+    let p0 = match data.kind {
+        TestKind::Machining => Some(super::initial_placement(data)?),
+        TestKind::Probing => None,
+    };
+    let u = data
+        .obs
+        .iter()
+        .map(|o| match &p0 {
+            Some(p) => (p.inverse() * Point3::from(o.m)).coords,
+            None => o.m,
+        })
+        .collect();
+    let mut minutes = vec![0.0; data.obs.len()];
+    for pose in &data.poses {
+        for &k in &pose.obs {
+            minutes[k] = pose.minutes;
+        }
+    }
+    Ok(Observed { p0, u, minutes })
+}
+
 struct GlobalProblem<'a> {
     fm: &'a dyn ForwardModel,
     data: &'a Dataset,
@@ -106,26 +141,8 @@ pub fn identify(
             "the forward model's parameters differ from the setup's".into(),
         ));
     }
-    let placement = data.kind == TestKind::Machining;
-    let p0 = if placement {
-        Some(super::initial_placement(data)?)
-    } else {
-        None
-    };
-    let u: Vec<Vector3<f64>> = data
-        .obs
-        .iter()
-        .map(|o| match &p0 {
-            Some(p) => (p.inverse() * Point3::from(o.m)).coords,
-            None => o.m,
-        })
-        .collect();
-    let mut minutes = vec![0.0; data.obs.len()];
-    for pose in &data.poses {
-        for &k in &pose.obs {
-            minutes[k] = pose.minutes;
-        }
-    }
+    let Observed { p0, u, minutes } = observed(data)?;
+    let placement = p0.is_some();
     let nuisance_names = fm.nuisance_names();
     let k = nuisance_names.len();
     let problem = GlobalProblem {

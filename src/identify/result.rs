@@ -110,6 +110,20 @@ impl Identification {
         self.identifiability.is_identifiable(i)
     }
 
+    /// The estimates, NaN where a parameter is not identifiable (what a
+    /// Monte-Carlo run records).
+    pub fn estimates_or_nan(&self) -> Vec<f64> {
+        (0..self.theta.len())
+            .map(|i| {
+                if self.identifiable(i) {
+                    self.theta[i]
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect()
+    }
+
     /// Standard uncertainty of each model parameter, `None` where it is not
     /// identifiable.
     pub fn u(&self) -> Vec<Option<f64>> {

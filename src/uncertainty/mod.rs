@@ -25,7 +25,7 @@ use rand::Rng;
 use crate::formats::detect::PointSet;
 use crate::formats::manifest::TestKind;
 use crate::formats::points::PlanPoints;
-use crate::identify::forward::{RigidPoseMachining, RigidPoseProbing};
+use crate::identify::forward::RigidPoseMachining;
 use crate::identify::sphere::SphereOptions;
 use crate::identify::{
     self, Dataset, Identification, IdentifyError, Method, Setup, lsq, synthetic,
@@ -45,27 +45,10 @@ pub fn identify_with(
 ) -> Result<Identification, IdentifyError> {
     let opts = lsq::Options::default();
     match method {
-        Method::Global => match data.kind {
-            TestKind::Machining => {
-                let fm = RigidPoseMachining::new(setup.model.clone())?;
-                identify::global::identify(&fm, setup, data, &opts)
-            }
-            TestKind::Probing => {
-                let piece_of = data
-                    .plan
-                    .points
-                    .iter()
-                    .zip(&data.piece_of)
-                    .map(|(p, &k)| (p.label.clone(), k))
-                    .collect();
-                let fm = RigidPoseProbing::with_pieces(
-                    setup.model.clone(),
-                    data.pieces.clone(),
-                    piece_of,
-                )?;
-                identify::global::identify(&fm, setup, data, &opts)
-            }
-        },
+        Method::Global => {
+            let fm = identify::forward::rigid_for(setup.model.clone(), data)?;
+            identify::global::identify(fm.as_ref(), setup, data, &opts)
+        }
         Method::TwoStage => identify::two_stage::identify(setup, data, &opts),
         Method::Sphere => identify::sphere::identify(setup, data, sphere),
     }
@@ -209,15 +192,7 @@ pub fn synthetic_run<R: Rng + ?Sized>(
     data.pieces = t.data.pieces.clone();
     data.piece_of = t.data.piece_of.clone();
     let r = identify_with(t.method, t.setup, &data, &t.sphere).map_err(|e| e.to_string())?;
-    Ok((0..r.theta.len())
-        .map(|i| {
-            if r.identifiable(i) {
-                r.theta[i]
-            } else {
-                f64::NAN
-            }
-        })
-        .collect())
+    Ok(r.estimates_or_nan())
 }
 
 /// The method's own covariance for noise `sigma_um` per point,

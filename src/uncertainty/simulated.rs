@@ -236,15 +236,7 @@ pub fn simulated_run<R: Rng + ?Sized>(
     let (_, d) = simulate_run(t, rng)?;
     let r = identify_with_plan(t.method, t.setup, &d, &t.sphere, Some(t.plan))
         .map_err(|e| e.to_string())?;
-    Ok((0..r.theta.len())
-        .map(|i| {
-            if r.identifiable(i) {
-                r.theta[i]
-            } else {
-                f64::NAN
-            }
-        })
-        .collect())
+    Ok(r.estimates_or_nan())
 }
 
 /// What a seeded study of one design found for one method.
@@ -284,13 +276,7 @@ pub fn study(
             let r = identify_with_plan(m, t.setup, &d, &t.sphere, Some(t.plan))
                 .map_err(|e| format!("{m}: {e}"))?;
             let u = r.u();
-            for i in 0..n {
-                row.push(if r.identifiable(i) {
-                    r.theta[i]
-                } else {
-                    f64::NAN
-                });
-            }
+            row.extend(r.estimates_or_nan());
             row.extend(u.iter().map(|x| x.unwrap_or(f64::NAN)));
         }
         Ok(row)
