@@ -153,6 +153,24 @@ pub struct Noise {
     pub probe: Option<f64>,
 }
 
+impl Noise {
+    /// The noise a fit found, `sigma_um` (if finite), as the CMM's for a
+    /// machined piece or the probe's for on-machine probing.
+    pub fn measured(kind: crate::formats::manifest::TestKind, sigma_um: f64) -> Noise {
+        let sigma = sigma_um.is_finite().then_some(sigma_um);
+        match kind {
+            crate::formats::manifest::TestKind::Machining => Noise {
+                cmm: sigma,
+                probe: None,
+            },
+            crate::formats::manifest::TestKind::Probing => Noise {
+                cmm: None,
+                probe: sigma,
+            },
+        }
+    }
+}
+
 /// Further named effects.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]

@@ -159,17 +159,7 @@ impl Discovery {
                 });
             }
         }
-        let sigma = f.sigma().is_finite().then_some(f.sigma());
-        file.effects.noise = Some(match data.kind {
-            TestKind::Machining => Noise {
-                cmm: sigma,
-                probe: None,
-            },
-            TestKind::Probing => Noise {
-                cmm: None,
-                probe: sigma,
-            },
-        });
+        file.effects.noise = Some(Noise::measured(data.kind, f.sigma()));
         file
     }
 }

@@ -115,24 +115,6 @@ pub fn gap_plot(labels: &[String], rms: &[f64], max: &[f64], sigma: f64) -> Resu
     Ok(svg)
 }
 
-fn residual_groups(data: &Dataset, r: &[f64]) -> Vec<(String, Vec<(usize, f64)>)> {
-    let mut i = 0;
-    data.poses
-        .iter()
-        .map(|p| {
-            let v = p
-                .obs
-                .iter()
-                .map(|&k| {
-                    i += 1;
-                    (i - 1, r.get(k).copied().unwrap_or(f64::NAN))
-                })
-                .collect();
-            (p.id.clone(), v)
-        })
-        .collect()
-}
-
 fn group_table(h: &mut String, title: &str, before: &[Group], after: &[Group]) {
     let _ = writeln!(
         h,
@@ -196,7 +178,10 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
         "residuals-before.svg",
         plot(
             "residuals-before.svg",
-            plots::residual_plot(&residual_groups(data, &start.residuals), start.sigma()),
+            plots::residual_plot(
+                &crate::report::residual_groups(data, &start.residuals),
+                start.sigma(),
+            ),
         )?
         .as_bytes(),
         &mut files,
@@ -205,7 +190,10 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
         "residuals-after.svg",
         plot(
             "residuals-after.svg",
-            plots::residual_plot(&residual_groups(data, &end.residuals), end.sigma()),
+            plots::residual_plot(
+                &crate::report::residual_groups(data, &end.residuals),
+                end.sigma(),
+            ),
         )?
         .as_bytes(),
         &mut files,

@@ -291,23 +291,7 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         pose_figs.push(file);
     }
     // Residuals.
-    let groups: Vec<(String, Vec<(usize, f64)>)> = {
-        let mut i = 0;
-        data.poses
-            .iter()
-            .map(|p| {
-                let v = p
-                    .obs
-                    .iter()
-                    .map(|&k| {
-                        i += 1;
-                        (i - 1, est.residuals.get(k).copied().unwrap_or(f64::NAN))
-                    })
-                    .collect();
-                (p.id.clone(), v)
-            })
-            .collect()
-    };
+    let groups = residual_groups(data, &est.residuals);
     put(
         "residuals.svg",
         plot("residuals.svg", plots::residual_plot(&groups, est.sigma_um))?.as_bytes(),
@@ -421,6 +405,26 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
     h.push_str("</body></html>\n");
     put("index.html", h.as_bytes(), &mut files)?;
     Ok(files)
+}
+
+/// Residuals grouped by pose for the residual plot: (pose id, (running
+/// index, residual um)), in pose order.
+pub(crate) fn residual_groups(data: &Dataset, r: &[f64]) -> Vec<(String, Vec<(usize, f64)>)> {
+    let mut i = 0;
+    data.poses
+        .iter()
+        .map(|p| {
+            let v = p
+                .obs
+                .iter()
+                .map(|&k| {
+                    i += 1;
+                    (i - 1, r.get(k).copied().unwrap_or(f64::NAN))
+                })
+                .collect();
+            (p.id.clone(), v)
+        })
+        .collect()
 }
 
 #[cfg(test)]

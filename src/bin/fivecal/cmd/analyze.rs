@@ -569,17 +569,7 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
         );
     }
     let mut f = est.error_file(Some(&u));
-    let sigma = (est.sigma_um.is_finite()).then_some(est.sigma_um);
-    f.effects.noise = Some(match data.kind {
-        TestKind::Machining => Noise {
-            cmm: sigma,
-            probe: None,
-        },
-        TestKind::Probing => Noise {
-            cmm: None,
-            probe: sigma,
-        },
-    });
+    f.effects.noise = Some(Noise::measured(data.kind, est.sigma_um));
     if let Some(dir) = &c.report {
         let dir = match piece {
             Some(k) => dir.join(format!("piece{k}")),
