@@ -193,7 +193,7 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
         print_piece(piece);
         if let Some(dir) = &c.report {
             let dir = piece.report_dir(dir);
-            let files = report::write(&dir, &ReportInput::for_piece(&id.test, piece))?;
+            let files = report::write(&dir, &ReportInput::for_piece(id.test.as_str(), piece))?;
             println!(
                 "report: {} ({} files)",
                 dir.join("index.html").display(),

@@ -170,7 +170,7 @@ fn simulate(c: Config) -> anyhow::Result<()> {
     inputs.push(c.errors.clone());
     let refs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     ensure_not_input(&c.out, &refs)?;
-    let plan = fivecal::plan::load_any(&c.plan_path)?;
+    let plan = fivecal::procedure::load(&c.plan_path)?;
     let kind = plan.kind();
     let format = c.format.unwrap_or_else(|| Format::for_path(&c.out, kind));
     simulate::output::check(format, kind, plan.test())?;
