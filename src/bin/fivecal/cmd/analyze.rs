@@ -18,7 +18,7 @@ use fivecal::identify::nine_section::NineSection;
 use fivecal::identify::series::Series;
 use fivecal::identify::sphere::{CircleMethod, SphereOptions};
 use fivecal::identify::{self, Dataset, Method, Setup};
-use fivecal::io::{ensure_not_input, write_atomic};
+use fivecal::io::{Shape, check_outputs, write_atomic};
 use fivecal::probing::template::{ColumnsTemplate, SphereTemplate, TemplateSource};
 use fivecal::uncertainty::simulated::SimulatedTest;
 use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
@@ -285,7 +285,10 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     };
     let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
     inputs.push(&manifest_path);
-    ensure_not_input(&out, &inputs)?;
+    inputs.extend(a.compare.as_deref());
+    let mut outputs = vec![("--out", out.as_path(), Shape::File)];
+    outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
+    check_outputs(&inputs, &outputs)?;
     if a.series && a.measured.len() < 2 {
         bail!("--series needs two or more measured files, one per piece");
     }
@@ -407,13 +410,13 @@ fn analyze(c: Config) -> anyhow::Result<()> {
     }
     if c.series {
         let series = Series::new(&results);
-        print!("\nseries of {} pieces:\n{}", results.len(), series.render());
+        out!("\nseries of {} pieces:\n{}", results.len(), series.render());
         for (k, (_, f)) in results.iter().enumerate() {
             let p = piece_path(&c.out, k + 1, c.json);
             write_atomic(&p, serialize(f, c.json)?.as_bytes())?;
         }
         write_atomic(&c.out, serialize(&series, c.json)?.as_bytes())?;
-        println!(
+        outln!(
             "wrote {} and one error file per piece beside it",
             c.out.display()
         );
@@ -428,14 +431,14 @@ fn analyze(c: Config) -> anyhow::Result<()> {
             })
             .as_bytes(),
         )?;
-        println!("wrote {}", c.out.display());
+        outln!("wrote {}", c.out.display());
     }
     if let Some(cmp) = &c.compare {
         let before = ErrorFile::load(cmp, kin)?;
         let before = ErrorFile::from_model(&before.model, &before.theta, &before.u, &before.noise);
         let mut rows = vec![(cmp.display().to_string(), before)];
         rows.extend(results.iter().cloned());
-        print!(
+        out!(
             "\ncomparison (change from the first column):\n{}",
             Series::new(&rows).render()
         );
@@ -462,9 +465,9 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
     };
     let est = uncertainty::identify_with_plan(c.method, &setup, data, &c.sphere, plan.as_ref())?;
     if let Some(k) = piece {
-        println!("== piece {k}: {}", data.files[0].display());
+        outln!("== piece {k}: {}", data.files[0].display());
     }
-    print!("{}", est.summary());
+    out!("{}", est.summary());
     let mut u = est.u();
     let mut mc_result = None;
     if let Some(opts) = &c.mc {
@@ -534,19 +537,19 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
                 mc.failed.1.clone().unwrap_or_default()
             );
         }
-        println!("monte carlo: {} runs (seed {}) {how}", mc.runs, opts.seed);
+        outln!("monte carlo: {} runs (seed {}) {how}", mc.runs, opts.seed);
         if rebuilt.is_err() {
             for s in ["directional pre-travel", "the sphere's form error"] {
-                println!("  not included: {s} (only the simulator applies it)");
+                outln!("  not included: {s} (only the simulator applies it)");
             }
         }
         for s in Contributors::unmapped() {
-            println!("  not included: {s}");
+            outln!("  not included: {s}");
         }
         let names = est.model.param_names();
         for i in 0..u.len() {
             if est.identifiable(i) {
-                println!(
+                outln!(
                     "  {:<24} u(covariance) {:>8.3}   u(monte carlo) {:>8.3}",
                     names[i],
                     u[i].unwrap_or(f64::NAN),
@@ -557,15 +560,25 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
         }
         mc_result = Some(mc);
     }
-    println!("residuals by pose and face (um):");
-    println!(
+    outln!("residuals by pose and face (um):");
+    outln!(
         "  {:<12} {:<22} {:>6} {:>9} {:>9} {:>9}",
-        "pose", "face", "points", "mean", "rms", "max"
+        "pose",
+        "face",
+        "points",
+        "mean",
+        "rms",
+        "max"
     );
     for r in est.residual_table(data) {
-        println!(
+        outln!(
             "  {:<12} {:<22} {:>6} {:>9.3} {:>9.3} {:>9.3}",
-            r.pose, r.face, r.points, r.mean_um, r.rms_um, r.max_um
+            r.pose,
+            r.face,
+            r.points,
+            r.mean_um,
+            r.rms_um,
+            r.max_um
         );
     }
     let mut f = est.error_file(Some(&u));
@@ -584,7 +597,7 @@ fn one_piece(c: &Config, data: &Dataset, piece: Option<usize>) -> anyhow::Result
             error_file: &f,
         };
         let files = fivecal::report::write(&dir, &input)?;
-        println!(
+        outln!(
             "report: {} ({} files)",
             dir.join("index.html").display(),
             files.len()
@@ -640,13 +653,15 @@ fn nine_section(c: &Config, heights: &[(PathBuf, Vec<SectionHeight>)]) -> anyhow
 /// Prints and writes nine-section statistics (one entry per piece).
 fn write_nine_section(c: &Config, stats: &[(PathBuf, NineSection)]) -> anyhow::Result<()> {
     for (p, s) in stats {
-        println!("{}:\n{}", p.display(), s.render());
+        outln!("{}:\n{}", p.display(), s.render());
     }
     if stats.len() > 1 {
         let r = stats.last().unwrap().1.improvement_over(&stats[0].1);
-        println!(
+        outln!(
             "rate of improvement from the first to the last: AVG {:.2} %, MAX {:.2} %, RMS {:.2} %",
-            r[0], r[1], r[2]
+            r[0],
+            r[1],
+            r[2]
         );
     }
     // The test validates (seed 004 section 6): it evaluates the machine and
@@ -663,7 +678,7 @@ fn write_nine_section(c: &Config, stats: &[(PathBuf, NineSection)]) -> anyhow::R
                 reason: reason.into(),
             })
             .collect();
-    println!(
+    outln!(
         "not identifiable: {} ({reason})",
         not_identifiable
             .iter()
@@ -684,6 +699,6 @@ fn write_nine_section(c: &Config, stats: &[(PathBuf, NineSection)]) -> anyhow::R
         not_identifiable,
     };
     write_atomic(&c.out, serialize(&out, c.json)?.as_bytes())?;
-    println!("wrote {}", c.out.display());
+    outln!("wrote {}", c.out.display());
     Ok(())
 }

@@ -13,6 +13,7 @@ use anyhow::{Context as _, bail};
 use clap::{Args, ValueEnum};
 use fivecal::compensate::{AtomicOutput, Compensator, Coordinates, Settings, Summary, export};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
+use fivecal::io::{Shape, check_outputs};
 use fivecal::{Dialect, Kinematics, Machine};
 use nalgebra::Vector3;
 
@@ -230,9 +231,6 @@ impl CompensateArgs {
         };
         let rewrite = match (self.input, self.output) {
             (Some(i), Some(o)) => {
-                let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
-                inputs.push(&i);
-                fivecal::io::ensure_not_input(&o, &inputs)?;
                 if !i.exists() {
                     bail!("cannot read program {}: no such file", i.display());
                 }
@@ -252,6 +250,13 @@ impl CompensateArgs {
             }
         };
         // With a program, the parameters go next to the rewritten one.
+        if export.as_ref().is_some_and(|(_, t)| t.is_none())
+            && rewrite.as_ref().is_some_and(|(_, o)| o.as_os_str() == "-")
+        {
+            bail!(
+                "-o - writes the program to standard output: name the --export parameter file with --export-to FILE"
+            );
+        }
         let export = export.map(|(d, target)| {
             let target = target.or_else(|| {
                 rewrite.as_ref().map(|(_, out)| {
@@ -262,6 +267,22 @@ impl CompensateArgs {
             });
             (d, target)
         });
+        // Every output checked before any work: none is an input, none is
+        // another output, each can be written as a file.
+        let inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
+        let mut outputs = Vec::new();
+        outputs.extend(
+            rewrite
+                .as_ref()
+                .map(|(_, o)| ("-o", o.as_path(), Shape::File)),
+        );
+        outputs.extend(
+            export
+                .as_ref()
+                .and_then(|(_, t)| t.as_deref())
+                .map(|t| ("--export-to", t, Shape::File)),
+        );
+        check_outputs(&inputs, &outputs)?;
         Ok(Config {
             common,
             errors_path: self.errors,
@@ -283,7 +304,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         // On any error `out` is dropped: its temporary file goes, nothing is written.
         let summary = c.run(input, BufReader::with_capacity(1 << 16, file), &mut out)?;
         out.commit()?;
-        print!("{}", describe(&summary, input, output, &cfg));
+        out!("{}", describe(&summary, input, output, &cfg));
     }
     if let Some((d, target)) = &cfg.export {
         let text = export::export(
@@ -294,12 +315,10 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         )?;
         match target {
             Some(p) => {
-                let inputs: Vec<&Path> = cfg.common.inputs.iter().map(|p| p.as_path()).collect();
-                fivecal::io::ensure_not_input(p, &inputs)?;
                 fivecal::io::write_atomic(p, text.as_bytes())?;
-                println!("{d} parameters written to {}", p.display());
+                outln!("{d} parameters written to {}", p.display());
             }
-            None => print!("{text}"),
+            None => out!("{text}"),
         }
     }
     Ok(())

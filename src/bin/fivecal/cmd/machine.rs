@@ -23,14 +23,14 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
         MachineCommand::List => {
             for (name, _) in fivecal::machine::BUILTIN {
                 let m = Machine::builtin(name).expect("built-in machines are valid");
-                println!("{name:12} {}", m.description);
+                outln!("{name:12} {}", m.description);
             }
             Ok(())
         }
         MachineCommand::Show { file } => {
             let m =
                 Machine::load(&file).with_context(|| format!("cannot load machine `{file}`"))?;
-            print!("{}", show(&m));
+            out!("{}", show(&m));
             Ok(())
         }
     }

@@ -5,7 +5,6 @@
 //! validated configuration ([`PlanConfig`] or [`ProbingConfig`]) in
 //! [`config`], then the library plans and writes.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
@@ -223,6 +222,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let cfg = config(args)?;
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
+    fivecal::io::check_outputs(&inputs, &[("--out", &cfg.out, fivecal::io::Shape::Dir)])?;
     let p = match &cfg.job {
         Job::Machining(p) => p,
         Job::Probing(p) => return run_probing(p, &cfg.out, &inputs),
@@ -237,9 +237,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let written = planned
         .write(&cfg.out, &planned.test, &inputs)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut out = std::io::stdout().lock();
-    writeln!(
-        out,
+    outln!(
         "{} on {}: {} poses, {} points, about {:.0} min ({} dialect, kinematics {})",
         planned.test,
         planned.machine.name,
@@ -251,12 +249,12 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             KinematicsMode::Post => "post",
             KinematicsMode::Controller => "controller",
         }
-    )?;
+    );
     for n in &planned.notes {
-        writeln!(out, "note: {n}")?;
+        outln!("note: {n}");
     }
     for w in written {
-        writeln!(out, "wrote {}", w.display())?;
+        outln!("wrote {}", w.display());
     }
     Ok(())
 }
@@ -273,9 +271,7 @@ fn run_probing(p: &ProbingConfig, out_dir: &Path, inputs: &[&Path]) -> anyhow::R
     let written = planned
         .write(out_dir, &planned.test, inputs)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut out = std::io::stdout().lock();
-    writeln!(
-        out,
+    outln!(
         "{} on {}: {} poses, {} touches, about {:.0} min ({} dialect)",
         planned.test,
         planned.machine.name,
@@ -283,12 +279,12 @@ fn run_probing(p: &ProbingConfig, out_dir: &Path, inputs: &[&Path]) -> anyhow::R
         planned.plan.touches.len(),
         planned.run_minutes(),
         planned.dialect
-    )?;
+    );
     for n in &planned.notes {
-        writeln!(out, "note: {n}")?;
+        outln!("note: {n}");
     }
     for w in written {
-        writeln!(out, "wrote {}", w.display())?;
+        outln!("wrote {}", w.display());
     }
     Ok(())
 }

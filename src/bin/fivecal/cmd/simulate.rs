@@ -8,7 +8,7 @@ use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
 use fivecal::ErrorFile;
 use fivecal::formats::manifest::{Manifest, TestKind};
-use fivecal::io::ensure_not_input;
+use fivecal::io::{Shape, check_outputs};
 use fivecal::simulate::{
     self, Format, NoiseOverrides, Placement, SetupErrors, SimOptions, SimOutput,
 };
@@ -149,7 +149,7 @@ pub fn run(cli: SimulateCli) -> anyhow::Result<()> {
 
 fn truth_example(machine: &str) -> anyhow::Result<()> {
     let m = Machine::load(machine).with_context(|| format!("cannot load machine `{machine}`"))?;
-    print!("{}", simulate::truth::example(&Kinematics::new(&m)));
+    out!("{}", simulate::truth::example(&Kinematics::new(&m)));
     Ok(())
 }
 
@@ -169,7 +169,7 @@ fn simulate(c: Config) -> anyhow::Result<()> {
     let mut inputs = plan_inputs(&c.plan_path)?;
     inputs.push(c.errors.clone());
     let refs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
-    ensure_not_input(&c.out, &refs)?;
+    check_outputs(&refs, &[("--out", &c.out, Shape::File)])?;
     let plan = fivecal::plan::load_any(&c.plan_path)?;
     let kind = plan.kind();
     let format = c.format.unwrap_or_else(|| Format::for_path(&c.out, kind));
@@ -221,7 +221,7 @@ fn summary(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) {
             }
         ),
     };
-    println!(
+    outln!(
         "wrote {} ({format}): {} on {}, seed {}: {what}",
         path.display(),
         out.test,
@@ -230,7 +230,7 @@ fn summary(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) {
     );
     if let Some(h) = &out.heights {
         for s in h {
-            println!("  section {:>2}: {:>9.3} um", s.section, s.height_um);
+            outln!("  section {:>2}: {:>9.3} um", s.section, s.height_um);
         }
     }
 }

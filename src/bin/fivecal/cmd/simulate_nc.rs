@@ -56,9 +56,11 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     if let Some(c) = &args.cmm {
         inputs.push(c);
     }
-    for out in [&args.output, &args.measured].into_iter().flatten() {
-        fivecal::io::ensure_not_input(out, &inputs)?;
-    }
+    let outputs: Vec<_> = [("--output", &args.output), ("--measured", &args.measured)]
+        .into_iter()
+        .filter_map(|(f, p)| Some((f, p.as_deref()?, fivecal::io::Shape::File)))
+        .collect();
+    fivecal::io::check_outputs(&inputs, &outputs)?;
     let cmm_points = match &args.cmm {
         Some(p) => {
             let src = std::fs::read_to_string(p)
@@ -137,31 +139,37 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         );
         fivecal::io::write_atomic(out, measured::to_csv(&mp, &[&comment]).as_bytes())?;
     }
-    println!(
+    outln!(
         "simulated {} on {} with {}",
         args.program.display(),
         common.machine.name,
         args.errors.display()
     );
-    println!(
+    outln!(
         "  {} blocks, {} moves, {} samples",
-        summary.blocks, summary.moves, summary.samples
+        summary.blocks,
+        summary.moves,
+        summary.samples
     );
     match summary.max_um {
-        Some(m) => println!(
+        Some(m) => outln!(
             "  tool-tip error (actual minus where the nominal machine puts the program as written): mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad",
-            summary.mean_um, summary.rms_um, m.value, m.line, summary.max_axis_urad
+            summary.mean_um,
+            summary.rms_um,
+            m.value,
+            m.line,
+            summary.max_axis_urad
         ),
-        None => println!("  no move could be simulated"),
+        None => outln!("  no move could be simulated"),
     }
     for (reason, lines) in &summary.skipped {
-        println!("  not simulated: {reason}: lines {}", lines.list());
+        outln!("  not simulated: {reason}: lines {}", lines.list());
     }
     if let Some(out) = &args.output {
-        println!("  samples written to {}", out.display());
+        outln!("  samples written to {}", out.display());
     }
     if let Some(out) = &args.measured {
-        println!("  simulated CMM points written to {}", out.display());
+        outln!("  simulated CMM points written to {}", out.display());
     }
     Ok(())
 }
