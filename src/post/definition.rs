@@ -163,19 +163,11 @@ struct TemplateSpot {
 /// Why a definition could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum DefinitionError {
-    /// Neither a file nor a built-in definition.
+    /// Neither a path nor a built-in definition.
     #[error(
-        "no postprocessor file `{0}` and no built-in postprocessor of that name (built-in: fanuc, heidenhain, linuxcnc)"
+        "no built-in postprocessor `{0}` (built-in: fanuc, heidenhain, linuxcnc); a postprocessor file is named by its path, with a `/` or a `.yaml` extension (./{0}.yaml)"
     )]
     NotFound(String),
-    /// The file could not be read.
-    #[error("cannot read postprocessor {path}: {source}")]
-    Read {
-        /// Path.
-        path: PathBuf,
-        /// Cause.
-        source: std::io::Error,
-    },
     /// Malformed definition or template.
     #[error(transparent)]
     Invalid(#[from] SourceError),
@@ -248,27 +240,24 @@ impl PostDefinition {
             .expect("built-in postprocessors are valid")
     }
 
-    /// Loads a definition: a path when it exists, else a built-in name.
+    /// Loads a definition named on the command line: a built-in dialect
+    /// name means the built-in definition; a file is taken only as a path,
+    /// with a `/` or a `.yaml` extension (as machines are).
     pub fn load(spec: &str) -> Result<PostDefinition, DefinitionError> {
+        if !crate::machine::is_path_spec(spec) {
+            return match spec.parse::<Dialect>() {
+                Ok(d) => Ok(PostDefinition::builtin(d)),
+                Err(_) => Err(DefinitionError::NotFound(spec.to_string())),
+            };
+        }
         let path = Path::new(spec);
-        if path.exists() {
-            let src = std::fs::read_to_string(path).map_err(|source| DefinitionError::Read {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            return Ok(PostDefinition::parse(path, &src)?);
-        }
-        let stem = spec.strip_suffix(".yaml").unwrap_or(spec);
-        match stem.parse::<Dialect>() {
-            Ok(d) => Ok(PostDefinition::builtin(d)),
-            Err(_) => Err(DefinitionError::NotFound(spec.to_string())),
-        }
+        let src = crate::input::read_text(path, "postprocessor", crate::limits::MAX_YAML_BYTES)?;
+        Ok(PostDefinition::parse(path, &src)?)
     }
 
     /// Parses and validates a definition's text; `path` is used in errors.
     pub fn parse(path: &Path, src: &str) -> Result<PostDefinition, SourceError> {
-        let f: DefinitionFile =
-            serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))?;
+        let f: DefinitionFile = crate::input::parse_yaml(path, src)?;
         let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
         if f.line_limit < 20 {
             return Err(err(
