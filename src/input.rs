@@ -260,8 +260,8 @@ pub fn check_yaml(path: &Path, src: &str) -> Result<(), SourceError> {
             let mut err = SourceError::from_yaml(path, &e);
             if let Some(key) = err
                 .message
-                .strip_prefix(DUPLICATE)
-                .and_then(|r| r.split('`').next())
+                .split_once(DUPLICATE)
+                .and_then(|(_, r)| r.split('`').next())
                 && let Some((l, c)) = locate_duplicate(src, err.line, err.column, key)
             {
                 err.line = l;
@@ -531,12 +531,14 @@ mod tests {
     fn duplicate_keys_are_refused_at_every_depth_at_their_line() {
         let e = check("name: m\nrotary_axes:\n  B: {limits: [-90, 90]}\n  C: {limits: null}\n  B: {limits: [0, 1]}\n")
             .unwrap_err();
-        assert!(e.starts_with("f.yaml:5:3: duplicate key `B`"), "{e}");
+        assert!(e.starts_with("f.yaml:5:3: "), "{e}");
+        assert!(e.contains("duplicate key `B`"), "{e}");
         let e = check("location_errors: {EX0B: 1.0, EZ0B: 2.0, EX0B: 3.0}\n").unwrap_err();
         assert!(e.starts_with("f.yaml:1:"), "{e}");
         assert!(e.contains("duplicate key `EX0B`"), "{e}");
         let e = check("a:\n  - x: 1\n    y: 2\n    x: 3\n").unwrap_err();
-        assert!(e.starts_with("f.yaml:4:5: duplicate key `x`"), "{e}");
+        assert!(e.starts_with("f.yaml:4:5: "), "{e}");
+        assert!(e.contains("duplicate key `x`"), "{e}");
         assert!(check("a: {x: 1}\nb: {x: 1}\nc:\n  - x: 1\n  - x: 2\n").is_ok());
     }
 

@@ -496,10 +496,7 @@ impl AtomicOutput {
         let sink = match classify("output", path)? {
             Target::Stdout => Sink::Stdout(BufWriter::with_capacity(1 << 16, stdout())),
             Target::InPlace(p) => {
-                let f = OpenOptions::new()
-                    .append(true)
-                    .open(&p)
-                    .map_err(&io)?;
+                let f = OpenOptions::new().append(true).open(&p).map_err(&io)?;
                 Sink::InPlace(BufWriter::with_capacity(1 << 16, f))
             }
             Target::File(target) => {

@@ -327,6 +327,12 @@ impl Machine {
         })
     }
 
+    /// Reads a machine file at `path` (whatever its name).
+    pub fn from_file(path: &Path) -> Result<Machine, MachineError> {
+        let src = crate::input::read_text(path, "machine file", crate::limits::MAX_YAML_BYTES)?;
+        Machine::from_yaml(path, &src)
+    }
+
     /// Loads a machine named on the command line (see [`Machine::resolve`]).
     pub fn load(spec: &str) -> Result<Machine, MachineError> {
         Ok(Machine::resolve(spec)?.0)

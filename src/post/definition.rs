@@ -354,6 +354,8 @@ impl PostDefinition {
 
         let mut env = Environment::new();
         env.set_undefined_behavior(UndefinedBehavior::Strict);
+        // A step budget per block: a runaway loop ends with an error.
+        env.set_fuel(Some(crate::limits::TEMPLATE_FUEL));
         env.set_debug(true);
         let nums = f.numbers.clone();
         let fmt = |nf: NumberFormat| move |v: f64| nf.format(v);
@@ -394,7 +396,23 @@ impl PostDefinition {
                 def.render_template(name, ctx)?;
             }
         }
+        // The engine's safety rules rest on templates that do what their
+        // names say: a retract moves Z alone, a rapid writes its words, a
+        // rotary index moves no linear axis.
+        super::render::check_motion_templates(&def)
+            .map_err(|(name, msg)| def.error_at(name, msg))?;
         Ok(def)
+    }
+
+    /// An error located at the start of template `name`.
+    pub(super) fn error_at(&self, name: &str, message: String) -> SourceError {
+        let spot = self.spots.get(name);
+        SourceError::new(
+            &self.path,
+            spot.map_or(0, |s| s.line),
+            spot.map_or(0, |s| s.column),
+            format!("template `{name}`: {message}"),
+        )
     }
 
     /// Whether the definition has a template.
@@ -484,7 +502,14 @@ fn template_error(
     } else {
         (spot.line, spot.column + tcol)
     };
-    let detail = e.detail().map(|d| format!(": {d}")).unwrap_or_default();
+    let detail = if e.kind() == minijinja::ErrorKind::OutOfFuel {
+        format!(
+            ": more than {} steps to render one block (a loop without end?)",
+            crate::limits::TEMPLATE_FUEL
+        )
+    } else {
+        e.detail().map(|d| format!(": {d}")).unwrap_or_default()
+    };
     SourceError::new(
         path,
         line,

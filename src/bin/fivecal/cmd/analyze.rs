@@ -141,7 +141,7 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             machine_path.display()
         );
     }
-    let machine = Machine::load(&machine_path.to_string_lossy()).with_context(|| {
+    let machine = Machine::from_file(&machine_path).with_context(|| {
         format!(
             "cannot load the plan's machine file {}",
             machine_path.display()
@@ -211,8 +211,11 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             .map_or(machine.probe.ball_diameter, |p| p.ball_diameter)
             / 2.0;
         let tpath = manifest.resolve(&manifest_path, &manifest.template_file);
-        let text = std::fs::read_to_string(&tpath)
-            .with_context(|| format!("cannot read the plan's template copy {}", tpath.display()))?;
+        let text = fivecal::input::read_text(
+            &tpath,
+            "plan's template copy",
+            fivecal::limits::MAX_YAML_BYTES,
+        )?;
         let source = TemplateSource { path: tpath, text };
         let settings = match manifest.test.as_str() {
             "probe-sphere" => {
@@ -265,17 +268,20 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         Some("seed000") => Some(Contributors::seed000()),
         Some("noise") => None,
         Some(path) => {
-            let src = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read contributors file {path}"))?;
-            Some(
-                serde_yaml::from_str(&src)
-                    .map_err(|e| fivecal::source::SourceError::from_yaml(Path::new(path), &e))?,
-            )
+            let src = fivecal::input::read_text(
+                Path::new(path),
+                "contributors file",
+                fivecal::limits::MAX_YAML_BYTES,
+            )?;
+            Some(fivecal::input::parse_yaml(Path::new(path), &src)?)
         }
     };
     let mc = match a.mc {
-        Some(0) => bail!("--mc needs at least 2 runs"),
-        Some(1) => bail!("--mc needs at least 2 runs"),
+        Some(n @ (0 | 1)) => bail!("--mc {n}: the Monte-Carlo study needs at least 2 runs"),
+        Some(n) if n > fivecal::limits::MAX_MC_RUNS => bail!(
+            "--mc {n}: at most {} runs (the spread of u settles within a few hundred)",
+            fivecal::limits::MAX_MC_RUNS
+        ),
         Some(n) => Some(McOptions {
             runs: n,
             seed: a.seed,

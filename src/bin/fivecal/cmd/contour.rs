@@ -5,7 +5,6 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::Context as _;
 use clap::Args;
 use fivecal::contour::{Mesh, Surface, evaluate};
 use fivecal::formats::measured;
@@ -31,8 +30,11 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
         )?;
     }
     let mesh = Mesh::load(&args.model)?;
-    let src = std::fs::read_to_string(&args.measured)
-        .with_context(|| format!("cannot read {}", args.measured.display()))?;
+    let src = fivecal::input::read_text(
+        &args.measured,
+        "CSV file",
+        fivecal::limits::MAX_MEASUREMENT_BYTES,
+    )?;
     let points = measured::parse_csv(&args.measured, &src)?;
     anyhow::ensure!(
         !points.is_empty(),

@@ -28,8 +28,9 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
             Ok(())
         }
         MachineCommand::Show { file } => {
-            let m =
-                Machine::load(&file).with_context(|| format!("cannot load machine `{file}`"))?;
+            let (m, origin) =
+                Machine::resolve(&file).with_context(|| format!("cannot load machine `{file}`"))?;
+            outln!("from        {origin}");
             out!("{}", show(&m));
             Ok(())
         }

@@ -114,8 +114,11 @@ fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
         ..SimOptions::default()
     };
     if let Some(f) = a.sphere_form {
-        if !(f.is_finite() && f >= 0.0) {
-            bail!("--sphere-form {f}: expected a form error >= 0 um");
+        if !(f.is_finite() && (0.0..=fivecal::limits::MAX_ERROR_UM).contains(&f)) {
+            bail!(
+                "--sphere-form {f}: expected a form error from 0 to {} um",
+                fivecal::limits::MAX_ERROR_UM
+            );
         }
         opts.sphere_form_um = f;
     }
@@ -148,7 +151,10 @@ pub fn run(cli: SimulateCli) -> anyhow::Result<()> {
 }
 
 fn truth_example(machine: &str) -> anyhow::Result<()> {
-    let m = Machine::load(machine).with_context(|| format!("cannot load machine `{machine}`"))?;
+    let (m, origin) =
+        Machine::resolve(machine).with_context(|| format!("cannot load machine `{machine}`"))?;
+    // Standard output is the truth file itself.
+    eprintln!("note: machine {}: {origin}", m.name);
     out!("{}", simulate::truth::example(&Kinematics::new(&m)));
     Ok(())
 }

@@ -3,11 +3,9 @@
 //! cut by it.
 
 use std::fmt::Write as _;
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context as _, bail};
+use anyhow::bail;
 use clap::Args;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
@@ -47,8 +45,18 @@ pub struct SimulateNcArgs {
 pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     let common = args.machine.validate()?;
     let errors = load_errors(&args.errors, &common.kin)?;
-    if !(args.step.is_finite() && args.step >= 0.0) {
-        bail!("--step {}: expected a distance >= 0 mm", args.step);
+    let min_step = fivecal::limits::MIN_SAMPLE_STEP_MM;
+    if !(args.step.is_finite() && (args.step == 0.0 || args.step >= min_step)) {
+        bail!(
+            "--step {}: expected 0 (end points only) or a distance of at least {min_step} mm",
+            args.step
+        );
+    }
+    if !(args.max_distance.is_finite() && args.max_distance > 0.0) {
+        bail!(
+            "--max-distance {}: expected a distance > 0 mm from the tool path",
+            args.max_distance
+        );
     }
     let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
     inputs.push(&args.errors);
@@ -63,8 +71,11 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     fivecal::io::check_outputs(&inputs, &outputs)?;
     let cmm_points = match &args.cmm {
         Some(p) => {
-            let src = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read {}", p.display()))?;
+            let src = fivecal::input::read_text(
+                p,
+                "points file",
+                fivecal::limits::MAX_MEASUREMENT_BYTES,
+            )?;
             Some(measured::parse_csv(p, &src)?)
         }
         None => None,
@@ -76,16 +87,27 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     settings.fanuc_integer_unit = common.integer_unit;
     settings.step = args.step;
     let sim = Simulator::new(&errors.model, &errors.theta, settings);
-    let file = File::open(&args.program)
-        .with_context(|| format!("cannot read program {}", args.program.display()))?;
+    let file = fivecal::input::open_stream(&args.program, "NC program")?;
     // Samples are kept only when a CSV or the CMM points need them.
     let keep = args.output.is_some() || cmm_points.is_some();
     let mut samples: Vec<Sample> = Vec::new();
-    let summary = sim.run(&args.program, BufReader::new(file), &mut |s| {
-        if keep {
-            samples.push(*s);
+    let mut too_many = false;
+    let summary = sim.run(&args.program, file, &mut |s| {
+        if keep && !too_many {
+            too_many = samples.len() >= fivecal::limits::MAX_SAMPLES;
+            if !too_many {
+                samples.push(*s);
+            }
         }
     })?;
+    if too_many {
+        bail!(
+            "{}: more than {} samples to keep at --step {} mm: choose a larger --step",
+            args.program.display(),
+            fivecal::limits::MAX_SAMPLES,
+            args.step
+        );
+    }
     if let Some(out) = &args.output {
         let mut t = String::new();
         let _ = writeln!(
@@ -140,9 +162,10 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         fivecal::io::write_atomic(out, measured::to_csv(&mp, &[&comment]).as_bytes())?;
     }
     outln!(
-        "simulated {} on {} with {}",
+        "simulated {} on {} ({}) with {}",
         args.program.display(),
         common.machine.name,
+        common.machine_origin,
         args.errors.display()
     );
     outln!(
