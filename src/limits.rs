@@ -19,6 +19,10 @@ pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// together); fivecal's own files nest at most five.
 pub const MAX_YAML_DEPTH: usize = 64;
 
+/// Longest piece of the input an error message echoes, characters (cut
+/// to its first line as well).
+pub const ECHO_CHARS: usize = 60;
+
 /// Largest location error, map value, straightness, tool radius or length
 /// error, um (10 mm).
 pub const MAX_ERROR_UM: f64 = 10_000.0;

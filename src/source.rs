@@ -11,6 +11,8 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use crate::limits::ECHO_CHARS;
+
 /// An error in an input file, pointing at a line and column (both 1-based;
 /// 0 when unknown).
 #[derive(Debug, Clone, PartialEq)]
@@ -69,9 +71,6 @@ impl fmt::Display for SourceError {
         }
     }
 }
-
-/// Longest piece of the input a message echoes, in characters.
-const ECHO_CHARS: usize = 60;
 
 /// The message with every quoted echo of the input (`"..."` as serde
 /// writes it, `` `...` `` as fivecal does) cut to the first line and
