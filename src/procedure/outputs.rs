@@ -12,7 +12,7 @@ use indexmap::IndexMap;
 
 use super::{MachiningPlan, Plan, ProbingPlan};
 use crate::formats::manifest::{KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry};
-use crate::io::{OutputError, ensure_not_input, write_atomic};
+use crate::io::{OutputError, StagedDir, ensure_not_input};
 use crate::mesh::Mesh;
 
 /// `v` rounded to `d` decimals.
@@ -206,7 +206,9 @@ impl Plan {
 
     /// Writes every output into `dir`, refusing to overwrite any of
     /// `inputs` (checked before anything is written, so a refusal writes
-    /// nothing); the manifest is written last. Returns the paths written.
+    /// nothing) and staged, so that a plan failing partway leaves the
+    /// directory as it was; the manifest comes last. Returns the paths
+    /// written.
     pub fn write(
         &self,
         dir: &Path,
@@ -218,9 +220,11 @@ impl Plan {
         for p in &paths {
             ensure_not_input(p, inputs)?;
         }
-        for ((_, bytes), p) in outs.iter().zip(&paths) {
-            write_atomic(p, bytes)?;
+        // Staged: a plan that fails partway leaves the directory as it was.
+        let mut stage = StagedDir::create(dir)?;
+        for (name, bytes) in &outs {
+            stage.write(name, bytes)?;
         }
-        Ok(paths)
+        stage.commit()
     }
 }

@@ -50,8 +50,7 @@ impl TemplateSource {
     pub fn load(spec: &str) -> Result<TemplateSource, SourceError> {
         let path = Path::new(spec);
         if path.exists() {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read: {e}")))?;
+            let text = crate::input::read_text(path, "template", crate::limits::MAX_YAML_BYTES)?;
             return Ok(TemplateSource {
                 path: path.to_path_buf(),
                 text,
@@ -175,8 +174,7 @@ impl Template {
             #[serde(default)]
             test: Option<String>,
         }
-        let head: Head = serde_yaml::from_str(&source.text)
-            .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
+        let head: Head = crate::input::parse_yaml(&source.path, &source.text)?;
         let Some(name) = head.test else {
             return Err(SourceError::new(
                 &source.path,

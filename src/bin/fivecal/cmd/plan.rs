@@ -5,13 +5,12 @@
 //! validated configuration ([`PlanConfig`]) in
 //! [`config`], then the library plans and writes.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::{Args, ValueEnum};
 use fivecal::formats::manifest::{KinematicsMode, TestKind};
-use fivecal::machine::{Machine, Tool, check_tool};
+use fivecal::machine::{Machine, MachineOrigin, Tool, check_tool};
 use fivecal::post::PostDefinition;
 use fivecal::procedure::{Plan, PlanConfig, Template, Test, plan};
 use fivecal::source::SourceError;
@@ -65,6 +64,8 @@ struct Config {
     plan: PlanConfig,
     out: PathBuf,
     inputs: Vec<PathBuf>,
+    /// Which machine the run used, built in or a file.
+    origin: String,
 }
 
 fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
@@ -73,8 +74,7 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
     }
     let (path, text, file) = if Path::new(spec).exists() {
         let p = PathBuf::from(spec);
-        let t =
-            std::fs::read_to_string(&p).with_context(|| format!("cannot read tool file {spec}"))?;
+        let t = fivecal::input::read_text(&p, "tool file", fivecal::limits::MAX_YAML_BYTES)?;
         (p.clone(), t, Some(p))
     } else if spec.trim_start().starts_with('{') {
         (PathBuf::from("<--tool>"), spec.to_string(), None)
@@ -83,7 +83,7 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
             "--tool `{spec}`: expected `machine`, a tool file, or an inline mapping such as '{{name: D6 ball, kind: ball, diameter: 6, length: 50}}'"
         );
     };
-    let tool: Tool = serde_yaml::from_str(&text).map_err(|e| SourceError::from_yaml(&path, &e))?;
+    let tool: Tool = fivecal::input::parse_yaml(&path, &text)?;
     check_tool(&tool).map_err(|(k, m)| SourceError::at_key(&path, &text, &[k], m))?;
     Ok((tool, file))
 }
@@ -91,11 +91,12 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
 fn config(a: PlanArgs) -> anyhow::Result<Config> {
     let mut inputs = Vec::new();
     // Flattened: MachineError repeats its cause as its source.
-    let machine = Machine::load(&a.machine)
+    let (machine, origin) = Machine::resolve(&a.machine)
         .map_err(|e| anyhow::anyhow!("cannot load machine `{}`: {e}", a.machine))?;
-    if Path::new(&a.machine).exists() {
-        inputs.push(PathBuf::from(&a.machine));
+    if let MachineOrigin::File(p) = &origin {
+        inputs.push(p.clone());
     }
+    let origin = format!("machine {}: {origin}", machine.name);
     let dialect = a
         .dialect
         .as_deref()
@@ -103,7 +104,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         .transpose()?;
     let post = match &a.postprocessor {
         Some(spec) => {
-            if Path::new(spec).exists() {
+            if fivecal::machine::is_path_spec(spec) {
                 inputs.push(PathBuf::from(spec));
             }
             let p = PostDefinition::load(spec)?;
@@ -122,8 +123,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
     let template = match &a.template {
         Some(p) => {
             inputs.push(p.clone());
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read template {}", p.display()))?;
+            let text = fivecal::input::read_text(p, "template", fivecal::limits::MAX_YAML_BYTES)?;
             let t = Template::parse(p, &text)?;
             if t.test().as_str() != a.test {
                 bail!(
@@ -178,12 +178,14 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         },
         out: a.out,
         inputs,
+        origin,
     })
 }
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let cfg = config(args)?;
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
+    fivecal::io::check_outputs(&inputs, &[("--out", &cfg.out, fivecal::io::Shape::Dir)])?;
     let p = &cfg.plan;
     let planned = plan(p).with_context(|| {
         format!(
@@ -197,10 +199,8 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let written = planned
         .write(&cfg.out, planned.test().as_str(), &inputs)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut out = std::io::stdout().lock();
     match &planned {
-        Plan::Machining(t) => writeln!(
-            out,
+        Plan::Machining(t) => outln!(
             "{} on {}: {} poses, {} points, about {:.0} min ({} dialect, kinematics {})",
             t.test,
             t.machine.name,
@@ -212,9 +212,8 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
                 KinematicsMode::Post => "post",
                 KinematicsMode::Controller => "controller",
             }
-        )?,
-        Plan::Probing(p) => writeln!(
-            out,
+        ),
+        Plan::Probing(p) => outln!(
             "{} on {}: {} poses, {} touches, about {:.0} min ({} dialect)",
             p.test,
             p.machine.name,
@@ -222,13 +221,14 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             p.plan.touches.len(),
             p.run_minutes(),
             p.dialect
-        )?,
+        ),
     }
+    outln!("note: {}", cfg.origin);
     for n in planned.notes() {
-        writeln!(out, "note: {n}")?;
+        outln!("note: {n}");
     }
     for w in written {
-        writeln!(out, "wrote {}", w.display())?;
+        outln!("wrote {}", w.display());
     }
     Ok(())
 }

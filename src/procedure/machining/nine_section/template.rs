@@ -116,8 +116,7 @@ impl NineSectionTemplate {
 
     /// Parses and checks a template.
     pub fn parse(source: TemplateSource) -> Result<NineSectionTemplate, SourceError> {
-        let f: NineSectionFile = serde_yaml::from_str(&source.text)
-            .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
+        let f: NineSectionFile = crate::input::parse_yaml(&source.path, &source.text)?;
         source.check_test(&f.test, Test::NineSection)?;
         let t = NineSectionTemplate {
             tool: tool_choice(&source, &f.tool)?,

@@ -195,8 +195,7 @@ impl SteppedSquareTemplate {
 
     /// Parses and checks a template.
     pub fn parse(source: TemplateSource) -> Result<SteppedSquareTemplate, SourceError> {
-        let f: SteppedSquareFile = serde_yaml::from_str(&source.text)
-            .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
+        let f: SteppedSquareFile = crate::input::parse_yaml(&source.path, &source.text)?;
         source.check_test(&f.test, Test::SteppedSquare)?;
         let t = SteppedSquareTemplate {
             tool: tool_choice(&source, &f.tool)?,

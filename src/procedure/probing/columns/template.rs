@@ -143,8 +143,7 @@ impl ColumnsTemplate {
 
     /// Parses and validates a template.
     pub fn parse(source: TemplateSource) -> Result<ColumnsTemplate, SourceError> {
-        let f: ColumnsFile = serde_yaml::from_str(&source.text)
-            .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
+        let f: ColumnsFile = crate::input::parse_yaml(&source.path, &source.text)?;
         let src = &source;
         src.check_test(&f.test, Test::ProbeColumns)?;
         if f.columns.is_empty() {

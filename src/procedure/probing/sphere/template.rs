@@ -180,8 +180,7 @@ impl SphereTemplate {
 
     /// Parses and validates a template.
     pub fn parse(source: TemplateSource) -> Result<SphereTemplate, SourceError> {
-        let f: SphereFile = serde_yaml::from_str(&source.text)
-            .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
+        let f: SphereFile = crate::input::parse_yaml(&source.path, &source.text)?;
         let src = &source;
         src.check_test(&f.test, Test::ProbeSphere)?;
         let s = &f.sphere;
