@@ -39,29 +39,8 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
+use crate::analyze_sim::{AC_ERRORS, BC_ERRORS};
 use crate::simulate::{planned, truth};
-
-const BC_ERRORS: &str = "location_errors:
-  EX0B: 12.0
-  EZ0B: -40.0
-  EA0B: 80.0
-  EC0B: -60.0
-  EB0B: 150.0
-  EX(0B)C: 25.0
-  EY0C: -18.0
-  EA(0B)C: 45.0
-";
-
-const AC_ERRORS: &str = "location_errors:
-  EY0A: 15.0
-  EZ0A: -30.0
-  EB0A: 60.0
-  EC0A: -90.0
-  EA0A: 120.0
-  EY(0A)C: 20.0
-  EX0C: -25.0
-  EB(0A)C: 40.0
-";
 
 /// A measured test: plan, truth, the joined data and its identification.
 struct Case {
