@@ -35,7 +35,7 @@ const SPREAD_RUNS: usize = 200;
 const SPREAD_TOLERANCE: f64 = 0.20;
 
 /// All eight B/C location errors (5-50 um, 20-200 urad).
-const BC_ERRORS: &str = "location_errors:
+pub(crate) const BC_ERRORS: &str = "location_errors:
   EX0B: 12.0
   EZ0B: -40.0
   EA0B: 80.0
@@ -47,7 +47,7 @@ const BC_ERRORS: &str = "location_errors:
 ";
 
 /// All eight A/C location errors (5-50 um, 20-200 urad).
-const AC_ERRORS: &str = "location_errors:
+pub(crate) const AC_ERRORS: &str = "location_errors:
   EY0A: 15.0
   EZ0A: -30.0
   EB0A: 60.0

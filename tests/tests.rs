@@ -17,6 +17,7 @@ mod identifiability;
 mod identify;
 mod kinematics;
 mod machine;
+mod montecarlo;
 mod nc;
 mod plan;
 mod plan_programs;

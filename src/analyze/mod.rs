@@ -98,6 +98,9 @@ pub struct MonteCarlo {
     pub options: McOptions,
     /// What each run draws.
     pub contributors: ContributorChoice,
+    /// Simulate and identify every run again rather than linearize
+    /// ([`uncertainty::linear`]): the reference, slower by orders.
+    pub exact: bool,
 }
 
 /// What to analyse, and how.
@@ -346,6 +349,7 @@ fn identify_piece(
                 sphere: *sphere,
             },
             plan.as_deref().map_err(Clone::clone),
+            mc.exact,
         )
         .map_err(AnalyzeError::MonteCarlo)?;
         u = s.u(&est);

@@ -12,7 +12,7 @@
 use std::cell::RefCell;
 
 use faer::Mat;
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{DMatrix, Isometry3, Point3, Vector3};
 
 use super::forward::{ForwardError, ForwardModel};
 use super::lsq::{self, Problem};
@@ -134,6 +134,89 @@ pub fn identify(
     data: &Dataset,
     opts: &lsq::Options,
 ) -> Result<Identification, IdentifyError> {
+    fit(fm, setup, data, opts).map(|(id, _)| id)
+}
+
+/// The global fit's first-order response to its data: `gain[(i, k)]` is
+/// how far parameter `i` of the estimate moves when measured point `k` moves
+/// by 1 um along `dirs[k]`, a unit direction in the frame the fit compares
+/// in (W for a machined piece once its CMM placement is taken off, the
+/// probing frame for on-machine probing). It is the step the fit would take
+/// from its own solution, `-J^+ dr`, with the Jacobian at the solution and
+/// the rank of the design at the nominal machine, as the covariance is
+/// taken: at the micrometre errors of a machine, a fit of slightly
+/// different data lands there to first order (what lets a Monte-Carlo
+/// study re-identify a draw without fitting it again).
+pub fn response(
+    fm: &dyn ForwardModel,
+    setup: &Setup,
+    data: &Dataset,
+    dirs: &[Vector3<f64>],
+    opts: &lsq::Options,
+) -> Result<(Identification, DMatrix<f64>), IdentifyError> {
+    let m = data.obs.len();
+    if dirs.len() != m {
+        return Err(IdentifyError::Data(format!(
+            "{} directions for {m} measured points",
+            dirs.len()
+        )));
+    }
+    let (id, f) = fit(fm, setup, data, opts)?;
+    let design = lsq::design_ranked(&f.jacobian, Some(&f.basis), opts.rank_rtol, Some(f.rank));
+    let n = setup.model.n_params();
+    let p = f.x.len();
+    let theta = &f.x[..n];
+    let nuisance = &f.x[n..n + f.k];
+    let rho = if f.placement {
+        f.x[n + f.k..n + f.k + 6].to_vec()
+    } else {
+        vec![0.0; 6]
+    };
+    // The residual is linear in the observed point: its change for a
+    // 1 um move along the direction is exact as a difference.
+    let mut dr = vec![0.0; m];
+    for (k, d) in dr.iter_mut().enumerate() {
+        let pred = fm.predict(theta, nuisance, data.point(k), f.minutes[k])?;
+        let r0 = face_residual(&rho, &pred.point, &pred.normal, &f.u[k]).r;
+        let r1 = face_residual(&rho, &pred.point, &pred.normal, &(f.u[k] + dirs[k] * 1e-3)).r;
+        *d = r1 - r0;
+    }
+    // -J^+ = -(J^T J)^+ J^T on the identified subspace, parameter rows only.
+    let cov = design.cov_unit.view((0, 0), (n, p)).into_owned();
+    let mut gain = DMatrix::zeros(n, m);
+    for k in 0..m {
+        for c in 0..p {
+            let j = f.jacobian[(k, c)];
+            if j != 0.0 {
+                for i in 0..n {
+                    gain[(i, k)] -= cov[(i, c)] * j * dr[k];
+                }
+            }
+        }
+    }
+    Ok((id, gain))
+}
+
+/// What [`fit`] leaves besides the identification: the solution and its
+/// Jacobian, the constraint basis, the rank of the design at the nominal
+/// machine and what the residuals compare with.
+struct Fitted {
+    x: Vec<f64>,
+    jacobian: Mat<f64>,
+    basis: DMatrix<f64>,
+    rank: usize,
+    k: usize,
+    placement: bool,
+    u: Vec<Vector3<f64>>,
+    minutes: Vec<f64>,
+}
+
+fn fit(
+    fm: &dyn ForwardModel,
+    setup: &Setup,
+    data: &Dataset,
+    opts: &lsq::Options,
+) -> Result<(Identification, Fitted), IdentifyError> {
     super::check_data(data, Method::Global)?;
     let n = setup.model.n_params();
     if fm.model().n_params() != n {
@@ -148,8 +231,8 @@ pub fn identify(
     let problem = GlobalProblem {
         fm,
         data,
-        u,
-        minutes,
+        u: u.clone(),
+        minutes: minutes.clone(),
         placement,
         n,
         k,
@@ -215,7 +298,7 @@ pub fn identify(
         ));
     }
     let poses = two_stage::pose_fits(data, &setup.model.kin, placement_iso.as_ref());
-    Ok(Identification {
+    let id = Identification {
         method: Method::Global,
         model: setup.model.clone(),
         theta: sol.x[..n].to_vec(),
@@ -228,5 +311,16 @@ pub fn identify(
         poses,
         placement: placement_iso,
         notes,
-    })
+    };
+    let fitted = Fitted {
+        x: sol.x,
+        jacobian: sol.jacobian,
+        basis,
+        rank: nominal.rank,
+        k,
+        placement,
+        u,
+        minutes,
+    };
+    Ok((id, fitted))
 }

@@ -651,6 +651,13 @@ impl ProbingForward {
         Some(self.probing.pose_mid(*self.index.get(label)?))
     }
 
+    /// The unit direction the probe travels on the touch of `label`: the
+    /// line its measured point moves along when anything moves the surface
+    /// or the probe, in the frame of the predicted point.
+    pub fn line_direction(&self, label: &str) -> Option<Vector3<f64>> {
+        Some(self.probing.line(*self.index.get(label)?).1)
+    }
+
     /// The nuisance vector of the pieces' actual setups (W nominal to W
     /// actual, one per piece as [`super::SimOutput::setups`] gives them).
     pub fn nuisance_of(&self, setups: &[nalgebra::Isometry3<f64>]) -> Vec<f64> {

@@ -16,6 +16,7 @@
 
 pub mod bound;
 pub mod contributors;
+pub mod linear;
 pub mod montecarlo;
 pub mod simulated;
 
@@ -254,33 +255,54 @@ fn sphere_geometry(est: &Identification, data: &Dataset) -> Option<(Vector3<f64>
 
 /// Runs the Monte-Carlo study of an identification: on the simulator with
 /// `plan` (rebuilt from the manifest) when it is the plan the points
-/// describe, else with the synthetic rigid-pose model, saying why. Fails
-/// when fewer than two runs return estimates.
+/// describe, linearized ([`linear`]) unless `exact` or the contributors hold
+/// what a linear study cannot draw (then every run is simulated again,
+/// [`simulated`]), else with the synthetic rigid-pose model, saying why.
+/// Fails when fewer than two runs return estimates.
 pub fn study(
     opts: &McOptions,
     contributors: Contributors,
     e: &Estimate<'_>,
     plan: Result<&Plan, String>,
+    exact: bool,
 ) -> Result<Study, String> {
     let est = e.est;
     let rebuilt = simulator_plan(plan, e.data);
     let (result, how) = match &rebuilt {
         Ok(plan) => {
-            let t = simulated::SimulatedTest::from_estimate(
-                plan,
-                est,
-                e.setup,
-                e.data,
-                e.sphere,
-                contributors,
-            );
-            (
-                montecarlo::run(opts, est.theta.len(), |_, r| {
-                    simulated::simulated_run(&t, r)
-                }),
-                "on the simulator (the plan run again with the estimate and the contributors)"
-                    .to_string(),
-            )
+            let linear = if exact {
+                Err(String::new())
+            } else {
+                linear::LinearStudy::new(plan, e, contributors.clone())
+            };
+            match linear {
+                Ok(lin) => (
+                    montecarlo::run(opts, est.theta.len(), |_, r| lin.run(r)),
+                    "on the simulator, linearized (each draw mapped to the measurements by the forward model's Jacobians at the estimate and re-identified by the fit's own response; --mc-exact simulates and fits every run)"
+                        .to_string(),
+                ),
+                Err(why) => {
+                    let t = simulated::SimulatedTest::from_estimate(
+                        plan,
+                        est,
+                        e.setup,
+                        e.data,
+                        e.sphere,
+                        contributors,
+                    );
+                    let mut how = "on the simulator (the plan run again with the estimate and the contributors)"
+                        .to_string();
+                    if !why.is_empty() {
+                        how += &format!(", every run simulated: {why}");
+                    }
+                    (
+                        montecarlo::run(opts, est.theta.len(), |_, r| {
+                            simulated::simulated_run(&t, r)
+                        }),
+                        how,
+                    )
+                }
+            }
         }
         Err(why) => {
             let sphere_geometry = (est.method == Method::Sphere)
