@@ -37,7 +37,7 @@ pub enum OutputError {
     #[error("refusing to overwrite input file {0}")]
     WouldOverwriteInput(PathBuf),
     /// An output option names one of the inputs of the same run.
-    #[error("{flag} {}: this is also an input of the run; refusing to overwrite it (write the output elsewhere)", path.display())]
+    #[error("{flag} {}: refusing to overwrite input file {} (it is also an input of this run; write the output elsewhere)", path.display(), path.display())]
     OutputIsInput {
         /// The option.
         flag: String,
@@ -843,7 +843,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.starts_with("--out ") && e.contains("refusing to overwrite it"),
+            e.starts_with("--out ") && e.contains("refusing to overwrite input file"),
             "{e}"
         );
         let rep = dir.path().join("rep");
