@@ -63,13 +63,55 @@ impl Mesh {
                 });
             }
         };
-        if mesh.triangles.is_empty() {
-            return Err(MeshError::Format {
-                path: path.to_path_buf(),
-                message: "the model has no triangles".into(),
-            });
-        }
+        mesh.check().map_err(|message| MeshError::Format {
+            path: path.to_path_buf(),
+            message,
+        })?;
         Ok(mesh)
+    }
+
+    /// What makes a mesh unusable as a design surface: a vertex that is
+    /// not a finite position within the machine-file range of lengths, a
+    /// triangle naming a vertex that does not exist, or no triangle with an
+    /// area at all (three equal vertices have no surface to measure to).
+    pub fn check(&self) -> Result<(), String> {
+        let max = crate::limits::MAX_MACHINE_MM;
+        for (i, v) in self.vertices.iter().enumerate() {
+            if !v.iter().all(|x| x.is_finite() && x.abs() <= max) {
+                return Err(format!(
+                    "vertex {} is ({}, {}, {}): expected finite coordinates within {max} mm",
+                    i + 1,
+                    v.x,
+                    v.y,
+                    v.z
+                ));
+            }
+        }
+        let n = self.vertices.len();
+        if let Some(k) = self
+            .triangles
+            .iter()
+            .position(|t| t.iter().any(|&i| i as usize >= n))
+        {
+            return Err(format!(
+                "triangle {} names a vertex beyond the {n} vertices",
+                k + 1
+            ));
+        }
+        if self.triangles.is_empty() {
+            return Err("the model has no triangles".into());
+        }
+        let has_area = self.triangles.iter().any(|t| {
+            let p = t.map(|i| self.vertices[i as usize]);
+            (p[1] - p[0]).cross(&(p[2] - p[0])).norm() > 0.0
+        });
+        if !has_area {
+            return Err(format!(
+                "none of the {} triangles has an area (their vertices coincide or lie on a line): no surface to measure to",
+                self.triangles.len()
+            ));
+        }
+        Ok(())
     }
 
     /// Reads an OBJ file (polygons are triangulated).
@@ -79,7 +121,12 @@ impl Mesh {
             single_index: true,
             ..Default::default()
         };
-        let (models, _) = tobj::load_obj(path, &opts).map_err(|e| MeshError::Format {
+        let bytes = read_model(path)?;
+        // Materials are not needed for a surface: `mtllib` lines are skipped.
+        let (models, _) = tobj::load_obj_buf(&mut bytes.as_slice(), &opts, |_| {
+            Ok((Vec::new(), Default::default()))
+        })
+        .map_err(|e| MeshError::Format {
             path: path.to_path_buf(),
             message: format!("not a readable OBJ model: {e}"),
         })?;
@@ -102,10 +149,7 @@ impl Mesh {
     /// `.glb` file; every triangle primitive of the default scene, with its
     /// node transforms.
     pub fn from_gltf(path: &Path) -> Result<Mesh, MeshError> {
-        let bytes = std::fs::read(path).map_err(|e| MeshError::Read {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
+        let bytes = read_model(path)?;
         let fmt = |message: String| MeshError::Format {
             path: path.to_path_buf(),
             message,
@@ -131,10 +175,7 @@ impl Mesh {
                             .ok_or_else(|| fmt(format!("buffer {}: bad base64 data", b.index())))?
                     } else {
                         let p = path.parent().unwrap_or(Path::new(".")).join(uri);
-                        std::fs::read(&p).map_err(|e| MeshError::Read {
-                            path: p.clone(),
-                            message: e.to_string(),
-                        })?
+                        read_model(&p)?
                     }
                 }
             };
@@ -208,6 +249,16 @@ impl Mesh {
         }
         mesh
     }
+}
+
+/// A model file or a glTF buffer, read within [`crate::limits::MAX_MODEL_BYTES`].
+fn read_model(path: &Path) -> Result<Vec<u8>, MeshError> {
+    crate::input::read_bytes(path, "3-D model", crate::limits::MAX_MODEL_BYTES).map_err(|e| {
+        MeshError::Read {
+            path: path.to_path_buf(),
+            message: e.message,
+        }
+    })
 }
 
 fn accessor_bytes<'a>(

@@ -36,6 +36,14 @@ pub enum OutputError {
     /// The output path names one of the inputs of the same run.
     #[error("refusing to overwrite input file {0}")]
     WouldOverwriteInput(PathBuf),
+    /// An output option names one of the inputs of the same run.
+    #[error("{flag} {}: refusing to overwrite input file {} (it is also an input of this run; write the output elsewhere)", path.display(), path.display())]
+    OutputIsInput {
+        /// The option.
+        flag: String,
+        /// The path given.
+        path: PathBuf,
+    },
     /// Two outputs of one run name the same file.
     #[error("{first} and {second} both name {path}: give each output its own path")]
     SameOutput {
@@ -432,7 +440,10 @@ pub fn check_outputs(
         for i in inputs {
             let ri = resolved(i);
             if ri == r {
-                return Err(OutputError::WouldOverwriteInput(path.to_path_buf()));
+                return Err(OutputError::OutputIsInput {
+                    flag: flag.to_string(),
+                    path: path.to_path_buf(),
+                });
             }
         }
         for (first, other, oshape, is_stdout) in &seen {
@@ -831,7 +842,10 @@ mod tests {
         let e = check_outputs(&[&a], &[("--out", &b, Shape::File)])
             .unwrap_err()
             .to_string();
-        assert!(e.contains("refusing to overwrite input file"), "{e}");
+        assert!(
+            e.starts_with("--out ") && e.contains("refusing to overwrite input file"),
+            "{e}"
+        );
         let rep = dir.path().join("rep");
         let inside = rep.join("index.html");
         assert!(

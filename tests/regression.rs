@@ -291,3 +291,91 @@ fn flat_end_plateau_under_drift_per_minute_is_found_where_the_end_grazes_the_lin
     assert!((pred.point - out.points_w[i]).norm() < 1e-6);
     assert!(p.n.dot(&(out.points_w[i] - p.p)) > 0.01);
 }
+
+/// `analyze contour` with an OBJ whose only triangle has three equal
+/// vertices, or a vertex at infinity: refused with the reason, not a panic
+/// in the nearest-triangle search or `inf` in the report.
+#[test]
+fn contour_model_without_an_area_or_with_an_infinite_vertex_is_refused() {
+    let dir = crate::util::tempdir();
+    let csv = dir.path().join("p.csv");
+    std::fs::write(&csv, "\u{feff}label,x,y,z\r1,0,0,0\r").unwrap();
+    for (name, obj, expect) in [
+        (
+            "point.obj",
+            "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n",
+            "none of the 1 triangles has an area",
+        ),
+        (
+            "inf.obj",
+            "v 0 0 0\nv 1 0 0\nv inf 1 0\nf 1 2 3\n",
+            "vertex 3 is",
+        ),
+    ] {
+        let model = dir.path().join(name);
+        std::fs::write(&model, obj).unwrap();
+        let out = crate::cli::fivecal()
+            .args(["analyze", "contour", "--model"])
+            .arg(&model)
+            .arg("--measured")
+            .arg(&csv)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains(name) && err.contains(expect), "{err}");
+    }
+    // The same CSV (a byte-order mark, lines ending in a bare CR) against a
+    // real face reads as one point.
+    let model = dir.path().join("face.obj");
+    std::fs::write(&model, "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let out = crate::cli::fivecal()
+        .args(["analyze", "contour", "--model"])
+        .arg(&model)
+        .arg("--measured")
+        .arg(&csv)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("(1 points)"), "{text}");
+}
+
+/// `--maps "EBB(B),EXC(B,C)"`, the help's own example, split inside the
+/// parentheses and failed with "unknown symbol `EXC(B`": a two-axis map
+/// stays whole, in `analyze --maps` and `discover --start`.
+#[test]
+fn two_axis_map_symbols_stay_whole_in_comma_separated_lists() {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze/stepped-square");
+    let dir = crate::util::tempdir();
+    let out = crate::cli::fivecal()
+        .args(["analyze", "--plan"])
+        .arg(d.join("stepped-square.plan.yaml"))
+        .arg("--measured")
+        .arg(d.join("piece1.dmo"))
+        .arg("--out")
+        .arg(dir.path().join("r.yaml"))
+        .args(["--maps", "EBB(B),EXC(B,C)"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("`EXC(B`") && !err.contains("`C)`"), "{err}");
+    assert!(out.status.success() || err.contains("EXC(B,C)"), "{err}");
+    let out = crate::cli::fivecal()
+        .args(["discover", "--plan"])
+        .arg(d.join("stepped-square.plan.yaml"))
+        .arg("--measured")
+        .arg(d.join("piece1.dmo"))
+        .args(["--start", "location,map.EXC(B,C)", "--max-steps", "0"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("`map.EXC(B`") && !err.contains("`C)`"),
+        "{err}"
+    );
+}

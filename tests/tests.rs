@@ -13,6 +13,8 @@ mod contour;
 mod discover;
 mod discover_cli;
 mod errorfile;
+mod fuzz_readers;
+mod hostile;
 mod identifiability;
 mod identify;
 mod kinematics;

@@ -91,7 +91,7 @@ pub struct AnalyzeArgs {
     contributors: Option<String>,
     /// Error maps to identify with the location errors, comma-separated
     /// map symbols (`EBB(B),EXC(B,C)`), on the grid of the plan's angles.
-    #[arg(long, value_name = "SYMBOLS", value_delimiter = ',')]
+    #[arg(long, value_name = "SYMBOLS")]
     maps: Vec<String>,
     /// Each measured file is one piece of a series of the same plan:
     /// identify each and tabulate how the errors move.
@@ -175,7 +175,7 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     Ok(Config {
         request: Request {
             method,
-            maps: a.maps,
+            maps: super::list_items(&a.maps),
             series: a.series,
             compare: a.compare,
             monte_carlo,

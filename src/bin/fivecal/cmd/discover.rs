@@ -25,19 +25,14 @@ pub struct DiscoverArgs {
     /// The starting model, comma-separated: `location` (the location errors
     /// the test identifies) and candidate names (`map.EBB(B)`,
     /// `drift.EZ0B/seq`, ...).
-    #[arg(
-        long,
-        value_name = "EFFECTS",
-        value_delimiter = ',',
-        default_value = "location"
-    )]
+    #[arg(long, value_name = "EFFECTS", default_value = "location")]
     start: Vec<String>,
     /// Try only these candidates: names or families (`drift`, `map`,
     /// `scale`, `squareness`, `straightness`, `tool_radius`, ...).
-    #[arg(long, value_name = "CANDIDATES", value_delimiter = ',')]
+    #[arg(long, value_name = "CANDIDATES")]
     candidates: Vec<String>,
     /// Leave these candidates out (names or families).
-    #[arg(long, value_name = "CANDIDATES", value_delimiter = ',')]
+    #[arg(long, value_name = "CANDIDATES")]
     exclude: Vec<String>,
     /// Significance level of each step, after the adjustment for the number
     /// of candidates tried.
@@ -89,19 +84,13 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     outputs.extend(a.out.as_deref().map(|o| ("--out", o, Shape::File)));
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
     check_outputs(&inputs, &outputs)?;
-    let trim = |v: Vec<String>| -> Vec<String> {
-        v.into_iter()
-            .map(|s| s.trim().to_string())
-            .filter(|s| !s.is_empty())
-            .collect()
-    };
     Ok(Config {
         manifest,
         measured: a.measured,
         options: DiscoverOptions {
-            start: trim(a.start),
-            only: trim(a.candidates),
-            exclude: trim(a.exclude),
+            start: super::list_items(&a.start),
+            only: super::list_items(&a.candidates),
+            exclude: super::list_items(&a.exclude),
             alpha: a.alpha,
             max_steps: a.max_steps,
             ..DiscoverOptions::default()

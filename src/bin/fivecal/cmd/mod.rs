@@ -11,3 +11,32 @@ pub mod machine;
 pub mod plan;
 pub mod simulate;
 pub mod simulate_nc;
+
+/// The items of comma-separated list options given once or more
+/// (`--maps EBB(B),EXC(B,C)`): split at the commas outside parentheses, so
+/// that a two-axis map symbol stays whole; blanks dropped.
+pub fn list_items(values: &[String]) -> Vec<String> {
+    let mut items = Vec::new();
+    for v in values {
+        let mut depth = 0usize;
+        let mut item = String::new();
+        for c in v.chars() {
+            match c {
+                '(' => depth += 1,
+                ')' => depth = depth.saturating_sub(1),
+                ',' if depth == 0 => {
+                    items.push(std::mem::take(&mut item));
+                    continue;
+                }
+                _ => {}
+            }
+            item.push(c);
+        }
+        items.push(item);
+    }
+    items
+        .into_iter()
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .collect()
+}
