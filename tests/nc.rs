@@ -10,7 +10,7 @@ use fivecal::compensate::{Compensator, Settings};
 use fivecal::errorfile::ErrorFile;
 use fivecal::kinematics::Kinematics;
 use fivecal::model::Model;
-use fivecal::nc::modal::{Event, FeedMode, Modal, ModalSettings, Tcp};
+use fivecal::nc::interp::{self, Event, FeedMode, Interpreter, Tcp};
 use fivecal::nc::{Block, BlockReader, Flow, HhKind, Stmt, Syntax, TokenKind};
 use fivecal::{Dialect, Machine};
 
@@ -273,11 +273,8 @@ fn the_corpus_covers_every_construct_of_the_issue() {
 #[test]
 fn modal_state_along_the_five_axis_fanuc_program() {
     let path = fixture("fanuc/five_axis_tcp.nc");
-    let mut m = Modal::new(ModalSettings {
-        dialect: Dialect::Fanuc,
-        rotary: [b'B', b'C'],
-        fanuc_integer_unit: None,
-    });
+    let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let mut m = Interpreter::new(&interp::Settings::new(Dialect::Fanuc), &kin);
     let mut at = std::collections::HashMap::new();
     for b in blocks(&path, Dialect::Fanuc, true) {
         for s in &b.segments {

@@ -9,26 +9,24 @@
 //! block, words with their value lexeme, macro and o-word statements,
 //! expressions. Printing an unchanged block writes its tokens back, so the
 //! text is reproduced byte for byte; a rewrite replaces only the value
-//! lexemes it changes (see [`number`] for how they keep their style).
+//! lexemes it changes (see [`lexeme`] for how they keep their style).
 //!
-//! One file per dialect does the tokenizing ([`iso`] for the two word-address
-//! dialects with their macro languages, [`heidenhain`]); [`modal`] tracks
-//! what the controller would have in force at each block (units, G90/G91,
-//! motion mode, feed mode, work offset, tool length compensation, TCP,
-//! tilted working plane, datum shifts) and where each move goes.
+//! One file per dialect does the tokenizing ([`lex`]); [`interp`] is the
+//! one interpreter `compensate` and `simulate nc` share: what the
+//! controller has in force at each block (units, G90/G91, motion mode,
+//! feed mode, work offset, tool length compensation, TCP, tilted working
+//! plane, datum shifts) and where each move goes.
 
 pub mod expr;
-pub mod heidenhain;
-pub mod iso;
-pub mod modal;
-pub mod number;
+pub mod interp;
+pub mod lex;
+pub mod lexeme;
 mod reader;
 
 use std::fmt;
 
-pub use reader::BlockReader;
-
-use crate::machine::Dialect;
+pub use lex::Syntax;
+pub use reader::{BlockReader, Blocks, ReadError};
 
 /// A byte range inside a block's text.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -126,7 +124,7 @@ pub struct Word {
     /// Where the value's lexeme is (empty for [`Value::None`]).
     pub value_span: Span,
     /// How a literal value is written (default otherwise).
-    pub style: number::NumStyle,
+    pub style: lexeme::NumStyle,
 }
 
 /// What a token is.
@@ -402,41 +400,6 @@ impl BlockError {
             message: message.into(),
         }
     }
-}
-
-/// Parser settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Syntax {
-    /// The dialect.
-    pub dialect: Dialect,
-    /// Reject words and codes this parser does not know instead of keeping
-    /// them verbatim.
-    pub strict: bool,
-}
-
-impl Syntax {
-    /// Tokenizes `block.text` into `block.tokens` and `block.segments`.
-    pub fn parse(&self, block: &mut Block) -> Result<(), BlockError> {
-        block.tokens.clear();
-        block.segments.clear();
-        match self.dialect {
-            Dialect::Fanuc | Dialect::Linuxcnc => iso::parse(self, block),
-            Dialect::Heidenhain => heidenhain::parse(self, block),
-        }?;
-        debug_assert!(covers(block), "tokens must cover the block exactly");
-        Ok(())
-    }
-}
-
-fn covers(block: &Block) -> bool {
-    let mut at = 0u32;
-    for t in &block.tokens {
-        if t.span.start != at || t.span.end < t.span.start {
-            return false;
-        }
-        at = t.span.end;
-    }
-    at as usize == block.text.len()
 }
 
 pub(crate) fn is_space(c: u8) -> bool {

@@ -57,6 +57,19 @@ pub fn half_unit(d: u8) -> f64 {
     0.5 / pow10(d)
 }
 
+/// `v` rounded to `d` decimals.
+pub fn round_to(v: f64, d: u8) -> f64 {
+    let k = pow10(d);
+    let x = v * k;
+    // A cast rounds without a libm call on baseline x86-64.
+    if x.abs() < 4.0e15 {
+        let r = (x + 0.5f64.copysign(x)) as i64 as f64;
+        r / k
+    } else {
+        x.round() / k
+    }
+}
+
 /// Length of the numeric lexeme at the start of `s` (`[+-]? (d+ (. d*)? | . d+)`),
 /// or 0 when there is none. Spaces are not allowed inside.
 pub fn lex_len(s: &[u8]) -> usize {

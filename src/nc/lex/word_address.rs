@@ -9,30 +9,13 @@
 //! and friends are the control flow, parameters are assigned inside any
 //! line (`#<x>=[..]`) and there is no `E` address.
 
-use super::{Addr, Block, Span};
-use super::{
-    BlockError, Flow, Segment, Stmt, Syntax, TokenKind, Value, Word, expr, is_space, number,
-};
+use super::Syntax;
 use crate::machine::Dialect;
-
-/// G codes FANUC 30i-class controls know (value x 10).
-const FANUC_G: &[u32] = &[
-    0, 10, 20, 30, 40, 50, 51, 71, 80, 90, 100, 106, 110, 121, 131, 150, 160, 170, 180, 190, 200,
-    210, 220, 230, 250, 260, 270, 280, 290, 300, 310, 311, 312, 313, 314, 330, 370, 390, 400, 410,
-    412, 420, 422, 430, 434, 435, 440, 450, 460, 470, 480, 490, 500, 501, 510, 511, 520, 530, 531,
-    540, 541, 550, 560, 570, 580, 590, 600, 610, 620, 630, 640, 650, 660, 670, 680, 682, 683, 684,
-    690, 730, 740, 760, 800, 810, 820, 830, 840, 850, 860, 870, 880, 890, 900, 910, 920, 930, 940,
-    950, 960, 970, 980, 990,
-];
-
-/// G codes LinuxCNC 2.9 knows (value x 10).
-const LINUXCNC_G: &[u32] = &[
-    0, 10, 20, 30, 40, 50, 51, 52, 53, 70, 80, 100, 170, 171, 180, 181, 190, 191, 200, 210, 280,
-    281, 300, 301, 330, 331, 382, 383, 384, 385, 400, 410, 411, 420, 421, 430, 431, 432, 490, 520,
-    530, 540, 550, 560, 570, 580, 590, 591, 592, 593, 610, 611, 640, 700, 710, 720, 730, 740, 760,
-    800, 810, 820, 830, 840, 850, 860, 870, 880, 890, 900, 901, 910, 911, 920, 921, 922, 923, 930,
-    940, 950, 960, 970, 980, 990,
-];
+use crate::nc::interp::gcode::{g_code, known_g};
+use crate::nc::{
+    Addr, Block, BlockError, Flow, Segment, Span, Stmt, TokenKind, Value, Word, expr, is_space,
+    lexeme,
+};
 
 const OWORD_KEYWORDS: [(&str, Flow); 15] = [
     ("endsub", Flow::Return),
@@ -51,20 +34,6 @@ const OWORD_KEYWORDS: [(&str, Flow); 15] = [
     ("continue", Flow::LoopEnd),
     ("return", Flow::Return),
 ];
-
-/// The G-code number of a literal G word value, times ten (`43.4` -> 434).
-pub fn g_code(v: f64) -> Option<u32> {
-    let t = (v * 10.0).round();
-    ((v * 10.0 - t).abs() < 1e-6 && t >= 0.0).then_some(t as u32)
-}
-
-/// Whether the dialect knows G code `g` (x 10).
-pub fn known_g(dialect: Dialect, g: u32) -> bool {
-    match dialect {
-        Dialect::Linuxcnc => LINUXCNC_G.binary_search(&g).is_ok(),
-        _ => FANUC_G.binary_search(&g).is_ok(),
-    }
-}
 
 fn starts_with_ci(s: &[u8], kw: &str) -> bool {
     s.len() >= kw.len() && s[..kw.len()].eq_ignore_ascii_case(kw.as_bytes())
@@ -104,9 +73,9 @@ impl<'a> Lexer<'a> {
     }
 
     /// The value of a word starting at `i` (after the address and spaces).
-    fn value(&self, i: usize, letter: u8) -> Result<(Value, number::NumStyle, usize), BlockError> {
+    fn value(&self, i: usize, letter: u8) -> Result<(Value, lexeme::NumStyle, usize), BlockError> {
         let rest = &self.s[i..self.n];
-        if let Some((lx, n)) = number::scan(rest) {
+        if let Some((lx, n)) = lexeme::scan(rest) {
             if rest
                 .get(n)
                 .is_some_and(|c| *c == b'.' || c.is_ascii_digit())
@@ -125,7 +94,7 @@ impl<'a> Lexer<'a> {
             return Ok((Value::Num(lx.value), lx.style, i + n));
         }
         if let Some(n) = expr::real_value_len(rest) {
-            return Ok((Value::Expr, number::NumStyle::default(), i + n));
+            return Ok((Value::Expr, lexeme::NumStyle::default(), i + n));
         }
         let shown = &rest[..word_end(rest).max(rest.len().min(1))];
         Err(BlockError::new(

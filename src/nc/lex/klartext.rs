@@ -11,9 +11,10 @@
 //! are words where they look like one (`SPB+30`, `S4456`, `M3`) and text
 //! otherwise.
 
-use super::{
-    Addr, Block, BlockError, HhKind, Segment, Span, Stmt, Syntax, TokenKind, Value, Word, is_space,
-    line_end_at, number,
+use super::Syntax;
+use crate::nc::{
+    Addr, Block, BlockError, HhKind, Segment, Span, Stmt, TokenKind, Value, Word, is_space, lexeme,
+    line_end_at,
 };
 
 /// Keywords in match order (longest first where one is a prefix of another).
@@ -315,14 +316,14 @@ fn keyword(lx: &Lx, i: usize) -> Result<(HhKind, usize), BlockError> {
 }
 
 /// A signed number or Q parameter value at `i`: (value, style, end).
-fn value_at(s: &[u8], i: usize) -> Option<(Value, number::NumStyle, usize)> {
-    let n = number::lex_len(&s[i..]);
+fn value_at(s: &[u8], i: usize) -> Option<(Value, lexeme::NumStyle, usize)> {
+    let n = lexeme::lex_len(&s[i..]);
     if n > 0 {
         let after = s.get(i + n).copied();
         if after.is_some_and(|c| c == b'.' || c.is_ascii_digit()) {
             return None;
         }
-        let lx = number::read(&s[i..i + n]);
+        let lx = lexeme::read(&s[i..i + n]);
         return Some((Value::Num(lx.value), lx.style, i + n));
     }
     // [+-]Q<n>, QL<n>, QR<n>
@@ -340,7 +341,7 @@ fn value_at(s: &[u8], i: usize) -> Option<(Value, number::NumStyle, usize)> {
             j += 1;
         }
         if j > d0 {
-            return Some((Value::Expr, number::NumStyle::default(), j));
+            return Some((Value::Expr, lexeme::NumStyle::default(), j));
         }
     }
     None
@@ -391,7 +392,7 @@ fn path_words(
                     incremental,
                     value: Value::None,
                     value_span: Span::new(vend, vend),
-                    style: number::NumStyle::default(),
+                    style: lexeme::NumStyle::default(),
                 }),
                 start,
                 vend,
@@ -611,10 +612,10 @@ fn push_atom(b: &mut Block, s: &[u8], i: usize, e: usize) {
     let letters = a.iter().take_while(|c| c.is_ascii_uppercase()).count();
     if (1..=4).contains(&letters) {
         let v = &a[letters..];
-        let n = number::lex_len(v);
+        let n = lexeme::lex_len(v);
         if n > 0 && n == v.len() {
             let name = std::str::from_utf8(&a[..letters]).unwrap_or("");
-            let lx = number::read(v);
+            let lx = lexeme::read(v);
             b.push(
                 TokenKind::Word(Word {
                     addr: Addr::new(name),
