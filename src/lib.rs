@@ -12,6 +12,7 @@
 
 #![warn(missing_docs)]
 
+pub mod analyze;
 pub mod compensate;
 pub mod contour;
 pub mod demo;
@@ -34,7 +35,6 @@ pub mod probing;
 pub mod report;
 pub mod simulate;
 pub mod source;
-pub mod uncertainty;
 
 pub use errorfile::ErrorFile;
 pub use kinematics::{Axes, Kinematics, Perturbation, ToolPose};
