@@ -107,6 +107,17 @@ impl Compensator {
         hold: Option<f64>,
     ) -> Result<Point, String> {
         let nominal = f.model(p);
+        let m = self.solver.kinematics().machine();
+        for (axis, v) in [(&m.tilt, nominal.tilt), (&m.c, nominal.c)] {
+            if let Some((lo, hi)) = axis.limits
+                && !axis.within(v, 1e-9)
+            {
+                return Err(format!(
+                    "the program puts {} at {v:.4} deg, beyond the machine's stroke {lo}..{hi} deg (a program for another machine?)",
+                    axis.letter
+                ));
+            }
+        }
         let target = self.target(f, &nominal, vector);
         let why = |e| format!("no axis values reach the intended tool pose on this machine ({e})");
         let sol = match hold {
@@ -121,6 +132,16 @@ impl Compensator {
         }
         .map_err(why)?;
         let mut pt = self.point(f, nominal, target, &sol);
+        for (axis, v) in [(&m.tilt, sol.axes.tilt), (&m.c, sol.axes.c)] {
+            if let Some((lo, hi)) = axis.limits
+                && !axis.within(v, 1e-9)
+            {
+                return Err(format!(
+                    "the correction drives {} to {v:.4} deg, beyond its stroke {lo}..{hi} deg",
+                    axis.letter
+                ));
+            }
+        }
         let (lin, rot) = size(&pt);
         let limit = self.settings.max_correction;
         if sol.held_c.is_none() && lin > limit && rot <= limit {

@@ -13,7 +13,7 @@ use super::writer::Writer;
 use super::{CompensateError, Largest, Lines, Settings, Summary, Vertex};
 use crate::model::{Effect, Model};
 use crate::nc::interp::coordinates::known;
-use crate::nc::interp::{self, Event, Frame, Interpreter};
+use crate::nc::interp::{self, Event, Frame, Interpreter, Skip};
 use crate::nc::{Blocks, ReadError, Syntax};
 
 /// A program rewriter for one machine and one set of errors.
@@ -171,6 +171,22 @@ impl Compensator {
                             }
                             Err(Refusal::Fatal(e)) => return Err(e.in_file(path)),
                         }
+                    }
+                    Event::Skip(Skip::Unreadable) => {
+                        // Kept byte for byte; what the controller does
+                        // after it is unknown (the interpreter forgot it).
+                        let why = block.unreadable.as_ref().map_or_else(String::new, |e| {
+                            let (_, column) = block.locate(e.offset);
+                            format!(" (column {column}: {})", e.message)
+                        });
+                        summary.unreadable.push(line);
+                        skipped
+                            .entry(format!("{}{why}", Skip::Unreadable))
+                            .or_default()
+                            .push(line);
+                        writer.keep(block, &seg, &interp, &before);
+                        writer.emit = [None; 6];
+                        last_held = false;
                     }
                     Event::Skip(s) => {
                         summary.moves += 1;

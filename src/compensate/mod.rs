@@ -222,8 +222,12 @@ pub struct Summary {
     pub largest_linear: Option<Largest>,
     /// Largest correction of the tool orientation by the rotary axes, urad.
     pub largest_rotary: Option<Largest>,
-    /// Moves left as written, grouped by reason, with their lines.
+    /// Moves left as written, grouped by reason, with their lines
+    /// (blocks that could not be read among them, with the column and why).
     pub skipped: Vec<(String, Lines)>,
+    /// Lines of blocks that could not be read and were kept as written
+    /// (outside `--strict`).
+    pub unreadable: Lines,
     /// Lines where C was held next to the tilt singularity.
     pub held_c: Lines,
     /// Largest remaining tool-axis error where C was held, urad.
@@ -239,7 +243,7 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// Number of moves left as written.
+    /// Number of moves (and unreadable blocks) left as written.
     pub fn skipped_count(&self) -> usize {
         self.skipped.iter().map(|(_, l)| l.count).sum()
     }

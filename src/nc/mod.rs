@@ -290,6 +290,9 @@ pub enum Stmt {
     Output,
     /// A HEIDENHAIN block.
     Hh(HhKind),
+    /// A block that could not be read (kept byte for byte outside
+    /// `--strict`; [`Block::unreadable`] says why).
+    Unreadable,
 }
 
 /// A statement: a token range of a block (FANUC can put several on one line
@@ -320,6 +323,9 @@ pub struct Block {
     pub segments: Vec<Segment>,
     /// 1-based line number of the first line.
     pub line: usize,
+    /// Why the block could not be read, when it could not (outside
+    /// `--strict` it is then one [`Stmt::Unreadable`] statement of text).
+    pub unreadable: Option<BlockError>,
 }
 
 impl Block {
@@ -373,6 +379,28 @@ impl Block {
         for t in &self.tokens {
             out.extend_from_slice(self.bytes(t.span));
         }
+    }
+
+    /// Makes the block one unreadable statement: its text kept as it is,
+    /// `error` saying why.
+    pub(crate) fn make_unreadable(&mut self, error: BlockError) {
+        self.tokens.clear();
+        self.segments.clear();
+        let end = self.text.len() - self.line_ending().map_or(0, <[u8]>::len);
+        if end > 0 {
+            self.push(TokenKind::Text, 0, end);
+        }
+        if end < self.text.len() {
+            self.push(TokenKind::LineEnd, end, self.text.len());
+        }
+        self.segments.push(Segment {
+            first: 0,
+            end: self.tokens.len() as u32,
+            stmt: Stmt::Unreadable,
+            body: 0,
+            unknown: Some(Span::new(0, end)),
+        });
+        self.unreadable = Some(error);
     }
 
     pub(crate) fn push(&mut self, kind: TokenKind, start: usize, end: usize) {

@@ -5,6 +5,8 @@
 use std::io::{self, BufRead};
 use std::path::{Path, PathBuf};
 
+#[cfg(doc)]
+use super::Stmt;
 use super::{Block, Syntax};
 use crate::machine::Dialect;
 use crate::source::SourceError;
@@ -77,11 +79,19 @@ impl<R: BufRead> Blocks<R> {
     }
 
     /// Reads and tokenizes the next block; `None` at the end of the input.
+    /// A block that cannot be read is an error under `strict`; otherwise
+    /// it comes back as one [`Stmt::Unreadable`] statement that keeps its
+    /// text, with [`Block::unreadable`] saying why.
     pub fn next_block(&mut self) -> Result<Option<&Block>, ReadError> {
+        self.block.unreadable = None;
         if !self.reader.read(&mut self.block).map_err(ReadError::Io)? {
             return Ok(None);
         }
         if let Err(e) = self.syntax.parse(&mut self.block) {
+            if !self.syntax.strict {
+                self.block.make_unreadable(e);
+                return Ok(Some(&self.block));
+            }
             let (line, column) = self.block.locate(e.offset);
             return Err(ReadError::Syntax(SourceError::new(
                 &self.path, line, column, e.message,

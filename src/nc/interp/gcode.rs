@@ -121,8 +121,14 @@ impl Interpreter {
                         190 => self.plane = Plane::Yz,
                         200 => self.units = Units::Inch,
                         210 => self.units = Units::Mm,
-                        900 => self.absolute = true,
-                        910 => self.absolute = false,
+                        900 => {
+                            self.absolute = true;
+                            self.state_unknown = None;
+                        }
+                        910 => {
+                            self.absolute = false;
+                            self.state_unknown = None;
+                        }
                         901 => self.arc_absolute = true,
                         911 => self.arc_absolute = false,
                         921 | 922 => {
@@ -407,9 +413,13 @@ impl Interpreter {
                 b'F' => {
                     if let Value::Num(v) = w.value {
                         mv.feed = Some((ti, v));
-                    } else {
+                    } else if self.feed_mode == FeedMode::InverseTime {
+                        // Pieces of a subdivided move need their share of
+                        // the block's time.
                         skip.get_or_insert(Skip::Expression);
                     }
+                    // Otherwise the feed word stays as written and the
+                    // axis words are corrected all the same (`F#650`).
                 }
                 b'U' | b'V' | b'W' => {
                     skip.get_or_insert(Skip::UnknownAxis(letter));

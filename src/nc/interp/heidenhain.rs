@@ -37,6 +37,7 @@ impl Interpreter {
         };
         match kind {
             HhKind::BeginPgm => {
+                self.state_unknown = None;
                 if text_has("INCH") {
                     self.units = Units::Inch;
                 } else {

@@ -41,7 +41,7 @@ use nalgebra::Vector3;
 
 pub use coordinates::Frame;
 
-use super::{Addr, Block, Segment, Value, Word};
+use super::{Addr, Block, Segment, Stmt, Value, Word};
 use crate::kinematics::fast::FastChain;
 use crate::kinematics::{Axes, Kinematics, ToolPose};
 use crate::machine::Dialect;
@@ -174,6 +174,12 @@ pub enum Skip {
     /// G43.5: no rotary positions of the nominal machine give the
     /// programmed tool direction.
     VectorOutOfReach,
+    /// The block could not be read (kept byte for byte).
+    Unreadable,
+    /// An unreadable block at this line may have changed the modal state
+    /// (a G or M code, a parameter, a cycle); nothing is corrected until a
+    /// block sets it again (G90/G91; `BEGIN PGM`).
+    StateUnknown(usize),
 }
 
 impl std::fmt::Display for Skip {
@@ -205,6 +211,11 @@ impl std::fmt::Display for Skip {
             Skip::VectorOutOfReach => write!(
                 f,
                 "tool direction out of reach: no rotary positions of the nominal machine give it"
+            ),
+            Skip::Unreadable => write!(f, "the block could not be read"),
+            Skip::StateUnknown(line) => write!(
+                f,
+                "the controller state is unknown after the unreadable block at line {line} (until G90/G91 or BEGIN PGM sets it again)"
             ),
         }
     }
@@ -381,6 +392,9 @@ pub struct Interpreter {
     pub pos: [Option<f64>; 6],
     /// HEIDENHAIN pole (CC) in the XY plane.
     pub pole: Option<[f64; 2]>,
+    /// The line of an unreadable block that may have changed the modal
+    /// state; `None` when the state is known.
+    pub state_unknown: Option<usize>,
 }
 
 impl Interpreter {
@@ -419,6 +433,7 @@ impl Interpreter {
             radius_comp: false,
             pos: [None; 6],
             pole: None,
+            state_unknown: None,
         }
     }
 
@@ -434,6 +449,28 @@ impl Interpreter {
 
     /// Applies one statement of `block` and says what it does.
     pub fn step(&mut self, block: &Block, seg: &Segment) -> Event {
+        if seg.stmt == Stmt::Unreadable {
+            // The axes it names are somewhere unknown after it; when it
+            // may have set modal state, everything is.
+            let code = code_of(self.cfg.settings.dialect, &block.text);
+            if may_change_state(self.cfg.settings.dialect, &code) {
+                self.forget();
+                self.state_unknown = Some(block.line);
+            } else {
+                // Any axis letter that starts a word (`Xnan` too).
+                for (i, &a) in AXES.iter().enumerate() {
+                    if code
+                        .iter()
+                        .enumerate()
+                        .any(|(k, &c)| c == a && (k == 0 || !code[k - 1].is_ascii_alphabetic()))
+                    {
+                        self.pos[i] = None;
+                    }
+                }
+                self.pole = None;
+            }
+            return Event::Skip(Skip::Unreadable);
+        }
         let ev = match self.cfg.settings.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
             Dialect::Heidenhain => self.heidenhain(block, seg),
@@ -589,6 +626,9 @@ impl Interpreter {
     /// The reason a move in the current state cannot be rewritten, if any
     /// (checked after the positions are updated).
     fn frame_skip(&self) -> Option<Skip> {
+        if let Some(line) = self.state_unknown {
+            return Some(Skip::StateUnknown(line));
+        }
         if let Some(t) = self.transformed {
             return Some(Skip::Transformed(t));
         }
@@ -616,6 +656,71 @@ impl Interpreter {
             self.forget();
         }
     }
+}
+
+/// Whether an unreadable block may have changed the modal state: outside
+/// its comments it has a G or M code, a parameter or an assignment, a
+/// program-flow word (ISO), or it is not a plain Klartext path block, or a
+/// path block with an M function (HEIDENHAIN). Only axis words and feeds
+/// are left: those move the tool and are forgotten with the position.
+fn may_change_state(dialect: Dialect, code: &[u8]) -> bool {
+    match dialect {
+        Dialect::Fanuc | Dialect::Linuxcnc => {
+            letter_word(code, b"GMO") || code.iter().any(|c| matches!(c, b'#' | b'=' | b'<'))
+        }
+        Dialect::Heidenhain => {
+            let body: Vec<u8> = code
+                .iter()
+                .copied()
+                .skip_while(|c| c.is_ascii_digit() || matches!(c, b' ' | b'\t' | b'/'))
+                .collect();
+            let path = [
+                &b"L "[..],
+                b"LP ",
+                b"C ",
+                b"CC ",
+                b"CR ",
+                b"CT ",
+                b"CP ",
+                b"RND ",
+                b"CHF ",
+            ]
+            .iter()
+            .any(|k| body.starts_with(k));
+            !path || letter_word(code, b"M")
+        }
+    }
+}
+
+/// A block's text outside its comments, upper case.
+fn code_of(dialect: Dialect, text: &[u8]) -> Vec<u8> {
+    let mut code = Vec::with_capacity(text.len());
+    let mut depth = 0usize;
+    for &c in text {
+        match c {
+            b';' if dialect != Dialect::Fanuc => break,
+            b'(' if dialect != Dialect::Heidenhain => depth += 1,
+            b')' if depth > 0 => depth -= 1,
+            _ if depth == 0 => code.push(c.to_ascii_uppercase()),
+            _ => {}
+        }
+    }
+    code
+}
+
+/// Whether `code` has one of `letters` as a word address: not inside a
+/// longer name, followed by a number, a parameter or an expression.
+fn letter_word(code: &[u8], letters: &[u8]) -> bool {
+    code.iter().enumerate().any(|(i, c)| {
+        letters.contains(c)
+            && (i == 0 || !code[i - 1].is_ascii_alphabetic())
+            && code[i + 1..]
+                .iter()
+                .find(|b| !matches!(b, b' ' | b'\t'))
+                .is_some_and(|b| {
+                    b.is_ascii_digit() || matches!(b, b'#' | b'[' | b'+' | b'-' | b'.')
+                })
+    })
 }
 
 /// The centre of an arc from `s` to `e` with radius `r` (positive: at most
