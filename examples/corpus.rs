@@ -26,7 +26,7 @@ use fivecal::{Dialect, Machine};
 
 /// One run's outcome.
 enum Outcome {
-    Done(Summary, bool),
+    Done(Box<Summary>, bool),
     /// Stopped with a message that names the line.
     Refused(String),
     /// Stopped without a line.
@@ -229,7 +229,7 @@ fn run(path: &Path, bytes: &[u8], machine: &Machine, dialect: Dialect, size: f64
     match r {
         Ok(Ok(s)) => {
             let same = out == bytes;
-            Outcome::Done(s, same)
+            Outcome::Done(Box::new(s), same)
         }
         Ok(Err(err)) => {
             let m = err.to_string();
