@@ -366,7 +366,7 @@ fn compensate_never_drives_a_rotary_axis_beyond_its_stroke() {
         Err(e) => (String::new(), e),
     };
     let program = "G0 X0 Y0 Z50 B0 C0\nG1 X10 Y0 Z50 B90 C0 F100\nM2\n";
-    let (out, e) = why(compensate_text(program, "{EB0B: 20000.0}", |s| {
+    let (out, e) = why(compensate_text(program, "{EB0B: 9000.0}", |s| {
         s.max_correction = 1e9
     }));
     assert!(e.contains("outside the limits [-90, 90]"), "{e}");
