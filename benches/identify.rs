@@ -21,8 +21,8 @@ use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Dataset, Method, Setup, data, synthetic};
 use fivecal::kinematics::Kinematics;
 use fivecal::model::{Effect, Model};
-use fivecal::plan::{LoadedPlan, PlanConfig, Template};
 use fivecal::post::PostDefinition;
+use fivecal::procedure::{PlanConfig, Template, Test};
 use fivecal::simulate::{self, SimOptions};
 use fivecal::{Dialect, Machine, placement};
 use nalgebra::{Isometry3, Vector3};
@@ -144,16 +144,14 @@ fn bench(c: &mut Criterion) {
 
     // The simulator: the planner's stepped square on bc-trunnion.
     let m = Machine::builtin("bc-trunnion").unwrap();
-    let plan = LoadedPlan::Machining(Box::new(
-        fivecal::plan::plan(&PlanConfig {
-            machine: m,
-            template: Template::builtin("stepped-square").unwrap(),
-            post: PostDefinition::builtin(Dialect::Fanuc),
-            kinematics: KinematicsMode::Post,
-            tool: None,
-        })
-        .unwrap(),
-    ));
+    let plan = fivecal::procedure::plan(&PlanConfig {
+        machine: m,
+        template: Template::builtin(Test::SteppedSquare),
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .unwrap();
     let kin = simulate::plan_kinematics(&plan);
     let src = "machine: bc-trunnion\nlocation_errors: {EX0B: 12, EZ0B: -40, EA0B: 80, EC0B: -60, EB0B: 150, EX(0B)C: 25, EY0C: -18, EA(0B)C: 45}\n";
     let path = std::path::Path::new("truth.yaml");

@@ -13,26 +13,23 @@ use std::path::Path;
 use criterion::{Criterion, criterion_group, criterion_main};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::formats::manifest::KinematicsMode;
-use fivecal::plan::{LoadedPlan, PlanConfig, ProbingConfig, Template, plan, plan_probing};
 use fivecal::post::PostDefinition;
-use fivecal::probing::template::ProbeTemplate;
+use fivecal::procedure::{Plan, PlanConfig, Template, Test, plan};
 use fivecal::simulate::{self, Format, SimOptions, forward};
 use fivecal::{Dialect, Machine};
 
-fn machining(test: &str) -> LoadedPlan {
-    LoadedPlan::Machining(Box::new(
-        plan(&PlanConfig {
-            machine: Machine::builtin("bc-trunnion").unwrap(),
-            template: Template::builtin(test).unwrap(),
-            post: PostDefinition::builtin(Dialect::Fanuc),
-            kinematics: KinematicsMode::Post,
-            tool: None,
-        })
-        .unwrap(),
-    ))
+fn machining(test: &str) -> Plan {
+    plan(&PlanConfig {
+        machine: Machine::builtin("bc-trunnion").unwrap(),
+        template: Template::builtin(test.parse().unwrap()),
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .unwrap()
 }
 
-fn truth(plan: &LoadedPlan, full: bool) -> LoadedErrors {
+fn truth(plan: &Plan, full: bool) -> LoadedErrors {
     let kin = simulate::plan_kinematics(plan);
     let src = if full {
         simulate::truth::example(&kin)
@@ -67,14 +64,14 @@ fn bench(c: &mut Criterion) {
             black_box(out.render(Format::Heights).unwrap())
         })
     });
-    let cols = LoadedPlan::Probing(Box::new(
-        plan_probing(&ProbingConfig {
-            machine: Machine::builtin("bc-trunnion").unwrap(),
-            template: ProbeTemplate::builtin("probe-columns").unwrap(),
-            post: PostDefinition::builtin(Dialect::Fanuc),
-        })
-        .unwrap(),
-    ));
+    let cols = plan(&PlanConfig {
+        machine: Machine::builtin("bc-trunnion").unwrap(),
+        template: Template::builtin(Test::ProbeColumns),
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .unwrap();
     let cols_truth = truth(&cols, true);
     g.bench_function("probe-columns, FANUC log", |b| {
         b.iter(|| {

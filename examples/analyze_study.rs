@@ -21,9 +21,8 @@ use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::formats::manifest::KinematicsMode;
 use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Method, Setup};
-use fivecal::plan::{LoadedPlan, PlanConfig, ProbingConfig, Template};
 use fivecal::post::PostDefinition;
-use fivecal::probing::template::ProbeTemplate;
+use fivecal::procedure::{Plan, PlanConfig, Template};
 use fivecal::simulate::{self, NoiseOverrides, SimOptions};
 use fivecal::{Dialect, Machine};
 
@@ -51,32 +50,18 @@ const AC_ERRORS: &str = "location_errors:
   EB(0A)C: 40.0
 ";
 
-fn planned(machine: &str, test: &str) -> LoadedPlan {
-    let m = Machine::builtin(machine).unwrap();
-    let post = PostDefinition::builtin(Dialect::Fanuc);
-    match ProbeTemplate::builtin(test) {
-        Some(template) => LoadedPlan::Probing(Box::new(
-            fivecal::plan::plan_probing(&ProbingConfig {
-                machine: m,
-                template,
-                post,
-            })
-            .unwrap(),
-        )),
-        None => LoadedPlan::Machining(Box::new(
-            fivecal::plan::plan(&PlanConfig {
-                machine: m,
-                template: Template::builtin(test).unwrap(),
-                post,
-                kinematics: KinematicsMode::Post,
-                tool: None,
-            })
-            .unwrap(),
-        )),
-    }
+fn planned(machine: &str, test: &str) -> Plan {
+    fivecal::procedure::plan(&PlanConfig {
+        machine: Machine::builtin(machine).unwrap(),
+        template: Template::builtin(test.parse().unwrap()),
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .unwrap()
 }
 
-fn truth(plan: &LoadedPlan, yaml: &str) -> LoadedErrors {
+fn truth(plan: &Plan, yaml: &str) -> LoadedErrors {
     let kin = simulate::plan_kinematics(plan);
     let src = format!("machine: {}\n{yaml}", kin.machine().name);
     let path = std::path::Path::new("truth.yaml");

@@ -17,8 +17,8 @@ use fivecal::errorfile::{ErrorFile, LoadedErrors, Noise};
 use fivecal::formats::manifest::KinematicsMode;
 use fivecal::kinematics::maps::{MapDim, MapGrid};
 use fivecal::model::{DriftBasis, Effect, Model};
-use fivecal::plan::{LoadedPlan, PlanConfig, Template};
 use fivecal::post::PostDefinition;
+use fivecal::procedure::{PlanConfig, Template, Test};
 use fivecal::simulate::{self, Format, SimOptions};
 use fivecal::{Dialect, Machine};
 
@@ -31,15 +31,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // The plan, as `fivecal plan stepped-square --machine bc-trunnion` writes it.
     let m = Machine::builtin("bc-trunnion").unwrap();
-    let planned = fivecal::plan::plan(&PlanConfig {
+    let plan = fivecal::procedure::plan(&PlanConfig {
         machine: m,
-        template: Template::builtin("stepped-square").unwrap(),
+        template: Template::builtin(Test::SteppedSquare),
         post: PostDefinition::builtin(Dialect::Fanuc),
         kinematics: KinematicsMode::Post,
         tool: None,
     })?;
-    planned.write(&dir, "stepped-square", &[])?;
-    let plan = LoadedPlan::Machining(Box::new(planned));
+    plan.write(&dir, "stepped-square", &[])?;
     let kin = simulate::plan_kinematics(&plan);
 
     // The machine: location errors, a warming Z position of the B axis, a

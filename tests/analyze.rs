@@ -336,7 +336,7 @@ pub fn plan_dir_with(
     }
     let manifest = Manifest {
         fivecal_plan: 1,
-        test: test.into(),
+        test: test.parse().unwrap(),
         kind,
         machine: m.name.clone(),
         machine_file: format!("{test}.machine.yaml").into(),
@@ -611,7 +611,7 @@ fn sphere_test_on_ac_trunnion_from_the_command_line() {
         TestKind::Probing,
         "ac-trunnion",
         &plan,
-        fivecal::probing::template::BUILTIN_SPHERE,
+        fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE,
     );
     let measured = dir.path().join("sphere.csv");
     std::fs::write(
@@ -937,13 +937,13 @@ fn nine_section_heights_from_the_cmm_output_of_a_planned_piece() {
 #[test]
 fn sphere_test_of_a_probing_plan_from_its_fanuc_probe_log() {
     use fivecal::formats::probe_log::fanuc;
-    use fivecal::probing::template::{BUILTIN_SPHERE, SphereTemplate};
+    use fivecal::procedure::probing::sphere::{BUILTIN_TEMPLATE as BUILTIN_SPHERE, SphereTemplate};
     let m = machine("ac-trunnion");
     let t = SphereTemplate::builtin();
-    let pplan = fivecal::probing::sphere::plan(&m, &t).unwrap();
+    let pplan = fivecal::procedure::probing::sphere::touch_plan(&m, &t).unwrap();
     let plan = pplan.points();
     let k = &pplan.kin;
-    let centre = fivecal::probing::sphere::sphere_centre(&m, &t);
+    let centre = fivecal::procedure::probing::sphere::sphere_centre(&m, &t);
     let truth = truth_model(k, vec![]);
     let mut r = rng(31);
     let contacts = synthetic::probed_sphere(
@@ -999,9 +999,12 @@ fn sphere_test_of_a_probing_plan_from_its_fanuc_probe_log() {
 /// global method with the columns set up 0.1 mm off.
 #[test]
 fn column_probing_of_a_probing_plan_by_both_methods() {
-    use fivecal::probing::template::{BUILTIN_COLUMNS, ColumnsTemplate};
+    use fivecal::procedure::probing::columns::{
+        BUILTIN_TEMPLATE as BUILTIN_COLUMNS, ColumnsTemplate,
+    };
     let m = machine("ac-trunnion");
-    let pplan = fivecal::probing::columns::plan(&m, &ColumnsTemplate::builtin()).unwrap();
+    let pplan =
+        fivecal::procedure::probing::columns::touch_plan(&m, &ColumnsTemplate::builtin()).unwrap();
     let plan = pplan.points();
     let k = &pplan.kin;
     let truth = truth_model(k, vec![]);

@@ -17,7 +17,7 @@ use fivecal::analyze::uncertainty::{Contributors, McOptions};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Dataset, Identification, Method, Setup};
-use fivecal::plan::LoadedPlan;
+use fivecal::procedure::Plan;
 use fivecal::simulate::{self, Placement, SimOptions};
 use nalgebra::DMatrix;
 
@@ -85,12 +85,12 @@ fn options(seed: u64) -> SimOptions {
 
 /// Simulates `plan` on the machine of `errors` and joins the points as
 /// `analyze` does.
-fn measure(plan: &LoadedPlan, errors: &LoadedErrors, opts: &SimOptions) -> Dataset {
+fn measure(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Dataset {
     let out = simulate::run(plan, errors, opts).unwrap();
     simulated::plan_dataset(plan, &format!("seed{}.csv", opts.seed), out.points).unwrap()
 }
 
-fn identify(plan: &LoadedPlan, setup: &Setup, data: &Dataset, method: Method) -> Identification {
+fn identify(plan: &Plan, setup: &Setup, data: &Dataset, method: Method) -> Identification {
     fivecal::analyze::method::identify_with_plan(
         method,
         setup,

@@ -16,10 +16,8 @@ use fivecal::geom::Axis3;
 use fivecal::identify::synthetic;
 use fivecal::kinematics::maps::{MapDim, MapGrid};
 use fivecal::model::{DriftBasis, Effect, Model, Squareness};
-use fivecal::plan::probing::{ProbingConfig, plan_probing};
-use fivecal::plan::{LoadedPlan, PlanConfig, Template};
 use fivecal::post::PostDefinition;
-use fivecal::probing::template::ProbeTemplate;
+use fivecal::procedure::{Plan, PlanConfig, Template, Test};
 use fivecal::simulate::{self, SimOptions};
 use fivecal::{Dialect, Kinematics};
 use rayon::prelude::*;
@@ -31,42 +29,40 @@ use crate::util::machine;
 const NOISE: f64 = 0.35;
 
 /// The planner's stepped square on `bc-trunnion` (FANUC, post kinematics).
-fn stepped_square() -> LoadedPlan {
-    LoadedPlan::Machining(Box::new(
-        fivecal::plan::plan(&PlanConfig {
-            machine: machine("bc-trunnion"),
-            template: Template::builtin("stepped-square").unwrap(),
-            post: PostDefinition::builtin(Dialect::Fanuc),
-            kinematics: KinematicsMode::Post,
-            tool: None,
-        })
-        .unwrap(),
-    ))
+fn stepped_square() -> Plan {
+    fivecal::procedure::plan(&PlanConfig {
+        machine: machine("bc-trunnion"),
+        template: Template::builtin(Test::SteppedSquare),
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .unwrap()
 }
 
 /// The probing planner's three columns on `ac-trunnion` (seed 000's 24
 /// stations).
-fn columns() -> LoadedPlan {
-    LoadedPlan::Probing(Box::new(
-        plan_probing(&ProbingConfig {
-            machine: machine("ac-trunnion"),
-            template: ProbeTemplate::builtin("probe-columns").unwrap(),
-            post: PostDefinition::builtin(Dialect::Fanuc),
-        })
-        .unwrap(),
-    ))
+fn columns() -> Plan {
+    fivecal::procedure::plan(&PlanConfig {
+        kinematics: fivecal::formats::manifest::KinematicsMode::Post,
+        tool: None,
+        machine: machine("ac-trunnion"),
+        template: Template::builtin(Test::ProbeColumns),
+        post: PostDefinition::builtin(Dialect::Fanuc),
+    })
+    .unwrap()
 }
 
 /// The plan run on a machine with the eight location errors (seed 001's
 /// table 1 magnitudes) and `hidden`, measured; as a discovery's inputs.
-fn simulated(plan: &LoadedPlan, hidden: &[(Effect, Vec<f64>)], seed: u64) -> Inputs {
+fn simulated(plan: &Plan, hidden: &[(Effect, Vec<f64>)], seed: u64) -> Inputs {
     let kin = simulate::plan_kinematics(plan);
     let mut effects = vec![Effect::Location {
         symbols: (0..8).collect(),
     }];
     let mut theta = match plan {
-        LoadedPlan::Machining(_) => BC_TRUTH.to_vec(),
-        LoadedPlan::Probing(_) => AC_TRUTH.to_vec(),
+        Plan::Machining(_) => BC_TRUTH.to_vec(),
+        Plan::Probing(_) => AC_TRUTH.to_vec(),
     };
     for (e, v) in hidden {
         effects.push(e.clone());
@@ -103,7 +99,7 @@ fn symbols(kin: &Kinematics) -> fivecal::kinematics::symbols::SymbolTable {
     Model::new(kin.clone(), vec![]).symbols
 }
 
-fn tilt_map(plan: &LoadedPlan, name: &str) -> Effect {
+fn tilt_map(plan: &Plan, name: &str) -> Effect {
     Effect::Map {
         symbol: symbols(&simulate::plan_kinematics(plan))
             .map_index(name)
@@ -114,7 +110,7 @@ fn tilt_map(plan: &LoadedPlan, name: &str) -> Effect {
     }
 }
 
-fn drift(plan: &LoadedPlan, symbol: &str) -> Effect {
+fn drift(plan: &Plan, symbol: &str) -> Effect {
     Effect::Drift {
         symbol: symbols(&simulate::plan_kinematics(plan))
             .location_index(symbol)

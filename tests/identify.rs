@@ -126,9 +126,9 @@ fn stepped_square_with_noise_recovers_every_symbol_within_four_u_over_twenty_see
     // random placement 1 m away for every seed.
     let m = machine("bc-trunnion");
     let k = Kinematics::new(&m);
-    let plan = fivecal::plan::plan(&fivecal::plan::PlanConfig {
+    let plan = fivecal::procedure::plan(&fivecal::procedure::PlanConfig {
         machine: m.clone(),
-        template: fivecal::plan::Template::builtin("stepped-square").unwrap(),
+        template: fivecal::procedure::Template::builtin(fivecal::procedure::Test::SteppedSquare),
         post: fivecal::post::PostDefinition::builtin(fivecal::Dialect::Fanuc),
         kinematics: fivecal::formats::manifest::KinematicsMode::Post,
         tool: None,
@@ -694,9 +694,10 @@ fn column_probing_of_the_planned_columns_over_twenty_seeds() {
     // stations), each column clamped on its own up to 0.1 mm and 0.2 mrad
     // off, 0.35 um of probe noise; global (a setup per column) and
     // two-stage (relative to the reference touches).
-    use fivecal::probing::template::ColumnsTemplate;
+    use fivecal::procedure::probing::columns::ColumnsTemplate;
     let m = machine("ac-trunnion");
-    let pplan = fivecal::probing::columns::plan(&m, &ColumnsTemplate::builtin()).unwrap();
+    let pplan =
+        fivecal::procedure::probing::columns::touch_plan(&m, &ColumnsTemplate::builtin()).unwrap();
     let plan = pplan.points();
     let k = &pplan.kin;
     let truth = truth_model(k, vec![]);
@@ -769,9 +770,10 @@ fn column_probing_uncertainty_agrees_with_a_seeded_spread_for_both_methods() {
     // deviation to +-7 % (1 sigma), the residual sigma is known to +-5 %:
     // u against the spread within 30 %, the spread against the Cramer-Rao
     // bound at the true noise within 25 %.
-    use fivecal::probing::template::ColumnsTemplate;
+    use fivecal::procedure::probing::columns::ColumnsTemplate;
     let m = machine("ac-trunnion");
-    let pplan = fivecal::probing::columns::plan(&m, &ColumnsTemplate::builtin()).unwrap();
+    let pplan =
+        fivecal::procedure::probing::columns::touch_plan(&m, &ColumnsTemplate::builtin()).unwrap();
     let plan = pplan.points();
     let k = &pplan.kin;
     let truth = truth_model(k, vec![]);

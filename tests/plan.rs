@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 
 use fivecal::formats::manifest::{KinematicsMode, Manifest};
 use fivecal::formats::points::PlanPoints;
-use fivecal::plan::{Pass, PlanConfig, PlanError, PlannedTest, Template, ToolPart, load, plan};
 use fivecal::post::PostDefinition;
+use fivecal::procedure::machining::{Pass, ToolPart, plan};
+use fivecal::procedure::{MachiningPlan, Plan, PlanConfig, PlanError, Template, Test, load};
 use fivecal::{Dialect, Kinematics, Machine};
 use nalgebra::{DMatrix, Vector3};
 
@@ -24,14 +25,14 @@ pub fn config(
 ) -> PlanConfig {
     PlanConfig {
         machine: machine(machine_name),
-        template: Template::builtin(test).unwrap(),
+        template: Template::builtin(test.parse().unwrap()),
         post: PostDefinition::builtin(dialect),
         kinematics: mode,
         tool: None,
     }
 }
 
-pub fn planned(machine_name: &str, test: &str, dialect: Dialect) -> PlannedTest {
+pub fn planned(machine_name: &str, test: &str, dialect: Dialect) -> MachiningPlan {
     plan(&config(machine_name, test, dialect, KinematicsMode::Post))
         .unwrap_or_else(|e| panic!("{test} on {machine_name} ({dialect}): {e}"))
 }
@@ -139,9 +140,11 @@ fn inside(p: &Vector3<f64>, tris: &[[Vector3<f64>; 3]]) -> bool {
     hits % 2 == 1
 }
 
-fn written(t: &PlannedTest) -> (tempfile::TempDir, PathBuf) {
+fn written(t: &MachiningPlan) -> (tempfile::TempDir, PathBuf) {
     let dir = tempdir();
-    t.write(dir.path(), &t.test, &[]).unwrap();
+    Plan::from(t.clone())
+        .write(dir.path(), t.test.as_str(), &[])
+        .unwrap();
     let p = dir.path().to_path_buf();
     (dir, p)
 }
@@ -225,8 +228,8 @@ fn nine_section_on_ac_trunnion_has_nine_sections_with_section_1_at_zero() {
 }
 
 /// A top-only stepped square with squares turned by 30 degrees.
-fn turned_squares() -> PlannedTest {
-    let src = Template::builtin("stepped-square").unwrap().source.text;
+fn turned_squares() -> MachiningPlan {
+    let src = Template::builtin(Test::SteppedSquare).source().text.clone();
     let text = src
         .replace("tilt: auto ", "tilt: [0] ")
         .replace("c: [0, 90, 180, 270]", "c: [0, 30, 60]")
@@ -244,7 +247,7 @@ fn turned_squares() -> PlannedTest {
 
 #[test]
 fn every_point_lies_on_the_written_piece_with_its_normal_out_of_the_material() {
-    let mut plans: Vec<PlannedTest> = Vec::new();
+    let mut plans: Vec<MachiningPlan> = Vec::new();
     for m in MACHINES {
         for test in TESTS {
             plans.push(planned(m, test, Dialect::Linuxcnc));
@@ -252,7 +255,7 @@ fn every_point_lies_on_the_written_piece_with_its_normal_out_of_the_material() {
     }
     plans.push(turned_squares());
     for t in plans {
-        let (m, test) = (t.machine.name.clone(), t.test.clone());
+        let (m, test) = (t.machine.name.clone(), t.test);
         {
             let (_keep, dir) = written(&t);
             let pts = PlanPoints::read(&dir.join(format!("{test}.points.csv"))).unwrap();
@@ -467,6 +470,7 @@ fn load_rebuilds_the_plan_exactly_from_its_manifest() {
             assert!(man.file(&man_path, role).unwrap().exists(), "{role}");
         }
         let back = load(&man_path).unwrap();
+        let back = back.machining().unwrap();
         assert_eq!(back.poses, t.poses);
         assert_eq!(back.points, t.points);
         assert_eq!(back.toolpath, t.toolpath);
@@ -481,7 +485,7 @@ fn load_rebuilds_the_plan_exactly_from_its_manifest() {
 fn templates_postprocessors_and_tools_given_by_path_round_trip() {
     let dir = tempdir();
     let tpl = dir.path().join("my-square.yaml");
-    let src = Template::builtin("stepped-square").unwrap().source.text;
+    let src = Template::builtin(Test::SteppedSquare).source().text.clone();
     std::fs::write(&tpl, src.replace("first_size: 40 ", "first_size: 36 ")).unwrap();
     let post = dir.path().join("my-fanuc.yaml");
     let psrc = PostDefinition::builtin(Dialect::Fanuc).source;
@@ -511,6 +515,7 @@ fn templates_postprocessors_and_tools_given_by_path_round_trip() {
         &program[..600]
     );
     let back = load(&out.join("stepped-square.plan.yaml")).unwrap();
+    let back = back.machining().unwrap();
     assert_eq!(back.program.text, program);
     assert_eq!((back.tool.length, back.tool.number), (70.0, 4));
     assert!(
@@ -544,6 +549,7 @@ fn load_refuses_a_plan_whose_copies_were_edited() {
 fn outputs_are_deterministic() {
     let a = planned("ac-trunnion", "stepped-square", Dialect::Heidenhain);
     let b = planned("ac-trunnion", "stepped-square", Dialect::Heidenhain);
+    let (a, b) = (Plan::from(a), Plan::from(b));
     assert_eq!(a.outputs("x"), b.outputs("x"));
     for (name, bytes) in a.outputs("x") {
         let text = String::from_utf8_lossy(&bytes);
@@ -616,7 +622,10 @@ fn plan_err(cfg: &PlanConfig) -> String {
 }
 
 fn with_template(test: &str, from: &str, to: &str) -> PlanConfig {
-    let src = Template::builtin(test).unwrap().source.text;
+    let src = Template::builtin(test.parse().unwrap())
+        .source()
+        .text
+        .clone();
     assert!(src.contains(from), "{from}");
     let text = src.replace(from, to);
     let mut cfg = config("bc-trunnion", test, Dialect::Fanuc, KinematicsMode::Post);
@@ -655,7 +664,7 @@ fn a_tool_longer_than_the_clearance_names_its_length_and_the_clearance() {
         Dialect::Fanuc,
         KinematicsMode::Post,
     );
-    let mut tool = Template::builtin("stepped-square").unwrap();
+    let mut tool = Template::builtin(Test::SteppedSquare);
     let _ = &mut tool;
     cfg.tool = Some(fivecal::machine::Tool {
         name: "long".into(),
@@ -715,7 +724,10 @@ fn bad_templates_fail_at_the_offending_key() {
             "normal to no face of the block",
         ),
     ] {
-        let src = Template::builtin(test).unwrap().source.text;
+        let src = Template::builtin(test.parse().unwrap())
+            .source()
+            .text
+            .clone();
         assert!(src.contains(from), "{from}");
         let text = src.replace(from, to);
         let line = text.lines().position(|l| l.contains(to.trim())).unwrap() + 1;
@@ -838,7 +850,7 @@ fn cli_writes_every_output_and_reports_bad_input_with_a_position() {
     assert_eq!(dmi.matches("MEAS/POINT").count(), 144);
 
     let bad = dir.path().join("bad.yaml");
-    let src = Template::builtin("stepped-square").unwrap().source.text;
+    let src = Template::builtin(Test::SteppedSquare).source().text.clone();
     std::fs::write(&bad, src.replace("tilt: auto", "tilt: [0, 95]")).unwrap();
     let err = fivecal()
         .args(["plan", "stepped-square", "--template"])

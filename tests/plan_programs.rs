@@ -8,7 +8,8 @@ use std::process::{Command, Stdio};
 
 use fivecal::formats::manifest::KinematicsMode;
 use fivecal::kinematics::Kinematics;
-use fivecal::plan::{PlannedTest, plan};
+use fivecal::procedure::MachiningPlan;
+use fivecal::procedure::machining::plan;
 use fivecal::{Axes, Dialect};
 use nalgebra::Vector3;
 
@@ -22,7 +23,7 @@ struct Canon {
     axes: [f64; 6],
 }
 
-fn run_rs274(t: &PlannedTest) -> Vec<Canon> {
+fn run_rs274(t: &MachiningPlan) -> Vec<Canon> {
     let dir = tempdir();
     let prog = dir.path().join(format!("{}.ngc", t.test));
     std::fs::write(&prog, &t.program.text).unwrap();
@@ -77,7 +78,7 @@ fn run_rs274(t: &PlannedTest) -> Vec<Canon> {
         .collect()
 }
 
-fn axes_of(t: &PlannedTest, c: &Canon) -> Axes {
+fn axes_of(t: &MachiningPlan, c: &Canon) -> Axes {
     let tilt = if t.machine.tilt_letter() == 'A' {
         c.axes[3]
     } else {
@@ -88,7 +89,7 @@ fn axes_of(t: &PlannedTest, c: &Canon) -> Axes {
 
 /// The planned feed moves the program writes (a move whose rounded
 /// coordinates repeat the previous ones writes no block).
-fn planned_feeds(t: &PlannedTest) -> Vec<Vector3<f64>> {
+fn planned_feeds(t: &MachiningPlan) -> Vec<Vector3<f64>> {
     let fmt = |v: &Vector3<f64>| format!("{:.4} {:.4} {:.4}", v.x, v.y, v.z);
     let mut last = String::new();
     let mut out = Vec::new();
@@ -311,7 +312,7 @@ fn heidenhain_blocks(text: &str) -> Vec<Block<'_>> {
 
 /// Checks the rules every program must keep; `post` is true when X Y Z
 /// are machine positions (kinematics post).
-fn check_rules(t: &PlannedTest, blocks: &[Block<'_>], post: bool) {
+fn check_rules(t: &MachiningPlan, blocks: &[Block<'_>], post: bool) {
     let who = format!("{} {} {}", t.test, t.machine.name, t.dialect);
     let m = &t.machine;
     let tl = m.tilt_letter();

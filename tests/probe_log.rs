@@ -14,8 +14,9 @@ use fivecal::formats::probe_log::{
 };
 use fivecal::kinematics::Kinematics;
 use fivecal::machine::Dialect;
-use fivecal::probing::columns;
-use fivecal::probing::template::ColumnsTemplate;
+use fivecal::procedure::Test;
+use fivecal::procedure::probing::columns;
+use fivecal::procedure::probing::columns::ColumnsTemplate;
 use nalgebra::Vector3;
 
 use crate::util::machine;
@@ -41,7 +42,7 @@ fn opts() -> ReadOptions {
         window: (3.0, 5.0),
         lateral_tolerance: 0.1,
         repeats: Repeats::KeepLast,
-        test: Some("probe-columns".into()),
+        test: Some(Test::ProbeColumns),
     }
 }
 
@@ -265,7 +266,7 @@ fn logs_that_do_not_fit_the_plan_are_refused() {
     );
     // A log of another test.
     let other = ReadOptions {
-        test: Some("probe-sphere".into()),
+        test: Some(Test::ProbeSphere),
         ..opts()
     };
     assert_eq!(
@@ -406,7 +407,7 @@ fn rs274_expands_our_log_line_into_a_line_the_reader_parses() {
 fn every_touch_of_a_plan_reads_back_through_each_dialect() {
     for name in ["ac-trunnion", "bc-trunnion", "head-table"] {
         let m = machine(name);
-        let plan = columns::plan(&m, &ColumnsTemplate::builtin()).unwrap();
+        let plan = columns::touch_plan(&m, &ColumnsTemplate::builtin()).unwrap();
         let points = plan.points();
         let offset = |i: usize| 0.001 * ((i * 37) % 2001) as f64 - 1.0; // -1 .. +1 mm
         let mut fan = String::from("%\nFIVECAL PROBE-COLUMNS\n");
@@ -455,7 +456,7 @@ fn every_touch_of_a_plan_reads_back_through_each_dialect() {
 /// The log of a whole plan as its program makes the control write it, for
 /// positions offset from each nominal surface by a known amount along the
 /// normal; the reader turns it back into exactly those contact points.
-fn round_trip(p: &fivecal::plan::PlannedProbing, fmt: &write::LogFormat, what: &str) {
+fn round_trip(p: &fivecal::procedure::ProbingPlan, fmt: &write::LogFormat, what: &str) {
     let offset = |i: usize| 0.001 * ((i * 53) % 1801) as f64 - 0.9; // -0.9 .. +0.9 mm
     let plan = &p.plan;
     let recorded: Vec<_> = plan
@@ -537,7 +538,7 @@ fn log_writers_round_trip_through_the_readers_in_every_dialect_and_control_setti
 #[test]
 fn log_writers_print_exactly_what_the_control_prints() {
     use crate::probe_programs::probing;
-    let first = |p: &fivecal::plan::PlannedProbing| {
+    let first = |p: &fivecal::procedure::ProbingPlan| {
         let t = &p.plan.touches[0];
         p.log_format().write(&p.plan, [(t, t.contact.axes.xyz)])
     };
@@ -565,16 +566,17 @@ fn log_writers_print_exactly_what_the_control_prints() {
 /// gets logs of `T` lines, which read back with the radius applied.
 #[test]
 fn the_log_format_follows_the_programs_format_file() {
-    use fivecal::plan::{ProbingConfig, plan_probing};
     use fivecal::post::PostDefinition;
-    use fivecal::probing::template::ProbeTemplate;
+    use fivecal::procedure::{PlanConfig, Template, Test};
     let builtin = PostDefinition::builtin(Dialect::Heidenhain);
     let src = builtin.source.replace("\"K%D X", "\"T%D X");
     assert_ne!(src, builtin.source);
     let post = PostDefinition::parse(Path::new("t.yaml"), &src).unwrap();
-    let p = plan_probing(&ProbingConfig {
+    let p = fivecal::procedure::probing::plan(&PlanConfig {
+        kinematics: fivecal::formats::manifest::KinematicsMode::Post,
+        tool: None,
         machine: machine("bc-trunnion"),
-        template: ProbeTemplate::builtin("probe-sphere").unwrap(),
+        template: Template::builtin(Test::ProbeSphere),
         post,
     })
     .unwrap();

@@ -1,5 +1,5 @@
 //! `plan probe-columns|probe-sphere`: the files a probing plan writes, the
-//! manifest from which `plan::load_any` rebuilds it exactly, the setup
+//! manifest from which `procedure::load` rebuilds it exactly, the setup
 //! model and sheet, a simulator following the documented recipe, and the
 //! errors a user sees.
 
@@ -8,11 +8,9 @@ use std::path::{Path, PathBuf};
 use fivecal::formats::manifest::{Manifest, TestKind};
 use fivecal::formats::probe_log;
 use fivecal::kinematics::Perturbation;
-use fivecal::plan::{
-    LoadedPlan, PlannedProbing, ProbingConfig, Setup, load, load_any, load_probing, plan_probing,
-};
 use fivecal::post::PostDefinition;
-use fivecal::probing::template::{ProbeTemplate, TemplateSource};
+use fivecal::procedure::probing::Setup;
+use fivecal::procedure::{Plan, PlanConfig, ProbingPlan, Template, TemplateSource, Test, load};
 use fivecal::{Axes, Dialect};
 use nalgebra::Vector3;
 
@@ -20,14 +18,16 @@ use crate::cli::fivecal;
 use crate::probe_programs::probing;
 use crate::util::{machine, rng, tempdir};
 
-fn written(p: &PlannedProbing) -> (tempfile::TempDir, PathBuf) {
+fn written(p: &ProbingPlan) -> (tempfile::TempDir, PathBuf) {
     let dir = tempdir();
     let path = dir.path().to_path_buf();
-    p.write(&path, &p.test, &[]).unwrap();
+    Plan::from(p.clone())
+        .write(&path, p.test.as_str(), &[])
+        .unwrap();
     (dir, path)
 }
 
-fn same_plan(a: &PlannedProbing, b: &PlannedProbing) {
+fn same_plan(a: &ProbingPlan, b: &ProbingPlan) {
     assert_eq!(a.test, b.test);
     assert_eq!(a.dialect, b.dialect);
     assert_eq!(a.probe, b.probe);
@@ -72,26 +72,24 @@ fn load_any_rebuilds_probing_plans_exactly_and_tells_the_kinds_apart() {
             assert!((e.start_min - q.start_min).abs() <= 5e-4);
             assert!((e.end_min - q.end_min).abs() <= 5e-4);
         }
-        let back = match load_any(&man_path).unwrap() {
-            LoadedPlan::Probing(b) => b,
-            LoadedPlan::Machining(_) => panic!("{test} loaded as machining"),
+        let back = match load(&man_path).unwrap() {
+            Plan::Probing(b) => b,
+            Plan::Machining(_) => panic!("{test} loaded as machining"),
         };
         same_plan(&p, &back);
-        same_plan(&p, &load_probing(&man_path).unwrap());
-        let e = load(&man_path).unwrap_err().to_string();
-        assert!(e.contains("is a probing plan"), "{e}");
     }
     // A machining manifest through the same call.
     let t = crate::plan::planned("bc-trunnion", "stepped-square", Dialect::Fanuc);
     let dir = tempdir();
-    t.write(dir.path(), &t.test, &[]).unwrap();
+    Plan::from(t.clone())
+        .write(dir.path(), t.test.as_str(), &[])
+        .unwrap();
     let man_path = dir.path().join("stepped-square.plan.yaml");
-    let any = load_any(&man_path).unwrap();
+    let any = load(&man_path).unwrap();
     assert_eq!(any.kind(), TestKind::Machining);
     assert_eq!(any.plan_points(), t.plan_points());
     assert_eq!(any.machining().unwrap().program, t.program);
-    let e = load_probing(&man_path).unwrap_err().to_string();
-    assert!(e.contains("is a machining plan"), "{e}");
+    assert!(any.probing().is_none());
 }
 
 #[test]
@@ -106,7 +104,7 @@ fn load_refuses_a_probing_plan_whose_copies_were_edited() {
         src.replace("centre: [-60, -45]", "centre: [-59, -45]"),
     )
     .unwrap();
-    let e = load_any(&dir.join("probe-columns.plan.yaml"))
+    let e = load(&dir.join("probe-columns.plan.yaml"))
         .unwrap_err()
         .to_string();
     assert!(e.contains("differs from the manifest"), "{e}");
@@ -123,7 +121,7 @@ fn load_refuses_a_probing_plan_whose_copies_were_edited() {
         ),
     )
     .unwrap();
-    let e = load_any(&dir.join("probe-columns.plan.yaml"))
+    let e = load(&dir.join("probe-columns.plan.yaml"))
         .unwrap_err()
         .to_string();
     assert!(e.contains("row 1 of") && e.contains("A0C0_C1_t1"), "{e}");
@@ -136,15 +134,15 @@ fn load_refuses_a_probing_plan_whose_copies_were_edited() {
         src.replace("ball_diameter: 6.0", "ball_diameter: 4.0"),
     )
     .unwrap();
-    let e = load_any(&man).unwrap_err().to_string();
+    let e = load(&man).unwrap_err().to_string();
     assert!(e.contains("the manifest's probe"), "{e}");
 }
 
 #[test]
 fn probing_outputs_are_deterministic() {
     for d in [Dialect::Fanuc, Dialect::Heidenhain] {
-        let a = probing("bc-trunnion", "probe-sphere", d);
-        let b = probing("bc-trunnion", "probe-sphere", d);
+        let a = Plan::from(probing("bc-trunnion", "probe-sphere", d));
+        let b = Plan::from(probing("bc-trunnion", "probe-sphere", d));
         assert_eq!(a.outputs("x"), b.outputs("x"));
         for (name, bytes) in a.outputs("x") {
             let text = String::from_utf8_lossy(&bytes);
@@ -284,7 +282,7 @@ fn the_setup_sheet_gives_the_run_time_against_seed_000() {
     }
     assert!((poses.last().unwrap().end_min - rt.total_min).abs() < 1e-9);
     // The manifest carries the same times (3 decimals).
-    let man = p.manifest("probe-columns");
+    let man = Plan::from(p.clone()).manifest("probe-columns");
     assert_eq!(
         man.poses.last().unwrap().end_min,
         (rt.total_min * 1000.0).round() / 1000.0
@@ -433,8 +431,8 @@ fn cli_writes_every_probing_output() {
         assert!(dir.path().join(f).exists(), "{f} missing:\n{text}");
         assert!(text.contains(&format!("wrote {}", dir.path().join(f).display())));
     }
-    let p = match load_any(&dir.path().join("probe-sphere.plan.yaml")).unwrap() {
-        LoadedPlan::Probing(p) => p,
+    let p = match load(&dir.path().join("probe-sphere.plan.yaml")).unwrap() {
+        Plan::Probing(p) => p,
         _ => panic!(),
     };
     assert_eq!(
@@ -446,7 +444,7 @@ fn cli_writes_every_probing_output() {
     let tpl = dir.path().join("spiral.yaml");
     std::fs::write(
         &tpl,
-        fivecal::probing::template::BUILTIN_SPHERE
+        fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE
             .replace("pattern: seed-004", "pattern: seed-003"),
     )
     .unwrap();
@@ -464,7 +462,8 @@ fn cli_writes_every_probing_output() {
         .arg(&sub)
         .assert()
         .success();
-    let back = load_probing(&sub.join("probe-sphere.plan.yaml")).unwrap();
+    let back = load(&sub.join("probe-sphere.plan.yaml")).unwrap();
+    let back = back.probing().unwrap();
     assert_eq!(back.machine.name, "bc-trunnion");
     assert_eq!(back.plan.poses.len(), 50);
     assert_eq!(back.plan.poses[7].id, "S07");
@@ -490,7 +489,7 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
     let e = run(&["plan", "probe-sphere", "--tool", "machine"]);
     assert!(e.contains("machine file's probe"), "{e}");
     let col = dir.path().join("col.yaml");
-    std::fs::write(&col, fivecal::probing::template::BUILTIN_COLUMNS).unwrap();
+    std::fs::write(&col, fivecal::procedure::probing::columns::BUILTIN_TEMPLATE).unwrap();
     let e = run(&["plan", "probe-sphere", "--template", col.to_str().unwrap()]);
     assert!(
         e.contains("the template is for test `probe-columns`"),
@@ -499,7 +498,8 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
     let bad = dir.path().join("bad.yaml");
     std::fs::write(
         &bad,
-        fivecal::probing::template::BUILTIN_SPHERE.replace("diameter: 30 ", "diameter: -30 "),
+        fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE
+            .replace("diameter: 30 ", "diameter: -30 "),
     )
     .unwrap();
     let e = run(&["plan", "probe-sphere", "--template", bad.to_str().unwrap()]);
@@ -518,7 +518,7 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
             let t = dir.path().join("far.yaml");
             std::fs::write(
                 &t,
-                fivecal::probing::template::BUILTIN_SPHERE.replace(
+                fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE.replace(
                     "tilt: {from: -90, to: 30, step: 10}",
                     "tilt: {from: -130, to: 30, step: 10}",
                 ),
@@ -531,7 +531,7 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
     assert!(!e.contains("panicked"), "{e}");
     // An output never overwrites an input: the template's own copy.
     let own = dir.path().join("probe-sphere.template.yaml");
-    std::fs::write(&own, fivecal::probing::template::BUILTIN_SPHERE).unwrap();
+    std::fs::write(&own, fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE).unwrap();
     let e = run(&["plan", "probe-sphere", "--template", own.to_str().unwrap()]);
     assert!(e.contains("refusing to overwrite input file"), "{e}");
     assert!(!dir.path().join("probe-sphere.plan.yaml").exists());
@@ -562,9 +562,11 @@ fn single_axis_probing_leaves_out_oblique_touches_and_says_so() {
         .source
         .replace("probe_axis_aligned: true", "probe_axis_aligned: false");
     let post = PostDefinition::parse(Path::new("h.yaml"), &src).unwrap();
-    let any = plan_probing(&ProbingConfig {
+    let any = fivecal::procedure::probing::plan(&PlanConfig {
+        kinematics: fivecal::formats::manifest::KinematicsMode::Post,
+        tool: None,
         machine: machine("ac-trunnion"),
-        template: ProbeTemplate::parse(TemplateSource::builtin("probe-columns").unwrap()).unwrap(),
+        template: Template::from_source(TemplateSource::builtin(Test::ProbeColumns)).unwrap(),
         post,
     })
     .unwrap();

@@ -7,28 +7,30 @@ use std::path::Path;
 
 use fivecal::formats::points::PlanPoints;
 use fivecal::kinematics::Kinematics;
-use fivecal::probing::template::{ColumnsTemplate, SphereTemplate, TemplateSource};
-use fivecal::probing::{
-    Checker, MoveKind, PlanError, PoseFrame, ProbePlan, Solid, columns, sphere,
+use fivecal::procedure::probing::columns::ColumnsTemplate;
+use fivecal::procedure::probing::sphere::SphereTemplate;
+use fivecal::procedure::probing::{
+    Checker, MoveKind, PoseFrame, Solid, TouchPlan, columns, sphere,
 };
+use fivecal::procedure::{PlanError, TemplateSource};
 use fivecal::{Axes, Machine};
 use nalgebra::Vector3;
 use rand::RngExt;
 
 use crate::util::{MACHINES, machine, rng};
 
-fn columns_plan(name: &str) -> ProbePlan {
-    columns::plan(&machine(name), &ColumnsTemplate::builtin())
+fn columns_plan(name: &str) -> TouchPlan {
+    columns::touch_plan(&machine(name), &ColumnsTemplate::builtin())
         .unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
-fn sphere_plan(name: &str) -> ProbePlan {
-    sphere::plan(&machine(name), &SphereTemplate::builtin())
+fn sphere_plan(name: &str) -> TouchPlan {
+    sphere::touch_plan(&machine(name), &SphereTemplate::builtin())
         .unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 fn seed003_template() -> SphereTemplate {
-    let text = fivecal::probing::template::BUILTIN_SPHERE
+    let text = fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE
         .replace("pattern: seed-004", "pattern: seed-003");
     SphereTemplate::parse(TemplateSource {
         path: "seed003.yaml".into(),
@@ -249,7 +251,7 @@ fn part_gap(
 /// 1 mm of probe travel (0.1 mm on probing moves) and each probe part
 /// every 0.5 mm, and returns the smallest gap between probe surface and
 /// setup: (probing moves and retracts, all other moves).
-fn sampled_gaps(plan: &ProbePlan) -> (f64, f64) {
+fn sampled_gaps(plan: &TouchPlan) -> (f64, f64) {
     let p = &plan.probe;
     let (mut probe_gap, mut other_gap) = (f64::INFINITY, f64::INFINITY);
     for mv in &plan.moves {
@@ -331,7 +333,7 @@ fn sampled_gaps(plan: &ProbePlan) -> (f64, f64) {
 /// a true gap of at least 1.15 mm), and probing moves only touch.
 #[test]
 fn every_move_of_every_default_plan_clears_the_setup_by_an_independent_check() {
-    let mut plans: Vec<(String, ProbePlan)> = Vec::new();
+    let mut plans: Vec<(String, TouchPlan)> = Vec::new();
     for name in MACHINES {
         plans.push((format!("{name} columns"), columns_plan(name)));
         plans.push((format!("{name} sphere"), sphere_plan(name)));
@@ -339,7 +341,7 @@ fn every_move_of_every_default_plan_clears_the_setup_by_an_independent_check() {
     let ac = machine("ac-trunnion");
     plans.push((
         "ac-trunnion seed 003".into(),
-        sphere::plan(&ac, &seed003_template()).unwrap(),
+        sphere::touch_plan(&ac, &seed003_template()).unwrap(),
     ));
     for (what, plan) in &plans {
         assert!(plan.check().is_empty(), "{what}: {:?}", plan.check());
@@ -456,7 +458,7 @@ fn labels_are_stable_and_points_csv_round_trips() {
         text,
     })
     .unwrap();
-    let small = columns::plan(&machine("ac-trunnion"), &two).unwrap();
+    let small = columns::touch_plan(&machine("ac-trunnion"), &two).unwrap();
     // Labels name what is probed where, not the order: a touch in both
     // plans has the same label, point and pose in both (its index differs).
     let full: std::collections::HashMap<&str, _> =
@@ -553,7 +555,7 @@ fn sphere_plan_follows_seed004_with_axis_parallel_touches_on_the_sphere() {
 
 #[test]
 fn sphere_plan_seed003_spreads_50_poses_over_the_tilt_and_nine_turns_of_c() {
-    let plan = sphere::plan(&machine("ac-trunnion"), &seed003_template()).unwrap();
+    let plan = sphere::touch_plan(&machine("ac-trunnion"), &seed003_template()).unwrap();
     assert_eq!(plan.poses.len(), 50);
     for (k, p) in plan.poses.iter().enumerate() {
         assert_eq!(p.id, format!("S{k:02}"));
@@ -603,7 +605,7 @@ fn run_time_of_a_one_touch_plan_is_the_sum_of_its_moves() {
     })
     .unwrap();
     let m = machine("ac-trunnion");
-    let plan = columns::plan(&m, &t).unwrap();
+    let plan = columns::touch_plan(&m, &t).unwrap();
     assert_eq!(plan.touches.len(), 1);
     let kinds: Vec<MoveKind> = plan.moves.iter().map(|m| m.kind).collect();
     assert_eq!(
@@ -683,8 +685,8 @@ fn template_error(kind: &str, text: &str) -> String {
 
 #[test]
 fn bad_templates_are_rejected_with_file_line_and_key() {
-    let cols = fivecal::probing::template::BUILTIN_COLUMNS;
-    let sph = fivecal::probing::template::BUILTIN_SPHERE;
+    let cols = fivecal::procedure::probing::columns::BUILTIN_TEMPLATE;
+    let sph = fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE;
     let line_of = |text: &str, pat: &str| text.lines().position(|l| l.contains(pat)).unwrap() + 1;
     let l = line_of(cols, "name: C2");
     assert_eq!(
@@ -764,7 +766,7 @@ fn bad_templates_are_rejected_with_file_line_and_key() {
     })
     .unwrap();
     let l = line_of(cols, "tilt: [0");
-    match columns::plan(&machine("ac-trunnion"), &t) {
+    match columns::touch_plan(&machine("ac-trunnion"), &t) {
         Err(PlanError::Template(e)) => assert_eq!(
             e.to_string(),
             format!(
@@ -779,7 +781,7 @@ fn bad_templates_are_rejected_with_file_line_and_key() {
     })
     .unwrap();
     let l = line_of(cols, "{name: C2");
-    match columns::plan(&machine("bc-trunnion"), &t) {
+    match columns::touch_plan(&machine("bc-trunnion"), &t) {
         Err(PlanError::Template(e)) => assert_eq!(
             e.to_string(),
             format!(
@@ -800,7 +802,7 @@ fn bad_templates_are_rejected_with_file_line_and_key() {
         TemplateSource::load("no-such-template")
             .unwrap_err()
             .to_string(),
-        "no-such-template: no such template file, and no built-in template of that name (built-in: probe-columns, probe-sphere)"
+        "no-such-template: no such template file, and no built-in template of that name (built-in: stepped-square, nine-section, probe-columns, probe-sphere)"
     );
 }
 
@@ -810,7 +812,7 @@ fn a_machine_without_room_for_the_safe_height_is_refused() {
     let m = machine("ac-trunnion");
     let src = m.source.replace("Z: [-660, 0]", "Z: [-660, -400]");
     let short = Machine::from_yaml(Path::new("short.yaml"), &src).unwrap();
-    match columns::plan(&short, &ColumnsTemplate::builtin()) {
+    match columns::touch_plan(&short, &ColumnsTemplate::builtin()) {
         Err(PlanError::Unreachable(msg)) => assert!(
             msg.contains("Z would be at") && msg.contains("outside its stroke [-660, -400]"),
             "{msg}"

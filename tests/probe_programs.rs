@@ -9,19 +9,21 @@
 
 use std::process::{Command, Stdio};
 
-use fivecal::plan::{PlannedProbing, ProbingConfig, plan_probing};
 use fivecal::post::PostDefinition;
-use fivecal::probing::Checker;
-use fivecal::probing::template::{PROBING_TESTS, ProbeTemplate};
+use fivecal::procedure::probing::Checker;
+use fivecal::procedure::{PlanConfig, ProbingPlan, Template};
 use fivecal::{Axes, Dialect};
 use nalgebra::Vector3;
 
+use crate::simulate::PROBING as PROBING_TESTS;
 use crate::util::{MACHINES, machine, tempdir};
 
-pub fn probing(machine_name: &str, test: &str, dialect: Dialect) -> PlannedProbing {
-    plan_probing(&ProbingConfig {
+pub fn probing(machine_name: &str, test: &str, dialect: Dialect) -> ProbingPlan {
+    fivecal::procedure::probing::plan(&PlanConfig {
+        kinematics: fivecal::formats::manifest::KinematicsMode::Post,
+        tool: None,
         machine: machine(machine_name),
-        template: ProbeTemplate::builtin(test).unwrap(),
+        template: Template::builtin(test.parse().unwrap()),
         post: PostDefinition::builtin(dialect),
     })
     .unwrap_or_else(|e| panic!("{test} on {machine_name} ({dialect}): {e}"))
@@ -43,7 +45,7 @@ struct Trace {
     logs: Vec<String>,
 }
 
-fn run_rs274(p: &PlannedProbing) -> Trace {
+fn run_rs274(p: &ProbingPlan) -> Trace {
     let dir = tempdir();
     let prog = dir.path().join(format!("{}.ngc", p.test));
     std::fs::write(&prog, &p.program.text).unwrap();
@@ -104,7 +106,7 @@ fn run_rs274(p: &PlannedProbing) -> Trace {
     Trace { moves, logs }
 }
 
-fn axes_of(p: &PlannedProbing, v: &[f64; 6]) -> Axes {
+fn axes_of(p: &ProbingPlan, v: &[f64; 6]) -> Axes {
     let tilt = if p.machine.tilt_letter() == 'A' {
         v[3]
     } else {
@@ -121,7 +123,7 @@ fn axes_of(p: &PlannedProbing, v: &[f64; 6]) -> Axes {
 /// keeps the plan's margin from the setup between touches and only touches
 /// it on probing moves. The collision check is the planner's checker run on
 /// the traced moves, not on the plan's.
-fn check_trace(p: &PlannedProbing, trace: &Trace) -> Result<(), String> {
+fn check_trace(p: &ProbingPlan, trace: &Trace) -> Result<(), String> {
     let plan = &p.plan;
     let who = format!("{} on {}", p.test, p.machine.name);
     let probes: Vec<usize> = (0..trace.moves.len())
@@ -372,7 +374,7 @@ fn heidenhain_blocks(text: &str) -> Vec<Block<'_>> {
 /// already stands, and it returns there after the touch); otherwise the
 /// probe block names the end of the probing move.
 fn check_rules(
-    p: &PlannedProbing,
+    p: &ProbingPlan,
     blocks: &[Block<'_>],
     pre_position: bool,
     is_probe: impl Fn(&Block<'_>) -> bool,
@@ -490,7 +492,7 @@ fn check_rules(
     Ok(())
 }
 
-fn check_fanuc(p: &PlannedProbing) -> Result<(), String> {
+fn check_fanuc(p: &ProbingPlan) -> Result<(), String> {
     let who = format!("{} on {} (fanuc)", p.test, p.machine.name);
     let text = &p.program.text;
     if !text.starts_with("%\nO200") || !text.ends_with("M30\n%\n") {
@@ -536,7 +538,7 @@ fn check_fanuc(p: &PlannedProbing) -> Result<(), String> {
     if !(popen < first_probe && last_probe < pclos && popen.is_some()) {
         return Err(format!("{who}: POPEN/PCLOS around the probe moves"));
     }
-    if codes[popen.unwrap() + 1] != format!("DPRNT[FIVECAL*{}]", p.test.to_uppercase()) {
+    if codes[popen.unwrap() + 1] != format!("DPRNT[FIVECAL*{}]", p.test.as_str().to_uppercase()) {
         return Err(format!("{who}: log header"));
     }
     // The probing feed is modal after G31: the next feed move names its own.
@@ -570,7 +572,7 @@ fn check_fanuc(p: &PlannedProbing) -> Result<(), String> {
     )
 }
 
-fn check_heidenhain(p: &PlannedProbing) -> Result<(), String> {
+fn check_heidenhain(p: &ProbingPlan) -> Result<(), String> {
     let who = format!("{} on {} (heidenhain)", p.test, p.machine.name);
     let text = &p.program.text;
     if let Some(l) = text.lines().find(|l| l.chars().count() > 80) {
@@ -596,7 +598,7 @@ fn check_heidenhain(p: &PlannedProbing) -> Result<(), String> {
         return Err(format!("{who}: program frame"));
     }
     let head = "FN 16: F-PRINT TNC:\\fivecal\\";
-    let log = fivecal::plan::probing::log_name(&p.test);
+    let log = fivecal::procedure::probing::log_name(p.test);
     let open = blocks
         .iter()
         .position(|b| b.code == format!("{head}{log}-head.A / TNC:\\fivecal\\{log}.txt"));

@@ -231,7 +231,7 @@ fn neighbouring_ball_pass_cuts_deepest_when_errors_shift_the_nine_section_raster
         &plan,
         "location_errors: {EX0B: 50, EZ0B: -50, EA0B: 200, EC0B: -200, EB0B: 200, EX(0B)C: 50, EY0C: -50, EA(0B)C: 200}\n",
     );
-    let fivecal::plan::LoadedPlan::Machining(t) = &*plan else {
+    let fivecal::procedure::Plan::Machining(t) = &*plan else {
         unreachable!()
     };
     let fm =

@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::formats::manifest::TestKind;
-use fivecal::plan::{LoadedPlan, plan};
+use fivecal::procedure::{Plan, plan};
 use fivecal::simulate::{self, Placement, SimOptions};
 use fivecal::{Dialect, Kinematics};
 use nalgebra::Vector3;
@@ -22,10 +22,10 @@ use crate::util::MACHINES;
 pub const MACHINING: [&str; 2] = ["stepped-square", "nine-section"];
 pub const PROBING: [&str; 2] = ["probe-columns", "probe-sphere"];
 
-type Plans = Mutex<HashMap<(String, String), Arc<LoadedPlan>>>;
+type Plans = Mutex<HashMap<(String, String), Arc<Plan>>>;
 
 /// A plan of the built-in template, planned once per test binary.
-pub fn planned(machine: &str, test: &str) -> Arc<LoadedPlan> {
+pub fn planned(machine: &str, test: &str) -> Arc<Plan> {
     static PLANS: OnceLock<Plans> = OnceLock::new();
     let key = (machine.to_string(), test.to_string());
     if let Some(p) = PLANS
@@ -37,17 +37,15 @@ pub fn planned(machine: &str, test: &str) -> Arc<LoadedPlan> {
         return p.clone();
     }
     let p = Arc::new(if MACHINING.contains(&test) {
-        LoadedPlan::Machining(Box::new(
-            plan(&config(
-                machine,
-                test,
-                Dialect::Fanuc,
-                fivecal::formats::manifest::KinematicsMode::Post,
-            ))
-            .unwrap(),
+        plan(&config(
+            machine,
+            test,
+            Dialect::Fanuc,
+            fivecal::formats::manifest::KinematicsMode::Post,
         ))
+        .unwrap()
     } else {
-        LoadedPlan::Probing(Box::new(probing(machine, test, Dialect::Fanuc)))
+        Plan::Probing(Box::new(probing(machine, test, Dialect::Fanuc)))
     });
     PLANS
         .get_or_init(Default::default)
@@ -58,7 +56,7 @@ pub fn planned(machine: &str, test: &str) -> Arc<LoadedPlan> {
 }
 
 /// A truth file's text loaded for a plan.
-pub fn truth(plan: &LoadedPlan, yaml: &str) -> LoadedErrors {
+pub fn truth(plan: &Plan, yaml: &str) -> LoadedErrors {
     let kin: Kinematics = simulate::plan_kinematics(plan);
     let src = format!("machine: {}\n{yaml}", kin.machine().name);
     let path = Path::new("truth.yaml");
@@ -67,10 +65,10 @@ pub fn truth(plan: &LoadedPlan, yaml: &str) -> LoadedErrors {
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn nominal_points(plan: &LoadedPlan) -> Vec<Vector3<f64>> {
+fn nominal_points(plan: &Plan) -> Vec<Vector3<f64>> {
     match plan {
-        LoadedPlan::Machining(t) => t.points.iter().map(|p| p.point.p).collect(),
-        LoadedPlan::Probing(p) => p.plan.touches.iter().map(|t| t.contact_prog).collect(),
+        Plan::Machining(t) => t.points.iter().map(|p| p.point.p).collect(),
+        Plan::Probing(p) => p.plan.touches.iter().map(|t| t.contact_prog).collect(),
     }
 }
 
@@ -241,7 +239,7 @@ fn nine_section_heights_match_the_hand_calculation() {
         let errors = truth(&plan, &format!("location_errors: {{{name}: 10}}\n"));
         let out = simulate::run(&plan, &errors, &SimOptions::exact()).unwrap();
         let heights = out.heights.as_ref().unwrap();
-        let LoadedPlan::Machining(t) = &*plan else {
+        let Plan::Machining(t) = &*plan else {
             unreachable!()
         };
         let kin = simulate::plan_kinematics(&plan);
@@ -333,10 +331,10 @@ fn noise_has_the_truths_standard_deviation() {
 fn probed_pieces_get_seeded_setup_errors_within_the_bounds() {
     let plan = planned("ac-trunnion", "probe-columns");
     let errors = truth(&plan, "");
-    let LoadedPlan::Probing(p) = &*plan else {
+    let Plan::Probing(p) = &*plan else {
         unreachable!()
     };
-    let fivecal::plan::Setup::Columns(cols) = &p.setup else {
+    let fivecal::procedure::probing::Setup::Columns(cols) = &p.setup else {
         unreachable!()
     };
     let run = |seed| {
@@ -373,7 +371,7 @@ fn pre_travel_acts_along_each_touch_by_its_approach_direction() {
     let clean = simulate::run(&plan, &truth(&plan, ""), &SimOptions::exact()).unwrap();
     let errors = truth(&plan, "effects: {probe_pretravel: {X+: 2.0}}\n");
     let out = simulate::run(&plan, &errors, &SimOptions::exact()).unwrap();
-    let LoadedPlan::Probing(p) = &*plan else {
+    let Plan::Probing(p) = &*plan else {
         unreachable!()
     };
     let mut along_x = 0;

@@ -15,8 +15,8 @@ use fivecal::formats::manifest::TestKind;
 use fivecal::identify::forward::{Prediction, RigidPoseMachining};
 use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Method, Setup, data::join};
-use fivecal::plan::{LoadedPlan, PlanConfig, Template, plan};
 use fivecal::post::PostDefinition;
+use fivecal::procedure::{Plan, PlanConfig, Template, Test, plan};
 use fivecal::simulate::{self, SetupErrors, SimOptions, forward};
 
 use crate::simulate::{MACHINING, PROBING, planned};
@@ -26,7 +26,7 @@ use crate::util::{MACHINES, machine, tempdir};
 /// forward model is specified for: 50 um and 200 urad location errors and
 /// maps, 50 um/m scale, 200 urad squareness, 20 um straightness, 50 um tool
 /// radius and length, 5 um per pose and 2 um (10 urad) per minute of drift.
-fn full_truth(plan: &LoadedPlan) -> ErrorFile {
+fn full_truth(plan: &Plan) -> ErrorFile {
     let kin = simulate::plan_kinematics(plan);
     let text = simulate::truth::example(&kin);
     let mut f = ErrorFile::parse(Path::new("example.yaml"), &text).unwrap();
@@ -78,7 +78,7 @@ fn full_truth(plan: &LoadedPlan) -> ErrorFile {
     f
 }
 
-fn load(plan: &LoadedPlan, f: &ErrorFile) -> LoadedErrors {
+fn load(plan: &Plan, f: &ErrorFile) -> LoadedErrors {
     let kin = simulate::plan_kinematics(plan);
     let src = f.to_yaml();
     f.to_model(&kin, Path::new("truth.yaml"), &src).unwrap()
@@ -119,7 +119,7 @@ fn only(f: &ErrorFile, group: &str) -> ErrorFile {
     g
 }
 
-fn pose_minutes(plan: &LoadedPlan) -> HashMap<String, f64> {
+fn pose_minutes(plan: &Plan) -> HashMap<String, f64> {
     plan.poses()
         .iter()
         .map(|p| (p.pose.clone(), 0.5 * (p.start_min + p.end_min)))
@@ -130,7 +130,7 @@ fn pose_minutes(plan: &LoadedPlan) -> HashMap<String, f64> {
 /// simulator's point (noise off, placement removed, probed pieces set up
 /// with seeded errors given to the model as its nuisance), mm; and the
 /// largest displacement of a point by the errors, mm.
-fn gap(plan: &LoadedPlan, errors: &LoadedErrors) -> (f64, f64) {
+fn gap(plan: &Plan, errors: &LoadedErrors) -> (f64, f64) {
     let mut opts = SimOptions::exact();
     if plan.kind() == TestKind::Probing {
         opts.setup = SetupErrors::Random {
@@ -141,12 +141,12 @@ fn gap(plan: &LoadedPlan, errors: &LoadedErrors) -> (f64, f64) {
     }
     let out = simulate::run(plan, errors, &opts).unwrap();
     let nu = match plan {
-        LoadedPlan::Probing(p) => {
+        Plan::Probing(p) => {
             let fm = forward::ProbingForward::new(&errors.model, Arc::new((**p).clone())).unwrap();
             let setups: Vec<_> = out.setups.iter().map(|s| s.1).collect();
             fm.nuisance_of(&setups)
         }
-        LoadedPlan::Machining(_) => Vec::new(),
+        Plan::Machining(_) => Vec::new(),
     };
     let fm = forward::for_plan(&errors.model, plan).unwrap();
     let minutes = pose_minutes(plan);
@@ -161,7 +161,9 @@ fn gap(plan: &LoadedPlan, errors: &LoadedErrors) -> (f64, f64) {
         worst = worst.max((pred.point - w).norm());
         let nominal = match plan.kind() {
             TestKind::Machining => p.p,
-            TestKind::Probing => fivecal::probing::PoseFrame::new(&kin, p.tilt, p.c).to_prog(&p.p),
+            TestKind::Probing => {
+                fivecal::procedure::probing::PoseFrame::new(&kin, p.tilt, p.c).to_prog(&p.p)
+            }
         };
         moved = moved.max((w - nominal).norm());
     }
@@ -237,15 +239,15 @@ fn forward_model_predicts_the_simulator_on_every_machine_and_test() {
     assert!(g < AGREE_MM, "bull-nose nine-section: {:.6} um", g * 1e3);
 }
 
-fn bull_nose_nine_section() -> LoadedPlan {
+fn bull_nose_nine_section() -> Plan {
     let cfg = PlanConfig {
         machine: machine("head-table"),
-        template: Template::builtin("nine-section").unwrap(),
+        template: Template::builtin(Test::NineSection),
         post: PostDefinition::builtin(Dialect::Heidenhain),
         kinematics: fivecal::formats::manifest::KinematicsMode::Post,
         tool: Some(machine("head-table").tool),
     };
-    LoadedPlan::Machining(Box::new(plan(&cfg).unwrap()))
+    plan(&cfg).unwrap()
 }
 
 /// Largest difference between the forward model's Jacobian and central
@@ -254,13 +256,13 @@ fn bull_nose_nine_section() -> LoadedPlan {
 /// the deepest of the surfaces its passes leave, which has a kink where two
 /// passes tie; each surface is smooth, so each is checked on its own (and
 /// the prediction is checked to be the deepest).
-fn jacobian_error(plan: &LoadedPlan, errors: &LoadedErrors, step: usize) -> f64 {
+fn jacobian_error(plan: &Plan, errors: &LoadedErrors, step: usize) -> f64 {
     let fm = forward::for_plan(&errors.model, plan).unwrap();
     let machining = match plan {
-        LoadedPlan::Machining(t) => {
+        Plan::Machining(t) => {
             Some(forward::MachiningForward::new(&errors.model, Arc::new((**t).clone())).unwrap())
         }
-        LoadedPlan::Probing(_) => None,
+        Plan::Probing(_) => None,
     };
     let k = fm.nuisance_names().len();
     let nu: Vec<f64> = (0..k)

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::formats::detect::{self, Measurement, ReadContext};
 use fivecal::formats::measured::MeasuredPoint;
-use fivecal::plan::LoadedPlan;
+use fivecal::procedure::Plan;
 use fivecal::simulate::{self, Format, Placement, SimOptions, SimOutput};
 use fivecal::{Dialect, Kinematics, Machine};
 
@@ -23,7 +23,7 @@ effects: {linear_scale: {EXX: 4}, tool_radius: 3, probe_pretravel: {X+: 1, X-: 1
 const AC_TRUTH: &str = "location_errors: {EY0A: 12, EZ0A: -25, EB0A: 80, EC0A: -60, EA0A: 150, EY(0A)C: 25, EX0C: -18, EB(0A)C: 45}\n\
 effects: {probe_pretravel: {X+: 1, X-: 1.2, Y+: 0.9, Y-: 1.1, Z-: 0.6}, noise: {cmm: 0.35, probe: 0.35}}\n";
 
-fn errors_for(plan: &LoadedPlan) -> LoadedErrors {
+fn errors_for(plan: &Plan) -> LoadedErrors {
     match plan.machine().name.as_str() {
         "bc-trunnion" => truth(plan, TRUTH),
         _ => truth(plan, AC_TRUTH),
@@ -31,7 +31,7 @@ fn errors_for(plan: &LoadedPlan) -> LoadedErrors {
 }
 
 /// Reads a written measurement the way `analyze` does.
-fn read_back(plan: &LoadedPlan, path: &Path) -> Measurement {
+fn read_back(plan: &Plan, path: &Path) -> Measurement {
     let points = plan.plan_points();
     let kin = simulate::plan_kinematics(plan);
     let opts = plan.probing().map(|p| p.read_options());
@@ -117,7 +117,7 @@ fn every_output_format_reads_back_into_the_simulated_points() {
     // Probe logs of every dialect, and the canonical CSV of the contacts.
     for dialect in [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc] {
         for test in ["probe-columns", "probe-sphere"] {
-            let plan = LoadedPlan::Probing(Box::new(probing("ac-trunnion", test, dialect)));
+            let plan = Plan::Probing(Box::new(probing("ac-trunnion", test, dialect)));
             let errors = errors_for(&plan);
             let out = simulate::run(&plan, &errors, &opts(Placement::Aligned)).unwrap();
             let digits = if dialect == Dialect::Linuxcnc {
@@ -168,14 +168,7 @@ fn seeded_runs_are_reproducible_byte_for_byte_and_other_seeds_differ() {
 fn plan_dir(machine: &str, test: &str) -> (tempfile::TempDir, PathBuf, PathBuf) {
     let dir = tempdir();
     let plan = planned(machine, test);
-    match &*plan {
-        LoadedPlan::Machining(t) => {
-            t.write(dir.path(), test, &[]).unwrap();
-        }
-        LoadedPlan::Probing(p) => {
-            p.write(dir.path(), test, &[]).unwrap();
-        }
-    }
+    plan.write(dir.path(), test, &[]).unwrap();
     let manifest = dir.path().join(format!("{test}.plan.yaml"));
     let truth = dir.path().join("truth.yaml");
     let body = if machine == "bc-trunnion" {
@@ -216,7 +209,7 @@ fn cli_simulates_a_written_plan_in_the_format_its_extension_names() {
     run(&out);
     assert_eq!(first, std::fs::read(&out).unwrap());
     // The library with the same options writes the same bytes.
-    let plan = fivecal::plan::load_any(&manifest).unwrap();
+    let plan = fivecal::procedure::load(&manifest).unwrap();
     let kin = simulate::plan_kinematics(&plan);
     let errors = ErrorFile::load(&truth_path, &kin).unwrap();
     let lib = simulate::run(

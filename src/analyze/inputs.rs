@@ -29,8 +29,10 @@ use crate::formats::probe_log;
 use crate::identify::Dataset;
 use crate::kinematics::Kinematics;
 use crate::machine::{Dialect, Machine};
-use crate::plan::LoadedPlan;
-use crate::probing::template::{ColumnsTemplate, ProbeTemplate, SphereTemplate, TemplateSource};
+use crate::procedure::Plan;
+use crate::procedure::probing::columns::ColumnsTemplate;
+use crate::procedure::probing::sphere::SphereTemplate;
+use crate::procedure::{TemplateSource, Test};
 
 /// Which probed piece each touch is on, by label.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,7 +53,7 @@ pub struct PlanContext {
     /// The manifest, for messages.
     pub manifest: PathBuf,
     /// The test name.
-    pub test: String,
+    pub test: Test,
     /// Machining or probing.
     pub kind: TestKind,
     /// The dialect of the plan's program (its logs' format).
@@ -137,7 +139,7 @@ impl PlanContext {
         };
         let kin = Kinematics::with_gauge_length(&machine, gauge);
         let points = match manifest.file(manifest_path, "points") {
-            None if manifest.test == "nine-section" => None,
+            None if manifest.test == Test::NineSection => None,
             None => {
                 return Err(AnalyzeError::Plan(format!(
                     "{}: the manifest lists no `points` file",
@@ -159,7 +161,7 @@ impl PlanContext {
         };
         let mut ctx = PlanContext {
             manifest: manifest_path.to_path_buf(),
-            test: manifest.test.clone(),
+            test: manifest.test,
             kind: manifest.kind,
             dialect: manifest.dialect,
             kin,
@@ -196,18 +198,18 @@ impl PlanContext {
         let text =
             crate::input::read_text(&path, "plan's template copy", crate::limits::MAX_YAML_BYTES)?;
         let source = TemplateSource { path, text };
-        let settings = match manifest.test.as_str() {
-            "probe-sphere" => {
+        let settings = match manifest.test {
+            Test::ProbeSphere => {
                 let t = SphereTemplate::parse(source)?;
                 self.sphere_check = Some(contact_check(&t));
                 t.probing
             }
-            "probe-columns" => {
+            Test::ProbeColumns => {
                 let t = ColumnsTemplate::parse(source)?;
                 // The columns are clamped one by one: each has its own
                 // setup. The plan rebuilt from the copies says which touch
                 // is on which.
-                match crate::probing::columns::plan(machine, &t) {
+                match crate::procedure::probing::columns::touch_plan(machine, &t) {
                     Ok(p) => {
                         self.pieces = Pieces::Rebuilt(touch_pieces(
                             p.touches
@@ -221,15 +223,15 @@ impl PlanContext {
                 }
                 t.probing
             }
-            other => {
+            other @ (Test::SteppedSquare | Test::NineSection) => {
                 return Err(AnalyzeError::Plan(format!(
-                    "{}: unknown probing test `{other}`",
+                    "{}: `{other}` is not a probing test",
                     self.manifest.display()
                 )));
             }
         };
         let mut o = probe_log::ReadOptions::for_plan(&settings, ball);
-        o.test = Some(manifest.test.clone());
+        o.test = Some(manifest.test);
         self.probe_log = Some(o);
         Ok(())
     }
@@ -237,10 +239,10 @@ impl PlanContext {
     /// The context of a plan rebuilt in memory from `manifest` (or planned
     /// there): its points at full precision, its pose times, its probe and
     /// its touches' pieces.
-    pub fn from_plan(plan: &LoadedPlan, manifest: &Path) -> PlanContext {
+    pub fn from_plan(plan: &Plan, manifest: &Path) -> PlanContext {
         let mut ctx = PlanContext {
             manifest: manifest.to_path_buf(),
-            test: plan.test().to_string(),
+            test: plan.test(),
             kind: plan.kind(),
             dialect: plan.dialect(),
             kin: crate::simulate::plan_kinematics(plan),
@@ -257,7 +259,7 @@ impl PlanContext {
         };
         if let Some(p) = plan.probing() {
             ctx.probe_log = Some(p.read_options());
-            if let ProbeTemplate::Sphere(t) = &p.template {
+            if let crate::procedure::Template::Sphere(t) = &p.template {
                 ctx.sphere_check = Some(contact_check(t));
             }
             ctx.pieces = Pieces::Planned(touch_pieces(

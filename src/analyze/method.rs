@@ -9,12 +9,12 @@ use crate::identify::forward::RigidPoseMachining;
 use crate::identify::sphere::SphereOptions;
 use crate::identify::{self, Dataset, Identification, IdentifyError, Method, Setup, lsq};
 use crate::model::Model;
-use crate::plan::LoadedPlan;
+use crate::procedure::{Plan, Test};
 
 /// The method a test is analysed with unless asked otherwise: the sphere
 /// method for the sphere test, the global fit for every other.
-pub fn default_for(test: &str) -> Method {
-    if test == "probe-sphere" {
+pub fn default_for(test: Test) -> Method {
+    if test == Test::ProbeSphere {
         Method::Sphere
     } else {
         Method::Global
@@ -22,7 +22,7 @@ pub fn default_for(test: &str) -> Method {
 }
 
 /// Checks that `method` suits a test of `kind` and the maps asked for.
-pub fn check(method: Method, test: &str, kind: TestKind, maps: &[String]) -> Result<(), String> {
+pub fn check(method: Method, test: Test, kind: TestKind, maps: &[String]) -> Result<(), String> {
     if method == Method::Sphere && kind != TestKind::Probing {
         return Err(format!(
             "--method sphere needs a probing plan (a calibration sphere); {test} is a machining test"
@@ -71,7 +71,7 @@ pub fn identify_with_plan(
     setup: &Setup,
     data: &Dataset,
     sphere: &SphereOptions,
-    plan: Option<&LoadedPlan>,
+    plan: Option<&Plan>,
 ) -> Result<Identification, IdentifyError> {
     if let (Method::Global, Some(plan)) = (method, plan)
         && rigid_refuses(&setup.model)

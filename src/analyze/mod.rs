@@ -34,7 +34,7 @@ use crate::identify::sphere::{CircleMethod, SphereOptions};
 use crate::identify::{Dataset, Identification, IdentifyError, Method, Setup};
 use crate::io::OutputError;
 use crate::machine::MachineError;
-use crate::plan::{LoadError, LoadedPlan};
+use crate::procedure::{LoadError, Plan, Test};
 use crate::source::SourceError;
 
 pub use inputs::{Measurements, Pieces, PlanContext};
@@ -108,7 +108,7 @@ pub struct Request {
     /// The plan already rebuilt from that manifest, if the caller has it:
     /// its points are then used at full precision and nothing of the plan
     /// is read again.
-    pub rebuilt: Option<LoadedPlan>,
+    pub rebuilt: Option<Plan>,
     /// The measurement files (several make one piece unless `series`).
     pub measured: Vec<PathBuf>,
     /// The method; `None`: the test's own ([`method::default_for`]).
@@ -180,7 +180,7 @@ impl Piece {
 #[derive(Clone, Debug)]
 pub struct Identified {
     /// The test.
-    pub test: String,
+    pub test: Test,
     /// The pieces, in the order of the files.
     pub pieces: Vec<Piece>,
     /// With `series`: every piece side by side.
@@ -226,8 +226,8 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
         Some(plan) => PlanContext::from_plan(plan, &req.manifest),
         None => PlanContext::from_manifest(&req.manifest)?,
     };
-    let method = req.method.unwrap_or(method::default_for(&ctx.test));
-    method::check(method, &ctx.test, ctx.kind, &req.maps).map_err(AnalyzeError::Request)?;
+    let method = req.method.unwrap_or(method::default_for(ctx.test));
+    method::check(method, ctx.test, ctx.kind, &req.maps).map_err(AnalyzeError::Request)?;
     let measured = ctx.read(&req.measured)?;
     let found = if !measured.heights.is_empty() {
         if !measured.points.is_empty() {
@@ -242,7 +242,7 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
         } else {
             vec![measured.points]
         };
-        if ctx.test == "nine-section" {
+        if ctx.test == Test::NineSection {
             Found::NineSection(nine_section_points(&ctx, &pieces)?)
         } else {
             Found::Identified(identify_pieces(req, &ctx, method, &pieces)?)
@@ -255,10 +255,10 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
 }
 
 /// The plan rebuilt from the manifest (or the caller's).
-fn rebuilt(req: &Request) -> Result<Cow<'_, LoadedPlan>, LoadError> {
+fn rebuilt(req: &Request) -> Result<Cow<'_, Plan>, LoadError> {
     match &req.rebuilt {
         Some(p) => Ok(Cow::Borrowed(p)),
-        None => crate::plan::load_any(&req.manifest).map(Cow::Owned),
+        None => crate::procedure::load(&req.manifest).map(Cow::Owned),
     }
 }
 
@@ -293,7 +293,7 @@ fn identify_pieces(
         None => None,
     };
     Ok(Identified {
-        test: ctx.test.clone(),
+        test: ctx.test,
         pieces: out,
         series,
         comparison,
@@ -400,7 +400,7 @@ fn nine_section_heights(
     ctx: &PlanContext,
     heights: Vec<(PathBuf, Vec<crate::formats::heights::SectionHeight>)>,
 ) -> Result<NineSectionOutcome, AnalyzeError> {
-    if ctx.test != "nine-section" {
+    if ctx.test != Test::NineSection {
         return Err(AnalyzeError::Plan(format!(
             "{}: section heights belong to a nine-section plan, this plan is `{}`",
             heights[0].0.display(),

@@ -26,8 +26,8 @@ use crate::identify::Identification;
 use crate::io::write_atomic;
 use crate::kinematics::Kinematics;
 use crate::machine::{Dialect, Machine};
-use crate::plan::{self, PlanConfig, Template};
 use crate::post::PostDefinition;
+use crate::procedure::{self, PlanConfig, Template, Test};
 use crate::simulate::{self, Format, SimOptions};
 
 /// The built-in truth: eight location errors and a thermal drift of EZ0B
@@ -180,10 +180,8 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let machine = Machine::builtin(MACHINE)
         .ok_or("the built-in machine is missing")
         .at(e)?;
-    let template = Template::builtin("stepped-square")
-        .ok_or("the built-in stepped-square template is missing")
-        .at(e)?;
-    let planned = plan::plan(&PlanConfig {
+    let template = Template::builtin(Test::SteppedSquare);
+    let planned = procedure::plan(&PlanConfig {
         machine: machine.clone(),
         template,
         post: PostDefinition::builtin(Dialect::Fanuc),
@@ -192,11 +190,12 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     })
     .at(e)?;
     let plan_dir = out.join("plan");
-    for p in planned.write(&plan_dir, &planned.test, &[]).at(e)? {
+    let stem = planned.test().as_str();
+    for p in planned.write(&plan_dir, stem, &[]).at(e)? {
         files.push(rel(out, &p));
     }
-    let manifest_path = plan_dir.join(format!("{}.plan.yaml", planned.test));
-    let loaded = plan::load_any(&manifest_path).at(e)?;
+    let manifest_path = plan_dir.join(format!("{stem}.plan.yaml"));
+    let loaded = procedure::load(&manifest_path).at(e)?;
 
     progress(Stage::Simulate);
     let e = Stage::Simulate;
@@ -236,7 +235,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let report_dir = out.join("report");
     for p in crate::report::write(
         &report_dir,
-        &crate::report::ReportInput::for_piece(&identified.test, analysis),
+        &crate::report::ReportInput::for_piece(identified.test.as_str(), analysis),
     )
     .at(e)?
     {

@@ -51,24 +51,24 @@ use crate::identify::rigid::{d6_um, face_residual};
 use crate::identify::{Dataset, IdentifyError, Setup};
 use crate::kinematics::Kinematics;
 use crate::model::{Effect, Model};
-use crate::plan::{LoadedPlan, PlannedProbing, PlannedTest};
+use crate::procedure::{MachiningPlan, Plan, ProbingPlan};
 use crate::simulate::forward::{MachiningForward, ProbingForward};
 
 /// The plan of a test, shared by every forward model built on it.
 #[derive(Clone, Debug)]
 pub enum PlanRef {
     /// A machining test.
-    Machining(Arc<PlannedTest>),
+    Machining(Arc<MachiningPlan>),
     /// A probing test.
-    Probing(Arc<PlannedProbing>),
+    Probing(Arc<ProbingPlan>),
 }
 
 impl PlanRef {
     /// Shares a loaded plan.
-    pub fn new(plan: &LoadedPlan) -> PlanRef {
+    pub fn new(plan: &Plan) -> PlanRef {
         match plan {
-            LoadedPlan::Machining(t) => PlanRef::Machining(Arc::new((**t).clone())),
-            LoadedPlan::Probing(p) => PlanRef::Probing(Arc::new((**p).clone())),
+            Plan::Machining(t) => PlanRef::Machining(Arc::new((**t).clone())),
+            Plan::Probing(p) => PlanRef::Probing(Arc::new((**p).clone())),
         }
     }
 }
@@ -299,7 +299,7 @@ impl<'a> Fitter<'a> {
     pub fn new(
         kin: &Kinematics,
         data: &'a Dataset,
-        plan: Option<&LoadedPlan>,
+        plan: Option<&Plan>,
         candidates: &[Candidate],
     ) -> Result<(Fitter<'a>, Vec<(String, String)>), FitError> {
         let plan = plan.map(PlanRef::new);

@@ -1,5 +1,5 @@
 //! What a discovery reads: the plan rebuilt from its manifest
-//! ([`crate::plan::load_any`]) and the measurements of one test, read and
+//! ([`crate::procedure::load`]) and the measurements of one test, read and
 //! joined to the plan as `analyze` reads them ([`crate::analyze::inputs`]);
 //! or measured points already in memory (from the simulator).
 
@@ -9,7 +9,7 @@ use crate::analyze::{AnalyzeError, PlanContext};
 use crate::formats::measured::MeasuredPoint;
 use crate::identify::Dataset;
 use crate::kinematics::Kinematics;
-use crate::plan::{LoadError, LoadedPlan};
+use crate::procedure::{LoadError, Plan, Test};
 
 /// Why the inputs cannot be read.
 #[derive(Debug, thiserror::Error)]
@@ -29,7 +29,7 @@ pub enum InputError {
 #[derive(Clone, Debug)]
 pub struct Inputs {
     /// The plan.
-    pub plan: LoadedPlan,
+    pub plan: Plan,
     /// Kinematics with the plan's tool (or probe) as gauge length.
     pub kin: Kinematics,
     /// The measured points joined to the plan.
@@ -54,7 +54,7 @@ impl Inputs {
 
     /// Reads the plan of `manifest` and the measurement files.
     pub fn load(manifest: &Path, measured: &[PathBuf]) -> Result<Inputs, InputError> {
-        let plan = crate::plan::load_any(manifest)?;
+        let plan = crate::procedure::load(manifest)?;
         let ctx = PlanContext::from_plan(&plan, manifest);
         let read = ctx.read(measured)?;
         if let Some((f, _)) = read.heights.first() {
@@ -75,7 +75,7 @@ impl Inputs {
     /// The plan with measured points in memory (labelled, as a CSV file
     /// `label,x,y,z` holds them), named `source` in messages.
     pub fn from_points(
-        plan: LoadedPlan,
+        plan: Plan,
         points: Vec<MeasuredPoint>,
         source: &Path,
     ) -> Result<Inputs, InputError> {
@@ -91,8 +91,8 @@ impl Inputs {
 }
 
 /// Whether a discovery can work on the measurements of `plan`.
-fn suitable(plan: &LoadedPlan) -> Result<(), InputError> {
-    if plan.test() == "nine-section" {
+fn suitable(plan: &Plan) -> Result<(), InputError> {
+    if plan.test() == Test::NineSection {
         return Err(InputError::Unsuitable(
             "the nine-section test is evaluated from its section heights by `analyze`; discover works on the stepped-square and the probing tests".into(),
         ));

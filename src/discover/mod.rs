@@ -38,7 +38,7 @@ use crate::identify::identifiability::combination;
 use crate::identify::{Dataset, Identification, Method, two_stage};
 use crate::kinematics::Kinematics;
 use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS};
-use crate::plan::LoadedPlan;
+use crate::procedure::Plan;
 
 pub use catalogue::{Candidate, Catalogue};
 pub use fit::{Fit, FitError, Fitter, Spec};
@@ -542,7 +542,7 @@ fn start(
 pub fn run(
     kin: &Kinematics,
     data: &Dataset,
-    plan: Option<&LoadedPlan>,
+    plan: Option<&Plan>,
     opts: &DiscoverOptions,
 ) -> Result<Discovery, DiscoverError> {
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {

@@ -25,6 +25,7 @@ use indexmap::IndexMap;
 use serde::{Deserialize, Serialize};
 
 use crate::machine::{Dialect, Probe, Tool};
+use crate::procedure::Test;
 use crate::source::SourceError;
 
 /// Current manifest format version.
@@ -75,8 +76,8 @@ pub struct PoseEntry {
 pub struct Manifest {
     /// Format version ([`MANIFEST_VERSION`]).
     pub fivecal_plan: u32,
-    /// Test name (`stepped-square`, `nine-section`, `probe-columns`, `probe-sphere`).
-    pub test: String,
+    /// The test (`stepped-square`, `nine-section`, `probe-columns`, `probe-sphere`).
+    pub test: Test,
     /// Machining or probing.
     pub kind: TestKind,
     /// Machine name.
@@ -150,7 +151,7 @@ mod tests {
     fn round_trips_and_checks_the_version() {
         let m = Manifest {
             fivecal_plan: 1,
-            test: "stepped-square".into(),
+            test: Test::SteppedSquare,
             kind: TestKind::Machining,
             machine: "bc-trunnion".into(),
             machine_file: "s.machine.yaml".into(),

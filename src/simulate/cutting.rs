@@ -25,7 +25,8 @@ use nalgebra::Vector3;
 use crate::geom::Axis3;
 use crate::kinematics::{Axes, SLOT_TOOL_RADIUS, ToolPose};
 use crate::model::{Context, DriftBasis, Effect, Model};
-use crate::plan::{Cutter, PlannedPose, PlannedTest};
+use crate::procedure::MachiningPlan;
+use crate::procedure::machining::{Cutter, PlannedPose};
 
 /// When each move of each pose runs.
 #[derive(Clone, Debug)]
@@ -41,8 +42,8 @@ pub struct Timeline {
 
 impl Timeline {
     /// The timeline of a plan (pose intervals as its manifest lists them).
-    pub fn new(plan: &PlannedTest) -> Timeline {
-        let entries = plan.manifest(&plan.test).poses;
+    pub fn new(plan: &MachiningPlan) -> Timeline {
+        let entries = plan.pose_entries();
         let mut start = Vec::new();
         let mut duration = Vec::new();
         let mut mid = Vec::new();
@@ -97,7 +98,7 @@ pub struct Cutting {
     /// The model.
     pub model: Model,
     /// The plan.
-    pub plan: Arc<PlannedTest>,
+    pub plan: Arc<MachiningPlan>,
     /// When the moves run.
     pub timeline: Timeline,
     /// Whether an effect drifts with time (the actual path then bends
@@ -109,7 +110,7 @@ pub struct Cutting {
 
 impl Cutting {
     /// The plan on the machine of `model`.
-    pub fn new(model: Model, plan: Arc<PlannedTest>) -> Cutting {
+    pub fn new(model: Model, plan: Arc<MachiningPlan>) -> Cutting {
         let mut breaks = Vec::new();
         let mut drifts_in_time = false;
         for e in &model.effects {

@@ -7,7 +7,7 @@
 //!
 //! # Machining ([`MachiningForward`])
 //! A plan point knows which moves cut it and with which part of the tool
-//! ([`crate::plan::Provenance`]). For each generating move the actual tool
+//! ([`crate::procedure::machining::Provenance`]). For each generating move the actual tool
 //! is taken at the generating instant through the same code path as the
 //! simulator ([`super::cutting::Cutting`]: commanded axes, time, context,
 //! `Model::pose_jacobian`): its tip, its axis, and the actual direction of
@@ -24,7 +24,7 @@
 //!   tilted end mill cuts with its edge;
 //! - ball: the capsule around the path of the ball's centre;
 //! - torus and sharp corner: the exact swept solid of the tool along the
-//!   local path ([`crate::plan::Cutter::entry_along`]) with the derivative
+//!   local path ([`crate::procedure::machining::Cutter::entry_along`]) with the derivative
 //!   from the envelope theorem.
 //!
 //! The moves considered are the point's generators and the other passes of
@@ -72,7 +72,9 @@ use crate::identify::forward::{ForwardError, ForwardModel, Prediction, SETUP_NAM
 use crate::identify::rigid::d6_apply;
 use crate::kinematics::Kinematics;
 use crate::model::Model;
-use crate::plan::{Cutter, LoadedPlan, PlannedPoint, PlannedProbing, PlannedTest, Setup, ToolPart};
+use crate::procedure::machining::{Cutter, PlannedPoint, ToolPart};
+use crate::procedure::probing::Setup;
+use crate::procedure::{MachiningPlan, Plan, ProbingPlan};
 
 /// The model of `errors` rebuilt on the kinematics a plan runs with (its
 /// tool's or probe's gauge length), after checking the machine.
@@ -88,12 +90,10 @@ pub fn model_for(kin: Kinematics, model: &Model) -> Result<Model, ForwardError> 
 }
 
 /// The forward model of a loaded plan, of either kind.
-pub fn for_plan(model: &Model, plan: &LoadedPlan) -> Result<Box<dyn ForwardModel>, ForwardError> {
+pub fn for_plan(model: &Model, plan: &Plan) -> Result<Box<dyn ForwardModel>, ForwardError> {
     Ok(match plan {
-        LoadedPlan::Machining(t) => {
-            Box::new(MachiningForward::new(model, Arc::new((**t).clone()))?)
-        }
-        LoadedPlan::Probing(p) => Box::new(ProbingForward::new(model, Arc::new((**p).clone()))?),
+        Plan::Machining(t) => Box::new(MachiningForward::new(model, Arc::new((**t).clone()))?),
+        Plan::Probing(p) => Box::new(ProbingForward::new(model, Arc::new((**p).clone()))?),
     })
 }
 
@@ -192,7 +192,7 @@ fn candidates_of(cut: &Cutting, pp: &PlannedPoint) -> Vec<Candidate> {
 
 impl MachiningForward {
     /// The model of `model`'s effects on the plan's machine and tool.
-    pub fn new(model: &Model, plan: Arc<PlannedTest>) -> Result<MachiningForward, ForwardError> {
+    pub fn new(model: &Model, plan: Arc<MachiningPlan>) -> Result<MachiningForward, ForwardError> {
         let kin = Kinematics::with_gauge_length(&plan.machine, plan.tool.length);
         let model = model_for(kin, model)?;
         let index = plan
@@ -218,7 +218,7 @@ impl MachiningForward {
     }
 
     /// The plan.
-    pub fn plan(&self) -> &PlannedTest {
+    pub fn plan(&self) -> &MachiningPlan {
         &self.cut.plan
     }
 
@@ -618,7 +618,7 @@ pub struct ProbingForward {
 
 impl ProbingForward {
     /// The model of `model`'s effects on the plan's machine and probe.
-    pub fn new(model: &Model, plan: Arc<PlannedProbing>) -> Result<ProbingForward, ForwardError> {
+    pub fn new(model: &Model, plan: Arc<ProbingPlan>) -> Result<ProbingForward, ForwardError> {
         let model = model_for(plan.plan.kin.clone(), model)?;
         let index = plan
             .plan
@@ -641,7 +641,7 @@ impl ProbingForward {
     }
 
     /// The plan.
-    pub fn plan(&self) -> &PlannedProbing {
+    pub fn plan(&self) -> &ProbingPlan {
         &self.probing.plan
     }
 

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use super::SimError;
 use super::cutting::{Cutting, actual_cutter};
-use crate::plan::Cutter;
+use crate::procedure::machining::Cutter;
 
 /// How far inside the material the probing line starts, mm: the surface
 /// may lie this far on either side of its nominal place.

@@ -32,7 +32,7 @@
 //! ```no_run
 //! use fivecal::simulate::{self, Format, SimOptions};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let plan = fivecal::plan::load_any(std::path::Path::new("plans/stepped-square.plan.yaml"))?;
+//! let plan = fivecal::procedure::load(std::path::Path::new("plans/stepped-square.plan.yaml"))?;
 //! let kin = simulate::plan_kinematics(&plan);
 //! let truth = fivecal::ErrorFile::load(std::path::Path::new("truth.yaml"), &kin)?;
 //! let out = simulate::run(&plan, &truth, &SimOptions { seed: 7, ..SimOptions::default() })?;
@@ -62,7 +62,7 @@ use crate::formats::measured::MeasuredPoint;
 use crate::identify::forward::ForwardError;
 use crate::io::OutputError;
 use crate::kinematics::Kinematics;
-use crate::plan::LoadedPlan;
+use crate::procedure::{Plan, Test};
 
 pub use cmm::Placement;
 pub use output::Format;
@@ -177,8 +177,8 @@ pub enum SimError {
 /// What a simulation produced.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimOutput {
-    /// Test name.
-    pub test: String,
+    /// The test.
+    pub test: Test,
     /// Machining or probing.
     pub kind: TestKind,
     /// Machine name.
@@ -208,10 +208,10 @@ pub struct SimOutput {
 
 /// The kinematics a plan runs with: the machine with the gauge length of
 /// its tool (machining) or probe (probing). Load truth files with it.
-pub fn plan_kinematics(plan: &LoadedPlan) -> Kinematics {
+pub fn plan_kinematics(plan: &Plan) -> Kinematics {
     match plan {
-        LoadedPlan::Machining(t) => Kinematics::with_gauge_length(&t.machine, t.tool.length),
-        LoadedPlan::Probing(p) => p.plan.kin.clone(),
+        Plan::Machining(t) => Kinematics::with_gauge_length(&t.machine, t.tool.length),
+        Plan::Probing(p) => p.plan.kin.clone(),
     }
 }
 
@@ -226,16 +226,12 @@ fn check_sigma(name: &str, v: f64) -> Result<f64, SimError> {
 }
 
 /// Runs a plan on the machine of `errors` (see the module documentation).
-pub fn run(
-    plan: &LoadedPlan,
-    errors: &LoadedErrors,
-    opts: &SimOptions,
-) -> Result<SimOutput, SimError> {
+pub fn run(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Result<SimOutput, SimError> {
     let mut rng = StdRng::seed_from_u64(opts.seed);
     let model = forward::model_for(plan_kinematics(plan), &errors.model)?;
     let theta = &errors.theta;
     match plan {
-        LoadedPlan::Machining(t) => {
+        Plan::Machining(t) => {
             let sigma = check_sigma(
                 "CMM",
                 opts.noise
@@ -260,12 +256,12 @@ pub fn run(
                 points_w.push(w);
                 nominals.push((p, n));
             }
-            let heights = (t.test == "nine-section").then(|| {
+            let heights = (t.test == Test::NineSection).then(|| {
                 let pts: Vec<_> = t.points.iter().map(|p| p.point.clone()).collect();
                 cmm::heights(&pts, &points_w)
             });
             Ok(SimOutput {
-                test: t.test.clone(),
+                test: t.test,
                 kind: TestKind::Machining,
                 machine: t.machine.name.clone(),
                 seed: opts.seed,
@@ -279,7 +275,7 @@ pub fn run(
                 log: None,
             })
         }
-        LoadedPlan::Probing(p) => {
+        Plan::Probing(p) => {
             let sigma = check_sigma(
                 "probe",
                 opts.noise
@@ -305,7 +301,8 @@ pub fn run(
                 ),
                 SetupErrors::Nominal => {
                     let mut a = probing::Artefact::nominal(n_pieces);
-                    if opts.sphere_form_um > 0.0 && matches!(p.setup, crate::plan::Setup::Sphere(_))
+                    if opts.sphere_form_um > 0.0
+                        && matches!(p.setup, crate::procedure::probing::Setup::Sphere(_))
                     {
                         a.form = probing::Form::random(opts.sphere_form_um, &mut rng);
                     }
@@ -322,7 +319,8 @@ pub fn run(
                     }
                     let mut a = probing::Artefact::nominal(n_pieces);
                     a.setups = v.clone();
-                    if opts.sphere_form_um > 0.0 && matches!(p.setup, crate::plan::Setup::Sphere(_))
+                    if opts.sphere_form_um > 0.0
+                        && matches!(p.setup, crate::procedure::probing::Setup::Sphere(_))
                     {
                         a.form = probing::Form::random(opts.sphere_form_um, &mut rng);
                     }
@@ -353,7 +351,7 @@ pub fn run(
                 .map(|t| (t.contact_prog, t.normal_prog))
                 .collect();
             Ok(SimOutput {
-                test: p.test.clone(),
+                test: p.test,
                 kind: TestKind::Probing,
                 machine: p.machine.name.clone(),
                 seed: opts.seed,

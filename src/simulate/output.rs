@@ -14,6 +14,7 @@ use crate::formats::heights;
 use crate::formats::manifest::TestKind;
 use crate::formats::measured;
 use crate::io::write_atomic;
+use crate::procedure::Test;
 
 /// An output format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,7 +82,7 @@ impl FromStr for Format {
 
 /// Whether a test of `kind` named `test` can be written as `format`, and
 /// if not, why.
-pub fn check(format: Format, kind: TestKind, test: &str) -> Result<(), SimError> {
+pub fn check(format: Format, kind: TestKind, test: Test) -> Result<(), SimError> {
     let refuse = |why: &str| {
         Err(SimError::Format(format!(
             "{format} output: {why} ({test} is a {} test)",
@@ -99,7 +100,7 @@ pub fn check(format: Format, kind: TestKind, test: &str) -> Result<(), SimError>
         Format::Log if kind != TestKind::Probing => {
             refuse("only on-machine probing writes a probe log; a CMM writes CSV or DMIS")
         }
-        Format::Heights if test != "nine-section" => {
+        Format::Heights if test != Test::NineSection => {
             refuse("section heights belong to the nine-section test")
         }
         _ => Ok(()),
@@ -109,7 +110,7 @@ pub fn check(format: Format, kind: TestKind, test: &str) -> Result<(), SimError>
 impl SimOutput {
     /// Whether this run can be written as `format`, and if not, why.
     pub fn check_format(&self, format: Format) -> Result<(), SimError> {
-        check(format, self.kind, &self.test)
+        check(format, self.kind, self.test)
     }
 
     /// The text of the output in `format`.
@@ -135,7 +136,7 @@ impl SimOutput {
                 dmis::write_output(
                     &pts,
                     &WriteOptions {
-                        name: self.test.clone(),
+                        name: self.test.to_string(),
                         ..WriteOptions::default()
                     },
                 )

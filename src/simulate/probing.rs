@@ -1,6 +1,6 @@
 //! On-machine probing on the machine with errors: each touch's probing
-//! move runs along its commanded line (from [`crate::probing::Touch::start`] towards
-//! [`crate::probing::Touch::end`], rotary axes still), the actual ball centre is the exact
+//! move runs along its commanded line (from [`crate::procedure::probing::Touch::start`] towards
+//! [`crate::procedure::probing::Touch::end`], rotary axes still), the actual ball centre is the exact
 //! model's tool point there, and the probe triggers where the ball meets
 //! the actual surface of the pieces (each set up with its own error) or of
 //! the sphere (with its form error), then travels on by its pre-travel.
@@ -22,8 +22,9 @@ use crate::geom::{self, Axis3};
 use crate::kinematics::{Axes, SLOT_PRETRAVEL};
 use crate::machine::Machine;
 use crate::model::{Context, Model};
-use crate::plan::{PlannedProbing, Setup};
-use crate::probing::PoseFrame;
+use crate::procedure::ProbingPlan;
+use crate::procedure::probing::PoseFrame;
+use crate::procedure::probing::Setup;
 
 /// A probing plan on a machine with errors.
 #[derive(Clone, Debug)]
@@ -31,7 +32,7 @@ pub struct Probing {
     /// The model (with the probe's gauge length).
     pub model: Model,
     /// The plan.
-    pub plan: Arc<PlannedProbing>,
+    pub plan: Arc<ProbingPlan>,
     frames: Vec<PoseFrame>,
     /// Names of the separately set-up pieces (the columns, or the sphere).
     pub pieces: Vec<String>,
@@ -56,7 +57,7 @@ pub fn head_rotation(m: &Machine, tilt: f64, c: f64) -> UnitQuaternion<f64> {
 
 impl Probing {
     /// The plan on the machine of `model`.
-    pub fn new(model: Model, plan: Arc<PlannedProbing>) -> Probing {
+    pub fn new(model: Model, plan: Arc<ProbingPlan>) -> Probing {
         let frames = (0..plan.plan.poses.len())
             .map(|i| plan.plan.frame(i))
             .collect();
@@ -71,8 +72,7 @@ impl Probing {
             .map(|t| pieces.iter().position(|p| *p == t.piece).unwrap_or(0))
             .collect();
         let mid = plan
-            .manifest(&plan.test)
-            .poses
+            .pose_entries()
             .iter()
             .map(|p| 0.5 * (p.start_min + p.end_min))
             .collect();

@@ -36,7 +36,7 @@ pub use contributors::{Contributors, Disturbance};
 pub use montecarlo::{McOptions, McResult};
 
 use super::method::identify_with;
-use crate::plan::LoadedPlan;
+use crate::procedure::Plan;
 
 /// What a synthetic Monte-Carlo run needs to know about the test.
 #[derive(Clone, Debug)]
@@ -222,10 +222,7 @@ impl Study {
 
 /// The plan the simulator runs again, if it is the plan the measured
 /// points describe (same labels at the same places).
-fn simulator_plan<'p>(
-    plan: Result<&'p LoadedPlan, String>,
-    data: &Dataset,
-) -> Result<&'p LoadedPlan, String> {
+fn simulator_plan<'p>(plan: Result<&'p Plan, String>, data: &Dataset) -> Result<&'p Plan, String> {
     let plan = plan?;
     let rebuilt = plan.plan_points();
     let same = rebuilt.points.len() == data.plan.points.len()
@@ -263,7 +260,7 @@ pub fn study(
     opts: &McOptions,
     contributors: Contributors,
     e: &Estimate<'_>,
-    plan: Result<&LoadedPlan, String>,
+    plan: Result<&Plan, String>,
 ) -> Result<Study, String> {
     let est = e.est;
     let rebuilt = simulator_plan(plan, e.data);

@@ -27,14 +27,15 @@ use crate::formats::measured::MeasuredPoint;
 use crate::identify::sphere::SphereOptions;
 use crate::identify::{Dataset, Identification, IdentifyError, Method, Setup};
 use crate::model::Model;
-use crate::plan::{LoadedPlan, Setup as PieceSetup};
+use crate::procedure::Plan;
+use crate::procedure::probing::Setup as PieceSetup;
 use crate::simulate::{self, NoiseOverrides, Placement, SetupErrors, SimOptions, SimOutput};
 
 /// One simulated test and how it is identified.
 #[derive(Clone, Debug)]
 pub struct SimulatedTest<'a> {
-    /// The plan, rebuilt from its manifest ([`crate::plan::load_any`]).
-    pub plan: &'a LoadedPlan,
+    /// The plan, rebuilt from its manifest ([`crate::procedure::load`]).
+    pub plan: &'a Plan,
     /// The machine's errors: the identified model, or a known truth.
     pub model: &'a Model,
     /// Their values (file units); contributors are added to them.
@@ -56,7 +57,7 @@ impl<'a> SimulatedTest<'a> {
     /// The Monte Carlo of an identification: its values as the truth, those
     /// it could not identify at zero (nothing is known of them).
     pub fn from_estimate(
-        plan: &'a LoadedPlan,
+        plan: &'a Plan,
         est: &'a Identification,
         setup: &'a Setup,
         data: &'a Dataset,
@@ -86,7 +87,7 @@ impl<'a> SimulatedTest<'a> {
 /// joins a measured file ([`crate::analyze::inputs`]): the plan's points and
 /// pose times, each probed piece on its own setup.
 pub fn plan_dataset(
-    plan: &LoadedPlan,
+    plan: &Plan,
     name: &str,
     points: Vec<MeasuredPoint>,
 ) -> Result<Dataset, IdentifyError> {
@@ -98,7 +99,7 @@ pub fn plan_dataset(
 
 /// Number of separately set-up pieces of a plan (one for a machined piece
 /// or a sphere).
-fn n_pieces(plan: &LoadedPlan) -> usize {
+fn n_pieces(plan: &Plan) -> usize {
     match plan.probing().map(|p| &p.setup) {
         Some(PieceSetup::Columns(cs)) => cs.len(),
         _ => 1,

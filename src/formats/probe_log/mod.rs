@@ -27,7 +27,7 @@
 //! the approach `-n'`, so the contact point is `b - r n'` with `r` the
 //! ball radius. (On a head machine the reported X, Y, Z are the commanded
 //! ones and the ball sits off them by the head's swing; the reader adds
-//! that offset, [`crate::probing::PoseFrame::ball_prog`].) A HEIDENHAIN
+//! that offset, [`crate::procedure::probing::PoseFrame::ball_prog`].) A HEIDENHAIN
 //! log may instead hold contact points already compensated by the
 //! controller (line tag `K`); those are taken as they are.
 //!
@@ -66,7 +66,7 @@ use crate::formats::measured::MeasuredPoint;
 use crate::formats::points::PlanPoints;
 use crate::kinematics::Kinematics;
 use crate::machine::Dialect;
-use crate::probing::{PoseFrame, ProbingSettings};
+use crate::procedure::probing::{PoseFrame, ProbingSettings};
 use crate::source::SourceError;
 
 /// How a log line names its touch.
@@ -136,7 +136,7 @@ pub struct ReadOptions {
     /// Policy for repeated touches.
     pub repeats: Repeats,
     /// The test the log must belong to (its header), if known.
-    pub test: Option<String>,
+    pub test: Option<crate::procedure::Test>,
 }
 
 impl ReadOptions {
@@ -196,7 +196,7 @@ pub fn join(
     let mut notes = Vec::new();
     if let Some(want) = &opts.test {
         for (line, got) in &raw.headers {
-            if !got.eq_ignore_ascii_case(want) {
+            if !got.eq_ignore_ascii_case(want.as_str()) {
                 return Err(SourceError::new(
                     path,
                     *line,

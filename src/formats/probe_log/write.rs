@@ -10,10 +10,10 @@
 //! trigger, in program coordinates (work offset on the W origin at rotary
 //! zero). On a table-table machine that is the ball centre in program
 //! coordinates; on a head machine without TCP the ball sits off it by the
-//! head's swing ([`crate::probing::PoseFrame::ball_prog`]), which the
+//! head's swing ([`crate::procedure::probing::PoseFrame::ball_prog`]), which the
 //! reader adds back. A simulator finds it by moving the commanded axes
-//! along the probing move (from [`crate::probing::Touch::start`] towards
-//! [`crate::probing::Touch::end`]) until the actual ball meets the actual
+//! along the probing move (from [`crate::procedure::probing::Touch::start`] towards
+//! [`crate::procedure::probing::Touch::end`]) until the actual ball meets the actual
 //! surface, and writes the axes' X, Y, Z there.
 //!
 //! What each dialect writes ([`LogFormat`] holds the control settings that
@@ -42,7 +42,7 @@ use nalgebra::Vector3;
 use super::{Logged, fanuc, heidenhain, linuxcnc};
 use crate::machine::Dialect;
 use crate::post::RenderedProgram;
-use crate::probing::{ProbePlan, Touch};
+use crate::procedure::probing::{Touch, TouchPlan};
 
 /// The control settings that decide a log's exact text.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -165,12 +165,12 @@ impl LogFormat {
     /// skipped, is simply not given), and the footer.
     pub fn write<'a>(
         &self,
-        plan: &ProbePlan,
+        plan: &TouchPlan,
         recorded: impl IntoIterator<Item = (&'a Touch, Vector3<f64>)>,
     ) -> String {
         let eol = self.eol();
         let mut s = String::new();
-        for l in self.header(&plan.test) {
+        for l in self.header(plan.test.as_str()) {
             s.push_str(&l);
             s.push_str(eol);
         }

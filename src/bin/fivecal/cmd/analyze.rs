@@ -201,7 +201,7 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
         print_piece(piece);
         if let Some(dir) = &c.report {
             let dir = piece.report_dir(dir);
-            let files = report::write(&dir, &ReportInput::for_piece(&id.test, piece))?;
+            let files = report::write(&dir, &ReportInput::for_piece(id.test.as_str(), piece))?;
             outln!(
                 "report: {} ({} files)",
                 dir.join("index.html").display(),

@@ -2,19 +2,17 @@
 //! nominal points, CMM program, 3-D model and setup sheet, or a probing test
 //! as an NC program that logs its touches, with its nominal points, a 3-D
 //! model of the setup and a setup sheet. Raw arguments are turned into one
-//! validated configuration ([`PlanConfig`] or [`ProbingConfig`]) in
+//! validated configuration ([`PlanConfig`]) in
 //! [`config`], then the library plans and writes.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::{Args, ValueEnum};
-use fivecal::formats::manifest::KinematicsMode;
-use fivecal::machine::{Machine, MachineOrigin, Tool};
-use fivecal::plan::template::check_tool;
-use fivecal::plan::{PlanConfig, ProbingConfig, Template, plan, plan_probing};
+use fivecal::formats::manifest::{KinematicsMode, TestKind};
+use fivecal::machine::{Machine, MachineOrigin, Tool, check_tool};
 use fivecal::post::PostDefinition;
-use fivecal::probing::template::{PROBING_TESTS, ProbeTemplate, TemplateSource};
+use fivecal::procedure::{Plan, PlanConfig, Template, Test, plan};
 use fivecal::source::SourceError;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -61,15 +59,9 @@ pub struct PlanArgs {
     tool: Option<String>,
 }
 
-/// What one `plan` run plans.
-enum Job {
-    Machining(PlanConfig),
-    Probing(ProbingConfig),
-}
-
 /// The validated configuration of one `plan` run.
 struct Config {
-    job: Job,
+    plan: PlanConfig,
     out: PathBuf,
     inputs: Vec<PathBuf>,
     /// Which machine the run used, built in or a file.
@@ -128,76 +120,43 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         }
         None => PostDefinition::builtin(dialect.unwrap_or(machine.dialect)),
     };
-    if PROBING_TESTS.contains(&a.test.as_str()) {
-        if a.kinematics == Some(KinematicsArg::Controller) {
-            bail!(
-                "--kinematics controller: the {} program positions every axis itself (no TCP, no tilted plane), so that the log records positions in the work offset on W",
-                a.test
-            );
-        }
-        if a.tool.is_some() {
-            bail!(
-                "--tool: the {} test uses the machine file's probe (`probe:` in {}), not a cutting tool",
-                a.test,
-                machine.name
-            );
-        }
-        let template = match &a.template {
-            Some(p) => {
-                inputs.push(p.clone());
-                let text =
-                    fivecal::input::read_text(p, "template", fivecal::limits::MAX_YAML_BYTES)?;
-                let t = ProbeTemplate::parse(TemplateSource {
-                    path: p.clone(),
-                    text,
-                })?;
-                if t.test() != a.test {
-                    bail!(
-                        "{}: the template is for test `{}`, but the command asks for `{}`",
-                        p.display(),
-                        t.test(),
-                        a.test
-                    );
-                }
-                t
-            }
-            None => ProbeTemplate::builtin(&a.test).expect("a probing test has a template"),
-        };
-        return Ok(Config {
-            job: Job::Probing(ProbingConfig {
-                machine,
-                template,
-                post,
-            }),
-            out: a.out,
-            inputs,
-            origin,
-        });
-    }
     let template = match &a.template {
         Some(p) => {
             inputs.push(p.clone());
-            let t = Template::parse(
-                p,
-                &fivecal::input::read_text(p, "template", fivecal::limits::MAX_YAML_BYTES)?,
-            )?;
-            if t.test != a.test {
+            let text = fivecal::input::read_text(p, "template", fivecal::limits::MAX_YAML_BYTES)?;
+            let t = Template::parse(p, &text)?;
+            if t.test().as_str() != a.test {
                 bail!(
                     "{}: the template is for test `{}`, but the command asks for `{}`",
                     p.display(),
-                    t.test,
+                    t.test(),
                     a.test
                 );
             }
             t
         }
-        None => Template::builtin(&a.test).with_context(|| {
-            format!(
-                "unknown test `{}`: expected stepped-square, nine-section, probe-columns or probe-sphere (or pass --template FILE)",
-                a.test
+        None => Template::builtin(a.test.parse::<Test>().map_err(|_| {
+            anyhow::anyhow!(
+                "unknown test `{}`: expected {} (or pass --template FILE)",
+                a.test,
+                Test::names()
             )
-        })?,
+        })?),
     };
+    let test = template.test();
+    if test.kind() == TestKind::Probing {
+        if a.kinematics == Some(KinematicsArg::Controller) {
+            bail!(
+                "--kinematics controller: the {test} program positions every axis itself (no TCP, no tilted plane), so that the log records positions in the work offset on W"
+            );
+        }
+        if a.tool.is_some() {
+            bail!(
+                "--tool: the {test} test uses the machine file's probe (`probe:` in {}), not a cutting tool",
+                machine.name
+            );
+        }
+    }
     let tool = match &a.tool {
         Some(spec) => {
             let (t, file) = parse_tool(spec, &machine)?;
@@ -207,7 +166,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         None => None,
     };
     Ok(Config {
-        job: Job::Machining(PlanConfig {
+        plan: PlanConfig {
             machine,
             template,
             post,
@@ -216,7 +175,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
                 KinematicsArg::Controller => KinematicsMode::Controller,
             },
             tool,
-        }),
+        },
         out: a.out,
         inputs,
         origin,
@@ -227,72 +186,45 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let cfg = config(args)?;
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
     fivecal::io::check_outputs(&inputs, &[("--out", &cfg.out, fivecal::io::Shape::Dir)])?;
-    let p = match &cfg.job {
-        Job::Machining(p) => p,
-        Job::Probing(p) => return run_probing(p, &cfg.out, &inputs, &cfg.origin),
-    };
+    let p = &cfg.plan;
     let planned = plan(p).with_context(|| {
         format!(
             "cannot plan {} on {} ({})",
-            p.template.test, p.machine.name, p.post.dialect
-        )
-    })?;
-    // The error already names the path and its cause.
-    let origin = &cfg.origin;
-    let written = planned
-        .write(&cfg.out, &planned.test, &inputs)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    outln!(
-        "{} on {}: {} poses, {} points, about {:.0} min ({} dialect, kinematics {})",
-        planned.test,
-        planned.machine.name,
-        planned.poses.len(),
-        planned.points.len(),
-        planned.run_minutes,
-        planned.dialect,
-        match planned.kinematics {
-            KinematicsMode::Post => "post",
-            KinematicsMode::Controller => "controller",
-        }
-    );
-    outln!("note: {origin}");
-    for n in &planned.notes {
-        outln!("note: {n}");
-    }
-    for w in written {
-        outln!("wrote {}", w.display());
-    }
-    Ok(())
-}
-
-fn run_probing(
-    p: &ProbingConfig,
-    out_dir: &Path,
-    inputs: &[&Path],
-    origin: &str,
-) -> anyhow::Result<()> {
-    let planned = plan_probing(p).with_context(|| {
-        format!(
-            "cannot plan {} on {} ({})",
-            p.template.test(),
+            p.test(),
             p.machine.name,
             p.post.dialect
         )
     })?;
+    // The error already names the path and its cause.
     let written = planned
-        .write(out_dir, &planned.test, inputs)
+        .write(&cfg.out, planned.test().as_str(), &inputs)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    outln!(
-        "{} on {}: {} poses, {} touches, about {:.0} min ({} dialect)",
-        planned.test,
-        planned.machine.name,
-        planned.plan.poses.len(),
-        planned.plan.touches.len(),
-        planned.run_minutes(),
-        planned.dialect
-    );
-    outln!("note: {origin}");
-    for n in &planned.notes {
+    match &planned {
+        Plan::Machining(t) => outln!(
+            "{} on {}: {} poses, {} points, about {:.0} min ({} dialect, kinematics {})",
+            t.test,
+            t.machine.name,
+            t.poses.len(),
+            t.points.len(),
+            t.run_minutes,
+            t.dialect,
+            match t.kinematics {
+                KinematicsMode::Post => "post",
+                KinematicsMode::Controller => "controller",
+            }
+        ),
+        Plan::Probing(p) => outln!(
+            "{} on {}: {} poses, {} touches, about {:.0} min ({} dialect)",
+            p.test,
+            p.machine.name,
+            p.plan.poses.len(),
+            p.plan.touches.len(),
+            p.run_minutes(),
+            p.dialect
+        ),
+    }
+    outln!("note: {}", cfg.origin);
+    for n in planned.notes() {
         outln!("note: {n}");
     }
     for w in written {

@@ -176,7 +176,7 @@ fn simulate(c: Config) -> anyhow::Result<()> {
     inputs.push(c.errors.clone());
     let refs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     check_outputs(&refs, &[("--out", &c.out, Shape::File)])?;
-    let plan = fivecal::plan::load_any(&c.plan_path)?;
+    let plan = fivecal::procedure::load(&c.plan_path)?;
     let kind = plan.kind();
     let format = c.format.unwrap_or_else(|| Format::for_path(&c.out, kind));
     simulate::output::check(format, kind, plan.test())?;

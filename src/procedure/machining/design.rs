@@ -7,13 +7,15 @@ use std::collections::BTreeMap;
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::Pass;
 use super::cutter::ToolPart;
-use super::template::{Clearance, Cutting, TemplateKind, ToolChoice};
-use super::{Pass, PlanConfig, PlanError};
+use super::template::{Clearance, Cutting, ToolChoice};
 use crate::geom::{self, Axis3};
 use crate::kinematics::Kinematics;
 use crate::machine::{Machine, Tool};
 use crate::mesh::Cuboid;
+use crate::procedure::short;
+use crate::procedure::{PlanConfig, PlanError, Template};
 
 /// A continuous cutting path: entered by feed from the clearance plane
 /// above `start` (along the tool axis), left by a rapid lift.
@@ -139,40 +141,15 @@ pub(crate) fn pose_id(letter: char, tilt: f64, c: f64) -> String {
     format!("{letter}{}C{}", short(tilt), short(c))
 }
 
-/// `v` rounded to `d` decimals.
-pub(crate) fn round(v: f64, d: i32) -> f64 {
-    let f = 10f64.powi(d);
-    (v * f).round() / f
-}
-
-/// The setup sheet's closing `## Notes` list, if there are notes.
-pub(crate) fn push_notes(s: &mut String, notes: &[String]) {
-    use std::fmt::Write as _;
-    if notes.is_empty() {
-        return;
-    }
-    let _ = writeln!(s, "\n## Notes\n");
-    for n in notes {
-        let _ = writeln!(s, "- {n}");
-    }
-}
-
-/// A number without trailing zeros (`90`, `-22.5`).
-pub(crate) fn short(v: f64) -> String {
-    let s = crate::formats::points::fmt_num(v, 6);
-    let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s.is_empty() || s == "-" {
-        "0".into()
-    } else {
-        s.to_string()
-    }
-}
-
 /// Dispatches to the test's designer.
 pub(crate) fn design(cfg: &PlanConfig, raise: f64) -> Result<Design, PlanError> {
-    match &cfg.template.kind {
-        TemplateKind::SteppedSquare(t) => super::stepped_square::design(cfg, t, raise),
-        TemplateKind::NineSection(t) => super::nine_section::design(cfg, t, raise),
+    match &cfg.template {
+        Template::SteppedSquare(t) => super::stepped_square::design::design(cfg, t, raise),
+        Template::NineSection(t) => super::nine_section::design::design(cfg, t, raise),
+        Template::Columns(_) | Template::Sphere(_) => Err(PlanError::Impossible(format!(
+            "{} is a probing test, not a machining test",
+            cfg.test()
+        ))),
     }
 }
 

@@ -1,73 +1,14 @@
-//! The files a plan writes, all deterministic (no dates, no random ids) and
-//! each written atomically: the program, points.csv, the manifest with the
-//! copies of machine, template and postprocessor, the DMIS program, the
-//! piece as `.obj` and `.glb`, and the setup sheet.
+//! What only a machining plan writes (the rest is [`crate::procedure::Plan`]'s
+//! writer): points.csv with its header, the DMIS program that measures the
+//! piece and the setup sheet.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
 
-use indexmap::IndexMap;
-
-use super::design::{push_notes, round, short};
-use super::{PlannedTest, RenderedProgram};
+use super::MachiningPlan;
 use crate::formats::dmis_program::{self, DmisMoves, Probing};
-use crate::formats::manifest::{MANIFEST_VERSION, Manifest, PoseEntry};
-use crate::io::{OutputError, StagedDir, ensure_not_input};
+use crate::procedure::{push_notes, round, short};
 
-pub(crate) fn file_names(t: &PlannedTest, stem: &str) -> Vec<(&'static str, PathBuf)> {
-    let mut v = vec![
-        (
-            "program",
-            PathBuf::from(format!("{stem}.{}", t.post.extension)),
-        ),
-        ("points", PathBuf::from(format!("{stem}.points.csv"))),
-        ("dmis", PathBuf::from(format!("{stem}.dmi"))),
-        ("glb", PathBuf::from(format!("{stem}.glb"))),
-        ("obj", PathBuf::from(format!("{stem}.obj"))),
-        ("setup", PathBuf::from(format!("{stem}.md"))),
-        ("postprocessor", PathBuf::from(format!("{stem}.post.yaml"))),
-    ];
-    for a in &t.program.aux {
-        v.push(("log_format", PathBuf::from(&a.name)));
-    }
-    v
-}
-
-impl PlannedTest {
-    /// The manifest of this plan written under the name `stem`.
-    pub fn manifest(&self, stem: &str) -> Manifest {
-        let files: IndexMap<String, PathBuf> = self
-            .file_names(stem)
-            .into_iter()
-            .map(|(r, p)| (r.to_string(), p))
-            .collect();
-        Manifest {
-            fivecal_plan: MANIFEST_VERSION,
-            test: self.test.clone(),
-            kind: self.kind,
-            machine: self.machine.name.clone(),
-            machine_file: PathBuf::from(format!("{stem}.machine.yaml")),
-            template_file: PathBuf::from(format!("{stem}.template.yaml")),
-            dialect: self.dialect,
-            kinematics: self.kinematics,
-            tool: Some(self.tool.clone()),
-            probe: None,
-            files,
-            poses: self
-                .poses
-                .iter()
-                .map(|p| PoseEntry {
-                    pose: p.id.clone(),
-                    seq: p.seq,
-                    tilt: p.tilt,
-                    c: p.c,
-                    start_min: round(p.start_min, 3),
-                    end_min: round(p.end_min, 3),
-                })
-                .collect(),
-        }
-    }
-
+impl MachiningPlan {
     /// The DMIS program measuring every plan point. Each point is reached
     /// from above along the way its pose's tool came in (its tool axis).
     pub fn dmis_program(&self, stem: &str) -> String {
@@ -172,10 +113,7 @@ impl PlannedTest {
                 .unwrap_or_default(),
             short(t.length)
         );
-        let cut = match &self.template.kind {
-            super::template::TemplateKind::SteppedSquare(t) => &t.cutting,
-            super::template::TemplateKind::NineSection(t) => &t.cutting,
-        };
+        let cut = &self.cutting;
         let _ = writeln!(
             s,
             "- {} rpm, feed {} mm/min, plunge {} mm/min, coolant {}.",
@@ -239,91 +177,4 @@ impl PlannedTest {
         push_notes(&mut s, &self.notes);
         s
     }
-
-    /// Every output file: (name relative to the plan directory, bytes).
-    pub fn outputs(&self, stem: &str) -> Vec<(PathBuf, Vec<u8>)> {
-        let title = format!("{} on {} (fivecal)", self.test, self.machine.name);
-        let manifest = self.manifest(stem);
-        let mut v: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-        for (role, path) in self.file_names(stem) {
-            let bytes = match role {
-                "program" => self.program.text.clone().into_bytes(),
-                "points" => self.points_csv().into_bytes(),
-                "dmis" => self.dmis_program(stem).into_bytes(),
-                "glb" => self.piece.mesh.to_glb(&title),
-                "obj" => self.piece.mesh.to_obj(&title).into_bytes(),
-                "setup" => self.setup_sheet(stem).into_bytes(),
-                "postprocessor" => self.post.source.clone().into_bytes(),
-                _ => continue,
-            };
-            v.push((path, bytes));
-        }
-        push_common(
-            &mut v,
-            &self.program,
-            &manifest,
-            &self.machine.source,
-            &self.template.source.text,
-            stem,
-        );
-        v
-    }
-
-    /// Writes every output into `dir`, refusing to overwrite any of
-    /// `inputs`; the manifest is written last. Returns the paths written.
-    pub fn write(
-        &self,
-        dir: &Path,
-        stem: &str,
-        inputs: &[&Path],
-    ) -> Result<Vec<PathBuf>, OutputError> {
-        write_all(dir, &self.outputs(stem), inputs)
-    }
-}
-
-/// The files every plan writes after its own: the program's auxiliary
-/// files, copies of the machine and template (so the plan directory is
-/// self-contained) and, last, the manifest.
-pub(super) fn push_common(
-    v: &mut Vec<(PathBuf, Vec<u8>)>,
-    program: &RenderedProgram,
-    manifest: &Manifest,
-    machine_source: &str,
-    template_source: &str,
-    stem: &str,
-) {
-    for a in &program.aux {
-        v.push((PathBuf::from(&a.name), a.text.clone().into_bytes()));
-    }
-    v.push((
-        manifest.machine_file.clone(),
-        machine_source.as_bytes().to_vec(),
-    ));
-    v.push((
-        manifest.template_file.clone(),
-        template_source.as_bytes().to_vec(),
-    ));
-    v.push((
-        PathBuf::from(format!("{stem}.plan.yaml")),
-        manifest.to_yaml().into_bytes(),
-    ));
-}
-
-/// Writes `outs` into `dir` in order, after checking that none of them
-/// would overwrite one of `inputs`, so a refusal writes nothing.
-pub(super) fn write_all(
-    dir: &Path,
-    outs: &[(PathBuf, Vec<u8>)],
-    inputs: &[&Path],
-) -> Result<Vec<PathBuf>, OutputError> {
-    let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
-    for p in &paths {
-        ensure_not_input(p, inputs)?;
-    }
-    // Staged: a plan that fails partway leaves the directory as it was.
-    let mut stage = StagedDir::create(dir)?;
-    for (name, bytes) in outs {
-        stage.write(name, bytes)?;
-    }
-    stage.commit()
 }

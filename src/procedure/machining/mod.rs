@@ -1,23 +1,12 @@
-//! Planning the tests as NC programs, for any supported machine and
-//! dialect: the machining tests (the stepped-square test of seed 001 and
-//! the nine-section test of seed 004: [`plan`], [`PlannedTest`]) and the
-//! on-machine probing tests (square columns, seed 000, and the calibration
-//! sphere, seeds 003 and 004: [`plan_probing`], [`PlannedProbing`]; the
-//! [`probing`] module says what the program does and what a simulator
-//! finds in a probing plan).
+//! The machining tests: a piece cut at a set of poses and measured on a
+//! CMM. Each test designs its piece, poses, cuts and points in its own
+//! folder ([`stepped_square`], [`nine_section`]: the design and the
+//! template); `design` holds what the designs share, `program` turns a
+//! design into machine moves and an NC program with every point's
+//! provenance, [`cutter`] is the tool's exact solid and `outputs` the
+//! files only a machining plan writes (the DMIS program, the setup sheet).
 //!
-//! Every plan directory holds a manifest `<test>.plan.yaml`; [`load_any`]
-//! rebuilds the plan it describes, of either kind, as a [`LoadedPlan`]
-//! (`Machining` or `Probing`), exactly as `plan` made it; [`load`] and
-//! [`load_probing`] do the same for one kind.
-//!
-//! [`plan`] turns a [`PlanConfig`] (machine, template, postprocessor,
-//! kinematics mode, optional tool) into a [`PlannedTest`]: the poses, the
-//! toolpath, the NC program, the nominal piece and its CMM points with their
-//! provenance. [`PlannedTest::write`] writes the plan's files and
-//! [`load`] rebuilds the very same `PlannedTest` from a written manifest.
-//!
-//! # For the simulator and the analyzer: what a machining `PlannedTest` holds
+//! # For the simulator and the analyzer: what a `MachiningPlan` holds
 //!
 //! Frames and units follow SPEC: W is the table frame (origin at the
 //! nominal intersection of the rotary axes, Z along C, parallel to the
@@ -75,50 +64,26 @@
 //! against the solid (material below, air above along the normal), against
 //! the generating tool (zero distance) and against the mesh in the tests.
 
-mod cutter;
-mod design;
-mod load;
-mod nine_section;
+pub mod cutter;
+pub(crate) mod design;
+pub mod nine_section;
 mod outputs;
-pub mod probing;
-mod probing_outputs;
 mod program;
-mod stepped_square;
+pub mod stepped_square;
 pub mod template;
-
-use std::path::PathBuf;
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::formats::manifest::{KinematicsMode, TestKind};
+use super::{PlanConfig, PlanError, Template, Test};
+use crate::formats::manifest::KinematicsMode;
 use crate::formats::points::{PlanPoint, PlanPoints};
-use crate::kinematics::{Axes, IkError};
+use crate::kinematics::Axes;
 use crate::machine::{Dialect, Machine, Tool};
 use crate::mesh::{Cuboid, Mesh, Solid};
-use crate::post::{Op, PostDefinition, PostError, ProgramInfo, RenderedProgram};
-use crate::source::SourceError;
+use crate::post::{Op, PostDefinition, ProgramInfo, RenderedProgram};
 
 pub use cutter::{Cutter, ToolPart};
-pub use load::{LoadError, LoadedPlan, load, load_any, load_probing};
-pub use probing::{
-    PlannedProbing, ProbingConfig, ProbingPose, Setup, SetupColumn, SetupSphere, plan_probing,
-};
-pub use template::{Template, TemplateError};
-
-/// Everything `plan` needs, validated.
-#[derive(Clone, Debug)]
-pub struct PlanConfig {
-    /// The machine.
-    pub machine: Machine,
-    /// The test template.
-    pub template: Template,
-    /// The postprocessor definition (its dialect is the program's).
-    pub post: PostDefinition,
-    /// How 3+2 positions are written.
-    pub kinematics: KinematicsMode,
-    /// A tool replacing the template's.
-    pub tool: Option<Tool>,
-}
+pub use template::Cutting;
 
 /// What a move is for. Rapids run only above the stock's extent along the
 /// tool axis (the clearance plane) or at the safe height.
@@ -215,7 +180,7 @@ pub struct Generator {
 /// Which pose and which part of the tool made a surface point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Provenance {
-    /// Index into `PlannedTest::poses`.
+    /// Index into `MachiningPlan::poses`.
     pub pose: usize,
     /// The tool part that made the surface.
     pub part: ToolPart,
@@ -262,13 +227,11 @@ pub struct Piece {
     pub mesh: Mesh,
 }
 
-/// A planned test.
+/// A planned machining test.
 #[derive(Clone, Debug)]
-pub struct PlannedTest {
-    /// Test name.
-    pub test: String,
-    /// Machining or probing.
-    pub kind: TestKind,
+pub struct MachiningPlan {
+    /// The test.
+    pub test: Test,
     /// The machine.
     pub machine: Machine,
     /// The template.
@@ -283,6 +246,8 @@ pub struct PlannedTest {
     pub tool: Tool,
     /// The tool's solid.
     pub cutter: Cutter,
+    /// Spindle speed, feeds and coolant.
+    pub cutting: Cutting,
     /// Program Z of the safe height.
     pub safe_z: f64,
     /// Poses in execution order.
@@ -307,52 +272,7 @@ pub struct PlannedTest {
     pub safe_reason: String,
 }
 
-/// Why a plan failed.
-#[derive(Debug, thiserror::Error)]
-pub enum PlanError {
-    /// A bad template value (points into the template).
-    #[error(transparent)]
-    Template(#[from] SourceError),
-    /// The request cannot be carried out on this machine.
-    #[error("{0}")]
-    Impossible(String),
-    /// A move is outside a linear axis' stroke.
-    #[error(
-        "pose {pose}: {what} needs {axis} = {value:.3} (machine coordinate of the spindle gauge point), outside the {axis} stroke [{lo}, {hi}] of {machine}"
-    )]
-    Stroke {
-        /// Pose id.
-        pose: String,
-        /// Which move.
-        what: String,
-        /// Axis letter.
-        axis: char,
-        /// Machine coordinate needed, mm.
-        value: f64,
-        /// Stroke minimum.
-        lo: f64,
-        /// Stroke maximum.
-        hi: f64,
-        /// Machine name.
-        machine: String,
-    },
-    /// Inverse kinematics failed.
-    #[error("{context}: {source}")]
-    Kinematics {
-        /// Where.
-        context: String,
-        /// Cause.
-        source: IkError,
-    },
-    /// The postprocessor could not render the toolpath.
-    #[error(transparent)]
-    Post(#[from] PostError),
-    /// The probing planner refused (template, reach, collision).
-    #[error(transparent)]
-    Probing(#[from] crate::probing::PlanError),
-}
-
-impl PlannedTest {
+impl MachiningPlan {
     /// The plan points as SPEC points.csv.
     pub fn plan_points(&self) -> PlanPoints {
         PlanPoints {
@@ -365,19 +285,21 @@ impl PlannedTest {
     pub fn pose(&self, id: &str) -> Option<&PlannedPose> {
         self.poses.iter().find(|p| p.id == id)
     }
-
-    /// Output file names by role, for a plan named `stem`.
-    pub fn file_names(&self, stem: &str) -> Vec<(&'static str, PathBuf)> {
-        outputs::file_names(self, stem)
-    }
 }
 
-/// Plans a test. With `stock.raise` in the template, a piece the spindle
-/// cannot reach low enough within the Z stroke is put on a higher riser.
-pub fn plan(cfg: &PlanConfig) -> Result<PlannedTest, PlanError> {
-    let (raise_allowed, base) = match &cfg.template.kind {
-        template::TemplateKind::SteppedSquare(t) => (t.stock.raise, t.stock.fixture_height),
-        template::TemplateKind::NineSection(t) => (t.stock.raise, t.stock.fixture_height),
+/// Plans a machining test. With `stock.raise` in the template, a piece the
+/// spindle cannot reach low enough within the Z stroke is put on a higher
+/// riser.
+pub fn plan(cfg: &PlanConfig) -> Result<MachiningPlan, PlanError> {
+    let (raise_allowed, base) = match &cfg.template {
+        Template::SteppedSquare(t) => (t.stock.raise, t.stock.fixture_height),
+        Template::NineSection(t) => (t.stock.raise, t.stock.fixture_height),
+        Template::Columns(_) | Template::Sphere(_) => {
+            return Err(PlanError::Impossible(format!(
+                "{} is a probing test, not a machining test",
+                cfg.template.test()
+            )));
+        }
     };
     let mut raise = 0.0;
     for _ in 0..8 {
@@ -394,8 +316,8 @@ pub fn plan(cfg: &PlanConfig) -> Result<PlannedTest, PlanError> {
             Ok(mut p) if raise > 0.0 => {
                 p.notes.push(format!(
                     "the riser is {} mm instead of {} mm, so that the spindle reaches every pose within the Z stroke",
-                    design::short(base + raise),
-                    design::short(base)
+                    super::short(base + raise),
+                    super::short(base)
                 ));
                 return Ok(p);
             }

@@ -17,17 +17,16 @@
 
 use nalgebra::Vector3;
 
-use super::PlanConfig;
-use super::cutter::ToolPart;
-use super::design::{
-    Design, PointDesign, PoseDesign, Stroke, dir_name, groups, pose_frame, short, tool_of,
-    within_limits,
-};
-use super::template::NineSection;
-use super::{Pass, PlanError};
+use super::template::NineSectionTemplate;
 use crate::kinematics::Kinematics;
 use crate::machine::ToolKind;
 use crate::mesh::{Csg, Cuboid, Plane, Polygon, Solid};
+use crate::procedure::machining::Pass;
+use crate::procedure::machining::cutter::ToolPart;
+use crate::procedure::machining::design::{
+    Design, PointDesign, PoseDesign, Stroke, dir_name, groups, pose_frame, tool_of, within_limits,
+};
+use crate::procedure::{PlanConfig, PlanError, short};
 
 /// The tool tip that puts the lowest point of a ball or bull-nose tool with
 /// axis `u` at the contact point `c` on a horizontal face.
@@ -58,10 +57,14 @@ const CELLS: [(i32, i32); 8] = [
     (1, 1),
 ];
 
-pub(crate) fn design(cfg: &PlanConfig, t: &NineSection, raise: f64) -> Result<Design, PlanError> {
+pub(crate) fn design(
+    cfg: &PlanConfig,
+    t: &NineSectionTemplate,
+    raise: f64,
+) -> Result<Design, PlanError> {
     let riser = t.stock.fixture_height + raise;
     let m = &cfg.machine;
-    let src = &cfg.template.source;
+    let src = &t.source;
     let tool = tool_of(cfg, &t.tool);
     if tool.kind == ToolKind::Flat {
         return Err(PlanError::Impossible(format!(

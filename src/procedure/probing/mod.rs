@@ -1,12 +1,14 @@
-//! On-machine probing, independent of any NC dialect: the two probing tests
-//! (square columns, seed 000 section 3; calibration sphere, seeds 003 and
-//! 004), what each touch is, the safe path through them, a collision
-//! checker for any path (the probe's ball, stylus, body and spindle nose as
-//! capsules against column boxes, the sphere, its stem and the table), and
-//! the expected run time. A post-processor turns
-//! a [`ProbePlan`] into a program move by move; the log readers of
-//! [`crate::formats::probe_log`] turn what that program records back into
-//! contact points.
+//! The probing tests: pieces on the table touched by the machine's own
+//! probe at a set of poses, the touches logged by the program. Each test
+//! designs its touches and poses in its own folder ([`columns`], [`sphere`]:
+//! the design and the template). What they share: what each touch is, the
+//! safe path through the touches ([`TouchPlan`], dialect-free), a collision
+//! checker for any path ([`collision`]: the probe's ball, stylus, body and
+//! spindle nose as capsules against column boxes, the sphere, its stem and
+//! the table), the expected run time ([`time`]); `program` renders a
+//! [`TouchPlan`] into an NC program that logs its touches ([`ProbingPlan`]),
+//! and the log readers of [`crate::formats::probe_log`] turn what that
+//! program records back into contact points.
 //!
 //! # Frames
 //! Nominal geometry is in W (SPEC section 1). The program's coordinates
@@ -32,9 +34,9 @@
 //! program coordinates at the pose (what the log readers compute).
 //!
 //! # The safe path
-//! [`ProbePlan::moves`] is the whole path in execution order, starting at
-//! [`ProbePlan::start`]. The program reaches `start` by raising Z to
-//! [`ProbePlan::safe_z`] first, then turning the rotary axes to the first
+//! [`TouchPlan::moves`] is the whole path in execution order, starting at
+//! [`TouchPlan::start`]. The program reaches `start` by raising Z to
+//! [`TouchPlan::safe_z`] first, then turning the rotary axes to the first
 //! pose, then moving X, Y. Then, per pose:
 //! - rapid in X, Y at `safe_z` above the first start point, rapid down to
 //!   the pose's clearance height [`Pose::clear_z`] (above every obstacle at
@@ -53,20 +55,20 @@
 //! the head pivot clears the top of the setup. Every move changes either
 //! the rotary axes or the linear ones; rapids only ever run at `clear_z` or
 //! `safe_z` or straight up and down, so the shape of a multi-axis rapid
-//! (FANUC's non-linear positioning) cannot matter. [`ProbePlan::check`]
+//! (FANUC's non-linear positioning) cannot matter. [`TouchPlan::check`]
 //! re-checks every move with the [`collision`] checker, and the planner
 //! refuses to return a plan that fails it or leaves the strokes.
 //!
 //! Touches the probe cannot make at a pose (a face turned away from the
 //! spindle, the stylus or body hitting a piece, the stem or the table on
 //! the way, a point out of stroke) are left out of that pose and listed in
-//! [`ProbePlan::skipped`] with the reason. A pose whose remaining touches
+//! [`TouchPlan::skipped`] with the reason. A pose whose remaining touches
 //! cannot fix on their own what the test measures there (the table's six
 //! pose components for the columns, the sphere's centre) is kept, for a
-//! joint identification, and named in [`ProbePlan::warnings`].
+//! joint identification, and named in [`TouchPlan::warnings`].
 //!
 //! # For the post-processor
-//! [`crate::plan::probing`] renders a plan through the post engine as
+//! `program` renders a plan through the post engine as
 //! follows. Per [`MoveKind`]: `Rapid` is a G0 (or `L ... FMAX`) of X, Y, Z; `Rotary`
 //! a G0 of the rotary axes alone, between the stored angles (at `safe_z`
 //! any direction of rotation is safe, so a controller's shortest-path mode
@@ -98,7 +100,7 @@
 //! says where the machine is (`A-30C60`; `S07` for the seed 003 spiral).
 //! Touches are numbered in execution order: [`Touch::index`] counts from 1
 //! and is the touch's row among the data rows of `points.csv`
-//! ([`ProbePlan::points`]); [`Touch::label`] is `<pose>_<feature>`, e.g.
+//! ([`TouchPlan::points`]); [`Touch::label`] is `<pose>_<feature>`, e.g.
 //! `A-30C60_C2_xp` (column C2, the face whose normal is +X in W) or
 //! `A0C10_xm` (sphere, approach in -X). A label depends only on the pose
 //! and the feature, never on which other touches were possible. FANUC and
@@ -106,9 +108,11 @@
 
 pub mod collision;
 pub mod columns;
-pub mod frame;
-pub mod model;
+mod outputs;
 mod path;
+pub mod pose_frame;
+mod program;
+pub mod setup_mesh;
 pub mod sphere;
 pub mod template;
 pub mod time;
@@ -117,12 +121,13 @@ use std::ops::Range;
 
 use nalgebra::Vector3;
 
+use super::{PlanError, Template};
 use crate::formats::points::{PlanPoint, PlanPoints};
 use crate::kinematics::{Axes, Kinematics};
-use crate::source::SourceError;
 
 pub use collision::{Checker, Collision, Obstacle, ProbePart, ProbeShape, Solid};
-pub use frame::PoseFrame;
+pub use pose_frame::PoseFrame;
+pub use program::{ProbingPlan, ProbingPose, Setup, SetupColumn, SetupSphere, log_name, plan};
 pub use time::RunTime;
 
 /// How touches are made (the template's `probing:` section).
@@ -150,7 +155,7 @@ pub struct ControlLimits {
     /// The control probes along one program axis only (HEIDENHAIN's touch
     /// probe cycle 0, [`crate::post::PostDefinition::probe_axis_aligned`]):
     /// a touch whose approach is oblique in program coordinates is left
-    /// out of its pose and listed in [`ProbePlan::skipped`].
+    /// out of its pose and listed in [`TouchPlan::skipped`].
     pub axis_aligned_probing: bool,
 }
 
@@ -172,7 +177,7 @@ pub struct Touch {
     pub index: usize,
     /// Stable label `<pose>_<feature>`.
     pub label: String,
-    /// Index of its pose in [`ProbePlan::poses`].
+    /// Index of its pose in [`TouchPlan::poses`].
     pub pose: usize,
     /// The obstacle touched.
     pub piece: String,
@@ -208,7 +213,7 @@ pub struct Pose {
     pub tilt: f64,
     /// C, deg.
     pub c: f64,
-    /// Its touches in [`ProbePlan::touches`].
+    /// Its touches in [`TouchPlan::touches`].
     pub touches: Range<usize>,
     /// Commanded Z of the clearance height at this pose, mm.
     pub clear_z: f64,
@@ -224,7 +229,7 @@ pub enum MoveKind {
     Rotary,
     /// Linear move at the positioning feed (below the clearance height).
     Position,
-    /// Probing move of touch `n` (index into [`ProbePlan::touches`]),
+    /// Probing move of touch `n` (index into [`TouchPlan::touches`]),
     /// programmed to its `end`; the controller stops at the contact.
     Probe(usize),
     /// Back from the contact of touch `n` to its start, at the positioning
@@ -241,7 +246,7 @@ pub struct Move {
     pub from: Waypoint,
     /// Where it is programmed to end.
     pub to: Waypoint,
-    /// Index of its pose in [`ProbePlan::poses`].
+    /// Index of its pose in [`TouchPlan::poses`].
     pub pose: usize,
 }
 
@@ -256,32 +261,12 @@ pub struct Skipped {
     pub reason: String,
 }
 
-/// Why a probing plan cannot be made.
-#[derive(Debug, thiserror::Error)]
-pub enum PlanError {
-    /// The template is malformed or does not fit the machine.
-    #[error("{0}")]
-    Template(#[from] SourceError),
-    /// The plan would leave the machine's travel.
-    #[error("{0}")]
-    Unreachable(String),
-    /// The planned path collides (a bug: the planner checks every move).
-    #[error("move {move_index} ({kind:?}) of the planned path collides: {collision}")]
-    Collision {
-        /// Index into [`ProbePlan::moves`].
-        move_index: usize,
-        /// Its kind.
-        kind: MoveKind,
-        /// What.
-        collision: Box<Collision>,
-    },
-}
-
-/// A probing plan: setup, touches and path.
+/// The touches of a probing test and the safe path through them, before
+/// any NC dialect.
 #[derive(Clone, Debug)]
-pub struct ProbePlan {
-    /// `probe-columns` or `probe-sphere`.
-    pub test: String,
+pub struct TouchPlan {
+    /// The test.
+    pub test: super::Test,
     /// The machine's kinematics with the probe's gauge length.
     pub kin: Kinematics,
     /// The setup in W: pieces, sphere and stem, table.
@@ -308,7 +293,7 @@ pub struct ProbePlan {
     pub warnings: Vec<String>,
 }
 
-impl ProbePlan {
+impl TouchPlan {
     /// The nominal points (SPEC section 3), one row per touch in execution
     /// order: row `i` (from 1) is the touch with index `i`.
     pub fn points(&self) -> PlanPoints {
@@ -369,15 +354,19 @@ impl ProbePlan {
     }
 }
 
-/// Plans either test on machine `m` for a control with `limits`.
-pub fn plan(
+/// The touches and path of either probing test on machine `m` for a
+/// control with `limits`.
+pub fn touch_plan(
     m: &crate::machine::Machine,
-    t: &template::ProbeTemplate,
+    t: &Template,
     limits: &ControlLimits,
-) -> Result<ProbePlan, PlanError> {
+) -> Result<TouchPlan, PlanError> {
     match t {
-        template::ProbeTemplate::Columns(t) => columns::plan_with(m, t, limits),
-        template::ProbeTemplate::Sphere(t) => sphere::plan_with(m, t, limits),
+        Template::Columns(t) => columns::touch_plan_with(m, t, limits),
+        Template::Sphere(t) => sphere::touch_plan_with(m, t, limits),
+        Template::SteppedSquare(_) | Template::NineSection(_) => Err(PlanError::Impossible(
+            format!("{} is a machining test, not a probing test", t.test()),
+        )),
     }
 }
 

@@ -19,17 +19,17 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::PlanConfig;
-use super::cutter::ToolPart;
-use super::design::{
-    Design, PointDesign, PoseDesign, Stroke, dir_code, dir_name, groups, pose_frame, pose_id,
-    short, tool_of, within_limits,
-};
-use super::template::{SteppedSquare, TiltSet};
-use super::{Pass, PlanError};
+use super::template::{SteppedSquareTemplate, TiltSet};
 use crate::kinematics::Kinematics;
 use crate::machine::ToolKind;
 use crate::mesh::{Cuboid, Solid};
+use crate::procedure::machining::Pass;
+use crate::procedure::machining::cutter::ToolPart;
+use crate::procedure::machining::design::{
+    Design, PointDesign, PoseDesign, Stroke, dir_code, dir_name, groups, pose_frame, pose_id,
+    tool_of, within_limits,
+};
+use crate::procedure::{PlanConfig, PlanError, short};
 
 /// Which face a pose cuts.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,10 +72,14 @@ impl Step {
     }
 }
 
-pub(crate) fn design(cfg: &PlanConfig, t: &SteppedSquare, raise: f64) -> Result<Design, PlanError> {
+pub(crate) fn design(
+    cfg: &PlanConfig,
+    t: &SteppedSquareTemplate,
+    raise: f64,
+) -> Result<Design, PlanError> {
     let riser = t.stock.fixture_height + raise;
     let m = &cfg.machine;
-    let src = &cfg.template.source;
+    let src = &t.source;
     let tool = tool_of(cfg, &t.tool);
     if tool.kind != ToolKind::Flat {
         return Err(PlanError::Impossible(format!(

@@ -10,12 +10,14 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use super::collision::{Obstacle, ProbeShape, Solid};
-use super::path::{self, Candidate, PoseSpec};
-use super::template::{ColumnsTemplate, Side, StylusSpec};
-use super::{ControlLimits, PlanError, ProbePlan, pose_id};
+use super::template::{ColumnSpec, ColumnsTemplate, Side};
 use crate::kinematics::Kinematics;
 use crate::machine::Machine;
+use crate::procedure::probing::collision::{Obstacle, ProbeShape, Solid};
+use crate::procedure::probing::path::{self, Candidate, PoseSpec};
+use crate::procedure::probing::template::StylusSpec;
+use crate::procedure::probing::{ControlLimits, TouchPlan, pose_id};
+use crate::procedure::{PlanError, Test};
 
 /// Thickness of the table modelled below its surface, mm (the machine file
 /// gives only its top and radius).
@@ -80,7 +82,7 @@ pub(crate) fn probe_shape(
 }
 
 /// A column as a box in W, standing on the table surface.
-pub fn column_obstacle(m: &Machine, c: &super::template::ColumnSpec) -> Obstacle {
+pub fn column_obstacle(m: &Machine, c: &ColumnSpec) -> Obstacle {
     let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw.to_radians());
     Obstacle {
         name: c.name.clone(),
@@ -130,18 +132,18 @@ fn reference_points(m: &Machine, t: &ColumnsTemplate) -> Vec<Candidate> {
 
 /// Plans the column test on machine `m` for a control that probes in any
 /// direction.
-pub fn plan(m: &Machine, t: &ColumnsTemplate) -> Result<ProbePlan, PlanError> {
-    plan_with(m, t, &ControlLimits::default())
+pub fn touch_plan(m: &Machine, t: &ColumnsTemplate) -> Result<TouchPlan, PlanError> {
+    touch_plan_with(m, t, &ControlLimits::default())
 }
 
 /// Plans the column test on machine `m` for a control with `limits`
 /// (touches it cannot make are left out, with the reason).
-pub fn plan_with(
+pub fn touch_plan_with(
     m: &Machine,
     t: &ColumnsTemplate,
     limits: &ControlLimits,
-) -> Result<ProbePlan, PlanError> {
-    let err = |k: &[&str], msg: String| t.source.error_at(k, msg);
+) -> Result<TouchPlan, PlanError> {
+    let err = |k: &[&str], msg: String| t.source.error(k, msg);
     let probe = probe_shape(m, &t.probe, err)?;
     for (i, c) in t.columns.iter().enumerate() {
         let (sn, cs) = c.yaw.to_radians().sin_cos();
@@ -155,7 +157,7 @@ pub fn plan_with(
         if reach > m.table.radius + 1e-9 {
             return Err(t
                 .source
-                .error_at(
+                .error(
                     &[&format!("columns[{i}]"), "centre"],
                     format!(
                         "column {} reaches {reach:.1} mm from the C axis, beyond the table of {} (radius {} mm)",
@@ -169,13 +171,13 @@ pub fn plan_with(
         if let Some(v) = values.iter().find(|v| !axis.within(**v, 1e-9)) {
             return Err(t
                 .source
-                .error_at(
+                .error(
                     &["poses", key],
                     format!(
                         "poses.{key}: {} = {v} deg is outside the limits of {} {}",
                         axis.letter,
                         m.name,
-                        super::limits_text(axis)
+                        crate::procedure::probing::limits_text(axis)
                     ),
                 )
                 .into());
@@ -196,10 +198,10 @@ pub fn plan_with(
             });
         }
     }
-    super::uniquify_ids(&mut specs);
+    crate::procedure::probing::uniquify_ids(&mut specs);
     let kin = Kinematics::with_gauge_length(m, m.probe.length);
     let mut plan = path::build(
-        "probe-columns",
+        Test::ProbeColumns,
         kin,
         obstacles,
         probe,
@@ -217,7 +219,7 @@ pub fn plan_with(
 /// rows `[n, p x n]` of a pose's touches must have rank 6. Such a pose
 /// still adds to a joint identification of the rotary axes' errors, but
 /// not to a per-pose error map.
-pub fn weak_poses(plan: &ProbePlan) -> Vec<String> {
+pub fn weak_poses(plan: &TouchPlan) -> Vec<String> {
     let mut out = Vec::new();
     for pose in &plan.poses {
         let touches = &plan.touches[pose.touches.clone()];

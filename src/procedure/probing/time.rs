@@ -7,7 +7,7 @@
 //! rotary axes, settling). Acceleration is not modelled: the overheads
 //! absorb it, and they are the template's to tune against a real run.
 
-use super::{MoveKind, ProbePlan};
+use super::{MoveKind, TouchPlan};
 
 /// Time split by activity.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,7 +42,7 @@ impl RunTime {
     }
 }
 
-pub(crate) fn estimate(plan: &ProbePlan) -> RunTime {
+pub(crate) fn estimate(plan: &TouchPlan) -> RunTime {
     let rapid = &plan.kin.machine().rapid;
     let s = &plan.settings;
     let (mut rapid_s, mut positioning_s, mut probing_s, mut overhead_s) = (0.0, 0.0, 0.0, 0.0);

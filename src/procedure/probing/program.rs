@@ -1,5 +1,5 @@
 //! Planning the on-machine probing tests (`probe-columns`, `probe-sphere`)
-//! as NC programs: the dialect-free [`ProbePlan`] of [`crate::probing`]
+//! as NC programs: the dialect-free [`TouchPlan`] of [`super`]
 //! rendered through the post engine, with its nominal points, setup model,
 //! setup sheet and manifest.
 //!
@@ -34,8 +34,8 @@
 //! - LinuxCNC: `G38.2 X.. Y.. Z.. F..` and `(LOG,T <label> X#5061 Y#5062
 //!   Z#5063)` between `(LOGOPEN,<test>.log)` and `(LOGCLOSE)`.
 //!
-//! # For the simulator: what a [`PlannedProbing`] holds
-//! Frames and units follow SPEC (W, mm, deg). [`load_any`](super::load_any)
+//! # For the simulator: what a [`ProbingPlan`] holds
+//! Frames and units follow SPEC (W, mm, deg). [`load`](crate::procedure::load)
 //! rebuilds it exactly from a manifest.
 //! - `machine`, `probe` (ball diameter, gauge length, tool number) and
 //!   `plan.kin`, the machine's kinematics with the probe's gauge length
@@ -45,8 +45,8 @@
 //!   point to the probed surfaces; `plan.obstacles` has the same solids plus
 //!   the table for collision checks, `mesh` the triangles written to
 //!   `.obj`/`.glb`.
-//! - `plan` ([`ProbePlan`]): `poses` (id, seq, angles, the touches' index
-//!   range), `touches` in execution order ([`crate::probing::Touch`]: the
+//! - `plan` ([`TouchPlan`]): `poses` (id, seq, angles, the touches' index
+//!   range), `touches` in execution order ([`super::Touch`]: the
 //!   1-based `index` = row of points.csv and the index FANUC and HEIDENHAIN
 //!   logs carry, the `label` LinuxCNC logs carry, the nominal contact point
 //!   and outward normal in W and in program coordinates, and the waypoints
@@ -74,30 +74,15 @@ use std::ops::Range;
 
 use nalgebra::{Isometry3, Matrix3, Vector3};
 
-use super::PlanError;
-use super::design::short;
+use super::collision::Solid;
+use super::{ControlLimits, MoveKind, RunTime, TouchPlan, columns, setup_mesh, sphere};
 use crate::formats::points::PlanPoints;
 use crate::formats::probe_log::write::LogFormat;
 use crate::formats::probe_log::{ReadOptions, fanuc};
 use crate::machine::{Dialect, Machine, Probe, Structure};
 use crate::mesh::Mesh;
 use crate::post::{Op, PostDefinition, ProgramInfo, RenderedProgram, Target};
-use crate::probing::collision::Solid;
-use crate::probing::template::ProbeTemplate;
-use crate::probing::{
-    ControlLimits, MoveKind, ProbePlan, RunTime, columns, model, sphere as sphere_geom,
-};
-
-/// Everything a probing plan needs, validated.
-#[derive(Clone, Debug)]
-pub struct ProbingConfig {
-    /// The machine.
-    pub machine: Machine,
-    /// The test template.
-    pub template: ProbeTemplate,
-    /// The postprocessor (its dialect is the program's).
-    pub post: PostDefinition,
-}
+use crate::procedure::{PlanConfig, PlanError, Template, Test, short};
 
 /// One column of the setup.
 #[derive(Clone, Debug, PartialEq)]
@@ -196,13 +181,13 @@ impl Setup {
 
 /// A planned probing test.
 #[derive(Clone, Debug)]
-pub struct PlannedProbing {
-    /// `probe-columns` or `probe-sphere`.
-    pub test: String,
+pub struct ProbingPlan {
+    /// The test.
+    pub test: Test,
     /// The machine.
     pub machine: Machine,
     /// The template.
-    pub template: ProbeTemplate,
+    pub template: Template,
     /// The postprocessor.
     pub post: PostDefinition,
     /// The dialect.
@@ -212,7 +197,7 @@ pub struct PlannedProbing {
     /// The probe of the machine file.
     pub probe: Probe,
     /// Touches, path and setup obstacles.
-    pub plan: ProbePlan,
+    pub plan: TouchPlan,
     /// The nominal geometry probed.
     pub setup: Setup,
     /// Expected run time, per pose and per touch.
@@ -250,7 +235,7 @@ pub struct ProbingPose {
     pub touches: Range<usize>,
 }
 
-impl PlannedProbing {
+impl ProbingPlan {
     /// The nominal points (points.csv): row `i` is touch `i`.
     pub fn plan_points(&self) -> PlanPoints {
         self.plan.points()
@@ -282,7 +267,7 @@ impl PlannedProbing {
     /// The reader's options for this plan's logs.
     pub fn read_options(&self) -> ReadOptions {
         let mut o = ReadOptions::for_plan(&self.plan.settings, self.plan.probe.ball_radius);
-        o.test = Some(self.test.clone());
+        o.test = Some(self.test);
         o
     }
 
@@ -292,56 +277,82 @@ impl PlannedProbing {
     }
 }
 
-fn setup_of(m: &Machine, t: &ProbeTemplate) -> Setup {
-    match t {
-        ProbeTemplate::Columns(t) => Setup::Columns(
-            t.columns
-                .iter()
-                .map(|c| {
-                    let o = columns::column_obstacle(m, c);
-                    let Solid::Cuboid { centre, axes, half } = o.solid else {
-                        unreachable!("columns are boxes")
-                    };
-                    SetupColumn {
-                        name: c.name.clone(),
-                        centre,
-                        axes,
-                        half,
-                    }
-                })
-                .collect(),
+/// The nominal setup of a probing template, and the test in words for the
+/// program header; a machining template is refused.
+fn setup_of(m: &Machine, t: &Template) -> Result<(Setup, String), PlanError> {
+    Ok(match t {
+        Template::Columns(t) => (
+            Setup::Columns(
+                t.columns
+                    .iter()
+                    .map(|c| {
+                        let o = columns::column_obstacle(m, c);
+                        let Solid::Cuboid { centre, axes, half } = o.solid else {
+                            unreachable!("columns are boxes")
+                        };
+                        SetupColumn {
+                            name: c.name.clone(),
+                            centre,
+                            axes,
+                            half,
+                        }
+                    })
+                    .collect(),
+            ),
+            format!(
+                "on-machine probing of {} square columns (seed 000, Ibaraki, Iritani & Matsushita 2013)",
+                t.columns.len()
+            ),
         ),
-        ProbeTemplate::Sphere(t) => {
-            let centre = sphere_geom::sphere_centre(m, t);
-            Setup::Sphere(SetupSphere {
-                centre,
-                diameter: t.diameter,
-                stem_diameter: t.stem_diameter,
-                stem_foot: Vector3::new(centre.x, centre.y, m.table.surface),
-            })
+        Template::Sphere(t) => {
+            let centre = sphere::sphere_centre(m, t);
+            (
+                Setup::Sphere(SetupSphere {
+                    centre,
+                    diameter: t.diameter,
+                    stem_diameter: t.stem_diameter,
+                    stem_foot: Vector3::new(centre.x, centre.y, m.table.surface),
+                }),
+                format!(
+                    "calibration sphere D{} probed {} times per pose ({})",
+                    short(t.diameter),
+                    t.touches.len(),
+                    match t.pattern {
+                        sphere::SpherePattern::Seed004 { .. } =>
+                            "seed 004, Cubas Brizuela & Yeh 2023",
+                        sphere::SpherePattern::Seed003 { .. } => "seed 003's spiral of poses",
+                    }
+                ),
+            )
         }
-    }
+        Template::SteppedSquare(_) | Template::NineSection(_) => {
+            return Err(PlanError::Impossible(format!(
+                "{} is a machining test, not a probing test",
+                t.test()
+            )));
+        }
+    })
 }
 
 /// The log's file stem: short, so that HEIDENHAIN's `FN 16` block naming
 /// the format file and the log twice stays within 80 characters.
-pub fn log_name(test: &str) -> &'static str {
+pub fn log_name(test: Test) -> &'static str {
     match test {
-        "probe-columns" => "columns",
+        Test::ProbeColumns => "columns",
         _ => "sphere",
     }
 }
 
 /// The program number (FANUC `O`) of each test.
-fn program_number(test: &str) -> u32 {
+fn program_number(test: Test) -> u32 {
     match test {
-        "probe-columns" => 2001,
+        Test::ProbeColumns => 2001,
         _ => 2002,
     }
 }
 
 /// The neutral toolpath of a plan.
-fn toolpath(plan: &ProbePlan, probe: &Probe, log: &str) -> Vec<Op> {
+fn toolpath(plan: &TouchPlan, probe: &Probe, log: &str) -> Vec<Op> {
     let letter = plan.kin.machine().tilt_letter();
     let safe = plan.safe_z;
     let feed = plan.settings.positioning_feed;
@@ -354,7 +365,7 @@ fn toolpath(plan: &ProbePlan, probe: &Probe, log: &str) -> Vec<Op> {
         Op::SpindleOff,
         Op::LogOpen {
             name: log.to_string(),
-            test: plan.test.clone(),
+            test: plan.test.to_string(),
         },
         Op::Retract { z: safe },
     ];
@@ -426,7 +437,7 @@ fn toolpath(plan: &ProbePlan, probe: &Probe, log: &str) -> Vec<Op> {
 }
 
 /// The box around the probed pieces (HEIDENHAIN's `BLK FORM`).
-fn stock_box(plan: &ProbePlan) -> (Vector3<f64>, Vector3<f64>) {
+fn stock_box(plan: &TouchPlan) -> (Vector3<f64>, Vector3<f64>) {
     let id = Isometry3::identity();
     let mut lo = Vector3::repeat(f64::INFINITY);
     let mut hi = Vector3::repeat(f64::NEG_INFINITY);
@@ -443,7 +454,7 @@ fn stock_box(plan: &ProbePlan) -> (Vector3<f64>, Vector3<f64>) {
 }
 
 /// Counts the left-out touches by kind of reason, for notes.
-fn skipped_notes(plan: &ProbePlan) -> Vec<String> {
+fn skipped_notes(plan: &TouchPlan) -> Vec<String> {
     let mut kinds: Vec<(&str, usize, String)> = Vec::new();
     for s in &plan.skipped {
         let kind = if s.label == s.pose {
@@ -474,16 +485,19 @@ fn skipped_notes(plan: &ProbePlan) -> Vec<String> {
         .collect()
 }
 
-/// Plans a probing test and renders its program.
-pub fn plan_probing(cfg: &ProbingConfig) -> Result<PlannedProbing, PlanError> {
+/// Plans a probing test and renders its program (the configuration's
+/// kinematics mode and tool do not apply: the program positions every axis
+/// itself, with the machine file's probe).
+pub fn plan(cfg: &PlanConfig) -> Result<ProbingPlan, PlanError> {
     let m = &cfg.machine;
     let post = &cfg.post;
     let limits = ControlLimits {
         axis_aligned_probing: post.probe_axis_aligned,
     };
-    let plan = crate::probing::plan(m, &cfg.template, &limits)?;
-    let test = plan.test.clone();
-    let stem = test.clone();
+    let (setup, what) = setup_of(m, &cfg.template)?;
+    let plan = super::touch_plan(m, &cfg.template, &limits)?;
+    let test = plan.test;
+    let stem = test.to_string();
 
     // FANUC prints every recorded position through DPRNT's [44] field.
     if post.dialect == Dialect::Fanuc {
@@ -499,7 +513,6 @@ pub fn plan_probing(cfg: &ProbingConfig) -> Result<PlannedProbing, PlanError> {
     }
 
     let run_time = plan.run_time();
-    let setup = setup_of(m, &cfg.template);
     let mut mesh_obstacles = plan.obstacles.clone();
     // The model shows the table's top slab, not its whole thickness.
     for o in &mut mesh_obstacles {
@@ -507,7 +520,7 @@ pub fn plan_probing(cfg: &ProbingConfig) -> Result<PlannedProbing, PlanError> {
             a.z = b.z - 10.0;
         }
     }
-    let mesh = model::setup_mesh(&mesh_obstacles);
+    let mesh = setup_mesh::setup_mesh(&mesh_obstacles);
 
     let mut notes = skipped_notes(&plan);
     notes.extend(plan.warnings.iter().cloned());
@@ -520,24 +533,7 @@ pub fn plan_probing(cfg: &ProbingConfig) -> Result<PlannedProbing, PlanError> {
     };
     let probe = m.probe.clone();
     let s = &plan.settings;
-    let what = match &cfg.template {
-        ProbeTemplate::Columns(t) => format!(
-            "on-machine probing of {} square columns (seed 000, Ibaraki, Iritani & Matsushita 2013)",
-            t.columns.len()
-        ),
-        ProbeTemplate::Sphere(t) => format!(
-            "calibration sphere D{} probed {} times per pose ({})",
-            short(t.diameter),
-            t.touches.len(),
-            match t.pattern {
-                crate::probing::template::SpherePattern::Seed004 { .. } =>
-                    "seed 004, Cubas Brizuela & Yeh 2023",
-                crate::probing::template::SpherePattern::Seed003 { .. } =>
-                    "seed 003's spiral of poses",
-            }
-        ),
-    };
-    let log = log_name(&test);
+    let log = log_name(test);
     let log_where = match post.dialect {
         Dialect::Fanuc => "POPEN output (DPRNT)".to_string(),
         Dialect::Heidenhain => format!("TNC:\\fivecal\\{log}.txt (FN 16)"),
@@ -599,16 +595,16 @@ pub fn plan_probing(cfg: &ProbingConfig) -> Result<PlannedProbing, PlanError> {
     let (stock_min, stock_max) = stock_box(&plan);
     let info = ProgramInfo {
         name: stem.clone(),
-        number: program_number(&test),
+        number: program_number(test),
         title: format!("{test} {}", m.name),
         lines,
         stock_min,
         stock_max,
         tilt_letter: letter,
     };
-    let toolpath = toolpath(&plan, &probe, log_name(&test));
+    let toolpath = toolpath(&plan, &probe, log);
     let program = post.render(&info, &toolpath)?;
-    Ok(PlannedProbing {
+    Ok(ProbingPlan {
         test,
         machine: m.clone(),
         template: cfg.template.clone(),

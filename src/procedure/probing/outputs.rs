@@ -1,73 +1,12 @@
-//! The files a probing plan writes, deterministic and each written
-//! atomically: the program (and HEIDENHAIN's format files), points.csv,
-//! the setup as `.obj` and `.glb`, the setup sheet, and the manifest with
-//! copies of the machine file, template and postprocessor.
+//! What only a probing plan writes (the rest is [`crate::procedure::Plan`]'s
+//! writer): points.csv with its header and the setup sheet.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
 
-use indexmap::IndexMap;
+use super::{ProbingPlan, Setup, log_name};
+use crate::procedure::{push_notes, round, short};
 
-use super::design::{push_notes, round, short};
-use super::outputs::push_common;
-use super::probing::{PlannedProbing, Setup};
-use crate::formats::manifest::{KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry, TestKind};
-use crate::io::OutputError;
-
-impl PlannedProbing {
-    /// Output file names by role, for a plan named `stem`.
-    pub fn file_names(&self, stem: &str) -> Vec<(&'static str, PathBuf)> {
-        let mut v = vec![
-            (
-                "program",
-                PathBuf::from(format!("{stem}.{}", self.post.extension)),
-            ),
-            ("points", PathBuf::from(format!("{stem}.points.csv"))),
-            ("glb", PathBuf::from(format!("{stem}.glb"))),
-            ("obj", PathBuf::from(format!("{stem}.obj"))),
-            ("setup", PathBuf::from(format!("{stem}.md"))),
-            ("postprocessor", PathBuf::from(format!("{stem}.post.yaml"))),
-        ];
-        for a in &self.program.aux {
-            v.push(("log_format", PathBuf::from(&a.name)));
-        }
-        v
-    }
-
-    /// The manifest of this plan written under the name `stem`.
-    pub fn manifest(&self, stem: &str) -> Manifest {
-        let files: IndexMap<String, PathBuf> = self
-            .file_names(stem)
-            .into_iter()
-            .map(|(r, p)| (r.to_string(), p))
-            .collect();
-        Manifest {
-            fivecal_plan: MANIFEST_VERSION,
-            test: self.test.clone(),
-            kind: TestKind::Probing,
-            machine: self.machine.name.clone(),
-            machine_file: PathBuf::from(format!("{stem}.machine.yaml")),
-            template_file: PathBuf::from(format!("{stem}.template.yaml")),
-            dialect: self.dialect,
-            kinematics: KinematicsMode::Post,
-            tool: None,
-            probe: Some(self.probe.clone()),
-            files,
-            poses: self
-                .poses()
-                .iter()
-                .map(|p| PoseEntry {
-                    pose: p.id.clone(),
-                    seq: p.seq,
-                    tilt: p.tilt,
-                    c: p.c,
-                    start_min: round(p.start_min, 3),
-                    end_min: round(p.end_min, 3),
-                })
-                .collect(),
-        }
-    }
-
+impl ProbingPlan {
     /// The points.csv text.
     pub fn points_csv(&self) -> String {
         let head = format!(
@@ -175,7 +114,7 @@ impl PlannedProbing {
             crate::machine::Dialect::Heidenhain => (
                 format!(
                     "TNC:\\fivecal\\{}.txt; copy the format files {} to TNC:\\fivecal\\ first",
-                    super::probing::log_name(&self.test),
+                    log_name(self.test),
                     self.program
                         .aux
                         .iter()
@@ -188,7 +127,7 @@ impl PlannedProbing {
             crate::machine::Dialect::Linuxcnc => (
                 format!(
                     "`{}.log` in LinuxCNC's working directory",
-                    super::probing::log_name(&self.test)
+                    log_name(self.test)
                 ),
                 "LOG writes the touch label and the probe position #5061-#5063",
             ),
@@ -238,44 +177,5 @@ impl PlannedProbing {
         }
         push_notes(&mut o, &self.notes);
         o
-    }
-
-    /// Every output file: (name relative to the plan directory, bytes).
-    pub fn outputs(&self, stem: &str) -> Vec<(PathBuf, Vec<u8>)> {
-        let title = format!("{} on {} (fivecal)", self.test, self.machine.name);
-        let manifest = self.manifest(stem);
-        let mut v: Vec<(PathBuf, Vec<u8>)> = Vec::new();
-        for (role, path) in self.file_names(stem) {
-            let bytes = match role {
-                "program" => self.program.text.clone().into_bytes(),
-                "points" => self.points_csv().into_bytes(),
-                "glb" => self.mesh.to_glb(&title),
-                "obj" => self.mesh.to_obj(&title).into_bytes(),
-                "setup" => self.setup_sheet(stem).into_bytes(),
-                "postprocessor" => self.post.source.clone().into_bytes(),
-                _ => continue,
-            };
-            v.push((path, bytes));
-        }
-        push_common(
-            &mut v,
-            &self.program,
-            &manifest,
-            &self.machine.source,
-            &self.template.source().text,
-            stem,
-        );
-        v
-    }
-
-    /// Writes every output into `dir`, refusing to overwrite any of
-    /// `inputs`; the manifest is written last. Returns the paths written.
-    pub fn write(
-        &self,
-        dir: &Path,
-        stem: &str,
-        inputs: &[&Path],
-    ) -> Result<Vec<PathBuf>, OutputError> {
-        super::outputs::write_all(dir, &self.outputs(stem), inputs)
     }
 }

@@ -22,14 +22,15 @@
 
 use nalgebra::Vector3;
 
-use super::collision::{Obstacle, Solid};
-use super::columns::{probe_shape, table_obstacle};
-use super::frame::PoseFrame;
-use super::path::{self, Candidate, PoseSpec};
 use super::template::{SpherePattern, SphereTemplate};
-use super::{ControlLimits, PlanError, ProbePlan, pose_id};
 use crate::kinematics::Kinematics;
 use crate::machine::Machine;
+use crate::procedure::probing::collision::{Obstacle, Solid};
+use crate::procedure::probing::columns::design::{probe_shape, table_obstacle};
+use crate::procedure::probing::path::{self, Candidate, PoseSpec};
+use crate::procedure::probing::pose_frame::PoseFrame;
+use crate::procedure::probing::{ControlLimits, TouchPlan, pose_id};
+use crate::procedure::{PlanError, Test};
 
 /// The sphere's centre in W on machine `m`.
 pub fn sphere_centre(m: &Machine, t: &SphereTemplate) -> Vector3<f64> {
@@ -100,23 +101,23 @@ pub fn poses(m: &Machine, t: &SphereTemplate) -> Vec<(String, f64, f64)> {
 
 /// Plans the sphere test on machine `m` for a control that probes in any
 /// direction.
-pub fn plan(m: &Machine, t: &SphereTemplate) -> Result<ProbePlan, PlanError> {
-    plan_with(m, t, &ControlLimits::default())
+pub fn touch_plan(m: &Machine, t: &SphereTemplate) -> Result<TouchPlan, PlanError> {
+    touch_plan_with(m, t, &ControlLimits::default())
 }
 
 /// Plans the sphere test on machine `m` for a control with `limits`.
-pub fn plan_with(
+pub fn touch_plan_with(
     m: &Machine,
     t: &SphereTemplate,
     limits: &ControlLimits,
-) -> Result<ProbePlan, PlanError> {
-    let err = |k: &[&str], msg: String| t.source.error_at(k, msg);
+) -> Result<TouchPlan, PlanError> {
+    let err = |k: &[&str], msg: String| t.source.error(k, msg);
     let probe = probe_shape(m, &t.probe, err)?;
     let centre = sphere_centre(m, t);
     if centre.xy().norm() + t.stem_diameter / 2.0 > m.table.radius {
         return Err(t
             .source
-            .error_at(
+            .error(
                 &["sphere", "position"],
                 format!(
                     "the sphere's stem stands {:.1} mm from the C axis, beyond the table of {} (radius {} mm)",
@@ -138,13 +139,13 @@ pub fn plan_with(
                 };
                 return Err(t
                     .source
-                    .error_at(
+                    .error(
                         key,
                         format!(
                             "pose {id}: {} = {v} deg is outside the limits of {} {}",
                             axis.letter,
                             m.name,
-                            super::limits_text(axis)
+                            crate::procedure::probing::limits_text(axis)
                         ),
                     )
                     .into());
@@ -179,11 +180,11 @@ pub fn plan_with(
             }
         })
         .collect();
-    super::uniquify_ids(&mut specs);
+    crate::procedure::probing::uniquify_ids(&mut specs);
     let mut obstacles: Vec<Obstacle> = sphere_obstacles(m, t).into();
     obstacles.push(table_obstacle(m));
     let mut plan = path::build(
-        "probe-sphere",
+        Test::ProbeSphere,
         kin,
         obstacles,
         probe,
@@ -197,7 +198,7 @@ pub fn plan_with(
 
 /// Poses whose touches do not determine the sphere's centre: fewer than
 /// four, or all on one plane.
-pub fn weak_poses(plan: &ProbePlan) -> Vec<String> {
+pub fn weak_poses(plan: &TouchPlan) -> Vec<String> {
     plan.poses
         .iter()
         .filter_map(|pose| {

@@ -4,13 +4,13 @@
 use nalgebra::Vector3;
 
 use super::collision::{Checker, Collision, Obstacle, ProbeShape};
-use super::frame::PoseFrame;
+use super::pose_frame::PoseFrame;
 use super::{
-    ControlLimits, Move, MoveKind, PlanError, Pose, ProbePlan, ProbingSettings, Skipped, Touch,
-    Waypoint,
+    ControlLimits, Move, MoveKind, Pose, ProbingSettings, Skipped, Touch, TouchPlan, Waypoint,
 };
 use crate::kinematics::{Axes, Kinematics};
 use crate::machine::Structure;
+use crate::procedure::{PlanError, Test};
 
 /// A surface point that a pose may probe.
 #[derive(Clone, Debug, PartialEq)]
@@ -62,7 +62,7 @@ fn at_z(frame: &PoseFrame, w: &Waypoint, z: f64) -> Waypoint {
 }
 
 /// Commanded Z at which the probe clears everything whatever the rotary
-/// axes do (see [`ProbePlan::safe_z`]).
+/// axes do (see [`TouchPlan::safe_z`]).
 fn safe_z(kin: &Kinematics, obstacles: &[Obstacle], probe: &ProbeShape, margin: f64) -> f64 {
     let m = kin.machine();
     match m.structure {
@@ -156,14 +156,14 @@ struct Feasible {
 
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn build(
-    test: &str,
+    test: Test,
     kin: Kinematics,
     obstacles: Vec<Obstacle>,
     probe: ProbeShape,
     settings: ProbingSettings,
     specs: Vec<PoseSpec>,
     limits: &ControlLimits,
-) -> Result<ProbePlan, PlanError> {
+) -> Result<TouchPlan, PlanError> {
     let margin = settings.safe_margin;
     let safe = round_up(safe_z(&kin, &obstacles, &probe, margin));
     let checker = Checker::new(&kin, &obstacles, &probe);
@@ -427,8 +427,8 @@ pub(crate) fn build(
             clear_z: clear,
         });
     }
-    let plan = ProbePlan {
-        test: test.to_string(),
+    let plan = TouchPlan {
+        test,
         kin,
         obstacles,
         probe,
@@ -459,7 +459,7 @@ pub(crate) fn build(
 
 /// Checks every move of a plan: probing moves up to the contact (the ball
 /// may touch), retracts likewise, everything else with the plan's margin.
-pub(crate) fn check_moves(plan: &ProbePlan) -> Vec<(usize, Collision)> {
+pub(crate) fn check_moves(plan: &TouchPlan) -> Vec<(usize, Collision)> {
     let checker = Checker::new(&plan.kin, &plan.obstacles, &plan.probe);
     let mut out = Vec::new();
     for (i, mv) in plan.moves.iter().enumerate() {

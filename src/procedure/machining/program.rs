@@ -7,17 +7,18 @@
 use nalgebra::Vector3;
 
 use super::cutter::{Cutter, ToolPart};
-use super::design::{Design, PoseDesign, short};
+use super::design::{Design, PoseDesign};
 use super::{
-    Face, Generator, Pass, PathMove, Piece, PlanConfig, PlanError, PlannedPoint, PlannedPose,
-    PlannedTest, Provenance,
+    Face, Generator, MachiningPlan, Pass, PathMove, Piece, PlannedPoint, PlannedPose, Provenance,
 };
-use crate::formats::manifest::{KinematicsMode, TestKind};
+use crate::formats::manifest::KinematicsMode;
 use crate::formats::points::PlanPoint;
 use crate::kinematics::{Axes, Kinematics, ToolPose};
 use crate::machine::{Machine, Structure, ToolKind};
 use crate::mesh::{Cuboid, Mesh};
 use crate::post::{ControllerKinematics, Coolant, Op, ProgramInfo, Target};
+use crate::procedure::short;
+use crate::procedure::{PlanConfig, PlanError};
 
 /// Tolerance of "the tool touches the point", mm.
 const TOUCH: f64 = 1e-6;
@@ -118,7 +119,7 @@ fn rapid_hits(
     false
 }
 
-pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<PlannedTest, PlanError> {
+pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, PlanError> {
     let m = &cfg.machine;
     let post = &cfg.post;
     let tool = d.tool.clone();
@@ -463,11 +464,11 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<PlannedTest, PlanE
         ),
     };
     let ids: Vec<&str> = poses.iter().map(|p| p.id.as_str()).collect();
-    let stem = cfg.template.test.clone();
+    let stem = cfg.test().to_string();
     let info = ProgramInfo {
         name: stem.clone(),
         number: d.program_number,
-        title: format!("{} {}", cfg.template.test, m.name),
+        title: format!("{} {}", cfg.test(), m.name),
         lines: vec![
             format!("fivecal plan: {}", d.title),
             d.description.clone(),
@@ -508,9 +509,8 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<PlannedTest, PlanE
     };
     let program = post.render(&info, &ops)?;
 
-    Ok(PlannedTest {
-        test: cfg.template.test.clone(),
-        kind: TestKind::Machining,
+    Ok(MachiningPlan {
+        test: cfg.test(),
         machine: m.clone(),
         template: cfg.template.clone(),
         post: post.clone(),
@@ -518,6 +518,7 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<PlannedTest, PlanE
         kinematics: cfg.kinematics,
         tool,
         cutter,
+        cutting: d.cutting.clone(),
         safe_z,
         poses,
         piece,

@@ -1,0 +1,135 @@
+//! The nine-section template (`templates/nine-section.yaml`): the block,
+//! the depth of the cut, the angles of sections 2 to 9, the tool (a ball or
+//! bull-nose end mill), cutting data, clearances and points per section.
+
+use serde::Deserialize;
+
+use crate::machine::ToolKind;
+use crate::procedure::machining::template::{
+    Clearance, Cutting, Stock, ToolChoice, check_common, positive, tool_choice,
+};
+use crate::procedure::{TemplateSource, Test};
+use crate::source::SourceError;
+
+/// The built-in template.
+pub const BUILTIN_TEMPLATE: &str = include_str!("../../../../templates/nine-section.yaml");
+
+/// One section of the nine-section test.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SectionAngles {
+    /// Tilt, deg.
+    pub tilt: f64,
+    /// C, deg.
+    pub c: f64,
+}
+
+/// The nine-section template, checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NineSectionTemplate {
+    /// Where it came from (for messages and for copying next to a plan).
+    pub source: TemplateSource,
+    /// Stock block.
+    pub stock: Stock,
+    /// Depth of the cut below the stock top, mm.
+    pub depth: f64,
+    /// Sections 2..9 (section 1 is the centre at tilt = C = 0).
+    pub sections: Vec<SectionAngles>,
+    /// Tool.
+    pub tool: ToolChoice,
+    /// Cutting data.
+    pub cutting: Cutting,
+    /// Clearances.
+    pub clearance: Clearance,
+    /// Points per section.
+    pub points_per_section: usize,
+    /// Margin of the points from the section borders, mm.
+    pub point_margin: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NineSectionFile {
+    test: String,
+    stock: Stock,
+    depth: f64,
+    sections: Vec<SectionAngles>,
+    tool: serde_yaml::Value,
+    cutting: Cutting,
+    clearance: Clearance,
+    points: NinePointsFile,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NinePointsFile {
+    per_section: usize,
+    margin: f64,
+}
+
+fn check(src: &TemplateSource, t: &NineSectionTemplate) -> Result<(), SourceError> {
+    check_common(src, &t.stock, &t.cutting, &t.clearance)?;
+    positive(src, &["depth"], t.depth)?;
+    if t.sections.len() != 8 {
+        return Err(src.error(
+            &["sections"],
+            format!(
+                "sections lists sections 2 to 9 (section 1 is the centre at tilt = C = 0): expected 8 entries, got {}",
+                t.sections.len()
+            ),
+        ));
+    }
+    for s in &t.sections {
+        if !(s.tilt.is_finite() && s.c.is_finite()) {
+            return Err(src.error(&["sections"], "section angles must be finite (deg)"));
+        }
+    }
+    if t.points_per_section == 0 {
+        return Err(src.error(
+            &["points", "per_section"],
+            "points.per_section must be at least 1",
+        ));
+    }
+    if !(t.point_margin.is_finite() && t.point_margin >= 0.0) {
+        return Err(src.error(
+            &["points", "margin"],
+            format!("points.margin must be >= 0 mm, got {}", t.point_margin),
+        ));
+    }
+    if let ToolChoice::Tool(tool) = &t.tool
+        && tool.kind == ToolKind::Flat
+    {
+        return Err(src.error(
+                &["tool", "kind"],
+                "the nine-section test needs a ball or bull-nose end mill (a round-tip tool, as Cubas Brizuela & Yeh 2023 use), got a flat end mill",
+            ));
+    }
+    Ok(())
+}
+
+impl NineSectionTemplate {
+    /// The built-in template.
+    pub fn builtin() -> NineSectionTemplate {
+        NineSectionTemplate::parse(TemplateSource::builtin(Test::NineSection))
+            .expect("the built-in template is valid")
+    }
+
+    /// Parses and checks a template.
+    pub fn parse(source: TemplateSource) -> Result<NineSectionTemplate, SourceError> {
+        let f: NineSectionFile = crate::input::parse_yaml(&source.path, &source.text)?;
+        source.check_test(&f.test, Test::NineSection)?;
+        let t = NineSectionTemplate {
+            tool: tool_choice(&source, &f.tool)?,
+            stock: f.stock,
+            depth: f.depth,
+            sections: f.sections,
+            cutting: f.cutting,
+            clearance: f.clearance,
+            points_per_section: f.points.per_section,
+            point_margin: f.points.margin,
+            source,
+        };
+        check(&t.source, &t)?;
+        Ok(t)
+    }
+}

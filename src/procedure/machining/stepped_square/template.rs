@@ -1,0 +1,217 @@
+//! The stepped-square template (`templates/stepped-square.yaml`): the
+//! block, the angle set, the steps on the top and the side faces, the tool
+//! (a flat end mill), cutting data, clearances and points per step.
+
+use serde::Deserialize;
+
+use crate::machine::ToolKind;
+use crate::procedure::machining::template::{
+    Clearance, Cutting, Stock, ToolChoice, check_common, positive, tool_choice,
+};
+use crate::procedure::{TemplateSource, Test};
+use crate::source::SourceError;
+
+/// The built-in template.
+pub const BUILTIN_TEMPLATE: &str = include_str!("../../../../templates/stepped-square.yaml");
+
+/// The tilt angles of the stepped-square test.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TiltSet {
+    /// 0, 90, -90 where the machine reaches them.
+    Auto,
+    /// These angles, deg (each must be reachable).
+    List(Vec<f64>),
+}
+
+/// Angle set of the stepped-square test.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Angles {
+    /// Tilt angles.
+    pub tilt: TiltSet,
+    /// C angles, deg, in execution order.
+    pub c: Vec<f64>,
+}
+
+/// The stepped squares on one kind of face.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Steps {
+    /// Side of the first (innermost, highest) square, mm.
+    pub first_size: f64,
+    /// Each further square on the same face is this much wider, mm.
+    pub size_increment: f64,
+    /// Height (top face) or depth (side faces) of each step, mm.
+    pub step: f64,
+    /// Side faces: uncut band at the bottom of the face, mm.
+    #[serde(default)]
+    pub bottom_lip: f64,
+}
+
+/// Plan points per step.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepPoints {
+    /// Points on each of the four walls.
+    pub per_wall: usize,
+    /// Points on the floor next to each wall.
+    pub per_floor_side: usize,
+}
+
+/// The stepped-square template, checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SteppedSquareTemplate {
+    /// Where it came from (for messages and for copying next to a plan).
+    pub source: TemplateSource,
+    /// Stock block.
+    pub stock: Stock,
+    /// Angle set.
+    pub angles: Angles,
+    /// Steps on the top face.
+    pub top: Steps,
+    /// Steps on the side faces.
+    pub side: Steps,
+    /// Tool.
+    pub tool: ToolChoice,
+    /// Cutting data.
+    pub cutting: Cutting,
+    /// Clearances.
+    pub clearance: Clearance,
+    /// Points.
+    pub points: StepPoints,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SteppedSquareFile {
+    test: String,
+    stock: Stock,
+    angles: AnglesFile,
+    top: Steps,
+    side: Steps,
+    tool: serde_yaml::Value,
+    cutting: Cutting,
+    clearance: Clearance,
+    points: StepPoints,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AnglesFile {
+    tilt: serde_yaml::Value,
+    c: Vec<f64>,
+}
+
+fn tilt_set(src: &TemplateSource, v: &serde_yaml::Value) -> Result<TiltSet, SourceError> {
+    if v.as_str() == Some("auto") {
+        return Ok(TiltSet::Auto);
+    }
+    let list: Vec<f64> = serde_yaml::from_value(v.clone()).map_err(|_| {
+        src.error(
+            &["angles", "tilt"],
+            "tilt must be `auto` (0, 90, -90 where the machine reaches them) or a list of angles in degrees",
+        )
+    })?;
+    if list.is_empty() || list.iter().any(|a| !a.is_finite()) {
+        return Err(src.error(
+            &["angles", "tilt"],
+            "tilt needs at least one finite angle (deg)",
+        ));
+    }
+    Ok(TiltSet::List(list))
+}
+
+fn check(src: &TemplateSource, t: &SteppedSquareTemplate) -> Result<(), SourceError> {
+    check_common(src, &t.stock, &t.cutting, &t.clearance)?;
+    for (face, s) in [("top", &t.top), ("side", &t.side)] {
+        positive(src, &[face, "first_size"], s.first_size)?;
+        positive(src, &[face, "size_increment"], s.size_increment)?;
+        positive(src, &[face, "step"], s.step)?;
+    }
+    if !(t.side.bottom_lip.is_finite() && t.side.bottom_lip >= 0.0) {
+        return Err(src.error(
+            &["side", "bottom_lip"],
+            format!("side.bottom_lip must be >= 0 mm, got {}", t.side.bottom_lip),
+        ));
+    }
+    if t.angles.c.is_empty() || t.angles.c.iter().any(|c| !c.is_finite()) {
+        return Err(src.error(&["angles", "c"], "c needs at least one finite angle (deg)"));
+    }
+    for (i, a) in t.angles.c.iter().enumerate() {
+        if t.angles.c[..i].iter().any(|b| (a - b).abs() < 1e-9) {
+            return Err(src.error(&["angles", "c"], format!("C = {a} appears twice")));
+        }
+    }
+    if let TiltSet::List(l) = &t.angles.tilt {
+        for (i, a) in l.iter().enumerate() {
+            if l[..i].iter().any(|b| (a - b).abs() < 1e-9) {
+                return Err(src.error(&["angles", "tilt"], format!("tilt = {a} appears twice")));
+            }
+        }
+    }
+    let axial = t.cutting.axial_depth.unwrap_or(f64::NAN);
+    positive(src, &["cutting", "axial_depth"], axial)?;
+    let allow = t.cutting.finish_allowance.unwrap_or(0.0);
+    if !(allow.is_finite() && allow >= 0.0) {
+        return Err(src.error(
+            &["cutting", "finish_allowance"],
+            format!("cutting.finish_allowance must be >= 0 mm, got {allow}"),
+        ));
+    }
+    if t.cutting.stepover > 0.8 {
+        return Err(src.error(
+            &["cutting", "stepover"],
+            format!(
+                "cutting.stepover is a fraction of the tool diameter and must be at most 0.8 (no uncut corners between rings), got {}",
+                t.cutting.stepover
+            ),
+        ));
+    }
+    if t.points.per_wall == 0 || t.points.per_floor_side == 0 {
+        return Err(src.error(
+            &["points"],
+            "points.per_wall and points.per_floor_side must be at least 1 (every step needs walls and floor)",
+        ));
+    }
+    if let ToolChoice::Tool(tool) = &t.tool
+        && tool.kind != ToolKind::Flat
+    {
+        return Err(src.error(
+            &["tool", "kind"],
+            format!(
+                "the stepped-square test needs a straight (flat) end mill, got {:?}",
+                tool.kind
+            ),
+        ));
+    }
+    Ok(())
+}
+
+impl SteppedSquareTemplate {
+    /// The built-in template.
+    pub fn builtin() -> SteppedSquareTemplate {
+        SteppedSquareTemplate::parse(TemplateSource::builtin(Test::SteppedSquare))
+            .expect("the built-in template is valid")
+    }
+
+    /// Parses and checks a template.
+    pub fn parse(source: TemplateSource) -> Result<SteppedSquareTemplate, SourceError> {
+        let f: SteppedSquareFile = crate::input::parse_yaml(&source.path, &source.text)?;
+        source.check_test(&f.test, Test::SteppedSquare)?;
+        let t = SteppedSquareTemplate {
+            tool: tool_choice(&source, &f.tool)?,
+            angles: Angles {
+                tilt: tilt_set(&source, &f.angles.tilt)?,
+                c: f.angles.c,
+            },
+            stock: f.stock,
+            top: f.top,
+            side: f.side,
+            cutting: f.cutting,
+            clearance: f.clearance,
+            points: f.points,
+            source,
+        };
+        check(&t.source, &t)?;
+        Ok(t)
+    }
+}

@@ -1,0 +1,125 @@
+//! What the templates of the machining tests share: the stock block, the
+//! tool, the cutting data and the clearances, read from the template and
+//! checked (every error names the key, `file:line:column`). Each test reads
+//! the rest of its template in its own folder.
+
+use serde::Deserialize;
+
+use crate::machine::{Tool, check_tool};
+use crate::post::Coolant;
+use crate::procedure::TemplateSource;
+use crate::source::SourceError;
+
+/// The tool a template asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ToolChoice {
+    /// The machine file's default tool.
+    Machine,
+    /// This tool.
+    Tool(Tool),
+}
+
+/// The stock block.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stock {
+    /// Side of the square block (X and Y in W), mm.
+    pub size: f64,
+    /// Height, mm.
+    pub height: f64,
+    /// Riser between the table top and the block, mm.
+    #[serde(default)]
+    pub fixture_height: f64,
+    /// Raise the riser as far as the machine's Z stroke needs to reach
+    /// every pose (head machines reaching the side faces).
+    #[serde(default)]
+    pub raise: bool,
+}
+
+/// Cutting data.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cutting {
+    /// Spindle speed, rpm.
+    pub spindle: f64,
+    /// Cutting feed, mm/min.
+    pub feed: f64,
+    /// Plunge (entry) feed, mm/min.
+    pub plunge_feed: f64,
+    /// Deepest cut per roughing layer, mm (stepped-square).
+    #[serde(default)]
+    pub axial_depth: Option<f64>,
+    /// Stepover: fraction of the diameter (stepped-square roughing) or mm
+    /// between raster passes (nine-section).
+    pub stepover: f64,
+    /// Radial stock roughing leaves for finishing, mm (stepped-square).
+    #[serde(default)]
+    pub finish_allowance: Option<f64>,
+    /// Repeat the finishing pass with zero radial depth (as Ibaraki & Ota
+    /// 2014 do).
+    #[serde(default)]
+    pub zero_cut: bool,
+    /// Coolant or air blow.
+    pub coolant: Coolant,
+}
+
+/// Clearances.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Clearance {
+    /// Rapids stop this far above the stock along the tool axis, mm.
+    pub rapid: f64,
+    /// The safe height is this far beyond everything the rotary axes swing, mm.
+    pub safe: f64,
+}
+
+pub(crate) fn tool_choice(
+    src: &TemplateSource,
+    v: &serde_yaml::Value,
+) -> Result<ToolChoice, SourceError> {
+    if v.as_str() == Some("machine") {
+        return Ok(ToolChoice::Machine);
+    }
+    let tool: Tool = serde_yaml::from_value(v.clone()).map_err(|e| {
+        src.error(
+            &["tool"],
+            format!("tool must be `machine` or a tool (name, kind, diameter, length, ...): {e}"),
+        )
+    })?;
+    check_tool(&tool).map_err(|(k, m)| src.error(&["tool", k], m))?;
+    Ok(ToolChoice::Tool(tool))
+}
+
+pub(crate) fn positive(src: &TemplateSource, keys: &[&str], v: f64) -> Result<(), SourceError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(src.error(keys, format!("{} must be > 0, got {v}", keys.join("."))))
+    }
+}
+
+pub(crate) fn check_common(
+    src: &TemplateSource,
+    stock: &Stock,
+    cutting: &Cutting,
+    clearance: &Clearance,
+) -> Result<(), SourceError> {
+    positive(src, &["stock", "size"], stock.size)?;
+    positive(src, &["stock", "height"], stock.height)?;
+    if !(stock.fixture_height.is_finite() && stock.fixture_height >= 0.0) {
+        return Err(src.error(
+            &["stock", "fixture_height"],
+            format!(
+                "stock.fixture_height must be >= 0 mm, got {}",
+                stock.fixture_height
+            ),
+        ));
+    }
+    positive(src, &["cutting", "spindle"], cutting.spindle)?;
+    positive(src, &["cutting", "feed"], cutting.feed)?;
+    positive(src, &["cutting", "plunge_feed"], cutting.plunge_feed)?;
+    positive(src, &["cutting", "stepover"], cutting.stepover)?;
+    positive(src, &["clearance", "rapid"], clearance.rapid)?;
+    positive(src, &["clearance", "safe"], clearance.safe)?;
+    Ok(())
+}
