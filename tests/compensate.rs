@@ -14,7 +14,7 @@ use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::kinematics::fast::FastChain;
 use fivecal::kinematics::{Kinematics, ToolPose};
 use fivecal::model::{Context, Model};
-use fivecal::nc::modal::Tcp;
+use fivecal::nc::interp::Tcp;
 use fivecal::{Axes, Dialect, Machine};
 use nalgebra::Vector3;
 use rand::RngExt;

@@ -43,12 +43,12 @@ fn malformed_programs_fail_with_file_line_column_and_write_nothing() {
     for (name, extra, want) in [
         (
             "unclosed_comment.nc",
-            vec!["--dialect", "fanuc"],
+            vec!["--dialect", "fanuc", "--strict"],
             "unclosed_comment.nc:4:14: unclosed comment",
         ),
         (
             "bad_number.ngc",
-            vec!["--dialect", "linuxcnc"],
+            vec!["--dialect", "linuxcnc", "--strict"],
             "bad_number.ngc:3:5: bad number `1.2.3` after X",
         ),
         (
@@ -100,6 +100,43 @@ fn malformed_programs_fail_with_file_line_column_and_write_nothing() {
         assert!(!err.contains("panicked"), "{err}");
         only(dir.path(), &[name, "e.yaml"]);
     }
+}
+
+/// Issue 16, item 2: outside --strict a block that cannot be read does not
+/// stop the run; it is kept byte for byte and reported with its line,
+/// column and reason.
+#[test]
+fn malformed_blocks_outside_strict_mode_are_kept_and_reported_at_their_column() {
+    let dir = tempdir();
+    let prog = dir.path().join("unclosed_comment.nc");
+    std::fs::copy(fixture("bad/unclosed_comment.nc"), &prog).unwrap();
+    let errs = write(dir.path(), "e.yaml", ERRORS);
+    let out = fivecal()
+        .args([
+            "compensate",
+            "--machine",
+            "bc-trunnion",
+            "--dialect",
+            "fanuc",
+            "--errors",
+        ])
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(dir.path().join("out.nc"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr_of(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("1 unreadable blocks left as written")
+            && text.contains("the block could not be read (column 14: unclosed comment")
+            && text.contains(": lines 4"),
+        "{text}"
+    );
+    let input = std::fs::read_to_string(&prog).unwrap();
+    let output = std::fs::read_to_string(dir.path().join("out.nc")).unwrap();
+    assert_eq!(output.lines().nth(3), input.lines().nth(3));
 }
 
 #[test]

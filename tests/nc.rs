@@ -10,7 +10,7 @@ use fivecal::compensate::{Compensator, Settings};
 use fivecal::errorfile::ErrorFile;
 use fivecal::kinematics::Kinematics;
 use fivecal::model::Model;
-use fivecal::nc::modal::{Event, FeedMode, Modal, ModalSettings, Tcp};
+use fivecal::nc::interp::{self, Event, FeedMode, Interpreter, Tcp};
 use fivecal::nc::{Block, BlockReader, Flow, HhKind, Stmt, Syntax, TokenKind};
 use fivecal::{Dialect, Machine};
 
@@ -273,11 +273,8 @@ fn the_corpus_covers_every_construct_of_the_issue() {
 #[test]
 fn modal_state_along_the_five_axis_fanuc_program() {
     let path = fixture("fanuc/five_axis_tcp.nc");
-    let mut m = Modal::new(ModalSettings {
-        dialect: Dialect::Fanuc,
-        rotary: [b'B', b'C'],
-        fanuc_integer_unit: None,
-    });
+    let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let mut m = Interpreter::new(&interp::Settings::new(Dialect::Fanuc), &kin);
     let mut at = std::collections::HashMap::new();
     for b in blocks(&path, Dialect::Fanuc, true) {
         for s in &b.segments {
@@ -367,4 +364,141 @@ fn golden_probing_programs_parse_strictly_and_come_back_unchanged() {
         seen += 1;
     }
     assert!(seen >= 2, "no golden probing programs in {}", dir.display());
+}
+
+/// A quirk fixture (`tests/fixtures/nc/quirks/`): each reproduces what real
+/// public programs of tests/corpus/SOURCES.md do (its header names them),
+/// since the real files themselves are never committed.
+fn quirk(name: &str) -> PathBuf {
+    fixture("quirks").join(name)
+}
+
+/// Compensates `path` (not strict) with `errors`: the output and summary.
+fn compensate_quirk(
+    path: &Path,
+    d: Dialect,
+    model: &Model,
+    theta: &[f64],
+) -> (Vec<u8>, fivecal::compensate::Summary) {
+    let c = Compensator::new(model, theta, Settings::new(d));
+    let input = std::fs::read(path).unwrap();
+    let mut out = Vec::new();
+    let s = c
+        .run(path, input.as_slice(), &mut out)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (out, s)
+}
+
+/// Issue 16, item 2: a block that cannot be read is kept byte for byte and
+/// reported with its line, column and reason; no correction reaches across
+/// it (the axes it names are forgotten, and all state when it may have set
+/// a G or M code); `--strict` refuses it at its line and column. Every other
+/// quirk reads as its controller reads it, and at zero error every file
+/// comes back byte for byte.
+#[test]
+fn real_quirks_read_as_their_controllers_read_them_and_unreadable_blocks_are_kept() {
+    let mut failures = Vec::new();
+    for (name, d, machine, unreadable, strict_at, corrected) in [
+        (
+            "aptpost_spaced.h",
+            Dialect::Heidenhain,
+            "ac-trunnion",
+            vec![15],
+            "aptpost_spaced.h:15:20:",
+            vec![9, 10, 11, 14, 16, 17],
+        ),
+        (
+            "latin1_typos.h",
+            Dialect::Heidenhain,
+            "ac-trunnion",
+            vec![10, 12],
+            "latin1_typos.h:9:",
+            vec![8, 11],
+        ),
+        (
+            "macro_packed.nc",
+            Dialect::Fanuc,
+            "ac-trunnion",
+            vec![1, 2, 14, 18],
+            "macro_packed.nc:1:",
+            vec![13, 15, 16],
+        ),
+        // `Z - 1` (line 12) is read as the expression `-1`: left as
+        // written and reported; `F#650` (macro_packed.nc line 13) does not
+        // stop its block's axis words from being corrected.
+        (
+            "hal_polar.ngc",
+            Dialect::Linuxcnc,
+            "ac-trunnion",
+            vec![15, 17],
+            "hal_polar.ngc:15:",
+            vec![7, 18, 19, 20],
+        ),
+    ] {
+        if let Err(e) = check_quirk(name, d, machine, &unreadable, strict_at, &corrected) {
+            failures.push(e);
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+fn check_quirk(
+    name: &str,
+    d: Dialect,
+    machine: &str,
+    unreadable: &[usize],
+    strict_at: &str,
+    corrected: &[usize],
+) -> Result<(), String> {
+    let mut errs: Vec<String> = Vec::new();
+    {
+        let unreadable = unreadable.to_vec();
+        let path = quirk(name);
+        let input = std::fs::read(&path).unwrap();
+        let (model, theta) = zero_model(machine, true);
+        let (out, s) = compensate_quirk(&path, d, &model, &theta);
+        if out != input {
+            errs.push(format!("{name}: zero errors changed bytes"));
+        }
+        if s.unreadable != unreadable {
+            errs.push(format!(
+                "{name}: unreadable {:?}: {:?}",
+                s.unreadable.first, s.skipped
+            ));
+        }
+
+        let mut strict = Settings::new(d);
+        strict.strict = true;
+        let e = Compensator::new(&model, &theta, strict)
+            .run(&path, input.as_slice(), &mut Vec::new())
+            .unwrap_err()
+            .to_string();
+        if !e.contains(strict_at) {
+            errs.push(format!("{name}: strict: {e}"));
+        }
+
+        let e = crate::compensate::errors(machine, 16, 30.0, "");
+        let (out, s) = compensate_quirk(&path, d, &e.model, &e.theta);
+        let text = String::from_utf8_lossy(&out);
+        let changed: Vec<usize> = text
+            .split_inclusive('\n')
+            .zip(String::from_utf8_lossy(&input).split_inclusive('\n'))
+            .enumerate()
+            .filter(|(_, (a, b))| a != b)
+            .map(|(i, _)| i + 1)
+            .collect();
+        if changed != corrected {
+            errs.push(format!(
+                "{name}: changed lines {changed:?}: {:?}\n{text}",
+                s.skipped
+            ));
+        }
+        // Unreadable lines are kept as they were.
+        assert!(unreadable.iter().all(|l| !changed.contains(l)));
+    }
+    if errs.is_empty() {
+        Ok(())
+    } else {
+        Err(errs.join("\n"))
+    }
 }

@@ -378,4 +378,94 @@ fn two_axis_map_symbols_stay_whole_in_comma_separated_lists() {
         !err.contains("`map.EXC(B`") && !err.contains("`C)`"),
         "{err}"
     );
+
+/// Compensates `program` (LinuxCNC, bc-trunnion) with `errors` YAML
+/// location errors and `settings` changed by `tweak`.
+fn compensate_text(
+    program: &str,
+    errors: &str,
+    tweak: impl FnOnce(&mut fivecal::compensate::Settings),
+) -> Result<(String, fivecal::compensate::Summary), String> {
+    let src = format!("machine: bc-trunnion\nlocation_errors: {errors}\n");
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    let l = ErrorFile::parse(Path::new("t"), &src)
+        .unwrap()
+        .to_model(&k, Path::new("t"), &src)
+        .unwrap();
+    let mut settings = fivecal::compensate::Settings::new(fivecal::Dialect::Linuxcnc);
+    tweak(&mut settings);
+    let c = fivecal::compensate::Compensator::new(&l.model, &l.theta, settings);
+    let mut out = Vec::new();
+    let s = c
+        .run(Path::new("p.ngc"), program.as_bytes(), &mut out)
+        .map_err(|e| e.to_string())?;
+    Ok((String::from_utf8(out).unwrap(), s))
+}
+
+/// An axis value too large for a float (400 digits) was written out as
+/// `XNaN YNaN ZNaN` with exit 0, even with --strict (issue 16): it is now
+/// a block that cannot be read, named at its line and column, kept byte
+/// for byte outside --strict and refused with it.
+#[test]
+fn compensate_axis_value_beyond_a_float_is_never_written_as_nan() {
+    let huge = format!("1{}", "0".repeat(400));
+    let program = format!("G0 X0 Y0 Z10 B0 C0\nG1 X{huge} Y0 Z0 F100\nG1 X5 Y0 Z0\nM2\n");
+    let (out, s) = compensate_text(&program, "{EX0B: 30.0}", |_| {}).unwrap();
+    assert!(!out.contains("NaN") && !out.contains("inf"), "{out}");
+    assert_eq!(s.unreadable, vec![2]);
+    assert!(out.lines().nth(1).unwrap().contains(&huge));
+    // X is unknown after the unreadable block: line 3 is left as written.
+    assert_eq!(out.lines().nth(2), Some("G1 X5 Y0 Z0"));
+    let e = compensate_text(&program, "{EX0B: 30.0}", |s| s.strict = true).unwrap_err();
+    assert!(e.contains("p.ngc:2:5:") && e.contains("too large"), "{e}");
+}
+
+/// 200,000 nested brackets overflowed the stack (issue 16): the nesting is
+/// bounded and the block named.
+#[test]
+fn compensate_deeply_nested_brackets_are_refused_without_overflowing() {
+    let deep = format!("G1 X{}1{} F100\n", "[".repeat(200_000), "]".repeat(200_000));
+    let program = format!("G0 X0 Y0 Z10 B0 C0\n{deep}M2\n");
+    let e = compensate_text(&program, "{EX0B: 30.0}", |s| s.strict = true).unwrap_err();
+    assert!(e.contains("p.ngc:2:") && e.contains("nested deeper"), "{e}");
+    let (_, s) = compensate_text(&program, "{EX0B: 30.0}", |_| {}).unwrap();
+    assert_eq!(s.unreadable, vec![2]);
+}
+
+/// A raised --max-correction let a correction drive an axis beyond its
+/// stroke (issue 16): a program at B = 90 (the limit of bc-trunnion) with
+/// an error that needs B beyond it by far more than a hold can absorb is
+/// refused at its line, and a program beyond the stroke itself is named
+/// as such.
+#[test]
+fn compensate_never_drives_a_rotary_axis_beyond_its_stroke() {
+    // Refused, or left as written with the reason: never written beyond.
+    let why = |r: Result<(String, fivecal::compensate::Summary), String>| match r {
+        Ok((out, s)) => {
+            let reasons: Vec<String> = s
+                .skipped
+                .iter()
+                .filter(|(_, lines)| lines.contains(&2))
+                .map(|(r, _)| r.clone())
+                .collect();
+            (out, reasons.join("; "))
+        }
+        Err(e) => (String::new(), e),
+    };
+    let program = "G0 X0 Y0 Z50 B0 C0\nG1 X10 Y0 Z50 B90 C0 F100\nM2\n";
+    let (out, e) = why(compensate_text(program, "{EB0B: 9000.0}", |s| {
+        s.max_correction = 1e9
+    }));
+    assert!(e.contains("outside the limits [-90, 90]"), "{e}");
+    assert!(
+        out.is_empty() || out.contains("\nG1 X10 Y0 Z50 B90 C0 F100\n"),
+        "{out}"
+    );
+    let beyond = "G0 X0 Y0 Z50 B0 C0\nG1 X10 Y0 Z50 B94.665 C0 F100\nM2\n";
+    let (out, e) = why(compensate_text(beyond, "{EX0B: 0.0}", |_| {}));
+    assert!(
+        e.contains("B at 94.6650 deg, beyond the machine's stroke -90..90"),
+        "{e}"
+    );
+    assert!(out.is_empty() || out == beyond, "{out}");
 }

@@ -26,12 +26,13 @@
 //! with the line named, and nothing is written. The rewrite streams: one
 //! block is in memory at a time.
 
+mod correction;
 mod edit;
 mod engine;
 pub mod export;
-mod frame;
 pub mod simulate;
 mod solver;
+mod writer;
 
 use std::fmt;
 use std::path::PathBuf;
@@ -42,22 +43,12 @@ pub use crate::io::AtomicOutput;
 pub use engine::Compensator;
 pub use solver::{Solution, Solver};
 
+pub use crate::nc::interp::Coordinates;
+
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
-use crate::nc::modal::Tcp;
+use crate::nc::interp::Tcp;
 use crate::source::SourceError;
-
-/// How the program's coordinates are meant.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Coordinates {
-    /// As the program switches TCP on and off (G43.4/G43.5, M128/TCPM).
-    Auto,
-    /// Always axis positions (a post-side program), whatever TCP code it has.
-    Axes,
-    /// Always tool-tip coordinates in W (a controller whose kinematics
-    /// always runs TCP, e.g. LinuxCNC with trt-kins).
-    Tcp,
-}
 
 /// Settings of a rewrite.
 #[derive(Clone, Debug, PartialEq)]
@@ -231,8 +222,12 @@ pub struct Summary {
     pub largest_linear: Option<Largest>,
     /// Largest correction of the tool orientation by the rotary axes, urad.
     pub largest_rotary: Option<Largest>,
-    /// Moves left as written, grouped by reason, with their lines.
+    /// Moves left as written, grouped by reason, with their lines
+    /// (blocks that could not be read among them, with the column and why).
     pub skipped: Vec<(String, Lines)>,
+    /// Lines of blocks that could not be read and were kept as written
+    /// (outside `--strict`).
+    pub unreadable: Lines,
     /// Lines where C was held next to the tilt singularity.
     pub held_c: Lines,
     /// Largest remaining tool-axis error where C was held, urad.
@@ -248,7 +243,7 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// Number of moves left as written.
+    /// Number of moves (and unreadable blocks) left as written.
     pub fn skipped_count(&self) -> usize {
         self.skipped.iter().map(|(_, l)| l.count).sum()
     }
@@ -295,6 +290,25 @@ impl fmt::Display for CompensateError {
 }
 
 impl std::error::Error for CompensateError {}
+
+impl CompensateError {
+    /// The error with its program named.
+    pub(crate) fn in_file(self, file: &std::path::Path) -> Self {
+        match self {
+            CompensateError::TooLarge { line, what, .. } => CompensateError::TooLarge {
+                path: file.to_path_buf(),
+                line,
+                what,
+            },
+            CompensateError::Tolerance { line, what, .. } => CompensateError::Tolerance {
+                path: file.to_path_buf(),
+                line,
+                what,
+            },
+            other => other,
+        }
+    }
+}
 
 impl From<std::io::Error> for CompensateError {
     fn from(e: std::io::Error) -> Self {

@@ -16,14 +16,15 @@ use std::path::Path;
 use indexmap::IndexMap;
 use nalgebra::Vector3;
 
-use super::frame::{ArcGeo, Frame, Path2, known};
 use super::solver::Solver;
 use super::{Coordinates, Largest, Lines};
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
 use crate::model::Model;
-use crate::nc::modal::{AXES, Event, Modal, ModalSettings, MoveKind, Skip, Tcp};
-use crate::nc::{Block, BlockReader, Syntax};
+use crate::nc::interp::coordinates::known;
+use crate::nc::interp::interpolation::{ArcGeo, Path as MovePath};
+use crate::nc::interp::{self, AXES, Event, Frame, Interpreter, MoveKind, Skip, Tcp};
+use crate::nc::{Blocks, ReadError, Syntax};
 use crate::source::SourceError;
 
 /// Settings of a simulation.
@@ -115,40 +116,14 @@ pub struct SimSummary {
 pub struct Simulator {
     solver: Solver,
     settings: SimSettings,
-    tool_length: f64,
-    tilt: usize,
 }
 
 impl Simulator {
     /// A runner for `model` with parameters `theta`.
     pub fn new(model: &Model, theta: &[f64], settings: SimSettings) -> Simulator {
-        let m = model.kin.machine();
         Simulator {
             solver: Solver::new(model, theta, 360.0),
-            tool_length: model.kin.gauge_length(),
-            tilt: if m.tilt.letter == 'A' { 3 } else { 4 },
             settings,
-        }
-    }
-
-    fn frame(&self, modal: &Modal) -> Frame {
-        let tcp = match self.settings.coordinates {
-            Coordinates::Auto => modal.tcp,
-            Coordinates::Axes => Tcp::Off,
-            Coordinates::Tcp if modal.tcp == Tcp::Off => Tcp::Axes,
-            Coordinates::Tcp => modal.tcp,
-        };
-        Frame {
-            u: modal.units.mm(),
-            shift: modal.total_shift(),
-            origin: self.settings.origin,
-            tlc: if tcp == Tcp::Off && !modal.tool_length {
-                self.tool_length
-            } else {
-                0.0
-            },
-            tcp,
-            tilt: self.tilt,
         }
     }
 
@@ -178,33 +153,37 @@ impl Simulator {
         input: R,
         sink: &mut dyn FnMut(&Sample),
     ) -> Result<SimSummary, SourceError> {
-        let m = self.solver.kinematics().machine();
-        let mut modal = Modal::new(ModalSettings {
-            dialect: self.settings.dialect,
-            rotary: [m.tilt.letter as u8, b'C'],
-            fanuc_integer_unit: self.settings.fanuc_integer_unit,
-        });
+        let s = &self.settings;
+        let mut interp = Interpreter::new(
+            &interp::Settings {
+                dialect: s.dialect,
+                coordinates: s.coordinates,
+                origin: s.origin,
+                integer_unit: s.fanuc_integer_unit,
+            },
+            self.solver.kinematics(),
+        );
         let syntax = Syntax {
-            dialect: self.settings.dialect,
-            strict: self.settings.strict,
+            dialect: s.dialect,
+            strict: s.strict,
         };
-        let mut reader = BlockReader::new(input, self.settings.dialect);
-        let mut block = Block::default();
+        let mut blocks = Blocks::new(path, input, syntax);
         let mut summary = SimSummary::default();
         let mut skipped: IndexMap<String, Lines> = IndexMap::new();
         let (mut sum, mut sum2) = (0.0, 0.0);
-        let mut vector_rot: Option<(f64, f64)> = None;
-        let read_err =
-            |e: std::io::Error| SourceError::new(path, 0, 0, format!("cannot read: {e}"));
-        while reader.read(&mut block).map_err(read_err)? {
-            syntax.parse(&mut block).map_err(|e| {
-                let (line, column) = block.locate(e.offset);
-                SourceError::new(path, line, column, e.message)
-            })?;
+        loop {
+            let block = match blocks.next_block() {
+                Ok(Some(b)) => b,
+                Ok(None) => break,
+                Err(ReadError::Io(e)) => {
+                    return Err(SourceError::new(path, 0, 0, format!("cannot read: {e}")));
+                }
+                Err(ReadError::Syntax(e)) => return Err(e),
+            };
             summary.blocks += 1;
             for si in 0..block.segments.len() {
                 let seg = block.segments[si];
-                let mv = match modal.step(&block, &seg) {
+                let mv = match interp.step(block, &seg) {
                     Event::Move(mv) => mv,
                     Event::Skip(s) => {
                         skipped.entry(s.to_string()).or_default().push(block.line);
@@ -212,35 +191,8 @@ impl Simulator {
                     }
                     _ => continue,
                 };
-                let f = self.frame(&modal);
-                let mut end = mv.end;
-                let mut vector = None;
-                if f.tcp == Tcp::Vector {
-                    let Some((v, _)) = mv.tool_vector else {
-                        continue;
-                    };
-                    let v = Vector3::new(v[0], v[1], v[2]).normalize();
-                    let (t0, c0) = vector_rot.unwrap_or((0.0, 0.0));
-                    let r = Axes::new(0.0, 0.0, 0.0, t0, c0);
-                    let Ok(a) = self.solver.nominal().inverse(
-                        &ToolPose {
-                            tip: Vector3::zeros(),
-                            axis: v,
-                        },
-                        &r,
-                    ) else {
-                        skipped
-                            .entry("tool direction out of reach".into())
-                            .or_default()
-                            .push(block.line);
-                        continue;
-                    };
-                    end[f.tilt] = Some(a.tilt);
-                    end[5] = Some(a.c);
-                    vector_rot = Some((a.tilt, a.c));
-                    vector = Some(v);
-                }
-                if let Some(&a) = f.axes().iter().find(|&&a| end[a].is_none()) {
+                let f = interp.frame();
+                if let Some(&a) = f.axes().iter().find(|&&a| mv.end[a].is_none()) {
                     skipped
                         .entry(Skip::PositionUnknown(AXES[a]).to_string())
                         .or_default()
@@ -248,23 +200,24 @@ impl Simulator {
                     continue;
                 }
                 summary.moves += 1;
-                let p1 = known(&end);
+                let vector = mv.vector;
+                let p1 = known(&mv.end);
                 let start_known = f.axes().iter().all(|&a| mv.start[a].is_some());
                 let p0 = known(&mv.start);
                 let feed = !matches!(mv.kind, MoveKind::Rapid);
                 let path2 = match mv.kind {
-                    MoveKind::Arc(arc) => Path2::Arc {
+                    MoveKind::Arc(arc) => MovePath::Arc {
                         p0,
                         p1,
                         geo: ArcGeo::new(arc.plane.axes(), arc.center, &p0, &p1, arc.cw, arc.turns),
                     },
-                    _ => Path2::Line { p0, p1 },
+                    _ => MovePath::Line { p0, p1 },
                 };
                 let n = if feed && start_known && self.settings.step > 0.0 {
                     let (a, _) = self.poses(&f, &p0, vector);
                     let (b, _) = self.poses(&f, &p1, vector);
                     let len = match path2 {
-                        Path2::Arc { geo, .. } => {
+                        MovePath::Arc { geo, .. } => {
                             (geo.sweep.abs() * geo.rs.max(geo.re) * f.u).max((b.tip - a.tip).norm())
                         }
                         _ => (b.tip - a.tip).norm(),

@@ -14,7 +14,7 @@ use nom::character::complete::char;
 use nom::combinator::{opt, recognize};
 use nom::{IResult, Parser};
 
-use super::number;
+use super::lexeme;
 
 type Res<'a> = IResult<&'a [u8], &'a [u8]>;
 
@@ -36,7 +36,7 @@ fn number(i: &[u8]) -> Res<'_> {
     let n = if i.first().is_some_and(|c| *c == b'+' || *c == b'-') {
         0
     } else {
-        number::lex_len(i)
+        lexeme::lex_len(i)
     };
     if n == 0 {
         return Err(nom::Err::Error(nom::error::Error::new(

@@ -9,26 +9,24 @@
 //! block, words with their value lexeme, macro and o-word statements,
 //! expressions. Printing an unchanged block writes its tokens back, so the
 //! text is reproduced byte for byte; a rewrite replaces only the value
-//! lexemes it changes (see [`number`] for how they keep their style).
+//! lexemes it changes (see [`lexeme`] for how they keep their style).
 //!
-//! One file per dialect does the tokenizing ([`iso`] for the two word-address
-//! dialects with their macro languages, [`heidenhain`]); [`modal`] tracks
-//! what the controller would have in force at each block (units, G90/G91,
-//! motion mode, feed mode, work offset, tool length compensation, TCP,
-//! tilted working plane, datum shifts) and where each move goes.
+//! One file per dialect does the tokenizing ([`lex`]); [`interp`] is the
+//! one interpreter `compensate` and `simulate nc` share: what the
+//! controller has in force at each block (units, G90/G91, motion mode,
+//! feed mode, work offset, tool length compensation, TCP, tilted working
+//! plane, datum shifts) and where each move goes.
 
 pub mod expr;
-pub mod heidenhain;
-pub mod iso;
-pub mod modal;
-pub mod number;
+pub mod interp;
+pub mod lex;
+pub mod lexeme;
 mod reader;
 
 use std::fmt;
 
-pub use reader::BlockReader;
-
-use crate::machine::Dialect;
+pub use lex::Syntax;
+pub use reader::{BlockReader, Blocks, ReadError};
 
 /// A byte range inside a block's text.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -126,7 +124,7 @@ pub struct Word {
     /// Where the value's lexeme is (empty for [`Value::None`]).
     pub value_span: Span,
     /// How a literal value is written (default otherwise).
-    pub style: number::NumStyle,
+    pub style: lexeme::NumStyle,
 }
 
 /// What a token is.
@@ -292,6 +290,9 @@ pub enum Stmt {
     Output,
     /// A HEIDENHAIN block.
     Hh(HhKind),
+    /// A block that could not be read (kept byte for byte outside
+    /// `--strict`; [`Block::unreadable`] says why).
+    Unreadable,
 }
 
 /// A statement: a token range of a block (FANUC can put several on one line
@@ -322,6 +323,9 @@ pub struct Block {
     pub segments: Vec<Segment>,
     /// 1-based line number of the first line.
     pub line: usize,
+    /// Why the block could not be read, when it could not (outside
+    /// `--strict` it is then one [`Stmt::Unreadable`] statement of text).
+    pub unreadable: Option<BlockError>,
 }
 
 impl Block {
@@ -377,6 +381,28 @@ impl Block {
         }
     }
 
+    /// Makes the block one unreadable statement: its text kept as it is,
+    /// `error` saying why.
+    pub(crate) fn make_unreadable(&mut self, error: BlockError) {
+        self.tokens.clear();
+        self.segments.clear();
+        let end = self.text.len() - self.line_ending().map_or(0, <[u8]>::len);
+        if end > 0 {
+            self.push(TokenKind::Text, 0, end);
+        }
+        if end < self.text.len() {
+            self.push(TokenKind::LineEnd, end, self.text.len());
+        }
+        self.segments.push(Segment {
+            first: 0,
+            end: self.tokens.len() as u32,
+            stmt: Stmt::Unreadable,
+            body: 0,
+            unknown: Some(Span::new(0, end)),
+        });
+        self.unreadable = Some(error);
+    }
+
     pub(crate) fn push(&mut self, kind: TokenKind, start: usize, end: usize) {
         self.tokens.push(Token {
             kind,
@@ -402,41 +428,6 @@ impl BlockError {
             message: message.into(),
         }
     }
-}
-
-/// Parser settings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Syntax {
-    /// The dialect.
-    pub dialect: Dialect,
-    /// Reject words and codes this parser does not know instead of keeping
-    /// them verbatim.
-    pub strict: bool,
-}
-
-impl Syntax {
-    /// Tokenizes `block.text` into `block.tokens` and `block.segments`.
-    pub fn parse(&self, block: &mut Block) -> Result<(), BlockError> {
-        block.tokens.clear();
-        block.segments.clear();
-        match self.dialect {
-            Dialect::Fanuc | Dialect::Linuxcnc => iso::parse(self, block),
-            Dialect::Heidenhain => heidenhain::parse(self, block),
-        }?;
-        debug_assert!(covers(block), "tokens must cover the block exactly");
-        Ok(())
-    }
-}
-
-fn covers(block: &Block) -> bool {
-    let mut at = 0u32;
-    for t in &block.tokens {
-        if t.span.start != at || t.span.end < t.span.start {
-            return false;
-        }
-        at = t.span.end;
-    }
-    at as usize == block.text.len()
 }
 
 pub(crate) fn is_space(c: u8) -> bool {

@@ -1,9 +1,15 @@
-//! Reading a program one block at a time.
+//! Reading a program one block at a time: the raw text of each block
+//! ([`BlockReader`]) and the tokenized blocks with malformed ones reported
+//! by file, line and column ([`Blocks`]).
 
 use std::io::{self, BufRead};
+use std::path::{Path, PathBuf};
 
-use super::Block;
+#[cfg(doc)]
+use super::Stmt;
+use super::{Block, Syntax};
 use crate::machine::Dialect;
+use crate::source::SourceError;
 
 /// Reads blocks from a buffered reader: a line with its line ending; on
 /// HEIDENHAIN also the lines a trailing `~` continues onto. Memory use is
@@ -41,6 +47,57 @@ impl<R: BufRead> BlockReader<R> {
             }
         }
         Ok(!block.text.is_empty())
+    }
+}
+
+/// Why the next block could not be had.
+#[derive(Debug)]
+pub enum ReadError {
+    /// The input could not be read.
+    Io(io::Error),
+    /// A malformed block: file, line, column and what was expected.
+    Syntax(SourceError),
+}
+
+/// A program as a stream of tokenized blocks (one in memory at a time).
+pub struct Blocks<R> {
+    reader: BlockReader<R>,
+    syntax: Syntax,
+    path: PathBuf,
+    block: Block,
+}
+
+impl<R: BufRead> Blocks<R> {
+    /// The blocks of `input` (named `path` in errors) in `syntax`.
+    pub fn new(path: &Path, input: R, syntax: Syntax) -> Blocks<R> {
+        Blocks {
+            reader: BlockReader::new(input, syntax.dialect),
+            syntax,
+            path: path.to_path_buf(),
+            block: Block::default(),
+        }
+    }
+
+    /// Reads and tokenizes the next block; `None` at the end of the input.
+    /// A block that cannot be read is an error under `strict`; otherwise
+    /// it comes back as one [`Stmt::Unreadable`] statement that keeps its
+    /// text, with [`Block::unreadable`] saying why.
+    pub fn next_block(&mut self) -> Result<Option<&Block>, ReadError> {
+        self.block.unreadable = None;
+        if !self.reader.read(&mut self.block).map_err(ReadError::Io)? {
+            return Ok(None);
+        }
+        if let Err(e) = self.syntax.parse(&mut self.block) {
+            if !self.syntax.strict {
+                self.block.make_unreadable(e);
+                return Ok(Some(&self.block));
+            }
+            let (line, column) = self.block.locate(e.offset);
+            return Err(ReadError::Syntax(SourceError::new(
+                &self.path, line, column, e.message,
+            )));
+        }
+        Ok(Some(&self.block))
     }
 }
 

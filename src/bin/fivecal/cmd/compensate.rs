@@ -403,7 +403,16 @@ fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
     if s.skipped.is_empty() {
         let _ = writeln!(t, "  no move left as written");
     } else {
-        let _ = writeln!(t, "  {} moves left as written:", s.skipped_count());
+        let moves = s.skipped_count() - s.unreadable.len();
+        if s.unreadable.is_empty() {
+            let _ = writeln!(t, "  {moves} moves left as written:");
+        } else {
+            let _ = writeln!(
+                t,
+                "  {moves} moves and {} unreadable blocks left as written (no correction across an unreadable block; --strict refuses them):",
+                s.unreadable.len()
+            );
+        }
         for (reason, lines) in &s.skipped {
             let _ = writeln!(t, "    {reason}: lines {}", lines.list());
         }

@@ -9,30 +9,13 @@
 //! and friends are the control flow, parameters are assigned inside any
 //! line (`#<x>=[..]`) and there is no `E` address.
 
-use super::{Addr, Block, Span};
-use super::{
-    BlockError, Flow, Segment, Stmt, Syntax, TokenKind, Value, Word, expr, is_space, number,
-};
+use super::Syntax;
 use crate::machine::Dialect;
-
-/// G codes FANUC 30i-class controls know (value x 10).
-const FANUC_G: &[u32] = &[
-    0, 10, 20, 30, 40, 50, 51, 71, 80, 90, 100, 106, 110, 121, 131, 150, 160, 170, 180, 190, 200,
-    210, 220, 230, 250, 260, 270, 280, 290, 300, 310, 311, 312, 313, 314, 330, 370, 390, 400, 410,
-    412, 420, 422, 430, 434, 435, 440, 450, 460, 470, 480, 490, 500, 501, 510, 511, 520, 530, 531,
-    540, 541, 550, 560, 570, 580, 590, 600, 610, 620, 630, 640, 650, 660, 670, 680, 682, 683, 684,
-    690, 730, 740, 760, 800, 810, 820, 830, 840, 850, 860, 870, 880, 890, 900, 910, 920, 930, 940,
-    950, 960, 970, 980, 990,
-];
-
-/// G codes LinuxCNC 2.9 knows (value x 10).
-const LINUXCNC_G: &[u32] = &[
-    0, 10, 20, 30, 40, 50, 51, 52, 53, 70, 80, 100, 170, 171, 180, 181, 190, 191, 200, 210, 280,
-    281, 300, 301, 330, 331, 382, 383, 384, 385, 400, 410, 411, 420, 421, 430, 431, 432, 490, 520,
-    530, 540, 550, 560, 570, 580, 590, 591, 592, 593, 610, 611, 640, 700, 710, 720, 730, 740, 760,
-    800, 810, 820, 830, 840, 850, 860, 870, 880, 890, 900, 901, 910, 911, 920, 921, 922, 923, 930,
-    940, 950, 960, 970, 980, 990,
-];
+use crate::nc::interp::gcode::{g_code, known_g};
+use crate::nc::{
+    Addr, Block, BlockError, Flow, Segment, Span, Stmt, TokenKind, Value, Word, expr, is_space,
+    lexeme,
+};
 
 const OWORD_KEYWORDS: [(&str, Flow); 15] = [
     ("endsub", Flow::Return),
@@ -52,20 +35,6 @@ const OWORD_KEYWORDS: [(&str, Flow); 15] = [
     ("return", Flow::Return),
 ];
 
-/// The G-code number of a literal G word value, times ten (`43.4` -> 434).
-pub fn g_code(v: f64) -> Option<u32> {
-    let t = (v * 10.0).round();
-    ((v * 10.0 - t).abs() < 1e-6 && t >= 0.0).then_some(t as u32)
-}
-
-/// Whether the dialect knows G code `g` (x 10).
-pub fn known_g(dialect: Dialect, g: u32) -> bool {
-    match dialect {
-        Dialect::Linuxcnc => LINUXCNC_G.binary_search(&g).is_ok(),
-        _ => FANUC_G.binary_search(&g).is_ok(),
-    }
-}
-
 fn starts_with_ci(s: &[u8], kw: &str) -> bool {
     s.len() >= kw.len() && s[..kw.len()].eq_ignore_ascii_case(kw.as_bytes())
 }
@@ -76,9 +45,20 @@ struct Lexer<'a> {
     n: usize,
     fanuc: bool,
     syn: &'a Syntax,
+    /// The bracket nesting of the line has been checked.
+    nesting_checked: std::cell::Cell<bool>,
 }
 
 impl<'a> Lexer<'a> {
+    /// Refuses brackets nested deeper than [`super::MAX_NESTING`] before
+    /// any expression is parsed (the parser recurses once per level).
+    fn nesting(&self) -> Result<(), BlockError> {
+        if self.nesting_checked.replace(true) {
+            return Ok(());
+        }
+        super::check_nesting(&self.s[..self.n], b'[', b']')
+    }
+
     fn spaces(&self, mut i: usize) -> usize {
         while i < self.n && is_space(self.s[i]) {
             i += 1;
@@ -104,28 +84,30 @@ impl<'a> Lexer<'a> {
     }
 
     /// The value of a word starting at `i` (after the address and spaces).
-    fn value(&self, i: usize, letter: u8) -> Result<(Value, number::NumStyle, usize), BlockError> {
+    fn value(&self, i: usize, letter: u8) -> Result<(Value, lexeme::NumStyle, usize), BlockError> {
         let rest = &self.s[i..self.n];
-        if let Some((lx, n)) = number::scan(rest) {
+        if let Some((lx, n)) = lexeme::scan(rest) {
             if rest
                 .get(n)
                 .is_some_and(|c| *c == b'.' || c.is_ascii_digit())
             {
-                {
-                    return Err(BlockError::new(
-                        i,
-                        format!(
-                            "bad number `{}` after {}: expected digits with at most one decimal point",
-                            String::from_utf8_lossy(&rest[..word_end(rest)]),
-                            letter as char
-                        ),
-                    ));
-                }
+                return Err(BlockError::new(
+                    i,
+                    format!(
+                        "bad number `{}` after {}: expected digits with at most one decimal point",
+                        String::from_utf8_lossy(&rest[..word_end(rest)]),
+                        letter as char
+                    ),
+                ));
+            }
+            if !lx.value.is_finite() {
+                return Err(super::too_large(i, &rest[..n]));
             }
             return Ok((Value::Num(lx.value), lx.style, i + n));
         }
+        self.nesting()?;
         if let Some(n) = expr::real_value_len(rest) {
-            return Ok((Value::Expr, number::NumStyle::default(), i + n));
+            return Ok((Value::Expr, lexeme::NumStyle::default(), i + n));
         }
         let shown = &rest[..word_end(rest).max(rest.len().min(1))];
         Err(BlockError::new(
@@ -177,6 +159,7 @@ fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
         n,
         fanuc: syn.dialect == Dialect::Fanuc,
         syn,
+        nesting_checked: std::cell::Cell::new(false),
     };
     let mut i = 0;
     let mut first_segment = true;
@@ -210,7 +193,18 @@ fn segment(lx: &Lexer, b: &mut Block, mut i: usize, first: bool) -> Result<usize
         }
         j
     };
+    if first && b.line == 1 && s[..n].starts_with(super::BOM) {
+        b.push(TokenKind::Text, 0, super::BOM.len());
+        i = super::BOM.len();
+    }
     i = sp(b, i);
+    // DOS's end-of-file mark (after the closing `%` of files that went
+    // through a DOS editor): nothing after it is part of the program.
+    if i < n && s[i] == super::DOS_EOF {
+        b.push(TokenKind::Text, i, n);
+        finish(b, &seg);
+        return Ok(n);
+    }
     // `%` lines frame FANUC and LinuxCNC programs.
     if first && i < n && s[i] == b'%' {
         b.push(TokenKind::Percent, i, n);
@@ -429,6 +423,7 @@ fn spaces_tok(lx: &Lexer, b: &mut Block, i: usize) -> usize {
 
 fn cond(lx: &Lexer, b: &mut Block, i: usize, kw: &str) -> Result<usize, BlockError> {
     let j = spaces_tok(lx, b, i);
+    lx.nesting()?;
     match expr::bracketed_len(&lx.s[j..lx.n]) {
         Some(len) => {
             b.push(TokenKind::Expr, j, j + len);
@@ -448,6 +443,7 @@ fn goto(lx: &Lexer, b: &mut Block, i: usize) -> Result<usize, BlockError> {
     let len = if rest.first().is_some_and(|c| c.is_ascii_digit()) {
         lx.digits(j) - j
     } else {
+        lx.nesting()?;
         expr::real_value_len(rest).unwrap_or(0)
     };
     if len == 0 {
@@ -476,6 +472,7 @@ fn loop_id(lx: &Lexer, b: &mut Block, i: usize, kw_len: usize) -> Result<usize, 
 fn fanuc_assign(lx: &Lexer, b: &mut Block, i: usize) -> Result<usize, BlockError> {
     let s = lx.s;
     let n = lx.n;
+    lx.nesting()?;
     let Some(len) = expr::param_len(&s[i..n]) else {
         return Err(BlockError::new(
             i,
@@ -539,6 +536,7 @@ fn linuxcnc_body(lx: &Lexer, b: &mut Block, i: usize, seg: &mut Seg) -> Result<u
         loop {
             let k = spaces_tok(lx, b, at);
             if k < n && s[k] == b'[' {
+                lx.nesting()?;
                 let Some(len) = expr::bracketed_len(&s[k..n]) else {
                     return Err(BlockError::new(k, "malformed [ ] expression"));
                 };
@@ -575,6 +573,7 @@ fn words(lx: &Lexer, b: &mut Block, mut i: usize, seg: &mut Seg) -> Result<usize
             b.push(TokenKind::Comment, i, n);
             i = n;
         } else if c == b'#' && !lx.fanuc {
+            lx.nesting()?;
             let Some(len) = expr::param_len(&s[i..n]) else {
                 return Err(BlockError::new(i, "expected a parameter (#1, #<name>)"));
             };
@@ -599,7 +598,8 @@ fn words(lx: &Lexer, b: &mut Block, mut i: usize, seg: &mut Seg) -> Result<usize
                 seg.stmt = Stmt::Assign;
             }
             i = k + len;
-        } else if c.is_ascii_alphabetic() {
+        } else if c.is_ascii_alphabetic() || (!lx.fanuc && (c == b'@' || c == b'^')) {
+            // LinuxCNC's `@` and `^` are the polar distance and angle.
             let letter = c.to_ascii_uppercase();
             let j = lx.spaces(i + 1);
             let (value, style, end) = lx.value(j, letter)?;
@@ -770,6 +770,31 @@ mod tests {
                 parse_str(src, Dialect::Linuxcnc, true).unwrap_or_else(|e| panic!("{src}: {e:?}"));
             assert_eq!(b.segments[0].stmt, stmt, "{src}");
         }
+    }
+
+    #[test]
+    fn linuxcnc_polar_words_bom_dos_end_of_file_and_nesting() {
+        let b = parse_str("G81 R2 Z-5 @10 ^60\n", Dialect::Linuxcnc, true).unwrap();
+        let addrs: Vec<String> = b
+            .words(&b.segments[0])
+            .map(|(_, w)| w.addr.to_string())
+            .collect();
+        assert_eq!(addrs, ["G", "R", "Z", "@", "^"]);
+        let b = parse_str("\u{FEFF}%\n", Dialect::Fanuc, true).unwrap();
+        assert_eq!(b.tokens[0].kind, TokenKind::Text);
+        assert!(b.tokens.iter().any(|t| t.kind == TokenKind::Percent));
+        let b = parse_str("\u{1A}\n", Dialect::Fanuc, true).unwrap();
+        assert!(
+            !b.tokens
+                .iter()
+                .any(|t| matches!(t.kind, TokenKind::Word(_)))
+        );
+        let deep = format!("X{}1{}\n", "[".repeat(200_000), "]".repeat(200_000));
+        let e = parse_str(&deep, Dialect::Fanuc, false).unwrap_err();
+        assert!(e.message.contains("nested deeper"), "{}", e.message);
+        let huge = format!("G1 X1{}\n", "0".repeat(400));
+        let e = parse_str(&huge, Dialect::Fanuc, false).unwrap_err();
+        assert!(e.message.contains("too large"), "{}", e.message);
     }
 
     #[test]

@@ -1,52 +1,11 @@
-//! Program coordinates and the model frame, and the paths a controller
-//! interpolates between end points.
+//! How a controller interpolates between end points: straight lines in the
+//! values it is given (axis values, or tip and rotary positions under TCP)
+//! and arcs in their plane, with the other axes moving linearly.
 
 use std::f64::consts::TAU;
 
-use nalgebra::Vector3;
-
-use crate::kinematics::Axes;
-use crate::nc::modal::Tcp;
-
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Frame {
-    pub u: f64,
-    pub shift: [f64; 3],
-    pub origin: Vector3<f64>,
-    pub tlc: f64,
-    pub tcp: Tcp,
-    pub tilt: usize,
-}
-
-impl Frame {
-    pub fn model(&self, p: &[f64; 6]) -> Axes {
-        Axes {
-            xyz: Vector3::new(
-                (p[0] + self.shift[0]) * self.u + self.origin.x,
-                (p[1] + self.shift[1]) * self.u + self.origin.y,
-                (p[2] + self.shift[2]) * self.u + self.origin.z - self.tlc,
-            ),
-            tilt: p[self.tilt],
-            c: p[5],
-        }
-    }
-
-    pub fn program(&self, a: &Axes) -> [f64; 6] {
-        let mut p = [f64::NAN; 6];
-        p[0] = (a.xyz.x - self.origin.x) / self.u - self.shift[0];
-        p[1] = (a.xyz.y - self.origin.y) / self.u - self.shift[1];
-        p[2] = (a.xyz.z + self.tlc - self.origin.z) / self.u - self.shift[2];
-        p[self.tilt] = a.tilt;
-        p[5] = a.c;
-        p
-    }
-
-    pub fn axes(&self) -> [usize; 5] {
-        [0, 1, 2, self.tilt, 5]
-    }
-}
-
-pub(crate) fn lerp(a: &[f64; 6], b: &[f64; 6], s: f64) -> [f64; 6] {
+/// The point a fraction `s` of the way from `a` to `b`.
+pub fn lerp(a: &[f64; 6], b: &[f64; 6], s: f64) -> [f64; 6] {
     let mut r = [0.0; 6];
     for i in 0..6 {
         r[i] = a[i] + s * (b[i] - a[i]);
@@ -54,48 +13,50 @@ pub(crate) fn lerp(a: &[f64; 6], b: &[f64; 6], s: f64) -> [f64; 6] {
     r
 }
 
-pub(crate) fn round_to(v: f64, d: u8) -> f64 {
-    let k = crate::nc::number::pow10(d);
-    let x = v * k;
-    // A cast rounds without a libm call on baseline x86-64.
-    if x.abs() < 4.0e15 {
-        let r = (x + 0.5f64.copysign(x)) as i64 as f64;
-        r / k
-    } else {
-        x.round() / k
-    }
-}
-
-pub(crate) fn known(p: &[Option<f64>; 6]) -> [f64; 6] {
-    p.map(|x| x.unwrap_or(f64::NAN))
-}
-
 /// The nominal path of a move in program coordinates.
 #[derive(Clone, Copy, Debug)]
-pub(crate) enum Path2 {
+pub enum Path {
+    /// A straight line.
     Line {
+        /// Start.
         p0: [f64; 6],
+        /// End.
         p1: [f64; 6],
     },
+    /// An arc (helix, with the other axes linear).
     Arc {
+        /// Start.
         p0: [f64; 6],
+        /// End.
         p1: [f64; 6],
+        /// Its geometry in the plane.
         geo: ArcGeo,
     },
 }
 
+/// An arc's geometry in its plane: centre, start and end radius (a spiral
+/// when they differ), start angle and signed sweep.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct ArcGeo {
+pub struct ArcGeo {
+    /// First plane axis (index into X Y Z A B C).
     pub a0: usize,
+    /// Second plane axis.
     pub a1: usize,
+    /// Centre in the plane.
     pub center: [f64; 2],
+    /// Radius at the start.
     pub rs: f64,
+    /// Radius at the end.
     pub re: f64,
+    /// Angle at the start, rad.
     pub th: f64,
+    /// Signed sweep, rad (negative clockwise).
     pub sweep: f64,
 }
 
 impl ArcGeo {
+    /// The arc from `p0` to `p1` around `center` in the plane of
+    /// `plane_axes` (first, second, normal), with `turns` extra full turns.
     pub fn new(
         plane_axes: (usize, usize, usize),
         center: [f64; 2],
@@ -133,6 +94,7 @@ impl ArcGeo {
         }
     }
 
+    /// The point at fraction `u` of the arc from `p0` to `p1`.
     pub fn at(&self, p0: &[f64; 6], p1: &[f64; 6], u: f64) -> [f64; 6] {
         let mut p = lerp(p0, p1, u);
         let th = self.th + u * self.sweep;
@@ -143,11 +105,12 @@ impl ArcGeo {
     }
 }
 
-impl Path2 {
+impl Path {
+    /// The point at fraction `u` of the path.
     pub fn at(&self, u: f64) -> [f64; 6] {
         match self {
-            Path2::Line { p0, p1 } => lerp(p0, p1, u),
-            Path2::Arc { p0, p1, geo } => geo.at(p0, p1, u),
+            Path::Line { p0, p1 } => lerp(p0, p1, u),
+            Path::Arc { p0, p1, geo } => geo.at(p0, p1, u),
         }
     }
 }

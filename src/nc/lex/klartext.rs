@@ -11,9 +11,10 @@
 //! are words where they look like one (`SPB+30`, `S4456`, `M3`) and text
 //! otherwise.
 
-use super::{
-    Addr, Block, BlockError, HhKind, Segment, Span, Stmt, Syntax, TokenKind, Value, Word, is_space,
-    line_end_at, number,
+use super::Syntax;
+use crate::nc::{
+    Addr, Block, BlockError, HhKind, Segment, Span, Stmt, TokenKind, Value, Word, is_space, lexeme,
+    line_end_at,
 };
 
 /// Keywords in match order (longest first where one is a prefix of another).
@@ -156,7 +157,19 @@ fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
         }
         j
     };
-    let mut i = sp(b, 0);
+    let mut i = 0;
+    if b.line == 1 && s.starts_with(super::BOM) {
+        b.push(TokenKind::Text, 0, super::BOM.len());
+        i = super::BOM.len();
+    }
+    i = sp(b, i);
+    if i < s.len() && s[i] == super::DOS_EOF {
+        // DOS's end-of-file mark: nothing after it is part of the program.
+        b.push(TokenKind::Text, i, s.len());
+        seg.end = b.tokens.len() as u32;
+        b.segments.push(seg);
+        return Ok(());
+    }
     if i < s.len() && s[i] == b'/' {
         b.push(TokenKind::BlockDelete, i, i + 1);
         i = sp(b, i + 1);
@@ -314,33 +327,67 @@ fn keyword(lx: &Lx, i: usize) -> Result<(HhKind, usize), BlockError> {
     Ok((HhKind::Other, i))
 }
 
-/// A signed number or Q parameter value at `i`: (value, style, end).
-fn value_at(s: &[u8], i: usize) -> Option<(Value, number::NumStyle, usize)> {
-    let n = number::lex_len(&s[i..]);
-    if n > 0 {
-        let after = s.get(i + n).copied();
-        if after.is_some_and(|c| c == b'.' || c.is_ascii_digit()) {
+/// The value of a path word at `i` (before `e`, the end of the line):
+/// `(value, style, start, end)`. Spaces may stand between the address, a
+/// sign and the value as older posts and hand-written programs put them
+/// (`Z 25.000`, `Z + Q13`); the decimal separator is a point or, on older
+/// controls, a comma (`X+32,000`); a Q parameter (`Q13`, `QL2`, `QR3`) is
+/// an expression.
+fn value_at(s: &[u8], i: usize, e: usize) -> Option<(Value, lexeme::NumStyle, usize, usize)> {
+    let spaces = |mut k: usize| {
+        while k < e && is_space(s[k]) {
+            k += 1;
+        }
+        k
+    };
+    let start = spaces(i);
+    let mut j = start;
+    let mut neg = false;
+    let mut plus = false;
+    if j < e && (s[j] == b'+' || s[j] == b'-') {
+        neg = s[j] == b'-';
+        plus = !neg;
+        j = spaces(j + 1);
+    }
+    let body = &s[j..e];
+    let scanned = match lexeme::scan(body) {
+        // `32,000`: the point scan stops at the comma.
+        Some((_, n)) if body.get(n) == Some(&b',') => lexeme::scan_with(body, b','),
+        Some(found) => Some(found),
+        None => lexeme::scan_with(body, b','),
+    };
+    if let Some((lx, n)) = scanned {
+        if body
+            .get(n)
+            .is_some_and(|&c| c == b'.' || c == b',' || c.is_ascii_digit())
+        {
             return None;
         }
-        let lx = number::read(&s[i..i + n]);
-        return Some((Value::Num(lx.value), lx.style, i + n));
-    }
-    // [+-]Q<n>, QL<n>, QR<n>
-    let mut j = i;
-    if j < s.len() && (s[j] == b'+' || s[j] == b'-') {
-        j += 1;
-    }
-    if j < s.len() && (s[j] == b'Q' || s[j] == b'q') {
-        j += 1;
-        if j < s.len() && matches!(s[j].to_ascii_uppercase(), b'L' | b'R') {
-            j += 1;
+        if (neg || plus) && matches!(body[0], b'+' | b'-') {
+            // Two signs.
+            return None;
         }
-        let d0 = j;
-        while j < s.len() && s[j].is_ascii_digit() {
-            j += 1;
+        if !lx.value.is_finite() {
+            return None;
         }
-        if j > d0 {
-            return Some((Value::Expr, number::NumStyle::default(), j));
+        let mut style = lx.style;
+        style.plus |= plus;
+        let v = if neg { -lx.value } else { lx.value };
+        return Some((Value::Num(v), style, start, j + n));
+    }
+    // Q<n>, QL<n>, QR<n>
+    let mut k = j;
+    if k < e && (s[k] == b'Q' || s[k] == b'q') {
+        k += 1;
+        if k < e && matches!(s[k].to_ascii_uppercase(), b'L' | b'R') {
+            k += 1;
+        }
+        let d0 = k;
+        while k < e && s[k].is_ascii_digit() {
+            k += 1;
+        }
+        if k > d0 {
+            return Some((Value::Expr, lexeme::NumStyle::default(), start, k));
         }
     }
     None
@@ -391,7 +438,7 @@ fn path_words(
                     incremental,
                     value: Value::None,
                     value_span: Span::new(vend, vend),
-                    style: number::NumStyle::default(),
+                    style: lexeme::NumStyle::default(),
                 }),
                 start,
                 vend,
@@ -418,15 +465,20 @@ fn path_words(
             continue;
         }
         if !incremental && rest.len() >= 5 && rest[..1].eq_ignore_ascii_case(b"F") {
-            // `F MAX`, written with a space.
+            // `F MAX` and `F AUTO`, written with a space.
             let k = lx.spaces(j + 1);
+            let kw = [("MAX", "FMAX"), ("AUTO", "FAUTO")]
+                .into_iter()
+                .find(|(kw, _)| {
+                    s.len() >= k + kw.len()
+                        && s[k..k + kw.len()].eq_ignore_ascii_case(kw.as_bytes())
+                        && at_boundary(s, k + kw.len())
+                });
             if k > j + 1
-                && s.len() >= k + 3
-                && s[k..k + 3].eq_ignore_ascii_case(b"MAX")
-                && at_boundary(s, k + 3)
+                && let Some((kw, addr)) = kw
             {
-                word("FMAX", k + 3, b);
-                i = k + 3;
+                word(addr, k + kw.len(), b);
+                i = k + kw.len();
                 continue;
             }
         }
@@ -459,14 +511,14 @@ fn path_words(
             i = k;
             continue;
         }
-        match value_at(s, k) {
-            Some((value, style, vend)) if at_boundary(s, vend) => {
+        match value_at(s, k, e) {
+            Some((value, style, vstart, vend)) if at_boundary(s, vend) => {
                 b.push(
                     TokenKind::Word(Word {
                         addr: Addr::new(addr),
                         incremental,
                         value,
-                        value_span: Span::new(k, vend),
+                        value_span: Span::new(vstart, vend),
                         style,
                     }),
                     start,
@@ -593,7 +645,7 @@ fn atoms(lx: &Lx, b: &mut Block, mut i: usize) -> Result<usize, BlockError> {
         if atom_end > i + 1 && s[atom_end - 1] == b'~' && at_line_tail(lx, atom_end) {
             atom_end -= 1;
         }
-        push_atom(b, s, i, atom_end);
+        push_atom(b, s, i, atom_end)?;
         i = atom_end;
     }
     Ok(i)
@@ -606,15 +658,18 @@ fn at_line_tail(lx: &Lx, i: usize) -> bool {
 
 /// An atom: a word if it is letters then a signed number (`SPB+30`,
 /// `Q339=+1` is text), else text.
-fn push_atom(b: &mut Block, s: &[u8], i: usize, e: usize) {
+fn push_atom(b: &mut Block, s: &[u8], i: usize, e: usize) -> Result<(), BlockError> {
     let a = &s[i..e];
     let letters = a.iter().take_while(|c| c.is_ascii_uppercase()).count();
     if (1..=4).contains(&letters) {
         let v = &a[letters..];
-        let n = number::lex_len(v);
+        let n = lexeme::lex_len(v);
         if n > 0 && n == v.len() {
             let name = std::str::from_utf8(&a[..letters]).unwrap_or("");
-            let lx = number::read(v);
+            let lx = lexeme::read(v);
+            if !lx.value.is_finite() {
+                return Err(super::too_large(i + letters, v));
+            }
             b.push(
                 TokenKind::Word(Word {
                     addr: Addr::new(name),
@@ -626,10 +681,11 @@ fn push_atom(b: &mut Block, s: &[u8], i: usize, e: usize) {
                 i,
                 e,
             );
-            return;
+            return Ok(());
         }
     }
     b.push(TokenKind::Text, i, e);
+    Ok(())
 }
 
 #[cfg(test)]
@@ -771,5 +827,36 @@ mod tests {
         assert!(e.message.contains("unknown word `QQ7`"), "{}", e.message);
         let b = parse_str("5 L X+1 QQ7 R0\n", false).unwrap();
         assert!(b.segments[0].unknown.is_some());
+    }
+
+    #[test]
+    fn values_apart_from_their_address_decimal_commas_and_feed_keywords() {
+        // As older posts and hand-written programs write them.
+        let b = parse_str("15 L Z 25.000 FMAX\n", true).unwrap();
+        assert_eq!(words(&b), ["Z=25.000", "FMAX="]);
+        let b = parse_str("16 L Z + Q13 FMAX\n", true).unwrap();
+        assert_eq!(words(&b), ["Z=+ Q13", "FMAX="]);
+        let b = parse_str("17 L X+32,000 Y-7,5 R0 F AUTO\n", true).unwrap();
+        // Addresses pack four letters: `F AUTO` is the word FAUT.
+        assert_eq!(words(&b), ["X=+32,000", "Y=-7,5", "R0=", "FAUT="]);
+        let (_, w) = b.words(&b.segments[0]).next().unwrap();
+        assert!(w.style.comma);
+        assert!(matches!(w.value, Value::Num(v) if v == 32.0));
+        // Two signs are not a number.
+        assert!(parse_str("18 L X+ -3 R0\n", true).is_err());
+    }
+
+    #[test]
+    fn byte_order_mark_dos_end_of_file_and_numbers_beyond_a_float() {
+        let b = parse_str("\u{FEFF}0 BEGIN PGM A MM\n", true).unwrap();
+        assert_eq!(b.tokens[0].kind, TokenKind::Text);
+        assert_eq!(b.segments[0].stmt, Stmt::Hh(HhKind::BeginPgm));
+        let b = parse_str("\u{1A}\n", true).unwrap();
+        assert!(b.tokens.iter().all(|t| matches!(
+            t.kind,
+            TokenKind::Text | TokenKind::Space | TokenKind::LineEnd
+        )));
+        let huge = format!("5 L X+1{} R0 FMAX\n", "0".repeat(400));
+        assert!(parse_str(&huge, false).is_err());
     }
 }

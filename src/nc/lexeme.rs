@@ -21,6 +21,8 @@ pub struct NumStyle {
     pub no_leading_zero: bool,
     /// Ends in a zero after the decimal point (`1.500`): a fixed-width post.
     pub trailing_zeros: bool,
+    /// Written with a decimal comma (`+32,000`, older HEIDENHAIN controls).
+    pub comma: bool,
 }
 
 /// A lexed number: its value and style.
@@ -57,6 +59,19 @@ pub fn half_unit(d: u8) -> f64 {
     0.5 / pow10(d)
 }
 
+/// `v` rounded to `d` decimals.
+pub fn round_to(v: f64, d: u8) -> f64 {
+    let k = pow10(d);
+    let x = v * k;
+    // A cast rounds without a libm call on baseline x86-64.
+    if x.abs() < 4.0e15 {
+        let r = (x + 0.5f64.copysign(x)) as i64 as f64;
+        r / k
+    } else {
+        x.round() / k
+    }
+}
+
 /// Length of the numeric lexeme at the start of `s` (`[+-]? (d+ (. d*)? | . d+)`),
 /// or 0 when there is none. Spaces are not allowed inside.
 pub fn lex_len(s: &[u8]) -> usize {
@@ -86,6 +101,11 @@ pub fn lex_len(s: &[u8]) -> usize {
 /// Lexes and reads the number at the start of `s` in one pass: the lexeme
 /// and its length, or `None` (the same acceptance as [`lex_len`]).
 pub fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
+    scan_with(s, b'.')
+}
+
+/// As [`scan`], with `sep` as the decimal separator (`.` or `,`).
+pub fn scan_with(s: &[u8], sep: u8) -> Option<(Lexeme, usize)> {
     let mut style = NumStyle::default();
     let mut i = 0;
     let mut neg = false;
@@ -109,7 +129,7 @@ pub fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
     }
     let int_digits = i - d0;
     let mut dec = 0usize;
-    if i < s.len() && s[i] == b'.' {
+    if i < s.len() && s[i] == sep {
         let f0 = i + 1;
         let mut j = f0;
         while j < s.len() && s[j].is_ascii_digit() {
@@ -121,6 +141,7 @@ pub fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
             return None;
         }
         style.point = true;
+        style.comma = sep == b',';
         style.trailing_zeros = dec > 0 && s[j - 1] == b'0';
         i = j;
     } else if int_digits == 0 {
@@ -131,9 +152,12 @@ pub fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
     let value = if int_digits + dec <= 15 && dec < POW10.len() {
         mant as f64 / POW10[dec]
     } else {
-        std::str::from_utf8(&s[sign..i])
-            .ok()
-            .and_then(|t| t.parse::<f64>().ok())
+        // Long lexemes (rare): the standard library's correctly rounded
+        // parser; a value beyond f64 reads as infinite and is refused by
+        // the tokenizers.
+        String::from_utf8_lossy(&s[sign..i])
+            .replace(',', ".")
+            .parse::<f64>()
             .unwrap_or(f64::NAN)
     };
     Some((
@@ -260,12 +284,13 @@ pub fn write(out: &mut Vec<u8>, value: f64, decimals: u8, like: &NumStyle, rules
     if !int_zero || !like.no_leading_zero || keep == 0 {
         out.extend_from_slice(int);
     }
+    let point = if like.comma { b',' } else { b'.' };
     if keep > 0 {
-        out.push(b'.');
+        out.push(point);
         out.extend_from_slice(&frac[..keep]);
     } else if rules.force_point || (like.point && like.decimals == 0) {
         // `X1.` stays `X2.`; `X1.5` becoming whole is written `X2`.
-        out.push(b'.');
+        out.push(point);
     }
 }
 

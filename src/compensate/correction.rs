@@ -1,0 +1,485 @@
+//! The correction of one move: the tool pose the program asks for, the axis
+//! values that reach it on the machine with the errors, the limit on the
+//! size of a correction, and how many pieces the move needs (or whether an
+//! arc stays an arc) so the actual path stays within the tolerance. The
+//! result is a [`Plan`] of corrected points; writing them into the
+//! program's text is the writer's business.
+
+use std::f64::consts::PI;
+use std::path::PathBuf;
+
+use nalgebra::Vector3;
+
+use super::{CompensateError, Compensator, Solution};
+use crate::kinematics::{Axes, ToolPose};
+use crate::nc::interp::coordinates::known;
+use crate::nc::interp::interpolation::{ArcGeo, Path, lerp};
+use crate::nc::interp::{AXES, Arc, Frame, Move, MoveKind, Skip, Tcp};
+
+/// A corrected point: what the program asked for and what to write.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Point {
+    pub nominal: Axes,
+    pub target: ToolPose,
+    /// Written values in the model frame (unrounded).
+    pub written: Axes,
+    /// Written values in program units and frame (unrounded).
+    pub program: [f64; 6],
+    pub held: Option<f64>,
+    pub held_tilt: Option<f64>,
+}
+
+/// How a move is written.
+#[derive(Clone, Debug)]
+pub(super) enum Plan {
+    /// Its end point, corrected, in the block itself.
+    End(Point),
+    /// Pieces along it (fraction of the move, point): the block carries the
+    /// first, the others follow as new blocks; `linearize` turns an arc
+    /// into lines.
+    Pieces {
+        pieces: Vec<(f64, Point)>,
+        linearize: bool,
+    },
+    /// An arc kept as an arc around the corrected centre (program frame).
+    Arc { end: Point, center: [f64; 2] },
+}
+
+/// Why a move is not corrected.
+#[derive(Debug)]
+pub(super) enum Refusal {
+    /// Left as written, with the reason.
+    Skip(String),
+    /// The run stops.
+    Fatal(CompensateError),
+}
+
+impl From<CompensateError> for Refusal {
+    fn from(e: CompensateError) -> Self {
+        Refusal::Fatal(e)
+    }
+}
+
+impl Compensator {
+    fn target(&self, f: &Frame, n: &Axes, vector: Option<Vector3<f64>>) -> ToolPose {
+        match f.tcp {
+            Tcp::Off => self.solver.nominal_pose(n),
+            _ => ToolPose {
+                tip: n.xyz,
+                axis: vector.unwrap_or_else(|| self.solver.nominal_pose(n).axis),
+            },
+        }
+    }
+
+    /// What is written for corrected axis values: the axes themselves, or
+    /// under TCP the tip the nominal controller turns into them.
+    pub(super) fn written_model(&self, f: &Frame, corrected: &Axes) -> Axes {
+        match f.tcp {
+            Tcp::Off => *corrected,
+            _ => Axes {
+                xyz: self.solver.nominal_pose(corrected).tip,
+                ..*corrected
+            },
+        }
+    }
+
+    /// The actual tool pose for written values (model frame).
+    fn actual(&self, f: &Frame, w: &Axes) -> ToolPose {
+        match f.tcp {
+            Tcp::Off => self.solver.actual_pose(w),
+            _ => {
+                let xyz = self
+                    .solver
+                    .nominal()
+                    .position(&w.xyz, w.tilt, w.c, &Vector3::zeros());
+                self.solver.actual_pose(&Axes { xyz, ..*w })
+            }
+        }
+    }
+
+    /// The corrected point for the program point `p`; `hold` holds C at its
+    /// nominal value plus `hold` degrees.
+    pub(super) fn correct(
+        &self,
+        f: &Frame,
+        p: &[f64; 6],
+        vector: Option<Vector3<f64>>,
+        hold: Option<f64>,
+    ) -> Result<Point, String> {
+        let nominal = f.model(p);
+        let m = self.solver.kinematics().machine();
+        for (axis, v) in [(&m.tilt, nominal.tilt), (&m.c, nominal.c)] {
+            if let Some((lo, hi)) = axis.limits
+                && !axis.within(v, 1e-9)
+            {
+                return Err(format!(
+                    "the program puts {} at {v:.4} deg, beyond the machine's stroke {lo}..{hi} deg (a program for another machine?)",
+                    axis.letter
+                ));
+            }
+        }
+        let target = self.target(f, &nominal, vector);
+        let why = |e| format!("no axis values reach the intended tool pose on this machine ({e})");
+        let sol = match hold {
+            Some(dc) => self.solver.solve_held(
+                &target,
+                &Axes {
+                    c: nominal.c + dc,
+                    ..nominal
+                },
+            ),
+            None => self.solver.solve(&target, &nominal),
+        }
+        .map_err(why)?;
+        let mut pt = self.point(f, nominal, target, &sol);
+        for (axis, v) in [(&m.tilt, sol.axes.tilt), (&m.c, sol.axes.c)] {
+            if let Some((lo, hi)) = axis.limits
+                && !axis.within(v, 1e-9)
+            {
+                return Err(format!(
+                    "the correction drives {} to {v:.4} deg, beyond its stroke {lo}..{hi} deg",
+                    axis.letter
+                ));
+            }
+        }
+        let (lin, rot) = size(&pt);
+        let limit = self.settings.max_correction;
+        if sol.held_c.is_none() && lin > limit && rot <= limit {
+            // A swing of C that drags X, Y, Z past the limit (the tool
+            // turns little, the table a lot): hold C if that keeps the
+            // correction inside.
+            if let Ok(held) = self.solver.solve_held(&target, &nominal) {
+                let alt = self.point(f, nominal, target, &held);
+                if !self.exceeds(&alt) {
+                    pt = alt;
+                }
+            }
+        }
+        Ok(pt)
+    }
+
+    fn point(&self, f: &Frame, nominal: Axes, target: ToolPose, sol: &Solution) -> Point {
+        let written = self.written_model(f, &sol.axes);
+        Point {
+            nominal,
+            target,
+            written,
+            program: f.program(&written),
+            held: sol.held_c,
+            held_tilt: sol.held_tilt,
+        }
+    }
+
+    fn exceeds(&self, pt: &Point) -> bool {
+        let (l, r) = size(pt);
+        let limit = self.settings.max_correction;
+        l > limit || r > limit
+    }
+
+    /// The correction limit: an error naming the line when `pt` exceeds it.
+    pub(super) fn check_limit(&self, pt: &Point, line: usize) -> Result<(), CompensateError> {
+        let (lin_um, rot_urad) = size(pt);
+        let limit = self.settings.max_correction;
+        let m = self.solver.kinematics().machine();
+        if lin_um > limit {
+            return Err(CompensateError::TooLarge {
+                path: PathBuf::new(),
+                line,
+                what: format!(
+                    "correction of {lin_um:.1} um in X, Y, Z exceeds --max-correction {limit} um; nothing written"
+                ),
+            });
+        }
+        if rot_urad > limit {
+            return Err(CompensateError::TooLarge {
+                path: PathBuf::new(),
+                line,
+                what: format!(
+                    "correction of the tool orientation by {rot_urad:.1} urad ({} and C) exceeds --max-correction {limit} urad; nothing written",
+                    m.tilt.letter
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Tip distance between the actual path of written values interpolated
+    /// from `w0` to `w1` and the intended path, at fraction `t` of a piece
+    /// spanning `u0..u1` of the nominal path.
+    #[allow(clippy::too_many_arguments)]
+    fn deviation(
+        &self,
+        f: &Frame,
+        path: &Path,
+        u0: f64,
+        u1: f64,
+        w0: &[f64; 6],
+        w1: &[f64; 6],
+        t: f64,
+        vector: Option<Vector3<f64>>,
+    ) -> f64 {
+        let n = f.model(&path.at(u0 + t * (u1 - u0)));
+        let target = self.target(f, &n, vector);
+        let w = f.model(&lerp(w0, w1, t));
+        (self.actual(f, &w).tip - target.tip).norm()
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn piece_deviation(
+        &self,
+        f: &Frame,
+        path: &Path,
+        u0: f64,
+        u1: f64,
+        w0: &[f64; 6],
+        w1: &[f64; 6],
+        vector: Option<Vector3<f64>>,
+    ) -> f64 {
+        let tol = self.settings.tolerance;
+        let mid = self.deviation(f, path, u0, u1, w0, w1, 0.5, vector);
+        if mid > tol / 8.0 {
+            mid.max(self.deviation(f, path, u0, u1, w0, w1, 0.25, vector))
+                .max(self.deviation(f, path, u0, u1, w0, w1, 0.75, vector))
+        } else {
+            mid
+        }
+    }
+
+    /// Whether a line needs no subdivision by the cheap bound of
+    /// [`super::Solver::deviation_bound`] (post-side, constant errors):
+    /// most blocks of a real program are short and are settled here without
+    /// evaluating the path.
+    fn short_enough(&self, f: &Frame, p0: &[f64; 6], w0: &[f64; 6], end: &Point) -> bool {
+        if f.tcp != Tcp::Off || !self.solver.is_fast() {
+            return false;
+        }
+        let (n0, w0m) = (f.model(p0), f.model(w0));
+        // The written start may be off by the rounding of its lexemes.
+        let ends = 1e-4;
+        self.solver
+            .deviation_bound(&n0, &end.nominal, &w0m, &end.written, ends)
+            <= self.settings.tolerance / 2.0
+    }
+
+    /// Pieces (end points) along `path` from the written start `w0` so that
+    /// each stays within the tolerance; the last is `end`. `ramp`: C is
+    /// held at either end, so the correction of C ramps between them.
+    #[allow(clippy::too_many_arguments)]
+    fn pieces(
+        &self,
+        f: &Frame,
+        path: &Path,
+        w0: &[f64; 6],
+        end: &Point,
+        n0: usize,
+        vector: Option<Vector3<f64>>,
+        ramp: bool,
+        line: usize,
+    ) -> Result<Vec<(f64, Point)>, CompensateError> {
+        let tol = self.settings.tolerance;
+        let mut n = n0.max(1);
+        // Where C is held at either end, the pieces do not switch between
+        // held and exact solutions (which would jump): the correction of C
+        // ramps from its value at the start to its value at the end, the
+        // tilt is the best for that C and the tip stays exact.
+        let ramp = ramp || end.held.is_some();
+        let dc0 = w0[5] - path.at(0.0)[5];
+        let dc1 = end.written.c - end.nominal.c;
+        loop {
+            let mut pts = Vec::with_capacity(n);
+            for k in 1..=n {
+                let u = k as f64 / n as f64;
+                if k == n {
+                    pts.push((1.0, *end));
+                } else {
+                    let hold = ramp.then_some(dc0 + u * (dc1 - dc0));
+                    let p = self.correct(f, &path.at(u), vector, hold).map_err(|what| {
+                        CompensateError::Tolerance {
+                            path: PathBuf::new(),
+                            line,
+                            what: format!("a point along the move cannot be corrected: {what}"),
+                        }
+                    })?;
+                    pts.push((u, p));
+                }
+            }
+            let mut worst: f64 = 0.0;
+            let mut prev = (0.0, *w0);
+            for (u, p) in &pts {
+                worst = worst
+                    .max(self.piece_deviation(f, path, prev.0, *u, &prev.1, &p.program, vector));
+                prev = (*u, p.program);
+            }
+            if worst <= tol {
+                return Ok(pts);
+            }
+            n = if n == 1 {
+                (((worst / tol).sqrt() * 1.25).ceil() as usize).max(2)
+            } else {
+                n * 2
+            };
+            if n > 1 << 16 {
+                return Err(CompensateError::Tolerance {
+                    path: PathBuf::new(),
+                    line,
+                    what: format!(
+                        "the move cannot be followed within --tolerance {} um even in {} pieces",
+                        tol * 1e3,
+                        1 << 16
+                    ),
+                });
+            }
+        }
+    }
+
+    /// How to write `mv` from the written position `emit` (what the
+    /// controller has after the blocks written so far); `ramp`: the last
+    /// written end point had C held.
+    pub(super) fn plan(
+        &self,
+        f: &Frame,
+        mv: &Move,
+        emit: &[Option<f64>; 6],
+        ramp: bool,
+        line: usize,
+    ) -> Result<Plan, Refusal> {
+        if let Some(&a) = f.axes().iter().find(|&&a| mv.end[a].is_none()) {
+            return Err(Refusal::Skip(Skip::PositionUnknown(AXES[a]).to_string()));
+        }
+        let vector = mv.vector;
+        let p1 = known(&mv.end);
+        let pt = self.correct(f, &p1, vector, None).map_err(Refusal::Skip)?;
+        self.check_limit(&pt, line)?;
+        let start_known = f
+            .axes()
+            .iter()
+            .all(|&a| mv.start[a].is_some() && emit[a].is_some());
+        let p0 = known(&mv.start);
+        let w0 = known(emit);
+        match mv.kind {
+            MoveKind::Rapid => Ok(Plan::End(pt)),
+            MoveKind::Linear if !start_known || vector.is_some() => Ok(Plan::End(pt)),
+            MoveKind::Linear => {
+                if self.short_enough(f, &p0, &w0, &pt) {
+                    return Ok(Plan::End(pt));
+                }
+                let path = Path::Line { p0, p1 };
+                let pieces = self.pieces(f, &path, &w0, &pt, 1, vector, ramp, line)?;
+                for (_, p) in &pieces[..pieces.len() - 1] {
+                    self.check_limit(p, line)?;
+                }
+                if pieces.len() == 1 {
+                    return Ok(Plan::End(pt));
+                }
+                Ok(Plan::Pieces {
+                    pieces,
+                    linearize: false,
+                })
+            }
+            MoveKind::Arc(arc) => {
+                if !start_known {
+                    return Err(Refusal::Skip(Skip::PositionUnknown(b'X').to_string()));
+                }
+                self.plan_arc(f, &arc, &p0, &w0, &p1, pt, ramp, line)
+            }
+        }
+    }
+
+    /// An arc stays an arc around the corrected centre when the rotary axes
+    /// do not move and the corrected arc stays within the tolerance;
+    /// otherwise it is linearized.
+    #[allow(clippy::too_many_arguments)]
+    fn plan_arc(
+        &self,
+        f: &Frame,
+        arc: &Arc,
+        p0: &[f64; 6],
+        w0: &[f64; 6],
+        p1: &[f64; 6],
+        pt: Point,
+        ramp: bool,
+        line: usize,
+    ) -> Result<Plan, Refusal> {
+        let tol = self.settings.tolerance;
+        let axes = arc.plane.axes();
+        let geo = ArcGeo::new(axes, arc.center, p0, p1, arc.cw, arc.turns);
+        let path = Path::Arc {
+            p0: *p0,
+            p1: *p1,
+            geo,
+        };
+        let rotary_fixed = p0[f.tilt] == p1[f.tilt] && p0[5] == p1[5];
+        // The corrected centre, with the rotary axes where the arc runs.
+        let (a0, a1, _) = axes;
+        let mut pc = *p0;
+        pc[a0] = arc.center[0];
+        pc[a1] = arc.center[1];
+        let nc = f.model(&pc);
+        let tip = self.target(f, &nc, None).tip;
+        // The machine axes that put the actual tip on the centre with the
+        // corrected rotary positions; under TCP, written as the W point the
+        // nominal controller turns into them.
+        let m = Axes {
+            xyz: self.solver.position_at(&tip, pt.written.tilt, pt.written.c),
+            tilt: pt.written.tilt,
+            c: pt.written.c,
+        };
+        let cprog = f.program(&self.written_model(f, &m));
+        let center = [cprog[a0], cprog[a1]];
+        let mut keep = rotary_fixed;
+        if keep {
+            let wg = ArcGeo::new(axes, center, w0, &pt.program, arc.cw, arc.turns);
+            keep = (wg.rs - wg.re).abs() <= tol && (wg.sweep - geo.sweep).abs() < 0.5;
+            if keep {
+                for k in 1..16 {
+                    let u = k as f64 / 16.0;
+                    let n = f.model(&geo.at(p0, p1, u));
+                    let target = self.target(f, &n, None);
+                    let w = f.model(&wg.at(w0, &pt.program, u));
+                    if (self.actual(f, &w).tip - target.tip).norm() > tol {
+                        keep = false;
+                        break;
+                    }
+                }
+            }
+        }
+        if keep {
+            return Ok(Plan::Arc { end: pt, center });
+        }
+        let r = geo.rs.max(geo.re) * f.u;
+        let step = if r > tol / 2.0 {
+            2.0 * (1.0 - tol / 2.0 / r).clamp(-1.0, 1.0).acos()
+        } else {
+            PI / 2.0
+        };
+        let n0 = ((geo.sweep.abs() / step.max(1e-4)).ceil() as usize).max(2);
+        let pieces = self.pieces(f, &path, w0, &pt, n0, None, ramp, line)?;
+        for (_, p) in &pieces[..pieces.len() - 1] {
+            self.check_limit(p, line)?;
+        }
+        Ok(Plan::Pieces {
+            pieces,
+            linearize: true,
+        })
+    }
+}
+
+/// Size of a correction: X, Y, Z (um, length of the vector) and the
+/// change of tool orientation the rotary corrections make (urad; a C
+/// correction counts with the sine of the tilt, since next to the
+/// singular tilt turning C barely turns the tool).
+pub(super) fn size(pt: &Point) -> (f64, f64) {
+    let lin_um = (pt.written.xyz - pt.nominal.xyz).norm() * 1e3;
+    let dt = (pt.written.tilt - pt.nominal.tilt).to_radians().abs();
+    let dc = (pt.written.c - pt.nominal.c).to_radians().abs();
+    // |dc sin t| cannot exceed dt when dc does not: skip the sine then.
+    // |sin t| of the nominal tilt from the target's tool axis: every
+    // nominal chain turns +Z by the tilt first (z component cos t).
+    let dc = if dc <= dt {
+        0.0
+    } else {
+        let uz = pt.target.axis.z / pt.target.axis.norm();
+        dc * (1.0 - uz * uz).max(0.0).sqrt()
+    };
+    (lin_um, dt.max(dc) * 1e6)
+}

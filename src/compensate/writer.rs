@@ -1,0 +1,791 @@
+//! Writing corrected points into the program's own text: only the value
+//! lexemes that change are replaced, in the style of the program (`X1.`,
+//! `X+1`, `X.5`); an axis whose written value changes but that the block
+//! does not name gets a word; pieces of subdivided moves and linearized
+//! arcs follow as new blocks; an arc keeps its form with a corrected
+//! centre or radius (HEIDENHAIN: a new pole `CC`); HEIDENHAIN blocks are
+//! renumbered after inserted ones. The writer also follows what the
+//! controller has as its position, given what was written so far, so an
+//! incremental word or a new word is written against the right value.
+
+use nalgebra::Vector3;
+
+use super::Settings;
+use super::correction::{Plan, Point};
+use super::edit::Edits;
+use crate::machine::Dialect;
+use crate::nc::interp::{AXES, Arc, FeedMode, Frame, Interpreter, Motion, Move, MoveKind, Units};
+use crate::nc::lexeme::{self, NumStyle, WriteRules, round_to};
+use crate::nc::{Addr, Block, HhKind, Segment, Stmt, TokenKind, Value};
+
+/// Where a written point goes: the point, what the controller has after
+/// it (program frame), and whether it is a piece inside the move.
+pub(super) type Sink<'s> = dyn FnMut(&Point, &[Option<f64>; 6], bool) + 's;
+
+/// The writer's state along a program.
+pub(super) struct Writer {
+    dialect: Dialect,
+    linear_decimals: u8,
+    rotary_decimals: u8,
+    /// What the controller has as the last position (program frame), given
+    /// what was written so far.
+    pub emit: [Option<f64>; 6],
+    emit_motion: Option<Motion>,
+    emit_pole: Option<[f64; 2]>,
+    eol: &'static [u8],
+    eol_known: bool,
+    /// HEIDENHAIN: blocks inserted so far (block numbers shift by it).
+    hh_offset: i64,
+    /// HEIDENHAIN: blocks inserted before / after the current block.
+    before: i64,
+    after: i64,
+    /// The current block's edits.
+    pub edits: Edits,
+    /// Blocks inserted.
+    pub inserted: usize,
+}
+
+impl Writer {
+    pub fn new(settings: &Settings) -> Writer {
+        Writer {
+            dialect: settings.dialect,
+            linear_decimals: settings.linear_decimals,
+            rotary_decimals: settings.rotary_decimals,
+            emit: [None; 6],
+            emit_motion: None,
+            emit_pole: None,
+            eol: b"\n",
+            eol_known: false,
+            hh_offset: 0,
+            before: 0,
+            after: 0,
+            edits: Edits::default(),
+            inserted: 0,
+        }
+    }
+
+    fn heidenhain(&self) -> bool {
+        self.dialect == Dialect::Heidenhain
+    }
+
+    fn rules(&self) -> WriteRules {
+        WriteRules {
+            force_point: self.dialect == Dialect::Fanuc,
+            force_plus: self.heidenhain(),
+        }
+    }
+
+    /// Starts a block: no edits yet.
+    pub fn begin(&mut self, block: &Block) {
+        self.edits.clear();
+        if !self.eol_known
+            && let Some(e) = block.line_ending()
+        {
+            self.eol = e;
+            self.eol_known = true;
+        }
+        self.before = 0;
+        self.after = 0;
+    }
+
+    /// Ends a block (renumbering HEIDENHAIN blocks); whether it changed.
+    pub fn end(&mut self, block: &Block) -> bool {
+        if self.heidenhain() {
+            self.renumber(block);
+        }
+        !self.edits.is_empty()
+    }
+
+    fn renumber(&mut self, block: &Block) {
+        let shift = self.hh_offset + self.before;
+        if shift != 0
+            && let Some((n, span)) = block.tokens.iter().find_map(|t| match t.kind {
+                TokenKind::BlockNumber(n) => Some((n, t.span)),
+                _ => None,
+            })
+        {
+            let new = (n as i64 + shift).max(0) as u64;
+            self.edits.replace(span, |b| lexeme::push_u64(b, new));
+        }
+        self.hh_offset += self.before + self.after;
+    }
+
+    /// After a statement: HEIDENHAIN remembers the pole in force; ISO
+    /// blocks that rely on a motion mode a linearized arc changed get their
+    /// motion word back.
+    pub fn after_statement(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        interp: &Interpreter,
+        motion_done: bool,
+    ) {
+        if self.heidenhain() {
+            if let Stmt::Hh(HhKind::Cc) = seg.stmt {
+                self.emit_pole = interp.pole;
+            }
+        } else if !motion_done {
+            self.fix_motion_word(block, seg, interp.motion);
+        }
+    }
+
+    /// ISO: a block that relies on the modal motion mode gets the program's
+    /// motion word back when a linearized arc changed the mode in force.
+    fn fix_motion_word(&mut self, block: &Block, seg: &Segment, motion: Option<Motion>) {
+        if self.emit_motion == motion {
+            // Nothing to restore, and nothing changes by recording it.
+            return;
+        }
+        let has_axis = block
+            .words(seg)
+            .any(|(_, w)| w.addr.as_letter().is_some_and(|l| AXES.contains(&l)));
+        let has_motion = block.words(seg).any(|(_, w)| {
+            w.addr == Addr::letter(b'G')
+                && matches!(w.value, Value::Num(v) if [0.0, 1.0, 2.0, 3.0].contains(&v))
+        });
+        if has_axis
+            && !has_motion
+            && let Some(word) = motion_text(motion)
+        {
+            let at = block.tokens[seg.body as usize..seg.end as usize]
+                .iter()
+                .find(|t| !matches!(t.kind, TokenKind::Space))
+                .map_or(
+                    block.tokens[seg.body.min(seg.end.saturating_sub(1)) as usize]
+                        .span
+                        .start,
+                    |t| t.span.start,
+                );
+            self.edits.insert(at, |b| {
+                b.extend_from_slice(word.as_bytes());
+                b.push(b' ');
+            });
+        }
+        if has_axis || has_motion {
+            self.emit_motion = motion;
+        }
+    }
+
+    /// A move left as written: a polar element needs the program's own
+    /// pole; the controller then moves where the words say.
+    pub fn keep(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        interp: &Interpreter,
+        before: &[Option<f64>; 6],
+    ) {
+        if self.heidenhain()
+            && matches!(seg.stmt, Stmt::Hh(HhKind::Lp | HhKind::Cp))
+            && self.emit_pole != interp.pole
+            && let Some(p) = interp.pole
+        {
+            self.insert_pole(block, p, interp.units);
+        }
+        self.follow(block, seg, interp, before, true);
+    }
+
+    /// Follows a statement that is left as written: the controller moves
+    /// where the words say, from wherever the previous blocks left it.
+    pub fn follow(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        interp: &Interpreter,
+        before: &[Option<f64>; 6],
+        moved: bool,
+    ) {
+        let after = interp.pos;
+        if !moved {
+            // No motion (a pole, a shift, a cycle definition): positions
+            // change only where the frame changed.
+            for i in 0..6 {
+                self.emit[i] = match after[i] {
+                    None => None,
+                    Some(a) if before[i] != Some(a) => Some(a),
+                    Some(_) => self.emit[i],
+                };
+            }
+            return;
+        }
+        let mut named = [false; 6];
+        let mut inc = [false; 6];
+        for (_, w) in block.words(seg) {
+            if let Some(l) = w.addr.as_letter()
+                && let Some(i) = AXES.iter().position(|&a| a == l)
+            {
+                named[i] = true;
+                inc[i] = w.incremental || !interp.absolute;
+            }
+        }
+        for i in 0..6 {
+            self.emit[i] = match after[i] {
+                None => None,
+                Some(a) if named[i] && inc[i] => match (before[i], self.emit[i]) {
+                    (Some(b), Some(e)) => Some(e + (a - b)),
+                    _ => None,
+                },
+                Some(a) if named[i] => Some(a),
+                Some(a) => {
+                    if before[i].is_none() {
+                        // Newly known without being named (G92 and the like).
+                        Some(a)
+                    } else {
+                        self.emit[i]
+                    }
+                }
+            };
+        }
+    }
+
+    /// Writes a planned move; returns whether the motion-word bookkeeping
+    /// was done here (a linearized arc).
+    #[allow(clippy::too_many_arguments)]
+    pub fn write(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        mv: &Move,
+        f: &Frame,
+        interp: &Interpreter,
+        plan: &Plan,
+        tool_axis: Option<Vector3<f64>>,
+        sink: &mut Sink,
+    ) -> bool {
+        match plan {
+            Plan::End(pt) => {
+                self.write_end(block, seg, mv, f, interp, pt, sink);
+                if let (Some((_, idx)), Some(axis)) = (mv.tool_vector, tool_axis) {
+                    self.write_vector(block, axis, &idx);
+                }
+                false
+            }
+            Plan::Arc { end, center } => {
+                let MoveKind::Arc(arc) = mv.kind else {
+                    unreachable!("an arc plan for an arc move")
+                };
+                self.write_arc(block, seg, mv, f, interp, &arc, end, *center, sink);
+                false
+            }
+            Plan::Pieces { pieces, linearize } => {
+                self.write_pieces(block, seg, mv, f, interp, pieces, *linearize, sink);
+                *linearize
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn write_end(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        mv: &Move,
+        f: &Frame,
+        interp: &Interpreter,
+        pt: &Point,
+        sink: &mut Sink,
+    ) {
+        let emitted = self.write_words(block, seg, mv, f, interp, &pt.program);
+        self.emit = emitted;
+        sink(pt, &emitted, false);
+    }
+
+    /// G43.5: the tool direction `axis` (the one the nominal controller
+    /// turns into the corrected rotary positions) into the I J K words.
+    fn write_vector(&mut self, block: &Block, axis: Vector3<f64>, idx: &[Option<usize>; 3]) {
+        let rules = self.rules();
+        // Keep the program's vector length (it need not be a unit vector).
+        let mut norm2 = 0.0;
+        for ti in idx.iter().flatten() {
+            if let TokenKind::Word(w) = block.tokens[*ti].kind
+                && let Value::Num(x) = w.value
+            {
+                norm2 += x * x;
+            }
+        }
+        let v = axis * norm2.sqrt();
+        for (k, ti) in idx.iter().enumerate() {
+            let Some(ti) = *ti else { continue };
+            let TokenKind::Word(w) = block.tokens[ti].kind else {
+                continue;
+            };
+            let style = w.style;
+            let d = style.decimals.max(self.rotary_decimals + 2);
+            let Value::Num(orig) = w.value else {
+                continue;
+            };
+            if (v[k] - orig).abs() >= lexeme::half_unit(d) {
+                self.edits
+                    .replace(w.value_span, |b| lexeme::write(b, v[k], d, &style, rules));
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn write_arc(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        mv: &Move,
+        f: &Frame,
+        interp: &Interpreter,
+        arc: &Arc,
+        pt: &Point,
+        cstar: [f64; 2],
+        sink: &mut Sink,
+    ) {
+        let rules = self.rules();
+        let (a0, a1, _) = arc.plane.axes();
+        let w0 = crate::nc::interp::coordinates::known(&self.emit);
+        if self.heidenhain() && arc.radius_word.is_none() {
+            // C around the pole: the pole itself moves.
+            let d = self.decimals(0, None, interp.units);
+            let half = lexeme::half_unit(d);
+            let c = [round_to(cstar[0], d), round_to(cstar[1], d)];
+            let differs = self
+                .emit_pole
+                .is_none_or(|p| (p[0] - cstar[0]).abs() >= half || (p[1] - cstar[1]).abs() >= half);
+            if differs {
+                self.insert_pole(block, c, interp.units);
+            }
+        }
+        if let Some(ri) = arc.radius_word {
+            let TokenKind::Word(w) = block.tokens[ri].kind else {
+                return;
+            };
+            let d = self.decimals(0, Some(&w.style), interp.units);
+            let Value::Num(orig) = w.value else {
+                return;
+            };
+            let r = (w0[a0] - cstar[0]).hypot(w0[a1] - cstar[1]) * orig.signum();
+            let new = round_to(r, d);
+            if (r - orig).abs() >= lexeme::half_unit(d) {
+                let style = w.style;
+                self.edits
+                    .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+            }
+        } else if !self.heidenhain() {
+            let letters = [b'I', b'J', b'K'];
+            let mut inserts = Vec::new();
+            for (k, &axis) in [a0, a1].iter().enumerate() {
+                let new_v = if interp.arc_absolute {
+                    cstar[k]
+                } else {
+                    cstar[k] - w0[axis]
+                };
+                match arc.center_words[axis] {
+                    Some(ti) => {
+                        let TokenKind::Word(w) = block.tokens[ti].kind else {
+                            continue;
+                        };
+                        let d = self.decimals(0, Some(&w.style), interp.units);
+                        let Value::Num(orig) = w.value else {
+                            continue;
+                        };
+                        let new = round_to(new_v, d);
+                        if (new_v - orig).abs() >= lexeme::half_unit(d) {
+                            let style = w.style;
+                            self.edits
+                                .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                        }
+                    }
+                    None => {
+                        let d = self.decimals(0, None, interp.units);
+                        let new = round_to(new_v, d);
+                        if new_v.abs() >= lexeme::half_unit(d) || interp.arc_absolute {
+                            inserts.push((letters[axis], new, d, self.style_of(block, mv, axis)));
+                        }
+                    }
+                }
+            }
+            if !inserts.is_empty() {
+                let lower = lower(block, seg);
+                let last = block
+                    .words(seg)
+                    .map(|(ti, _)| block.tokens[ti].span.end)
+                    .max()
+                    .unwrap_or(0);
+                self.edits.insert(last, |b| {
+                    for (l, v, d, style) in &inserts {
+                        b.push(b' ');
+                        b.push(if lower { l.to_ascii_lowercase() } else { *l });
+                        lexeme::write(b, *v, *d, style, rules);
+                    }
+                });
+            }
+        }
+        self.write_end(block, seg, mv, f, interp, pt, sink);
+    }
+
+    /// HEIDENHAIN: inserts `CC X.. Y..` before the block.
+    fn insert_pole(&mut self, block: &Block, c: [f64; 2], units: Units) {
+        let d = self.decimals(0, None, units);
+        let number = block.tokens.iter().find_map(|t| match t.kind {
+            TokenKind::BlockNumber(n) => Some(n as i64 + self.hh_offset + self.before),
+            _ => None,
+        });
+        let eol = self.eol;
+        let rules = self.rules();
+        let style = NumStyle {
+            plus: true,
+            point: true,
+            decimals: d,
+            ..NumStyle::default()
+        };
+        self.edits.insert(0, |b| {
+            if let Some(n) = number {
+                lexeme::push_u64(b, n.max(0) as u64);
+                b.push(b' ');
+            }
+            b.extend_from_slice(b"CC X");
+            lexeme::write(b, c[0], d, &style, rules);
+            b.extend_from_slice(b" Y");
+            lexeme::write(b, c[1], d, &style, rules);
+            b.extend_from_slice(eol);
+        });
+        self.before += 1;
+        self.inserted += 1;
+        self.emit_pole = Some(c);
+    }
+
+    /// Writes a move as pieces: the block itself carries the first piece,
+    /// the others follow as new blocks.
+    #[allow(clippy::too_many_arguments)]
+    fn write_pieces(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        mv: &Move,
+        f: &Frame,
+        interp: &Interpreter,
+        pieces: &[(f64, Point)],
+        linearize: bool,
+        sink: &mut Sink,
+    ) {
+        let rules = self.rules();
+        let hh = self.heidenhain();
+        // Turn the arc into a line.
+        if linearize {
+            let mut first_axis = None;
+            for (ti, w) in block.words(seg) {
+                let l = w.addr.as_letter();
+                let kill = if hh {
+                    w.addr == Addr::new("DR") || w.addr == Addr::letter(b'R')
+                } else {
+                    matches!(l, Some(b'I' | b'J' | b'K' | b'R' | b'P'))
+                };
+                if kill {
+                    self.delete_with_space(block, ti);
+                }
+                if first_axis.is_none() && l.is_some_and(|l| AXES.contains(&l)) {
+                    first_axis = Some(ti);
+                }
+            }
+            if hh {
+                if let Some(k) = block
+                    .seg_tokens(seg)
+                    .iter()
+                    .find(|t| t.kind == TokenKind::Keyword)
+                {
+                    self.edits.replace(k.span, |b| b.push(b'L'));
+                }
+            } else if let Some(ti) = mv.motion_word {
+                let TokenKind::Word(w) = block.tokens[ti].kind else {
+                    return;
+                };
+                self.edits.replace(w.value_span, |b| b.push(b'1'));
+            } else {
+                let at = first_axis.map_or(block.tokens[seg.body as usize].span.start, |ti| {
+                    block.tokens[ti].span.start
+                });
+                let g = if lower(block, seg) { "g1 " } else { "G1 " };
+                self.edits.insert(at, |b| b.extend_from_slice(g.as_bytes()));
+            }
+        }
+        // The feed of each piece in inverse time: the block keeps its time.
+        let inverse_time = !hh && interp.feed_mode == FeedMode::InverseTime;
+        let feed = mv.feed;
+        let mut u_prev = 0.0;
+        let mut feed_for = |u: f64| -> Option<f64> {
+            let r = feed.map(|(_, fv)| fv / (u - u_prev));
+            u_prev = u;
+            r
+        };
+        let (u_first, first) = pieces[0];
+        let f_first = feed_for(u_first);
+        let emitted = self.write_words(block, seg, mv, f, interp, &first.program);
+        if inverse_time && let (Some((ti, _)), Some(fv)) = (feed, f_first) {
+            let TokenKind::Word(w) = block.tokens[ti].kind else {
+                return;
+            };
+            let style = w.style;
+            let d = style.decimals.max(3);
+            self.edits
+                .replace(w.value_span, |b| lexeme::write(b, fv, d, &style, rules));
+        }
+        self.emit = emitted;
+        sink(&first, &emitted, pieces.len() > 1);
+        // The following pieces, as new blocks after this statement.
+        let at = self.insert_point(block, seg);
+        let eob = block
+            .seg_tokens(seg)
+            .last()
+            .is_some_and(|t| t.kind == TokenKind::Eob);
+        let space_eob = eob
+            && block
+                .seg_tokens(seg)
+                .iter()
+                .rev()
+                .nth(1)
+                .is_some_and(|t| t.kind == TokenKind::Space);
+        let delete = block
+            .seg_tokens(seg)
+            .iter()
+            .find(|t| t.kind == TokenKind::BlockDelete)
+            .map(|t| block.bytes(t.span).to_vec());
+        let number_base = if hh {
+            block.tokens.iter().find_map(|t| match t.kind {
+                TokenKind::BlockNumber(n) => Some(n as i64 + self.hh_offset + self.before),
+                _ => None,
+            })
+        } else {
+            None
+        };
+        let lower = lower(block, seg);
+        let rapid = matches!(mv.kind, MoveKind::Rapid);
+        let mut text = Vec::new();
+        let last = pieces.len() - 1;
+        for (i, (u, p)) in pieces.iter().enumerate().skip(1) {
+            let fv = feed_for(*u);
+            let prev = self.emit;
+            text.extend_from_slice(self.eol);
+            if let Some(d) = &delete {
+                text.extend_from_slice(d);
+                if hh {
+                    text.push(b' ');
+                }
+            }
+            if let Some(n) = number_base {
+                lexeme::push_u64(&mut text, (n + 1 + self.after).max(0) as u64);
+                text.push(b' ');
+            }
+            if hh {
+                text.extend_from_slice(b"L");
+            }
+            let mut first_word = !hh;
+            let mut emitted = prev;
+            for a in f.axes() {
+                let d = self.decimals(
+                    a,
+                    mv.words[a].and_then(|ti| match &block.tokens[ti].kind {
+                        TokenKind::Word(w) => Some(&w.style),
+                        _ => None,
+                    }),
+                    interp.units,
+                );
+                let half = lexeme::half_unit(d);
+                let nv = round_to(p.program[a], d);
+                let Some(pv) = prev[a] else { continue };
+                if (p.program[a] - pv).abs() < half {
+                    continue;
+                }
+                let inc = !hh && !interp.absolute;
+                let val = if inc { round_to(nv - pv, d) } else { nv };
+                if !first_word {
+                    text.push(b' ');
+                }
+                first_word = false;
+                let l = AXES[a];
+                text.push(if lower { l.to_ascii_lowercase() } else { l });
+                lexeme::write(&mut text, val, d, &self.style_of(block, mv, a), rules);
+                emitted[a] = Some(if inc { pv + val } else { nv });
+            }
+            if hh && rapid {
+                text.extend_from_slice(b" FMAX");
+            }
+            if inverse_time && let (Some(fv), Some((ti, _))) = (fv, feed) {
+                let TokenKind::Word(w) = block.tokens[ti].kind else {
+                    continue;
+                };
+                let style = w.style;
+                text.push(b' ');
+                text.push(if lower { b'f' } else { b'F' });
+                lexeme::write(&mut text, fv, style.decimals.max(3), &style, rules);
+            }
+            if eob {
+                if space_eob {
+                    text.push(b' ');
+                }
+                text.push(b';');
+            }
+            self.emit = emitted;
+            sink(p, &emitted, i != last);
+            if hh {
+                self.after += 1;
+            }
+            self.inserted += 1;
+        }
+        self.edits.insert(at, |b| b.extend_from_slice(&text));
+        if linearize {
+            self.emit_motion = Some(Motion::Linear);
+        }
+    }
+
+    fn delete_with_space(&mut self, block: &Block, ti: usize) {
+        let mut span = block.tokens[ti].span;
+        if ti > 0 && block.tokens[ti - 1].kind == TokenKind::Space {
+            span.start = block.tokens[ti - 1].span.start;
+        }
+        self.edits.delete(span);
+    }
+
+    /// Where blocks following a statement are inserted: after its `;`, or
+    /// before the block's final line ending.
+    fn insert_point(&self, block: &Block, seg: &Segment) -> u32 {
+        let toks = block.seg_tokens(seg);
+        if let Some(t) = toks.last().filter(|t| t.kind == TokenKind::Eob) {
+            return t.span.end;
+        }
+        if self.heidenhain() {
+            let n = block.text.len() - block.line_ending().map_or(0, |e| e.len());
+            return n as u32;
+        }
+        toks.last().map_or(0, |t| t.span.end)
+    }
+
+    /// Decimals written for an axis: the settings' (two more in inches),
+    /// or the lexeme's when it has more.
+    fn decimals(&self, axis: usize, lexeme: Option<&NumStyle>, units: Units) -> u8 {
+        let base = if axis < 3 {
+            self.linear_decimals + if units == Units::Inch { 2 } else { 0 }
+        } else {
+            self.rotary_decimals
+        };
+        lexeme.map(|l| l.decimals).unwrap_or(0).max(base)
+    }
+
+    /// The style of a new word for `axis`: its own word's, another axis
+    /// word's of the same kind, or the dialect's default.
+    fn style_of(&self, block: &Block, mv: &Move, axis: usize) -> NumStyle {
+        let from = |ti: usize| match block.tokens[ti].kind {
+            TokenKind::Word(w) => Some(w.style),
+            _ => None,
+        };
+        if let Some(s) = mv.words[axis].and_then(from) {
+            return s;
+        }
+        // Another word of the same kind (linear or rotary) in the block.
+        let same = |a: usize| (a < 3) == (axis < 3);
+        for a in 0..6 {
+            if same(a)
+                && let Some(s) = mv.words[a].and_then(from)
+            {
+                return s;
+            }
+        }
+        NumStyle {
+            plus: self.heidenhain(),
+            point: true,
+            decimals: 3,
+            ..NumStyle::default()
+        }
+    }
+
+    /// Writes an end point into the statement's own words (replacing
+    /// values, adding words for axes whose written value changes); returns
+    /// the position in force afterwards.
+    fn write_words(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        mv: &Move,
+        f: &Frame,
+        interp: &Interpreter,
+        values: &[f64; 6],
+    ) -> [Option<f64>; 6] {
+        let prev = self.emit;
+        let mut emitted = prev;
+        let rules = self.rules();
+        let lower = lower(block, seg);
+        let mut inserts: [Option<(usize, f64, u8, NumStyle)>; 6] = [None; 6];
+        for a in f.axes() {
+            if a >= 3 && mv.vector.is_some() {
+                // G43.5 programs the direction, not the rotary positions.
+                continue;
+            }
+            let v = values[a];
+            match mv.words[a] {
+                Some(ti) => {
+                    let TokenKind::Word(w) = block.tokens[ti].kind else {
+                        continue;
+                    };
+                    let d = self.decimals(a, Some(&w.style), interp.units);
+                    let half = lexeme::half_unit(d);
+                    let inc = mv.incremental[a];
+                    let (Some(e_end), Some(s)) = (mv.end[a], mv.start[a].or(Some(0.0))) else {
+                        continue;
+                    };
+                    let orig = if inc { e_end - s } else { e_end };
+                    let base = if inc { prev[a] } else { Some(0.0) };
+                    let Some(base) = base else { continue };
+                    // Compare unrounded: a value that only rounds differently
+                    // (zero errors) must keep its lexeme.
+                    if (v - base - orig).abs() < half {
+                        emitted[a] = Some(base + orig);
+                    } else {
+                        let new = round_to(v - base, d);
+                        let style = w.style;
+                        self.edits
+                            .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                        emitted[a] = Some(base + new);
+                    }
+                }
+                None => {
+                    let d = self.decimals(a, None, interp.units);
+                    let half = lexeme::half_unit(d);
+                    let Some(pv) = prev[a] else { continue };
+                    let nv = round_to(v, d);
+                    if (v - pv).abs() >= half {
+                        let inc = !self.heidenhain() && !interp.absolute;
+                        let val = if inc { round_to(nv - pv, d) } else { nv };
+                        inserts[a] = Some((a, val, d, self.style_of(block, mv, a)));
+                        emitted[a] = Some(if inc { pv + val } else { nv });
+                    }
+                }
+            }
+        }
+        if inserts.iter().any(|i| i.is_some()) {
+            let last = (0..6)
+                .filter_map(|a| mv.words[a])
+                .map(|ti| block.tokens[ti].span.end)
+                .max()
+                .unwrap_or(block.tokens[seg.body as usize].span.start);
+            self.edits.insert(last, |b| {
+                for (a, val, d, style) in inserts.iter().flatten() {
+                    b.push(b' ');
+                    let l = AXES[*a];
+                    b.push(if lower { l.to_ascii_lowercase() } else { l });
+                    lexeme::write(b, *val, *d, style, rules);
+                }
+            });
+        }
+        emitted
+    }
+}
+
+/// Whether the statement writes its words in lower case.
+fn lower(block: &Block, seg: &Segment) -> bool {
+    block.words(seg).next().is_some_and(|(ti, _)| {
+        block.text[block.tokens[ti].span.start as usize].is_ascii_lowercase()
+    })
+}
+
+fn motion_text(m: Option<Motion>) -> Option<&'static str> {
+    match m? {
+        Motion::Rapid => Some("G0"),
+        Motion::Linear => Some("G1"),
+        Motion::ArcCw => Some("G2"),
+        Motion::ArcCcw => Some("G3"),
+        Motion::Other => None,
+    }
+}

@@ -1,0 +1,65 @@
+//! Program coordinates and the model frame of the kinematics: units, datum
+//! shifts, where the program zero lies in W, and the tool length the
+//! program leaves to the controller or not.
+
+use nalgebra::Vector3;
+
+use super::Tcp;
+use crate::kinematics::Axes;
+
+/// How program coordinates (X Y Z A B C, program units and degrees) map to
+/// the axes of the kinematic model (mm, degrees) in the current state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// Millimetres per program unit.
+    pub u: f64,
+    /// Datum shift per linear axis, program units.
+    pub shift: [f64; 3],
+    /// Where the program zero lies in W at rotary zero, mm.
+    pub origin: Vector3<f64>,
+    /// Tool length the program's Z includes (tool length compensation off
+    /// and no TCP), mm.
+    pub tlc: f64,
+    /// TCP mode the coordinates are meant in.
+    pub tcp: Tcp,
+    /// Index of the tilt axis among X Y Z A B C.
+    pub tilt: usize,
+}
+
+impl Frame {
+    /// Program coordinates to model axes (or, under TCP, tip and rotary
+    /// positions).
+    pub fn model(&self, p: &[f64; 6]) -> Axes {
+        Axes {
+            xyz: Vector3::new(
+                (p[0] + self.shift[0]) * self.u + self.origin.x,
+                (p[1] + self.shift[1]) * self.u + self.origin.y,
+                (p[2] + self.shift[2]) * self.u + self.origin.z - self.tlc,
+            ),
+            tilt: p[self.tilt],
+            c: p[5],
+        }
+    }
+
+    /// Model axes to program coordinates (NaN for the rotary axis the
+    /// machine does not have).
+    pub fn program(&self, a: &Axes) -> [f64; 6] {
+        let mut p = [f64::NAN; 6];
+        p[0] = (a.xyz.x - self.origin.x) / self.u - self.shift[0];
+        p[1] = (a.xyz.y - self.origin.y) / self.u - self.shift[1];
+        p[2] = (a.xyz.z + self.tlc - self.origin.z) / self.u - self.shift[2];
+        p[self.tilt] = a.tilt;
+        p[5] = a.c;
+        p
+    }
+
+    /// The five axes of the machine among X Y Z A B C.
+    pub fn axes(&self) -> [usize; 5] {
+        [0, 1, 2, self.tilt, 5]
+    }
+}
+
+/// Tracked positions with NaN where unknown.
+pub fn known(p: &[Option<f64>; 6]) -> [f64; 6] {
+    p.map(|x| x.unwrap_or(f64::NAN))
+}

@@ -1,0 +1,505 @@
+//! The word-address G-code that FANUC and LinuxCNC share: the modal groups
+//! (motion, plane, units, distance, feed mode, work offset, tool length and
+//! TCP, cutter compensation), the non-modal codes whose axis words are not
+//! positions (dwell, reference return, machine coordinates, probing, data
+//! setting, G52, G92) and the move a block of axis words makes.
+
+use super::{
+    AXES, Arc, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Plane, Skip, Tcp, Units,
+    center_from_radius,
+};
+use crate::machine::Dialect;
+use crate::nc::{Block, Segment, Stmt, Value};
+
+/// G codes FANUC 30i-class controls know (value x 10).
+const FANUC_G: &[u32] = &[
+    0, 10, 20, 30, 40, 50, 51, 71, 80, 90, 100, 106, 110, 121, 131, 150, 160, 170, 180, 190, 200,
+    210, 220, 230, 250, 260, 270, 280, 290, 300, 310, 311, 312, 313, 314, 330, 370, 390, 400, 410,
+    412, 420, 422, 430, 434, 435, 440, 450, 460, 470, 480, 490, 500, 501, 510, 511, 520, 530, 531,
+    540, 541, 550, 560, 570, 580, 590, 600, 610, 620, 630, 640, 650, 660, 670, 680, 682, 683, 684,
+    690, 730, 740, 760, 800, 810, 820, 830, 840, 850, 860, 870, 880, 890, 900, 910, 920, 930, 940,
+    950, 960, 970, 980, 990,
+];
+
+/// G codes LinuxCNC 2.9 knows (value x 10).
+const LINUXCNC_G: &[u32] = &[
+    0, 10, 20, 30, 40, 50, 51, 52, 53, 70, 80, 100, 170, 171, 180, 181, 190, 191, 200, 210, 280,
+    281, 300, 301, 330, 331, 382, 383, 384, 385, 400, 410, 411, 420, 421, 430, 431, 432, 490, 520,
+    530, 540, 550, 560, 570, 580, 590, 591, 592, 593, 610, 611, 640, 700, 710, 720, 730, 740, 760,
+    800, 810, 820, 830, 840, 850, 860, 870, 880, 890, 900, 901, 910, 911, 920, 921, 922, 923, 930,
+    940, 950, 960, 970, 980, 990,
+];
+
+/// The G-code number of a literal G word value, times ten (`43.4` -> 434).
+pub fn g_code(v: f64) -> Option<u32> {
+    let t = (v * 10.0).round();
+    ((v * 10.0 - t).abs() < 1e-6 && (0.0..1e9).contains(&t)).then_some(t as u32)
+}
+
+/// Whether the dialect knows G code `g` (x 10).
+pub fn known_g(dialect: Dialect, g: u32) -> bool {
+    match dialect {
+        Dialect::Linuxcnc => LINUXCNC_G.binary_search(&g).is_ok(),
+        _ => FANUC_G.binary_search(&g).is_ok(),
+    }
+}
+
+impl Interpreter {
+    /// One FANUC or LinuxCNC statement.
+    pub(super) fn gcode(&mut self, block: &Block, seg: &Segment) -> Event {
+        match seg.stmt {
+            Stmt::Words => self.words(block, seg),
+            Stmt::Flow(_) => {
+                self.forget();
+                Event::None
+            }
+            _ => Event::None,
+        }
+    }
+
+    fn words(&mut self, block: &Block, seg: &Segment) -> Event {
+        let mut g_nonmodal: Option<u32> = None;
+        let mut motion_word = None;
+        let mut motion_here: Option<Motion> = None;
+        let mut m_codes: [Option<u32>; 4] = [None; 4];
+        let mut nm = 0;
+        let mut p_word: Option<f64> = None;
+        let mut has_axis = false;
+        let old_frame = (
+            self.work_offset,
+            self.tool_length,
+            self.tcp,
+            self.tilted,
+            self.units,
+        );
+        let mut expr_g = false;
+        for (ti, w) in block.words(seg) {
+            let Some(letter) = w.addr.as_letter() else {
+                continue;
+            };
+            match letter {
+                b'G' => {
+                    let Value::Num(v) = w.value else {
+                        expr_g = true;
+                        continue;
+                    };
+                    let Some(g) = g_code(v) else { continue };
+                    match g {
+                        0 | 10 | 20 | 30 => {
+                            motion_here = Some(match g {
+                                0 => Motion::Rapid,
+                                10 => Motion::Linear,
+                                20 => Motion::ArcCw,
+                                _ => Motion::ArcCcw,
+                            });
+                            motion_word = Some(ti);
+                        }
+                        50 | 51 | 52 | 53 | 330 | 331 | 760 | 730 | 740 | 810..=890 => {
+                            motion_here = Some(Motion::Other);
+                            motion_word = Some(ti);
+                        }
+                        800 => {
+                            self.motion = None;
+                        }
+                        40
+                        | 100
+                        | 280
+                        | 281
+                        | 300
+                        | 301
+                        | 310..=314
+                        | 382..=385
+                        | 520
+                        | 530
+                        | 650
+                        | 660
+                        | 531
+                        | 920 => g_nonmodal = Some(g),
+                        670 => {}
+                        170 => self.plane = Plane::Xy,
+                        180 => self.plane = Plane::Zx,
+                        190 => self.plane = Plane::Yz,
+                        200 => self.units = Units::Inch,
+                        210 => self.units = Units::Mm,
+                        900 => {
+                            self.absolute = true;
+                            self.state_unknown = None;
+                        }
+                        910 => {
+                            self.absolute = false;
+                            self.state_unknown = None;
+                        }
+                        901 => self.arc_absolute = true,
+                        911 => self.arc_absolute = false,
+                        921 | 922 => {
+                            self.shift = [0.0; 3];
+                        }
+                        930 => self.feed_mode = FeedMode::InverseTime,
+                        940 => self.feed_mode = FeedMode::PerMinute,
+                        950 => self.feed_mode = FeedMode::PerRev,
+                        400 => self.radius_comp = false,
+                        410 | 420 | 411 | 421 | 412 | 422 => self.radius_comp = true,
+                        430 | 431 | 432 | 440 => {
+                            self.tool_length = true;
+                            self.tcp = Tcp::Off;
+                        }
+                        434 => {
+                            self.tool_length = true;
+                            self.tcp = Tcp::Axes;
+                        }
+                        435 => {
+                            self.tool_length = true;
+                            self.tcp = Tcp::Vector;
+                        }
+                        490 => {
+                            self.tool_length = false;
+                            self.tcp = Tcp::Off;
+                        }
+                        541 => self.work_offset = 5410,
+                        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => self.work_offset = g,
+                        682..=684 => self.tilted = true,
+                        680 => self.transformed = Some("coordinate rotation (G68)"),
+                        690 => {
+                            self.tilted = false;
+                            self.cancel("coordinate rotation (G68)");
+                        }
+                        510 => self.transformed = Some("scaling (G51)"),
+                        500 => self.cancel("scaling (G51)"),
+                        511 => self.transformed = Some("programmable mirror image (G51.1)"),
+                        501 => self.cancel("programmable mirror image (G51.1)"),
+                        160 => self.transformed = Some("polar coordinate command (G16)"),
+                        150 => self.cancel("polar coordinate command (G16)"),
+                        121 => self.transformed = Some("polar coordinate interpolation (G12.1)"),
+                        131 => self.cancel("polar coordinate interpolation (G12.1)"),
+                        71 => {
+                            self.transformed = if self.transformed.is_none() {
+                                Some("cylindrical interpolation (G7.1)")
+                            } else {
+                                None
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                b'M' => {
+                    if let (Value::Num(v), true) = (w.value, nm < 4) {
+                        m_codes[nm] = Some(v.round() as u32);
+                        nm += 1;
+                    }
+                }
+                b'P' => {
+                    if let Value::Num(v) = w.value {
+                        p_word = Some(v);
+                    }
+                }
+                b'F' => {
+                    if let Value::Num(v) = w.value {
+                        self.feed = Some(v);
+                    }
+                }
+                _ => {
+                    if self.axis_index(w.addr).is_some() {
+                        has_axis = true;
+                    }
+                }
+            }
+        }
+        // G54.1 P n selects an additional work offset.
+        if self.work_offset == 5410
+            && let Some(p) = p_word
+        {
+            self.work_offset = 5410 + p.round() as u32;
+        }
+        let frame_now = (
+            self.work_offset,
+            self.tool_length,
+            self.tcp,
+            self.tilted,
+            self.units,
+        );
+        if frame_now != old_frame {
+            // The same numbers mean another place now.
+            self.forget();
+        }
+        let calls = m_codes.iter().flatten().any(|&m| m == 98 || m == 99);
+        if let Some(m) = motion_here {
+            self.motion = Some(m);
+        }
+        if expr_g {
+            // A G code from a variable: nothing below can be trusted.
+            self.forget();
+            self.motion = None;
+            return if has_axis {
+                Event::Skip(Skip::Expression)
+            } else {
+                Event::None
+            };
+        }
+        if let Some(g) = g_nonmodal {
+            let ev = self.nonmodal(block, seg, g, has_axis);
+            if calls {
+                self.forget();
+            }
+            return ev;
+        }
+        if calls {
+            self.forget();
+            return if has_axis {
+                Event::Skip(Skip::MacroCall)
+            } else {
+                Event::None
+            };
+        }
+        if !has_axis {
+            return Event::None;
+        }
+        let motion = self.motion;
+        match motion {
+            Some(Motion::Rapid) | Some(Motion::Linear) | Some(Motion::ArcCw)
+            | Some(Motion::ArcCcw) => self.iso_move(block, seg, motion.unwrap(), motion_word),
+            Some(Motion::Other) => {
+                self.track_words(block, seg);
+                Event::Skip(Skip::CannedCycle)
+            }
+            None => {
+                self.track_words(block, seg);
+                Event::Skip(Skip::Element("motion without a motion mode"))
+            }
+        }
+    }
+
+    /// A block whose axis words belong to a non-modal G code.
+    fn nonmodal(&mut self, block: &Block, seg: &Segment, g: u32, has_axis: bool) -> Event {
+        match g {
+            // Dwell: the axis words are not positions.
+            40 => Event::None,
+            // Data setting (work offsets, tool offsets): the offsets in use
+            // may have changed.
+            100 => {
+                self.forget();
+                Event::None
+            }
+            // Reference return and machine coordinates.
+            280 | 281 | 300 | 301 | 530 => {
+                self.forget_named(block, seg);
+                if has_axis { Event::Quiet } else { Event::None }
+            }
+            // Probing: the machine stops somewhere along the move.
+            310..=314 | 382..=385 => {
+                self.forget_named(block, seg);
+                Event::Quiet
+            }
+            // G53.1 turns the rotary axes to the tilted plane.
+            531 => {
+                self.pos[3] = None;
+                self.pos[4] = None;
+                self.pos[5] = None;
+                Event::Quiet
+            }
+            650 | 660 => {
+                self.forget();
+                if has_axis {
+                    Event::Skip(Skip::MacroCall)
+                } else {
+                    Event::None
+                }
+            }
+            520 => {
+                // G52: local coordinate system (absolute values; X0 cancels).
+                for (_, w) in block.words(seg) {
+                    if let Some(i) = self.axis_index(w.addr).filter(|&i| i < 3) {
+                        match self.axis_value(&w) {
+                            Ok(v) => {
+                                if let Some(p) = self.pos[i] {
+                                    self.pos[i] = Some(p + self.local_shift[i] - v);
+                                }
+                                self.local_shift[i] = v;
+                            }
+                            Err(_) => {
+                                self.shift_known = false;
+                            }
+                        }
+                    }
+                }
+                Event::None
+            }
+            920 => {
+                // G92: the current position becomes the value given.
+                for (_, w) in block.words(seg) {
+                    if let Some(i) = self.axis_index(w.addr) {
+                        match (self.axis_value(&w), self.pos[i]) {
+                            (Ok(v), Some(p)) if i < 3 => {
+                                self.shift[i] += p - v;
+                                self.pos[i] = Some(v);
+                            }
+                            (Ok(v), _) if i >= 3 => {
+                                // A rotary G92 shifts the rotary zero: unknown.
+                                let _ = v;
+                                self.pos[i] = None;
+                                self.transformed = Some("a rotary-axis G92 shift");
+                            }
+                            _ => {
+                                self.shift_known = false;
+                                self.pos[i] = None;
+                            }
+                        }
+                    }
+                }
+                Event::None
+            }
+            _ => Event::None,
+        }
+    }
+
+    /// Updates tracked positions from the axis words (for moves left as
+    /// written): literal values are followed, expressions forget.
+    fn iso_move(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        motion: Motion,
+        motion_word: Option<usize>,
+    ) -> Event {
+        let start = self.pos;
+        let mut mv = Move::new(MoveKind::Rapid, start, !self.absolute);
+        mv.motion_word = motion_word;
+        let mut skip: Option<Skip> = seg.unknown.map(|_| Skip::UnknownWord);
+        let mut ijk: [Option<(usize, f64)>; 3] = [None; 3];
+        let mut r_word: Option<(usize, f64)> = None;
+        let mut p_turns: Option<f64> = None;
+        for (ti, w) in block.words(seg) {
+            let letter = w.addr.as_letter().unwrap_or(0);
+            if let Some(i) = self.axis_index(w.addr) {
+                mv.words[i] = Some(ti);
+                if !self.machine_axis(i) {
+                    skip.get_or_insert(Skip::UnknownAxis(AXES[i]));
+                }
+                match self.axis_value(&w) {
+                    Ok(v) => {
+                        mv.end[i] = if self.absolute {
+                            Some(v)
+                        } else {
+                            start[i].map(|p| p + v)
+                        };
+                    }
+                    Err(s) => {
+                        mv.end[i] = None;
+                        skip.get_or_insert(s);
+                    }
+                }
+                continue;
+            }
+            match letter {
+                b'I' | b'J' | b'K' => {
+                    let k = (letter - b'I') as usize;
+                    match self.axis_value(&w) {
+                        Ok(v) => ijk[k] = Some((ti, v)),
+                        Err(s) => {
+                            skip.get_or_insert(s);
+                        }
+                    }
+                }
+                b'R' => match self.axis_value(&w) {
+                    Ok(v) => r_word = Some((ti, v)),
+                    Err(s) => {
+                        skip.get_or_insert(s);
+                    }
+                },
+                b'P' => {
+                    if let Value::Num(v) = w.value {
+                        p_turns = Some(v);
+                    }
+                }
+                b'F' => {
+                    if let Value::Num(v) = w.value {
+                        mv.feed = Some((ti, v));
+                    } else if self.feed_mode == FeedMode::InverseTime {
+                        // Pieces of a subdivided move need their share of
+                        // the block's time.
+                        skip.get_or_insert(Skip::Expression);
+                    }
+                    // Otherwise the feed word stays as written and the
+                    // axis words are corrected all the same (`F#650`).
+                }
+                b'U' | b'V' | b'W' => {
+                    skip.get_or_insert(Skip::UnknownAxis(letter));
+                }
+                _ => {}
+            }
+        }
+        self.pos = mv.end;
+        mv.kind = match motion {
+            Motion::Rapid => MoveKind::Rapid,
+            Motion::Linear => MoveKind::Linear,
+            Motion::ArcCw | Motion::ArcCcw => {
+                let cw = motion == Motion::ArcCw;
+                let (a, b, _) = self.plane.axes();
+                let (s0, s1, e0, e1) = (start[a], start[b], mv.end[a], mv.end[b]);
+                let (Some(s0), Some(s1), Some(e0), Some(e1)) = (s0, s1, e0, e1) else {
+                    return Event::Skip(skip.unwrap_or(Skip::PositionUnknown(
+                        AXES[if start[a].is_none() || mv.end[a].is_none() {
+                            a
+                        } else {
+                            b
+                        }],
+                    )));
+                };
+                let center = if let Some((_, r)) = r_word {
+                    match center_from_radius([s0, s1], [e0, e1], r, cw) {
+                        Some(c) => c,
+                        None => {
+                            return Event::Skip(skip.unwrap_or(Skip::Element(
+                                "an arc whose radius does not reach its end point",
+                            )));
+                        }
+                    }
+                } else {
+                    let off = |axis: usize| ijk[axis].map(|(_, v)| v).unwrap_or(0.0);
+                    if self.arc_absolute {
+                        [
+                            ijk[a].map(|(_, v)| v).unwrap_or(s0),
+                            ijk[b].map(|(_, v)| v).unwrap_or(s1),
+                        ]
+                    } else {
+                        [s0 + off(a), s1 + off(b)]
+                    }
+                };
+                MoveKind::Arc(Arc {
+                    plane: self.plane,
+                    cw,
+                    center,
+                    turns: p_turns.map_or(0, |p| (p.round() as u32).saturating_sub(1)),
+                    center_words: [
+                        ijk[0].map(|x| x.0),
+                        ijk[1].map(|x| x.0),
+                        ijk[2].map(|x| x.0),
+                    ],
+                    radius_word: r_word.map(|x| x.0),
+                })
+            }
+            Motion::Other => unreachable!(),
+        };
+        if self.tcp == Tcp::Vector && !matches!(mv.kind, MoveKind::Arc(_)) {
+            // G43.5: I J K are the tool direction; omitted ones are zero.
+            if ijk.iter().any(|x| x.is_some()) {
+                let v = [
+                    ijk[0].map_or(0.0, |x| x.1),
+                    ijk[1].map_or(0.0, |x| x.1),
+                    ijk[2].map_or(0.0, |x| x.1),
+                ];
+                mv.tool_vector = Some((
+                    v,
+                    [
+                        ijk[0].map(|x| x.0),
+                        ijk[1].map(|x| x.0),
+                        ijk[2].map(|x| x.0),
+                    ],
+                ));
+            }
+        }
+        if let Some(s) = skip.or_else(|| self.frame_skip()) {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+}

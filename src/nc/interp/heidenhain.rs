@@ -1,0 +1,387 @@
+//! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
+//! `CC`, `CR`), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
+//! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
+//! PLANE and FUNCTION TCPM, touch probe cycles and program control.
+
+use super::{
+    AXES, Arc, Event, Interpreter, Move, MoveKind, Plane, Skip, Tcp, Units, center_from_radius,
+};
+use crate::nc::{Addr, Block, HhKind, Segment, Stmt, TokenKind, Value, Word};
+
+impl Interpreter {
+    /// One Klartext block.
+    pub(super) fn heidenhain(&mut self, block: &Block, seg: &Segment) -> Event {
+        let Stmt::Hh(kind) = seg.stmt else {
+            return Event::None;
+        };
+        // M functions may appear in any block.
+        let mut m91 = false;
+        for (_, w) in block.words(seg) {
+            if w.addr == Addr::letter(b'M')
+                && let Value::Num(v) = w.value
+            {
+                match v.round() as u32 {
+                    128 => self.set_tcp(Tcp::Axes),
+                    129 => self.set_tcp(Tcp::Off),
+                    91 | 92 => m91 = true,
+                    _ => {}
+                }
+            }
+        }
+        let text_has = |needle: &str| {
+            block.seg_tokens(seg).iter().any(|t| {
+                matches!(t.kind, TokenKind::Text | TokenKind::Keyword)
+                    && block.bytes(t.span).eq_ignore_ascii_case(needle.as_bytes())
+            })
+        };
+        match kind {
+            HhKind::BeginPgm => {
+                self.state_unknown = None;
+                if text_has("INCH") {
+                    self.units = Units::Inch;
+                } else {
+                    self.units = Units::Mm;
+                }
+                Event::None
+            }
+            HhKind::L => self.hh_line(block, seg, m91),
+            HhKind::C | HhKind::Cr => self.hh_arc(block, seg, kind, m91),
+            HhKind::Cc => {
+                let mut p = [self.pos[0], self.pos[1]];
+                let mut expr = false;
+                let mut any = false;
+                for (_, w) in block.words(seg) {
+                    let Some(i) = self.axis_index(w.addr).filter(|&i| i < 2) else {
+                        continue;
+                    };
+                    any = true;
+                    match self.axis_value(&w) {
+                        Ok(v) => {
+                            p[i] = if w.incremental {
+                                self.pos[i].map(|q| q + v)
+                            } else {
+                                Some(v)
+                            };
+                        }
+                        Err(_) => expr = true,
+                    }
+                }
+                let _ = any;
+                self.pole = match (p[0], p[1], expr) {
+                    (Some(x), Some(y), false) => Some([x, y]),
+                    _ => None,
+                };
+                Event::None
+            }
+            HhKind::Lp | HhKind::Cp | HhKind::Ct | HhKind::Appr | HhKind::Dep | HhKind::Ln => {
+                // Moves that are not rewritten: follow the Cartesian words,
+                // forget the plane position when polar.
+                let polar = matches!(kind, HhKind::Lp | HhKind::Cp);
+                self.track_words(block, seg);
+                if polar || matches!(kind, HhKind::Appr | HhKind::Dep) {
+                    let given: Vec<usize> = block
+                        .words(seg)
+                        .filter_map(|(_, w)| self.axis_index(w.addr))
+                        .collect();
+                    for i in 0..2 {
+                        if !given.contains(&i) {
+                            self.pos[i] = None;
+                        }
+                    }
+                }
+                Event::Skip(Skip::Element(match kind {
+                    HhKind::Lp => "polar line (LP)",
+                    HhKind::Cp => "polar circle (CP)",
+                    HhKind::Ct => "tangential circle (CT)",
+                    HhKind::Appr => "approach (APPR)",
+                    HhKind::Dep => "departure (DEP)",
+                    _ => "vector line (LN)",
+                }))
+            }
+            HhKind::Rnd | HhKind::Chf | HhKind::M => Event::None,
+            HhKind::CyclDef { number, sub } => {
+                self.hh_cycle(block, seg, number, sub);
+                Event::None
+            }
+            HhKind::Plane => {
+                self.tilted = true;
+                self.forget();
+                Event::None
+            }
+            HhKind::PlaneReset => {
+                self.tilted = false;
+                self.forget();
+                Event::None
+            }
+            HhKind::FunctionTcpm => {
+                let spatial = text_has("SPAT");
+                self.set_tcp(if spatial { Tcp::Spatial } else { Tcp::Axes });
+                Event::None
+            }
+            HhKind::FunctionResetTcpm => {
+                self.set_tcp(Tcp::Off);
+                Event::None
+            }
+            HhKind::TchProbe => {
+                // Touch probe cycles 0 (reference plane) and 1 (polar
+                // datum plane) move the linear axes only; the others may
+                // turn a rotary axis (403, 405) or move anywhere.
+                if matches!(tch_probe_number(&block.text), Some(0 | 1)) {
+                    self.pos[0] = None;
+                    self.pos[1] = None;
+                    self.pos[2] = None;
+                } else {
+                    self.forget();
+                }
+                Event::Quiet
+            }
+            HhKind::ToolCall | HhKind::CyclCall => {
+                self.forget();
+                Event::None
+            }
+            HhKind::Lbl | HhKind::CallLbl | HhKind::CallPgm | HhKind::Stop => {
+                self.forget();
+                Event::None
+            }
+            HhKind::Fn(9) | HhKind::Fn(10) | HhKind::Fn(11) | HhKind::Fn(12) => {
+                self.forget();
+                Event::None
+            }
+            _ => Event::None,
+        }
+    }
+
+    fn hh_cycle(&mut self, block: &Block, seg: &Segment, number: u32, sub: Option<u32>) {
+        let sub = sub.unwrap_or(0);
+        let words: Vec<Word> = block.words(seg).map(|(_, w)| w).collect();
+        let hash = block
+            .seg_tokens(seg)
+            .iter()
+            .any(|t| t.kind == TokenKind::Text && block.bytes(t.span).starts_with(b"#"));
+        match (number, sub) {
+            (7, s) if s >= 1 => {
+                if hash {
+                    self.shift_known = false;
+                }
+                for w in &words {
+                    if let Some(i) = self.axis_index(w.addr).filter(|&i| i < 3)
+                        && let Value::Num(v) = w.value
+                    {
+                        self.shift[i] = v;
+                    }
+                }
+                // Values written with a space between letter and sign
+                // (`X + 0`) come as text: read them from the raw block.
+                if words.is_empty() && !hash {
+                    let txt = String::from_utf8_lossy(&block.text).to_string();
+                    let body = txt.split("7.").nth(1).unwrap_or("");
+                    let compact: String = body.chars().filter(|c| !c.is_whitespace()).collect();
+                    for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
+                        if let Some(p) = compact.find(*l) {
+                            let rest = &compact[p + 1..];
+                            let n = crate::nc::lexeme::lex_len(rest.as_bytes());
+                            if n > 0 {
+                                self.shift[i] =
+                                    crate::nc::lexeme::read(&rest.as_bytes()[..n]).value;
+                            }
+                        }
+                    }
+                }
+                self.forget();
+            }
+            (19, s) if s >= 1 => {
+                let any = words.iter().any(|w| {
+                    matches!(w.value, Value::Num(v) if v != 0.0) || w.value == Value::Expr
+                });
+                self.tilted = any;
+                self.forget();
+            }
+            (10, s) if s >= 1 => {
+                let rot = words.iter().any(|w| {
+                    matches!(w.value, Value::Num(v) if v != 0.0) || w.value == Value::Expr
+                });
+                self.transformed = rot.then_some("coordinate rotation (CYCL DEF 10)");
+            }
+            (8, s) if s >= 1 => {
+                let any = block.seg_tokens(seg).iter().any(|t| {
+                    t.kind == TokenKind::Text && matches!(block.bytes(t.span), b"X" | b"Y" | b"Z")
+                });
+                self.transformed = any.then_some("mirror image (CYCL DEF 8)");
+            }
+            (11, s) | (26, s) if s >= 1 => {
+                let unity = words
+                    .iter()
+                    .all(|w| matches!(w.value, Value::Num(v) if (v - 1.0).abs() < 1e-12));
+                self.transformed = (!unity).then_some("scaling (CYCL DEF 11/26)");
+            }
+            (247, _) => {
+                self.work_offset = 100_000 + 247;
+                self.forget();
+            }
+            _ => {}
+        }
+    }
+
+    fn hh_targets(&mut self, block: &Block, seg: &Segment, mv: &mut Move, skip: &mut Option<Skip>) {
+        for (ti, w) in block.words(seg) {
+            if let Some(i) = self.axis_index(w.addr) {
+                mv.words[i] = Some(ti);
+                mv.incremental[i] = w.incremental;
+                if !self.machine_axis(i) {
+                    skip.get_or_insert(Skip::UnknownAxis(AXES[i]));
+                }
+                match self.axis_value(&w) {
+                    Ok(v) => {
+                        mv.end[i] = if w.incremental {
+                            mv.start[i].map(|p| p + v)
+                        } else {
+                            Some(v)
+                        };
+                    }
+                    Err(s) => {
+                        mv.end[i] = None;
+                        skip.get_or_insert(s);
+                    }
+                }
+            } else if w.addr == Addr::letter(b'F') {
+                match w.value {
+                    Value::Num(v) => {
+                        mv.feed = Some((ti, v));
+                        self.feed = Some(v);
+                    }
+                    _ => {
+                        skip.get_or_insert(Skip::Expression);
+                    }
+                }
+            } else if w.addr == Addr::new("RL") || w.addr == Addr::new("RR") {
+                self.radius_comp = true;
+            } else if w.addr == Addr::new("R0") {
+                self.radius_comp = false;
+            } else if matches!(w.addr.as_letter(), Some(b'U' | b'V' | b'W')) {
+                skip.get_or_insert(Skip::UnknownAxis(w.addr.as_letter().unwrap()));
+            }
+        }
+    }
+
+    fn hh_line(&mut self, block: &Block, seg: &Segment, m91: bool) -> Event {
+        let rapid = block.words(seg).any(|(_, w)| w.addr == Addr::new("FMAX"));
+        let kind = if rapid {
+            MoveKind::Rapid
+        } else {
+            MoveKind::Linear
+        };
+        let mut mv = Move::new(kind, self.pos, false);
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
+        self.hh_targets(block, seg, &mut mv, &mut skip);
+        if m91 {
+            for i in 0..6 {
+                if mv.words[i].is_some() {
+                    self.pos[i] = None;
+                }
+            }
+            return if mv.words.iter().any(|w| w.is_some()) {
+                Event::Quiet
+            } else {
+                Event::None
+            };
+        }
+        self.pos = mv.end;
+        if mv.words.iter().all(|w| w.is_none()) {
+            return Event::None;
+        }
+        if let Some(s) = skip.or_else(|| self.frame_skip()) {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+
+    fn hh_arc(&mut self, block: &Block, seg: &Segment, kind: HhKind, m91: bool) -> Event {
+        let mut mv = Move::new(MoveKind::Linear, self.pos, false);
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
+        self.hh_targets(block, seg, &mut mv, &mut skip);
+        let mut cw = None;
+        let mut radius: Option<(usize, f64)> = None;
+        for (ti, w) in block.words(seg) {
+            if w.addr == Addr::new("DR") {
+                cw = Some(
+                    block.bytes(w.value_span).is_empty()
+                        && block.text[w.value_span.start as usize - 1] == b'-',
+                );
+            } else if w.addr == Addr::letter(b'R') {
+                match w.value {
+                    Value::Num(v) => radius = Some((ti, v)),
+                    _ => {
+                        skip.get_or_insert(Skip::Expression);
+                    }
+                }
+            }
+        }
+        self.pos = mv.end;
+        if m91 {
+            return Event::Quiet;
+        }
+        // HEIDENHAIN circles are in the working plane; only XY is modelled.
+        let (s0, s1, e0, e1) = (mv.start[0], mv.start[1], mv.end[0], mv.end[1]);
+        let (Some(s0), Some(s1), Some(e0), Some(e1)) = (s0, s1, e0, e1) else {
+            return Event::Skip(skip.unwrap_or(Skip::PositionUnknown(
+                if mv.start[0].is_none() || mv.end[0].is_none() {
+                    b'X'
+                } else {
+                    b'Y'
+                },
+            )));
+        };
+        if mv.words[2].is_some() && self.plane != Plane::Xy {
+            return Event::Skip(Skip::Element("circle outside the XY plane"));
+        }
+        let cw = cw.unwrap_or(false);
+        let center = match kind {
+            HhKind::C => match self.pole {
+                Some(p) => p,
+                None => {
+                    return Event::Skip(
+                        skip.unwrap_or(Skip::Element("circle without a known pole (CC)")),
+                    );
+                }
+            },
+            _ => match radius {
+                Some((_, r)) => match center_from_radius([s0, s1], [e0, e1], r, cw) {
+                    Some(c) => c,
+                    None => {
+                        return Event::Skip(skip.unwrap_or(Skip::Element(
+                            "circle whose radius does not reach its end point",
+                        )));
+                    }
+                },
+                None => return Event::Skip(skip.unwrap_or(Skip::Element("CR without a radius"))),
+            },
+        };
+        mv.kind = MoveKind::Arc(Arc {
+            plane: Plane::Xy,
+            cw,
+            center,
+            turns: 0,
+            center_words: [None; 3],
+            radius_word: radius.map(|r| r.0),
+        });
+        if let Some(s) = skip.or_else(|| self.frame_skip()) {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+}
+
+/// The cycle number of a `TCH PROBE n.m` block.
+pub(super) fn tch_probe_number(text: &[u8]) -> Option<u32> {
+    let up = text.to_ascii_uppercase();
+    let at = up.windows(9).position(|w| w == b"TCH PROBE")? + 9;
+    let rest = &up[at..];
+    let start = rest.iter().position(|b| !b.is_ascii_whitespace())?;
+    let digits: Vec<u8> = rest[start..]
+        .iter()
+        .take_while(|b| b.is_ascii_digit())
+        .copied()
+        .collect();
+    std::str::from_utf8(&digits).ok()?.parse().ok()
+}

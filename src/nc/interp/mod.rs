@@ -1,0 +1,744 @@
+//! The NC interpreter: what the controller has in force at each block, and
+//! where each move goes.
+//!
+//! One [`Interpreter`] follows a program in file order for `compensate` and
+//! for `simulate nc`: units (G20/G21, `BEGIN PGM ... MM|INCH`), absolute or
+//! incremental distances (G90/G91, HEIDENHAIN's `I` prefix), the motion
+//! mode (G0/G1/G2/G3, canned cycles, `L ... FMAX`), the feed mode (G93
+//! inverse time, G94, G95), the plane, the work offset (G54..G59, G54.1 Pn,
+//! HEIDENHAIN presets), tool length compensation (G43/G49), tool centre
+//! point control (G43.4, G43.5, M128, FUNCTION TCPM, M-codes the machine
+//! file names), the tilted working plane (G68.2, PLANE, CYCL DEF 19), datum
+//! shifts (G52, G92, CYCL DEF 7), transformations it does not model (G68
+//! rotation, G51 scaling, mirroring, polar coordinates) and the last
+//! programmed position of every axis. It also turns program coordinates
+//! into the model frame of the kinematics ([`Frame`]) and, under G43.5,
+//! the programmed tool direction into the rotary positions the nominal
+//! controller picks.
+//!
+//! The semantics of each dialect live in one file: [`gcode`] holds the
+//! word-address G-code of FANUC and LinuxCNC, `heidenhain` Klartext;
+//! another dialect is one more file and one more arm in
+//! [`Interpreter::step`].
+//!
+//! Each statement becomes an [`Event`]: no motion, a [`Move`] with its
+//! start and end in program coordinates, or a motion that must be left as
+//! written, with the reason ([`Skip`]). Positions are tracked in file order;
+//! where control flow makes the position at runtime unknowable statically
+//! (labels, loops, calls, jumps, probing, tool changes) the tracked position
+//! is forgotten, so a move there is rewritten only when its own words fix
+//! every axis. The whole state is a plain value: it can be cloned and
+//! handed from one stretch of a program to the next.
+
+pub mod coordinates;
+pub mod gcode;
+mod heidenhain;
+pub mod interpolation;
+
+use std::sync::Arc as Shared;
+
+use nalgebra::Vector3;
+
+pub use coordinates::Frame;
+
+use super::{Addr, Block, Segment, Stmt, Value, Word};
+use crate::kinematics::fast::FastChain;
+use crate::kinematics::{Axes, Kinematics, ToolPose};
+use crate::machine::Dialect;
+
+/// Axis indices: X, Y, Z, A, B, C.
+pub const AXES: [u8; 6] = *b"XYZABC";
+
+/// Length units of the program.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Units {
+    /// Millimetres.
+    Mm,
+    /// Inches.
+    Inch,
+}
+
+impl Units {
+    /// Millimetres per program unit.
+    pub fn mm(self) -> f64 {
+        match self {
+            Units::Mm => 1.0,
+            Units::Inch => 25.4,
+        }
+    }
+}
+
+/// Interpolation mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Motion {
+    /// G0 / FMAX.
+    Rapid,
+    /// G1.
+    Linear,
+    /// G2.
+    ArcCw,
+    /// G3.
+    ArcCcw,
+    /// Anything else: canned cycles, splines, threading, probing.
+    Other,
+}
+
+/// Feed mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FeedMode {
+    /// G94: per minute.
+    PerMinute,
+    /// G93: inverse time (F = 1 / minutes for the block).
+    InverseTime,
+    /// G95: per revolution.
+    PerRev,
+}
+
+/// Arc plane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Plane {
+    /// G17.
+    Xy,
+    /// G18.
+    Zx,
+    /// G19.
+    Yz,
+}
+
+impl Plane {
+    /// (first, second, normal) axis indices.
+    pub fn axes(self) -> (usize, usize, usize) {
+        match self {
+            Plane::Xy => (0, 1, 2),
+            Plane::Zx => (2, 0, 1),
+            Plane::Yz => (1, 2, 0),
+        }
+    }
+}
+
+/// Tool centre point control.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tcp {
+    /// Off: coordinates are axis positions (post-side programs).
+    Off,
+    /// On, rotary axis positions programmed (G43.4, M128, FUNCTION TCPM AXIS POS).
+    Axes,
+    /// On, tool direction programmed as a vector (G43.5 I J K).
+    Vector,
+    /// On, spatial angles programmed (FUNCTION TCPM AXIS SPAT): not modelled.
+    Spatial,
+}
+
+/// How the program's coordinates are meant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coordinates {
+    /// As the program switches TCP on and off (G43.4/G43.5, M128/TCPM).
+    Auto,
+    /// Always axis positions (a post-side program), whatever TCP code it has.
+    Axes,
+    /// Always tool-tip coordinates in W (a controller whose kinematics
+    /// always runs TCP, e.g. LinuxCNC with trt-kins).
+    Tcp,
+}
+
+/// Why a move is left as written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Skip {
+    /// A coordinate is an expression or a parameter.
+    Expression,
+    /// The block has a word this parser does not know.
+    UnknownWord,
+    /// An axis the machine does not have.
+    UnknownAxis(u8),
+    /// FANUC axis value without a decimal point (unit depends on parameter DPI).
+    FanucInteger,
+    /// The named axis' position is not known here.
+    PositionUnknown(u8),
+    /// A transformation that is not modelled is active.
+    Transformed(&'static str),
+    /// A tilted working plane is active.
+    TiltedPlane,
+    /// Tool centre point control with spatial angles.
+    TcpSpatial,
+    /// A macro call with axis arguments (G65/G66).
+    MacroCall,
+    /// Canned cycle positions.
+    CannedCycle,
+    /// A contour element that is not compensated (polar, tangential,
+    /// approach/departure, vector blocks, splines).
+    Element(&'static str),
+    /// The datum shift is not known (datum table row).
+    ShiftUnknown,
+    /// G43.5 without a tool direction in the block.
+    NoToolVector,
+    /// G43.5: no rotary positions of the nominal machine give the
+    /// programmed tool direction.
+    VectorOutOfReach,
+    /// The block could not be read (kept byte for byte).
+    Unreadable,
+    /// An unreadable block at this line may have changed the modal state
+    /// (a G or M code, a parameter, a cycle); nothing is corrected until a
+    /// block sets it again (G90/G91; `BEGIN PGM`).
+    StateUnknown(usize),
+}
+
+impl std::fmt::Display for Skip {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Skip::Expression => write!(f, "coordinates are expressions or variables"),
+            Skip::UnknownWord => write!(f, "the block has a word fivecal does not know"),
+            Skip::UnknownAxis(a) => write!(f, "axis {} is not an axis of this machine", *a as char),
+            Skip::FanucInteger => write!(
+                f,
+                "axis value without a decimal point (FANUC reads it in mm or in least input increments by parameter 3401#0; pass --integer-unit)"
+            ),
+            Skip::PositionUnknown(a) => write!(
+                f,
+                "the position of {} is not known here (not yet programmed, or forgotten after a jump, call, probe or tool change)",
+                *a as char
+            ),
+            Skip::Transformed(what) => write!(f, "{what} is active"),
+            Skip::TiltedPlane => write!(
+                f,
+                "a tilted working plane is active (G68.2 / PLANE / CYCL DEF 19): the controller chooses the rotary positions"
+            ),
+            Skip::TcpSpatial => write!(f, "TCPM with spatial angles (AXIS SPAT) is not modelled"),
+            Skip::MacroCall => write!(f, "macro call arguments (G65/G66)"),
+            Skip::CannedCycle => write!(f, "canned cycle, spline or thread positions"),
+            Skip::Element(what) => write!(f, "{what} elements are not compensated"),
+            Skip::ShiftUnknown => write!(f, "the datum shift comes from a table (value unknown)"),
+            Skip::NoToolVector => write!(f, "tool direction (I J K) not programmed"),
+            Skip::VectorOutOfReach => write!(
+                f,
+                "tool direction out of reach: no rotary positions of the nominal machine give it"
+            ),
+            Skip::Unreadable => write!(f, "the block could not be read"),
+            Skip::StateUnknown(line) => write!(
+                f,
+                "the controller state is unknown after the unreadable block at line {line} (until G90/G91 or BEGIN PGM sets it again)"
+            ),
+        }
+    }
+}
+
+/// The arc of a move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Arc {
+    /// Plane.
+    pub plane: Plane,
+    /// Clockwise (G2, DR-).
+    pub cw: bool,
+    /// Centre, absolute program coordinates in the plane (first, second).
+    pub center: [f64; 2],
+    /// Extra full turns (LinuxCNC P word minus one).
+    pub turns: u32,
+    /// Token indices of I, J, K (centre words), if written.
+    pub center_words: [Option<usize>; 3],
+    /// Token index of the radius word (R), if the arc is given by radius.
+    pub radius_word: Option<usize>,
+}
+
+/// What kind of move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MoveKind {
+    /// Rapid positioning.
+    Rapid,
+    /// Linear interpolation.
+    Linear,
+    /// Circular interpolation.
+    Arc(Arc),
+}
+
+/// One move, in program coordinates (program units, degrees, before the
+/// datum shift).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Move {
+    /// Kind.
+    pub kind: MoveKind,
+    /// Position before the move (X Y Z A B C), where known.
+    pub start: [Option<f64>; 6],
+    /// Position after the move, where known (under G43.5 the rotary
+    /// positions the nominal controller picks for the tool direction).
+    pub end: [Option<f64>; 6],
+    /// Token index of each axis word in the block.
+    pub words: [Option<usize>; 6],
+    /// Which axis words are incremental.
+    pub incremental: [bool; 6],
+    /// The block's motion word (G0/G1/G2/G3), if written (ISO).
+    pub motion_word: Option<usize>,
+    /// The block's feed word and its value.
+    pub feed: Option<(usize, f64)>,
+    /// G43.5: the programmed tool direction (I, J, K) and its word indices.
+    pub tool_vector: Option<([f64; 3], [Option<usize>; 3])>,
+    /// G43.5: the programmed tool direction as a unit vector in W, once
+    /// resolved into rotary positions.
+    pub vector: Option<Vector3<f64>>,
+}
+
+impl Move {
+    fn new(kind: MoveKind, start: [Option<f64>; 6], incremental: bool) -> Move {
+        Move {
+            kind,
+            start,
+            end: start,
+            words: [None; 6],
+            incremental: [incremental; 6],
+            motion_word: None,
+            feed: None,
+            tool_vector: None,
+            vector: None,
+        }
+    }
+}
+
+/// What a statement does.
+// Events are returned by value once per statement and never stored in bulk,
+// so the large `Move` variant costs nothing a box would save.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Event {
+    /// No motion.
+    None,
+    /// A move to interpret.
+    Move(Move),
+    /// A motion left as written, and why.
+    Skip(Skip),
+    /// A motion left as written on purpose and not reported: machine
+    /// coordinates (G53, M91, M92), reference return (G28, G30), probing
+    /// (G31, G38.x, TCH PROBE).
+    Quiet,
+}
+
+/// What the interpreter is told about the program and the machine.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// The dialect.
+    pub dialect: Dialect,
+    /// How coordinates are meant.
+    pub coordinates: Coordinates,
+    /// Where the program zero lies in W at rotary zero, mm.
+    pub origin: Vector3<f64>,
+    /// FANUC axis values without a decimal point: mm per unit written
+    /// (1 for calculator-type input, 0.001 or 0.0001 for least input
+    /// increments), or `None` to leave such moves as written.
+    pub integer_unit: Option<f64>,
+}
+
+impl Settings {
+    /// Defaults for a dialect: TCP as the program switches it, program
+    /// zero on the W origin, integer FANUC words left alone.
+    pub fn new(dialect: Dialect) -> Settings {
+        Settings {
+            dialect,
+            coordinates: Coordinates::Auto,
+            origin: Vector3::zeros(),
+            integer_unit: None,
+        }
+    }
+}
+
+/// What does not change along a program: the settings and the machine.
+#[derive(Debug)]
+struct Config {
+    settings: Settings,
+    /// Letters of the machine's two rotary axes (tilt, then C).
+    rotary: [u8; 2],
+    /// Index of the tilt axis in [`AXES`] (3 for A, 4 for B).
+    tilt: usize,
+    /// Gauge length of the tool, mm.
+    tool_length: f64,
+    /// The nominal kinematics, as the controller has it.
+    nominal: FastChain,
+}
+
+/// The controller's state along a program.
+#[derive(Clone, Debug)]
+pub struct Interpreter {
+    cfg: Shared<Config>,
+    /// Units.
+    pub units: Units,
+    /// G90 (ISO); HEIDENHAIN marks incremental words instead.
+    pub absolute: bool,
+    /// Arc centres absolute (LinuxCNC G90.1).
+    pub arc_absolute: bool,
+    /// Motion mode (ISO).
+    pub motion: Option<Motion>,
+    /// Feed mode.
+    pub feed_mode: FeedMode,
+    /// Last feed value.
+    pub feed: Option<f64>,
+    /// Plane.
+    pub plane: Plane,
+    /// Work offset in force: G code x 10 (540 = G54; 5410 + P for G54.1 P;
+    /// 100000 + n for a HEIDENHAIN preset).
+    pub work_offset: u32,
+    /// Tool length compensation on (G43, G43.4, G43.5; always on HEIDENHAIN).
+    pub tool_length: bool,
+    /// Tool centre point control.
+    pub tcp: Tcp,
+    /// Tilted working plane on.
+    pub tilted: bool,
+    /// A transformation fivecal does not model, by name.
+    pub transformed: Option<&'static str>,
+    /// G92 / CYCL DEF 7 datum shift per linear axis, program units.
+    pub shift: [f64; 3],
+    /// G52 local shift per linear axis, program units.
+    pub local_shift: [f64; 3],
+    /// Whether the shifts are known.
+    pub shift_known: bool,
+    /// Cutter radius compensation on (G41/G42, RL/RR).
+    pub radius_comp: bool,
+    /// Last programmed absolute position per axis (X Y Z A B C).
+    pub pos: [Option<f64>; 6],
+    /// HEIDENHAIN pole (CC) in the XY plane.
+    pub pole: Option<[f64; 2]>,
+    /// The line of an unreadable block that may have changed the modal
+    /// state; `None` when the state is known.
+    pub state_unknown: Option<usize>,
+}
+
+impl Interpreter {
+    /// The power-on state of a controller of this dialect on this machine.
+    pub fn new(settings: &Settings, kin: &Kinematics) -> Interpreter {
+        let m = kin.machine();
+        let dialect = settings.dialect;
+        let cfg = Config {
+            settings: settings.clone(),
+            rotary: [m.tilt.letter as u8, b'C'],
+            tilt: if m.tilt.letter == 'A' { 3 } else { 4 },
+            tool_length: kin.gauge_length(),
+            nominal: FastChain::nominal(kin),
+        };
+        Interpreter {
+            cfg: Shared::new(cfg),
+            units: Units::Mm,
+            absolute: true,
+            arc_absolute: false,
+            motion: None,
+            feed_mode: FeedMode::PerMinute,
+            feed: None,
+            plane: Plane::Xy,
+            work_offset: if dialect == Dialect::Heidenhain {
+                100_000
+            } else {
+                540
+            },
+            tool_length: dialect == Dialect::Heidenhain,
+            tcp: Tcp::Off,
+            tilted: false,
+            transformed: None,
+            shift: [0.0; 3],
+            local_shift: [0.0; 3],
+            shift_known: true,
+            radius_comp: false,
+            pos: [None; 6],
+            pole: None,
+            state_unknown: None,
+        }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &Settings {
+        &self.cfg.settings
+    }
+
+    /// Index of the machine's tilt axis in [`AXES`] (3 for A, 4 for B).
+    pub fn tilt_index(&self) -> usize {
+        self.cfg.tilt
+    }
+
+    /// Applies one statement of `block` and says what it does.
+    pub fn step(&mut self, block: &Block, seg: &Segment) -> Event {
+        if seg.stmt == Stmt::Unreadable {
+            // The axes it names are somewhere unknown after it; when it
+            // may have set modal state, everything is.
+            let code = code_of(self.cfg.settings.dialect, &block.text);
+            if may_change_state(self.cfg.settings.dialect, &code) {
+                self.forget();
+                self.state_unknown = Some(block.line);
+            } else {
+                // Any axis letter that starts a word (`Xnan` too).
+                for (i, &a) in AXES.iter().enumerate() {
+                    if code
+                        .iter()
+                        .enumerate()
+                        .any(|(k, &c)| c == a && (k == 0 || !code[k - 1].is_ascii_alphabetic()))
+                    {
+                        self.pos[i] = None;
+                    }
+                }
+                self.pole = None;
+            }
+            return Event::Skip(Skip::Unreadable);
+        }
+        let ev = match self.cfg.settings.dialect {
+            Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
+            Dialect::Heidenhain => self.heidenhain(block, seg),
+        };
+        match ev {
+            Event::Move(mv)
+                if self.tcp == Tcp::Vector
+                    && self.cfg.settings.coordinates != Coordinates::Axes =>
+            {
+                self.resolve_vector(mv)
+            }
+            ev => ev,
+        }
+    }
+
+    /// The frame the current state puts program coordinates in.
+    pub fn frame(&self) -> Frame {
+        let tcp = match self.cfg.settings.coordinates {
+            Coordinates::Auto => self.tcp,
+            Coordinates::Axes => Tcp::Off,
+            Coordinates::Tcp if self.tcp == Tcp::Off => Tcp::Axes,
+            Coordinates::Tcp => self.tcp,
+        };
+        Frame {
+            u: self.units.mm(),
+            shift: self.total_shift(),
+            origin: self.cfg.settings.origin,
+            tlc: if tcp == Tcp::Off && !self.tool_length {
+                self.cfg.tool_length
+            } else {
+                0.0
+            },
+            tcp,
+            tilt: self.cfg.tilt,
+        }
+    }
+
+    /// G43.5: the controller picks the rotary positions for the programmed
+    /// tool direction, nearest where they were.
+    fn resolve_vector(&mut self, mut mv: Move) -> Event {
+        let Some((v, _)) = mv.tool_vector else {
+            return Event::Skip(Skip::NoToolVector);
+        };
+        let v = Vector3::new(v[0], v[1], v[2]);
+        if !(v.norm() > 0.0 && v.iter().all(|x| x.is_finite())) {
+            return Event::Skip(Skip::VectorOutOfReach);
+        }
+        let v = v.normalize();
+        let t = self.cfg.tilt;
+        let reference = Axes::new(
+            0.0,
+            0.0,
+            0.0,
+            mv.start[t].unwrap_or(0.0),
+            mv.start[5].unwrap_or(0.0),
+        );
+        let pose = ToolPose {
+            tip: Vector3::zeros(),
+            axis: v,
+        };
+        match self.cfg.nominal.inverse(&pose, &reference) {
+            Ok(a) => {
+                mv.end[t] = Some(a.tilt);
+                mv.end[5] = Some(a.c);
+                self.pos[t] = Some(a.tilt);
+                self.pos[5] = Some(a.c);
+                mv.vector = Some(v);
+                Event::Move(mv)
+            }
+            Err(_) => {
+                self.pos[t] = None;
+                self.pos[5] = None;
+                Event::Skip(Skip::VectorOutOfReach)
+            }
+        }
+    }
+
+    /// Total datum shift per linear axis (program units).
+    pub fn total_shift(&self) -> [f64; 3] {
+        [
+            self.shift[0] + self.local_shift[0],
+            self.shift[1] + self.local_shift[1],
+            self.shift[2] + self.local_shift[2],
+        ]
+    }
+
+    /// Forgets every tracked position.
+    pub fn forget(&mut self) {
+        self.pos = [None; 6];
+        self.pole = None;
+    }
+
+    fn axis_index(&self, addr: Addr) -> Option<usize> {
+        match addr.as_letter()? {
+            b'X' => Some(0),
+            b'Y' => Some(1),
+            b'Z' => Some(2),
+            b'A' => Some(3),
+            b'B' => Some(4),
+            b'C' => Some(5),
+            _ => None,
+        }
+    }
+
+    /// Whether the axis letter is one the machine has.
+    fn machine_axis(&self, i: usize) -> bool {
+        i < 3 || self.cfg.rotary.contains(&AXES[i])
+    }
+
+    /// The value of an axis word in program units (deg for rotary axes),
+    /// or why it has none.
+    fn axis_value(&self, w: &Word) -> Result<f64, Skip> {
+        match w.value {
+            Value::Num(v) => {
+                if self.cfg.settings.dialect == Dialect::Fanuc && v != 0.0 && !w.style.point {
+                    return match self.cfg.settings.integer_unit {
+                        Some(k) => Ok(v * k / self.units.mm()),
+                        None => Err(Skip::FanucInteger),
+                    };
+                }
+                Ok(v)
+            }
+            _ => Err(Skip::Expression),
+        }
+    }
+
+    /// Updates tracked positions from the axis words (for moves left as
+    /// written): literal values are followed, expressions forget.
+    fn track_words(&mut self, block: &Block, seg: &Segment) {
+        for (_, w) in block.words(seg) {
+            let Some(i) = self.axis_index(w.addr) else {
+                continue;
+            };
+            let inc = w.incremental || !self.absolute;
+            self.pos[i] = match (self.axis_value(&w), self.pos[i]) {
+                (Ok(v), Some(p)) if inc => Some(p + v),
+                (Ok(v), _) if !inc => Some(v),
+                _ => None,
+            };
+        }
+    }
+
+    /// Forgets the axes the block names (a move that ends somewhere the
+    /// program does not say: probing, reference return, machine coordinates).
+    fn forget_named(&mut self, block: &Block, seg: &Segment) {
+        for (_, w) in block.words(seg) {
+            if let Some(i) = self.axis_index(w.addr) {
+                self.pos[i] = None;
+            }
+        }
+    }
+
+    /// The reason a move in the current state cannot be rewritten, if any
+    /// (checked after the positions are updated).
+    fn frame_skip(&self) -> Option<Skip> {
+        if let Some(line) = self.state_unknown {
+            return Some(Skip::StateUnknown(line));
+        }
+        if let Some(t) = self.transformed {
+            return Some(Skip::Transformed(t));
+        }
+        if self.tilted {
+            return Some(Skip::TiltedPlane);
+        }
+        if self.tcp == Tcp::Spatial {
+            return Some(Skip::TcpSpatial);
+        }
+        if !self.shift_known {
+            return Some(Skip::ShiftUnknown);
+        }
+        None
+    }
+
+    fn cancel(&mut self, what: &str) {
+        if self.transformed == Some(what) {
+            self.transformed = None;
+        }
+    }
+
+    fn set_tcp(&mut self, t: Tcp) {
+        if self.tcp != t {
+            self.tcp = t;
+            self.forget();
+        }
+    }
+}
+
+/// Whether an unreadable block may have changed the modal state: outside
+/// its comments it has a G or M code, a parameter or an assignment, a
+/// program-flow word (ISO), or it is not a plain Klartext path block, or a
+/// path block with an M function (HEIDENHAIN). Only axis words and feeds
+/// are left: those move the tool and are forgotten with the position.
+fn may_change_state(dialect: Dialect, code: &[u8]) -> bool {
+    match dialect {
+        Dialect::Fanuc | Dialect::Linuxcnc => {
+            letter_word(code, b"GMO") || code.iter().any(|c| matches!(c, b'#' | b'=' | b'<'))
+        }
+        Dialect::Heidenhain => {
+            let body: Vec<u8> = code
+                .iter()
+                .copied()
+                .skip_while(|c| c.is_ascii_digit() || matches!(c, b' ' | b'\t' | b'/'))
+                .collect();
+            let path = [
+                &b"L "[..],
+                b"LP ",
+                b"C ",
+                b"CC ",
+                b"CR ",
+                b"CT ",
+                b"CP ",
+                b"RND ",
+                b"CHF ",
+            ]
+            .iter()
+            .any(|k| body.starts_with(k));
+            !path || letter_word(code, b"M")
+        }
+    }
+}
+
+/// A block's text outside its comments, upper case.
+fn code_of(dialect: Dialect, text: &[u8]) -> Vec<u8> {
+    let mut code = Vec::with_capacity(text.len());
+    let mut depth = 0usize;
+    for &c in text {
+        match c {
+            b';' if dialect != Dialect::Fanuc => break,
+            b'(' if dialect != Dialect::Heidenhain => depth += 1,
+            b')' if depth > 0 => depth -= 1,
+            _ if depth == 0 => code.push(c.to_ascii_uppercase()),
+            _ => {}
+        }
+    }
+    code
+}
+
+/// Whether `code` has one of `letters` as a word address: not inside a
+/// longer name, followed by a number, a parameter or an expression.
+fn letter_word(code: &[u8], letters: &[u8]) -> bool {
+    code.iter().enumerate().any(|(i, c)| {
+        letters.contains(c)
+            && (i == 0 || !code[i - 1].is_ascii_alphabetic())
+            && code[i + 1..]
+                .iter()
+                .find(|b| !matches!(b, b' ' | b'\t'))
+                .is_some_and(|b| {
+                    b.is_ascii_digit() || matches!(b, b'#' | b'[' | b'+' | b'-' | b'.')
+                })
+    })
+}
+
+/// The centre of an arc from `s` to `e` with radius `r` (positive: at most
+/// half a circle; negative: more), turning clockwise or not.
+pub fn center_from_radius(s: [f64; 2], e: [f64; 2], r: f64, cw: bool) -> Option<[f64; 2]> {
+    let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
+    let d = dx.hypot(dy);
+    if d == 0.0 || d > 2.0 * r.abs() * (1.0 + 1e-9) {
+        return None;
+    }
+    let h = (r * r - d * d / 4.0).max(0.0).sqrt();
+    let (mx, my) = ((s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0);
+    let (ux, uy) = (-dy / d, dx / d); // left normal of the chord
+    // Counter-clockwise minor arcs have their centre on the left.
+    let left = cw != (r > 0.0);
+    let sgn = if left { 1.0 } else { -1.0 };
+    Some([mx + sgn * h * ux, my + sgn * h * uy])
+}
+
+#[cfg(test)]
+mod tests;

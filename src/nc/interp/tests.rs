@@ -1,0 +1,198 @@
+use super::*;
+use crate::nc::Syntax;
+fn run(src: &str, d: Dialect) -> (Vec<Event>, Interpreter) {
+    let kin = Kinematics::new(&crate::machine::Machine::builtin("bc-trunnion").unwrap());
+    let mut m = Interpreter::new(&Settings::new(d), &kin);
+    let syn = Syntax {
+        dialect: d,
+        strict: false,
+    };
+    let mut out = Vec::new();
+    let mut r = crate::nc::BlockReader::new(src.as_bytes(), d);
+    let mut b = Block::default();
+    while r.read(&mut b).unwrap() {
+        syn.parse(&mut b).unwrap();
+        for seg in b.segments.clone() {
+            out.push(m.step(&b, &seg));
+        }
+    }
+    (out, m)
+}
+
+fn mv(e: &Event) -> &Move {
+    match e {
+        Event::Move(m) => m,
+        other => panic!("not a move: {other:?}"),
+    }
+}
+
+#[test]
+fn tracks_units_distance_motion_feed_and_offsets() {
+    let (ev, m) = run(
+        "G20 G91 G93 G55 G18\nG0 X1. Y2. Z3. B0 C0\nG1 X1. F2.\n",
+        Dialect::Fanuc,
+    );
+    assert_eq!(m.units, Units::Inch);
+    assert!(!m.absolute);
+    assert_eq!(m.feed_mode, FeedMode::InverseTime);
+    assert_eq!(m.work_offset, 550);
+    assert_eq!(m.plane, Plane::Zx);
+    assert_eq!(m.motion, Some(Motion::Linear));
+    // Incremental from unknown positions: nothing known yet.
+    assert_eq!(mv(&ev[1]).end, [None; 6]);
+    assert_eq!(mv(&ev[2]).end, [None; 6]);
+}
+
+#[test]
+fn absolute_moves_fill_modal_axes() {
+    let (ev, _) = run(
+        "G90 G0 X1. Y2. Z3. B10. C20.\nG1 X5. F100.\n",
+        Dialect::Fanuc,
+    );
+    let m = mv(&ev[1]);
+    assert_eq!(
+        m.start,
+        [
+            Some(1.0),
+            Some(2.0),
+            Some(3.0),
+            None,
+            Some(10.0),
+            Some(20.0)
+        ]
+    );
+    assert_eq!(m.end[0], Some(5.0));
+    assert_eq!(m.end[4], Some(10.0));
+    assert_eq!(m.feed.map(|f| f.1), Some(100.0));
+}
+
+#[test]
+fn tcp_and_tilted_plane_and_machine_coordinates() {
+    let (ev, m) = run(
+        "G43.4 H1\nG0 X0 Y0 Z10. B0 C0\nG53 Z0\nG68.2 X0 Y0 Z0 I0 J30. K0\nG53.1\nG1 X1. Y1. Z1.\nG69\n",
+        Dialect::Fanuc,
+    );
+    assert_eq!(m.tcp, Tcp::Axes);
+    assert!(matches!(ev[1], Event::Move(_)));
+    assert_eq!(ev[2], Event::Quiet);
+    assert_eq!(ev[5], Event::Skip(Skip::TiltedPlane));
+    assert!(!m.tilted);
+}
+
+#[test]
+fn expressions_are_skipped_and_forget_the_axis() {
+    let (ev, m) = run("G0 X1. Y2. Z3. B0 C0\nG1 X[#1+2.] F100.\n", Dialect::Fanuc);
+    assert_eq!(ev[1], Event::Skip(Skip::Expression));
+    assert_eq!(m.pos[0], None);
+}
+
+#[test]
+fn fanuc_integers_are_ambiguous_unless_told() {
+    let (ev, _) = run("G0 X10 Y2. Z3. B0 C0\n", Dialect::Fanuc);
+    assert_eq!(ev[0], Event::Skip(Skip::FanucInteger));
+    let (ev, _) = run("G0 X10 Y2 Z3 B0 C0\n", Dialect::Linuxcnc);
+    assert!(matches!(ev[0], Event::Move(_)));
+}
+
+#[test]
+fn arcs_by_centre_and_by_radius() {
+    let (ev, _) = run(
+        "G17 G0 X10. Y0 Z0 B0 C0\nG3 X0 Y10. I-10. J0 F100.\nG2 X10. Y0 R10.\n",
+        Dialect::Fanuc,
+    );
+    let MoveKind::Arc(a) = mv(&ev[1]).kind else {
+        panic!()
+    };
+    assert_eq!(a.center, [0.0, 0.0]);
+    assert!(!a.cw);
+    let MoveKind::Arc(a) = mv(&ev[2]).kind else {
+        panic!()
+    };
+    assert!(a.cw);
+    assert!(
+        (a.center[0]).abs() < 1e-12 && a.center[1].abs() < 1e-12,
+        "{:?}",
+        a.center
+    );
+}
+
+#[test]
+fn control_flow_forgets_positions() {
+    let (ev, _) = run(
+        "G0 X1. Y2. Z3. B0 C0\nWHILE [#1 LT 3] DO1\nG1 X5. F100.\nEND1\n",
+        Dialect::Fanuc,
+    );
+    let m = mv(&ev[2]);
+    assert_eq!(m.start, [None; 6]);
+    assert_eq!(m.end[0], Some(5.0));
+    assert_eq!(m.end[1], None);
+}
+
+#[test]
+fn probing_forgets_only_what_the_probe_moves() {
+    // TCH PROBE 0 moves the linear axes only: B and C stay known.
+    let (ev, _) = run(
+        "0 BEGIN PGM T MM\n1 L X+10 Y+0 Z+5 B+0 C+30 R0 FMAX\n2 TCH PROBE 0.0 REF. PLANE Q1 X+\n3 TCH PROBE 0.1 X+0 Y+0 Z+5\n4 L X+1 Y+2 Z+3 R0 F100\n5 TCH PROBE 403 ROT IN ROTARY AXIS ~\n  Q263=+0 ;1ST POINT 1ST AXIS\n6 L X+1 Y+2 Z+3 R0 F100\n7 END PGM T MM\n",
+        Dialect::Heidenhain,
+    );
+    assert_eq!(ev[2], Event::Quiet);
+    let m = mv(&ev[4]);
+    assert_eq!(&m.start[..3], &[None; 3]);
+    assert_eq!(m.start[4], Some(0.0));
+    assert_eq!(m.start[5], Some(30.0));
+    // Cycle 403 may turn the table: everything is forgotten.
+    assert_eq!(mv(&ev[6]).start, [None; 6]);
+    assert_eq!(
+        heidenhain::tch_probe_number(b"12 TCH PROBE 1.0 POLAR DATUM PLANE"),
+        Some(1)
+    );
+    assert_eq!(
+        heidenhain::tch_probe_number(b"TCH PROBE 412 DATUM CIRC. CENTER"),
+        Some(412)
+    );
+    // G31 forgets the axes it names.
+    let (ev, _) = run(
+        "G0 X1. Y2. Z3. B0 C0\nG31 Z-10. F100.\nG1 X2.\n",
+        Dialect::Fanuc,
+    );
+    let m = mv(&ev[2]);
+    assert_eq!(m.start[0], Some(1.0));
+    assert_eq!(m.start[2], None);
+    assert_eq!(m.start[5], Some(0.0));
+}
+
+#[test]
+fn heidenhain_blocks() {
+    let (ev, m) = run(
+        "0 BEGIN PGM T MM\n1 L X+10 Y+0 Z+5 B+0 C+0 R0 FMAX\n2 CC X+0 Y+0\n3 C X+0 Y+10 DR+ F500\n4 CR X+10 Y+0 R+10 DR- F500\n5 L IX+1 F500\n6 M128\n7 CYCL DEF 7.0 DATUM SHIFT\n8 CYCL DEF 7.1 X+100\n9 PLANE SPATIAL SPA+0 SPB+30 SPC+0 TURN FMAX\n10 L X+1 Y+1 Z+1 B+0 C+0 F100\n11 PLANE RESET STAY\n12 END PGM T MM\n",
+        Dialect::Heidenhain,
+    );
+    assert_eq!(mv(&ev[1]).kind, MoveKind::Rapid);
+    let MoveKind::Arc(a) = mv(&ev[3]).kind else {
+        panic!()
+    };
+    assert_eq!(a.center, [0.0, 0.0]);
+    assert!(!a.cw);
+    let MoveKind::Arc(a) = mv(&ev[4]).kind else {
+        panic!()
+    };
+    assert!(a.cw);
+    assert_eq!(mv(&ev[5]).end[0], Some(11.0));
+    assert_eq!(m.tcp, Tcp::Axes);
+    assert_eq!(m.shift[0], 100.0);
+    assert_eq!(ev[10], Event::Skip(Skip::TiltedPlane));
+    assert!(!m.tilted);
+}
+
+#[test]
+fn radius_centres_are_on_the_right_side() {
+    // Quarter circle from (10,0) to (0,10) counter-clockwise about 0.
+    let c = center_from_radius([10.0, 0.0], [0.0, 10.0], 10.0, false).unwrap();
+    assert!(c[0].abs() < 1e-12 && c[1].abs() < 1e-12);
+    // Clockwise, same chord: centre at (10, 10).
+    let c = center_from_radius([10.0, 0.0], [0.0, 10.0], 10.0, true).unwrap();
+    assert!((c[0] - 10.0).abs() < 1e-12 && (c[1] - 10.0).abs() < 1e-12);
+    // Negative radius: the major arc, centre on the other side.
+    let c = center_from_radius([10.0, 0.0], [0.0, 10.0], -10.0, false).unwrap();
+    assert!((c[0] - 10.0).abs() < 1e-12 && (c[1] - 10.0).abs() < 1e-12);
+}

@@ -1,0 +1,92 @@
+//! Tokenizing a block in its dialect: [`word_address`] for FANUC and
+//! LinuxCNC (with their macro languages), [`klartext`] for HEIDENHAIN.
+
+pub mod klartext;
+pub mod word_address;
+
+use super::{Block, BlockError};
+use crate::machine::Dialect;
+
+/// Parser settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Syntax {
+    /// The dialect.
+    pub dialect: Dialect,
+    /// Reject words and codes this parser does not know instead of keeping
+    /// them verbatim.
+    pub strict: bool,
+}
+
+impl Syntax {
+    /// Tokenizes `block.text` into `block.tokens` and `block.segments`.
+    pub fn parse(&self, block: &mut Block) -> Result<(), BlockError> {
+        block.tokens.clear();
+        block.segments.clear();
+        match self.dialect {
+            Dialect::Fanuc | Dialect::Linuxcnc => word_address::parse(self, block),
+            Dialect::Heidenhain => klartext::parse(self, block),
+        }?;
+        debug_assert!(covers(block), "tokens must cover the block exactly");
+        Ok(())
+    }
+}
+
+/// The UTF-8 byte order mark some editors put at the start of a file.
+pub(crate) const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// DOS's end-of-file mark.
+pub(crate) const DOS_EOF: u8 = 0x1A;
+
+/// How deep brackets may nest in an expression. Controllers allow a few
+/// levels (FANUC five); the limit keeps the recursive parsers' stack small
+/// whatever the input.
+pub const MAX_NESTING: usize = 64;
+
+/// Refuses `open`/`close` brackets nested deeper than [`MAX_NESTING`].
+pub(crate) fn check_nesting(s: &[u8], open: u8, close: u8) -> Result<(), BlockError> {
+    let mut depth = 0usize;
+    for (i, &c) in s.iter().enumerate() {
+        if c == open {
+            depth += 1;
+            if depth > MAX_NESTING {
+                return Err(BlockError::new(
+                    i,
+                    format!(
+                        "brackets nested deeper than {MAX_NESTING} levels: no controller reads that"
+                    ),
+                ));
+            }
+        } else if c == close {
+            depth = depth.saturating_sub(1);
+        }
+    }
+    Ok(())
+}
+
+/// A number beyond the range of any controller (and of a 64-bit float).
+pub(crate) fn too_large(offset: usize, lexeme: &[u8]) -> BlockError {
+    let shown = if lexeme.len() > 24 {
+        format!(
+            "{}... ({} digits)",
+            String::from_utf8_lossy(&lexeme[..20]),
+            lexeme.len()
+        )
+    } else {
+        String::from_utf8_lossy(lexeme).to_string()
+    };
+    BlockError::new(
+        offset,
+        format!("number `{shown}` is too large to be a coordinate, feed or parameter"),
+    )
+}
+
+fn covers(block: &Block) -> bool {
+    let mut at = 0u32;
+    for t in &block.tokens {
+        if t.span.start != at || t.span.end < t.span.start {
+            return false;
+        }
+        at = t.span.end;
+    }
+    at as usize == block.text.len()
+}
