@@ -13,6 +13,7 @@
 #![warn(missing_docs)]
 
 pub mod compensate;
+pub mod conformance;
 pub mod contour;
 pub mod demo;
 pub mod discover;
