@@ -35,6 +35,7 @@ pub mod probing;
 pub mod report;
 pub mod simulate;
 pub mod source;
+pub mod store;
 pub mod uncertainty;
 
 pub use errorfile::ErrorFile;

@@ -31,3 +31,4 @@ mod regression;
 mod simulate;
 mod simulate_forward;
 mod simulate_outputs;
+mod store;
