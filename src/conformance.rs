@@ -329,7 +329,7 @@ impl Verdict {
     }
 
     /// The verdict as printed: one line per symbol, then the machine's.
-    pub fn render(&self, units: &dyn Fn(&str) -> String) -> String {
+    pub fn render(&self) -> String {
         use std::fmt::Write;
         let mut s = String::new();
         let _ = writeln!(
@@ -350,7 +350,7 @@ impl Verdict {
                 num(d.value),
                 num(d.expanded),
                 d.limit.to_string(),
-                units(&d.symbol),
+                unit_of(&d.symbol),
                 d.decision
             );
             if let Some(r) = &d.reason {
@@ -360,6 +360,16 @@ impl Verdict {
         }
         let _ = writeln!(s, "machine: {}", self.machine);
         s
+    }
+}
+
+/// The unit of a location symbol, from its ISO 230-1 name: `EX..`, `EY..`,
+/// `EZ..` are positions (um), `EA..`, `EB..`, `EC..` orientations (urad).
+pub fn unit_of(symbol: &str) -> &'static str {
+    match symbol.as_bytes().get(1) {
+        Some(b'X' | b'Y' | b'Z') => "um",
+        Some(b'A' | b'B' | b'C') => "urad",
+        _ => "",
     }
 }
 
@@ -444,6 +454,20 @@ mod tests {
     }
 
     #[test]
+    fn units_follow_the_symbol_names() {
+        for (s, u) in [
+            ("EX0B", "um"),
+            ("EY0C", "um"),
+            ("EX(0B)C", "um"),
+            ("EA(0B)C", "urad"),
+            ("EB0B", "urad"),
+            ("EC0A", "urad"),
+        ] {
+            assert_eq!(unit_of(s), u, "{s}");
+        }
+    }
+
+    #[test]
     fn the_machine_fails_on_one_failure_and_passes_only_when_all_pass() {
         use Decision::*;
         assert_eq!(combine([Pass, Pass].into_iter()), Pass);
@@ -496,7 +520,7 @@ mod tests {
                 .contains("no pose turns C")
         );
         assert_eq!(v.symbols[1].expanded, Some(1.0));
-        let text = v.render(&|_| "um".into());
+        let text = v.render();
         assert!(
             text.contains("EZ0B") && text.contains("FAIL") && text.contains("machine: FAIL"),
             "{text}"

@@ -21,6 +21,7 @@ pub mod errorfile;
 pub mod fit;
 pub mod formats;
 pub mod geom;
+pub mod history;
 pub mod identify;
 pub mod io;
 pub mod kinematics;
