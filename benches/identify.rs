@@ -10,6 +10,8 @@ use std::collections::HashMap;
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use fivecal::analyze::uncertainty::simulated::{self, SimulatedTest};
+use fivecal::analyze::uncertainty::{self, Contributors, McOptions, SyntheticTest};
 use fivecal::errorfile::ErrorFile;
 use fivecal::formats::detect::PointSet;
 use fivecal::formats::manifest::KinematicsMode;
@@ -22,8 +24,6 @@ use fivecal::model::{Effect, Model};
 use fivecal::plan::{LoadedPlan, PlanConfig, Template};
 use fivecal::post::PostDefinition;
 use fivecal::simulate::{self, SimOptions};
-use fivecal::uncertainty::simulated::{self, SimulatedTest};
-use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
 use fivecal::{Dialect, Machine, placement};
 use nalgebra::{Isometry3, Vector3};
 use rand::SeedableRng;
@@ -72,10 +72,16 @@ fn bench(c: &mut Criterion) {
     let setup = Setup::new(&k, &d.poses, &["EBB(B)".to_string()]).unwrap();
     let so = SphereOptions::default();
     c.bench_function("global stepped square 144 points + EBB(B)", |b| {
-        b.iter(|| uncertainty::identify_with(Method::Global, black_box(&setup), &d, &so).unwrap())
+        b.iter(|| {
+            fivecal::analyze::method::identify_with(Method::Global, black_box(&setup), &d, &so)
+                .unwrap()
+        })
     });
     c.bench_function("two-stage stepped square 144 points + EBB(B)", |b| {
-        b.iter(|| uncertainty::identify_with(Method::TwoStage, black_box(&setup), &d, &so).unwrap())
+        b.iter(|| {
+            fivecal::analyze::method::identify_with(Method::TwoStage, black_box(&setup), &d, &so)
+                .unwrap()
+        })
     });
     let noms: Vec<(Vector3<f64>, Vector3<f64>)> = plan.points.iter().map(|p| (p.p, p.n)).collect();
     c.bench_function("placement without labels, 144 points", |b| {
@@ -102,11 +108,14 @@ fn bench(c: &mut Criterion) {
     let sd = dataset(&splan, TestKind::Probing, spts);
     let ssetup = Setup::new(&ka, &sd.poses, &[]).unwrap();
     c.bench_function("sphere method, 49 positions, robust", |b| {
-        b.iter(|| uncertainty::identify_with(Method::Sphere, black_box(&ssetup), &sd, &so).unwrap())
+        b.iter(|| {
+            fivecal::analyze::method::identify_with(Method::Sphere, black_box(&ssetup), &sd, &so)
+                .unwrap()
+        })
     });
 
     let loc = Setup::new(&k, &d.poses, &[]).unwrap();
-    let est = uncertainty::identify_with(Method::Global, &loc, &d, &so).unwrap();
+    let est = fivecal::analyze::method::identify_with(Method::Global, &loc, &d, &so).unwrap();
     let t = SyntheticTest {
         estimate: &est,
         setup: &loc,
@@ -160,11 +169,11 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 let out = simulate::run(black_box(&plan), &truth, &SimOptions::default()).unwrap();
                 let d = simulated::plan_dataset(&plan, "sim", out.points).unwrap();
-                uncertainty::identify_with(Method::Global, &ssetup, &d, &so).unwrap()
+                fivecal::analyze::method::identify_with(Method::Global, &ssetup, &d, &so).unwrap()
             })
         },
     );
-    let est = uncertainty::identify_with(Method::Global, &ssetup, &sd, &so).unwrap();
+    let est = fivecal::analyze::method::identify_with(Method::Global, &ssetup, &sd, &so).unwrap();
     let t = SimulatedTest::from_estimate(&plan, &est, &ssetup, &sd, so, Contributors::seed001());
     let mut group = c.benchmark_group("monte carlo on the simulator");
     group.sample_size(10);

@@ -15,6 +15,8 @@
 //! Run `cargo run --release --example analyze_study [RUNS]` (RUNS = 200 by
 //! default; under a minute on two cores).
 
+use fivecal::analyze::uncertainty::simulated::{self, SimulatedTest};
+use fivecal::analyze::uncertainty::{Contributors, McOptions};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::formats::manifest::KinematicsMode;
 use fivecal::identify::sphere::SphereOptions;
@@ -23,8 +25,6 @@ use fivecal::plan::{LoadedPlan, PlanConfig, ProbingConfig, Template};
 use fivecal::post::PostDefinition;
 use fivecal::probing::template::ProbeTemplate;
 use fivecal::simulate::{self, NoiseOverrides, SimOptions};
-use fivecal::uncertainty::simulated::{self, SimulatedTest};
-use fivecal::uncertainty::{self, Contributors, McOptions};
 use fivecal::{Dialect, Machine};
 
 const NOISE_UM: f64 = 0.35;
@@ -128,7 +128,7 @@ fn main() {
             let data = simulated::plan_dataset(&plan, "sim", out.points).unwrap();
             let setup = Setup::new(&simulate::plan_kinematics(&plan), &data.poses, &[]).unwrap();
             for (m, zs) in z_all.iter_mut() {
-                let est = uncertainty::identify_with_plan(
+                let est = fivecal::analyze::method::identify_with_plan(
                     *m,
                     &setup,
                     &data,

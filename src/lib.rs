@@ -12,6 +12,7 @@
 
 #![warn(missing_docs)]
 
+pub mod analyze;
 pub mod compensate;
 pub mod conformance;
 pub mod contour;
@@ -37,7 +38,6 @@ pub mod report;
 pub mod simulate;
 pub mod source;
 pub mod store;
-pub mod uncertainty;
 
 pub use errorfile::ErrorFile;
 pub use kinematics::{Axes, Kinematics, Perturbation, ToolPose};

@@ -485,15 +485,15 @@ fn analyze_refuses_bad_input_with_file_and_line_and_writes_nothing() {
         ));
 }
 
-#[test]
-fn series_of_pieces_shows_a_thermal_drift_of_ez0b() {
-    // Three pieces machined one after the other while the B axis drifts
-    // 6 um in Z per piece (seed 001 section 5.4).
-    let dir = tempdir();
+/// A stepped-square plan directory on `bc-trunnion` and the DMIS files of
+/// `n` pieces machined one after the other while the B axis rises 6 um in Z
+/// per piece, each placed at random up to `offset` mm from the CMM origin
+/// (seeds from `seed`).
+fn drifting_pieces(dir: &Path, n: u64, seed: u64, offset: f64) -> (PathBuf, Vec<PathBuf>) {
     let k = Kinematics::new(&machine("bc-trunnion"));
     let plan = stepped_plan(&k);
     let manifest = plan_dir(
-        dir.path(),
+        dir,
         "stepped-square",
         TestKind::Machining,
         "bc-trunnion",
@@ -501,11 +501,11 @@ fn series_of_pieces_shows_a_thermal_drift_of_ez0b() {
     );
     let truth = truth_model(&k, vec![]);
     let mut files = Vec::new();
-    for piece in 0..3 {
+    for piece in 0..n {
         let mut theta = BC_TRUTH;
         theta[1] += 6.0 * piece as f64;
-        let mut r = rng(300 + piece);
-        let placement = random_placement(&mut r, 500.0);
+        let mut r = rng(seed + piece);
+        let placement = random_placement(&mut r, offset);
         let pts = synthetic::machined(
             &truth,
             &theta,
@@ -515,10 +515,19 @@ fn series_of_pieces_shows_a_thermal_drift_of_ez0b() {
             &placement,
             &mut r,
         );
-        let f = dir.path().join(format!("piece{}.dmo", piece + 1));
+        let f = dir.join(format!("piece{}.dmo", piece + 1));
         write_dmis(&f, &plan, &pts);
         files.push(f);
     }
+    (manifest, files)
+}
+
+#[test]
+fn series_of_pieces_shows_a_thermal_drift_of_ez0b() {
+    // Three pieces machined one after the other while the B axis drifts
+    // 6 um in Z per piece (seed 001 section 5.4).
+    let dir = tempdir();
+    let (manifest, files) = drifting_pieces(dir.path(), 3, 300, 500.0);
     let out = dir.path().join("series.yaml");
     fivecal()
         .args(["analyze", "--plan"])
@@ -541,6 +550,51 @@ fn series_of_pieces_shows_a_thermal_drift_of_ez0b() {
     for k in 1..=3 {
         assert!(dir.path().join(format!("series.{k}.yaml")).exists());
     }
+}
+
+/// `--compare` sets an earlier result beside the new one: both values with
+/// their u, and the change from the earlier one with the combined u. Two
+/// pieces of the same plan, the B axis 6 um higher in Z on the second.
+#[test]
+fn compare_shows_the_change_from_an_earlier_result() {
+    let dir = tempdir();
+    let (manifest, files) = drifting_pieces(dir.path(), 2, 400, 300.0);
+    let before = dir.path().join("before.yaml");
+    analyze_cmd(&manifest, &files[0], &before)
+        .assert()
+        .success();
+    let after = dir.path().join("after.yaml");
+    let a = analyze_cmd(&manifest, &files[1], &after)
+        .arg("--compare")
+        .arg(&before)
+        .assert()
+        .success();
+    let text = String::from_utf8(a.get_output().stdout.clone()).unwrap();
+    let table = &text[text.find("comparison with").expect("a comparison")..];
+    let header = table.lines().nth(1).unwrap();
+    assert!(header.trim_end().ends_with("change"), "{table}");
+    assert!(!table.contains("trend"), "{table}");
+    let load = |p: &Path| ErrorFile::read(p).unwrap().0.location_errors;
+    let (b, f) = (load(&before), load(&after));
+    for (sym, q) in &f {
+        let row = table
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(sym.as_str()))
+            .unwrap_or_else(|| panic!("no row for {sym}: {table}"));
+        // The last cell is `+d.dd (u.uu)`.
+        let cells: Vec<&str> = row.split_whitespace().collect();
+        let change: f64 = cells[cells.len() - 2].parse().unwrap();
+        let expected = q.value - b[sym].value;
+        assert!((change - expected).abs() < 0.006, "{sym}: {row}");
+    }
+    let ez = table.lines().find(|l| l.starts_with("EZ0B")).unwrap();
+    let cells: Vec<&str> = ez.split_whitespace().collect();
+    let change: f64 = cells[cells.len() - 2].parse().unwrap();
+    let u: f64 = cells[cells.len() - 1]
+        .trim_matches(|c| c == '(' || c == ')')
+        .parse()
+        .unwrap();
+    assert!((change - 6.0).abs() < 4.0 * u, "EZ0B change {change} ({u})");
 }
 
 #[test]

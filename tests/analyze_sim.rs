@@ -12,13 +12,13 @@
 
 use std::path::Path;
 
+use fivecal::analyze::uncertainty::simulated::{self, SimulatedTest};
+use fivecal::analyze::uncertainty::{Contributors, McOptions};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Dataset, Identification, Method, Setup};
 use fivecal::plan::LoadedPlan;
 use fivecal::simulate::{self, Placement, SimOptions};
-use fivecal::uncertainty::simulated::{self, SimulatedTest};
-use fivecal::uncertainty::{self, Contributors, McOptions};
 use nalgebra::DMatrix;
 
 use crate::cli::{analyze_cmd, fivecal};
@@ -91,8 +91,14 @@ fn measure(plan: &LoadedPlan, errors: &LoadedErrors, opts: &SimOptions) -> Datas
 }
 
 fn identify(plan: &LoadedPlan, setup: &Setup, data: &Dataset, method: Method) -> Identification {
-    uncertainty::identify_with_plan(method, setup, data, &SphereOptions::default(), Some(plan))
-        .unwrap_or_else(|e| panic!("{method}: {e}"))
+    fivecal::analyze::method::identify_with_plan(
+        method,
+        setup,
+        data,
+        &SphereOptions::default(),
+        Some(plan),
+    )
+    .unwrap_or_else(|e| panic!("{method}: {e}"))
 }
 
 /// The truth's values by name.

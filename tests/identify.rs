@@ -6,6 +6,7 @@
 
 use std::collections::HashMap;
 
+use fivecal::analyze::uncertainty::{self, Contributors, McOptions, SyntheticTest};
 use fivecal::formats::detect::PointSet;
 use fivecal::formats::manifest::TestKind;
 use fivecal::formats::points::PlanPoints;
@@ -16,7 +17,6 @@ use fivecal::identify::{Dataset, Identification, Method, Setup, synthetic};
 use fivecal::kinematics::Kinematics;
 use fivecal::kinematics::maps::{MapDim, MapGrid};
 use fivecal::model::{Effect, Model};
-use fivecal::uncertainty::{self, Contributors, McOptions, SyntheticTest};
 use nalgebra::{Isometry3, Vector3};
 
 use crate::util::{machine, random_placement, rng};
@@ -76,7 +76,7 @@ pub fn machined(model: &Model, theta: &[f64], plan: &PlanPoints, noise: f64, see
 }
 
 fn run(method: Method, setup: &Setup, data: &Dataset) -> Identification {
-    uncertainty::identify_with(method, setup, data, &SphereOptions::default()).unwrap()
+    fivecal::analyze::method::identify_with(method, setup, data, &SphereOptions::default()).unwrap()
 }
 
 /// |estimate - truth| / u for every identifiable parameter named in `truth`.
@@ -339,7 +339,7 @@ fn reported_uncertainty_agrees_with_a_seeded_spread() {
             sphere_geometry: None,
             contributors: Contributors::noise_only(0.35),
         };
-        let mc = fivecal::uncertainty::montecarlo::run(
+        let mc = fivecal::analyze::uncertainty::montecarlo::run(
             &McOptions {
                 runs: 60,
                 seed: 5,
@@ -665,7 +665,7 @@ fn sphere_method_uncertainty_agrees_with_a_seeded_spread() {
         sphere_geometry: Some((centre, 15.0)),
         contributors: Contributors::noise_only(0.35),
     };
-    let mc = fivecal::uncertainty::montecarlo::run(
+    let mc = fivecal::analyze::uncertainty::montecarlo::run(
         &McOptions {
             runs: 60,
             seed: 9,
@@ -803,7 +803,7 @@ fn column_probing_uncertainty_agrees_with_a_seeded_spread_for_both_methods() {
             sphere_geometry: None,
             contributors: Contributors::noise_only(0.35),
         };
-        let mc = fivecal::uncertainty::montecarlo::run(
+        let mc = fivecal::analyze::uncertainty::montecarlo::run(
             &McOptions {
                 runs: 100,
                 seed: 13,

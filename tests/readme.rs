@@ -82,6 +82,33 @@ fn the_readme_demo_command_runs_the_whole_job() {
     assert!(stdout.contains("discovered: drift.EZ0B"), "{stdout}");
 }
 
+/// The demo's `analyzed.yaml` is what `analyze` writes: beside the values,
+/// the noise the fit found, as the CMM's (the demo measures a machined
+/// piece). The demo's model lacks the drift hidden in the truth, so that
+/// noise is the gap's RMS (corrected for the fitted parameters), not the
+/// simulated CMM's 0.35 um.
+#[test]
+fn the_demo_result_file_carries_the_measured_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = fivecal::demo::run(
+        &fivecal::demo::DemoConfig {
+            out: dir.path().to_path_buf(),
+            seed: 1,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    let (analyzed, _) = ErrorFile::read(&dir.path().join("analyzed.yaml")).unwrap();
+    let noise = analyzed.effects.noise.expect("a noise entry");
+    assert_eq!(noise.probe, None);
+    let cmm = noise.cmm.expect("the CMM's noise");
+    let gap = d.gap_before.rms_um;
+    assert!(
+        cmm >= gap && cmm < 1.15 * gap,
+        "noise {cmm} um, gap RMS {gap} um"
+    );
+}
+
 /// The test command is what `.ci/run` runs; here it must at least be a
 /// cargo test command that builds as written.
 #[test]

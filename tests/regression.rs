@@ -173,7 +173,7 @@ fn identifiability_is_judged_at_the_nominal_design_not_at_the_estimate() {
     .unwrap();
     let setup = Setup::new(&k, &data.poses, &[]).unwrap();
     let est =
-        fivecal::uncertainty::identify_with(Method::Global, &setup, &data, &Default::default())
+        fivecal::analyze::method::identify_with(Method::Global, &setup, &data, &Default::default())
             .unwrap();
     let (v, u) = est.get("EY0C").unwrap();
     assert!(u.is_some(), "{}", est.identifiability.render());

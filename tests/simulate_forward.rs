@@ -18,7 +18,6 @@ use fivecal::identify::{Method, Setup, data::join};
 use fivecal::plan::{LoadedPlan, PlanConfig, Template, plan};
 use fivecal::post::PostDefinition;
 use fivecal::simulate::{self, SetupErrors, SimOptions, forward};
-use fivecal::uncertainty;
 
 use crate::simulate::{MACHINING, PROBING, planned};
 use crate::util::{MACHINES, machine, tempdir};
@@ -391,8 +390,8 @@ fn analyze_global_recovers_a_head_machine_through_the_forward_model() {
     .unwrap();
     let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
     assert!(RigidPoseMachining::new(setup.model.clone()).is_err());
-    assert!(uncertainty::rigid_refuses(&setup.model));
-    let est = uncertainty::identify_with_plan(
+    assert!(fivecal::analyze::method::rigid_refuses(&setup.model));
+    let est = fivecal::analyze::method::identify_with_plan(
         Method::Global,
         &setup,
         &data,

@@ -16,12 +16,13 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 
+use crate::analyze;
 use crate::compensate::simulate::{SimSettings, Simulator};
 use crate::compensate::{AtomicOutput, Compensator, Settings};
 use crate::discover::{self, DiscoverOptions, Discovery, GapSize};
 use crate::errorfile::{ErrorFile, LoadedErrors};
 use crate::formats::manifest::KinematicsMode;
-use crate::identify::{Identification, Method, Setup};
+use crate::identify::Identification;
 use crate::io::write_atomic;
 use crate::kinematics::Kinematics;
 use crate::machine::{Dialect, Machine};
@@ -219,28 +220,23 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
 
     progress(Stage::Analyze);
     let e = Stage::Analyze;
-    let data = discover::Inputs::load(&manifest_path, std::slice::from_ref(&measured))
-        .at(e)?
-        .data;
-    let setup = Setup::new(&kin, &data.poses, &[]).at(e)?;
-    let est = crate::uncertainty::identify_with(Method::Global, &setup, &data, &Default::default())
-        .at(e)?;
-    let result = est.error_file(None);
-    let result_path = out.join("analyzed.yaml");
-    write_atomic(&result_path, result.to_yaml().as_bytes()).at(e)?;
-    files.push(rel(out, &result_path));
+    let outcome = analyze::run(&analyze::Request {
+        rebuilt: Some(loaded.clone()),
+        ..analyze::Request::new(&manifest_path, vec![measured.clone()])
+    })
+    .at(e)?;
+    for p in analyze::result::write(&outcome, &out.join("analyzed.yaml"), false).at(e)? {
+        files.push(rel(out, &p));
+    }
+    let analyze::Found::Identified(identified) = outcome.found else {
+        return Err("the stepped-square test identifies location errors").at(e);
+    };
+    let analysis = &identified.pieces[0];
+    let (data, est) = (&analysis.data, &analysis.est);
     let report_dir = out.join("report");
-    let u = est.u();
     for p in crate::report::write(
         &report_dir,
-        &crate::report::ReportInput {
-            title: format!("{}: {}", planned.test, measured.display()),
-            data: &data,
-            est: &est,
-            u: u.clone(),
-            mc: None,
-            error_file: &result,
-        },
+        &crate::report::ReportInput::for_piece(&identified.test, analysis),
     )
     .at(e)?
     {
@@ -249,12 +245,12 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
 
     progress(Stage::Discover);
     let e = Stage::Discover;
-    let discovery = discover::run(&kin, &data, Some(&loaded), &DiscoverOptions::default()).at(e)?;
+    let discovery = discover::run(&kin, data, Some(&loaded), &DiscoverOptions::default()).at(e)?;
     let story = discovery.story.render();
     let story_path = out.join("discover.txt");
     write_atomic(&story_path, story.as_bytes()).at(e)?;
     files.push(rel(out, &story_path));
-    let final_est = discovery.identification(&data);
+    let final_est = discovery.identification(data);
     let final_file = final_est.error_file(None);
     let final_path = out.join("discovered.yaml");
     write_atomic(&final_path, final_file.to_yaml().as_bytes()).at(e)?;
@@ -282,7 +278,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let (tip_before, tip_after) = tip_errors(&truth_tool, &original, &compensated).at(e)?;
 
     Ok(Demo {
-        rows: rows(&truth, &est, &final_est),
+        rows: rows(&truth, est, &final_est),
         added: added(&discovery, &truth),
         hidden: hidden(&truth),
         gap_before: GapSize {

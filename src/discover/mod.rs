@@ -32,7 +32,7 @@ pub mod story;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use crate::errorfile::{ErrorFile, Noise, NotIdentified};
+use crate::errorfile::{ErrorFile, NotIdentified};
 use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::combination;
 use crate::identify::{Dataset, Identification, Method, two_stage};
@@ -133,7 +133,7 @@ impl Discovery {
         let f = self.end();
         let est = identification(f, data);
         let u: Vec<Option<f64>> = (0..f.n).map(|i| f.u(i)).collect();
-        let mut file = est.error_file(Some(&u));
+        let mut file = crate::analyze::result::error_file(&est, &u, data.kind);
         for (ei, e) in f.spec.model.effects.iter().enumerate() {
             let r = f.spec.model.param_range(ei);
             for i in r.clone().filter(|&i| f.fixed(i)) {
@@ -159,7 +159,6 @@ impl Discovery {
                 });
             }
         }
-        file.effects.noise = Some(Noise::measured(data.kind, f.sigma()));
         file
     }
 }

@@ -26,7 +26,6 @@ pub mod lsq;
 pub mod nine_section;
 pub mod result;
 pub mod rigid;
-pub mod series;
 pub mod sphere;
 pub mod synthetic;
 pub mod two_stage;

@@ -12,13 +12,14 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, Vector3};
 
+use crate::analyze::Piece;
+use crate::analyze::uncertainty::McResult;
 use crate::errorfile::ErrorFile;
 use crate::formats::manifest::TestKind;
 use crate::identify::{Dataset, Identification};
 use crate::io::{OutputError, write_atomic};
 use crate::kinematics::symbols::Unit;
 use crate::model::Effect;
-use crate::uncertainty::McResult;
 use glb::ShownPoint;
 use plots::ViewPoint;
 
@@ -36,6 +37,20 @@ pub struct ReportInput<'a> {
     pub mc: Option<&'a McResult>,
     /// The error file written.
     pub error_file: &'a ErrorFile,
+}
+
+impl<'a> ReportInput<'a> {
+    /// The report of an analysed piece of test `test`.
+    pub fn for_piece(test: &str, piece: &'a Piece) -> ReportInput<'a> {
+        ReportInput {
+            title: format!("{test}: {}", piece.name()),
+            data: &piece.data,
+            est: &piece.est,
+            u: piece.u.clone(),
+            mc: piece.monte_carlo.as_ref().map(|s| &s.result),
+            error_file: &piece.file,
+        }
+    }
 }
 
 /// Why a report could not be written.

@@ -13,19 +13,19 @@
 //! ([`super::synthetic_run`]) remains for plans the simulator cannot
 //! rebuild (a points file without its template).
 
-use std::collections::HashMap;
-use std::path::PathBuf;
+use std::path::Path;
 
-use nalgebra::{Isometry3, Point3};
+use nalgebra::Isometry3;
 use rand::{Rng, RngExt};
 
-use super::{Contributors, identify_with_plan};
+use super::Contributors;
+use crate::analyze::PlanContext;
+use crate::analyze::method::identify_with_plan;
 use crate::errorfile::{LoadedErrors, Noise};
-use crate::formats::detect::PointSet;
 use crate::formats::manifest::TestKind;
 use crate::formats::measured::MeasuredPoint;
 use crate::identify::sphere::SphereOptions;
-use crate::identify::{Dataset, Identification, IdentifyError, Method, Setup, data};
+use crate::identify::{Dataset, Identification, IdentifyError, Method, Setup};
 use crate::model::Model;
 use crate::plan::{LoadedPlan, Setup as PieceSetup};
 use crate::simulate::{self, NoiseOverrides, Placement, SetupErrors, SimOptions, SimOutput};
@@ -83,46 +83,17 @@ impl<'a> SimulatedTest<'a> {
 }
 
 /// Joins simulated (or any labelled) points to a rebuilt plan as `analyze`
-/// joins a measured file to a manifest: the plan's points and pose times,
-/// each probed piece on its own setup.
+/// joins a measured file ([`crate::analyze::inputs`]): the plan's points and
+/// pose times, each probed piece on its own setup.
 pub fn plan_dataset(
     plan: &LoadedPlan,
     name: &str,
     points: Vec<MeasuredPoint>,
 ) -> Result<Dataset, IdentifyError> {
-    let pp = plan.plan_points();
-    let minutes: HashMap<String, (f64, f64)> = plan
-        .poses()
-        .into_iter()
-        .map(|p| (p.pose, (p.start_min, p.end_min)))
-        .collect();
-    let set = PointSet {
-        format: "simulated",
-        points,
-        labeled: true,
-        nominals: Vec::new(),
-        warnings: Vec::new(),
-    };
-    let kin = simulate::plan_kinematics(plan);
-    let kind = plan.kind();
-    let nominal = |p: &crate::formats::points::PlanPoint| match kind {
-        TestKind::Machining => p.p,
-        TestKind::Probing => (kin.nominal_table_transform(p.tilt, p.c) * Point3::from(p.p)).coords,
-    };
-    let mut d = data::join(&pp, kind, &minutes, &[(PathBuf::from(name), set)], &nominal)
-        .map_err(|e| IdentifyError::Data(e.to_string()))?;
-    if let Some(p) = plan.probing()
-        && matches!(p.setup, PieceSetup::Columns(_))
-    {
-        let pieces: HashMap<String, String> = p
-            .plan
-            .touches
-            .iter()
-            .map(|t| (t.label.clone(), t.piece.clone()))
-            .collect();
-        d.set_pieces(&pieces).map_err(IdentifyError::Data)?;
-    }
-    Ok(d)
+    let source = Path::new(name);
+    PlanContext::from_plan(plan, source)
+        .join_points(points, "simulated", source)
+        .map_err(|e| IdentifyError::Data(e.to_string()))
 }
 
 /// Number of separately set-up pieces of a plan (one for a machined piece

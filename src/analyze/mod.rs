@@ -1,0 +1,445 @@
+//! `analyze`: from the measurements of a planned test to its result. A
+//! [`Request`] (the plan's manifest, the measured files, the method, the
+//! maps, and whether to make a series, compare with an earlier result or
+//! run a Monte-Carlo study) becomes an [`Outcome`]: per piece the joined
+//! measurements, the identification, the reported uncertainties and the
+//! result file, plus the series and comparison tables; or, for the
+//! nine-section test, its statistics. Nothing is printed or written here:
+//! [`result::write`] writes the result files, [`crate::report`] the HTML
+//! report.
+//!
+//! The way through, module by module:
+//! - [`inputs`]: the measured files read in whatever format and joined to
+//!   the plan's points (also what `discover` and the demo read with);
+//! - [`method`]: which identification runs, and with which forward model;
+//! - [`uncertainty`]: the covariance each method reports and the
+//!   Monte-Carlo study that replaces it on request;
+//! - [`result`]: the result file, every entry of it added in one place;
+//! - [`series`]: several pieces side by side, and an earlier result beside
+//!   the new one.
+
+pub mod inputs;
+pub mod method;
+pub mod result;
+pub mod series;
+pub mod uncertainty;
+
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
+
+use crate::errorfile::{ErrorFile, NotIdentified};
+use crate::formats::manifest::TestKind;
+use crate::identify::nine_section::NineSection;
+use crate::identify::sphere::{CircleMethod, SphereOptions};
+use crate::identify::{Dataset, Identification, IdentifyError, Method, Setup};
+use crate::io::OutputError;
+use crate::machine::MachineError;
+use crate::plan::{LoadError, LoadedPlan};
+use crate::source::SourceError;
+
+pub use inputs::{Measurements, Pieces, PlanContext};
+pub use series::{Comparison, Series};
+pub use uncertainty::{Contributors, McOptions, Study};
+
+/// Why an analysis cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum AnalyzeError {
+    /// A file of the plan or a measurement file is malformed, or belongs
+    /// to another plan (file, line and column named).
+    #[error(transparent)]
+    Source(#[from] SourceError),
+    /// The plan's copy of the machine file cannot be loaded.
+    #[error("cannot load the plan's machine file {}", path.display())]
+    Machine {
+        /// The copy.
+        path: PathBuf,
+        /// Why.
+        source: MachineError,
+    },
+    /// The plan's copy of the template cannot be read.
+    #[error("cannot read the plan's template copy {}", path.display())]
+    Template {
+        /// The copy.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The plan directory or the files do not make an analysis (the
+    /// message says which file and why).
+    #[error("{0}")]
+    Plan(String),
+    /// The plan cannot be rebuilt from its manifest where the analysis
+    /// needs it (a head machine's global fit).
+    #[error(transparent)]
+    Rebuild(#[from] LoadError),
+    /// The request does not suit the plan (a method or maps the test
+    /// cannot take).
+    #[error("{0}")]
+    Request(String),
+    /// The identification failed.
+    #[error(transparent)]
+    Identify(#[from] IdentifyError),
+    /// The Monte-Carlo study failed.
+    #[error("the Monte-Carlo study failed: {0}")]
+    MonteCarlo(String),
+    /// A result file cannot be written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// Which contributors a Monte-Carlo study draws.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ContributorChoice {
+    /// The test's own: the machining study's table for a machined piece,
+    /// the probing study's for on-machine probing.
+    TestDefault,
+    /// These.
+    Given(Contributors),
+    /// Measurement noise only, at the residual sigma of the fit.
+    NoiseOnly,
+}
+
+/// A Monte-Carlo study asked for.
+#[derive(Clone, Debug)]
+pub struct MonteCarlo {
+    /// Runs, seed, progress bar.
+    pub options: McOptions,
+    /// What each run draws.
+    pub contributors: ContributorChoice,
+}
+
+/// What to analyse, and how.
+#[derive(Clone, Debug)]
+pub struct Request {
+    /// The plan manifest written by `fivecal plan`.
+    pub manifest: PathBuf,
+    /// The plan already rebuilt from that manifest, if the caller has it:
+    /// its points are then used at full precision and nothing of the plan
+    /// is read again.
+    pub rebuilt: Option<LoadedPlan>,
+    /// The measurement files (several make one piece unless `series`).
+    pub measured: Vec<PathBuf>,
+    /// The method; `None`: the test's own ([`method::default_for`]).
+    pub method: Option<Method>,
+    /// Error maps identified with the location errors (`EBB(B)`, ...).
+    pub maps: Vec<String>,
+    /// Each measured file is one piece of a series.
+    pub series: bool,
+    /// An earlier result to set beside this one.
+    pub compare: Option<PathBuf>,
+    /// A Monte-Carlo study replacing the covariance's uncertainties.
+    pub monte_carlo: Option<MonteCarlo>,
+    /// How the sphere method fits the axis lines.
+    pub circle: CircleMethod,
+}
+
+impl Request {
+    /// The analysis of `measured` against the plan of `manifest` with the
+    /// test's own method and nothing else asked for.
+    pub fn new(manifest: &Path, measured: Vec<PathBuf>) -> Request {
+        Request {
+            manifest: manifest.to_path_buf(),
+            rebuilt: None,
+            measured,
+            method: None,
+            maps: Vec::new(),
+            series: false,
+            compare: None,
+            monte_carlo: None,
+            circle: CircleMethod::Robust,
+        }
+    }
+}
+
+/// One identified piece.
+#[derive(Clone, Debug)]
+pub struct Piece {
+    /// Its number in a series, from 1.
+    pub number: Option<usize>,
+    /// The measurements joined to the plan.
+    pub data: Dataset,
+    /// The identification.
+    pub est: Identification,
+    /// The uncertainties reported: the Monte-Carlo study's where it ran,
+    /// else the covariance's.
+    pub u: Vec<Option<f64>>,
+    /// The Monte-Carlo study, if asked for.
+    pub monte_carlo: Option<Study>,
+    /// The result file.
+    pub file: ErrorFile,
+}
+
+impl Piece {
+    /// The name of the piece: its (first) measurement file.
+    pub fn name(&self) -> String {
+        self.data.files[0].display().to_string()
+    }
+
+    /// Where its report goes under `dir` (a folder per piece in a series).
+    pub fn report_dir(&self, dir: &Path) -> PathBuf {
+        match self.number {
+            Some(k) => dir.join(format!("piece{k}")),
+            None => dir.to_path_buf(),
+        }
+    }
+}
+
+/// The identification of one piece or of a series.
+#[derive(Clone, Debug)]
+pub struct Identified {
+    /// The test.
+    pub test: String,
+    /// The pieces, in the order of the files.
+    pub pieces: Vec<Piece>,
+    /// With `series`: every piece side by side.
+    pub series: Option<Series>,
+    /// With `compare`: the earlier result beside the new ones.
+    pub comparison: Option<Comparison>,
+}
+
+/// The nine-section test's evaluation: section heights, no location error.
+#[derive(Clone, Debug)]
+pub struct NineSectionOutcome {
+    /// The statistics of each piece, by file.
+    pub stats: Vec<(PathBuf, NineSection)>,
+    /// From the first piece to the last, when there are several: the rate
+    /// of improvement of AVG, MAX and RMS, %.
+    pub improvement: Option<[f64; 3]>,
+    /// Every location symbol, with why the test cannot identify it.
+    pub not_identifiable: Vec<NotIdentified>,
+}
+
+/// What an analysis found.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// What the reader should know before the results (a probing plan
+    /// that cannot be rebuilt, ...).
+    pub warnings: Vec<String>,
+    /// The results.
+    pub found: Found,
+}
+
+/// The results of an analysis, by kind of test.
+#[derive(Clone, Debug)]
+pub enum Found {
+    /// Location errors and maps identified.
+    Identified(Identified),
+    /// Nine-section statistics.
+    NineSection(NineSectionOutcome),
+}
+
+/// Runs an analysis.
+pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
+    let ctx = match &req.rebuilt {
+        Some(plan) => PlanContext::from_plan(plan, &req.manifest),
+        None => PlanContext::from_manifest(&req.manifest)?,
+    };
+    let method = req.method.unwrap_or(method::default_for(&ctx.test));
+    method::check(method, &ctx.test, ctx.kind, &req.maps).map_err(AnalyzeError::Request)?;
+    let measured = ctx.read(&req.measured)?;
+    let found = if !measured.heights.is_empty() {
+        if !measured.points.is_empty() {
+            return Err(AnalyzeError::Request(
+                "nine-section heights and measured points cannot be analysed together".into(),
+            ));
+        }
+        Found::NineSection(nine_section_heights(&ctx, measured.heights)?)
+    } else {
+        let pieces: Vec<Vec<_>> = if req.series {
+            measured.points.into_iter().map(|s| vec![s]).collect()
+        } else {
+            vec![measured.points]
+        };
+        if ctx.test == "nine-section" {
+            Found::NineSection(nine_section_points(&ctx, &pieces)?)
+        } else {
+            Found::Identified(identify_pieces(req, &ctx, method, &pieces)?)
+        }
+    };
+    Ok(Outcome {
+        warnings: ctx.warnings,
+        found,
+    })
+}
+
+/// The plan rebuilt from the manifest (or the caller's).
+fn rebuilt(req: &Request) -> Result<Cow<'_, LoadedPlan>, LoadError> {
+    match &req.rebuilt {
+        Some(p) => Ok(Cow::Borrowed(p)),
+        None => crate::plan::load_any(&req.manifest).map(Cow::Owned),
+    }
+}
+
+fn identify_pieces(
+    req: &Request,
+    ctx: &PlanContext,
+    method: Method,
+    pieces: &[Vec<(PathBuf, crate::formats::detect::PointSet)>],
+) -> Result<Identified, AnalyzeError> {
+    let sphere = SphereOptions {
+        circle: req.circle,
+        check: ctx.sphere_check,
+    };
+    let mut out = Vec::new();
+    for (i, piece) in pieces.iter().enumerate() {
+        let data = ctx.join(piece)?;
+        let number = req.series.then_some(i + 1);
+        out.push(identify_piece(req, ctx, method, &sphere, data, number)?);
+    }
+    let named: Vec<(String, ErrorFile)> = out.iter().map(|p| (p.name(), p.file.clone())).collect();
+    let series = req.series.then(|| Series::new(&named));
+    let comparison = match &req.compare {
+        Some(path) => {
+            let before = ErrorFile::load(path, &ctx.kin)?;
+            let before =
+                ErrorFile::from_model(&before.model, &before.theta, &before.u, &before.noise);
+            Some(Comparison::new(
+                (path.display().to_string(), before),
+                &named,
+            ))
+        }
+        None => None,
+    };
+    Ok(Identified {
+        test: ctx.test.clone(),
+        pieces: out,
+        series,
+        comparison,
+    })
+}
+
+fn identify_piece(
+    req: &Request,
+    ctx: &PlanContext,
+    method: Method,
+    sphere: &SphereOptions,
+    data: Dataset,
+    number: Option<usize>,
+) -> Result<Piece, AnalyzeError> {
+    let setup = Setup::new(&ctx.kin, &data.poses, &req.maps)?;
+    // The global method on a model the rigid-pose models refuse (a head
+    // machine) inverts the simulator's forward model, which needs the plan.
+    let plan = if method == Method::Global && method::rigid_refuses(&setup.model) {
+        Some(rebuilt(req)?)
+    } else {
+        None
+    };
+    let est = method::identify_with_plan(method, &setup, &data, sphere, plan.as_deref())?;
+    let mut u = est.u();
+    let mut study = None;
+    if let Some(mc) = &req.monte_carlo {
+        let contributors = match &mc.contributors {
+            ContributorChoice::TestDefault => match ctx.kind {
+                TestKind::Machining => Contributors::seed001(),
+                TestKind::Probing => Contributors::seed000(),
+            },
+            ContributorChoice::Given(c) => c.clone(),
+            ContributorChoice::NoiseOnly => Contributors::noise_only(est.sigma_um),
+        };
+        // The Monte Carlo runs the plan again on the simulator when the
+        // plan can be rebuilt from its manifest (it always can for what
+        // `fivecal plan` wrote); a points file without its template leaves
+        // the synthetic model, and the study says so.
+        let plan = match &plan {
+            Some(p) => Ok(Cow::Borrowed(&**p)),
+            None => rebuilt(req).map_err(|e| e.to_string()),
+        };
+        let s = uncertainty::study(
+            &mc.options,
+            contributors,
+            &uncertainty::Estimate {
+                est: &est,
+                setup: &setup,
+                data: &data,
+                sphere: *sphere,
+            },
+            plan.as_deref().map_err(Clone::clone),
+        )
+        .map_err(AnalyzeError::MonteCarlo)?;
+        u = s.u(&est);
+        study = Some(s);
+    }
+    let file = result::error_file(&est, &u, data.kind);
+    Ok(Piece {
+        number,
+        data,
+        est,
+        u,
+        monte_carlo: study,
+        file,
+    })
+}
+
+/// Why the nine-section test identifies nothing, which its result says
+/// rather than print numbers: it evaluates a machine (before and after a
+/// compensation, say).
+const NINE_SECTION_REASON: &str = "the nine-section test gives section heights, from which no location error can be \
+     separated (it evaluates a machine, it does not calibrate one); identify with the stepped-square, \
+     column or sphere test";
+
+fn nine_section_outcome(
+    ctx: &PlanContext,
+    stats: Vec<(PathBuf, NineSection)>,
+) -> NineSectionOutcome {
+    let improvement = (stats.len() > 1).then(|| {
+        stats
+            .last()
+            .expect("several pieces")
+            .1
+            .improvement_over(&stats[0].1)
+    });
+    let not_identifiable = crate::kinematics::symbols::SymbolTable::for_kinematics(&ctx.kin)
+        .location
+        .iter()
+        .map(|l| NotIdentified {
+            symbol: l.name.clone(),
+            reason: NINE_SECTION_REASON.into(),
+        })
+        .collect();
+    NineSectionOutcome {
+        stats,
+        improvement,
+        not_identifiable,
+    }
+}
+
+/// The nine-section statistics from measured heights, one file per piece.
+fn nine_section_heights(
+    ctx: &PlanContext,
+    heights: Vec<(PathBuf, Vec<crate::formats::heights::SectionHeight>)>,
+) -> Result<NineSectionOutcome, AnalyzeError> {
+    if ctx.test != "nine-section" {
+        return Err(AnalyzeError::Plan(format!(
+            "{}: section heights belong to a nine-section plan, this plan is `{}`",
+            heights[0].0.display(),
+            ctx.test
+        )));
+    }
+    let stats = heights
+        .into_iter()
+        .map(|(p, h)| {
+            let s = NineSection::new(&h);
+            (p, s)
+        })
+        .collect();
+    Ok(nine_section_outcome(ctx, stats))
+}
+
+/// The nine-section statistics from the CMM's deviations of the nine
+/// sections: heights relative to section 1, one file per piece.
+fn nine_section_points(
+    ctx: &PlanContext,
+    pieces: &[Vec<(PathBuf, crate::formats::detect::PointSet)>],
+) -> Result<NineSectionOutcome, AnalyzeError> {
+    let mut stats = Vec::new();
+    for piece in pieces {
+        // Joining checks labels and nominals against the plan.
+        let data = ctx.join(piece)?;
+        for (path, set) in piece {
+            let s = NineSection::from_deviations(&data.plan, set)
+                .map_err(|e| AnalyzeError::Plan(format!("{}: {e}", path.display())))?;
+            stats.push((path.clone(), s));
+        }
+    }
+    Ok(nine_section_outcome(ctx, stats))
+}

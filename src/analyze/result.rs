@@ -1,0 +1,116 @@
+//! The result files of an analysis. Every entry of an error file is added
+//! here or in what this calls: the values the test identifies with their
+//! `u` and the symbols it cannot identify, with the reason
+//! ([`Identification::error_file`]), and the measurement noise the fit
+//! found. `analyze`, the demo and `discover` all write their error files
+//! through [`error_file`].
+//!
+//! An analysis writes one error file (YAML, or JSON on request); a series
+//! writes one per piece beside the series table (`RESULT.1.yaml`, ...); the
+//! nine-section test writes its statistics and lists every location symbol
+//! as not identifiable.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::{AnalyzeError, Found, NineSectionOutcome, Outcome};
+use crate::errorfile::{ErrorFile, Noise, NotIdentified};
+use crate::formats::manifest::TestKind;
+use crate::identify::Identification;
+use crate::identify::nine_section::NineSection;
+use crate::io::write_atomic;
+
+/// The error file of an identification of a test of `kind`, reporting the
+/// uncertainties `u`: the identified values, what the test cannot
+/// identify, and the noise the fit found (the CMM's for a machined piece,
+/// the probe's for on-machine probing).
+pub fn error_file(est: &Identification, u: &[Option<f64>], kind: TestKind) -> ErrorFile {
+    let mut f = est.error_file(Some(u));
+    f.effects.noise = Some(Noise::measured(kind, est.sigma_um));
+    f
+}
+
+/// The file of piece `k` of a series written to `out`: `RESULT.k.yaml`.
+pub fn piece_path(out: &Path, k: usize, json: bool) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map_or("result".into(), |s| s.to_string_lossy().to_string());
+    let ext = if json { "json" } else { "yaml" };
+    out.with_file_name(format!("{stem}.{k}.{ext}"))
+}
+
+fn serialize<T: Serialize>(v: &T, json: bool) -> Result<String, AnalyzeError> {
+    let text = if json {
+        serde_json::to_string_pretty(v)
+            .map(|s| s + "\n")
+            .map_err(|e| e.to_string())
+    } else {
+        serde_yaml::to_string(v).map_err(|e| e.to_string())
+    };
+    text.map_err(|e| AnalyzeError::Plan(format!("cannot write the result: {e}")))
+}
+
+/// The nine-section result file: each piece's statistics, and the symbols
+/// the test cannot identify.
+#[derive(Serialize)]
+struct NineSectionFile<'a> {
+    nine_section: Vec<(String, &'a NineSection)>,
+    not_identifiable: &'a [NotIdentified],
+}
+
+fn nine_section_file(n: &NineSectionOutcome) -> NineSectionFile<'_> {
+    NineSectionFile {
+        nine_section: n
+            .stats
+            .iter()
+            .map(|(p, s)| (p.display().to_string(), s))
+            .collect(),
+        not_identifiable: &n.not_identifiable,
+    }
+}
+
+/// The files an outcome writes to `out` (YAML, or JSON with `json`), with
+/// their text, in the order they are written: a series' pieces first, its
+/// table last, at `out`.
+pub fn files(
+    outcome: &Outcome,
+    out: &Path,
+    json: bool,
+) -> Result<Vec<(PathBuf, String)>, AnalyzeError> {
+    match &outcome.found {
+        Found::NineSection(n) => Ok(vec![(
+            out.to_path_buf(),
+            serialize(&nine_section_file(n), json)?,
+        )]),
+        Found::Identified(id) => match &id.series {
+            Some(series) => {
+                let mut v = Vec::new();
+                for (k, p) in id.pieces.iter().enumerate() {
+                    v.push((piece_path(out, k + 1, json), serialize(&p.file, json)?));
+                }
+                v.push((out.to_path_buf(), serialize(series, json)?));
+                Ok(v)
+            }
+            None => {
+                let f = &id.pieces[0].file;
+                let text = if json {
+                    f.to_json() + "\n"
+                } else {
+                    f.to_yaml()
+                };
+                Ok(vec![(out.to_path_buf(), text)])
+            }
+        },
+    }
+}
+
+/// Writes the result files of an outcome (each atomically), returning
+/// their paths.
+pub fn write(outcome: &Outcome, out: &Path, json: bool) -> Result<Vec<PathBuf>, AnalyzeError> {
+    let files = files(outcome, out, json)?;
+    for (path, text) in &files {
+        write_atomic(path, text.as_bytes())?;
+    }
+    Ok(files.into_iter().map(|f| f.0).collect())
+}

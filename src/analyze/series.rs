@@ -1,0 +1,262 @@
+//! Results side by side. A series: several pieces of the same plan
+//! machined one after the other (as in Ibaraki & Ota 2014), with, for
+//! every location symbol, its value on each piece, its
+//! change from the first piece with the combined standard uncertainty, and
+//! the straight-line trend per piece (weighted least squares) that shows a
+//! thermal drift. A comparison: an earlier result (a cold probing run, the
+//! machine before compensation) beside the new ones, with the change of
+//! each from it.
+
+use indexmap::IndexMap;
+
+use crate::errorfile::ErrorFile;
+
+/// A value with its standard uncertainty, if known.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Value {
+    /// The value.
+    pub value: f64,
+    /// Standard uncertainty (k = 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u: Option<f64>,
+}
+
+/// One symbol across the series.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SymbolSeries {
+    /// Values per piece (`None` where that piece does not identify it).
+    pub values: Vec<Option<Value>>,
+    /// Change from the first piece.
+    pub change: Vec<Option<Value>>,
+    /// Slope of a straight line through the values, per piece, when at
+    /// least three pieces identify the symbol.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trend_per_piece: Option<Value>,
+}
+
+/// A series of results.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Series {
+    /// Piece names, in order.
+    pub pieces: Vec<String>,
+    /// Location symbols.
+    pub location_errors: IndexMap<String, SymbolSeries>,
+}
+
+fn combine(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    Some((a?.powi(2) + b?.powi(2)).sqrt())
+}
+
+impl Series {
+    /// Builds the series from results in order.
+    pub fn new(pieces: &[(String, ErrorFile)]) -> Series {
+        let mut symbols: Vec<String> = Vec::new();
+        for (_, f) in pieces {
+            for k in f.location_errors.keys() {
+                if !symbols.contains(k) {
+                    symbols.push(k.clone());
+                }
+            }
+        }
+        let mut out = IndexMap::new();
+        for s in symbols {
+            let values: Vec<Option<Value>> = pieces
+                .iter()
+                .map(|(_, f)| {
+                    f.location_errors.get(&s).map(|q| Value {
+                        value: q.value,
+                        u: q.u,
+                    })
+                })
+                .collect();
+            let first = values[0];
+            let change = values
+                .iter()
+                .map(|v| {
+                    let (v, f) = ((*v)?, first?);
+                    Some(Value {
+                        value: v.value - f.value,
+                        u: combine(v.u, f.u),
+                    })
+                })
+                .collect();
+            out.insert(
+                s,
+                SymbolSeries {
+                    trend_per_piece: trend(&values),
+                    values,
+                    change,
+                },
+            );
+        }
+        Series {
+            pieces: pieces.iter().map(|p| p.0.clone()).collect(),
+            location_errors: out,
+        }
+    }
+
+    /// Text table: one row per symbol, value (u) per piece, then the trend.
+    pub fn render(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = format!("{:<10}", "symbol");
+        for p in &self.pieces {
+            let _ = write!(s, " {:>22}", p);
+        }
+        s.push_str("   trend/piece\n");
+        for (name, ser) in &self.location_errors {
+            let _ = write!(s, "{name:<10}");
+            for v in &ser.values {
+                let _ = write!(s, " {:>22}", cell(v, false));
+            }
+            match &ser.trend_per_piece {
+                Some(t) => {
+                    let _ = writeln!(s, "   {}", cell(&Some(*t), true));
+                }
+                None => s.push('\n'),
+            }
+        }
+        s
+    }
+}
+
+/// Weighted straight line through (piece index, value): slope and its
+/// standard uncertainty.
+fn trend(values: &[Option<Value>]) -> Option<Value> {
+    let pts: Vec<(f64, f64, f64)> = values
+        .iter()
+        .enumerate()
+        .filter_map(|(i, v)| {
+            let v = (*v)?;
+            let w = v.u.filter(|u| *u > 0.0).map_or(1.0, |u| 1.0 / (u * u));
+            Some((i as f64, v.value, w))
+        })
+        .collect();
+    if pts.len() < 3 {
+        return None;
+    }
+    let sw: f64 = pts.iter().map(|p| p.2).sum();
+    let xm = pts.iter().map(|p| p.0 * p.2).sum::<f64>() / sw;
+    let ym = pts.iter().map(|p| p.1 * p.2).sum::<f64>() / sw;
+    let sxx: f64 = pts.iter().map(|p| p.2 * (p.0 - xm).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|p| p.2 * (p.0 - xm) * (p.1 - ym)).sum();
+    let slope = sxy / sxx;
+    let weighted = values
+        .iter()
+        .flatten()
+        .all(|v| v.u.is_some_and(|u| u > 0.0));
+    Some(Value {
+        value: slope,
+        u: weighted.then(|| (1.0 / sxx).sqrt()),
+    })
+}
+
+/// An earlier result beside new ones.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Comparison {
+    /// The earlier result first, then the new ones; `change` is from the
+    /// earlier one.
+    pub table: Series,
+}
+
+impl Comparison {
+    /// Sets `results` beside `earlier`.
+    pub fn new(earlier: (String, ErrorFile), results: &[(String, ErrorFile)]) -> Comparison {
+        let mut rows = vec![earlier];
+        rows.extend(results.iter().cloned());
+        Comparison {
+            table: Series::new(&rows),
+        }
+    }
+
+    /// Text table: one row per symbol, the value (u) of the earlier result
+    /// and of each new one, then each new one's change from the earlier
+    /// result with the combined u (`-` where either does not identify the
+    /// symbol).
+    pub fn render(&self) -> String {
+        use std::fmt::Write as _;
+        let t = &self.table;
+        let new = t.pieces.len() - 1;
+        let change_head = |k: usize| {
+            if new == 1 {
+                "change".to_string()
+            } else {
+                format!("change {k}")
+            }
+        };
+        let mut s = format!("{:<10}", "symbol");
+        for p in &t.pieces {
+            let _ = write!(s, " {p:>22}");
+        }
+        for k in 1..=new {
+            let _ = write!(s, " {:>22}", change_head(k));
+        }
+        s.push('\n');
+        for (name, ser) in &t.location_errors {
+            let _ = write!(s, "{name:<10}");
+            for v in &ser.values {
+                let _ = write!(s, " {:>22}", cell(v, false));
+            }
+            for c in &ser.change[1..] {
+                let _ = write!(s, " {:>22}", cell(c, true));
+            }
+            s.push('\n');
+        }
+        s
+    }
+}
+
+/// A value with its u, signed when it is a change; `-` when absent.
+fn cell(v: &Option<Value>, signed: bool) -> String {
+    match (v, signed) {
+        (Some(Value { value, u: Some(u) }), false) => format!("{value:.2} ({u:.2})"),
+        (Some(Value { value, u: None }), false) => format!("{value:.2}"),
+        (Some(Value { value, u: Some(u) }), true) => format!("{value:+.2} ({u:.2})"),
+        (Some(Value { value, u: None }), true) => format!("{value:+.2}"),
+        (None, _) => "-".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::errorfile::Quantity;
+
+    fn result(values: &[(&str, f64, Option<f64>)]) -> ErrorFile {
+        let mut f: ErrorFile = serde_yaml::from_str("machine: bc-trunnion\n").unwrap();
+        for (s, value, u) in values {
+            f.location_errors.insert(
+                s.to_string(),
+                Quantity {
+                    value: *value,
+                    u: *u,
+                },
+            );
+        }
+        f
+    }
+
+    /// The change is the new value minus the earlier one, its u the two
+    /// u combined in quadrature (0.3 and 0.4 make 0.5); a symbol one of
+    /// them lacks has no change.
+    #[test]
+    fn comparison_shows_values_and_the_change_from_the_earlier_result() {
+        let before = result(&[("EX0B", 10.0, Some(0.3)), ("EZ0B", -5.0, None)]);
+        let after = result(&[("EX0B", 11.0, Some(0.4)), ("EC0B", 3.0, Some(1.0))]);
+        let c = Comparison::new(("cold.yaml".into(), before), &[("warm.dmo".into(), after)]);
+        let text = c.render();
+        let lines: Vec<&str> = text.lines().collect();
+        let cells = |l: &str| l.split_whitespace().map(String::from).collect::<Vec<_>>();
+        assert_eq!(
+            cells(lines[0]),
+            ["symbol", "cold.yaml", "warm.dmo", "change"]
+        );
+        assert_eq!(
+            cells(lines[1]),
+            [
+                "EX0B", "10.00", "(0.30)", "11.00", "(0.40)", "+1.00", "(0.50)"
+            ]
+        );
+        assert_eq!(cells(lines[2]), ["EZ0B", "-5.00", "-", "-"]);
+        assert_eq!(cells(lines[3]), ["EC0B", "-", "3.00", "(1.00)", "-"]);
+    }
+}
