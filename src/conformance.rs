@@ -215,6 +215,46 @@ impl LimitsSource {
         }
         self.limits.check_symbols(symbols, &self.path, &self.src)
     }
+
+    /// Checks that the limits fit a result: its machine, and every limited
+    /// name among the location symbols the result lists (as a value or as
+    /// not identifiable, which together are all of the machine's).
+    pub fn check_result(&self, result: &ErrorFile) -> Result<(), SourceError> {
+        if let Some(m) = &self.machine
+            && *m != result.machine
+        {
+            return Err(SourceError::at_key(
+                &self.path,
+                &self.src,
+                &["machine"],
+                format!(
+                    "the limits are for machine `{m}`, the result is for `{}`",
+                    result.machine
+                ),
+            ));
+        }
+        let known: Vec<&str> = result
+            .location_errors
+            .keys()
+            .map(String::as_str)
+            .chain(result.not_identifiable.iter().map(|n| n.symbol.as_str()))
+            .collect();
+        for name in self.limits.0.keys() {
+            if !known.contains(&name.as_str()) {
+                return Err(SourceError::at_key(
+                    &self.path,
+                    &self.src,
+                    &["limits", name],
+                    format!(
+                        "`{name}` takes no limit: expected a location symbol of machine `{}` ({})",
+                        result.machine,
+                        known.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The outcome of the decision rule.

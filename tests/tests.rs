@@ -13,6 +13,7 @@ mod contour;
 mod discover;
 mod discover_cli;
 mod errorfile;
+mod history;
 mod identifiability;
 mod identify;
 mod kinematics;

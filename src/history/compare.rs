@@ -13,8 +13,9 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
+use crate::analyze::series::{Series, Value};
 use crate::conformance::{COVERAGE, Limits, Verdict, unit_of};
-use crate::errorfile::{ErrorFile, Quantity};
+use crate::errorfile::ErrorFile;
 
 /// One symbol before and after.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -62,10 +63,6 @@ pub struct Comparison {
     pub verdict_before: Option<Verdict>,
 }
 
-fn pair(q: &Quantity) -> (f64, Option<f64>) {
-    (q.value, q.u)
-}
-
 impl Comparison {
     /// Compares `before` and `after` (named for the printout); with
     /// `limits`, decides both. Refuses results of different machines.
@@ -82,30 +79,19 @@ impl Comparison {
                 b.machine, a.machine
             ));
         }
-        let mut names: Vec<&String> = b.location_errors.keys().collect();
-        names.extend(
-            a.location_errors
-                .keys()
-                .filter(|k| !b.location_errors.contains_key(*k)),
-        );
-        let changes = names
-            .into_iter()
-            .map(|s| {
-                let before = b.location_errors.get(s).map(pair);
-                let after = a.location_errors.get(s).map(pair);
-                let change = match (before, after) {
-                    (Some((v0, u0)), Some((v1, u1))) => {
-                        Some((v1 - v0, u0.zip(u1).map(|(x, y)| (x * x + y * y).sqrt())))
-                    }
-                    _ => None,
-                };
-                Change {
-                    symbol: s.clone(),
-                    unit: unit_of(s),
-                    before,
-                    after,
-                    change,
-                }
+        // The values side by side and the change with its combined u, as
+        // `analyze --compare` tabulates them.
+        let table = Series::new(&[(bn.to_string(), b.clone()), (an.to_string(), a.clone())]);
+        let pair = |v: &Option<Value>| v.map(|v| (v.value, v.u));
+        let changes = table
+            .location_errors
+            .iter()
+            .map(|(s, row)| Change {
+                symbol: s.clone(),
+                unit: unit_of(s),
+                before: pair(&row.values[0]),
+                after: pair(&row.values[1]),
+                change: pair(&row.change[1]),
             })
             .collect();
         Ok(Comparison {

@@ -12,6 +12,7 @@
 //! so two runs writing at once both land. The layout is described in
 //! `docs/history.md`.
 
+pub mod runs;
 mod schema;
 mod sql;
 

@@ -168,6 +168,10 @@ pub struct CompensateArgs {
     /// else next to OUT as OUT.<controller>.txt].
     #[arg(long, value_name = "FILE")]
     export_to: Option<PathBuf>,
+    /// With --export: the export is recorded in the results store (the
+    /// control was changed), which `fivecal history` marks.
+    #[command(flatten)]
+    record: super::record::RecordArgs,
 }
 
 /// What to do, validated.
@@ -178,6 +182,7 @@ pub struct Config {
     settings: Settings,
     rewrite: Option<(PathBuf, PathBuf)>,
     export: Option<(Dialect, Option<PathBuf>)>,
+    record: super::record::Recording,
 }
 
 impl CompensateArgs {
@@ -262,7 +267,9 @@ impl CompensateArgs {
             });
             (d, target)
         });
+        let record = self.record.validate()?;
         Ok(Config {
+            record,
             common,
             errors_path: self.errors,
             errors,
@@ -275,6 +282,12 @@ impl CompensateArgs {
 
 pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     let cfg = args.validate()?;
+    // An export changes the control: kept in the store, opened first so an
+    // unreachable store stops the run before anything is written.
+    let mut recorder = match &cfg.export {
+        Some(_) => Some(cfg.record.open()?),
+        None => None,
+    };
     if let Some((input, output)) = &cfg.rewrite {
         let file = File::open(input)
             .with_context(|| format!("cannot read program {}", input.display()))?;
@@ -300,6 +313,29 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
                 println!("{d} parameters written to {}", p.display());
             }
             None => print!("{text}"),
+        }
+        if let Some(r) = &mut recorder {
+            let content = std::fs::read_to_string(&cfg.errors_path).with_context(|| {
+                format!("cannot read {} to record it", cfg.errors_path.display())
+            })?;
+            let rec = fivecal::store::runs::export(
+                &cfg.common.machine.name,
+                &cfg.errors_path,
+                &content,
+                &d.to_string(),
+                &text,
+                &cfg.record.notes,
+            )?;
+            // Beside parameters printed to standard output, the note goes
+            // to standard error.
+            let to_stdout = target.is_some();
+            r.save(&[rec], &|s| {
+                if to_stdout {
+                    println!("{s}")
+                } else {
+                    eprintln!("{s}")
+                }
+            })?;
         }
     }
     Ok(())

@@ -9,6 +9,9 @@ use anyhow::{Context as _, bail};
 use clap::Args;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
 use fivecal::io::{ensure_not_input, write_atomic};
+use fivecal::store::runs;
+
+use super::record::Recording;
 
 /// Find where model and measurement disagree, name the missing effect, add
 /// it and show the gap shrink.
@@ -57,6 +60,8 @@ pub struct DiscoverArgs {
     /// name ends in `.json`, else YAML).
     #[arg(long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    record: super::record::RecordArgs,
 }
 
 /// The validated configuration of one `discover` run.
@@ -67,6 +72,7 @@ struct Config {
     json: bool,
     report: Option<PathBuf>,
     out: Option<PathBuf>,
+    record: Recording,
 }
 
 fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
@@ -91,6 +97,7 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     if let Some(dir) = &a.report {
         ensure_not_input(&dir.join("index.html"), &inputs)?;
     }
+    let record = a.record.validate()?;
     let trim = |v: Vec<String>| -> Vec<String> {
         v.into_iter()
             .map(|s| s.trim().to_string())
@@ -111,11 +118,17 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
         json: a.json,
         report: a.report,
         out: a.out,
+        record,
     })
 }
 
 pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
     let c = validate(args)?;
+    // Only the final model written to --out is a result to keep.
+    let mut recorder = match &c.out {
+        Some(_) => Some(c.record.open()?),
+        None => None,
+    };
     let inputs = Inputs::load(&c.manifest, &c.measured)?;
     for w in &inputs.data.warnings {
         eprintln!("warning: {w}");
@@ -143,6 +156,18 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         };
         write_atomic(out, text.as_bytes())?;
         say(format!("wrote {}", out.display()));
+        if let Some(r) = &mut recorder {
+            let rec = runs::discovery(
+                &f.machine,
+                inputs.plan.test(),
+                &c.manifest,
+                &c.measured,
+                out,
+                &text,
+                &c.record.notes,
+            )?;
+            r.save(&[rec], &say)?;
+        }
     }
     if let Some(dir) = &c.report {
         let files = discover::report::write(dir, &d, &inputs.data)?;
