@@ -14,6 +14,7 @@
 
 pub mod analyze;
 pub mod compensate;
+pub mod conformance;
 pub mod contour;
 pub mod demo;
 pub mod discover;
@@ -21,6 +22,7 @@ pub mod errorfile;
 pub mod fit;
 pub mod formats;
 pub mod geom;
+pub mod history;
 pub mod identify;
 pub mod input;
 pub mod io;
@@ -36,6 +38,7 @@ pub mod procedure;
 pub mod report;
 pub mod simulate;
 pub mod source;
+pub mod store;
 
 pub use errorfile::ErrorFile;
 pub use kinematics::{Axes, Kinematics, Perturbation, ToolPose};

@@ -2,8 +2,21 @@
 
 use assert_cmd::Command;
 
+/// The binary, recording into a results store of this test run (never the
+/// user's own): one SQLite file shared by every test, as several runs of a
+/// shop share one.
 pub fn fivecal() -> Command {
-    Command::cargo_bin("fivecal").unwrap()
+    let mut c = Command::cargo_bin("fivecal").unwrap();
+    c.env("FIVECAL_DB", test_store());
+    c
+}
+
+/// The results store the tests' runs record into.
+pub fn test_store() -> std::path::PathBuf {
+    static DIR: std::sync::OnceLock<tempfile::TempDir> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| tempfile::tempdir().unwrap())
+        .path()
+        .join("history.db")
 }
 
 /// `fivecal analyze --plan MANIFEST --measured FILE --out OUT`, to which a

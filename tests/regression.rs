@@ -378,6 +378,7 @@ fn two_axis_map_symbols_stay_whole_in_comma_separated_lists() {
         !err.contains("`map.EXC(B`") && !err.contains("`C)`"),
         "{err}"
     );
+}
 
 /// Compensates `program` (LinuxCNC, bc-trunnion) with `errors` YAML
 /// location errors and `settings` changed by `tweak`.

@@ -22,6 +22,7 @@ use crate::compensate::{AtomicOutput, Compensator, Settings};
 use crate::discover::{self, DiscoverOptions, Discovery, GapSize};
 use crate::errorfile::{ErrorFile, LoadedErrors};
 use crate::formats::manifest::KinematicsMode;
+use crate::history::compare::Comparison;
 use crate::identify::Identification;
 use crate::io::write_atomic;
 use crate::kinematics::Kinematics;
@@ -29,6 +30,8 @@ use crate::machine::{Dialect, Machine};
 use crate::post::PostDefinition;
 use crate::procedure::{self, PlanConfig, Template, Test};
 use crate::simulate::{self, Format, SimOptions};
+use crate::store::runs::{self, RunNotes};
+use crate::store::{Location, Store};
 
 /// The built-in truth: eight location errors and a thermal drift of EZ0B
 /// that the starting model lacks (`examples/demo/truth.yaml`).
@@ -59,16 +62,20 @@ pub enum Stage {
     Discover,
     /// Rewriting the example program and checking it.
     Compensate,
+    /// Exporting the errors to the control, measuring the compensated
+    /// machine and comparing it with the machine before.
+    Verify,
 }
 
 impl Stage {
     /// All stages in order.
-    pub const ALL: [Stage; 5] = [
+    pub const ALL: [Stage; 6] = [
         Stage::Plan,
         Stage::Simulate,
         Stage::Analyze,
         Stage::Discover,
         Stage::Compensate,
+        Stage::Verify,
     ];
 
     /// What the stage does, for a progress line.
@@ -79,6 +86,7 @@ impl Stage {
             Stage::Analyze => "identify the location errors with their uncertainty",
             Stage::Discover => "discover what the model is missing",
             Stage::Compensate => "compensate an example five-axis program",
+            Stage::Verify => "export to the control, measure again and verify",
         }
     }
 }
@@ -168,6 +176,11 @@ pub struct Demo {
     pub files: Vec<PathBuf>,
     /// The output directory.
     pub out: PathBuf,
+    /// The machine before (`analyzed.yaml`) and after the export
+    /// (`analyzed.after.yaml`).
+    pub verify: Comparison,
+    /// The results store the runs were recorded in, and their ids.
+    pub store: (PathBuf, Vec<i64>),
 }
 
 /// Runs the demo, calling `progress` as each stage starts.
@@ -224,8 +237,30 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
         ..analyze::Request::new(&manifest_path, vec![measured.clone()])
     })
     .at(e)?;
-    for p in analyze::result::write(&outcome, &out.join("analyzed.yaml"), false).at(e)? {
+    // Every run is kept in a results store beside the files, as `analyze`,
+    // `discover` and `compensate --export` keep theirs.
+    let store_path = out.join("history.db");
+    let mut store = Store::open(&Location::Sqlite(store_path.clone())).at(e)?;
+    let mut ids = Vec::new();
+    let analyzed_path = out.join("analyzed.yaml");
+    for p in analyze::result::write(&outcome, &analyzed_path, false).at(e)? {
         files.push(rel(out, &p));
+    }
+    let written = analyze::result::files(&outcome, &analyzed_path, false).at(e)?;
+    let notes = RunNotes {
+        note: Some("fivecal demo: the machine as built".into()),
+        ..RunNotes::default()
+    };
+    for r in runs::analysis(
+        &outcome,
+        &manifest_path,
+        std::slice::from_ref(&measured),
+        &written,
+        &notes,
+    )
+    .at(e)?
+    {
+        ids.push(store.record(&r).at(e)?);
     }
     let analyze::Found::Identified(identified) = outcome.found else {
         return Err("the stepped-square test identifies location errors").at(e);
@@ -252,8 +287,20 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let final_est = discovery.identification(data);
     let final_file = final_est.error_file(None);
     let final_path = out.join("discovered.yaml");
-    write_atomic(&final_path, final_file.to_yaml().as_bytes()).at(e)?;
+    let final_text = final_file.to_yaml();
+    write_atomic(&final_path, final_text.as_bytes()).at(e)?;
     files.push(rel(out, &final_path));
+    let rec = runs::discovery(
+        MACHINE,
+        identified.test.as_str(),
+        &manifest_path,
+        std::slice::from_ref(&measured),
+        &final_path,
+        &final_text,
+        &notes,
+    )
+    .at(e)?;
+    ids.push(store.record(&rec).at(e)?);
 
     progress(Stage::Compensate);
     let e = Stage::Compensate;
@@ -276,7 +323,95 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let truth_tool = ErrorFile::load(&truth_path, &tool_kin).at(e)?;
     let (tip_before, tip_after) = tip_errors(&truth_tool, &original, &compensated).at(e)?;
 
+    progress(Stage::Verify);
+    let e = Stage::Verify;
+    // The control takes the discovered location errors as its pivot
+    // parameters: the machine after the export keeps, of each location
+    // error, what the export missed (the truth less the value exported),
+    // and all of its other effects.
+    let exported = crate::compensate::export::export(
+        &identified.model,
+        &identified.theta,
+        Dialect::Fanuc,
+        &final_path.display().to_string(),
+    )
+    .at(e)?;
+    let export_path = out.join("export.fanuc.txt");
+    write_atomic(&export_path, exported.as_bytes()).at(e)?;
+    files.push(rel(out, &export_path));
+    let rec = runs::export(
+        MACHINE,
+        &final_path,
+        &final_text,
+        "fanuc",
+        &exported,
+        &RunNotes {
+            note: Some("fivecal demo: the discovered location errors into the control".into()),
+            ..RunNotes::default()
+        },
+    )
+    .at(e)?;
+    ids.push(store.record(&rec).at(e)?);
+    let mut after_truth: ErrorFile = ErrorFile::parse(&truth_path, TRUTH).at(e)?;
+    for (sym, q) in after_truth.location_errors.iter_mut() {
+        if let Some(x) = final_file.location_errors.get(sym) {
+            q.value -= x.value;
+        }
+    }
+    let after_truth_path = out.join("truth.after.yaml");
+    write_atomic(&after_truth_path, after_truth.to_yaml().as_bytes()).at(e)?;
+    files.push(rel(out, &after_truth_path));
+    let after_truth = ErrorFile::load(&after_truth_path, &kin).at(e)?;
+    let sim_after = simulate::run(
+        &loaded,
+        &after_truth,
+        &SimOptions {
+            seed: cfg.seed.wrapping_add(1),
+            ..SimOptions::default()
+        },
+    )
+    .at(e)?;
+    let measured_after = out.join("measured.after.dmo");
+    sim_after.write(Format::Dmis, &measured_after).at(e)?;
+    files.push(rel(out, &measured_after));
+    let outcome_after = analyze::run(&analyze::Request {
+        rebuilt: Some(loaded.clone()),
+        ..analyze::Request::new(&manifest_path, vec![measured_after.clone()])
+    })
+    .at(e)?;
+    let after_path = out.join("analyzed.after.yaml");
+    for p in analyze::result::write(&outcome_after, &after_path, false).at(e)? {
+        files.push(rel(out, &p));
+    }
+    let written = analyze::result::files(&outcome_after, &after_path, false).at(e)?;
+    for r in runs::analysis(
+        &outcome_after,
+        &manifest_path,
+        std::slice::from_ref(&measured_after),
+        &written,
+        &RunNotes {
+            note: Some("fivecal demo: after the export".into()),
+            ..RunNotes::default()
+        },
+    )
+    .at(e)?
+    {
+        ids.push(store.record(&r).at(e)?);
+    }
+    let analyze::Found::Identified(after) = &outcome_after.found else {
+        return Err("the stepped-square test identifies location errors").at(e);
+    };
+    let verify = Comparison::new(
+        ("analyzed.yaml", &analysis.file),
+        ("analyzed.after.yaml", &after.pieces[0].file),
+        None,
+    )
+    .at(e)?;
+    files.push(rel(out, &store_path));
+
     Ok(Demo {
+        verify,
+        store: (store_path, ids),
         rows: rows(&truth, est, &final_est),
         added: added(&discovery, &truth),
         hidden: hidden(&truth),
@@ -497,10 +632,34 @@ impl Demo {
             self.tip_after.rms_um,
             self.tip_after.max_um
         );
+        let zero = self
+            .verify
+            .changes
+            .iter()
+            .filter(|c| c.zero_after() == Some(true))
+            .count();
+        let _ = writeln!(
+            s,
+            "after exporting the discovered errors to the control and measuring again: {zero} of {} location errors within 2u of zero (fivecal verify --before {d}/analyzed.yaml --after {d}/analyzed.after.yaml)",
+            self.verify.changes.len(),
+            d = self.out.display()
+        );
+        let _ = writeln!(
+            s,
+            "recorded as records {} in {} (fivecal history --db {})",
+            self.store
+                .1
+                .iter()
+                .map(|i| i.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.store.0.display(),
+            self.store.0.display()
+        );
         let _ = writeln!(s);
         let _ = writeln!(
             s,
-            "files in {}: plan/ (program, points, DMIS, model, setup sheet), measured.dmo, analyzed.yaml, report/index.html, discover.txt, discovered.yaml, frustum.nc, frustum.compensated.nc",
+            "files in {}: plan/ (program, points, DMIS, model, setup sheet), measured.dmo, analyzed.yaml, report/index.html, discover.txt, discovered.yaml, frustum.nc, frustum.compensated.nc, export.fanuc.txt, truth.after.yaml, measured.after.dmo, analyzed.after.yaml, history.db",
             self.out.display()
         );
         s

@@ -7,6 +7,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::{Dialect, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
+use crate::conformance::Limits;
 use crate::geom::Axis3;
 use crate::limits::{MAX_MACHINE_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN};
 use crate::source::SourceError;
@@ -44,6 +45,9 @@ pub struct MachineFile {
     /// Rapid rates.
     #[serde(default)]
     pub rapid: Rapid,
+    /// Acceptance limits per location symbol (um / urad), optional.
+    #[serde(default, skip_serializing_if = "Limits::is_empty")]
+    pub limits: Limits,
 }
 
 /// A rotary axis as written.
@@ -381,6 +385,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         tool: f.tool,
         probe: f.probe,
         rapid: f.rapid,
+        limits: f.limits,
         source: src.to_string(),
     })
 }

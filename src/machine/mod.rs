@@ -241,6 +241,9 @@ pub struct Machine {
     pub probe: Probe,
     /// Rapid rates.
     pub rapid: Rapid,
+    /// Acceptance limits per location symbol (the file's optional
+    /// `limits:` section; see [`crate::conformance`]).
+    pub limits: crate::conformance::Limits,
     /// The file text it was read from (for `machine show` and provenance).
     pub source: String,
 }

@@ -120,7 +120,16 @@ pub fn magnification(max_dev_um: f64, extent_mm: f64, fraction: f64) -> f64 {
     (step * p).max(1.0)
 }
 
-fn esc(s: &str) -> String {
+/// The opening of a report page in the reports' style, up to its `<h1>`.
+pub(crate) fn page_start(title: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}th{{background:#eee}}td.l{{text-align:left}}pre{{background:#f6f6f6;padding:8px}}.grid{{display:flex;flex-wrap:wrap}}.grid img{{width:540px}}</style></head><body>\n<h1>{t}</h1>\n",
+        t = esc(title)
+    )
+}
+
+/// Text escaped for HTML.
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
@@ -314,12 +323,7 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
     put("piece.glb", &glb::glb(&shown, mag), &mut files)?;
 
     // The page.
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}th{{background:#eee}}td.l{{text-align:left}}pre{{background:#f6f6f6;padding:8px}}.grid{{display:flex;flex-wrap:wrap}}.grid img{{width:540px}}</style></head><body>\n<h1>{t}</h1>\n",
-        t = esc(&r.title)
-    );
+    let mut h = page_start(&r.title);
     let _ = writeln!(
         h,
         "<p>Machine <b>{}</b>, method <b>{}</b>, {} points in {} poses from {}.</p>",

@@ -1,6 +1,7 @@
 //! SVG plots (plotters, SVG backend): values with error bars, error maps
 //! against angle, residuals, and the measured deviations of a pose
-//! magnified (seed 001 figs. 7-8, seed 000 fig. 5).
+//! magnified (seed 001 figs. 7-8, seed 000 fig. 5), and a value over time
+//! with its u band (the machine's history).
 
 use plotters::prelude::*;
 
@@ -296,6 +297,206 @@ pub fn pose_plot(title: &str, views: &[(String, Vec<ViewPoint>)], max_dev: f64) 
                     .map_err(err)?;
             }
         }
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
+/// How a point of a time series is drawn: by its result's fit verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// The model fitted the measurement: a filled dot.
+    Fits,
+    /// It did not: a red cross.
+    Misfit,
+    /// No verdict recorded: a hollow dot.
+    Unknown,
+}
+
+/// One value over time: x in days, the value, its standard uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimePoint {
+    /// Days from the plot's origin.
+    pub x: f64,
+    /// The value.
+    pub value: f64,
+    /// Standard uncertainty (k = 1).
+    pub u: Option<f64>,
+    /// How it is drawn.
+    pub verdict: Verdict,
+}
+
+/// A value over time with its u band, the moments the control was changed,
+/// the acceptance limits and a trend line.
+pub struct TimeSeries<'a> {
+    /// Caption.
+    pub title: &'a str,
+    /// Unit of the values.
+    pub unit: &'a str,
+    /// Runs of points not separated by a change of the control; each run
+    /// gets its own band.
+    pub runs: Vec<Vec<TimePoint>>,
+    /// When the control was changed (days).
+    pub exports: Vec<f64>,
+    /// Lower and upper acceptance limit.
+    pub limit: Option<(f64, f64)>,
+    /// A trend line from one (x, value) to another.
+    pub trend: Option<((f64, f64), (f64, f64))>,
+    /// The label of an x value (a date).
+    pub x_label: &'a dyn Fn(f64) -> String,
+}
+
+/// A time series: the u band shaded around the line through the values,
+/// dots by fit verdict, exports as vertical lines, limits as red lines,
+/// the trend dashed.
+pub fn time_series(p: &TimeSeries<'_>) -> PlotResult {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let points = || p.runs.iter().flatten();
+        let xs = points()
+            .map(|q| q.x)
+            .chain(p.exports.iter().copied())
+            .chain(p.trend.iter().flat_map(|t| [t.0.0, t.1.0]));
+        let (x0, x1) = range(xs);
+        let ys = points()
+            .flat_map(|q| {
+                let u = q.u.unwrap_or(0.0);
+                [q.value - u, q.value + u]
+            })
+            .chain(p.limit.iter().flat_map(|l| [l.0, l.1]))
+            .chain(p.trend.iter().flat_map(|t| [t.0.1, t.1.1]));
+        let (y0, y1) = range(ys);
+        let mut chart = ChartBuilder::on(&root)
+            .caption(p.title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_labels(6)
+            .x_label_formatter(&|x| (p.x_label)(*x))
+            .y_desc(p.unit)
+            .draw()
+            .map_err(err)?;
+        let band = BLUE.mix(0.15);
+        for run in &p.runs {
+            let with_u: Vec<&TimePoint> = run.iter().filter(|q| q.u.is_some()).collect();
+            if with_u.len() > 1 {
+                let mut poly: Vec<(f64, f64)> = with_u
+                    .iter()
+                    .map(|q| (q.x, q.value + q.u.unwrap_or(0.0)))
+                    .collect();
+                poly.extend(
+                    with_u
+                        .iter()
+                        .rev()
+                        .map(|q| (q.x, q.value - q.u.unwrap_or(0.0))),
+                );
+                chart
+                    .draw_series(std::iter::once(Polygon::new(poly, band.filled())))
+                    .map_err(err)?;
+            }
+            for q in &with_u {
+                let u = q.u.unwrap_or(0.0);
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        vec![(q.x, q.value - u), (q.x, q.value + u)],
+                        BLUE.mix(0.5),
+                    )))
+                    .map_err(err)?;
+            }
+            chart
+                .draw_series(LineSeries::new(run.iter().map(|q| (q.x, q.value)), BLUE))
+                .map_err(err)?;
+        }
+        if let Some((lo, hi)) = p.limit {
+            for (k, y) in [lo, hi].into_iter().enumerate() {
+                let s = chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        vec![(x0, y), (x1, y)],
+                        RED.stroke_width(2),
+                    )))
+                    .map_err(err)?;
+                if k == 0 {
+                    s.label("limit")
+                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RED));
+                }
+            }
+        }
+        let orange = RGBColor(230, 140, 0);
+        for (k, &x) in p.exports.iter().enumerate() {
+            let s = chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(x, y0), (x, y1)],
+                    orange.stroke_width(2),
+                )))
+                .map_err(err)?;
+            if k == 0 {
+                s.label("export (control changed)")
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], orange));
+            }
+        }
+        if let Some((a, b)) = p.trend {
+            let green = RGBColor(0, 140, 60);
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![a, b],
+                    8,
+                    5,
+                    green.stroke_width(2),
+                ))
+                .map_err(err)?
+                .label("trend")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], green));
+        }
+        let mut first = [true; 3];
+        for q in points() {
+            let (k, label) = match q.verdict {
+                Verdict::Fits => (0, "fits"),
+                Verdict::Misfit => (1, "misfit"),
+                Verdict::Unknown => (2, "no fit verdict"),
+            };
+            let s = match q.verdict {
+                Verdict::Fits => chart
+                    .draw_series(std::iter::once(Circle::new(
+                        (q.x, q.value),
+                        4,
+                        BLUE.filled(),
+                    )))
+                    .map_err(err)?,
+                Verdict::Misfit => chart
+                    .draw_series(std::iter::once(Cross::new(
+                        (q.x, q.value),
+                        5,
+                        RED.stroke_width(2),
+                    )))
+                    .map_err(err)?,
+                Verdict::Unknown => chart
+                    .draw_series(std::iter::once(Circle::new(
+                        (q.x, q.value),
+                        4,
+                        BLUE.stroke_width(2),
+                    )))
+                    .map_err(err)?,
+            };
+            if std::mem::take(&mut first[k]) {
+                s.label(label).legend(move |(x, y)| match k {
+                    0 => Circle::new((x + 8, y), 4, BLUE.filled()).into_dyn(),
+                    1 => Cross::new((x + 8, y), 5, RED.stroke_width(2)).into_dyn(),
+                    _ => Circle::new((x + 8, y), 4, BLUE.stroke_width(2)).into_dyn(),
+                });
+            }
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
         root.present().map_err(err)?;
     }
     Ok(svg)

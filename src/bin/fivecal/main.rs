@@ -41,6 +41,12 @@ enum Command {
     /// Find where simulation and measurement disagree, name the missing
     /// effect, add it to the model and show the gap shrink.
     Discover(cmd::discover::DiscoverArgs),
+    /// What the results store keeps of a machine: list, show, export, the
+    /// trend of each error toward its limit, and a plot over time.
+    History(cmd::history::HistoryCli),
+    /// Compare a machine before and after compensation: the change of
+    /// every error with its u, and whether it is within its limits.
+    Verify(cmd::verify::VerifyArgs),
     /// Run the whole job on the built-in example machine: plan, simulate,
     /// analyze, discover and compensate, with a one-screen summary.
     Demo(cmd::demo::DemoArgs),
@@ -82,6 +88,8 @@ fn main() -> ExitCode {
         Command::Compensate(a) => cmd::compensate::run(a),
         Command::Discover(a) => cmd::discover::run(a),
         Command::Demo(a) => cmd::demo::run(a),
+        Command::History(a) => cmd::history::run(a),
+        Command::Verify(a) => cmd::verify::run(a),
         Command::Machine(m) => cmd::machine::run(m),
         Command::Completions(a) => cmd::docs::completions(a),
         Command::Man => cmd::docs::man(),

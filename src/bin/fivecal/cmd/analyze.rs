@@ -12,10 +12,14 @@ use fivecal::analyze::{
     self, ContributorChoice, Found, Identified, McOptions, MonteCarlo, NineSectionOutcome, Outcome,
     Piece, Request,
 };
+use fivecal::conformance::{LimitsSource, Verdict};
 use fivecal::identify::Method;
 use fivecal::identify::sphere::CircleMethod;
 use fivecal::io::{Shape, check_outputs};
 use fivecal::report::{self, ReportInput};
+use fivecal::store::runs;
+
+use super::record::Recording;
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -105,6 +109,13 @@ pub struct AnalyzeArgs {
     /// combinations of Cubas Brizuela & Yeh 2023).
     #[arg(long, value_name = "FIT", default_value = "robust")]
     circle_fit: String,
+    /// Acceptance limits per location symbol: a limits file or a machine
+    /// file with a `limits:` section. Prints PASS, FAIL or "cannot decide"
+    /// per symbol and for the machine (ISO 14253-1, U = 2u).
+    #[arg(long, value_name = "FILE")]
+    limits: Option<PathBuf>,
+    #[command(flatten)]
+    record: super::record::RecordArgs,
 }
 
 /// The validated configuration of one `analyze` run.
@@ -113,6 +124,8 @@ struct Config {
     out: PathBuf,
     json: bool,
     report: Option<PathBuf>,
+    limits: Option<LimitsSource>,
+    record: Recording,
 }
 
 fn contributors(spec: Option<&str>) -> anyhow::Result<ContributorChoice> {
@@ -146,6 +159,8 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         .parse::<CircleMethod>()
         .map_err(anyhow::Error::msg)?;
     let contributors = contributors(a.contributors.as_deref())?;
+    let limits = a.limits.as_deref().map(LimitsSource::read).transpose()?;
+    let record = a.record.validate()?;
     let monte_carlo = match a.mc {
         Some(n @ (0 | 1)) => bail!("--mc {n}: the Monte-Carlo study needs at least 2 runs"),
         Some(n) if n > fivecal::limits::MAX_MC_RUNS => bail!(
@@ -185,6 +200,8 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         out,
         json: a.json,
         report: a.report,
+        limits,
+        record,
     })
 }
 
@@ -193,21 +210,40 @@ pub fn run(cli: AnalyzeCli) -> anyhow::Result<()> {
         Some(AnalyzeMode::Contour(a)) => super::contour::run(a),
         None => {
             let c = validate(*cli.args)?;
+            let mut recorder = c.record.open()?;
             let outcome = analyze::run(&c.request)?;
             for w in &outcome.warnings {
                 eprintln!("warning: {w}");
             }
             match &outcome.found {
-                Found::Identified(id) => identified(&c, &outcome, id),
-                Found::NineSection(n) => nine_section(&c, &outcome, n),
+                Found::Identified(id) => identified(&c, &outcome, id)?,
+                Found::NineSection(n) => nine_section(&c, &outcome, n)?,
             }
+            let written = analyze::result::files(&outcome, &c.out, c.json)?;
+            let records = runs::analysis(
+                &outcome,
+                &c.request.manifest,
+                &c.request.measured,
+                &written,
+                &c.record.notes,
+            )?;
+            recorder.save(&records, &|s| println!("{s}"))
         }
     }
 }
 
 fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<()> {
+    if let Some(l) = &c.limits {
+        for piece in &id.pieces {
+            l.check_result(&piece.file)?;
+        }
+    }
     for piece in &id.pieces {
         print_piece(piece);
+        if let Some(l) = &c.limits {
+            println!("limits from {}:", l.path.display());
+            print!("{}", Verdict::of(&piece.file, &l.limits).render());
+        }
         if let Some(dir) = &c.report {
             let dir = piece.report_dir(dir);
             let files = report::write(&dir, &ReportInput::for_piece(id.test.as_str(), piece))?;

@@ -185,6 +185,10 @@ pub struct CompensateArgs {
     /// else next to OUT as OUT.<controller>.txt].
     #[arg(long, value_name = "FILE")]
     export_to: Option<PathBuf>,
+    /// With --export: the export is recorded in the results store (the
+    /// control was changed), which `fivecal history` marks.
+    #[command(flatten)]
+    record: super::record::RecordArgs,
 }
 
 /// What to do, validated.
@@ -195,6 +199,7 @@ pub struct Config {
     settings: Settings,
     rewrite: Option<(PathBuf, PathBuf)>,
     export: Option<(Dialect, Option<PathBuf>)>,
+    record: super::record::Recording,
 }
 
 impl CompensateArgs {
@@ -303,7 +308,9 @@ impl CompensateArgs {
                 .map(|t| ("--export-to", t, Shape::File)),
         );
         check_outputs(&inputs, &outputs)?;
+        let record = self.record.validate()?;
         Ok(Config {
+            record,
             common,
             errors_path: self.errors,
             errors,
@@ -316,6 +323,12 @@ impl CompensateArgs {
 
 pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     let cfg = args.validate()?;
+    // An export changes the control: kept in the store, opened first so an
+    // unreachable store stops the run before anything is written.
+    let mut recorder = match &cfg.export {
+        Some(_) => Some(cfg.record.open()?),
+        None => None,
+    };
     if let Some((input, output)) = &cfg.rewrite {
         let file = fivecal::input::open_stream(input, "NC program")?;
         let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, cfg.settings.clone());
@@ -338,6 +351,29 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
                 outln!("{d} parameters written to {}", p.display());
             }
             None => out!("{text}"),
+        }
+        if let Some(r) = &mut recorder {
+            let content = std::fs::read_to_string(&cfg.errors_path).with_context(|| {
+                format!("cannot read {} to record it", cfg.errors_path.display())
+            })?;
+            let rec = fivecal::store::runs::export(
+                &cfg.common.machine.name,
+                &cfg.errors_path,
+                &content,
+                &d.to_string(),
+                &text,
+                &cfg.record.notes,
+            )?;
+            // Beside parameters printed to standard output, the note goes
+            // to standard error.
+            let to_stdout = target.is_some();
+            r.save(&[rec], &|s| {
+                if to_stdout {
+                    println!("{s}")
+                } else {
+                    eprintln!("{s}")
+                }
+            })?;
         }
     }
     Ok(())

@@ -9,6 +9,9 @@ use anyhow::{Context as _, bail};
 use clap::Args;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
 use fivecal::io::{Shape, check_outputs, write_atomic};
+use fivecal::store::runs;
+
+use super::record::Recording;
 
 /// Find where model and measurement disagree, name the missing effect, add
 /// it and show the gap shrink.
@@ -52,6 +55,8 @@ pub struct DiscoverArgs {
     /// name ends in `.json`, else YAML).
     #[arg(long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    record: super::record::RecordArgs,
 }
 
 /// The validated configuration of one `discover` run.
@@ -62,6 +67,7 @@ struct Config {
     json: bool,
     report: Option<PathBuf>,
     out: Option<PathBuf>,
+    record: Recording,
 }
 
 fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
@@ -84,6 +90,7 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     outputs.extend(a.out.as_deref().map(|o| ("--out", o, Shape::File)));
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
     check_outputs(&inputs, &outputs)?;
+    let record = a.record.validate()?;
     Ok(Config {
         manifest,
         measured: a.measured,
@@ -98,11 +105,17 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
         json: a.json,
         report: a.report,
         out: a.out,
+        record,
     })
 }
 
 pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
     let c = validate(args)?;
+    // Only the final model written to --out is a result to keep.
+    let mut recorder = match &c.out {
+        Some(_) => Some(c.record.open()?),
+        None => None,
+    };
     let inputs = Inputs::load(&c.manifest, &c.measured)?;
     for w in &inputs.data.warnings {
         eprintln!("warning: {w}");
@@ -140,6 +153,18 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         };
         write_atomic(out, text.as_bytes())?;
         say(format!("wrote {}", out.display()));
+        if let Some(r) = &mut recorder {
+            let rec = runs::discovery(
+                &f.machine,
+                inputs.plan.test().as_str(),
+                &c.manifest,
+                &c.measured,
+                out,
+                &text,
+                &c.record.notes,
+            )?;
+            r.save(&[rec], &say)?;
+        }
     }
     Ok(())
 }

@@ -7,10 +7,13 @@ pub mod contour;
 pub mod demo;
 pub mod discover;
 pub mod docs;
+pub mod history;
 pub mod machine;
 pub mod plan;
+pub mod record;
 pub mod simulate;
 pub mod simulate_nc;
+pub mod verify;
 
 /// The items of comma-separated list options given once or more
 /// (`--maps EBB(B),EXC(B,C)`): split at the commas outside parentheses, so

@@ -1,0 +1,124 @@
+//! The options every recording command shares (`analyze`, `discover`,
+//! `compensate --export`): where the results store is, whether to record,
+//! and what to note with the record. The store is opened before the work
+//! starts, so an unreachable server fails the run before anything is
+//! written.
+
+use anyhow::{Context as _, bail};
+use clap::Args;
+use fivecal::store::runs::RunNotes;
+use fivecal::store::{Location, Record, Store, parse_time};
+
+/// Recording into the results store.
+#[derive(Args, Debug, Clone)]
+pub struct RecordArgs {
+    /// The results store: an SQLite file, or `postgres://user@host/db` for
+    /// a server [default: $FIVECAL_DB, else history.db in the user's data
+    /// directory, ~/.local/share/fivecal on Linux].
+    #[arg(long, value_name = "PATH|URL")]
+    db: Option<String>,
+    /// Do not record this run in the results store.
+    #[arg(long, conflicts_with_all = ["db", "note", "temperature", "measured_at"])]
+    no_record: bool,
+    /// A note kept with the record (why the machine was measured, ...).
+    #[arg(long, value_name = "TEXT")]
+    note: Option<String>,
+    /// The machine's temperature when it was measured, deg C.
+    #[arg(long, value_name = "DEG_C", allow_negative_numbers = true)]
+    temperature: Option<f64>,
+    /// When the machine was measured, RFC 3339 (2026-03-01T08:30:00Z)
+    /// [default: now]; the history's trends use this time.
+    #[arg(long, value_name = "TIME")]
+    measured_at: Option<String>,
+}
+
+/// Where and what to record, validated.
+pub struct Recording {
+    location: Option<Location>,
+    pub notes: RunNotes,
+}
+
+impl RecordArgs {
+    pub fn validate(self) -> anyhow::Result<Recording> {
+        if let Some(t) = self.temperature
+            && !(t.is_finite() && (-50.0..=100.0).contains(&t))
+        {
+            bail!("--temperature {t}: expected the machine's temperature in deg C (-50 to 100)");
+        }
+        if self.note.as_deref().is_some_and(|n| n.trim().is_empty()) {
+            bail!("--note is empty");
+        }
+        let measured_at = self
+            .measured_at
+            .as_deref()
+            .map(parse_time)
+            .transpose()
+            .map_err(|e| anyhow::anyhow!("--measured-at {e}"))?;
+        let location = if self.no_record {
+            None
+        } else {
+            Some(Location::resolve(self.db.as_deref())?)
+        };
+        Ok(Recording {
+            location,
+            notes: RunNotes {
+                note: self.note,
+                temperature: self.temperature,
+                measured_at,
+            },
+        })
+    }
+}
+
+/// An open store, or none with `--no-record`.
+pub struct Recorder(Option<Store>);
+
+impl Recording {
+    /// Opens the store (creating it when new).
+    pub fn open(&self) -> anyhow::Result<Recorder> {
+        match &self.location {
+            None => Ok(Recorder(None)),
+            Some(l) => Ok(Recorder(Some(Store::open(l).with_context(
+                || "cannot open the results store (--no-record runs without it)",
+            )?))),
+        }
+    }
+}
+
+impl Recorder {
+    /// Writes `records` in one transaction; prints their ids.
+    pub fn save(&mut self, records: &[Record], say: &dyn Fn(String)) -> anyhow::Result<()> {
+        let Some(store) = &mut self.0 else {
+            return Ok(());
+        };
+        let mut b = store.batch()?;
+        let mut ids = Vec::new();
+        for r in records {
+            ids.push(b.insert(r)?);
+        }
+        b.commit()?;
+        let ids: Vec<String> = ids.iter().map(|i| i.to_string()).collect();
+        say(format!(
+            "recorded as {} {} in {}",
+            if ids.len() == 1 { "record" } else { "records" },
+            ids.join(", "),
+            store.location()
+        ));
+        Ok(())
+    }
+}
+
+/// The store the history commands read: `--db`, else `$FIVECAL_DB`, else
+/// the default file, which must exist (reading never creates a store).
+pub fn open_for_reading(db: Option<&str>) -> anyhow::Result<Store> {
+    let l = Location::resolve(db)?;
+    if let Location::Sqlite(p) = &l
+        && !p.exists()
+    {
+        bail!(
+            "no results store at {}: nothing recorded yet (give --db PATH or set FIVECAL_DB)",
+            p.display()
+        );
+    }
+    Ok(Store::open(&l)?)
+}

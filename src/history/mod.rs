@@ -1,0 +1,424 @@
+//! A machine's history, read from the results store: every location error
+//! as a series over time, the exports that changed the control between
+//! them, the trend of each series against its acceptance limit
+//! ([`trend`]), the HTML page that plots them ([`page`]), the listing and
+//! export as CSV or JSON, and the comparison of a result before and after
+//! compensation ([`compare`]).
+
+pub mod compare;
+pub mod page;
+pub mod trend;
+
+use std::collections::HashSet;
+use std::fmt::Write as _;
+
+use indexmap::IndexMap;
+use jiff::Timestamp;
+use serde::{Deserialize, Serialize};
+
+use crate::conformance::{Limits, unit_of};
+use crate::errorfile::Quantity;
+use crate::store::{FileRole, FitVerdict, Kind, Stored, format_time};
+use trend::{Outlook, Sample};
+
+/// The location errors of a result file's text (YAML or JSON), or `None`
+/// when it has none (nine-section statistics, a series table).
+pub fn location_errors(content: &str) -> Option<IndexMap<String, Quantity>> {
+    #[derive(Deserialize)]
+    struct Values {
+        #[serde(default)]
+        location_errors: IndexMap<String, Quantity>,
+    }
+    serde_yaml::from_str::<Values>(content)
+        .ok()
+        .map(|v| v.location_errors)
+        .filter(|v| !v.is_empty())
+}
+
+/// One value of a series.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Point {
+    /// The record it comes from.
+    pub id: i64,
+    /// When the machine was measured.
+    #[serde(serialize_with = "ser_time")]
+    pub at: Timestamp,
+    /// analyze or discover.
+    pub kind: Kind,
+    /// The result's fit verdict.
+    pub fit: Option<FitVerdict>,
+    /// The value.
+    pub value: f64,
+    /// Its standard uncertainty.
+    pub u: Option<f64>,
+}
+
+fn ser_time<S: serde::Serializer>(t: &Timestamp, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&format_time(*t))
+}
+
+/// One location error over time.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Series {
+    /// The symbol.
+    pub symbol: String,
+    /// um or urad.
+    pub unit: &'static str,
+    /// Oldest first.
+    pub points: Vec<Point>,
+}
+
+/// A change of the control (`compensate --export`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Export {
+    /// The record.
+    pub id: i64,
+    /// When.
+    #[serde(serialize_with = "ser_time")]
+    pub at: Timestamp,
+    /// Which controller's parameters.
+    pub controller: Option<String>,
+}
+
+/// A machine's records as series.
+#[derive(Clone, Debug)]
+pub struct History {
+    /// The machine.
+    pub machine: String,
+    /// Its records, oldest measurement first.
+    pub records: Vec<Stored>,
+    /// One series per location symbol, in the order they first appear.
+    pub series: Vec<Series>,
+    /// The exports, oldest first.
+    pub exports: Vec<Export>,
+    /// Records that measured the same files as a later one and are left
+    /// out of the series (the later result of a measurement counts).
+    pub superseded: Vec<i64>,
+}
+
+impl History {
+    /// The history of `machine` from its records (any order).
+    pub fn new(machine: &str, mut records: Vec<Stored>) -> History {
+        records.retain(|r| r.record.machine == machine);
+        records.sort_by_key(|r| (r.record.measured_at, r.id));
+        // analyze then discover on the same files: one measurement, the
+        // last result counts.
+        let mut seen: HashSet<Vec<String>> = HashSet::new();
+        let mut superseded = Vec::new();
+        let mut by_recorded: Vec<&Stored> = records.iter().collect();
+        by_recorded.sort_by_key(|r| std::cmp::Reverse((r.record.recorded_at, r.id)));
+        for r in by_recorded {
+            if r.record.kind == Kind::Export {
+                continue;
+            }
+            let mut key: Vec<String> = r
+                .record
+                .files
+                .iter()
+                .filter(|f| f.role == FileRole::Measured)
+                .map(|f| f.sha256.clone())
+                .collect();
+            if key.is_empty() {
+                continue;
+            }
+            key.sort();
+            if !seen.insert(key) {
+                superseded.push(r.id);
+            }
+        }
+        let mut series: IndexMap<String, Series> = IndexMap::new();
+        let mut exports = Vec::new();
+        for r in &records {
+            if r.record.kind == Kind::Export {
+                exports.push(Export {
+                    id: r.id,
+                    at: r.record.measured_at,
+                    controller: r.record.controller.clone(),
+                });
+                continue;
+            }
+            if superseded.contains(&r.id) {
+                continue;
+            }
+            for (sym, q) in location_errors(&r.record.content).unwrap_or_default() {
+                series
+                    .entry(sym.clone())
+                    .or_insert_with(|| Series {
+                        unit: unit_of(&sym),
+                        symbol: sym.clone(),
+                        points: Vec::new(),
+                    })
+                    .points
+                    .push(Point {
+                        id: r.id,
+                        at: r.record.measured_at,
+                        kind: r.record.kind,
+                        fit: r.record.fit,
+                        value: q.value,
+                        u: q.u,
+                    });
+            }
+        }
+        superseded.sort();
+        History {
+            machine: machine.to_string(),
+            records,
+            series: series.into_values().collect(),
+            exports,
+            superseded,
+        }
+    }
+
+    /// The points of `s` since the last export (the control was changed
+    /// there, so the values before it belong to another machine state),
+    /// with an uncertainty.
+    pub fn current(&self, s: &Series) -> Vec<Sample> {
+        let after = self.exports.last().map(|e| e.at);
+        s.points
+            .iter()
+            .filter(|p| after.is_none_or(|t| p.at > t))
+            .filter_map(|p| {
+                p.u.filter(|u| *u > 0.0).map(|u| Sample {
+                    at: p.at,
+                    value: p.value,
+                    u,
+                })
+            })
+            .collect()
+    }
+
+    /// The outlook of every series against `limits`.
+    pub fn outlooks(&self, limits: &Limits) -> Vec<(&Series, Outlook)> {
+        self.series
+            .iter()
+            .map(|s| (s, trend::outlook(&self.current(s), limits.get(&s.symbol))))
+            .collect()
+    }
+}
+
+/// A date-time as printed: minutes, UTC.
+pub fn short_time(t: Timestamp) -> String {
+    t.strftime("%Y-%m-%d %H:%M").to_string()
+}
+
+/// One line of the listing per record.
+pub fn render_list(records: &[Stored]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:>5}  {:<16}  {:<14} {:<8} {:<16} {:<7} {:>6}  note",
+        "id", "measured (UTC)", "machine", "kind", "test", "fit", "deg C"
+    );
+    for r in records {
+        let c = &r.record;
+        let _ = writeln!(
+            s,
+            "{:>5}  {:<16}  {:<14} {:<8} {:<16} {:<7} {:>6}  {}",
+            r.id,
+            short_time(c.measured_at),
+            c.machine,
+            c.kind,
+            c.test.as_deref().or(c.controller.as_deref()).unwrap_or("-"),
+            c.fit.map_or("-", |f| f.name()),
+            c.temperature.map_or("-".into(), |t| format!("{t:.1}")),
+            c.note.as_deref().unwrap_or("")
+        );
+    }
+    s
+}
+
+/// Everything about one record.
+pub fn render_record(r: &Stored) -> String {
+    let c = &r.record;
+    let mut s = String::new();
+    let _ = writeln!(s, "record {} ({}) of machine {}", r.id, c.kind, c.machine);
+    if let Some(t) = &c.test {
+        let _ = writeln!(s, "  test:         {t}");
+    }
+    let _ = writeln!(s, "  measured at:  {}", format_time(c.measured_at));
+    let _ = writeln!(s, "  recorded at:  {}", format_time(c.recorded_at));
+    let _ = writeln!(s, "  fivecal:      {}", c.tool_version);
+    let _ = writeln!(s, "  result:       {}", c.result_name);
+    let _ = writeln!(
+        s,
+        "  fit:          {}",
+        c.fit
+            .map_or("unknown (the result states no fit verdict)", |f| f.name())
+    );
+    if let Some(t) = c.temperature {
+        let _ = writeln!(s, "  temperature:  {t} deg C");
+    }
+    if let Some(n) = &c.note {
+        let _ = writeln!(s, "  note:         {n}");
+    }
+    if let Some(ctl) = &c.controller {
+        let _ = writeln!(s, "  exported to:  {ctl}");
+    }
+    for f in &c.files {
+        let role = match f.role {
+            FileRole::Measured => "measured",
+            FileRole::Plan => "plan",
+            FileRole::Errors => "errors",
+        };
+        let _ = writeln!(s, "  {role:<9} {}  sha256 {}", f.path, f.sha256);
+    }
+    let _ = writeln!(s, "--- {}", c.result_name);
+    s.push_str(&c.content);
+    if !c.content.ends_with('\n') {
+        s.push('\n');
+    }
+    if let Some(x) = &c.exported {
+        let _ = writeln!(
+            s,
+            "--- parameters written for {}",
+            c.controller.as_deref().unwrap_or("the control")
+        );
+        s.push_str(x);
+        if !x.ends_with('\n') {
+            s.push('\n');
+        }
+    }
+    s
+}
+
+/// The trends as printed, one paragraph per symbol.
+pub fn render_outlooks(h: &History, limits: &Limits) -> String {
+    use trend::{Forecast, Outlook as O};
+    let mut s = String::new();
+    if let Some(e) = h.exports.last() {
+        let _ = writeln!(
+            s,
+            "trends since the last export ({}, record {}):",
+            short_time(e.at),
+            e.id
+        );
+    } else {
+        let _ = writeln!(s, "trends:");
+    }
+    for (series, o) in h.outlooks(limits) {
+        let u = series.unit;
+        let sym = &series.symbol;
+        let lim = limits
+            .get(sym)
+            .map_or(String::new(), |l| format!(" (limit {l} {u})"));
+        let _ = match o {
+            O::TooFew { n } => writeln!(
+                s,
+                "  {sym:<10} {n} result(s) with u: too few for a trend (3 needed){lim}"
+            ),
+            O::NoTrend { line } => writeln!(
+                s,
+                "  {sym:<10} no trend: {:+.4} {u}/day (u {:.4}) over {} results since {}{lim}",
+                line.slope,
+                line.u_slope,
+                line.n,
+                short_time(line.since)
+            ),
+            O::Drifting { line, forecast } => {
+                let head = format!(
+                    "  {sym:<10} drifting since {}: {:+.4} {u}/day (u {:.4}) over {} results, now {:.3} {u} (u {:.3})",
+                    short_time(line.since),
+                    line.slope,
+                    line.u_slope,
+                    line.n,
+                    line.value,
+                    line.u_value
+                );
+                let widened = if line.birge > 1.0 {
+                    format!(
+                        "; the results scatter {:.1} times their u, the trend's u is widened by that",
+                        line.birge
+                    )
+                } else {
+                    String::new()
+                };
+                match forecast {
+                    Forecast::NoLimit => writeln!(s, "{head}{widened}; no limit set"),
+                    Forecast::Beyond { limit } => {
+                        writeln!(s, "{head}{widened}; already beyond its limit {limit} {u}")
+                    }
+                    Forecast::Reaches { limit, at, u_days } => writeln!(
+                        s,
+                        "{head}{widened}; reaches its limit {limit} {u} around {} (u {:.1} days)",
+                        short_time(at),
+                        u_days
+                    ),
+                }
+            }
+        };
+    }
+    s
+}
+
+/// The records as CSV, one row per record and location symbol (records
+/// without location errors get one row with empty symbol columns).
+pub fn to_csv(records: &[Stored]) -> Result<String, csv::Error> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "id",
+        "machine",
+        "kind",
+        "test",
+        "measured_at",
+        "recorded_at",
+        "fit",
+        "temperature_c",
+        "note",
+        "symbol",
+        "value",
+        "u",
+        "unit",
+    ])?;
+    for r in records {
+        let c = &r.record;
+        let head = [
+            r.id.to_string(),
+            c.machine.clone(),
+            c.kind.to_string(),
+            c.test.clone().unwrap_or_default(),
+            format_time(c.measured_at),
+            format_time(c.recorded_at),
+            c.fit.map_or(String::new(), |f| f.to_string()),
+            c.temperature.map_or(String::new(), |t| t.to_string()),
+            c.note.clone().unwrap_or_default(),
+        ];
+        let values = location_errors(&c.content).unwrap_or_default();
+        if values.is_empty() {
+            w.write_record(head.iter().cloned().chain([
+                "".into(),
+                "".into(),
+                "".into(),
+                "".into(),
+            ]))?;
+        }
+        for (sym, q) in values {
+            w.write_record(head.iter().cloned().chain([
+                sym.clone(),
+                q.value.to_string(),
+                q.u.map_or(String::new(), |u| u.to_string()),
+                unit_of(&sym).to_string(),
+            ]))?;
+        }
+    }
+    let bytes = w.into_inner().map_err(|e| e.into_error())?;
+    Ok(String::from_utf8(bytes).expect("CSV of UTF-8 fields"))
+}
+
+/// The records as JSON: every field, the files with their hashes, and the
+/// location errors read from the content.
+pub fn to_json(records: &[Stored]) -> String {
+    #[derive(Serialize)]
+    struct Out<'a> {
+        #[serde(flatten)]
+        stored: &'a Stored,
+        location_errors: IndexMap<String, Quantity>,
+    }
+    let out: Vec<Out> = records
+        .iter()
+        .map(|r| Out {
+            stored: r,
+            location_errors: location_errors(&r.record.content).unwrap_or_default(),
+        })
+        .collect();
+    serde_json::to_string_pretty(&out).expect("records serialize") + "\n"
+}
