@@ -36,6 +36,10 @@ use serde::{Deserialize, Serialize};
 use crate::geom::Axis3;
 use crate::kinematics::Kinematics;
 use crate::kinematics::maps::{MapDim, MapGrid};
+use crate::kinematics::symbols::Unit;
+use crate::limits::{
+    MAX_ERROR_UM, MAX_ERROR_URAD, MAX_NOISE_UM, MAX_PRETRAVEL_UM, MAX_SCALE_UM_PER_M,
+};
 use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS, Squareness};
 use crate::source::SourceError;
 
@@ -266,13 +270,12 @@ fn axis_of(c: char) -> Option<Axis3> {
 impl ErrorFile {
     /// Parses YAML (JSON is YAML too) without validating names.
     pub fn parse(path: &Path, src: &str) -> Result<ErrorFile, SourceError> {
-        serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))
+        crate::input::parse_yaml(path, src)
     }
 
     /// Reads a file.
     pub fn read(path: &Path) -> Result<(ErrorFile, String), SourceError> {
-        let src = std::fs::read_to_string(path)
-            .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read error file: {e}")))?;
+        let src = crate::input::read_text(path, "error file", crate::limits::MAX_YAML_BYTES)?;
         Ok((ErrorFile::parse(path, &src)?, src))
     }
 
@@ -309,12 +312,38 @@ impl ErrorFile {
         let sym = model.symbols.clone();
         let mut theta = Vec::new();
         let mut u = Vec::new();
-        let push = |q: &Quantity, theta: &mut Vec<f64>, u: &mut Vec<Option<f64>>, keys: &[&str]| {
+        // Every value within what a machine can have (limits module): a
+        // location error of a metre is a unit mistake.
+        let plausible = |keys: &[&str], what: &str, v: f64, (max, unit): (f64, &str)| {
+            if v.abs() > max {
+                return Err(err(
+                    keys,
+                    format!(
+                        "{what} {v} {unit} is not plausible: expected at most {max} {unit} in size (is it in the wrong unit?)"
+                    ),
+                ));
+            }
+            Ok(())
+        };
+        let bound = |unit: Unit| match unit {
+            Unit::Um => (MAX_ERROR_UM, "um"),
+            Unit::Urad => (MAX_ERROR_URAD, "urad"),
+        };
+        let push = |q: &Quantity,
+                    theta: &mut Vec<f64>,
+                    u: &mut Vec<Option<f64>>,
+                    keys: &[&str],
+                    limit: (f64, &str)| {
             if !q.value.is_finite() || q.u.is_some_and(|x| !x.is_finite() || x < 0.0) {
                 return Err(err(
                     keys,
                     "value must be a finite number and u a finite number >= 0".to_string(),
                 ));
+            }
+            let name = keys.last().copied().unwrap_or("value");
+            plausible(keys, name, q.value, limit)?;
+            if let Some(x) = q.u {
+                plausible(keys, &format!("u of {name}"), x, limit)?;
             }
             theta.push(q.value);
             u.push(q.u);
@@ -334,7 +363,8 @@ impl ErrorFile {
                 ));
             }
             loc.push(i);
-            push(q, &mut theta, &mut u, &["location_errors", name])?;
+            let limit = bound(sym.location[i].unit);
+            push(q, &mut theta, &mut u, &["location_errors", name], limit)?;
         }
         if !loc.is_empty() {
             model.push(Effect::Location { symbols: loc });
@@ -406,6 +436,9 @@ impl ErrorFile {
                 .map(Some)
                 .collect(),
             };
+            for v in vals.iter().chain(us.iter().flatten()) {
+                plausible(&keys, name, *v, bound(ms.unit))?;
+            }
             theta.extend(vals);
             u.extend(us);
             model.push(Effect::Map { symbol: i, grid });
@@ -428,7 +461,12 @@ impl ErrorFile {
                     ));
                 }
             };
-            push(&d.rate, &mut theta, &mut u, &keys)?;
+            let (max, unit) = bound(sym.location[i].unit);
+            let per = match basis {
+                DriftBasis::Seq => format!("{unit} per cut"),
+                DriftBasis::Minute => format!("{unit} per minute"),
+            };
+            push(&d.rate, &mut theta, &mut u, &keys, (max, per.as_str()))?;
             model.push(Effect::Drift { symbol: i, basis });
         }
         for (name, q) in &e.linear_scale {
@@ -446,7 +484,7 @@ impl ErrorFile {
                     ));
                 }
             };
-            push(q, &mut theta, &mut u, &keys)?;
+            push(q, &mut theta, &mut u, &keys, (MAX_SCALE_UM_PER_M, "um/m"))?;
             model.push(Effect::Scale { axis });
         }
         for (name, q) in &e.squareness {
@@ -454,7 +492,7 @@ impl ErrorFile {
             let kind = Squareness::from_symbol(name).ok_or_else(|| {
                 err(&keys, format!("unknown squareness error `{name}`: expected EC(0X)Y, EB(0X)Z or EA(0Y)Z (urad)"))
             })?;
-            push(q, &mut theta, &mut u, &keys)?;
+            push(q, &mut theta, &mut u, &keys, (MAX_ERROR_URAD, "urad"))?;
             model.push(Effect::Squareness { kind });
         }
         for (name, entry) in &e.straightness {
@@ -505,6 +543,9 @@ impl ErrorFile {
                 .map(Some)
                 .collect(),
             };
+            for v in vals.iter().chain(us.iter().flatten()) {
+                plausible(&keys, name, *v, (MAX_ERROR_UM, "um"))?;
+            }
             theta.extend(vals);
             u.extend(us);
             model.push(Effect::Straightness {
@@ -514,11 +555,23 @@ impl ErrorFile {
             });
         }
         if let Some(q) = &e.tool_radius {
-            push(q, &mut theta, &mut u, &["effects", "tool_radius"])?;
+            push(
+                q,
+                &mut theta,
+                &mut u,
+                &["effects", "tool_radius"],
+                (MAX_ERROR_UM, "um"),
+            )?;
             model.push(Effect::ToolRadius);
         }
         if let Some(q) = &e.tool_length {
-            push(q, &mut theta, &mut u, &["effects", "tool_length"])?;
+            push(
+                q,
+                &mut theta,
+                &mut u,
+                &["effects", "tool_length"],
+                (MAX_ERROR_UM, "um"),
+            )?;
             model.push(Effect::ToolLength);
         }
         if !e.probe_pretravel.is_empty() {
@@ -539,16 +592,25 @@ impl ErrorFile {
                     .get(d)
                     .copied()
                     .unwrap_or(Quantity::bare(0.0));
-                push(&q, &mut theta, &mut u, &["effects", "probe_pretravel", d])?;
+                push(
+                    &q,
+                    &mut theta,
+                    &mut u,
+                    &["effects", "probe_pretravel", d],
+                    (MAX_PRETRAVEL_UM, "um"),
+                )?;
             }
             model.push(Effect::ProbePretravel);
         }
         let noise = e.noise.clone().unwrap_or_default();
         for (k, v) in [("cmm", noise.cmm), ("probe", noise.probe)] {
-            if v.is_some_and(|x| !(x.is_finite() && x >= 0.0)) {
+            if v.is_some_and(|x| !(x.is_finite() && (0.0..=MAX_NOISE_UM).contains(&x))) {
                 return Err(err(
                     &["effects", "noise", k],
-                    format!("noise {k} must be a standard deviation >= 0 um"),
+                    format!(
+                        "noise {k} {} um: expected a standard deviation from 0 to {MAX_NOISE_UM} um",
+                        v.unwrap_or_default()
+                    ),
                 ));
             }
         }

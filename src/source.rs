@@ -11,6 +11,8 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use crate::limits::ECHO_CHARS;
+
 /// An error in an input file, pointing at a line and column (both 1-based;
 /// 0 when unknown).
 #[derive(Debug, Clone, PartialEq)]
@@ -61,12 +63,57 @@ impl SourceError {
 
 impl fmt::Display for SourceError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = shorten_echoes(&self.message);
         match (self.line, self.column) {
-            (0, _) => write!(f, "{}: {}", self.path.display(), self.message),
-            (l, 0) => write!(f, "{}:{}: {}", self.path.display(), l, self.message),
-            (l, c) => write!(f, "{}:{}:{}: {}", self.path.display(), l, c, self.message),
+            (0, _) => write!(f, "{}: {m}", self.path.display()),
+            (l, 0) => write!(f, "{}:{}: {m}", self.path.display(), l),
+            (l, c) => write!(f, "{}:{}:{}: {m}", self.path.display(), l, c),
         }
     }
+}
+
+/// The message with every quoted echo of the input (`"..."` as serde
+/// writes it, `` `...` `` as fivecal does) cut to the first line and
+/// [`ECHO_CHARS`] characters: a file dumped into a string field, or a
+/// number ten megabytes long, is named, not printed.
+pub fn shorten_echoes(msg: &str) -> String {
+    let mut out = String::with_capacity(msg.len().min(512));
+    let mut rest = msg;
+    while let Some(i) = rest.find(['"', '`']) {
+        let q = rest.as_bytes()[i] as char;
+        out.push_str(&rest[..=i]);
+        let after = &rest[i + 1..];
+        // The closing quote (serde escapes inner quotes as \").
+        let mut end = None;
+        let mut escaped = false;
+        for (j, c) in after.char_indices() {
+            if escaped {
+                escaped = false;
+            } else if c == '\\' && q == '"' {
+                escaped = true;
+            } else if c == q {
+                end = Some(j);
+                break;
+            }
+        }
+        let Some(j) = end else {
+            out.push_str(after);
+            return out;
+        };
+        let inner = &after[..j];
+        let first = inner.split(['\n', '\r']).next().unwrap_or("");
+        let first = first.split("\\n").next().unwrap_or("");
+        if first.len() < inner.len() || first.chars().count() > ECHO_CHARS {
+            out.extend(first.chars().take(ECHO_CHARS));
+            out.push('…');
+        } else {
+            out.push_str(inner);
+        }
+        out.push(q);
+        rest = &after[j + 1..];
+    }
+    out.push_str(rest);
+    out
 }
 
 impl std::error::Error for SourceError {}
@@ -191,6 +238,34 @@ mod tests {
     fn does_not_cross_into_a_sibling_mapping() {
         assert_eq!(locate_yaml_key(DOC, &["rotary_axes", "diameter"]), None);
         assert_eq!(locate_yaml_key(DOC, &["tool", "limits"]), None);
+    }
+
+    #[test]
+    fn long_echoes_are_cut_to_a_line() {
+        let long = "9".repeat(10_000);
+        let e = SourceError::new(
+            Path::new("m.yaml"),
+            2,
+            8,
+            format!("invalid type: string \"{long}\", expected f64"),
+        );
+        let s = e.to_string();
+        assert!(s.len() < 150, "{s}");
+        assert!(s.ends_with("…\", expected f64"), "{s}");
+        let e = SourceError::new(
+            Path::new("m.yaml"),
+            1,
+            1,
+            "invalid type: string \"name: other\\nlines: 2\", expected a machine",
+        );
+        assert_eq!(
+            e.to_string(),
+            "m.yaml:1:1: invalid type: string \"name: other…\", expected a machine"
+        );
+        assert_eq!(
+            shorten_echoes("unknown symbol `EXC(B`"),
+            "unknown symbol `EXC(B`"
+        );
     }
 
     #[test]

@@ -120,12 +120,11 @@ impl PlanContext {
                 machine_path.display()
             )));
         }
-        let machine = Machine::load(&machine_path.to_string_lossy()).map_err(|source| {
-            AnalyzeError::Machine {
+        let machine =
+            Machine::from_file(&machine_path).map_err(|source| AnalyzeError::Machine {
                 path: machine_path.clone(),
                 source,
-            }
-        })?;
+            })?;
         let gauge = match manifest.kind {
             TestKind::Machining => manifest
                 .tool
@@ -194,10 +193,8 @@ impl PlanContext {
             .map_or(machine.probe.ball_diameter, |p| p.ball_diameter)
             / 2.0;
         let path = manifest.resolve(&self.manifest, &manifest.template_file);
-        let text = std::fs::read_to_string(&path).map_err(|source| AnalyzeError::Template {
-            path: path.clone(),
-            source,
-        })?;
+        let text =
+            crate::input::read_text(&path, "plan's template copy", crate::limits::MAX_YAML_BYTES)?;
         let source = TemplateSource { path, text };
         let settings = match manifest.test.as_str() {
             "probe-sphere" => {

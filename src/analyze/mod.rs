@@ -56,14 +56,6 @@ pub enum AnalyzeError {
         /// Why.
         source: MachineError,
     },
-    /// The plan's copy of the template cannot be read.
-    #[error("cannot read the plan's template copy {}", path.display())]
-    Template {
-        /// The copy.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
     /// The plan directory or the files do not make an analysis (the
     /// message says which file and why).
     #[error("{0}")]

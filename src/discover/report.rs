@@ -14,7 +14,7 @@ use super::Discovery;
 use super::gap::{Gap, Group};
 use super::story::{Story, Verdict};
 use crate::identify::Dataset;
-use crate::io::write_atomic;
+use crate::io::StagedDir;
 use crate::report::{ReportError, plots};
 
 fn esc(s: &str) -> String {
@@ -148,11 +148,10 @@ fn gap_tables(h: &mut String, before: &Gap, after: &Gap) {
 
 /// Writes the report of a discovery into `dir`; returns the files written.
 pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, ReportError> {
-    let mut files = Vec::new();
-    let put = |name: &str, bytes: &[u8], files: &mut Vec<PathBuf>| -> Result<(), ReportError> {
-        let p = dir.join(name);
-        write_atomic(&p, bytes)?;
-        files.push(p);
+    // Every file is staged: the report appears whole or not at all.
+    let mut files = StagedDir::create(dir)?;
+    let put = |name: &str, bytes: &[u8], files: &mut StagedDir| -> Result<(), ReportError> {
+        files.write(Path::new(name), bytes)?;
         Ok(())
     };
     let plot = |name: &str, res: Result<String, String>| {
@@ -351,5 +350,5 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
     );
     h.push_str("</body></html>\n");
     put("index.html", h.as_bytes(), &mut files)?;
-    Ok(files)
+    Ok(files.commit()?)
 }

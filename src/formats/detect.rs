@@ -449,8 +449,11 @@ pub fn read_measurement(path: &Path) -> Result<Measurement, SourceError> {
 
 /// Reads a measurement file in whatever format it is, in a context.
 pub fn read_measurement_in(path: &Path, ctx: &ReadContext<'_>) -> Result<Measurement, SourceError> {
-    let src = std::fs::read_to_string(path)
-        .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read: {e}")))?;
+    let src = crate::input::read_text(
+        path,
+        "measurement file",
+        crate::limits::MAX_MEASUREMENT_BYTES,
+    )?;
     parse_measurement_in(path, &src, ctx)
 }
 

@@ -438,8 +438,7 @@ fn parse_tolerance(
 
 /// Reads a file.
 pub fn read(path: &Path) -> Result<DmisOutput, SourceError> {
-    let src = std::fs::read_to_string(path)
-        .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read: {e}")))?;
+    let src = crate::input::read_text(path, "DMIS file", crate::limits::MAX_MEASUREMENT_BYTES)?;
     parse(path, &src)
 }
 

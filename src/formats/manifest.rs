@@ -105,8 +105,7 @@ pub struct Manifest {
 impl Manifest {
     /// Parses a manifest.
     pub fn parse(path: &Path, src: &str) -> Result<Manifest, SourceError> {
-        let m: Manifest =
-            serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))?;
+        let m: Manifest = crate::input::parse_yaml(path, src)?;
         if m.fivecal_plan != MANIFEST_VERSION {
             return Err(SourceError::at_key(
                 path,
@@ -123,8 +122,7 @@ impl Manifest {
 
     /// Reads a manifest file.
     pub fn read(path: &Path) -> Result<Manifest, SourceError> {
-        let src = std::fs::read_to_string(path)
-            .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read plan manifest: {e}")))?;
+        let src = crate::input::read_text(path, "plan manifest", crate::limits::MAX_YAML_BYTES)?;
         Manifest::parse(path, &src)
     }
 

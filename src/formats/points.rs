@@ -213,8 +213,8 @@ impl PlanPoints {
 
     /// Reads a file.
     pub fn read(path: &Path) -> Result<PlanPoints, SourceError> {
-        let src = std::fs::read_to_string(path)
-            .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read: {e}")))?;
+        let src =
+            crate::input::read_text(path, "points file", crate::limits::MAX_MEASUREMENT_BYTES)?;
         PlanPoints::parse(path, &src)
     }
 }

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Dialect, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
 use crate::geom::Axis3;
+use crate::limits::{MAX_MACHINE_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN};
 use crate::source::SourceError;
 
 /// A machine file as written (see `examples/machines/*.yaml`).
@@ -69,7 +70,7 @@ pub struct HeadFile {
 }
 
 pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
-    let f: MachineFile = serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))?;
+    let f: MachineFile = crate::input::parse_yaml(path, src)?;
     let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
 
     // Linear axes: exactly X, Y, Z with min < max.
@@ -318,11 +319,49 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             ));
         }
     }
-    for (k, v) in [("linear", f.rapid.linear), ("rotary", f.rapid.rotary)] {
-        if !(v.is_finite() && v > 0.0) {
+    for (k, v, (lo, hi), unit) in [
+        ("linear", f.rapid.linear, RAPID_LINEAR_MM_PER_MIN, "mm/min"),
+        (
+            "rotary",
+            f.rapid.rotary,
+            RAPID_ROTARY_DEG_PER_MIN,
+            "deg/min",
+        ),
+    ] {
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
             return Err(err(
                 &["rapid", k],
-                format!("rapid {k} rate must be > 0, got {v}"),
+                format!(
+                    "rapid {k} rate {v} {unit} is not a machine's: expected {lo} to {hi} {unit}"
+                ),
+            ));
+        }
+    }
+    // Lengths beyond 100 m are a unit mistake (um for mm), and would make
+    // every later check (stock on the table, strokes) blame the wrong key.
+    let mut lengths: Vec<(Vec<&str>, f64)> = Vec::new();
+    for (k, v) in &f.linear_axes {
+        lengths.push((vec!["linear_axes", k.as_str()], v[0]));
+        lengths.push((vec!["linear_axes", k.as_str()], v[1]));
+    }
+    for v in f.pivot {
+        lengths.push((vec!["pivot"], v));
+    }
+    lengths.push((vec!["table", "surface"], f.table.surface));
+    lengths.push((vec!["table", "radius"], f.table.radius));
+    lengths.push((vec!["head", "pivot_length"], pivot_length));
+    lengths.push((vec!["tool", "diameter"], f.tool.diameter));
+    lengths.push((vec!["tool", "length"], f.tool.length));
+    lengths.push((vec!["probe", "ball_diameter"], f.probe.ball_diameter));
+    lengths.push((vec!["probe", "length"], f.probe.length));
+    for (keys, v) in lengths {
+        if v.abs() > MAX_MACHINE_MM {
+            return Err(err(
+                &keys,
+                format!(
+                    "{} {v} mm is beyond any machine tool (at most {MAX_MACHINE_MM} mm): is it in um?",
+                    keys.join(".")
+                ),
             ));
         }
     }

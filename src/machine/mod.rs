@@ -248,20 +248,49 @@ pub struct Machine {
 /// Why a machine could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum MachineError {
-    /// The file could not be read.
-    #[error("cannot read machine file {path}: {cause}")]
-    Read {
-        /// The path.
-        path: PathBuf,
-        /// The cause (in the message, not chained, so it prints once).
-        cause: std::io::Error,
-    },
-    /// Neither a file nor a built-in machine of that name exists.
-    #[error("no machine file `{0}` and no built-in machine of that name (built-in: {1})")]
+    /// The name is neither a built-in machine nor a path.
+    #[error(
+        "no built-in machine `{0}` (built-in: {1}); a machine file is named by its path, with a `/` or a `.yaml` extension (./{0}.yaml)"
+    )]
     NotFound(String, String),
     /// The file is malformed or inconsistent.
     #[error(transparent)]
     Invalid(#[from] SourceError),
+}
+
+/// Where a machine named on the command line came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MachineOrigin {
+    /// One of [`BUILTIN`].
+    BuiltIn,
+    /// A machine file.
+    File(PathBuf),
+}
+
+impl std::fmt::Display for MachineOrigin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MachineOrigin::BuiltIn => f.write_str("built in"),
+            MachineOrigin::File(p) => write!(f, "machine file {}", p.display()),
+        }
+    }
+}
+
+/// Whether a command-line name is a path (with a `/` or a `.yaml` or
+/// `.yml` extension) rather than a built-in name.
+pub fn is_path_spec(spec: &str) -> bool {
+    spec.contains('/')
+        || spec.contains(std::path::MAIN_SEPARATOR)
+        || spec.ends_with(".yaml")
+        || spec.ends_with(".yml")
+}
+
+fn builtin_names() -> String {
+    BUILTIN
+        .iter()
+        .map(|(n, _)| *n)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Built-in machines: (name, YAML text).
@@ -298,27 +327,34 @@ impl Machine {
         })
     }
 
-    /// Loads a machine: a path when it exists, else a built-in name.
+    /// Reads a machine file at `path` (whatever its name).
+    pub fn from_file(path: &Path) -> Result<Machine, MachineError> {
+        let src = crate::input::read_text(path, "machine file", crate::limits::MAX_YAML_BYTES)?;
+        Machine::from_yaml(path, &src)
+    }
+
+    /// Loads a machine named on the command line (see [`Machine::resolve`]).
     pub fn load(spec: &str) -> Result<Machine, MachineError> {
-        let path = Path::new(spec);
-        if path.exists() {
-            let src = std::fs::read_to_string(path).map_err(|cause| MachineError::Read {
-                path: path.to_path_buf(),
-                cause,
-            })?;
-            return Machine::from_yaml(path, &src);
+        Ok(Machine::resolve(spec)?.0)
+    }
+
+    /// Loads a machine named on the command line, and says where it came
+    /// from: a built-in name means the built-in machine (a file of that
+    /// name in the working directory does not replace it); a file is taken
+    /// only as a path, with a `/` or a `.yaml`/`.yml` extension.
+    pub fn resolve(spec: &str) -> Result<(Machine, MachineOrigin), MachineError> {
+        if let Some(m) = Machine::builtin(spec) {
+            return Ok((m, MachineOrigin::BuiltIn));
         }
-        let stem = spec.strip_suffix(".yaml").unwrap_or(spec);
-        Machine::builtin(stem).ok_or_else(|| {
-            MachineError::NotFound(
-                spec.to_string(),
-                BUILTIN
-                    .iter()
-                    .map(|(n, _)| *n)
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            )
-        })
+        let path = Path::new(spec);
+        if !is_path_spec(spec) {
+            return Err(MachineError::NotFound(spec.to_string(), builtin_names()));
+        }
+        let src = crate::input::read_text(path, "machine file", crate::limits::MAX_YAML_BYTES)?;
+        Ok((
+            Machine::from_yaml(path, &src)?,
+            MachineOrigin::File(path.to_path_buf()),
+        ))
     }
 
     /// Letter of the tilt axis (`A` or `B`).

@@ -140,8 +140,11 @@ impl LoadedPlan {
 }
 
 fn read(path: &Path, what: &str) -> Result<String, SourceError> {
-    std::fs::read_to_string(path)
-        .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read the plan's {what}: {e}")))
+    crate::input::read_text(
+        path,
+        &format!("plan's {what}"),
+        crate::limits::MAX_YAML_BYTES,
+    )
 }
 
 /// What both kinds read from a plan directory.

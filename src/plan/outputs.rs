@@ -12,7 +12,7 @@ use super::design::{push_notes, round, short};
 use super::{PlannedTest, RenderedProgram};
 use crate::formats::dmis_program::{self, DmisMoves, Probing};
 use crate::formats::manifest::{MANIFEST_VERSION, Manifest, PoseEntry};
-use crate::io::{OutputError, ensure_not_input, write_atomic};
+use crate::io::{OutputError, StagedDir, ensure_not_input};
 
 pub(crate) fn file_names(t: &PlannedTest, stem: &str) -> Vec<(&'static str, PathBuf)> {
     let mut v = vec![
@@ -320,8 +320,10 @@ pub(super) fn write_all(
     for p in &paths {
         ensure_not_input(p, inputs)?;
     }
-    for ((_, bytes), p) in outs.iter().zip(&paths) {
-        write_atomic(p, bytes)?;
+    // Staged: a plan that fails partway leaves the directory as it was.
+    let mut stage = StagedDir::create(dir)?;
+    for (name, bytes) in outs {
+        stage.write(name, bytes)?;
     }
-    Ok(paths)
+    stage.commit()
 }

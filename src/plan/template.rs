@@ -314,6 +314,7 @@ impl Template {
             path: path.to_path_buf(),
             text: src.to_string(),
         };
+        crate::input::check_yaml(path, src)?;
         let yaml = |e: serde_yaml::Error| SourceError::from_yaml(path, &e);
         let head: Head = serde_yaml::from_str(src).map_err(|e| {
             let mut se = yaml(e);

@@ -163,19 +163,11 @@ struct TemplateSpot {
 /// Why a definition could not be loaded.
 #[derive(Debug, thiserror::Error)]
 pub enum DefinitionError {
-    /// Neither a file nor a built-in definition.
+    /// Neither a path nor a built-in definition.
     #[error(
-        "no postprocessor file `{0}` and no built-in postprocessor of that name (built-in: fanuc, heidenhain, linuxcnc)"
+        "no built-in postprocessor `{0}` (built-in: fanuc, heidenhain, linuxcnc); a postprocessor file is named by its path, with a `/` or a `.yaml` extension (./{0}.yaml)"
     )]
     NotFound(String),
-    /// The file could not be read.
-    #[error("cannot read postprocessor {path}: {source}")]
-    Read {
-        /// Path.
-        path: PathBuf,
-        /// Cause.
-        source: std::io::Error,
-    },
     /// Malformed definition or template.
     #[error(transparent)]
     Invalid(#[from] SourceError),
@@ -248,27 +240,24 @@ impl PostDefinition {
             .expect("built-in postprocessors are valid")
     }
 
-    /// Loads a definition: a path when it exists, else a built-in name.
+    /// Loads a definition named on the command line: a built-in dialect
+    /// name means the built-in definition; a file is taken only as a path,
+    /// with a `/` or a `.yaml` extension (as machines are).
     pub fn load(spec: &str) -> Result<PostDefinition, DefinitionError> {
+        if !crate::machine::is_path_spec(spec) {
+            return match spec.parse::<Dialect>() {
+                Ok(d) => Ok(PostDefinition::builtin(d)),
+                Err(_) => Err(DefinitionError::NotFound(spec.to_string())),
+            };
+        }
         let path = Path::new(spec);
-        if path.exists() {
-            let src = std::fs::read_to_string(path).map_err(|source| DefinitionError::Read {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            return Ok(PostDefinition::parse(path, &src)?);
-        }
-        let stem = spec.strip_suffix(".yaml").unwrap_or(spec);
-        match stem.parse::<Dialect>() {
-            Ok(d) => Ok(PostDefinition::builtin(d)),
-            Err(_) => Err(DefinitionError::NotFound(spec.to_string())),
-        }
+        let src = crate::input::read_text(path, "postprocessor", crate::limits::MAX_YAML_BYTES)?;
+        Ok(PostDefinition::parse(path, &src)?)
     }
 
     /// Parses and validates a definition's text; `path` is used in errors.
     pub fn parse(path: &Path, src: &str) -> Result<PostDefinition, SourceError> {
-        let f: DefinitionFile =
-            serde_yaml::from_str(src).map_err(|e| SourceError::from_yaml(path, &e))?;
+        let f: DefinitionFile = crate::input::parse_yaml(path, src)?;
         let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
         if f.line_limit < 20 {
             return Err(err(
@@ -365,6 +354,8 @@ impl PostDefinition {
 
         let mut env = Environment::new();
         env.set_undefined_behavior(UndefinedBehavior::Strict);
+        // A step budget per block: a runaway loop ends with an error.
+        env.set_fuel(Some(crate::limits::TEMPLATE_FUEL));
         env.set_debug(true);
         let nums = f.numbers.clone();
         let fmt = |nf: NumberFormat| move |v: f64| nf.format(v);
@@ -405,7 +396,23 @@ impl PostDefinition {
                 def.render_template(name, ctx)?;
             }
         }
+        // The engine's safety rules rest on templates that do what their
+        // names say: a retract moves Z alone, a rapid writes its words, a
+        // rotary index moves no linear axis.
+        super::render::check_motion_templates(&def)
+            .map_err(|(name, msg)| def.error_at(name, msg))?;
         Ok(def)
+    }
+
+    /// An error located at the start of template `name`.
+    pub(super) fn error_at(&self, name: &str, message: String) -> SourceError {
+        let spot = self.spots.get(name);
+        SourceError::new(
+            &self.path,
+            spot.map_or(0, |s| s.line),
+            spot.map_or(0, |s| s.column),
+            format!("template `{name}`: {message}"),
+        )
     }
 
     /// Whether the definition has a template.
@@ -495,7 +502,14 @@ fn template_error(
     } else {
         (spot.line, spot.column + tcol)
     };
-    let detail = e.detail().map(|d| format!(": {d}")).unwrap_or_default();
+    let detail = if e.kind() == minijinja::ErrorKind::OutOfFuel {
+        format!(
+            ": more than {} steps to render one block (a loop without end?)",
+            crate::limits::TEMPLATE_FUEL
+        )
+    } else {
+        e.detail().map(|d| format!(": {d}")).unwrap_or_default()
+    };
     SourceError::new(
         path,
         line,

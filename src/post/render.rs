@@ -339,8 +339,21 @@ impl PostDefinition {
                     // it is the marker the safety rule and readers rely on.
                     last[2] = None;
                     let (words, _) = self.words(&t, &mut last);
-                    let ctx = context! { words, z => *z };
-                    out.push_all(&self.render_template("retract", ctx)?)?;
+                    let ctx = context! { words => words.as_str(), z => *z };
+                    let block = self.render_template("retract", ctx)?;
+                    // Whatever the template says, a retract reaches the
+                    // safe height before a rotary index may follow.
+                    if !block.contains(&words) || moves_axes(&block, &['X', 'Y']) {
+                        return Err(rule(
+                            index,
+                            op,
+                            format!(
+                                "the retract template wrote `{}`, which does not move Z alone to `{words}`",
+                                block.trim()
+                            ),
+                        ));
+                    }
+                    out.push_all(&block)?;
                     retracted = true;
                 }
                 Op::Rotary { tilt, c } => {
@@ -629,6 +642,112 @@ impl PostDefinition {
         }
         Ok(())
     }
+}
+
+/// Whether a rendered block moves one of `axes`: a letter not preceded by
+/// a letter (so `FMAX` is not an X word) and followed by a number, sign,
+/// point or variable, outside comments (`(...)`, `;...`).
+fn moves_axes(text: &str, axes: &[char]) -> bool {
+    text.lines().any(|line| {
+        let code = line.split(';').next().unwrap_or("");
+        let mut depth = 0usize;
+        let mut prev = ' ';
+        let cs: Vec<char> = code.chars().collect();
+        for (i, &c) in cs.iter().enumerate() {
+            match c {
+                '(' => depth += 1,
+                ')' => depth = depth.saturating_sub(1),
+                _ if depth == 0
+                    && axes.contains(&c)
+                    && !prev.is_ascii_alphabetic()
+                    && cs.get(i + 1).is_some_and(|n| {
+                        n.is_ascii_digit() || matches!(n, '+' | '-' | '.' | '#' | '[' | 'Q')
+                    }) =>
+                {
+                    return true;
+                }
+                _ => {}
+            }
+            prev = c;
+        }
+        false
+    })
+}
+
+/// Checks that the templates the safety rules rest on do what their names
+/// say, rendered with sample positions in the definition's own number
+/// format: `retract` writes the Z word it is given and no X or Y word,
+/// `rapid` writes every word it is given, `rotary` writes both rotary
+/// words and no linear axis. Returns the template and what is wrong.
+pub(super) fn check_motion_templates(def: &PostDefinition) -> Result<(), (&'static str, String)> {
+    let len = |v: f64| def.numbers.length.format(v);
+    for z in [100.0, 137.5] {
+        let words = format!("Z{}", len(z));
+        let got = def
+            .render_template("retract", context! { words => words.as_str(), z })
+            .map_err(|e| ("retract", e.message))?;
+        if !got.contains(&words) {
+            return Err((
+                "retract",
+                format!(
+                    "given `{words}` it writes `{}`, which does not retract to the safe height: it must write the Z word (`{{{{ words }}}}`)",
+                    got.trim()
+                ),
+            ));
+        }
+        if moves_axes(&got, &['X', 'Y']) {
+            return Err((
+                "retract",
+                format!(
+                    "given `{words}` it writes `{}`, which also moves X or Y: a retract moves Z alone",
+                    got.trim()
+                ),
+            ));
+        }
+    }
+    let (x, y, z) = (
+        format!("X{}", len(12.5)),
+        format!("Y{}", len(-7.0)),
+        format!("Z{}", len(30.0)),
+    );
+    let words = format!("{x} {y} {z}");
+    let got = def
+        .render_template(
+            "rapid",
+            context! { words => words.as_str(), x => x.as_str(), y => y.as_str(), z => z.as_str() },
+        )
+        .map_err(|e| ("rapid", e.message))?;
+    if ![&x, &y, &z].iter().all(|w| got.contains(w.as_str())) {
+        return Err((
+            "rapid",
+            format!(
+                "given `{words}` it writes `{}`: a rapid must write every word it is given (`{{{{ words }}}}`)",
+                got.trim()
+            ),
+        ));
+    }
+    let a = &def.numbers.angle;
+    let (tw, cw) = (
+        format!("B{}", a.format(30.0)),
+        format!("C{}", a.format(45.0)),
+    );
+    let words = format!("{tw} {cw}");
+    let got = def
+        .render_template(
+            "rotary",
+            context! { words => words.as_str(), tilt => 30.0, c => 45.0, tilt_letter => "B" },
+        )
+        .map_err(|e| ("rotary", e.message))?;
+    if !(got.contains(&tw) && got.contains(&cw)) || moves_axes(&got, &['X', 'Y', 'Z']) {
+        return Err((
+            "rotary",
+            format!(
+                "given `{words}` it writes `{}`: a rotary index writes both rotary words and no X, Y or Z word",
+                got.trim()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn header_context(def: &PostDefinition, info: &ProgramInfo) -> Value {

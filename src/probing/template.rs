@@ -47,8 +47,7 @@ impl TemplateSource {
     pub fn load(spec: &str) -> Result<TemplateSource, SourceError> {
         let path = Path::new(spec);
         if path.exists() {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read: {e}")))?;
+            let text = crate::input::read_text(path, "template", crate::limits::MAX_YAML_BYTES)?;
             return Ok(TemplateSource {
                 path: path.to_path_buf(),
                 text,
@@ -534,6 +533,7 @@ impl ColumnsTemplate {
 
     /// Parses and validates a template.
     pub fn parse(source: TemplateSource) -> Result<ColumnsTemplate, SourceError> {
+        crate::input::check_yaml(&source.path, &source.text)?;
         let f: ColumnsFile = serde_yaml::from_str(&source.text)
             .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
         let src = &source;
@@ -722,6 +722,7 @@ impl SphereTemplate {
 
     /// Parses and validates a template.
     pub fn parse(source: TemplateSource) -> Result<SphereTemplate, SourceError> {
+        crate::input::check_yaml(&source.path, &source.text)?;
         let f: SphereFile = serde_yaml::from_str(&source.text)
             .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
         let src = &source;
@@ -895,6 +896,7 @@ impl ProbeTemplate {
             #[serde(default)]
             test: Option<String>,
         }
+        crate::input::check_yaml(&source.path, &source.text)?;
         let head: Head = serde_yaml::from_str(&source.text)
             .map_err(|e| SourceError::from_yaml(&source.path, &e))?;
         match head.test.as_deref() {

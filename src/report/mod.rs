@@ -17,7 +17,7 @@ use crate::analyze::uncertainty::McResult;
 use crate::errorfile::ErrorFile;
 use crate::formats::manifest::TestKind;
 use crate::identify::{Dataset, Identification};
-use crate::io::{OutputError, write_atomic};
+use crate::io::{OutputError, StagedDir};
 use crate::kinematics::symbols::Unit;
 use crate::model::Effect;
 use glb::ShownPoint;
@@ -133,11 +133,10 @@ fn fmt_opt(u: Option<f64>) -> String {
 
 /// Writes the report into `dir`; returns the files written.
 pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportError> {
-    let mut files = Vec::new();
-    let put = |name: &str, bytes: &[u8], files: &mut Vec<PathBuf>| -> Result<(), ReportError> {
-        let p = dir.join(name);
-        write_atomic(&p, bytes)?;
-        files.push(p);
+    // Every file is staged: the report appears whole or not at all.
+    let mut files = StagedDir::create(dir)?;
+    let put = |name: &str, bytes: &[u8], files: &mut StagedDir| -> Result<(), ReportError> {
+        files.write(Path::new(name), bytes)?;
         Ok(())
     };
     let est = r.est;
@@ -419,7 +418,7 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
     }
     h.push_str("</body></html>\n");
     put("index.html", h.as_bytes(), &mut files)?;
-    Ok(files)
+    Ok(files.commit()?)
 }
 
 /// Residuals grouped by pose for the residual plot: (pose id, (running

@@ -1,7 +1,12 @@
 //! The `fivecal` binary: parses the command line, turns it into one
 //! validated configuration per command, calls the library and reports
-//! errors with their context chain. Exit codes: 0 success, 2 error.
+//! errors with their context chain. Exit codes: 0 success, 2 error, 141
+//! when standard output's reader went away (after every file was written),
+//! and the signal's own status on SIGINT or SIGTERM (temporary files
+//! removed first).
 
+#[macro_use]
+mod out;
 mod cmd;
 
 use std::process::ExitCode;
@@ -48,8 +53,28 @@ enum Command {
     Man,
 }
 
+/// On SIGINT, SIGTERM or SIGHUP: remove the temporary files of outputs
+/// not yet complete, then end as the signal would have.
+fn clean_up_on_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(sig) = signals.forever().next() {
+            fivecal::io::remove_temporaries();
+            let _ = signal_hook::low_level::emulate_default_handler(sig);
+            std::process::exit(128 + sig);
+        }
+    });
+}
+
+/// The status of a process ended by SIGPIPE (128 + 13).
+const BROKEN_PIPE: u8 = 141;
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    clean_up_on_signals();
     let result = match cli.command {
         Command::Plan(a) => cmd::plan::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
@@ -62,13 +87,23 @@ fn main() -> ExitCode {
         Command::Man => cmd::docs::man(),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) if fivecal::io::stdout_closed() => ExitCode::from(BROKEN_PIPE),
+        Ok(()) => match out::failure() {
+            None => ExitCode::SUCCESS,
+            Some(e) => {
+                eprintln!("error: cannot write to standard output: {e}");
+                ExitCode::from(2)
+            }
+        },
         Err(err) => {
-            if err.chain().any(|e| {
+            let broken_pipe = err.chain().any(|e| {
                 e.downcast_ref::<std::io::Error>()
                     .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-            }) {
-                return ExitCode::SUCCESS;
+                    || e.downcast_ref::<fivecal::io::OutputError>()
+                        .is_some_and(|o| o.is_broken_pipe())
+            });
+            if broken_pipe {
+                return ExitCode::from(BROKEN_PIPE);
             }
             eprintln!("error: {err:#}");
             ExitCode::from(2)

@@ -14,7 +14,7 @@ use fivecal::analyze::{
 };
 use fivecal::identify::Method;
 use fivecal::identify::sphere::CircleMethod;
-use fivecal::io::ensure_not_input;
+use fivecal::io::{Shape, check_outputs};
 use fivecal::report::{self, ReportInput};
 
 #[derive(Args, Debug)]
@@ -114,12 +114,13 @@ fn contributors(spec: Option<&str>) -> anyhow::Result<ContributorChoice> {
         Some("seed000") => ContributorChoice::Given(analyze::Contributors::seed000()),
         Some("noise") => ContributorChoice::NoiseOnly,
         Some(path) => {
-            let src = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read contributors file {path}"))?;
-            ContributorChoice::Given(
-                serde_yaml::from_str(&src)
-                    .map_err(|e| fivecal::source::SourceError::from_yaml(Path::new(path), &e))?,
-            )
+            let path = Path::new(path);
+            let src = fivecal::input::read_text(
+                path,
+                "contributors file",
+                fivecal::limits::MAX_YAML_BYTES,
+            )?;
+            ContributorChoice::Given(fivecal::input::parse_yaml(path, &src)?)
         }
     })
 }
@@ -138,7 +139,11 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         .map_err(anyhow::Error::msg)?;
     let contributors = contributors(a.contributors.as_deref())?;
     let monte_carlo = match a.mc {
-        Some(0 | 1) => bail!("--mc needs at least 2 runs"),
+        Some(n @ (0 | 1)) => bail!("--mc {n}: the Monte-Carlo study needs at least 2 runs"),
+        Some(n) if n > fivecal::limits::MAX_MC_RUNS => bail!(
+            "--mc {n}: at most {} runs (the spread of u settles within a few hundred)",
+            fivecal::limits::MAX_MC_RUNS
+        ),
         Some(runs) => Some(MonteCarlo {
             options: McOptions {
                 runs,
@@ -151,7 +156,10 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     };
     let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
     inputs.push(&manifest);
-    ensure_not_input(&out, &inputs)?;
+    inputs.extend(a.compare.as_deref());
+    let mut outputs = vec![("--out", out.as_path(), Shape::File)];
+    outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
+    check_outputs(&inputs, &outputs)?;
     if a.series && a.measured.len() < 2 {
         bail!("--series needs two or more measured files, one per piece");
     }
@@ -194,7 +202,7 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
         if let Some(dir) = &c.report {
             let dir = piece.report_dir(dir);
             let files = report::write(&dir, &ReportInput::for_piece(&id.test, piece))?;
-            println!(
+            outln!(
                 "report: {} ({} files)",
                 dir.join("index.html").display(),
                 files.len()
@@ -202,7 +210,7 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
         }
     }
     if let Some(series) = &id.series {
-        print!(
+        out!(
             "\nseries of {} pieces:\n{}",
             id.pieces.len(),
             series.render()
@@ -210,15 +218,15 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
     }
     analyze::result::write(outcome, &c.out, c.json)?;
     if id.series.is_some() {
-        println!(
+        outln!(
             "wrote {} and one error file per piece beside it",
             c.out.display()
         );
     } else {
-        println!("wrote {}", c.out.display());
+        outln!("wrote {}", c.out.display());
     }
     if let Some(cmp) = &id.comparison {
-        print!(
+        out!(
             "\ncomparison with {}: the value (u) in each result, then the change from it (combined u):\n{}",
             cmp.table.pieces[0],
             cmp.render()
@@ -234,22 +242,24 @@ fn print_piece(p: &Piece) {
         eprintln!("warning: {w}");
     }
     if let Some(k) = p.number {
-        println!("== piece {k}: {}", p.name());
+        outln!("== piece {k}: {}", p.name());
     }
-    print!("{}", p.est.summary());
+    out!("{}", p.est.summary());
     if let Some(s) = &p.monte_carlo {
         if let Some(w) = &s.warning {
             eprintln!("warning: {w}");
         }
-        println!(
+        outln!(
             "monte carlo: {} runs (seed {}) {}",
-            s.result.runs, s.seed, s.how
+            s.result.runs,
+            s.seed,
+            s.how
         );
         for n in &s.not_included {
-            println!("  not included: {n}");
+            outln!("  not included: {n}");
         }
         for r in &s.rows {
-            println!(
+            outln!(
                 "  {:<24} u(covariance) {:>8.3}   u(monte carlo) {:>8.3}",
                 r.name,
                 r.covariance.unwrap_or(f64::NAN),
@@ -257,15 +267,25 @@ fn print_piece(p: &Piece) {
             );
         }
     }
-    println!("residuals by pose and face (um):");
-    println!(
+    outln!("residuals by pose and face (um):");
+    outln!(
         "  {:<12} {:<22} {:>6} {:>9} {:>9} {:>9}",
-        "pose", "face", "points", "mean", "rms", "max"
+        "pose",
+        "face",
+        "points",
+        "mean",
+        "rms",
+        "max"
     );
     for r in p.est.residual_table(&p.data) {
-        println!(
+        outln!(
             "  {:<12} {:<22} {:>6} {:>9.3} {:>9.3} {:>9.3}",
-            r.pose, r.face, r.points, r.mean_um, r.rms_um, r.max_um
+            r.pose,
+            r.face,
+            r.points,
+            r.mean_um,
+            r.rms_um,
+            r.max_um
         );
     }
 }
@@ -274,16 +294,18 @@ fn print_piece(p: &Piece) {
 /// identify.
 fn nine_section(c: &Config, outcome: &Outcome, n: &NineSectionOutcome) -> anyhow::Result<()> {
     for (p, s) in &n.stats {
-        println!("{}:\n{}", p.display(), s.render());
+        outln!("{}:\n{}", p.display(), s.render());
     }
     if let Some(r) = n.improvement {
-        println!(
+        outln!(
             "rate of improvement from the first to the last: AVG {:.2} %, MAX {:.2} %, RMS {:.2} %",
-            r[0], r[1], r[2]
+            r[0],
+            r[1],
+            r[2]
         );
     }
     if let Some(first) = n.not_identifiable.first() {
-        println!(
+        outln!(
             "not identifiable: {} ({})",
             n.not_identifiable
                 .iter()
@@ -294,6 +316,6 @@ fn nine_section(c: &Config, outcome: &Outcome, n: &NineSectionOutcome) -> anyhow
         );
     }
     analyze::result::write(outcome, &c.out, c.json)?;
-    println!("wrote {}", c.out.display());
+    outln!("wrote {}", c.out.display());
     Ok(())
 }

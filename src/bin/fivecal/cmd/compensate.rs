@@ -5,14 +5,14 @@
 //! error and program options shared with `simulate nc` in [`Common`]); the
 //! library does the work.
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::{Args, ValueEnum};
 use fivecal::compensate::{AtomicOutput, Compensator, Coordinates, Settings, Summary, export};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
+use fivecal::io::{Shape, check_outputs};
+use fivecal::machine::MachineOrigin;
 use fivecal::{Dialect, Kinematics, Machine};
 use nalgebra::Vector3;
 
@@ -61,6 +61,8 @@ pub struct MachineArgs {
 /// The validated shared options.
 pub struct Common {
     pub machine: Machine,
+    /// Where the machine came from (built in or a file).
+    pub machine_origin: MachineOrigin,
     pub kin: Kinematics,
     pub dialect: Dialect,
     pub origin: Vector3<f64>,
@@ -77,18 +79,32 @@ fn parse_triple(s: &str, what: &str) -> anyhow::Result<Vector3<f64>> {
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
         .ok()
-        .filter(|v: &Vec<f64>| v.len() == 3 && v.iter().all(|x| x.is_finite()))
-        .with_context(|| format!("{what} `{s}`: expected three numbers X,Y,Z (mm)"))?;
+        .filter(|v: &Vec<f64>| {
+            v.len() == 3
+                && v.iter()
+                    .all(|x| x.is_finite() && x.abs() <= fivecal::limits::MAX_MACHINE_MM)
+        })
+        .with_context(|| {
+            format!(
+                "{what} `{s}`: expected three numbers X,Y,Z (mm, each within {} mm)",
+                fivecal::limits::MAX_MACHINE_MM
+            )
+        })?;
     Ok(Vector3::new(v[0], v[1], v[2]))
 }
 
 impl MachineArgs {
     pub fn validate(&self) -> anyhow::Result<Common> {
-        let machine = Machine::load(&self.machine)
+        let (machine, machine_origin) = Machine::resolve(&self.machine)
             .with_context(|| format!("cannot load machine `{}`", self.machine))?;
         let kin = match self.tool_length {
-            Some(l) if l.is_finite() && l > 0.0 => Kinematics::with_gauge_length(&machine, l),
-            Some(l) => bail!("--tool-length {l}: expected a gauge length > 0 mm"),
+            Some(l) if l.is_finite() && l > 0.0 && l <= fivecal::limits::MAX_MACHINE_MM => {
+                Kinematics::with_gauge_length(&machine, l)
+            }
+            Some(l) => bail!(
+                "--tool-length {l}: expected a gauge length > 0 mm and at most {} mm",
+                fivecal::limits::MAX_MACHINE_MM
+            ),
             None => Kinematics::new(&machine),
         };
         let dialect = match &self.dialect {
@@ -105,11 +121,12 @@ impl MachineArgs {
             _ => 0.0001,
         });
         let mut inputs = Vec::new();
-        if Path::new(&self.machine).exists() {
-            inputs.push(PathBuf::from(&self.machine));
+        if let MachineOrigin::File(p) = &machine_origin {
+            inputs.push(p.clone());
         }
         Ok(Common {
             machine,
+            machine_origin,
             kin,
             dialect,
             origin,
@@ -185,8 +202,12 @@ impl CompensateArgs {
         let mut common = self.machine.validate()?;
         let errors = load_errors(&self.errors, &common.kin)?;
         common.inputs.push(self.errors.clone());
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            bail!("--tolerance {}: expected a distance > 0 um", self.tolerance);
+        let min_tol = fivecal::limits::MIN_TOLERANCE_UM;
+        if !(self.tolerance.is_finite() && self.tolerance >= min_tol) {
+            bail!(
+                "--tolerance {}: expected a distance of at least {min_tol} um (finer than any control resolves)",
+                self.tolerance
+            );
         }
         if !(self.max_correction.is_finite() && self.max_correction > 0.0) {
             bail!(
@@ -230,9 +251,6 @@ impl CompensateArgs {
         };
         let rewrite = match (self.input, self.output) {
             (Some(i), Some(o)) => {
-                let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
-                inputs.push(&i);
-                fivecal::io::ensure_not_input(&o, &inputs)?;
                 if !i.exists() {
                     bail!("cannot read program {}: no such file", i.display());
                 }
@@ -252,6 +270,13 @@ impl CompensateArgs {
             }
         };
         // With a program, the parameters go next to the rewritten one.
+        if export.as_ref().is_some_and(|(_, t)| t.is_none())
+            && rewrite.as_ref().is_some_and(|(_, o)| o.as_os_str() == "-")
+        {
+            bail!(
+                "-o - writes the program to standard output: name the --export parameter file with --export-to FILE"
+            );
+        }
         let export = export.map(|(d, target)| {
             let target = target.or_else(|| {
                 rewrite.as_ref().map(|(_, out)| {
@@ -262,6 +287,22 @@ impl CompensateArgs {
             });
             (d, target)
         });
+        // Every output checked before any work: none is an input, none is
+        // another output, each can be written as a file.
+        let inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
+        let mut outputs = Vec::new();
+        outputs.extend(
+            rewrite
+                .as_ref()
+                .map(|(_, o)| ("-o", o.as_path(), Shape::File)),
+        );
+        outputs.extend(
+            export
+                .as_ref()
+                .and_then(|(_, t)| t.as_deref())
+                .map(|t| ("--export-to", t, Shape::File)),
+        );
+        check_outputs(&inputs, &outputs)?;
         Ok(Config {
             common,
             errors_path: self.errors,
@@ -276,14 +317,13 @@ impl CompensateArgs {
 pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     let cfg = args.validate()?;
     if let Some((input, output)) = &cfg.rewrite {
-        let file = File::open(input)
-            .with_context(|| format!("cannot read program {}", input.display()))?;
+        let file = fivecal::input::open_stream(input, "NC program")?;
         let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, cfg.settings.clone());
         let mut out = AtomicOutput::create(output)?;
         // On any error `out` is dropped: its temporary file goes, nothing is written.
-        let summary = c.run(input, BufReader::with_capacity(1 << 16, file), &mut out)?;
+        let summary = c.run(input, file, &mut out)?;
         out.commit()?;
-        print!("{}", describe(&summary, input, output, &cfg));
+        out!("{}", describe(&summary, input, output, &cfg));
     }
     if let Some((d, target)) = &cfg.export {
         let text = export::export(
@@ -294,12 +334,10 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         )?;
         match target {
             Some(p) => {
-                let inputs: Vec<&Path> = cfg.common.inputs.iter().map(|p| p.as_path()).collect();
-                fivecal::io::ensure_not_input(p, &inputs)?;
                 fivecal::io::write_atomic(p, text.as_bytes())?;
-                println!("{d} parameters written to {}", p.display());
+                outln!("{d} parameters written to {}", p.display());
             }
-            None => print!("{text}"),
+            None => out!("{text}"),
         }
     }
     Ok(())
@@ -312,11 +350,12 @@ fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
     let m = &cfg.common.machine;
     let _ = writeln!(
         t,
-        "compensated {} -> {} ({}, machine {}, errors {})",
+        "compensated {} -> {} ({}, machine {} ({}), errors {})",
         input.display(),
         output.display(),
         cfg.settings.dialect,
         m.name,
+        cfg.common.machine_origin,
         cfg.errors_path.display()
     );
     let _ = writeln!(

@@ -5,7 +5,6 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::Context as _;
 use clap::Args;
 use fivecal::contour::{Mesh, Surface, evaluate};
 use fivecal::formats::measured;
@@ -25,11 +24,17 @@ pub struct ContourArgs {
 
 pub fn run(args: ContourArgs) -> anyhow::Result<()> {
     if let Some(o) = &args.output {
-        fivecal::io::ensure_not_input(o, &[&args.model, &args.measured])?;
+        fivecal::io::check_outputs(
+            &[&args.model, &args.measured],
+            &[("--output", o, fivecal::io::Shape::File)],
+        )?;
     }
     let mesh = Mesh::load(&args.model)?;
-    let src = std::fs::read_to_string(&args.measured)
-        .with_context(|| format!("cannot read {}", args.measured.display()))?;
+    let src = fivecal::input::read_text(
+        &args.measured,
+        "CSV file",
+        fivecal::limits::MAX_MEASUREMENT_BYTES,
+    )?;
     let points = measured::parse_csv(&args.measured, &src)?;
     anyhow::ensure!(
         !points.is_empty(),
@@ -67,25 +72,28 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
         }
         fivecal::io::write_atomic(o, t.as_bytes())?;
     }
-    println!(
+    outln!(
         "contour errors of {} ({} points) against {} ({} triangles)",
         args.measured.display(),
         s.n,
         args.model.display(),
         mesh.triangles.len()
     );
-    println!("  mean |error| {:.4} mm", s.mean_abs);
-    println!(
+    outln!("  mean |error| {:.4} mm", s.mean_abs);
+    outln!(
         "  max  |error| {:.4} mm (point {})",
-        s.max_abs.0, s.max_abs.1
+        s.max_abs.0,
+        s.max_abs.1
     );
-    println!("  RMS          {:.4} mm", s.rms);
-    println!(
+    outln!("  RMS          {:.4} mm", s.rms);
+    outln!(
         "  signed: mean {:+.4} mm, from {:+.4} to {:+.4} mm",
-        s.mean, s.range.0, s.range.1
+        s.mean,
+        s.range.0,
+        s.range.1
     );
     if let Some(o) = &args.output {
-        println!("  per point: {}", o.display());
+        outln!("  per point: {}", o.display());
     }
     Ok(())
 }

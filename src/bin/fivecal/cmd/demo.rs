@@ -21,6 +21,7 @@ pub struct DemoArgs {
 }
 
 pub fn run(a: DemoArgs) -> anyhow::Result<()> {
+    fivecal::io::check_outputs(&[], &[("--out", &a.out, fivecal::io::Shape::Dir)])?;
     let cfg = DemoConfig {
         out: a.out,
         seed: a.seed,
@@ -51,7 +52,7 @@ pub fn run(a: DemoArgs) -> anyhow::Result<()> {
         b.finish_and_clear();
     }
     let d = result?;
-    print!("{}", d.summary());
-    println!("done in {:.1} s", start.elapsed().as_secs_f64());
+    out!("{}", d.summary());
+    outln!("done in {:.1} s", start.elapsed().as_secs_f64());
     Ok(())
 }

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, bail};
 use clap::Args;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
-use fivecal::io::{ensure_not_input, write_atomic};
+use fivecal::io::{Shape, check_outputs, write_atomic};
 
 /// Find where model and measurement disagree, name the missing effect, add
 /// it and show the gap shrink.
@@ -85,12 +85,10 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     }
     let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
     inputs.push(&manifest);
-    if let Some(out) = &a.out {
-        ensure_not_input(out, &inputs)?;
-    }
-    if let Some(dir) = &a.report {
-        ensure_not_input(&dir.join("index.html"), &inputs)?;
-    }
+    let mut outputs = Vec::new();
+    outputs.extend(a.out.as_deref().map(|o| ("--out", o, Shape::File)));
+    outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
+    check_outputs(&inputs, &outputs)?;
     let trim = |v: Vec<String>| -> Vec<String> {
         v.into_iter()
             .map(|s| s.trim().to_string())
@@ -122,17 +120,27 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
     }
     let d = inputs.discover(&c.options)?;
     if c.json {
-        println!("{}", serde_json::to_string_pretty(&d.story)?);
+        outln!("{}", serde_json::to_string_pretty(&d.story)?);
     } else {
-        print!("{}", d.story.render());
+        out!("{}", d.story.render());
     }
     let say = |s: String| {
         if c.json {
             eprintln!("{s}");
         } else {
-            println!("{s}");
+            outln!("{s}");
         }
     };
+    // The report first: it is the part that can fail (a plot), and a
+    // failed run leaves no result file behind.
+    if let Some(dir) = &c.report {
+        let files = discover::report::write(dir, &d, &inputs.data)?;
+        say(format!(
+            "report: {} ({} files)",
+            dir.join("index.html").display(),
+            files.len()
+        ));
+    }
     if let Some(out) = &c.out {
         let f = d.error_file(&inputs.data);
         let json = out.extension().is_some_and(|e| e == "json");
@@ -143,14 +151,6 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         };
         write_atomic(out, text.as_bytes())?;
         say(format!("wrote {}", out.display()));
-    }
-    if let Some(dir) = &c.report {
-        let files = discover::report::write(dir, &d, &inputs.data)?;
-        say(format!(
-            "report: {} ({} files)",
-            dir.join("index.html").display(),
-            files.len()
-        ));
     }
     Ok(())
 }

@@ -15,7 +15,7 @@ pub struct CompletionsArgs {
 
 pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
     let mut cmd = crate::Cli::command();
-    let mut out = std::io::stdout().lock();
+    let mut out = fivecal::io::stdout();
     clap_complete::generate(args.shell, &mut cmd, "fivecal", &mut out);
     out.flush()?;
     Ok(())
@@ -23,7 +23,7 @@ pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
 
 pub fn man() -> anyhow::Result<()> {
     let cmd = crate::Cli::command();
-    let mut out = std::io::stdout().lock();
+    let mut out = fivecal::io::stdout();
     clap_mangen::Man::new(cmd.clone()).render(&mut out)?;
     // One section per subcommand, as `man git` does it in one page.
     for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {

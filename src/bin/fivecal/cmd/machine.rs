@@ -23,14 +23,15 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
         MachineCommand::List => {
             for (name, _) in fivecal::machine::BUILTIN {
                 let m = Machine::builtin(name).expect("built-in machines are valid");
-                println!("{name:12} {}", m.description);
+                outln!("{name:12} {}", m.description);
             }
             Ok(())
         }
         MachineCommand::Show { file } => {
-            let m =
-                Machine::load(&file).with_context(|| format!("cannot load machine `{file}`"))?;
-            print!("{}", show(&m));
+            let (m, origin) =
+                Machine::resolve(&file).with_context(|| format!("cannot load machine `{file}`"))?;
+            outln!("from        {origin}");
+            out!("{}", show(&m));
             Ok(())
         }
     }

@@ -5,13 +5,12 @@
 //! validated configuration ([`PlanConfig`] or [`ProbingConfig`]) in
 //! [`config`], then the library plans and writes.
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::{Args, ValueEnum};
 use fivecal::formats::manifest::KinematicsMode;
-use fivecal::machine::{Machine, Tool};
+use fivecal::machine::{Machine, MachineOrigin, Tool};
 use fivecal::plan::template::check_tool;
 use fivecal::plan::{PlanConfig, ProbingConfig, Template, plan, plan_probing};
 use fivecal::post::PostDefinition;
@@ -73,6 +72,8 @@ struct Config {
     job: Job,
     out: PathBuf,
     inputs: Vec<PathBuf>,
+    /// Which machine the run used, built in or a file.
+    origin: String,
 }
 
 fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
@@ -81,8 +82,7 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
     }
     let (path, text, file) = if Path::new(spec).exists() {
         let p = PathBuf::from(spec);
-        let t =
-            std::fs::read_to_string(&p).with_context(|| format!("cannot read tool file {spec}"))?;
+        let t = fivecal::input::read_text(&p, "tool file", fivecal::limits::MAX_YAML_BYTES)?;
         (p.clone(), t, Some(p))
     } else if spec.trim_start().starts_with('{') {
         (PathBuf::from("<--tool>"), spec.to_string(), None)
@@ -91,7 +91,7 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
             "--tool `{spec}`: expected `machine`, a tool file, or an inline mapping such as '{{name: D6 ball, kind: ball, diameter: 6, length: 50}}'"
         );
     };
-    let tool: Tool = serde_yaml::from_str(&text).map_err(|e| SourceError::from_yaml(&path, &e))?;
+    let tool: Tool = fivecal::input::parse_yaml(&path, &text)?;
     check_tool(&tool).map_err(|(k, m)| SourceError::at_key(&path, &text, &[k], m))?;
     Ok((tool, file))
 }
@@ -99,11 +99,12 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
 fn config(a: PlanArgs) -> anyhow::Result<Config> {
     let mut inputs = Vec::new();
     // Flattened: MachineError repeats its cause as its source.
-    let machine = Machine::load(&a.machine)
+    let (machine, origin) = Machine::resolve(&a.machine)
         .map_err(|e| anyhow::anyhow!("cannot load machine `{}`: {e}", a.machine))?;
-    if Path::new(&a.machine).exists() {
-        inputs.push(PathBuf::from(&a.machine));
+    if let MachineOrigin::File(p) = &origin {
+        inputs.push(p.clone());
     }
+    let origin = format!("machine {}: {origin}", machine.name);
     let dialect = a
         .dialect
         .as_deref()
@@ -111,7 +112,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         .transpose()?;
     let post = match &a.postprocessor {
         Some(spec) => {
-            if Path::new(spec).exists() {
+            if fivecal::machine::is_path_spec(spec) {
                 inputs.push(PathBuf::from(spec));
             }
             let p = PostDefinition::load(spec)?;
@@ -144,8 +145,8 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         let template = match &a.template {
             Some(p) => {
                 inputs.push(p.clone());
-                let text = std::fs::read_to_string(p)
-                    .with_context(|| format!("cannot read template {}", p.display()))?;
+                let text =
+                    fivecal::input::read_text(p, "template", fivecal::limits::MAX_YAML_BYTES)?;
                 let t = ProbeTemplate::parse(TemplateSource {
                     path: p.clone(),
                     text,
@@ -170,6 +171,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
             }),
             out: a.out,
             inputs,
+            origin,
         });
     }
     let template = match &a.template {
@@ -177,7 +179,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
             inputs.push(p.clone());
             let t = Template::parse(
                 p,
-                &std::fs::read_to_string(p).with_context(|| format!("cannot read template {}", p.display()))?,
+                &fivecal::input::read_text(p, "template", fivecal::limits::MAX_YAML_BYTES)?,
             )?;
             if t.test != a.test {
                 bail!(
@@ -217,15 +219,17 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         }),
         out: a.out,
         inputs,
+        origin,
     })
 }
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let cfg = config(args)?;
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
+    fivecal::io::check_outputs(&inputs, &[("--out", &cfg.out, fivecal::io::Shape::Dir)])?;
     let p = match &cfg.job {
         Job::Machining(p) => p,
-        Job::Probing(p) => return run_probing(p, &cfg.out, &inputs),
+        Job::Probing(p) => return run_probing(p, &cfg.out, &inputs, &cfg.origin),
     };
     let planned = plan(p).with_context(|| {
         format!(
@@ -234,12 +238,11 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         )
     })?;
     // The error already names the path and its cause.
+    let origin = &cfg.origin;
     let written = planned
         .write(&cfg.out, &planned.test, &inputs)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut out = std::io::stdout().lock();
-    writeln!(
-        out,
+    outln!(
         "{} on {}: {} poses, {} points, about {:.0} min ({} dialect, kinematics {})",
         planned.test,
         planned.machine.name,
@@ -251,17 +254,23 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             KinematicsMode::Post => "post",
             KinematicsMode::Controller => "controller",
         }
-    )?;
+    );
+    outln!("note: {origin}");
     for n in &planned.notes {
-        writeln!(out, "note: {n}")?;
+        outln!("note: {n}");
     }
     for w in written {
-        writeln!(out, "wrote {}", w.display())?;
+        outln!("wrote {}", w.display());
     }
     Ok(())
 }
 
-fn run_probing(p: &ProbingConfig, out_dir: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
+fn run_probing(
+    p: &ProbingConfig,
+    out_dir: &Path,
+    inputs: &[&Path],
+    origin: &str,
+) -> anyhow::Result<()> {
     let planned = plan_probing(p).with_context(|| {
         format!(
             "cannot plan {} on {} ({})",
@@ -273,9 +282,7 @@ fn run_probing(p: &ProbingConfig, out_dir: &Path, inputs: &[&Path]) -> anyhow::R
     let written = planned
         .write(out_dir, &planned.test, inputs)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut out = std::io::stdout().lock();
-    writeln!(
-        out,
+    outln!(
         "{} on {}: {} poses, {} touches, about {:.0} min ({} dialect)",
         planned.test,
         planned.machine.name,
@@ -283,12 +290,13 @@ fn run_probing(p: &ProbingConfig, out_dir: &Path, inputs: &[&Path]) -> anyhow::R
         planned.plan.touches.len(),
         planned.run_minutes(),
         planned.dialect
-    )?;
+    );
+    outln!("note: {origin}");
     for n in &planned.notes {
-        writeln!(out, "note: {n}")?;
+        outln!("note: {n}");
     }
     for w in written {
-        writeln!(out, "wrote {}", w.display())?;
+        outln!("wrote {}", w.display());
     }
     Ok(())
 }

@@ -8,7 +8,7 @@ use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
 use fivecal::ErrorFile;
 use fivecal::formats::manifest::{Manifest, TestKind};
-use fivecal::io::ensure_not_input;
+use fivecal::io::{Shape, check_outputs};
 use fivecal::simulate::{
     self, Format, NoiseOverrides, Placement, SetupErrors, SimOptions, SimOutput,
 };
@@ -114,8 +114,11 @@ fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
         ..SimOptions::default()
     };
     if let Some(f) = a.sphere_form {
-        if !(f.is_finite() && f >= 0.0) {
-            bail!("--sphere-form {f}: expected a form error >= 0 um");
+        if !(f.is_finite() && (0.0..=fivecal::limits::MAX_ERROR_UM).contains(&f)) {
+            bail!(
+                "--sphere-form {f}: expected a form error from 0 to {} um",
+                fivecal::limits::MAX_ERROR_UM
+            );
         }
         opts.sphere_form_um = f;
     }
@@ -148,8 +151,11 @@ pub fn run(cli: SimulateCli) -> anyhow::Result<()> {
 }
 
 fn truth_example(machine: &str) -> anyhow::Result<()> {
-    let m = Machine::load(machine).with_context(|| format!("cannot load machine `{machine}`"))?;
-    print!("{}", simulate::truth::example(&Kinematics::new(&m)));
+    let (m, origin) =
+        Machine::resolve(machine).with_context(|| format!("cannot load machine `{machine}`"))?;
+    // Standard output is the truth file itself.
+    eprintln!("note: machine {}: {origin}", m.name);
+    out!("{}", simulate::truth::example(&Kinematics::new(&m)));
     Ok(())
 }
 
@@ -169,7 +175,7 @@ fn simulate(c: Config) -> anyhow::Result<()> {
     let mut inputs = plan_inputs(&c.plan_path)?;
     inputs.push(c.errors.clone());
     let refs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
-    ensure_not_input(&c.out, &refs)?;
+    check_outputs(&refs, &[("--out", &c.out, Shape::File)])?;
     let plan = fivecal::plan::load_any(&c.plan_path)?;
     let kind = plan.kind();
     let format = c.format.unwrap_or_else(|| Format::for_path(&c.out, kind));
@@ -221,7 +227,7 @@ fn summary(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) {
             }
         ),
     };
-    println!(
+    outln!(
         "wrote {} ({format}): {} on {}, seed {}: {what}",
         path.display(),
         out.test,
@@ -230,7 +236,7 @@ fn summary(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) {
     );
     if let Some(h) = &out.heights {
         for s in h {
-            println!("  section {:>2}: {:>9.3} um", s.section, s.height_um);
+            outln!("  section {:>2}: {:>9.3} um", s.section, s.height_um);
         }
     }
 }

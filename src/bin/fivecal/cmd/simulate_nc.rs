@@ -3,11 +3,9 @@
 //! cut by it.
 
 use std::fmt::Write as _;
-use std::fs::File;
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context as _, bail};
+use anyhow::bail;
 use clap::Args;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
@@ -47,8 +45,18 @@ pub struct SimulateNcArgs {
 pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     let common = args.machine.validate()?;
     let errors = load_errors(&args.errors, &common.kin)?;
-    if !(args.step.is_finite() && args.step >= 0.0) {
-        bail!("--step {}: expected a distance >= 0 mm", args.step);
+    let min_step = fivecal::limits::MIN_SAMPLE_STEP_MM;
+    if !(args.step.is_finite() && (args.step == 0.0 || args.step >= min_step)) {
+        bail!(
+            "--step {}: expected 0 (end points only) or a distance of at least {min_step} mm",
+            args.step
+        );
+    }
+    if !(args.max_distance.is_finite() && args.max_distance > 0.0) {
+        bail!(
+            "--max-distance {}: expected a distance > 0 mm from the tool path",
+            args.max_distance
+        );
     }
     let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
     inputs.push(&args.errors);
@@ -56,13 +64,18 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     if let Some(c) = &args.cmm {
         inputs.push(c);
     }
-    for out in [&args.output, &args.measured].into_iter().flatten() {
-        fivecal::io::ensure_not_input(out, &inputs)?;
-    }
+    let outputs: Vec<_> = [("--output", &args.output), ("--measured", &args.measured)]
+        .into_iter()
+        .filter_map(|(f, p)| Some((f, p.as_deref()?, fivecal::io::Shape::File)))
+        .collect();
+    fivecal::io::check_outputs(&inputs, &outputs)?;
     let cmm_points = match &args.cmm {
         Some(p) => {
-            let src = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read {}", p.display()))?;
+            let src = fivecal::input::read_text(
+                p,
+                "points file",
+                fivecal::limits::MAX_MEASUREMENT_BYTES,
+            )?;
             Some(measured::parse_csv(p, &src)?)
         }
         None => None,
@@ -74,16 +87,27 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     settings.fanuc_integer_unit = common.integer_unit;
     settings.step = args.step;
     let sim = Simulator::new(&errors.model, &errors.theta, settings);
-    let file = File::open(&args.program)
-        .with_context(|| format!("cannot read program {}", args.program.display()))?;
+    let file = fivecal::input::open_stream(&args.program, "NC program")?;
     // Samples are kept only when a CSV or the CMM points need them.
     let keep = args.output.is_some() || cmm_points.is_some();
     let mut samples: Vec<Sample> = Vec::new();
-    let summary = sim.run(&args.program, BufReader::new(file), &mut |s| {
-        if keep {
-            samples.push(*s);
+    let mut too_many = false;
+    let summary = sim.run(&args.program, file, &mut |s| {
+        if keep && !too_many {
+            too_many = samples.len() >= fivecal::limits::MAX_SAMPLES;
+            if !too_many {
+                samples.push(*s);
+            }
         }
     })?;
+    if too_many {
+        bail!(
+            "{}: more than {} samples to keep at --step {} mm: choose a larger --step",
+            args.program.display(),
+            fivecal::limits::MAX_SAMPLES,
+            args.step
+        );
+    }
     if let Some(out) = &args.output {
         let mut t = String::new();
         let _ = writeln!(
@@ -137,31 +161,38 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         );
         fivecal::io::write_atomic(out, measured::to_csv(&mp, &[&comment]).as_bytes())?;
     }
-    println!(
-        "simulated {} on {} with {}",
+    outln!(
+        "simulated {} on {} ({}) with {}",
         args.program.display(),
         common.machine.name,
+        common.machine_origin,
         args.errors.display()
     );
-    println!(
+    outln!(
         "  {} blocks, {} moves, {} samples",
-        summary.blocks, summary.moves, summary.samples
+        summary.blocks,
+        summary.moves,
+        summary.samples
     );
     match summary.max_um {
-        Some(m) => println!(
+        Some(m) => outln!(
             "  tool-tip error (actual minus where the nominal machine puts the program as written): mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad",
-            summary.mean_um, summary.rms_um, m.value, m.line, summary.max_axis_urad
+            summary.mean_um,
+            summary.rms_um,
+            m.value,
+            m.line,
+            summary.max_axis_urad
         ),
-        None => println!("  no move could be simulated"),
+        None => outln!("  no move could be simulated"),
     }
     for (reason, lines) in &summary.skipped {
-        println!("  not simulated: {reason}: lines {}", lines.list());
+        outln!("  not simulated: {reason}: lines {}", lines.list());
     }
     if let Some(out) = &args.output {
-        println!("  samples written to {}", out.display());
+        outln!("  samples written to {}", out.display());
     }
     if let Some(out) = &args.measured {
-        println!("  simulated CMM points written to {}", out.display());
+        outln!("  simulated CMM points written to {}", out.display());
     }
     Ok(())
 }

@@ -1,0 +1,58 @@
+//! The bounds fivecal puts on what it reads, in one place so that
+//! `docs/input-and-output.md` can list them: file sizes, YAML nesting, the
+//! length of a line, and the plausible range of every error-file value and
+//! machine-file number. A value outside its range is refused with its key,
+//! its unit and the range: a location error of a metre is a unit mistake,
+//! not a machine.
+
+/// Largest YAML file read (machine, error, template, postprocessor,
+/// manifest, contributors and tool files), bytes.
+pub const MAX_YAML_BYTES: u64 = 8 << 20;
+/// Largest measurement file read (DMIS, CSV, point list, probe log,
+/// heights), bytes.
+pub const MAX_MEASUREMENT_BYTES: u64 = 256 << 20;
+/// Largest part model read by `analyze contour` (OBJ, glTF, GLB), bytes.
+pub const MAX_MODEL_BYTES: u64 = 256 << 20;
+/// Longest line of a file read line by line (an NC program), bytes.
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+/// Deepest nesting of a YAML document (block levels and brackets
+/// together); fivecal's own files nest at most five.
+pub const MAX_YAML_DEPTH: usize = 64;
+
+/// Longest piece of the input an error message echoes, characters (cut
+/// to its first line as well).
+pub const ECHO_CHARS: usize = 60;
+
+/// Largest location error, map value, straightness, tool radius or length
+/// error, um (10 mm).
+pub const MAX_ERROR_UM: f64 = 10_000.0;
+/// Largest angular location error, map value or squareness, urad (10 mrad,
+/// 0.57 deg).
+pub const MAX_ERROR_URAD: f64 = 10_000.0;
+/// Largest linear scale error, um/m (1 %).
+pub const MAX_SCALE_UM_PER_M: f64 = 10_000.0;
+/// Largest probe pre-travel, um.
+pub const MAX_PRETRAVEL_UM: f64 = 1_000.0;
+/// Largest measurement noise (standard deviation), um.
+pub const MAX_NOISE_UM: f64 = 100.0;
+
+/// Largest length in a machine file (strokes, pivot, table, head, tool,
+/// probe), mm: 100 m.
+pub const MAX_MACHINE_MM: f64 = 100_000.0;
+/// Rapid rate of the linear axes, mm/min.
+pub const RAPID_LINEAR_MM_PER_MIN: (f64, f64) = (100.0, 1_000_000.0);
+/// Rapid rate of the rotary axes, deg/min.
+pub const RAPID_ROTARY_DEG_PER_MIN: (f64, f64) = (100.0, 1_000_000.0);
+
+/// Steps a postprocessor template may take to render one block (MiniJinja
+/// fuel): the built-in templates take a few hundred.
+pub const TEMPLATE_FUEL: u64 = 100_000;
+
+/// Finest sampling step of `simulate nc --step`, mm.
+pub const MIN_SAMPLE_STEP_MM: f64 = 0.001;
+/// Most samples `simulate nc` keeps for `--output` or `--cmm`.
+pub const MAX_SAMPLES: usize = 2_000_000;
+/// Finest `compensate --tolerance`, um (below any control's resolution).
+pub const MIN_TOLERANCE_UM: f64 = 0.01;
+/// Most Monte-Carlo runs of `analyze --mc`.
+pub const MAX_MC_RUNS: usize = 100_000;
