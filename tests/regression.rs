@@ -292,6 +292,79 @@ fn flat_end_plateau_under_drift_per_minute_is_found_where_the_end_grazes_the_lin
     assert!(p.n.dot(&(out.points_w[i] - p.p)) > 0.01);
 }
 
+/// The sphere method on a head machine (`probe-sphere` on `head-table`,
+/// the location errors of `--truth-example --machine head-table`): the
+/// circle of the sphere's centres about C moves with the B head's offset
+/// from the spindle (EX0B) exactly as with the C axis' own position, and
+/// the method printed EX0C = 170 um, u = 0.07 um against a truth of 12
+/// (issue 14; 196.5 um with the example's drift too). The judge of the
+/// sphere method's estimator refuses it, naming EX0B; what it still
+/// reports is within 4 u of the truth.
+#[test]
+fn sphere_method_on_head_table_refuses_ex0c_aliased_with_the_head_offset() {
+    use fivecal::identify::sphere::{CircleMethod, SphereOptions};
+    use fivecal::identify::{Method, Setup};
+    let plan = crate::simulate::planned("head-table", "probe-sphere");
+    let truth = crate::simulate::truth(
+        &plan,
+        "location_errors: {EX0C: 12.0, EY0C: -25.0, EA0C: 80.0, EB0C: -60.0, EX0B: 150.0, EZ0B: 25.0, EA0B: -18.0, EC0B: 45.0, EB0B: 30.0, EA(0B)S: -40.0}\n",
+    );
+    let truth_of = |name: &str| {
+        let i = truth.model.param_names().iter().position(|n| n == name);
+        truth.theta[i.unwrap()]
+    };
+    for seed in [1, 2] {
+        let opts = fivecal::simulate::SimOptions {
+            seed,
+            ..Default::default()
+        };
+        let out = fivecal::simulate::run(&plan, &truth, &opts).unwrap();
+        let data = fivecal::analyze::uncertainty::simulated::plan_dataset(
+            &plan,
+            "touches.log",
+            out.points,
+        )
+        .unwrap();
+        let kin = fivecal::simulate::plan_kinematics(&plan);
+        let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
+        let sphere = SphereOptions {
+            circle: CircleMethod::LeastSquares,
+            check: None,
+        };
+        let est = fivecal::analyze::method::identify_with_plan(
+            Method::Sphere,
+            &setup,
+            &data,
+            &sphere,
+            Some(&plan),
+        )
+        .unwrap();
+        let (_, u) = est.get("EX0C").unwrap();
+        assert!(u.is_none(), "seed {seed}: EX0C reported\n{}", est.summary());
+        let file = est.error_file(None);
+        let why = &file
+            .not_identifiable
+            .iter()
+            .find(|n| n.symbol == "EX0C")
+            .unwrap()
+            .reason;
+        assert!(why.contains("EX0B"), "{why}");
+        let mut reported = 0;
+        for name in est.model.param_names() {
+            if let (v, Some(u)) = est.get(&name).unwrap() {
+                let z = (v - truth_of(&name)).abs() / u;
+                assert!(
+                    z < 4.0,
+                    "seed {seed}: {name} off by {z:.1} u\n{}",
+                    est.summary()
+                );
+                reported += 1;
+            }
+        }
+        assert!(reported >= 2, "{}", est.summary());
+    }
+}
+
 /// `analyze contour` with an OBJ whose only triangle has three equal
 /// vertices, or a vertex at infinity: refused with the reason, not a panic
 /// in the nearest-triangle search or `inf` in the report.

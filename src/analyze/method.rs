@@ -52,8 +52,49 @@ pub fn identify_with(
             identify::global::identify(fm.as_ref(), setup, data, &opts)
         }
         Method::TwoStage => identify::two_stage::identify(setup, data, &opts),
-        Method::Sphere => identify::sphere::identify(setup, data, sphere),
+        Method::Sphere => match identify::forward::rigid_for(setup.model.clone(), data) {
+            Ok(fm) => identify::sphere::identify_judged(setup, data, sphere, Some(fm.as_ref())),
+            // A head machine: the complete model of the points needs the
+            // plan ([`identify_with_plan`]); without it every symbol the
+            // centres alone cannot vouch for is refused.
+            Err(_) => {
+                let mut est = identify::sphere::identify(setup, data, sphere)?;
+                refuse_all(
+                    &mut est,
+                    "the sphere method on a head machine needs the plan to judge what the centres' lines see",
+                );
+                Ok(est)
+            }
+        },
     }
+}
+
+/// The identification a Monte-Carlo run repeats: the same estimator, the
+/// reporting (what is identifiable) taken from the study's first fit, so
+/// the sphere method's judge is not run again.
+pub fn identify_for_study(
+    method: Method,
+    setup: &Setup,
+    data: &Dataset,
+    sphere: &SphereOptions,
+    plan: Option<&Plan>,
+) -> Result<Identification, IdentifyError> {
+    match method {
+        Method::Sphere => identify::sphere::identify(setup, data, sphere),
+        _ => identify_with_plan(method, setup, data, sphere, plan),
+    }
+}
+
+/// Marks every model parameter of `est` not identifiable, with `reason`.
+fn refuse_all(est: &mut Identification, reason: &str) {
+    for i in 0..est.theta.len() {
+        let p = &mut est.identifiability.params[i];
+        if p.identifiable {
+            p.identifiable = false;
+            p.aliased_with.clear();
+        }
+    }
+    est.notes.push(reason.to_string());
 }
 
 /// Whether the rigid-pose forward models refuse `model` (effects that vary
@@ -78,6 +119,12 @@ pub fn identify_with_plan(
     {
         let fm = crate::simulate::forward::for_plan(&setup.model, plan)?;
         return identify::global::identify(fm.as_ref(), setup, data, &lsq::Options::default());
+    }
+    if let (Method::Sphere, Some(plan)) = (method, plan)
+        && rigid_refuses(&setup.model)
+    {
+        let fm = crate::simulate::forward::for_plan(&setup.model, plan)?;
+        return identify::sphere::identify_judged(setup, data, sphere, Some(fm.as_ref()));
     }
     identify_with(method, setup, data, sphere)
 }

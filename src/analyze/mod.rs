@@ -314,7 +314,9 @@ fn identify_piece(
     let setup = Setup::new(&ctx.kin, &data.poses, &req.maps)?;
     // The global method on a model the rigid-pose models refuse (a head
     // machine) inverts the simulator's forward model, which needs the plan.
-    let plan = if method == Method::Global && method::rigid_refuses(&setup.model) {
+    let plan = if matches!(method, Method::Global | Method::Sphere)
+        && method::rigid_refuses(&setup.model)
+    {
         Some(rebuilt(req)?)
     } else {
         None

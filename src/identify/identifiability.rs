@@ -44,6 +44,12 @@ pub struct ParamStatus {
     pub name: String,
     /// Whether the test determines it.
     pub identifiable: bool,
+    /// What the method's estimate of it moves with besides itself (the
+    /// judge's finding, [`Identifiability::judge_estimator`]): each other
+    /// parameter with the change of this estimate per unit of it. Empty
+    /// where the design alone decides.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub aliased_with: Vec<(String, f64)>,
 }
 
 /// The pose-quality figure of one rotary axis.
@@ -88,6 +94,68 @@ impl Identifiability {
         self.params[i].identifiable
     }
 
+    /// The judge of a method's estimator, beside the design's rank: `s`
+    /// (`n_model` rows, one column per parameter of the design, nuisance
+    /// included) is how each estimate moves with each parameter of the
+    /// complete measurement model, `d theta_hat / d theta_true`, linearized
+    /// at the data. A least-squares fit of the complete model has `s` =
+    /// the projection on the seen directions, and the rank alone decides;
+    /// a method that reduces the measurements first (the sphere method's
+    /// axis lines) may lose sight of a term and let it leak into an
+    /// estimate. A parameter stays reported only if its estimate follows
+    /// it one to one and no other parameter moves it by more than
+    /// [`ALIAS_TOLERANCE`] per unit; otherwise it becomes not identifiable,
+    /// naming what it is aliased with.
+    pub fn judge_estimator(&mut self, s: &DMatrix<f64>) {
+        for i in 0..s.nrows().min(self.params.len()) {
+            if !self.params[i].identifiable {
+                continue;
+            }
+            let mut aliases = Vec::new();
+            for j in 0..s.ncols().min(self.params.len()) {
+                let want = if i == j { 1.0 } else { 0.0 };
+                if (s[(i, j)] - want).abs() > ALIAS_TOLERANCE {
+                    aliases.push((self.params[j].name.clone(), s[(i, j)]));
+                }
+            }
+            if !aliases.is_empty() {
+                self.params[i].identifiable = false;
+                self.params[i].aliased_with = aliases;
+            }
+        }
+    }
+
+    /// Why parameter `i` is not reported, in words: the method's aliases
+    /// (the judge) or the design's unseen combination that moves it.
+    pub fn reason(&self, i: usize) -> String {
+        let p = &self.params[i];
+        if !p.aliased_with.is_empty() {
+            let list: Vec<String> = p
+                .aliased_with
+                .iter()
+                .map(|(n, c)| {
+                    if *n == p.name {
+                        format!("itself ({c:.3} per unit instead of 1)")
+                    } else {
+                        format!("{n} ({c:+.3} per unit)")
+                    }
+                })
+                .collect();
+            return format!(
+                "the method cannot separate it: its estimate moves with {}",
+                list.join(", ")
+            );
+        }
+        match self
+            .null_combinations
+            .iter()
+            .find(|c| combination_mentions(c, &p.name))
+        {
+            Some(c) => format!("the test does not see it: {c}"),
+            None => "the test does not see it".to_string(),
+        }
+    }
+
     /// Human-readable report.
     pub fn render(&self) -> String {
         use std::fmt::Write as _;
@@ -119,6 +187,11 @@ impl Identifiability {
         for c in &self.identifiable_combinations {
             let _ = writeln!(s, "  identifiable combination: {c}");
         }
+        for (i, p) in self.params.iter().enumerate() {
+            if !p.aliased_with.is_empty() {
+                let _ = writeln!(s, "  {}: {}", p.name, self.reason(i));
+            }
+        }
         for q in &self.pose_quality {
             let _ = writeln!(
                 s,
@@ -128,6 +201,18 @@ impl Identifiability {
         }
         s
     }
+}
+
+/// Largest change of an estimate per unit of another parameter (um per
+/// um, um per urad, ...) the judge lets pass: 100 um of a term the method
+/// cannot see would move the estimate by 0.1 um. A method that models
+/// every term it reports has zero there up to rounding (1e-6).
+pub const ALIAS_TOLERANCE: f64 = 1e-3;
+
+/// Whether a printed combination names `name` as a term (not as a part of
+/// a longer name: `EX0B` is not in `EX(0B)C`).
+fn combination_mentions(c: &str, name: &str) -> bool {
+    c.split(|ch: char| ch.is_whitespace()).any(|t| t == name)
 }
 
 /// Formats a linear combination `sum c_k name_k` with the largest
@@ -295,6 +380,7 @@ pub fn report(
             .map(|(n, &i)| ParamStatus {
                 name: n.clone(),
                 identifiable: i,
+                aliased_with: Vec::new(),
             })
             .collect(),
         null_combinations,

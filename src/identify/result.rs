@@ -157,18 +157,7 @@ impl Identification {
         let mut theta = Vec::new();
         let mut u = Vec::new();
         let mut not = Vec::new();
-        let reason_for = |k: usize| -> String {
-            let hit = self
-                .identifiability
-                .null_combinations
-                .iter()
-                .find(|c| c.contains(&names[k]))
-                .cloned();
-            match hit {
-                Some(c) => format!("the test does not see it: {c}"),
-                None => "the test does not see it".to_string(),
-            }
-        };
+        let reason_for = |k: usize| self.identifiability.reason(k);
         for (ei, e) in self.model.effects.iter().enumerate() {
             let r = self.model.param_range(ei);
             match e {

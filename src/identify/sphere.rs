@@ -33,6 +33,7 @@ use std::str::FromStr;
 use faer::Mat;
 use nalgebra::{DMatrix, Isometry3, Matrix3, Point3, Vector3};
 
+use super::forward::ForwardModel;
 use super::lsq::{self, Problem};
 use super::result::PoseFit;
 use super::{Dataset, Identification, IdentifyError, Method, Setup, identifiability};
@@ -698,11 +699,148 @@ fn lines(
     }
 }
 
-/// Runs the sphere method.
+/// Runs the sphere method, judged by the design of its own centres only:
+/// what [`identify_judged`] does without a forward model of the points.
 pub fn identify(
     setup: &Setup,
     data: &Dataset,
     opts: &SphereOptions,
+) -> Result<Identification, IdentifyError> {
+    identify_judged(setup, data, opts, None)
+}
+
+/// The sphere method's estimate from measured points `m` (one per
+/// observation of `data`), the circle fits' weights held at `w`: what the
+/// judge differentiates.
+fn estimate_fixed(
+    model: &Model,
+    data: &Dataset,
+    g: &Groups,
+    m: &[Vector3<f64>],
+    circle: CircleMethod,
+    w: (&[f64], &[f64]),
+    span: (f64, f64),
+) -> Option<Vec<f64>> {
+    let centre = |j: usize| -> Option<Vector3<f64>> {
+        let pts: Vec<Vector3<f64>> = data.poses[j].obs.iter().map(|&k| m[k]).collect();
+        fit_sphere(&pts).map(|s| s.centre)
+    };
+    let mut g2 = Groups {
+        tilt: g.tilt.clone(),
+        tilt_idx: g.tilt_idx.clone(),
+        c: g.c.clone(),
+        c_idx: g.c_idx.clone(),
+        t0: g.t0,
+    };
+    for (pos, &j) in g.tilt_idx.iter().enumerate() {
+        g2.tilt.centres[pos] = centre(j)?;
+    }
+    for (pos, &j) in g.c_idx.iter().enumerate() {
+        g2.c.centres[pos] = centre(j)?;
+    }
+    let fitted = lines(&g2, model, circle, Some(w))?;
+    Some(symbols_from_lines(
+        model,
+        &fitted.tilt,
+        &fitted.c,
+        g.t0,
+        span,
+    ))
+}
+
+/// The design of the sphere test for the complete measurement model `fm`
+/// (every location symbol, the head's included, and the sphere's setup as
+/// nuisance): one row per probed point, its distance along the predicted
+/// normal, judged at the nominal machine as the global method judges.
+/// Returns the design, the nominal points and their derivatives (mm per
+/// unit, 3 x parameters per observation), and the nuisance names.
+#[allow(clippy::type_complexity)]
+fn full_design(
+    fm: &dyn ForwardModel,
+    data: &Dataset,
+) -> Result<
+    (
+        lsq::Design,
+        Vec<Vector3<f64>>,
+        Vec<DMatrix<f64>>,
+        Vec<String>,
+    ),
+    IdentifyError,
+> {
+    let n = fm.model().n_params();
+    let nuisance = fm.nuisance_names();
+    let theta = vec![0.0; n];
+    let zeros = vec![0.0; nuisance.len()];
+    let mut minutes = vec![0.0; data.obs.len()];
+    for pose in &data.poses {
+        for &k in &pose.obs {
+            minutes[k] = pose.minutes;
+        }
+    }
+    let mut j = Mat::<f64>::zeros(data.obs.len(), n + nuisance.len());
+    let mut points = Vec::with_capacity(data.obs.len());
+    let mut d_points = Vec::with_capacity(data.obs.len());
+    for (k, &t) in minutes.iter().enumerate() {
+        let pred = fm.predict(&theta, &zeros, data.point(k), t)?;
+        for c in 0..n + nuisance.len() {
+            let col = pred.d_point.column(c);
+            j[(k, c)] = pred.normal.dot(&Vector3::new(col[0], col[1], col[2])) * 1e3;
+        }
+        points.push(pred.point);
+        d_points.push(pred.d_point);
+    }
+    let design = lsq::design(&j, None, lsq::Options::default().rank_rtol);
+    Ok((design, points, d_points, nuisance))
+}
+
+/// How the sphere method's estimates move with every parameter of the
+/// complete model, `d theta_hat / d (theta, nuisance)`: central
+/// differences of the estimator at the nominal machine's points (unit
+/// weights), as the design is judged there too.
+fn sensitivity(
+    model: &Model,
+    data: &Dataset,
+    g: &Groups,
+    circle: CircleMethod,
+    span: (f64, f64),
+    (nominal, d_points): (&[Vector3<f64>], &[DMatrix<f64>]),
+    cols: usize,
+) -> Option<DMatrix<f64>> {
+    let n = model.n_params();
+    let mut sens = DMatrix::zeros(n, cols);
+    let hh = 1.0;
+    let (wt, wc) = (vec![1.0; g.tilt_idx.len()], vec![1.0; g.c_idx.len()]);
+    for c in 0..cols {
+        let shifted = |sign: f64| -> Vec<Vector3<f64>> {
+            nominal
+                .iter()
+                .zip(d_points)
+                .map(|(p, d)| p + Vector3::new(d[(0, c)], d[(1, c)], d[(2, c)]) * (sign * hh))
+                .collect()
+        };
+        let tp = estimate_fixed(model, data, g, &shifted(1.0), circle, (&wt, &wc), span)?;
+        let tm = estimate_fixed(model, data, g, &shifted(-1.0), circle, (&wt, &wc), span)?;
+        for i in 0..n {
+            sens[(i, c)] = (tp[i] - tm[i]) / (2.0 * hh);
+        }
+    }
+    Some(sens)
+}
+
+/// Runs the sphere method. With `fm`, the forward model of every probed
+/// point (a head machine's included), what it reports is decided by the
+/// complete design and by the judge of its estimator
+/// ([`identifiability::Identifiability::judge_estimator`]): the axis lines
+/// of the centres see only the table's motion, and on a head machine the
+/// head's terms shift every centre of a circle alike, which moves the line
+/// found for C; such an estimate is refused, naming the terms it moves
+/// with. Without `fm` only the centres' own design judges (what the
+/// Monte-Carlo runs need, which take the reporting from the first fit).
+pub fn identify_judged(
+    setup: &Setup,
+    data: &Dataset,
+    opts: &SphereOptions,
+    fm: Option<&dyn ForwardModel>,
 ) -> Result<Identification, IdentifyError> {
     super::check_data(data, Method::Sphere)?;
     if setup.model.effects.len() != 1 || !matches!(setup.model.effects[0], Effect::Location { .. })
@@ -827,8 +965,8 @@ pub fn identify(
         let c = spheres[j].cov_unit * (sigma_mm * sigma_mm);
         cc.view_mut((3 * u, 3 * u), (3, 3)).copy_from(&c);
     }
-    let cov = &jac * &cc * jac.transpose();
-    let cov_unit = &cov * (1e-6 / (sigma_mm * sigma_mm));
+    let mut cov = &jac * &cc * jac.transpose();
+    let mut cov_unit = &cov * (1e-6 / (sigma_mm * sigma_mm));
     // Identifiability of the sphere test: the centres as exact functions
     // of the symbols and the sphere's position on the table.
     let s_w = {
@@ -869,14 +1007,68 @@ pub fn identify(
             .iter()
             .map(|s| s.to_string()),
     );
-    let report = identifiability::report(
-        &design,
-        3 * data.poses.len(),
-        n,
-        &names,
-        &[],
-        &setup.quality_axes(),
-    );
+    let report = match fm {
+        None => identifiability::report(
+            &design,
+            3 * data.poses.len(),
+            n,
+            &names,
+            &[],
+            &setup.quality_axes(),
+        ),
+        Some(fm) => {
+            if fm.model().n_params() != n {
+                return Err(IdentifyError::Data(
+                    "the forward model's parameters differ from the setup's".into(),
+                ));
+            }
+            let (full, nominal, d_points, nuisance) = full_design(fm, data)?;
+            let mut names = model.param_names();
+            names.extend(nuisance);
+            let mut report = identifiability::report(
+                &full,
+                data.obs.len(),
+                n,
+                &names,
+                &[],
+                &setup.quality_axes(),
+            );
+            let sens = sensitivity(
+                model,
+                data,
+                &g,
+                opts.circle,
+                span,
+                (&nominal, &d_points),
+                names.len(),
+            )
+            .ok_or_else(|| {
+                IdentifyError::Data("the nominal centres do not determine a circle".into())
+            })?;
+            report.judge_estimator(&sens);
+            // No estimator does better than the complete design's
+            // Cramér-Rao bound at the points' noise: where the lines'
+            // propagation claims less (the head's degenerate arc on a head
+            // machine feeds it), the bound is the uncertainty, the
+            // correlations kept.
+            let mut scale = vec![1.0; n];
+            for (i, f) in scale.iter_mut().enumerate() {
+                let bound = full.cov_unit[(i, i)].max(0.0);
+                if cov_unit[(i, i)] > 0.0 && cov_unit[(i, i)] < bound {
+                    *f = (bound / cov_unit[(i, i)]).sqrt();
+                }
+            }
+            if scale.iter().any(|&f| f > 1.0) {
+                let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale));
+                cov = &d * &cov * &d;
+                cov_unit = &d * &cov_unit * &d;
+                notes.push(
+                    "the centres' propagation promised less than the design's Cramér-Rao bound for some symbols; their u is that bound".into(),
+                );
+            }
+            report
+        }
+    };
     // Residuals: distance of each point from its pose's sphere.
     let mut residuals = vec![0.0; data.obs.len()];
     let mut poses = Vec::new();

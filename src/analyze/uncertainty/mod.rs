@@ -36,7 +36,7 @@ pub use bound::{Bound, cramer_rao_bound};
 pub use contributors::{Contributors, Disturbance};
 pub use montecarlo::{McOptions, McResult};
 
-use super::method::identify_with;
+use super::method::identify_for_study;
 use crate::procedure::Plan;
 
 /// What a synthetic Monte-Carlo run needs to know about the test.
@@ -150,7 +150,8 @@ pub fn synthetic_run<R: Rng + ?Sized>(
     let mut data = data;
     data.pieces = t.data.pieces.clone();
     data.piece_of = t.data.piece_of.clone();
-    let r = identify_with(t.method, t.setup, &data, &t.sphere).map_err(|e| e.to_string())?;
+    let r =
+        identify_for_study(t.method, t.setup, &data, &t.sphere, None).map_err(|e| e.to_string())?;
     Ok(r.estimates_or_nan())
 }
 

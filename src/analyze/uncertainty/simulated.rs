@@ -20,7 +20,7 @@ use rand::{Rng, RngExt};
 
 use super::Contributors;
 use crate::analyze::PlanContext;
-use crate::analyze::method::identify_with_plan;
+use crate::analyze::method::identify_for_study;
 use crate::errorfile::{LoadedErrors, Noise};
 use crate::formats::manifest::TestKind;
 use crate::formats::measured::MeasuredPoint;
@@ -206,7 +206,7 @@ pub fn simulated_run<R: Rng + ?Sized>(
     rng: &mut R,
 ) -> Result<Vec<f64>, String> {
     let (_, d) = simulate_run(t, rng)?;
-    let r = identify_with_plan(t.method, t.setup, &d, &t.sphere, Some(t.plan))
+    let r = identify_for_study(t.method, t.setup, &d, &t.sphere, Some(t.plan))
         .map_err(|e| e.to_string())?;
     Ok(r.estimates_or_nan())
 }
@@ -245,7 +245,7 @@ pub fn study(
         let (_, d) = simulate_run(t, rng)?;
         let mut row = Vec::with_capacity(width);
         for &m in methods {
-            let r = identify_with_plan(m, t.setup, &d, &t.sphere, Some(t.plan))
+            let r = identify_for_study(m, t.setup, &d, &t.sphere, Some(t.plan))
                 .map_err(|e| format!("{m}: {e}"))?;
             let u = r.u();
             row.extend(r.estimates_or_nan());
