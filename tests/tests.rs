@@ -17,6 +17,7 @@ mod identifiability;
 mod identify;
 mod kinematics;
 mod machine;
+mod measured;
 mod nc;
 mod plan;
 mod plan_programs;

@@ -8,6 +8,7 @@ pub mod demo;
 pub mod discover;
 pub mod docs;
 pub mod machine;
+pub mod measured;
 pub mod plan;
 pub mod simulate;
 pub mod simulate_nc;
