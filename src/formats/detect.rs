@@ -402,7 +402,7 @@ impl Reader for Dmis {
         &self,
         path: &Path,
         src: &str,
-        ctx: &ReadContext<'_>,
+        _: &ReadContext<'_>,
     ) -> Result<Measurement, SourceError> {
         let o = dmis::parse(path, src)?;
         let points = o.measured_points();
@@ -417,15 +417,15 @@ impl Reader for Dmis {
                 "DMIS output without any measured point (FA(..)=FEAT/POINT,...)",
             ));
         }
-        let mut set = PointSet {
+        // DMIS output keeps the CMM program's labels, which are the plan's:
+        // unknown labels mean another plan's file and are refused at the join.
+        Ok(Measurement::Points(PointSet {
             format: "dmis",
             points,
             labeled: true,
             nominals: o.nominal_points(),
             warnings: o.warnings,
-        };
-        label_policy(&mut set, ctx);
-        Ok(Measurement::Points(set))
+        }))
     }
     fn inventory(
         &self,
