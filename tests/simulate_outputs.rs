@@ -40,6 +40,7 @@ fn read_back(plan: &Plan, path: &Path) -> Measurement {
         kin: Some(&kin),
         dialect: Some(plan.dialect()),
         probe: opts.as_ref(),
+        ..Default::default()
     };
     detect::read_measurement_in(path, &ctx).unwrap_or_else(|e| panic!("{e}"))
 }

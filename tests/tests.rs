@@ -20,6 +20,7 @@ mod identifiability;
 mod identify;
 mod kinematics;
 mod machine;
+mod measured;
 mod montecarlo;
 mod nc;
 mod plan;

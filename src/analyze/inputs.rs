@@ -20,7 +20,7 @@ use nalgebra::{Point3, Vector3};
 
 use super::AnalyzeError;
 use crate::fit::SphereCheck;
-use crate::formats::detect::{self, Measurement, PointSet, ReadContext};
+use crate::formats::detect::{self, MeasuredOptions, Measurement, PointSet, ReadContext};
 use crate::formats::heights::SectionHeight;
 use crate::formats::manifest::{Manifest, TestKind};
 use crate::formats::measured::MeasuredPoint;
@@ -75,6 +75,9 @@ pub struct PlanContext {
     pub pieces: Pieces,
     /// What the reader should know (a probing plan that cannot be rebuilt).
     pub warnings: Vec<String>,
+    /// What the user said about the measurement files (run, units,
+    /// encoding).
+    pub options: MeasuredOptions,
 }
 
 /// The files of a measurement, by what they hold.
@@ -175,6 +178,7 @@ impl PlanContext {
             sphere_check: None,
             pieces: Pieces::One,
             warnings: Vec::new(),
+            options: MeasuredOptions::default(),
         };
         if manifest.kind == TestKind::Probing {
             ctx.read_probing_template(&manifest, &machine)?;
@@ -256,6 +260,7 @@ impl PlanContext {
             sphere_check: None,
             pieces: Pieces::One,
             warnings: Vec::new(),
+            options: MeasuredOptions::default(),
         };
         if let Some(p) = plan.probing() {
             ctx.probe_log = Some(p.read_options());
@@ -279,6 +284,7 @@ impl PlanContext {
             kin: Some(&self.kin),
             dialect: Some(self.dialect),
             probe: self.probe_log.as_ref(),
+            options: self.options,
         };
         let mut m = Measurements::default();
         for f in files {

@@ -14,9 +14,10 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::heights::{self, SectionHeight};
+use super::inventory::{Entry, Inventory};
 use super::measured::{self, MeasuredPoint};
 use super::points::PlanPoints;
-use super::{csv_lines, dmis, parse_finite, probe_log};
+use super::{csv_lines, dmis, parse_finite, probe_log, qif, table};
 use crate::kinematics::Kinematics;
 use crate::machine::Dialect;
 use crate::source::SourceError;
@@ -35,6 +36,49 @@ pub struct ReadContext<'a> {
     /// Probe-log options (ball radius, probing window); set for probing
     /// plans only.
     pub probe: Option<&'a probe_log::ReadOptions>,
+    /// What the user said about the files.
+    pub options: MeasuredOptions,
+}
+
+/// A length unit a file may be in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LengthUnit {
+    /// Millimetre.
+    Mm,
+    /// Inch (25.4 mm).
+    Inch,
+}
+
+impl LengthUnit {
+    /// Millimetres per unit.
+    pub fn mm(self) -> f64 {
+        match self {
+            LengthUnit::Mm => 1.0,
+            LengthUnit::Inch => 25.4,
+        }
+    }
+
+    /// The unit by name (`mm`, `inch`, `in`).
+    pub fn parse(s: &str) -> Option<LengthUnit> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "mm" | "millimeter" | "millimetre" => Some(LengthUnit::Mm),
+            "in" | "inch" => Some(LengthUnit::Inch),
+            _ => None,
+        }
+    }
+}
+
+/// What the user says about measurement files where the file cannot:
+/// which run of a file with several, the unit of a file that states none,
+/// the encoding of a file not in UTF-8.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeasuredOptions {
+    /// The measurement run to read (1-based) of a file with several.
+    pub run: Option<usize>,
+    /// The length unit of a file that does not state it.
+    pub units: Option<LengthUnit>,
+    /// The encoding of a file not in UTF-8.
+    pub encoding: Option<&'static encoding_rs::Encoding>,
 }
 
 /// Points read from one file.
@@ -77,9 +121,87 @@ pub trait Reader: Sync {
         src: &str,
         ctx: &ReadContext<'_>,
     ) -> Result<Measurement, SourceError>;
+    /// What the file holds, for `fivecal measured`: by default what
+    /// [`Reader::read`] reads.
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        Ok(match self.read(path, src, ctx)? {
+            Measurement::Points(set) => Inventory::of_points(&set),
+            Measurement::Heights(h) => {
+                let mut inv = Inventory::new(self.name());
+                inv.units = "um (heights)".into();
+                for s in h {
+                    let mut e = Entry::new(format!("section {}", s.section), "height", s.line);
+                    e.value = Some(s.height_um);
+                    inv.entries.push(e);
+                }
+                inv
+            }
+        })
+    }
+}
+
+/// The points of the run the options choose, from a file's inventory: a
+/// file with several runs needs `--run`.
+pub fn chosen_run(
+    path: &Path,
+    inv: &Inventory,
+    options: &MeasuredOptions,
+) -> Result<PointSet, SourceError> {
+    let n = inv.runs.len();
+    let run = match options.run {
+        Some(r) if (1..=n).contains(&r) => r - 1,
+        Some(r) => {
+            return Err(SourceError::new(
+                path,
+                0,
+                0,
+                format!("--run {r}: the file holds {n} measurement run(s), expected 1 to {n}"),
+            ));
+        }
+        None if n > 1 => {
+            return Err(SourceError::new(
+                path,
+                0,
+                0,
+                format!(
+                    "the file holds {n} measurement runs ({}): choose one with --run N (each run is one piece)",
+                    inv.runs.join(", ")
+                ),
+            ));
+        }
+        None => 0,
+    };
+    let set = inv.point_set(run);
+    if set.points.is_empty() {
+        let why = if inv.entries.iter().any(|e| e.run == run) {
+            format!(
+                "no measured point in the file ({} features or characteristics without a measured point location; `fivecal measured {}` lists them)",
+                inv.entries.iter().filter(|e| e.run == run).count(),
+                path.display()
+            )
+        } else {
+            "nothing measured in the file".to_string()
+        };
+        let mut why = why;
+        if let Some(w) = inv.warnings.first() {
+            why.push_str(&format!("; {w}"));
+        }
+        if let Some(s) = inv.skipped.first() {
+            why.push_str(&format!("; skipped: {} ({})", s.what, s.why));
+        }
+        return Err(SourceError::new(path, 0, 0, why));
+    }
+    Ok(set)
 }
 
 struct Dmis;
+struct Qif;
+struct Table;
 struct Canonical;
 struct Heights;
 struct ProbeLog;
@@ -217,6 +339,55 @@ impl Reader for ProbeFile {
     }
 }
 
+/// A DMIS program (what a CMM runs) given where its output is expected.
+fn dmis_program_error(path: &Path, o: &dmis::DmisOutput) -> SourceError {
+    SourceError::new(
+        path,
+        0,
+        0,
+        format!(
+            "this is a DMIS program, not DMIS output: {} nominal features and {} MEAS/PTMEAS/GOTO statements but no actual FA(..) results; run it on the CMM and give the output file it writes (.dmo, .out)",
+            o.features.len(),
+            o.program_statements
+        ),
+    )
+}
+
+/// Whether labelled points join a plan by label: when no label of the
+/// file is one of the plan's (a CMM program that renamed the features,
+/// labels in another script), they join by nearest nominal instead, and a
+/// warning says which.
+pub fn label_policy(set: &mut PointSet, ctx: &ReadContext<'_>) {
+    let Some(plan) = ctx.plan else {
+        return;
+    };
+    if !set.labeled || set.points.is_empty() {
+        return;
+    }
+    let known = set
+        .points
+        .iter()
+        .filter(|p| plan.points.iter().any(|q| q.label == p.label))
+        .count();
+    if known == 0 {
+        set.warnings.push(format!(
+            "none of the file's {} labels (first: `{}`) is a label of the plan: the points are joined by nearest nominal",
+            set.points.len(),
+            set.points[0].label
+        ));
+        set.labeled = false;
+        set.nominals.clear();
+        for p in &mut set.points {
+            p.label.clear();
+        }
+    } else {
+        set.warnings.push(format!(
+            "{known} of the file's {} points joined by label",
+            set.points.len()
+        ));
+    }
+}
+
 impl Reader for Dmis {
     fn name(&self) -> &'static str {
         "dmis"
@@ -236,6 +407,9 @@ impl Reader for Dmis {
         let o = dmis::parse(path, src)?;
         let points = o.measured_points();
         if points.is_empty() {
+            if o.features.iter().all(|f| f.actual.is_none()) && o.program_statements > 0 {
+                return Err(dmis_program_error(path, &o));
+            }
             return Err(SourceError::new(
                 path,
                 0,
@@ -243,19 +417,8 @@ impl Reader for Dmis {
                 "DMIS output without any measured point (FA(..)=FEAT/POINT,...)",
             ));
         }
-        for p in &points {
-            if !super::valid_label(&p.label) {
-                return Err(SourceError::new(
-                    path,
-                    p.line,
-                    1,
-                    format!(
-                        "label `{}` cannot name a plan point (letters, digits, `_`, `.`, `-`)",
-                        p.label
-                    ),
-                ));
-            }
-        }
+        // DMIS output keeps the CMM program's labels, which are the plan's:
+        // unknown labels mean another plan's file and are refused at the join.
         Ok(Measurement::Points(PointSet {
             format: "dmis",
             points,
@@ -263,6 +426,58 @@ impl Reader for Dmis {
             nominals: o.nominal_points(),
             warnings: o.warnings,
         }))
+    }
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        _: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        let o = dmis::parse(path, src)?;
+        if o.features.iter().all(|f| f.actual.is_none()) && o.program_statements > 0 {
+            return Err(dmis_program_error(path, &o));
+        }
+        Ok(o.inventory())
+    }
+}
+
+/// The points of the chosen run of an inventory, labels judged against
+/// the plan.
+fn inventory_points(
+    path: &Path,
+    inv: &Inventory,
+    ctx: &ReadContext<'_>,
+) -> Result<Measurement, SourceError> {
+    let mut set = chosen_run(path, inv, &ctx.options)?;
+    label_policy(&mut set, ctx);
+    Ok(Measurement::Points(set))
+}
+
+impl Reader for Qif {
+    fn name(&self) -> &'static str {
+        "qif"
+    }
+    fn describe(&self) -> &'static str {
+        "QIF results (XML, <QIFDocument>)"
+    }
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
+        qif::looks_like_qif(src)
+    }
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
+        inventory_points(path, &qif::parse(path, src, &ctx.options)?, ctx)
+    }
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        qif::parse(path, src, &ctx.options)
     }
 }
 
@@ -299,6 +514,34 @@ impl Reader for Canonical {
             nominals: Vec::new(),
             warnings: Vec::new(),
         }))
+    }
+}
+
+impl Reader for Table {
+    fn name(&self) -> &'static str {
+        "table"
+    }
+    fn describe(&self) -> &'static str {
+        "a point table with a header naming x, y, z (and label, nominal, i, j, k) columns"
+    }
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
+        table::looks_like_table(src)
+    }
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
+        inventory_points(path, &table::parse(path, src)?, ctx)
+    }
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        _: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        table::parse(path, src)
     }
 }
 
@@ -423,12 +666,12 @@ impl Reader for Plain {
 /// Every reader, in the order they are tried.
 pub fn readers() -> Vec<&'static dyn Reader> {
     vec![
-        &Dmis, &Heights, &Canonical,
+        &Qif, &Dmis, &Heights, &Canonical,
         // The probe logs of `src/formats/probe_log/` (FANUC DPRNT,
         // HEIDENHAIN FN 16, LinuxCNC LOG and PROBEOPEN), before the plain
         // point list, which accepts any three numbers per line. They return
         // labelled contact points in W at rotary zero (SPEC section 3).
-        &ProbeLog, &ProbeFile, &Plain,
+        &ProbeLog, &ProbeFile, &Table, &Plain,
     ]
 }
 
@@ -449,12 +692,57 @@ pub fn read_measurement(path: &Path) -> Result<Measurement, SourceError> {
 
 /// Reads a measurement file in whatever format it is, in a context.
 pub fn read_measurement_in(path: &Path, ctx: &ReadContext<'_>) -> Result<Measurement, SourceError> {
-    let src = crate::input::read_text(
+    let (src, notes) = read_text(path, ctx)?;
+    let mut m = parse_measurement_in(path, &src, ctx)?;
+    if let Measurement::Points(set) = &mut m {
+        set.warnings.extend(notes);
+    }
+    Ok(m)
+}
+
+/// The text of a measurement file (UTF-8, or the encoding the options
+/// name) and notes on what was mended.
+fn read_text(path: &Path, ctx: &ReadContext<'_>) -> Result<(String, Vec<String>), SourceError> {
+    let bytes = crate::input::read_bytes(
         path,
         "measurement file",
         crate::limits::MAX_MEASUREMENT_BYTES,
     )?;
-    parse_measurement_in(path, &src, ctx)
+    let (text, notes) = super::encoding::decode(path, &bytes, ctx.options.encoding)?;
+    Ok((crate::input::with_lf_lines(text), notes))
+}
+
+/// What a measurement file holds, before any plan is involved.
+pub fn inventory(path: &Path, ctx: &ReadContext<'_>) -> Result<Inventory, SourceError> {
+    let (src, notes) = read_text(path, ctx)?;
+    let mut inv = parse_inventory(path, &src, ctx)?;
+    inv.warnings.extend(notes);
+    Ok(inv)
+}
+
+/// What measurement text holds.
+pub fn parse_inventory(
+    path: &Path,
+    src: &str,
+    ctx: &ReadContext<'_>,
+) -> Result<Inventory, SourceError> {
+    match detect_in(src, ctx) {
+        Some(r) => r.inventory(path, src, ctx),
+        None => Err(unrecognized(path)),
+    }
+}
+
+fn unrecognized(path: &Path) -> SourceError {
+    let expected: Vec<&str> = readers().iter().map(|r| r.describe()).collect();
+    SourceError::new(
+        path,
+        0,
+        0,
+        format!(
+            "unrecognized measurement format: expected {}",
+            expected.join(", or ")
+        ),
+    )
 }
 
 /// Reads measurement text in whatever format it is.
@@ -470,18 +758,7 @@ pub fn parse_measurement_in(
 ) -> Result<Measurement, SourceError> {
     match detect_in(src, ctx) {
         Some(r) => r.read(path, src, ctx),
-        None => {
-            let expected: Vec<&str> = readers().iter().map(|r| r.describe()).collect();
-            Err(SourceError::new(
-                path,
-                0,
-                0,
-                format!(
-                    "unrecognized measurement format: expected {}",
-                    expected.join(", or ")
-                ),
-            ))
-        }
+        None => Err(unrecognized(path)),
     }
 }
 
@@ -496,7 +773,7 @@ mod tests {
             ("label,x,y,z\nP1,1,2,3\n", "csv"),
             ("section,height_um\n1,0\n", "heights"),
             ("1.0 2.0 3.0\n4 5 6\n", "plain"),
-            ("x;y;z\n1;2;3\n", "plain"),
+            ("x;y;z\n1;2;3\n", "table"),
         ];
         for (src, name) in cases {
             assert_eq!(detect(src).map(|r| r.name()), Some(name), "{src}");
@@ -505,7 +782,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.starts_with("q.txt: unrecognized measurement format: expected DMIS"),
+            e.starts_with("q.txt: unrecognized measurement format: expected QIF"),
             "{e}"
         );
     }

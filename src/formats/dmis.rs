@@ -33,6 +33,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
+use super::inventory::{Entry, Inventory, Skipped};
 use super::measured::MeasuredPoint;
 use super::points::fmt_num;
 use crate::source::SourceError;
@@ -83,8 +84,9 @@ fn comment_start(s: &str) -> Option<usize> {
 
 /// Splits the source into statements, joining continuation lines.
 fn statements(src: &str, warnings: &mut Vec<String>) -> Vec<Statement> {
-    let mut out = Vec::new();
+    let mut out: Vec<Statement> = Vec::new();
     let mut cur: Option<Statement> = None;
+    let mut dollar_quirks: Vec<usize> = Vec::new();
     for (i, raw) in src.lines().enumerate() {
         let line = i + 1;
         let raw = raw.strip_suffix('\r').unwrap_or(raw);
@@ -107,9 +109,7 @@ fn statements(src: &str, warnings: &mut Vec<String>) -> Vec<Statement> {
             (trimmed_end, false)
         };
         if quirk {
-            warnings.push(format!(
-                "line {line}: `,$$` at the end of a line read as a continuation (in standard DMIS `$$` starts a comment)"
-            ));
+            dollar_quirks.push(line);
         }
         let lead = if cur.is_none() {
             content.len() - content.trim_start().len()
@@ -117,6 +117,19 @@ fn statements(src: &str, warnings: &mut Vec<String>) -> Vec<Statement> {
             0
         };
         let piece = &content[lead..];
+        // A line that starts with a comma continues the statement before
+        // it, whose writer wrapped it without the `$` (a real writer does
+        // this inside long OUTPUT lists).
+        if cur.is_none()
+            && piece.starts_with(',')
+            && let Some(prev) = out.pop()
+        {
+            warnings.push(format!(
+                "line {line}: a line starting with `,` read as the continuation of line {} (its `$` is missing)",
+                prev.line()
+            ));
+            cur = Some(prev);
+        }
         let st = cur.get_or_insert_with(|| Statement {
             text: String::new(),
             segments: Vec::new(),
@@ -140,6 +153,12 @@ fn statements(src: &str, warnings: &mut Vec<String>) -> Vec<Statement> {
             st.line()
         ));
         out.push(st);
+    }
+    if let Some(first) = dollar_quirks.first() {
+        warnings.push(format!(
+            "line {first}: `,$$` at the end of a line read as a continuation ({} lines; in standard DMIS `$$` starts a comment)",
+            dollar_quirks.len()
+        ));
     }
     out
 }
@@ -171,7 +190,7 @@ pub struct FeatureData {
     pub xyz: Vector3<f64>,
     /// Direction (surface normal of a point), when given.
     pub ijk: Option<Vector3<f64>>,
-    /// Diameter of a sphere, mm.
+    /// Diameter of a sphere (the size of a circle, cylinder or cone), mm.
     pub diameter: Option<f64>,
     /// 1-based line of the statement.
     pub line: usize,
@@ -219,10 +238,19 @@ pub struct ToleranceResult {
 /// A parsed DMIS output file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DmisOutput {
+    /// The DMIS version of `DMISMN/'name',version`, if stated.
+    pub version: Option<String>,
+    /// Whether the file said `UNITS/INCH` (every length is in mm anyway).
+    pub inch: bool,
     /// Features in order of first appearance.
     pub features: Vec<DmisFeature>,
     /// Actual tolerance results.
     pub tolerances: Vec<ToleranceResult>,
+    /// Statements of a DMIS program (MEAS/, PTMEAS/, GOTO/) met: the file
+    /// is a program to run on a CMM, not what a CMM wrote.
+    pub program_statements: usize,
+    /// Features not read, and why.
+    pub skipped: Vec<Skipped>,
     /// Quirks met on the way (not errors).
     pub warnings: Vec<String>,
 }
@@ -259,6 +287,49 @@ impl DmisOutput {
             })
             .collect()
     }
+
+    /// Everything the file holds, for `fivecal measured`: each feature with
+    /// its nominal and actual, each actual tolerance with its deviation.
+    pub fn inventory(&self) -> Inventory {
+        let mut inv = Inventory::new("dmis");
+        inv.version.clone_from(&self.version);
+        inv.units = if self.inch { "inch" } else { "mm" }.into();
+        for f in &self.features {
+            let any = f.actual.as_ref().or(f.nominal.as_ref());
+            let kind = match any.map(|d| &d.kind) {
+                Some(FeatureKind::Point) | None => "point".to_string(),
+                Some(FeatureKind::Sphere) => "sphere".to_string(),
+                Some(FeatureKind::Other(k)) => k.to_ascii_lowercase(),
+            };
+            let line = any.map_or(0, |d| d.line);
+            let mut e = Entry::new(f.label.clone(), kind, line);
+            e.nominal = f.nominal.as_ref().map(|d| d.xyz);
+            e.actual = f.actual.as_ref().map(|d| d.xyz);
+            e.normal = f
+                .actual
+                .as_ref()
+                .and_then(|d| d.ijk)
+                .or_else(|| f.nominal.as_ref().and_then(|d| d.ijk));
+            e.value = f
+                .actual
+                .as_ref()
+                .and_then(|d| d.diameter)
+                .or_else(|| f.nominal.as_ref().and_then(|d| d.diameter));
+            inv.entries.push(e);
+        }
+        for t in &self.tolerances {
+            let mut e = Entry::new(
+                t.label.clone(),
+                format!("tol/{}", t.kind.to_ascii_lowercase()),
+                t.line,
+            );
+            e.value = Some(t.deviation);
+            inv.entries.push(e);
+        }
+        inv.skipped.clone_from(&self.skipped);
+        inv.warnings.clone_from(&self.warnings);
+        inv
+    }
 }
 
 /// Whether a text looks like DMIS output: its first statements are DMIS
@@ -272,10 +343,35 @@ pub fn looks_like_dmis(src: &str) -> bool {
             let u = l.to_ascii_uppercase();
             u.starts_with("DMISMN/")
                 || u.starts_with("FA(")
-                || (u.starts_with("F(") && u.contains("=FEAT/"))
+                || (u.starts_with("F(") && u.contains("FEAT/"))
                 || u.starts_with("OUTPUT/")
                 || u.starts_with("UNITS/")
         })
+}
+
+/// Skips ASCII whitespace from byte `i` of `s`.
+fn skip_ws(s: &str, mut i: usize) -> usize {
+    let b = s.as_bytes();
+    while i < b.len() && (b[i] == b' ' || b[i] == b'\t') {
+        i += 1;
+    }
+    i
+}
+
+/// `kw` (ASCII, upper case) at byte `i` of `s`, case-insensitively, with
+/// whitespace before it skipped: the offset after it.
+fn keyword(s: &str, i: usize, kw: &str) -> Option<usize> {
+    let i = skip_ws(s, i);
+    let end = i + kw.len();
+    (s.get(i..end)?.eq_ignore_ascii_case(kw)).then_some(end)
+}
+
+/// The label of `F(label)`, `FA(label)`, `TA(label)` starting at `open`
+/// (just after the letters): (label, offset after `)`).
+fn label_at(s: &str, open: usize) -> Option<(String, usize)> {
+    let i = keyword(s, open, "(")?;
+    let close = s[i..].find(')')? + i;
+    Some((s[i..close].trim().to_string(), close + 1))
 }
 
 /// Parses DMIS output text.
@@ -283,8 +379,11 @@ pub fn parse(path: &Path, src: &str) -> Result<DmisOutput, SourceError> {
     let mut warnings = Vec::new();
     let stmts = statements(src, &mut warnings);
     let mut units = Units::Mm;
+    let mut version = None;
     let mut features: Vec<DmisFeature> = Vec::new();
     let mut tolerances = Vec::new();
+    let mut skipped = Vec::new();
+    let mut program_statements = 0;
     let mut index: HashMap<String, usize> = HashMap::new();
     for st in &stmts {
         let text = st.text.as_str();
@@ -293,6 +392,22 @@ pub fn parse(path: &Path, src: &str) -> Result<DmisOutput, SourceError> {
             let (l, c) = st.locate(off);
             SourceError::new(path, l, c, msg)
         };
+        if upper.starts_with("DMISMN/") {
+            // DMISMN/'name',version: the version after the quoted name.
+            if let Some(q) = text.rfind('\'')
+                && let Some(v) = text[q + 1..].trim().strip_prefix(',')
+            {
+                version = Some(v.trim().to_string());
+            }
+            continue;
+        }
+        if ["MEAS/", "PTMEAS/", "GOTO/", "ENDMES"]
+            .iter()
+            .any(|k| upper.starts_with(k))
+        {
+            program_statements += 1;
+            continue;
+        }
         if let Some(rest) = upper.strip_prefix("UNITS/") {
             let first = rest.split(',').next().unwrap_or("").trim();
             units = match first {
@@ -318,35 +433,44 @@ pub fn parse(path: &Path, src: &str) -> Result<DmisOutput, SourceError> {
             }
             continue;
         }
-        if upper.starts_with("TA(") {
+        if upper.starts_with("TA(") || upper.starts_with("TA ") {
             if let Some(t) = parse_tolerance(text, st, path, units, &mut warnings)? {
                 tolerances.push(t);
             }
             continue;
         }
-        let actual = if upper.starts_with("FA(") {
-            true
-        } else if upper.starts_with("F(") {
-            false
+        let (actual, open) = if upper.starts_with("FA") && keyword(&upper, 2, "(").is_some() {
+            (true, 2)
+        } else if upper.starts_with('F') && keyword(&upper, 1, "(").is_some() {
+            (false, 1)
         } else {
             continue;
         };
-        let open = if actual { 3 } else { 2 };
-        let Some(close) = text[open..].find(')').map(|i| i + open) else {
+        let Some((label, after)) = label_at(text, open) else {
             return Err(err(0, "expected `)` closing the feature label".into()));
         };
-        let label = text[open..close].trim().to_string();
         if label.is_empty() {
-            return Err(err(open, "missing feature label".into()));
+            return Err(err(open + 1, "missing feature label".into()));
         }
-        let after = &upper[close + 1..];
-        let Some(body_rel) = after.strip_prefix("=FEAT/") else {
-            // F(x)=... statements that are not features (e.g. F(x)=TOL) are
-            // not ours to read.
+        // `=FEAT/`, with whatever spaces a writer puts around the tokens.
+        let Some(body_off) = keyword(&upper, after, "=")
+            .and_then(|i| keyword(&upper, i, "FEAT"))
+            .and_then(|i| keyword(&upper, i, "/"))
+        else {
+            // F(x)=... statements that are not features are not ours to read.
             continue;
         };
-        let body_off = close + 1 + (after.len() - body_rel.len());
-        let data = parse_feature(&text[body_off..], body_off, units, st, path)?;
+        let data = match parse_feature(&text[body_off..], body_off, units, st, path)? {
+            Ok(d) => d,
+            Err(why) => {
+                skipped.push(Skipped {
+                    line: st.line(),
+                    what: format!("{}({label})", if actual { "FA" } else { "F" }),
+                    why,
+                });
+                continue;
+            }
+        };
         let i = *index.entry(label.clone()).or_insert_with(|| {
             features.push(DmisFeature {
                 label: label.clone(),
@@ -373,8 +497,12 @@ pub fn parse(path: &Path, src: &str) -> Result<DmisOutput, SourceError> {
         *slot = Some(data);
     }
     Ok(DmisOutput {
+        version,
+        inch: units == Units::Inch,
         features,
         tolerances,
+        program_statements,
+        skipped,
         warnings,
     })
 }
@@ -389,17 +517,16 @@ fn parse_tolerance(
     units: Units,
     warnings: &mut Vec<String>,
 ) -> Result<Option<ToleranceResult>, SourceError> {
-    let Some(close) = text.find(')') else {
+    let Some((label, after)) = label_at(text, 2) else {
         return Ok(None);
     };
-    let label = text[3..close].trim().to_string();
-    let rest = &text[close + 1..];
-    let Some(body) = rest
-        .strip_prefix("=TOL/")
-        .or_else(|| rest.strip_prefix("=tol/"))
+    let Some(body_at) = keyword(text, after, "=")
+        .and_then(|i| keyword(text, i, "TOL"))
+        .and_then(|i| keyword(text, i, "/"))
     else {
         return Ok(None);
     };
+    let body = &text[body_at..];
     let fields: Vec<&str> = body.split(',').map(str::trim).collect();
     let verdict = fields.last().copied().unwrap_or("").to_ascii_uppercase();
     let out = match verdict.as_str() {
@@ -443,13 +570,16 @@ pub fn read(path: &Path) -> Result<DmisOutput, SourceError> {
 }
 
 /// Parses `POINT,CART,x,y,z,...` (the text after `FEAT/`) at offset `off`.
+/// A point or sphere must be well formed (an error names the field); any
+/// other feature is read as far as it goes and, where it has no position,
+/// comes back as the reason it was skipped.
 fn parse_feature(
     body: &str,
     off: usize,
     units: Units,
     st: &Statement,
     path: &Path,
-) -> Result<FeatureData, SourceError> {
+) -> Result<Result<FeatureData, String>, SourceError> {
     // Fields with their offsets in the statement.
     let mut fields: Vec<(usize, &str)> = Vec::new();
     let mut start = 0;
@@ -464,20 +594,22 @@ fn parse_feature(
     };
     let line = st.line();
     let kind_name = fields[0].1.to_ascii_uppercase();
+    let strict = matches!(kind_name.as_str(), "POINT" | "SPHERE");
     let scale = match units {
         Units::Mm => 1.0,
         Units::Inch => 25.4,
     };
-    let num = |i: usize, what: &str| -> Result<f64, SourceError> {
+    // A number, or None for a missing or empty field (real writers leave
+    // the fields they do not know empty: `CART,,,,0,0,1,22`).
+    let opt = |i: usize, what: &str| -> Result<Option<f64>, SourceError> {
         let Some(&(at, s)) = fields.get(i) else {
-            let end = fields.last().map_or(off, |f| f.0 + f.1.len());
-            return Err(err(
-                end,
-                format!("missing {what}: the statement ends early"),
-            ));
+            return Ok(None);
         };
+        if s.is_empty() {
+            return Ok(None);
+        }
         match s.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
+            Ok(v) if v.is_finite() => Ok(Some(v)),
             Ok(_) => Err(err(
                 at,
                 format!("expected a finite number for {what}, got `{s}`"),
@@ -485,38 +617,55 @@ fn parse_feature(
             Err(_) => Err(err(at, format!("expected a number for {what}, got `{s}`"))),
         }
     };
-    // Optional INNER/OUTER, then CART or POL.
-    let mut k = 1;
-    if fields
-        .get(k)
-        .is_some_and(|f| matches!(f.1.to_ascii_uppercase().as_str(), "INNER" | "OUTER"))
-    {
-        k += 1;
-    }
-    let coord = fields.get(k).map(|f| f.1.to_ascii_uppercase());
-    let polar = match coord.as_deref() {
-        Some("CART") => false,
-        Some("POL") => true,
-        _ => {
-            let at = fields.get(k).map_or(off, |f| f.0);
+    // Qualifiers (INNER/OUTER, ROUND/FLAT, ...), then CART or POL.
+    let Some(k) = fields
+        .iter()
+        .position(|f| matches!(f.1.to_ascii_uppercase().as_str(), "CART" | "POL"))
+    else {
+        if strict {
+            let at = fields.get(1).map_or(off, |f| f.0);
             return Err(err(
                 at,
                 format!(
                     "expected CART or POL after FEAT/{kind_name}, got `{}`",
-                    fields.get(k).map_or("", |f| f.1)
+                    fields.get(1).map_or("", |f| f.1)
                 ),
             ));
         }
+        return Ok(Err(format!(
+            "FEAT/{kind_name} without CART or POL coordinates"
+        )));
     };
-    k += 1;
-    let (a, b, c) = (num(k, "x")?, num(k + 1, "y")?, num(k + 2, "z")?);
+    let polar = fields[k].1.eq_ignore_ascii_case("POL");
+    let k = k + 1;
+    let coords = if strict {
+        let need = |i: usize, what: &str| -> Result<f64, SourceError> {
+            opt(i, what)?.ok_or_else(|| {
+                let at = fields
+                    .get(i)
+                    .map_or_else(|| fields.last().map_or(off, |f| f.0 + f.1.len()), |f| f.0);
+                err(at, format!("expected a number for {what}, got ``"))
+            })
+        };
+        Some((need(k, "x")?, need(k + 1, "y")?, need(k + 2, "z")?))
+    } else {
+        match (opt(k, "x"), opt(k + 1, "y"), opt(k + 2, "z")) {
+            (Ok(Some(a)), Ok(Some(b)), Ok(Some(c))) => Some((a, b, c)),
+            _ => None,
+        }
+    };
+    let Some((a, b, c)) = coords else {
+        return Ok(Err(format!(
+            "FEAT/{kind_name} without a position (empty or unreadable x, y, z)"
+        )));
+    };
     let xyz = if polar {
         // POL: radius, angle (deg), height.
         Vector3::new(a * b.to_radians().cos(), a * b.to_radians().sin(), c) * scale
     } else {
         Vector3::new(a, b, c) * scale
     };
-    k += 3;
+    let k = k + 3;
     let kind = match kind_name.as_str() {
         "POINT" => FeatureKind::Point,
         "SPHERE" => FeatureKind::Sphere,
@@ -526,38 +675,73 @@ fn parse_feature(
     let mut diameter = None;
     match kind {
         FeatureKind::Point => {
-            // i, j, k when present; anything beyond is an extra field.
-            if fields.len() >= k + 3 {
-                let v = Vector3::new(num(k, "i")?, num(k + 1, "j")?, num(k + 2, "k")?);
-                if v.norm() < 1e-9 {
+            // i, j, k when present (renormalized: writers print 4
+            // decimals); anything beyond is an extra field, ignored.
+            let given = (k..k + 3)
+                .filter(|&i| fields.get(i).is_some_and(|f| !f.1.is_empty()))
+                .count();
+            match given {
+                0 => {}
+                3 => {
+                    let v = Vector3::new(
+                        opt(k, "i")?.unwrap_or(0.0),
+                        opt(k + 1, "j")?.unwrap_or(0.0),
+                        opt(k + 2, "k")?.unwrap_or(0.0),
+                    );
+                    if v.norm() < 1e-9 {
+                        return Err(err(
+                            fields[k].0,
+                            "the direction i,j,k of a point must not be zero".into(),
+                        ));
+                    }
+                    ijk = Some(v.normalize());
+                }
+                n => {
                     return Err(err(
                         fields[k].0,
-                        "the direction i,j,k of a point must not be zero".into(),
+                        format!(
+                            "a point carries x,y,z or x,y,z,i,j,k; got {} numbers",
+                            n + 3
+                        ),
                     ));
                 }
-                ijk = Some(v.normalize());
-            } else if fields.len() > k {
-                return Err(err(
-                    fields[k].0,
-                    format!(
-                        "a point carries x,y,z or x,y,z,i,j,k; got {} numbers",
-                        fields.len() - k + 3
-                    ),
-                ));
             }
         }
         FeatureKind::Sphere => {
-            diameter = Some(num(k, "diameter")? * scale);
+            diameter = Some(
+                opt(k, "diameter")?.ok_or_else(|| {
+                    err(
+                        fields.get(k).map_or(off, |f| f.0),
+                        "missing the diameter of the sphere".into(),
+                    )
+                })? * scale,
+            );
         }
-        FeatureKind::Other(_) => {}
+        FeatureKind::Other(_) => {
+            // Circles, cylinders, cones...: i, j, k, and then the diameter
+            // of a circle or cylinder, when given.
+            if let (Ok(Some(i)), Ok(Some(j)), Ok(Some(kk))) =
+                (opt(k, "i"), opt(k + 1, "j"), opt(k + 2, "k"))
+            {
+                let v = Vector3::new(i, j, kk);
+                if v.norm() > 1e-9 {
+                    ijk = Some(v.normalize());
+                }
+            }
+            if matches!(kind_name.as_str(), "CIRCLE" | "CYLINDER")
+                && let Ok(Some(d)) = opt(k + 3, "size")
+            {
+                diameter = Some(d * scale);
+            }
+        }
     }
-    Ok(FeatureData {
+    Ok(Ok(FeatureData {
         kind,
         xyz,
         ijk,
         diameter,
         line,
-    })
+    }))
 }
 
 /// One point as a CMM reports it.

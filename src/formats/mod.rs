@@ -5,11 +5,15 @@
 pub mod detect;
 pub mod dmis;
 pub mod dmis_program;
+pub mod encoding;
 pub mod heights;
+pub mod inventory;
 pub mod manifest;
 pub mod measured;
 pub mod points;
 pub mod probe_log;
+pub mod qif;
+pub mod table;
 
 /// A data line of a plain comma-separated file: its 1-based number and its
 /// fields with their 1-based columns (fields trimmed). Our CSV formats

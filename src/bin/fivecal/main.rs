@@ -50,6 +50,10 @@ enum Command {
     /// Run the whole job on the built-in example machine: plan, simulate,
     /// analyze, discover and compensate, with a one-screen summary.
     Demo(cmd::demo::DemoArgs),
+    /// Show what a measurement file holds before any plan is involved: its
+    /// format, units, runs, and each feature or point with its nominal,
+    /// actual and normal, and what was skipped and why.
+    Measured(cmd::measured::MeasuredArgs),
     /// Inspect machine files.
     #[command(subcommand)]
     Machine(cmd::machine::MachineCommand),
@@ -90,6 +94,7 @@ fn main() -> ExitCode {
         Command::Demo(a) => cmd::demo::run(a),
         Command::History(a) => cmd::history::run(a),
         Command::Verify(a) => cmd::verify::run(a),
+        Command::Measured(a) => cmd::measured::run(a),
         Command::Machine(m) => cmd::machine::run(m),
         Command::Completions(a) => cmd::docs::completions(a),
         Command::Man => cmd::docs::man(),

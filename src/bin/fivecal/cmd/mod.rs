@@ -9,6 +9,7 @@ pub mod discover;
 pub mod docs;
 pub mod history;
 pub mod machine;
+pub mod measured;
 pub mod plan;
 pub mod record;
 pub mod simulate;
