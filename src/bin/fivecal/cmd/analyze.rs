@@ -227,7 +227,7 @@ pub fn run(cli: AnalyzeCli) -> anyhow::Result<()> {
                 &written,
                 &c.record.notes,
             )?;
-            recorder.save(&records, &|s| println!("{s}"))
+            recorder.save(&records, &|s| outln!("{s}"))
         }
     }
 }
@@ -241,8 +241,8 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
     for piece in &id.pieces {
         print_piece(piece);
         if let Some(l) = &c.limits {
-            println!("limits from {}:", l.path.display());
-            print!("{}", Verdict::of(&piece.file, &l.limits).render());
+            outln!("limits from {}:", l.path.display());
+            out!("{}", Verdict::of(&piece.file, &l.limits).render());
         }
         if let Some(dir) = &c.report {
             let dir = piece.report_dir(dir);

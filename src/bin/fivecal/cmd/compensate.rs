@@ -369,7 +369,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
             let to_stdout = target.is_some();
             r.save(&[rec], &|s| {
                 if to_stdout {
-                    println!("{s}")
+                    outln!("{s}")
                 } else {
                     eprintln!("{s}")
                 }

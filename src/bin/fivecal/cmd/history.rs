@@ -84,20 +84,20 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
         Action::List => {
             let records = store.list(machine)?;
             if records.is_empty() {
-                println!(
+                outln!(
                     "no records{} in {}",
                     machine.map_or(String::new(), |m| format!(" of machine `{m}`")),
                     store.location()
                 );
             } else {
-                print!("{}", history::render_list(&records));
+                out!("{}", history::render_list(&records));
             }
         }
         Action::Show { id } => {
             let r = store
                 .get(id)?
                 .with_context(|| format!("no record {id} in {}", store.location()))?;
-            print!("{}", history::render_record(&r));
+            out!("{}", history::render_record(&r));
         }
         Action::Export { format, out } => {
             let records = store.list(machine)?;
@@ -108,21 +108,21 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
             match out {
                 Some(p) => {
                     write_atomic(&p, text.as_bytes())?;
-                    println!("wrote {} records to {}", records.len(), p.display());
+                    outln!("wrote {} records to {}", records.len(), p.display());
                 }
-                None => print!("{text}"),
+                None => out!("{text}"),
             }
         }
         Action::Trend(l) => {
             let h = machine_history(&mut store, machine)?;
             let limits = limits(&l, &h)?;
-            print!("{}", history::render_outlooks(&h, &limits));
+            out!("{}", history::render_outlooks(&h, &limits));
         }
         Action::Plot { out, limits: l } => {
             let h = machine_history(&mut store, machine)?;
             let limits = limits(&l, &h)?;
             let files = history::page::write(&out, &h, &limits)?;
-            println!(
+            outln!(
                 "history of {}: {} ({} files)",
                 h.machine,
                 out.join("index.html").display(),

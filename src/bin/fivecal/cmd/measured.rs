@@ -75,9 +75,9 @@ pub fn run(a: MeasuredArgs) -> anyhow::Result<()> {
     };
     let inv = detect::inventory(&a.file, &ctx)?;
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&json(&inv))?);
+        outln!("{}", serde_json::to_string_pretty(&json(&inv))?);
     } else {
-        print!("{}", text(&inv));
+        out!("{}", text(&inv));
     }
     Ok(())
 }

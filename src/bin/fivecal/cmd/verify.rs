@@ -55,7 +55,7 @@ pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
     }
     let c = Comparison::new((&bn, &b), (&an, &af), limits.as_ref().map(|l| &l.limits))
         .map_err(anyhow::Error::msg)?;
-    print!("{}", c.render());
+    out!("{}", c.render());
     if let Some(out) = &a.out {
         let mut inputs: Vec<&Path> = [&a.before, &a.after, &a.limits]
             .into_iter()
@@ -70,7 +70,7 @@ pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
             serde_yaml::to_string(&c)?
         };
         write_atomic(out, text.as_bytes())?;
-        println!("wrote {}", out.display());
+        outln!("wrote {}", out.display());
     }
     Ok(())
 }
