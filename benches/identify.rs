@@ -4,7 +4,7 @@
 //! and a full-size Monte-Carlo study (200 runs) of the global fit; and on
 //! the simulator: one run of the planner's stepped square simulated and
 //! identified, and the 200-run Monte Carlo `analyze --mc 200` makes of it
-//! with seed 001's contributors.
+//! with Ibaraki & Ota's (2014) contributors.
 
 use std::collections::HashMap;
 use std::hint::black_box;
@@ -127,19 +127,22 @@ fn bench(c: &mut Criterion) {
     };
     let mut group = c.benchmark_group("monte carlo");
     group.sample_size(10);
-    group.bench_function("200 runs of the global fit, seed 001 table 4", |b| {
-        b.iter(|| {
-            uncertainty::montecarlo::run(
-                &McOptions {
-                    runs: 200,
-                    seed: 3,
-                    progress: false,
-                },
-                est.theta.len(),
-                |_, r| uncertainty::synthetic_run(&t, r),
-            )
-        })
-    });
+    group.bench_function(
+        "200 runs of the global fit, Ibaraki & Ota 2014, table 4",
+        |b| {
+            b.iter(|| {
+                uncertainty::montecarlo::run(
+                    &McOptions {
+                        runs: 200,
+                        seed: 3,
+                        progress: false,
+                    },
+                    est.theta.len(),
+                    |_, r| uncertainty::synthetic_run(&t, r),
+                )
+            })
+        },
+    );
     group.finish();
 
     // The simulator: the planner's stepped square on bc-trunnion.
@@ -176,7 +179,7 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("monte carlo on the simulator");
     group.sample_size(10);
     group.bench_function(
-        "200 runs of the planned stepped square, seed 001 table 4",
+        "200 runs of the planned stepped square, Ibaraki & Ota 2014, table 4",
         |b| {
             b.iter(|| {
                 uncertainty::montecarlo::run(

@@ -1,5 +1,5 @@
 //! Speed of the Monte-Carlo study of `analyze --mc` on the demo's stepped
-//! square (`bc-trunnion`, seed 001 table 4 contributors): the whole
+//! square (`bc-trunnion`, Ibaraki & Ota 2014, table 4 contributors): the whole
 //! analysis with 1000 and 10,000 linearized runs (the targets: under
 //! 1 s and 5 s on two cores), and with 10 runs of the exact study
 //! (`--mc-exact`, every run simulated and fitted) for the cost per run it

@@ -1,4 +1,4 @@
-//! Writes the contour-error example of `examples/contour/` (seed 002's
+//! Writes the contour-error example of `examples/contour/` (Jiang et al.'s (2013)
 //! experiment on the CZFXYB head-table machine): a ten-sided frustum whose
 //! faces lean 45 to 60 deg from the table (a different head angle for each),
 //! its model (OBJ and GLB), the HEIDENHAIN finishing program that runs a

@@ -1,5 +1,5 @@
 //! Writes the worked example of `examples/discover/`: the stepped-square
-//! test of seed 001 planned for `bc-trunnion` (FANUC), run on the virtual
+//! test of Ibaraki & Ota 2014 planned for `bc-trunnion` (FANUC), run on the virtual
 //! machine (`simulate::run`) with the eight location errors and three
 //! effects a location calibration does not know: EZ0B drifting 1.2 um per
 //! cut as the machine warms up, an end mill cutting 3 um larger than its

@@ -1,8 +1,8 @@
-//! Contour errors (seed 002): the distance of each measured point to the
+//! Contour errors (Jiang et al. 2013 (docs/references.md)): the distance of each measured point to the
 //! design surface of a part model, as `fivecal analyze contour` reports it.
 //!
 //! The model is a triangle mesh read from OBJ (tobj) or glTF/GLB (gltf, with
-//! node transforms applied); the CMM's frame is the model's (seed 002
+//! node transforms applied); the CMM's frame is the model's (Jiang et al. 2013 (docs/references.md)
 //! measured with "the measure base defined as design model base"). Each
 //! point's distance is exact to the mesh: the closest point on the closest
 //! triangle, found through a bounding-volume hierarchy. Its sign comes from
@@ -679,7 +679,7 @@ pub struct ContourPoint {
 pub struct ContourSummary {
     /// Number of points.
     pub n: usize,
-    /// Mean of the absolute errors (seed 002's "average contour error").
+    /// Mean of the absolute errors (Jiang et al.'s (2013) "average contour error").
     pub mean_abs: f64,
     /// Largest absolute error and its label.
     pub max_abs: (f64, String),

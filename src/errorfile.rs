@@ -1,9 +1,9 @@
-//! Error files (SPEC section 3): the input of `simulate` (a truth file) and
+//! Error files (docs/formats.md): the input of `simulate` (a truth file) and
 //! the output of `analyze` (a result file), in YAML or JSON.
 //!
 //! ```yaml
 //! machine: bc-trunnion
-//! location_errors:               # um / urad, SPEC section 2 symbols
+//! location_errors:               # um / urad, docs/model.md symbols
 //!   EX0B: {value: 12.0, u: 0.4}  # u = standard uncertainty (k = 1)
 //!   EZ0B: -5.0                   # a truth file may give a bare number
 //! position_dependent:            # added to the location errors

@@ -1,10 +1,10 @@
 //! Rigid-body geometry shared by every module: the elementary homogeneous
-//! transforms of SPEC section 2 (`Dx`, `Dy`, `Dz`, `Da`, `Db`, `Dc` and their
+//! transforms of docs/model.md (`Dx`, `Dy`, `Dz`, `Da`, `Db`, `Dc` and their
 //! product `D`), unit conversions between the mm/deg of NC programs and the
 //! um/urad of error files, and small vector helpers.
 //!
 //! Transforms are `nalgebra::Isometry3<f64>` rather than raw 4x4 matrices so
-//! that products stay exactly rigid; the HTM of SPEC section 2 is
+//! that products stay exactly rigid; the HTM of docs/model.md is
 //! `iso.to_homogeneous()`.
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
@@ -80,7 +80,7 @@ pub fn rot(axis: Axis3, a: f64) -> Isometry3<f64> {
     )
 }
 
-/// `D(dx,dy,dz,a,b,c) = Dx Dy Dz Da Db Dc` of SPEC section 2 (mm, rad).
+/// `D(dx,dy,dz,a,b,c) = Dx Dy Dz Da Db Dc` of docs/model.md (mm, rad).
 pub fn d6(t: &[f64; 6]) -> Isometry3<f64> {
     trans(Axis3::X, t[0])
         * trans(Axis3::Y, t[1])

@@ -1,11 +1,11 @@
 //! fivecal: geometric calibration of five-axis machine tools.
 //!
 //! The library is organised by capability. [`machine`] reads machine files;
-//! [`kinematics`] is the exact model of SPEC section 2 with its inverse and
+//! [`kinematics`] is the exact model of docs/model.md with its inverse and
 //! Jacobians; [`model`] adds the named effects (location errors, error maps,
 //! drift, linear-axis, tool and probe errors) that `simulate` runs forward,
 //! `analyze` inverts and `discover` searches; [`errorfile`] reads and writes
-//! the error files of SPEC section 3.
+//! the error files of docs/formats.md.
 //!
 //! Units: mm and degrees in NC programs, plans and machine files; um and
 //! urad in error files and model parameters; mm and rad inside the chain.

@@ -1,6 +1,6 @@
 //! `analyze` as a user meets it: measurement files as CMMs write them
 //! (DMIS output with its quirks, CSV, plain exports), the nine-section
-//! statistics of seed 004 table 4, and the command line end to end on a
+//! statistics of Cubas Brizuela & Yeh 2023, table 4, and the command line end to end on a
 //! plan directory.
 
 use std::collections::HashMap;
@@ -525,7 +525,7 @@ fn drifting_pieces(dir: &Path, n: u64, seed: u64, offset: f64) -> (PathBuf, Vec<
 #[test]
 fn series_of_pieces_shows_a_thermal_drift_of_ez0b() {
     // Three pieces machined one after the other while the B axis drifts
-    // 6 um in Z per piece (seed 001 section 5.4).
+    // 6 um in Z per piece (Ibaraki & Ota 2014, section 5.4).
     let dir = tempdir();
     let (manifest, files) = drifting_pieces(dir.path(), 3, 300, 500.0);
     let out = dir.path().join("series.yaml");
@@ -687,7 +687,7 @@ fn nine_section_heights_from_the_command_line() {
 
 #[test]
 fn drift_per_pose_is_identified_by_the_rigid_pose_model() {
-    // A thermal drift of EZ0B per cut (seed 001 section 5.4) is constant
+    // A thermal drift of EZ0B per cut (Ibaraki & Ota 2014, section 5.4) is constant
     // within each pose, so the foundation model serves it exactly.
     let k = Kinematics::new(&machine("bc-trunnion"));
     let plan = stepped_plan(&k);
@@ -827,7 +827,7 @@ fn analyze_measures_of_a_plan_written_by_fivecal_plan() {
     }
 }
 
-/// The planner's nine-section piece (seed 004 section 6) machined with
+/// The planner's nine-section piece (Cubas Brizuela & Yeh 2023, section 6) machined with
 /// location errors and measured on a CMM in DMIS: the section heights are
 /// the deviations along the nominal directions relative to section 1,
 /// whatever the CMM alignment.
@@ -931,7 +931,7 @@ fn nine_section_heights_from_the_cmm_output_of_a_planned_piece() {
 }
 
 /// The planner's own sphere test on `ac-trunnion` (issue 4's
-/// `probing::sphere::plan`, seed 004's 36 + 13 positions): the touches as
+/// `probing::sphere::plan`, Cubas Brizuela & Yeh's (2023) 36 + 13 positions): the touches as
 /// the FANUC program logs them (ball centres, DPRNT), read through the
 /// probe-log reader against the plan, identified by the sphere method.
 #[test]
@@ -994,7 +994,7 @@ fn sphere_test_of_a_probing_plan_from_its_fanuc_probe_log() {
     }
 }
 
-/// The planner's three-column probing test on `ac-trunnion` (seed 000's
+/// The planner's three-column probing test on `ac-trunnion` (Ibaraki, Iritani & Matsushita's (2013)
 /// stations): contact points as CSV, identified by the two-stage and the
 /// global method with the columns set up 0.1 mm off.
 #[test]
@@ -1057,7 +1057,10 @@ fn column_probing_of_a_probing_plan_by_both_methods() {
             .clone();
         let text = String::from_utf8_lossy(&o);
         if method == "two-stage" {
-            assert!(text.contains("seed 000"), "{text}");
+            assert!(
+                text.contains("Ibaraki, Iritani & Matsushita 2013"),
+                "{text}"
+            );
         }
         let l = ErrorFile::load(&out, k).unwrap();
         for (i, t) in AC_TRUTH.iter().enumerate() {

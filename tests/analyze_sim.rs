@@ -58,10 +58,10 @@ pub(crate) const AC_ERRORS: &str = "location_errors:
   EB(0A)C: 40.0
 ";
 
-/// Seed 001 table 2 magnitudes on top of the location errors: the B axis'
+/// Ibaraki & Ota 2014, table 2 magnitudes on top of the location errors: the B axis'
 /// angular positioning error at each B (tens of urad) and the C axis'
 /// radial motion in X at each B and C (a few um), each averaging to zero
-/// as the seeds define them (eq. 1).
+/// as the papers define them (eq. 1).
 const BC_MAPS: &str = "position_dependent:
   EBB(B): {B: [-90, 0, 90], values: [32.0, -10.0, -22.0]}
   EXC(B,C):
@@ -285,7 +285,7 @@ fn stepped_square_uncertainty_agrees_with_the_spread_of_simulations_and_the_cram
 
 #[test]
 fn column_probing_uncertainty_agrees_with_the_spread_of_simulations_and_the_cramer_rao_bound() {
-    // Seed 000's two-stage form works relative to the reference touches,
+    // Ibaraki, Iritani & Matsushita's (2013) two-stage form works relative to the reference touches,
     // whose noise enters every pose: about twice the bound, and it says so.
     uncertainty_agrees(
         "ac-trunnion",
@@ -298,7 +298,7 @@ fn column_probing_uncertainty_agrees_with_the_spread_of_simulations_and_the_cram
 
 #[test]
 fn sphere_test_uncertainty_agrees_with_the_spread_of_simulations() {
-    // Seed 004's sphere method fits circles to sphere centres: honest but
+    // Cubas Brizuela & Yeh's (2023) sphere method fits circles to sphere centres: honest but
     // above the bound (by up to 40 % for EX0C); the global fit of the same
     // touches reaches it.
     uncertainty_agrees(
@@ -425,7 +425,7 @@ fn cmm_placement_of_a_simulated_piece_is_found_for_any_rotation_and_a_one_metre_
 
 #[test]
 fn sphere_test_simulated_on_ac_trunnion_gives_the_location_errors_of_the_c_and_a_axes() {
-    // Seed 004's sphere test as the probing planner writes it (36 C and 13
+    // Cubas Brizuela & Yeh's (2023) sphere test as the probing planner writes it (36 C and 13
     // A positions), the sphere clamped with a seeded shift and a 0.1 um form
     // error, logged by the FANUC program and read back from its log.
     let plan = planned("ac-trunnion", "probe-sphere");
@@ -557,7 +557,7 @@ fn monte_carlo_of_analyze_runs_the_plan_again_on_the_simulator() {
 
 #[test]
 fn monte_carlo_with_seed_000_contributors_widens_u_beyond_the_noise_for_column_probing() {
-    // The default contributors of a probing plan (seed 000 table 4: linear
+    // The default contributors of a probing plan (Ibaraki, Iritani & Matsushita 2013, table 4: linear
     // scale 10 um/m, straightness 2 um, squareness 30 urad, 0.7 um of
     // noise, each column clamped anew): the linear axes' errors reach the
     // location errors (a squareness is an orientation error the test

@@ -1,4 +1,4 @@
-//! Contour errors (seed 002): the example part machined by its original
+//! Contour errors (Jiang et al. 2013 (docs/references.md)): the example part machined by its original
 //! and by its compensated program on the virtual machine, measured at 120
 //! points and compared with its model; and `simulate nc` on its own.
 
@@ -109,7 +109,7 @@ fn the_example_part_shows_contour_errors_shrink_after_compensation() {
     machined("frustum-compensated.h", "cmm-after.csv");
     let after = contour(d, "frustum.glb", "cmm-after.csv");
 
-    // Seed 002's kind of result: tens of micrometres before, a fraction of
+    // Jiang et al.'s (2013) kind of result: tens of micrometres before, a fraction of
     // that after (the identified errors are not the truth, and the linear
     // axes are not compensated).
     assert!(before.0 > 0.030 && before.1 > 0.045, "before {before:?}");

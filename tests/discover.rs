@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use crate::identify::{AC_TRUTH, BC_TRUTH};
 use crate::util::machine;
 
-/// Measurement noise of the simulated tests, um (seed 001 table 4).
+/// Measurement noise of the simulated tests, um (Ibaraki & Ota 2014, table 4).
 const NOISE: f64 = 0.35;
 
 /// The planner's stepped square on `bc-trunnion` (FANUC, post kinematics).
@@ -40,7 +40,7 @@ fn stepped_square() -> Plan {
     .unwrap()
 }
 
-/// The probing planner's three columns on `ac-trunnion` (seed 000's 24
+/// The probing planner's three columns on `ac-trunnion` (Ibaraki, Iritani & Matsushita's (2013) 24
 /// stations).
 fn columns() -> Plan {
     fivecal::procedure::plan(&PlanConfig {
@@ -53,7 +53,7 @@ fn columns() -> Plan {
     .unwrap()
 }
 
-/// The plan run on a machine with the eight location errors (seed 001's
+/// The plan run on a machine with the eight location errors (Ibaraki & Ota's (2014)
 /// table 1 magnitudes) and `hidden`, measured; as a discovery's inputs.
 fn simulated(plan: &Plan, hidden: &[(Effect, Vec<f64>)], seed: u64) -> Inputs {
     let kin = simulate::plan_kinematics(plan);
@@ -240,7 +240,7 @@ fn tool_radius_error_is_named_and_the_tool_length_refused_as_an_alias() {
 fn b_axis_angular_positioning_map_is_named_and_closes_the_gap() {
     let plan = stepped_square();
     // EBB(B): the B axis turns 60 urad (12") too far at -90 and 45 urad
-    // too short at +90 (averaging to zero, as the seeds define a map).
+    // too short at +90 (averaging to zero, as the papers define a map).
     let truth = [60.0, -15.0, -45.0];
     let d = discover(&simulated(
         &plan,

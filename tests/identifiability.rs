@@ -1,4 +1,4 @@
-//! SPEC section 2: the eight location symbols are what the seeds' tests can
+//! docs/model.md: the eight location symbols are what the papers' tests can
 //! identify. Computed here from the project's own Jacobians: each pose's
 //! 6-DOF displacement of the table frame, relative to the reference pose,
 //! as a function of the twelve constant terms.

@@ -21,7 +21,7 @@ use nalgebra::{Isometry3, Vector3};
 
 use crate::util::{machine, random_placement, rng};
 
-/// The eight B/C location errors (SPEC order: EX0B, EZ0B, EA0B, EC0B, EB0B,
+/// The eight B/C location errors (order of docs/model.md: EX0B, EZ0B, EA0B, EC0B, EB0B,
 /// EX(0B)C, EY0C, EA(0B)C), um and urad.
 pub const BC_TRUTH: [f64; 8] = [12.0, -40.0, 80.0, -60.0, 150.0, 25.0, -18.0, 45.0];
 
@@ -205,7 +205,7 @@ fn rigid_pose_model_jacobian_matches_finite_differences() {
     }
 }
 
-/// Seed 001 table 2 magnitudes: a B-axis map (angular positioning of B,
+/// Ibaraki & Ota 2014, table 2 magnitudes: a B-axis map (angular positioning of B,
 /// tens of urad) and a C-axis map (radial motion of C in X, a few um).
 fn map_truth(k: &Kinematics) -> (Model, Vec<f64>) {
     let sym = Model::new(k.clone(), vec![]).symbols;
@@ -234,7 +234,7 @@ fn map_truth(k: &Kinematics) -> (Model, Vec<f64>) {
         ],
     );
     let mut theta = BC_TRUTH.to_vec();
-    // Zero mean over B; zero mean over C at each B (the seeds' definition).
+    // Zero mean over B; zero mean over C at each B (the papers' definition).
     theta.extend([32.0, -10.0, -22.0]);
     theta.extend([
         3.0, -1.0, -4.0, 2.0, -2.5, 1.5, 2.5, -1.5, 1.0, 2.0, -1.0, -2.0,
@@ -368,7 +368,7 @@ fn reported_uncertainty_agrees_with_a_seeded_spread() {
     }
 }
 
-/// The sphere test of seed 004 on `ac-trunnion`: 36 C positions at A = 0,
+/// The sphere test of Cubas Brizuela & Yeh 2023 on `ac-trunnion`: 36 C positions at A = 0,
 /// 13 A positions from -90 to 30 at C = 0, five points per position.
 pub fn sphere_poses() -> Vec<(f64, f64)> {
     let mut p: Vec<(f64, f64)> = (0..36).map(|i| (0.0, 10.0 * i as f64)).collect();
@@ -473,7 +473,7 @@ fn robust_circle_fit_sets_a_failed_probing_aside() {
 #[test]
 fn term_level_analysis_finds_the_identifiable_sets_of_seed_003() {
     // The twelve constant terms against the stepped-square design, with the
-    // placement as nuisance: rank 8 + 6, and the SPEC's choice among the
+    // placement as nuisance: rank 8 + 6, and the choice of docs/model.md among the
     // identifiable sets of eight terms.
     use fivecal::identify::identifiability::identifiable_sets;
     use nalgebra::{DMatrix, Point3};
@@ -510,7 +510,7 @@ fn term_level_analysis_finds_the_identifiable_sets_of_seed_003() {
         8,
     );
     assert_eq!(tried, 495);
-    // SPEC's terms: dx_BY dz_BY a_BY c_BY b_CB dx_CB dy_CB a_CB.
+    // the terms of docs/model.md: dx_BY dz_BY a_BY c_BY b_CB dx_CB dy_CB a_CB.
     let spec = vec![0, 2, 3, 5, 10, 6, 7, 9];
     let mut spec_sorted = spec.clone();
     spec_sorted.sort();
@@ -559,7 +559,7 @@ fn placement_is_found_for_any_rotation_and_a_one_metre_offset() {
     }
 }
 
-/// Seed 000's stations: A = 0, -30, -60, -90 x C = 0, 60, ..., 300.
+/// Ibaraki, Iritani & Matsushita's (2013) stations: A = 0, -30, -60, -90 x C = 0, 60, ..., 300.
 fn column_poses() -> Vec<(f64, f64)> {
     let mut p = Vec::new();
     for a in [0.0, -30.0, -60.0, -90.0] {
@@ -690,7 +690,7 @@ fn sphere_method_uncertainty_agrees_with_a_seeded_spread() {
 
 #[test]
 fn column_probing_of_the_planned_columns_over_twenty_seeds() {
-    // The probing planner's three columns on ac-trunnion (seed 000's 24
+    // The probing planner's three columns on ac-trunnion (Ibaraki, Iritani & Matsushita's (2013) 24
     // stations), each column clamped on its own up to 0.1 mm and 0.2 mrad
     // off, 0.35 um of probe noise; global (a setup per column) and
     // two-stage (relative to the reference touches).
@@ -765,7 +765,7 @@ fn column_probing_of_the_planned_columns_over_twenty_seeds() {
 
 #[test]
 fn column_probing_uncertainty_agrees_with_a_seeded_spread_for_both_methods() {
-    // In seed 000's form every pose's motion carries the reference
+    // In Ibaraki, Iritani & Matsushita's (2013) form every pose's motion carries the reference
     // touches' noise; the reported u must say so. 100 runs know a standard
     // deviation to +-7 % (1 sigma), the residual sigma is known to +-5 %:
     // u against the spread within 30 %, the spread against the Cramer-Rao

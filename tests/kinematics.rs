@@ -1,5 +1,5 @@
 //! The exact model: forward/inverse round trips, Jacobians against finite
-//! differences, SPEC's table-table form, and seed 001's linearization.
+//! differences, the table-table form of docs/model.md, and Ibaraki & Ota's (2014) linearization.
 
 use fivecal::geom::{self, Axis3, d6};
 use fivecal::kinematics::maps::{MapDim, MapGrid};
@@ -342,7 +342,7 @@ fn parameter_jacobian_matches_central_differences() {
     }
 }
 
-/// `rTw` of SPEC section 2, written out independently.
+/// `rTw` of docs/model.md, written out independently.
 fn spec_rtw(tilt_axis: Axis3, p: &Perturbation, t: f64, c: f64) -> Isometry3<f64> {
     d6(&p.link(0))
         * geom::rot(tilt_axis, -t.to_radians())
@@ -387,7 +387,7 @@ fn table_table_transform_is_exactly_the_spec_form() {
     }
 }
 
-/// Seed 001 eq. (6): the linearized 6-DOF displacement of W for the twelve
+/// Ibaraki & Ota 2014, eq. (6): the linearized 6-DOF displacement of W for the twelve
 /// terms of a B/C machine at (B, C).
 fn seed001_eq6(p: &Perturbation, b: f64, c: f64) -> [f64; 6] {
     let [dx_by, dy_by, dz_by, a_by, b_by, c_by] = p.link(0);

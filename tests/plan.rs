@@ -210,7 +210,7 @@ fn nine_section_on_ac_trunnion_has_nine_sections_with_section_1_at_zero() {
         "{}",
         t.poses[0].feature
     );
-    // Section 8 at A = -30, C = 270 as in seed 004.
+    // Section 8 at A = -30, C = 270 as in Cubas Brizuela & Yeh 2023 (docs/references.md).
     assert_eq!((t.poses[7].tilt, t.poses[7].c), (-30.0, 270.0));
     // All nine sections are cut to one nominal height, and each tool
     // leans away from the piece's centre.
@@ -978,7 +978,7 @@ fn a_bull_nose_cuts_the_nine_sections_with_its_flat_end_and_its_torus() {
 }
 
 /// The stepped-square poses a table-table machine gets, relative to the
-/// reference pose, identify its eight location errors (SPEC section 2),
+/// reference pose, identify its eight location errors (docs/model.md),
 /// also where tilt +90 is out of reach (ac-trunnion: A = 0, -90 only).
 #[test]
 fn the_stepped_square_poses_identify_eight_location_terms_on_both_trunnions() {

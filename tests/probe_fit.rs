@@ -1,4 +1,4 @@
-//! Sphere, circle and plane fits, worked on seed 004's table 1 and checked
+//! Sphere, circle and plane fits, worked on Cubas Brizuela & Yeh's (2023) table 1 and checked
 //! against closed forms computed here independently of the library.
 
 use std::collections::BTreeMap;
@@ -13,7 +13,7 @@ use rand_distr::{Distribution, Normal};
 
 use crate::util::rng;
 
-/// Seed 004's table 1, by pose, in the file's order (Xc+, Xc-, Yc+, Yc-, Zc-).
+/// Cubas Brizuela & Yeh's (2023) table 1, by pose, in the file's order (Xc+, Xc-, Yc+, Yc-, Zc-).
 fn table1() -> BTreeMap<String, Vec<Vector3<f64>>> {
     let src = std::fs::read_to_string("tests/fixtures/probe/seed004-table1.csv").unwrap();
     let mut sets: BTreeMap<String, Vec<Vector3<f64>>> = BTreeMap::new();
@@ -57,7 +57,7 @@ fn circumsphere(p: &[Vector3<f64>; 4]) -> (Vector3<f64>, f64) {
     (c, (p[0] - c).norm())
 }
 
-/// Seed 004's four combinations of four touches, each with the Z touch.
+/// Cubas Brizuela & Yeh's (2023) four combinations of four touches, each with the Z touch.
 const COMBINATIONS: [[usize; 4]; 4] = [[0, 1, 2, 4], [0, 1, 3, 4], [0, 2, 3, 4], [1, 2, 3, 4]];
 
 /// The ball-centre radius of the seed's reference set. The seed gives the
@@ -160,7 +160,7 @@ fn least_squares_centre_agrees_with_seed004s_average_of_four_combinations() {
     let fit = fit_sphere(c0).unwrap();
     assert!(
         (fit.sphere.centre - mean).norm() < 0.001,
-        "least squares {:?} vs seed 004's combination average {mean:?}",
+        "least squares {:?} vs Cubas Brizuela & Yeh's (2023) combination average {mean:?}",
         fit.sphere.centre
     );
 }
@@ -265,7 +265,7 @@ fn circle_through_three_and_circle_fit_agree_with_the_closed_form() {
     }
 }
 
-/// Seed 004 section 3.2 as a worked example: the sphere's ball-centre
+/// Cubas Brizuela & Yeh 2023, section 3.2 as a worked example: the sphere's ball-centre
 /// touches at 36 C positions around a C axis that is shifted and tilted;
 /// fitting the sphere at each position, then a circle through the 36
 /// centres, returns the axis: where it crosses Z = 0 (eq. 4.1) and its

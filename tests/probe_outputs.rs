@@ -239,7 +239,7 @@ fn the_setup_model_holds_every_touch() {
     }
 }
 
-/// The setup sheet states the expected run time, compared with seed 000's
+/// The setup sheet states the expected run time, compared with Ibaraki, Iritani & Matsushita's (2013)
 /// 219 points in about 28 min; pose and touch times run on from 0 to it.
 #[test]
 fn the_setup_sheet_gives_the_run_time_against_seed_000() {
@@ -248,7 +248,7 @@ fn the_setup_sheet_gives_the_run_time_against_seed_000() {
     assert_eq!(rt.touches, 221);
     assert!(
         (20.0..35.0).contains(&rt.total_min),
-        "{} min for 221 touches (seed 000: 219 in about 28)",
+        "{} min for 221 touches (Ibaraki, Iritani & Matsushita 2013: 219 in about 28)",
         rt.total_min
     );
     let sheet = p.setup_sheet("probe-columns");
@@ -257,7 +257,9 @@ fn the_setup_sheet_gives_the_run_time_against_seed_000() {
         (rt.total_min * 10.0).round() / 10.0
     );
     assert!(sheet.contains(&want), "{want}\n{sheet}");
-    assert!(sheet.contains("Seed 000 reports 219 points in about 28 min"));
+    assert!(
+        sheet.contains("Ibaraki, Iritani & Matsushita 2013 reports 219 points in about 28 min")
+    );
     assert!(sheet.contains("| 0 | A0C0 | 0 | 0 | 15 | 0 |"), "{sheet}");
     // Times run on: poses in order, each touch within its pose.
     let poses = p.poses();
@@ -440,7 +442,7 @@ fn cli_writes_every_probing_output() {
         p.program.text
     );
 
-    // The default machine, a template given by path (seed 003's spiral).
+    // The default machine, a template given by path (the LAMDAMAP 2015 paper's spiral).
     let tpl = dir.path().join("spiral.yaml");
     std::fs::write(
         &tpl,

@@ -83,7 +83,7 @@ fn column_plan_on_the_seeds_machine_probes_15_reference_points_and_revisits_them
     assert_eq!(
         reference.touches.len(),
         15,
-        "3 columns x 5 points, as in seed 000"
+        "3 columns x 5 points, as in Ibaraki, Iritani & Matsushita 2013"
     );
     let refs = &plan.touches[reference.touches.clone()];
     for pose in &plan.poses {
@@ -340,7 +340,7 @@ fn every_move_of_every_default_plan_clears_the_setup_by_an_independent_check() {
     }
     let ac = machine("ac-trunnion");
     plans.push((
-        "ac-trunnion seed 003".into(),
+        "ac-trunnion LAMDAMAP 2015".into(),
         sphere::touch_plan(&ac, &seed003_template()).unwrap(),
     ));
     for (what, plan) in &plans {
@@ -513,7 +513,7 @@ fn sphere_plan_follows_seed004_with_axis_parallel_touches_on_the_sphere() {
     assert_eq!(&ids[36..39], ["A-90C0", "A-80C0", "A-70C0"]);
     assert_eq!(
         ids[45], "A0C0.2",
-        "the reference pose again, as in seed 004's 49 positions"
+        "the reference pose again, as in Cubas Brizuela & Yeh's (2023) 49 positions"
     );
     assert_eq!(ids[48], "A30C0");
     let centre = sphere::sphere_centre(&m, &t);
@@ -638,8 +638,8 @@ fn run_time_of_a_one_touch_plan_is_the_sum_of_its_moves() {
     assert_eq!(got.poses, [(0.0, got.total_min)]);
 }
 
-/// Seed 000 probed 219 points in about 28 min (7.7 s a point). The default
-/// column pattern on the seeds' machine comes out at a similar count and
+/// Ibaraki, Iritani & Matsushita 2013 probed 219 points in about 28 min (7.7 s a point). The default
+/// column pattern on the papers' machine comes out at a similar count and
 /// pace with the template's feeds (probing 100 mm/min over 5 mm,
 /// positioning 2000 mm/min) and overheads (1 s a touch, 3 s a pose).
 #[test]

@@ -123,3 +123,60 @@ fn the_readme_test_command_builds_the_tests() {
         .unwrap();
     assert!(status.success());
 }
+
+/// Users see the repository only: no README line, doc comment, template,
+/// postprocessor, example or `--help` text may send them to the team's
+/// working documents ("SPEC section 3", "seed 002", `../shared/`), which
+/// are not part of it. The citations point into `docs/` instead.
+#[test]
+fn no_text_cites_documents_outside_the_repository() {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let pattern = |line: &str| {
+        line.contains("SPEC section")
+            || line.contains("SPEC §")
+            || line.contains("../shared")
+            || line.contains("shared/seeds")
+            || line.contains("shared/notes")
+            || (0..10).any(|d| {
+                line.contains(&format!("seed 00{d}")) || line.contains(&format!("Seed 00{d}"))
+            })
+    };
+    let mut hits = Vec::new();
+    let mut stack: Vec<std::path::PathBuf> = [
+        "README.md",
+        "src",
+        "docs",
+        "templates",
+        "postprocessors",
+        "examples",
+        "benches",
+    ]
+    .iter()
+    .map(|p| root.join(p))
+    .collect();
+    while let Some(p) = stack.pop() {
+        if p.is_dir() {
+            for e in std::fs::read_dir(&p).unwrap() {
+                stack.push(e.unwrap().path());
+            }
+            continue;
+        }
+        let Ok(text) = std::fs::read_to_string(&p) else {
+            continue;
+        };
+        for (i, line) in text.lines().enumerate() {
+            if pattern(line) {
+                hits.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
+            }
+        }
+    }
+    assert!(hits.is_empty(), "{}", hits.join("\n"));
+    // The help text as users see it.
+    let help = Command::cargo_bin("fivecal")
+        .unwrap()
+        .arg("--help")
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.lines().all(|l| !pattern(l)), "{help}");
+}

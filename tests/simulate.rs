@@ -108,7 +108,7 @@ fn with_no_errors_every_point_is_its_nominal_point_on_every_machine() {
     }
 }
 
-// ---------------------------------------------------------------- seed 001 eq. (5)-(6)
+// ---------------------------------------------------------------- Ibaraki & Ota 2014, eq. (5)-(6)
 
 /// The twelve constant terms of a table-table machine's two links (the
 /// tilt axis T relative to Y: `d_TY`, `w_TY`; C relative to T: `d_CT`,
@@ -124,7 +124,7 @@ struct Terms {
 /// Sets one of the terms to a value (mm or rad).
 type SetTerm = fn(&mut Terms, f64);
 
-/// Seed 001 eq. (6) for the B/C machine, and its mirror for the A/C
+/// Ibaraki & Ota 2014, eq. (6) for the B/C machine, and its mirror for the A/C
 /// machine (the tilt about X instead of Y): the displacement (dX, dY, dZ)
 /// and rotation (dA, dB, dC) of the machined surface at (tilt, C), to first
 /// order in the errors.
@@ -133,7 +133,7 @@ fn eq6(ac: bool, t: &Terms, tilt_deg: f64, c_deg: f64) -> (Vector3<f64>, Vector3
     let (sc, cc) = c_deg.to_radians().sin_cos();
     let one = |ty: &Vector3<f64>, cb: &Vector3<f64>| {
         if !ac {
-            // Seed 001 eq. (6), as printed.
+            // Ibaraki & Ota 2014, eq. (6), as printed.
             let a = ty.x * ct + ty.z * st + cb.x;
             let b = ty.y + cb.y;
             Vector3::new(
@@ -156,7 +156,7 @@ fn eq6(ac: bool, t: &Terms, tilt_deg: f64, c_deg: f64) -> (Vector3<f64>, Vector3
 }
 
 /// A single location error of 10 um or 50 urad displaces every machined
-/// surface of the stepped square as seed 001 eq. (5)-(6) says, within
+/// surface of the stepped square as Ibaraki & Ota 2014, eq. (5)-(6) says, within
 /// second-order terms: each CMM point moves along its normal by
 /// `n . (dT + dW x p)`. All eight symbols, on both trunnions.
 #[test]

@@ -121,7 +121,7 @@ impl<T, E: std::fmt::Display> AtStage<T> for Result<T, E> {
 /// One location error: the truth, the first analysis and the final model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Row {
-    /// SPEC symbol.
+    /// symbol of docs/model.md.
     pub symbol: String,
     /// Unit (um or urad).
     pub unit: String,

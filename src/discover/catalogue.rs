@@ -7,7 +7,7 @@
 //!
 //! Some candidates carry their own defining constraints, so that they mean
 //! what their symbols mean and do not duplicate the model: a map averages
-//! to zero over its angles (seed 001 eq. 1, seed 000 eq. 1; the location
+//! to zero over its angles (Ibaraki & Ota 2014, eq. 1, Ibaraki, Iritani & Matsushita 2013, eq. 1; the location
 //! error stays the axis average line), a straightness is taken from its
 //! least-squares reference line (ISO 230-1: its mean and slope are a
 //! position and a squareness, not a straightness), the line fitted over the
@@ -70,8 +70,8 @@ pub struct Catalogue {
     pub notes: Vec<String>,
 }
 
-/// The commanded machine position of a plan point: `rTw* p` (SPEC section
-/// 2; for head machines the table part of the chain, which is what the
+/// The commanded machine position of a plan point: `rTw* p` (docs/model.md,
+/// frames; for head machines the table part of the chain, which is what the
 /// straightness nodes need to span).
 fn commanded(kin: &Kinematics, tilt: f64, c: f64, p: &nalgebra::Vector3<f64>) -> [f64; 3] {
     let q = kin.nominal_table_transform(tilt, c) * Point3::from(*p);
@@ -238,7 +238,7 @@ pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
             out.candidates.push(c);
         }
     }
-    // Maps on the plan's angles, with the seeds' averaging constraints
+    // Maps on the plan's angles, with the papers' averaging constraints
     // (built by the identification's own setup, so both agree).
     for ms in &sym.maps {
         let Ok(s) = Setup::new(kin, &data.poses, std::slice::from_ref(&ms.name)) else {

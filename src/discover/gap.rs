@@ -2,7 +2,7 @@
 //! measured minus predicted along the surface normal), overall and broken
 //! down by pose, by face of the piece, by the machine direction the
 //! measurement is taken along, and by execution order, with a one-line
-//! account of where it is concentrated (seed 003's residual analysis: a
+//! account of where it is concentrated (the LAMDAMAP 2015 paper's residual analysis: a
 //! residual that is not noise has a pattern, and the pattern names its
 //! cause: a drift grows with the sequence, a scale error lives along one
 //! machine axis, a map in some poses).

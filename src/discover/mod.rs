@@ -2,8 +2,8 @@
 //! missing effect, add it, and show the gap shrink.
 //!
 //! Starting from a model (by default the location errors the test
-//! identifies: seed 003's question of which parameter sets a test can
-//! identify, answered greedily in SPEC order), the loop fits the model,
+//! identifies: the LAMDAMAP 2015 paper's question of which parameter sets a test can
+//! identify, answered greedily in the order of docs/model.md), the loop fits the model,
 //! measures the gap ([`gap`]: the residuals overall and by pose, face,
 //! direction and sequence), and tries every candidate effect of the shared
 //! catalogue ([`catalogue`]) in parallel: it checks that the candidate is
@@ -124,7 +124,7 @@ impl Discovery {
         identification(self.end(), data)
     }
 
-    /// The final model as an error file (SPEC section 3): every value the
+    /// The final model as an error file (docs/formats.md): every value the
     /// test identifies with its `u`; a value the test does not see is
     /// written without `u` (or left out, where absence means zero) and
     /// listed under `not_identifiable` with the reason, as is every
@@ -465,7 +465,7 @@ fn start(
             "the starting model needs `location`: every other effect is added to the location errors".into(),
         ));
     }
-    // Seed 003's question, answered greedily in SPEC order: the largest
+    // The LAMDAMAP 2015 paper's question, answered greedily in the order of docs/model.md: the largest
     // set of location symbols the test identifies together. A symbol that
     // adds no direction to those kept is left out; what it does is carried
     // by the kept ones it is aliased with.
@@ -760,7 +760,7 @@ pub fn run(
         // The same drift on the other clock (per pose or per minute) is
         // the same effect, not a rival cause: when the test cannot tell
         // the clocks apart (poses of nearly equal duration), the drift is
-        // kept per pose, as the seeds' thermal tests count it, and the
+        // kept per pose, as the papers' thermal tests count it, and the
         // story says so.
         if basis_of(best) == Some(DriftBasis::Minute)
             && let Some(&c) = r

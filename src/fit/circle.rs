@@ -1,4 +1,4 @@
-//! Circles in space, as seed 004 section 3.2 uses them: the centres of a
+//! Circles in space, as Cubas Brizuela & Yeh 2023, section 3.2 uses them: the centres of a
 //! calibration sphere measured at several C (or tilt) positions lie on a
 //! circle whose plane is perpendicular to the rotary axis and whose centre
 //! lies on it. [`circle_through_three`] is the closed form the seed applies
@@ -29,7 +29,7 @@ pub struct Circle3 {
 
 impl Circle3 {
     /// Where the circle's axis (the line through the centre along the
-    /// normal) crosses the plane `Z = z` (seed 004 eq. 4.1 with `z = 0`);
+    /// normal) crosses the plane `Z = z` (Cubas Brizuela & Yeh 2023, eq. 4.1 with `z = 0`);
     /// `None` when the axis is parallel to that plane.
     pub fn axis_point_at_z(&self, z: f64) -> Option<Vector3<f64>> {
         if self.normal.z.abs() < 1e-12 {
@@ -38,7 +38,7 @@ impl Circle3 {
         Some(self.centre + self.normal * ((z - self.centre.z) / self.normal.z))
     }
 
-    /// Angle between the axis and the Z axis, rad (seed 004 eq. 3.4).
+    /// Angle between the axis and the Z axis, rad (Cubas Brizuela & Yeh 2023, eq. 3.4).
     pub fn axis_tilt(&self) -> f64 {
         self.normal.z.abs().min(1.0).acos()
     }

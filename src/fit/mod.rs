@@ -4,7 +4,7 @@
 //! what is minimized.
 //!
 //! They serve two users. On the machine, a calibration sphere is touched at
-//! five points per pose (seed 004 section 2): [`sphere::fit_sphere`] gives
+//! five points per pose (Cubas Brizuela & Yeh 2023, section 2): [`sphere::fit_sphere`] gives
 //! the centre and radius and [`sphere::SphereCheck`] flags a set whose
 //! radius or form is implausible, as a controller's sphere-radius check
 //! would, before the centre is used. The sphere method of the analyzer

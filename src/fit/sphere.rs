@@ -1,6 +1,6 @@
 //! Sphere fits and the plausibility check of a probed sphere.
 //!
-//! The closed form is seed 004's eq. 3.2: every point on a sphere satisfies
+//! The closed form is Cubas Brizuela & Yeh's (2023) eq. 3.2: every point on a sphere satisfies
 //! `x^2 + y^2 + z^2 + A x + B y + C z + D = 0`, which is linear in
 //! `(A, B, C, D)`; the centre is `-(A, B, C) / 2` and the radius
 //! `sqrt(|centre|^2 - D)`. With four points it is the exact circumsphere;
@@ -44,7 +44,7 @@ pub struct SphereFit {
     pub max_abs: f64,
 }
 
-/// The algebraic (closed-form, seed 004 eq. 3.2) sphere through four or
+/// The algebraic (closed-form, Cubas Brizuela & Yeh 2023, eq. 3.2) sphere through four or
 /// more points that are not all in one plane.
 pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, FitError> {
     check_points(points, "sphere", 4)?;

@@ -1,5 +1,5 @@
 //! Recognizes a measurement file from its content (never from its name) and
-//! reads it into the canonical meaning of SPEC section 3.
+//! reads it into the canonical meaning of docs/formats.md.
 //!
 //! Every format is a [`Reader`] in one registry, [`readers`], tried in
 //! order: the first whose `sniff` accepts the text reads it. Specific
@@ -670,7 +670,7 @@ pub fn readers() -> Vec<&'static dyn Reader> {
         // The probe logs of `src/formats/probe_log/` (FANUC DPRNT,
         // HEIDENHAIN FN 16, LinuxCNC LOG and PROBEOPEN), before the plain
         // point list, which accepts any three numbers per line. They return
-        // labelled contact points in W at rotary zero (SPEC section 3).
+        // labelled contact points in W at rotary zero (docs/formats.md).
         &ProbeLog, &ProbeFile, &Table, &Plain,
     ]
 }

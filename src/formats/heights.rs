@@ -1,9 +1,9 @@
-//! Section heights of the nine-section test (seed 004 section 6): the
+//! Section heights of the nine-section test (Cubas Brizuela & Yeh 2023, section 6): the
 //! depth of each machined section relative to section 1 (the centre,
 //! machined at A = C = 0), in um, as read with a micrometer or a CMM.
 //!
 //! ```text
-//! # nine-section test, values from the machine (seed 004 table 4)
+//! # nine-section test, values from the machine (Cubas Brizuela & Yeh 2023, table 4)
 //! section,height_um
 //! 1,0
 //! 2,-5

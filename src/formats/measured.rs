@@ -1,4 +1,4 @@
-//! Measured points in the canonical form of SPEC section 3: CSV
+//! Measured points in the canonical form of docs/formats.md: CSV
 //! `label,x,y,z` (extra columns ignored). For a CMM, the surface point in
 //! the CMM frame; for on-machine probing, the contact point (ball radius
 //! applied) in W at rotary zero.

@@ -1,5 +1,5 @@
 //! File formats of measurements and plans, one module per format. Every
-//! reader turns its format into the canonical meaning of SPEC section 3
+//! reader turns its format into the canonical meaning of docs/formats.md
 //! and reports bad input as `file:line:column: what was expected`.
 
 pub mod detect;

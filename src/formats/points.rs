@@ -1,4 +1,4 @@
-//! Plan points, `<name>.points.csv` (SPEC section 3): the nominal surface
+//! Plan points, `<name>.points.csv` (docs/formats.md): the nominal surface
 //! points of a test in W with the pose that produced or observes them and
 //! the outward normal.
 //!

@@ -8,7 +8,7 @@
 //! [`RigidPoseMachining`]: a table-table machining test whose errors are
 //! constant within each pose (location errors, maps, drift per pose or per
 //! minute at the pose's middle), where the machined face of a pose is the
-//! nominal face moved by `rTw^-1 rTw*` (SPEC section 2) and the CMM measures
+//! nominal face moved by `rTw^-1 rTw*` (docs/model.md) and the CMM measures
 //! along the nominal normal. The simulator supplies the general model (tool
 //! radius and shape, linear-axis errors along the path, probing with
 //! pre-travel) through the same trait. [`RigidPoseProbing`] is the same

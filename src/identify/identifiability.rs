@@ -1,9 +1,9 @@
 //! What a test can and cannot identify, reported before any number: the
 //! rank and condition number of the column-scaled design, which parameters
 //! are identifiable, the parameter combinations that change no measurement
-//! (named in SPEC symbols and model terms), the identifiable combinations
+//! (named in symbols of docs/model.md and model terms), the identifiable combinations
 //! of the parameters that are not identifiable alone, the enumeration of
-//! identifiable parameter sets of seed 003 section 4, and a pose-quality
+//! identifiable parameter sets of the LAMDAMAP 2015 paper, section 4, and a pose-quality
 //! figure per rotary axis.
 //!
 //! **Pose quality.** HEIDENHAIN KinematicsOpt (cycle 451) reports a
@@ -76,7 +76,7 @@ pub struct Identifiability {
     pub rank: usize,
     /// Condition number of the column-scaled design (kept singular values).
     pub condition: f64,
-    /// The constraints that define the parameters (seeds' averaging).
+    /// The constraints that define the parameters (papers' averaging).
     pub constraints: Vec<String>,
     /// Each parameter.
     pub params: Vec<ParamStatus>,
@@ -389,7 +389,7 @@ pub fn report(
     }
 }
 
-/// Seed 003 section 4: among the columns `candidates` of a design `j`
+/// The LAMDAMAP 2015 paper, section 4: among the columns `candidates` of a design `j`
 /// (rows: measurements), every set of `size` columns that, together with
 /// the always-included columns `fixed` (nuisance), has full column rank.
 /// Returns the sets (as indices into `candidates`) and the number tried.

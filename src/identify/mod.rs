@@ -1,19 +1,19 @@
 //! Identification: from measured points joined to their plan, the location
-//! errors and error maps of SPEC section 2 with their covariance, and first
+//! errors and error maps of docs/model.md with their covariance, and first
 //! of all what the test can identify at all.
 //!
 //! Three methods share one parameterisation ([`Setup`]: the model's
-//! location symbols plus the requested maps, the maps tied by the seeds'
+//! location symbols plus the requested maps, the maps tied by the papers'
 //! averaging constraints) and one result ([`Identification`]):
 //!
-//! - [`two_stage`]: the seeds' own; a 6-DOF pose per cut or station (seed
-//!   001 eq. 7-9, seed 000 eq. 7-10), then the parameters from the poses
-//!   relative to the reference pose (seed 001 eq. 10, seed 000 eq. 13-17);
+//! - [`two_stage`]: the papers' own; a 6-DOF pose per cut or station (seed
+//!   001 eq. 7-9, Ibaraki, Iritani & Matsushita 2013, eq. 7-10), then the parameters from the poses
+//!   relative to the reference pose (Ibaraki & Ota 2014, eq. 10, Ibaraki, Iritani & Matsushita 2013, eq. 13-17);
 //! - [`global`]: one nonlinear least-squares fit of every point to the exact
 //!   forward model ([`forward::ForwardModel`]) with the placement as
 //!   nuisance parameters;
 //! - [`sphere`]: sphere centre per pose, then circle and plane fits per
-//!   rotary axis (seed 004 sections 3-4).
+//!   rotary axis (Cubas Brizuela & Yeh 2023, sections 3-4).
 //!
 //! All of them rest on the numerical core [`lsq`] and report through
 //! [`identifiability`] before any number.
@@ -107,7 +107,7 @@ pub enum IdentifyError {
 }
 
 /// What is identified: the model (location symbols and requested maps) and
-/// the linear constraints that define the maps (seeds' averaging).
+/// the linear constraints that define the maps (papers' averaging).
 #[derive(Clone, Debug)]
 pub struct Setup {
     /// The model; its parameters are the unknowns.
@@ -131,10 +131,10 @@ fn distinct(values: impl Iterator<Item = f64>) -> Vec<f64> {
 
 impl Setup {
     /// Every location symbol of the machine plus the maps named in `maps`
-    /// (SPEC map symbols such as `EBB(B)`, `EXC(B,C)`), each on the grid of
-    /// the index angles of `poses`, with the seeds' averaging constraints: a
+    /// (map symbols of docs/model.md such as `EBB(B)`, `EXC(B,C)`), each on the grid of
+    /// the index angles of `poses`, with the papers' averaging constraints: a
     /// tilt-axis map averages to zero over its angles and a C-axis map over
-    /// C at each tilt angle (seed 001 eq. 1, seed 000 eq. 1), so that the
+    /// C at each tilt angle (Ibaraki & Ota 2014, eq. 1, Ibaraki, Iritani & Matsushita 2013, eq. 1), so that the
     /// location errors stay the axis average lines.
     pub fn new(kin: &Kinematics, poses: &[Pose], maps: &[String]) -> Result<Setup, IdentifyError> {
         let mut model = Model::new(kin.clone(), Vec::new());

@@ -1,4 +1,4 @@
-//! Statistics of the nine-section test (seed 004 section 6, table 4): the
+//! Statistics of the nine-section test (Cubas Brizuela & Yeh 2023, section 6, table 4): the
 //! depth of each section relative to section 1, summarised as AVG (mean of
 //! the signed heights), MAX (largest absolute height) and RMS (root mean
 //! square), all over every section including section 1 itself, as the
@@ -95,7 +95,7 @@ impl NineSection {
     }
 
     /// The rate of improvement of each statistic from `before` to `self`,
-    /// percent (seed 004 table 4: `(|before| - |after|) / |before|`).
+    /// percent (Cubas Brizuela & Yeh 2023, table 4: `(|before| - |after|) / |before|`).
     pub fn improvement_over(&self, before: &NineSection) -> [f64; 3] {
         let rate = |b: f64, a: f64| (b.abs() - a.abs()) / b.abs() * 100.0;
         [

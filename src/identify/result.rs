@@ -1,5 +1,5 @@
 //! The result every method returns, and what is made of it: the error file
-//! of SPEC section 3 (identifiable parameters with their standard
+//! of docs/formats.md (identifiable parameters with their standard
 //! uncertainty, the rest under `not_identifiable` with the reason), and the
 //! residual table per pose and face.
 

@@ -1,5 +1,5 @@
 //! Small rigid motions shared by the identification methods: the six
-//! numbers `(dx, dy, dz, a, b, c)` of `D(...)` (SPEC section 2) and back,
+//! numbers `(dx, dy, dz, a, b, c)` of `D(...)` (docs/model.md) and back,
 //! and the exact point-to-plane residual of a rigidly moved face with its
 //! derivatives.
 

@@ -1,11 +1,11 @@
-//! The `sphere` method (seed 004 sections 3-5): a calibration sphere probed
+//! The `sphere` method (Cubas Brizuela & Yeh 2023, sections 3-5): a calibration sphere probed
 //! at many index angles; its centre per pose; circle and plane fits of the
 //! centres per rotary axis give each axis line; the location errors are
 //! the values for which the exact model has these axis lines.
 //!
 //! - Sphere centre per pose: least squares on all contact points (free
-//!   radius), from the algebraic fit (seed 004 eq. 3.1-3.2) refined
-//!   geometrically. Seed 004 averages four 4-point fits instead; with five
+//!   radius), from the algebraic fit (Cubas Brizuela & Yeh 2023, eq. 3.1-3.2) refined
+//!   geometrically. Cubas Brizuela & Yeh 2023 averages four 4-point fits instead; with five
 //!   points the least-squares fit is the same estimate with less variance.
 //!   The fit is [`crate::fit::fit_sphere`]; [`fit_sphere`] adds the
 //!   centre's covariance the line fits weigh by.
@@ -15,14 +15,14 @@
 //!   geometric) gives each line: its centre and the plane's normal. The
 //!   default fit is robust (iteratively reweighted with Tukey's biweight on
 //!   the MAD scale), so a failed probing shows as an outlier instead of a
-//!   bias. [`CircleMethod::Combinations`] reproduces seed 004's filtering for
+//!   bias. [`CircleMethod::Combinations`] reproduces Cubas Brizuela & Yeh's (2023) filtering for
 //!   comparison: a circle through every three centres that are at least 30
 //!   deg apart (the C gaps closing the circle), then trimming of each line
 //!   number to mean +- sigma/2 (eq. 5.1-5.3).
 //! - Location errors: the eight symbols for which the axes of the exact
 //!   model's motions `rTw(t1) rTw(t0)^-1` (tilt) and `rTw(t0, c1) rTw(t0,
 //!   c0)^-1` (C) are the fitted lines, by Newton's method: an exact inverse,
-//!   with no small-angle formula (seed 004 eq. 4.1 is its first-order form).
+//!   with no small-angle formula (Cubas Brizuela & Yeh 2023, eq. 4.1 is its first-order form).
 //!
 //! The covariance follows the centres' covariance (pooled sphere-fit
 //! residuals) linearly through the circle fits with their final weights.
@@ -49,7 +49,7 @@ pub enum CircleMethod {
     Robust,
     /// Plain least-squares geometric circle fit.
     LeastSquares,
-    /// Seed 004's three-point combinations with filtering.
+    /// Cubas Brizuela & Yeh's (2023) three-point combinations with filtering.
     Combinations,
 }
 
@@ -317,7 +317,7 @@ pub struct AxisCentres {
     pub centres: Vec<Vector3<f64>>,
 }
 
-/// Seed 004's combinations: the lines of every admissible three-centre
+/// Cubas Brizuela & Yeh's (2023) combinations: the lines of every admissible three-centre
 /// circle, trimmed to mean +- sigma/2 per line number, averaged. Returns
 /// the line and the number of combinations (all, admissible, kept).
 pub fn combinations_line(
@@ -641,7 +641,7 @@ fn lines(
             let (lt, nt) = combinations_line(&g.tilt, &tilt_hint, &Vector3::zeros())?;
             let (lc, nc) = combinations_line(&g.c, &c_hint, &Vector3::zeros())?;
             notes.push(format!(
-                "seed 004 combinations: {} axis {} of {} three-centre circles admissible, {} kept; C axis {} of {}, {} kept",
+                "Cubas Brizuela & Yeh 2023 combinations: {} axis {} of {} three-centre circles admissible, {} kept; C axis {} of {}, {} kept",
                 m.tilt.letter, nt[1], nt[0], nt[2], nc[1], nc[0], nc[2]
             ));
             Some(FittedLines {

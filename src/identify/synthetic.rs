@@ -194,7 +194,7 @@ fn push_pose(
     }
 }
 
-/// A stepped-square-like piece (seed 001 fig. 2-4) for a table-table
+/// A stepped-square-like piece (Ibaraki & Ota 2014, fig. 2-4) for a table-table
 /// machine: at every tilt in `tilts` and C in `cs`, a square step of
 /// half-width `half` mm milled with X and Y moves only, its centre `h` mm
 /// from the pivot along the tool axis (each pose at its own height, so the
@@ -272,7 +272,7 @@ pub fn sphere_plan(
     }
 }
 
-/// Three square columns on one base (seed 000 fig. 2), probed on the
+/// Three square columns on one base (Ibaraki, Iritani & Matsushita 2013, fig. 2), probed on the
 /// machine at every pose in `poses` ((tilt, C)): on each column two points
 /// on each side face (at two heights) and one on top, keeping only the
 /// faces a probe coming from above can reach (machine-frame normal not

@@ -1,6 +1,6 @@
-//! The seeds' two-stage method.
+//! The papers' two-stage method.
 //!
-//! **Stage 1** (seed 001 eq. 7-9, seed 000 eq. 7-10): for each pose, the
+//! **Stage 1** (Ibaraki & Ota 2014, eq. 7-9, Ibaraki, Iritani & Matsushita 2013, eq. 7-10): for each pose, the
 //! six numbers `xi = (dx, dy, dz, a, b, c)` of the rigid motion `D(xi)` that
 //! best moves the pose's nominal faces onto its measured points, by exact
 //! point-to-plane least squares. Motions the pose's faces do not observe (a
@@ -10,24 +10,24 @@
 //! - a machined piece is compared in W, after the CMM placement;
 //! - probing, when the touches name their feature (`<pose>_<feature>`, as
 //!   the probing planner labels them) and the reference pose touched the
-//!   same features: seed 000's form (eq. 5-8), the point measured at the
+//!   same features: Ibaraki, Iritani & Matsushita's (2013) form (eq. 5-8), the point measured at the
 //!   reference pose carried to the pose by the nominal rotation,
 //!   `rTw*_j rTw*_ref^-1 p_ref`, in the machine frame. The setup of every
 //!   piece cancels, however many pieces were clamped separately;
 //! - probing otherwise: the nominal point `rTw*_j p`, the piece (one rigid
 //!   setup) estimated in stage 2.
 //!
-//! **Stage 2** (seed 001 eq. 10, seed 000 eq. 13-17): the parameters whose
+//! **Stage 2** (Ibaraki & Ota 2014, eq. 10, Ibaraki, Iritani & Matsushita 2013, eq. 13-17): the parameters whose
 //! exact model reproduces the stage-1 motions, weighted by each pose's
 //! information: for a machined piece `D(xi_j) = G rTw_j^-1 rTw*_j`; for
-//! seed 000's form `D(xi_j) = rTw_j rTw_ref^-1 rTw*_ref rTw*_j^-1`; for
-//! plain probing `D(xi_j) = rTw_j G rTw*_j^-1`. Seed 001 eq. 10 subtracts the
+//! Ibaraki, Iritani & Matsushita's (2013) form `D(xi_j) = rTw_j rTw_ref^-1 rTw*_ref rTw*_j^-1`; for
+//! plain probing `D(xi_j) = rTw_j G rTw*_j^-1`. Ibaraki & Ota 2014, eq. 10 subtracts the
 //! reference pose's motion; here `G` (six nuisance numbers: the reference
 //! pose's own displacement, or the piece's setup error) is estimated with
 //! the parameters, so the reference step's own measurement noise is
 //! weighted like any other pose's rather than copied into all of them. The
-//! maps carry the seeds' averaging constraints ([`super::Setup`]), which is
-//! what separates the tilt-axis and C-axis errors in seed 000 eq. 16-17.
+//! maps carry the papers' averaging constraints ([`super::Setup`]), which is
+//! what separates the tilt-axis and C-axis errors in Ibaraki, Iritani & Matsushita 2013, eq. 16-17.
 
 use std::collections::HashMap;
 
@@ -60,7 +60,7 @@ pub enum Frame {
     Piece(Option<Isometry3<f64>>),
     /// Probing against the nominal points `rTw* p`.
     Probed,
-    /// Probing relative to the reference pose (seed 000).
+    /// Probing relative to the reference pose (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)).
     Relative {
         /// Index of the reference pose.
         reference: usize,
@@ -87,7 +87,7 @@ fn reference_touch(data: &Dataset, reference: usize, k: usize) -> Option<usize> 
 }
 
 impl Frame {
-    /// The frame a dataset is analysed in: seed 000's relative form for a
+    /// The frame a dataset is analysed in: Ibaraki, Iritani & Matsushita's (2013) relative form for a
     /// probing test whose touches are mostly tied to the reference pose by
     /// their feature names.
     pub fn for_data(data: &Dataset, placement: Option<Isometry3<f64>>) -> Frame {
@@ -205,7 +205,7 @@ pub fn pose_fits(
 }
 
 /// Stage 1: the motion of every pose, with its uncertainty from the pooled
-/// residual variance of all poses. In seed 000's form the reference pose,
+/// residual variance of all poses. In Ibaraki, Iritani & Matsushita's (2013) form the reference pose,
 /// which defines the frame, has no fit of its own.
 pub fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<PoseFit> {
     stage1(data, kin, frame).0
@@ -433,7 +433,7 @@ pub fn identify(
                 })
                 .count();
             notes.push(format!(
-                "stage 1 relative to the touches of pose {} (seed 000): the setup of the pieces cancels{}",
+                "stage 1 relative to the touches of pose {} (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)): the setup of the pieces cancels{}",
                 data.poses[*reference].id,
                 if unused > 0 {
                     format!("; {unused} touches of features not touched there are not used")
@@ -614,7 +614,7 @@ pub fn identify(
         cov,
         cov_unit,
         identifiability: report,
-        // Per touch: in seed 000's form a stage-1 residual holds two
+        // Per touch: in Ibaraki, Iritani & Matsushita's (2013) form a stage-1 residual holds two
         // touches' noise.
         sigma_um: if matches!(frame, Frame::Relative { .. }) {
             sigma1 / 2f64.sqrt()

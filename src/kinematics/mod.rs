@@ -1,4 +1,4 @@
-//! The exact kinematic model of SPEC section 2 and its extension to
+//! The exact kinematic model of docs/model.md and its extension to
 //! head-table and head-head machines: forward kinematics (axis values to the
 //! tool tip and tool axis in W), inverse kinematics (by Newton from the
 //! closed-form nominal solution), and analytic Jacobians of the tool pose
@@ -15,7 +15,7 @@
 //! rTw = D(dx_TY, ..., c_TY) * R_T(-t) * D(dx_CT, ..., c_CT) * Dc(-c)
 //! ```
 //!
-//! with (X, Y, Z) = rTw* wq* for the nominal tool point, which is SPEC's
+//! with (X, Y, Z) = rTw* wq* for the nominal tool point, which is the form of docs/model.md,
 //! `wq = rTw^-1 rTw* wq*`. Head machines append the head links to the tool
 //! side: `Trans(X, Y, Z) * Tz(Lh) * E_C * Dc(c) * E_T * R_T(t) * E_S * Tz(-Lh)`
 //! with `Lh` the pivot length plus the tool's gauge length, so that the

@@ -1,15 +1,15 @@
-//! The error symbols of SPEC section 2 (ISO 230-1 style, e.g. `EX0B`,
+//! The error symbols of docs/model.md (ISO 230-1 style, e.g. `EX0B`,
 //! `EA(0B)C`, `EXC(B,C)`) and how each maps onto the model's error terms.
 //!
 //! A location symbol is a fixed linear combination of constant terms: most
 //! are one term, two are sums (`EB0B = b_BY + b_CB`, `EY0C = dy_BY + dy_CB`)
 //! because only the sum is observable. When a value is written into the
-//! model it goes to one *canonical* term of the combination (seed 001 table
+//! model it goes to one *canonical* term of the combination (Ibaraki & Ota 2014, table
 //! 1: `b_CB`, `dy_CB`), so `simulate` and `analyze` agree on the meaning.
 //! Map symbols name single terms as functions of the index angles.
 //!
 //! Head-table and head-head machines are this project's extension of the
-//! SPEC: their location symbols describe each head axis line relative to the
+//! model of docs/model.md: their location symbols describe each head axis line relative to the
 //! spindle, since a constant offset of the whole head is a work-offset error
 //! that no test can see.
 
@@ -99,7 +99,7 @@ pub enum SymbolError {
 /// All symbols of one machine.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SymbolTable {
-    /// Location symbols, in the order of SPEC section 2.
+    /// Location symbols, in the order of docs/model.md.
     pub location: Vec<LocationSymbol>,
     /// Map symbols.
     pub maps: Vec<MapSymbol>,

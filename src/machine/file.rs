@@ -56,7 +56,7 @@ pub struct MachineFile {
 pub struct RotaryAxisFile {
     /// `[min, max]` in degrees, or `null` for a continuous axis.
     pub limits: Option<[f64; 2]>,
-    /// +1 (SPEC convention) or -1.
+    /// +1 (convention of docs/model.md) or -1.
     #[serde(default = "one")]
     pub direction: i32,
 }
@@ -167,7 +167,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         ));
     }
     // C must carry the tilt in head-head machines, and sit on the tilt in
-    // table-table machines (the order of SPEC section 2).
+    // table-table machines (the order of docs/model.md).
     match derived {
         Structure::TableTable if c_pos > t_pos => {
             return Err(err(

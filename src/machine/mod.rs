@@ -159,7 +159,7 @@ pub struct RotaryAxis {
     pub about: Axis3,
     /// Whether it moves the workpiece (table) or the tool (head).
     pub on_table: bool,
-    /// +1 when a positive command rotates as SPEC section 2 writes it
+    /// +1 when a positive command rotates as docs/model.md writes it
     /// (`R(-angle)` for table axes, `R(+angle)` for head axes), -1 otherwise.
     pub direction: f64,
     /// Limits in degrees; `None` for a continuous axis.

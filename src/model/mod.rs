@@ -27,7 +27,7 @@ pub use effect::{DriftBasis, Effect, PROBE_DIRECTIONS, Squareness};
 pub struct Context {
     /// Commanded axis values.
     pub axes: Axes,
-    /// Execution order of the pose (SPEC `seq`).
+    /// Execution order of the pose (`seq` of docs/formats.md).
     pub seq: f64,
     /// Elapsed time since the program started, minutes.
     pub minutes: f64,

@@ -58,7 +58,7 @@ pub enum Coolant {
     Flood,
     /// Mist.
     Mist,
-    /// Air blow (seed 001).
+    /// Air blow (Ibaraki & Ota 2014 (docs/references.md)).
     Air,
 }
 

@@ -1,6 +1,6 @@
 //! SVG plots (plotters, SVG backend): values with error bars, error maps
 //! against angle, residuals, and the measured deviations of a pose
-//! magnified (seed 001 figs. 7-8, seed 000 fig. 5), and a value over time
+//! magnified (Ibaraki & Ota 2014, figs. 7-8, Ibaraki, Iritani & Matsushita 2013, fig. 5), and a value over time
 //! with its u band (the machine's history).
 
 use plotters::prelude::*;
@@ -243,7 +243,7 @@ pub struct ViewPoint {
 }
 
 /// The measured deviations of one pose, magnified, in two views side by
-/// side (seed 001 figs. 7-8): dots at the nominal points, circles at the
+/// side (Ibaraki & Ota 2014, figs. 7-8): dots at the nominal points, circles at the
 /// measured ones, a segment along the normal between them.
 pub fn pose_plot(title: &str, views: &[(String, Vec<ViewPoint>)], max_dev: f64) -> PlotResult {
     let mut svg = String::new();

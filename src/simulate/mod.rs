@@ -1,10 +1,10 @@
 //! The virtual machine: a plan run on a machine whose errors are known (a
-//! truth file, SPEC section 3), measured as a real CMM or the machine's own
+//! truth file, docs/formats.md), measured as a real CMM or the machine's own
 //! probe would measure it, written in the files they would write.
 //!
 //! # Machining tests
 //! Every cutting move of every pose runs on the exact model (full HTMs,
-//! SPEC section 2, with every effect of the truth: location errors, maps,
+//! docs/model.md, with every effect of the truth: location errors, maps,
 //! drift per pose or per minute along the cut, linear-axis scale,
 //! squareness and straightness where the axes really are during the cut,
 //! tool radius and length). The surface left is the envelope of the actual
@@ -67,7 +67,7 @@ use crate::procedure::{Plan, Test};
 pub use cmm::Placement;
 pub use output::Format;
 
-/// Measurement noise when the truth file gives none, um (seed 001 table 4:
+/// Measurement noise when the truth file gives none, um (Ibaraki & Ota 2014, table 4:
 /// non-systematic error, sigma 0.35 um).
 pub const DEFAULT_NOISE_UM: f64 = 0.35;
 /// Largest setup shift of a probed piece, mm.

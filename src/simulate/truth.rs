@@ -19,7 +19,7 @@ pub fn example(kin: &Kinematics) -> String {
     let w = &mut s;
     let _ = writeln!(
         w,
-        "# fivecal truth file: the errors of a virtual machine (SPEC section 3)."
+        "# fivecal truth file: the errors of a virtual machine (docs/formats.md)."
     );
     let _ = writeln!(
         w,
@@ -174,7 +174,7 @@ pub fn example(kin: &Kinematics) -> String {
     );
     let _ = writeln!(
         w,
-        "  # the probe's repeatability along its probing move (default 0.35, seed 001 table 4)"
+        "  # the probe's repeatability along its probing move (default 0.35, Ibaraki & Ota 2014, table 4)"
     );
     let _ = writeln!(w, "  noise: {{cmm: 0.35, probe: 0.35}}");
     s

@@ -1,23 +1,23 @@
-//! Uncertainty contributors (seed 001 table 4, seed 000 table 4) and how
+//! Uncertainty contributors (Ibaraki & Ota 2014, table 4, Ibaraki, Iritani & Matsushita 2013, table 4) and how
 //! each maps onto the foundation's effects, so that a Monte-Carlo run can
 //! draw a machine that has them.
 //!
-//! | contributor | effect | seed 001 table 4 (uniform range) | seed 000 table 4 (standard uncertainty) |
+//! | contributor | effect | Ibaraki & Ota 2014, table 4 (uniform range) | Ibaraki, Iritani & Matsushita 2013, table 4 (standard uncertainty) |
 //! |---|---|---|---|
 //! | linear positioning, linear term | `scale.EXX`, `EYY`, `EZZ` | +-40 um/m (4 um/100 mm) | 10 um/m (see below) |
-//! | straightness, non-periodic | `straightness.E..` at random nodes 20-50 mm apart (seed 000 eq. 19) | +-2 um | 2 um |
+//! | straightness, non-periodic | `straightness.E..` at random nodes 20-50 mm apart (Ibaraki, Iritani & Matsushita 2013, eq. 19) | +-2 um | 2 um |
 //! | squareness | `squareness.EC(0X)Y`, `EB(0X)Z`, `EA(0Y)Z` | +-15 urad | 30 urad (3 um/100 mm) |
 //! | non-systematic (probing, CMM) | noise along the normal | sigma 0.35 um | 0.7 um |
 //! | test-piece setup (probing) | rigid displacement of the piece | - | 10, 10, 120 um; 100 urad |
-//! | directional pre-travel variation (probing) | `probe_pretravel` per approach direction | - | 0 (compensated, seed 000 section 6) |
+//! | directional pre-travel variation (probing) | `probe_pretravel` per approach direction | - | 0 (compensated, Ibaraki, Iritani & Matsushita 2013, section 6) |
 //! | form of a calibration sphere | the simulator's sphere form error | - | - |
 //!
 //! Not mapped, because the foundation has no effect for them: the periodic
-//! terms of positioning and straightness (0.5 um in seed 001), the angular
-//! errors of the linear axes (25 urad periodic in seed 001) and the
-//! non-systematic positioning error `E_XX,rand` of seed 000 eq. 19. They are
+//! terms of positioning and straightness (0.5 um in Ibaraki & Ota 2014 (docs/references.md)), the angular
+//! errors of the linear axes (25 urad periodic in Ibaraki & Ota 2014 (docs/references.md)) and the
+//! non-systematic positioning error `E_XX,rand` of Ibaraki, Iritani & Matsushita 2013, eq. 19. They are
 //! listed in [`Contributors::unmapped`] so a report can say so. The scan of
-//! seed 000 table 4 gives the linear error as "1 um/mm", which cannot be
+//! Ibaraki, Iritani & Matsushita 2013, table 4 gives the linear error as "1 um/mm", which cannot be
 //! right for a machining centre; the preset reads it as 1 um/100 mm.
 
 use nalgebra::{Isometry3, Vector3};
@@ -33,9 +33,9 @@ use crate::model::{Effect, Squareness};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Spread {
-    /// Uniform in `[-v, v]` (seed 001: "range for uniform distribution").
+    /// Uniform in `[-v, v]` (Ibaraki & Ota 2014: "range for uniform distribution").
     Uniform,
-    /// Normal with standard deviation `v` (seed 000).
+    /// Normal with standard deviation `v` (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)).
     Normal,
 }
 
@@ -84,7 +84,7 @@ pub struct Disturbance {
 }
 
 impl Contributors {
-    /// Seed 001 table 4 (machining test, uniform ranges).
+    /// Ibaraki & Ota 2014, table 4 (machining test, uniform ranges).
     pub fn seed001() -> Contributors {
         Contributors {
             distribution: Spread::Uniform,
@@ -99,7 +99,7 @@ impl Contributors {
         }
     }
 
-    /// Seed 000 table 4 (probing test, standard uncertainties).
+    /// Ibaraki, Iritani & Matsushita 2013, table 4 (probing test, standard uncertainties).
     pub fn seed000() -> Contributors {
         Contributors {
             distribution: Spread::Normal,
@@ -129,13 +129,13 @@ impl Contributors {
         }
     }
 
-    /// The contributors of the seeds' tables that no foundation effect
+    /// The contributors of the papers' tables that no foundation effect
     /// represents (see the module documentation).
     pub fn unmapped() -> &'static [&'static str] {
         &[
-            "periodic terms of positioning and straightness (seed 001: 0.5 um)",
-            "angular errors of the linear axes (seed 001: 25 urad periodic)",
-            "non-systematic positioning error E_XX,rand (seed 000 eq. 19)",
+            "periodic terms of positioning and straightness (Ibaraki & Ota 2014: 0.5 um)",
+            "angular errors of the linear axes (Ibaraki & Ota 2014: 25 urad periodic)",
+            "non-systematic positioning error E_XX,rand (Ibaraki, Iritani & Matsushita 2013, eq. 19)",
         ]
     }
 
@@ -170,7 +170,7 @@ impl Contributors {
             for moving in [Axis3::X, Axis3::Y, Axis3::Z] {
                 let i = moving.index();
                 let (lo, hi) = (m.strokes[i].0 - m.pivot[i], m.strokes[i].1 - m.pivot[i]);
-                // Nodes spaced P_rand in [20, 50] mm (seed 000 eq. 19).
+                // Nodes spaced P_rand in [20, 50] mm (Ibaraki, Iritani & Matsushita 2013, eq. 19).
                 let step = rng.random_range(20.0..50.0);
                 let mut nodes = Vec::new();
                 let mut x = lo;

@@ -2,7 +2,7 @@
 //!
 //! Every method returns the covariance of its estimate, scaled by the
 //! residuals (`Identification::cov`): what the measurement noise alone
-//! allows. The systematic contributors of the seeds (linear-axis errors,
+//! allows. The systematic contributors of the papers (linear-axis errors,
 //! squareness, setup) only show in a Monte-Carlo study: draw a machine that
 //! has the identified errors plus random contributors ([`contributors`]),
 //! simulate the test, identify again, and take the spread of the estimates
@@ -157,7 +157,7 @@ pub fn synthetic_run<R: Rng + ?Sized>(
 
 /// The method's own covariance for noise `sigma_um` per point,
 /// `sigma^2 cov_unit`: the Cramér-Rao bound when the method is efficient
-/// (the global fit), above it otherwise (seed 000's two-stage form, the
+/// (the global fit), above it otherwise (Ibaraki, Iritani & Matsushita's (2013) two-stage form, the
 /// sphere method). The bound of the design itself is
 /// [`cramer_rao_bound`].
 pub fn cramer_rao(est: &Identification, sigma_um: f64) -> DMatrix<f64> {

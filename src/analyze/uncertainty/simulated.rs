@@ -5,7 +5,7 @@
 //! pre-travel, the sphere's form), and identified again by the same
 //! method.
 //!
-//! This is the Monte Carlo of seed 000 section 6 and seed 001 section 6
+//! This is the Monte Carlo of Ibaraki, Iritani & Matsushita 2013, section 6, and Ibaraki & Ota 2014, section 6
 //! with the exact virtual machine ([`crate::simulate`]) in place of the
 //! foundation's rigid-pose model: linear-axis errors act where the axes
 //! really are during each cut or touch, the tool sweeps the surface, the

@@ -1,6 +1,6 @@
 //! Probe logs: the files our probing programs make the controller write,
 //! one module per dialect, and their conversion to measured contact points
-//! (SPEC section 3: `label,x,y,z`, the contact point in W at rotary zero).
+//! (docs/formats.md: `label,x,y,z`, the contact point in W at rotary zero).
 //!
 //! Every log line of a touch carries the touch's key, its 1-based index
 //! (row of `points.csv`) or its label, and the position the controller

@@ -8,7 +8,7 @@
 //!
 //! # For the simulator and the analyzer: what a `MachiningPlan` holds
 //!
-//! Frames and units follow SPEC: W is the table frame (origin at the
+//! Frames and units follow docs/model.md: W is the table frame (origin at the
 //! nominal intersection of the rotary axes, Z along C, parallel to the
 //! machine frame at rotary zero); lengths mm, angles deg.
 //!
@@ -36,7 +36,7 @@
 //!   `faces` (planar convex patches with their plane, outline in W and the
 //!   tag of the pose that cut them, 0 for uncut stock) and the `mesh`
 //!   written to `.obj`/`.glb`.
-//! * `points`: [`PlannedPoint`] in points.csv order: the SPEC plan point
+//! * `points`: [`PlannedPoint`] in points.csv order: the plan point of docs/formats.md
 //!   (label, pose, seq, angles, nominal point and outward normal in W) and
 //!   its [`Provenance`]: the pose index that cut it, the tool part that made
 //!   the surface there ([`ToolPart`]: flank, flat end, ball, torus), and
@@ -191,7 +191,7 @@ pub struct Provenance {
 /// A plan point with its provenance.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlannedPoint {
-    /// The SPEC plan point.
+    /// The plan point of docs/formats.md.
     pub point: PlanPoint,
     /// The surface it lies on (`wall +X`, `floor`, `section 3`, ...).
     pub surface: String,
@@ -273,7 +273,7 @@ pub struct MachiningPlan {
 }
 
 impl MachiningPlan {
-    /// The plan points as SPEC points.csv.
+    /// The plan points as points.csv (docs/formats.md).
     pub fn plan_points(&self) -> PlanPoints {
         PlanPoints {
             tilt_letter: self.machine.tilt_letter(),

@@ -11,7 +11,7 @@
 //! program records back into contact points.
 //!
 //! # Frames
-//! Nominal geometry is in W (SPEC section 1). The program's coordinates
+//! Nominal geometry is in W (docs/model.md). The program's coordinates
 //! have the work offset on the W origin at rotary zero, so at a pose
 //! `(t, c)` a W point `q` is at `rTw*(t, c) q` ([`PoseFrame`]). The probe
 //! hangs along the spindle axis; on a head machine it tilts with the head
@@ -85,9 +85,9 @@
 //!
 //! # Machines
 //! The planner works in W through the machine's kinematics, so one code
-//! serves every structure. On the table-table machines of the seeds
+//! serves every structure. On the table-table machines of the papers
 //! (`ac-trunnion`, `bc-trunnion`) the rotary axes move the pieces and each
-//! pose shows the table's pose error, as the seeds intend. On `head-table`
+//! pose shows the table's pose error, as the papers intend. On `head-table`
 //! the C table turns the pieces and the tilting head turns the probe; the
 //! touches measure both. On `head-head` the pieces never move: every pose
 //! probes the same points with the head turned, which measures the head's
@@ -97,7 +97,7 @@
 //!
 //! # Labels and indices
 //! Poses are executed in order; [`Pose::seq`] counts from 0 and the pose id
-//! says where the machine is (`A-30C60`; `S07` for the seed 003 spiral).
+//! says where the machine is (`A-30C60`; `S07` for the the LAMDAMAP 2015 paper's spiral).
 //! Touches are numbered in execution order: [`Touch::index`] counts from 1
 //! and is the touch's row among the data rows of `points.csv`
 //! ([`TouchPlan::points`]); [`Touch::label`] is `<pose>_<feature>`, e.g.
@@ -294,7 +294,7 @@ pub struct TouchPlan {
 }
 
 impl TouchPlan {
-    /// The nominal points (SPEC section 3), one row per touch in execution
+    /// The nominal points (docs/formats.md), one row per touch in execution
     /// order: row `i` (from 1) is the touch with index `i`.
     pub fn points(&self) -> PlanPoints {
         PlanPoints {

@@ -148,7 +148,7 @@ impl ProbingPlan {
         let _ = writeln!(o, "\n## Run\n");
         let _ = writeln!(
             o,
-            "Estimated run time {} min for {} touches, {} s per touch (rapids {} min, positioning {} min, probing {} min, overheads {} min; no acceleration). Seed 000 reports 219 points in about 28 min (7.7 s per touch).\n",
+            "Estimated run time {} min for {} touches, {} s per touch (rapids {} min, positioning {} min, probing {} min, overheads {} min; no acceleration). Ibaraki, Iritani & Matsushita 2013 reports 219 points in about 28 min (7.7 s per touch).\n",
             short(round(rt.total_min, 1)),
             rt.touches,
             short(round(rt.per_touch_s(), 1)),

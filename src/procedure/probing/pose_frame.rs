@@ -3,7 +3,7 @@
 //! centre on a given point, and which way the probe points.
 //!
 //! Program coordinates are the frame of the commanded X, Y, Z with the work
-//! offset on the W origin at rotary zero (SPEC section 1). A point `q` of W
+//! offset on the W origin at rotary zero (docs/model.md). A point `q` of W
 //! is at `rTw*(t, c) q` in them (for a head machine `rTw*` holds the table
 //! rotation only, or nothing). The probe-ball centre is the commanded X, Y,
 //! Z plus the head's offset at the pose, which is zero on a table-table

@@ -35,7 +35,7 @@
 //!   Z#5063)` between `(LOGOPEN,<test>.log)` and `(LOGCLOSE)`.
 //!
 //! # For the simulator: what a [`ProbingPlan`] holds
-//! Frames and units follow SPEC (W, mm, deg). [`load`](crate::procedure::load)
+//! Frames and units follow docs/model.md (W, mm, deg). [`load`](crate::procedure::load)
 //! rebuilds it exactly from a manifest.
 //! - `machine`, `probe` (ball diameter, gauge length, tool number) and
 //!   `plan.kin`, the machine's kinematics with the probe's gauge length
@@ -300,7 +300,7 @@ fn setup_of(m: &Machine, t: &Template) -> Result<(Setup, String), PlanError> {
                     .collect(),
             ),
             format!(
-                "on-machine probing of {} square columns (seed 000, Ibaraki, Iritani & Matsushita 2013)",
+                "on-machine probing of {} square columns (Ibaraki, Iritani & Matsushita 2013)",
                 t.columns.len()
             ),
         ),
@@ -318,9 +318,9 @@ fn setup_of(m: &Machine, t: &Template) -> Result<(Setup, String), PlanError> {
                     short(t.diameter),
                     t.touches.len(),
                     match t.pattern {
-                        sphere::SpherePattern::Seed004 { .. } =>
-                            "seed 004, Cubas Brizuela & Yeh 2023",
-                        sphere::SpherePattern::Seed003 { .. } => "seed 003's spiral of poses",
+                        sphere::SpherePattern::Seed004 { .. } => "Cubas Brizuela & Yeh 2023",
+                        sphere::SpherePattern::Seed003 { .. } =>
+                            "the LAMDAMAP 2015 paper's spiral of poses",
                     }
                 ),
             )

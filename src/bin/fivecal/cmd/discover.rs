@@ -51,7 +51,7 @@ pub struct DiscoverArgs {
     /// before and after) into this directory.
     #[arg(long, value_name = "DIR")]
     report: Option<PathBuf>,
-    /// Write the final model as an error file (SPEC section 3; JSON if the
+    /// Write the final model as an error file (docs/formats.md; JSON if the
     /// name ends in `.json`, else YAML).
     #[arg(long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,

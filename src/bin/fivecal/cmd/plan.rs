@@ -25,8 +25,8 @@ enum KinematicsArg {
 
 #[derive(Args, Debug)]
 pub struct PlanArgs {
-    /// The test: stepped-square (seed 001), nine-section (seed 004),
-    /// probe-columns (seed 000) or probe-sphere (seeds 003, 004).
+    /// The test: stepped-square (Ibaraki & Ota 2014 (docs/references.md)), nine-section (Cubas Brizuela & Yeh 2023 (docs/references.md)),
+    /// probe-columns (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)) or probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023).
     test: String,
     /// Machine file, or a built-in machine (bc-trunnion, ac-trunnion,
     /// head-table, head-head).

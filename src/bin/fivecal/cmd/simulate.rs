@@ -38,7 +38,7 @@ pub struct SimulateArgs {
     /// The plan's manifest, as `fivecal plan` wrote it.
     #[arg(long, value_name = "DIR/TEST.plan.yaml")]
     plan: Option<PathBuf>,
-    /// The machine's errors: a truth file (SPEC section 3; see
+    /// The machine's errors: a truth file (docs/formats.md; see
     /// --truth-example) or a result of `fivecal analyze`.
     #[arg(long, value_name = "TRUTH.yaml")]
     errors: Option<PathBuf>,

@@ -1,4 +1,4 @@
-//! The nine-section test of seed 004 (section 6, fig. 11, table 4): the top
+//! The nine-section test of Cubas Brizuela & Yeh 2023 (section 6, fig. 11, table 4): the top
 //! face of a square block is cut in 3 x 3 sections, each at its own rotary
 //! pose, with a ball or bull-nose end mill; section 1, the reference, is the
 //! centre one at tilt = C = 0. All sections are cut to the same nominal
@@ -68,7 +68,7 @@ pub(crate) fn design(
     let tool = tool_of(cfg, &t.tool);
     if tool.kind == ToolKind::Flat {
         return Err(PlanError::Impossible(format!(
-            "the nine-section test needs a ball or bull-nose end mill (seed 004: round-tip tool); tool T{} `{}` is flat",
+            "the nine-section test needs a ball or bull-nose end mill (Cubas Brizuela & Yeh 2023: round-tip tool); tool T{} `{}` is flat",
             tool.number, tool.name
         )));
     }
@@ -352,7 +352,7 @@ pub(crate) fn design(
         )
     });
     Ok(Design {
-        title: "nine-section machining test (seed 004, Cubas Brizuela & Yeh)".into(),
+        title: "nine-section machining test (Cubas Brizuela & Yeh 2023)".into(),
         description: format!(
             "9 sections of {} x {} mm cut to Z{} in W; {} CMM points; result: each section's height relative to section 1",
             short(w),

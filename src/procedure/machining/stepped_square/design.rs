@@ -1,4 +1,4 @@
-//! The stepped-square test of seed 001 (Ibaraki & Ota 2014, figs 2-4):
+//! The stepped-square test of Ibaraki & Ota 2014 (docs/references.md, figs 2-4):
 //! at every pose a square step is finished by a straight end mill moving
 //! the linear axes only.
 //!
@@ -579,7 +579,7 @@ pub(crate) fn design(
         ));
     }
     Ok(Design {
-        title: "stepped-square machining test (seed 001, Ibaraki & Ota 2014)".into(),
+        title: "stepped-square machining test (Ibaraki & Ota 2014)".into(),
         description: format!(
             "{} poses; {n_top} steps on the top face, {} on the side faces; {} CMM points",
             poses.len(),

@@ -1,9 +1,9 @@
-//! `probe-columns` (seed 000, section 3 and fig. 2): square columns on the
+//! `probe-columns` (Ibaraki, Iritani & Matsushita 2013 (docs/references.md), section 3 and fig. 2): square columns on the
 //! rotary table, probed on their top and side faces at every pose of a
 //! tilt x C grid. The reference pose (the first, normally tilt = C = 0)
 //! probes every reference point; the other poses re-probe the same points
 //! wherever the probe reaches them, so that each point's displacement from
-//! its reference measurement shows the table's pose error (seed 000 eq.
+//! its reference measurement shows the table's pose error (Ibaraki, Iritani & Matsushita 2013, eq.
 //! 7-8). With the default template that is 3 columns x 5 points = 15 at the
 //! reference pose, as in the seed, and fewer where faces turn away from the
 //! spindle or hide behind another column.
@@ -214,7 +214,7 @@ pub fn touch_plan_with(
 }
 
 /// Poses whose touches cannot fix the table's six-degree-of-freedom pose
-/// on their own (seed 000 eq. 7-10): a touch senses a small displacement
+/// on their own (Ibaraki, Iritani & Matsushita 2013, eq. 7-10): a touch senses a small displacement
 /// `(d, theta)` of the table only through `n . (d + theta x p)`, so the
 /// rows `[n, p x n]` of a pose's touches must have rank 6. Such a pose
 /// still adds to a joint identification of the rotary axes' errors, but

@@ -1,16 +1,16 @@
 //! `probe-sphere`: a calibration sphere on a stem on the rotary table,
 //! touched five times per pose, along the program's axes: in +X, -X, +Y,
-//! -Y at the height of the sphere's centre and in -Z from above (seed 004's
+//! -Y at the height of the sphere's centre and in -Z from above (Cubas Brizuela & Yeh's (2023)
 //! Xc+, Xc-, Yc+, Yc-, Zc-). The touches are defined in program
 //! coordinates because that is how a controller probes a sphere wherever
 //! the rotary axes have put it; in W their normals change with the pose.
 //!
 //! Two pose patterns:
-//! - seed 004 (section 2): a C sweep at tilt 0 (C = 0..350 step 10, 36
+//! - Cubas Brizuela & Yeh 2023 (section 2): a C sweep at tilt 0 (C = 0..350 step 10, 36
 //!   poses) then a tilt sweep at C = 0 (-90..+30 step 10, 13 poses); the
 //!   pose tilt = C = 0 is measured in both, as in the seed's 49 positions
 //!   (the second one is named `A0C0.2`);
-//! - seed 003 (section 3.2): 50 poses `S00`..`S49` with the tilt evenly
+//! - the LAMDAMAP 2015 paper (section 3.2): 50 poses `S00`..`S49` with the tilt evenly
 //!   spread over its range while C advances nine turns. C is stored
 //!   modulo 360 (within the C limits), so the table does not really turn
 //!   nine times: it is the spread of C angles that matters for a static
