@@ -205,8 +205,10 @@ impl Mesh {
                     })?;
                     let base = mesh.vertices.len() as u32;
                     for p in read_vec3(&pos, &buffers).map_err(&fmt)? {
+                        // glTF's unit is the metre (and fivecal writes its
+                        // own `.glb` so); the contour works in mm.
                         let q = world.transform_point(&Point3::from(p));
-                        mesh.vertices.push(q.coords);
+                        mesh.vertices.push(q.coords * 1000.0);
                     }
                     let n = mesh.vertices.len() as u32 - base;
                     let idx: Vec<u32> = match prim.indices() {

@@ -153,4 +153,8 @@ fn man_page_has_a_section_per_subcommand() {
             "no section for {sub}"
         );
     }
+    // Only this one page is installed: it must not send the reader to
+    // fivecal-plan(1) and the like, which do not exist.
+    assert!(!text.contains("(1)"), "the man page cites other pages");
+    assert!(text.contains(".SH NAME") && text.contains(".SH SYNOPSIS"));
 }

@@ -78,7 +78,8 @@ fn glb_triangles(path: &Path) -> Vec<[Vector3<f64>; 3]> {
             let start = view.offset() + acc.offset();
             let f = |i: usize| {
                 let o = start + 4 * i;
-                f32::from_le_bytes(bin[o..o + 4].try_into().unwrap()) as f64
+                // The .glb is in metres (glTF's unit), the plan in mm.
+                f32::from_le_bytes(bin[o..o + 4].try_into().unwrap()) as f64 * 1000.0
             };
             let verts: Vec<Vector3<f64>> = (0..acc.count())
                 .map(|i| Vector3::new(f(3 * i), f(3 * i + 1), f(3 * i + 2)))

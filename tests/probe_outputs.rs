@@ -574,3 +574,19 @@ fn single_axis_probing_leaves_out_oblique_touches_and_says_so() {
     .unwrap();
     assert_eq!(any.plan.touches, f.plan.touches);
 }
+
+/// The setup sheet sends the operator to a command, not to the library:
+/// on every dialect it names `fivecal analyze` with the plan file that the
+/// plan really wrote beside it.
+#[test]
+fn the_setup_sheet_names_the_command_that_reads_the_log_back() {
+    for d in [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc] {
+        let p = probing("ac-trunnion", "probe-columns", d);
+        let (_keep, dir) = written(&p);
+        let sheet = std::fs::read_to_string(dir.join("probe-columns.md")).unwrap();
+        assert!(!sheet.contains("fivecal::"), "{d:?}: {sheet}");
+        let cmd = "`fivecal analyze --plan probe-columns.plan.yaml --measured LOG";
+        assert!(sheet.contains(cmd), "{d:?}: {sheet}");
+        assert!(dir.join("probe-columns.plan.yaml").exists());
+    }
+}

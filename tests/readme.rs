@@ -180,3 +180,16 @@ fn no_text_cites_documents_outside_the_repository() {
     let help = String::from_utf8_lossy(&help.stdout);
     assert!(help.lines().all(|l| !pattern(l)), "{help}");
 }
+
+/// The README's install command is `cargo install --path .` run from the
+/// repository root, and that root's package has the `fivecal` binary it
+/// promises to put on the PATH.
+#[test]
+fn the_readme_install_command_installs_the_fivecal_binary() {
+    let words = command_after("install-command");
+    assert_eq!(words, ["cargo", "install", "--path", "."]);
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+    assert!(manifest.contains("name = \"fivecal\""));
+    assert!(root.join("src/bin/fivecal/main.rs").exists());
+}

@@ -6,6 +6,7 @@ mod util;
 
 mod analyze;
 mod analyze_sim;
+mod architecture;
 mod cli;
 mod compensate;
 mod compensate_cli;

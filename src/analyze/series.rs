@@ -95,25 +95,32 @@ impl Series {
         }
     }
 
-    /// Text table: one row per symbol, value (u) per piece, then the trend.
+    /// Text table: one row per symbol, value (u) per piece, then the trend
+    /// where any symbol has one (a trend needs three pieces, so a series of
+    /// two has no trend column rather than an empty one).
     pub fn render(&self) -> String {
         use std::fmt::Write as _;
+        let trends = self
+            .location_errors
+            .values()
+            .any(|ser| ser.trend_per_piece.is_some());
         let mut s = format!("{:<10}", "symbol");
         for p in &self.pieces {
             let _ = write!(s, " {:>22}", p);
         }
-        s.push_str("   trend/piece\n");
+        if trends {
+            s.push_str("   trend/piece");
+        }
+        s.push('\n');
         for (name, ser) in &self.location_errors {
             let _ = write!(s, "{name:<10}");
             for v in &ser.values {
                 let _ = write!(s, " {:>22}", cell(v, false));
             }
-            match &ser.trend_per_piece {
-                Some(t) => {
-                    let _ = writeln!(s, "   {}", cell(&Some(*t), true));
-                }
-                None => s.push('\n'),
+            if trends {
+                let _ = write!(s, "   {}", cell(&ser.trend_per_piece, true));
             }
+            s.push('\n');
         }
         s
     }
@@ -258,5 +265,42 @@ mod tests {
         );
         assert_eq!(cells(lines[2]), ["EZ0B", "-5.00", "-", "-"]);
         assert_eq!(cells(lines[3]), ["EC0B", "-", "3.00", "(1.00)", "-"]);
+    }
+
+    /// Two pieces have no trend (it needs three): the table has no trend
+    /// column at all, not a heading over empty cells.
+    #[test]
+    fn a_series_of_two_has_no_trend_column() {
+        let a = result(&[("EX0B", 10.0, Some(0.3))]);
+        let b = result(&[("EX0B", 11.0, Some(0.3))]);
+        let text = Series::new(&[("a.dmo".into(), a), ("b.dmo".into(), b)]).render();
+        assert!(!text.contains("trend"), "{text}");
+        let head: Vec<&str> = text.lines().next().unwrap().split_whitespace().collect();
+        assert_eq!(head, ["symbol", "a.dmo", "b.dmo"]);
+    }
+
+    /// Three pieces rising by 1 um each with equal u: the trend column
+    /// shows the slope +1.00 um per piece, its u 0.3/sqrt(2) = 0.21 (the
+    /// weighted least-squares slope's u over x = 0, 1, 2).
+    #[test]
+    fn a_series_of_three_shows_the_trend_per_piece() {
+        let rows: Vec<(String, ErrorFile)> = (0..3)
+            .map(|i| {
+                (
+                    format!("p{i}.dmo"),
+                    result(&[("EX0B", 10.0 + i as f64, Some(0.3))]),
+                )
+            })
+            .collect();
+        let text = Series::new(&rows).render();
+        let lines: Vec<Vec<&str>> = text
+            .lines()
+            .map(|l| l.split_whitespace().collect())
+            .collect();
+        assert_eq!(
+            lines[0],
+            ["symbol", "p0.dmo", "p1.dmo", "p2.dmo", "trend/piece"]
+        );
+        assert_eq!(lines[1][7..], ["+1.00", "(0.21)"]);
     }
 }

@@ -255,7 +255,8 @@ impl Mesh {
     }
 
     /// Binary glTF: one named node and mesh per tag, flat-shaded triangles
-    /// (positions and normals as f32, mm).
+    /// (positions and normals as f32; positions in metres, glTF's unit, so
+    /// a viewer shows a 100 mm block as 0.1 m like the report's `.glb`).
     pub fn to_glb(&self, title: &str) -> Vec<u8> {
         use gltf_json as json;
         use json::validation::Checked::Valid;
@@ -291,7 +292,7 @@ impl Mesh {
             for t in tris {
                 for v in &t.v {
                     for i in 0..3 {
-                        let x = v[i] as f32;
+                        let x = (v[i] * 1e-3) as f32;
                         lo[i] = lo[i].min(x);
                         hi[i] = hi[i].max(x);
                         bin.extend_from_slice(&x.to_le_bytes());

@@ -140,9 +140,10 @@ impl ProbingPlan {
                 self.test
             );
         }
+        // The operator's next step is a command, not the library's reader.
         let _ = writeln!(
             o,
-            "- `fivecal::formats::probe_log` reads it back into contact points joined to `{stem}.points.csv`."
+            "- Copy the log from the control and read it back with `fivecal analyze --plan {stem}.plan.yaml --measured LOG --out errors.yaml` (LOG the copied file): it joins each touch to its row of `{stem}.points.csv`."
         );
         let rt = &self.run_time;
         let _ = writeln!(o, "\n## Run\n");

@@ -24,8 +24,19 @@ pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
 pub fn man() -> anyhow::Result<()> {
     let cmd = crate::Cli::command();
     let mut out = fivecal::io::stdout();
-    clap_mangen::Man::new(cmd.clone()).render(&mut out)?;
-    // One section per subcommand, as `man git` does it in one page.
+    // Not `Man::render`: its SUBCOMMANDS section points to pages such as
+    // fivecal-plan(1) that are never installed. Every subcommand is a
+    // section of this one page instead, as `man git` does it.
+    let man = clap_mangen::Man::new(cmd.clone());
+    man.render_title(&mut out)?;
+    man.render_name_section(&mut out)?;
+    man.render_synopsis_section(&mut out)?;
+    man.render_description_section(&mut out)?;
+    man.render_options_section(&mut out)?;
+    if cmd.get_after_help().is_some() || cmd.get_after_long_help().is_some() {
+        man.render_extra_section(&mut out)?;
+    }
+    man.render_version_section(&mut out)?;
     for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
         writeln!(out, ".SH \"FIVECAL {}\"", sub.get_name().to_uppercase())?;
         clap_mangen::Man::new(sub.clone()).render_description_section(&mut out)?;
