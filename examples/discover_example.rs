@@ -82,6 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         theta,
         noise,
         not_identifiable: Vec::new(),
+        fit: None,
     };
     let out = simulate::run(
         &plan,

@@ -14,6 +14,7 @@ mod contour;
 mod discover;
 mod discover_cli;
 mod errorfile;
+mod fit;
 mod fuzz_readers;
 mod history;
 mod hostile;

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::Args;
+use fivecal::analyze;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
 use fivecal::io::{Shape, check_outputs, write_atomic};
 use fivecal::store::runs;
@@ -55,6 +56,10 @@ pub struct DiscoverArgs {
     /// name ends in `.json`, else YAML).
     #[arg(long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,
+    /// The instrument's noise per measured point (standard deviation, um)
+    /// the final model's fit is judged against, as for `analyze --noise`.
+    #[arg(long, value_name = "UM")]
+    noise: Option<f64>,
     #[command(flatten)]
     record: super::record::RecordArgs,
 }
@@ -67,6 +72,7 @@ struct Config {
     json: bool,
     report: Option<PathBuf>,
     out: Option<PathBuf>,
+    noise: Option<f64>,
     record: Recording,
 }
 
@@ -91,7 +97,9 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
     check_outputs(&inputs, &outputs)?;
     let record = a.record.validate()?;
+    let noise = super::noise_arg(a.noise)?;
     Ok(Config {
+        noise,
         manifest,
         measured: a.measured,
         options: DiscoverOptions {
@@ -144,7 +152,15 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         ));
     }
     if let Some(out) = &c.out {
-        let f = d.error_file(&inputs.data);
+        let expected =
+            analyze::fit::ExpectedNoise::new(c.noise, inputs.data.kind, inputs.plan.test());
+        let f = d.error_file(&inputs.data, &expected);
+        if let Some(fit) = &f.fit {
+            say(format!(
+                "fit of the final model: {} (residuals {:.3} um against {:.3} um expected, {}; ratio {:.2})",
+                fit.verdict, fit.sigma_um, fit.expected_um, fit.expected_from, fit.ratio
+            ));
+        }
         let json = out.extension().is_some_and(|e| e == "json");
         let text = if json {
             f.to_json() + "\n"
