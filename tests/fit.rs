@@ -19,7 +19,7 @@ use crate::util::MACHINES;
 /// machine, with the example's noise and nothing else (the machine line is
 /// added by the loader): the model every method identifies is then
 /// complete.
-fn location_truth(kin: &Kinematics) -> String {
+pub fn location_truth(kin: &Kinematics) -> String {
     let example = fivecal::simulate::truth::example(kin);
     let full: serde_yaml::Value = serde_yaml::from_str(&example).unwrap();
     let mut t = serde_yaml::Mapping::new();

@@ -11,6 +11,7 @@ mod cli;
 mod compensate;
 mod compensate_cli;
 mod contour;
+mod design;
 mod discover;
 mod discover_cli;
 mod errorfile;

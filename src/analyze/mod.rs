@@ -12,6 +12,7 @@
 //! - [`inputs`]: the measured files read in whatever format and joined to
 //!   the plan's points (also what `discover` and the demo read with);
 //! - [`method`]: which identification runs, and with which forward model;
+//! - [`design`]: what a plan will identify, before anything is measured;
 //! - [`fit`]: whether the model explains the measurements as well as the
 //!   instrument's noise allows, and what a result that does not must say;
 //! - [`uncertainty`]: the covariance each method reports and the
@@ -20,6 +21,7 @@
 //! - [`series`]: several pieces side by side, and an earlier result beside
 //!   the new one.
 
+pub mod design;
 pub mod fit;
 pub mod inputs;
 pub mod method;
@@ -402,7 +404,7 @@ fn identify_piece(
 /// Why the nine-section test identifies nothing, which its result says
 /// rather than print numbers: it evaluates a machine (before and after a
 /// compensation, say).
-const NINE_SECTION_REASON: &str = "the nine-section test gives section heights, from which no location error can be \
+pub(crate) const NINE_SECTION_REASON: &str = "the nine-section test gives section heights, from which no location error can be \
      separated (it evaluates a machine, it does not calibrate one); identify with the stepped-square, \
      column or sphere test";
 

@@ -169,6 +169,12 @@ impl Plan {
     /// Every output file: (name relative to the plan directory, bytes),
     /// the manifest last.
     pub fn outputs(&self, stem: &str) -> Vec<(PathBuf, Vec<u8>)> {
+        self.outputs_with(stem, "")
+    }
+
+    /// [`Plan::outputs`], with `appendix` (Markdown) closing the setup
+    /// sheet: what `plan` found out about the design beyond the plan itself.
+    pub fn outputs_with(&self, stem: &str, appendix: &str) -> Vec<(PathBuf, Vec<u8>)> {
         let title = format!("{} on {} (fivecal)", self.test(), self.machine().name);
         let manifest = self.manifest(stem);
         let program = self.program();
@@ -180,7 +186,7 @@ impl Plan {
                 ("dmis", Plan::Machining(t)) => t.dmis_program(stem).into_bytes(),
                 ("glb", _) => self.mesh().to_glb(&title),
                 ("obj", _) => self.mesh().to_obj(&title).into_bytes(),
-                ("setup", _) => self.setup_sheet(stem).into_bytes(),
+                ("setup", _) => (self.setup_sheet(stem) + appendix).into_bytes(),
                 ("postprocessor", _) => self.post().source.clone().into_bytes(),
                 _ => continue,
             };
@@ -215,7 +221,19 @@ impl Plan {
         stem: &str,
         inputs: &[&Path],
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let outs = self.outputs(stem);
+        self.write_with(dir, stem, inputs, "")
+    }
+
+    /// [`Plan::write`], with `appendix` closing the setup sheet
+    /// ([`Plan::outputs_with`]).
+    pub fn write_with(
+        &self,
+        dir: &Path,
+        stem: &str,
+        inputs: &[&Path],
+        appendix: &str,
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let outs = self.outputs_with(stem, appendix);
         let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
         for p in &paths {
             ensure_not_input(p, inputs)?;
