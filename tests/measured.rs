@@ -314,3 +314,214 @@ fn legacy_encodings_are_named_or_read_when_given() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["points"][0]["label"], "P\u{fc}nkt1");
 }
+
+/// A CALYPSO `_fet` table as the public readers of CALYPSO tables read it
+/// (columns found by name: `id`, `idsymbol`, `x y z`, `nx ny nz`, `x_nom
+/// y_nom z_nom`, `nx_nom ny_nom nz_nom`, `unit`), CRLF, a header ending in a
+/// tab, a row shorter than the header.
+#[test]
+fn calypso_features_give_positions_nominals_and_directions() {
+    let inv = inventory("run_fet.txt");
+    assert_eq!(
+        (inv.format, inv.version.as_deref(), inv.units.as_str()),
+        ("calypso", Some("fet"), "mm")
+    );
+    assert_eq!(inv.runs, ["STEPPED_SQUARE part 3"]);
+    let labels: Vec<(&str, &str)> = inv
+        .entries
+        .iter()
+        .map(|e| (e.label.as_str(), e.kind.as_str()))
+        .collect();
+    assert_eq!(
+        labels,
+        [
+            ("P0001", "point"),
+            ("P0002", "point"),
+            ("Kreis_B", "circle"),
+            ("P0003", "point")
+        ]
+    );
+    let p1 = &inv.entries[0];
+    assert!(close(p1.actual, [-20.0012, -30.0004, 45.0021], 1e-12));
+    assert!(close(p1.nominal, [-20.0, -30.0, 45.0], 1e-12));
+    // The measured direction (0.0001, -1, 0.0002), renormalized.
+    let n = 1.0f64 + 0.0001f64.powi(2) + 0.0002f64.powi(2);
+    assert!(close(
+        p1.normal,
+        [0.0001 / n.sqrt(), -1.0 / n.sqrt(), 0.0002 / n.sqrt()],
+        1e-15
+    ));
+    // No measured direction: the nominal's stands in.
+    assert!(close(inv.entries[1].normal, [0.0, -1.0, 0.0], 1e-15));
+    // The circle is a feature, not a point analyze joins; the row of P0003
+    // stops before its position: not measured, and said.
+    assert!(close(
+        inv.entries[2].actual,
+        [0.0003798, 15.2871745, -0.0004345],
+        1e-12
+    ));
+    assert_eq!(inv.entries[3].actual, None);
+    assert!(
+        inv.skipped
+            .iter()
+            .any(|s| s.line == 5 && s.what == "feature `P0003`"),
+        "{:?}",
+        inv.skipped
+    );
+    let set = points("run_fet.txt");
+    let labels: Vec<&str> = set.points.iter().map(|p| p.label.as_str()).collect();
+    assert_eq!(labels, ["P0001", "P0002"]);
+    assert_eq!(set.nominals.len(), 2);
+}
+
+/// A CALYPSO `_chr` table as CALYPSO writes it (the public test file of
+/// EricRosenfeld1/CalypsoAPI, `CalypsoAPI.Test/files/test_chr.txt`, has the
+/// same header): `type` in German, rows shorter than the header, LF, `END`,
+/// no `unit` column. Points come from `xValue`/`yValue`/`zValue`
+/// characteristics of one feature.
+#[test]
+fn calypso_characteristics_are_reported_and_coordinate_triples_become_points() {
+    let inv = inventory("run_chr.txt");
+    assert_eq!(inv.version.as_deref(), Some("chr"));
+    assert_eq!(inv.units, "mm (not stated)");
+    assert!(
+        inv.warnings[0].contains("no `unit` column"),
+        "{:?}",
+        inv.warnings
+    );
+    let d = inv.entries.iter().find(|e| e.label == "Bohrung_D").unwrap();
+    assert_eq!((d.kind.as_str(), d.value), ("diameter", Some(23.4009393)));
+    assert_eq!(d.actual, None);
+    let pts: Vec<_> = inv.entries.iter().filter(|e| e.is_point()).collect();
+    assert_eq!(pts.len(), 2, "P0003 has no zValue: no point");
+    assert_eq!(pts[0].label, "P0001");
+    assert!(close(pts[0].actual, [-20.0012, -30.0004, 45.0021], 1e-12));
+    assert!(close(pts[0].nominal, [-20.0, -30.0, 45.0], 1e-12));
+    // P0002's zValue comes after another feature's characteristic.
+    assert!(close(pts[1].actual, [20.0008, -29.9991, 45.0007], 1e-12));
+    // The same table read as an inch program.
+    let ctx = ReadContext {
+        options: detect::MeasuredOptions {
+            units: Some(detect::LengthUnit::Inch),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let inch = detect::inventory(&fixture("run_chr.txt"), &ctx).unwrap();
+    assert!(inch.units.starts_with("inch (given with --units"));
+    let p = inch.entries.iter().find(|e| e.is_point()).unwrap();
+    assert!(close(
+        p.actual,
+        [-20.0012 * 25.4, -30.0004 * 25.4, 45.0021 * 25.4],
+        1e-9
+    ));
+}
+
+#[test]
+fn a_calypso_run_header_is_named_and_refused_as_a_measurement() {
+    let inv = inventory("run_hdr.txt");
+    assert_eq!(inv.version.as_deref(), Some("hdr"));
+    assert!(inv.entries.is_empty());
+    assert!(inv.skipped[0].why.contains("_fet table"));
+    let e = detect::read_measurement(&fixture("run_hdr.txt"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.ends_with("run_hdr.txt: a CALYPSO run header (_hdr) holds no measurement: the features and their positions are in the run's _fet table, the characteristics in its _chr table"),
+        "{e}"
+    );
+}
+
+#[test]
+fn malformed_calypso_tables_name_line_column_and_what_was_expected() {
+    let fet = std::fs::read_to_string(fixture("run_fet.txt")).unwrap();
+    let parse = |src: &str| {
+        detect::parse_measurement(Path::new("r_fet.txt"), src)
+            .unwrap_err()
+            .to_string()
+    };
+    assert_eq!(
+        parse(&fet.replace("20.0008000", "20.0O08")),
+        "r_fet.txt:3:59: column `x`: expected a number with a decimal point, got `20.0O08`"
+    );
+    // A direction with one component missing.
+    assert_eq!(
+        parse(&fet.replace("0.0001000\t-1.0000000\t0.0002000", "0.0001000\t\t0.0002000")),
+        "r_fet.txt:2:104: expected all of nx, ny, nz or none, `ny` is empty"
+    );
+    assert_eq!(
+        parse(&fet.replace("\tmm\r\n", "\tmm\t\tx\r\n")),
+        "r_fet.txt:2:216: expected at most 25 fields (the header's columns), got `x` beyond them"
+    );
+    assert_eq!(
+        parse(
+            &fet.replacen("\tmm\r\n", "\tinch\r\n", 1)
+                .replace("Kreis_B", "P0001")
+        ),
+        "r_fet.txt:3:182: unit `mm` here but `inch` at line 2: expected one length unit in a table"
+    );
+    let chr = std::fs::read_to_string(fixture("run_chr.txt")).unwrap();
+    assert_eq!(
+        detect::parse_measurement(Path::new("r_chr.txt"), &format!("{chr}P0004_X\n"))
+            .unwrap_err()
+            .to_string(),
+        "r_chr.txt:12:1: expected nothing after the `END` line at line 11"
+    );
+}
+
+/// The same simulated measurement as DMIS output and as a CALYPSO `_fet`
+/// table made from it: `analyze` finds the same errors from both.
+#[test]
+fn analyze_reads_a_calypso_table_as_it_reads_the_dmis_output() {
+    let dir = crate::util::tempdir();
+    let manifest = crate::analyze_sim::plan_with_cli(
+        &dir.path().join("plan"),
+        "stepped-square",
+        "bc-trunnion",
+        None,
+    );
+    let truth = dir.path().join("truth.yaml");
+    std::fs::write(
+        &truth,
+        format!("machine: bc-trunnion\n{}", crate::analyze_sim::BC_ERRORS),
+    )
+    .unwrap();
+    let dmo = dir.path().join("piece.dmo");
+    crate::analyze_sim::simulate_as(&manifest, &truth, &dmo, 3, None);
+    let inv = detect::inventory(&dmo, &ReadContext::default()).unwrap();
+    let mut fet = String::from(
+        "planid\tpartnb\tid\ttype\tidsymbol\tx\ty\tz\tnx\tny\tnz\tx_nom\ty_nom\tz_nom\tnx_nom\tny_nom\tnz_nom\tunit\t\r\n",
+    );
+    let f = |v: Option<Vector3<f64>>| {
+        let v = v.unwrap();
+        format!("{:.7}\t{:.7}\t{:.7}", v.x, v.y, v.z)
+    };
+    for e in inv.entries.iter().filter(|e| e.is_point()) {
+        fet.push_str(&format!(
+            "stepped-square\t1\t{}\tRaumpunkt\tspacePoint\t{}\t{}\t{}\t{}\tmm\r\n",
+            e.label,
+            f(e.actual),
+            f(e.normal),
+            f(e.nominal),
+            f(e.normal)
+        ));
+    }
+    let table = dir.path().join("piece_fet.txt");
+    std::fs::write(&table, fet).unwrap();
+    let (a, b) = (
+        dir.path().join("dmis.yaml"),
+        dir.path().join("calypso.yaml"),
+    );
+    crate::cli::analyze_cmd(&manifest, &dmo, &a)
+        .assert()
+        .success();
+    crate::cli::analyze_cmd(&manifest, &table, &b)
+        .assert()
+        .success();
+    let (a, b) = (
+        std::fs::read_to_string(a).unwrap(),
+        std::fs::read_to_string(b).unwrap(),
+    );
+    assert!(a.contains("EX0B:"), "{a}");
+    assert_eq!(a, b);
+}

@@ -17,7 +17,7 @@ use super::heights::{self, SectionHeight};
 use super::inventory::{Entry, Inventory};
 use super::measured::{self, MeasuredPoint};
 use super::points::PlanPoints;
-use super::{csv_lines, dmis, parse_finite, probe_log, qif, table};
+use super::{calypso, csv_lines, dmis, parse_finite, probe_log, qif, table};
 use crate::kinematics::Kinematics;
 use crate::machine::Dialect;
 use crate::source::SourceError;
@@ -201,6 +201,7 @@ pub fn chosen_run(
 
 struct Dmis;
 struct Qif;
+struct Calypso;
 struct Table;
 struct Canonical;
 struct Heights;
@@ -481,6 +482,42 @@ impl Reader for Qif {
     }
 }
 
+impl Reader for Calypso {
+    fn name(&self) -> &'static str {
+        "calypso"
+    }
+    fn describe(&self) -> &'static str {
+        "a ZEISS CALYPSO table (_fet, _chr or _hdr, tab-separated)"
+    }
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
+        calypso::sniff(src).is_some()
+    }
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
+        if calypso::sniff(src) == Some(calypso::Table::Header) {
+            return Err(SourceError::new(
+                path,
+                0,
+                0,
+                calypso::HEADER_HOLDS_NO_MEASUREMENT,
+            ));
+        }
+        inventory_points(path, &calypso::parse(path, src, &ctx.options)?, ctx)
+    }
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        calypso::parse(path, src, &ctx.options)
+    }
+}
+
 fn header_fields(src: &str) -> Option<Vec<String>> {
     csv_lines(src)
         .next()
@@ -666,7 +703,7 @@ impl Reader for Plain {
 /// Every reader, in the order they are tried.
 pub fn readers() -> Vec<&'static dyn Reader> {
     vec![
-        &Qif, &Dmis, &Heights, &Canonical,
+        &Qif, &Dmis, &Calypso, &Heights, &Canonical,
         // The probe logs of `src/formats/probe_log/` (FANUC DPRNT,
         // HEIDENHAIN FN 16, LinuxCNC LOG and PROBEOPEN), before the plain
         // point list, which accepts any three numbers per line. They return
