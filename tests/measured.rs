@@ -280,6 +280,14 @@ fn tables_with_a_header_and_point_clouds_read_by_column_name() {
     assert!(!set.labeled);
     assert_eq!(set.points.len(), 3);
     assert_eq!(set.points[2].p, Vector3::new(1.5, 2.25, -3.0));
+    // Its directions travel with the points to the join, where they are
+    // checked against the faces the points land on.
+    assert_eq!(set.points[2].normal, Some(Vector3::new(0.0, 0.0, -1.0)));
+    assert!(close(
+        inventory("cloud.txt").entries[1].normal,
+        [1.0, 0.0, 0.0],
+        1e-15
+    ));
     let e = detect::parse_measurement(Path::new("t.csv"), "x;y;z\n1;2\n")
         .unwrap_err()
         .to_string();
@@ -469,45 +477,66 @@ fn malformed_calypso_tables_name_line_column_and_what_was_expected() {
     );
 }
 
-/// The same simulated measurement as DMIS output and as a CALYPSO `_fet`
-/// table made from it: `analyze` finds the same errors from both.
-#[test]
-fn analyze_reads_a_calypso_table_as_it_reads_the_dmis_output() {
-    let dir = crate::util::tempdir();
-    let manifest = crate::analyze_sim::plan_with_cli(
-        &dir.path().join("plan"),
-        "stepped-square",
-        "bc-trunnion",
-        None,
-    );
-    let truth = dir.path().join("truth.yaml");
+/// A plan of the stepped-square test, its truth, and a simulated
+/// measurement as DMIS output with what that file holds.
+fn simulated_dmis(dir: &Path) -> (PathBuf, PathBuf, Inventory) {
+    let manifest =
+        crate::analyze_sim::plan_with_cli(&dir.join("plan"), "stepped-square", "bc-trunnion", None);
+    let truth = dir.join("truth.yaml");
     std::fs::write(
         &truth,
         format!("machine: bc-trunnion\n{}", crate::analyze_sim::BC_ERRORS),
     )
     .unwrap();
-    let dmo = dir.path().join("piece.dmo");
+    let dmo = dir.join("piece.dmo");
     crate::analyze_sim::simulate_as(&manifest, &truth, &dmo, 3, None);
     let inv = detect::inventory(&dmo, &ReadContext::default()).unwrap();
+    (manifest, dmo, inv)
+}
+
+/// A CALYPSO `_fet` table of the points of `inv`, lengths divided by
+/// `per_mm` (25.4 for an inch program), one run per part number, rows
+/// ending in CRLF; `unit` names the unit column's value (none: no column).
+fn fet_table(inv: &Inventory, parts: &[&str], per_mm: f64, unit: Option<&str>) -> String {
     let mut fet = String::from(
-        "planid\tpartnb\tid\ttype\tidsymbol\tx\ty\tz\tnx\tny\tnz\tx_nom\ty_nom\tz_nom\tnx_nom\tny_nom\tnz_nom\tunit\t\r\n",
+        "planid\tpartnb\tid\ttype\tidsymbol\tx\ty\tz\tnx\tny\tnz\tx_nom\ty_nom\tz_nom\tnx_nom\tny_nom\tnz_nom",
     );
-    let f = |v: Option<Vector3<f64>>| {
-        let v = v.unwrap();
-        format!("{:.7}\t{:.7}\t{:.7}", v.x, v.y, v.z)
+    fet.push_str(if unit.is_some() {
+        "\tunit\t\r\n"
+    } else {
+        "\t\r\n"
+    });
+    let f = |v: Option<Vector3<f64>>, s: f64| {
+        let v = v.unwrap() / s;
+        format!("{:.10}\t{:.10}\t{:.10}", v.x, v.y, v.z)
     };
-    for e in inv.entries.iter().filter(|e| e.is_point()) {
-        fet.push_str(&format!(
-            "stepped-square\t1\t{}\tRaumpunkt\tspacePoint\t{}\t{}\t{}\t{}\tmm\r\n",
-            e.label,
-            f(e.actual),
-            f(e.normal),
-            f(e.nominal),
-            f(e.normal)
-        ));
+    for part in parts {
+        for e in inv.entries.iter().filter(|e| e.is_point()) {
+            fet.push_str(&format!(
+                "stepped-square\t{part}\t{}\tRaumpunkt\tspacePoint\t{}\t{}\t{}\t{}",
+                e.label,
+                f(e.actual, per_mm),
+                f(e.normal, 1.0),
+                f(e.nominal, per_mm),
+                f(e.normal, 1.0)
+            ));
+            if let Some(u) = unit {
+                fet.push_str(&format!("\t{u}"));
+            }
+            fet.push_str("\r\n");
+        }
     }
+    fet
+}
+
+/// The same simulated measurement as DMIS output and as a CALYPSO `_fet`
+/// table made from it: `analyze` finds the same errors from both.
+#[test]
+fn analyze_reads_a_calypso_table_as_it_reads_the_dmis_output() {
+    let dir = crate::util::tempdir();
+    let (manifest, dmo, inv) = simulated_dmis(dir.path());
     let table = dir.path().join("piece_fet.txt");
-    std::fs::write(&table, fet).unwrap();
+    std::fs::write(&table, fet_table(&inv, &["1"], 1.0, Some("mm"))).unwrap();
     let (a, b) = (
         dir.path().join("dmis.yaml"),
         dir.path().join("calypso.yaml"),
@@ -524,4 +553,84 @@ fn analyze_reads_a_calypso_table_as_it_reads_the_dmis_output() {
     );
     assert!(a.contains("EX0B:"), "{a}");
     assert_eq!(a, b);
+}
+
+/// `--encoding`, `--run` and `--units` reach the readers of `analyze` and
+/// `discover` as they reach `fivecal measured`: a CALYPSO table of two
+/// parts in an inch program, without a unit column, written by a German
+/// Windows (`Länge` in Windows-1252).
+#[test]
+fn analyze_and_discover_take_the_run_units_and_encoding_of_a_measured_file() {
+    let dir = crate::util::tempdir();
+    let (manifest, dmo, inv) = simulated_dmis(dir.path());
+    let text =
+        fet_table(&inv, &["1", "2"], 25.4, None).replace("Raumpunkt", "Raumpunkt L\u{e4}nge");
+    let (bytes, _, _) = encoding_rs::WINDOWS_1252.encode(&text);
+    let table = dir.path().join("piece_fet.txt");
+    std::fs::write(&table, &bytes).unwrap();
+    let out = dir.path().join("r.yaml");
+    let err = |args: &[&str]| {
+        let o = crate::cli::analyze_cmd(&manifest, &table, &out)
+            .args(args)
+            .assert()
+            .failure();
+        String::from_utf8_lossy(&o.get_output().stderr).to_string()
+    };
+    let e = err(&[]);
+    assert!(e.contains("not UTF-8") && e.contains("--encoding"), "{e}");
+    let e = err(&["--encoding", "windows-1252"]);
+    assert!(e.contains("holds 2 measurement runs"), "{e}");
+    crate::cli::analyze_cmd(&manifest, &table, &out)
+        .args([
+            "--encoding",
+            "windows-1252",
+            "--run",
+            "2",
+            "--units",
+            "inch",
+        ])
+        .assert()
+        .success();
+    let reference = dir.path().join("dmis.yaml");
+    crate::cli::analyze_cmd(&manifest, &dmo, &reference)
+        .assert()
+        .success();
+    let values = |p: &Path| -> Vec<f64> {
+        let v: serde_yaml::Value =
+            serde_yaml::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        v["location_errors"]
+            .as_mapping()
+            .unwrap()
+            .values()
+            .map(|e| e["value"].as_f64().unwrap())
+            .collect()
+    };
+    let (a, b) = (values(&out), values(&reference));
+    assert_eq!(a.len(), 8);
+    // Inches to 10 decimals are mm to 2.5e-9: the errors (um, urad) agree
+    // far below their uncertainty.
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-3, "{a:?} {b:?}");
+    }
+    // discover reads the file through the same flags.
+    let o = crate::cli::fivecal()
+        .args(["discover", "--plan"])
+        .arg(&manifest)
+        .arg("--measured")
+        .arg(&table)
+        .args([
+            "--encoding",
+            "windows-1252",
+            "--units",
+            "inch",
+            "--run",
+            "3",
+        ])
+        .assert()
+        .failure();
+    let e = String::from_utf8_lossy(&o.get_output().stderr);
+    assert!(
+        e.contains("--run 3: the file holds 2 measurement run(s), expected 1 to 2"),
+        "{e}"
+    );
 }

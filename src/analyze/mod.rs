@@ -28,6 +28,7 @@ use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use crate::errorfile::{ErrorFile, NotIdentified};
+use crate::formats::detect::MeasuredOptions;
 use crate::formats::manifest::TestKind;
 use crate::identify::nine_section::NineSection;
 use crate::identify::sphere::{CircleMethod, SphereOptions};
@@ -126,6 +127,9 @@ pub struct Request {
     pub monte_carlo: Option<MonteCarlo>,
     /// How the sphere method fits the axis lines.
     pub circle: CircleMethod,
+    /// What the user said about the measurement files (run, units,
+    /// encoding).
+    pub options: MeasuredOptions,
 }
 
 impl Request {
@@ -142,6 +146,7 @@ impl Request {
             compare: None,
             monte_carlo: None,
             circle: CircleMethod::Robust,
+            options: MeasuredOptions::default(),
         }
     }
 }
@@ -225,10 +230,11 @@ pub enum Found {
 
 /// Runs an analysis.
 pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
-    let ctx = match &req.rebuilt {
+    let mut ctx = match &req.rebuilt {
         Some(plan) => PlanContext::from_plan(plan, &req.manifest),
         None => PlanContext::from_manifest(&req.manifest)?,
     };
+    ctx.options = req.options;
     let method = req.method.unwrap_or(method::default_for(ctx.test));
     method::check(method, ctx.test, ctx.kind, &req.maps).map_err(AnalyzeError::Request)?;
     let measured = ctx.read(&req.measured)?;

@@ -319,17 +319,13 @@ fn length_unit(
             Some(_) => {}
         }
     }
-    let name = |u: LengthUnit| match u {
-        LengthUnit::Mm => "mm",
-        LengthUnit::Inch => "inch",
-    };
     Ok(match (found, options.units) {
         (Some((u, _, _)), _) => {
-            inv.units = name(u).into();
+            inv.units = u.name().into();
             u
         }
         (None, Some(u)) => {
-            inv.units = format!("{} (given with --units; the table states none)", name(u));
+            inv.units = format!("{} (given with --units; the file states none)", u.name());
             u
         }
         (None, None) => {

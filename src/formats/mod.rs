@@ -3,6 +3,7 @@
 //! and reports bad input as `file:line:column: what was expected`.
 
 pub mod calypso;
+pub mod cloud;
 pub mod detect;
 pub mod dmis;
 pub mod dmis_program;

@@ -445,13 +445,7 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
             *mm
         }
         (None, Some(u)) => {
-            inv.units = format!(
-                "{} (given with --units; the file states none)",
-                match u {
-                    super::detect::LengthUnit::Mm => "mm",
-                    super::detect::LengthUnit::Inch => "inch",
-                }
-            );
+            inv.units = format!("{} (given with --units; the file states none)", u.name());
             u.mm()
         }
         (None, None) => {

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, bail};
 use clap::Args;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
+use fivecal::formats::detect::MeasuredOptions;
 use fivecal::io::{Shape, check_outputs, write_atomic};
 use fivecal::store::runs;
 
@@ -20,9 +21,10 @@ pub struct DiscoverArgs {
     /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
     #[arg(long, value_name = "PLAN", required = true)]
     plan: Option<PathBuf>,
-    /// Measurement files of one piece or probing run (DMIS output, CSV
-    /// `label,x,y,z`, probe logs, plain point lists), recognized from their
-    /// content.
+    /// Measurement files of one piece or probing run (DMIS output, QIF
+    /// results, CALYPSO tables, CSV `label,x,y,z` and tables naming their
+    /// columns, probe logs, point clouds `x y z [i j k]`), recognized from
+    /// their content.
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     measured: Vec<PathBuf>,
     /// The starting model, comma-separated: `location` (the location errors
@@ -56,6 +58,8 @@ pub struct DiscoverArgs {
     #[arg(long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,
     #[command(flatten)]
+    measured_flags: super::measured::MeasuredFlags,
+    #[command(flatten)]
     record: super::record::RecordArgs,
 }
 
@@ -63,6 +67,7 @@ pub struct DiscoverArgs {
 struct Config {
     manifest: PathBuf,
     measured: Vec<PathBuf>,
+    measured_options: MeasuredOptions,
     options: DiscoverOptions,
     json: bool,
     report: Option<PathBuf>,
@@ -94,6 +99,7 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     Ok(Config {
         manifest,
         measured: a.measured,
+        measured_options: a.measured_flags.options()?,
         options: DiscoverOptions {
             start: super::list_items(&a.start),
             only: super::list_items(&a.candidates),
@@ -116,7 +122,7 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         Some(_) => Some(c.record.open()?),
         None => None,
     };
-    let inputs = Inputs::load(&c.manifest, &c.measured)?;
+    let inputs = Inputs::load(&c.manifest, &c.measured, &c.measured_options)?;
     for w in &inputs.data.warnings {
         eprintln!("warning: {w}");
     }
