@@ -477,9 +477,9 @@ fn malformed_calypso_tables_name_line_column_and_what_was_expected() {
     );
 }
 
-/// A plan of the stepped-square test, its truth, and a simulated
-/// measurement as DMIS output with what that file holds.
-fn simulated_dmis(dir: &Path) -> (PathBuf, PathBuf, Inventory) {
+/// A plan of the stepped-square test written by `fivecal plan` and a
+/// truth file of location errors for it: (manifest, truth).
+fn planned_with_truth(dir: &Path) -> (PathBuf, PathBuf) {
     let manifest =
         crate::analyze_sim::plan_with_cli(&dir.join("plan"), "stepped-square", "bc-trunnion", None);
     let truth = dir.join("truth.yaml");
@@ -488,6 +488,13 @@ fn simulated_dmis(dir: &Path) -> (PathBuf, PathBuf, Inventory) {
         format!("machine: bc-trunnion\n{}", crate::analyze_sim::BC_ERRORS),
     )
     .unwrap();
+    (manifest, truth)
+}
+
+/// A plan of the stepped-square test, its truth, and a simulated
+/// measurement as DMIS output with what that file holds.
+fn simulated_dmis(dir: &Path) -> (PathBuf, PathBuf, Inventory) {
+    let (manifest, truth) = planned_with_truth(dir);
     let dmo = dir.join("piece.dmo");
     crate::analyze_sim::simulate_as(&manifest, &truth, &dmo, 3, None);
     let inv = detect::inventory(&dmo, &ReadContext::default()).unwrap();
@@ -633,4 +640,120 @@ fn analyze_and_discover_take_the_run_units_and_encoding_of_a_measured_file() {
         e.contains("--run 3: the file holds 2 measurement run(s), expected 1 to 2"),
         "{e}"
     );
+}
+
+/// The plan's QIF 3 measurement plan and the QIF results `simulate` writes
+/// for it: the same features by the same ids and names, each plan point
+/// once with its nominal and normal, the plan's steps pose by pose; and
+/// `analyze` finds from the QIF results exactly what it finds from the CSV
+/// output of the same simulation.
+#[test]
+fn a_plans_qif_and_its_simulated_qif_results_analyze_as_the_csv_does() {
+    let dir = crate::util::tempdir();
+    let (manifest, truth) = planned_with_truth(dir.path());
+    let (qif, csv) = (dir.path().join("piece.qif"), dir.path().join("piece.csv"));
+    crate::analyze_sim::simulate_as(&manifest, &truth, &qif, 9, None);
+    crate::cli::fivecal()
+        .args(["simulate", "--plan"])
+        .arg(&manifest)
+        .arg("--errors")
+        .arg(&truth)
+        .arg("--out")
+        .arg(&csv)
+        .args(["--seed", "9", "--placement", "aligned"])
+        .assert()
+        .success();
+
+    let plan_path = dir.path().join("plan/stepped-square.qif");
+    let plan_text = std::fs::read_to_string(&plan_path).unwrap();
+    let results_text = std::fs::read_to_string(&qif).unwrap();
+    let plan = roxmltree::Document::parse(&plan_text).unwrap();
+    let results = roxmltree::Document::parse(&results_text).unwrap();
+    let items = |d: &roxmltree::Document<'_>| -> Vec<(String, String)> {
+        d.descendants()
+            .filter(|n| n.has_tag_name("PointFeatureItem"))
+            .map(|n| {
+                let name = n
+                    .children()
+                    .find(|c| c.has_tag_name("FeatureName"))
+                    .and_then(|c| c.text())
+                    .unwrap()
+                    .to_string();
+                (n.attribute("id").unwrap().to_string(), name)
+            })
+            .collect()
+    };
+    let points = fivecal::formats::points::PlanPoints::read(
+        &dir.path().join("plan/stepped-square.points.csv"),
+    )
+    .unwrap();
+    let plan_items = items(&plan);
+    assert_eq!(plan_items.len(), points.points.len());
+    assert_eq!(plan_items, items(&results), "same ids, same names");
+    for ((_, name), p) in plan_items.iter().zip(&points.points) {
+        assert_eq!(name, &p.label);
+    }
+    // Each nominal as points.csv gives it (6 decimals, normals 9).
+    let nominal = plan
+        .descendants()
+        .find(|n| n.has_tag_name("PointFeatureNominal"))
+        .unwrap();
+    let child = |tag: &str| -> Vec<f64> {
+        nominal
+            .children()
+            .find(|c| c.has_tag_name(tag))
+            .and_then(|c| c.text())
+            .unwrap()
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect()
+    };
+    let p0 = &points.points[0];
+    assert_eq!(child("Location"), [p0.p.x, p0.p.y, p0.p.z]);
+    assert_eq!(child("Normal"), [p0.n.x, p0.n.y, p0.n.z]);
+    // The plan's steps: one per pose in execution order, every item once.
+    let steps: Vec<Vec<String>> = plan
+        .descendants()
+        .filter(|n| n.has_tag_name("MeasureSpecifiedFeatures"))
+        .map(|s| {
+            s.descendants()
+                .filter(|n| n.has_tag_name("Id"))
+                .map(|n| n.text().unwrap().to_string())
+                .collect()
+        })
+        .collect();
+    let mut seqs: Vec<u32> = points.points.iter().map(|p| p.seq).collect();
+    seqs.dedup();
+    assert_eq!(steps.len(), seqs.len());
+    let flat: Vec<&String> = steps.iter().flatten().collect();
+    let ids: Vec<&String> = plan_items.iter().map(|i| &i.0).collect();
+    assert_eq!(flat, ids);
+
+    // The results read back by label with the plan's nominals.
+    let inv = detect::inventory(&qif, &ReadContext::default()).unwrap();
+    assert_eq!((inv.format, inv.units.as_str()), ("qif", "mm"));
+    let e = &inv.entries[0];
+    assert_eq!(e.label, p0.label);
+    assert!(close(e.nominal, [p0.p.x, p0.p.y, p0.p.z], 0.0 + 1e-12));
+    // The plan itself is no measurement.
+    let o = crate::cli::analyze_cmd(&manifest, &plan_path, &dir.path().join("x.yaml"))
+        .assert()
+        .failure();
+    assert!(
+        String::from_utf8_lossy(&o.get_output().stderr)
+            .contains("nothing measured: this is a QIF plan (what to measure), not results"),
+    );
+    let (a, b) = (dir.path().join("qif.yaml"), dir.path().join("csv.yaml"));
+    crate::cli::analyze_cmd(&manifest, &qif, &a)
+        .assert()
+        .success();
+    crate::cli::analyze_cmd(&manifest, &csv, &b)
+        .assert()
+        .success();
+    let (a, b) = (
+        std::fs::read_to_string(a).unwrap(),
+        std::fs::read_to_string(b).unwrap(),
+    );
+    assert!(a.contains("EX0B:"), "{a}");
+    assert_eq!(a, b);
 }

@@ -171,6 +171,23 @@ impl Reader<'_> {
         SourceError::new(self.path, line, col, msg)
     }
 
+    /// The name in column `id` of the row of a `what` (feature,
+    /// characteristic), with its column.
+    fn name<'a>(
+        &self,
+        row: &Row<'a>,
+        id: Option<usize>,
+        what: &str,
+    ) -> Result<(usize, &'a str), SourceError> {
+        row.get(id).ok_or_else(|| {
+            self.err(
+                row.line,
+                row.fields.first().map_or(1, |f| f.0),
+                format!("expected the {what}'s name in column `id`"),
+            )
+        })
+    }
+
     /// A number in column `k` of a row (`None` when empty).
     fn number(&self, row: &Row<'_>, k: Option<usize>) -> Result<Option<f64>, SourceError> {
         let Some((c, s)) = row.get(k) else {
@@ -493,13 +510,7 @@ fn features(
     ignored(r, &used, inv);
     let mut labels: HashMap<(usize, String), usize> = HashMap::new();
     for (row, &run) in rows.iter().zip(run_of) {
-        let Some((c, label)) = row.get(id) else {
-            return Err(r.err(
-                row.line,
-                row.fields.first().map_or(1, |f| f.0),
-                "expected the feature's name in column `id`",
-            ));
-        };
+        let (c, label) = r.name(row, id, "feature")?;
         if let Some(first) = labels.insert((run, label.to_string()), row.line) {
             return Err(r.err(
                 row.line,
@@ -577,13 +588,7 @@ fn characteristics(
     let mut coords: Vec<((usize, String), Coordinates)> = Vec::new();
     let mut ambiguous: Vec<(usize, String)> = Vec::new();
     for (row, &run) in rows.iter().zip(run_of) {
-        let Some((_, label)) = row.get(id) else {
-            return Err(r.err(
-                row.line,
-                row.fields.first().map_or(1, |f| f.0),
-                "expected the characteristic's name in column `id`",
-            ));
-        };
+        let (_, label) = r.name(row, id, "characteristic")?;
         let Some((_, sym)) = row.get(symbol) else {
             return Err(r.err(
                 row.line,

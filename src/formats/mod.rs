@@ -15,6 +15,7 @@ pub mod measured;
 pub mod points;
 pub mod probe_log;
 pub mod qif;
+pub mod qif_write;
 pub mod table;
 
 /// A data line of a plain comma-separated file: its 1-based number and its
