@@ -501,6 +501,24 @@ fn simulated_dmis(dir: &Path) -> (PathBuf, PathBuf, Inventory) {
     (manifest, dmo, inv)
 }
 
+/// `analyze` writes the same result file, byte for byte, from two
+/// measurement files of one piece.
+fn assert_same_analysis(manifest: &Path, one: &Path, other: &Path, dir: &Path) {
+    let (a, b) = (dir.join("one.yaml"), dir.join("other.yaml"));
+    crate::cli::analyze_cmd(manifest, one, &a)
+        .assert()
+        .success();
+    crate::cli::analyze_cmd(manifest, other, &b)
+        .assert()
+        .success();
+    let (a, b) = (
+        std::fs::read_to_string(a).unwrap(),
+        std::fs::read_to_string(b).unwrap(),
+    );
+    assert!(a.contains("EX0B:"), "{a}");
+    assert_eq!(a, b);
+}
+
 /// A CALYPSO `_fet` table of the points of `inv`, lengths divided by
 /// `per_mm` (25.4 for an inch program), one run per part number, rows
 /// ending in CRLF; `unit` names the unit column's value (none: no column).
@@ -544,22 +562,7 @@ fn analyze_reads_a_calypso_table_as_it_reads_the_dmis_output() {
     let (manifest, dmo, inv) = simulated_dmis(dir.path());
     let table = dir.path().join("piece_fet.txt");
     std::fs::write(&table, fet_table(&inv, &["1"], 1.0, Some("mm"))).unwrap();
-    let (a, b) = (
-        dir.path().join("dmis.yaml"),
-        dir.path().join("calypso.yaml"),
-    );
-    crate::cli::analyze_cmd(&manifest, &dmo, &a)
-        .assert()
-        .success();
-    crate::cli::analyze_cmd(&manifest, &table, &b)
-        .assert()
-        .success();
-    let (a, b) = (
-        std::fs::read_to_string(a).unwrap(),
-        std::fs::read_to_string(b).unwrap(),
-    );
-    assert!(a.contains("EX0B:"), "{a}");
-    assert_eq!(a, b);
+    assert_same_analysis(&manifest, &dmo, &table, dir.path());
 }
 
 /// `--encoding`, `--run` and `--units` reach the readers of `analyze` and
@@ -743,17 +746,5 @@ fn a_plans_qif_and_its_simulated_qif_results_analyze_as_the_csv_does() {
         String::from_utf8_lossy(&o.get_output().stderr)
             .contains("nothing measured: this is a QIF plan (what to measure), not results"),
     );
-    let (a, b) = (dir.path().join("qif.yaml"), dir.path().join("csv.yaml"));
-    crate::cli::analyze_cmd(&manifest, &qif, &a)
-        .assert()
-        .success();
-    crate::cli::analyze_cmd(&manifest, &csv, &b)
-        .assert()
-        .success();
-    let (a, b) = (
-        std::fs::read_to_string(a).unwrap(),
-        std::fs::read_to_string(b).unwrap(),
-    );
-    assert!(a.contains("EX0B:"), "{a}");
-    assert_eq!(a, b);
+    assert_same_analysis(&manifest, &qif, &csv, dir.path());
 }
