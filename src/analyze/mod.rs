@@ -33,6 +33,7 @@ use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use crate::errorfile::{ErrorFile, NotIdentified};
+use crate::formats::detect::MeasuredOptions;
 use crate::formats::manifest::TestKind;
 use crate::identify::nine_section::NineSection;
 use crate::identify::sphere::{CircleMethod, SphereOptions};
@@ -134,6 +135,9 @@ pub struct Request {
     /// The instrument's noise per measured point, um, that the fit is
     /// judged against; `None`: the instrument's default ([`fit::ExpectedNoise`]).
     pub noise: Option<f64>,
+    /// What the user said about the measurement files (run, units,
+    /// encoding).
+    pub options: MeasuredOptions,
 }
 
 impl Request {
@@ -151,6 +155,7 @@ impl Request {
             monte_carlo: None,
             circle: CircleMethod::Robust,
             noise: None,
+            options: MeasuredOptions::default(),
         }
     }
 }
@@ -246,10 +251,11 @@ pub enum Found {
 
 /// Runs an analysis.
 pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
-    let ctx = match &req.rebuilt {
+    let mut ctx = match &req.rebuilt {
         Some(plan) => PlanContext::from_plan(plan, &req.manifest),
         None => PlanContext::from_manifest(&req.manifest)?,
     };
+    ctx.options = req.options;
     let method = req.method.unwrap_or(method::default_for(ctx.test));
     method::check(method, ctx.test, ctx.kind, &req.maps).map_err(AnalyzeError::Request)?;
     let measured = ctx.read(&req.measured)?;

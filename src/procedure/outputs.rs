@@ -87,6 +87,7 @@ pub(super) fn file_names(plan: &Plan, stem: &str) -> Vec<(&'static str, PathBuf)
     ];
     if matches!(plan, Plan::Machining(_)) {
         v.push(("dmis", PathBuf::from(format!("{stem}.dmi"))));
+        v.push(("qif", PathBuf::from(format!("{stem}.qif"))));
     }
     v.extend([
         ("glb", PathBuf::from(format!("{stem}.glb"))),
@@ -184,6 +185,7 @@ impl Plan {
                 ("program", _) => program.text.clone().into_bytes(),
                 ("points", _) => self.points_csv().into_bytes(),
                 ("dmis", Plan::Machining(t)) => t.dmis_program(stem).into_bytes(),
+                ("qif", Plan::Machining(t)) => t.qif_plan().into_bytes(),
                 ("glb", _) => self.mesh().to_glb(&title),
                 ("obj", _) => self.mesh().to_obj(&title).into_bytes(),
                 ("setup", _) => (self.setup_sheet(stem) + appendix).into_bytes(),

@@ -44,10 +44,12 @@ pub struct AnalyzeArgs {
     /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
     #[arg(long, value_name = "PLAN", required = true)]
     plan: Option<PathBuf>,
-    /// Measurement files: DMIS output, CSV `label,x,y,z`, probe logs,
-    /// nine-section heights `section,height_um`, or a plain point list
-    /// (joined by nearest nominal point). The format is recognized from the
-    /// content. Several files make one piece unless --series is given.
+    /// Measurement files: DMIS output, QIF results, ZEISS CALYPSO tables
+    /// (_fet, _chr), CSV `label,x,y,z` or a table naming its columns, probe
+    /// logs, nine-section heights `section,height_um`, or a point cloud `x
+    /// y z [i j k]` (joined by nearest nominal point). The format is
+    /// recognized from the content (`fivecal measured FILE` shows what it
+    /// holds). Several files make one piece unless --series is given.
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     measured: Vec<PathBuf>,
     /// The result: an error file (the identified values with their u, and
@@ -121,6 +123,8 @@ pub struct AnalyzeArgs {
     /// per symbol and for the machine (ISO 14253-1, U = 2u).
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
+    #[command(flatten)]
+    measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
     record: super::record::RecordArgs,
 }
@@ -203,6 +207,7 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             monte_carlo,
             circle,
             noise: super::noise_arg(a.noise)?,
+            options: a.measured_flags.options()?,
             ..Request::new(&manifest, a.measured)
         },
         out,

@@ -9,6 +9,7 @@ use anyhow::{Context as _, bail};
 use clap::Args;
 use fivecal::analyze;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
+use fivecal::formats::detect::MeasuredOptions;
 use fivecal::io::{Shape, check_outputs, write_atomic};
 use fivecal::store::runs;
 
@@ -21,9 +22,10 @@ pub struct DiscoverArgs {
     /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
     #[arg(long, value_name = "PLAN", required = true)]
     plan: Option<PathBuf>,
-    /// Measurement files of one piece or probing run (DMIS output, CSV
-    /// `label,x,y,z`, probe logs, plain point lists), recognized from their
-    /// content.
+    /// Measurement files of one piece or probing run (DMIS output, QIF
+    /// results, CALYPSO tables, CSV `label,x,y,z` and tables naming their
+    /// columns, probe logs, point clouds `x y z [i j k]`), recognized from
+    /// their content.
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     measured: Vec<PathBuf>,
     /// The starting model, comma-separated: `location` (the location errors
@@ -61,6 +63,8 @@ pub struct DiscoverArgs {
     #[arg(long, value_name = "UM")]
     noise: Option<f64>,
     #[command(flatten)]
+    measured_flags: super::measured::MeasuredFlags,
+    #[command(flatten)]
     record: super::record::RecordArgs,
 }
 
@@ -68,6 +72,7 @@ pub struct DiscoverArgs {
 struct Config {
     manifest: PathBuf,
     measured: Vec<PathBuf>,
+    measured_options: MeasuredOptions,
     options: DiscoverOptions,
     json: bool,
     report: Option<PathBuf>,
@@ -102,6 +107,7 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
         noise,
         manifest,
         measured: a.measured,
+        measured_options: a.measured_flags.options()?,
         options: DiscoverOptions {
             start: super::list_items(&a.start),
             only: super::list_items(&a.candidates),
@@ -124,7 +130,7 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         Some(_) => Some(c.record.open()?),
         None => None,
     };
-    let inputs = Inputs::load(&c.manifest, &c.measured)?;
+    let inputs = Inputs::load(&c.manifest, &c.measured, &c.measured_options)?;
     for w in &inputs.data.warnings {
         eprintln!("warning: {w}");
     }
