@@ -158,9 +158,9 @@ pub struct Noise {
 }
 
 impl Noise {
-    /// The noise a fit found, `sigma_um` (if finite), as the CMM's for a
-    /// machined piece or the probe's for on-machine probing.
-    pub fn measured(kind: crate::formats::manifest::TestKind, sigma_um: f64) -> Noise {
+    /// A noise of `sigma_um` (if finite) as the CMM's for a machined piece
+    /// or the probe's for on-machine probing.
+    pub fn of_kind(kind: crate::formats::manifest::TestKind, sigma_um: f64) -> Noise {
         let sigma = sigma_um.is_finite().then_some(sigma_um);
         match kind {
             crate::formats::manifest::TestKind::Machining => Noise {
@@ -315,6 +315,34 @@ pub struct ErrorFile {
     /// How well the model fitted the measurements (result files).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitSection>,
+    /// `discover` results: the effects the measurements could not tell
+    /// apart, none of which the model holds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ambiguity: Option<AmbiguitySection>,
+}
+
+/// The `ambiguity:` section of a `discover` result: the search stopped
+/// because several effects explain the gap equally, so the file's model
+/// holds none of them (its fit says what is left unexplained).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AmbiguitySection {
+    /// Why the search stopped, in words.
+    pub reason: String,
+    /// The effects that explain the gap equally, best (lowest BIC) first.
+    pub rivals: Vec<RivalEntry>,
+}
+
+/// One effect of an ambiguity, as it would be were it the one at work.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RivalEntry {
+    /// The effect's identifier (`map.EXB(B)`, `drift.EZ0B/seq`).
+    pub effect: String,
+    /// The gap (RMS residual, um) the model leaves with this effect added.
+    pub gap_rms_um: f64,
+    /// Its values fitted alongside the model, by parameter name.
+    pub values: IndexMap<String, Quantity>,
 }
 
 /// An error file turned into a model and its parameter values.
@@ -726,6 +754,7 @@ impl ErrorFile {
             effects: Effects::default(),
             not_identifiable: Vec::new(),
             fit: None,
+            ambiguity: None,
         };
         let q = |i: usize| Quantity {
             value: theta[i],

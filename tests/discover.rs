@@ -26,10 +26,10 @@ use crate::identify::{AC_TRUTH, BC_TRUTH};
 use crate::util::machine;
 
 /// Measurement noise of the simulated tests, um (Ibaraki & Ota 2014, table 4).
-const NOISE: f64 = 0.35;
+pub const NOISE: f64 = 0.35;
 
 /// The planner's stepped square on `bc-trunnion` (FANUC, post kinematics).
-fn stepped_square() -> Plan {
+pub fn stepped_square() -> Plan {
     fivecal::procedure::plan(&PlanConfig {
         machine: machine("bc-trunnion"),
         template: Template::builtin(Test::SteppedSquare),
@@ -55,7 +55,7 @@ fn columns() -> Plan {
 
 /// The plan run on a machine with the eight location errors (Ibaraki & Ota's (2014)
 /// table 1 magnitudes) and `hidden`, measured; as a discovery's inputs.
-fn simulated(plan: &Plan, hidden: &[(Effect, Vec<f64>)], seed: u64) -> Inputs {
+pub fn simulated(plan: &Plan, hidden: &[(Effect, Vec<f64>)], seed: u64) -> Inputs {
     let kin = simulate::plan_kinematics(plan);
     let mut effects = vec![Effect::Location {
         symbols: (0..8).collect(),
@@ -100,7 +100,7 @@ fn symbols(kin: &Kinematics) -> fivecal::kinematics::symbols::SymbolTable {
     Model::new(kin.clone(), vec![]).symbols
 }
 
-fn tilt_map(plan: &Plan, name: &str) -> Effect {
+pub fn tilt_map(plan: &Plan, name: &str) -> Effect {
     Effect::Map {
         symbol: symbols(&simulate::plan_kinematics(plan))
             .map_index(name)

@@ -13,6 +13,7 @@ mod compensate_cli;
 mod contour;
 mod design;
 mod discover;
+mod discover_ambiguity;
 mod discover_cli;
 mod errorfile;
 mod fit;

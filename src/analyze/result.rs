@@ -27,7 +27,7 @@ use crate::io::write_atomic;
 /// the probe's for on-machine probing).
 pub fn error_file(est: &Identification, u: &[Option<f64>], kind: TestKind) -> ErrorFile {
     let mut f = est.error_file(Some(u));
-    f.effects.noise = Some(Noise::measured(kind, est.sigma_um));
+    f.effects.noise = Some(Noise::of_kind(kind, est.sigma_um));
     f
 }
 

@@ -32,7 +32,7 @@ pub mod story;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use crate::errorfile::{ErrorFile, NotIdentified};
+use crate::errorfile::{AmbiguitySection, ErrorFile, Noise, NotIdentified, Quantity, RivalEntry};
 use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::combination;
 use crate::identify::{Dataset, Identification, Method, two_stage};
@@ -131,7 +131,10 @@ impl Discovery {
     /// combination of values it does not see.
     ///
     /// Its `fit:` section judges the final model against `expected`, the
-    /// instrument's noise.
+    /// instrument's noise, which is also the noise it writes: what is left
+    /// of the gap is the model's shortfall, not the instrument's scatter.
+    /// After an ambiguity its `ambiguity:` section names the effects the
+    /// measurements could not tell apart, none of which the model holds.
     pub fn error_file(
         &self,
         data: &Dataset,
@@ -140,8 +143,33 @@ impl Discovery {
         let f = self.end();
         let est = identification(f, data);
         let u: Vec<Option<f64>> = (0..f.n).map(|i| f.u(i)).collect();
-        let mut file = crate::analyze::result::error_file(&est, &u, data.kind);
+        let mut file = est.error_file(Some(&u));
+        file.effects.noise = Some(Noise::of_kind(data.kind, expected.um));
         file.fit = crate::analyze::fit::of(&est, expected);
+        file.ambiguity = self.story.ambiguity.as_ref().map(|a| AmbiguitySection {
+            reason: a.reason.clone(),
+            rivals: a
+                .candidates
+                .iter()
+                .map(|c| RivalEntry {
+                    effect: c.name.clone(),
+                    gap_rms_um: c.gap_after.rms_um,
+                    values: c
+                        .values
+                        .iter()
+                        .map(|v| {
+                            (
+                                v.name.clone(),
+                                Quantity {
+                                    value: v.value,
+                                    u: v.u,
+                                },
+                            )
+                        })
+                        .collect(),
+                })
+                .collect(),
+        });
         for (ei, e) in f.spec.model.effects.iter().enumerate() {
             let r = f.spec.model.param_range(ei);
             for i in r.clone().filter(|&i| f.fixed(i)) {

@@ -1,0 +1,85 @@
+//! What `discover` says when the measurements cannot tell two effects
+//! apart, as a worked example: the planner's stepped square on
+//! `bc-trunnion`, cut on a virtual machine whose B axis line wanders in X
+//! with B (`EXB(B)`: +4 um at B = -90, 0 at 0, -4 um at +90) and measured
+//! with 0.35 um of noise. Its tilt angles are -90, 0 and 90 only, and on
+//! three angles a map of the B axis line in X and one in Z move every cut
+//! alike: the test cannot say which it is.
+
+use std::sync::OnceLock;
+
+use fivecal::analyze::fit::ExpectedNoise;
+use fivecal::discover::{DiscoverOptions, Discovery, Inputs};
+use fivecal::errorfile::{ErrorFile, FitVerdict};
+
+use crate::discover::{NOISE, simulated, stepped_square, tilt_map};
+use crate::util::machine;
+
+/// The B axis line's X position over B, um, at B = -90, 0, 90.
+pub const EXB: [f64; 3] = [4.0, 0.0, -4.0];
+
+/// The simulated piece and its discovery, made once for every test here.
+fn ambiguous() -> &'static (Inputs, Discovery) {
+    static CASE: OnceLock<(Inputs, Discovery)> = OnceLock::new();
+    CASE.get_or_init(|| {
+        let plan = stepped_square();
+        let inputs = simulated(&plan, &[(tilt_map(&plan, "EXB(B)"), EXB.to_vec())], 21);
+        let d = inputs.discover(&DiscoverOptions::default()).unwrap();
+        (inputs, d)
+    })
+}
+
+fn expected(inputs: &Inputs) -> ExpectedNoise {
+    ExpectedNoise::new(None, inputs.data.kind, inputs.plan.test())
+}
+
+#[test]
+fn the_stepped_square_cannot_tell_exb_from_ezb_and_adds_neither() {
+    let (_, d) = ambiguous();
+    let s = &d.story;
+    assert!(s.steps.is_empty(), "{}", s.render());
+    let a = s.ambiguity.as_ref().expect("an ambiguity");
+    let names: Vec<&str> = a.candidates.iter().map(|c| c.name.as_str()).collect();
+    assert!(
+        names.contains(&"map.EXB(B)") && names.contains(&"map.EZB(B)"),
+        "{names:?}"
+    );
+    // Either closes the gap to the noise.
+    for c in &a.candidates {
+        assert!(c.gap_after.rms_um < 1.2 * NOISE, "{}", c.name);
+    }
+}
+
+/// The result file after an ambiguity: the location-only model, judged a
+/// misfit against the instrument's noise, which is the noise it writes
+/// (not the gap the model leaves); the rivals with their values; and it
+/// reads back as an error file.
+#[test]
+fn after_an_ambiguity_the_result_file_states_it_and_writes_the_instruments_noise() {
+    let (inputs, d) = ambiguous();
+    let f = d.error_file(&inputs.data, &expected(inputs));
+    let noise = f.effects.noise.as_ref().unwrap();
+    assert_eq!((noise.cmm, noise.probe), (Some(NOISE), None));
+    let fit = f.fit.as_ref().unwrap();
+    assert_eq!(fit.verdict, FitVerdict::Misfit);
+    assert!(fit.sigma_um > 2.0 * NOISE, "{fit:?}");
+    assert_eq!(fit.expected_um, NOISE);
+    // No effect of the rivals in the model itself.
+    assert!(f.position_dependent.is_empty() && f.effects.thermal_drift.is_empty());
+    let a = f.ambiguity.as_ref().expect("the ambiguity is stated");
+    assert!(a.reason.contains("cannot tell"), "{}", a.reason);
+    let rival = |e: &str| a.rivals.iter().find(|r| r.effect == e).unwrap();
+    let x = rival("map.EXB(B)");
+    assert_eq!(x.values.len(), 3);
+    assert!(x.values.values().all(|q| q.u.is_some_and(|u| u > 0.0)));
+    assert!(x.gap_rms_um < 1.2 * NOISE);
+    rival("map.EZB(B)");
+    // YAML and JSON read back to the same file, and load as a model.
+    for text in [f.to_yaml(), f.to_json()] {
+        let path = std::path::Path::new("discovered.yaml");
+        let back = ErrorFile::parse(path, &text).unwrap();
+        assert_eq!(back, f);
+        let kin = fivecal::Kinematics::with_gauge_length(&machine("bc-trunnion"), 60.0);
+        back.to_model(&kin, path, &text).unwrap();
+    }
+}
