@@ -142,8 +142,8 @@ fn assert_found(d: &Discovery, expected: &[&str]) {
 /// not see, which must be reported as such).
 fn assert_values(d: &Discovery, k: usize, truth: &[Option<f64>]) {
     let st = &d.story.steps[k];
-    assert_eq!(st.values.len(), truth.len());
-    for (sv, t) in st.values.iter().zip(truth) {
+    assert_eq!(st.provisional_values.len(), truth.len());
+    for (sv, t) in st.provisional_values.iter().zip(truth) {
         let v = d
             .story
             .end
@@ -289,7 +289,7 @@ fn probe_pretravel_on_the_column_probing_test_is_named_with_what_it_cannot_see()
         0,
         &[Some(3.0), Some(3.0), Some(3.0), Some(3.0), None, Some(2.0)],
     );
-    assert_eq!(d.story.steps[0].alongside.unseen, ["pretravel.Z+"]);
+    assert_eq!(d.story.steps[0].alongside.unseen, ["probe_pretravel.Z+"]);
     // The error file writes what the test saw and says what it did not.
     let f = d.error_file(
         &inputs.data,
@@ -300,7 +300,7 @@ fn probe_pretravel_on_the_column_probing_test_is_named_with_what_it_cannot_see()
     assert!(
         f.not_identifiable
             .iter()
-            .any(|n| n.symbol == "pretravel.Z+" && n.reason.contains("does not see"))
+            .any(|n| n.symbol == "probe_pretravel.Z+" && n.reason.contains("does not see"))
     );
 }
 

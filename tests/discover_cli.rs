@@ -52,6 +52,32 @@ fn the_worked_example_tells_the_story_the_readme_shows() {
     let s2 = text.find("step 2: add drift.EZ0B/seq").unwrap();
     let s3 = text.find("step 3: add map.EBB(B)").unwrap();
     assert!(s1 < s2 && s2 < s3 && !text.contains("step 4"));
+    // A step's values are provisional, each beside its final value: the
+    // drift is refitted once the map joins the model.
+    let step2 = &text[s2..s3];
+    assert!(step2.contains("provisional values"), "{step2}");
+    let line = step2
+        .lines()
+        .find(|l| l.trim_start().starts_with("drift.EZ0B/seq"))
+        .unwrap();
+    let final_drift = text[s3..]
+        .lines()
+        .find(|l| l.trim_start().starts_with("drift.EZ0B/seq"))
+        .unwrap()
+        .split_whitespace()
+        .nth(1)
+        .unwrap()
+        .to_string();
+    assert!(line.contains(&format!("final {final_drift}")), "{line}");
+    assert!(text.contains("final model (the values to quote)"));
+    // The rival that comes next is shown at step 1, and said to come next;
+    // no rival is hidden behind a count or promised to come next.
+    let step1 = &text[s1..s2];
+    assert!(
+        step1.contains("rival drift.EZ0B/seq (gap") && step1.contains("added at step 2"),
+        "{step1}"
+    );
+    assert!(!text.contains("more rivals") && !text.contains("may come next"));
 }
 
 #[test]
@@ -70,7 +96,7 @@ fn json_story_has_the_steps_with_values_uncertainties_and_gaps() {
     assert_eq!(steps[1]["name"], "drift.EZ0B/seq");
     assert_eq!(steps[2]["name"], "map.EBB(B)");
     for st in steps {
-        let values = st["values"].as_array().unwrap();
+        let values = st["provisional_values"].as_array().unwrap();
         assert!(!values.is_empty());
         for v in values {
             assert!(v["value"].is_f64() && v["u"].as_f64().unwrap() > 0.0, "{v}");
@@ -81,6 +107,39 @@ fn json_story_has_the_steps_with_values_uncertainties_and_gaps() {
         // leaves it where it was); the RMS does.
         assert!(a["max_um"].as_f64().unwrap() >= a["rms_um"].as_f64().unwrap());
     }
+    // One naming scheme: every value is a location symbol or named after
+    // its effect, the candidate names of the story.
+    let mut names: Vec<&str> = Vec::new();
+    for st in steps {
+        for v in st["provisional_values"].as_array().unwrap() {
+            names.push(v["name"].as_str().unwrap());
+        }
+        for r in st["rivals"].as_array().unwrap() {
+            assert!(r["exactly_indistinguishable"].is_boolean(), "{r}");
+        }
+    }
+    for v in j["end"]["values"].as_array().unwrap() {
+        names.push(v["name"].as_str().unwrap());
+    }
+    let effects: Vec<&str> = j["last_round"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(steps)
+        .map(|t| t["name"].as_str().unwrap())
+        .collect();
+    let location = [
+        "EX0B", "EZ0B", "EA0B", "EC0B", "EB0B", "EX(0B)C", "EY0C", "EA(0B)C",
+    ];
+    for n in &names {
+        assert!(
+            location.contains(n)
+                || effects.iter().any(|e| n == e
+                    || n.strip_prefix(e).is_some_and(|r| r.starts_with(['@', '.']))),
+            "{n} is neither a location symbol nor named after one of {effects:?}"
+        );
+    }
+    assert!(names.contains(&"map.EBB(B)@B=90") && names.contains(&"drift.EZ0B/seq"));
     // The gap of one step is the gap before the next.
     assert_eq!(steps[0]["gap_after"], steps[1]["gap_before"]);
     assert_eq!(steps[1]["gap_after"], steps[2]["gap_before"]);
@@ -109,10 +168,10 @@ fn out_writes_the_final_model_as_an_error_file_and_report_draws_the_gap() {
     let truth = ErrorFile::load(&example("truth.yaml"), &kin).unwrap();
     let names = found.model.param_names();
     for name in [
-        "drift.EZ0B",
-        "EBB(B)@B=-90",
-        "EBB(B)@B=0",
-        "EBB(B)@B=90",
+        "drift.EZ0B/seq",
+        "map.EBB(B)@B=-90",
+        "map.EBB(B)@B=0",
+        "map.EBB(B)@B=90",
         "EZ0B",
     ] {
         let i = names.iter().position(|n| n == name).unwrap();

@@ -492,10 +492,19 @@ fn added(d: &Discovery, truth: &LoadedErrors) -> Vec<(String, Vec<FoundValue>)> 
         .steps
         .iter()
         .map(|s| {
+            // The values of the final model, not the step's provisional
+            // ones: later steps refit them.
             let vals = s
-                .values
+                .provisional_values
                 .iter()
-                .map(|v| {
+                .map(|p| {
+                    let v = d
+                        .story
+                        .end
+                        .values
+                        .iter()
+                        .find(|v| v.name == p.name)
+                        .unwrap_or(p);
                     let t = tn.iter().position(|n| *n == v.name).map(|i| truth.theta[i]);
                     (v.name.clone(), v.value, t)
                 })

@@ -425,16 +425,9 @@ impl<'a> Fitter<'a> {
         Some(s)
     }
 
-    /// Names of every parameter of `spec` (a drift's with its clock: the
-    /// same symbol may drift per pose and per minute), then the nuisance.
+    /// Names of every parameter of `spec`, then the nuisance.
     pub fn names(&self, spec: &Spec) -> Vec<String> {
         let mut names = spec.model.param_names();
-        for (ei, e) in spec.model.effects.iter().enumerate() {
-            if let Effect::Drift { basis, .. } = e {
-                let i = spec.model.param_range(ei).start;
-                names[i] = format!("{}/{}", names[i], basis.name());
-            }
-        }
         names.extend(self.extra_names.iter().cloned());
         names
     }

@@ -735,6 +735,9 @@ pub fn run(
                     // together they are the best alone.
                     None => (fb.rss, fb.rank),
                 };
+                // Neither adds a direction to the other: the design itself
+                // cannot tell them apart, whatever the noise.
+                let exact = rank_both == fb.rank && rank_both == fc.rank;
                 let p_c_over_b = stats::compare(n, fb.rss, fb.rank, rss_both, rank_both).p;
                 let p_b_over_c = stats::compare(n, fc.rss, fc.rank, rss_both, rank_both).p;
                 // At the round's adjusted level: overriding the ranking
@@ -752,8 +755,11 @@ pub fn run(
                     (true, true) => {
                         "a different effect: each adds to the other (it may come next)".to_string()
                     }
+                    (false, false) if exact => format!(
+                        "exactly indistinguishable from {bn} on this test: neither adds a direction the other does not give, so no measurement of this test can tell them apart"
+                    ),
                     (false, false) => format!(
-                        "indistinguishable from {bn} on this test: neither adds to the other"
+                        "indistinguishable from {bn} on this test: neither adds significantly to the other"
                     ),
                     (false, true) => format!("{cn} explains {bn} away"),
                 };
@@ -770,6 +776,16 @@ pub fn run(
                         gap_after: gap::size(&fc.residuals),
                         p_effect_over_rival: p_b_over_c,
                         p_rival_over_effect: p_c_over_b,
+                        exactly_indistinguishable: exact,
+                        residual_difference_um: gap::size(
+                            &fb.residuals
+                                .iter()
+                                .zip(&fc.residuals)
+                                .map(|(a, b)| a - b)
+                                .collect::<Vec<_>>(),
+                        )
+                        .rms_um,
+                        added_at: None,
                         verdict,
                     },
                 ));
@@ -815,7 +831,8 @@ pub fn run(
             .collect();
         let rivals: Vec<story::Rival> = r
             .rivals
-            .into_iter()
+            .iter()
+            .cloned()
             .map(|(c, mut rv)| {
                 if id_of(c) == id_of(best) && r.same.contains(&c) {
                     rv.verdict = format!(
@@ -833,20 +850,39 @@ pub fn run(
             let mut cands = vec![best];
             cands.extend(&same);
             let list: Vec<String> = cands.iter().map(|&i| tried[i].trial.name.clone()).collect();
+            let rival = |c: usize| r.rivals.iter().find(|(i, _)| *i == c).map(|(_, rv)| rv);
+            let exact: Vec<bool> = cands
+                .iter()
+                .map(|&c| c == best || rival(c).is_some_and(|rv| rv.exactly_indistinguishable))
+                .collect();
+            let why = if exact.iter().all(|&e| e) {
+                let diff = same
+                    .iter()
+                    .filter_map(|&c| rival(c))
+                    .map(|rv| rv.residual_difference_um)
+                    .fold(0.0, f64::max);
+                format!(
+                    "exactly indistinguishable on this test: none adds a direction another does not give (their residuals differ by {diff:.1e} um RMS), so no measurement of this test can tell which is at work"
+                )
+            } else {
+                "fitted together, none adds significantly to another, so this test cannot tell which is at work".to_string()
+            };
             ambiguity = Some(story::Ambiguity {
                 candidates: cands
                     .iter()
-                    .map(|&i| {
+                    .zip(&exact)
+                    .map(|(&i, &exactly)| {
                         let f = tried[i].fit.as_ref().expect("tested");
                         story::AmbiguousCandidate {
                             name: tried[i].trial.name.clone(),
+                            exactly_indistinguishable: exactly,
                             values: effect_values(f, f.spec.names.len() - 1),
                             gap_after: gap::size(&f.residuals),
                         }
                     })
                     .collect(),
                 reason: format!(
-                    "the gap ({}) is explained equally by {}: fitted together, none adds significantly to another, so this test cannot tell which is at work. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or add a test that separates them",
+                    "the gap ({}) is explained equally by {}: {why}. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or add a test that separates them",
                     before.summary,
                     list.join(" or ")
                 ),
@@ -865,7 +901,7 @@ pub fn run(
             name: t.name.clone(),
             effect: cand.effect.id(&model0.symbols),
             description: cand.description.clone(),
-            values: effect_values(&bf, ei),
+            provisional_values: effect_values(&bf, ei),
             gap_before: before.size(),
             gap_after: gap::size(&bf.residuals),
             concentrated: before.summary.clone(),
@@ -884,6 +920,11 @@ pub fn run(
             break;
         }
     }
+    let ambiguous: Vec<String> = ambiguity
+        .as_ref()
+        .map(|a: &story::Ambiguity| a.candidates.iter().map(|c| c.name.clone()).collect())
+        .unwrap_or_default();
+    mark_added(&mut steps, &last_round, &ambiguous);
     let end_state = state(kin, data, &current);
     let story = Story {
         test: opts.test.clone(),
@@ -908,6 +949,50 @@ pub fn run(
         },
     };
     Ok(Discovery { story, fits })
+}
+
+/// Each step's rivals that a later step added, marked and worded so; a
+/// "different effect" that no later step added is worded by where the
+/// search left it (`last_round`, in which nothing was added, and the
+/// ambiguous set, if that stopped the search).
+fn mark_added(steps: &mut [story::Step], last_round: &[Trial], ambiguous: &[String]) {
+    let names: Vec<String> = steps.iter().map(|s| s.name.clone()).collect();
+    for st in steps.iter_mut() {
+        let k = st.step;
+        for rv in &mut st.rivals {
+            rv.added_at = names
+                .iter()
+                .skip(k)
+                .position(|n| *n == rv.name)
+                .map(|j| k + j + 1);
+            let different = rv.verdict.starts_with("a different effect");
+            let left = || {
+                if ambiguous.contains(&rv.name) {
+                    return "one of the effects the search could not tell apart at the end"
+                        .to_string();
+                }
+                match last_round.iter().find(|t| t.name == rv.name) {
+                    Some(t) if t.verdict == Verdict::Refused => format!(
+                        "refused in the last round ({})",
+                        t.reason.as_deref().unwrap_or("")
+                    ),
+                    Some(_) => "not significant once the later steps were added".to_string(),
+                    None => "not added before the search stopped".to_string(),
+                }
+            };
+            rv.verdict = match (rv.added_at, different) {
+                (Some(j), true) => {
+                    format!("a different effect: each adds to the other; added at step {j}")
+                }
+                (Some(j), false) => format!("{}; added at step {j}", rv.verdict),
+                (None, true) => format!(
+                    "a different effect here (each adds to the other), but {}",
+                    left()
+                ),
+                (None, false) => continue,
+            };
+        }
+    }
 }
 
 fn story_p(p: f64) -> String {

@@ -200,11 +200,14 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
     let mut value_figs = Vec::new();
     for st in &s.steps {
         let items: Vec<(String, f64, Option<f64>)> = st
-            .values
+            .provisional_values
             .iter()
             .map(|v| (v.name.clone(), v.value, v.u))
             .collect();
-        let unit = st.values.first().map_or(String::new(), |v| v.unit.clone());
+        let unit = st
+            .provisional_values
+            .first()
+            .map_or(String::new(), |v| v.unit.clone());
         let file = format!("step-{}.svg", st.step);
         put(
             &file,
@@ -288,21 +291,29 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
         );
         h.push_str("<div class=grid>\n");
         let _ = writeln!(h, "<img src=\"{fig}\" alt=\"values of step {}\">", st.step);
-        h.push_str("<table><tr><th>parameter</th><th>value</th><th>u</th><th>unit</th></tr>\n");
-        for v in &st.values {
+        h.push_str("<table><tr><th>parameter</th><th>provisional value</th><th>u</th><th>final value</th><th>u</th><th>unit</th></tr>\n");
+        let u3 = |u: Option<f64>| u.map_or("-".into(), |u| format!("{u:.3}"));
+        for v in &st.provisional_values {
+            let fin = s.end.values.iter().find(|e| e.name == v.name);
             let _ = writeln!(
                 h,
-                "<tr><td class=l>{}</td><td>{:.3}</td><td>{}</td><td class=l>{}</td></tr>",
+                "<tr><td class=l>{}</td><td>{:.3}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
                 esc(&v.name),
                 v.value,
-                v.u.map_or("-".into(), |u| format!("{u:.3}")),
+                u3(v.u),
+                fin.map_or("-".into(), |e| format!("{:.3}", e.value)),
+                u3(fin.and_then(|e| e.u)),
                 esc(&v.unit)
             );
         }
         h.push_str("</table></div>\n");
         if !st.rivals.is_empty() {
             h.push_str("<p>Significant rivals:</p><ul>\n");
-            for r in &st.rivals {
+            // Those that matter first: a later step added them, or the
+            // data cannot tell them from this step's effect.
+            let mut order: Vec<_> = st.rivals.iter().collect();
+            order.sort_by_key(|r| !r.matters());
+            for r in order {
                 let _ = writeln!(
                     h,
                     "<li>{} (gap {:.3} um RMS): {}</li>",

@@ -11,7 +11,7 @@ use super::stats::Comparison;
 /// A fitted value.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Value {
-    /// Parameter name (`drift.EZ0B`, `EBB(B)@B=90`, `EXX`).
+    /// Parameter name (`EX0B`, `drift.EZ0B/seq`, `map.EBB(B)@B=90`, `scale.EXX`).
     pub name: String,
     /// Value, in `unit`.
     pub value: f64,
@@ -106,8 +106,31 @@ pub struct Rival {
     pub p_effect_over_rival: f64,
     /// p-value of the rival added to the step's effect.
     pub p_rival_over_effect: f64,
+    /// Neither adds a direction the other does not already give: no
+    /// measurement of this test can tell them apart, whatever its noise
+    /// (their residuals differ at rounding level).
+    pub exactly_indistinguishable: bool,
+    /// RMS of the difference between the residuals with the step's effect
+    /// and with the rival instead, um.
+    pub residual_difference_um: f64,
+    /// The later step that added the rival, if one did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub added_at: Option<usize>,
     /// In words.
     pub verdict: String,
+}
+
+impl Rival {
+    /// Whether the story shows the rival by name: it came next, or the
+    /// data cannot tell it from the step's effect (exactly, or within the
+    /// noise, or as the same effect on another clock). The others are
+    /// significant candidates the step's effect, or a later one, explains
+    /// away; they are counted.
+    pub fn matters(&self) -> bool {
+        self.added_at.is_some()
+            || self.exactly_indistinguishable
+            || self.verdict.contains("indistinguishable")
+    }
 }
 
 /// One step of the discovery: an effect added.
@@ -121,8 +144,10 @@ pub struct Step {
     pub effect: String,
     /// What it is.
     pub description: String,
-    /// Its fitted values with their uncertainty.
-    pub values: Vec<Value>,
+    /// Its values as fitted at this step, with their uncertainty:
+    /// provisional, since later steps refit them (the final model,
+    /// [`Story::end`], is the one to quote).
+    pub provisional_values: Vec<Value>,
     /// The gap before the step.
     pub gap_before: GapSize,
     /// The gap after the step.
@@ -158,6 +183,9 @@ pub struct Ambiguity {
 pub struct AmbiguousCandidate {
     /// Candidate name.
     pub name: String,
+    /// No measurement of this test can tell it from the first of the set
+    /// (the best by the BIC), whatever its noise (the first has it too).
+    pub exactly_indistinguishable: bool,
     /// Its fitted values.
     pub values: Vec<Value>,
     /// The gap it leaves.
@@ -220,25 +248,47 @@ fn fmt_p(p: f64) -> String {
 
 fn values(s: &mut String, v: &[Value], indent: &str) {
     for x in v {
-        match x.u {
-            Some(u) => {
-                let _ = writeln!(
-                    s,
-                    "{indent}{:<24} {:>10.3} {:<9} u = {:.3}",
-                    x.name, x.value, x.unit, u
-                );
+        let _ = writeln!(s, "{indent}{}", value_line(x));
+    }
+}
+
+fn value_line(x: &Value) -> String {
+    match x.u {
+        Some(u) => format!(
+            "{:<24} {:>10.3} {:<9} u = {:.3}",
+            x.name, x.value, x.unit, u
+        ),
+        None => format!(
+            "{:<24} {:>10.3} {:<9} ({})",
+            x.name,
+            x.value,
+            x.unit,
+            x.note.as_deref().unwrap_or("not identifiable")
+        ),
+    }
+}
+
+/// A step's values, provisional, each beside its value in the final
+/// model (the one to quote).
+fn provisional(s: &mut String, v: &[Value], end: &[Value]) {
+    let _ = writeln!(
+        s,
+        "  provisional values (this step's fit; the final model at the end is the one to quote):"
+    );
+    for x in v {
+        let last = end.iter().find(|e| e.name == x.name);
+        let same = |a: f64, b: f64| format!("{a:.3}") == format!("{b:.3}");
+        let fin = match last {
+            Some(e) if same(e.value, x.value) && e.u.zip(x.u).is_none_or(|(a, b)| same(a, b)) => {
+                "   (as final)".to_string()
             }
-            None => {
-                let _ = writeln!(
-                    s,
-                    "{indent}{:<24} {:>10.3} {:<9} ({})",
-                    x.name,
-                    x.value,
-                    x.unit,
-                    x.note.as_deref().unwrap_or("not identifiable")
-                );
-            }
-        }
+            Some(Value {
+                value, u: Some(u), ..
+            }) => format!("   final {value:.3}, u = {u:.3}"),
+            Some(Value { value, u: None, .. }) => format!("   final {value:.3}"),
+            None => String::new(),
+        };
+        let _ = writeln!(s, "    {}{fin}", value_line(x));
     }
 }
 
@@ -265,7 +315,7 @@ impl Story {
         for st in &self.steps {
             let _ = writeln!(s, "\nstep {}: add {}: {}", st.step, st.name, st.description);
             let _ = writeln!(s, "  before: {}", st.concentrated);
-            values(&mut s, &st.values, "  ");
+            provisional(&mut s, &st.provisional_values, &self.end.values);
             let _ = writeln!(
                 s,
                 "  gap {:.3} -> {:.3} um RMS, {:.3} -> {:.3} um max ({:.1} % of the squared gap explained)",
@@ -310,15 +360,36 @@ impl Story {
                     a.unseen.len()
                 );
             }
-            for r in st.rivals.iter().take(4) {
+            for r in st.rivals.iter().filter(|r| r.matters()) {
                 let _ = writeln!(
                     s,
                     "  rival {} (gap {:.3} um RMS): {}",
                     r.name, r.gap_after.rms_um, r.verdict
                 );
             }
-            if st.rivals.len() > 4 {
-                let _ = writeln!(s, "  ... and {} more rivals", st.rivals.len() - 4);
+            let names = |f: &dyn Fn(&Rival) -> bool| -> Vec<&str> {
+                st.rivals
+                    .iter()
+                    .filter(|r| !r.matters() && f(r))
+                    .map(|r| r.name.as_str())
+                    .collect()
+            };
+            let away = names(&|r| !r.verdict.starts_with("a different effect"));
+            if !away.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "  also significant, explained away by {}: {}",
+                    st.name,
+                    away.join(", ")
+                );
+            }
+            let other = names(&|r| r.verdict.starts_with("a different effect"));
+            if !other.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "  also significant, different effects never added: {}",
+                    other.join(", ")
+                );
             }
         }
         if let Some(a) = &self.ambiguity {
@@ -326,8 +397,15 @@ impl Story {
             for c in &a.candidates {
                 let _ = writeln!(
                     s,
-                    "  {} (gap {:.3} um RMS, {:.3} um max):",
-                    c.name, c.gap_after.rms_um, c.gap_after.max_um
+                    "  {} (gap {:.3} um RMS, {:.3} um max{}):",
+                    c.name,
+                    c.gap_after.rms_um,
+                    c.gap_after.max_um,
+                    if c.exactly_indistinguishable {
+                        "; exactly indistinguishable on this test"
+                    } else {
+                        ""
+                    }
                 );
                 values(&mut s, &c.values, "    ");
             }
@@ -346,7 +424,12 @@ impl Story {
         }
         let _ = writeln!(
             s,
-            "\nend: {}: gap {:.3} um RMS, {:.3} um max; residual sigma {:.3} um ({} degrees of freedom)",
+            "\nfinal model ({}): {}: gap {:.3} um RMS, {:.3} um max; residual sigma {:.3} um ({} degrees of freedom)",
+            if self.ambiguity.is_some() {
+                "none of the ambiguous effects added: its values carry whichever is at work"
+            } else {
+                "the values to quote"
+            },
             self.end.model.join(" + "),
             self.end.gap.rms_um,
             self.end.gap.max_um,

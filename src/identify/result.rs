@@ -189,10 +189,7 @@ impl Identification {
                     } else {
                         let nodes: Vec<&str> = bad.iter().map(|&i| names[i].as_str()).collect();
                         not.push(NotIdentified {
-                            symbol: match other {
-                                Effect::Map { symbol, .. } => sym.maps[*symbol].name.clone(),
-                                o => o.id(sym),
-                            },
+                            symbol: other.id(sym),
                             reason: format!(
                                 "{} of its {} values are not seen by the test ({}); {}",
                                 bad.len(),

@@ -165,7 +165,12 @@ impl Effect {
         }
     }
 
-    /// Parameter names.
+    /// Parameter names, in one scheme for every effect: a location error
+    /// by its symbol (`EX0B`), every other value by its effect's
+    /// identifier ([`Effect::id`]), a drift with its clock
+    /// (`drift.EZ0B/seq`), a value at a node with the node after `@`
+    /// (`map.EBB(B)@B=90`, `straightness.EYX@X=-100`), a pre-travel with its
+    /// approach direction (`probe_pretravel.Z-`).
     pub fn param_names(&self, sym: &SymbolTable) -> Vec<String> {
         match self {
             Effect::Location { symbols } => symbols
@@ -182,13 +187,17 @@ impl Effect {
                             .iter()
                             .map(|&(a, v)| format!("{}={}", letters(a), fmt_angle(v)))
                             .collect();
-                        format!("{name}@{}", at.join(","))
+                        format!("map.{name}@{}", at.join(","))
                     })
                     .collect()
             }
-            Effect::Drift { symbol, .. } => vec![format!("drift.{}", sym.location[*symbol].name)],
-            Effect::Scale { axis } => vec![format!("E{0}{0}", axis.letter())],
-            Effect::Squareness { kind } => vec![kind.symbol().to_string()],
+            Effect::Drift { symbol, basis } => vec![format!(
+                "drift.{}/{}",
+                sym.location[*symbol].name,
+                basis.name()
+            )],
+            Effect::Scale { axis } => vec![format!("scale.E{0}{0}", axis.letter())],
+            Effect::Squareness { kind } => vec![format!("squareness.{}", kind.symbol())],
             Effect::Straightness {
                 moving,
                 direction,
@@ -197,7 +206,7 @@ impl Effect {
                 .iter()
                 .map(|n| {
                     format!(
-                        "E{}{}@{}={}",
+                        "straightness.E{}{}@{}={}",
                         direction.letter(),
                         moving.letter(),
                         moving.letter(),
@@ -209,7 +218,7 @@ impl Effect {
             Effect::ToolLength => vec!["tool_length".into()],
             Effect::ProbePretravel => PROBE_DIRECTIONS
                 .iter()
-                .map(|d| format!("pretravel.{d}"))
+                .map(|d| format!("probe_pretravel.{d}"))
                 .collect(),
         }
     }
@@ -320,4 +329,72 @@ pub fn pretravel_weights(d: &Vector3<f64>) -> [f64; 6] {
         }
     }
     w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Kinematics, Machine};
+
+    /// Every value is named after its effect (the issue that led here:
+    /// `EXX`, `EC(0X)Y`, `drift.EZ0B/seq` and `EZB(B)@B=-90` side by side).
+    #[test]
+    fn every_value_is_named_after_its_effect() {
+        let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+        let sym = crate::model::Model::new(kin, Vec::new()).symbols;
+        let grid = MapGrid {
+            dims: vec![MapDim::new(0, &[-90.0, 0.0, 90.0], false).unwrap()],
+        };
+        let effects = [
+            (
+                Effect::Map {
+                    symbol: sym.map_index("EZB(B)").unwrap(),
+                    grid,
+                },
+                "map.EZB(B)@B=-90",
+            ),
+            (
+                Effect::Drift {
+                    symbol: sym.location_index("EZ0B").unwrap(),
+                    basis: DriftBasis::Minute,
+                },
+                "drift.EZ0B/minute",
+            ),
+            (Effect::Scale { axis: Axis3::X }, "scale.EXX"),
+            (
+                Effect::Squareness {
+                    kind: Squareness::CXY,
+                },
+                "squareness.EC(0X)Y",
+            ),
+            (
+                Effect::Straightness {
+                    moving: Axis3::X,
+                    direction: Axis3::Y,
+                    nodes: vec![-100.0, 100.0],
+                },
+                "straightness.EYX@X=-100",
+            ),
+            (Effect::ToolRadius, "tool_radius"),
+            (Effect::ToolLength, "tool_length"),
+            (Effect::ProbePretravel, "probe_pretravel.X+"),
+        ];
+        for (e, first) in effects {
+            let names = e.param_names(&sym);
+            assert_eq!(names.len(), e.n_params());
+            assert_eq!(names[0], first);
+            // The effect's identifier, then its clock, node or direction.
+            let id = e.id(&sym);
+            for n in &names {
+                let rest = n
+                    .strip_prefix(&id)
+                    .unwrap_or_else(|| panic!("{n} from {id}"));
+                assert!(rest.is_empty() || rest.starts_with(['@', '/', '.']), "{n}");
+            }
+        }
+        let loc = Effect::Location {
+            symbols: vec![0, 1],
+        };
+        assert_eq!(loc.param_names(&sym), ["EX0B", "EZ0B"]);
+    }
 }
