@@ -569,6 +569,42 @@ fn sphere_plan_seed003_spreads_50_poses_over_the_tilt_and_nine_turns_of_c() {
 }
 
 #[test]
+fn sphere_plan_grid_probes_every_tilt_at_every_c_tilt_by_tilt() {
+    let text = fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE
+        .replace("pattern: seed-004", "pattern: grid");
+    let t = SphereTemplate::parse(TemplateSource {
+        path: "grid.yaml".into(),
+        text: text.clone(),
+    })
+    .unwrap();
+    // The built-in grid block: tilt [-90, -45, 0], C [0, 90, 180, 270].
+    let plan = sphere::touch_plan(&machine("bc-trunnion"), &t).unwrap();
+    let ids: Vec<&str> = plan.poses.iter().map(|p| p.id.as_str()).collect();
+    let mut want = Vec::new();
+    for a in ["-90", "-45", "0"] {
+        for c in ["0", "90", "180", "270"] {
+            want.push(format!("B{a}C{c}"));
+        }
+    }
+    assert_eq!(ids, want);
+    // The pattern needs its block.
+    let l = text.lines().position(|l| l.contains("pattern:")).unwrap() + 1;
+    let without: String = text
+        .lines()
+        .filter(|l| {
+            !l.starts_with("grid:") && !l.starts_with("  tilt: [") && !l.starts_with("  c: [")
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_eq!(
+        template_error("sphere", &without),
+        format!(
+            "t.yaml:{l}:1: pattern: grid needs a `grid:` section with its `tilt` and `c` angles (deg)"
+        )
+    );
+}
+
+#[test]
 fn plans_work_on_the_bc_trunnion_and_on_head_machines() {
     for name in ["bc-trunnion", "head-table", "head-head"] {
         let plan = columns_plan(name);
@@ -746,7 +782,7 @@ fn bad_templates_are_rejected_with_file_line_and_key() {
             "sphere",
             &sph.replace("pattern: seed-004", "pattern: seed-005")
         ),
-        format!("t.yaml:{l}:1: pattern: unknown `seed-005`: expected seed-004 or seed-003")
+        format!("t.yaml:{l}:1: pattern: unknown `seed-005`: expected seed-004, seed-003 or grid")
     );
     let l = line_of(sph, "stem_diameter");
     assert_eq!(

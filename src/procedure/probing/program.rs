@@ -321,6 +321,7 @@ fn setup_of(m: &Machine, t: &Template) -> Result<(Setup, String), PlanError> {
                         sphere::SpherePattern::Seed004 { .. } => "Cubas Brizuela & Yeh 2023",
                         sphere::SpherePattern::Seed003 { .. } =>
                             "the LAMDAMAP 2015 paper's spiral of poses",
+                        sphere::SpherePattern::Grid { .. } => "every tilt with every C",
                     }
                 ),
             )

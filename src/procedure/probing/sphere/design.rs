@@ -74,6 +74,11 @@ pub fn poses(m: &Machine, t: &SphereTemplate) -> Vec<(String, f64, f64)> {
             .chain(tilt_sweep.iter().map(|&a| (a, *tilt_sweep_c)))
             .map(|(a, c)| (pose_id(letter, a, c), a, c))
             .collect(),
+        SpherePattern::Grid { tilt, c } => tilt
+            .iter()
+            .flat_map(|&a| c.iter().map(move |&c| (a, c)))
+            .map(|(a, c)| (pose_id(letter, a, c), a, c))
+            .collect(),
         SpherePattern::Seed003 { poses, tilt, turns } => {
             let n = *poses;
             let width = (n - 1).to_string().len().max(2);
@@ -136,6 +141,8 @@ pub fn touch_plan_with(
                     (SpherePattern::Seed004 { .. }, true) => &["seed-004", "c_sweep"],
                     (SpherePattern::Seed004 { .. }, false) => &["seed-004", "tilt_sweep"],
                     (SpherePattern::Seed003 { .. }, _) => &["seed-003", "tilt"],
+                    (SpherePattern::Grid { .. }, true) => &["grid", "c"],
+                    (SpherePattern::Grid { .. }, false) => &["grid", "tilt"],
                 };
                 return Err(t
                     .source

@@ -70,6 +70,13 @@ struct Seed003File {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
+struct GridFile {
+    tilt: Vec<f64>,
+    c: Vec<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 struct CheckFile {
     radius_tolerance: f64,
     form_tolerance: f64,
@@ -86,6 +93,8 @@ struct SphereFile {
     seed004: Seed004File,
     #[serde(rename = "seed-003")]
     seed003: Seed003File,
+    #[serde(default)]
+    grid: Option<GridFile>,
     check: CheckFile,
     probing: ProbingFile,
     probe: ProbeFile,
@@ -105,6 +114,16 @@ pub enum SpherePattern {
         tilt_sweep_c: f64,
         /// Tilt angles of the tilt sweep, deg.
         tilt_sweep: Vec<f64>,
+    },
+    /// `pattern: grid`: every tilt angle with every C angle, tilt by tilt
+    /// (the supplementary test `discover` asks for after an ambiguity:
+    /// each new tilt at several C angles, so that its map values are seen
+    /// from every side).
+    Grid {
+        /// Tilt angles, deg.
+        tilt: Vec<f64>,
+        /// C angles, deg.
+        c: Vec<f64>,
     },
     /// `pattern: seed-003`: a spiral of `poses` poses, the tilt evenly
     /// spread from `tilt.0` to `tilt.1` while C advances `turns` full turns.
@@ -278,10 +297,30 @@ impl SphereTemplate {
                     turns: p.turns,
                 }
             }
+            "grid" => {
+                let Some(g) = &f.grid else {
+                    return Err(src.error(
+                        &["pattern"],
+                        "pattern: grid needs a `grid:` section with its `tilt` and `c` angles (deg)",
+                    ));
+                };
+                for (key, v) in [("tilt", &g.tilt), ("c", &g.c)] {
+                    if v.is_empty() || v.len() > 1000 || v.iter().any(|a| !a.is_finite()) {
+                        return Err(src.error(
+                            &["grid", key],
+                            format!("grid.{key}: expected 1 to 1000 angles in degrees"),
+                        ));
+                    }
+                }
+                SpherePattern::Grid {
+                    tilt: g.tilt.clone(),
+                    c: g.c.clone(),
+                }
+            }
             other => {
                 return Err(src.error(
                     &["pattern"],
-                    format!("pattern: unknown `{other}`: expected seed-004 or seed-003"),
+                    format!("pattern: unknown `{other}`: expected seed-004, seed-003 or grid"),
                 ));
             }
         };
