@@ -331,6 +331,60 @@ pub struct AmbiguitySection {
     pub reason: String,
     /// The effects that explain the gap equally, best (lowest BIC) first.
     pub rivals: Vec<RivalEntry>,
+    /// The supplementary test that would separate them (`plan --supplement`
+    /// writes it), when one was found.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub supplement: Option<Supplement>,
+    /// Why no supplementary test is proposed, when none is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub no_supplement: Option<String>,
+}
+
+/// The supplementary test an ambiguity asks for: a probing run of the
+/// calibration sphere (probe-sphere) on the same machine, at the poses
+/// that separate the rivals, measured once more and given to `discover`
+/// with the first test's measurements.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Supplement {
+    /// The test (`probe-sphere`).
+    pub test: String,
+    /// Its tilt angles, deg: each probed at every C angle.
+    pub tilt: Vec<f64>,
+    /// Its C angles, deg.
+    pub c: Vec<f64>,
+    /// The poses the first test does not have that separate the rivals
+    /// (`B-45C0`).
+    pub new_poses: Vec<String>,
+    /// Poses and touches of the planned supplement.
+    pub poses: usize,
+    /// Touches (measured points) of the planned supplement.
+    pub touches: usize,
+    /// The noise the separation was judged at, um (pooled over the tests).
+    pub noise_um: f64,
+    /// For each rival against each other: the chance that the two tests
+    /// together tell it from the other, were it the one at work with the
+    /// values fitted here.
+    pub power: Vec<Separation>,
+    /// The first test's plan manifest, as given to `discover` (its machine
+    /// and dialect are the supplement's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plan: Option<String>,
+}
+
+/// How well the two tests together tell one rival from another.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Separation {
+    /// The rival at work.
+    pub effect: String,
+    /// The rival it must be told from.
+    pub against: String,
+    /// Directions it adds beside the other.
+    pub directions: usize,
+    /// Probability that the step's test finds it significant beside the
+    /// other (at the search's level, after its adjustment).
+    pub power: f64,
 }
 
 /// One effect of an ambiguity, as it would be were it the one at work.

@@ -293,7 +293,11 @@ fn probe_pretravel_on_the_column_probing_test_is_named_with_what_it_cannot_see()
     // The error file writes what the test saw and says what it did not.
     let f = d.error_file(
         &inputs.data,
-        &fivecal::analyze::fit::ExpectedNoise::new(None, inputs.data.kind, inputs.plan.test()),
+        &[fivecal::analyze::fit::ExpectedNoise::new(
+            None,
+            inputs.data.kind,
+            inputs.plan.test(),
+        )],
     );
     assert_eq!(f.effects.probe_pretravel.len(), 5);
     assert!(f.effects.probe_pretravel.values().all(|q| q.u.is_some()));

@@ -57,7 +57,7 @@ fn the_stepped_square_cannot_tell_exb_from_ezb_and_adds_neither() {
 #[test]
 fn after_an_ambiguity_the_result_file_states_it_and_writes_the_instruments_noise() {
     let (inputs, d) = ambiguous();
-    let f = d.error_file(&inputs.data, &expected(inputs));
+    let f = d.error_file(&inputs.data, &[expected(inputs)]);
     let noise = f.effects.noise.as_ref().unwrap();
     assert_eq!((noise.cmm, noise.probe), (Some(NOISE), None));
     let fit = f.fit.as_ref().unwrap();
@@ -115,7 +115,7 @@ fn exact_aliases_are_called_exactly_indistinguishable() {
     );
     // Exactness is a property of the design: the residuals of the two
     // rivals differ far below the noise, at the level the fits converge to.
-    let f = d.error_file(&inputs.data, &expected(inputs));
+    let f = d.error_file(&inputs.data, &[expected(inputs)]);
     let gaps: Vec<f64> = f
         .ambiguity
         .unwrap()
@@ -124,4 +124,42 @@ fn exact_aliases_are_called_exactly_indistinguishable() {
         .map(|r| r.gap_rms_um)
         .collect();
     assert!((gaps[0] - gaps[1]).abs() < 1e-4 * NOISE, "{gaps:?}");
+}
+
+/// After the ambiguity, discover names the extra poses that separate the
+/// rivals, found from the two tests' joint design: a probing run of the
+/// calibration sphere at tilts the stepped square does not have (B = +-45),
+/// each at four C angles, with which each map adds directions the other
+/// does not give and is found beside the other with a power of 0.9.
+#[test]
+fn discover_names_the_poses_that_separate_the_rivals() {
+    let (_, d) = ambiguous();
+    let a = d.story.ambiguity.as_ref().unwrap();
+    let s = a.supplement.as_ref().expect("a supplementary test");
+    assert_eq!(s.test, "probe-sphere");
+    assert!(s.tilt.contains(&-45.0) && s.tilt.contains(&45.0), "{s:?}");
+    assert!(!s.new_poses.is_empty());
+    assert!(
+        s.new_poses
+            .iter()
+            .all(|p| p.starts_with("B-45C") || p.starts_with("B45C")),
+        "{:?}",
+        s.new_poses
+    );
+    // Both ways round: each map told from the other.
+    assert_eq!(s.power.len(), 2);
+    for p in &s.power {
+        assert!(p.directions >= 1 && p.power >= 0.9, "{p:?}");
+    }
+    assert!(s.touches > 0 && s.poses == s.tilt.len() * s.c.len());
+    let text = d.story.render();
+    assert!(
+        text.contains("to separate them: a probe-sphere run"),
+        "{text}"
+    );
+    assert!(
+        a.reason.contains("fivecal plan --supplement"),
+        "{}",
+        a.reason
+    );
 }

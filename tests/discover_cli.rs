@@ -303,3 +303,152 @@ fn bad_requests_fail_with_the_reason_and_write_nothing() {
     let err = String::from_utf8(err).unwrap();
     assert!(err.contains("PROBE.TXT:"), "{err}");
 }
+
+/// The stepped square cannot tell a B axis line wandering in X from one
+/// wandering in Z (EXB(B) against EZB(B)): discover says so, writes the
+/// ambiguity and the supplementary test that separates them into its
+/// result, `plan --supplement` writes that test for the same machine, and
+/// the next discover, given both tests' measurements, names EXB(B) with
+/// values within 4 u of the truth and a model that fits.
+#[test]
+fn an_ambiguity_is_resolved_by_the_supplementary_test_discover_asked_for() {
+    let dir = tempdir();
+    let d = dir.path();
+    let p = |s: &str| d.join(s).display().to_string();
+    // The truth's map is linear in B, so that on the finer nodes of the
+    // two tests together it still averages to zero (as identified maps do).
+    std::fs::write(
+        d.join("truth.yaml"),
+        "machine: bc-trunnion
+location_errors: {EX0B: 12.0, EZ0B: -25.0, EA0B: 60.0, EC0B: -45.0, EB0B: 110.0, EX(0B)C: 18.0, EY0C: -15.0, EA(0B)C: 35.0}
+position_dependent:
+  EXB(B): {B: [-90, 0, 90], values: [4.0, 0.0, -4.0]}
+effects:
+  noise: {cmm: 0.35, probe: 0.35}
+",
+    )
+    .unwrap();
+    fivecal()
+        .args(["plan", "stepped-square", "--out", &p("ss")])
+        .assert()
+        .success();
+    let ss = p("ss/stepped-square.plan.yaml");
+    fivecal()
+        .args(["simulate", "--plan", &ss, "--errors", &p("truth.yaml")])
+        .args(["--out", &p("piece.dmo")])
+        .assert()
+        .success();
+    let out = fivecal()
+        .args(["discover", "--plan", &ss, "--measured", &p("piece.dmo")])
+        .args(["--out", &p("first.yaml"), "--no-record"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains("exactly indistinguishable on this test"),
+        "{text}"
+    );
+    assert!(text.contains("fivecal plan --supplement"), "{text}");
+    let first = ErrorFile::read(&d.join("first.yaml")).unwrap().0;
+    let a = first.ambiguity.as_ref().unwrap();
+    let s = a.supplement.as_ref().unwrap();
+    assert_eq!(s.plan.as_deref(), Some(ss.as_str()));
+    // The first test's noise, not its gap.
+    assert_eq!(first.effects.noise.as_ref().unwrap().cmm, Some(0.35));
+
+    // The supplementary test, for the machine and dialect of the first.
+    let out = fivecal()
+        .args([
+            "plan",
+            "--supplement",
+            &p("first.yaml"),
+            "--out",
+            &p("supp"),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.starts_with(&format!(
+            "probe-sphere on bc-trunnion: {} poses, {} touches",
+            s.poses, s.touches
+        )),
+        "{text}"
+    );
+    let template = std::fs::read_to_string(d.join("supp/probe-sphere.template.yaml")).unwrap();
+    assert!(template.contains("pattern: grid") && template.contains("tilt: [-90, -45, 0, 45, 90]"));
+    let supp = p("supp/probe-sphere.plan.yaml");
+    fivecal()
+        .args(["simulate", "--plan", &supp, "--errors", &p("truth.yaml")])
+        .args(["--out", &p("supp/PROBE.TXT")])
+        .assert()
+        .success();
+
+    // Both tests together decide.
+    let out = fivecal()
+        .args(["discover", "--plan", &ss, "--measured", &p("piece.dmo")])
+        .args(["--plan", &supp, "--measured", &p("supp/PROBE.TXT")])
+        .args(["--out", &p("both.yaml"), "--no-record"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("step 1: add map.EXB(B)"), "{text}");
+    assert!(
+        !text.contains("step 2") && !text.contains("ambiguous"),
+        "{text}"
+    );
+    assert!(text.contains("fit of the final model: fits"), "{text}");
+    let m = machine("bc-trunnion");
+    let kin = Kinematics::with_gauge_length(&m, 60.0);
+    let both = ErrorFile::load(&d.join("both.yaml"), &kin).unwrap();
+    assert!(
+        both.not_identifiable
+            .iter()
+            .all(|n| !n.symbol.contains("EXB"))
+    );
+    let names = both.model.param_names();
+    // The truth at the joint nodes: linear in B.
+    for (name, t) in [
+        ("map.EXB(B)@B=-90", 4.0),
+        ("map.EXB(B)@B=-45", 2.0),
+        ("map.EXB(B)@B=0", 0.0),
+        ("map.EXB(B)@B=45", -2.0),
+        ("map.EXB(B)@B=90", -4.0),
+        ("EX0B", 12.0),
+        ("EZ0B", -25.0),
+    ] {
+        let i = names.iter().position(|n| n == name).unwrap();
+        let u = both.u[i].unwrap();
+        assert!(
+            (both.theta[i] - t).abs() < 4.0 * u,
+            "{name}: {} +- {u} against {t}",
+            both.theta[i]
+        );
+    }
+    // A result without an ambiguity asks for no supplement; the tests and
+    // their files must pair up.
+    let out = fivecal()
+        .args(["plan", "--supplement", &p("both.yaml"), "--out", &p("x")])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("states no ambiguity"));
+    let out = fivecal()
+        .args(["discover", "--plan", &ss, "--plan", &supp])
+        .args(["--measured", &p("piece.dmo")])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("each --plan takes its own --measured"));
+}

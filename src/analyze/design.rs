@@ -112,6 +112,21 @@ impl Prediction {
     }
 }
 
+/// The measurements `plan` gives on a machine without errors, measured
+/// without noise: its design, known before anything is cut or probed.
+pub fn nominal_data(plan: &Plan) -> Result<crate::identify::Dataset, AnalyzeError> {
+    let kin = simulate::plan_kinematics(plan);
+    let name = kin.machine().name.clone();
+    let src = format!("machine: {name}\n");
+    let path = std::path::Path::new("(no errors)");
+    let zero = ErrorFile::parse(path, &src)?.to_model(&kin, path, &src)?;
+    let sim = simulate::run(plan, &zero, &SimOptions::exact())
+        .map_err(|e| AnalyzeError::Plan(format!("cannot simulate the plan: {e}")))?;
+    Ok(super::uncertainty::simulated::plan_dataset(
+        plan, "nominal", sim.points,
+    )?)
+}
+
 /// Predicts what `plan` will identify with `method` (the test's default
 /// when `None`) at the instrument's noise (`noise` um, else its default).
 pub fn predict(
@@ -144,13 +159,7 @@ pub fn predict(
     if test == Test::NineSection {
         return Ok(nothing(super::NINE_SECTION_REASON));
     }
-    let name = kin.machine().name.clone();
-    let src = format!("machine: {name}\n");
-    let path = std::path::Path::new("(no errors)");
-    let zero = ErrorFile::parse(path, &src)?.to_model(&kin, path, &src)?;
-    let sim = simulate::run(plan, &zero, &SimOptions::exact())
-        .map_err(|e| AnalyzeError::Plan(format!("cannot simulate the plan: {e}")))?;
-    let data = super::uncertainty::simulated::plan_dataset(plan, "nominal", sim.points)?;
+    let data = nominal_data(plan)?;
     let setup = Setup::new(&kin, &data.poses, &[])?;
     let sphere = SphereOptions {
         circle: CircleMethod::Robust,

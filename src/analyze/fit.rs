@@ -63,6 +63,31 @@ impl ExpectedNoise {
     }
 }
 
+impl ExpectedNoise {
+    /// The noise of several tests' residuals fitted together, each with
+    /// its instrument's noise and number of points: the root mean square
+    /// of the noises over the points (a residual's expected square is its
+    /// instrument's variance).
+    pub fn pooled(parts: &[(&str, &ExpectedNoise, usize)]) -> ExpectedNoise {
+        if let [(_, one, _)] = parts {
+            return (*one).clone();
+        }
+        let n: usize = parts.iter().map(|p| p.2).sum();
+        let ss: f64 = parts.iter().map(|p| p.1.um * p.1.um * p.2 as f64).sum();
+        ExpectedNoise {
+            um: (ss / n.max(1) as f64).sqrt(),
+            from: format!(
+                "pooled over the tests' points: {}",
+                parts
+                    .iter()
+                    .map(|(name, e, k)| format!("{name} {:.3} um ({}, {k} points)", e.um, e.from))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+        }
+    }
+}
+
 /// Judges the fit of residuals with standard deviation `sigma_um` over
 /// `dof` degrees of freedom against the expected noise. `None` when it
 /// cannot be judged: no degrees of freedom left, or no finite sigma.
@@ -209,6 +234,16 @@ mod tests {
             c,
             "fivecal discover --plan ss/stepped-square.plan.yaml --measured 'piece one.dmo' 'it'\\''s.csv' --out model.yaml"
         );
+    }
+
+    #[test]
+    fn pooled_noise_is_the_rms_over_the_points() {
+        let (a, b) = (expected(0.3), expected(0.4));
+        let p = ExpectedNoise::pooled(&[("ss", &a, 100), ("ps", &b, 300)]);
+        // (100 * 0.09 + 300 * 0.16) / 400 = 0.1425
+        assert!((p.um - 0.1425f64.sqrt()).abs() < 1e-12);
+        assert!(p.from.contains("ss 0.300 um") && p.from.contains("300 points"));
+        assert_eq!(ExpectedNoise::pooled(&[("ss", &a, 100)]), a);
     }
 
     #[test]

@@ -292,7 +292,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     // Judged against the same noise as the first analysis, as `discover
     // --out` writes it.
     let expected = crate::analyze::fit::ExpectedNoise::new(None, data.kind, identified.test);
-    let final_file = discovery.error_file(data, &expected);
+    let final_file = discovery.error_file(data, std::slice::from_ref(&expected));
     let final_path = out.join("discovered.yaml");
     let final_text = final_file.to_yaml();
     write_atomic(&final_path, final_text.as_bytes()).at(e)?;

@@ -16,6 +16,7 @@
 
 use nalgebra::{DVector, Point3};
 
+use super::fit::Part;
 use crate::formats::manifest::TestKind;
 use crate::geom::Axis3;
 use crate::identify::{Dataset, Setup};
@@ -96,15 +97,23 @@ fn affine(x: &[f64], y: &[f64]) -> bool {
     1.0 - r2 < 1e-12
 }
 
-/// The catalogue for a test of `kind` on the machine of `kin`, measured as
-/// in `data` (its poses give the map grids, the times and the axis ranges).
-pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
+/// The catalogue for the measurements of one test, or of several tests of
+/// one machine fitted together (`parts`): their poses give the map grids
+/// (the union of their angles), the times and the axis ranges; each part's
+/// own clock runs from its program's start.
+pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
     let mut out = Catalogue::default();
+    let kin = parts[0].kin;
     let sym = crate::model::Model::new(kin.clone(), Vec::new()).symbols;
-    let seqs: Vec<f64> = data.poses.iter().map(|p| p.seq as f64).collect();
-    let mins: Vec<f64> = data.poses.iter().map(|p| p.minutes).collect();
-    let timed = mins.iter().any(|m| (m - mins[0]).abs() > 1e-9);
-    let minutes_as_seq = timed && affine(&seqs, &mins);
+    let clock = |d: &Dataset| -> (bool, bool) {
+        let seqs: Vec<f64> = d.poses.iter().map(|p| p.seq as f64).collect();
+        let mins: Vec<f64> = d.poses.iter().map(|p| p.minutes).collect();
+        let timed = mins.iter().any(|m| (m - mins[0]).abs() > 1e-9);
+        (timed, timed && affine(&seqs, &mins))
+    };
+    let clocks: Vec<(bool, bool)> = parts.iter().map(|p| clock(p.data)).collect();
+    let timed = clocks.iter().any(|c| c.0);
+    let minutes_as_seq = timed && clocks.iter().all(|c| !c.0 || c.1);
     if !timed {
         out.notes
             .push("the plan gives no times: drifts are tried per pose (seq) only".to_string());
@@ -158,21 +167,16 @@ pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
     // the test senses it (each measured point weighted by the square of its
     // normal's component along the straightness direction), so that on this
     // test it is neither a position nor a squareness.
-    let cmd: Vec<[f64; 3]> = data
-        .obs
-        .iter()
-        .map(|o| {
-            let p = &data.plan.points[o.plan];
-            commanded(kin, p.tilt, p.c, &p.p)
-        })
+    let points = || {
+        parts
+            .iter()
+            .flat_map(|part| part.data.obs.iter().map(|o| &part.data.plan.points[o.plan]))
+    };
+    let cmd: Vec<[f64; 3]> = points()
+        .map(|p| commanded(kin, p.tilt, p.c, &p.p))
         .collect();
-    let normals: Vec<nalgebra::Vector3<f64>> = data
-        .obs
-        .iter()
-        .map(|o| {
-            let p = &data.plan.points[o.plan];
-            kin.nominal_table_transform(p.tilt, p.c).rotation * p.n
-        })
+    let normals: Vec<nalgebra::Vector3<f64>> = points()
+        .map(|p| kin.nominal_table_transform(p.tilt, p.c).rotation * p.n)
         .collect();
     for moving in [Axis3::X, Axis3::Y, Axis3::Z] {
         let i = moving.index();
@@ -240,8 +244,12 @@ pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
     }
     // Maps on the plan's angles, with the papers' averaging constraints
     // (built by the identification's own setup, so both agree).
+    let poses: Vec<crate::identify::data::Pose> = parts
+        .iter()
+        .flat_map(|p| p.data.poses.iter().cloned())
+        .collect();
     for ms in &sym.maps {
-        let Ok(s) = Setup::new(kin, &data.poses, std::slice::from_ref(&ms.name)) else {
+        let Ok(s) = Setup::new(kin, &poses, std::slice::from_ref(&ms.name)) else {
             continue;
         };
         let Some(ei) = s.model.find(&format!("map.{}", ms.name)) else {
@@ -266,22 +274,32 @@ pub fn catalogue(kin: &Kinematics, data: &Dataset) -> Catalogue {
         }
         out.candidates.push(c);
     }
-    if data.kind == TestKind::Machining {
+    let has = |kind: TestKind| parts.iter().any(|p| p.data.kind == kind);
+    if has(TestKind::Machining) {
         out.candidates.push(Candidate::new(
             "tool_radius".into(),
             Effect::ToolRadius,
             "tool radius error (actual minus nominal)".into(),
         ));
     }
-    out.candidates.push(Candidate::new(
-        "tool_length".into(),
-        Effect::ToolLength,
-        match data.kind {
-            TestKind::Machining => "tool length error (actual minus nominal)".into(),
-            TestKind::Probing => "probe length error (actual minus nominal)".into(),
-        },
-    ));
-    if data.kind == TestKind::Probing {
+    // One length error for a tool and a probe would say the probe is as
+    // much too long as the tool: not a candidate across both.
+    if has(TestKind::Machining) && has(TestKind::Probing) {
+        out.notes.push(
+            "tool_length is not tried: the machined piece's tool and the probing run's probe each have a length error of their own".to_string(),
+        );
+    } else {
+        out.candidates.push(Candidate::new(
+            "tool_length".into(),
+            Effect::ToolLength,
+            if has(TestKind::Machining) {
+                "tool length error (actual minus nominal)".into()
+            } else {
+                "probe length error (actual minus nominal)".into()
+            },
+        ));
+    }
+    if has(TestKind::Probing) {
         out.candidates.push(Candidate::new(
             "probe_pretravel".into(),
             Effect::ProbePretravel,

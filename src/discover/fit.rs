@@ -200,8 +200,8 @@ pub struct Fit {
     pub cov_unit: DMatrix<f64>,
     /// The design at the nominal machine.
     pub design: Design,
-    /// The CMM placement (W to CMM) of a machined piece.
-    pub placement: Option<Isometry3<f64>>,
+    /// Per part, the CMM placement (W to CMM) of a machined piece.
+    pub placements: Vec<Option<Isometry3<f64>>>,
     /// Whether the fit was iterated until the sum of squares stopped
     /// falling (false for a one-step screening).
     pub converged: bool,
@@ -266,109 +266,211 @@ impl Fit {
     }
 }
 
-/// The dataset prepared once for every fit: the catalogue model's forward
-/// model and nominal Jacobian, the observed points before the nuisance
-/// placement and each observation's time.
-pub struct Fitter<'a> {
-    /// The measurements.
+/// One test's measurements in a discovery: a discovery may fit the
+/// measurements of several tests of one machine together (a test and the
+/// supplementary test that separates what the first could not), each with
+/// its own plan, gauge length (tool or probe), forward model and nuisance
+/// (CMM placement, sphere position, setups), sharing the model's
+/// parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct Part<'a> {
+    /// The plan's machine with its tool's or probe's gauge length.
+    pub kin: &'a Kinematics,
+    /// The measurements joined to the plan.
     pub data: &'a Dataset,
+    /// The plan, when known (else the rigid-pose models serve).
+    pub plan: Option<&'a Plan>,
+    /// Its name in the nuisance names of several parts (the test's).
+    pub label: &'a str,
+}
+
+/// One part as the fitter holds it.
+struct FitPart<'a> {
+    data: &'a Dataset,
+    fm: Box<dyn ForwardModel>,
+    /// Catalogue index of each parameter of the part's model (the location
+    /// symbols and the candidates its forward model applies).
+    cols: Vec<usize>,
+    /// Number of the forward model's own nuisance parameters.
+    k: usize,
+    p0: Option<Isometry3<f64>>,
+    u: Vec<Vector3<f64>>,
+    minutes: Vec<f64>,
+    /// Its observations' rows.
+    rows: Range<usize>,
+    /// Its nuisance (and placement) columns, after the catalogue's.
+    extra: Range<usize>,
+}
+
+/// The measurements prepared once for every fit: each part's catalogue
+/// model, forward model and the observed points before the nuisance
+/// placement, and the nominal Jacobian of every part together.
+pub struct Fitter<'a> {
+    parts: Vec<FitPart<'a>>,
     kin: Kinematics,
     /// Parameter range of each catalogue effect.
     ranges: Vec<Range<usize>>,
     n_full: usize,
     /// Catalogue index of each candidate, by candidate name.
     index: std::collections::HashMap<String, usize>,
-    fm: Box<dyn ForwardModel>,
-    /// Forward-model nuisance and placement names.
+    /// Forward-model nuisance and placement names, part by part.
     extra_names: Vec<String>,
-    k: usize,
-    p0: Option<Isometry3<f64>>,
-    u: Vec<Vector3<f64>>,
-    minutes: Vec<f64>,
+    n_rows: usize,
     /// `d r / d (theta_full, nuisance, placement)` at the nominal machine.
     j0: DMatrix<f64>,
     /// Least-squares options.
     pub opts: lsq::Options,
 }
 
+/// The catalogue model a part's forward model takes: the location symbols
+/// and the candidates it applies (it names the first it cannot apply,
+/// which is left out with the reason).
+fn part_model<'c>(
+    part: &Part<'_>,
+    plan: Option<&PlanRef>,
+    location: &[Effect],
+    candidates: &[&'c Candidate],
+    refused: &mut Vec<(String, String)>,
+) -> Result<(Box<dyn ForwardModel>, Vec<&'c Candidate>), FitError> {
+    let sym = Model::new(part.kin.clone(), Vec::new()).symbols;
+    let mut served: Vec<&Candidate> = candidates.to_vec();
+    loop {
+        let mut effects = location.to_vec();
+        effects.extend(served.iter().map(|c| c.effect.clone()));
+        let model = Model::new(part.kin.clone(), effects);
+        match forward_model(model, part.data, plan) {
+            Ok(fm) => return Ok((fm, served)),
+            Err(ForwardError::UnsupportedEffect(id)) => {
+                let before = served.len();
+                served.retain(|c| {
+                    if c.effect.id(&sym) == id {
+                        refused.push((
+                            c.name.clone(),
+                            format!(
+                                "the forward model cannot apply it ({})",
+                                ForwardError::UnsupportedEffect(id.clone())
+                            ),
+                        ));
+                        false
+                    } else {
+                        true
+                    }
+                });
+                if served.len() == before {
+                    return Err(ForwardError::UnsupportedEffect(id).into());
+                }
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
+}
+
 impl<'a> Fitter<'a> {
-    /// Prepares `data` (measured with `plan`, when known) for the models
-    /// made of the machine's location symbols and `candidates`. Returns the
-    /// candidates the forward model cannot apply, with the reason; they
-    /// are left out of the catalogue model.
+    /// Prepares the measurements of `parts` (one test, or several tests of
+    /// one machine fitted together) for the models made of the machine's
+    /// location symbols and `candidates`. Returns the candidates no part's
+    /// forward model can apply, with the reason; they are left out of the
+    /// catalogue model. A candidate some parts apply and others do not (a
+    /// tool radius beside a probing run) moves only the measurements of
+    /// the parts that apply it.
     pub fn new(
-        kin: &Kinematics,
-        data: &'a Dataset,
-        plan: Option<&Plan>,
+        parts: &[Part<'a>],
         candidates: &[Candidate],
     ) -> Result<(Fitter<'a>, Vec<(String, String)>), FitError> {
-        let plan = plan.map(PlanRef::new);
+        let kin = parts
+            .first()
+            .expect("a discovery has the measurements of one test at least")
+            .kin;
         let sym = Model::new(kin.clone(), Vec::new()).symbols;
         let location: Vec<Effect> = (0..sym.location.len())
             .map(|s| Effect::Location { symbols: vec![s] })
             .collect();
-        // The catalogue model, without the candidates the forward model
-        // refuses (it names the first it cannot apply).
-        let mut served: Vec<&Candidate> = candidates.iter().collect();
-        let mut refused = Vec::new();
-        let fm = loop {
-            let mut effects = location.clone();
-            effects.extend(served.iter().map(|c| c.effect.clone()));
-            let model = Model::new(kin.clone(), effects);
-            match forward_model(model, data, plan.as_ref()) {
-                Ok(fm) => break fm,
-                Err(ForwardError::UnsupportedEffect(id)) => {
-                    let before = served.len();
-                    served.retain(|c| {
-                        if c.effect.id(&sym) == id {
-                            refused.push((
-                                c.name.clone(),
-                                format!(
-                                    "the forward model cannot apply it ({})",
-                                    ForwardError::UnsupportedEffect(id.clone())
-                                ),
-                            ));
-                            false
-                        } else {
-                            true
-                        }
-                    });
-                    if served.len() == before {
-                        return Err(ForwardError::UnsupportedEffect(id).into());
-                    }
-                }
-                Err(e) => return Err(e.into()),
-            }
-        };
+        let all: Vec<&Candidate> = candidates.iter().collect();
+        let mut built = Vec::new();
+        let mut refusals = Vec::new();
+        for part in parts {
+            let mut refused = Vec::new();
+            let plan = part.plan.map(PlanRef::new);
+            let (fm, served) = part_model(part, plan.as_ref(), &location, &all, &mut refused)?;
+            built.push((fm, served));
+            refusals.push(refused);
+        }
+        // The catalogue: every candidate some part applies, in catalogue
+        // order; one no part applies is refused with the first part's
+        // reason.
+        let served: Vec<&Candidate> = all
+            .iter()
+            .copied()
+            .filter(|c| {
+                built
+                    .iter()
+                    .any(|(_, s)| s.iter().any(|x| x.name == c.name))
+            })
+            .collect();
+        let refused: Vec<(String, String)> = refusals
+            .into_iter()
+            .next()
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|(n, _)| !served.iter().any(|c| &c.name == n))
+            .collect();
         let mut full = location;
         full.extend(served.iter().map(|c| c.effect.clone()));
         let count = full.len();
         let model = Model::new(kin.clone(), full);
         let ranges: Vec<Range<usize>> = (0..count).map(|i| model.param_range(i)).collect();
         let n_full = model.n_params();
-        let index = served
+        let index: std::collections::HashMap<String, usize> = served
             .iter()
             .enumerate()
             .map(|(i, c)| (c.name.clone(), sym.location.len() + i))
             .collect();
-        let Observed { p0, u, minutes } = observed(data)?;
-        let mut extra_names = fm.nuisance_names();
-        let k = extra_names.len();
-        if p0.is_some() {
-            extra_names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));
+        let mut fparts = Vec::new();
+        let mut extra_names = Vec::new();
+        let mut rows = 0;
+        for (part, (fm, part_served)) in parts.iter().zip(built) {
+            let mut cols: Vec<usize> = (0..sym.location.len())
+                .flat_map(|s| ranges[s].clone())
+                .collect();
+            for c in &part_served {
+                cols.extend(ranges[index[&c.name]].clone());
+            }
+            let Observed { p0, u, minutes } = observed(part.data)?;
+            let mut names = fm.nuisance_names();
+            let k = names.len();
+            if p0.is_some() {
+                names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));
+            }
+            if parts.len() > 1 {
+                names = names
+                    .into_iter()
+                    .map(|n| format!("{}:{n}", part.label))
+                    .collect();
+            }
+            let extra = extra_names.len()..extra_names.len() + names.len();
+            extra_names.extend(names);
+            let n = u.len();
+            fparts.push(FitPart {
+                data: part.data,
+                fm,
+                cols,
+                k,
+                p0,
+                u,
+                minutes,
+                rows: rows..rows + n,
+                extra,
+            });
+            rows += n;
         }
         let mut f = Fitter {
-            data,
+            parts: fparts,
             kin: kin.clone(),
             ranges,
             n_full,
             index,
-            fm,
             extra_names,
-            k,
-            p0,
-            u,
-            minutes,
+            n_rows: rows,
             j0: DMatrix::zeros(0, 0),
             opts: lsq::Options::default(),
         };
@@ -381,17 +483,22 @@ impl<'a> Fitter<'a> {
 
     /// Number of observations.
     pub fn len(&self) -> usize {
-        self.u.len()
+        self.n_rows
     }
 
     /// Whether there are no observations.
     pub fn is_empty(&self) -> bool {
-        self.u.is_empty()
+        self.n_rows == 0
     }
 
-    /// Number of nuisance parameters (forward model's and placement).
+    /// Number of nuisance parameters (forward models' and placements).
     pub fn extra(&self) -> usize {
         self.extra_names.len()
+    }
+
+    /// The rows of each part's observations.
+    pub fn part_rows(&self) -> Vec<Range<usize>> {
+        self.parts.iter().map(|p| p.rows.clone()).collect()
     }
 
     /// Whether the catalogue model holds the candidate `name`.
@@ -441,6 +548,16 @@ impl<'a> Fitter<'a> {
             .collect()
     }
 
+    /// What candidate `name` with parameters `values` does to the
+    /// measurements at the nominal machine, to first order.
+    pub fn signal(&self, name: &str, values: &[f64]) -> Option<DVector<f64>> {
+        let r = self.ranges[*self.index.get(name)?].clone();
+        if r.len() != values.len() {
+            return None;
+        }
+        Some(self.j0.columns(r.start, r.len()) * DVector::from_column_slice(values))
+    }
+
     /// The nominal Jacobian's columns of `spec` (and the nuisance).
     pub fn jacobian0(&self, spec: &Spec) -> DMatrix<f64> {
         let cols = self.columns(spec);
@@ -461,7 +578,7 @@ impl<'a> Fitter<'a> {
     }
 
     /// Residuals (and the Jacobian) of the catalogue model at `x` (its
-    /// parameters, then nuisance and placement).
+    /// parameters, then each part's nuisance and placement).
     fn eval_full(
         &self,
         x: &[f64],
@@ -469,30 +586,36 @@ impl<'a> Fitter<'a> {
         mut jac: Option<&mut DMatrix<f64>>,
     ) -> Result<(), FitError> {
         let n = self.n_full;
-        let theta = &x[..n];
-        let nuisance = &x[n..n + self.k];
-        let o = n + self.k;
-        let rho = if self.p0.is_some() {
-            [x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5]]
-        } else {
-            [0.0; 6]
-        };
-        for (k, rk) in r.iter_mut().enumerate() {
-            let point = self.data.point(k);
-            let pred = self.fm.predict(theta, nuisance, point, self.minutes[k])?;
-            let fr = face_residual(&rho, &pred.point, &pred.normal, &self.u[k]);
-            *rk = fr.r;
-            if let Some(j) = jac.as_deref_mut() {
-                for c in 0..o {
-                    let mut v = 0.0;
-                    for i in 0..3 {
-                        v += fr.d_q[i] * pred.d_point[(i, c)] + fr.d_n[i] * pred.d_normal[(i, c)];
+        for part in &self.parts {
+            let theta: Vec<f64> = part.cols.iter().map(|&c| x[c]).collect();
+            let e = n + part.extra.start;
+            let nuisance = &x[e..e + part.k];
+            let o = e + part.k;
+            let rho = if part.p0.is_some() {
+                [x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5]]
+            } else {
+                [0.0; 6]
+            };
+            let nm = theta.len();
+            for (i, row) in part.rows.clone().enumerate() {
+                let point = part.data.point(i);
+                let pred = part.fm.predict(&theta, nuisance, point, part.minutes[i])?;
+                let fr = face_residual(&rho, &pred.point, &pred.normal, &part.u[i]);
+                r[row] = fr.r;
+                if let Some(j) = jac.as_deref_mut() {
+                    for c in 0..nm + part.k {
+                        let mut v = 0.0;
+                        for a in 0..3 {
+                            v += fr.d_q[a] * pred.d_point[(a, c)]
+                                + fr.d_n[a] * pred.d_normal[(a, c)];
+                        }
+                        let col = if c < nm { part.cols[c] } else { e + c - nm };
+                        j[(row, col)] = v;
                     }
-                    j[(k, c)] = v;
-                }
-                if self.p0.is_some() {
-                    for i in 0..6 {
-                        j[(k, o + i)] = fr.d_rho[i];
+                    if part.p0.is_some() {
+                        for a in 0..6 {
+                            j[(row, o + a)] = fr.d_rho[a];
+                        }
                     }
                 }
             }
@@ -568,7 +691,14 @@ impl<'a> Fitter<'a> {
         converged: bool,
     ) -> Fit {
         let n = spec.model.n_params();
-        let placement = self.p0.map(|p0| p0 * d6_um(&x[n + self.k..n + self.k + 6]));
+        let placements = self
+            .parts
+            .iter()
+            .map(|p| {
+                let o = n + p.extra.start + p.k;
+                p.p0.map(|p0| p0 * d6_um(&x[o..o + 6]))
+            })
+            .collect();
         let rss = residuals.iter().map(|v| v * v).sum();
         Fit {
             spec: spec.clone(),
@@ -579,7 +709,7 @@ impl<'a> Fitter<'a> {
             rank: design.rank,
             cov_unit,
             design,
-            placement,
+            placements,
             converged,
             x,
         }

@@ -35,6 +35,8 @@ pub struct Inputs {
     pub kin: Kinematics,
     /// The measured points joined to the plan.
     pub data: Dataset,
+    /// Its name beside other tests fitted with it (the test's name).
+    pub label: String,
 }
 
 pub use crate::simulate::plan_kinematics;
@@ -46,11 +48,17 @@ impl Inputs {
         &self,
         opts: &super::DiscoverOptions,
     ) -> Result<super::Discovery, super::DiscoverError> {
-        let opts = super::DiscoverOptions {
-            test: self.plan.test().to_string(),
-            ..opts.clone()
-        };
-        super::run(&self.kin, &self.data, Some(&self.plan), &opts)
+        discover_together(std::slice::from_ref(self), opts)
+    }
+
+    /// These inputs as a part of a discovery.
+    pub fn part(&self) -> super::Part<'_> {
+        super::Part {
+            kin: &self.kin,
+            data: &self.data,
+            plan: Some(&self.plan),
+            label: &self.label,
+        }
     }
 
     /// Reads the plan of `manifest` and the measurement files, with what
@@ -74,6 +82,7 @@ impl Inputs {
         let data = ctx.join(&read.points)?;
         Ok(Inputs {
             kin: ctx.kin,
+            label: plan.test().to_string(),
             plan,
             data,
         })
@@ -91,10 +100,53 @@ impl Inputs {
         let data = ctx.join_points(points, "csv", source)?;
         Ok(Inputs {
             kin: ctx.kin,
+            label: plan.test().to_string(),
             plan,
             data,
         })
     }
+}
+
+/// The names of several tests fitted together: each test's, numbered
+/// where one repeats (`probe-sphere#2`).
+pub fn labels(inputs: &[Inputs]) -> Vec<String> {
+    (0..inputs.len())
+        .map(|i| {
+            let same = inputs[..i]
+                .iter()
+                .filter(|x| x.label == inputs[i].label)
+                .count();
+            if same > 0 {
+                format!("{}#{}", inputs[i].label, same + 1)
+            } else {
+                inputs[i].label.clone()
+            }
+        })
+        .collect()
+}
+
+/// The inputs as the parts of a discovery, named `labels`.
+pub fn parts<'a>(inputs: &'a [Inputs], labels: &'a [String]) -> Vec<super::Part<'a>> {
+    inputs
+        .iter()
+        .zip(labels)
+        .map(|(i, label)| super::Part { label, ..i.part() })
+        .collect()
+}
+
+/// Runs a discovery on the measurements of several tests of one machine
+/// fitted together (one test: a discovery on it), the story's test named
+/// after their plans.
+pub fn discover_together(
+    inputs: &[Inputs],
+    opts: &super::DiscoverOptions,
+) -> Result<super::Discovery, super::DiscoverError> {
+    let labels = labels(inputs);
+    let opts = super::DiscoverOptions {
+        test: labels.join(" + "),
+        ..opts.clone()
+    };
+    super::run_parts(&parts(inputs, &labels), &opts)
 }
 
 /// Whether a discovery can work on the measurements of `plan`.

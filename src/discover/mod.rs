@@ -26,12 +26,14 @@ pub mod fit;
 pub mod gap;
 pub mod inputs;
 pub mod report;
+pub mod separate;
 pub mod stats;
 pub mod story;
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
+use crate::analyze::fit::ExpectedNoise;
 use crate::errorfile::{AmbiguitySection, ErrorFile, Noise, NotIdentified, Quantity, RivalEntry};
 use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::combination;
@@ -41,7 +43,7 @@ use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS};
 use crate::procedure::Plan;
 
 pub use catalogue::{Candidate, Catalogue};
-pub use fit::{Fit, FitError, Fitter, Spec};
+pub use fit::{Fit, FitError, Fitter, Part, Spec};
 pub use gap::{Gap, GapSize};
 pub use inputs::{InputError, Inputs};
 pub use story::{Story, Trial, Verdict};
@@ -68,6 +70,9 @@ pub struct DiscoverOptions {
     pub near_alias: f64,
     /// Test name for the story.
     pub test: String,
+    /// The instruments' noise per measured point, um (`--noise`; else each
+    /// test's default): what a supplementary test's power is judged at.
+    pub noise: Option<f64>,
 }
 
 impl Default for DiscoverOptions {
@@ -80,6 +85,7 @@ impl Default for DiscoverOptions {
             max_steps: 12,
             near_alias: 0.999,
             test: String::new(),
+            noise: None,
         }
     }
 }
@@ -105,6 +111,9 @@ pub struct Discovery {
     pub story: Story,
     /// The fit of the starting model, then the fit after each step.
     pub fits: Vec<Fit>,
+    /// The tests fitted together: name, kind and number of points, in the
+    /// order of the residuals.
+    pub parts: Vec<(String, TestKind, usize)>,
 }
 
 impl Discovery {
@@ -116,6 +125,19 @@ impl Discovery {
     /// The final fit.
     pub fn end(&self) -> &Fit {
         self.fits.last().expect("a discovery has a starting fit")
+    }
+
+    /// The noise the final model's residuals should show: each part's
+    /// instrument noise (`expected`, in the order of [`Discovery::parts`]),
+    /// pooled over their points.
+    pub fn expected(&self, expected: &[ExpectedNoise]) -> ExpectedNoise {
+        let parts: Vec<(&str, &ExpectedNoise, usize)> = self
+            .parts
+            .iter()
+            .zip(expected)
+            .map(|((name, _, n), e)| (name.as_str(), e, *n))
+            .collect();
+        ExpectedNoise::pooled(&parts)
     }
 
     /// The final model as an identification (for the error file and the
@@ -135,17 +157,22 @@ impl Discovery {
     /// of the gap is the model's shortfall, not the instrument's scatter.
     /// After an ambiguity its `ambiguity:` section names the effects the
     /// measurements could not tell apart, none of which the model holds.
-    pub fn error_file(
-        &self,
-        data: &Dataset,
-        expected: &crate::analyze::fit::ExpectedNoise,
-    ) -> ErrorFile {
+    ///
+    /// `expected` holds each part's noise, in the order of [`Discovery::parts`]
+    /// (one for a discovery on one test); several are pooled for the fit.
+    pub fn error_file(&self, data: &Dataset, expected: &[ExpectedNoise]) -> ErrorFile {
         let f = self.end();
         let est = identification(f, data);
         let u: Vec<Option<f64>> = (0..f.n).map(|i| f.u(i)).collect();
         let mut file = est.error_file(Some(&u));
-        file.effects.noise = Some(Noise::of_kind(data.kind, expected.um));
-        file.fit = crate::analyze::fit::of(&est, expected);
+        let mut noise = Noise::default();
+        for ((_, kind, _), e) in self.parts.iter().zip(expected) {
+            let n = Noise::of_kind(*kind, e.um);
+            noise.cmm = noise.cmm.or(n.cmm);
+            noise.probe = noise.probe.or(n.probe);
+        }
+        file.effects.noise = Some(noise);
+        file.fit = crate::analyze::fit::of(&est, &self.expected(expected));
         file.ambiguity = self.story.ambiguity.as_ref().map(|a| AmbiguitySection {
             reason: a.reason.clone(),
             rivals: a
@@ -169,6 +196,8 @@ impl Discovery {
                         .collect(),
                 })
                 .collect(),
+            supplement: a.supplement.clone(),
+            no_supplement: a.no_supplement.clone(),
         });
         for (ei, e) in f.spec.model.effects.iter().enumerate() {
             let r = f.spec.model.param_range(ei);
@@ -205,7 +234,13 @@ const UNSEEN: &str = "= 0: this test does not see it";
 /// A fit as the identification's result type.
 pub fn identification(f: &Fit, data: &Dataset) -> Identification {
     let n = f.n;
-    let poses = two_stage::pose_fits(data, &f.spec.model.kin, f.placement.as_ref());
+    // Pose fits for one test; of several, the residuals say it all.
+    let placement = f.placements.first().copied().flatten();
+    let poses = if f.placements.len() == 1 {
+        two_stage::pose_fits(data, &f.spec.model.kin, placement.as_ref())
+    } else {
+        Vec::new()
+    };
     let mut notes = Vec::new();
     if !f.converged {
         notes.push("the final fit stopped without converging".to_string());
@@ -221,7 +256,7 @@ pub fn identification(f: &Fit, data: &Dataset) -> Identification {
         dof: f.dof(),
         residuals: f.residuals.clone(),
         poses,
-        placement: f.placement,
+        placement,
         notes,
     }
 }
@@ -291,7 +326,7 @@ fn refused(name: &str, reason: String) -> Tried {
 
 /// Orthonormal basis (columns) of the column space of `a`, columns scaled
 /// to unit length first, directions below `rtol` of the largest dropped.
-fn column_space(a: &DMatrix<f64>, rtol: f64) -> DMatrix<f64> {
+pub(crate) fn column_space(a: &DMatrix<f64>, rtol: f64) -> DMatrix<f64> {
     let mut a = a.clone();
     for mut c in a.column_iter_mut() {
         let n = c.norm();
@@ -581,13 +616,103 @@ pub fn run(
     plan: Option<&Plan>,
     opts: &DiscoverOptions,
 ) -> Result<Discovery, DiscoverError> {
+    run_parts(
+        &[Part {
+            kin,
+            data,
+            plan,
+            label: &opts.test,
+        }],
+        opts,
+    )
+}
+
+/// The measurements of several parts seen as one dataset, for the gap's
+/// breakdowns and the report: their points, poses and files one after the
+/// other, each pose and point named `label:id` when there are several.
+pub fn merged(parts: &[Part<'_>]) -> Dataset {
+    let mut out = parts[0].data.clone();
+    if parts.len() == 1 {
+        return out;
+    }
+    let named = |label: &str, id: &str| format!("{label}:{id}");
+    out.plan.points.clear();
+    out.obs.clear();
+    out.poses.clear();
+    out.files.clear();
+    out.warnings.clear();
+    out.pieces.clear();
+    out.piece_of.clear();
+    for part in parts {
+        let d = part.data;
+        let (np, no, nf, npc) = (
+            out.plan.points.len(),
+            out.obs.len(),
+            out.files.len(),
+            out.pieces.len(),
+        );
+        out.plan.points.extend(
+            d.plan
+                .points
+                .iter()
+                .map(|p| crate::formats::points::PlanPoint {
+                    label: named(part.label, &p.label),
+                    pose: named(part.label, &p.pose),
+                    ..p.clone()
+                }),
+        );
+        out.obs
+            .extend(d.obs.iter().map(|o| crate::identify::data::Observation {
+                plan: o.plan + np,
+                file: o.file + nf,
+                ..o.clone()
+            }));
+        out.poses
+            .extend(d.poses.iter().map(|p| crate::identify::data::Pose {
+                id: named(part.label, &p.id),
+                obs: p.obs.iter().map(|k| k + no).collect(),
+                ..p.clone()
+            }));
+        out.files.extend(d.files.iter().cloned());
+        out.warnings
+            .extend(d.warnings.iter().map(|w| named(part.label, w)));
+        out.pieces
+            .extend(d.pieces.iter().map(|p| named(part.label, p)));
+        out.piece_of.extend(d.piece_of.iter().map(|i| i + npc));
+    }
+    out
+}
+
+/// Runs a discovery on the measurements of one test or of several tests
+/// of one machine fitted together (`parts`; a test and the supplementary
+/// test its ambiguity asked for): one model, each part with its own
+/// forward model and nuisance.
+pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery, DiscoverError> {
+    let Some(first) = parts.first() else {
+        return Err(DiscoverError::Options(
+            "a discovery needs the measurements of one test at least".into(),
+        ));
+    };
+    let kin = first.kin;
+    if let Some(p) = parts
+        .iter()
+        .find(|p| p.kin.machine().name != kin.machine().name)
+    {
+        return Err(DiscoverError::Options(format!(
+            "the tests measure different machines (`{}` and `{}`): a discovery fits one machine",
+            kin.machine().name,
+            p.kin.machine().name
+        )));
+    }
+    let view = merged(parts);
+    let data = &view;
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
         return Err(DiscoverError::Options(format!(
             "alpha must lie between 0 and 1, not {}",
             opts.alpha
         )));
     }
-    let cat = catalogue::catalogue(kin, data);
+    let cat = catalogue::catalogue(parts);
     let mut notes = cat.notes.clone();
     let model0 = Model::new(kin.clone(), Vec::new());
     for n in opts.only.iter().chain(&opts.exclude) {
@@ -614,7 +739,7 @@ pub fn run(
         .filter(|c| selected(c, opts, &model0) || opts.start.contains(&c.name))
         .cloned()
         .collect();
-    let (fitter, unserved) = Fitter::new(kin, data, plan, &wanted)?;
+    let (fitter, unserved) = Fitter::new(parts, &wanted)?;
     let unserved: std::collections::HashMap<String, String> = unserved.into_iter().collect();
     let mut current = start(&fitter, kin, &cat, &opts.start, &mut notes)?;
     let start_state = state(kin, data, &current);
@@ -867,7 +992,31 @@ pub fn run(
             } else {
                 "fitted together, none adds significantly to another, so this test cannot tell which is at work".to_string()
             };
+            let rivals: Vec<separate::Rival<'_>> = cands
+                .iter()
+                .map(|&i| separate::Rival {
+                    candidate: pool[pool_idx(&tried[i].trial.name)],
+                    fit: tried[i].fit.as_ref().expect("tested"),
+                })
+                .collect();
+            let (supplement, no_supplement) =
+                match separate::find(parts, &current.spec, &rivals, opts, m) {
+                    Ok(s) => (Some(s), None),
+                    Err(why) => (None, Some(why)),
+                };
+            let next = match &supplement {
+                Some(s) => format!(
+                    "a {} run with the new poses {} separates them (power {:.2} or more at {:.3} um noise): `fivecal plan --supplement RESULT.yaml` writes it from the result of `discover --out RESULT.yaml`; measure it and give both tests to the next discover",
+                    s.test,
+                    s.new_poses.join(", "),
+                    s.power.iter().map(|p| p.power).fold(1.0, f64::min),
+                    s.noise_um
+                ),
+                None => "add a test that separates them".to_string(),
+            };
             ambiguity = Some(story::Ambiguity {
+                supplement,
+                no_supplement,
                 candidates: cands
                     .iter()
                     .zip(&exact)
@@ -882,7 +1031,7 @@ pub fn run(
                     })
                     .collect(),
                 reason: format!(
-                    "the gap ({}) is explained equally by {}: {why}. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or add a test that separates them",
+                    "the gap ({}) is explained equally by {}: {why}. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or {next}",
                     before.summary,
                     list.join(" or ")
                 ),
@@ -939,16 +1088,42 @@ pub fn run(
         ambiguity,
         last_round,
         notes: {
-            if data.kind == TestKind::Probing && data.pieces.len() > 1 {
+            for p in parts {
+                let d = p.data;
+                if d.kind == TestKind::Probing && d.pieces.len() > 1 {
+                    notes.push(format!(
+                        "{}{} separately set-up pieces, each with its own setup (nuisance)",
+                        if parts.len() > 1 {
+                            format!("{}: ", p.label)
+                        } else {
+                            String::new()
+                        },
+                        d.pieces.len()
+                    ));
+                }
+            }
+            if parts.len() > 1 {
                 notes.push(format!(
-                    "{} separately set-up pieces, each with its own setup (nuisance)",
-                    data.pieces.len()
+                    "{} tests fitted together ({}): one model, each test with its own nuisance; their residuals weigh alike",
+                    parts.len(),
+                    parts
+                        .iter()
+                        .map(|p| format!("{}, {} points", p.label, p.data.obs.len()))
+                        .collect::<Vec<_>>()
+                        .join("; ")
                 ));
             }
             notes
         },
     };
-    Ok(Discovery { story, fits })
+    Ok(Discovery {
+        story,
+        fits,
+        parts: parts
+            .iter()
+            .map(|p| (p.label.to_string(), p.data.kind, p.data.obs.len()))
+            .collect(),
+    })
 }
 
 /// Each step's rivals that a later step added, marked and worded so; a

@@ -265,6 +265,38 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
     let _ = writeln!(h, "<p><b>Stop:</b> {}</p>", esc(&s.stop));
     if let Some(a) = &s.ambiguity {
         let _ = writeln!(h, "<p><b>Ambiguous:</b> {}</p>", esc(&a.reason));
+        if let Some(p) = &a.supplement {
+            let list = |v: &[f64]| {
+                v.iter()
+                    .map(|x| crate::procedure::short(*x))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            let _ = writeln!(
+                h,
+                "<p><b>To separate them:</b> a {} run at the tilt angles {} with C = {} ({} poses, {} touches; new poses {}).</p>\n<table><tr><th>effect</th><th>told from</th><th>directions</th><th>power</th></tr>",
+                esc(&p.test),
+                list(&p.tilt),
+                list(&p.c),
+                p.poses,
+                p.touches,
+                esc(&p.new_poses.join(", "))
+            );
+            for q in &p.power {
+                let _ = writeln!(
+                    h,
+                    "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{:.3}</td></tr>",
+                    esc(&q.effect),
+                    esc(&q.against),
+                    q.directions,
+                    q.power
+                );
+            }
+            h.push_str("</table>\n");
+        }
+        if let Some(why) = &a.no_supplement {
+            let _ = writeln!(h, "<p>No supplementary test proposed: {}</p>", esc(why));
+        }
     }
     h.push_str("<h2>Steps</h2>\n");
     for (st, fig) in s.steps.iter().zip(&value_figs) {

@@ -176,6 +176,12 @@ pub struct Ambiguity {
     pub candidates: Vec<AmbiguousCandidate>,
     /// In words.
     pub reason: String,
+    /// The supplementary test that separates them, when one was found.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub supplement: Option<crate::errorfile::Supplement>,
+    /// Why none is proposed, when none is.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub no_supplement: Option<String>,
 }
 
 /// One of an ambiguous set.
@@ -244,6 +250,13 @@ fn fmt_p(p: f64) -> String {
     } else {
         format!("{p:.3}")
     }
+}
+
+fn list(v: &[f64]) -> String {
+    v.iter()
+        .map(|a| crate::procedure::short(*a))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn values(s: &mut String, v: &[Value], indent: &str) {
@@ -408,6 +421,28 @@ impl Story {
                     }
                 );
                 values(&mut s, &c.values, "    ");
+            }
+            if let Some(p) = &a.supplement {
+                let _ = writeln!(
+                    s,
+                    "  to separate them: a {} run at the tilt angles {} with C = {} ({} poses, {} touches; new poses {}), measured and given to the next discover with this test's measurements",
+                    p.test,
+                    list(&p.tilt),
+                    list(&p.c),
+                    p.poses,
+                    p.touches,
+                    p.new_poses.join(", ")
+                );
+                for q in &p.power {
+                    let _ = writeln!(
+                        s,
+                        "    {} told from {}: +{} direction(s), power {:.3} at {:.3} um noise",
+                        q.effect, q.against, q.directions, q.power, p.noise_um
+                    );
+                }
+            }
+            if let Some(why) = &a.no_supplement {
+                let _ = writeln!(s, "  no supplementary test proposed: {why}");
             }
         }
         let _ = writeln!(s, "\nstop: {}", self.stop);

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context as _, bail};
+use anyhow::bail;
 use clap::Args;
 use fivecal::analyze;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
@@ -19,15 +19,8 @@ use super::record::Recording;
 /// it and show the gap shrink.
 #[derive(Args, Debug)]
 pub struct DiscoverArgs {
-    /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
-    #[arg(long, value_name = "PLAN", required = true)]
-    plan: Option<PathBuf>,
-    /// Measurement files of one piece or probing run (DMIS output, QIF
-    /// results, CALYPSO tables, CSV `label,x,y,z` and tables naming their
-    /// columns, probe logs, point clouds `x y z [i j k]`), recognized from
-    /// their content.
-    #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
-    measured: Vec<PathBuf>,
+    #[command(flatten)]
+    tests: Tests,
     /// The starting model, comma-separated: `location` (the location errors
     /// the test identifies) and candidate names (`map.EBB(B)`,
     /// `drift.EZ0B/seq`, ...).
@@ -68,10 +61,78 @@ pub struct DiscoverArgs {
     record: super::record::RecordArgs,
 }
 
+/// The tests a discovery fits: each `--plan` with the `--measured` files
+/// that follow it (clap's derive does not group an option's values by
+/// occurrence, its matches do).
+#[derive(Debug)]
+struct Tests {
+    plans: Vec<PathBuf>,
+    measured: Vec<Vec<PathBuf>>,
+}
+
+impl clap::FromArgMatches for Tests {
+    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        Ok(Tests {
+            plans: m
+                .get_many::<PathBuf>("plan")
+                .map(|v| v.cloned().collect())
+                .unwrap_or_default(),
+            measured: m
+                .get_occurrences::<PathBuf>("measured")
+                .map(|o| o.map(|g| g.cloned().collect()).collect())
+                .unwrap_or_default(),
+        })
+    }
+
+    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(m)?;
+        Ok(())
+    }
+}
+
+impl clap::Args for Tests {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        use clap::{Arg, ArgAction, value_parser};
+        cmd.arg(
+            Arg::new("plan")
+                .long("plan")
+                .value_name("PLAN")
+                .value_parser(value_parser!(PathBuf))
+                .action(ArgAction::Append)
+                .required(true)
+                .help(
+                    "The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`). Give \
+                     `--plan` again, each followed by its `--measured`, to fit several tests of \
+                     one machine together (a test and the supplementary test its ambiguity asked \
+                     for)",
+                ),
+        )
+        .arg(
+            Arg::new("measured")
+                .long("measured")
+                .value_name("FILE")
+                .value_parser(value_parser!(PathBuf))
+                .num_args(1..)
+                .action(ArgAction::Append)
+                .required(true)
+                .help(
+                    "Measurement files of one piece or probing run (DMIS output, QIF results, \
+                     CALYPSO tables, CSV `label,x,y,z` and tables naming their columns, probe \
+                     logs, point clouds `x y z [i j k]`), recognized from their content; one \
+                     `--measured` per `--plan`, in the same order",
+                ),
+        )
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
+}
+
 /// The validated configuration of one `discover` run.
 struct Config {
-    manifest: PathBuf,
-    measured: Vec<PathBuf>,
+    /// Each test's plan manifest and measured files.
+    tests: Vec<(PathBuf, Vec<PathBuf>)>,
     measured_options: MeasuredOptions,
     options: DiscoverOptions,
     json: bool,
@@ -82,7 +143,14 @@ struct Config {
 }
 
 fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
-    let manifest = a.plan.context("--plan is required")?;
+    let Tests { plans, measured } = a.tests;
+    if plans.len() != measured.len() {
+        bail!(
+            "{} --plan and {} --measured: each --plan takes its own --measured files (`--plan A --measured a.dmo --plan B --measured b.log`)",
+            plans.len(),
+            measured.len()
+        );
+    }
     if !(a.alpha > 0.0 && a.alpha < 1.0) {
         bail!(
             "--alpha {}: expected a significance level between 0 and 1 (e.g. 0.01)",
@@ -95,8 +163,8 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     if a.start.iter().all(|s| s.trim().is_empty()) {
         bail!("--start names no effect: expected `location` and/or candidate names");
     }
-    let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
-    inputs.push(&manifest);
+    let mut inputs: Vec<&Path> = measured.iter().flatten().map(|p| p.as_path()).collect();
+    inputs.extend(plans.iter().map(|p| p.as_path()));
     let mut outputs = Vec::new();
     outputs.extend(a.out.as_deref().map(|o| ("--out", o, Shape::File)));
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
@@ -105,8 +173,11 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     let noise = super::noise_arg(a.noise)?;
     Ok(Config {
         noise,
-        manifest,
-        measured: a.measured,
+        tests: plans
+            .iter()
+            .cloned()
+            .zip(measured.iter().cloned())
+            .collect(),
         measured_options: a.measured_flags.options()?,
         options: DiscoverOptions {
             start: super::list_items(&a.start),
@@ -114,6 +185,7 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
             exclude: super::list_items(&a.exclude),
             alpha: a.alpha,
             max_steps: a.max_steps,
+            noise,
             ..DiscoverOptions::default()
         },
         json: a.json,
@@ -130,11 +202,16 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         Some(_) => Some(c.record.open()?),
         None => None,
     };
-    let inputs = Inputs::load(&c.manifest, &c.measured, &c.measured_options)?;
-    for w in &inputs.data.warnings {
-        eprintln!("warning: {w}");
+    let mut inputs = Vec::new();
+    for (manifest, measured) in &c.tests {
+        inputs.push(Inputs::load(manifest, measured, &c.measured_options)?);
     }
-    let d = inputs.discover(&c.options)?;
+    for i in &inputs {
+        for w in &i.data.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    let d = discover::inputs::discover_together(&inputs, &c.options)?;
     if c.json {
         outln!("{}", serde_json::to_string_pretty(&d.story)?);
     } else {
@@ -147,10 +224,12 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
             outln!("{s}");
         }
     };
+    let labels = discover::inputs::labels(&inputs);
+    let view = discover::merged(&discover::inputs::parts(&inputs, &labels));
     // The report first: it is the part that can fail (a plot), and a
     // failed run leaves no result file behind.
     if let Some(dir) = &c.report {
-        let files = discover::report::write(dir, &d, &inputs.data)?;
+        let files = discover::report::write(dir, &d, &view)?;
         say(format!(
             "report: {} ({} files)",
             dir.join("index.html").display(),
@@ -158,9 +237,14 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         ));
     }
     if let Some(out) = &c.out {
-        let expected =
-            analyze::fit::ExpectedNoise::new(c.noise, inputs.data.kind, inputs.plan.test());
-        let f = d.error_file(&inputs.data, &expected);
+        let expected: Vec<analyze::fit::ExpectedNoise> = inputs
+            .iter()
+            .map(|i| analyze::fit::ExpectedNoise::new(c.noise, i.data.kind, i.plan.test()))
+            .collect();
+        let mut f = d.error_file(&view, &expected);
+        if let Some(s) = f.ambiguity.as_mut().and_then(|a| a.supplement.as_mut()) {
+            s.plan = Some(c.tests[0].0.display().to_string());
+        }
         if let Some(fit) = &f.fit {
             say(format!(
                 "fit of the final model: {} (residuals {:.3} um against {:.3} um expected, {}; ratio {:.2})",
@@ -175,12 +259,37 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         };
         write_atomic(out, text.as_bytes())?;
         say(format!("wrote {}", out.display()));
+        if let Some(a) = &f.ambiguity {
+            say(format!(
+                "{} states the ambiguity: its model holds none of {}",
+                out.display(),
+                a.rivals
+                    .iter()
+                    .map(|r| r.effect.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+            if a.supplement.is_some() {
+                let mut again = String::new();
+                for (m, files) in &c.tests {
+                    again.push_str(&format!(" --plan {} --measured", m.display()));
+                    for f in files {
+                        again.push_str(&format!(" {}", f.display()));
+                    }
+                }
+                say(format!(
+                    "next: fivecal plan --supplement {} --out supplement\n  run supplement/probe-sphere.nc on the machine, then\n  fivecal discover{again} --plan supplement/probe-sphere.plan.yaml --measured LOG",
+                    out.display()
+                ));
+            }
+        }
         if let Some(r) = &mut recorder {
+            let measured: Vec<PathBuf> = c.tests.iter().flat_map(|t| t.1.clone()).collect();
             let rec = runs::discovery(
                 &f.machine,
-                inputs.plan.test().as_str(),
-                &c.manifest,
-                &c.measured,
+                &d.story.test,
+                &c.tests[0].0,
+                &measured,
                 out,
                 &text,
                 &c.record.notes,

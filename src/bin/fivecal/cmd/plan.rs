@@ -27,11 +27,20 @@ enum KinematicsArg {
 pub struct PlanArgs {
     /// The test: stepped-square (Ibaraki & Ota 2014 (docs/references.md)), nine-section (Cubas Brizuela & Yeh 2023 (docs/references.md)),
     /// probe-columns (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)) or probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023).
-    test: String,
+    /// Not needed with --supplement.
+    #[arg(required_unless_present = "supplement")]
+    test: Option<String>,
     /// Machine file, or a built-in machine (bc-trunnion, ac-trunnion,
-    /// head-table, head-head).
-    #[arg(long, default_value = "bc-trunnion")]
-    machine: String,
+    /// head-table, head-head) [default: bc-trunnion; with --supplement, the
+    /// machine of the first test's plan].
+    #[arg(long)]
+    machine: Option<String>,
+    /// Write the supplementary test a `discover` result asks for (its
+    /// `ambiguity.supplement`): the probing run whose poses separate the
+    /// effects the first test could not tell apart, for the same machine.
+    /// Measure it and give both tests to the next `discover`.
+    #[arg(long, value_name = "DISCOVER.yaml", conflicts_with = "template")]
+    supplement: Option<PathBuf>,
     /// Controller dialect: fanuc, heidenhain or linuxcnc [default: the
     /// machine file's controller].
     #[arg(long)]
@@ -94,20 +103,94 @@ fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<Pat
     Ok((tool, file))
 }
 
+/// What `--supplement DISCOVER.yaml` asks for: the supplementary test, and
+/// the first test's machine (a file) and dialect where its plan is found.
+struct Supplementary {
+    file: PathBuf,
+    machine_name: String,
+    supplement: fivecal::errorfile::Supplement,
+    machine_file: Option<PathBuf>,
+    dialect: Option<fivecal::Dialect>,
+}
+
+fn supplementary(path: &Path) -> anyhow::Result<Supplementary> {
+    let (f, _) = fivecal::errorfile::ErrorFile::read(path)?;
+    let Some(a) = f.ambiguity else {
+        bail!(
+            "{}: states no ambiguity, so there is no supplementary test to plan (expected the result of a `discover --out` that stopped on one)",
+            path.display()
+        );
+    };
+    let Some(supplement) = a.supplement else {
+        bail!(
+            "{}: proposes no supplementary test{}",
+            path.display(),
+            a.no_supplement
+                .map(|w| format!(" ({w})"))
+                .unwrap_or_default()
+        );
+    };
+    // The first test's plan, as discover was given it: relative to where
+    // discover ran, or to the result file.
+    let mut machine_file = None;
+    let mut dialect = None;
+    if let Some(plan) = &supplement.plan {
+        let candidates = [
+            PathBuf::from(plan),
+            path.parent().unwrap_or(Path::new(".")).join(plan),
+        ];
+        if let Some(m) = candidates.iter().find(|p| p.exists()) {
+            let manifest = fivecal::formats::manifest::Manifest::read(m)?;
+            machine_file = Some(manifest.resolve(m, &manifest.machine_file));
+            dialect = Some(manifest.dialect);
+        }
+    }
+    Ok(Supplementary {
+        file: path.to_path_buf(),
+        machine_name: f.machine,
+        supplement,
+        machine_file,
+        dialect,
+    })
+}
+
 fn config(a: PlanArgs) -> anyhow::Result<Config> {
     let mut inputs = Vec::new();
+    let supplement = a.supplement.as_deref().map(supplementary).transpose()?;
+    if let Some(s) = &supplement {
+        inputs.push(s.file.clone());
+    }
+    let spec = match (&a.machine, &supplement) {
+        (Some(m), _) => m.clone(),
+        (None, Some(s)) => s
+            .machine_file
+            .as_ref()
+            .map_or(s.machine_name.clone(), |p| p.display().to_string()),
+        (None, None) => "bc-trunnion".to_string(),
+    };
     // Flattened: MachineError repeats its cause as its source.
-    let (machine, origin) = Machine::resolve(&a.machine)
-        .map_err(|e| anyhow::anyhow!("cannot load machine `{}`: {e}", a.machine))?;
+    let (machine, origin) = Machine::resolve(&spec)
+        .map_err(|e| anyhow::anyhow!("cannot load machine `{spec}`: {e}"))?;
     if let MachineOrigin::File(p) = &origin {
         inputs.push(p.clone());
+    }
+    if let Some(s) = &supplement
+        && s.machine_name != machine.name
+    {
+        bail!(
+            "{} is a result for machine `{}`, but the machine in use is `{}`: the supplementary test is for the same machine (give its file with --machine)",
+            s.file.display(),
+            s.machine_name,
+            machine.name
+        );
     }
     let origin = format!("machine {}: {origin}", machine.name);
     let dialect = a
         .dialect
         .as_deref()
         .map(|d| d.parse::<fivecal::Dialect>().map_err(anyhow::Error::msg))
-        .transpose()?;
+        .transpose()?
+        .or(supplement.as_ref().and_then(|s| s.dialect));
     let post = match &a.postprocessor {
         Some(spec) => {
             if fivecal::machine::is_path_spec(spec) {
@@ -126,25 +209,44 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         }
         None => PostDefinition::builtin(dialect.unwrap_or(machine.dialect)),
     };
-    let template = match &a.template {
-        Some(p) => {
+    let test_arg = match (&a.test, &supplement) {
+        (Some(t), _) => t.clone(),
+        (None, Some(s)) => s.supplement.test.clone(),
+        (None, None) => bail!("name the test to plan (or give --supplement DISCOVER.yaml)"),
+    };
+    let template = match (&a.template, &supplement) {
+        (_, Some(s)) => {
+            if test_arg != s.supplement.test {
+                bail!(
+                    "{} asks for a {} test, but the command asks for `{test_arg}`",
+                    s.file.display(),
+                    s.supplement.test
+                );
+            }
+            let text = fivecal::discover::separate::template_text(&s.supplement);
+            Template::parse(
+                Path::new(&format!("<supplement of {}>", s.file.display())),
+                &text,
+            )?
+        }
+        (Some(p), None) => {
             inputs.push(p.clone());
             let text = fivecal::input::read_text(p, "template", fivecal::limits::MAX_YAML_BYTES)?;
             let t = Template::parse(p, &text)?;
-            if t.test().as_str() != a.test {
+            if t.test().as_str() != test_arg {
                 bail!(
                     "{}: the template is for test `{}`, but the command asks for `{}`",
                     p.display(),
                     t.test(),
-                    a.test
+                    test_arg
                 );
             }
             t
         }
-        None => Template::builtin(a.test.parse::<Test>().map_err(|_| {
+        (None, None) => Template::builtin(test_arg.parse::<Test>().map_err(|_| {
             anyhow::anyhow!(
                 "unknown test `{}`: expected {} (or pass --template FILE)",
-                a.test,
+                test_arg,
                 Test::names()
             )
         })?),
