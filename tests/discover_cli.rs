@@ -304,6 +304,14 @@ fn bad_requests_fail_with_the_reason_and_write_nothing() {
     assert!(err.contains("PROBE.TXT:"), "{err}");
 }
 
+/// What a successful run printed.
+fn stdout_of(args: &[&str]) -> String {
+    let out = fivecal().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{args:?}: {err}");
+    String::from_utf8(out.stdout).unwrap()
+}
+
 /// The stepped square cannot tell a B axis line wandering in X from one
 /// wandering in Z (EXB(B) against EZB(B)): discover says so, writes the
 /// ambiguity and the supplementary test that separates them into its
@@ -338,13 +346,16 @@ effects:
         .args(["--out", &p("piece.dmo")])
         .assert()
         .success();
-    let out = fivecal()
-        .args(["discover", "--plan", &ss, "--measured", &p("piece.dmo")])
-        .args(["--out", &p("first.yaml"), "--no-record"])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = stdout_of(&[
+        "discover",
+        "--plan",
+        &ss,
+        "--measured",
+        &p("piece.dmo"),
+        "--out",
+        &p("first.yaml"),
+        "--no-record",
+    ]);
     assert!(
         text.contains("exactly indistinguishable on this test"),
         "{text}"
@@ -358,22 +369,13 @@ effects:
     assert_eq!(first.effects.noise.as_ref().unwrap().cmm, Some(0.35));
 
     // The supplementary test, for the machine and dialect of the first.
-    let out = fivecal()
-        .args([
-            "plan",
-            "--supplement",
-            &p("first.yaml"),
-            "--out",
-            &p("supp"),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = stdout_of(&[
+        "plan",
+        "--supplement",
+        &p("first.yaml"),
+        "--out",
+        &p("supp"),
+    ]);
     assert!(
         text.starts_with(&format!(
             "probe-sphere on bc-trunnion: {} poses, {} touches",
@@ -391,18 +393,21 @@ effects:
         .success();
 
     // Both tests together decide.
-    let out = fivecal()
-        .args(["discover", "--plan", &ss, "--measured", &p("piece.dmo")])
-        .args(["--plan", &supp, "--measured", &p("supp/PROBE.TXT")])
-        .args(["--out", &p("both.yaml"), "--no-record"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8(out.stdout).unwrap();
+    let text = stdout_of(&[
+        "discover",
+        "--plan",
+        &ss,
+        "--measured",
+        &p("piece.dmo"),
+        "--plan",
+        &supp,
+        "--measured",
+        &p("supp/PROBE.TXT"),
+        "--out",
+        &p("both.yaml"),
+        "--db",
+        &p("history.db"),
+    ]);
     assert!(text.contains("step 1: add map.EXB(B)"), "{text}");
     assert!(
         !text.contains("step 2") && !text.contains("ambiguous"),
@@ -436,6 +441,15 @@ effects:
             both.theta[i]
         );
     }
+    // The store keeps the result with both tests' plans and files.
+    let list = stdout_of(&[
+        "history",
+        "--db",
+        &p("history.db"),
+        "--machine",
+        "bc-trunnion",
+    ]);
+    assert!(list.contains("stepped-square + probe-sphere"), "{list}");
     // A result without an ambiguity asks for no supplement; the tests and
     // their files must pair up.
     let out = fivecal()

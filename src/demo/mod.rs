@@ -300,7 +300,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let rec = runs::discovery(
         MACHINE,
         identified.test.as_str(),
-        &manifest_path,
+        std::slice::from_ref(&manifest_path),
         std::slice::from_ref(&measured),
         &final_path,
         &final_text,

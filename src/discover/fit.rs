@@ -29,6 +29,13 @@
 //! come near significance, and every model the story reports, are then
 //! iterated exactly ([`Fitter::fit`]).
 //!
+//! A discovery may fit several tests of one machine together ([`Part`]: a
+//! test and the supplementary test its ambiguity asked for). Their
+//! residuals are stacked; each test has its own forward model (its plan,
+//! its gauge length), its own nuisance and placement, and applies the
+//! candidates its forward model serves, while the model's parameters are
+//! shared.
+//!
 //! The forward model is chosen in one place, [`forward_model`]: the
 //! simulator's general model ([`crate::simulate::forward`]) whenever the
 //! plan is known, which applies every effect of the catalogue as the

@@ -17,9 +17,13 @@
 //! the lowest BIC is then checked against every other significant one by
 //! fitting both together (does each add to the other?); when the data
 //! cannot tell two different effects apart, the discovery says so and
-//! stops rather than pick one. Otherwise the effect is added and the loop
-//! repeats until no candidate is significant. The result is a [`Story`]
-//! ([`story`]) and the fits behind it; [`report`] draws it.
+//! stops rather than pick one, saying whether they are exactly
+//! indistinguishable on this test, and names the supplementary test that
+//! would separate them ([`separate`]). Otherwise the effect is added and the
+//! loop repeats until no candidate is significant. The measurements may be
+//! those of several tests of one machine fitted together ([`Part`],
+//! [`run_parts`]). The result is a [`Story`] ([`story`]) and the fits behind
+//! it; [`report`] draws it.
 
 pub mod catalogue;
 pub mod fit;

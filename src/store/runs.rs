@@ -97,11 +97,12 @@ pub fn analysis(
 }
 
 /// The record of a `discover` run whose final model was written to
-/// `result` with `text`.
+/// `result` with `text`, from the measured files of the tests whose plan
+/// manifests are `manifests` (one, or several fitted together).
 pub fn discovery(
     machine: &str,
     test: &str,
-    manifest: &Path,
+    manifests: &[PathBuf],
     measured: &[PathBuf],
     result: &Path,
     text: &str,
@@ -115,7 +116,9 @@ pub fn discovery(
     );
     r.test = Some(test.to_string());
     r.files = hashes(FileRole::Measured, measured)?;
-    r.files.push(FileHash::of(FileRole::Plan, manifest)?);
+    for m in manifests {
+        r.files.push(FileHash::of(FileRole::Plan, m)?);
+    }
     Ok(notes.apply(r))
 }
 

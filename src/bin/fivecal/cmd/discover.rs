@@ -285,10 +285,11 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         }
         if let Some(r) = &mut recorder {
             let measured: Vec<PathBuf> = c.tests.iter().flat_map(|t| t.1.clone()).collect();
+            let manifests: Vec<PathBuf> = c.tests.iter().map(|t| t.0.clone()).collect();
             let rec = runs::discovery(
                 &f.machine,
                 &d.story.test,
-                &c.tests[0].0,
+                &manifests,
                 &measured,
                 out,
                 &text,
