@@ -108,8 +108,15 @@ fn malformed_programs_fail_with_file_line_column_and_write_nothing() {
 #[test]
 fn malformed_blocks_outside_strict_mode_are_kept_and_reported_at_their_column() {
     let dir = tempdir();
-    let prog = dir.path().join("unclosed_comment.nc");
-    std::fs::copy(fixture("bad/unclosed_comment.nc"), &prog).unwrap();
+    // The fixture with a readable move after the broken one: a program
+    // whose only move cannot be read is refused (no_motion_block_...).
+    let src = std::fs::read_to_string(fixture("bad/unclosed_comment.nc"))
+        .unwrap()
+        .replace(
+            "M30\n",
+            "G90 G0 X20. Y10. Z50. B0. C0.\nG1 X30. F300.\nM30\n",
+        );
+    let prog = write(dir.path(), "unclosed_comment.nc", &src);
     let errs = write(dir.path(), "e.yaml", ERRORS);
     let out = fivecal()
         .args([
@@ -279,7 +286,9 @@ fn zero_errors_through_the_command_line_leave_the_program_as_it_was() {
         "zero.yaml",
         "machine: head-table\nlocation_errors: {EX0C: 0.0, EY0C: 0.0}\n",
     );
-    let prog = fixture("heidenhain/klartext.h");
+    // A program with moves to correct (the parser corpus klartext.h has
+    // none a rewrite can take, and is refused: regression.rs).
+    let prog = fixture("heidenhain/tcpm.h");
     let out_path = dir.path().join("out.h");
     let out = fivecal()
         .args(["compensate", "--machine", "head-table", "--errors"])
@@ -293,6 +302,13 @@ fn zero_errors_through_the_command_line_leave_the_program_as_it_was() {
     assert_eq!(
         std::fs::read(&out_path).unwrap(),
         std::fs::read(&prog).unwrap()
+    );
+    // Never silently: the last line says the output is a copy.
+    let text = String::from_utf8_lossy(&out.stdout);
+    let last = text.lines().last().unwrap_or("");
+    assert!(
+        last.starts_with("nothing changed:") && last.contains("is a copy of"),
+        "{text}"
     );
 }
 

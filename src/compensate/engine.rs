@@ -207,6 +207,9 @@ impl Compensator {
             }
             writer.edits.write_block(block, output)?;
         }
+        blocks
+            .finish(summary.moves)
+            .map_err(CompensateError::Syntax)?;
         output.flush()?;
         summary.inserted = writer.inserted;
         summary.skipped = skipped.into_iter().collect();

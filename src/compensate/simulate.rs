@@ -252,6 +252,13 @@ impl Simulator {
                 }
             }
         }
+        let unreadable = Skip::Unreadable.to_string();
+        let skipped_moves: usize = skipped
+            .iter()
+            .filter(|(k, _)| **k != unreadable)
+            .map(|(_, l)| l.count)
+            .sum();
+        blocks.finish(summary.moves + skipped_moves)?;
         if summary.samples > 0 {
             summary.mean_um = sum / summary.samples as f64;
             summary.rms_um = (sum2 / summary.samples as f64).sqrt();

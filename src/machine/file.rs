@@ -3,6 +3,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use indexmap::IndexMap;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -48,7 +49,15 @@ pub struct MachineFile {
     /// Acceptance limits per location symbol (um / urad), optional.
     #[serde(default, skip_serializing_if = "Limits::is_empty")]
     pub limits: Limits,
+    /// What the control holds now, per export target and parameter name
+    /// (mm for lengths, urad for angles), optional.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub controller_parameters: ControllerParameters,
 }
+
+/// The values a control holds now: per controller, per parameter name as
+/// `compensate --export` writes it (`19700`, `x-rot-point`, `B.X`).
+pub type ControllerParameters = IndexMap<Dialect, IndexMap<String, f64>>;
 
 /// A rotary axis as written.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -358,6 +367,18 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
     lengths.push((vec!["tool", "length"], f.tool.length));
     lengths.push((vec!["probe", "ball_diameter"], f.probe.ball_diameter));
     lengths.push((vec!["probe", "length"], f.probe.length));
+    for (d, values) in &f.controller_parameters {
+        for (k, v) in values {
+            if !(v.is_finite() && v.abs() <= MAX_MACHINE_MM) {
+                return Err(err(
+                    &["controller_parameters", d.name(), k],
+                    format!(
+                        "{d} parameter {k} = {v:e} is not a control's value: expected mm (lengths) or urad (angles), at most {MAX_MACHINE_MM} in size"
+                    ),
+                ));
+            }
+        }
+    }
     for (keys, v) in lengths {
         if v.abs() > MAX_MACHINE_MM {
             return Err(err(
@@ -386,6 +407,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         probe: f.probe,
         rapid: f.rapid,
         limits: f.limits,
+        controller_parameters: f.controller_parameters,
         source: src.to_string(),
     })
 }

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use crate::geom::Axis3;
 use crate::source::SourceError;
 
-pub use file::{MachineFile, check_tool};
+pub use file::{ControllerParameters, MachineFile, check_tool};
 
 /// Where the two rotary axes sit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -244,6 +244,11 @@ pub struct Machine {
     /// Acceptance limits per location symbol (the file's optional
     /// `limits:` section; see [`crate::conformance`]).
     pub limits: crate::conformance::Limits,
+    /// What the control holds now, per export target and parameter (the
+    /// file's optional `controller_parameters:` section; `compensate
+    /// --export` prints each change from these, else from the nominal
+    /// geometry).
+    pub controller_parameters: file::ControllerParameters,
     /// The file text it was read from (for `machine show` and provenance).
     pub source: String,
 }

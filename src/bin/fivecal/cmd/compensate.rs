@@ -185,6 +185,17 @@ pub struct CompensateArgs {
     /// else next to OUT as OUT.<controller>.txt].
     #[arg(long, value_name = "FILE")]
     export_to: Option<PathBuf>,
+    /// With --export: refuse (naming it, writing nothing) any parameter
+    /// that would change by more than this from what the control holds now
+    /// (the machine file's controller_parameters, else its nominal
+    /// geometry): LEN in mm, ANG in mrad for angles.
+    #[arg(long, value_name = "LEN[,ANG]", default_value = "0.1,0.5")]
+    max_change: String,
+    /// With --export: refuse any parameter whose standard uncertainty is
+    /// larger (from the error file's u): LEN in mm, ANG in mrad. A file
+    /// without u (a truth file) is exported with `u not given`.
+    #[arg(long, value_name = "LEN[,ANG]", default_value = "0.01,0.05")]
+    max_u: String,
     /// With --export: the export is recorded in the results store (the
     /// control was changed), which `fivecal history` marks.
     #[command(flatten)]
@@ -199,7 +210,29 @@ pub struct Config {
     settings: Settings,
     rewrite: Option<(PathBuf, PathBuf)>,
     export: Option<(Dialect, Option<PathBuf>)>,
+    limits: export::Limits,
     record: super::record::Recording,
+}
+
+/// `LEN[,ANG]` of --max-change and --max-u: a length in mm and an angle in
+/// mrad, each > 0 (the angle keeps `default` when not given).
+fn parse_limit(option: &str, s: &str, default: f64) -> anyhow::Result<(f64, f64)> {
+    let parts: Vec<Option<f64>> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v > 0.0)
+        })
+        .collect();
+    match parts.as_slice() {
+        [Some(l)] => Ok((*l, default)),
+        [Some(l), Some(a)] => Ok((*l, *a)),
+        _ => bail!(
+            "{option} `{s}`: expected LEN or LEN,ANG, a length in mm and an angle in mrad, each > 0"
+        ),
+    }
 }
 
 impl CompensateArgs {
@@ -309,7 +342,17 @@ impl CompensateArgs {
         );
         check_outputs(&inputs, &outputs)?;
         let record = self.record.validate()?;
+        let defaults = export::Limits::default();
+        let (change_mm, change_mrad) =
+            parse_limit("--max-change", &self.max_change, defaults.change_mrad)?;
+        let (u_mm, u_mrad) = parse_limit("--max-u", &self.max_u, defaults.u_mrad)?;
         Ok(Config {
+            limits: export::Limits {
+                change_mm,
+                change_mrad,
+                u_mm,
+                u_mrad,
+            },
             record,
             common,
             errors_path: self.errors,
@@ -335,20 +378,53 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         let mut out = AtomicOutput::create(output)?;
         // On any error `out` is dropped: its temporary file goes, nothing is written.
         let summary = c.run(input, file, &mut out)?;
+        let unchanged = summary.changed == 0 && summary.inserted == 0;
+        if unchanged && summary.largest_linear.is_none() {
+            // Moves there were (the library refuses a program without), and
+            // every one was left as written: a copy is no compensation.
+            bail!(
+                "{}: none of its {} moves could be rewritten ({}); nothing written",
+                input.display(),
+                summary.moves,
+                summary
+                    .skipped
+                    .iter()
+                    .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            );
+        }
         out.commit()?;
         out!("{}", describe(&summary, input, output, &cfg));
+        if unchanged {
+            // Legitimate (a machine whose errors are all but zero), but
+            // never silent.
+            outln!(
+                "nothing changed: every correction is below the resolution written ({} decimals in mm, {} in deg); {} is a copy of {}",
+                cfg.settings.linear_decimals,
+                cfg.settings.rotary_decimals,
+                output.display(),
+                input.display()
+            );
+        }
     }
     if let Some((d, target)) = &cfg.export {
-        let text = export::export(
+        let exported = export::export(
             &cfg.errors.model,
             &cfg.errors.theta,
+            &cfg.errors.u,
             *d,
             &cfg.errors_path.display().to_string(),
+            &cfg.limits,
         )?;
+        let text = &exported.text;
         match target {
             Some(p) => {
                 fivecal::io::write_atomic(p, text.as_bytes())?;
-                outln!("{d} parameters written to {}", p.display());
+                outln!("{d} parameters written to {}:", p.display());
+                for line in exported.table() {
+                    outln!("  {line}");
+                }
             }
             None => out!("{text}"),
         }
@@ -361,7 +437,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
                 &cfg.errors_path,
                 &content,
                 &d.to_string(),
-                &text,
+                text,
                 &cfg.record.notes,
             )?;
             // Beside parameters printed to standard output, the note goes
@@ -374,6 +450,40 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
                     eprintln!("{s}")
                 }
             })?;
+        }
+        // Beside parameters on standard output, the notes go to standard
+        // error; the last says whether anything changes.
+        let note = |s: String| {
+            if target.is_some() {
+                outln!("{s}")
+            } else {
+                eprintln!("{s}")
+            }
+        };
+        let without = exported.without_u();
+        if !without.is_empty() {
+            note(format!(
+                "note: {} gives no u for what {} depend on: --max-u not checked for them (an analyze result has u; a truth file has none)",
+                cfg.errors_path.display(),
+                without.join(", ")
+            ));
+        }
+        let from = if exported.from_current {
+            "what the control holds now (the machine file's controller_parameters)"
+        } else {
+            "the machine file's nominal geometry"
+        };
+        if exported.changes_nothing() {
+            note(format!(
+                "nothing to change: every {d} parameter equals {from} to the resolution written"
+            ));
+        } else {
+            note(format!(
+                "{} of {} {d} parameters change from {from}: {}",
+                exported.changed().len(),
+                exported.parameters.len(),
+                exported.changed().join(", ")
+            ));
         }
     }
     Ok(())

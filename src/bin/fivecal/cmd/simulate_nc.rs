@@ -108,6 +108,20 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
             args.step
         );
     }
+    if summary.samples == 0 {
+        // Moves there were (the library refuses a program without), and
+        // none could be followed: an empty prediction is no prediction.
+        bail!(
+            "{}: no move of it could be simulated ({}); nothing written",
+            args.program.display(),
+            summary
+                .skipped
+                .iter()
+                .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+    }
     if let Some(out) = &args.output {
         let mut t = String::new();
         let _ = writeln!(
@@ -174,16 +188,15 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         summary.moves,
         summary.samples
     );
-    match summary.max_um {
-        Some(m) => outln!(
+    if let Some(m) = summary.max_um {
+        outln!(
             "  tool-tip error (actual minus where the nominal machine puts the program as written): mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad",
             summary.mean_um,
             summary.rms_um,
             m.value,
             m.line,
             summary.max_axis_urad
-        ),
-        None => outln!("  no move could be simulated"),
+        );
     }
     for (reason, lines) in &summary.skipped {
         outln!("  not simulated: {reason}: lines {}", lines.list());
