@@ -89,6 +89,40 @@ pub struct Measurements {
     pub heights: Vec<(PathBuf, Vec<SectionHeight>)>,
 }
 
+/// Below this, a measured point is where the plan puts it, mm: the last
+/// digit measurement files are written with (4 decimals in mm); a CMM's
+/// noise alone is several times larger.
+const COPY_MM: f64 = 1e-4;
+
+/// When every point of file `file` lies where the plan puts it (on the
+/// nominal point itself, or on the plan's point as written; for a machined
+/// piece also after the best rigid placement, as a CMM's frame may have
+/// it), the largest difference, mm: such a file is no measurement.
+fn copy_of_nominal(
+    data: &Dataset,
+    file: usize,
+    nominal: &dyn Fn(&PlanPoint) -> Vector3<f64>,
+) -> Option<f64> {
+    let obs: Vec<_> = data.obs.iter().filter(|o| o.file == file).collect();
+    if obs.is_empty() {
+        return None;
+    }
+    let largest = |target: &dyn Fn(&PlanPoint) -> Vector3<f64>| {
+        obs.iter()
+            .map(|o| (o.m - target(&data.plan.points[o.plan])).norm())
+            .fold(0.0, f64::max)
+    };
+    let mut best = largest(nominal).min(largest(&|p: &PlanPoint| p.p));
+    if data.kind == TestKind::Machining && obs.len() >= 3 {
+        let w: Vec<Vector3<f64>> = obs.iter().map(|o| data.plan.points[o.plan].p).collect();
+        let m: Vec<Vector3<f64>> = obs.iter().map(|o| o.m).collect();
+        if let Ok(t) = crate::placement::kabsch(&w, &m) {
+            best = best.min(largest(&|p: &PlanPoint| (t * Point3::from(p.p)).coords));
+        }
+    }
+    (best < COPY_MM).then_some(best)
+}
+
 /// Where a plan point is measured without any error, in the frame of the
 /// measured points before placement: the point itself in W for a CMM, the
 /// point carried by the nominal rotary axes for on-machine probing.
@@ -308,6 +342,17 @@ impl PlanContext {
         let nominal = |p: &PlanPoint| nominal(&self.kin, self.kind, p);
         let mut data =
             crate::identify::data::join(points, self.kind, &self.minutes, sets, &nominal)?;
+        for (fi, (path, _)) in sets.iter().enumerate() {
+            if let Some(largest) = copy_of_nominal(&data, fi, &nominal) {
+                return Err(AnalyzeError::Plan(format!(
+                    "{}: its {} points are the plan's nominal points (largest difference {:.3} um, below the {} um a measurement resolves): the plan's own points file, or a simulation without errors and noise, not a measurement; nothing to identify",
+                    path.display(),
+                    data.obs.iter().filter(|o| o.file == fi).count(),
+                    largest * 1e3,
+                    COPY_MM * 1e3
+                )));
+            }
+        }
         match &self.pieces {
             Pieces::One => {}
             Pieces::Planned(map) => data.set_pieces(map).map_err(AnalyzeError::Plan)?,
