@@ -560,3 +560,69 @@ fn planned_stepped_square_programs_are_compensated_in_every_dialect() {
         }
     }
 }
+
+/// Issue 14, item 4: every controller's export shows each parameter with
+/// its u and its change, in the file and on the screen, counted from what
+/// the control holds when the machine file says (else from nominal), and
+/// its last line says what changes.
+#[test]
+fn every_export_shows_each_parameter_with_its_u_and_its_change() {
+    let dir = tempdir();
+    let errs = write(
+        dir.path(),
+        "result.yaml",
+        "machine: bc-trunnion\nlocation_errors:\n  EX0B: {value: 12.0, u: 0.4}\n  EY0C: {value: -18.0, u: 0.7}\n  EX(0B)C: {value: 25.0, u: 0.6}\n",
+    );
+    let machine = write(
+        dir.path(),
+        "m.yaml",
+        &format!(
+            "{}controller_parameters:\n  fanuc: {{19700: 0.010, 19701: 0.0, 19702: -420.0, 19703: 0.027, 19704: 0.0, 19705: 0.0}}\n",
+            Machine::builtin("bc-trunnion").unwrap().source
+        ),
+    );
+    for (d, row, u, change) in [
+        // 19700: 12 um where the control holds 10: a change of 2 um.
+        ("fanuc", "19700", "0.40 um", "+2.00 um"),
+        ("heidenhain", "C.Y", "0.70 um", "-18.00 um"),
+        ("linuxcnc", "x-rot-point", "1.00 um", "+37.00 um"),
+    ] {
+        let to = dir.path().join(format!("p.{d}.txt"));
+        let out = fivecal()
+            .args(["compensate", "--machine"])
+            .arg(&machine)
+            .arg("--errors")
+            .arg(&errs)
+            .args(["--export", d, "--no-record", "--export-to"])
+            .arg(&to)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{d}: {}", stderr_of(&out));
+        let screen = String::from_utf8_lossy(&out.stdout);
+        let file = std::fs::read_to_string(&to).unwrap();
+        let line = |text: &str| {
+            text.lines()
+                .find(|l| {
+                    l.trim_start_matches(['#', ';', ' '])
+                        .starts_with(&format!("{row} "))
+                })
+                .unwrap_or_else(|| panic!("{d}: no {row} row in\n{text}"))
+                .to_string()
+        };
+        for text in [&*screen, &file] {
+            let l = line(text);
+            assert!(l.contains(u) && l.contains(change), "{d}: {l}");
+        }
+        let from = if d == "fanuc" {
+            "from what the control holds now"
+        } else {
+            "from the machine file's nominal geometry"
+        };
+        assert!(file.contains(from), "{d}: {file}");
+        let last = screen.lines().last().unwrap_or("");
+        assert!(
+            last.contains(&format!("{d} parameters to enter change from")) && last.contains(row),
+            "{d}: {screen}"
+        );
+    }
+}

@@ -20,6 +20,8 @@ pub(super) struct Raw {
     pub kind: Kind,
     pub value: f64,
     pub nominal: f64,
+    /// Entered at the control (false: listed for the machine builder only).
+    pub entered: bool,
 }
 
 const XYZ: [char; 3] = ['X', 'Y', 'Z'];
@@ -31,6 +33,7 @@ fn length(name: String, what: String, value: f64, nominal: f64) -> Raw {
         kind: Kind::Length,
         value,
         nominal,
+        entered: true,
     }
 }
 
@@ -248,6 +251,7 @@ pub(super) fn parameters(
                         kind: Kind::Angle,
                         value: rot[i],
                         nominal: 0.0,
+                        entered: false,
                     });
                 }
             }
@@ -382,7 +386,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 ";   if the table holds an earlier calibration the machine file does not list, the changes are wrong."
             );
             let _ = writeln!(s, ";");
-            for p in export.parameters.iter().filter(|p| p.kind == Kind::Length) {
+            for p in export.parameters.iter().filter(|p| p.entered) {
                 let _ = writeln!(
                     s,
                     "ADD {} TO {}   ; {} now {}, new {}",
@@ -406,8 +410,18 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 s,
                 ";   the right-handed turn about the machine axis named that takes each nominal direction to the actual:"
             );
-            for p in export.parameters.iter().filter(|p| p.kind == Kind::Angle) {
-                let _ = writeln!(s, ";   {} = {}  ({})", p.name, signed(p.value, 2), p.what);
+            for p in export.parameters.iter().filter(|p| !p.entered) {
+                let _ = writeln!(
+                    s,
+                    ";   {} = {}, u {}  ({}){}",
+                    p.name,
+                    signed(p.value, 2),
+                    p.u.map_or_else(|| "not given".to_string(), |u| format!("{u:.2} urad")),
+                    p.what,
+                    p.beyond
+                        .as_ref()
+                        .map_or_else(String::new, |b| format!(": {b}, not to be entered"))
+                );
             }
             let _ = writeln!(
                 s,

@@ -65,6 +65,13 @@ pub struct Parameter {
     /// Standard uncertainty (k = 1), when the error file gives the `u` of
     /// every symbol it depends on.
     pub u: Option<f64>,
+    /// Entered at the control; false for what is only listed for the
+    /// machine builder (HEIDENHAIN's axis directions), which the limits do
+    /// not refuse but mark.
+    pub entered: bool,
+    /// For a listed value: the limit it is beyond (`u 106.13 urad beyond
+    /// --max-u 0.05 mrad`).
+    pub beyond: Option<String>,
 }
 
 impl Parameter {
@@ -271,17 +278,17 @@ pub struct Export {
 }
 
 impl Export {
-    /// Whether no parameter changes (every change below the written
-    /// resolution).
+    /// Whether no entered parameter changes (every change below the
+    /// written resolution).
     pub fn changes_nothing(&self) -> bool {
-        self.parameters.iter().all(|p| p.unchanged())
+        self.parameters.iter().all(|p| !p.entered || p.unchanged())
     }
 
-    /// The parameters that change, named (`19700, 19702`).
+    /// The entered parameters that change, named (`19700, 19702`).
     pub fn changed(&self) -> Vec<&str> {
         self.parameters
             .iter()
-            .filter(|p| !p.unchanged())
+            .filter(|p| p.entered && !p.unchanged())
             .map(|p| p.name.as_str())
             .collect()
     }
@@ -321,12 +328,17 @@ impl Export {
                 |u| format!("{:.2} {}", p.small(u), p.small_unit()),
             );
             out.push(format!(
-                "{:<14} {:>12}  {:>14}  {:>10}  {}",
+                "{:<14} {:>12}  {:>14}  {:>10}  {}{}",
                 p.name,
                 format!("{} {unit}", p.written(p.value)),
                 format!("{} {}", signed(p.small(p.change()), 2), p.small_unit()),
                 u,
-                p.what
+                p.what,
+                if p.entered {
+                    ""
+                } else {
+                    " (listed, not entered)"
+                }
             ));
         }
         out
@@ -453,7 +465,7 @@ pub fn export(
             }
         }
     }
-    let parameters: Vec<Parameter> = raw
+    let mut parameters: Vec<Parameter> = raw
         .into_iter()
         .zip(us)
         .map(|(r, u)| Parameter {
@@ -464,9 +476,11 @@ pub fn export(
             value: r.value,
             nominal: r.nominal,
             u,
+            entered: r.entered,
+            beyond: None,
         })
         .collect();
-    check_limits(&parameters, dialect, limits)?;
+    check_limits(&mut parameters, dialect, limits)?;
     let export = Export {
         dialect,
         from_current: current.is_some_and(|c| !c.is_empty()),
@@ -483,40 +497,55 @@ pub fn export(
     Ok(Export { text, ..export })
 }
 
+/// Refuses the first entered parameter beyond `limits` (a change first,
+/// then a u); a listed one is marked with the limit it is beyond.
 fn check_limits(
-    parameters: &[Parameter],
+    parameters: &mut [Parameter],
     dialect: Dialect,
     limits: &Limits,
 ) -> Result<(), ExportError> {
-    for p in parameters {
+    let too_large = |p: &Parameter| {
         let from = match p.current {
             Some(c) => format!("the control's current {} {}", p.written(c), unit_of(p.kind)),
             None => format!("the nominal {} {}", p.written(p.nominal), unit_of(p.kind)),
         };
         let lim = limits.change(p.kind);
-        if p.change().abs() > lim {
-            return Err(ExportError::TooLarge {
-                controller: dialect,
-                name: p.name.clone(),
-                what: p.what.clone(),
-                change: format!("{} {}", signed(p.small(p.change()), 2), p.small_unit()),
-                from,
-                limit: limit_text(p.kind, lim),
-            });
-        }
-    }
-    for p in parameters {
+        (p.change().abs() > lim).then(|| ExportError::TooLarge {
+            controller: dialect,
+            name: p.name.clone(),
+            what: p.what.clone(),
+            change: format!("{} {}", signed(p.small(p.change()), 2), p.small_unit()),
+            from,
+            limit: limit_text(p.kind, lim),
+        })
+    };
+    let uncertain = |p: &Parameter| {
         let lim = limits.u(p.kind);
-        if let Some(u) = p.u
-            && u > lim
-        {
-            return Err(ExportError::Uncertain {
-                controller: dialect,
-                name: p.name.clone(),
-                what: p.what.clone(),
-                u: format!("{:.2} {}", p.small(u), p.small_unit()),
-                limit: limit_text(p.kind, lim),
-            });
+        p.u.filter(|&u| u > lim).map(|u| ExportError::Uncertain {
+            controller: dialect,
+            name: p.name.clone(),
+            what: p.what.clone(),
+            u: format!("{:.2} {}", p.small(u), p.small_unit()),
+            limit: limit_text(p.kind, lim),
+        })
+    };
+    for check in [
+        &too_large as &dyn Fn(&Parameter) -> Option<ExportError>,
+        &uncertain,
+    ] {
+        for p in parameters.iter_mut() {
+            match check(p) {
+                Some(e) if p.entered => return Err(e),
+                Some(ExportError::TooLarge { change, limit, .. }) => {
+                    p.beyond
+                        .get_or_insert(format!("change {change} beyond --max-change {limit}"));
+                }
+                Some(ExportError::Uncertain { u, limit, .. }) => {
+                    p.beyond
+                        .get_or_insert(format!("u {u} beyond --max-u {limit}"));
+                }
+                _ => {}
+            }
         }
     }
     Ok(())

@@ -357,18 +357,34 @@ fn a_change_beyond_the_limit_is_refused_with_the_parameter_named() {
             "{msg}"
         );
     }
-    // The angles of the HEIDENHAIN list have theirs.
-    let e = run(
+    // The axis directions HEIDENHAIN's export only lists for the machine
+    // builder are not entered: beyond their limit they are marked, not
+    // refused (the rows to enter do not depend on them).
+    let h = run(
         &m,
-        "machine: bc-trunnion\nlocation_errors: {EA0B: 600.0}\n",
+        "machine: bc-trunnion\nlocation_errors: {EA0B: {value: 600.0, u: 1.0}, EA(0B)C: {value: -590.0, u: 80.0}}\n",
         Dialect::Heidenhain,
     )
-    .unwrap_err();
-    assert!(
-        matches!(&e, ExportError::TooLarge { name, .. } if name == "B.A"),
-        "{e}"
+    .unwrap();
+    assert_eq!(
+        param(&h, "B.A").beyond.as_deref(),
+        Some("change +600.00 urad beyond --max-change 0.5 mrad")
     );
-    assert!(e.to_string().contains("0.5 mrad"), "{e}");
+    assert!(
+        h.text.contains(
+            "B.A = +600.00, u 1.00 urad  (direction of the B axis, turned about X): change +600.00 urad beyond --max-change 0.5 mrad, not to be entered"
+        ),
+        "{}",
+        h.text
+    );
+    // C's direction, turned by EA0B + EA(0B)C = 10 urad, is within the
+    // change limit but carries EA(0B)C's u of 80 urad.
+    assert_eq!(
+        param(&h, "C.A").beyond.as_deref(),
+        Some("u 81.00 urad beyond --max-u 0.05 mrad")
+    );
+    assert!(param(&h, "C.B").beyond.is_none(), "{}", h.text);
+    assert!(h.changes_nothing(), "{:?}", h.changed());
     // A larger limit lets it through.
     let l = load(&m, yaml);
     let wide = Limits {

@@ -475,13 +475,13 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         };
         if exported.changes_nothing() {
             note(format!(
-                "nothing to change: every {d} parameter equals {from} to the resolution written"
+                "nothing to change: every {d} parameter to enter equals {from} to the resolution written"
             ));
         } else {
             note(format!(
-                "{} of {} {d} parameters change from {from}: {}",
+                "{} of {} {d} parameters to enter change from {from}: {}",
                 exported.changed().len(),
-                exported.parameters.len(),
+                exported.parameters.iter().filter(|p| p.entered).count(),
                 exported.changed().join(", ")
             ));
         }
