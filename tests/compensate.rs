@@ -622,6 +622,7 @@ fn zero_errors_leave_generated_programs_untouched() {
         u: vec![],
         noise: Default::default(),
         not_identifiable: vec![],
+        fit: None,
     };
     for d in Dialect::ALL {
         for tcp in [false, true] {

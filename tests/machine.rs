@@ -96,3 +96,27 @@ fn unknown_machine_name_lists_the_built_ins() {
         "{e}"
     );
 }
+
+/// A machine file copied from an example with its name blanked out loads
+/// no more: every output and the history would carry an empty machine.
+#[test]
+fn a_machine_file_with_a_blank_name_is_refused_at_the_name() {
+    let text = std::fs::read_to_string(example("bc-trunnion")).unwrap();
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("name:"))
+        .expect("the example names its machine")
+        + 1;
+    let dir = crate::util::tempdir();
+    for blank in ["name: \"\"", "name: \"  \""] {
+        let p = dir.path().join("mine.yaml");
+        let edited: Vec<&str> = text
+            .lines()
+            .map(|l| if l.starts_with("name:") { blank } else { l })
+            .collect();
+        std::fs::write(&p, edited.join("\n")).unwrap();
+        let e = Machine::load(p.to_str().unwrap()).unwrap_err().to_string();
+        assert!(e.contains(&format!("mine.yaml:{line}:")), "{e}");
+        assert!(e.contains("machine name is empty"), "{e}");
+    }
+}

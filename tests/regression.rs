@@ -327,41 +327,49 @@ fn sphere_method_on_head_table_refuses_ex0c_aliased_with_the_head_offset() {
         .unwrap();
         let kin = fivecal::simulate::plan_kinematics(&plan);
         let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
-        let sphere = SphereOptions {
-            circle: CircleMethod::LeastSquares,
-            check: None,
-        };
-        let est = fivecal::analyze::method::identify_with_plan(
-            Method::Sphere,
-            &setup,
-            &data,
-            &sphere,
-            Some(&plan),
-        )
-        .unwrap();
-        let (_, u) = est.get("EX0C").unwrap();
-        assert!(u.is_none(), "seed {seed}: EX0C reported\n{}", est.summary());
-        let file = est.error_file(None);
-        let why = &file
-            .not_identifiable
-            .iter()
-            .find(|n| n.symbol == "EX0C")
-            .unwrap()
-            .reason;
-        assert!(why.contains("EX0B"), "{why}");
-        let mut reported = 0;
-        for name in est.model.param_names() {
-            if let (v, Some(u)) = est.get(&name).unwrap() {
-                let z = (v - truth_of(&name)).abs() / u;
-                assert!(
-                    z < 4.0,
-                    "seed {seed}: {name} off by {z:.1} u\n{}",
-                    est.summary()
-                );
-                reported += 1;
+        // The robust default as well: its Tukey reweighting once put EA0C
+        // at 72.9 +- 1.1 urad on seed 1 (truth 80).
+        for circle in [CircleMethod::LeastSquares, CircleMethod::Robust] {
+            let sphere = SphereOptions {
+                circle,
+                check: None,
+            };
+            let est = fivecal::analyze::method::identify_with_plan(
+                Method::Sphere,
+                &setup,
+                &data,
+                &sphere,
+                Some(&plan),
+            )
+            .unwrap();
+            let (_, u) = est.get("EX0C").unwrap();
+            assert!(
+                u.is_none(),
+                "seed {seed}, {circle}: EX0C reported\n{}",
+                est.summary()
+            );
+            let file = est.error_file(None);
+            let why = &file
+                .not_identifiable
+                .iter()
+                .find(|n| n.symbol == "EX0C")
+                .unwrap()
+                .reason;
+            assert!(why.contains("EX0B"), "{why}");
+            let mut reported = 0;
+            for name in est.model.param_names() {
+                if let (v, Some(u)) = est.get(&name).unwrap() {
+                    let z = (v - truth_of(&name)).abs() / u;
+                    assert!(
+                        z < 4.0,
+                        "seed {seed}, {circle}: {name} off by {z:.1} u\n{}",
+                        est.summary()
+                    );
+                    reported += 1;
+                }
             }
+            assert!(reported >= 2, "{}", est.summary());
         }
-        assert!(reported >= 2, "{}", est.summary());
     }
 }
 

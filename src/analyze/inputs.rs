@@ -331,17 +331,11 @@ impl PlanContext {
     }
 
     /// Joins point sets (one piece, several files) to the plan's points,
-    /// each probed piece on its own setup.
+    /// each probed piece on its own setup; a file that holds the plan's
+    /// nominal points instead of a measurement is refused.
     pub fn join(&self, sets: &[(PathBuf, PointSet)]) -> Result<Dataset, AnalyzeError> {
-        let Some(points) = &self.points else {
-            return Err(AnalyzeError::Plan(format!(
-                "{}: a nine-section plan takes section heights (section,height_um), not points",
-                self.manifest.display()
-            )));
-        };
+        let data = self.join_sets(sets)?;
         let nominal = |p: &PlanPoint| nominal(&self.kin, self.kind, p);
-        let mut data =
-            crate::identify::data::join(points, self.kind, &self.minutes, sets, &nominal)?;
         for (fi, (path, _)) in sets.iter().enumerate() {
             if let Some(largest) = copy_of_nominal(&data, fi, &nominal) {
                 return Err(AnalyzeError::Plan(format!(
@@ -353,6 +347,19 @@ impl PlanContext {
                 )));
             }
         }
+        Ok(data)
+    }
+
+    fn join_sets(&self, sets: &[(PathBuf, PointSet)]) -> Result<Dataset, AnalyzeError> {
+        let Some(points) = &self.points else {
+            return Err(AnalyzeError::Plan(format!(
+                "{}: a nine-section plan takes section heights (section,height_um), not points",
+                self.manifest.display()
+            )));
+        };
+        let nominal = |p: &PlanPoint| nominal(&self.kin, self.kind, p);
+        let mut data =
+            crate::identify::data::join(points, self.kind, &self.minutes, sets, &nominal)?;
         match &self.pieces {
             Pieces::One => {}
             Pieces::Planned(map) => data.set_pieces(map).map_err(AnalyzeError::Plan)?,
@@ -367,7 +374,9 @@ impl PlanContext {
     }
 
     /// Joins labelled points already in memory (simulated ones), named
-    /// `source` in messages.
+    /// `source` in messages. Not checked against the nominal points: a
+    /// simulation without errors and noise is how `plan` predicts what its
+    /// test identifies.
     pub fn join_points(
         &self,
         points: Vec<MeasuredPoint>,
@@ -381,6 +390,6 @@ impl PlanContext {
             nominals: Vec::new(),
             warnings: Vec::new(),
         };
-        self.join(&[(source.to_path_buf(), set)])
+        self.join_sets(&[(source.to_path_buf(), set)])
     }
 }

@@ -391,6 +391,14 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         }
     }
 
+    // Every output is labelled with this name, and the history keys its
+    // results on it: a blank one would file them under nobody.
+    if f.name.trim().is_empty() || f.name.chars().any(char::is_control) {
+        return Err(err(
+            &["name"],
+            "machine name is empty or has control characters: expected a short name such as my-dmu-50".to_string(),
+        ));
+    }
     Ok(Machine {
         name: f.name,
         description: f.description,

@@ -196,6 +196,11 @@ pub struct CompensateArgs {
     /// without u (a truth file) is exported with `u not given`.
     #[arg(long, value_name = "LEN[,ANG]", default_value = "0.01,0.05")]
     max_u: String,
+    /// Use a result whose model does not fit its measurements (its `fit:`
+    /// verdict is misfit): its values are biased by an effect the model
+    /// lacks, so it is refused unless this is given.
+    #[arg(long)]
+    accept_misfit: bool,
     /// With --export: the export is recorded in the results store (the
     /// control was changed), which `fivecal history` marks.
     #[command(flatten)]
@@ -239,6 +244,19 @@ impl CompensateArgs {
     fn validate(self) -> anyhow::Result<Config> {
         let mut common = self.machine.validate()?;
         let errors = load_errors(&self.errors, &common.kin)?;
+        if let Some(f) = errors.misfit()
+            && !self.accept_misfit
+        {
+            bail!(
+                "{}: the model of this result does not fit its measurements (residuals {:.3} um against {:.3} um expected, ratio {:.2}): \
+                 its values are biased by an effect the model lacks. Find it with `fivecal discover` and compensate with the refined model, \
+                 or give --accept-misfit to use this result anyway",
+                self.errors.display(),
+                f.sigma_um,
+                f.expected_um,
+                f.ratio
+            );
+        }
         common.inputs.push(self.errors.clone());
         let min_tol = fivecal::limits::MIN_TOLERANCE_UM;
         if !(self.tolerance.is_finite() && self.tolerance >= min_tol) {

@@ -164,7 +164,12 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         let got = measure_surface(&samples, &pts, args.max_distance).map_err(anyhow::Error::msg)?;
         let mp: Vec<MeasuredPoint> = got
             .into_iter()
-            .map(|(label, p)| MeasuredPoint { label, p, line: 0 })
+            .map(|(label, p)| MeasuredPoint {
+                label,
+                p,
+                line: 0,
+                normal: None,
+            })
             .collect();
         let comment = format!(
             "simulated CMM points: {} cut by {} on {} with {}",
