@@ -626,3 +626,264 @@ fn every_export_shows_each_parameter_with_its_u_and_its_change() {
         );
     }
 }
+
+/// Issue 14, item 5: a run that changes nothing says so in its last line,
+/// and exits non-zero, writing nothing, when that cannot be what was
+/// asked: an export none of whose values the file's errors reach, or a
+/// rewrite whose errors move no pose of the program. An export refused by
+/// its limits takes the rewritten program down with it.
+#[test]
+fn a_run_that_changes_nothing_says_so_last_and_refuses_when_it_cannot_be_meant() {
+    let dir = tempdir();
+    let d = dir.path();
+    write(
+        d,
+        "p.h",
+        &std::fs::read_to_string(fixture("heidenhain/tcpm.h")).unwrap(),
+    );
+    let run = |args: &[&str]| fivecal().current_dir(d).args(args).output().unwrap();
+    let last = |out: &std::process::Output| {
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .last()
+            .unwrap_or("")
+            .to_string()
+    };
+    // Zero errors, program and export: one last line says both.
+    write(
+        d,
+        "zero.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: 0.0}\n",
+    );
+    let base = ["compensate", "--machine", "head-table", "--no-record"];
+    let out = run(&[
+        &base[..],
+        &[
+            "--errors",
+            "zero.yaml",
+            "p.h",
+            "-o",
+            "z.h",
+            "--export",
+            "fanuc",
+        ],
+    ]
+    .concat());
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let l = last(&out);
+    assert!(
+        l.starts_with("nothing changed: zero.yaml holds no error")
+            && l.contains("z.h is a copy of p.h")
+            && l.contains("every fanuc parameter to enter equals"),
+        "{l}"
+    );
+    // A zero point only: no parameter of any controller holds it.
+    write(
+        d,
+        "zp.yaml",
+        "machine: head-table\nlocation_errors: {EB0B: 120.0}\n",
+    );
+    for c in ["fanuc", "heidenhain"] {
+        let out = run(&[
+            &base[..],
+            &["--errors", "zp.yaml", "p.h", "-o", "x.h", "--export", c],
+        ]
+        .concat());
+        let err = stderr_of(&out);
+        assert_eq!(out.status.code(), Some(2), "{c}: {err}");
+        assert!(
+            err.contains(&format!(
+                "none of the errors in zp.yaml is held by {c}'s parameters"
+            )) && err.contains("EB0B = 120.00 urad"),
+            "{c}: {err}"
+        );
+    }
+    // A tool radius error moves no pose: the rewrite is refused.
+    write(
+        d,
+        "radius.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: 0.0}\neffects:\n  tool_radius: 3.0\n",
+    );
+    let out = run(&[
+        &base[..2],
+        &["head-table", "--errors", "radius.yaml", "p.h", "-o", "x.h"],
+    ]
+    .concat());
+    let err = stderr_of(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("radius.yaml: its errors move no tool pose of p.h (tool_radius"),
+        "{err}"
+    );
+    // A program that would be rewritten, with an export beyond its limit:
+    // neither is written.
+    write(
+        d,
+        "big.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: {value: 150.0, u: 0.5}}\n",
+    );
+    let out = run(&[
+        &base[..],
+        &[
+            "--errors",
+            "big.yaml",
+            "p.h",
+            "-o",
+            "x.h",
+            "--export",
+            "heidenhain",
+        ],
+    ]
+    .concat());
+    let err = stderr_of(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("parameter C.X") && err.contains("--max-change"),
+        "{err}"
+    );
+    only(
+        d,
+        &[
+            "big.yaml",
+            "p.h",
+            "radius.yaml",
+            "z.h",
+            "z.h.fanuc.txt",
+            "zero.yaml",
+            "zp.yaml",
+        ],
+    );
+    // An orientation HEIDENHAIN only lists: nothing to enter, said last,
+    // the list named; exit 0 (the list is for the machine builder).
+    write(
+        d,
+        "tilt.yaml",
+        "machine: head-table\nlocation_errors: {EA0C: 40.0}\n",
+    );
+    let out = run(&[
+        &base[..],
+        &[
+            "--errors",
+            "tilt.yaml",
+            "--export",
+            "heidenhain",
+            "--export-to",
+            "t.txt",
+        ],
+    ]
+    .concat());
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let l = last(&out);
+    assert!(
+        l.starts_with("nothing to change: every heidenhain parameter to enter equals")
+            && l.contains("listed for the machine builder, not entered: C.A"),
+        "{l}"
+    );
+}
+
+/// Issue 14, item 4: every parameter an export writes, on every built-in
+/// machine it supports, is explained in docs/controllers.md under its
+/// controller (FANUC by its number range, the others by name), each
+/// controller's section cites its public sources, every source cited is
+/// listed with an address (a URL or a repository commit), and the export
+/// points to the page.
+#[test]
+fn every_exported_parameter_is_documented_with_its_public_source() {
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/controllers.md"))
+            .unwrap();
+    let section = |title: &str| {
+        let a = doc
+            .find(&format!("\n## {title}"))
+            .unwrap_or_else(|| panic!("no section `{title}`"));
+        let rest = &doc[a + 4..];
+        rest[..rest.find("\n## ").unwrap_or(rest.len())].to_string()
+    };
+    // Each cited tag ([F-TCP 72/88], [L-SRC]) is listed once as a source
+    // with an address.
+    let listed = |tag: &str| {
+        let at = doc
+            .find(&format!("- **[{tag}]**"))
+            .unwrap_or_else(|| panic!("source [{tag}] is cited but not listed"));
+        let entry = &doc[at..];
+        let entry = &entry[..entry[2..].find("\n- ").map_or(entry.len(), |e| e + 2)];
+        entry.contains("http")
+            || entry
+                .split('`')
+                .any(|w| w.len() == 40 && w.bytes().all(|b| b.is_ascii_hexdigit()))
+    };
+    for (d, title) in [
+        (Dialect::Fanuc, "FANUC"),
+        (Dialect::Heidenhain, "HEIDENHAIN"),
+        (Dialect::Linuxcnc, "LinuxCNC"),
+    ] {
+        let text = section(title);
+        assert!(text.contains("Sources:"), "{title}");
+        let tags: Vec<&str> = text
+            .split('[')
+            .skip(1)
+            .filter_map(|t| t.split([' ', ']', ',']).next())
+            .filter(|t| {
+                t.starts_with(|c: char| c.is_ascii_uppercase())
+                    && t.contains('-')
+                    && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '-')
+            })
+            .collect();
+        assert!(tags.len() >= 3, "{title}: {tags:?}");
+        for tag in &tags {
+            assert!(listed(tag), "{title}: [{tag}] has no address");
+        }
+        for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
+            let m = Machine::builtin(name).unwrap();
+            let kin = Kinematics::new(&m);
+            let src = format!("machine: {name}\n");
+            let path = Path::new("e.yaml");
+            let e = ErrorFile::parse(path, &src)
+                .unwrap()
+                .to_model(&kin, path, &src)
+                .unwrap();
+            // Nothing to change on a perfect machine: the parameters are
+            // written all the same.
+            let x = match fivecal::compensate::export::export(
+                &e.model,
+                &e.theta,
+                &e.u,
+                d,
+                "e.yaml",
+                &fivecal::compensate::export::Limits::default(),
+            ) {
+                Ok(x) => x,
+                Err(err) => {
+                    assert!(
+                        d == Dialect::Linuxcnc && name.starts_with("head"),
+                        "{d} {name}: {err}"
+                    );
+                    continue;
+                }
+            };
+            assert!(x.text.contains("docs/controllers.md"), "{d} {name}");
+            for p in &x.parameters {
+                let documented = if d == Dialect::Fanuc {
+                    // A table row whose first cell names it or its range.
+                    let n: u32 = p.name.parse().unwrap();
+                    text.lines()
+                        .filter_map(|l| l.strip_prefix("| ")?.split(" |").next())
+                        .any(|cell| {
+                            let (a, b) = cell.split_once('-').unwrap_or((cell, cell));
+                            matches!(
+                                (a.trim().parse::<u32>(), b.trim().parse::<u32>()),
+                                (Ok(a), Ok(b)) if a <= n && n <= b
+                            )
+                        })
+                } else {
+                    text.contains(&format!("`{}`", p.name))
+                };
+                assert!(
+                    documented,
+                    "{d} {name}: {} is not in docs/controllers.md",
+                    p.name
+                );
+            }
+        }
+    }
+}

@@ -736,6 +736,14 @@ fn simulate_nc_program_with_no_move_to_follow_is_refused() {
 fn analyze_plan_points_given_as_the_measurement_are_refused() {
     let dir = crate::util::tempdir();
     let d = dir.path();
+    let analyze = |test: &str, measured: &str| {
+        crate::cli::fivecal()
+            .current_dir(d)
+            .args(["analyze", "--plan", &format!("{test}/{test}.plan.yaml")])
+            .args(["--measured", measured, "--out", "r.yaml", "--no-record"])
+            .output()
+            .unwrap()
+    };
     for test in ["stepped-square", "probe-sphere"] {
         let out = crate::cli::fivecal()
             .current_dir(d)
@@ -743,16 +751,7 @@ fn analyze_plan_points_given_as_the_measurement_are_refused() {
             .output()
             .unwrap();
         assert!(out.status.success(), "{test}: {out:?}");
-        let points = format!("{test}/{test}.points.csv");
-        let analyze = |measured: &str| {
-            crate::cli::fivecal()
-                .current_dir(d)
-                .args(["analyze", "--plan", &format!("{test}/{test}.plan.yaml")])
-                .args(["--measured", measured, "--out", "r.yaml", "--no-record"])
-                .output()
-                .unwrap()
-        };
-        let out = analyze(&points);
+        let out = analyze(test, &format!("{test}/{test}.points.csv"));
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{test}: {err}");
         assert!(
@@ -781,16 +780,7 @@ fn analyze_plan_points_given_as_the_measurement_are_refused() {
         );
     }
     std::fs::write(d.join("moved.csv"), &moved).unwrap();
-    let out = crate::cli::fivecal()
-        .current_dir(d)
-        .args([
-            "analyze",
-            "--plan",
-            "stepped-square/stepped-square.plan.yaml",
-        ])
-        .args(["--measured", "moved.csv", "--out", "r.yaml", "--no-record"])
-        .output()
-        .unwrap();
+    let out = analyze("stepped-square", "moved.csv");
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
@@ -808,16 +798,7 @@ fn analyze_plan_points_given_as_the_measurement_are_refused() {
         1,
     );
     std::fs::write(d.join("moved.csv"), &nudged).unwrap();
-    let out = crate::cli::fivecal()
-        .current_dir(d)
-        .args([
-            "analyze",
-            "--plan",
-            "stepped-square/stepped-square.plan.yaml",
-        ])
-        .args(["--measured", "moved.csv", "--out", "r.yaml", "--no-record"])
-        .output()
-        .unwrap();
+    let out = analyze("stepped-square", "moved.csv");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("nominal points"), "{err}");
 }

@@ -183,7 +183,7 @@ pub(super) fn parameters(
                         &format!("between MachAxis {t} and MachAxis C: {t} axis -> C axis"),
                     );
                 }
-                Structure::HeadTable => {
+                Structure::HeadTable | Structure::HeadHead => {
                     let (h, hn) = (head_points(m, g), head_points(m, gn));
                     rows(
                         t,
@@ -192,30 +192,25 @@ pub(super) fn parameters(
                         hn.e - hn.g,
                         &format!("before MachAxis {t}: tool reference point -> {t} axis"),
                     );
-                    rows(
-                        'C',
-                        c_rows,
-                        g.c.nearest(&pivot),
-                        gn.c.nearest(&pivot),
-                        "before MachAxis C: machine datum -> C axis",
-                    );
-                }
-                Structure::HeadHead => {
-                    let (h, hn) = (head_points(m, g), head_points(m, gn));
-                    rows(
-                        t,
-                        tilt_rows,
-                        h.e - h.g,
-                        hn.e - hn.g,
-                        &format!("before MachAxis {t}: tool reference point -> {t} axis"),
-                    );
-                    rows(
-                        'C',
-                        c_rows,
-                        h.f - h.e,
-                        hn.f - hn.e,
-                        &format!("between MachAxis {t} and MachAxis C: {t} axis -> C axis"),
-                    );
+                    // The C table stands on the machine; a C head carries the
+                    // tilt head.
+                    if structure == Structure::HeadTable {
+                        rows(
+                            'C',
+                            c_rows,
+                            g.c.nearest(&pivot),
+                            gn.c.nearest(&pivot),
+                            "before MachAxis C: machine datum -> C axis",
+                        );
+                    } else {
+                        rows(
+                            'C',
+                            c_rows,
+                            h.f - h.e,
+                            hn.f - hn.e,
+                            &format!("between MachAxis {t} and MachAxis C: {t} axis -> C axis"),
+                        );
+                    }
                 }
             }
             // The orientations, for the machine builder: the small rotation
@@ -365,27 +360,17 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 source,
                 ";",
             );
-            let _ = writeln!(
-                s,
-                "; INCREMENTAL entries, never absolute: ADD each change to the COORD of the Trans row of that"
+            s += &format!(
+                "; INCREMENTAL entries, never absolute: ADD each change to the COORD of the Trans row of that
+;   axis letter in the stretch of the description named (insert one there if there is none).
+;   The description runs from the tool reference point; the rows named are the ones before
+;   MachAxis {t} and MachAxis C. Each change is from the value given as now (see change above):
+;   if the table holds an earlier calibration the machine file does not list, the changes are wrong.
+;   Check each row against its value now first: a row holding the negative of it describes that
+;   stretch the other way round; SUBTRACT the change there instead.
+;
+"
             );
-            let _ = writeln!(
-                s,
-                ";   axis letter in the stretch of the description named (insert one there if there is none)."
-            );
-            let _ = writeln!(
-                s,
-                ";   The description runs from the tool reference point; the rows named are the ones before"
-            );
-            let _ = writeln!(
-                s,
-                ";   MachAxis {t} and MachAxis C. Each change is from the value given as now (see change above):"
-            );
-            let _ = writeln!(
-                s,
-                ";   if the table holds an earlier calibration the machine file does not list, the changes are wrong."
-            );
-            let _ = writeln!(s, ";");
             for p in export.parameters.iter().filter(|p| p.entered) {
                 let _ = writeln!(
                     s,
@@ -397,19 +382,11 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                     signed(p.value, 4)
                 );
             }
-            let _ = writeln!(s, ";");
-            let _ = writeln!(
-                s,
-                "; Not written as rows: the axis directions, for the machine builder (a rotation entry of the"
-            );
-            let _ = writeln!(
-                s,
-                ";   table; no public source consulted gives its sign convention, docs/controllers.md), urad,"
-            );
-            let _ = writeln!(
-                s,
-                ";   the right-handed turn about the machine axis named that takes each nominal direction to the actual:"
-            );
+            s += ";
+; Not written as rows: the axis directions, for the machine builder (a rotation entry of the
+;   table; no public source consulted gives its sign convention, docs/controllers.md), urad,
+;   the right-handed turn about the machine axis named that takes each nominal direction to the actual:
+";
             for p in export.parameters.iter().filter(|p| !p.entered) {
                 let _ = writeln!(
                     s,
@@ -443,39 +420,27 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
             // direction 1 is R(-angle) for a table axis.
             match (m.tilt.direction > 0.0, m.c.direction > 0.0) {
                 (true, true) => {
-                    let _ = writeln!(
-                        s,
-                        "# directions: the machine file turns {t} and C by R(-angle) (direction 1), the conventional way;"
+                    s += &format!(
+                        "# directions: the machine file turns {t} and C by R(-angle) (direction 1), the conventional way;
+#   trt-kins does so only with its conventional-directions pin set (below). A LinuxCNC without
+#   that pin refuses the line: reverse both rotary joints there instead (negative scale).
+setp {kins}.conventional-directions 1
+"
                     );
-                    let _ = writeln!(
-                        s,
-                        "#   trt-kins does so only with its conventional-directions pin set (below). A LinuxCNC without"
-                    );
-                    let _ = writeln!(
-                        s,
-                        "#   that pin refuses the line: reverse both rotary joints there instead (negative scale)."
-                    );
-                    let _ = writeln!(s, "setp {kins}.conventional-directions 1");
                 }
                 (false, false) => {
-                    let _ = writeln!(
-                        s,
-                        "# directions: the machine file turns {t} and C by R(+angle) (direction -1), trt-kins's default;"
-                    );
-                    let _ = writeln!(
-                        s,
-                        "#   leave its conventional-directions pin (where it exists) at 0"
+                    s += &format!(
+                        "# directions: the machine file turns {t} and C by R(+angle) (direction -1), trt-kins's default;
+#   leave its conventional-directions pin (where it exists) at 0
+"
                     );
                 }
                 _ => {
-                    let _ = writeln!(
-                        s,
-                        "# directions: the machine file turns {t} by direction {} and C by direction {}; trt-kins turns",
+                    s += &format!(
+                        "# directions: the machine file turns {t} by direction {} and C by direction {}; trt-kins turns
+#   both the same way: reverse the joint of one of them (negative scale) so they agree
+",
                         m.tilt.direction, m.c.direction
-                    );
-                    let _ = writeln!(
-                        s,
-                        "#   both the same way: reverse the joint of one of them (negative scale) so they agree"
                     );
                 }
             }

@@ -1,8 +1,9 @@
 //! The identified location errors as the corrected pivot data of a
 //! controller (`fivecal compensate --export fanuc|heidenhain|linuxcnc`),
 //! each value with its uncertainty and its change from what the control
-//! holds now, refused when a change or an uncertainty is too large or a
-//! value would drive an axis beyond its stroke.
+//! holds now, refused when a change or an uncertainty is too large, a
+//! value would drive an axis beyond its stroke, or none of the errors
+//! reaches a parameter.
 //!
 //! The erroneous machine's rotary axis lines are computed at rotary zero
 //! from the chain ([`geometry`]), in machine coordinates, from the location
@@ -112,9 +113,18 @@ impl Parameter {
 
     /// Whether the change is below what the written value resolves.
     fn unchanged(&self) -> bool {
+        self.below_resolution(self.change())
+    }
+
+    /// Whether the value is the nominal one to the resolution written.
+    fn at_nominal(&self) -> bool {
+        self.below_resolution(self.value - self.nominal)
+    }
+
+    fn below_resolution(&self, d: f64) -> bool {
         match self.kind {
-            Kind::Length => self.change().abs() < 0.5e-4,
-            Kind::Angle => self.change().abs() < 0.5e-2,
+            Kind::Length => d.abs() < 0.5e-4,
+            Kind::Angle => d.abs() < 0.5e-2,
         }
     }
 }
@@ -247,6 +257,19 @@ pub enum ExportError {
         /// The parameters that change, named.
         changed: String,
     },
+    /// Every error of the file is of a kind the controller's parameters do
+    /// not hold: an export would enter the nominal values again.
+    #[error(
+        "--export {controller}: none of the errors in {file} is held by {controller}'s parameters (every one equals the nominal geometry to the resolution written); the file holds only {not_held}; nothing written. Rewrite programs with `fivecal compensate IN -o OUT` (without --export): that compensates them"
+    )]
+    NothingHeld {
+        /// The controller.
+        controller: Dialect,
+        /// The error file.
+        file: String,
+        /// What the file holds, each with why no parameter holds it.
+        not_held: String,
+    },
     /// The machine file lists a current value for a parameter the export
     /// does not write.
     #[error(
@@ -282,6 +305,16 @@ impl Export {
     /// written resolution).
     pub fn changes_nothing(&self) -> bool {
         self.parameters.iter().all(|p| !p.entered || p.unchanged())
+    }
+
+    /// The parameters listed for the machine builder (not entered) whose
+    /// value is not the current one, named (`B.A, C.A`).
+    pub fn listed_changed(&self) -> Vec<&str> {
+        self.parameters
+            .iter()
+            .filter(|p| !p.entered && !p.unchanged())
+            .map(|p| p.name.as_str())
+            .collect()
     }
 
     /// The entered parameters that change, named (`19700, 19702`).
@@ -402,7 +435,8 @@ fn location_units(model: &Model) -> Vec<Option<Unit>> {
 /// The corrected pivot data of `dialect`'s controller for the errors
 /// `theta` (with uncertainties `u`) of `model`; `source` names the error
 /// file in the header. Refused, with nothing produced, when a change or a
-/// `u` is beyond `limits` or a value would drive an axis beyond its stroke.
+/// `u` of a value to enter is beyond `limits`, a value would drive an axis
+/// beyond its stroke, or the file has errors and none reaches a parameter.
 pub fn export(
     model: &Model,
     theta: &[f64],
@@ -493,7 +527,23 @@ pub fn export(
         &model.perturbation(&theta_pos, &Context::default()),
         &export,
     )?;
-    let text = controllers::render(m, &export, &not_held(model, theta, dialect), source);
+    let not_held = not_held(model, theta, dialect);
+    // Errors there are, and none reaches a parameter: an export that
+    // enters the nominal values again compensates nothing.
+    if export.changes_nothing()
+        && export
+            .parameters
+            .iter()
+            .all(|p| p.unchanged() && p.at_nominal())
+        && !not_held.is_empty()
+    {
+        return Err(ExportError::NothingHeld {
+            controller: dialect,
+            file: source.to_string(),
+            not_held: not_held.join("; "),
+        });
+    }
+    let text = controllers::render(m, &export, &not_held, source);
     Ok(Export { text, ..export })
 }
 
@@ -626,15 +676,18 @@ fn check_strokes(
     Ok(())
 }
 
-/// What the error file holds that no parameter of `dialect` holds: the
-/// zero points and (but for HEIDENHAIN's list for the machine builder) the
-/// orientations of the axes, maps, drift, linear-axis, tool and probe
-/// errors.
+/// What the error file holds, not zero, that no parameter of `dialect`
+/// holds: the zero points and (but for HEIDENHAIN's list for the machine
+/// builder) the orientations of the axes, maps, drift, linear-axis, tool
+/// and probe errors.
 fn not_held(model: &Model, theta: &[f64], dialect: Dialect) -> Vec<String> {
     let mut out = Vec::new();
     let sym = &model.symbols;
     for (i, e) in model.effects.iter().enumerate() {
         let r = model.param_range(i);
+        if theta[r.clone()].iter().all(|&v| v == 0.0) {
+            continue;
+        }
         match e {
             Effect::Location { symbols } => {
                 for (k, &s) in symbols.iter().enumerate() {

@@ -437,6 +437,36 @@ fn no_value_drives_an_axis_beyond_its_stroke() {
     for d in [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc] {
         assert!(run(&m, ok, d).is_ok(), "{d}");
     }
+    // A head machine: the table's C axis 50 um further in X takes the W
+    // origin, and the spindle over it at B = 0, beyond an X stroke that
+    // ends 30 um past the pivot (the poses at B = 30 and -120 are out of
+    // reach already nominally, so only B = 0 decides).
+    let src = builtin("head-table")
+        .source
+        .replace("X: [0, 735]", "X: [0, 367.53]");
+    let m = Machine::from_yaml(std::path::Path::new("m.yaml"), &src).unwrap();
+    for d in [Dialect::Fanuc, Dialect::Heidenhain] {
+        let e = run(
+            &m,
+            "machine: head-table\nlocation_errors: {EX0C: 50.0}\n",
+            d,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, ExportError::Stroke { axis: 'X', tilt, .. } if tilt == 0.0),
+            "{d}: {e}"
+        );
+        assert!(e.to_string().contains("drive X to 367.5500 mm"), "{d}: {e}");
+        assert!(
+            run(
+                &m,
+                "machine: head-table\nlocation_errors: {EX0C: 20.0}\n",
+                d
+            )
+            .is_ok(),
+            "{d}"
+        );
+    }
 }
 
 #[test]
@@ -486,6 +516,59 @@ fn an_export_of_zero_errors_changes_nothing_and_says_so() {
     .unwrap();
     assert!(!f.changes_nothing());
     assert_eq!(f.changed(), vec!["19700"]);
+}
+
+#[test]
+fn an_export_that_holds_none_of_the_errors_is_refused() {
+    // A zero point and an orientation: no position parameter holds them
+    // (FANUC, LinuxCNC); the zero point is no axis direction either
+    // (HEIDENHAIN's list for the machine builder).
+    let m = builtin("bc-trunnion");
+    for (d, yaml) in [
+        (
+            Dialect::Fanuc,
+            "machine: bc-trunnion\nlocation_errors: {EB0B: 150.0, EA0B: 30.0}\n",
+        ),
+        (
+            Dialect::Linuxcnc,
+            "machine: bc-trunnion\nlocation_errors: {EB0B: 150.0, EA0B: 30.0}\n",
+        ),
+        (
+            Dialect::Heidenhain,
+            "machine: bc-trunnion\nlocation_errors: {EB0B: 150.0}\n",
+        ),
+    ] {
+        let e = run(&m, yaml, d).unwrap_err();
+        assert!(
+            matches!(&e, ExportError::NothingHeld { not_held, .. } if not_held.contains("EB0B = 150.00 urad")),
+            "{d}: {e}"
+        );
+        assert!(e.to_string().contains("nothing written"), "{e}");
+    }
+    // A map alone, likewise.
+    let map = "machine: bc-trunnion\nlocation_errors: {EX0B: 0.0}\nposition_dependent:\n  EBB(B): {B: [-90, 0, 90], values: [38.79, -9.59, -29.2]}\n";
+    let e = run(&m, map, Dialect::Fanuc).unwrap_err();
+    assert!(e.to_string().contains("map.EBB(B)"), "{e}");
+    // An orientation HEIDENHAIN lists for the builder: written, nothing to
+    // enter, the list named.
+    let h = run(
+        &m,
+        "machine: bc-trunnion\nlocation_errors: {EA0B: 30.0}\n",
+        Dialect::Heidenhain,
+    )
+    .unwrap();
+    assert!(h.changes_nothing());
+    assert_eq!(h.listed_changed(), vec!["B.A", "C.A"]);
+    // A file of zeros holds nothing to refuse: it changes nothing, and the
+    // command says so.
+    let z = run(
+        &m,
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 0.0, EB0B: 0.0}\n",
+        Dialect::Fanuc,
+    )
+    .unwrap();
+    assert!(z.changes_nothing());
+    assert!(z.text.contains("(nothing)"), "{}", z.text);
 }
 
 #[test]

@@ -390,6 +390,21 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         Some(_) => Some(cfg.record.open()?),
         None => None,
     };
+    // The export is computed before the program is rewritten: refused (a
+    // limit, a stroke, nothing held), the run writes nothing at all.
+    let exported = match &cfg.export {
+        Some((d, _)) => Some(export::export(
+            &cfg.errors.model,
+            &cfg.errors.theta,
+            &cfg.errors.u,
+            *d,
+            &cfg.errors_path.display().to_string(),
+            &cfg.limits,
+        )?),
+        None => None,
+    };
+    // What the run leaves as it was, said in its last line.
+    let mut copy: Option<String> = None;
     if let Some((input, output)) = &cfg.rewrite {
         let file = fivecal::input::open_stream(input, "NC program")?;
         let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, cfg.settings.clone());
@@ -404,12 +419,25 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
                 "{}: none of its {} moves could be rewritten ({}); nothing written",
                 input.display(),
                 summary.moves,
-                summary
-                    .skipped
-                    .iter()
-                    .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
-                    .collect::<Vec<_>>()
-                    .join("; ")
+                reasons(&summary.skipped)
+            );
+        }
+        let any_error = cfg.errors.theta.iter().any(|&v| v != 0.0);
+        let felt = |l: Option<fivecal::compensate::Largest>| l.is_some_and(|l| l.value > 1e-6);
+        if unchanged && any_error && !felt(summary.largest_linear) && !felt(summary.largest_rotary)
+        {
+            // Errors there are, and not one moves a pose this program
+            // writes (a tool radius error, a probing effect): a copy is not
+            // what was asked for.
+            bail!(
+                "{}: its errors move no tool pose of {} ({}); nothing written",
+                cfg.errors_path.display(),
+                input.display(),
+                if summary.not_compensated.is_empty() {
+                    "none is of a kind a rewrite corrects".to_string()
+                } else {
+                    summary.not_compensated.join("; ")
+                }
             );
         }
         out.commit()?;
@@ -417,94 +445,123 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         if unchanged {
             // Legitimate (a machine whose errors are all but zero), but
             // never silent.
-            outln!(
-                "nothing changed: every correction is below the resolution written ({} decimals in mm, {} in deg); {} is a copy of {}",
-                cfg.settings.linear_decimals,
-                cfg.settings.rotary_decimals,
+            let why = if any_error {
+                format!(
+                    "every correction is below the resolution written ({} decimals in mm, {} in deg)",
+                    cfg.settings.linear_decimals, cfg.settings.rotary_decimals
+                )
+            } else {
+                format!(
+                    "{} holds no error (every value 0)",
+                    cfg.errors_path.display()
+                )
+            };
+            copy = Some(format!(
+                "{why}: {} is a copy of {}",
                 output.display(),
                 input.display()
-            );
+            ));
         }
     }
-    if let Some((d, target)) = &cfg.export {
-        let exported = export::export(
-            &cfg.errors.model,
-            &cfg.errors.theta,
-            &cfg.errors.u,
-            *d,
-            &cfg.errors_path.display().to_string(),
-            &cfg.limits,
-        )?;
-        let text = &exported.text;
-        match target {
-            Some(p) => {
-                fivecal::io::write_atomic(p, text.as_bytes())?;
-                outln!("{d} parameters written to {}:", p.display());
-                for line in exported.table() {
-                    outln!("  {line}");
-                }
+    let Some(((d, target), exported)) = cfg.export.as_ref().zip(exported) else {
+        if let Some(c) = copy {
+            outln!("nothing changed: {c}");
+        }
+        return Ok(());
+    };
+    let text = &exported.text;
+    match target {
+        Some(p) => {
+            fivecal::io::write_atomic(p, text.as_bytes())?;
+            outln!("{d} parameters written to {}:", p.display());
+            for line in exported.table() {
+                outln!("  {line}");
             }
-            None => out!("{text}"),
         }
-        if let Some(r) = &mut recorder {
-            let content = std::fs::read_to_string(&cfg.errors_path).with_context(|| {
-                format!("cannot read {} to record it", cfg.errors_path.display())
-            })?;
-            let rec = fivecal::store::runs::export(
-                &cfg.common.machine.name,
-                &cfg.errors_path,
-                &content,
-                &d.to_string(),
-                text,
-                &cfg.record.notes,
-            )?;
-            // Beside parameters printed to standard output, the note goes
-            // to standard error.
-            let to_stdout = target.is_some();
-            r.save(&[rec], &|s| {
-                if to_stdout {
-                    outln!("{s}")
-                } else {
-                    eprintln!("{s}")
-                }
-            })?;
-        }
-        // Beside parameters on standard output, the notes go to standard
-        // error; the last says whether anything changes.
-        let note = |s: String| {
-            if target.is_some() {
+        None => out!("{text}"),
+    }
+    if let Some(r) = &mut recorder {
+        let content = std::fs::read_to_string(&cfg.errors_path)
+            .with_context(|| format!("cannot read {} to record it", cfg.errors_path.display()))?;
+        let rec = fivecal::store::runs::export(
+            &cfg.common.machine.name,
+            &cfg.errors_path,
+            &content,
+            &d.to_string(),
+            text,
+            &cfg.record.notes,
+        )?;
+        // Beside parameters printed to standard output, the note goes
+        // to standard error.
+        let to_stdout = target.is_some();
+        r.save(&[rec], &|s| {
+            if to_stdout {
                 outln!("{s}")
             } else {
                 eprintln!("{s}")
             }
-        };
-        let without = exported.without_u();
-        if !without.is_empty() {
-            note(format!(
-                "note: {} gives no u for what {} depend on: --max-u not checked for them (an analyze result has u; a truth file has none)",
-                cfg.errors_path.display(),
-                without.join(", ")
-            ));
-        }
-        let from = if exported.from_current {
-            "what the control holds now (the machine file's controller_parameters)"
+        })?;
+    }
+    // Beside parameters on standard output, the notes go to standard
+    // error; the last says whether anything changes.
+    let note = |s: String| {
+        if target.is_some() {
+            outln!("{s}")
         } else {
-            "the machine file's nominal geometry"
-        };
-        if exported.changes_nothing() {
-            note(format!(
-                "nothing to change: every {d} parameter to enter equals {from} to the resolution written"
-            ));
-        } else {
-            note(format!(
-                "{} of {} {d} parameters to enter change from {from}: {}",
-                exported.changed().len(),
-                exported.parameters.iter().filter(|p| p.entered).count(),
-                exported.changed().join(", ")
-            ));
+            eprintln!("{s}")
         }
+    };
+    let without = exported.without_u();
+    if !without.is_empty() {
+        note(format!(
+            "note: {} gives no u for what {} depend on: --max-u not checked for them (an analyze result has u; a truth file has none)",
+            cfg.errors_path.display(),
+            without.join(", ")
+        ));
+    }
+    let from = if exported.from_current {
+        "what the control holds now (the machine file's controller_parameters)"
+    } else {
+        "the machine file's nominal geometry"
+    };
+    let listed = exported.listed_changed();
+    let listed = if listed.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; listed for the machine builder, not entered: {}",
+            listed.join(", ")
+        )
+    };
+    let parameters = if exported.changes_nothing() {
+        format!("every {d} parameter to enter equals {from} to the resolution written{listed}")
+    } else {
+        format!(
+            "{} of {} {d} parameters to enter change from {from}: {}{listed}",
+            exported.changed().len(),
+            exported.parameters.iter().filter(|p| p.entered).count(),
+            exported.changed().join(", ")
+        )
+    };
+    match (copy, exported.changes_nothing()) {
+        (Some(c), true) => note(format!("nothing changed: {c}, and {parameters}")),
+        (Some(c), false) => {
+            note(parameters);
+            note(format!("program unchanged: {c}"));
+        }
+        (None, true) => note(format!("nothing to change: {parameters}")),
+        (None, false) => note(parameters),
     }
     Ok(())
+}
+
+/// Moves left out, by reason: `why: lines 3, 7; why: lines 9`.
+pub fn reasons(skipped: &[(String, fivecal::compensate::Lines)]) -> String {
+    skipped
+        .iter()
+        .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// The summary a user reads after a rewrite.

@@ -10,7 +10,7 @@ use clap::Args;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
 
-use super::compensate::{MachineArgs, load_errors};
+use super::compensate::{MachineArgs, load_errors, reasons};
 
 #[derive(Args, Debug)]
 pub struct SimulateNcArgs {
@@ -114,12 +114,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         bail!(
             "{}: no move of it could be simulated ({}); nothing written",
             args.program.display(),
-            summary
-                .skipped
-                .iter()
-                .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
-                .collect::<Vec<_>>()
-                .join("; ")
+            reasons(&summary.skipped)
         );
     }
     if let Some(out) = &args.output {
@@ -211,6 +206,17 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     }
     if let Some(out) = &args.measured {
         outln!("  simulated CMM points written to {}", out.display());
+    }
+    // A machine on which the program runs as on the nominal one: an answer
+    // (a compensated program, a perfect machine), but never a silent one.
+    if summary
+        .max_um
+        .is_some_and(|m| m.value < 0.005 && summary.max_axis_urad < 0.05)
+    {
+        outln!(
+            "no error: on this machine every sample of the program lies where the nominal machine puts it (within 0.005 um and 0.05 urad): {} moves none of them",
+            args.errors.display()
+        );
     }
     Ok(())
 }
