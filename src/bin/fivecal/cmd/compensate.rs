@@ -454,6 +454,31 @@ fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
             s.held_tilt_axis_error
         );
     }
+    match s.coordinates.as_slice() {
+        [] => {}
+        [one] => {
+            let _ = writeln!(t, "  coordinates: {} ({})", one.meaning, one.why);
+        }
+        many => {
+            let _ = writeln!(t, "  coordinates, section by section:");
+            for c in many {
+                let _ = writeln!(
+                    t,
+                    "    lines {}-{}: {} ({})",
+                    c.lines.0, c.lines.1, c.meaning, c.why
+                );
+            }
+        }
+    }
+    if !s.unmodelled.is_empty() {
+        let _ = writeln!(
+            t,
+            "  kept as written, effect not modelled (--strict refuses them):"
+        );
+        for (what, lines) in &s.unmodelled {
+            let _ = writeln!(t, "    {what}: lines {}", lines.list());
+        }
+    }
     if s.skipped.is_empty() {
         let _ = writeln!(t, "  no move left as written");
     } else {
