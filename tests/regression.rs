@@ -592,3 +592,40 @@ fn compensate_reports_unknown_m_codes_g10_and_foreign_addresses_at_their_own_lin
     });
     assert!(e.is_ok(), "M64 is LinuxCNC's own: {e:?}");
 }
+
+/// `compensate --note` without `--export` was accepted and silently
+/// dropped (a program rewrite is not recorded): it is refused, naming the
+/// flag, before anything is written.
+#[test]
+fn compensate_note_without_export_is_refused_not_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = dir.path().join("p.ngc");
+    std::fs::write(&prog, "G0 X0 Y0 Z10 B0 C0\nM2\n").unwrap();
+    let errs = dir.path().join("e.yaml");
+    std::fs::write(
+        &errs,
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 3.0}\n",
+    )
+    .unwrap();
+    let out = dir.path().join("o.ngc");
+    let run = crate::cli::fivecal()
+        .args([
+            "compensate",
+            "--machine",
+            "bc-trunnion",
+            "--dialect",
+            "linuxcnc",
+        ])
+        .arg("--errors")
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(&out)
+        .args(["--note", "after the crash"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{err}");
+    assert!(err.contains("--note") && err.contains("--export"), "{err}");
+    assert!(!out.exists());
+}

@@ -326,6 +326,13 @@ impl CompensateArgs {
                 .map(|t| ("--export-to", t, Shape::File)),
         );
         check_outputs(&inputs, &outputs)?;
+        if export.is_none()
+            && let Some(flag) = self.record.first_given()
+        {
+            bail!(
+                "{flag} goes with a record, and compensate records only an export (--export): a rewritten program is not recorded"
+            );
+        }
         let record = self.record.validate()?;
         Ok(Config {
             record,
