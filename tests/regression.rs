@@ -858,3 +858,81 @@ fn export_of_an_implausible_error_is_refused_with_the_parameter_named() {
         assert!(out.is_empty(), "{d}: {out}");
     }
 }
+
+/// `--strict` let unknown M functions and G10 work-offset changes pass,
+/// and an address the machine lacks (`W5`) or an unknown G code alone in a
+/// block went unreported (issue 16): each is named at its own line, the
+/// moves in an offset G10 changed are left as written, and `--strict`
+/// refuses at the line and column.
+#[test]
+fn compensate_reports_unknown_m_codes_g10_and_foreign_addresses_at_their_own_line() {
+    let program = "G54\nG0 X0 Y0 Z10 B0 C0\nM77\nG1 X10 Y0 Z0 F100\nG777\nW5\nG10 L2 P2 X5\nG1 X12 Y0 Z0\nG10 L2 P1 X5\nG1 X14 Y0 Z0\nG55\nG1 X15 Y0 Z0\nM2\n";
+    let (out, s) = compensate_text(program, "{EX0B: 30.0}", |_| {}).unwrap();
+    let lines_of = |list: &[(String, fivecal::compensate::Lines)], needle: &str| {
+        list.iter()
+            .find(|(w, _)| w.contains(needle))
+            .map(|(_, l)| l.first.clone())
+            .unwrap_or_else(|| panic!("no `{needle}` in {list:?}"))
+    };
+    assert_eq!(lines_of(&s.unmodelled, "M77"), vec![3]);
+    assert_eq!(lines_of(&s.unmodelled, "`G777`"), vec![5]);
+    assert_eq!(lines_of(&s.unmodelled, "G10"), vec![7, 9]);
+    assert_eq!(lines_of(&s.skipped, "axis W"), vec![6]);
+    // G10 on G55 (P2) leaves G54 as it was: line 8 is corrected; on G54
+    // (P1) it is not, and neither is G55 afterwards.
+    assert_eq!(lines_of(&s.skipped, "G10 L2/L20"), vec![10, 12]);
+    let row = |n: usize| out.lines().nth(n - 1).unwrap().to_string();
+    assert_ne!(row(8), "G1 X12 Y0 Z0", "{out}");
+    assert_eq!(row(10), "G1 X14 Y0 Z0");
+    assert_eq!(row(12), "G1 X15 Y0 Z0");
+    for (block, what) in [
+        ("M77", "p.ngc:2:1: M77"),
+        ("N5 G10 L2 P1 X5", "p.ngc:2:4: G10"),
+    ] {
+        let cut = format!("G0 X0 Y0 Z10 B0 C0\n{block}\nM2\n");
+        let e = compensate_text(&cut, "{EX0B: 30.0}", |s| s.strict = true).unwrap_err();
+        assert!(e.starts_with(what) && e.contains("--strict"), "{e}");
+    }
+    // LinuxCNC's own M functions (M64: a digital output) are known.
+    let e = compensate_text("G0 X0 Y0 Z10 B0 C0\nM64 P1\nM2\n", "{EX0B: 30.0}", |s| {
+        s.strict = true
+    });
+    assert!(e.is_ok(), "M64 is LinuxCNC's own: {e:?}");
+}
+
+/// `compensate --note` without `--export` was accepted and silently
+/// dropped (a program rewrite is not recorded): it is refused, naming the
+/// flag, before anything is written.
+#[test]
+fn compensate_note_without_export_is_refused_not_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let prog = dir.path().join("p.ngc");
+    std::fs::write(&prog, "G0 X0 Y0 Z10 B0 C0\nM2\n").unwrap();
+    let errs = dir.path().join("e.yaml");
+    std::fs::write(
+        &errs,
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 3.0}\n",
+    )
+    .unwrap();
+    let out = dir.path().join("o.ngc");
+    let run = crate::cli::fivecal()
+        .args([
+            "compensate",
+            "--machine",
+            "bc-trunnion",
+            "--dialect",
+            "linuxcnc",
+        ])
+        .arg("--errors")
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(&out)
+        .args(["--note", "after the crash"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{err}");
+    assert!(err.contains("--note") && err.contains("--export"), "{err}");
+    assert!(!out.exists());
+}

@@ -359,6 +359,13 @@ impl CompensateArgs {
                 .map(|t| ("--export-to", t, Shape::File)),
         );
         check_outputs(&inputs, &outputs)?;
+        if export.is_none()
+            && let Some(flag) = self.record.first_given()
+        {
+            bail!(
+                "{flag} goes with a record, and compensate records only an export (--export): a rewritten program is not recorded"
+            );
+        }
         let record = self.record.validate()?;
         let defaults = export::Limits::default();
         let (change_mm, change_mrad) =
@@ -620,6 +627,31 @@ fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
             s.held_tilt.list(),
             s.held_tilt_axis_error
         );
+    }
+    match s.coordinates.as_slice() {
+        [] => {}
+        [one] => {
+            let _ = writeln!(t, "  coordinates: {} ({})", one.meaning, one.why);
+        }
+        many => {
+            let _ = writeln!(t, "  coordinates, section by section:");
+            for c in many {
+                let _ = writeln!(
+                    t,
+                    "    lines {}-{}: {} ({})",
+                    c.lines.0, c.lines.1, c.meaning, c.why
+                );
+            }
+        }
+    }
+    if !s.unmodelled.is_empty() {
+        let _ = writeln!(
+            t,
+            "  kept as written, effect not modelled (--strict refuses them):"
+        );
+        for (what, lines) in &s.unmodelled {
+            let _ = writeln!(t, "    {what}: lines {}", lines.list());
+        }
     }
     if s.skipped.is_empty() {
         let _ = writeln!(t, "  no move left as written");

@@ -201,6 +201,9 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     for (reason, lines) in &summary.skipped {
         outln!("  not simulated: {reason}: lines {}", lines.list());
     }
+    for (what, lines) in &summary.unmodelled {
+        outln!("  effect not modelled: {what}: lines {}", lines.list());
+    }
     if let Some(out) = &args.output {
         outln!("  samples written to {}", out.display());
     }
