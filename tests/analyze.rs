@@ -407,6 +407,7 @@ pub fn plan_dir_with(
         .into_iter()
         .collect(),
         poses,
+        identifies: None,
     };
     let path = dir.join(format!("{test}.plan.yaml"));
     std::fs::write(&path, manifest.to_yaml()).unwrap();

@@ -195,10 +195,24 @@ fn a_drifting_piece_is_flagged_refused_then_discovered_and_accepted() {
         "{err}"
     );
     assert!(refused.stdout.is_empty());
+    // Accepted, the misfit's widened u still meets --max-u (the export's
+    // own guard), which a user taking it anyway must widen as well.
+    let wide_u = fivecal()
+        .args(["compensate", "--machine", "bc-trunnion", "--errors"])
+        .arg(p("r.yaml"))
+        .args(["--export", "fanuc", "--no-record", "--accept-misfit"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8(wide_u.stderr).unwrap();
+    assert!(
+        !wide_u.status.success() && err.contains("parameter 19700") && err.contains("--max-u"),
+        "{err}"
+    );
     fivecal()
         .args(["compensate", "--machine", "bc-trunnion", "--errors"])
         .arg(p("r.yaml"))
         .args(["--export", "fanuc", "--no-record", "--accept-misfit"])
+        .args(["--max-u", "0.05"])
         .assert()
         .success();
 

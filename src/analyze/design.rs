@@ -13,6 +13,7 @@ use std::fmt::Write as _;
 use super::fit::ExpectedNoise;
 use super::{AnalyzeError, method};
 use crate::errorfile::ErrorFile;
+use crate::formats::manifest::{Identifies, PredictedSymbol};
 use crate::identify::sphere::{CircleMethod, SphereOptions};
 use crate::identify::{Method, Setup};
 use crate::procedure::{Plan, Test};
@@ -100,6 +101,38 @@ impl Prediction {
             let _ = writeln!(s, "  not separable: {c}");
         }
         s
+    }
+
+    /// The manifest's `identifies:` entry. An uncertainty that is not a
+    /// finite number is left out with the reason, never written.
+    pub fn manifest_entry(&self) -> Identifies {
+        Identifies {
+            method: self.method.to_string(),
+            noise_um: self.noise.um,
+            rank: self.rank.0,
+            parameters: self.rank.1,
+            symbols: self
+                .rows
+                .iter()
+                .map(|r| {
+                    let u = r.u.filter(|u| u.is_finite());
+                    let reason = match (u, r.u) {
+                        (Some(_), _) => None,
+                        (None, Some(_)) => Some("its uncertainty is not finite".to_string()),
+                        (None, None) => r.reason.clone(),
+                    };
+                    (
+                        r.symbol.clone(),
+                        PredictedSymbol {
+                            unit: r.unit.clone(),
+                            u,
+                            reason,
+                        },
+                    )
+                })
+                .collect(),
+            not_separable: self.unseen.clone(),
+        }
     }
 
     /// The setup sheet's section (Markdown).

@@ -339,10 +339,13 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let exported = crate::compensate::export::export(
         &identified.model,
         &identified.theta,
+        &identified.u,
         Dialect::Fanuc,
         &final_path.display().to_string(),
+        &crate::compensate::export::Limits::default(),
     )
-    .at(e)?;
+    .at(e)?
+    .text;
     let export_path = out.join("export.fanuc.txt");
     write_atomic(&export_path, exported.as_bytes()).at(e)?;
     files.push(rel(out, &export_path));

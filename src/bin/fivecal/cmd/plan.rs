@@ -325,6 +325,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             planned.test().as_str(),
             &inputs,
             &predicted.markdown(),
+            Some(&predicted.manifest_entry()),
         )
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     match &planned {
