@@ -117,6 +117,8 @@ fn json_story_has_the_steps_with_values_uncertainties_and_gaps() {
         for r in st["rivals"].as_array().unwrap() {
             assert!(r["exactly_indistinguishable"].is_boolean(), "{r}");
         }
+        // The effect goes by one name: no second identifier beside it.
+        assert!(st.get("effect").is_none(), "{st}");
     }
     for v in j["end"]["values"].as_array().unwrap() {
         names.push(v["name"].as_str().unwrap());

@@ -140,7 +140,10 @@ pub struct Step {
     pub step: usize,
     /// The candidate's name (`drift.EZ0B/seq`).
     pub name: String,
-    /// The effect's identifier in the model's catalogue (`drift.EZ0B`).
+    /// The effect's identifier in the model's catalogue (`drift.EZ0B`),
+    /// for grouping; the story names the effect by `name` only (one name
+    /// per effect in the text and the JSON).
+    #[serde(skip)]
     pub effect: String,
     /// What it is.
     pub description: String,
