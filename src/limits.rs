@@ -19,6 +19,10 @@ pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// together); fivecal's own files nest at most five.
 pub const MAX_YAML_DEPTH: usize = 64;
 
+/// Deepest nesting of an NC expression (brackets and chained `#`
+/// parameter references together): FANUC allows five levels of brackets.
+pub const MAX_EXPR_DEPTH: usize = 64;
+
 /// Longest piece of the input an error message echoes, characters (cut
 /// to its first line as well).
 pub const ECHO_CHARS: usize = 60;

@@ -506,6 +506,24 @@ fn compensate_deeply_nested_brackets_are_refused_without_overflowing() {
     assert_eq!(s.unreadable, vec![2]);
 }
 
+/// A chain of 200,000 `#` (`##...#1`, a parameter whose number is a
+/// parameter ...) overflowed the stack as brackets did: it counts towards
+/// the same depth, and the error names the line and the column of the
+/// level too many.
+#[test]
+fn compensate_deeply_chained_parameters_are_refused_at_their_column() {
+    let program = format!(
+        "G0 X0 Y0 Z10 B0 C0\nG1 X{}1 F100\nM2\n",
+        "#".repeat(200_000)
+    );
+    let e = compensate_text(&program, "{EX0B: 30.0}", |s| s.strict = true).unwrap_err();
+    let column = "G1 X".len() + fivecal::limits::MAX_EXPR_DEPTH + 2;
+    assert!(
+        e.contains(&format!("p.ngc:2:{column}:")) && e.contains("nested deeper than 64"),
+        "{e}"
+    );
+}
+
 /// A raised --max-correction let a correction drive an axis beyond its
 /// stroke (issue 16): a program at B = 90 (the limit of bc-trunnion) with
 /// an error that needs B beyond it by far more than a hold can absorb is
