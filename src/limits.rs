@@ -58,6 +58,12 @@ pub const MIN_SAMPLE_STEP_MM: f64 = 0.001;
 pub const MAX_SAMPLES: usize = 2_000_000;
 /// Finest `compensate --tolerance`, um (below any control's resolution).
 pub const MIN_TOLERANCE_UM: f64 = 0.01;
+/// Largest value of an axis, centre or radius word `compensate` and
+/// `simulate nc` follow, mm (deg for the rotary axes): FANUC and
+/// HEIDENHAIN take five integer digits (99999.999), so a larger value is a
+/// control's alarm. Such a block is left as written, as a control would
+/// not run it.
+pub const MAX_NC_VALUE: f64 = 100_000.0;
 /// Most Monte-Carlo runs of `analyze --mc`.
 pub const MAX_MC_RUNS: usize = 100_000;
 

@@ -561,3 +561,30 @@ fn compensate_never_drives_a_rotary_axis_beyond_its_stroke() {
     );
     assert!(out.is_empty() || out == beyond, "{out}");
 }
+
+/// Axis, centre and radius values beyond a control's five integer digits
+/// (a J of 1e58 after a damaged edit, X of 1e47): the arc's centre was
+/// lost in floating point and compensate at zero error refused the
+/// program ("cannot be followed even in 65536 pieces", "a correction of
+/// 2e34 um"). A control alarms there: the block is left as written with
+/// the reason, the axis forgotten until a block sets it again.
+#[test]
+fn compensate_leaves_values_beyond_a_control_s_range_as_written() {
+    let huge = format!("{}.5", "9".repeat(58));
+    let program = format!(
+        "G21 G90 G17\nG0 X-20 Y20 Z5 B20 C90\nG2 X-30 Y10 I-10 J{huge} F600\nG1 X{huge} Y10\nG1 X5 Y5\nM2\n"
+    );
+    for errors in ["{EX0B: 0.0}", "{EX0B: 30.0}"] {
+        let (out, s) = compensate_text(&program, errors, |_| {}).unwrap();
+        let lines: Vec<&str> = out.lines().collect();
+        assert_eq!(lines[2], format!("G2 X-30 Y10 I-10 J{huge} F600"));
+        assert_eq!(lines[3], format!("G1 X{huge} Y10"));
+        let beyond = |letter: &str, line: usize| {
+            s.skipped.iter().any(|(why, at)| {
+                why.starts_with(&format!("{letter} value beyond what a control takes"))
+                    && at.contains(&line)
+            })
+        };
+        assert!(beyond("J", 3) && beyond("X", 4), "{s:?}");
+    }
+}
