@@ -588,3 +588,24 @@ fn compensate_leaves_values_beyond_a_control_s_range_as_written() {
         assert!(beyond("J", 3) && beyond("X", 4), "{s:?}");
     }
 }
+
+/// A program whose lines end in a bare CR (old Mac files) was read as one
+/// block of the whole file: `compensate` reported 1 block, 0 moves and
+/// exit 0 with nothing corrected (and a large such file grew one block
+/// without bound). It is read line by line, corrected like its LF twin,
+/// and keeps its CR line ends.
+#[test]
+fn compensate_reads_a_program_whose_lines_end_in_a_bare_cr() {
+    let lf = "G21 G90 G17\nG0 X0 Y0 Z10 B0 C0\nG1 X10 Y5 Z2 B10 F100\nM2\n";
+    let cr = lf.replace('\n', "\r");
+    let (out_lf, s_lf) = compensate_text(lf, "{EX0B: 30.0}", |_| {}).unwrap();
+    let (out_cr, s_cr) = compensate_text(&cr, "{EX0B: 30.0}", |_| {}).unwrap();
+    assert_eq!(
+        (s_cr.blocks, s_cr.moves, s_cr.changed),
+        (4, 2, 2),
+        "{s_cr:?}"
+    );
+    assert_eq!(out_cr, out_lf.replace('\n', "\r"));
+    assert_eq!(s_lf.changed, s_cr.changed);
+    assert!(!out_cr.contains('\n'));
+}

@@ -141,7 +141,7 @@ fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
     let mut le = 0;
     if s.ends_with(b"\r\n") {
         le = 2;
-    } else if s.ends_with(b"\n") {
+    } else if s.ends_with(b"\n") || s.ends_with(b"\r") {
         le = 1;
     }
     n -= le;
