@@ -58,6 +58,9 @@ pub const MIN_SAMPLE_STEP_MM: f64 = 0.001;
 pub const MAX_SAMPLES: usize = 2_000_000;
 /// Finest `compensate --tolerance`, um (below any control's resolution).
 pub const MIN_TOLERANCE_UM: f64 = 0.01;
+/// Most pieces `compensate` splits one move into to stay within its
+/// tolerance (an arc of a hundred million turns is refused, not made).
+pub const MAX_PIECES: usize = 1 << 16;
 /// Largest value of an axis, centre or radius word `compensate` and
 /// `simulate nc` follow, mm (deg for the rotary axes): FANUC and
 /// HEIDENHAIN take five integer digits (99999.999), so a larger value is a

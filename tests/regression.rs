@@ -562,6 +562,65 @@ fn compensate_never_drives_a_rotary_axis_beyond_its_stroke() {
     assert!(out.is_empty() || out == beyond, "{out}");
 }
 
+/// A program whose lines end in a bare CR (old Mac files) was read as one
+/// block of the whole file: `compensate` reported 1 block, 0 moves and
+/// exit 0 with nothing corrected (and a large such file grew one block
+/// without bound). It is read line by line, corrected like its LF twin,
+/// and keeps its CR line ends.
+#[test]
+fn compensate_reads_a_program_whose_lines_end_in_a_bare_cr() {
+    let lf = "G21 G90 G17\nG0 X0 Y0 Z10 B0 C0\nG1 X10 Y5 Z2 B10 F100\nM2\n";
+    let cr = lf.replace('\n', "\r");
+    let (out_lf, s_lf) = compensate_text(lf, "{EX0B: 30.0}", |_| {}).unwrap();
+    let (out_cr, s_cr) = compensate_text(&cr, "{EX0B: 30.0}", |_| {}).unwrap();
+    assert_eq!(
+        (s_cr.blocks, s_cr.moves, s_cr.changed),
+        (4, 2, 2),
+        "{s_cr:?}"
+    );
+    assert_eq!(out_cr, out_lf.replace('\n', "\r"));
+    assert_eq!(s_lf.changed, s_cr.changed);
+    assert!(!out_cr.contains('\n'));
+}
+
+/// Found by the NC property tests, at zero error: a value written with
+/// more decimals than a float holds (`Y-20.00099999999999999999999999`)
+/// was rewritten for floating-point noise (`-20.000999999999998`).
+#[test]
+fn compensate_at_zero_error_keeps_lexemes_longer_than_a_float() {
+    let program =
+        "G21 G90 G17\nG0 X10 Y20 Z5 B25 C65\nG1 X10 Y-20.00099999999999999999999999 F100\nM2\n";
+    let (out, s) = compensate_text(program, "{EX0B: 0.0}", |_| {}).unwrap();
+    assert_eq!(out, program);
+    assert_eq!((s.changed, s.inserted), (0, 0), "{s:?}");
+}
+
+/// Found by the NC property tests, at zero error: an arc during which B
+/// moves (`G2 X-10b.000 ...`, a `b` typed into X-10.000) was linearized
+/// although nothing needed correcting. It stays as written; with a real
+/// error it is still linearized (tests/compensate.rs checks its path).
+#[test]
+fn compensate_at_zero_error_keeps_arcs_that_turn_the_rotary_axes() {
+    let program = "G21 G90 G17\nG0 X10 Y20 Z5 B25 C65\nG2 X-10b.000 Y20.000 I-10.000 J0 F100\nG3 X10 Y20 I10 J0 B25 C80\nM2\n";
+    let (out, s) = compensate_text(program, "{EX0B: 0.0}", |_| {}).unwrap();
+    assert_eq!(out, program);
+    assert_eq!((s.changed, s.inserted), (0, 0), "{s:?}");
+    assert!(s.linearized.is_empty());
+}
+
+/// An arc of a hundred million turns (LinuxCNC's P word) that had to be
+/// linearized asked for billions of pieces at once and grew without
+/// bound: it is refused at its line before any is made.
+#[test]
+fn compensate_refuses_an_arc_of_too_many_pieces_before_making_them() {
+    let program = "G21 G90 G17\nG0 X10 Y0 Z5 B0 C0\nG2 X10 Y0 I-10 J0 P100000000 B10 F100\nM2\n";
+    let e = compensate_text(program, "{EX0B: 30.0}", |_| {}).unwrap_err();
+    assert!(
+        e.contains(":3") && e.contains("even in 65536 pieces"),
+        "{e}"
+    );
+}
+
 /// Axis, centre and radius values beyond a control's five integer digits
 /// (a J of 1e58 after a damaged edit, X of 1e47): the arc's centre was
 /// lost in floating point and compensate at zero error refused the
@@ -587,25 +646,4 @@ fn compensate_leaves_values_beyond_a_control_s_range_as_written() {
         };
         assert!(beyond("J", 3) && beyond("X", 4), "{s:?}");
     }
-}
-
-/// A program whose lines end in a bare CR (old Mac files) was read as one
-/// block of the whole file: `compensate` reported 1 block, 0 moves and
-/// exit 0 with nothing corrected (and a large such file grew one block
-/// without bound). It is read line by line, corrected like its LF twin,
-/// and keeps its CR line ends.
-#[test]
-fn compensate_reads_a_program_whose_lines_end_in_a_bare_cr() {
-    let lf = "G21 G90 G17\nG0 X0 Y0 Z10 B0 C0\nG1 X10 Y5 Z2 B10 F100\nM2\n";
-    let cr = lf.replace('\n', "\r");
-    let (out_lf, s_lf) = compensate_text(lf, "{EX0B: 30.0}", |_| {}).unwrap();
-    let (out_cr, s_cr) = compensate_text(&cr, "{EX0B: 30.0}", |_| {}).unwrap();
-    assert_eq!(
-        (s_cr.blocks, s_cr.moves, s_cr.changed),
-        (4, 2, 2),
-        "{s_cr:?}"
-    );
-    assert_eq!(out_cr, out_lf.replace('\n', "\r"));
-    assert_eq!(s_lf.changed, s_cr.changed);
-    assert!(!out_cr.contains('\n'));
 }
