@@ -65,8 +65,103 @@ fn a_closed_standard_output_ends_each_printing_command_quietly_after_its_files_a
     let dir = tempdir();
     let result = dir.path().join("result.yaml");
     let program = dir.path().join("compensated.nc");
+    let measured = dir.path().join("measured.dmo");
+    let json = dir.path().join("result.json");
+    let mc = dir.path().join("mc.yaml");
+    let discovered = dir.path().join("discovered.yaml");
+    let demo = dir.path().join("demo");
+    let demo_result = demo.join("analyzed.yaml");
     let d = example("analyze/stepped-square");
+    let analyze = |extra: &[&str], out: &Path| {
+        let mut a: Vec<std::ffi::OsString> = vec![
+            "analyze".into(),
+            "--plan".into(),
+            d.join("stepped-square.plan.yaml").into(),
+            "--measured".into(),
+            d.join("piece1.dmo").into(),
+            "--out".into(),
+            out.into(),
+        ];
+        a.extend(extra.iter().map(Into::into));
+        a
+    };
+    let strings = |a: &[&str]| {
+        a.iter()
+            .map(Into::into)
+            .collect::<Vec<std::ffi::OsString>>()
+    };
     let runs: Vec<(Vec<std::ffi::OsString>, Option<&Path>)> = vec![
+        (
+            vec![
+                "simulate".into(),
+                "--plan".into(),
+                d.join("stepped-square.plan.yaml").into(),
+                "--errors".into(),
+                d.join("truth.yaml").into(),
+                "-o".into(),
+                measured.clone().into(),
+            ],
+            Some(&measured),
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "nc".into(),
+                "--machine".into(),
+                "bc-trunnion".into(),
+                "--errors".into(),
+                d.join("truth.yaml").into(),
+                "--program".into(),
+                d.join("stepped-square.nc").into(),
+            ],
+            None,
+        ),
+        (analyze(&["--json"], &json), Some(&json)),
+        (analyze(&["--mc", "20"], &mc), Some(&mc)),
+        (
+            vec![
+                "analyze".into(),
+                "contour".into(),
+                "--model".into(),
+                example("contour/frustum.obj").into(),
+                "--measured".into(),
+                example("contour/cmm-points.csv").into(),
+            ],
+            None,
+        ),
+        (
+            vec![
+                "discover".into(),
+                "--plan".into(),
+                example("discover/stepped-square.plan.yaml").into(),
+                "--measured".into(),
+                example("discover/piece.dmo").into(),
+                "--max-steps".into(),
+                "1".into(),
+                "--out".into(),
+                discovered.clone().into(),
+            ],
+            Some(&discovered),
+        ),
+        (
+            vec![
+                "compensate".into(),
+                "--machine".into(),
+                "bc-trunnion".into(),
+                "--errors".into(),
+                d.join("truth.yaml").into(),
+                "--export".into(),
+                "fanuc".into(),
+                "--no-record".into(),
+            ],
+            None,
+        ),
+        (
+            vec!["demo".into(), "--out".into(), demo.clone().into()],
+            Some(&demo_result),
+        ),
+        (vec!["measured".into(), d.join("piece1.dmo").into()], None),
+        (strings(&["man"]), None),
         (vec!["machine".into(), "list".into()], None),
         (
             vec!["machine".into(), "show".into(), "bc-trunnion".into()],
@@ -74,18 +169,7 @@ fn a_closed_standard_output_ends_each_printing_command_quietly_after_its_files_a
         ),
         (vec!["simulate".into(), "--truth-example".into()], None),
         (vec!["completions".into(), "bash".into()], None),
-        (
-            vec![
-                "analyze".into(),
-                "--plan".into(),
-                d.join("stepped-square.plan.yaml").into(),
-                "--measured".into(),
-                d.join("piece1.dmo").into(),
-                "--out".into(),
-                result.clone().into(),
-            ],
-            Some(&result),
-        ),
+        (analyze(&[], &result), Some(&result)),
         (compensate_args(&program), Some(&program)),
     ];
     for (args, file) in runs {
@@ -94,6 +178,7 @@ fn a_closed_standard_output_ends_each_printing_command_quietly_after_its_files_a
         drop(reader);
         let out = StdCommand::new(assert_cmd::cargo::cargo_bin("fivecal"))
             .args(&args)
+            .env("FIVECAL_DB", crate::cli::test_store())
             .stdout(Stdio::from(writer))
             .stderr(Stdio::piped())
             .output()
