@@ -647,3 +647,50 @@ fn compensate_leaves_values_beyond_a_control_s_range_as_written() {
         assert!(beyond("J", 3) && beyond("X", 4), "{s:?}");
     }
 }
+
+/// A machine pivot of -1e300 mm was once blamed on `stock.height`; named
+/// at its key now, it was still echoed as three hundred digits, and so
+/// were an error value, a noise and a rapid rate of 1e300: each is
+/// written as `1e300` in the message.
+#[test]
+fn implausible_machine_and_error_values_are_echoed_short() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let machine = std::fs::read_to_string(root.join("examples/machines/bc-trunnion.yaml")).unwrap();
+    for (from, to, expect) in [
+        (
+            "pivot: [0.0, 0.0, -420.0]",
+            "pivot: [0.0, 0.0, -1e300]",
+            "pivot -1e300 mm is beyond any machine tool",
+        ),
+        (
+            "linear: 20000.0",
+            "linear: 1e300",
+            "rapid linear rate 1e300 mm/min",
+        ),
+    ] {
+        assert!(machine.contains(from), "{from}");
+        let e = Machine::from_yaml(Path::new("m.yaml"), &machine.replacen(from, to, 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("m.yaml:") && e.contains(expect), "{e}");
+        assert!(e.len() < 200, "{e}");
+    }
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    for (src, expect) in [
+        (
+            "machine: bc-trunnion\nlocation_errors: {EX0B: 1e300}\n",
+            "EX0B 1e300 um is not plausible",
+        ),
+        (
+            "machine: bc-trunnion\nlocation_errors: {EX0B: 1.0}\neffects: {noise: {cmm: 1e300}}\n",
+            "noise cmm 1e300 um",
+        ),
+    ] {
+        let e = ErrorFile::parse(Path::new("e.yaml"), src)
+            .and_then(|f| f.to_model(&k, Path::new("e.yaml"), src).map(|_| ()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("e.yaml:") && e.contains(expect), "{e}");
+        assert!(e.len() < 200, "{e}");
+    }
+}

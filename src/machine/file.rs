@@ -12,6 +12,7 @@ use crate::geom::Axis3;
 use crate::limits::{
     MAX_MACHINE_MM, MAX_PLAN_MM, MIN_PLAN_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN,
 };
+use crate::procedure::echo;
 use crate::source::SourceError;
 
 /// A machine file as written (see `examples/machines/*.yaml`).
@@ -321,7 +322,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         if !(v.is_finite() && v > 0.0) {
             return Err(err(
                 &["probe", k],
-                format!("probe {k} must be > 0 mm, got {v}"),
+                format!("probe {k} must be > 0 mm, got {}", echo(v)),
             ));
         }
     }
@@ -338,7 +339,8 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             return Err(err(
                 &["rapid", k],
                 format!(
-                    "rapid {k} rate {v} {unit} is not a machine's: expected {lo} to {hi} {unit}"
+                    "rapid {k} rate {} {unit} is not a machine's: expected {lo} to {hi} {unit}",
+                    echo(v)
                 ),
             ));
         }
@@ -365,8 +367,9 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             return Err(err(
                 &keys,
                 format!(
-                    "{} {v} mm is beyond any machine tool (at most {MAX_MACHINE_MM} mm): is it in um?",
-                    keys.join(".")
+                    "{} {} mm is beyond any machine tool (at most {MAX_MACHINE_MM} mm): is it in um?",
+                    keys.join("."),
+                    echo(v)
                 ),
             ));
         }
@@ -403,7 +406,7 @@ pub fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
                 key,
                 format!(
                     "tool {key} must be between {lo} and {hi} mm, got {}",
-                    crate::procedure::echo(v)
+                    echo(v)
                 ),
             ));
         }
