@@ -402,12 +402,6 @@ impl ErrorFile {
         // location error of a metre is a unit mistake.
         let plausible = |keys: &[&str], what: &str, v: f64, (max, unit): (f64, &str)| {
             if v.abs() > max {
-                // 1e300 written out is 300 digits: not a message.
-                let v = if v.abs() < 1e9 {
-                    v.to_string()
-                } else {
-                    format!("{v:e}")
-                };
                 return Err(err(
                     keys,
                     format!(

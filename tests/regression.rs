@@ -953,6 +953,7 @@ fn compensate_note_without_export_is_refused_not_ignored() {
     assert!(!run.status.success(), "{err}");
     assert!(err.contains("--note") && err.contains("--export"), "{err}");
     assert!(!out.exists());
+}
 
 /// A program whose lines end in a bare CR (old Mac files) was read as one
 /// block of the whole file: `compensate` reported 1 block, 0 moves and
