@@ -613,12 +613,12 @@ impl Interpreter {
             self.tcp_remapped = true;
         } else if !(known_m(self.cfg.settings.dialect, m) || codes.known.contains(&m)) {
             let d = self.cfg.settings.dialect;
-            self.unmodelled.get_or_insert(Unmodelled {
+            self.note(
                 offset,
-                what: format!(
+                format!(
                     "M{m}: an M function that {d} does not define and the machine file's m_codes do not list (taken to move no axis; if it switches TCP, list it under m_codes: tcp_on)"
                 ),
-            });
+            );
         }
     }
 
