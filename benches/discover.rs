@@ -22,6 +22,7 @@ fn bench(c: &mut Criterion) {
     let inputs = Inputs::load(
         &example("stepped-square.plan.yaml"),
         &[example("piece.dmo")],
+        &Default::default(),
     )
     .unwrap();
     let opts = DiscoverOptions::default();

@@ -146,6 +146,7 @@ fn main() -> std::io::Result<()> {
                     label: format!("L{}F{}P{}", j + 1, k + 1, i + 1),
                     p,
                     line: 0,
+                    normal: None,
                 });
             }
         }

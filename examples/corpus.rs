@@ -235,6 +235,7 @@ fn run(path: &Path, bytes: &[u8], machine: &Machine, dialect: Dialect, size: f64
             let m = err.to_string();
             match err {
                 CompensateError::Syntax(_)
+                | CompensateError::Unmodelled(_)
                 | CompensateError::TooLarge { .. }
                 | CompensateError::Tolerance { .. } => Outcome::Refused(m),
                 CompensateError::Io(_) => Outcome::Unexplained(m),

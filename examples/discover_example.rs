@@ -82,6 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         theta,
         noise,
         not_identifiable: Vec::new(),
+        fit: None,
     };
     let out = simulate::run(
         &plan,
@@ -98,6 +99,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let inputs = Inputs::load(
         &dir.join("stepped-square.plan.yaml"),
         &[dir.join("piece.dmo")],
+        &Default::default(),
     )?;
     let d = inputs.discover(&DiscoverOptions::default())?;
     std::fs::write(dir.join("story.txt"), d.story.render())?;

@@ -224,6 +224,77 @@ pub struct NotIdentified {
     pub reason: String,
 }
 
+/// Whether the model fitted the measurements (the `fit:` section of a
+/// result file). Records of results without one have no verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FitVerdict {
+    /// The residuals are as large as the measurement noise.
+    Fits,
+    /// The residuals are larger: the model misses something.
+    Misfit,
+}
+
+impl FitVerdict {
+    /// The name stored and printed.
+    pub fn name(self) -> &'static str {
+        match self {
+            FitVerdict::Fits => "fits",
+            FitVerdict::Misfit => "misfit",
+        }
+    }
+
+    /// The verdict a result file states in `fit: {verdict: ...}`, if any.
+    pub fn of_result(content: &str) -> Option<FitVerdict> {
+        let v: serde_yaml::Value = serde_yaml::from_str(content).ok()?;
+        v.get("fit")?.get("verdict")?.as_str()?.parse().ok()
+    }
+}
+
+impl std::fmt::Display for FitVerdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for FitVerdict {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "fits" => Ok(FitVerdict::Fits),
+            "misfit" => Ok(FitVerdict::Misfit),
+            _ => Err(format!(
+                "unknown fit verdict `{s}`: expected fits or misfit"
+            )),
+        }
+    }
+}
+
+/// How well the identified model explains the measurements: the `fit:`
+/// section of a result file. The residuals' standard deviation is set
+/// against the noise the instrument should show, by a chi-square test; a
+/// misfit means the model misses an effect, and `compensate` refuses such
+/// a result unless told to accept it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitSection {
+    /// Standard deviation of the residuals, um.
+    pub sigma_um: f64,
+    /// The noise expected from the instrument, um.
+    pub expected_um: f64,
+    /// Where the expected noise comes from.
+    pub expected_from: String,
+    /// `sigma_um / expected_um`, the Birge ratio.
+    pub ratio: f64,
+    /// Degrees of freedom of the residuals.
+    pub dof: usize,
+    /// Probability of residuals at least this large if the model were
+    /// complete (chi-square upper tail).
+    pub p_value: f64,
+    /// The verdict.
+    pub verdict: FitVerdict,
+}
+
 /// An error file as written.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -242,6 +313,9 @@ pub struct ErrorFile {
     /// What could not be identified (result files).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub not_identifiable: Vec<NotIdentified>,
+    /// How well the model fitted the measurements (result files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<FitSection>,
 }
 
 /// An error file turned into a model and its parameter values.
@@ -257,6 +331,17 @@ pub struct LoadedErrors {
     pub noise: Noise,
     /// What the file said was not identifiable.
     pub not_identifiable: Vec<NotIdentified>,
+    /// The result file's fit verdict, if it has one.
+    pub fit: Option<FitSection>,
+}
+
+impl LoadedErrors {
+    /// The file's fit, if it says the model does not fit its measurements.
+    pub fn misfit(&self) -> Option<&FitSection> {
+        self.fit
+            .as_ref()
+            .filter(|f| f.verdict == FitVerdict::Misfit)
+    }
 }
 
 fn axis_of(c: char) -> Option<Axis3> {
@@ -622,6 +707,7 @@ impl ErrorFile {
             u,
             noise,
             not_identifiable: self.not_identifiable.clone(),
+            fit: self.fit.clone(),
         })
     }
 
@@ -641,6 +727,7 @@ impl ErrorFile {
             position_dependent: IndexMap::new(),
             effects: Effects::default(),
             not_identifiable: Vec::new(),
+            fit: None,
         };
         let q = |i: usize| Quantity {
             value: theta[i],

@@ -265,6 +265,61 @@ fn a_plain_cmm_export_is_joined_by_nearest_nominal_point_with_a_warning() {
     }
 }
 
+/// A cloud `x y z i j k` as a CMM exports it: each direction the plan
+/// normal as the piece lies on the CMM. The directions confirm the faces
+/// the nearest-nominal join chose; one turned onto a neighbouring face is
+/// refused at its line.
+#[test]
+fn a_point_cloud_with_directions_joins_only_onto_faces_its_directions_agree_with() {
+    let (plan, pts, placement) = machined_points(5);
+    let normal = |label: &str| {
+        let p = plan.points.iter().find(|q| q.label == label).unwrap();
+        placement.rotation * p.n
+    };
+    let line = |p: &MeasuredPoint, n: Vector3<f64>| {
+        format!(
+            "{:.5} {:.5} {:.5} {:.6} {:.6} {:.6}",
+            p.p.x, p.p.y, p.p.z, n.x, n.y, n.z
+        )
+    };
+    let lines: Vec<String> = pts.iter().map(|p| line(p, normal(&p.label))).collect();
+    let read = |lines: &[String]| {
+        let set =
+            points(parse_measurement(Path::new("cloud.txt"), &(lines.join("\n") + "\n")).unwrap());
+        join(
+            &plan,
+            TestKind::Machining,
+            &HashMap::new(),
+            &[("cloud.txt".into(), set)],
+            &|p| p.p,
+        )
+    };
+    let data = read(&lines).unwrap();
+    assert!(
+        data.warnings
+            .iter()
+            .any(|w| w.contains("every point's direction agrees with its plan point's normal")),
+        "{:?}",
+        data.warnings
+    );
+    for (k, o) in data.obs.iter().enumerate() {
+        assert_eq!(plan.points[o.plan].label, pts[k].label);
+    }
+    // The seventh point's direction at right angles to its face.
+    let mut bent = lines.clone();
+    let n = normal(&pts[6].label);
+    let side = n.cross(&Vector3::new(0.3, 0.5, 0.8)).normalize();
+    bent[6] = line(&pts[6], side);
+    let e = read(&bent).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!(
+            "cloud.txt:7:1: the point's direction ({:.4}, {:.4}, {:.4}) is 90.0 deg from the normal of plan point `{}`",
+            side.x, side.y, side.z, pts[6].label
+        )),
+        "{e}"
+    );
+}
+
 #[test]
 fn nine_section_statistics_reproduce_seed_004_table_4() {
     let before = "section,height_um\n1,0\n2,-5\n3,-9\n4,-11\n5,-15\n6,-9\n7,-10\n8,-15\n9,-15\n";
@@ -352,6 +407,7 @@ pub fn plan_dir_with(
         .into_iter()
         .collect(),
         poses,
+        identifies: None,
     };
     let path = dir.join(format!("{test}.plan.yaml"));
     std::fs::write(&path, manifest.to_yaml()).unwrap();

@@ -448,7 +448,7 @@ fn sphere_test_simulated_on_ac_trunnion_gives_the_location_errors_of_the_c_and_a
 // ------------------------------------------------------------ command line
 
 /// `fivecal plan` into `dir`.
-fn plan_with_cli(
+pub(crate) fn plan_with_cli(
     dir: &Path,
     test: &str,
     machine: &str,
@@ -478,7 +478,13 @@ fn simulate_with_cli(manifest: &Path, truth: &Path, out: &Path, seed: u64) {
     simulate_as(manifest, truth, out, seed, None);
 }
 
-fn simulate_as(manifest: &Path, truth: &Path, out: &Path, seed: u64, format: Option<&str>) {
+pub(crate) fn simulate_as(
+    manifest: &Path,
+    truth: &Path,
+    out: &Path,
+    seed: u64,
+    format: Option<&str>,
+) {
     let mut cmd = fivecal();
     cmd.args(["simulate", "--plan"])
         .arg(manifest)

@@ -125,6 +125,99 @@ fn completions_know_every_subcommand() {
     fivecal().args(["completions", "tcsh"]).assert().failure();
 }
 
+/// Completions offer the test names after `plan` and the built-in
+/// machines after `--machine`, while the commands still take a file.
+#[test]
+fn completions_offer_test_and_machine_names() {
+    let text = |shell: &str| {
+        String::from_utf8(
+            fivecal()
+                .args(["completions", shell])
+                .assert()
+                .success()
+                .get_output()
+                .stdout
+                .clone(),
+        )
+        .unwrap()
+    };
+    let fish = text("fish");
+    let plan_machine = fish
+        .lines()
+        .find(|l| l.contains("using_subcommand plan") && l.contains("-l machine"))
+        .unwrap_or_else(|| panic!("{fish}"));
+    let after: String = fish[fish.find(plan_machine).unwrap()..]
+        .lines()
+        .take(5)
+        .collect();
+    for m in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
+        assert!(after.contains(m), "{after}");
+    }
+    let zsh = text("zsh");
+    assert!(
+        zsh.contains("(stepped-square nine-section probe-columns probe-sphere)"),
+        "{zsh}"
+    );
+    // The parser itself is unchanged: a machine file is a path.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("m.yaml");
+    std::fs::write(
+        &file,
+        fivecal::Machine::builtin("head-head").unwrap().source,
+    )
+    .unwrap();
+    fivecal()
+        .args(["machine", "show"])
+        .arg(&file)
+        .assert()
+        .success();
+}
+
+/// `machine new` writes a copy under the new name that reads back as the
+/// same machine, never over an existing file.
+#[test]
+fn machine_new_writes_a_renamed_copy_that_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("my.yaml");
+    fivecal()
+        .args(["machine", "new", "my-mill", "--from", "head-table", "-o"])
+        .arg(&file)
+        .assert()
+        .success();
+    let copy = fivecal::Machine::from_file(&file).unwrap();
+    let original = fivecal::Machine::builtin("head-table").unwrap();
+    assert_eq!(copy.name, "my-mill");
+    assert_eq!(
+        (
+            copy.strokes,
+            copy.pivot,
+            copy.chain.clone(),
+            copy.tool.clone()
+        ),
+        (
+            original.strokes,
+            original.pivot,
+            original.chain.clone(),
+            original.tool.clone()
+        )
+    );
+    let before = std::fs::read(&file).unwrap();
+    let out = fivecal()
+        .args(["machine", "new", "other", "-o"])
+        .arg(&file)
+        .assert()
+        .failure()
+        .get_output()
+        .stderr
+        .clone();
+    assert!(String::from_utf8_lossy(&out).contains("exists"));
+    assert_eq!(std::fs::read(&file).unwrap(), before);
+    fivecal()
+        .args(["machine", "new", "bad name", "-o", "-"])
+        .assert()
+        .failure();
+}
+
 #[test]
 fn man_page_has_a_section_per_subcommand() {
     let out = fivecal()

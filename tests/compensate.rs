@@ -24,7 +24,13 @@ use crate::util::{machine, rng};
 /// Random location errors on every symbol of the machine (um, urad), plus
 /// optional extra YAML.
 pub fn errors(m: &str, seed: u64, size: f64, extra: &str) -> LoadedErrors {
-    let k = Kinematics::new(&machine(m));
+    errors_on(&machine(m), seed, size, extra)
+}
+
+/// As [`errors`], on a machine given whole.
+pub fn errors_on(machine: &Machine, seed: u64, size: f64, extra: &str) -> LoadedErrors {
+    let m = &machine.name;
+    let k = Kinematics::new(machine);
     let model = Model::new(k.clone(), vec![]);
     let mut r = rng(seed);
     let mut src = format!("machine: {m}\nlocation_errors:\n");
@@ -657,6 +663,7 @@ fn zero_errors_leave_generated_programs_untouched() {
         u: vec![],
         noise: Default::default(),
         not_identifiable: vec![],
+        fit: None,
     };
     for d in Dialect::ALL {
         for tcp in [false, true] {
@@ -942,5 +949,73 @@ fn at_the_tilt_limit_the_tilt_is_held_and_the_tip_is_still_exact() {
     assert!(
         s.held_tilt_axis_error > 0.0 && s.held_tilt_axis_error < 100.0,
         "{s:?}"
+    );
+}
+
+/// LinuxCNC's 5-axis configurations switch tool-centre-point control with
+/// remapped M codes (M428/M429 in its demos), which `--coordinates auto`
+/// read as axis positions without a word (issue 16): the machine file
+/// names them, the moves between are compensated as TCP moves exactly as
+/// `--coordinates tcp` would, and the run says which code set the mode.
+/// Without the machine file's word, M428 is named with the remedy.
+#[test]
+fn tcp_switched_by_a_machine_file_m_code_is_compensated_as_tcp() {
+    let base = machine("head-head");
+    let src = format!(
+        "{}m_codes:\n  tcp_on: [M428]\n  tcp_off: [M429]\n",
+        base.source
+    );
+    let m = Machine::from_yaml(Path::new("m.yaml"), &src).unwrap();
+    let l = errors_on(&m, 7, 40.0, "");
+    let ring = ring_program(&m, Dialect::Linuxcnc, true, 40, 30.0);
+    let program = ring
+        .replacen("G43\n", "G43\nM428\n", 1)
+        .replacen("\nM2\n", "\nM429\nM2\n", 1);
+    assert_ne!(program, ring);
+    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Linuxcnc), &program);
+    assert!(!vs.is_empty() && vs.iter().all(|v| v.tcp == Tcp::Axes));
+    let mut flag = Settings::new(Dialect::Linuxcnc);
+    flag.coordinates = Coordinates::Tcp;
+    let (flagged, _, _) = compensate(&l, flag, &ring);
+    assert_eq!(
+        out.replacen("M428\n", "", 1).replacen("M429\n", "", 1),
+        flagged
+    );
+    check_held(
+        &l,
+        Dialect::Linuxcnc,
+        Coordinates::Auto,
+        &program,
+        &out,
+        1e-3,
+        &s.held_c.first,
+        "M428 ring",
+    );
+    assert_eq!(s.coordinates.len(), 1, "{:?}", s.coordinates);
+    assert!(
+        s.coordinates[0].why.contains("`M428` at line 3")
+            && s.coordinates[0].why.contains("machine file"),
+        "{:?}",
+        s.coordinates
+    );
+    assert!(s.unmodelled.is_empty(), "{:?}", s.unmodelled);
+
+    let plain = errors("head-head", 7, 40.0, "");
+    let (_, s, vs) = compensate(&plain, Settings::new(Dialect::Linuxcnc), &program);
+    assert!(vs.iter().all(|v| v.tcp == Tcp::Off));
+    let m428 = s
+        .unmodelled
+        .iter()
+        .find(|(w, _)| w.starts_with("M428"))
+        .unwrap_or_else(|| panic!("{:?}", s.unmodelled));
+    assert!(
+        m428.0.contains("tcp_on") && m428.1.first == vec![3],
+        "{m428:?}"
+    );
+    assert!(
+        s.coordinates[0].meaning.starts_with("axis positions")
+            && s.coordinates[0].why.contains("no TCP code"),
+        "{:?}",
+        s.coordinates
     );
 }

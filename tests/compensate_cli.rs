@@ -108,8 +108,15 @@ fn malformed_programs_fail_with_file_line_column_and_write_nothing() {
 #[test]
 fn malformed_blocks_outside_strict_mode_are_kept_and_reported_at_their_column() {
     let dir = tempdir();
-    let prog = dir.path().join("unclosed_comment.nc");
-    std::fs::copy(fixture("bad/unclosed_comment.nc"), &prog).unwrap();
+    // The fixture with a readable move after the broken one: a program
+    // whose only move cannot be read is refused (no_motion_block_...).
+    let src = std::fs::read_to_string(fixture("bad/unclosed_comment.nc"))
+        .unwrap()
+        .replace(
+            "M30\n",
+            "G90 G0 X20. Y10. Z50. B0. C0.\nG1 X30. F300.\nM30\n",
+        );
+    let prog = write(dir.path(), "unclosed_comment.nc", &src);
     let errs = write(dir.path(), "e.yaml", ERRORS);
     let out = fivecal()
         .args([
@@ -279,7 +286,9 @@ fn zero_errors_through_the_command_line_leave_the_program_as_it_was() {
         "zero.yaml",
         "machine: head-table\nlocation_errors: {EX0C: 0.0, EY0C: 0.0}\n",
     );
-    let prog = fixture("heidenhain/klartext.h");
+    // A program with moves to correct (the parser corpus klartext.h has
+    // none a rewrite can take, and is refused: regression.rs).
+    let prog = fixture("heidenhain/tcpm.h");
     let out_path = dir.path().join("out.h");
     let out = fivecal()
         .args(["compensate", "--machine", "head-table", "--errors"])
@@ -293,6 +302,13 @@ fn zero_errors_through_the_command_line_leave_the_program_as_it_was() {
     assert_eq!(
         std::fs::read(&out_path).unwrap(),
         std::fs::read(&prog).unwrap()
+    );
+    // Never silently: the last line says the output is a copy.
+    let text = String::from_utf8_lossy(&out.stdout);
+    let last = text.lines().last().unwrap_or("");
+    assert!(
+        last.starts_with("nothing changed:") && last.contains("is a copy of"),
+        "{text}"
     );
 }
 
@@ -541,6 +557,333 @@ fn planned_stepped_square_programs_are_compensated_in_every_dialect() {
         );
         if dialect == "linuxcnc" {
             assert_eq!(trace(&comp).len(), trace(&prog).len());
+        }
+    }
+}
+
+/// Issue 14, item 4: every controller's export shows each parameter with
+/// its u and its change, in the file and on the screen, counted from what
+/// the control holds when the machine file says (else from nominal), and
+/// its last line says what changes.
+#[test]
+fn every_export_shows_each_parameter_with_its_u_and_its_change() {
+    let dir = tempdir();
+    let errs = write(
+        dir.path(),
+        "result.yaml",
+        "machine: bc-trunnion\nlocation_errors:\n  EX0B: {value: 12.0, u: 0.4}\n  EY0C: {value: -18.0, u: 0.7}\n  EX(0B)C: {value: 25.0, u: 0.6}\n",
+    );
+    let machine = write(
+        dir.path(),
+        "m.yaml",
+        &format!(
+            "{}controller_parameters:\n  fanuc: {{19700: 0.010, 19701: 0.0, 19702: -420.0, 19703: 0.027, 19704: 0.0, 19705: 0.0}}\n",
+            Machine::builtin("bc-trunnion").unwrap().source
+        ),
+    );
+    for (d, row, u, change) in [
+        // 19700: 12 um where the control holds 10: a change of 2 um.
+        ("fanuc", "19700", "0.40 um", "+2.00 um"),
+        ("heidenhain", "C.Y", "0.70 um", "-18.00 um"),
+        ("linuxcnc", "x-rot-point", "1.00 um", "+37.00 um"),
+    ] {
+        let to = dir.path().join(format!("p.{d}.txt"));
+        let out = fivecal()
+            .args(["compensate", "--machine"])
+            .arg(&machine)
+            .arg("--errors")
+            .arg(&errs)
+            .args(["--export", d, "--no-record", "--export-to"])
+            .arg(&to)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{d}: {}", stderr_of(&out));
+        let screen = String::from_utf8_lossy(&out.stdout);
+        let file = std::fs::read_to_string(&to).unwrap();
+        let line = |text: &str| {
+            text.lines()
+                .find(|l| {
+                    l.trim_start_matches(['#', ';', ' '])
+                        .starts_with(&format!("{row} "))
+                })
+                .unwrap_or_else(|| panic!("{d}: no {row} row in\n{text}"))
+                .to_string()
+        };
+        for text in [&*screen, &file] {
+            let l = line(text);
+            assert!(l.contains(u) && l.contains(change), "{d}: {l}");
+        }
+        let from = if d == "fanuc" {
+            "from what the control holds now"
+        } else {
+            "from the machine file's nominal geometry"
+        };
+        assert!(file.contains(from), "{d}: {file}");
+        let last = screen.lines().last().unwrap_or("");
+        assert!(
+            last.contains(&format!("{d} parameters to enter change from")) && last.contains(row),
+            "{d}: {screen}"
+        );
+    }
+}
+
+/// Issue 14, item 5: a run that changes nothing says so in its last line,
+/// and exits non-zero, writing nothing, when that cannot be what was
+/// asked: an export none of whose values the file's errors reach, or a
+/// rewrite whose errors move no pose of the program. An export refused by
+/// its limits takes the rewritten program down with it.
+#[test]
+fn a_run_that_changes_nothing_says_so_last_and_refuses_when_it_cannot_be_meant() {
+    let dir = tempdir();
+    let d = dir.path();
+    write(
+        d,
+        "p.h",
+        &std::fs::read_to_string(fixture("heidenhain/tcpm.h")).unwrap(),
+    );
+    let run = |args: &[&str]| fivecal().current_dir(d).args(args).output().unwrap();
+    let last = |out: &std::process::Output| {
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .last()
+            .unwrap_or("")
+            .to_string()
+    };
+    // Zero errors, program and export: one last line says both.
+    write(
+        d,
+        "zero.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: 0.0}\n",
+    );
+    let base = ["compensate", "--machine", "head-table", "--no-record"];
+    let out = run(&[
+        &base[..],
+        &[
+            "--errors",
+            "zero.yaml",
+            "p.h",
+            "-o",
+            "z.h",
+            "--export",
+            "fanuc",
+        ],
+    ]
+    .concat());
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let l = last(&out);
+    assert!(
+        l.starts_with("nothing changed: zero.yaml holds no error")
+            && l.contains("z.h is a copy of p.h")
+            && l.contains("every fanuc parameter to enter equals"),
+        "{l}"
+    );
+    // A zero point only: no parameter of any controller holds it.
+    write(
+        d,
+        "zp.yaml",
+        "machine: head-table\nlocation_errors: {EB0B: 120.0}\n",
+    );
+    for c in ["fanuc", "heidenhain"] {
+        let out = run(&[
+            &base[..],
+            &["--errors", "zp.yaml", "p.h", "-o", "x.h", "--export", c],
+        ]
+        .concat());
+        let err = stderr_of(&out);
+        assert_eq!(out.status.code(), Some(2), "{c}: {err}");
+        assert!(
+            err.contains(&format!(
+                "none of the errors in zp.yaml is held by {c}'s parameters"
+            )) && err.contains("EB0B = 120.00 urad"),
+            "{c}: {err}"
+        );
+    }
+    // A tool radius error moves no pose: the rewrite is refused.
+    write(
+        d,
+        "radius.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: 0.0}\neffects:\n  tool_radius: 3.0\n",
+    );
+    let out = run(&[
+        &base[..2],
+        &["head-table", "--errors", "radius.yaml", "p.h", "-o", "x.h"],
+    ]
+    .concat());
+    let err = stderr_of(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("radius.yaml: its errors move no tool pose of p.h (tool_radius"),
+        "{err}"
+    );
+    // A program that would be rewritten, with an export beyond its limit:
+    // neither is written.
+    write(
+        d,
+        "big.yaml",
+        "machine: head-table\nlocation_errors: {EX0C: {value: 150.0, u: 0.5}}\n",
+    );
+    let out = run(&[
+        &base[..],
+        &[
+            "--errors",
+            "big.yaml",
+            "p.h",
+            "-o",
+            "x.h",
+            "--export",
+            "heidenhain",
+        ],
+    ]
+    .concat());
+    let err = stderr_of(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("parameter C.X") && err.contains("--max-change"),
+        "{err}"
+    );
+    only(
+        d,
+        &[
+            "big.yaml",
+            "p.h",
+            "radius.yaml",
+            "z.h",
+            "z.h.fanuc.txt",
+            "zero.yaml",
+            "zp.yaml",
+        ],
+    );
+    // An orientation HEIDENHAIN only lists: nothing to enter, said last,
+    // the list named; exit 0 (the list is for the machine builder).
+    write(
+        d,
+        "tilt.yaml",
+        "machine: head-table\nlocation_errors: {EA0C: 40.0}\n",
+    );
+    let out = run(&[
+        &base[..],
+        &[
+            "--errors",
+            "tilt.yaml",
+            "--export",
+            "heidenhain",
+            "--export-to",
+            "t.txt",
+        ],
+    ]
+    .concat());
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let l = last(&out);
+    assert!(
+        l.starts_with("nothing to change: every heidenhain parameter to enter equals")
+            && l.contains("listed for the machine builder, not entered: C.A"),
+        "{l}"
+    );
+}
+
+/// Issue 14, item 4: every parameter an export writes, on every built-in
+/// machine it supports, is explained in docs/controllers.md under its
+/// controller (FANUC by its number range, the others by name), each
+/// controller's section cites its public sources, every source cited is
+/// listed with an address (a URL or a repository commit), and the export
+/// points to the page.
+#[test]
+fn every_exported_parameter_is_documented_with_its_public_source() {
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/controllers.md"))
+            .unwrap();
+    let section = |title: &str| {
+        let a = doc
+            .find(&format!("\n## {title}"))
+            .unwrap_or_else(|| panic!("no section `{title}`"));
+        let rest = &doc[a + 4..];
+        rest[..rest.find("\n## ").unwrap_or(rest.len())].to_string()
+    };
+    // Each cited tag ([F-TCP 72/88], [L-SRC]) is listed once as a source
+    // with an address.
+    let listed = |tag: &str| {
+        let at = doc
+            .find(&format!("- **[{tag}]**"))
+            .unwrap_or_else(|| panic!("source [{tag}] is cited but not listed"));
+        let entry = &doc[at..];
+        let entry = &entry[..entry[2..].find("\n- ").map_or(entry.len(), |e| e + 2)];
+        entry.contains("http")
+            || entry
+                .split('`')
+                .any(|w| w.len() == 40 && w.bytes().all(|b| b.is_ascii_hexdigit()))
+    };
+    for (d, title) in [
+        (Dialect::Fanuc, "FANUC"),
+        (Dialect::Heidenhain, "HEIDENHAIN"),
+        (Dialect::Linuxcnc, "LinuxCNC"),
+    ] {
+        let text = section(title);
+        assert!(text.contains("Sources:"), "{title}");
+        let tags: Vec<&str> = text
+            .split('[')
+            .skip(1)
+            .filter_map(|t| t.split([' ', ']', ',']).next())
+            .filter(|t| {
+                t.starts_with(|c: char| c.is_ascii_uppercase())
+                    && t.contains('-')
+                    && t.chars().all(|c| c.is_ascii_alphanumeric() || c == '-')
+            })
+            .collect();
+        assert!(tags.len() >= 3, "{title}: {tags:?}");
+        for tag in &tags {
+            assert!(listed(tag), "{title}: [{tag}] has no address");
+        }
+        for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
+            let m = Machine::builtin(name).unwrap();
+            let kin = Kinematics::new(&m);
+            let src = format!("machine: {name}\n");
+            let path = Path::new("e.yaml");
+            let e = ErrorFile::parse(path, &src)
+                .unwrap()
+                .to_model(&kin, path, &src)
+                .unwrap();
+            // Nothing to change on a perfect machine: the parameters are
+            // written all the same.
+            let x = match fivecal::compensate::export::export(
+                &e.model,
+                &e.theta,
+                &e.u,
+                d,
+                "e.yaml",
+                &fivecal::compensate::export::Limits::default(),
+            ) {
+                Ok(x) => x,
+                Err(err) => {
+                    assert!(
+                        d == Dialect::Linuxcnc && name.starts_with("head"),
+                        "{d} {name}: {err}"
+                    );
+                    continue;
+                }
+            };
+            assert!(x.text.contains("docs/controllers.md"), "{d} {name}");
+            for p in &x.parameters {
+                let documented = if d == Dialect::Fanuc {
+                    // A table row whose first cell names it or its range.
+                    let n: u32 = p.name.parse().unwrap();
+                    text.lines()
+                        .filter_map(|l| l.strip_prefix("| ")?.split(" |").next())
+                        .any(|cell| {
+                            let (a, b) = cell.split_once('-').unwrap_or((cell, cell));
+                            matches!(
+                                (a.trim().parse::<u32>(), b.trim().parse::<u32>()),
+                                (Ok(a), Ok(b)) if a <= n && n <= b
+                            )
+                        })
+                } else {
+                    text.contains(&format!("`{}`", p.name))
+                };
+                assert!(
+                    documented,
+                    "{d} {name}: {} is not in docs/controllers.md",
+                    p.name
+                );
+            }
         }
     }
 }

@@ -174,9 +174,16 @@ fn simulate_nc_predicts_the_tool_tip_error_along_a_program() {
         ],
     );
     assert!(text.contains("mean 0.00 um"), "{text}");
+    // A run that finds nothing says so last.
+    assert!(
+        text.lines().last().unwrap_or("").starts_with(
+            "no error: on this machine every sample of the program lies where the nominal machine puts it"
+        ),
+        "{text}"
+    );
     // A C axis 25 um off in X: every tip is 25 um off (the table carries
     // the part), in the direction the table has turned it.
-    run(
+    let text = run(
         d,
         &[
             "simulate",
@@ -203,4 +210,32 @@ fn simulate_nc_predicts_the_tool_tip_error_along_a_program() {
     for r in &rows {
         assert!((r[11] - 25.0).abs() < 1e-3, "{r:?}");
     }
+    assert!(!text.contains("no error"), "{text}");
+    // A G-code program on this HEIDENHAIN machine is not followed as
+    // Klartext (0 moves understood): refused, naming what it is.
+    std::fs::write(
+        d.join("g.nc"),
+        "%\nO1 (G)\nN10 G90 G21\nN20 G0 X10. Y10. Z50. B0. C0.\nN30 G1 X20. F300.\nN40 M30\n%\n",
+    )
+    .unwrap();
+    let out = fivecal()
+        .current_dir(d)
+        .args([
+            "simulate",
+            "nc",
+            "--machine",
+            "head-table",
+            "--errors",
+            "shift.yaml",
+        ])
+        .args(["--program", "g.nc", "-o", "g.csv"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("G-code program") && err.contains("not heidenhain"),
+        "{err}"
+    );
+    assert!(!d.join("g.csv").exists());
 }

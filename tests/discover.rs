@@ -78,6 +78,7 @@ fn simulated(plan: &Plan, hidden: &[(Effect, Vec<f64>)], seed: u64) -> Inputs {
             probe: Some(NOISE),
         },
         not_identifiable: Vec::new(),
+        fit: None,
     };
     let out = simulate::run(
         plan,
@@ -290,7 +291,10 @@ fn probe_pretravel_on_the_column_probing_test_is_named_with_what_it_cannot_see()
     );
     assert_eq!(d.story.steps[0].alongside.unseen, ["pretravel.Z+"]);
     // The error file writes what the test saw and says what it did not.
-    let f = d.error_file(&inputs.data);
+    let f = d.error_file(
+        &inputs.data,
+        &fivecal::analyze::fit::ExpectedNoise::new(None, inputs.data.kind, inputs.plan.test()),
+    );
     assert_eq!(f.effects.probe_pretravel.len(), 5);
     assert!(f.effects.probe_pretravel.values().all(|q| q.u.is_some()));
     assert!(

@@ -96,3 +96,58 @@ fn unknown_machine_name_lists_the_built_ins() {
         "{e}"
     );
 }
+
+/// A machine file copied from an example with its name blanked out loads
+/// no more: every output and the history would carry an empty machine.
+#[test]
+fn a_machine_file_with_a_blank_name_is_refused_at_the_name() {
+    let text = std::fs::read_to_string(example("bc-trunnion")).unwrap();
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("name:"))
+        .expect("the example names its machine")
+        + 1;
+    let dir = crate::util::tempdir();
+    for blank in ["name: \"\"", "name: \"  \""] {
+        let p = dir.path().join("mine.yaml");
+        let edited: Vec<&str> = text
+            .lines()
+            .map(|l| if l.starts_with("name:") { blank } else { l })
+            .collect();
+        std::fs::write(&p, edited.join("\n")).unwrap();
+        let e = Machine::load(p.to_str().unwrap()).unwrap_err().to_string();
+        assert!(e.contains(&format!("mine.yaml:{line}:")), "{e}");
+        assert!(e.contains("machine name is empty"), "{e}");
+    }
+}
+
+/// The control's own M functions: `M` and a whole number, each in one
+/// list; anything else is named at its entry.
+#[test]
+fn m_codes_are_read_and_a_malformed_one_is_named_at_its_entry() {
+    let base = fivecal::Machine::builtin("head-head").unwrap().source;
+    let ok = format!("{base}m_codes:\n  tcp_on: [M428]\n  tcp_off: [m429]\n  known: [M10, M11]\n");
+    let m = fivecal::Machine::from_yaml(std::path::Path::new("m.yaml"), &ok).unwrap();
+    assert_eq!(
+        (m.m_codes.tcp_on, m.m_codes.tcp_off, m.m_codes.known),
+        (vec![428], vec![429], vec![10, 11])
+    );
+    let lines = base.lines().count();
+    for (list, msg) in [
+        ("tcp_on: [G43.4]", "`G43.4` is not an M function"),
+        (
+            "tcp_on: [M428]\n  known: [M428]",
+            "M428 is listed under both `tcp_on` and `known`",
+        ),
+    ] {
+        let src = format!("{base}m_codes:\n  {list}\n");
+        let e = fivecal::Machine::from_yaml(std::path::Path::new("m.yaml"), &src)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(&format!("m.yaml:{}:", lines + 2 + list.lines().count() - 1))
+                && e.contains(msg),
+            "{e}"
+        );
+    }
+}

@@ -280,6 +280,14 @@ fn tables_with_a_header_and_point_clouds_read_by_column_name() {
     assert!(!set.labeled);
     assert_eq!(set.points.len(), 3);
     assert_eq!(set.points[2].p, Vector3::new(1.5, 2.25, -3.0));
+    // Its directions travel with the points to the join, where they are
+    // checked against the faces the points land on.
+    assert_eq!(set.points[2].normal, Some(Vector3::new(0.0, 0.0, -1.0)));
+    assert!(close(
+        inventory("cloud.txt").entries[1].normal,
+        [1.0, 0.0, 0.0],
+        1e-15
+    ));
     let e = detect::parse_measurement(Path::new("t.csv"), "x;y;z\n1;2\n")
         .unwrap_err()
         .to_string();
@@ -313,4 +321,430 @@ fn legacy_encodings_are_named_or_read_when_given() {
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["points"][0]["label"], "P\u{fc}nkt1");
+}
+
+/// A CALYPSO `_fet` table as the public readers of CALYPSO tables read it
+/// (columns found by name: `id`, `idsymbol`, `x y z`, `nx ny nz`, `x_nom
+/// y_nom z_nom`, `nx_nom ny_nom nz_nom`, `unit`), CRLF, a header ending in a
+/// tab, a row shorter than the header.
+#[test]
+fn calypso_features_give_positions_nominals_and_directions() {
+    let inv = inventory("run_fet.txt");
+    assert_eq!(
+        (inv.format, inv.version.as_deref(), inv.units.as_str()),
+        ("calypso", Some("fet"), "mm")
+    );
+    assert_eq!(inv.runs, ["STEPPED_SQUARE part 3"]);
+    let labels: Vec<(&str, &str)> = inv
+        .entries
+        .iter()
+        .map(|e| (e.label.as_str(), e.kind.as_str()))
+        .collect();
+    assert_eq!(
+        labels,
+        [
+            ("P0001", "point"),
+            ("P0002", "point"),
+            ("Kreis_B", "circle"),
+            ("P0003", "point")
+        ]
+    );
+    let p1 = &inv.entries[0];
+    assert!(close(p1.actual, [-20.0012, -30.0004, 45.0021], 1e-12));
+    assert!(close(p1.nominal, [-20.0, -30.0, 45.0], 1e-12));
+    // The measured direction (0.0001, -1, 0.0002), renormalized.
+    let n = 1.0f64 + 0.0001f64.powi(2) + 0.0002f64.powi(2);
+    assert!(close(
+        p1.normal,
+        [0.0001 / n.sqrt(), -1.0 / n.sqrt(), 0.0002 / n.sqrt()],
+        1e-15
+    ));
+    // No measured direction: the nominal's stands in.
+    assert!(close(inv.entries[1].normal, [0.0, -1.0, 0.0], 1e-15));
+    // The circle is a feature, not a point analyze joins; the row of P0003
+    // stops before its position: not measured, and said.
+    assert!(close(
+        inv.entries[2].actual,
+        [0.0003798, 15.2871745, -0.0004345],
+        1e-12
+    ));
+    assert_eq!(inv.entries[3].actual, None);
+    assert!(
+        inv.skipped
+            .iter()
+            .any(|s| s.line == 5 && s.what == "feature `P0003`"),
+        "{:?}",
+        inv.skipped
+    );
+    let set = points("run_fet.txt");
+    let labels: Vec<&str> = set.points.iter().map(|p| p.label.as_str()).collect();
+    assert_eq!(labels, ["P0001", "P0002"]);
+    assert_eq!(set.nominals.len(), 2);
+}
+
+/// A CALYPSO `_chr` table as CALYPSO writes it (the public test file of
+/// EricRosenfeld1/CalypsoAPI, `CalypsoAPI.Test/files/test_chr.txt`, has the
+/// same header): `type` in German, rows shorter than the header, LF, `END`,
+/// no `unit` column. Points come from `xValue`/`yValue`/`zValue`
+/// characteristics of one feature.
+#[test]
+fn calypso_characteristics_are_reported_and_coordinate_triples_become_points() {
+    let inv = inventory("run_chr.txt");
+    assert_eq!(inv.version.as_deref(), Some("chr"));
+    assert_eq!(inv.units, "mm (not stated)");
+    assert!(
+        inv.warnings[0].contains("no `unit` column"),
+        "{:?}",
+        inv.warnings
+    );
+    let d = inv.entries.iter().find(|e| e.label == "Bohrung_D").unwrap();
+    assert_eq!((d.kind.as_str(), d.value), ("diameter", Some(23.4009393)));
+    assert_eq!(d.actual, None);
+    let pts: Vec<_> = inv.entries.iter().filter(|e| e.is_point()).collect();
+    assert_eq!(pts.len(), 2, "P0003 has no zValue: no point");
+    assert_eq!(pts[0].label, "P0001");
+    assert!(close(pts[0].actual, [-20.0012, -30.0004, 45.0021], 1e-12));
+    assert!(close(pts[0].nominal, [-20.0, -30.0, 45.0], 1e-12));
+    // P0002's zValue comes after another feature's characteristic.
+    assert!(close(pts[1].actual, [20.0008, -29.9991, 45.0007], 1e-12));
+    // The same table read as an inch program.
+    let ctx = ReadContext {
+        options: detect::MeasuredOptions {
+            units: Some(detect::LengthUnit::Inch),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let inch = detect::inventory(&fixture("run_chr.txt"), &ctx).unwrap();
+    assert!(inch.units.starts_with("inch (given with --units"));
+    let p = inch.entries.iter().find(|e| e.is_point()).unwrap();
+    assert!(close(
+        p.actual,
+        [-20.0012 * 25.4, -30.0004 * 25.4, 45.0021 * 25.4],
+        1e-9
+    ));
+}
+
+#[test]
+fn a_calypso_run_header_is_named_and_refused_as_a_measurement() {
+    let inv = inventory("run_hdr.txt");
+    assert_eq!(inv.version.as_deref(), Some("hdr"));
+    assert!(inv.entries.is_empty());
+    assert!(inv.skipped[0].why.contains("_fet table"));
+    let e = detect::read_measurement(&fixture("run_hdr.txt"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.ends_with("run_hdr.txt: a CALYPSO run header (_hdr) holds no measurement: the features and their positions are in the run's _fet table, the characteristics in its _chr table"),
+        "{e}"
+    );
+}
+
+#[test]
+fn malformed_calypso_tables_name_line_column_and_what_was_expected() {
+    let fet = std::fs::read_to_string(fixture("run_fet.txt")).unwrap();
+    let parse = |src: &str| {
+        detect::parse_measurement(Path::new("r_fet.txt"), src)
+            .unwrap_err()
+            .to_string()
+    };
+    assert_eq!(
+        parse(&fet.replace("20.0008000", "20.0O08")),
+        "r_fet.txt:3:59: column `x`: expected a number with a decimal point, got `20.0O08`"
+    );
+    // A direction with one component missing.
+    assert_eq!(
+        parse(&fet.replace("0.0001000\t-1.0000000\t0.0002000", "0.0001000\t\t0.0002000")),
+        "r_fet.txt:2:104: expected all of nx, ny, nz or none, `ny` is empty"
+    );
+    assert_eq!(
+        parse(&fet.replace("\tmm\r\n", "\tmm\t\tx\r\n")),
+        "r_fet.txt:2:216: expected at most 25 fields (the header's columns), got `x` beyond them"
+    );
+    assert_eq!(
+        parse(
+            &fet.replacen("\tmm\r\n", "\tinch\r\n", 1)
+                .replace("Kreis_B", "P0001")
+        ),
+        "r_fet.txt:3:182: unit `mm` here but `inch` at line 2: expected one length unit in a table"
+    );
+    let chr = std::fs::read_to_string(fixture("run_chr.txt")).unwrap();
+    assert_eq!(
+        detect::parse_measurement(Path::new("r_chr.txt"), &format!("{chr}P0004_X\n"))
+            .unwrap_err()
+            .to_string(),
+        "r_chr.txt:12:1: expected nothing after the `END` line at line 11"
+    );
+}
+
+/// A plan of the stepped-square test written by `fivecal plan` and a
+/// truth file of location errors for it: (manifest, truth).
+fn planned_with_truth(dir: &Path) -> (PathBuf, PathBuf) {
+    let manifest =
+        crate::analyze_sim::plan_with_cli(&dir.join("plan"), "stepped-square", "bc-trunnion", None);
+    let truth = dir.join("truth.yaml");
+    std::fs::write(
+        &truth,
+        format!("machine: bc-trunnion\n{}", crate::analyze_sim::BC_ERRORS),
+    )
+    .unwrap();
+    (manifest, truth)
+}
+
+/// A plan of the stepped-square test, its truth, and a simulated
+/// measurement as DMIS output with what that file holds.
+fn simulated_dmis(dir: &Path) -> (PathBuf, PathBuf, Inventory) {
+    let (manifest, truth) = planned_with_truth(dir);
+    let dmo = dir.join("piece.dmo");
+    crate::analyze_sim::simulate_as(&manifest, &truth, &dmo, 3, None);
+    let inv = detect::inventory(&dmo, &ReadContext::default()).unwrap();
+    (manifest, dmo, inv)
+}
+
+/// `analyze` writes the same result file, byte for byte, from two
+/// measurement files of one piece.
+fn assert_same_analysis(manifest: &Path, one: &Path, other: &Path, dir: &Path) {
+    let (a, b) = (dir.join("one.yaml"), dir.join("other.yaml"));
+    crate::cli::analyze_cmd(manifest, one, &a)
+        .assert()
+        .success();
+    crate::cli::analyze_cmd(manifest, other, &b)
+        .assert()
+        .success();
+    let (a, b) = (
+        std::fs::read_to_string(a).unwrap(),
+        std::fs::read_to_string(b).unwrap(),
+    );
+    assert!(a.contains("EX0B:"), "{a}");
+    assert_eq!(a, b);
+}
+
+/// A CALYPSO `_fet` table of the points of `inv`, lengths divided by
+/// `per_mm` (25.4 for an inch program), one run per part number, rows
+/// ending in CRLF; `unit` names the unit column's value (none: no column).
+fn fet_table(inv: &Inventory, parts: &[&str], per_mm: f64, unit: Option<&str>) -> String {
+    let mut fet = String::from(
+        "planid\tpartnb\tid\ttype\tidsymbol\tx\ty\tz\tnx\tny\tnz\tx_nom\ty_nom\tz_nom\tnx_nom\tny_nom\tnz_nom",
+    );
+    fet.push_str(if unit.is_some() {
+        "\tunit\t\r\n"
+    } else {
+        "\t\r\n"
+    });
+    let f = |v: Option<Vector3<f64>>, s: f64| {
+        let v = v.unwrap() / s;
+        format!("{:.10}\t{:.10}\t{:.10}", v.x, v.y, v.z)
+    };
+    for part in parts {
+        for e in inv.entries.iter().filter(|e| e.is_point()) {
+            fet.push_str(&format!(
+                "stepped-square\t{part}\t{}\tRaumpunkt\tspacePoint\t{}\t{}\t{}\t{}",
+                e.label,
+                f(e.actual, per_mm),
+                f(e.normal, 1.0),
+                f(e.nominal, per_mm),
+                f(e.normal, 1.0)
+            ));
+            if let Some(u) = unit {
+                fet.push_str(&format!("\t{u}"));
+            }
+            fet.push_str("\r\n");
+        }
+    }
+    fet
+}
+
+/// The same simulated measurement as DMIS output and as a CALYPSO `_fet`
+/// table made from it: `analyze` finds the same errors from both.
+#[test]
+fn analyze_reads_a_calypso_table_as_it_reads_the_dmis_output() {
+    let dir = crate::util::tempdir();
+    let (manifest, dmo, inv) = simulated_dmis(dir.path());
+    let table = dir.path().join("piece_fet.txt");
+    std::fs::write(&table, fet_table(&inv, &["1"], 1.0, Some("mm"))).unwrap();
+    assert_same_analysis(&manifest, &dmo, &table, dir.path());
+}
+
+/// `--encoding`, `--run` and `--units` reach the readers of `analyze` and
+/// `discover` as they reach `fivecal measured`: a CALYPSO table of two
+/// parts in an inch program, without a unit column, written by a German
+/// Windows (`Länge` in Windows-1252).
+#[test]
+fn analyze_and_discover_take_the_run_units_and_encoding_of_a_measured_file() {
+    let dir = crate::util::tempdir();
+    let (manifest, dmo, inv) = simulated_dmis(dir.path());
+    let text =
+        fet_table(&inv, &["1", "2"], 25.4, None).replace("Raumpunkt", "Raumpunkt L\u{e4}nge");
+    let (bytes, _, _) = encoding_rs::WINDOWS_1252.encode(&text);
+    let table = dir.path().join("piece_fet.txt");
+    std::fs::write(&table, &bytes).unwrap();
+    let out = dir.path().join("r.yaml");
+    let err = |args: &[&str]| {
+        let o = crate::cli::analyze_cmd(&manifest, &table, &out)
+            .args(args)
+            .assert()
+            .failure();
+        String::from_utf8_lossy(&o.get_output().stderr).to_string()
+    };
+    let e = err(&[]);
+    assert!(e.contains("not UTF-8") && e.contains("--encoding"), "{e}");
+    let e = err(&["--encoding", "windows-1252"]);
+    assert!(e.contains("holds 2 measurement runs"), "{e}");
+    crate::cli::analyze_cmd(&manifest, &table, &out)
+        .args([
+            "--encoding",
+            "windows-1252",
+            "--run",
+            "2",
+            "--units",
+            "inch",
+        ])
+        .assert()
+        .success();
+    let reference = dir.path().join("dmis.yaml");
+    crate::cli::analyze_cmd(&manifest, &dmo, &reference)
+        .assert()
+        .success();
+    let values = |p: &Path| -> Vec<f64> {
+        let v: serde_yaml::Value =
+            serde_yaml::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        v["location_errors"]
+            .as_mapping()
+            .unwrap()
+            .values()
+            .map(|e| e["value"].as_f64().unwrap())
+            .collect()
+    };
+    let (a, b) = (values(&out), values(&reference));
+    assert_eq!(a.len(), 8);
+    // Inches to 10 decimals are mm to 2.5e-9: the errors (um, urad) agree
+    // far below their uncertainty.
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x - y).abs() < 1e-3, "{a:?} {b:?}");
+    }
+    // discover reads the file through the same flags.
+    let o = crate::cli::fivecal()
+        .args(["discover", "--plan"])
+        .arg(&manifest)
+        .arg("--measured")
+        .arg(&table)
+        .args([
+            "--encoding",
+            "windows-1252",
+            "--units",
+            "inch",
+            "--run",
+            "3",
+        ])
+        .assert()
+        .failure();
+    let e = String::from_utf8_lossy(&o.get_output().stderr);
+    assert!(
+        e.contains("--run 3: the file holds 2 measurement run(s), expected 1 to 2"),
+        "{e}"
+    );
+}
+
+/// The plan's QIF 3 measurement plan and the QIF results `simulate` writes
+/// for it: the same features by the same ids and names, each plan point
+/// once with its nominal and normal, the plan's steps pose by pose; and
+/// `analyze` finds from the QIF results exactly what it finds from the CSV
+/// output of the same simulation.
+#[test]
+fn a_plans_qif_and_its_simulated_qif_results_analyze_as_the_csv_does() {
+    let dir = crate::util::tempdir();
+    let (manifest, truth) = planned_with_truth(dir.path());
+    let (qif, csv) = (dir.path().join("piece.qif"), dir.path().join("piece.csv"));
+    crate::analyze_sim::simulate_as(&manifest, &truth, &qif, 9, None);
+    crate::cli::fivecal()
+        .args(["simulate", "--plan"])
+        .arg(&manifest)
+        .arg("--errors")
+        .arg(&truth)
+        .arg("--out")
+        .arg(&csv)
+        .args(["--seed", "9", "--placement", "aligned"])
+        .assert()
+        .success();
+
+    let plan_path = dir.path().join("plan/stepped-square.qif");
+    let plan_text = std::fs::read_to_string(&plan_path).unwrap();
+    let results_text = std::fs::read_to_string(&qif).unwrap();
+    let plan = roxmltree::Document::parse(&plan_text).unwrap();
+    let results = roxmltree::Document::parse(&results_text).unwrap();
+    let items = |d: &roxmltree::Document<'_>| -> Vec<(String, String)> {
+        d.descendants()
+            .filter(|n| n.has_tag_name("PointFeatureItem"))
+            .map(|n| {
+                let name = n
+                    .children()
+                    .find(|c| c.has_tag_name("FeatureName"))
+                    .and_then(|c| c.text())
+                    .unwrap()
+                    .to_string();
+                (n.attribute("id").unwrap().to_string(), name)
+            })
+            .collect()
+    };
+    let points = fivecal::formats::points::PlanPoints::read(
+        &dir.path().join("plan/stepped-square.points.csv"),
+    )
+    .unwrap();
+    let plan_items = items(&plan);
+    assert_eq!(plan_items.len(), points.points.len());
+    assert_eq!(plan_items, items(&results), "same ids, same names");
+    for ((_, name), p) in plan_items.iter().zip(&points.points) {
+        assert_eq!(name, &p.label);
+    }
+    // Each nominal as points.csv gives it (6 decimals, normals 9).
+    let nominal = plan
+        .descendants()
+        .find(|n| n.has_tag_name("PointFeatureNominal"))
+        .unwrap();
+    let child = |tag: &str| -> Vec<f64> {
+        nominal
+            .children()
+            .find(|c| c.has_tag_name(tag))
+            .and_then(|c| c.text())
+            .unwrap()
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect()
+    };
+    let p0 = &points.points[0];
+    assert_eq!(child("Location"), [p0.p.x, p0.p.y, p0.p.z]);
+    assert_eq!(child("Normal"), [p0.n.x, p0.n.y, p0.n.z]);
+    // The plan's steps: one per pose in execution order, every item once.
+    let steps: Vec<Vec<String>> = plan
+        .descendants()
+        .filter(|n| n.has_tag_name("MeasureSpecifiedFeatures"))
+        .map(|s| {
+            s.descendants()
+                .filter(|n| n.has_tag_name("Id"))
+                .map(|n| n.text().unwrap().to_string())
+                .collect()
+        })
+        .collect();
+    let mut seqs: Vec<u32> = points.points.iter().map(|p| p.seq).collect();
+    seqs.dedup();
+    assert_eq!(steps.len(), seqs.len());
+    let flat: Vec<&String> = steps.iter().flatten().collect();
+    let ids: Vec<&String> = plan_items.iter().map(|i| &i.0).collect();
+    assert_eq!(flat, ids);
+
+    // The results read back by label with the plan's nominals.
+    let inv = detect::inventory(&qif, &ReadContext::default()).unwrap();
+    assert_eq!((inv.format, inv.units.as_str()), ("qif", "mm"));
+    let e = &inv.entries[0];
+    assert_eq!(e.label, p0.label);
+    assert!(close(e.nominal, [p0.p.x, p0.p.y, p0.p.z], 0.0 + 1e-12));
+    // The plan itself is no measurement.
+    let o = crate::cli::analyze_cmd(&manifest, &plan_path, &dir.path().join("x.yaml"))
+        .assert()
+        .failure();
+    assert!(
+        String::from_utf8_lossy(&o.get_output().stderr)
+            .contains("nothing measured: this is a QIF plan (what to measure), not results"),
+    );
+    assert_same_analysis(&manifest, &qif, &csv, dir.path());
 }

@@ -73,7 +73,7 @@ fn points_of(m: Measurement) -> Vec<MeasuredPoint> {
 
 /// Each format, written and read back by the project's readers, gives the
 /// simulated points to the digits the format prints: CSV (6 decimals),
-/// DMIS output (5), the FANUC and HEIDENHAIN logs (4, as the controls
+/// DMIS output (5), QIF results (6), the FANUC and HEIDENHAIN logs (4, as the controls
 /// print), the LinuxCNC log (6), nine-section heights (4 decimals of um).
 #[test]
 fn every_output_format_reads_back_into_the_simulated_points() {
@@ -89,6 +89,7 @@ fn every_output_format_reads_back_into_the_simulated_points() {
     for (format, placement, name, tol) in [
         (Format::Csv, Placement::Random, "piece.csv", 5e-7),
         (Format::Dmis, Placement::Aligned, "piece.dmo", 5e-6),
+        (Format::Qif, Placement::Aligned, "piece.qif", 5e-7),
     ] {
         let out = simulate::run(&plan, &errors, &opts(placement)).unwrap();
         let path = dir.path().join(name);
@@ -140,9 +141,10 @@ fn every_output_format_reads_back_into_the_simulated_points() {
 /// writes another measurement (placement, setups and noise all move).
 #[test]
 fn seeded_runs_are_reproducible_byte_for_byte_and_other_seeds_differ() {
-    let cases: [(&str, &str, Format); 4] = [
+    let cases: [(&str, &str, Format); 5] = [
         ("bc-trunnion", "stepped-square", Format::Csv),
         ("bc-trunnion", "stepped-square", Format::Dmis),
+        ("bc-trunnion", "stepped-square", Format::Qif),
         ("ac-trunnion", "nine-section", Format::Heights),
         ("ac-trunnion", "probe-columns", Format::Log),
     ];

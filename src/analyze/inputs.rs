@@ -89,6 +89,40 @@ pub struct Measurements {
     pub heights: Vec<(PathBuf, Vec<SectionHeight>)>,
 }
 
+/// Below this, a measured point is where the plan puts it, mm: the last
+/// digit measurement files are written with (4 decimals in mm); a CMM's
+/// noise alone is several times larger.
+const COPY_MM: f64 = 1e-4;
+
+/// When every point of file `file` lies where the plan puts it (on the
+/// nominal point itself, or on the plan's point as written; for a machined
+/// piece also after the best rigid placement, as a CMM's frame may have
+/// it), the largest difference, mm: such a file is no measurement.
+fn copy_of_nominal(
+    data: &Dataset,
+    file: usize,
+    nominal: &dyn Fn(&PlanPoint) -> Vector3<f64>,
+) -> Option<f64> {
+    let obs: Vec<_> = data.obs.iter().filter(|o| o.file == file).collect();
+    if obs.is_empty() {
+        return None;
+    }
+    let largest = |target: &dyn Fn(&PlanPoint) -> Vector3<f64>| {
+        obs.iter()
+            .map(|o| (o.m - target(&data.plan.points[o.plan])).norm())
+            .fold(0.0, f64::max)
+    };
+    let mut best = largest(nominal).min(largest(&|p: &PlanPoint| p.p));
+    if data.kind == TestKind::Machining && obs.len() >= 3 {
+        let w: Vec<Vector3<f64>> = obs.iter().map(|o| data.plan.points[o.plan].p).collect();
+        let m: Vec<Vector3<f64>> = obs.iter().map(|o| o.m).collect();
+        if let Ok(t) = crate::placement::kabsch(&w, &m) {
+            best = best.min(largest(&|p: &PlanPoint| (t * Point3::from(p.p)).coords));
+        }
+    }
+    (best < COPY_MM).then_some(best)
+}
+
 /// Where a plan point is measured without any error, in the frame of the
 /// measured points before placement: the point itself in W for a CMM, the
 /// point carried by the nominal rotary axes for on-machine probing.
@@ -297,8 +331,26 @@ impl PlanContext {
     }
 
     /// Joins point sets (one piece, several files) to the plan's points,
-    /// each probed piece on its own setup.
+    /// each probed piece on its own setup; a file that holds the plan's
+    /// nominal points instead of a measurement is refused.
     pub fn join(&self, sets: &[(PathBuf, PointSet)]) -> Result<Dataset, AnalyzeError> {
+        let data = self.join_sets(sets)?;
+        let nominal = |p: &PlanPoint| nominal(&self.kin, self.kind, p);
+        for (fi, (path, _)) in sets.iter().enumerate() {
+            if let Some(largest) = copy_of_nominal(&data, fi, &nominal) {
+                return Err(AnalyzeError::Plan(format!(
+                    "{}: its {} points are the plan's nominal points (largest difference {:.3} um, below the {} um a measurement resolves): the plan's own points file, or a simulation without errors and noise, not a measurement; nothing to identify",
+                    path.display(),
+                    data.obs.iter().filter(|o| o.file == fi).count(),
+                    largest * 1e3,
+                    COPY_MM * 1e3
+                )));
+            }
+        }
+        Ok(data)
+    }
+
+    fn join_sets(&self, sets: &[(PathBuf, PointSet)]) -> Result<Dataset, AnalyzeError> {
         let Some(points) = &self.points else {
             return Err(AnalyzeError::Plan(format!(
                 "{}: a nine-section plan takes section heights (section,height_um), not points",
@@ -322,7 +374,9 @@ impl PlanContext {
     }
 
     /// Joins labelled points already in memory (simulated ones), named
-    /// `source` in messages.
+    /// `source` in messages. Not checked against the nominal points: a
+    /// simulation without errors and noise is how `plan` predicts what its
+    /// test identifies.
     pub fn join_points(
         &self,
         points: Vec<MeasuredPoint>,
@@ -336,6 +390,6 @@ impl PlanContext {
             nominals: Vec::new(),
             warnings: Vec::new(),
         };
-        self.join(&[(source.to_path_buf(), set)])
+        self.join_sets(&[(source.to_path_buf(), set)])
     }
 }

@@ -28,6 +28,16 @@ pub fn check(method: Method, test: Test, kind: TestKind, maps: &[String]) -> Res
             "--method sphere needs a probing plan (a calibration sphere); {test} is a machining test"
         ));
     }
+    if method == Method::TwoStage && test == Test::ProbeSphere {
+        // Its first stage fits each station's touches as points on planar
+        // faces; a sphere set up a tenth of a millimetre off its place
+        // leaves residuals as large as the probe's noise (the fit test
+        // flags it), and the values follow them.
+        return Err(
+            "--method two-stage fits planar faces at each station; the sphere test's touches lie on a sphere: use the sphere or global method"
+                .into(),
+        );
+    }
     if method == Method::Sphere && !maps.is_empty() {
         return Err(
             "--maps needs the two-stage or global method; the sphere method identifies location errors only"
@@ -104,9 +114,21 @@ pub fn rigid_refuses(model: &Model) -> bool {
     RigidPoseMachining::new(model.clone()).is_err()
 }
 
-/// [`identify_with`], with the plan at hand: where the rigid-pose models
-/// refuse the model, the global method inverts the simulator's general
-/// forward model ([`crate::simulate::forward`]) instead.
+/// Whether the global method on `test` needs the plan for the simulator's
+/// general forward model: where the rigid-pose models refuse the model, and
+/// on the sphere test, whose touches the rigid-pose probing model takes on
+/// tangent planes. A sphere set up 0.1 mm off its nominal place moves a
+/// touch along its fixed approach by d^2 / 2R from that plane, about
+/// 0.4 um on a 12.7 mm ball: as large as the probe's noise, so the
+/// tangent-plane fit fails its goodness-of-fit test where the exact
+/// intersection does not.
+pub fn needs_plan(model: &Model, test: Test) -> bool {
+    rigid_refuses(model) || test == Test::ProbeSphere
+}
+
+/// [`identify_with`], with the plan at hand: where [`needs_plan`], the
+/// global method inverts the simulator's general forward model
+/// ([`crate::simulate::forward`]) instead.
 pub fn identify_with_plan(
     method: Method,
     setup: &Setup,
@@ -115,7 +137,7 @@ pub fn identify_with_plan(
     plan: Option<&Plan>,
 ) -> Result<Identification, IdentifyError> {
     if let (Method::Global, Some(plan)) = (method, plan)
-        && rigid_refuses(&setup.model)
+        && needs_plan(&setup.model, plan.test())
     {
         let fm = crate::simulate::forward::for_plan(&setup.model, plan)?;
         return identify::global::identify(fm.as_ref(), setup, data, &lsq::Options::default());

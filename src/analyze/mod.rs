@@ -12,12 +12,17 @@
 //! - [`inputs`]: the measured files read in whatever format and joined to
 //!   the plan's points (also what `discover` and the demo read with);
 //! - [`method`]: which identification runs, and with which forward model;
+//! - [`design`]: what a plan will identify, before anything is measured;
+//! - [`fit`]: whether the model explains the measurements as well as the
+//!   instrument's noise allows, and what a result that does not must say;
 //! - [`uncertainty`]: the covariance each method reports and the
 //!   Monte-Carlo study that replaces it on request;
 //! - [`result`]: the result file, every entry of it added in one place;
 //! - [`series`]: several pieces side by side, and an earlier result beside
 //!   the new one.
 
+pub mod design;
+pub mod fit;
 pub mod inputs;
 pub mod method;
 pub mod result;
@@ -28,6 +33,7 @@ use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use crate::errorfile::{ErrorFile, NotIdentified};
+use crate::formats::detect::MeasuredOptions;
 use crate::formats::manifest::TestKind;
 use crate::identify::nine_section::NineSection;
 use crate::identify::sphere::{CircleMethod, SphereOptions};
@@ -126,6 +132,12 @@ pub struct Request {
     pub monte_carlo: Option<MonteCarlo>,
     /// How the sphere method fits the axis lines.
     pub circle: CircleMethod,
+    /// The instrument's noise per measured point, um, that the fit is
+    /// judged against; `None`: the instrument's default ([`fit::ExpectedNoise`]).
+    pub noise: Option<f64>,
+    /// What the user said about the measurement files (run, units,
+    /// encoding).
+    pub options: MeasuredOptions,
 }
 
 impl Request {
@@ -142,6 +154,8 @@ impl Request {
             compare: None,
             monte_carlo: None,
             circle: CircleMethod::Robust,
+            noise: None,
+            options: MeasuredOptions::default(),
         }
     }
 }
@@ -160,8 +174,20 @@ pub struct Piece {
     pub u: Vec<Option<f64>>,
     /// The Monte-Carlo study, if asked for.
     pub monte_carlo: Option<Study>,
+    /// How well the model fits the measurements; `None` where nothing is
+    /// left to judge it by (no degrees of freedom).
+    pub fit: Option<crate::errorfile::FitSection>,
     /// The result file.
     pub file: ErrorFile,
+}
+
+impl Piece {
+    /// The fit, if the model does not fit.
+    pub fn misfit(&self) -> Option<&crate::errorfile::FitSection> {
+        self.fit
+            .as_ref()
+            .filter(|f| f.verdict == crate::errorfile::FitVerdict::Misfit)
+    }
 }
 
 impl Piece {
@@ -225,10 +251,11 @@ pub enum Found {
 
 /// Runs an analysis.
 pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
-    let ctx = match &req.rebuilt {
+    let mut ctx = match &req.rebuilt {
         Some(plan) => PlanContext::from_plan(plan, &req.manifest),
         None => PlanContext::from_manifest(&req.manifest)?,
     };
+    ctx.options = req.options;
     let method = req.method.unwrap_or(method::default_for(ctx.test));
     method::check(method, ctx.test, ctx.kind, &req.maps).map_err(AnalyzeError::Request)?;
     let measured = ctx.read(&req.measured)?;
@@ -313,15 +340,23 @@ fn identify_piece(
 ) -> Result<Piece, AnalyzeError> {
     let setup = Setup::new(&ctx.kin, &data.poses, &req.maps)?;
     // The global method on a model the rigid-pose models refuse (a head
-    // machine) inverts the simulator's forward model, which needs the plan.
-    let plan = if matches!(method, Method::Global | Method::Sphere)
-        && method::rigid_refuses(&setup.model)
+    // machine) or on the sphere test inverts the simulator's forward model,
+    // which needs the plan.
+    let plan = if (method == Method::Global && method::needs_plan(&setup.model, ctx.test))
+        || (method == Method::Sphere && method::rigid_refuses(&setup.model))
     {
         Some(rebuilt(req)?)
     } else {
         None
     };
     let est = method::identify_with_plan(method, &setup, &data, sphere, plan.as_deref())?;
+    let fit = fit::of(
+        &est,
+        &fit::ExpectedNoise::new(req.noise, data.kind, ctx.test),
+    );
+    // The covariance is scaled by the residual variance, so its u already
+    // carries the Birge ratio; a Monte-Carlo study draws at the stated noise
+    // and is widened below.
     let mut u = est.u();
     let mut study = None;
     if let Some(mc) = &req.monte_carlo {
@@ -354,16 +389,20 @@ fn identify_piece(
             mc.exact,
         )
         .map_err(AnalyzeError::MonteCarlo)?;
+        let mut s = s;
+        s.widen(fit::widening(fit.as_ref()));
         u = s.u(&est);
         study = Some(s);
     }
-    let file = result::error_file(&est, &u, data.kind);
+    let mut file = result::error_file(&est, &u, data.kind);
+    file.fit = fit.clone();
     Ok(Piece {
         number,
         data,
         est,
         u,
         monte_carlo: study,
+        fit,
         file,
     })
 }
@@ -371,7 +410,7 @@ fn identify_piece(
 /// Why the nine-section test identifies nothing, which its result says
 /// rather than print numbers: it evaluates a machine (before and after a
 /// compensation, say).
-const NINE_SECTION_REASON: &str = "the nine-section test gives section heights, from which no location error can be \
+pub(crate) const NINE_SECTION_REASON: &str = "the nine-section test gives section heights, from which no location error can be \
      separated (it evaluates a machine, it does not calibrate one); identify with the stepped-square, \
      column or sphere test";
 

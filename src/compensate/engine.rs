@@ -10,11 +10,12 @@ use indexmap::IndexMap;
 use super::correction::{Plan, Point, Refusal, size};
 use super::solver::Solver;
 use super::writer::Writer;
-use super::{CompensateError, Largest, Lines, Settings, Summary, Vertex};
+use super::{CompensateError, CoordinateSection, Largest, Lines, Settings, Summary, Vertex};
 use crate::model::{Effect, Model};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::{self, Event, Frame, Interpreter, Skip};
 use crate::nc::{Blocks, ReadError, Syntax};
+use crate::source::SourceError;
 
 /// A program rewriter for one machine and one set of errors.
 #[derive(Clone, Debug)]
@@ -110,6 +111,7 @@ impl Compensator {
             ..Default::default()
         };
         let mut skipped: IndexMap<String, Lines> = IndexMap::new();
+        let mut unmodelled: IndexMap<String, Lines> = IndexMap::new();
         // The last written end point had C held (the next move ramps C).
         let mut last_held = false;
         let syntax = Syntax {
@@ -131,6 +133,23 @@ impl Compensator {
                 let seg = block.segments[si];
                 let before = interp.pos;
                 let event = interp.step(block, &seg);
+                if let Some(u) = interp.unmodelled.take() {
+                    if self.settings.strict {
+                        let (l, column) = block.locate(u.offset);
+                        return Err(CompensateError::Unmodelled(SourceError::new(
+                            path,
+                            l,
+                            column,
+                            format!("{} (--strict refuses what it does not model)", u.what),
+                        )));
+                    }
+                    unmodelled.entry(u.what).or_default().push(line);
+                }
+                if matches!(event, Event::Move(_) | Event::Skip(_))
+                    && !matches!(event, Event::Skip(Skip::Unreadable))
+                {
+                    section(&mut summary.coordinates, &interp, line);
+                }
                 let mut motion_done = false;
                 match event {
                     Event::Move(mv) => {
@@ -207,10 +226,28 @@ impl Compensator {
             }
             writer.edits.write_block(block, output)?;
         }
+        blocks
+            .finish(summary.moves)
+            .map_err(CompensateError::Syntax)?;
         output.flush()?;
         summary.inserted = writer.inserted;
         summary.skipped = skipped.into_iter().collect();
+        summary.unmodelled = unmodelled.into_iter().collect();
         Ok(summary)
+    }
+}
+
+/// Extends the last section of `sections` to the move at `line`, or
+/// starts one where the coordinates change meaning.
+fn section(sections: &mut Vec<CoordinateSection>, interp: &Interpreter, line: usize) {
+    let meaning = interp.frame().tcp.meaning();
+    match sections.last_mut() {
+        Some(s) if s.meaning == meaning => s.lines.1 = line,
+        _ => sections.push(CoordinateSection {
+            lines: (line, line),
+            meaning,
+            why: interp.coordinates_why(),
+        }),
     }
 }
 

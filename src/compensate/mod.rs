@@ -240,6 +240,22 @@ pub struct Summary {
     pub fast_path: bool,
     /// Effects of the error file that a rewrite cannot cancel, with why.
     pub not_compensated: Vec<String>,
+    /// Statements whose effect is not modelled (unknown M functions and
+    /// words, G10), kept as written, by what they are.
+    pub unmodelled: Vec<(String, Lines)>,
+    /// How the moves' coordinates were read, section by section.
+    pub coordinates: Vec<CoordinateSection>,
+}
+
+/// A stretch of the program whose moves are read one way.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CoordinateSection {
+    /// First and last line with a move.
+    pub lines: (usize, usize),
+    /// What the coordinates are ([`crate::nc::interp::Tcp::meaning`]).
+    pub meaning: &'static str,
+    /// Why: the flag or the code that set it, and its line.
+    pub why: String,
 }
 
 impl Summary {
@@ -263,6 +279,8 @@ pub enum CompensateError {
         /// What and how much.
         what: String,
     },
+    /// `--strict`: a statement whose effect is not modelled.
+    Unmodelled(SourceError),
     /// A move that cannot be followed within the tolerance.
     Tolerance {
         /// The program.
@@ -279,7 +297,7 @@ pub enum CompensateError {
 impl fmt::Display for CompensateError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            CompensateError::Syntax(e) => write!(f, "{e}"),
+            CompensateError::Syntax(e) | CompensateError::Unmodelled(e) => write!(f, "{e}"),
             CompensateError::TooLarge { path, line, what }
             | CompensateError::Tolerance { path, line, what } => {
                 write!(f, "{}:{line}: {what}", path.display())

@@ -109,6 +109,8 @@ pub struct SimSummary {
     pub max_axis_urad: f64,
     /// Moves that could not be simulated, by reason, with lines.
     pub skipped: Vec<(String, Lines)>,
+    /// Statements whose effect is not modelled (taken to move nothing).
+    pub unmodelled: Vec<(String, Lines)>,
 }
 
 /// A program runner for one machine with one set of errors.
@@ -170,6 +172,7 @@ impl Simulator {
         let mut blocks = Blocks::new(path, input, syntax);
         let mut summary = SimSummary::default();
         let mut skipped: IndexMap<String, Lines> = IndexMap::new();
+        let mut unmodelled: IndexMap<String, Lines> = IndexMap::new();
         let (mut sum, mut sum2) = (0.0, 0.0);
         loop {
             let block = match blocks.next_block() {
@@ -183,7 +186,20 @@ impl Simulator {
             summary.blocks += 1;
             for si in 0..block.segments.len() {
                 let seg = block.segments[si];
-                let mv = match interp.step(block, &seg) {
+                let event = interp.step(block, &seg);
+                if let Some(u) = interp.unmodelled.take() {
+                    if s.strict {
+                        let (l, column) = block.locate(u.offset);
+                        return Err(SourceError::new(
+                            path,
+                            l,
+                            column,
+                            format!("{} (--strict refuses what it does not model)", u.what),
+                        ));
+                    }
+                    unmodelled.entry(u.what).or_default().push(block.line);
+                }
+                let mv = match event {
                     Event::Move(mv) => mv,
                     Event::Skip(s) => {
                         skipped.entry(s.to_string()).or_default().push(block.line);
@@ -252,11 +268,19 @@ impl Simulator {
                 }
             }
         }
+        let unreadable = Skip::Unreadable.to_string();
+        let skipped_moves: usize = skipped
+            .iter()
+            .filter(|(k, _)| **k != unreadable)
+            .map(|(_, l)| l.count)
+            .sum();
+        blocks.finish(summary.moves + skipped_moves)?;
         if summary.samples > 0 {
             summary.mean_um = sum / summary.samples as f64;
             summary.rms_um = (sum2 / summary.samples as f64).sqrt();
         }
         summary.skipped = skipped.into_iter().collect();
+        summary.unmodelled = unmodelled.into_iter().collect();
         Ok(summary)
     }
 }

@@ -160,6 +160,10 @@ pub struct Demo {
     /// The truth's effects beyond the location errors (id, parameter,
     /// value).
     pub hidden: Vec<(String, String, f64)>,
+    /// How well the first analysis' model (location errors only) fits.
+    pub fit_before: Option<crate::errorfile::FitSection>,
+    /// How well the discovered model fits.
+    pub fit_after: Option<crate::errorfile::FitSection>,
     /// The gap before discovery.
     pub gap_before: GapSize,
     /// The gap after.
@@ -285,7 +289,10 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     write_atomic(&story_path, story.as_bytes()).at(e)?;
     files.push(rel(out, &story_path));
     let final_est = discovery.identification(data);
-    let final_file = final_est.error_file(None);
+    // Judged against the same noise as the first analysis, as `discover
+    // --out` writes it.
+    let expected = crate::analyze::fit::ExpectedNoise::new(None, data.kind, identified.test);
+    let final_file = discovery.error_file(data, &expected);
     let final_path = out.join("discovered.yaml");
     let final_text = final_file.to_yaml();
     write_atomic(&final_path, final_text.as_bytes()).at(e)?;
@@ -332,10 +339,13 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let exported = crate::compensate::export::export(
         &identified.model,
         &identified.theta,
+        &identified.u,
         Dialect::Fanuc,
         &final_path.display().to_string(),
+        &crate::compensate::export::Limits::default(),
     )
-    .at(e)?;
+    .at(e)?
+    .text;
     let export_path = out.join("export.fanuc.txt");
     write_atomic(&export_path, exported.as_bytes()).at(e)?;
     files.push(rel(out, &export_path));
@@ -415,6 +425,8 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
         rows: rows(&truth, est, &final_est),
         added: added(&discovery, &truth),
         hidden: hidden(&truth),
+        fit_before: analysis.fit.clone(),
+        fit_after: final_file.fit.clone(),
         gap_before: GapSize {
             rms_um: discovery.story.start.gap.rms_um,
             max_um: discovery.story.start.gap.max_um,
@@ -616,6 +628,41 @@ impl Demo {
                 .collect();
             let _ = writeln!(s, "discovered: {id}: {}", v.join(", "));
         }
+        let judged = |f: &Option<crate::errorfile::FitSection>| match f {
+            Some(f) => format!(
+                "{} (residuals {:.2} um against {:.2} um expected, ratio {:.2})",
+                match f.verdict {
+                    crate::errorfile::FitVerdict::Fits => "fits",
+                    crate::errorfile::FitVerdict::Misfit => "does NOT fit",
+                },
+                f.sigma_um,
+                f.expected_um,
+                f.ratio
+            ),
+            None => "cannot be judged (no degrees of freedom)".into(),
+        };
+        let _ = writeln!(
+            s,
+            "first analysis: the location-only model {}",
+            judged(&self.fit_before)
+        );
+        if self
+            .fit_before
+            .as_ref()
+            .is_some_and(|f| f.verdict == crate::errorfile::FitVerdict::Misfit)
+        {
+            let _ = writeln!(
+                s,
+                "  why the analyzed column is off: the measurements carry an effect the location errors cannot express \
+                 (hidden in the truth, above), so the fit bends them to absorb it; analyzed.yaml says so (fit: misfit) \
+                 and compensate refuses it without --accept-misfit"
+            );
+        }
+        let _ = writeln!(
+            s,
+            "after discovery: the refined model {}",
+            judged(&self.fit_after)
+        );
         let _ = writeln!(
             s,
             "gap (measured - model): {:.2} um RMS, {:.2} um max before discovery; {:.2} um RMS, {:.2} um max after",

@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::analyze::{AnalyzeError, PlanContext};
+use crate::formats::detect::MeasuredOptions;
 use crate::formats::measured::MeasuredPoint;
 use crate::identify::Dataset;
 use crate::kinematics::Kinematics;
@@ -52,10 +53,16 @@ impl Inputs {
         super::run(&self.kin, &self.data, Some(&self.plan), &opts)
     }
 
-    /// Reads the plan of `manifest` and the measurement files.
-    pub fn load(manifest: &Path, measured: &[PathBuf]) -> Result<Inputs, InputError> {
+    /// Reads the plan of `manifest` and the measurement files, with what
+    /// the user said about them.
+    pub fn load(
+        manifest: &Path,
+        measured: &[PathBuf],
+        options: &MeasuredOptions,
+    ) -> Result<Inputs, InputError> {
         let plan = crate::procedure::load(manifest)?;
-        let ctx = PlanContext::from_plan(&plan, manifest);
+        let mut ctx = PlanContext::from_plan(&plan, manifest);
+        ctx.options = *options;
         let read = ctx.read(measured)?;
         if let Some((f, _)) = read.heights.first() {
             return Err(InputError::Unsuitable(format!(

@@ -129,11 +129,19 @@ impl Discovery {
     /// written without `u` (or left out, where absence means zero) and
     /// listed under `not_identifiable` with the reason, as is every
     /// combination of values it does not see.
-    pub fn error_file(&self, data: &Dataset) -> ErrorFile {
+    ///
+    /// Its `fit:` section judges the final model against `expected`, the
+    /// instrument's noise.
+    pub fn error_file(
+        &self,
+        data: &Dataset,
+        expected: &crate::analyze::fit::ExpectedNoise,
+    ) -> ErrorFile {
         let f = self.end();
         let est = identification(f, data);
         let u: Vec<Option<f64>> = (0..f.n).map(|i| f.u(i)).collect();
         let mut file = crate::analyze::result::error_file(&est, &u, data.kind);
+        file.fit = crate::analyze::fit::of(&est, expected);
         for (ei, e) in f.spec.model.effects.iter().enumerate() {
             let r = f.spec.model.param_range(ei);
             for i in r.clone().filter(|&i| f.fixed(i)) {

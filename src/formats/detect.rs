@@ -11,13 +11,11 @@
 
 use std::path::Path;
 
-use nalgebra::Vector3;
-
 use super::heights::{self, SectionHeight};
 use super::inventory::{Entry, Inventory};
 use super::measured::{self, MeasuredPoint};
 use super::points::PlanPoints;
-use super::{csv_lines, dmis, parse_finite, probe_log, qif, table};
+use super::{calypso, cloud, csv_lines, dmis, probe_log, qif, table};
 use crate::kinematics::Kinematics;
 use crate::machine::Dialect;
 use crate::source::SourceError;
@@ -58,6 +56,14 @@ impl LengthUnit {
         }
     }
 
+    /// Its name as files and messages write it.
+    pub fn name(self) -> &'static str {
+        match self {
+            LengthUnit::Mm => "mm",
+            LengthUnit::Inch => "inch",
+        }
+    }
+
     /// The unit by name (`mm`, `inch`, `in`).
     pub fn parse(s: &str) -> Option<LengthUnit> {
         match s.trim().to_ascii_lowercase().as_str() {
@@ -79,6 +85,21 @@ pub struct MeasuredOptions {
     pub units: Option<LengthUnit>,
     /// The encoding of a file not in UTF-8.
     pub encoding: Option<&'static encoding_rs::Encoding>,
+}
+
+impl MeasuredOptions {
+    /// Millimetres per length unit of a file that states none: the unit
+    /// the user named, else mm (the plain formats' contract); the
+    /// inventory says which.
+    pub fn unstated_unit_mm(&self, inv: &mut Inventory) -> f64 {
+        match self.units {
+            Some(u) => {
+                inv.units = format!("{} (given with --units; the file states none)", u.name());
+                u.mm()
+            }
+            None => 1.0,
+        }
+    }
 }
 
 /// Points read from one file.
@@ -201,6 +222,7 @@ pub fn chosen_run(
 
 struct Dmis;
 struct Qif;
+struct Calypso;
 struct Table;
 struct Canonical;
 struct Heights;
@@ -481,6 +503,42 @@ impl Reader for Qif {
     }
 }
 
+impl Reader for Calypso {
+    fn name(&self) -> &'static str {
+        "calypso"
+    }
+    fn describe(&self) -> &'static str {
+        "a ZEISS CALYPSO table (_fet, _chr or _hdr, tab-separated)"
+    }
+    fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
+        calypso::sniff(src).is_some()
+    }
+    fn read(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Measurement, SourceError> {
+        if calypso::sniff(src) == Some(calypso::Table::Header) {
+            return Err(SourceError::new(
+                path,
+                0,
+                0,
+                calypso::HEADER_HOLDS_NO_MEASUREMENT,
+            ));
+        }
+        inventory_points(path, &calypso::parse(path, src, &ctx.options)?, ctx)
+    }
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        calypso::parse(path, src, &ctx.options)
+    }
+}
+
 fn header_fields(src: &str) -> Option<Vec<String>> {
     csv_lines(src)
         .next()
@@ -533,15 +591,15 @@ impl Reader for Table {
         src: &str,
         ctx: &ReadContext<'_>,
     ) -> Result<Measurement, SourceError> {
-        inventory_points(path, &table::parse(path, src)?, ctx)
+        inventory_points(path, &table::parse(path, src, &ctx.options)?, ctx)
     }
     fn inventory(
         &self,
         path: &Path,
         src: &str,
-        _: &ReadContext<'_>,
+        ctx: &ReadContext<'_>,
     ) -> Result<Inventory, SourceError> {
-        table::parse(path, src)
+        table::parse(path, src, &ctx.options)
     }
 }
 
@@ -565,108 +623,38 @@ impl Reader for Heights {
     }
 }
 
-/// Splits a plain data line at commas, semicolons, tabs or spaces, with
-/// the 1-based column of each field.
-fn plain_fields(line: &str) -> Vec<(usize, &str)> {
-    let mut out = Vec::new();
-    let mut start = None;
-    for (i, ch) in line.char_indices() {
-        let sep = ch == ',' || ch == ';' || ch == '\t' || ch == ' ';
-        match (sep, start) {
-            (true, Some(s)) => {
-                out.push((s + 1, &line[s..i]));
-                start = None;
-            }
-            (false, None) => start = Some(i),
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        out.push((s + 1, &line[s..]));
-    }
-    out
-}
-
 impl Reader for Plain {
     fn name(&self) -> &'static str {
         "plain"
     }
     fn describe(&self) -> &'static str {
-        "a plain point list (x y z per line, no labels)"
+        "a plain point list (x y z or x y z i j k per line, no labels)"
     }
     fn sniff(&self, src: &str, _: &ReadContext<'_>) -> bool {
-        let mut data = src
-            .lines()
-            .map(str::trim)
-            .filter(|l| !l.is_empty() && !l.starts_with('#'));
-        let Some(first) = data.next() else {
-            return false;
-        };
-        let numeric = |l: &str| {
-            let f = plain_fields(l);
-            f.len() >= 3 && f.iter().take(3).all(|x| x.1.parse::<f64>().is_ok())
-        };
-        let header = {
-            let f: Vec<String> = plain_fields(first)
-                .iter()
-                .map(|x| x.1.to_ascii_lowercase())
-                .collect();
-            f.len() >= 3 && f[..3] == ["x", "y", "z"]
-        };
-        (header || numeric(first)) && data.next().is_some_and(numeric)
+        cloud::looks_like_cloud(src)
     }
     fn read(
         &self,
         path: &Path,
         src: &str,
-        _: &ReadContext<'_>,
+        ctx: &ReadContext<'_>,
     ) -> Result<Measurement, SourceError> {
-        let mut points = Vec::new();
-        let mut first = true;
-        for (i, raw) in src.lines().enumerate() {
-            let line = i + 1;
-            let t = raw.trim();
-            if t.is_empty() || t.starts_with('#') {
-                continue;
-            }
-            let f = plain_fields(raw);
-            if first {
-                first = false;
-                if f.first().is_some_and(|x| x.1.eq_ignore_ascii_case("x")) {
-                    continue;
-                }
-            }
-            if f.len() < 3 {
-                return Err(SourceError::new(
-                    path,
-                    line,
-                    1,
-                    format!("expected three numbers x y z, got {} fields", f.len()),
-                ));
-            }
-            let num = |k: usize| {
-                parse_finite(f[k].1).map_err(|m| SourceError::new(path, line, f[k].0, m))
-            };
-            points.push(MeasuredPoint {
-                label: String::new(),
-                p: Vector3::new(num(0)?, num(1)?, num(2)?),
-                line,
-            });
-        }
-        Ok(Measurement::Points(PointSet {
-            format: "plain",
-            points,
-            labeled: false,
-            nominals: Vec::new(),
-            warnings: Vec::new(),
-        }))
+        inventory_points(path, &cloud::parse(path, src, &ctx.options)?, ctx)
+    }
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        cloud::parse(path, src, &ctx.options)
     }
 }
 
 /// Every reader, in the order they are tried.
 pub fn readers() -> Vec<&'static dyn Reader> {
     vec![
-        &Qif, &Dmis, &Heights, &Canonical,
+        &Qif, &Dmis, &Calypso, &Heights, &Canonical,
         // The probe logs of `src/formats/probe_log/` (FANUC DPRNT,
         // HEIDENHAIN FN 16, LinuxCNC LOG and PROBEOPEN), before the plain
         // point list, which accepts any three numbers per line. They return

@@ -266,6 +266,7 @@ impl DmisOutput {
                     label: f.label.clone(),
                     p: a.xyz,
                     line: a.line,
+                    normal: None,
                 })
             })
             .collect()

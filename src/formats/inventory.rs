@@ -151,6 +151,7 @@ impl Inventory {
                     },
                     p: e.actual.expect("is_point"),
                     line: e.line,
+                    normal: e.normal,
                 })
                 .collect(),
             labeled,

@@ -101,6 +101,45 @@ pub struct Manifest {
     pub files: IndexMap<String, PathBuf>,
     /// Poses in execution order.
     pub poses: Vec<PoseEntry>,
+    /// What the test will identify on this machine, as `plan` predicted
+    /// it from the design.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub identifies: Option<Identifies>,
+}
+
+/// What a plan will identify: the method, the noise the uncertainties are
+/// predicted at, the design's rank, each location error's predicted `u`
+/// or why it will not be identified.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Identifies {
+    /// The method `analyze` will use by default.
+    pub method: String,
+    /// Noise per measured point the uncertainties are predicted at, um.
+    pub noise_um: f64,
+    /// Rank of the design.
+    pub rank: usize,
+    /// Free parameters of the design (nuisance included).
+    pub parameters: usize,
+    /// Every location error of the machine.
+    pub symbols: IndexMap<String, PredictedSymbol>,
+    /// Combinations no measurement of this design sees.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_separable: Vec<String>,
+}
+
+/// One location error in [`Identifies`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PredictedSymbol {
+    /// um or urad.
+    pub unit: String,
+    /// Predicted standard uncertainty; absent: not identified.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u: Option<f64>,
+    /// Why not, where not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
 }
 
 impl Manifest {
@@ -171,6 +210,7 @@ mod tests {
                 start_min: 0.0,
                 end_min: 1.5,
             }],
+            identifies: None,
         };
         let text = m.to_yaml();
         assert_eq!(Manifest::parse(Path::new("p.yaml"), &text).unwrap(), m);

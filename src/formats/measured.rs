@@ -22,6 +22,10 @@ pub struct MeasuredPoint {
     pub p: Vector3<f64>,
     /// Line of the source file it came from (1-based, 0 if generated).
     pub line: usize,
+    /// Unit direction the file gives for it (the probing direction or the
+    /// measured surface normal), if any; without one, the plan point's
+    /// nominal normal is its direction.
+    pub normal: Option<Vector3<f64>>,
 }
 
 /// Writes canonical CSV with a header and optional `#` comments.
@@ -103,6 +107,7 @@ pub fn parse_csv(path: &Path, src: &str) -> Result<Vec<MeasuredPoint>, SourceErr
             label,
             p: Vector3::new(num(c[1])?, num(c[2])?, num(c[3])?),
             line,
+            normal: None,
         });
     }
     if cols.is_none() {

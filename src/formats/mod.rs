@@ -2,6 +2,8 @@
 //! reader turns its format into the canonical meaning of docs/formats.md
 //! and reports bad input as `file:line:column: what was expected`.
 
+pub mod calypso;
+pub mod cloud;
 pub mod detect;
 pub mod dmis;
 pub mod dmis_program;
@@ -13,6 +15,7 @@ pub mod measured;
 pub mod points;
 pub mod probe_log;
 pub mod qif;
+pub mod qif_write;
 pub mod table;
 
 /// A data line of a plain comma-separated file: its 1-based number and its

@@ -418,7 +418,12 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
                 || name(n).ends_with("CharacteristicActual"))
     };
     if runs.is_empty() {
-        let what = if doc.descendants().any(|n| name(&n) == "MeasurementPlan") {
+        // QIF 3 keeps a plan in `Plan` (QIF 2 in `MeasurementPlan`).
+        let what = if doc
+            .root_element()
+            .children()
+            .any(|n| n.is_element() && matches!(name(&n), "Plan" | "MeasurementPlan"))
+        {
             "a QIF plan (what to measure), not results"
         } else {
             "a QIF document without measurement results (a product definition or a plan)"
@@ -445,13 +450,7 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
             *mm
         }
         (None, Some(u)) => {
-            inv.units = format!(
-                "{} (given with --units; the file states none)",
-                match u {
-                    super::detect::LengthUnit::Mm => "mm",
-                    super::detect::LengthUnit::Inch => "inch",
-                }
-            );
+            inv.units = format!("{} (given with --units; the file states none)", u.name());
             u.mm()
         }
         (None, None) => {

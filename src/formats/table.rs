@@ -16,6 +16,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
+use super::detect::MeasuredOptions;
 use super::inventory::{Entry, Inventory, Skipped};
 use crate::source::SourceError;
 
@@ -183,7 +184,7 @@ fn number(s: &str, sep: Option<u8>) -> Result<f64, String> {
 }
 
 /// Reads a table with a header into an inventory.
-pub fn parse(path: &Path, src: &str) -> Result<Inventory, SourceError> {
+pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Inventory, SourceError> {
     let Some((hi, header)) = header_line(src) else {
         return Err(SourceError::new(
             path,
@@ -223,6 +224,7 @@ pub fn parse(path: &Path, src: &str) -> Result<Inventory, SourceError> {
         ));
     }
     let mut inv = Inventory::new("table");
+    let mm = options.unstated_unit_mm(&mut inv);
     let ignored: Vec<&str> = cols
         .iter()
         .zip(&roles)
@@ -283,8 +285,8 @@ pub fn parse(path: &Path, src: &str) -> Result<Inventory, SourceError> {
             ));
         }
         let mut e = Entry::new(name, "point", line);
-        e.actual = v3(actual)?;
-        e.nominal = v3(nominal)?;
+        e.actual = v3(actual)?.map(|v| v * mm);
+        e.nominal = v3(nominal)?.map(|v| v * mm);
         if let Some(d) = v3(dir)? {
             if d.norm() < 1e-9 {
                 return Err(SourceError::new(
@@ -326,15 +328,19 @@ mod tests {
     fn columns_by_name_in_any_order_and_separator() {
         let src = "Name;Z;Y;X;X_nom;Y_nom;Z_nom;Dev\nP1;3,5;2;1;1;2;3,4;0,1\n";
         assert!(looks_like_table(src));
-        let inv = parse(Path::new("t.csv"), src).unwrap();
+        let inv = parse(Path::new("t.csv"), src, &MeasuredOptions::default()).unwrap();
         let e = &inv.entries[0];
         assert_eq!(e.label, "P1");
         assert_eq!(e.actual, Some(Vector3::new(1.0, 2.0, 3.5)));
         assert_eq!(e.nominal, Some(Vector3::new(1.0, 2.0, 3.4)));
         assert_eq!(inv.skipped[0].what, "columns Dev");
-        let e = parse(Path::new("t.csv"), "x\ty\tz\n1\t2\tq\n")
-            .unwrap_err()
-            .to_string();
+        let e = parse(
+            Path::new("t.csv"),
+            "x\ty\tz\n1\t2\tq\n",
+            &MeasuredOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
         assert_eq!(e, "t.csv:2:5: expected a number, got `q`");
     }
 }

@@ -378,6 +378,45 @@ fn check_fit(
     Ok(())
 }
 
+/// A measured direction this far from the normal of the plan point its
+/// point was joined to means the point lies on another face, deg. Probing
+/// directions and measured normals stay within a few degrees of the
+/// surface normal; a face beside it is 90 deg away.
+pub const DIRECTION_LIMIT_DEG: f64 = 45.0;
+
+/// Points that carry a direction (a cloud `x y z i j k`) must lie on a
+/// face whose normal agrees with it: the nearest nominal point can be on
+/// the neighbouring face near an edge, which the direction tells.
+/// `normal_in_file` carries a plan point's normal into the frame of the
+/// file's points.
+fn check_directions(
+    plan: &PlanPoints,
+    path: &Path,
+    set: &PointSet,
+    matches: &[usize],
+    normal_in_file: &dyn Fn(&PlanPoint) -> Vector3<f64>,
+) -> Result<(), SourceError> {
+    for (p, &i) in set.points.iter().zip(matches) {
+        let Some(d) = p.normal else {
+            continue;
+        };
+        let n = normal_in_file(&plan.points[i]);
+        let angle = d.angle(&n).to_degrees();
+        if angle > DIRECTION_LIMIT_DEG {
+            return Err(SourceError::new(
+                path,
+                p.line,
+                1,
+                format!(
+                    "the point's direction ({:.4}, {:.4}, {:.4}) is {angle:.1} deg from the normal of plan point `{}`, its nearest nominal point (limit {DIRECTION_LIMIT_DEG} deg): it is not on that face; the export does not follow the plan's points",
+                    d.x, d.y, d.z, plan.points[i].label
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn match_unlabeled(
     plan: &PlanPoints,
     kind: TestKind,
@@ -389,7 +428,8 @@ fn match_unlabeled(
     let noms: Vec<(Vector3<f64>, Vector3<f64>)> =
         plan.points.iter().map(|p| (nominal(p), p.n)).collect();
     let measured: Vec<Vector3<f64>> = set.points.iter().map(|p| p.p).collect();
-    let (matches, distances) = match kind {
+    // The rotation from W to the frame of the measured points.
+    let (matches, distances, rotation) = match kind {
         TestKind::Machining => {
             let fit = placement::place_unlabeled(&noms, &measured).map_err(|e| {
                 SourceError::new(
@@ -405,7 +445,7 @@ fn match_unlabeled(
                     path.display()
                 ));
             }
-            (fit.matches, fit.distances)
+            (fit.matches, fit.distances, fit.fit.iso.rotation)
         }
         TestKind::Probing => {
             let mut out = Vec::new();
@@ -420,7 +460,7 @@ fn match_unlabeled(
                 out.push(i);
                 dist.push(d);
             }
-            (out, dist)
+            (out, dist, nalgebra::UnitQuaternion::identity())
         }
     };
     let (worst, max_distance) =
@@ -439,6 +479,15 @@ fn match_unlabeled(
             ),
         ));
     }
+    check_directions(plan, path, set, &matches, &|p| {
+        // The nominal map is rigid: the difference of two mapped points
+        // carries the normal as it carries the piece.
+        let tip = PlanPoint {
+            p: p.p + p.n,
+            ..p.clone()
+        };
+        rotation * (nominal(&tip) - nominal(p))
+    })?;
     let mut first: HashMap<usize, usize> = HashMap::new();
     for (p, &i) in set.points.iter().zip(&matches) {
         if let Some(l) = first.insert(i, p.line) {
@@ -453,8 +502,18 @@ fn match_unlabeled(
             ));
         }
     }
+    let directed = set.points.iter().filter(|p| p.normal.is_some()).count();
+    let directions = match directed {
+        0 => "each takes its plan point's nominal normal as its direction".to_string(),
+        n if n == matches.len() => format!(
+            "every point's direction agrees with its plan point's normal within {DIRECTION_LIMIT_DEG} deg"
+        ),
+        n => format!(
+            "{n} directions agree with their plan point's normal within {DIRECTION_LIMIT_DEG} deg, the other points take the nominal normal"
+        ),
+    };
     warnings.push(format!(
-        "{}: no labels: {} points joined to the nearest nominal point after placement (largest distance {:.3} mm); label the points (DMIS or label,x,y,z) to avoid this",
+        "{}: no labels: {} points joined to the nearest nominal point after placement (largest distance {:.3} mm; {directions}); label the points (DMIS or label,x,y,z) to avoid this",
         path.display(),
         matches.len(),
         max_distance

@@ -76,6 +76,7 @@ pub fn machined<R: Rng + ?Sized>(
                 label: p.label.clone(),
                 p: (placement * Point3::from(w)).coords,
                 line: i + 1,
+                normal: None,
             }
         })
         .collect()
@@ -128,6 +129,7 @@ pub fn probed_with<R: Rng + ?Sized>(
                 label: p.label.clone(),
                 p: q0 + d * (s + noise(noise_um, rng)),
                 line: i + 1,
+                normal: None,
             }
         })
         .collect()
@@ -168,6 +170,7 @@ pub fn probed_sphere<R: Rng + ?Sized>(
                 label: p.label.clone(),
                 p: q0 + d * (s + noise(noise_um, rng)),
                 line: i + 1,
+                normal: None,
             }
         })
         .collect()

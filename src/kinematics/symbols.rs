@@ -62,6 +62,17 @@ pub struct LocationSymbol {
     pub description: String,
 }
 
+/// How a zero-point symbol's description starts.
+const ZERO_POINT: &str = "zero (angular positioning) error";
+
+impl LocationSymbol {
+    /// Whether it is the zero (angular positioning) error of an axis:
+    /// where the axis reads zero, not where its line lies.
+    pub fn is_zero_point(&self) -> bool {
+        self.description.starts_with(ZERO_POINT)
+    }
+}
+
 /// A position-dependent symbol: one term as a function of index angles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MapSymbol {
@@ -182,7 +193,7 @@ impl SymbolTable {
                     vec![(s(0, 3 + it), 1.0), (s(1, 3 + it), 1.0)],
                     (s(1, 3 + it), 1.0),
                     Unit::Urad,
-                    format!("zero (angular positioning) error of {t}"),
+                    format!("{ZERO_POINT} of {t}"),
                 );
                 let (a, b) = one(s(1, io));
                 add(
@@ -284,7 +295,7 @@ impl SymbolTable {
                     for i in [0usize, 1, 2] {
                         let (a, b) = one(s(0, 3 + i), 1.0);
                         let what = if i == 2 {
-                            "zero (angular positioning) error of the C head".to_string()
+                            format!("{ZERO_POINT} of the C head")
                         } else {
                             format!("orientation of the C-head axis line around {}", LIN[i])
                         };
@@ -338,7 +349,7 @@ impl SymbolTable {
                     a,
                     b,
                     Unit::Urad,
-                    format!("zero (angular positioning) error of the {t} head"),
+                    format!("{ZERO_POINT} of the {t} head"),
                 );
                 let (a, b) = one(s(2, 3 + io), 1.0);
                 add(

@@ -3,10 +3,11 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use indexmap::IndexMap;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::{Dialect, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
+use super::{Dialect, MCodes, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
 use crate::conformance::Limits;
 use crate::geom::Axis3;
 use crate::limits::{
@@ -51,7 +52,78 @@ pub struct MachineFile {
     /// Acceptance limits per location symbol (um / urad), optional.
     #[serde(default, skip_serializing_if = "Limits::is_empty")]
     pub limits: Limits,
+    /// What the control holds now, per export target and parameter name
+    /// (mm for lengths, urad for angles), optional.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub controller_parameters: ControllerParameters,
+    /// The control's own M functions, optional.
+    #[serde(default, skip_serializing_if = "MCodesFile::is_empty")]
+    pub m_codes: MCodesFile,
 }
+
+/// The M functions a control has beyond its dialect's standard ones, as
+/// written (`M428`).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MCodesFile {
+    /// Switch tool-centre-point control on (LinuxCNC remaps such as M428).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tcp_on: Vec<String>,
+    /// Switch it off.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tcp_off: Vec<String>,
+    /// Further M functions of the machine that move no axis (clamps,
+    /// conveyors, doors): known, so that `compensate --strict` accepts them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub known: Vec<String>,
+}
+
+impl MCodesFile {
+    fn is_empty(&self) -> bool {
+        self.tcp_on.is_empty() && self.tcp_off.is_empty() && self.known.is_empty()
+    }
+}
+
+/// `m_codes:` validated: each entry `M` and a whole number, none in two
+/// lists.
+fn m_codes(
+    f: &MCodesFile,
+    err: &dyn Fn(&[&str], String) -> SourceError,
+) -> Result<MCodes, SourceError> {
+    let mut seen: BTreeMap<u32, &str> = BTreeMap::new();
+    let mut list = |key: &'static str, items: &[String]| -> Result<Vec<u32>, SourceError> {
+        let mut out = Vec::new();
+        for item in items {
+            let at = |msg: String| err(&["m_codes", key], msg);
+            let t = item.trim();
+            let n = t
+                .strip_prefix(['M', 'm'])
+                .filter(|d| !d.is_empty() && d.len() <= 5 && d.bytes().all(|b| b.is_ascii_digit()))
+                .and_then(|d| d.parse::<u32>().ok())
+                .ok_or_else(|| {
+                    at(format!(
+                        "`{t}` is not an M function: expected M and a whole number, e.g. M428"
+                    ))
+                })?;
+            if let Some(other) = seen.insert(n, key) {
+                return Err(at(format!(
+                    "M{n} is listed under both `{other}` and `{key}`"
+                )));
+            }
+            out.push(n);
+        }
+        Ok(out)
+    };
+    Ok(MCodes {
+        tcp_on: list("tcp_on", &f.tcp_on)?,
+        tcp_off: list("tcp_off", &f.tcp_off)?,
+        known: list("known", &f.known)?,
+    })
+}
+
+/// The values a control holds now: per controller, per parameter name as
+/// `compensate --export` writes it (`19700`, `x-rot-point`, `B.X`).
+pub type ControllerParameters = IndexMap<Dialect, IndexMap<String, f64>>;
 
 /// A rotary axis as written.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -362,6 +434,18 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
     lengths.push((vec!["tool", "length"], f.tool.length));
     lengths.push((vec!["probe", "ball_diameter"], f.probe.ball_diameter));
     lengths.push((vec!["probe", "length"], f.probe.length));
+    for (d, values) in &f.controller_parameters {
+        for (k, v) in values {
+            if !(v.is_finite() && v.abs() <= MAX_MACHINE_MM) {
+                return Err(err(
+                    &["controller_parameters", d.name(), k],
+                    format!(
+                        "{d} parameter {k} = {v:e} is not a control's value: expected mm (lengths) or urad (angles), at most {MAX_MACHINE_MM} in size"
+                    ),
+                ));
+            }
+        }
+    }
     for (keys, v) in lengths {
         if v.abs() > MAX_MACHINE_MM {
             return Err(err(
@@ -375,6 +459,15 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         }
     }
 
+    // Every output is labelled with this name, and the history keys its
+    // results on it: a blank one would file them under nobody.
+    if f.name.trim().is_empty() || f.name.chars().any(char::is_control) {
+        return Err(err(
+            &["name"],
+            "machine name is empty or has control characters: expected a short name such as my-dmu-50".to_string(),
+        ));
+    }
+    let m_codes = m_codes(&f.m_codes, &err)?;
     Ok(Machine {
         name: f.name,
         description: f.description,
@@ -391,6 +484,8 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         probe: f.probe,
         rapid: f.rapid,
         limits: f.limits,
+        controller_parameters: f.controller_parameters,
+        m_codes,
         source: src.to_string(),
     })
 }

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use crate::geom::Axis3;
 use crate::source::SourceError;
 
-pub use file::{MachineFile, check_tool};
+pub use file::{ControllerParameters, MachineFile, check_tool};
 
 /// Where the two rotary axes sit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -208,6 +208,19 @@ impl Default for Rapid {
     }
 }
 
+/// M functions a control has beyond its dialect's standard ones, by
+/// number.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct MCodes {
+    /// Switch tool-centre-point control on (`M428` of LinuxCNC's 5-axis
+    /// configurations, which remap it).
+    pub tcp_on: Vec<u32>,
+    /// Switch it off.
+    pub tcp_off: Vec<u32>,
+    /// Move no axis (clamps, conveyors).
+    pub known: Vec<u32>,
+}
+
 /// A validated machine.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Machine {
@@ -244,6 +257,13 @@ pub struct Machine {
     /// Acceptance limits per location symbol (the file's optional
     /// `limits:` section; see [`crate::conformance`]).
     pub limits: crate::conformance::Limits,
+    /// What the control holds now, per export target and parameter (the
+    /// file's optional `controller_parameters:` section; `compensate
+    /// --export` prints each change from these, else from the nominal
+    /// geometry).
+    pub controller_parameters: file::ControllerParameters,
+    /// The control's own M functions (the file's optional `m_codes:`).
+    pub m_codes: MCodes,
     /// The file text it was read from (for `machine show` and provenance).
     pub source: String,
 }

@@ -17,6 +17,7 @@
 //! feed mode, work offset, tool length compensation, TCP, tilted working
 //! plane, datum shifts) and where each move goes.
 
+pub mod dialect;
 pub mod expr;
 pub mod interp;
 pub mod lex;

@@ -1,12 +1,15 @@
 //! Reading a program one block at a time: the raw text of each block
 //! ([`BlockReader`]) and the tokenized blocks with malformed ones reported
-//! by file, line and column ([`Blocks`]).
+//! by file, line and column ([`Blocks`]), which also refuse a program whose
+//! text shows another dialect than the one it is read in
+//! ([`super::dialect`]).
 
 use std::io::{self, BufRead};
 use std::path::{Path, PathBuf};
 
 #[cfg(doc)]
 use super::Stmt;
+use super::dialect::{Clue, Evidence};
 use super::{Block, Syntax};
 use crate::machine::Dialect;
 use crate::source::SourceError;
@@ -66,6 +69,12 @@ pub struct Blocks<R> {
     syntax: Syntax,
     path: PathBuf,
     block: Block,
+    evidence: Evidence,
+    count: usize,
+    /// Blocks that could not be read (outside `strict`), and the first
+    /// of them: line, column, why.
+    unreadable: usize,
+    first_unreadable: Option<(usize, usize, String)>,
 }
 
 impl<R: BufRead> Blocks<R> {
@@ -76,7 +85,69 @@ impl<R: BufRead> Blocks<R> {
             syntax,
             path: path.to_path_buf(),
             block: Block::default(),
+            evidence: Evidence::default(),
+            count: 0,
+            unreadable: 0,
+            first_unreadable: None,
         }
+    }
+
+    /// Refused when the text read shows another dialect than the one it
+    /// is read in (a sign of that one and none of its own), or when it
+    /// had no move at all (`moves`, counted by the caller): a program read
+    /// in the wrong dialect is never passed through as a copy of itself.
+    pub fn finish(&self, moves: usize) -> Result<(), SourceError> {
+        let d = self.syntax.dialect;
+        if let Some(c) = self.evidence.other_than(d) {
+            return Err(self.mismatch(c));
+        }
+        if moves == 0
+            && d == Dialect::Heidenhain
+            && let Some((line, word)) = self.evidence.iso()
+        {
+            // Plain G-code shows no one G-code dialect, but it is not Klartext.
+            return Err(SourceError::new(
+                &self.path,
+                line,
+                0,
+                format!(
+                    "this is a G-code program (`{word}`: FANUC or LinuxCNC), not heidenhain: no motion block of it is understood as heidenhain; read it as fanuc or linuxcnc (--dialect fanuc or --dialect linuxcnc)"
+                ),
+            ));
+        }
+        if moves == 0 {
+            return Err(SourceError::new(
+                &self.path,
+                0,
+                0,
+                if self.count == 0 {
+                    "the program is empty: no motion block to work on".to_string()
+                } else if let Some((line, column, why)) = &self.first_unreadable {
+                    format!(
+                        "no motion block understood in its {} blocks read as {d}: {} could not be read (the first at line {line}, column {column}: {why}); nothing to compensate",
+                        self.count, self.unreadable
+                    )
+                } else {
+                    format!(
+                        "no motion block understood in its {} blocks read as {d}: a program for another controller? (--dialect fanuc, heidenhain or linuxcnc)",
+                        self.count
+                    )
+                },
+            ));
+        }
+        Ok(())
+    }
+
+    fn mismatch(&self, c: &Clue) -> SourceError {
+        SourceError::new(
+            &self.path,
+            c.line,
+            0,
+            format!(
+                "this is a {} program (`{}`), not {}: read it as {} (--dialect {})",
+                c.dialect, c.sign, self.syntax.dialect, c.dialect, c.dialect
+            ),
+        )
     }
 
     /// Reads and tokenizes the next block; `None` at the end of the input.
@@ -88,10 +159,21 @@ impl<R: BufRead> Blocks<R> {
         if !self.reader.read(&mut self.block).map_err(ReadError::Io)? {
             return Ok(None);
         }
+        self.count += 1;
+        self.evidence.observe(&self.block.text, self.block.line);
         if let Err(e) = self.syntax.parse(&mut self.block) {
             if !self.syntax.strict {
+                self.unreadable += 1;
+                if self.first_unreadable.is_none() {
+                    let (line, column) = self.block.locate(e.offset);
+                    self.first_unreadable = Some((line, column, e.message.clone()));
+                }
                 self.block.make_unreadable(e);
                 return Ok(Some(&self.block));
+            }
+            // A block of another dialect is that dialect's, not a typo.
+            if let Some(c) = self.evidence.other_than(self.syntax.dialect) {
+                return Err(ReadError::Syntax(self.mismatch(c)));
             }
             let (line, column) = self.block.locate(e.offset);
             return Err(ReadError::Syntax(SourceError::new(

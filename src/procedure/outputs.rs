@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use indexmap::IndexMap;
 
 use super::{MachiningPlan, Plan, ProbingPlan};
-use crate::formats::manifest::{KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry};
+use crate::formats::manifest::{Identifies, KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry};
 use crate::io::{OutputError, StagedDir, ensure_not_input};
 use crate::mesh::Mesh;
 
@@ -87,6 +87,7 @@ pub(super) fn file_names(plan: &Plan, stem: &str) -> Vec<(&'static str, PathBuf)
     ];
     if matches!(plan, Plan::Machining(_)) {
         v.push(("dmis", PathBuf::from(format!("{stem}.dmi"))));
+        v.push(("qif", PathBuf::from(format!("{stem}.qif"))));
     }
     v.extend([
         ("glb", PathBuf::from(format!("{stem}.glb"))),
@@ -130,6 +131,7 @@ impl Plan {
             probe,
             files,
             poses,
+            identifies: None,
         }
     }
 
@@ -169,8 +171,21 @@ impl Plan {
     /// Every output file: (name relative to the plan directory, bytes),
     /// the manifest last.
     pub fn outputs(&self, stem: &str) -> Vec<(PathBuf, Vec<u8>)> {
+        self.outputs_with(stem, "", None)
+    }
+
+    /// [`Plan::outputs`], with `appendix` (Markdown) closing the setup
+    /// sheet and `identifies` in the manifest: what `plan` found out about
+    /// the design beyond the plan itself.
+    pub fn outputs_with(
+        &self,
+        stem: &str,
+        appendix: &str,
+        identifies: Option<&Identifies>,
+    ) -> Vec<(PathBuf, Vec<u8>)> {
         let title = format!("{} on {} (fivecal)", self.test(), self.machine().name);
-        let manifest = self.manifest(stem);
+        let mut manifest = self.manifest(stem);
+        manifest.identifies = identifies.cloned();
         let program = self.program();
         let mut v: Vec<(PathBuf, Vec<u8>)> = Vec::new();
         for (role, path) in self.file_names(stem) {
@@ -178,9 +193,10 @@ impl Plan {
                 ("program", _) => program.text.clone().into_bytes(),
                 ("points", _) => self.points_csv().into_bytes(),
                 ("dmis", Plan::Machining(t)) => t.dmis_program(stem).into_bytes(),
+                ("qif", Plan::Machining(t)) => t.qif_plan().into_bytes(),
                 ("glb", _) => self.mesh().to_glb(&title),
                 ("obj", _) => self.mesh().to_obj(&title).into_bytes(),
-                ("setup", _) => self.setup_sheet(stem).into_bytes(),
+                ("setup", _) => (self.setup_sheet(stem) + appendix).into_bytes(),
                 ("postprocessor", _) => self.post().source.clone().into_bytes(),
                 _ => continue,
             };
@@ -215,7 +231,20 @@ impl Plan {
         stem: &str,
         inputs: &[&Path],
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let outs = self.outputs(stem);
+        self.write_with(dir, stem, inputs, "", None)
+    }
+
+    /// [`Plan::write`], with `appendix` closing the setup sheet and
+    /// `identifies` in the manifest ([`Plan::outputs_with`]).
+    pub fn write_with(
+        &self,
+        dir: &Path,
+        stem: &str,
+        inputs: &[&Path],
+        appendix: &str,
+        identifies: Option<&Identifies>,
+    ) -> Result<Vec<PathBuf>, OutputError> {
+        let outs = self.outputs_with(stem, appendix, identifies);
         let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
         for p in &paths {
             ensure_not_input(p, inputs)?;

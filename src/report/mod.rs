@@ -338,6 +338,21 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
             .collect::<Vec<_>>()
             .join(", "))
     );
+    if let Some(f) = &r.error_file.fit {
+        let line = format!(
+            "Residuals {:.3} um against {:.3} um expected ({}): ratio {:.2}, p = {:.1e} over {} degrees of freedom.",
+            f.sigma_um, f.expected_um, f.expected_from, f.ratio, f.p_value, f.dof
+        );
+        if f.verdict == crate::errorfile::FitVerdict::Misfit {
+            let _ = writeln!(
+                h,
+                "<div style=\"border:3px solid #c00;background:#fee;padding:8px\"><b>The model does not fit.</b> {} The values are biased by an effect the model lacks (or the stated noise is too small); their u is widened by the ratio, and <code>fivecal compensate</code> refuses this result without <code>--accept-misfit</code>. Run <code>fivecal discover</code> on the same plan and measurements to find the missing effect.</div>",
+                esc(&line)
+            );
+        } else {
+            let _ = writeln!(h, "<p>The model fits. {}</p>", esc(&line));
+        }
+    }
     let _ = writeln!(
         h,
         "<h2>What the test identifies</h2>\n<pre>{}</pre>",

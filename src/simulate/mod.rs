@@ -252,6 +252,7 @@ pub fn run(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Result<SimO
                     label: pp.point.label.clone(),
                     p: cmm::place(&placement, &w),
                     line: 0,
+                    normal: None,
                 });
                 points_w.push(w);
                 nominals.push((p, n));
@@ -338,6 +339,7 @@ pub fn run(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Result<SimO
                     label: p.plan.touches[i].label.clone(),
                     p: pr.reported(i, &rec),
                     line: 0,
+                    normal: None,
                 });
                 recorded.push(rec);
             }

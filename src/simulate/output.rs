@@ -1,6 +1,7 @@
 //! What a simulation writes, in the format a real instrument would:
 //! canonical `label,x,y,z` CSV, a CMM's DMIS output (`F(label)` nominal and
-//! `FA(label)` actual), the probe log the plan's program makes the control
+//! `FA(label)` actual) or QIF 3 results (the features of the plan's QIF
+//! plan, by the same ids and names), the probe log the plan's program makes the control
 //! write, or the nine-section heights `section,height_um`. Every output is
 //! deterministic for a seed and written atomically.
 
@@ -13,6 +14,7 @@ use crate::formats::dmis::{self, DmisPoint, WriteOptions};
 use crate::formats::heights;
 use crate::formats::manifest::TestKind;
 use crate::formats::measured;
+use crate::formats::qif_write::{self, QifPoint};
 use crate::io::write_atomic;
 use crate::procedure::Test;
 
@@ -27,11 +29,20 @@ pub enum Format {
     Log,
     /// Nine-section heights `section,height_um`.
     Heights,
+    /// QIF 3 results of a CMM (machining tests), with the features of the
+    /// plan's QIF plan.
+    Qif,
 }
 
 impl Format {
     /// All formats.
-    pub const ALL: [Format; 4] = [Format::Csv, Format::Dmis, Format::Log, Format::Heights];
+    pub const ALL: [Format; 5] = [
+        Format::Csv,
+        Format::Dmis,
+        Format::Log,
+        Format::Heights,
+        Format::Qif,
+    ];
 
     /// The name on the command line.
     pub fn name(self) -> &'static str {
@@ -40,11 +51,13 @@ impl Format {
             Format::Dmis => "dmis",
             Format::Log => "log",
             Format::Heights => "heights",
+            Format::Qif => "qif",
         }
     }
 
     /// The format a file name suggests for a test of `kind`: `.dmo`, `.out`,
-    /// `.dmis` DMIS output; `.log`, `.txt`, `.lst` a probe log; `.csv`
+    /// `.dmis` DMIS output; `.qif` QIF results; `.log`, `.txt`, `.lst` a
+    /// probe log; `.csv`
     /// canonical CSV; anything else the test's natural output (CSV for a
     /// machined piece, the log for on-machine probing).
     pub fn for_path(path: &Path, kind: TestKind) -> Format {
@@ -54,6 +67,7 @@ impl Format {
             .unwrap_or_default();
         match ext.as_str() {
             "dmo" | "out" | "dmis" => Format::Dmis,
+            "qif" => Format::Qif,
             "log" | "txt" | "lst" => Format::Log,
             "csv" => Format::Csv,
             _ => match kind {
@@ -76,7 +90,7 @@ impl FromStr for Format {
         Format::ALL
             .into_iter()
             .find(|f| f.name() == s)
-            .ok_or_else(|| format!("unknown format `{s}`: expected csv, dmis, log or heights"))
+            .ok_or_else(|| format!("unknown format `{s}`: expected csv, dmis, qif, log or heights"))
     }
 }
 
@@ -94,7 +108,7 @@ pub fn check(format: Format, kind: TestKind, test: Test) -> Result<(), SimError>
     };
     match format {
         Format::Csv => Ok(()),
-        Format::Dmis if kind != TestKind::Machining => {
+        Format::Dmis | Format::Qif if kind != TestKind::Machining => {
             refuse("a CMM measures machined pieces; on-machine probing writes a log or CSV")
         }
         Format::Log if kind != TestKind::Probing => {
@@ -140,6 +154,24 @@ impl SimOutput {
                         ..WriteOptions::default()
                     },
                 )
+            }
+            Format::Qif => {
+                let measured: Vec<(QifPoint<'_>, nalgebra::Vector3<f64>)> = self
+                    .points
+                    .iter()
+                    .zip(&self.nominals)
+                    .map(|(m, (p, n))| {
+                        (
+                            QifPoint {
+                                label: &m.label,
+                                nominal: *p,
+                                normal: *n,
+                            },
+                            m.p,
+                        )
+                    })
+                    .collect();
+                qif_write::results(&head, &measured)
             }
             Format::Log => self.log.clone().unwrap_or_default(),
             Format::Heights => {

@@ -155,51 +155,7 @@ impl FromStr for Kind {
     }
 }
 
-/// Whether the model fitted the measurements (the `fit:` section of a
-/// result file). Records of results without one have no verdict.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum FitVerdict {
-    /// The residuals are as large as the measurement noise.
-    Fits,
-    /// The residuals are larger: the model misses something.
-    Misfit,
-}
-
-impl FitVerdict {
-    /// The name stored and printed.
-    pub fn name(self) -> &'static str {
-        match self {
-            FitVerdict::Fits => "fits",
-            FitVerdict::Misfit => "misfit",
-        }
-    }
-
-    /// The verdict a result file states in `fit: {verdict: ...}`, if any.
-    pub fn of_result(content: &str) -> Option<FitVerdict> {
-        let v: serde_yaml::Value = serde_yaml::from_str(content).ok()?;
-        v.get("fit")?.get("verdict")?.as_str()?.parse().ok()
-    }
-}
-
-impl fmt::Display for FitVerdict {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for FitVerdict {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "fits" => Ok(FitVerdict::Fits),
-            "misfit" => Ok(FitVerdict::Misfit),
-            _ => Err(format!(
-                "unknown fit verdict `{s}`: expected fits or misfit"
-            )),
-        }
-    }
-}
+pub use crate::errorfile::FitVerdict;
 
 /// What a hashed file was to the run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -35,7 +35,7 @@ use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 
 use super::{Contributors, Estimate};
-use crate::analyze::method::{identify_with_plan, rigid_refuses};
+use crate::analyze::method::{identify_with_plan, needs_plan};
 use crate::formats::manifest::TestKind;
 use crate::geom::Axis3;
 use crate::identify::forward::ForwardModel;
@@ -389,7 +389,7 @@ impl LinearStudy {
         let gain = match est.method {
             Method::Global => {
                 let opts = lsq::Options::default();
-                let fit_model = if rigid_refuses(&e.setup.model) {
+                let fit_model = if needs_plan(&e.setup.model, plan.test()) {
                     crate::simulate::forward::for_plan(&e.setup.model, plan)
                 } else {
                     identify::forward::rigid_for(e.setup.model.clone(), data)

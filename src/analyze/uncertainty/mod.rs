@@ -204,9 +204,23 @@ pub struct Study {
     pub rows: Vec<StudyRow>,
     /// Runs that failed, if some did.
     pub warning: Option<String>,
+    /// The Birge ratio the spread is widened by when the model does not
+    /// fit: the runs draw the stated noise, the measurements show more.
+    pub widened: Option<f64>,
 }
 
 impl Study {
+    /// Widens the study's uncertainties by the Birge ratio `factor` of a
+    /// fit that failed (nothing when it is 1 or less).
+    pub fn widen(&mut self, factor: f64) {
+        if factor > 1.0 {
+            self.widened = Some(factor);
+            for r in &mut self.rows {
+                r.monte_carlo *= factor;
+            }
+        }
+    }
+
     /// The uncertainties to report: the study's spread for every
     /// identifiable parameter (none where no run estimated it), the
     /// covariance's for the rest.
@@ -214,7 +228,7 @@ impl Study {
         let mut u = est.u();
         for (i, ui) in u.iter_mut().enumerate() {
             if est.identifiable(i) {
-                let s = self.result.std[i];
+                let s = self.result.std[i] * self.widened.unwrap_or(1.0);
                 *ui = s.is_finite().then_some(s);
             }
         }
@@ -365,5 +379,6 @@ pub fn study(
         not_included,
         rows,
         warning,
+        widened: None,
     })
 }

@@ -129,6 +129,7 @@ pub fn draw_truth<R: Rng + ?Sized>(t: &SimulatedTest<'_>, rng: &mut R) -> Loaded
         u: vec![None; n],
         noise: Noise::default(),
         not_identifiable: Vec::new(),
+        fit: None,
     }
 }
 

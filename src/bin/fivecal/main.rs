@@ -37,6 +37,18 @@ enum Command {
     Analyze(cmd::analyze::AnalyzeCli),
     /// Rewrite NC programs so the identified errors cancel, or export them
     /// as controller parameters.
+    ///
+    /// Nothing is done silently. A program is refused (exit 2, nothing
+    /// written) when its text shows another dialect than the one it is read
+    /// in, when no motion block of it is understood, or when every move is
+    /// left as written. A program whose corrections all round away (errors
+    /// all but zero) is written as an unchanged copy, exit 0, and the last
+    /// line says so. An export prints every parameter with its u and its
+    /// change from what the control holds now (the machine file's
+    /// controller_parameters, else its nominal geometry), refuses a change
+    /// beyond --max-change, a u beyond --max-u and a value that drives an
+    /// axis beyond its stroke, naming the parameter; its last line says how
+    /// many parameters change, or that none does (exit 0).
     Compensate(cmd::compensate::CompensateArgs),
     /// Find where simulation and measurement disagree, name the missing
     /// effect, add it to the model and show the gap shrink.

@@ -343,6 +343,7 @@ pub fn join(
                 label: p.label.clone(),
                 p: *c,
                 line: rec.line,
+                normal: None,
             }),
             None => missing.push(p.label.clone()),
         }

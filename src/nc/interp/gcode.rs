@@ -182,9 +182,13 @@ impl Interpreter {
                     }
                 }
                 b'M' => {
-                    if let (Value::Num(v), true) = (w.value, nm < 4) {
-                        m_codes[nm] = Some(v.round() as u32);
-                        nm += 1;
+                    if let Value::Num(v) = w.value {
+                        let m = v.round() as u32;
+                        if nm < 4 {
+                            m_codes[nm] = Some(m);
+                            nm += 1;
+                        }
+                        self.m_function(m, block.tokens[ti].span.start as usize);
                     }
                 }
                 b'P' => {
@@ -197,6 +201,8 @@ impl Interpreter {
                         self.feed = Some(v);
                     }
                 }
+                // U, V and W move axes this machine does not have.
+                b'U' | b'V' | b'W' => has_axis = true,
                 _ => {
                     if self.axis_index(w.addr).is_some() {
                         has_axis = true;
@@ -251,6 +257,13 @@ impl Interpreter {
             };
         }
         if !has_axis {
+            if let Some(u) = seg.unknown {
+                let word = String::from_utf8_lossy(block.bytes(u)).into_owned();
+                self.note(
+                    u.start as usize,
+                    format!("`{word}`: a word fivecal does not know (taken to move no axis)"),
+                );
+            }
             return Event::None;
         }
         let motion = self.motion;
@@ -276,7 +289,7 @@ impl Interpreter {
             // Data setting (work offsets, tool offsets): the offsets in use
             // may have changed.
             100 => {
-                self.forget();
+                self.data_setting(block, seg);
                 Event::None
             }
             // Reference return and machine coordinates.
@@ -349,6 +362,53 @@ impl Interpreter {
             }
             _ => Event::None,
         }
+    }
+
+    /// G10: work offset data (L2, L20) makes the offset it changes
+    /// unknown; every kind is noted.
+    fn data_setting(&mut self, block: &Block, seg: &Segment) {
+        let mut l = None;
+        let mut p = None;
+        let mut at = 0;
+        for (ti, w) in block.words(seg) {
+            match (w.addr.as_letter(), w.value) {
+                (Some(b'G'), _) => at = block.tokens[ti].span.start as usize,
+                (Some(b'L'), Value::Num(v)) => l = Some(v.round() as i64),
+                (Some(b'P'), Value::Num(v)) => p = Some(v.round() as i64),
+                _ => {}
+            }
+        }
+        let linuxcnc = self.cfg.settings.dialect == Dialect::Linuxcnc;
+        let offset = match (l, p) {
+            // P0: the offset in use (LinuxCNC), the external offset that
+            // shifts them all (FANUC).
+            (Some(2 | 20), Some(0)) if linuxcnc => Some(self.work_offset),
+            (Some(2 | 20), Some(n @ 1..=6)) if linuxcnc || l == Some(2) => {
+                Some(530 + 10 * n as u32)
+            }
+            (Some(2 | 20), Some(n @ 7..=9)) if linuxcnc => Some(584 + n as u32),
+            // FANUC G10 L20 P n: the additional offset G54.1 P n.
+            (Some(20), Some(n @ 1..=300)) if !linuxcnc => Some(5410 + n as u32),
+            (Some(2 | 20), _) => Some(u32::MAX),
+            _ => None,
+        };
+        // The positions in the offset in use change with its data (and with
+        // the tool's); another offset's data changes nothing yet.
+        if offset.is_none_or(|o| o == u32::MAX || o == self.work_offset) {
+            self.forget();
+        }
+        let what = match offset {
+            Some(o) => {
+                if !self.altered_offsets.contains(&o) {
+                    self.altered_offsets.push(o);
+                }
+                "G10: the program changes work offset data (moves in that offset are left as written)"
+            }
+            None => {
+                "G10: the program changes tool or parameter data (the machine file's tool is used)"
+            }
+        };
+        self.note(at, what);
     }
 
     /// Updates tracked positions from the axis words (for moves left as

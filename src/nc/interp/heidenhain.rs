@@ -18,16 +18,26 @@ impl Interpreter {
         };
         // M functions may appear in any block.
         let mut m91 = false;
-        for (_, w) in block.words(seg) {
+        for (ti, w) in block.words(seg) {
             if w.addr == Addr::letter(b'M')
                 && let Value::Num(v) = w.value
             {
-                match v.round() as u32 {
+                let m = v.round() as u32;
+                match m {
                     128 => self.set_tcp(Tcp::Axes),
                     129 => self.set_tcp(Tcp::Off),
                     91 | 92 => m91 = true,
+                    114 => self.transformed = Some("M114 (tool length along the tilted axes)"),
+                    115 => self.cancel("M114 (tool length along the tilted axes)"),
+                    144 => {
+                        self.transformed = Some("M144 (kinematics at the actual/nominal positions)")
+                    }
+                    145 => self.cancel("M144 (kinematics at the actual/nominal positions)"),
+                    // Retract along the tool axis: wherever that ends.
+                    140 => self.forget(),
                     _ => {}
                 }
+                self.m_function(m, block.tokens[ti].span.start as usize);
             }
         }
         let text_has = |needle: &str| {

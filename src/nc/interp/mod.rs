@@ -129,6 +129,39 @@ pub enum Tcp {
     Spatial,
 }
 
+impl Tcp {
+    /// What the program's coordinates are in this mode.
+    pub fn meaning(self) -> &'static str {
+        match self {
+            Tcp::Off => "axis positions (no tool-centre-point control)",
+            Tcp::Axes => "tool tip in the workpiece (TCP, rotary axis positions)",
+            Tcp::Vector => "tool tip in the workpiece (TCP, tool direction vectors)",
+            Tcp::Spatial => "tool tip with spatial angles (TCP, left as written)",
+        }
+    }
+}
+
+/// What last switched tool-centre-point control on or off.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TcpCause {
+    /// 1-based line.
+    pub line: usize,
+    /// The statement, as written (cut to a few words).
+    pub code: String,
+    /// The machine file's `m_codes:` made it a TCP code.
+    pub machine_file: bool,
+}
+
+/// A statement whose effect the interpreter does not model, noted so that
+/// the run reports it (and `--strict` refuses it).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unmodelled {
+    /// Byte offset in the block.
+    pub offset: usize,
+    /// What it is and what fivecal does about it.
+    pub what: String,
+}
+
 /// How the program's coordinates are meant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Coordinates {
@@ -358,6 +391,8 @@ struct Config {
     tool_length: f64,
     /// The nominal kinematics, as the controller has it.
     nominal: FastChain,
+    /// The machine's own M functions.
+    m_codes: crate::machine::MCodes,
 }
 
 /// The controller's state along a program.
@@ -404,7 +439,20 @@ pub struct Interpreter {
     /// The line of an unreadable block that may have changed the modal
     /// state; `None` when the state is known.
     pub state_unknown: Option<usize>,
+    /// What last switched TCP on or off (`None`: nothing yet).
+    pub tcp_cause: Option<TcpCause>,
+    /// Work offsets whose data the program changed (G10 L2/L20), as
+    /// [`Interpreter::work_offset`] numbers; `u32::MAX`: all of them.
+    pub altered_offsets: Vec<u32>,
+    /// The last statement's effect that is not modelled; the caller takes
+    /// it after each [`Interpreter::step`].
+    pub unmodelled: Option<Unmodelled>,
+    /// A machine-file M function switched TCP in this statement.
+    tcp_remapped: bool,
 }
+
+/// What a work offset changed by G10 leaves unknown.
+const ALTERED_OFFSET: &str = "a work offset whose data the program changes (G10 L2/L20)";
 
 impl Interpreter {
     /// The power-on state of a controller of this dialect on this machine.
@@ -417,6 +465,7 @@ impl Interpreter {
             tilt: if m.tilt.letter == 'A' { 3 } else { 4 },
             tool_length: kin.gauge_length(),
             nominal: FastChain::nominal(kin),
+            m_codes: m.m_codes.clone(),
         };
         Interpreter {
             cfg: Shared::new(cfg),
@@ -443,6 +492,10 @@ impl Interpreter {
             pos: [None; 6],
             pole: None,
             state_unknown: None,
+            tcp_cause: None,
+            altered_offsets: Vec::new(),
+            unmodelled: None,
+            tcp_remapped: false,
         }
     }
 
@@ -480,10 +533,20 @@ impl Interpreter {
             }
             return Event::Skip(Skip::Unreadable);
         }
+        let tcp_before = self.tcp;
+        self.tcp_remapped = false;
         let ev = match self.cfg.settings.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
             Dialect::Heidenhain => self.heidenhain(block, seg),
         };
+        if self.tcp != tcp_before {
+            self.tcp_cause = Some(TcpCause {
+                line: block.line,
+                code: statement_text(block, seg),
+                machine_file: self.tcp_remapped,
+            });
+        }
+        self.check_offset();
         match ev {
             Event::Move(mv)
                 if self.tcp == Tcp::Vector
@@ -514,6 +577,73 @@ impl Interpreter {
             },
             tcp,
             tilt: self.cfg.tilt,
+        }
+    }
+
+    /// Why the program's coordinates mean what [`Interpreter::frame`] says
+    /// here: the flag that forces it, or the code that switched it.
+    pub fn coordinates_why(&self) -> String {
+        match (self.cfg.settings.coordinates, &self.tcp_cause) {
+            (Coordinates::Axes, _) => "--coordinates axes".into(),
+            (Coordinates::Tcp, _) if self.tcp == Tcp::Off => "--coordinates tcp".into(),
+            (_, None) => "no TCP code before these moves".into(),
+            (_, Some(c)) => format!(
+                "`{}` at line {}{}",
+                c.code,
+                c.line,
+                if c.machine_file {
+                    ", a TCP code by the machine file's m_codes"
+                } else {
+                    ""
+                }
+            ),
+        }
+    }
+
+    /// An M function: the machine file's TCP codes switch TCP; one that
+    /// neither the dialect nor the machine file knows is noted.
+    fn m_function(&mut self, m: u32, offset: usize) {
+        let codes = &self.cfg.m_codes;
+        if codes.tcp_on.contains(&m) {
+            self.tool_length = true;
+            self.set_tcp(Tcp::Axes);
+            self.tcp_remapped = true;
+        } else if codes.tcp_off.contains(&m) {
+            self.set_tcp(Tcp::Off);
+            self.tcp_remapped = true;
+        } else if !(known_m(self.cfg.settings.dialect, m) || codes.known.contains(&m)) {
+            let d = self.cfg.settings.dialect;
+            self.unmodelled.get_or_insert(Unmodelled {
+                offset,
+                what: format!(
+                    "M{m}: an M function that {d} does not define and the machine file's m_codes do not list (taken to move no axis; if it switches TCP, list it under m_codes: tcp_on)"
+                ),
+            });
+        }
+    }
+
+    /// Notes a statement whose effect is not modelled.
+    fn note(&mut self, offset: usize, what: impl Into<String>) {
+        self.unmodelled.get_or_insert(Unmodelled {
+            offset,
+            what: what.into(),
+        });
+    }
+
+    /// Moves in a work offset whose data the program changed are left as
+    /// written.
+    fn check_offset(&mut self) {
+        if self.altered_offsets.is_empty() {
+            return;
+        }
+        let altered = self
+            .altered_offsets
+            .iter()
+            .any(|&o| o == u32::MAX || o == self.work_offset);
+        if altered && self.transformed.is_none() {
+            self.transformed = Some(ALTERED_OFFSET);
+        } else if !altered {
+            self.cancel(ALTERED_OFFSET);
         }
     }
 
@@ -669,6 +799,48 @@ impl Interpreter {
             self.tcp = t;
             self.forget();
         }
+    }
+}
+
+/// M functions each dialect defines (the machine builder's own come from
+/// the machine file). FANUC: program stop and end, spindle, tool change,
+/// coolant, orientation, rigid tapping, subprograms. LinuxCNC 2.9: the M
+/// codes of its G-code reference (M100-M199 are the user's and M200 and
+/// up exist only as remaps, so neither is known without the machine
+/// file). HEIDENHAIN TNC: the M functions of the Klartext manuals, and M7
+/// (mist coolant on most machines, as the bundled postprocessor writes it).
+pub fn known_m(dialect: Dialect, m: u32) -> bool {
+    const FANUC: &[u32] = &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 19, 29, 30, 98, 99, 198];
+    const LINUXCNC: &[u32] = &[
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 19, 30, 48, 49, 50, 51, 52, 53, 60, 61, 62, 63, 64, 65, 66,
+        67, 68, 70, 71, 72, 73, 98, 99,
+    ];
+    const HEIDENHAIN: &[u32] = &[
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 13, 14, 30, 89, 90, 91, 92, 94, 97, 98, 99, 101, 102, 103,
+        104, 105, 106, 107, 108, 109, 110, 111, 114, 115, 116, 117, 118, 120, 124, 126, 127, 128,
+        129, 130, 134, 135, 136, 137, 138, 140, 141, 142, 143, 144, 145, 148, 149, 150, 197,
+    ];
+    let list = match dialect {
+        Dialect::Fanuc => FANUC,
+        Dialect::Linuxcnc => LINUXCNC,
+        Dialect::Heidenhain => HEIDENHAIN,
+    };
+    list.binary_search(&m).is_ok()
+}
+
+/// A statement's text for a message: its first words, trimmed.
+fn statement_text(block: &Block, seg: &Segment) -> String {
+    let toks = block.seg_tokens(seg);
+    let (Some(first), Some(last)) = (toks.first(), toks.last()) else {
+        return String::new();
+    };
+    let text =
+        String::from_utf8_lossy(&block.text[first.span.start as usize..last.span.end as usize]);
+    let text = text.trim();
+    if text.chars().count() > 40 {
+        format!("{}...", text.chars().take(40).collect::<String>())
+    } else {
+        text.to_string()
     }
 }
 

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 
 use super::MachiningPlan;
 use crate::formats::dmis_program::{self, DmisMoves, Probing};
+use crate::formats::qif_write;
 use crate::procedure::{push_notes, round, short};
 
 impl MachiningPlan {
@@ -59,6 +60,23 @@ impl MachiningPlan {
                 clear_z: top + 20.0,
             },
         )
+    }
+
+    /// The QIF 3 measurement plan: the points to probe, with their
+    /// nominals and normals, as features a CMM importing QIF plans measures
+    /// and names in its QIF results.
+    pub fn qif_plan(&self) -> String {
+        let comments = vec![
+            format!(
+                "fivecal plan: {} on {}: {} points, QIF 3 measurement plan",
+                self.test,
+                self.machine.name,
+                self.points.len()
+            ),
+            "nominal points in W (mm): align the part frame to W before measuring (origin on the C axis, Z along C)".to_string(),
+            "each point is probed once along its outward normal; write the results as QIF (they keep these feature ids and names) for fivecal analyze".to_string(),
+        ];
+        qif_write::plan(&comments, &self.plan_points().points)
     }
 
     /// The points.csv text.
@@ -163,7 +181,7 @@ impl MachiningPlan {
         let _ = writeln!(s, "\n## Measuring\n");
         let _ = writeln!(
             s,
-            "- {} points in `{stem}.points.csv` (nominal, in W, with outward normals); `{stem}.dmi` probes each once along its normal.",
+            "- {} points in `{stem}.points.csv` (nominal, in W, with outward normals); `{stem}.dmi` (a DMIS program) and `{stem}.qif` (a QIF 3 measurement plan) probe each once along its normal.",
             self.points.len()
         );
         let _ = writeln!(

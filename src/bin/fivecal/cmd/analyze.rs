@@ -44,10 +44,12 @@ pub struct AnalyzeArgs {
     /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
     #[arg(long, value_name = "PLAN", required = true)]
     plan: Option<PathBuf>,
-    /// Measurement files: DMIS output, CSV `label,x,y,z`, probe logs,
-    /// nine-section heights `section,height_um`, or a plain point list
-    /// (joined by nearest nominal point). The format is recognized from the
-    /// content. Several files make one piece unless --series is given.
+    /// Measurement files: DMIS output, QIF results, ZEISS CALYPSO tables
+    /// (_fet, _chr), CSV `label,x,y,z` or a table naming its columns, probe
+    /// logs, nine-section heights `section,height_um`, or a point cloud `x
+    /// y z [i j k]` (joined by nearest nominal point). The format is
+    /// recognized from the content (`fivecal measured FILE` shows what it
+    /// holds). Several files make one piece unless --series is given.
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     measured: Vec<PathBuf>,
     /// The result: an error file (the identified values with their u, and
@@ -109,11 +111,20 @@ pub struct AnalyzeArgs {
     /// combinations of Cubas Brizuela & Yeh 2023).
     #[arg(long, value_name = "FIT", default_value = "robust")]
     circle_fit: String,
+    /// The instrument's noise per measured point (standard deviation, um)
+    /// the fit is judged against [default: 0.35 um for a CMM on a machined
+    /// piece and for an on-machine probe, with the sphere's 0.1 um form
+    /// error added for probe-sphere]. Residuals significantly larger mark
+    /// the result as a misfit, which compensate refuses.
+    #[arg(long, value_name = "UM")]
+    noise: Option<f64>,
     /// Acceptance limits per location symbol: a limits file or a machine
     /// file with a `limits:` section. Prints PASS, FAIL or "cannot decide"
     /// per symbol and for the machine (ISO 14253-1, U = 2u).
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
+    #[command(flatten)]
+    measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
     record: super::record::RecordArgs,
 }
@@ -195,6 +206,8 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             compare: a.compare,
             monte_carlo,
             circle,
+            noise: super::noise_arg(a.noise)?,
+            options: a.measured_flags.options()?,
             ..Request::new(&manifest, a.measured)
         },
         out,
@@ -239,7 +252,7 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
         }
     }
     for piece in &id.pieces {
-        print_piece(piece);
+        print_piece(c, piece);
         if let Some(l) = &c.limits {
             outln!("limits from {}:", l.path.display());
             out!("{}", Verdict::of(&piece.file, &l.limits).render());
@@ -282,14 +295,30 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
 
 /// What the analysis of one piece found: identifiability and values, the
 /// Monte-Carlo study, the residuals.
-fn print_piece(p: &Piece) {
+fn print_piece(c: &Config, p: &Piece) {
     for w in &p.data.warnings {
         eprintln!("warning: {w}");
     }
     if let Some(k) = p.number {
         outln!("== piece {k}: {}", p.name());
     }
+    if let Some(f) = p.misfit() {
+        let next = analyze::fit::discover_command(&c.request.manifest, &p.data.files);
+        outln!("{}\n", analyze::fit::banner(f, &next));
+    }
     out!("{}", p.est.summary());
+    match &p.fit {
+        Some(f) => outln!(
+            "fit: {} (residuals {:.3} um against {:.3} um expected, {}; ratio {:.2}, p = {:.1e})",
+            f.verdict,
+            f.sigma_um,
+            f.expected_um,
+            f.expected_from,
+            f.ratio,
+            f.p_value
+        ),
+        None => outln!("fit: not judged (no degrees of freedom left)"),
+    }
     if let Some(s) = &p.monte_carlo {
         if let Some(w) = &s.warning {
             eprintln!("warning: {w}");
@@ -302,6 +331,11 @@ fn print_piece(p: &Piece) {
         );
         for n in &s.not_included {
             outln!("  not included: {n}");
+        }
+        if let Some(w) = s.widened {
+            outln!(
+                "  u widened by the Birge ratio {w:.2}: the model does not fit, the runs drew only the stated noise"
+            );
         }
         for r in &s.rows {
             outln!(

@@ -185,6 +185,22 @@ pub struct CompensateArgs {
     /// else next to OUT as OUT.<controller>.txt].
     #[arg(long, value_name = "FILE")]
     export_to: Option<PathBuf>,
+    /// With --export: refuse (naming it, writing nothing) any parameter
+    /// that would change by more than this from what the control holds now
+    /// (the machine file's controller_parameters, else its nominal
+    /// geometry): LEN in mm, ANG in mrad for angles.
+    #[arg(long, value_name = "LEN[,ANG]", default_value = "0.1,0.5")]
+    max_change: String,
+    /// With --export: refuse any parameter whose standard uncertainty is
+    /// larger (from the error file's u): LEN in mm, ANG in mrad. A file
+    /// without u (a truth file) is exported with `u not given`.
+    #[arg(long, value_name = "LEN[,ANG]", default_value = "0.01,0.05")]
+    max_u: String,
+    /// Use a result whose model does not fit its measurements (its `fit:`
+    /// verdict is misfit): its values are biased by an effect the model
+    /// lacks, so it is refused unless this is given.
+    #[arg(long)]
+    accept_misfit: bool,
     /// With --export: the export is recorded in the results store (the
     /// control was changed), which `fivecal history` marks.
     #[command(flatten)]
@@ -199,13 +215,48 @@ pub struct Config {
     settings: Settings,
     rewrite: Option<(PathBuf, PathBuf)>,
     export: Option<(Dialect, Option<PathBuf>)>,
+    limits: export::Limits,
     record: super::record::Recording,
+}
+
+/// `LEN[,ANG]` of --max-change and --max-u: a length in mm and an angle in
+/// mrad, each > 0 (the angle keeps `default` when not given).
+fn parse_limit(option: &str, s: &str, default: f64) -> anyhow::Result<(f64, f64)> {
+    let parts: Vec<Option<f64>> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v > 0.0)
+        })
+        .collect();
+    match parts.as_slice() {
+        [Some(l)] => Ok((*l, default)),
+        [Some(l), Some(a)] => Ok((*l, *a)),
+        _ => bail!(
+            "{option} `{s}`: expected LEN or LEN,ANG, a length in mm and an angle in mrad, each > 0"
+        ),
+    }
 }
 
 impl CompensateArgs {
     fn validate(self) -> anyhow::Result<Config> {
         let mut common = self.machine.validate()?;
         let errors = load_errors(&self.errors, &common.kin)?;
+        if let Some(f) = errors.misfit()
+            && !self.accept_misfit
+        {
+            bail!(
+                "{}: the model of this result does not fit its measurements (residuals {:.3} um against {:.3} um expected, ratio {:.2}): \
+                 its values are biased by an effect the model lacks. Find it with `fivecal discover` and compensate with the refined model, \
+                 or give --accept-misfit to use this result anyway",
+                self.errors.display(),
+                f.sigma_um,
+                f.expected_um,
+                f.ratio
+            );
+        }
         common.inputs.push(self.errors.clone());
         let min_tol = fivecal::limits::MIN_TOLERANCE_UM;
         if !(self.tolerance.is_finite() && self.tolerance >= min_tol) {
@@ -308,8 +359,25 @@ impl CompensateArgs {
                 .map(|t| ("--export-to", t, Shape::File)),
         );
         check_outputs(&inputs, &outputs)?;
+        if export.is_none()
+            && let Some(flag) = self.record.first_given()
+        {
+            bail!(
+                "{flag} goes with a record, and compensate records only an export (--export): a rewritten program is not recorded"
+            );
+        }
         let record = self.record.validate()?;
+        let defaults = export::Limits::default();
+        let (change_mm, change_mrad) =
+            parse_limit("--max-change", &self.max_change, defaults.change_mrad)?;
+        let (u_mm, u_mrad) = parse_limit("--max-u", &self.max_u, defaults.u_mrad)?;
         Ok(Config {
+            limits: export::Limits {
+                change_mm,
+                change_mrad,
+                u_mm,
+                u_mrad,
+            },
             record,
             common,
             errors_path: self.errors,
@@ -329,54 +397,178 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         Some(_) => Some(cfg.record.open()?),
         None => None,
     };
+    // The export is computed before the program is rewritten: refused (a
+    // limit, a stroke, nothing held), the run writes nothing at all.
+    let exported = match &cfg.export {
+        Some((d, _)) => Some(export::export(
+            &cfg.errors.model,
+            &cfg.errors.theta,
+            &cfg.errors.u,
+            *d,
+            &cfg.errors_path.display().to_string(),
+            &cfg.limits,
+        )?),
+        None => None,
+    };
+    // What the run leaves as it was, said in its last line.
+    let mut copy: Option<String> = None;
     if let Some((input, output)) = &cfg.rewrite {
         let file = fivecal::input::open_stream(input, "NC program")?;
         let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, cfg.settings.clone());
         let mut out = AtomicOutput::create(output)?;
         // On any error `out` is dropped: its temporary file goes, nothing is written.
         let summary = c.run(input, file, &mut out)?;
+        let unchanged = summary.changed == 0 && summary.inserted == 0;
+        if unchanged && summary.largest_linear.is_none() {
+            // Moves there were (the library refuses a program without), and
+            // every one was left as written: a copy is no compensation.
+            bail!(
+                "{}: none of its {} moves could be rewritten ({}); nothing written",
+                input.display(),
+                summary.moves,
+                reasons(&summary.skipped)
+            );
+        }
+        let any_error = cfg.errors.theta.iter().any(|&v| v != 0.0);
+        let felt = |l: Option<fivecal::compensate::Largest>| l.is_some_and(|l| l.value > 1e-6);
+        if unchanged && any_error && !felt(summary.largest_linear) && !felt(summary.largest_rotary)
+        {
+            // Errors there are, and not one moves a pose this program
+            // writes (a tool radius error, a probing effect): a copy is not
+            // what was asked for.
+            bail!(
+                "{}: its errors move no tool pose of {} ({}); nothing written",
+                cfg.errors_path.display(),
+                input.display(),
+                if summary.not_compensated.is_empty() {
+                    "none is of a kind a rewrite corrects".to_string()
+                } else {
+                    summary.not_compensated.join("; ")
+                }
+            );
+        }
         out.commit()?;
         out!("{}", describe(&summary, input, output, &cfg));
+        if unchanged {
+            // Legitimate (a machine whose errors are all but zero), but
+            // never silent.
+            let why = if any_error {
+                format!(
+                    "every correction is below the resolution written ({} decimals in mm, {} in deg)",
+                    cfg.settings.linear_decimals, cfg.settings.rotary_decimals
+                )
+            } else {
+                format!(
+                    "{} holds no error (every value 0)",
+                    cfg.errors_path.display()
+                )
+            };
+            copy = Some(format!(
+                "{why}: {} is a copy of {}",
+                output.display(),
+                input.display()
+            ));
+        }
     }
-    if let Some((d, target)) = &cfg.export {
-        let text = export::export(
-            &cfg.errors.model,
-            &cfg.errors.theta,
-            *d,
-            &cfg.errors_path.display().to_string(),
-        )?;
-        match target {
-            Some(p) => {
-                fivecal::io::write_atomic(p, text.as_bytes())?;
-                outln!("{d} parameters written to {}", p.display());
+    let Some(((d, target), exported)) = cfg.export.as_ref().zip(exported) else {
+        if let Some(c) = copy {
+            outln!("nothing changed: {c}");
+        }
+        return Ok(());
+    };
+    let text = &exported.text;
+    match target {
+        Some(p) => {
+            fivecal::io::write_atomic(p, text.as_bytes())?;
+            outln!("{d} parameters written to {}:", p.display());
+            for line in exported.table() {
+                outln!("  {line}");
             }
-            None => out!("{text}"),
         }
-        if let Some(r) = &mut recorder {
-            let content = std::fs::read_to_string(&cfg.errors_path).with_context(|| {
-                format!("cannot read {} to record it", cfg.errors_path.display())
-            })?;
-            let rec = fivecal::store::runs::export(
-                &cfg.common.machine.name,
-                &cfg.errors_path,
-                &content,
-                &d.to_string(),
-                &text,
-                &cfg.record.notes,
-            )?;
-            // Beside parameters printed to standard output, the note goes
-            // to standard error.
-            let to_stdout = target.is_some();
-            r.save(&[rec], &|s| {
-                if to_stdout {
-                    outln!("{s}")
-                } else {
-                    eprintln!("{s}")
-                }
-            })?;
+        None => out!("{text}"),
+    }
+    if let Some(r) = &mut recorder {
+        let content = std::fs::read_to_string(&cfg.errors_path)
+            .with_context(|| format!("cannot read {} to record it", cfg.errors_path.display()))?;
+        let rec = fivecal::store::runs::export(
+            &cfg.common.machine.name,
+            &cfg.errors_path,
+            &content,
+            &d.to_string(),
+            text,
+            &cfg.record.notes,
+        )?;
+        // Beside parameters printed to standard output, the note goes
+        // to standard error.
+        let to_stdout = target.is_some();
+        r.save(&[rec], &|s| {
+            if to_stdout {
+                outln!("{s}")
+            } else {
+                eprintln!("{s}")
+            }
+        })?;
+    }
+    // Beside parameters on standard output, the notes go to standard
+    // error; the last says whether anything changes.
+    let note = |s: String| {
+        if target.is_some() {
+            outln!("{s}")
+        } else {
+            eprintln!("{s}")
         }
+    };
+    let without = exported.without_u();
+    if !without.is_empty() {
+        note(format!(
+            "note: {} gives no u for what {} depend on: --max-u not checked for them (an analyze result has u; a truth file has none)",
+            cfg.errors_path.display(),
+            without.join(", ")
+        ));
+    }
+    let from = if exported.from_current {
+        "what the control holds now (the machine file's controller_parameters)"
+    } else {
+        "the machine file's nominal geometry"
+    };
+    let listed = exported.listed_changed();
+    let listed = if listed.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; listed for the machine builder, not entered: {}",
+            listed.join(", ")
+        )
+    };
+    let parameters = if exported.changes_nothing() {
+        format!("every {d} parameter to enter equals {from} to the resolution written{listed}")
+    } else {
+        format!(
+            "{} of {} {d} parameters to enter change from {from}: {}{listed}",
+            exported.changed().len(),
+            exported.parameters.iter().filter(|p| p.entered).count(),
+            exported.changed().join(", ")
+        )
+    };
+    match (copy, exported.changes_nothing()) {
+        (Some(c), true) => note(format!("nothing changed: {c}, and {parameters}")),
+        (Some(c), false) => {
+            note(parameters);
+            note(format!("program unchanged: {c}"));
+        }
+        (None, true) => note(format!("nothing to change: {parameters}")),
+        (None, false) => note(parameters),
     }
     Ok(())
+}
+
+/// Moves left out, by reason: `why: lines 3, 7; why: lines 9`.
+pub fn reasons(skipped: &[(String, fivecal::compensate::Lines)]) -> String {
+    skipped
+        .iter()
+        .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// The summary a user reads after a rewrite.
@@ -435,6 +627,31 @@ fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
             s.held_tilt.list(),
             s.held_tilt_axis_error
         );
+    }
+    match s.coordinates.as_slice() {
+        [] => {}
+        [one] => {
+            let _ = writeln!(t, "  coordinates: {} ({})", one.meaning, one.why);
+        }
+        many => {
+            let _ = writeln!(t, "  coordinates, section by section:");
+            for c in many {
+                let _ = writeln!(
+                    t,
+                    "    lines {}-{}: {} ({})",
+                    c.lines.0, c.lines.1, c.meaning, c.why
+                );
+            }
+        }
+    }
+    if !s.unmodelled.is_empty() {
+        let _ = writeln!(
+            t,
+            "  kept as written, effect not modelled (--strict refuses them):"
+        );
+        for (what, lines) in &s.unmodelled {
+            let _ = writeln!(t, "    {what}: lines {}", lines.list());
+        }
     }
     if s.skipped.is_empty() {
         let _ = writeln!(t, "  no move left as written");

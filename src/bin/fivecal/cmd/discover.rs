@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::Args;
+use fivecal::analyze;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
+use fivecal::formats::detect::MeasuredOptions;
 use fivecal::io::{Shape, check_outputs, write_atomic};
 use fivecal::store::runs;
 
@@ -20,9 +22,10 @@ pub struct DiscoverArgs {
     /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
     #[arg(long, value_name = "PLAN", required = true)]
     plan: Option<PathBuf>,
-    /// Measurement files of one piece or probing run (DMIS output, CSV
-    /// `label,x,y,z`, probe logs, plain point lists), recognized from their
-    /// content.
+    /// Measurement files of one piece or probing run (DMIS output, QIF
+    /// results, CALYPSO tables, CSV `label,x,y,z` and tables naming their
+    /// columns, probe logs, point clouds `x y z [i j k]`), recognized from
+    /// their content.
     #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
     measured: Vec<PathBuf>,
     /// The starting model, comma-separated: `location` (the location errors
@@ -55,6 +58,12 @@ pub struct DiscoverArgs {
     /// name ends in `.json`, else YAML).
     #[arg(long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,
+    /// The instrument's noise per measured point (standard deviation, um)
+    /// the final model's fit is judged against, as for `analyze --noise`.
+    #[arg(long, value_name = "UM")]
+    noise: Option<f64>,
+    #[command(flatten)]
+    measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
     record: super::record::RecordArgs,
 }
@@ -63,10 +72,12 @@ pub struct DiscoverArgs {
 struct Config {
     manifest: PathBuf,
     measured: Vec<PathBuf>,
+    measured_options: MeasuredOptions,
     options: DiscoverOptions,
     json: bool,
     report: Option<PathBuf>,
     out: Option<PathBuf>,
+    noise: Option<f64>,
     record: Recording,
 }
 
@@ -91,9 +102,12 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
     check_outputs(&inputs, &outputs)?;
     let record = a.record.validate()?;
+    let noise = super::noise_arg(a.noise)?;
     Ok(Config {
+        noise,
         manifest,
         measured: a.measured,
+        measured_options: a.measured_flags.options()?,
         options: DiscoverOptions {
             start: super::list_items(&a.start),
             only: super::list_items(&a.candidates),
@@ -116,7 +130,7 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         Some(_) => Some(c.record.open()?),
         None => None,
     };
-    let inputs = Inputs::load(&c.manifest, &c.measured)?;
+    let inputs = Inputs::load(&c.manifest, &c.measured, &c.measured_options)?;
     for w in &inputs.data.warnings {
         eprintln!("warning: {w}");
     }
@@ -144,7 +158,15 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         ));
     }
     if let Some(out) = &c.out {
-        let f = d.error_file(&inputs.data);
+        let expected =
+            analyze::fit::ExpectedNoise::new(c.noise, inputs.data.kind, inputs.plan.test());
+        let f = d.error_file(&inputs.data, &expected);
+        if let Some(fit) = &f.fit {
+            say(format!(
+                "fit of the final model: {} (residuals {:.3} um against {:.3} um expected, {}; ratio {:.2})",
+                fit.verdict, fit.sigma_um, fit.expected_um, fit.expected_from, fit.ratio
+            ));
+        }
         let json = out.extension().is_some_and(|e| e == "json");
         let text = if json {
             f.to_json() + "\n"

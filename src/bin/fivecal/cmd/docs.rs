@@ -14,11 +14,56 @@ pub struct CompletionsArgs {
 }
 
 pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
-    let mut cmd = crate::Cli::command();
+    let mut cmd = with_names(crate::Cli::command());
     let mut out = fivecal::io::stdout();
     clap_complete::generate(args.shell, &mut cmd, "fivecal", &mut out);
     out.flush()?;
     Ok(())
+}
+
+/// The command line with the names a shell should offer: the tests for
+/// `plan`, the built-in machines for every `--machine` (and `machine
+/// show`, `machine new --from`). Only the completions see them: the
+/// commands themselves take any file path as well.
+fn with_names(cmd: clap::Command) -> clap::Command {
+    use clap::builder::PossibleValuesParser;
+    let machines: Vec<&'static str> = fivecal::machine::BUILTIN.iter().map(|(n, _)| *n).collect();
+    let tests: Vec<&'static str> = fivecal::procedure::Test::ALL
+        .iter()
+        .map(|t| t.as_str())
+        .collect();
+    fn walk(
+        cmd: clap::Command,
+        machines: &[&'static str],
+        tests: &[&'static str],
+    ) -> clap::Command {
+        let name = cmd.get_name().to_string();
+        let ids: Vec<String> = cmd
+            .get_arguments()
+            .map(|a| a.get_id().to_string())
+            .collect();
+        let mut cmd = cmd;
+        for id in ids {
+            let names = match (name.as_str(), id.as_str()) {
+                (_, "machine") | ("show", "file") | ("new", "from") => Some(machines),
+                ("plan", "test") => Some(tests),
+                _ => None,
+            };
+            if let Some(n) = names {
+                let n = n.to_vec();
+                cmd = cmd.mut_arg(id, move |a| a.value_parser(PossibleValuesParser::new(n)));
+            }
+        }
+        let subs: Vec<String> = cmd
+            .get_subcommands()
+            .map(|s| s.get_name().to_string())
+            .collect();
+        for s in subs {
+            cmd = cmd.mut_subcommand(s, |sub| walk(sub, machines, tests));
+        }
+        cmd
+    }
+    walk(cmd, &machines, &tests)
 }
 
 pub fn man() -> anyhow::Result<()> {

@@ -1,4 +1,6 @@
-//! `fivecal machine show FILE`: the parsed machine, its chain and its symbols.
+//! `fivecal machine show FILE`: the parsed machine, its chain and its
+//! symbols; `fivecal machine new NAME --from MACHINE`: a machine file to
+//! start one's own from.
 
 use anyhow::Context as _;
 use clap::Subcommand;
@@ -16,6 +18,20 @@ pub enum MachineCommand {
     },
     /// List the built-in machines.
     List,
+    /// Write a machine file to start one's own from: a copy of MACHINE (a
+    /// built-in name or a file) under the new name, so that every output
+    /// is labelled with the machine it is about. Edit its strokes, pivot,
+    /// limits, tool and probe before use.
+    New {
+        /// The new machine's name (letters, digits, `-`, `_`, `.`).
+        name: String,
+        /// The machine to start from: a built-in name or a file.
+        #[arg(long, default_value = "bc-trunnion")]
+        from: String,
+        /// Where to write it (`-`: standard output) [default: NAME.yaml].
+        #[arg(short, long)]
+        output: Option<std::path::PathBuf>,
+    },
 }
 
 pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
@@ -27,6 +43,34 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
             }
             Ok(())
         }
+        MachineCommand::New { name, from, output } => {
+            let (m, origin) =
+                Machine::resolve(&from).with_context(|| format!("cannot load machine `{from}`"))?;
+            let text = starter(&m, &name, &origin.to_string())?;
+            let out = output.unwrap_or_else(|| format!("{name}.yaml").into());
+            let inputs: Vec<&std::path::Path> = match origin {
+                fivecal::machine::MachineOrigin::File(ref p) => vec![p.as_path()],
+                _ => vec![],
+            };
+            fivecal::io::check_outputs(&inputs, &[("--output", &out, fivecal::io::Shape::File)])?;
+            if out.as_os_str() != "-" && out.exists() {
+                anyhow::bail!(
+                    "{} exists: a new machine file is not written over another file (give -o)",
+                    out.display()
+                );
+            }
+            fivecal::io::write_atomic(&out, text.as_bytes())
+                .with_context(|| format!("cannot write {}", out.display()))?;
+            if out.as_os_str() != "-" {
+                outln!(
+                    "wrote {} (machine {name}, copied from {}): edit its strokes, pivot, limits, tool and probe, then `fivecal machine show {}`",
+                    out.display(),
+                    m.name,
+                    out.display()
+                );
+            }
+            Ok(())
+        }
         MachineCommand::Show { file } => {
             let (m, origin) =
                 Machine::resolve(&file).with_context(|| format!("cannot load machine `{file}`"))?;
@@ -35,6 +79,49 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// The text of `m`'s file under the name `name`, with a first line saying
+/// where it was copied from; the copy reads back as the same machine.
+fn starter(m: &Machine, name: &str, origin: &str) -> anyhow::Result<String> {
+    let ok = !name.is_empty()
+        && name.len() <= 64
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.'));
+    if !ok {
+        anyhow::bail!(
+            "machine name `{name}`: expected up to 64 letters, digits, `-`, `_` or `.` (it labels every output)"
+        );
+    }
+    let mut renamed = false;
+    let mut text = format!(
+        "# Machine {name}, copied from {} ({origin}) by `fivecal machine new`:\n# check every value against the real machine before use.\n",
+        m.name
+    );
+    for line in m.source.lines() {
+        if !renamed && line.starts_with("name:") {
+            text.push_str(&format!("name: {name}\n"));
+            renamed = true;
+        } else {
+            text.push_str(line);
+            text.push('\n');
+        }
+    }
+    anyhow::ensure!(
+        renamed,
+        "machine `{}` has no top-level `name:` line to replace",
+        m.name
+    );
+    let copy = Machine::from_yaml(std::path::Path::new(name), &text)
+        .with_context(|| format!("the copy of {} does not read back", m.name))?;
+    anyhow::ensure!(
+        copy.name == name,
+        "the copy of {} reads back as `{}`",
+        m.name,
+        copy.name
+    );
+    Ok(text)
 }
 
 fn limits(l: Option<(f64, f64)>) -> String {

@@ -15,11 +15,13 @@ use nalgebra::Vector3;
 /// What the user says about measurement files where a file cannot.
 #[derive(Args, Debug, Clone, Default)]
 pub struct MeasuredFlags {
-    /// Read measurement run N (from 1) of a file holding several (QIF).
+    /// Read measurement run N (from 1) of a file holding several (QIF
+    /// results, CALYPSO tables of several parts).
     #[arg(long, value_name = "N")]
     pub run: Option<usize>,
-    /// Length unit of a measurement file that does not state it: mm or
-    /// inch.
+    /// Length unit of a measurement file that does not state it (QIF
+    /// without FileUnits, CALYPSO tables without a unit column, point
+    /// tables and clouds): mm or inch.
     #[arg(long, value_name = "UNIT")]
     pub units: Option<String>,
     /// Encoding of a measurement file not in UTF-8 (windows-1252,

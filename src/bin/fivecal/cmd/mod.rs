@@ -44,3 +44,17 @@ pub fn list_items(values: &[String]) -> Vec<String> {
         .filter(|s| !s.is_empty())
         .collect()
 }
+
+/// `--noise UM` of analyze and discover: the instrument's standard
+/// deviation the fit is judged against.
+pub fn noise_arg(noise: Option<f64>) -> anyhow::Result<Option<f64>> {
+    if let Some(n) = noise {
+        let max = fivecal::limits::MAX_NOISE_UM;
+        if !(n.is_finite() && n > 0.0 && n <= max) {
+            anyhow::bail!(
+                "--noise {n}: expected a standard deviation above 0 and at most {max} um"
+            );
+        }
+    }
+    Ok(noise)
+}

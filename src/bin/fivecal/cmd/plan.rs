@@ -57,6 +57,10 @@ pub struct PlanArgs {
     /// tests use the machine file's probe.
     #[arg(long)]
     tool: Option<String>,
+    /// `all`: refuse (and write nothing) when the test will not identify
+    /// every location error of the machine, as predicted from the plan.
+    #[arg(long, value_name = "WHAT", value_parser = ["all"])]
+    require: Option<String>,
 }
 
 /// The validated configuration of one `plan` run.
@@ -66,6 +70,8 @@ struct Config {
     inputs: Vec<PathBuf>,
     /// Which machine the run used, built in or a file.
     origin: String,
+    /// `--require all`.
+    require_all: bool,
 }
 
 fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
@@ -179,6 +185,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         out: a.out,
         inputs,
         origin,
+        require_all: a.require.is_some(),
     })
 }
 
@@ -195,9 +202,29 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             p.post.dialect
         )
     })?;
+    let predicted = fivecal::analyze::design::predict(&planned, None, None)
+        .with_context(|| format!("cannot predict what {} identifies", planned.test()))?;
+    if cfg.require_all {
+        let missing = predicted.missing();
+        if !missing.is_empty() {
+            bail!(
+                "--require all: {} on {} does not identify {} (nothing written):\n{}",
+                planned.test(),
+                planned.machine().name,
+                missing.join(", "),
+                predicted.render()
+            );
+        }
+    }
     // The error already names the path and its cause.
     let written = planned
-        .write(&cfg.out, planned.test().as_str(), &inputs)
+        .write_with(
+            &cfg.out,
+            planned.test().as_str(),
+            &inputs,
+            &predicted.markdown(),
+            Some(&predicted.manifest_entry()),
+        )
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     match &planned {
         Plan::Machining(t) => outln!(
@@ -222,6 +249,24 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             p.run_minutes(),
             p.dialect
         ),
+    }
+    out!("{}", predicted.render());
+    if predicted.method != fivecal::identify::Method::Global {
+        let global = fivecal::analyze::design::predict(
+            &planned,
+            Some(fivecal::identify::Method::Global),
+            None,
+        );
+        if let Ok(global) = global
+            && global.missing().len() < predicted.missing().len()
+        {
+            let b = global.missing().len();
+            outln!(
+                "note: the global method identifies {} of {} (fivecal analyze --method global)",
+                global.rows.len() - b,
+                global.rows.len()
+            );
+        }
     }
     outln!("note: {}", cfg.origin);
     for n in planned.notes() {

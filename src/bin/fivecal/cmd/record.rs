@@ -39,6 +39,18 @@ pub struct Recording {
 }
 
 impl RecordArgs {
+    /// The first flag given that only matters when the run records.
+    pub fn first_given(&self) -> Option<&'static str> {
+        [
+            ("--note", self.note.is_some()),
+            ("--temperature", self.temperature.is_some()),
+            ("--measured-at", self.measured_at.is_some()),
+            ("--db", self.db.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(flag, given)| given.then_some(flag))
+    }
+
     pub fn validate(self) -> anyhow::Result<Recording> {
         if let Some(t) = self.temperature
             && !(t.is_finite() && (-50.0..=100.0).contains(&t))

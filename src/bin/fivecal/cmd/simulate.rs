@@ -45,11 +45,12 @@ pub struct SimulateArgs {
     /// The measurement file to write (never one of the inputs).
     #[arg(long, short, value_name = "FILE")]
     out: Option<PathBuf>,
-    /// csv (label,x,y,z), dmis (a CMM's DMIS output), log (the probe log the
-    /// plan's program makes the control write) or heights (nine-section
+    /// csv (label,x,y,z), dmis (a CMM's DMIS output), qif (a CMM's QIF 3
+    /// results, by the ids and names of the plan's .qif), log (the probe log
+    /// the plan's program makes the control write) or heights (nine-section
     /// section,height_um). Default: from the file extension (.dmo/.out
-    /// dmis, .log/.txt log, .csv csv), else csv for a machined piece and log
-    /// for probing.
+    /// dmis, .qif qif, .log/.txt log, .csv csv), else csv for a machined
+    /// piece and log for probing.
     #[arg(long, value_name = "FORMAT")]
     format: Option<String>,
     /// Seed of every random draw (placement, setups, noise): the same seed
@@ -58,7 +59,7 @@ pub struct SimulateArgs {
     seed: u64,
     /// Where the machined piece lies on the CMM: random (any rotation, any
     /// offset) or aligned (the part frame on W, as the plan's DMIS program
-    /// asks). Default: random for csv, aligned for dmis and heights.
+    /// asks). Default: random for csv, aligned for dmis, qif and heights.
     #[arg(long, value_name = "random|aligned")]
     placement: Option<String>,
     /// Probed pieces exactly at their nominal places (default: each set up

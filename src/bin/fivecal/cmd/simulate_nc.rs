@@ -10,7 +10,7 @@ use clap::Args;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
 
-use super::compensate::{MachineArgs, load_errors};
+use super::compensate::{MachineArgs, load_errors, reasons};
 
 #[derive(Args, Debug)]
 pub struct SimulateNcArgs {
@@ -108,6 +108,15 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
             args.step
         );
     }
+    if summary.samples == 0 {
+        // Moves there were (the library refuses a program without), and
+        // none could be followed: an empty prediction is no prediction.
+        bail!(
+            "{}: no move of it could be simulated ({}); nothing written",
+            args.program.display(),
+            reasons(&summary.skipped)
+        );
+    }
     if let Some(out) = &args.output {
         let mut t = String::new();
         let _ = writeln!(
@@ -150,7 +159,12 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         let got = measure_surface(&samples, &pts, args.max_distance).map_err(anyhow::Error::msg)?;
         let mp: Vec<MeasuredPoint> = got
             .into_iter()
-            .map(|(label, p)| MeasuredPoint { label, p, line: 0 })
+            .map(|(label, p)| MeasuredPoint {
+                label,
+                p,
+                line: 0,
+                normal: None,
+            })
             .collect();
         let comment = format!(
             "simulated CMM points: {} cut by {} on {} with {}",
@@ -174,25 +188,38 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         summary.moves,
         summary.samples
     );
-    match summary.max_um {
-        Some(m) => outln!(
+    if let Some(m) = summary.max_um {
+        outln!(
             "  tool-tip error (actual minus where the nominal machine puts the program as written): mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad",
             summary.mean_um,
             summary.rms_um,
             m.value,
             m.line,
             summary.max_axis_urad
-        ),
-        None => outln!("  no move could be simulated"),
+        );
     }
     for (reason, lines) in &summary.skipped {
         outln!("  not simulated: {reason}: lines {}", lines.list());
+    }
+    for (what, lines) in &summary.unmodelled {
+        outln!("  effect not modelled: {what}: lines {}", lines.list());
     }
     if let Some(out) = &args.output {
         outln!("  samples written to {}", out.display());
     }
     if let Some(out) = &args.measured {
         outln!("  simulated CMM points written to {}", out.display());
+    }
+    // A machine on which the program runs as on the nominal one: an answer
+    // (a compensated program, a perfect machine), but never a silent one.
+    if summary
+        .max_um
+        .is_some_and(|m| m.value < 0.005 && summary.max_axis_urad < 0.05)
+    {
+        outln!(
+            "no error: on this machine every sample of the program lies where the nominal machine puts it (within 0.005 um and 0.05 urad): {} moves none of them",
+            args.errors.display()
+        );
     }
     Ok(())
 }

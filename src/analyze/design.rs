@@ -1,0 +1,245 @@
+//! What a plan will identify, known before anything is cut or probed: the
+//! plan is run on the simulator without errors or noise, and the method
+//! `analyze` will use identifies its nominal measurements. What that
+//! identification can report, it will report from real measurements; its
+//! covariance per unit noise, scaled by the instrument's noise, is the
+//! standard uncertainty each value will have (for the global method the
+//! design's Cramér-Rao bound). `plan` prints the table and writes it into
+//! the setup sheet, and `--require all` refuses a design that leaves a
+//! location error unseen.
+
+use std::fmt::Write as _;
+
+use super::fit::ExpectedNoise;
+use super::{AnalyzeError, method};
+use crate::errorfile::ErrorFile;
+use crate::formats::manifest::{Identifies, PredictedSymbol};
+use crate::identify::sphere::{CircleMethod, SphereOptions};
+use crate::identify::{Method, Setup};
+use crate::procedure::{Plan, Test};
+use crate::simulate::{self, SimOptions};
+
+/// One location error of the machine: the uncertainty the test will give
+/// it, or why it will not.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// The symbol.
+    pub symbol: String,
+    /// um or urad.
+    pub unit: String,
+    /// Standard uncertainty at the expected noise; `None`: not identified.
+    pub u: Option<f64>,
+    /// Why not, where not.
+    pub reason: Option<String>,
+}
+
+/// What a plan will identify with a method at a noise.
+#[derive(Clone, Debug)]
+pub struct Prediction {
+    /// The method `analyze` will use.
+    pub method: Method,
+    /// The noise the uncertainties are predicted at.
+    pub noise: ExpectedNoise,
+    /// Rank of the design and its number of free parameters (nuisance
+    /// included).
+    pub rank: (usize, usize),
+    /// Every location error, in the machine's order.
+    pub rows: Vec<Row>,
+    /// Combinations of symbols no measurement of this design sees.
+    pub unseen: Vec<String>,
+}
+
+impl Prediction {
+    /// The symbols the test will not identify.
+    pub fn missing(&self) -> Vec<&str> {
+        self.rows
+            .iter()
+            .filter(|r| r.u.is_none())
+            .map(|r| r.symbol.as_str())
+            .collect()
+    }
+
+    /// The table, as `plan` prints it and the setup sheet shows it.
+    pub fn render(&self) -> String {
+        let mut s = String::new();
+        let seen = self.rows.iter().filter(|r| r.u.is_some()).count();
+        let _ = writeln!(
+            s,
+            "identifies {seen} of {} location errors with the {} method (design rank {} of {}); u at {:.3} um noise ({}):",
+            self.rows.len(),
+            self.method,
+            self.rank.0,
+            self.rank.1,
+            self.noise.um,
+            self.noise.from
+        );
+        // One reason for every symbol (the nine-section test) is said once.
+        let first = self.rows.first().and_then(|r| r.reason.as_ref());
+        if let Some(why) = first
+            && seen == 0
+            && self.rows.iter().all(|r| r.reason.as_ref() == first)
+        {
+            let _ = writeln!(s, "  none: {why}");
+            return s;
+        }
+        for r in &self.rows {
+            match (r.u, &r.reason) {
+                (Some(u), _) => {
+                    let _ = writeln!(s, "  {:<10} u = {:>8.3} {}", r.symbol, u, r.unit);
+                }
+                (None, why) => {
+                    let _ = writeln!(
+                        s,
+                        "  {:<10} not identified: {}",
+                        r.symbol,
+                        why.as_deref().unwrap_or("the design does not see it")
+                    );
+                }
+            }
+        }
+        for c in &self.unseen {
+            let _ = writeln!(s, "  not separable: {c}");
+        }
+        s
+    }
+
+    /// The manifest's `identifies:` entry. An uncertainty that is not a
+    /// finite number is left out with the reason, never written.
+    pub fn manifest_entry(&self) -> Identifies {
+        Identifies {
+            method: self.method.to_string(),
+            noise_um: self.noise.um,
+            rank: self.rank.0,
+            parameters: self.rank.1,
+            symbols: self
+                .rows
+                .iter()
+                .map(|r| {
+                    let u = r.u.filter(|u| u.is_finite());
+                    let reason = match (u, r.u) {
+                        (Some(_), _) => None,
+                        (None, Some(_)) => Some("its uncertainty is not finite".to_string()),
+                        (None, None) => r.reason.clone(),
+                    };
+                    (
+                        r.symbol.clone(),
+                        PredictedSymbol {
+                            unit: r.unit.clone(),
+                            u,
+                            reason,
+                        },
+                    )
+                })
+                .collect(),
+            not_separable: self.unseen.clone(),
+        }
+    }
+
+    /// The setup sheet's section (Markdown).
+    pub fn markdown(&self) -> String {
+        format!(
+            "\n## What this test identifies\n\nPredicted by `fivecal plan` from the plan alone (the plan run on the simulator \
+             without errors or noise and identified as `fivecal analyze` will):\n\n```\n{}```\n",
+            self.render()
+        )
+    }
+}
+
+/// Predicts what `plan` will identify with `method` (the test's default
+/// when `None`) at the instrument's noise (`noise` um, else its default).
+pub fn predict(
+    plan: &Plan,
+    method: Option<Method>,
+    noise: Option<f64>,
+) -> Result<Prediction, AnalyzeError> {
+    let test = plan.test();
+    let kin = simulate::plan_kinematics(plan);
+    let expected = ExpectedNoise::new(noise, plan.kind(), test);
+    let method = method.unwrap_or(method::default_for(test));
+    method::check(method, test, plan.kind(), &[]).map_err(AnalyzeError::Request)?;
+    let symbols = crate::kinematics::symbols::SymbolTable::for_kinematics(&kin);
+    let nothing = |reason: &str| Prediction {
+        method,
+        noise: expected.clone(),
+        rank: (0, symbols.location.len()),
+        rows: symbols
+            .location
+            .iter()
+            .map(|l| Row {
+                symbol: l.name.clone(),
+                unit: l.unit.to_string(),
+                u: None,
+                reason: Some(reason.to_string()),
+            })
+            .collect(),
+        unseen: Vec::new(),
+    };
+    if test == Test::NineSection {
+        return Ok(nothing(super::NINE_SECTION_REASON));
+    }
+    let name = kin.machine().name.clone();
+    let src = format!("machine: {name}\n");
+    let path = std::path::Path::new("(no errors)");
+    let zero = ErrorFile::parse(path, &src)?.to_model(&kin, path, &src)?;
+    let sim = simulate::run(plan, &zero, &SimOptions::exact())
+        .map_err(|e| AnalyzeError::Plan(format!("cannot simulate the plan: {e}")))?;
+    let data = super::uncertainty::simulated::plan_dataset(plan, "nominal", sim.points)?;
+    let setup = Setup::new(&kin, &data.poses, &[])?;
+    let sphere = SphereOptions {
+        circle: CircleMethod::Robust,
+        check: None,
+    };
+    // A design the method cannot take at all (a spiral of sphere touches
+    // without a circle about C, for the sphere method) identifies nothing
+    // with it: that is the prediction, not a failure of the plan.
+    let est = match method::identify_with_plan(method, &setup, &data, &sphere, Some(plan)) {
+        Ok(est) => est,
+        Err(e) => {
+            return Ok(nothing(&format!(
+                "the {method} method cannot analyse this design: {e}"
+            )));
+        }
+    };
+    let u: Vec<Option<f64>> = (0..est.theta.len())
+        .map(|i| {
+            est.identifiable(i)
+                .then(|| est.cov_unit[(i, i)].max(0.0).sqrt() * expected.um)
+        })
+        .collect();
+    let file = est.error_file(Some(&u));
+    let rows = symbols
+        .location
+        .iter()
+        .map(|l| {
+            let q = file.location_errors.get(&l.name);
+            Row {
+                symbol: l.name.clone(),
+                unit: l.unit.to_string(),
+                u: q.and_then(|q| q.u),
+                reason: match q.and_then(|q| q.u) {
+                    Some(_) => None,
+                    None => Some(
+                        file.not_identifiable
+                            .iter()
+                            .find(|n| n.symbol == l.name)
+                            .map(|n| n.reason.clone())
+                            .unwrap_or_else(|| "the design does not see it".into()),
+                    ),
+                },
+            }
+        })
+        .collect();
+    let unseen = file
+        .not_identifiable
+        .iter()
+        .filter(|n| !symbols.location.iter().any(|l| l.name == n.symbol))
+        .map(|n| format!("{}: {}", n.symbol, n.reason))
+        .collect();
+    Ok(Prediction {
+        method,
+        noise: expected,
+        rank: (est.identifiability.rank, est.identifiability.free),
+        rows,
+        unseen,
+    })
+}

@@ -1,0 +1,220 @@
+//! Goodness of fit: does the identified model explain the measurements as
+//! well as the instrument's noise allows? Each identification's residual
+//! standard deviation is set against the noise the measurement should show
+//! (stated with `--noise`, or the documented default of the instrument)
+//! by a chi-square test. A model that does not fit is missing an effect
+//! (drift, a map, a scale error, ...) or the stated noise is too small;
+//! either way its values are biased by more than their `u` says, so the
+//! result file carries the verdict, the uncertainties are widened by the
+//! Birge ratio, and `compensate` refuses the result unless told otherwise.
+
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+use crate::errorfile::{FitSection, FitVerdict};
+use crate::formats::manifest::TestKind;
+use crate::identify::Identification;
+use crate::procedure::Test;
+
+/// A fit is refused when residuals at least this large would occur by
+/// chance with this probability or less, were the model complete. Small,
+/// because a wrong refusal costs a `discover` run while a right one keeps
+/// biased values out of a control: one clean run in a thousand is flagged.
+pub const MISFIT_SIGNIFICANCE: f64 = 1e-3;
+
+/// The noise a measurement should show, um, and where that figure comes
+/// from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExpectedNoise {
+    /// Standard deviation per measured point, um.
+    pub um: f64,
+    /// Where the figure comes from, for the result file and the screen.
+    pub from: String,
+}
+
+impl ExpectedNoise {
+    /// The noise stated by the user (`--noise UM`), else the default of the
+    /// instrument that measured a test of `kind`: the non-systematic error
+    /// of a machined and CMM-measured piece (Ibaraki & Ota 2014, table 4),
+    /// or an on-machine probe's repeatability, with the form error of the
+    /// calibration sphere added in quadrature for the sphere test.
+    pub fn new(stated: Option<f64>, kind: TestKind, test: Test) -> ExpectedNoise {
+        use crate::simulate::{DEFAULT_NOISE_UM, DEFAULT_SPHERE_FORM_UM};
+        match stated {
+            Some(um) => ExpectedNoise {
+                um,
+                from: "stated with --noise".into(),
+            },
+            None => match (kind, test) {
+                (TestKind::Machining, _) => ExpectedNoise {
+                    um: DEFAULT_NOISE_UM,
+                    from: "default for a machined piece on a CMM (Ibaraki & Ota 2014, table 4)"
+                        .into(),
+                },
+                (TestKind::Probing, Test::ProbeSphere) => ExpectedNoise {
+                    um: DEFAULT_NOISE_UM.hypot(DEFAULT_SPHERE_FORM_UM),
+                    from: "default probe repeatability with the sphere's form error".into(),
+                },
+                (TestKind::Probing, _) => ExpectedNoise {
+                    um: DEFAULT_NOISE_UM,
+                    from: "default probe repeatability".into(),
+                },
+            },
+        }
+    }
+}
+
+/// Judges the fit of residuals with standard deviation `sigma_um` over
+/// `dof` degrees of freedom against the expected noise. `None` when it
+/// cannot be judged: no degrees of freedom left, or no finite sigma.
+pub fn judge(sigma_um: f64, dof: usize, expected: &ExpectedNoise) -> Option<FitSection> {
+    if dof == 0 || !sigma_um.is_finite() || !(expected.um.is_finite() && expected.um > 0.0) {
+        return None;
+    }
+    let ratio = sigma_um / expected.um;
+    let chi2 = dof as f64 * ratio * ratio;
+    let p_value = ChiSquared::new(dof as f64).ok()?.sf(chi2);
+    // A chi-square this far out underflows to 0, which is the right answer.
+    let p_value = if p_value.is_finite() { p_value } else { 0.0 };
+    let verdict = if p_value < MISFIT_SIGNIFICANCE {
+        FitVerdict::Misfit
+    } else {
+        FitVerdict::Fits
+    };
+    Some(FitSection {
+        sigma_um,
+        expected_um: expected.um,
+        expected_from: expected.from.clone(),
+        ratio,
+        dof,
+        p_value,
+        verdict,
+    })
+}
+
+/// The fit of an identification.
+pub fn of(est: &Identification, expected: &ExpectedNoise) -> Option<FitSection> {
+    judge(est.sigma_um, est.dof, expected)
+}
+
+/// The factor the uncertainties of a result are widened by: the Birge
+/// ratio when the model does not fit, else 1. Covariance uncertainties
+/// scaled by the residual variance carry it already; uncertainties drawn
+/// at the stated noise (a Monte-Carlo study) do not.
+pub fn widening(fit: Option<&FitSection>) -> f64 {
+    match fit {
+        Some(f) if f.verdict == FitVerdict::Misfit && f.ratio > 1.0 => f.ratio,
+        _ => 1.0,
+    }
+}
+
+/// The banner shown above a result whose model does not fit, with what to
+/// do next: `next` is the `fivecal discover` command that looks for the
+/// missing effect.
+pub fn banner(f: &FitSection, next: &str) -> String {
+    format!(
+        "THE MODEL DOES NOT FIT: residuals {:.3} um against {:.3} um expected ({}), ratio {:.2}, \
+         p = {:.1e} over {} degrees of freedom.\n\
+         The values below are biased by an effect the model lacks (or the stated noise is too \
+         small); their u is widened by the ratio, and compensate refuses this result without \
+         --accept-misfit.\n\
+         Find the missing effect with:\n  {next}",
+        f.sigma_um, f.expected_um, f.expected_from, f.ratio, f.p_value, f.dof
+    )
+}
+
+/// The `fivecal discover` command that looks for the effect missing from
+/// a model fitted to `measured` against the plan `manifest`.
+pub fn discover_command(manifest: &std::path::Path, measured: &[std::path::PathBuf]) -> String {
+    let mut c = format!("fivecal discover --plan {} --measured", quote(manifest));
+    for m in measured {
+        c.push(' ');
+        c.push_str(&quote(m));
+    }
+    c.push_str(" --out model.yaml");
+    c
+}
+
+/// A path as a POSIX shell word.
+fn quote(p: &std::path::Path) -> String {
+    let s = p.display().to_string();
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._-/+:=,@".contains(c))
+    {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn expected(um: f64) -> ExpectedNoise {
+        ExpectedNoise {
+            um,
+            from: "test".into(),
+        }
+    }
+
+    #[test]
+    fn residuals_at_the_noise_fit() {
+        let f = judge(0.36, 200, &expected(0.35)).unwrap();
+        assert_eq!(f.verdict, FitVerdict::Fits);
+        assert!((f.ratio - 0.36 / 0.35).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_demo_drift_is_a_misfit() {
+        // The README demo's drifting piece: 2.55 um residuals against a
+        // 0.35 um CMM.
+        let f = judge(2.55, 150, &expected(0.35)).unwrap();
+        assert_eq!(f.verdict, FitVerdict::Misfit);
+        assert_eq!(f.p_value, 0.0);
+        assert!((widening(Some(&f)) - 2.55 / 0.35).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_threshold_is_the_chi_square_quantile() {
+        // statrs' inverse CDF gives the ratio at which the verdict turns.
+        let dof = 50usize;
+        let q = ChiSquared::new(dof as f64)
+            .unwrap()
+            .inverse_cdf(1.0 - MISFIT_SIGNIFICANCE);
+        let r = (q / dof as f64).sqrt();
+        assert_eq!(
+            judge(0.35 * r * 0.999, dof, &expected(0.35))
+                .unwrap()
+                .verdict,
+            FitVerdict::Fits
+        );
+        assert_eq!(
+            judge(0.35 * r * 1.001, dof, &expected(0.35))
+                .unwrap()
+                .verdict,
+            FitVerdict::Misfit
+        );
+        // Wilson-Hilferty: the 0.999 quantile of chi-square(50) is 86.66.
+        assert!((q - 86.66).abs() < 0.05, "{q}");
+    }
+
+    #[test]
+    fn the_next_command_survives_the_shell() {
+        let c = discover_command(
+            std::path::Path::new("ss/stepped-square.plan.yaml"),
+            &["piece one.dmo".into(), "it's.csv".into()],
+        );
+        assert_eq!(
+            c,
+            "fivecal discover --plan ss/stepped-square.plan.yaml --measured 'piece one.dmo' 'it'\\''s.csv' --out model.yaml"
+        );
+    }
+
+    #[test]
+    fn nothing_left_to_judge_gives_no_verdict() {
+        assert!(judge(0.3, 0, &expected(0.35)).is_none());
+        assert!(judge(f64::NAN, 10, &expected(0.35)).is_none());
+        assert_eq!(widening(None), 1.0);
+    }
+}
