@@ -1087,3 +1087,38 @@ fn implausible_machine_and_error_values_are_echoed_short() {
         assert!(e.len() < 200, "{e}");
     }
 }
+
+/// Errors within the plausible range but too large for a plan (10 mm and
+/// 10 mrad) gave "point B0C0-XP1: no cut reaches its surface" with no
+/// file named: the message now names the plan and the error file, and
+/// says the errors are too large for the plan.
+#[test]
+fn simulate_names_the_plan_and_the_errors_when_no_cut_reaches_a_point() {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze/stepped-square");
+    let dir = crate::util::tempdir();
+    let errors = dir.path().join("large.yaml");
+    std::fs::write(
+        &errors,
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 9999.0, EA0B: 9999.0, EC0B: 9999.0}\n",
+    )
+    .unwrap();
+    let out = crate::cli::fivecal()
+        .args(["simulate", "--plan"])
+        .arg(d.join("stepped-square.plan.yaml"))
+        .arg("--errors")
+        .arg(&errors)
+        .arg("-o")
+        .arg(dir.path().join("m.dmo"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("stepped-square.plan.yaml")
+            && err.contains("large.yaml")
+            && err.contains("no cut reaches its surface")
+            && err.contains("the errors are too large for this plan"),
+        "{err}"
+    );
+    assert!(!dir.path().join("m.dmo").exists());
+}
