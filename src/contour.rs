@@ -35,6 +35,9 @@ pub enum MeshError {
         /// What is wrong and what was expected.
         message: String,
     },
+    /// A mesh built in code that [`Mesh::check`] refuses.
+    #[error("unusable mesh: {0}")]
+    Invalid(String),
 }
 
 /// A triangle mesh, mm.
@@ -467,8 +470,12 @@ pub struct Closest {
 
 impl Surface {
     /// Prepares `mesh` (vertices are welded by position so that normals
-    /// are shared across the facets of one surface).
-    pub fn new(mesh: &Mesh) -> Surface {
+    /// are shared across the facets of one surface). A mesh [`Mesh::check`]
+    /// refuses (a vertex out of range, a triangle naming a vertex that does
+    /// not exist, no triangle with an area) is refused here too, so that a
+    /// mesh built in code rather than loaded cannot make a query panic.
+    pub fn new(mesh: &Mesh) -> Result<Surface, MeshError> {
+        mesh.check().map_err(MeshError::Invalid)?;
         let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
         let mut vertices = Vec::new();
         let mut remap = Vec::with_capacity(mesh.vertices.len());
@@ -531,7 +538,7 @@ impl Surface {
             order: Vec::new(),
         };
         s.build();
-        s
+        Ok(s)
     }
 
     fn tri_bounds(&self, i: usize) -> (Vector3<f64>, Vector3<f64>) {
@@ -767,7 +774,7 @@ mod tests {
 
     #[test]
     fn distances_and_signs_on_faces_edges_and_corners() {
-        let s = Surface::new(&cube());
+        let s = Surface::new(&cube()).unwrap();
         let cases = [
             (Vector3::new(5., 5., 10.2), 0.2),
             (Vector3::new(5., 5., 9.7), -0.3),
@@ -815,10 +822,50 @@ mod tests {
         for p in [obj, glb] {
             let back = Mesh::load(&p).unwrap();
             assert_eq!(back.triangles.len(), 12, "{p:?}");
-            let s = Surface::new(&back);
+            let s = Surface::new(&back).unwrap();
             assert!((s.closest(&Vector3::new(5., 5., 12.)).distance - 2.0).abs() < 1e-6);
             assert!((s.closest(&Vector3::new(5., 5., 9.)).distance + 1.0).abs() < 1e-6);
         }
+    }
+
+    #[test]
+    fn a_bad_mesh_built_in_code_is_refused_not_panicked_on() {
+        // Each of these panicked in `Surface::new` or in a query when a
+        // caller skipped `Mesh::check`.
+        let point = Vector3::new(1.0, 2.0, 3.0);
+        let bad = [
+            // One triangle with three equal vertices (no area).
+            Mesh {
+                vertices: vec![point; 3],
+                triangles: vec![[0, 1, 2]],
+            },
+            // A triangle naming a vertex that does not exist.
+            Mesh {
+                vertices: cube().vertices,
+                triangles: vec![[0, 1, 99]],
+            },
+            // No triangles.
+            Mesh {
+                vertices: cube().vertices,
+                triangles: Vec::new(),
+            },
+            // A vertex at infinity.
+            Mesh {
+                vertices: vec![point, point * 2.0, Vector3::new(f64::INFINITY, 0.0, 0.0)],
+                triangles: vec![[0, 1, 2]],
+            },
+        ];
+        for m in bad {
+            let e = Surface::new(&m).unwrap_err().to_string();
+            assert!(e.starts_with("unusable mesh: "), "{e}");
+        }
+        // A cube with one degenerate triangle more still measures.
+        let mut m = cube();
+        m.vertices.push(point);
+        let k = m.vertices.len() as u32 - 1;
+        m.triangles.push([k, k, k]);
+        let s = Surface::new(&m).unwrap();
+        assert!((s.closest(&Vector3::new(5., 5., 12.)).distance - 2.0).abs() < 1e-12);
     }
 
     #[test]

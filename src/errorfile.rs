@@ -41,6 +41,7 @@ use crate::limits::{
     MAX_ERROR_UM, MAX_ERROR_URAD, MAX_NOISE_UM, MAX_PRETRAVEL_UM, MAX_SCALE_UM_PER_M,
 };
 use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS, Squareness};
+use crate::procedure::echo;
 use crate::source::SourceError;
 
 /// A value with an optional standard uncertainty.
@@ -483,16 +484,11 @@ impl ErrorFile {
         // location error of a metre is a unit mistake.
         let plausible = |keys: &[&str], what: &str, v: f64, (max, unit): (f64, &str)| {
             if v.abs() > max {
-                // 1e300 written out is 300 digits: not a message.
-                let v = if v.abs() < 1e9 {
-                    v.to_string()
-                } else {
-                    format!("{v:e}")
-                };
                 return Err(err(
                     keys,
                     format!(
-                        "{what} {v} {unit} is not plausible: expected at most {max} {unit} in size (is it in the wrong unit?)"
+                        "{what} {} {unit} is not plausible: expected at most {max} {unit} in size (is it in the wrong unit?)",
+                        echo(v)
                     ),
                 ));
             }
@@ -782,7 +778,7 @@ impl ErrorFile {
                     &["effects", "noise", k],
                     format!(
                         "noise {k} {} um: expected a standard deviation from 0 to {MAX_NOISE_UM} um",
-                        v.unwrap_or_default()
+                        echo(v.unwrap_or_default())
                     ),
                 ));
             }

@@ -185,6 +185,7 @@ pub fn open_stream(path: &Path, what: &str) -> Result<BufReader<BoundedLines<Fil
             inner: f,
             line: 1,
             run: 0,
+            after_cr: false,
         },
     ))
 }
@@ -195,15 +196,18 @@ pub struct BoundedLines<R> {
     inner: R,
     line: usize,
     run: usize,
+    after_cr: bool,
 }
 
 impl<R: Read> Read for BoundedLines<R> {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         let n = self.inner.read(buf)?;
         for &b in &buf[..n] {
+            let after_cr = std::mem::replace(&mut self.after_cr, b == b'\r');
             match b {
                 b'\n' | b'\r' => {
-                    if b == b'\n' {
+                    // LF, CRLF and a bare CR each end one line.
+                    if !(b == b'\n' && after_cr) {
                         self.line += 1;
                     }
                     self.run = 0;
@@ -540,6 +544,25 @@ mod tests {
         assert!(e.starts_with("f.yaml:4:5: "), "{e}");
         assert!(e.contains("duplicate key `x`"), "{e}");
         assert!(check("a: {x: 1}\nb: {x: 1}\nc:\n  - x: 1\n  - x: 2\n").is_ok());
+    }
+
+    #[test]
+    fn streamed_lines_are_counted_at_lf_crlf_and_a_bare_cr() {
+        for (src, line) in [
+            (&b"a\nb\nc\0"[..], 3),
+            (b"a\r\nb\r\nc\0", 3),
+            (b"a\rb\rc\0", 3),
+            (b"a\r\rb\0", 3),
+        ] {
+            let mut r = BoundedLines {
+                inner: src,
+                line: 1,
+                run: 0,
+                after_cr: false,
+            };
+            let e = r.read_to_end(&mut Vec::new()).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("line {line}: a NUL byte")), "{e}");
+        }
     }
 
     #[test]

@@ -19,6 +19,10 @@ pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// together); fivecal's own files nest at most five.
 pub const MAX_YAML_DEPTH: usize = 64;
 
+/// Deepest nesting of an NC expression (brackets and chained `#`
+/// parameter references together): FANUC allows five levels of brackets.
+pub const MAX_EXPR_DEPTH: usize = 64;
+
 /// Longest piece of the input an error message echoes, characters (cut
 /// to its first line as well).
 pub const ECHO_CHARS: usize = 60;
@@ -54,5 +58,49 @@ pub const MIN_SAMPLE_STEP_MM: f64 = 0.001;
 pub const MAX_SAMPLES: usize = 2_000_000;
 /// Finest `compensate --tolerance`, um (below any control's resolution).
 pub const MIN_TOLERANCE_UM: f64 = 0.01;
+/// Most pieces `compensate` splits one move into to stay within its
+/// tolerance (an arc of a hundred million turns is refused, not made).
+pub const MAX_PIECES: usize = 1 << 16;
+/// Largest value of an axis, centre or radius word `compensate` and
+/// `simulate nc` follow, mm (deg for the rotary axes): FANUC and
+/// HEIDENHAIN take five integer digits (99999.999), so a larger value is a
+/// control's alarm. Such a block is left as written, as a control would
+/// not run it.
+pub const MAX_NC_VALUE: f64 = 100_000.0;
 /// Most Monte-Carlo runs of `analyze --mc`.
 pub const MAX_MC_RUNS: usize = 100_000;
+
+/// Finest length a test template may ask for (a step, a depth, a stepover,
+/// a clearance), mm: 1 um, what a control's linear axes resolve.
+pub const MIN_PLAN_MM: f64 = 0.001;
+/// Largest length or position in a test template (a block, a column, a
+/// sphere, a clearance, a probe), mm: 2 m. A block wider than the
+/// machine's X or Y stroke is refused as well, once the machine is known.
+pub const MAX_PLAN_MM: f64 = 2_000.0;
+/// Largest angle in a test template, either way, deg: a C beyond a full
+/// turn is a unit mistake.
+pub const MAX_PLAN_DEG: f64 = 360.0;
+/// Feeds of a test template (cutting, plunge, probing, positioning),
+/// mm/min.
+pub const PLAN_FEED_MM_PER_MIN: (f64, f64) = (1.0, 1_000_000.0);
+/// Spindle speed of a test template, rpm.
+pub const PLAN_SPINDLE_RPM: (f64, f64) = (1.0, 200_000.0);
+/// Longest overhead (per touch, per pose) of a probing template, s.
+pub const MAX_PLAN_OVERHEAD_S: f64 = 3_600.0;
+/// Most turns of C along the probe-sphere spiral.
+pub const MAX_PLAN_TURNS: f64 = 1_000.0;
+/// Most entries of one list in a test template (angles, columns, top
+/// points).
+pub const MAX_PLAN_LIST: usize = 1_000;
+/// Most poses of a plan.
+pub const MAX_PLAN_POSES: usize = 10_000;
+/// Most moves of a machining program, counted from the template before
+/// any is made.
+pub const MAX_PLAN_MOVES: usize = 100_000;
+/// Most points of a plan (CMM points of a machining test, touches of a
+/// probing test), counted before any is made.
+pub const MAX_PLAN_POINTS: usize = 10_000;
+/// Most (point, move) pairs a machining plan looks at: each CMM point is
+/// traced back to the moves that made it, so the work grows with their
+/// product (the limit keeps a plan within seconds).
+pub const MAX_PLAN_POINT_MOVES: usize = 100_000_000;

@@ -85,12 +85,14 @@ fn options(seed: u64) -> SimOptions {
 
 /// Simulates `plan` on the machine of `errors` and joins the points as
 /// `analyze` does.
-fn measure(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Dataset {
+pub fn measure(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Dataset {
     let out = simulate::run(plan, errors, opts).unwrap();
     simulated::plan_dataset(plan, &format!("seed{}.csv", opts.seed), out.points).unwrap()
 }
 
-fn identify(plan: &Plan, setup: &Setup, data: &Dataset, method: Method) -> Identification {
+/// Identifies `data` of `plan` with `method` as `analyze` does (the
+/// robust circle fit for the sphere method).
+pub fn identify(plan: &Plan, setup: &Setup, data: &Dataset, method: Method) -> Identification {
     fivecal::analyze::method::identify_with_plan(
         method,
         setup,

@@ -461,6 +461,41 @@ fn arcs_are_kept_where_exact_and_linearized_where_not() {
 }
 
 #[test]
+fn an_arc_that_spirals_within_the_control_s_tolerance_stays_an_arc() {
+    // Radius 20 at the start, 20.01 at the end: LinuxCNC and FANUC run it
+    // as a spiral. The corrected arc spirals as much, so it stays an arc;
+    // it was linearized, even at zero error, when its own spiral counted
+    // against the tolerance.
+    let program = arc_program().replace("G3 X-20. Y0. I-20. J0", "G3 X-20.01 Y0. I-20. J0");
+    let k = Kinematics::new(&machine("bc-trunnion"));
+    let load = |src: &str| {
+        ErrorFile::parse(Path::new("t.yaml"), src)
+            .unwrap()
+            .to_model(&k, Path::new("t.yaml"), src)
+            .unwrap()
+    };
+    let zero = load("machine: bc-trunnion\nlocation_errors: {EX0B: 0.0}\n");
+    let (out, s, _) = compensate(&zero, Settings::new(Dialect::Fanuc), &program);
+    assert_eq!(out, program, "{s:?}");
+    let l = load(
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 30.0, EZ0B: -20.0, EX(0B)C: 15.0, EY0C: -25.0, EA0B: 150.0, EC0B: -90.0, EA(0B)C: 60.0}\n",
+    );
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Fanuc), &program);
+    assert!(s.linearized.is_empty(), "{s:?}\n{out}");
+    assert!(out.contains("G3 X") && out.contains(" I"), "{out}");
+    assert_ne!(out, program);
+    check_against_simulation(
+        &l,
+        Dialect::Fanuc,
+        Coordinates::Auto,
+        &program,
+        &out,
+        1e-3,
+        "a spiral arc at fixed rotary positions",
+    );
+}
+
+#[test]
 fn heidenhain_circles_get_a_corrected_pole_and_renumbered_blocks() {
     let program = "0 BEGIN PGM ARC MM\n1 L X+20 Y+0 Z+5 B+0 C+0 R0 FMAX\n2 L Z+1 F300\n3 CC X+0 Y+0\n4 C X-20 Y+0 DR+\n5 CR X+0 Y-20 R+20 DR-\n6 L X+0 Y-30 Z+1 B-20 C+90\n7 END PGM ARC MM\n";
     let src = "machine: head-table\nlocation_errors: {EX0C: 30.0, EY0C: -20.0, EX0B: 15.0}\n";

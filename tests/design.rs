@@ -4,7 +4,8 @@
 
 use fivecal::analyze::design;
 use fivecal::identify::Setup;
-use fivecal::identify::sphere::{CircleMethod, SphereOptions};
+
+use crate::analyze_sim::{identify, measure};
 
 use crate::cli::fivecal;
 
@@ -25,22 +26,9 @@ fn plan_predicts_the_symbols_and_u_that_analyze_reports() {
         let predicted = design::predict(&plan, None, None).unwrap();
         let kin = fivecal::simulate::plan_kinematics(&plan);
         let truth = crate::simulate::truth(&plan, &crate::fit::location_truth(&kin));
-        let out = fivecal::simulate::run(&plan, &truth, &Default::default()).unwrap();
-        let data =
-            fivecal::analyze::uncertainty::simulated::plan_dataset(&plan, "measured", out.points)
-                .unwrap();
+        let data = measure(&plan, &truth, &Default::default());
         let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
-        let est = fivecal::analyze::method::identify_with_plan(
-            predicted.method,
-            &setup,
-            &data,
-            &SphereOptions {
-                circle: CircleMethod::Robust,
-                check: None,
-            },
-            Some(&plan),
-        )
-        .unwrap();
+        let est = identify(&plan, &setup, &data, predicted.method);
         let mut compared = 0;
         for row in &predicted.rows {
             let (_, u) = est.get(&row.symbol).unwrap();
@@ -166,23 +154,9 @@ fn predicted_u_matches_the_spread_of_200_simulated_runs() {
                     seed: 1000 + seed,
                     ..Default::default()
                 };
-                let out = fivecal::simulate::run(&plan, &truth, &opts).unwrap();
-                let data = fivecal::analyze::uncertainty::simulated::plan_dataset(
-                    &plan, "measured", out.points,
-                )
-                .unwrap();
+                let data = measure(&plan, &truth, &opts);
                 let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
-                let est = fivecal::analyze::method::identify_with_plan(
-                    predicted.method,
-                    &setup,
-                    &data,
-                    &SphereOptions {
-                        circle: CircleMethod::Robust,
-                        check: None,
-                    },
-                    Some(&plan),
-                )
-                .unwrap();
+                let est = identify(&plan, &setup, &data, predicted.method);
                 predicted
                     .rows
                     .iter()

@@ -7,11 +7,12 @@ use std::path::Path;
 
 use fivecal::analyze::fit::{self, ExpectedNoise};
 use fivecal::errorfile::{ErrorFile, FitVerdict};
-use fivecal::identify::sphere::{CircleMethod, SphereOptions};
+
 use fivecal::identify::{Method, Setup};
 use fivecal::kinematics::Kinematics;
 use fivecal::procedure::Test;
 
+use crate::analyze_sim::{identify, measure};
 use crate::cli::fivecal;
 use crate::util::MACHINES;
 
@@ -56,25 +57,11 @@ fn every_test_machine_and_method_fits_and_reports_within_4u() {
                     seed,
                     ..Default::default()
                 };
-                let out = fivecal::simulate::run(&plan, &truth, &opts).unwrap();
-                let data = fivecal::analyze::uncertainty::simulated::plan_dataset(
-                    &plan, "measured", out.points,
-                )
-                .unwrap();
+                let data = measure(&plan, &truth, &opts);
                 let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
                 let expected = ExpectedNoise::new(None, data.kind, plan.test());
                 for &method in &methods {
-                    let est = fivecal::analyze::method::identify_with_plan(
-                        method,
-                        &setup,
-                        &data,
-                        &SphereOptions {
-                            circle: CircleMethod::Robust,
-                            check: None,
-                        },
-                        Some(&plan),
-                    )
-                    .unwrap();
+                    let est = identify(&plan, &setup, &data, method);
                     let f = fit::of(&est, &expected).unwrap();
                     assert_eq!(
                         f.verdict,

@@ -65,8 +65,103 @@ fn a_closed_standard_output_ends_each_printing_command_quietly_after_its_files_a
     let dir = tempdir();
     let result = dir.path().join("result.yaml");
     let program = dir.path().join("compensated.nc");
+    let measured = dir.path().join("measured.dmo");
+    let json = dir.path().join("result.json");
+    let mc = dir.path().join("mc.yaml");
+    let discovered = dir.path().join("discovered.yaml");
+    let demo = dir.path().join("demo");
+    let demo_result = demo.join("analyzed.yaml");
     let d = example("analyze/stepped-square");
+    let analyze = |extra: &[&str], out: &Path| {
+        let mut a: Vec<std::ffi::OsString> = vec![
+            "analyze".into(),
+            "--plan".into(),
+            d.join("stepped-square.plan.yaml").into(),
+            "--measured".into(),
+            d.join("piece1.dmo").into(),
+            "--out".into(),
+            out.into(),
+        ];
+        a.extend(extra.iter().map(Into::into));
+        a
+    };
+    let strings = |a: &[&str]| {
+        a.iter()
+            .map(Into::into)
+            .collect::<Vec<std::ffi::OsString>>()
+    };
     let runs: Vec<(Vec<std::ffi::OsString>, Option<&Path>)> = vec![
+        (
+            vec![
+                "simulate".into(),
+                "--plan".into(),
+                d.join("stepped-square.plan.yaml").into(),
+                "--errors".into(),
+                d.join("truth.yaml").into(),
+                "-o".into(),
+                measured.clone().into(),
+            ],
+            Some(&measured),
+        ),
+        (
+            vec![
+                "simulate".into(),
+                "nc".into(),
+                "--machine".into(),
+                "bc-trunnion".into(),
+                "--errors".into(),
+                d.join("truth.yaml").into(),
+                "--program".into(),
+                d.join("stepped-square.nc").into(),
+            ],
+            None,
+        ),
+        (analyze(&["--json"], &json), Some(&json)),
+        (analyze(&["--mc", "20"], &mc), Some(&mc)),
+        (
+            vec![
+                "analyze".into(),
+                "contour".into(),
+                "--model".into(),
+                example("contour/frustum.obj").into(),
+                "--measured".into(),
+                example("contour/cmm-points.csv").into(),
+            ],
+            None,
+        ),
+        (
+            vec![
+                "discover".into(),
+                "--plan".into(),
+                example("discover/stepped-square.plan.yaml").into(),
+                "--measured".into(),
+                example("discover/piece.dmo").into(),
+                "--max-steps".into(),
+                "1".into(),
+                "--out".into(),
+                discovered.clone().into(),
+            ],
+            Some(&discovered),
+        ),
+        (
+            vec![
+                "compensate".into(),
+                "--machine".into(),
+                "bc-trunnion".into(),
+                "--errors".into(),
+                d.join("truth.yaml").into(),
+                "--export".into(),
+                "fanuc".into(),
+                "--no-record".into(),
+            ],
+            None,
+        ),
+        (
+            vec!["demo".into(), "--out".into(), demo.clone().into()],
+            Some(&demo_result),
+        ),
+        (vec!["measured".into(), d.join("piece1.dmo").into()], None),
+        (strings(&["man"]), None),
         (vec!["machine".into(), "list".into()], None),
         (
             vec!["machine".into(), "show".into(), "bc-trunnion".into()],
@@ -74,18 +169,7 @@ fn a_closed_standard_output_ends_each_printing_command_quietly_after_its_files_a
         ),
         (vec!["simulate".into(), "--truth-example".into()], None),
         (vec!["completions".into(), "bash".into()], None),
-        (
-            vec![
-                "analyze".into(),
-                "--plan".into(),
-                d.join("stepped-square.plan.yaml").into(),
-                "--measured".into(),
-                d.join("piece1.dmo").into(),
-                "--out".into(),
-                result.clone().into(),
-            ],
-            Some(&result),
-        ),
+        (analyze(&[], &result), Some(&result)),
         (compensate_args(&program), Some(&program)),
     ];
     for (args, file) in runs {
@@ -94,6 +178,7 @@ fn a_closed_standard_output_ends_each_printing_command_quietly_after_its_files_a
         drop(reader);
         let out = StdCommand::new(assert_cmd::cargo::cargo_bin("fivecal"))
             .args(&args)
+            .env("FIVECAL_DB", crate::cli::test_store())
             .stdout(Stdio::from(writer))
             .stderr(Stdio::piped())
             .output()
@@ -430,4 +515,219 @@ fn a_built_in_machine_name_means_the_built_in_machine() {
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("built in"), "{text}");
     assert!(!text.contains("impostor"), "{text}");
+}
+
+/// The built-in template of `test` with each `(from, to)` replaced,
+/// written to `dir/name.yaml`; with its text.
+fn template_with(dir: &Path, test: &str, name: &str, edits: &[(&str, &str)]) -> (PathBuf, String) {
+    let mut text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("templates/{test}.yaml")),
+    )
+    .unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{test}: {from}");
+        text = text.replacen(from, to, 1);
+    }
+    let p = dir.join(format!("{name}.yaml"));
+    std::fs::write(&p, &text).unwrap();
+    (p, text)
+}
+
+#[test]
+fn template_values_that_would_plan_without_end_are_refused_before_any_work() {
+    // Each of these made `plan` loop or grow to gigabytes; each now ends
+    // at once with the template's file and line, the key and the range.
+    let dir = tempdir();
+    // (test, edits of its built-in template, what the error says)
+    type Case<'a> = (&'a str, &'a [(&'a str, &'a str)], &'a [&'a str]);
+    let cases: &[Case] = &[
+        (
+            "stepped-square",
+            &[("axial_depth: 5 ", "axial_depth: 1e-9 ")],
+            &[
+                "cutting.axial_depth must be between 0.001 and 2000 mm",
+                "got 1e-9",
+            ],
+        ),
+        (
+            "stepped-square",
+            &[("stepover: 0.5 ", "stepover: 1e-9 ")],
+            &["cutting.stepover 1e-9 of the D8 tool puts the rings 8e-9 mm apart"],
+        ),
+        (
+            "stepped-square",
+            &[("size: 100 ", "size: 1e300 ")],
+            &["stock.size must be between 0.001 and 2000 mm", "got 1e300"],
+        ),
+        (
+            "stepped-square",
+            &[("size: 100 ", "size: 1000 ")],
+            &["stock.size 1000 mm is wider than the Y stroke of bc-trunnion (530 mm)"],
+        ),
+        (
+            "stepped-square",
+            &[("per_wall: 2", "per_wall: 100000")],
+            &["points.per_wall must be 1 to 10000, got 100000"],
+        ),
+        (
+            "stepped-square",
+            &[("per_wall: 2", "per_wall: 1000")],
+            &["about 48048 points, more than the 10000 a plan may have"],
+        ),
+        (
+            "stepped-square",
+            &[("axial_depth: 5 ", "axial_depth: 0.001 ")],
+            &[
+                "moves, more than the 100000 a plan may have",
+                "cutting.axial_depth",
+            ],
+        ),
+        (
+            "stepped-square",
+            &[
+                ("stepover: 0.5 ", "stepover: 0.003125 "),
+                ("per_wall: 2", "per_wall: 200"),
+            ],
+            &["(point, move) pairs to trace, more than the 100000000"],
+        ),
+        (
+            "nine-section",
+            &[("stepover: 0.25 ", "stepover: 1e-9 ")],
+            &[
+                "cutting.stepover must be between 0.001 and 2000 mm",
+                "got 1e-9",
+            ],
+        ),
+        (
+            "nine-section",
+            &[("stepover: 0.25 ", "stepover: 0.001 ")],
+            &["about 360018 moves, more than the 100000"],
+        ),
+        (
+            "nine-section",
+            &[("depth: 0.5 ", "depth: 1e-9 ")],
+            &["depth must be between 0.001 and 2000 mm", "got 1e-9"],
+        ),
+        (
+            "probe-sphere",
+            &[("step: 10}}\n", "step: 1e-9}}\n")],
+            &["a step of 1e-9 deg from 0 to 350 makes 350000000001 poses"],
+        ),
+        (
+            "probe-sphere",
+            &[
+                ("pattern: seed-004", "pattern: seed-003"),
+                ("poses: 50", "poses: 2001"),
+            ],
+            &["about 10005 touches, more than the 10000"],
+        ),
+        (
+            "probe-columns",
+            &[("spindle_length: 150", "spindle_length: 1e300")],
+            &["probe.spindle_length must be between 0.001 and 2000 mm"],
+        ),
+        (
+            "probe-columns",
+            &[("feed: 100 ", "feed: 1e-300 ")],
+            &["probing.feed must be between 1 and 1000000 mm/min, got 1e-300"],
+        ),
+        (
+            "probe-columns",
+            &[(
+                "c: [0, 60, 120, 180, 240, 300]",
+                "c: [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47, 48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, 59, 60, 61, 62, 63, 64, 65, 66, 67, 68, 69, 70, 71, 72, 73, 74, 75, 76, 77, 78, 79, 80, 81, 82, 83, 84, 85, 86, 87, 88, 89, 90, 91, 92, 93, 94, 95, 96, 97, 98, 99, 100, 101, 102, 103, 104, 105, 106, 107, 108, 109, 110, 111, 112, 113, 114, 115, 116, 117, 118, 119, 120, 121, 122, 123, 124, 125, 126, 127, 128, 129, 130, 131, 132, 133, 134, 135, 136, 137, 138, 139, 140, 141, 142, 143, 144, 145, 146, 147, 148, 149, 150, 151, 152, 153, 154, 155, 156, 157, 158, 159, 160, 161, 162, 163, 164, 165, 166, 167, 168, 169, 170, 171, 172, 173, 174, 175, 176, 177, 178, 179, 180]",
+            )],
+            &["about 10860 touches, more than the 10000 a plan may have"],
+        ),
+    ];
+    for (k, (test, edits, expect)) in cases.iter().enumerate() {
+        let (tpl, text) = template_with(dir.path(), test, &format!("t{k}"), edits);
+        // The error points at the edited line, or at the section whose
+        // counts multiply into too much work.
+        let key = match expect[0] {
+            e if e.contains("pairs") || e.contains("points,") => "points:",
+            e if e.contains("moves,") && *test == "stepped-square" => "cutting:",
+            e if e.contains("touches,") && *test == "probe-columns" => "poses:",
+            e if e.contains("touches,") => "pattern:",
+            _ => edits.last().unwrap().1.trim_end(),
+        };
+        let line = text
+            .lines()
+            .position(|l| l.starts_with(key) || l.contains(key))
+            .unwrap()
+            + 1;
+        let out = dir.path().join(format!("plan-{k}"));
+        let at = format!("t{k}.yaml:{line}:");
+        let mut expect = expect.to_vec();
+        expect.push(&at);
+        refused(
+            args![
+                "plan",
+                test,
+                "--machine",
+                "bc-trunnion",
+                "--template",
+                tpl,
+                "--out",
+                out
+            ],
+            &expect,
+        );
+        assert!(!out.exists(), "{test} {edits:?}");
+    }
+}
+
+#[test]
+fn a_template_or_tool_built_in_code_is_bounded_too() {
+    // A library caller may fill a template's fields or hand over a tool
+    // without the checks reading a file makes: the plan counts its work
+    // before doing any, and refuses.
+    use fivecal::formats::manifest::KinematicsMode;
+    use fivecal::procedure::{PlanConfig, Template, Test};
+    let config = |template: Template, tool: Option<fivecal::machine::Tool>| PlanConfig {
+        machine: crate::util::machine("bc-trunnion"),
+        template,
+        post: fivecal::post::PostDefinition::builtin(fivecal::Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool,
+    };
+    let stepped = || match Template::builtin(Test::SteppedSquare) {
+        Template::SteppedSquare(t) => t,
+        _ => unreachable!(),
+    };
+    let err = |cfg: PlanConfig| fivecal::procedure::plan(&cfg).unwrap_err().to_string();
+
+    let mut t = stepped();
+    t.stock.size = 1e300;
+    let e = err(config(Template::SteppedSquare(t), None));
+    assert!(
+        e.contains("stock.size 1e300 mm is wider than the Y stroke"),
+        "{e}"
+    );
+
+    let mut t = stepped();
+    t.cutting.axial_depth = Some(1e-12);
+    let e = err(config(Template::SteppedSquare(t), None));
+    assert!(e.contains("moves, more than the 100000"), "{e}");
+
+    let mut t = stepped();
+    t.points.per_wall = usize::MAX / 2;
+    let e = err(config(Template::SteppedSquare(t), None));
+    assert!(e.contains("points, more than the 10000"), "{e}");
+
+    let mut tool = crate::util::machine("bc-trunnion").tool;
+    tool.diameter = 1e-9;
+    let e = err(config(Template::SteppedSquare(stepped()), Some(tool)));
+    assert!(
+        e.contains("tool diameter must be between 0.001 and 2000 mm, got 1e-9"),
+        "{e}"
+    );
+
+    let mut t = match Template::builtin(Test::NineSection) {
+        Template::NineSection(t) => t,
+        _ => unreachable!(),
+    };
+    t.cutting.stepover = 0.0;
+    let e = err(config(Template::NineSection(t), None));
+    assert!(e.contains("countless moves"), "{e}");
 }

@@ -71,7 +71,7 @@ fn every_corpus_program_parses_strictly_and_its_tokens_reprint_it_exactly() {
     }
 }
 
-fn zero_model(machine: &str, with_file: bool) -> (Model, Vec<f64>) {
+pub fn zero_model(machine: &str, with_file: bool) -> (Model, Vec<f64>) {
     let k = Kinematics::new(&Machine::builtin(machine).unwrap());
     if !with_file {
         return (Model::new(k, vec![]), vec![]);

@@ -705,7 +705,7 @@ fn bad_templates_fail_at_the_offending_key() {
             "stepped-square",
             "stepover: 0.5 ",
             "stepover: 0.9 ",
-            "must be at most 0.8",
+            "and at most 0.8",
         ),
         (
             "stepped-square",

@@ -506,7 +506,9 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
     .unwrap();
     let e = run(&["plan", "probe-sphere", "--template", bad.to_str().unwrap()]);
     assert!(
-        e.contains("bad.yaml:9:") && e.contains("sphere.diameter must be a positive number"),
+        e.contains("bad.yaml:9:")
+            && e.contains("sphere.diameter must be between 0.001 and 2000 mm")
+            && e.contains("got -30"),
         "{e}"
     );
     // A sphere beyond the tilt limits of the machine.

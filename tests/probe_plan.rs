@@ -734,7 +734,7 @@ fn bad_templates_are_rejected_with_file_line_and_key() {
             )
         ),
         format!(
-            "t.yaml:{l}:35: columns[1] (C2): size must be two positive lengths (x, y), got [0, 50]"
+            "t.yaml:{l}:35: columns[1].size must be between 0.001 and 2000 mm (1 um is the finest step a control resolves; a test piece and its setup fit in 2 m), got 0"
         )
     );
     let l = line_of(cols, "safe_margin");

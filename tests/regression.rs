@@ -514,6 +514,24 @@ fn compensate_deeply_nested_brackets_are_refused_without_overflowing() {
     assert_eq!(s.unreadable, vec![2]);
 }
 
+/// A chain of 200,000 `#` (`##...#1`, a parameter whose number is a
+/// parameter ...) overflowed the stack as brackets did: it counts towards
+/// the same depth, and the error names the line and the column of the
+/// level too many.
+#[test]
+fn compensate_deeply_chained_parameters_are_refused_at_their_column() {
+    let program = format!(
+        "G0 X0 Y0 Z10 B0 C0\nG1 X{}1 F100\nM2\n",
+        "#".repeat(200_000)
+    );
+    let e = compensate_text(&program, "{EX0B: 30.0}", |s| s.strict = true).unwrap_err();
+    let column = "G1 X".len() + fivecal::limits::MAX_EXPR_DEPTH + 2;
+    assert!(
+        e.contains(&format!("p.ngc:2:{column}:")) && e.contains("nested deeper than 64"),
+        "{e}"
+    );
+}
+
 /// A raised --max-correction let a correction drive an axis beyond its
 /// stroke (issue 16): a program at B = 90 (the limit of bc-trunnion) with
 /// an error that needs B beyond it by far more than a hold can absorb is
@@ -935,4 +953,172 @@ fn compensate_note_without_export_is_refused_not_ignored() {
     assert!(!run.status.success(), "{err}");
     assert!(err.contains("--note") && err.contains("--export"), "{err}");
     assert!(!out.exists());
+}
+
+/// A program whose lines end in a bare CR (old Mac files) was read as one
+/// block of the whole file: `compensate` reported 1 block, 0 moves and
+/// exit 0 with nothing corrected (and a large such file grew one block
+/// without bound). It is read line by line, corrected like its LF twin,
+/// and keeps its CR line ends.
+#[test]
+fn compensate_reads_a_program_whose_lines_end_in_a_bare_cr() {
+    let lf = "G21 G90 G17\nG0 X0 Y0 Z10 B0 C0\nG1 X10 Y5 Z2 B10 F100\nM2\n";
+    let cr = lf.replace('\n', "\r");
+    let (out_lf, s_lf) = compensate_text(lf, "{EX0B: 30.0}", |_| {}).unwrap();
+    let (out_cr, s_cr) = compensate_text(&cr, "{EX0B: 30.0}", |_| {}).unwrap();
+    assert_eq!(
+        (s_cr.blocks, s_cr.moves, s_cr.changed),
+        (4, 2, 2),
+        "{s_cr:?}"
+    );
+    assert_eq!(out_cr, out_lf.replace('\n', "\r"));
+    assert_eq!(s_lf.changed, s_cr.changed);
+    assert!(!out_cr.contains('\n'));
+}
+
+/// Found by the NC property tests, at zero error: a value written with
+/// more decimals than a float holds (`Y-20.00099999999999999999999999`)
+/// was rewritten for floating-point noise (`-20.000999999999998`).
+#[test]
+fn compensate_at_zero_error_keeps_lexemes_longer_than_a_float() {
+    let program =
+        "G21 G90 G17\nG0 X10 Y20 Z5 B25 C65\nG1 X10 Y-20.00099999999999999999999999 F100\nM2\n";
+    let (out, s) = compensate_text(program, "{EX0B: 0.0}", |_| {}).unwrap();
+    assert_eq!(out, program);
+    assert_eq!((s.changed, s.inserted), (0, 0), "{s:?}");
+}
+
+/// Found by the NC property tests, at zero error: an arc during which B
+/// moves (`G2 X-10b.000 ...`, a `b` typed into X-10.000) was linearized
+/// although nothing needed correcting. It stays as written; with a real
+/// error it is still linearized (tests/compensate.rs checks its path).
+#[test]
+fn compensate_at_zero_error_keeps_arcs_that_turn_the_rotary_axes() {
+    let program = "G21 G90 G17\nG0 X10 Y20 Z5 B25 C65\nG2 X-10b.000 Y20.000 I-10.000 J0 F100\nG3 X10 Y20 I10 J0 B25 C80\nM2\n";
+    let (out, s) = compensate_text(program, "{EX0B: 0.0}", |_| {}).unwrap();
+    assert_eq!(out, program);
+    assert_eq!((s.changed, s.inserted), (0, 0), "{s:?}");
+    assert!(s.linearized.is_empty());
+}
+
+/// An arc of a hundred million turns (LinuxCNC's P word) that had to be
+/// linearized asked for billions of pieces at once and grew without
+/// bound: it is refused at its line before any is made.
+#[test]
+fn compensate_refuses_an_arc_of_too_many_pieces_before_making_them() {
+    let program = "G21 G90 G17\nG0 X10 Y0 Z5 B0 C0\nG2 X10 Y0 I-10 J0 P100000000 B10 F100\nM2\n";
+    let e = compensate_text(program, "{EX0B: 30.0}", |_| {}).unwrap_err();
+    assert!(
+        e.contains(":3") && e.contains("even in 65536 pieces"),
+        "{e}"
+    );
+}
+
+/// Axis, centre and radius values beyond a control's five integer digits
+/// (a J of 1e58 after a damaged edit, X of 1e47): the arc's centre was
+/// lost in floating point and compensate at zero error refused the
+/// program ("cannot be followed even in 65536 pieces", "a correction of
+/// 2e34 um"). A control alarms there: the block is left as written with
+/// the reason, the axis forgotten until a block sets it again.
+#[test]
+fn compensate_leaves_values_beyond_a_control_s_range_as_written() {
+    let huge = format!("{}.5", "9".repeat(58));
+    let program = format!(
+        "G21 G90 G17\nG0 X-20 Y20 Z5 B20 C90\nG2 X-30 Y10 I-10 J{huge} F600\nG1 X{huge} Y10\nG1 X5 Y5\nM2\n"
+    );
+    for errors in ["{EX0B: 0.0}", "{EX0B: 30.0}"] {
+        let (out, s) = compensate_text(&program, errors, |_| {}).unwrap();
+        let lines: Vec<&str> = out.lines().collect();
+        assert_eq!(lines[2], format!("G2 X-30 Y10 I-10 J{huge} F600"));
+        assert_eq!(lines[3], format!("G1 X{huge} Y10"));
+        let beyond = |letter: &str, line: usize| {
+            s.skipped.iter().any(|(why, at)| {
+                why.starts_with(&format!("{letter} value beyond what a control takes"))
+                    && at.contains(&line)
+            })
+        };
+        assert!(beyond("J", 3) && beyond("X", 4), "{s:?}");
+    }
+}
+
+/// A machine pivot of -1e300 mm was once blamed on `stock.height`; named
+/// at its key now, it was still echoed as three hundred digits, and so
+/// were an error value, a noise and a rapid rate of 1e300: each is
+/// written as `1e300` in the message.
+#[test]
+fn implausible_machine_and_error_values_are_echoed_short() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let machine = std::fs::read_to_string(root.join("examples/machines/bc-trunnion.yaml")).unwrap();
+    for (from, to, expect) in [
+        (
+            "pivot: [0.0, 0.0, -420.0]",
+            "pivot: [0.0, 0.0, -1e300]",
+            "pivot -1e300 mm is beyond any machine tool",
+        ),
+        (
+            "linear: 20000.0",
+            "linear: 1e300",
+            "rapid linear rate 1e300 mm/min",
+        ),
+    ] {
+        assert!(machine.contains(from), "{from}");
+        let e = Machine::from_yaml(Path::new("m.yaml"), &machine.replacen(from, to, 1))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("m.yaml:") && e.contains(expect), "{e}");
+        assert!(e.len() < 200, "{e}");
+    }
+    let k = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+    for (src, expect) in [
+        (
+            "machine: bc-trunnion\nlocation_errors: {EX0B: 1e300}\n",
+            "EX0B 1e300 um is not plausible",
+        ),
+        (
+            "machine: bc-trunnion\nlocation_errors: {EX0B: 1.0}\neffects: {noise: {cmm: 1e300}}\n",
+            "noise cmm 1e300 um",
+        ),
+    ] {
+        let e = ErrorFile::parse(Path::new("e.yaml"), src)
+            .and_then(|f| f.to_model(&k, Path::new("e.yaml"), src).map(|_| ()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("e.yaml:") && e.contains(expect), "{e}");
+        assert!(e.len() < 200, "{e}");
+    }
+}
+
+/// Errors within the plausible range but too large for a plan (10 mm and
+/// 10 mrad) gave "point B0C0-XP1: no cut reaches its surface" with no
+/// file named: the message now names the plan and the error file, and
+/// says the errors are too large for the plan.
+#[test]
+fn simulate_names_the_plan_and_the_errors_when_no_cut_reaches_a_point() {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze/stepped-square");
+    let dir = crate::util::tempdir();
+    let errors = dir.path().join("large.yaml");
+    std::fs::write(
+        &errors,
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 9999.0, EA0B: 9999.0, EC0B: 9999.0}\n",
+    )
+    .unwrap();
+    let out = crate::cli::fivecal()
+        .args(["simulate", "--plan"])
+        .arg(d.join("stepped-square.plan.yaml"))
+        .arg("--errors")
+        .arg(&errors)
+        .arg("-o")
+        .arg(dir.path().join("m.dmo"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("stepped-square.plan.yaml")
+            && err.contains("large.yaml")
+            && err.contains("no cut reaches its surface")
+            && err.contains("the errors are too large for this plan"),
+        "{err}"
+    );
+    assert!(!dir.path().join("m.dmo").exists());
 }

@@ -12,6 +12,7 @@ use nalgebra::Vector3;
 
 use super::{CompensateError, Compensator, Solution};
 use crate::kinematics::{Axes, ToolPose};
+use crate::limits::MAX_PIECES;
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::interpolation::{ArcGeo, Path, lerp};
 use crate::nc::interp::{AXES, Arc, Frame, Move, MoveKind, Skip, Tcp};
@@ -286,6 +287,18 @@ impl Compensator {
         let dc0 = w0[5] - path.at(0.0)[5];
         let dc1 = end.written.c - end.nominal.c;
         loop {
+            // Checked before the pieces are made: an arc of many turns
+            // (LinuxCNC's P word) asks for billions at once.
+            if n > MAX_PIECES {
+                return Err(CompensateError::Tolerance {
+                    path: PathBuf::new(),
+                    line,
+                    what: format!(
+                        "the move cannot be followed within --tolerance {} um even in {MAX_PIECES} pieces",
+                        tol * 1e3,
+                    ),
+                });
+            }
             let mut pts = Vec::with_capacity(n);
             for k in 1..=n {
                 let u = k as f64 / n as f64;
@@ -318,17 +331,6 @@ impl Compensator {
             } else {
                 n * 2
             };
-            if n > 1 << 16 {
-                return Err(CompensateError::Tolerance {
-                    path: PathBuf::new(),
-                    line,
-                    what: format!(
-                        "the move cannot be followed within --tolerance {} um even in {} pieces",
-                        tol * 1e3,
-                        1 << 16
-                    ),
-                });
-            }
         }
     }
 
@@ -385,9 +387,12 @@ impl Compensator {
         }
     }
 
-    /// An arc stays an arc around the corrected centre when the rotary axes
-    /// do not move and the corrected arc stays within the tolerance;
-    /// otherwise it is linearized.
+    /// An arc stays an arc around the corrected centre when the corrected
+    /// arc stays within the tolerance; otherwise it is linearized. With the
+    /// rotary axes fixed the correction is a rigid motion and sixteen
+    /// points along the arc check it; an arc during which they move is
+    /// kept only within one turn, where the same points follow the change
+    /// of the correction (at zero error the program stays as written).
     #[allow(clippy::too_many_arguments)]
     fn plan_arc(
         &self,
@@ -409,11 +414,15 @@ impl Compensator {
             geo,
         };
         let rotary_fixed = p0[f.tilt] == p1[f.tilt] && p0[5] == p1[5];
-        // The corrected centre, with the rotary axes where the arc runs.
+        // The corrected centre, with the rotary axes where the arc runs
+        // (where it ends when they move: the corrected centre is written
+        // with the end's corrected rotary positions).
         let (a0, a1, _) = axes;
         let mut pc = *p0;
         pc[a0] = arc.center[0];
         pc[a1] = arc.center[1];
+        pc[f.tilt] = p1[f.tilt];
+        pc[5] = p1[5];
         let nc = f.model(&pc);
         let tip = self.target(f, &nc, None).tip;
         // The machine axes that put the actual tip on the centre with the
@@ -426,10 +435,15 @@ impl Compensator {
         };
         let cprog = f.program(&self.written_model(f, &m));
         let center = [cprog[a0], cprog[a1]];
-        let mut keep = rotary_fixed;
+        let mut keep = rotary_fixed || arc.turns == 0;
         if keep {
             let wg = ArcGeo::new(axes, center, w0, &pt.program, arc.cw, arc.turns);
-            keep = (wg.rs - wg.re).abs() <= tol && (wg.sweep - geo.sweep).abs() < 0.5;
+            // The program's own arc may spiral a little (its radii differ
+            // within the control's tolerance): the corrected one may
+            // spiral as much, not more, so that a zero correction keeps
+            // the arc as written.
+            let spiral = ((wg.rs - wg.re) - (geo.rs - geo.re)).abs() * f.u;
+            keep = spiral <= tol && (wg.sweep - geo.sweep).abs() < 0.5;
             if keep {
                 for k in 1..16 {
                     let u = k as f64 / 16.0;

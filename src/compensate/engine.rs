@@ -15,7 +15,6 @@ use crate::model::{Effect, Model};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::{self, Event, Frame, Interpreter, Skip};
 use crate::nc::{Blocks, ReadError, Syntax};
-use crate::source::SourceError;
 
 /// A program rewriter for one machine and one set of errors.
 #[derive(Clone, Debug)]
@@ -133,18 +132,14 @@ impl Compensator {
                 let seg = block.segments[si];
                 let before = interp.pos;
                 let event = interp.step(block, &seg);
-                if let Some(u) = interp.unmodelled.take() {
-                    if self.settings.strict {
-                        let (l, column) = block.locate(u.offset);
-                        return Err(CompensateError::Unmodelled(SourceError::new(
-                            path,
-                            l,
-                            column,
-                            format!("{} (--strict refuses what it does not model)", u.what),
-                        )));
-                    }
-                    unmodelled.entry(u.what).or_default().push(line);
-                }
+                super::take_unmodelled(
+                    &mut interp,
+                    block,
+                    path,
+                    self.settings.strict,
+                    &mut unmodelled,
+                )
+                .map_err(CompensateError::Unmodelled)?;
                 if matches!(event, Event::Move(_) | Event::Skip(_))
                     && !matches!(event, Event::Skip(Skip::Unreadable))
                 {

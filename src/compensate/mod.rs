@@ -247,6 +247,32 @@ pub struct Summary {
     pub coordinates: Vec<CoordinateSection>,
 }
 
+/// Takes what the last statement did that the interpreter does not model
+/// (shared by the rewrite and `simulate nc`): refused under `--strict` at
+/// its line and column, else listed by what it is.
+pub(crate) fn take_unmodelled(
+    interp: &mut crate::nc::interp::Interpreter,
+    block: &crate::nc::Block,
+    path: &std::path::Path,
+    strict: bool,
+    list: &mut indexmap::IndexMap<String, Lines>,
+) -> Result<(), SourceError> {
+    let Some(u) = interp.unmodelled.take() else {
+        return Ok(());
+    };
+    if strict {
+        let (line, column) = block.locate(u.offset);
+        return Err(SourceError::new(
+            path,
+            line,
+            column,
+            format!("{} (--strict refuses what it does not model)", u.what),
+        ));
+    }
+    list.entry(u.what).or_default().push(block.line);
+    Ok(())
+}
+
 /// A stretch of the program whose moves are read one way.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct CoordinateSection {

@@ -187,18 +187,7 @@ impl Simulator {
             for si in 0..block.segments.len() {
                 let seg = block.segments[si];
                 let event = interp.step(block, &seg);
-                if let Some(u) = interp.unmodelled.take() {
-                    if s.strict {
-                        let (l, column) = block.locate(u.offset);
-                        return Err(SourceError::new(
-                            path,
-                            l,
-                            column,
-                            format!("{} (--strict refuses what it does not model)", u.what),
-                        ));
-                    }
-                    unmodelled.entry(u.what).or_default().push(block.line);
-                }
+                super::take_unmodelled(&mut interp, block, path, s.strict, &mut unmodelled)?;
                 let mv = match event {
                     Event::Move(mv) => mv,
                     Event::Skip(s) => {

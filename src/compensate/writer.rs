@@ -18,6 +18,13 @@ use crate::nc::interp::{AXES, Arc, FeedMode, Frame, Interpreter, Motion, Move, M
 use crate::nc::lexeme::{self, NumStyle, WriteRules, round_to};
 use crate::nc::{Addr, Block, HhKind, Segment, Stmt, TokenKind, Value};
 
+/// Most decimals a value is written or compared with: the finest control
+/// increment is 1 nm (FANUC IS-E, 0.000001 mm); a thousand times finer
+/// than that is still well above the floating-point noise of a coordinate
+/// corrected through the model, which a program written with 26 decimals
+/// would otherwise be rewritten for at zero error.
+const MAX_DECIMALS: u8 = 9;
+
 /// Where a written point goes: the point, what the controller has after
 /// it (program frame), and whether it is a piece inside the move.
 pub(super) type Sink<'s> = dyn FnMut(&Point, &[Option<f64>; 6], bool) + 's;
@@ -310,7 +317,10 @@ impl Writer {
                 continue;
             };
             let style = w.style;
-            let d = style.decimals.max(self.rotary_decimals + 2);
+            let d = style
+                .decimals
+                .max(self.rotary_decimals + 2)
+                .min(MAX_DECIMALS);
             let Value::Num(orig) = w.value else {
                 continue;
             };
@@ -654,14 +664,18 @@ impl Writer {
     }
 
     /// Decimals written for an axis: the settings' (two more in inches),
-    /// or the lexeme's when it has more.
+    /// or the lexeme's when it has more, up to [`MAX_DECIMALS`].
     fn decimals(&self, axis: usize, lexeme: Option<&NumStyle>, units: Units) -> u8 {
         let base = if axis < 3 {
             self.linear_decimals + if units == Units::Inch { 2 } else { 0 }
         } else {
             self.rotary_decimals
         };
-        lexeme.map(|l| l.decimals).unwrap_or(0).max(base)
+        lexeme
+            .map(|l| l.decimals)
+            .unwrap_or(0)
+            .max(base)
+            .min(MAX_DECIMALS)
     }
 
     /// The style of a new word for `axis`: its own word's, another axis

@@ -10,7 +10,10 @@ use serde::{Deserialize, Serialize};
 use super::{Dialect, MCodes, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
 use crate::conformance::Limits;
 use crate::geom::Axis3;
-use crate::limits::{MAX_MACHINE_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN};
+use crate::limits::{
+    MAX_MACHINE_MM, MAX_PLAN_MM, MIN_PLAN_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN,
+};
+use crate::procedure::echo;
 use crate::source::SourceError;
 
 /// A machine file as written (see `examples/machines/*.yaml`).
@@ -391,7 +394,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         if !(v.is_finite() && v > 0.0) {
             return Err(err(
                 &["probe", k],
-                format!("probe {k} must be > 0 mm, got {v}"),
+                format!("probe {k} must be > 0 mm, got {}", echo(v)),
             ));
         }
     }
@@ -408,7 +411,8 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             return Err(err(
                 &["rapid", k],
                 format!(
-                    "rapid {k} rate {v} {unit} is not a machine's: expected {lo} to {hi} {unit}"
+                    "rapid {k} rate {} {unit} is not a machine's: expected {lo} to {hi} {unit}",
+                    echo(v)
                 ),
             ));
         }
@@ -447,8 +451,9 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             return Err(err(
                 &keys,
                 format!(
-                    "{} {v} mm is beyond any machine tool (at most {MAX_MACHINE_MM} mm): is it in um?",
-                    keys.join(".")
+                    "{} {} mm is beyond any machine tool (at most {MAX_MACHINE_MM} mm): is it in um?",
+                    keys.join("."),
+                    echo(v)
                 ),
             ));
         }
@@ -487,17 +492,19 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
 
 /// Checks a tool's numbers; returns the offending key and a message.
 pub fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
-    if !(t.diameter.is_finite() && t.diameter > 0.0) {
-        return Err((
-            "diameter",
-            format!("tool diameter must be > 0 mm, got {}", t.diameter),
-        ));
-    }
-    if !(t.length.is_finite() && t.length > 0.0) {
-        return Err((
-            "length",
-            format!("tool length must be > 0 mm, got {}", t.length),
-        ));
+    // From what a control resolves to what a test piece needs: a diameter
+    // of 1e-9 mm or 1e300 mm would make a toolpath without end.
+    let (lo, hi) = (MIN_PLAN_MM, MAX_PLAN_MM);
+    for (key, v) in [("diameter", t.diameter), ("length", t.length)] {
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            return Err((
+                key,
+                format!(
+                    "tool {key} must be between {lo} and {hi} mm, got {}",
+                    echo(v)
+                ),
+            ));
+        }
     }
     match (t.kind, t.corner_radius) {
         (ToolKind::Bull, None) => {

@@ -7,6 +7,13 @@
 //! `##1`), brackets, functions (`SIN[..]`, `ATAN[a]/[b]`, `EXISTS[#<x>]`),
 //! the arithmetic, comparison and logic operators, and keywords glued to
 //! their operands as real macro code writes them (`#4119GE2600`).
+//!
+//! The parser recurses once per bracket and once per chained `#` (`##1`),
+//! so it follows at most [`MAX_EXPR_DEPTH`] levels of them together and
+//! reports where the first level too deep starts ([`TooDeep`]): 200,000
+//! nested brackets, or as many `#`, would otherwise overflow the stack.
+
+use std::cell::Cell;
 
 use nom::branch::alt;
 use nom::bytes::complete::{tag, tag_no_case, take_while, take_while1};
@@ -15,8 +22,49 @@ use nom::combinator::{opt, recognize};
 use nom::{IResult, Parser};
 
 use super::lexeme;
+pub use crate::limits::MAX_EXPR_DEPTH;
 
 type Res<'a> = IResult<&'a [u8], &'a [u8]>;
+
+/// An expression nested deeper than [`MAX_EXPR_DEPTH`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TooDeep {
+    /// Byte offset, in the text handed to the parser, of the bracket or
+    /// `#` that opens the level too many.
+    pub offset: usize,
+}
+
+impl std::fmt::Display for TooDeep {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "brackets and #parameter references nested deeper than {MAX_EXPR_DEPTH} levels: expected at most {MAX_EXPR_DEPTH} (controllers read a few)"
+        )
+    }
+}
+
+impl std::error::Error for TooDeep {}
+
+thread_local! {
+    /// Levels the parser is inside on this thread.
+    static DEPTH: Cell<usize> = const { Cell::new(0) };
+}
+
+/// Runs `f` one level deeper, or fails for good (no other branch is
+/// tried) at `i` when that is one level too many.
+fn deeper<'a>(i: &'a [u8], f: impl FnOnce(&'a [u8]) -> Res<'a>) -> Res<'a> {
+    let d = DEPTH.with(Cell::get);
+    if d >= MAX_EXPR_DEPTH {
+        return Err(nom::Err::Failure(nom::error::Error::new(
+            i,
+            nom::error::ErrorKind::TooLarge,
+        )));
+    }
+    DEPTH.with(|c| c.set(d + 1));
+    let r = f(i);
+    DEPTH.with(|c| c.set(d));
+    r
+}
 
 const FUNCS: [&str; 19] = [
     "ASIN", "ACOS", "ATAN", "ATN", "SIN", "COS", "TAN", "SQRT", "SQR", "ABS", "ROUND", "RND",
@@ -48,7 +96,7 @@ fn number(i: &[u8]) -> Res<'_> {
 }
 
 /// A parameter reference: `#12`, `#<name>`, `#[expr]`, `##3`.
-pub fn param(i: &[u8]) -> Res<'_> {
+fn param(i: &[u8]) -> Res<'_> {
     recognize((
         char('#'),
         ws,
@@ -60,15 +108,17 @@ pub fn param(i: &[u8]) -> Res<'_> {
                 char('>'),
             )),
             bracketed,
-            param,
+            |j| deeper(j, param),
         )),
     ))
     .parse(i)
 }
 
 /// `[ expr ]`.
-pub fn bracketed(i: &[u8]) -> Res<'_> {
-    recognize((char('['), ws, expr, ws, char(']'))).parse(i)
+fn bracketed(i: &[u8]) -> Res<'_> {
+    deeper(i, |i| {
+        recognize((char('['), ws, expr, ws, char(']'))).parse(i)
+    })
 }
 
 fn func(i: &[u8]) -> Res<'_> {
@@ -123,38 +173,52 @@ fn binop(i: &[u8]) -> Res<'_> {
 }
 
 /// An expression: atoms joined by binary operators.
-pub fn expr(i: &[u8]) -> Res<'_> {
+fn expr(i: &[u8]) -> Res<'_> {
     let (mut rest, _) = atom(i)?;
-    while let Ok((r, _)) = (ws, binop, ws, atom).parse(rest) {
-        rest = r;
+    loop {
+        match (ws, binop, ws, atom).parse(rest) {
+            Ok((r, _)) => rest = r,
+            // Too deep inside the next operand: the whole is refused.
+            Err(e @ nom::Err::Failure(_)) => return Err(e),
+            Err(_) => break,
+        }
     }
     Ok((rest, &i[..i.len() - rest.len()]))
 }
 
-/// A LinuxCNC "real value": a number, a parameter, a bracketed expression
-/// or a unary function, with optional signs (no unbracketed binary operator).
-pub fn real_value(i: &[u8]) -> Res<'_> {
-    atom(i)
+/// The length of what `parser` recognizes at the start of `s`: `Ok(None)`
+/// when it is not there, `Err` when it nests too deep.
+fn length(s: &[u8], parser: fn(&[u8]) -> Res<'_>) -> Result<Option<usize>, TooDeep> {
+    match parser(s) {
+        Ok((rest, _)) => Ok(Some(s.len() - rest.len())),
+        Err(nom::Err::Failure(e)) if e.code == nom::error::ErrorKind::TooLarge => Err(TooDeep {
+            offset: s.len() - e.input.len(),
+        }),
+        Err(_) => Ok(None),
+    }
 }
 
-/// Length of the expression at the start of `s`, or `None`.
-pub fn expr_len(s: &[u8]) -> Option<usize> {
-    expr(s).ok().map(|(rest, _)| s.len() - rest.len())
+/// Length of the expression at the start of `s`, `None` if there is none.
+pub fn expr_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+    length(s, expr)
 }
 
-/// Length of the bracketed expression at the start of `s`, or `None`.
-pub fn bracketed_len(s: &[u8]) -> Option<usize> {
-    bracketed(s).ok().map(|(rest, _)| s.len() - rest.len())
+/// Length of the bracketed expression at the start of `s`.
+pub fn bracketed_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+    length(s, bracketed)
 }
 
-/// Length of a parameter reference at the start of `s`, or `None`.
-pub fn param_len(s: &[u8]) -> Option<usize> {
-    param(s).ok().map(|(rest, _)| s.len() - rest.len())
+/// Length of a parameter reference (`#12`, `#<name>`, `#[expr]`, `##3`)
+/// at the start of `s`.
+pub fn param_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+    length(s, param)
 }
 
-/// Length of a real value (see [`real_value`]) at the start of `s`.
-pub fn real_value_len(s: &[u8]) -> Option<usize> {
-    real_value(s).ok().map(|(rest, _)| s.len() - rest.len())
+/// Length of a LinuxCNC "real value" at the start of `s`: a number, a
+/// parameter, a bracketed expression or a unary function, with optional
+/// signs (no unbracketed binary operator).
+pub fn real_value_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+    length(s, atom)
 }
 
 #[cfg(test)]
@@ -162,7 +226,7 @@ mod tests {
     use super::*;
 
     fn full(s: &str) -> bool {
-        expr_len(s.as_bytes()) == Some(s.len())
+        expr_len(s.as_bytes()) == Ok(Some(s.len()))
     }
 
     #[test]
@@ -189,17 +253,41 @@ mod tests {
 
     #[test]
     fn finds_where_an_expression_ends() {
-        assert_eq!(expr_len(b"[#1+2] Y5"), Some(6));
-        assert_eq!(expr_len(b"#1 (comment)"), Some(2));
-        assert_eq!(bracketed_len(b"[#1 GT 0] GOTO 10"), Some(9));
-        assert_eq!(real_value_len(b"#1+#2"), Some(2));
+        assert_eq!(expr_len(b"[#1+2] Y5"), Ok(Some(6)));
+        assert_eq!(expr_len(b"#1 (comment)"), Ok(Some(2)));
+        assert_eq!(bracketed_len(b"[#1 GT 0] GOTO 10"), Ok(Some(9)));
+        assert_eq!(real_value_len(b"#1+#2"), Ok(Some(2)));
     }
 
     #[test]
     fn rejects_broken_expressions() {
-        assert_eq!(bracketed_len(b"[#1+"), None);
-        assert_eq!(bracketed_len(b"[#1+2"), None);
-        assert_eq!(bracketed_len(b"[FOO[1]]"), None);
-        assert_eq!(expr_len(b"#"), None);
+        assert_eq!(bracketed_len(b"[#1+"), Ok(None));
+        assert_eq!(bracketed_len(b"[#1+2"), Ok(None));
+        assert_eq!(bracketed_len(b"[FOO[1]]"), Ok(None));
+        assert_eq!(expr_len(b"#"), Ok(None));
+    }
+
+    #[test]
+    fn nesting_is_followed_to_its_limit_and_refused_beyond_at_the_level_too_many() {
+        let n = MAX_EXPR_DEPTH;
+        let ok = format!("{}1{}", "[".repeat(n), "]".repeat(n));
+        assert_eq!(expr_len(ok.as_bytes()), Ok(Some(ok.len())));
+        // 200,000 brackets, or chained #, overflowed the stack.
+        let deep = format!("{}1{}", "[".repeat(200_000), "]".repeat(200_000));
+        assert_eq!(expr_len(deep.as_bytes()), Err(TooDeep { offset: n }));
+        assert_eq!(bracketed_len(deep.as_bytes()), Err(TooDeep { offset: n }));
+        // The first `#` is nested in nothing: the one at offset n + 1 is
+        // level n + 1.
+        let hashes = format!("{}1", "#".repeat(200_000));
+        assert_eq!(param_len(hashes.as_bytes()), Err(TooDeep { offset: n + 1 }));
+        assert_eq!(
+            real_value_len(hashes.as_bytes()),
+            Err(TooDeep { offset: n + 1 })
+        );
+        // Brackets and # count together; an operand after an operator too.
+        let mixed = format!("1+{}", "#[".repeat(n + 1));
+        assert!(expr_len(mixed.as_bytes()).is_err());
+        // The depth is back to zero after a refusal.
+        assert_eq!(expr_len(b"[[#1]]"), Ok(Some(6)));
     }
 }

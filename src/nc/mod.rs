@@ -4,8 +4,8 @@
 //! A program is read one *block* at a time (a line; on HEIDENHAIN a line
 //! plus the lines its `~` continues onto), so memory does not grow with the
 //! file. Every byte of a block belongs to exactly one [`Token`]: spaces,
-//! comments, line endings (LF or CRLF, or none at the end of a file without
-//! a trailing newline), block numbers, block delete, `%`, FANUC's `;` end of
+//! comments, line endings (LF, CRLF or a bare CR, or none at the end of a
+//! file without a trailing newline), block numbers, block delete, `%`, FANUC's `;` end of
 //! block, words with their value lexeme, macro and o-word statements,
 //! expressions. Printing an unchanged block writes its tokens back, so the
 //! text is reproduced byte for byte; a rewrite replaces only the value
@@ -133,7 +133,7 @@ pub struct Word {
 pub enum TokenKind {
     /// Spaces and tabs.
     Space,
-    /// `\n` or `\r\n`.
+    /// `\n`, `\r\n` or a bare `\r`.
     LineEnd,
     /// `( ... )`, or `; ...` where `;` starts a comment (LinuxCNC, HEIDENHAIN).
     Comment,
@@ -352,10 +352,16 @@ impl Block {
     pub fn locate(&self, offset: usize) -> (usize, usize) {
         let offset = offset.min(self.text.len());
         let before = &self.text[..offset];
-        let lines = before.iter().filter(|&&c| c == b'\n').count();
-        let line_start = before
-            .iter()
-            .rposition(|&c| c == b'\n')
+        // A bare CR ends a line as LF and CRLF do.
+        let ends = |i: usize| match before[i] {
+            b'\n' => true,
+            b'\r' => self.text.get(i + 1) != Some(&b'\n'),
+            _ => false,
+        };
+        let lines = (0..before.len()).filter(|&i| ends(i)).count();
+        let line_start = (0..before.len())
+            .rev()
+            .find(|&i| ends(i))
             .map_or(0, |p| p + 1);
         let col = String::from_utf8_lossy(&before[line_start..])
             .chars()
@@ -364,12 +370,15 @@ impl Block {
         (self.line + lines, col)
     }
 
-    /// The line ending this block uses (`\r\n` or `\n`), if it has one.
+    /// The line ending this block uses (`\r\n`, `\n` or `\r`), if it has
+    /// one.
     pub fn line_ending(&self) -> Option<&'static [u8]> {
         if self.text.ends_with(b"\r\n") {
             Some(b"\r\n")
         } else if self.text.ends_with(b"\n") {
             Some(b"\n")
+        } else if self.text.ends_with(b"\r") {
+            Some(b"\r")
         } else {
             None
         }
@@ -435,11 +444,13 @@ pub(crate) fn is_space(c: u8) -> bool {
     c == b' ' || c == b'\t'
 }
 
-/// Length of the line ending at `i` (`\n` or `\r\n`), 0 if none.
+/// Length of the line ending at `i` (`\n`, `\r\n` or a bare `\r`), 0 if
+/// none.
 pub(crate) fn line_end_at(s: &[u8], i: usize) -> usize {
     match s.get(i) {
         Some(b'\n') => 1,
         Some(b'\r') if s.get(i + 1) == Some(&b'\n') => 2,
+        Some(b'\r') => 1,
         _ => 0,
     }
 }

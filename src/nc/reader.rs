@@ -14,9 +14,10 @@ use super::{Block, Syntax};
 use crate::machine::Dialect;
 use crate::source::SourceError;
 
-/// Reads blocks from a buffered reader: a line with its line ending; on
-/// HEIDENHAIN also the lines a trailing `~` continues onto. Memory use is
-/// one block, whatever the file size.
+/// Reads blocks from a buffered reader: a line with its line ending (LF,
+/// CRLF, or a bare CR as old Mac files end their lines); on HEIDENHAIN also
+/// the lines a trailing `~` continues onto. Memory use is one block,
+/// whatever the file size.
 pub struct BlockReader<R> {
     input: R,
     dialect: Dialect,
@@ -40,7 +41,7 @@ impl<R: BufRead> BlockReader<R> {
         block.line = self.next_line;
         loop {
             let start = block.text.len();
-            let n = self.input.read_until(b'\n', &mut block.text)?;
+            let n = read_line(&mut self.input, &mut block.text)?;
             if n == 0 {
                 break;
             }
@@ -183,13 +184,58 @@ impl<R: BufRead> Blocks<R> {
     }
 }
 
+/// Appends one line of `input` with its ending (`\n`, `\r\n` or a bare
+/// `\r`) to `out`; the number of bytes, 0 at the end of the input. A file
+/// whose lines end in a bare CR is read line by line as well, not as one
+/// block of the whole file.
+fn read_line<R: BufRead>(input: &mut R, out: &mut Vec<u8>) -> io::Result<usize> {
+    let mut n = 0;
+    loop {
+        let buf = match input.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if buf.is_empty() {
+            return Ok(n);
+        }
+        let Some(i) = buf.iter().position(|&c| c == b'\n' || c == b'\r') else {
+            let len = buf.len();
+            out.extend_from_slice(buf);
+            input.consume(len);
+            n += len;
+            continue;
+        };
+        let cr = buf[i] == b'\r';
+        out.extend_from_slice(&buf[..=i]);
+        input.consume(i + 1);
+        n += i + 1;
+        if cr {
+            // The LF of a CRLF may start the next buffer.
+            let next = loop {
+                match input.fill_buf() {
+                    Ok(b) => break b,
+                    Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                    Err(e) => return Err(e),
+                }
+            };
+            if next.first() == Some(&b'\n') {
+                out.push(b'\n');
+                input.consume(1);
+                n += 1;
+            }
+        }
+        return Ok(n);
+    }
+}
+
 /// Whether a HEIDENHAIN line ends with `~` (before spaces and its ending).
 fn continues(line: &[u8]) -> bool {
     let mut end = line.len();
     while end > 0 && matches!(line[end - 1], b'\n' | b'\r' | b' ' | b'\t') {
         end -= 1;
     }
-    end > 0 && line[end - 1] == b'~' && line.ends_with(b"\n")
+    end > 0 && line[end - 1] == b'~' && matches!(line.last(), Some(b'\n' | b'\r'))
 }
 
 #[cfg(test)]
@@ -217,6 +263,50 @@ mod tests {
                 (3, "M30".to_string())
             ]
         );
+    }
+
+    #[test]
+    fn a_bare_cr_ends_a_line_as_old_mac_files_write_them() {
+        // Read as one block of the whole file before: nothing moved.
+        let got = blocks("%\rG0 X1.\rG1 X2.\r\nM30\r", Dialect::Fanuc);
+        assert_eq!(
+            got,
+            vec![
+                (1, "%\r".to_string()),
+                (2, "G0 X1.\r".to_string()),
+                (3, "G1 X2.\r\n".to_string()),
+                (4, "M30\r".to_string())
+            ]
+        );
+        // A CRLF whose LF starts the reader's next buffer is one ending.
+        let src = b"G0 X1.\r\nG1 X2.\r";
+        let mut r = BlockReader::new(io::BufReader::with_capacity(7, &src[..]), Dialect::Fanuc);
+        let mut b = Block::default();
+        let mut got = Vec::new();
+        while r.read(&mut b).unwrap() {
+            got.push((b.line, b.text.clone(), b.line_ending()));
+        }
+        assert_eq!(
+            got,
+            vec![
+                (1, b"G0 X1.\r\n".to_vec(), Some(&b"\r\n"[..])),
+                (2, b"G1 X2.\r".to_vec(), Some(&b"\r"[..]))
+            ]
+        );
+        // HEIDENHAIN continuation lines in a CR file, located by line.
+        let src = "5 CYCL DEF 200 DRILLING ~\r  Q200=+2 ~\r  Q201=-20\r6 L Z+100 R0 FMAX\r";
+        let got = blocks(src, Dialect::Heidenhain);
+        assert_eq!(got.len(), 2);
+        assert_eq!((got[0].0, got[1].0), (1, 4));
+        let mut b = Block {
+            text: got[0].1.as_bytes().to_vec(),
+            line: 1,
+            ..Block::default()
+        };
+        let at = got[0].1.find("Q201").unwrap();
+        assert_eq!(b.locate(at), (3, 3));
+        b.text = b"G1 X1.\r\nX2.".to_vec();
+        assert_eq!(b.locate(8), (2, 1));
     }
 
     #[test]

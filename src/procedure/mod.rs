@@ -16,6 +16,7 @@
 //! manifest `<test>.plan.yaml`, and [`load`] rebuilds the very same plan
 //! from a written manifest.
 
+mod bounds;
 mod load;
 pub mod machining;
 mod outputs;
@@ -38,6 +39,7 @@ pub use probing::ProbingPlan;
 pub use template::{Template, TemplateSource};
 pub use test::Test;
 
+pub(crate) use bounds::echo;
 pub(crate) use outputs::{push_notes, round, short};
 
 /// Everything `plan` needs, validated.

@@ -105,7 +105,7 @@ pub fn surface_offsets(cut: &Cutting, theta: &[f64]) -> Result<Vec<f64>, SimErro
             }
             if !best.is_finite() {
                 return Err(SimError::Geometry(format!(
-                    "point {}: no cut reaches its surface within {LINE_DEPTH} mm of the nominal place",
+                    "point {}: no cut reaches its surface within {LINE_DEPTH} mm of the nominal place; the errors are too large for this plan",
                     pp.point.label
                 )));
             }

@@ -9,7 +9,7 @@
 //! from the chain ([`geometry`]), in machine coordinates, from the location
 //! errors alone: error maps, drift and the zero points of the axes are not
 //! part of an axis line and are listed as not held, never folded in. Each
-//! controller holds some of this geometry ([`controllers`]; the meaning of
+//! controller holds some of this geometry (`controllers.rs`; the meaning of
 //! every parameter and its public source are in docs/controllers.md):
 //!
 //! - FANUC tool centre point control (parameters 19700-19714): absolute

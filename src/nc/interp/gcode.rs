@@ -6,7 +6,7 @@
 
 use super::{
     AXES, Arc, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Plane, Skip, Tcp, Units,
-    center_from_radius,
+    arc_runs, center_from_radius,
 };
 use crate::machine::Dialect;
 use crate::nc::{Block, Segment, Stmt, Value};
@@ -515,14 +515,20 @@ impl Interpreter {
                     }
                 } else {
                     let off = |axis: usize| ijk[axis].map(|(_, v)| v).unwrap_or(0.0);
-                    if self.arc_absolute {
+                    let c = if self.arc_absolute {
                         [
                             ijk[a].map(|(_, v)| v).unwrap_or(s0),
                             ijk[b].map(|(_, v)| v).unwrap_or(s1),
                         ]
                     } else {
                         [s0 + off(a), s1 + off(b)]
+                    };
+                    if !arc_runs([s0, s1], [e0, e1], c, self.units.mm()) {
+                        return Event::Skip(skip.unwrap_or(Skip::Element(
+                            "off-circle arc (its centre I, J, K not as far from the end as from the start)",
+                        )));
                     }
+                    c
                 };
                 MoveKind::Arc(Arc {
                     plane: self.plane,

@@ -5,7 +5,8 @@
 //! PLANE and FUNCTION TCPM, touch probe cycles and program control.
 
 use super::{
-    AXES, Arc, Event, Interpreter, Move, MoveKind, Plane, Skip, Tcp, Units, center_from_radius,
+    AXES, Arc, Event, Interpreter, Move, MoveKind, Plane, Skip, Tcp, Units, arc_runs,
+    center_from_radius,
 };
 use crate::nc::{Addr, Block, HhKind, Segment, Stmt, TokenKind, Value, Word};
 
@@ -319,10 +320,10 @@ impl Interpreter {
                         && block.text[w.value_span.start as usize - 1] == b'-',
                 );
             } else if w.addr == Addr::letter(b'R') {
-                match w.value {
-                    Value::Num(v) => radius = Some((ti, v)),
-                    _ => {
-                        skip.get_or_insert(Skip::Expression);
+                match self.axis_value(&w) {
+                    Ok(v) => radius = Some((ti, v)),
+                    Err(s) => {
+                        skip.get_or_insert(s);
                     }
                 }
             }
@@ -348,7 +349,12 @@ impl Interpreter {
         let cw = cw.unwrap_or(false);
         let center = match kind {
             HhKind::C => match self.pole {
-                Some(p) => p,
+                Some(p) if arc_runs([s0, s1], [e0, e1], p, self.units.mm()) => p,
+                Some(_) => {
+                    return Event::Skip(skip.unwrap_or(Skip::Element(
+                        "off-circle circle (its end not as far from the pole CC as its start)",
+                    )));
+                }
                 None => {
                     return Event::Skip(
                         skip.unwrap_or(Skip::Element("circle without a known pole (CC)")),
@@ -373,7 +379,9 @@ impl Interpreter {
             center,
             turns: 0,
             center_words: [None; 3],
-            radius_word: radius.map(|r| r.0),
+            // A C block turns about the pole: an R word there is not its
+            // radius (and is left as written).
+            radius_word: radius.filter(|_| kind != HhKind::C).map(|r| r.0),
         });
         if let Some(s) = skip.or_else(|| self.frame_skip()) {
             return Event::Skip(s);

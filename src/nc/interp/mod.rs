@@ -207,6 +207,9 @@ pub enum Skip {
     /// G43.5: no rotary positions of the nominal machine give the
     /// programmed tool direction.
     VectorOutOfReach,
+    /// An axis, centre or radius value (this letter) beyond what a
+    /// control takes ([`crate::limits::MAX_NC_VALUE`]).
+    OutOfRange(u8),
     /// The block could not be read (kept byte for byte).
     Unreadable,
     /// An unreadable block at this line may have changed the modal state
@@ -244,6 +247,12 @@ impl std::fmt::Display for Skip {
             Skip::VectorOutOfReach => write!(
                 f,
                 "tool direction out of reach: no rotary positions of the nominal machine give it"
+            ),
+            Skip::OutOfRange(a) => write!(
+                f,
+                "{} value beyond what a control takes (five integer digits: at most {} mm, or deg for a rotary axis)",
+                *a as char,
+                crate::limits::MAX_NC_VALUE
             ),
             Skip::Unreadable => write!(f, "the block could not be read"),
             Skip::StateUnknown(line) => write!(
@@ -604,12 +613,12 @@ impl Interpreter {
             self.tcp_remapped = true;
         } else if !(known_m(self.cfg.settings.dialect, m) || codes.known.contains(&m)) {
             let d = self.cfg.settings.dialect;
-            self.unmodelled.get_or_insert(Unmodelled {
+            self.note(
                 offset,
-                what: format!(
+                format!(
                     "M{m}: an M function that {d} does not define and the machine file's m_codes do not list (taken to move no axis; if it switches TCP, list it under m_codes: tcp_on)"
                 ),
-            });
+            );
         }
     }
 
@@ -712,19 +721,24 @@ impl Interpreter {
 
     /// The value of an axis word in program units (deg for rotary axes),
     /// or why it has none.
+    /// A value beyond a control's five integer digits is its alarm, and
+    /// would make every position after it meaningless in floating point.
     fn axis_value(&self, w: &Word) -> Result<f64, Skip> {
-        match w.value {
-            Value::Num(v) => {
-                if self.cfg.settings.dialect == Dialect::Fanuc && v != 0.0 && !w.style.point {
-                    return match self.cfg.settings.integer_unit {
-                        Some(k) => Ok(v * k / self.units.mm()),
-                        None => Err(Skip::FanucInteger),
-                    };
-                }
-                Ok(v)
+        let Value::Num(mut v) = w.value else {
+            return Err(Skip::Expression);
+        };
+        if self.cfg.settings.dialect == Dialect::Fanuc && v != 0.0 && !w.style.point {
+            match self.cfg.settings.integer_unit {
+                Some(k) => v = v * k / self.units.mm(),
+                None => return Err(Skip::FanucInteger),
             }
-            _ => Err(Skip::Expression),
         }
+        let rotary = self.axis_index(w.addr).is_some_and(|i| i >= 3);
+        let unit = if rotary { 1.0 } else { self.units.mm() };
+        if (v * unit).abs() > crate::limits::MAX_NC_VALUE {
+            return Err(Skip::OutOfRange(w.addr.as_letter().unwrap_or(b'?')));
+        }
+        Ok(v)
     }
 
     /// Updates tracked positions from the axis words (for moves left as
@@ -893,6 +907,27 @@ fn letter_word(code: &[u8], letters: &[u8]) -> bool {
                     b.is_ascii_digit() || matches!(b, b'#' | b'[' | b'+' | b'-' | b'.')
                 })
     })
+}
+
+/// Whether a controller runs the arc from `s` to `e` about `c` (program
+/// units, `mm` millimetres each): neither radius is zero, and the radius
+/// at the end differs from the one at the start by at most LinuxCNC's
+/// default spiral tolerance (0.02 x sqrt 2 mm), or by at most 0.1 % of
+/// the radius and 100 times that (its rs274ngc rule). A centre that is
+/// nowhere near the circle through both ends is a controller's alarm
+/// (FANUC PS0020, LinuxCNC "radius to end of arc differs from radius to
+/// start"), not a path to follow.
+pub fn arc_runs(s: [f64; 2], e: [f64; 2], c: [f64; 2], mm: f64) -> bool {
+    const ZERO_RADIUS_MM: f64 = 0.00127;
+    const SPIRAL_MM: f64 = 0.02 * std::f64::consts::SQRT_2;
+    const SPIRAL_RELATIVE: f64 = 0.001;
+    let rs = (s[0] - c[0]).hypot(s[1] - c[1]) * mm;
+    let re = (e[0] - c[0]).hypot(e[1] - c[1]) * mm;
+    if !(rs >= ZERO_RADIUS_MM && re >= ZERO_RADIUS_MM) {
+        return false;
+    }
+    let diff = (rs - re).abs();
+    diff <= SPIRAL_MM || (diff <= 100.0 * SPIRAL_MM && diff / rs.max(re) <= SPIRAL_RELATIVE)
 }
 
 /// The centre of an arc from `s` to `e` with radius `r` (positive: at most

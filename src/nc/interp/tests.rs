@@ -196,3 +196,95 @@ fn radius_centres_are_on_the_right_side() {
     let c = center_from_radius([10.0, 0.0], [0.0, 10.0], -10.0, false).unwrap();
     assert!((c[0] - 10.0).abs() < 1e-12 && (c[1] - 10.0).abs() < 1e-12);
 }
+
+#[test]
+fn an_arc_runs_only_where_a_control_runs_it() {
+    // LinuxCNC's rule: radii at most 0.0283 mm apart, or at most 100
+    // times that and 0.1 % of the radius; neither radius below 1.27 um.
+    let s = [10.0, 0.0];
+    assert!(arc_runs(s, [0.0, 10.0], [0.0, 0.0], 1.0));
+    assert!(arc_runs(s, [0.0, 10.02], [0.0, 0.0], 1.0));
+    assert!(!arc_runs(s, [0.0, 10.05], [0.0, 0.0], 1.0));
+    // 0.05 mm on a radius of 100 mm is 0.05 %.
+    assert!(arc_runs([100.0, 0.0], [0.0, 100.05], [0.0, 0.0], 1.0));
+    // 3 mm is beyond 100 times the absolute tolerance on any radius.
+    assert!(!arc_runs([10_000.0, 0.0], [0.0, 10_003.0], [0.0, 0.0], 1.0));
+    // A centre on the start point is no arc.
+    assert!(!arc_runs(s, [0.0, 10.0], s, 1.0));
+    // Inches: 0.001 in (0.0254 mm) runs, 0.002 in on 1 in does not.
+    assert!(arc_runs([1.0, 0.0], [0.0, 1.001], [0.0, 0.0], 25.4));
+    assert!(!arc_runs([1.0, 0.0], [0.0, 1.002], [0.0, 0.0], 25.4));
+}
+
+#[test]
+fn off_circle_arcs_are_left_as_written_as_a_control_alarms() {
+    for d in [Dialect::Fanuc, Dialect::Linuxcnc] {
+        let (ev, _) = run(
+            "G17 G0 X10. Y0 Z0 B0 C0\nG3 X0 Y10. I-10. J5. F100.\nG3 X-10. Y0 I0 J-10.\n",
+            d,
+        );
+        assert!(
+            matches!(ev[1], Event::Skip(Skip::Element(w)) if w.starts_with("off-circle arc")),
+            "{d}: {:?}",
+            ev[1]
+        );
+        // The end point is still where the block says: the next arc runs.
+        assert!(matches!(mv(&ev[2]).kind, MoveKind::Arc(_)), "{d}");
+    }
+    let (ev, _) = run(
+        "0 BEGIN PGM T MM\n1 L X+10 Y+0 Z+5 B+0 C+0 R0 FMAX\n2 CC X+0 Y+0\n3 C X+0 Y+12 DR+ F500\n4 C X+0 Y-12 DR+\n5 END PGM T MM\n",
+        Dialect::Heidenhain,
+    );
+    assert!(
+        matches!(ev[3], Event::Skip(Skip::Element(w)) if w.starts_with("off-circle circle")),
+        "{:?}",
+        ev[3]
+    );
+    assert!(matches!(mv(&ev[4]).kind, MoveKind::Arc(_)));
+}
+
+#[test]
+fn values_beyond_a_control_s_five_digits_are_left_as_written() {
+    // 1e47 mm made every later position meaningless in floating point.
+    let (ev, m) = run(
+        "G0 X0 Y0 Z10 B0 C0\nG1 X99999999999999999999999999999999999999999999999.5 F100\nG1 Y1\nG1 X100000 Y1\nG1 C100000.001\nG2 X0 Y0 I1000000 J0\n",
+        Dialect::Linuxcnc,
+    );
+    assert_eq!(ev[1], Event::Skip(Skip::OutOfRange(b'X')));
+    // X is forgotten, Y still moves.
+    assert_eq!(mv(&ev[2]).end[0], None);
+    assert_eq!(mv(&ev[2]).end[1], Some(1.0));
+    // 100 m is the limit, inclusive; a rotary axis counts in degrees.
+    assert_eq!(mv(&ev[3]).end[0], Some(100_000.0));
+    assert_eq!(ev[4], Event::Skip(Skip::OutOfRange(b'C')));
+    assert_eq!(ev[5], Event::Skip(Skip::OutOfRange(b'I')));
+    assert_eq!(m.pos[5], None);
+    // In inches the limit is the same length: 4,000 in is beyond it.
+    let (ev, _) = run("G20 G0 X3900. Y0 Z0 B0 C0\nG1 X4000.\n", Dialect::Fanuc);
+    assert!(matches!(ev[0], Event::Move(_)), "{:?}", ev[0]);
+    assert_eq!(ev[1], Event::Skip(Skip::OutOfRange(b'X')));
+    // HEIDENHAIN: the radius of CR as well.
+    let (ev, _) = run(
+        "0 BEGIN PGM T MM\n1 L X+10 Y+0 Z+5 B+0 C+0 R0 FMAX\n2 CR X+0 Y+10 R+1000000 DR+ F500\n3 END PGM T MM\n",
+        Dialect::Heidenhain,
+    );
+    assert_eq!(ev[2], Event::Skip(Skip::OutOfRange(b'R')));
+}
+
+#[test]
+fn a_heidenhain_c_block_turns_about_the_pole_whatever_r_it_has() {
+    // The R word of a C block was taken for the radius word, and
+    // compensate wrote the pole's radius into it (R+10 became R+22.3607).
+    let (ev, _) = run(
+        "0 BEGIN PGM T MM\n1 L X+10 Y+0 Z+5 B+0 C+0 R0 FMAX\n2 CC X+0 Y+0\n3 C X+0 Y+10 R+5 DR+ F500\n4 CR X+10 Y+0 R+10 DR-\n5 END PGM T MM\n",
+        Dialect::Heidenhain,
+    );
+    let MoveKind::Arc(a) = mv(&ev[3]).kind else {
+        panic!("{:?}", ev[3])
+    };
+    assert_eq!((a.center, a.radius_word), ([0.0, 0.0], None));
+    let MoveKind::Arc(a) = mv(&ev[4]).kind else {
+        panic!("{:?}", ev[4])
+    };
+    assert!(a.radius_word.is_some());
+}

@@ -99,14 +99,12 @@ impl<'a> Lx<'a> {
         i
     }
 
-    /// End of the current physical line's content (before its ending).
+    /// End of the current physical line's content (before its ending: LF,
+    /// CRLF or a bare CR).
     fn line_end(&self, i: usize) -> usize {
         let mut j = i;
-        while j < self.s.len() && self.s[j] != b'\n' {
+        while j < self.s.len() && line_end_at(self.s, j) == 0 {
             j += 1;
-        }
-        if j > i && self.s[j - 1] == b'\r' && j < self.s.len() {
-            j -= 1;
         }
         j
     }

@@ -37,32 +37,6 @@ pub(crate) const BOM: &[u8] = b"\xEF\xBB\xBF";
 /// DOS's end-of-file mark.
 pub(crate) const DOS_EOF: u8 = 0x1A;
 
-/// How deep brackets may nest in an expression. Controllers allow a few
-/// levels (FANUC five); the limit keeps the recursive parsers' stack small
-/// whatever the input.
-pub const MAX_NESTING: usize = 64;
-
-/// Refuses `open`/`close` brackets nested deeper than [`MAX_NESTING`].
-pub(crate) fn check_nesting(s: &[u8], open: u8, close: u8) -> Result<(), BlockError> {
-    let mut depth = 0usize;
-    for (i, &c) in s.iter().enumerate() {
-        if c == open {
-            depth += 1;
-            if depth > MAX_NESTING {
-                return Err(BlockError::new(
-                    i,
-                    format!(
-                        "brackets nested deeper than {MAX_NESTING} levels: no controller reads that"
-                    ),
-                ));
-            }
-        } else if c == close {
-            depth = depth.saturating_sub(1);
-        }
-    }
-    Ok(())
-}
-
 /// A number beyond the range of any controller (and of a 64-bit float).
 pub(crate) fn too_large(offset: usize, lexeme: &[u8]) -> BlockError {
     let shown = if lexeme.len() > 24 {

@@ -45,20 +45,9 @@ struct Lexer<'a> {
     n: usize,
     fanuc: bool,
     syn: &'a Syntax,
-    /// The bracket nesting of the line has been checked.
-    nesting_checked: std::cell::Cell<bool>,
 }
 
 impl<'a> Lexer<'a> {
-    /// Refuses brackets nested deeper than [`super::MAX_NESTING`] before
-    /// any expression is parsed (the parser recurses once per level).
-    fn nesting(&self) -> Result<(), BlockError> {
-        if self.nesting_checked.replace(true) {
-            return Ok(());
-        }
-        super::check_nesting(&self.s[..self.n], b'[', b']')
-    }
-
     fn spaces(&self, mut i: usize) -> usize {
         while i < self.n && is_space(self.s[i]) {
             i += 1;
@@ -105,8 +94,7 @@ impl<'a> Lexer<'a> {
             }
             return Ok((Value::Num(lx.value), lx.style, i + n));
         }
-        self.nesting()?;
-        if let Some(n) = expr::real_value_len(rest) {
+        if let Some(n) = expr::real_value_len(rest).map_err(|e| too_deep(i, e))? {
             return Ok((Value::Expr, lexeme::NumStyle::default(), i + n));
         }
         let shown = &rest[..word_end(rest).max(rest.len().min(1))];
@@ -119,6 +107,12 @@ impl<'a> Lexer<'a> {
             ),
         ))
     }
+}
+
+/// An expression starting at `start` nested too deep, located at the
+/// level too many.
+fn too_deep(start: usize, e: expr::TooDeep) -> BlockError {
+    BlockError::new(start + e.offset, e.to_string())
 }
 
 fn word_end(s: &[u8]) -> usize {
@@ -147,7 +141,7 @@ fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
     let mut le = 0;
     if s.ends_with(b"\r\n") {
         le = 2;
-    } else if s.ends_with(b"\n") {
+    } else if s.ends_with(b"\n") || s.ends_with(b"\r") {
         le = 1;
     }
     n -= le;
@@ -159,7 +153,6 @@ fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
         n,
         fanuc: syn.dialect == Dialect::Fanuc,
         syn,
-        nesting_checked: std::cell::Cell::new(false),
     };
     let mut i = 0;
     let mut first_segment = true;
@@ -423,8 +416,7 @@ fn spaces_tok(lx: &Lexer, b: &mut Block, i: usize) -> usize {
 
 fn cond(lx: &Lexer, b: &mut Block, i: usize, kw: &str) -> Result<usize, BlockError> {
     let j = spaces_tok(lx, b, i);
-    lx.nesting()?;
-    match expr::bracketed_len(&lx.s[j..lx.n]) {
+    match expr::bracketed_len(&lx.s[j..lx.n]).map_err(|e| too_deep(j, e))? {
         Some(len) => {
             b.push(TokenKind::Expr, j, j + len);
             Ok(j + len)
@@ -443,8 +435,9 @@ fn goto(lx: &Lexer, b: &mut Block, i: usize) -> Result<usize, BlockError> {
     let len = if rest.first().is_some_and(|c| c.is_ascii_digit()) {
         lx.digits(j) - j
     } else {
-        lx.nesting()?;
-        expr::real_value_len(rest).unwrap_or(0)
+        expr::real_value_len(rest)
+            .map_err(|e| too_deep(j, e))?
+            .unwrap_or(0)
     };
     if len == 0 {
         return Err(BlockError::new(
@@ -472,8 +465,7 @@ fn loop_id(lx: &Lexer, b: &mut Block, i: usize, kw_len: usize) -> Result<usize, 
 fn fanuc_assign(lx: &Lexer, b: &mut Block, i: usize) -> Result<usize, BlockError> {
     let s = lx.s;
     let n = lx.n;
-    lx.nesting()?;
-    let Some(len) = expr::param_len(&s[i..n]) else {
+    let Some(len) = expr::param_len(&s[i..n]).map_err(|e| too_deep(i, e))? else {
         return Err(BlockError::new(
             i,
             "expected a parameter (#1, #100, #[expression]) to assign",
@@ -486,7 +478,7 @@ fn fanuc_assign(lx: &Lexer, b: &mut Block, i: usize) -> Result<usize, BlockError
     }
     b.push(TokenKind::Assign, j, j + 1);
     let k = spaces_tok(lx, b, j + 1);
-    let Some(len) = expr::expr_len(&s[k..n]) else {
+    let Some(len) = expr::expr_len(&s[k..n]).map_err(|e| too_deep(k, e))? else {
         return Err(BlockError::new(
             k,
             "expected an expression after `=` (number, #parameter, [ ], function)",
@@ -536,8 +528,7 @@ fn linuxcnc_body(lx: &Lexer, b: &mut Block, i: usize, seg: &mut Seg) -> Result<u
         loop {
             let k = spaces_tok(lx, b, at);
             if k < n && s[k] == b'[' {
-                lx.nesting()?;
-                let Some(len) = expr::bracketed_len(&s[k..n]) else {
+                let Some(len) = expr::bracketed_len(&s[k..n]).map_err(|e| too_deep(k, e))? else {
                     return Err(BlockError::new(k, "malformed [ ] expression"));
                 };
                 b.push(TokenKind::Expr, k, k + len);
@@ -573,8 +564,7 @@ fn words(lx: &Lexer, b: &mut Block, mut i: usize, seg: &mut Seg) -> Result<usize
             b.push(TokenKind::Comment, i, n);
             i = n;
         } else if c == b'#' && !lx.fanuc {
-            lx.nesting()?;
-            let Some(len) = expr::param_len(&s[i..n]) else {
+            let Some(len) = expr::param_len(&s[i..n]).map_err(|e| too_deep(i, e))? else {
                 return Err(BlockError::new(i, "expected a parameter (#1, #<name>)"));
             };
             b.push(TokenKind::Param, i, i + len);
@@ -587,7 +577,7 @@ fn words(lx: &Lexer, b: &mut Block, mut i: usize, seg: &mut Seg) -> Result<usize
             }
             b.push(TokenKind::Assign, j, j + 1);
             let k = spaces_tok(lx, b, j + 1);
-            let Some(len) = expr::real_value_len(&s[k..n]) else {
+            let Some(len) = expr::real_value_len(&s[k..n]).map_err(|e| too_deep(k, e))? else {
                 return Err(BlockError::new(
                     k,
                     "expected a value after `=`: a number, a #parameter or a [ ] expression",
@@ -792,6 +782,11 @@ mod tests {
         let deep = format!("X{}1{}\n", "[".repeat(200_000), "]".repeat(200_000));
         let e = parse_str(&deep, Dialect::Fanuc, false).unwrap_err();
         assert!(e.message.contains("nested deeper"), "{}", e.message);
+        assert_eq!(e.offset, 1 + crate::limits::MAX_EXPR_DEPTH);
+        let chain = format!("#1={}2\n", "#".repeat(200_000));
+        let e = parse_str(&chain, Dialect::Linuxcnc, false).unwrap_err();
+        assert!(e.message.contains("nested deeper"), "{}", e.message);
+        assert_eq!(e.offset, 3 + crate::limits::MAX_EXPR_DEPTH + 1);
         let huge = format!("G1 X1{}\n", "0".repeat(400));
         let e = parse_str(&huge, Dialect::Fanuc, false).unwrap_err();
         assert!(e.message.contains("too large"), "{}", e.message);

@@ -15,7 +15,7 @@ use crate::kinematics::Kinematics;
 use crate::machine::{Machine, Tool};
 use crate::mesh::Cuboid;
 use crate::procedure::short;
-use crate::procedure::{PlanConfig, PlanError, Template};
+use crate::procedure::{PlanConfig, PlanError, Template, TemplateSource};
 
 /// A continuous cutting path: entered by feed from the clearance plane
 /// above `start` (along the tool axis), left by a rapid lift.
@@ -82,6 +82,41 @@ pub(crate) fn tool_of(cfg: &PlanConfig, choice: &ToolChoice) -> Tool {
         (None, ToolChoice::Tool(t)) => t.clone(),
         (None, ToolChoice::Machine) => cfg.machine.tool.clone(),
     }
+}
+
+/// Refuses, before any toolpath is made, a block no machine of these
+/// strokes could cut round (the tool circles the whole top face at C = 0,
+/// so the block must fit the X and Y strokes) and a tool out of range (a
+/// library caller may hand over a tool nobody checked).
+pub(crate) fn check_work_area(
+    cfg: &PlanConfig,
+    src: &TemplateSource,
+    size: f64,
+    tool: &Tool,
+) -> Result<(), PlanError> {
+    crate::machine::check_tool(tool).map_err(|(_, msg)| {
+        PlanError::Impossible(format!("tool T{} `{}`: {msg}", tool.number, tool.name))
+    })?;
+    let m = &cfg.machine;
+    let (axis, span) = ['X', 'Y']
+        .into_iter()
+        .zip(&m.strokes)
+        .map(|(a, (lo, hi))| (a, hi - lo))
+        .fold(('X', f64::INFINITY), |b, x| if x.1 < b.1 { x } else { b });
+    if size.is_nan() || size > span {
+        return Err(src
+            .error(
+                &["stock", "size"],
+                format!(
+                    "stock.size {} mm is wider than the {axis} stroke of {} ({} mm): no pose could cut round the block",
+                    crate::procedure::echo(size),
+                    m.name,
+                    short(span)
+                ),
+            )
+            .into());
+    }
+    Ok(())
 }
 
 /// The nominal tool frame in W at (tilt, c): columns are the machine's

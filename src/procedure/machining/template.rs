@@ -5,9 +5,11 @@
 
 use serde::Deserialize;
 
+use crate::limits::PLAN_SPINDLE_RPM;
 use crate::machine::{Tool, check_tool};
 use crate::post::Coolant;
 use crate::procedure::TemplateSource;
+use crate::procedure::bounds::{feed, length, length_or_zero, within};
 use crate::source::SourceError;
 
 /// The tool a template asks for.
@@ -90,36 +92,26 @@ pub(crate) fn tool_choice(
     Ok(ToolChoice::Tool(tool))
 }
 
-pub(crate) fn positive(src: &TemplateSource, keys: &[&str], v: f64) -> Result<(), SourceError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(src.error(keys, format!("{} must be > 0, got {v}", keys.join("."))))
-    }
-}
-
 pub(crate) fn check_common(
     src: &TemplateSource,
     stock: &Stock,
     cutting: &Cutting,
     clearance: &Clearance,
 ) -> Result<(), SourceError> {
-    positive(src, &["stock", "size"], stock.size)?;
-    positive(src, &["stock", "height"], stock.height)?;
-    if !(stock.fixture_height.is_finite() && stock.fixture_height >= 0.0) {
-        return Err(src.error(
-            &["stock", "fixture_height"],
-            format!(
-                "stock.fixture_height must be >= 0 mm, got {}",
-                stock.fixture_height
-            ),
-        ));
-    }
-    positive(src, &["cutting", "spindle"], cutting.spindle)?;
-    positive(src, &["cutting", "feed"], cutting.feed)?;
-    positive(src, &["cutting", "plunge_feed"], cutting.plunge_feed)?;
-    positive(src, &["cutting", "stepover"], cutting.stepover)?;
-    positive(src, &["clearance", "rapid"], clearance.rapid)?;
-    positive(src, &["clearance", "safe"], clearance.safe)?;
+    length(src, &["stock", "size"], stock.size)?;
+    length(src, &["stock", "height"], stock.height)?;
+    length_or_zero(src, &["stock", "fixture_height"], stock.fixture_height)?;
+    within(
+        src,
+        &["cutting", "spindle"],
+        cutting.spindle,
+        PLAN_SPINDLE_RPM,
+        "rpm",
+        "",
+    )?;
+    feed(src, &["cutting", "feed"], cutting.feed)?;
+    feed(src, &["cutting", "plunge_feed"], cutting.plunge_feed)?;
+    length(src, &["clearance", "rapid"], clearance.rapid)?;
+    length(src, &["clearance", "safe"], clearance.safe)?;
     Ok(())
 }

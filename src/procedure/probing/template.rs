@@ -7,7 +7,9 @@
 use serde::Deserialize;
 
 use super::ProbingSettings;
+use crate::limits::MAX_PLAN_OVERHEAD_S;
 use crate::procedure::TemplateSource;
+use crate::procedure::bounds::{echo, feed, length, within};
 use crate::source::SourceError;
 
 #[derive(Deserialize)]
@@ -51,39 +53,22 @@ pub struct StylusSpec {
     pub spindle_length: f64,
 }
 
-pub(crate) fn positive(
-    src: &TemplateSource,
-    keys: &[&str],
-    v: f64,
-    what: &str,
-) -> Result<(), SourceError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(src.error(keys, format!("{what} must be a positive number, got {v}")))
-    }
-}
-
 pub(crate) fn settings(
     src: &TemplateSource,
     p: &ProbingFile,
 ) -> Result<ProbingSettings, SourceError> {
     let k = |key: &'static str| ["probing", key];
-    positive(src, &k("clearance"), p.clearance, "probing.clearance")?;
-    positive(src, &k("overtravel"), p.overtravel, "probing.overtravel")?;
-    positive(src, &k("feed"), p.feed, "probing.feed")?;
-    positive(
-        src,
-        &k("positioning_feed"),
-        p.positioning_feed,
-        "probing.positioning_feed",
-    )?;
+    length(src, &k("clearance"), p.clearance)?;
+    length(src, &k("overtravel"), p.overtravel)?;
+    feed(src, &k("feed"), p.feed)?;
+    feed(src, &k("positioning_feed"), p.positioning_feed)?;
     if !(p.safe_margin.is_finite() && p.safe_margin >= 0.0 && p.safe_margin < p.clearance) {
         return Err(src.error(
             &k("safe_margin"),
             format!(
                 "probing.safe_margin must be at least 0 and smaller than the clearance ({} mm), got {}",
-                p.clearance, p.safe_margin
+                p.clearance,
+                echo(p.safe_margin)
             ),
         ));
     }
@@ -91,12 +76,7 @@ pub(crate) fn settings(
         ("touch_overhead", p.touch_overhead),
         ("pose_overhead", p.pose_overhead),
     ] {
-        if !(v.is_finite() && v >= 0.0) {
-            return Err(src.error(
-                &k(key),
-                format!("probing.{key} must be a time of at least 0 s, got {v}"),
-            ));
-        }
+        within(src, &k(key), v, (0.0, MAX_PLAN_OVERHEAD_S), "s", "")?;
     }
     Ok(ProbingSettings {
         clearance: p.clearance,
@@ -111,39 +91,14 @@ pub(crate) fn settings(
 
 pub(crate) fn stylus(src: &TemplateSource, p: &ProbeFile) -> Result<StylusSpec, SourceError> {
     let k = |key: &'static str| ["probe", key];
-    positive(
-        src,
-        &k("stylus_length"),
-        p.stylus_length,
-        "probe.stylus_length",
-    )?;
-    positive(
-        src,
-        &k("stylus_diameter"),
-        p.stylus_diameter,
-        "probe.stylus_diameter",
-    )?;
-    positive(
-        src,
-        &k("body_diameter"),
-        p.body_diameter,
-        "probe.body_diameter",
-    )?;
+    length(src, &k("stylus_length"), p.stylus_length)?;
+    length(src, &k("stylus_diameter"), p.stylus_diameter)?;
+    length(src, &k("body_diameter"), p.body_diameter)?;
     if let Some(l) = p.body_length {
-        positive(src, &k("body_length"), l, "probe.body_length")?;
+        length(src, &k("body_length"), l)?;
     }
-    positive(
-        src,
-        &k("spindle_diameter"),
-        p.spindle_diameter,
-        "probe.spindle_diameter",
-    )?;
-    positive(
-        src,
-        &k("spindle_length"),
-        p.spindle_length,
-        "probe.spindle_length",
-    )?;
+    length(src, &k("spindle_diameter"), p.spindle_diameter)?;
+    length(src, &k("spindle_length"), p.spindle_length)?;
     Ok(StylusSpec {
         stylus_length: p.stylus_length,
         stylus_diameter: p.stylus_diameter,

@@ -41,7 +41,7 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
         "{}: no measured points",
         args.measured.display()
     );
-    let surface = Surface::new(&mesh);
+    let surface = Surface::new(&mesh)?;
     let pts: Vec<(String, nalgebra::Vector3<f64>)> = points
         .iter()
         .enumerate()

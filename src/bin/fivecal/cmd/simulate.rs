@@ -188,7 +188,13 @@ fn simulate(c: Config) -> anyhow::Result<()> {
         Format::Csv => Placement::Random,
         _ => Placement::Aligned,
     });
-    let out = simulate::run(&plan, &truth, &opts)?;
+    let out = simulate::run(&plan, &truth, &opts).with_context(|| {
+        format!(
+            "cannot simulate {} with the errors of {}",
+            c.plan_path.display(),
+            c.errors.display()
+        )
+    })?;
     out.write(format, &c.out)?;
     summary(&out, format, &c.out, &opts);
     Ok(())

@@ -19,12 +19,15 @@ use nalgebra::Vector3;
 
 use super::template::NineSectionTemplate;
 use crate::kinematics::Kinematics;
+use crate::limits::MAX_PLAN_MOVES;
 use crate::machine::ToolKind;
 use crate::mesh::{Csg, Cuboid, Plane, Polygon, Solid};
+use crate::procedure::bounds::{echo, total};
 use crate::procedure::machining::Pass;
 use crate::procedure::machining::cutter::ToolPart;
 use crate::procedure::machining::design::{
-    Design, PointDesign, PoseDesign, Stroke, dir_name, groups, pose_frame, tool_of, within_limits,
+    Design, PointDesign, PoseDesign, Stroke, check_work_area, dir_name, groups, pose_frame,
+    tool_of, within_limits,
 };
 use crate::procedure::{PlanConfig, PlanError, short};
 
@@ -72,6 +75,7 @@ pub(crate) fn design(
             tool.number, tool.name
         )));
     }
+    check_work_area(cfg, src, t.stock.size, &tool)?;
     let k = Kinematics::with_gauge_length(m, tool.length);
     let letter = m.tilt_letter();
     let radius = tool.diameter / 2.0;
@@ -201,6 +205,21 @@ pub(crate) fn design(
     }
 
     let air = t.clearance.rapid.max(1.0);
+    // Counted before any pass is made: each of the nine sections is
+    // rastered in passes `stepover` apart, two moves a pass.
+    let passes = (w / t.cutting.stepover).ceil().max(1.0) + 1.0;
+    total(
+        src,
+        &["cutting", "stepover"],
+        sections.len() as f64 * 2.0 * passes,
+        MAX_PLAN_MOVES,
+        "moves",
+        &format!(
+            "sections of {} mm rastered in passes {} mm apart (cutting.stepover): raise it",
+            short(w),
+            echo(t.cutting.stepover)
+        ),
+    )?;
     let so_n = (w / t.cutting.stepover).ceil().max(1.0) as usize;
     let so = w / so_n as f64;
     let mut poses = Vec::new();

@@ -5,8 +5,9 @@
 use serde::Deserialize;
 
 use crate::machine::ToolKind;
+use crate::procedure::bounds::{angle, count, length, length_or_zero};
 use crate::procedure::machining::template::{
-    Clearance, Cutting, Stock, ToolChoice, check_common, positive, tool_choice,
+    Clearance, Cutting, Stock, ToolChoice, check_common, tool_choice,
 };
 use crate::procedure::{TemplateSource, Test};
 use crate::source::SourceError;
@@ -69,7 +70,8 @@ struct NinePointsFile {
 
 fn check(src: &TemplateSource, t: &NineSectionTemplate) -> Result<(), SourceError> {
     check_common(src, &t.stock, &t.cutting, &t.clearance)?;
-    positive(src, &["depth"], t.depth)?;
+    length(src, &["depth"], t.depth)?;
+    length(src, &["cutting", "stepover"], t.cutting.stepover)?;
     if t.sections.len() != 8 {
         return Err(src.error(
             &["sections"],
@@ -79,23 +81,18 @@ fn check(src: &TemplateSource, t: &NineSectionTemplate) -> Result<(), SourceErro
             ),
         ));
     }
-    for s in &t.sections {
-        if !(s.tilt.is_finite() && s.c.is_finite()) {
-            return Err(src.error(&["sections"], "section angles must be finite (deg)"));
-        }
+    for (i, s) in t.sections.iter().enumerate() {
+        let item = format!("sections[{i}]");
+        angle(src, &[item.as_str(), "tilt"], s.tilt)?;
+        angle(src, &[item.as_str(), "c"], s.c)?;
     }
-    if t.points_per_section == 0 {
-        return Err(src.error(
-            &["points", "per_section"],
-            "points.per_section must be at least 1",
-        ));
-    }
-    if !(t.point_margin.is_finite() && t.point_margin >= 0.0) {
-        return Err(src.error(
-            &["points", "margin"],
-            format!("points.margin must be >= 0 mm, got {}", t.point_margin),
-        ));
-    }
+    count(
+        src,
+        &["points", "per_section"],
+        t.points_per_section,
+        (1, 9),
+    )?;
+    length_or_zero(src, &["points", "margin"], t.point_margin)?;
     if let ToolChoice::Tool(tool) = &t.tool
         && tool.kind == ToolKind::Flat
     {

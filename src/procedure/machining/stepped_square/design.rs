@@ -21,13 +21,17 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::template::{SteppedSquareTemplate, TiltSet};
 use crate::kinematics::Kinematics;
+use crate::limits::{
+    MAX_PLAN_MOVES, MAX_PLAN_POINT_MOVES, MAX_PLAN_POINTS, MAX_PLAN_POSES, MIN_PLAN_MM,
+};
 use crate::machine::ToolKind;
 use crate::mesh::{Cuboid, Solid};
+use crate::procedure::bounds::{echo, total};
 use crate::procedure::machining::Pass;
 use crate::procedure::machining::cutter::ToolPart;
 use crate::procedure::machining::design::{
-    Design, PointDesign, PoseDesign, Stroke, dir_code, dir_name, groups, pose_frame, pose_id,
-    tool_of, within_limits,
+    Design, PointDesign, PoseDesign, Stroke, check_work_area, dir_code, dir_name, groups,
+    pose_frame, pose_id, tool_of, within_limits,
 };
 use crate::procedure::{PlanConfig, PlanError, short};
 
@@ -87,9 +91,24 @@ pub(crate) fn design(
             tool.number, tool.name, tool.kind
         )));
     }
+    check_work_area(cfg, src, t.stock.size, &tool)?;
     let k = Kinematics::with_gauge_length(m, tool.length);
     let letter = m.tilt_letter();
     let r = tool.diameter / 2.0;
+    let so = t.cutting.stepover * tool.diameter;
+    if so.is_nan() || so < MIN_PLAN_MM {
+        return Err(src
+            .error(
+                &["cutting", "stepover"],
+                format!(
+                    "cutting.stepover {} of the D{} tool puts the rings {} mm apart, closer than the {MIN_PLAN_MM} mm a control resolves",
+                    echo(t.cutting.stepover),
+                    short(tool.diameter),
+                    echo(so)
+                ),
+            )
+            .into());
+    }
     let mut notes = Vec::new();
 
     // Angles: the top tilt first, then the others in the listed order.
@@ -163,6 +182,30 @@ pub(crate) fn design(
         frame: Matrix3<f64>,
         face: FaceKind,
     }
+    // Counted before any pose is made: the checks below compare poses
+    // pairwise, and every pose gets its points.
+    let n_poses = order.len() * t.angles.c.len();
+    total(
+        src,
+        &["angles"],
+        n_poses as f64,
+        MAX_PLAN_POSES,
+        "poses",
+        "list fewer angles",
+    )?;
+    // In floats: a template built in code may ask for usize::MAX points.
+    let per_pose = 4.0 * (t.points.per_wall as f64 + t.points.per_floor_side as f64);
+    total(
+        src,
+        &["points"],
+        n_poses as f64 * per_pose,
+        MAX_PLAN_POINTS,
+        "points",
+        &format!(
+            "{n_poses} poses with {} points each (points.per_wall and points.per_floor_side on each of 4 walls): ask for fewer",
+            echo(per_pose)
+        ),
+    )?;
     let mut poses = Vec::new();
     for &tilt in &order {
         for &c in &t.angles.c {
@@ -443,9 +486,38 @@ pub(crate) fn design(
         }
     }
 
-    // Toolpaths.
-    let so = t.cutting.stepover * tool.diameter;
+    // Toolpaths, counted before any is made.
     let axial = t.cutting.axial_depth.unwrap_or(f64::INFINITY);
+    let moves: f64 = steps
+        .iter()
+        .map(|s| step_moves(s, r, so, allow, axial))
+        .sum();
+    total(
+        src,
+        &["cutting"],
+        moves,
+        MAX_PLAN_MOVES,
+        "moves",
+        &format!(
+            "rings {} mm apart (cutting.stepover {} of the D{} tool) in layers of at most {} mm (cutting.axial_depth): raise them or cut fewer, smaller steps",
+            echo(so),
+            echo(t.cutting.stepover),
+            short(tool.diameter),
+            echo(axial)
+        ),
+    )?;
+    total(
+        src,
+        &["points"],
+        moves * n_poses as f64 * per_pose,
+        MAX_PLAN_POINT_MOVES,
+        "(point, move) pairs to trace",
+        &format!(
+            "{} points, each traced back through about {} moves: ask for fewer points or fewer moves (a larger cutting.stepover or cutting.axial_depth)",
+            n_poses as f64 * per_pose,
+            moves.ceil()
+        ),
+    )?;
     let mut pose_designs = Vec::new();
     for (i, (p, s)) in poses.iter().zip(&steps).enumerate() {
         let strokes = step_strokes(s, r, so, allow, axial, t.cutting.zero_cut);
@@ -609,9 +681,9 @@ pub(crate) fn design(
     })
 }
 
-/// The strokes of one step: per layer, rings from the outside in; on the
-/// last layer the finishing ring and the zero cut.
-fn step_strokes(s: &Step, r: f64, so: f64, allow: f64, axial: f64, zero_cut: bool) -> Vec<Stroke> {
+/// The rings of one step: the finishing ring, the first (innermost)
+/// roughing ring and the outermost tool-centre offset to cover.
+fn ring_span(s: &Step, r: f64, so: f64, allow: f64) -> (f64, f64, f64) {
     let s_fin = s.half + r;
     let first = if allow > 0.0 {
         s_fin + allow
@@ -624,6 +696,27 @@ fn step_strokes(s: &Step, r: f64, so: f64, allow: f64, axial: f64, zero_cut: boo
         .copied()
         .filter(|v| v.is_finite())
         .fold(0.0, f64::max);
+    (s_fin, first, s_max)
+}
+
+/// Roughing layers of a step no deeper than `axial`.
+fn layer_count(s: &Step, axial: f64) -> f64 {
+    ((s.top - s.floor) / axial - 1e-9).ceil().max(1.0)
+}
+
+/// The moves [`step_strokes`] makes for one step, counted without making
+/// them: per layer the roughing rings (a step-in and four sides each),
+/// on the last the finishing ring and the zero cut.
+fn step_moves(s: &Step, r: f64, so: f64, allow: f64, axial: f64) -> f64 {
+    let (_, first, s_max) = ring_span(s, r, so, allow);
+    let rings = ((s_max - first) / so).ceil().max(0.0) + 1.0;
+    layer_count(s, axial) * (rings + 2.0) * 5.0
+}
+
+/// The strokes of one step: per layer, rings from the outside in; on the
+/// last layer the finishing ring and the zero cut.
+fn step_strokes(s: &Step, r: f64, so: f64, allow: f64, axial: f64, zero_cut: bool) -> Vec<Stroke> {
+    let (s_fin, first, s_max) = ring_span(s, r, so, allow);
     let mut rings = vec![first];
     while *rings.last().unwrap() < s_max {
         let next = rings.last().unwrap() + so;
@@ -631,7 +724,7 @@ fn step_strokes(s: &Step, r: f64, so: f64, allow: f64, axial: f64, zero_cut: boo
     }
     rings.reverse();
     let depth = s.top - s.floor;
-    let layers = ((depth / axial) - 1e-9).ceil().max(1.0) as usize;
+    let layers = layer_count(s, axial) as usize;
     let mut strokes = Vec::new();
     for li in 0..layers {
         let level = s.top - depth * (li + 1) as f64 / layers as f64;

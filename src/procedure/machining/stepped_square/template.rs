@@ -4,9 +4,11 @@
 
 use serde::Deserialize;
 
+use crate::limits::MAX_PLAN_POINTS;
 use crate::machine::ToolKind;
+use crate::procedure::bounds::{angles, count, echo, length, length_or_zero};
 use crate::procedure::machining::template::{
-    Clearance, Cutting, Stock, ToolChoice, check_common, positive, tool_choice,
+    Clearance, Cutting, Stock, ToolChoice, check_common, tool_choice,
 };
 use crate::procedure::{TemplateSource, Test};
 use crate::source::SourceError;
@@ -111,31 +113,20 @@ fn tilt_set(src: &TemplateSource, v: &serde_yaml::Value) -> Result<TiltSet, Sour
             "tilt must be `auto` (0, 90, -90 where the machine reaches them) or a list of angles in degrees",
         )
     })?;
-    if list.is_empty() || list.iter().any(|a| !a.is_finite()) {
-        return Err(src.error(
-            &["angles", "tilt"],
-            "tilt needs at least one finite angle (deg)",
-        ));
-    }
+    angles(src, &["angles", "tilt"], &list)?;
     Ok(TiltSet::List(list))
 }
 
 fn check(src: &TemplateSource, t: &SteppedSquareTemplate) -> Result<(), SourceError> {
     check_common(src, &t.stock, &t.cutting, &t.clearance)?;
     for (face, s) in [("top", &t.top), ("side", &t.side)] {
-        positive(src, &[face, "first_size"], s.first_size)?;
-        positive(src, &[face, "size_increment"], s.size_increment)?;
-        positive(src, &[face, "step"], s.step)?;
+        length(src, &[face, "first_size"], s.first_size)?;
+        length(src, &[face, "size_increment"], s.size_increment)?;
+        length(src, &[face, "step"], s.step)?;
     }
-    if !(t.side.bottom_lip.is_finite() && t.side.bottom_lip >= 0.0) {
-        return Err(src.error(
-            &["side", "bottom_lip"],
-            format!("side.bottom_lip must be >= 0 mm, got {}", t.side.bottom_lip),
-        ));
-    }
-    if t.angles.c.is_empty() || t.angles.c.iter().any(|c| !c.is_finite()) {
-        return Err(src.error(&["angles", "c"], "c needs at least one finite angle (deg)"));
-    }
+    length_or_zero(src, &["side", "bottom_lip"], t.side.bottom_lip)?;
+    // The lists are bounded before the quadratic search for repeats.
+    angles(src, &["angles", "c"], &t.angles.c)?;
     for (i, a) in t.angles.c.iter().enumerate() {
         if t.angles.c[..i].iter().any(|b| (a - b).abs() < 1e-9) {
             return Err(src.error(&["angles", "c"], format!("C = {a} appears twice")));
@@ -149,28 +140,28 @@ fn check(src: &TemplateSource, t: &SteppedSquareTemplate) -> Result<(), SourceEr
         }
     }
     let axial = t.cutting.axial_depth.unwrap_or(f64::NAN);
-    positive(src, &["cutting", "axial_depth"], axial)?;
+    length(src, &["cutting", "axial_depth"], axial)?;
     let allow = t.cutting.finish_allowance.unwrap_or(0.0);
-    if !(allow.is_finite() && allow >= 0.0) {
-        return Err(src.error(
-            &["cutting", "finish_allowance"],
-            format!("cutting.finish_allowance must be >= 0 mm, got {allow}"),
-        ));
-    }
-    if t.cutting.stepover > 0.8 {
+    length_or_zero(src, &["cutting", "finish_allowance"], allow)?;
+    // A fraction of the tool diameter; the design checks that the rings it
+    // makes are at least 1 um apart once the tool is known.
+    if !(t.cutting.stepover > 0.0 && t.cutting.stepover <= 0.8) {
         return Err(src.error(
             &["cutting", "stepover"],
             format!(
-                "cutting.stepover is a fraction of the tool diameter and must be at most 0.8 (no uncut corners between rings), got {}",
-                t.cutting.stepover
+                "cutting.stepover is a fraction of the tool diameter and must be above 0 and at most 0.8 (no uncut corners between rings), got {}",
+                echo(t.cutting.stepover)
             ),
         ));
     }
-    if t.points.per_wall == 0 || t.points.per_floor_side == 0 {
-        return Err(src.error(
-            &["points"],
-            "points.per_wall and points.per_floor_side must be at least 1 (every step needs walls and floor)",
-        ));
+    for key in ["per_wall", "per_floor_side"] {
+        let n = if key == "per_wall" {
+            t.points.per_wall
+        } else {
+            t.points.per_floor_side
+        };
+        // At least one: every step needs walls and floor.
+        count(src, &["points", key], n, (1, MAX_PLAN_POINTS))?;
     }
     if let ToolChoice::Tool(tool) = &t.tool
         && tool.kind != ToolKind::Flat

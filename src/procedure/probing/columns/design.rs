@@ -12,7 +12,9 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::template::{ColumnSpec, ColumnsTemplate, Side};
 use crate::kinematics::Kinematics;
+use crate::limits::{MAX_PLAN_POINTS, MAX_PLAN_POSES};
 use crate::machine::Machine;
+use crate::procedure::bounds::total;
 use crate::procedure::probing::collision::{Obstacle, ProbeShape, Solid};
 use crate::procedure::probing::path::{self, Candidate, PoseSpec};
 use crate::procedure::probing::template::StylusSpec;
@@ -144,6 +146,27 @@ pub fn touch_plan_with(
     limits: &ControlLimits,
 ) -> Result<TouchPlan, PlanError> {
     let err = |k: &[&str], msg: String| t.source.error(k, msg);
+    // Counted before any pose is planned.
+    let n_poses = t.tilts.len() as f64 * t.cs.len() as f64;
+    let per_pose = t.columns.len() as f64 * (t.top.len() + t.sides.len()) as f64;
+    total(
+        &t.source,
+        &["poses"],
+        n_poses,
+        MAX_PLAN_POSES,
+        "poses",
+        "list fewer angles under poses.tilt and poses.c",
+    )?;
+    total(
+        &t.source,
+        &["poses"],
+        n_poses * per_pose,
+        MAX_PLAN_POINTS,
+        "touches",
+        &format!(
+            "{n_poses} poses with up to {per_pose} touches each: list fewer angles, columns or points"
+        ),
+    )?;
     let probe = probe_shape(m, &t.probe, err)?;
     for (i, c) in t.columns.iter().enumerate() {
         let (sn, cs) = c.yaw.to_radians().sin_cos();

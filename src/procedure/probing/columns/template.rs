@@ -6,6 +6,8 @@ use nalgebra::Vector2;
 use serde::Deserialize;
 
 use crate::formats::valid_label;
+use crate::limits::MIN_PLAN_MM;
+use crate::procedure::bounds::{angle, angles, echo, entries, length, position};
 use crate::procedure::probing::ProbingSettings;
 use crate::procedure::probing::template::{ProbeFile, ProbingFile, StylusSpec, settings, stylus};
 use crate::procedure::{TemplateSource, Test};
@@ -124,16 +126,6 @@ pub struct ColumnsTemplate {
     pub probe: StylusSpec,
 }
 
-fn angles(src: &TemplateSource, keys: &[&str], v: &[f64]) -> Result<(), SourceError> {
-    if v.is_empty() {
-        return Err(src.error(keys, format!("{} needs at least one angle", keys.join("."))));
-    }
-    if let Some(a) = v.iter().find(|a| !a.is_finite()) {
-        return Err(src.error(keys, format!("{}: {a} is not an angle", keys.join("."))));
-    }
-    Ok(())
-}
-
 impl ColumnsTemplate {
     /// The built-in template.
     pub fn builtin() -> ColumnsTemplate {
@@ -146,9 +138,9 @@ impl ColumnsTemplate {
         let f: ColumnsFile = crate::input::parse_yaml(&source.path, &source.text)?;
         let src = &source;
         src.check_test(&f.test, Test::ProbeColumns)?;
-        if f.columns.is_empty() {
-            return Err(src.error(&["columns"], "columns: at least one column is needed"));
-        }
+        // Bounded before the quadratic overlap test.
+        entries(src, &["columns"], f.columns.len(), 1)?;
+        entries(src, &["points", "top"], f.points.top.len(), 0)?;
         let mut columns: Vec<ColumnSpec> = Vec::new();
         for (i, c) in f.columns.iter().enumerate() {
             let item = format!("columns[{i}]");
@@ -168,30 +160,14 @@ impl ColumnsTemplate {
                     format!("column name `{}` is used twice", c.name),
                 ));
             }
-            if !(c.size.iter().all(|v| v.is_finite() && *v > 0.0)) {
-                return Err(at(
-                    "size",
-                    format!(
-                        "{item} ({}): size must be two positive lengths (x, y), got [{}, {}]",
-                        c.name, c.size[0], c.size[1]
-                    ),
-                ));
+            for v in c.size {
+                length(src, &[item.as_str(), "size"], v)?;
             }
-            if !(c.height.is_finite() && c.height > 0.0) {
-                return Err(at(
-                    "height",
-                    format!(
-                        "{item} ({}): height must be positive, got {}",
-                        c.name, c.height
-                    ),
-                ));
+            length(src, &[item.as_str(), "height"], c.height)?;
+            for v in c.centre {
+                position(src, &[item.as_str(), "centre"], v)?;
             }
-            if !(c.centre.iter().all(|v| v.is_finite()) && c.yaw.is_finite()) {
-                return Err(at(
-                    "centre",
-                    format!("{item} ({}): centre and yaw must be numbers", c.name),
-                ));
-            }
+            angle(src, &[item.as_str(), "yaw"], c.yaw)?;
             let spec = ColumnSpec {
                 name: c.name.clone(),
                 centre: Vector2::new(c.centre[0], c.centre[1]),
@@ -248,13 +224,13 @@ impl ColumnsTemplate {
             .iter()
             .map(|c| c.height)
             .fold(f64::INFINITY, f64::min);
-        let depth_ok = f.points.side_depth > 0.0 && f.points.side_depth < min_height;
+        let depth_ok = f.points.side_depth >= MIN_PLAN_MM && f.points.side_depth < min_height;
         if !sides.is_empty() && !depth_ok {
             return Err(src.error(
                 &["points", "side_depth"],
                 format!(
-                    "points.side_depth must lie between 0 and the lowest column's height ({min_height} mm), got {}",
-                    f.points.side_depth
+                    "points.side_depth must lie between {MIN_PLAN_MM} mm and the lowest column's height ({min_height} mm), got {}",
+                    echo(f.points.side_depth)
                 ),
             ));
         }

@@ -24,7 +24,9 @@ use nalgebra::Vector3;
 
 use super::template::{SpherePattern, SphereTemplate};
 use crate::kinematics::Kinematics;
+use crate::limits::{MAX_PLAN_POINTS, MAX_PLAN_POSES};
 use crate::machine::Machine;
+use crate::procedure::bounds::total;
 use crate::procedure::probing::collision::{Obstacle, Solid};
 use crate::procedure::probing::columns::design::{probe_shape, table_obstacle};
 use crate::procedure::probing::path::{self, Candidate, PoseSpec};
@@ -117,6 +119,34 @@ pub fn touch_plan_with(
     limits: &ControlLimits,
 ) -> Result<TouchPlan, PlanError> {
     let err = |k: &[&str], msg: String| t.source.error(k, msg);
+    // Counted before any pose is made.
+    let n_poses = match &t.pattern {
+        SpherePattern::Seed004 {
+            c_sweep,
+            tilt_sweep,
+            ..
+        } => c_sweep.len() + tilt_sweep.len(),
+        SpherePattern::Seed003 { poses, .. } => *poses,
+    } as f64;
+    total(
+        &t.source,
+        &["pattern"],
+        n_poses,
+        MAX_PLAN_POSES,
+        "poses",
+        "make fewer poses",
+    )?;
+    total(
+        &t.source,
+        &["pattern"],
+        n_poses * t.touches.len() as f64,
+        MAX_PLAN_POINTS,
+        "touches",
+        &format!(
+            "{n_poses} poses with {} touches each: make fewer poses",
+            t.touches.len()
+        ),
+    )?;
     let probe = probe_shape(m, &t.probe, err)?;
     let centre = sphere_centre(m, t);
     if centre.xy().norm() + t.stem_diameter / 2.0 > m.table.radius {

@@ -5,10 +5,10 @@
 use nalgebra::Vector2;
 use serde::Deserialize;
 
+use crate::limits::{MAX_PLAN_POSES, MAX_PLAN_TURNS};
+use crate::procedure::bounds::{angle, count, echo, length, position, within};
 use crate::procedure::probing::ProbingSettings;
-use crate::procedure::probing::template::{
-    ProbeFile, ProbingFile, StylusSpec, positive, settings, stylus,
-};
+use crate::procedure::probing::template::{ProbeFile, ProbingFile, StylusSpec, settings, stylus};
 use crate::procedure::{TemplateSource, Test};
 use crate::source::SourceError;
 
@@ -166,12 +166,10 @@ pub struct SphereTemplate {
 }
 
 fn range(src: &TemplateSource, keys: &[&str], r: RangeFile) -> Result<Vec<f64>, SourceError> {
-    if !(r.from.is_finite()
-        && r.to.is_finite()
-        && r.step.is_finite()
-        && r.step > 0.0
-        && r.from <= r.to)
-    {
+    let key = |k: &'static str| [keys, &[k]].concat();
+    angle(src, &key("from"), r.from)?;
+    angle(src, &key("to"), r.to)?;
+    if !(r.from <= r.to && r.step > 0.0 && r.step.is_finite()) {
         return Err(src.error(
             keys,
             format!(
@@ -179,15 +177,27 @@ fn range(src: &TemplateSource, keys: &[&str], r: RangeFile) -> Result<Vec<f64>, 
                 keys.join("."),
                 r.from,
                 r.to,
-                r.step
+                echo(r.step)
             ),
         ));
     }
-    let n = ((r.to - r.from) / r.step + 1e-9).floor() as usize;
-    if n > 10_000 {
-        return Err(src.error(keys, format!("{}: more than 10000 poses", keys.join("."))));
+    // Counted before any pose is made.
+    let n = ((r.to - r.from) / r.step + 1e-9).floor() + 1.0;
+    if n > MAX_PLAN_POSES as f64 {
+        return Err(src.error(
+            &key("step"),
+            format!(
+                "{}: a step of {} deg from {} to {} makes {n} poses, more than the {MAX_PLAN_POSES} a plan may have",
+                keys.join("."),
+                echo(r.step),
+                r.from,
+                r.to
+            ),
+        ));
     }
-    Ok((0..=n).map(|i| r.from + r.step * i as f64).collect())
+    Ok((0..n as usize)
+        .map(|i| r.from + r.step * i as f64)
+        .collect())
 }
 
 impl SphereTemplate {
@@ -203,13 +213,8 @@ impl SphereTemplate {
         let src = &source;
         src.check_test(&f.test, Test::ProbeSphere)?;
         let s = &f.sphere;
-        positive(src, &["sphere", "diameter"], s.diameter, "sphere.diameter")?;
-        positive(
-            src,
-            &["sphere", "stem_diameter"],
-            s.stem_diameter,
-            "sphere.stem_diameter",
-        )?;
+        length(src, &["sphere", "diameter"], s.diameter)?;
+        length(src, &["sphere", "stem_diameter"], s.stem_diameter)?;
         if s.stem_diameter >= s.diameter {
             return Err(src.error(
                 &["sphere", "stem_diameter"],
@@ -219,7 +224,8 @@ impl SphereTemplate {
                 ),
             ));
         }
-        if !(s.height.is_finite() && s.height > s.diameter / 2.0) {
+        length(src, &["sphere", "height"], s.height)?;
+        if s.height <= s.diameter / 2.0 {
             return Err(src.error(
                 &["sphere", "height"],
                 format!(
@@ -229,11 +235,8 @@ impl SphereTemplate {
                 ),
             ));
         }
-        if !s.position.iter().all(|v| v.is_finite()) {
-            return Err(src.error(
-                &["sphere", "position"],
-                "sphere.position must be two numbers",
-            ));
+        for v in s.position {
+            position(src, &["sphere", "position"], v)?;
         }
         let mut touches: Vec<(nalgebra::Vector3<f64>, &'static str)> = Vec::new();
         for t in &f.touches {
@@ -265,9 +268,17 @@ impl SphereTemplate {
         }
         let pattern = match f.pattern.as_str() {
             "seed-004" => SpherePattern::Seed004 {
-                c_sweep_tilt: f.seed004.c_sweep.tilt,
+                c_sweep_tilt: angle(
+                    src,
+                    &["seed-004", "c_sweep", "tilt"],
+                    f.seed004.c_sweep.tilt,
+                )?,
                 c_sweep: range(src, &["seed-004", "c_sweep", "c"], f.seed004.c_sweep.c)?,
-                tilt_sweep_c: f.seed004.tilt_sweep.c,
+                tilt_sweep_c: angle(
+                    src,
+                    &["seed-004", "tilt_sweep", "c"],
+                    f.seed004.tilt_sweep.c,
+                )?,
                 tilt_sweep: range(
                     src,
                     &["seed-004", "tilt_sweep", "tilt"],
@@ -276,21 +287,17 @@ impl SphereTemplate {
             },
             "seed-003" => {
                 let p = &f.seed003;
-                if p.poses < 2 || p.poses > 10_000 {
-                    return Err(src.error(
-                        &["seed-003", "poses"],
-                        format!(
-                            "seed-003.poses must be between 2 and 10000, got {}",
-                            p.poses
-                        ),
-                    ));
-                }
-                positive(src, &["seed-003", "turns"], p.turns, "seed-003.turns")?;
-                if !(p.tilt.from.is_finite() && p.tilt.to.is_finite()) {
-                    return Err(
-                        src.error(&["seed-003", "tilt"], "seed-003.tilt must be two angles")
-                    );
-                }
+                count(src, &["seed-003", "poses"], p.poses, (2, MAX_PLAN_POSES))?;
+                within(
+                    src,
+                    &["seed-003", "turns"],
+                    p.turns,
+                    (0.0, MAX_PLAN_TURNS),
+                    "turns",
+                    "",
+                )?;
+                angle(src, &["seed-003", "tilt", "from"], p.tilt.from)?;
+                angle(src, &["seed-003", "tilt", "to"], p.tilt.to)?;
                 SpherePattern::Seed003 {
                     poses: p.poses,
                     tilt: (p.tilt.from, p.tilt.to),
@@ -324,18 +331,12 @@ impl SphereTemplate {
                 ));
             }
         };
-        positive(
+        length(
             src,
             &["check", "radius_tolerance"],
             f.check.radius_tolerance,
-            "check.radius_tolerance",
         )?;
-        positive(
-            src,
-            &["check", "form_tolerance"],
-            f.check.form_tolerance,
-            "check.form_tolerance",
-        )?;
+        length(src, &["check", "form_tolerance"], f.check.form_tolerance)?;
         Ok(SphereTemplate {
             diameter: s.diameter,
             position: Vector2::new(s.position[0], s.position[1]),
