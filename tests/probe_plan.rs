@@ -602,6 +602,35 @@ fn sphere_plan_grid_probes_every_tilt_at_every_c_tilt_by_tilt() {
             "t.yaml:{l}:1: pattern: grid needs a `grid:` section with its `tilt` and `c` angles (deg)"
         )
     );
+    // Every tilt with every C: 200 x 100 poses is over the plan's bound of
+    // 10,000, refused by count before a single pose is made.
+    let list = |n: usize, span: f64| {
+        let v: Vec<String> = (0..n)
+            .map(|k| format!("{}", -span * k as f64 / n as f64))
+            .collect();
+        v.join(", ")
+    };
+    let huge: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("  tilt: [") {
+                format!("  tilt: [{}]\n", list(200, 90.0))
+            } else if l.starts_with("  c: [") {
+                format!("  c: [{}]\n", list(100, -350.0))
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let t = SphereTemplate::parse(TemplateSource {
+        path: "huge.yaml".into(),
+        text: huge,
+    })
+    .unwrap();
+    let e = sphere::touch_plan(&machine("bc-trunnion"), &t)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("about 20000 poses, more than the 10000"), "{e}");
 }
 
 #[test]

@@ -125,9 +125,11 @@ pub fn touch_plan_with(
             c_sweep,
             tilt_sweep,
             ..
-        } => c_sweep.len() + tilt_sweep.len(),
-        SpherePattern::Seed003 { poses, .. } => *poses,
-    } as f64;
+        } => (c_sweep.len() + tilt_sweep.len()) as f64,
+        SpherePattern::Seed003 { poses, .. } => *poses as f64,
+        // A product: counted in f64 so that two long lists cannot overflow.
+        SpherePattern::Grid { tilt, c } => tilt.len() as f64 * c.len() as f64,
+    };
     total(
         &t.source,
         &["pattern"],
