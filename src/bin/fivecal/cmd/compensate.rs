@@ -5,7 +5,7 @@
 //! error and program options shared with `simulate nc` in [`Common`]); the
 //! library does the work.
 
-use std::io::{BufReader, Chain, Cursor, Read};
+use std::io::{BufRead, BufReader, Cursor, Read};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
@@ -152,10 +152,7 @@ impl Common {
     /// in: `--dialect` if given, else what its beginning shows
     /// ([`fivecal::nc::dialect::detect`]). The beginning read to decide is
     /// handed on in front of the rest, so a FIFO or a pipe is read once.
-    pub fn open_program(
-        &self,
-        path: &Path,
-    ) -> anyhow::Result<(Detection, BufReader<Chain<Cursor<Vec<u8>>, impl Read>>)> {
+    pub fn open_program(&self, path: &Path) -> anyhow::Result<(Detection, impl BufRead)> {
         let mut file = fivecal::input::open_stream(path, "NC program")?;
         let mut head = Vec::new();
         if let Err(e) = (&mut file)
