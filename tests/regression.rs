@@ -700,6 +700,91 @@ fn compensate_program_without_moves_in_its_own_dialect_is_not_called_another_con
     assert_eq!(left, ["e.yaml", "p.nc"]);
 }
 
+/// FANUC axis words without a decimal point were readable only with
+/// `--integer-unit` on every run (issue 16 item 3): the machine file now
+/// says how its control reads them, and the flag still overrides it.
+#[test]
+fn compensate_integer_axis_words_follow_the_machine_file_s_integer_unit() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let machine = std::fs::read_to_string(root.join("examples/machines/bc-trunnion.yaml"))
+        .unwrap()
+        .replace("name: bc-trunnion", "name: my-fanuc");
+    assert!(machine.contains("name: my-fanuc"));
+    let errors = "machine: my-fanuc\nlocation_errors: {EX0B: 10.0}\n";
+    let program = "%\nO1003\nG90 G21 G54\nG0 X10000 Y10000 Z50000 B0 C0\nG1 X20000 F300\nM30\n%\n";
+    let args = [
+        "compensate",
+        "--machine",
+        "m.yaml",
+        "--errors",
+        "e.yaml",
+        "p.nc",
+        "-o",
+        "out.nc",
+    ];
+    // Unknown unit: nothing can be rewritten, and the refusal says how to
+    // tell.
+    let (code, _, err, _) = run_in(
+        &[("m.yaml", &machine), ("e.yaml", errors), ("p.nc", program)],
+        &args,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("set integer_unit in the machine file"),
+        "{err}"
+    );
+    // IS-B in the machine file: X10000 is 10 mm, corrected by EX0B's 10 um.
+    let is_b = format!("{machine}integer_unit: um\n");
+    let dir = crate::util::tempdir();
+    for (name, text) in [
+        ("m.yaml", is_b.as_str()),
+        ("e.yaml", errors),
+        ("p.nc", program),
+    ] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let run = |extra: &[&str]| {
+        let o = crate::cli::fivecal()
+            .current_dir(dir.path())
+            .args(args)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        std::fs::read_to_string(dir.path().join("out.nc")).unwrap()
+    };
+    let out = run(&[]);
+    assert!(
+        out.contains("G0 X10.01 Y10000 Z50000 B0 C0\nG1 X20.01 F300\n"),
+        "{out}"
+    );
+    // The flag overrides the file: IS-C reads X10000 as 1 mm.
+    let out = run(&["--integer-unit", "0.1um"]);
+    assert!(
+        out.contains("G0 X1.01 Y10000 Z50000 B0 C0\nG1 X2.01 F300\n"),
+        "{out}"
+    );
+    // A unit the control has not is refused at its key.
+    let (code, _, err, _) = run_in(
+        &[
+            ("m.yaml", &format!("{machine}integer_unit: nm\n")),
+            ("e.yaml", errors),
+            ("p.nc", program),
+        ],
+        &args,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("m.yaml:") && err.contains("integer_unit"),
+        "{err}"
+    );
+}
+
 /// A NUL byte in an NC program was reported as `line 2: a NUL byte` with
 /// no file named.
 #[test]

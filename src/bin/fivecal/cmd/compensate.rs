@@ -50,8 +50,9 @@ pub struct MachineArgs {
     #[arg(long, value_enum, default_value = "auto")]
     pub coordinates: CoordsArg,
     /// FANUC axis words without a decimal point: `mm` (calculator-type
-    /// input), `um` (IS-B increments) or `0.1um` (IS-C); without it such
-    /// moves are left as written and reported.
+    /// input), `um` (IS-B increments) or `0.1um` (IS-C) [default: the
+    /// machine file's `integer_unit`]; without either such moves are left
+    /// as written and reported.
     #[arg(long, value_name = "UNIT", value_parser = ["mm", "um", "0.1um"])]
     pub integer_unit: Option<String>,
     /// Gauge length of the tool in use, mm [default: the machine file's tool].
@@ -120,11 +121,13 @@ impl MachineArgs {
             Some(s) => parse_triple(s, "--origin")?,
             None => Vector3::zeros(),
         };
-        let integer_unit = self.integer_unit.as_deref().map(|u| match u {
-            "mm" => 1.0,
-            "um" => 0.001,
-            _ => 0.0001,
-        });
+        // The flag, else the machine file's setting of its control.
+        let integer_unit = match self.integer_unit.as_deref() {
+            Some("mm") => Some(1.0),
+            Some("um") => Some(1e-3),
+            Some(_) => Some(1e-4),
+            None => machine.integer_unit.map(|u| u.mm()),
+        };
         let mut inputs = Vec::new();
         if let MachineOrigin::File(p) = &machine_origin {
             inputs.push(p.clone());
