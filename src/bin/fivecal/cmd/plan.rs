@@ -328,8 +328,8 @@ fn shell_word(v: &str) -> String {
 }
 
 /// Where a user makes a change `plan` suggests: the template file given,
-/// else a copy of the one this plan used (the built-in one, or the
-/// supplement's as written beside the plan).
+/// else a copy of the one this plan used, as written beside the plan (the
+/// built-in one, or the supplement's).
 fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
     use fivecal::analyze::suggest::Recipe;
     match &cfg.template_file {
@@ -340,14 +340,17 @@ fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
         },
         None => Recipe {
             file: format!("my-{test}.yaml"),
-            copy_of: Some(if cfg.supplement {
-                format!(
-                    "{}, the supplementary test's template as this plan writes it",
-                    cfg.out.join(format!("{test}.template.yaml")).display()
-                )
-            } else {
-                format!("templates/{test}.yaml")
-            }),
+            // The plan writes the template it used beside itself: a user
+            // without the repository's templates/ has that copy.
+            copy_of: Some(format!(
+                "{}, the {} template this plan used, as written beside it",
+                cfg.out.join(format!("{test}.template.yaml")).display(),
+                if cfg.supplement {
+                    "supplementary test's"
+                } else {
+                    "built-in"
+                }
+            )),
             command: Some(cfg.command.clone()),
         },
     }
