@@ -41,7 +41,7 @@ use nalgebra::Vector3;
 
 pub use coordinates::Frame;
 
-use super::{Addr, Block, Segment, Stmt, Value, Word};
+use super::{Addr, Block, Segment, Stmt, TokenKind, Value, Word};
 use crate::kinematics::fast::FastChain;
 use crate::kinematics::{Axes, Kinematics, ToolPose};
 use crate::machine::Dialect;
@@ -830,12 +830,22 @@ pub fn known_m(dialect: Dialect, m: u32) -> bool {
 
 /// A statement's text for a message: its first words, trimmed.
 fn statement_text(block: &Block, seg: &Segment) -> String {
-    let toks = block.seg_tokens(seg);
-    let (Some(first), Some(last)) = (toks.first(), toks.last()) else {
-        return String::new();
-    };
-    let text =
-        String::from_utf8_lossy(&block.text[first.span.start as usize..last.span.end as usize]);
+    // The code alone: a comment beside it (`G43.4 H1 (TCP ON)`) is the
+    // programmer's, not what switched the mode.
+    let mut text = String::new();
+    for t in block.seg_tokens(seg) {
+        match t.kind {
+            TokenKind::Comment | TokenKind::LineEnd | TokenKind::Eob | TokenKind::Continuation => {}
+            TokenKind::Space => {
+                if !text.is_empty() && !text.ends_with(' ') {
+                    text.push(' ');
+                }
+            }
+            _ => text.push_str(&String::from_utf8_lossy(
+                &block.text[t.span.start as usize..t.span.end as usize],
+            )),
+        }
+    }
     let text = text.trim();
     if text.chars().count() > 40 {
         format!("{}...", text.chars().take(40).collect::<String>())

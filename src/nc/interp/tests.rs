@@ -288,3 +288,17 @@ fn a_heidenhain_c_block_turns_about_the_pole_whatever_r_it_has() {
     };
     assert!(a.radius_word.is_some());
 }
+
+#[test]
+fn the_code_that_switched_tcp_is_quoted_without_its_comment() {
+    let (_, m) = run(
+        "N10 G43.4 H1 (TCP ON, SEE SHEET 3)\nG0 X0 Y0 Z10. B0 C0\n",
+        Dialect::Fanuc,
+    );
+    assert_eq!(m.coordinates_why(), "`N10 G43.4 H1` at line 1");
+    let (_, m) = run(
+        "0 BEGIN PGM P MM\n1 M128 ; TCPM EIN\n2 L X+0 Y+0 Z+10 B+0 C+0 R0 FMAX\n",
+        Dialect::Heidenhain,
+    );
+    assert_eq!(m.coordinates_why(), "`1 M128` at line 2");
+}
