@@ -29,19 +29,21 @@ pub struct Clue {
 /// What a program's blocks have shown so far.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Evidence {
-    /// The first clue of each dialect (fanuc, heidenhain, linuxcnc).
-    first: [Option<Clue>; 3],
+    /// The first clue of each dialect (fanuc, heidenhain, linuxcnc,
+    /// sinumerik).
+    first: [Option<Clue>; 4],
     /// The first ISO G-code motion word (`G0`, `G01`...): line and word.
     iso: Option<(usize, String)>,
 }
 
-const DIALECTS: [Dialect; 3] = [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc];
+const DIALECTS: [Dialect; 4] = Dialect::ALL;
 
 fn slot(d: Dialect) -> usize {
     match d {
         Dialect::Fanuc => 0,
         Dialect::Heidenhain => 1,
         Dialect::Linuxcnc => 2,
+        Dialect::Sinumerik => 3,
     }
 }
 

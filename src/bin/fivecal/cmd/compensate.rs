@@ -36,7 +36,7 @@ pub struct MachineArgs {
     #[arg(long, value_name = "M.yaml")]
     pub machine: String,
     /// Controller dialect of the program [default: the machine's].
-    #[arg(long, value_name = "D", value_parser = ["fanuc", "heidenhain", "linuxcnc"])]
+    #[arg(long, value_name = "D", value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     pub dialect: Option<String>,
     /// Where the program zero lies in W at rotary zero, mm [default: 0,0,0,
     /// as `fivecal plan` writes programs].
