@@ -317,3 +317,72 @@ fn a_missing_retract_or_a_rotary_out_of_limits_is_caught() {
     let e = check_rules(&broken, m, "stepped-square", t.safe_z).unwrap_err();
     assert!(e.contains("outside"), "{e}");
 }
+
+/// A user's loop on a SINUMERIK machine: plan the column test in
+/// `sinumerik`, let the simulator write the log exactly as the program's
+/// `WRITE` would, and analyze it: the eight location errors come back
+/// within four standard uncertainties of the truth.
+#[test]
+fn the_simulated_write_log_of_a_sinumerik_probing_plan_is_analyzed() {
+    use crate::analyze_sim::BC_ERRORS;
+    use crate::cli::{analyze_cmd, fivecal};
+    use fivecal::ErrorFile;
+    let dir = crate::util::tempdir();
+    let plan_dir = dir.path().join("plan");
+    fivecal()
+        .args([
+            "plan",
+            "probe-columns",
+            "--machine",
+            "bc-trunnion",
+            "--dialect",
+            "sinumerik",
+            "--out",
+        ])
+        .arg(&plan_dir)
+        .assert()
+        .success();
+    let manifest = plan_dir.join("probe-columns.plan.yaml");
+    let program = std::fs::read_to_string(plan_dir.join("probe-columns.mpf")).unwrap();
+    assert!(program.contains("WRITE(FCERR,\"FIVECAL_COLUMNS\",FCLINE)"));
+    let truth = dir.path().join("truth.yaml");
+    std::fs::write(&truth, format!("machine: bc-trunnion\n{BC_ERRORS}")).unwrap();
+    let log = dir.path().join("FIVECAL_COLUMNS.TXT");
+    fivecal()
+        .args(["simulate", "--plan"])
+        .arg(&manifest)
+        .arg("--errors")
+        .arg(&truth)
+        .arg("--out")
+        .arg(&log)
+        .args(["--seed", "4", "--format", "log"])
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&log).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("FIVECAL probe-columns"));
+    let first = lines.next().unwrap();
+    assert!(
+        first.starts_with("T1 X") && !first.contains(".00000"),
+        "{first}"
+    );
+    let out = dir.path().join("result.yaml");
+    analyze_cmd(&manifest, &log, &out).assert().success();
+    let k = Kinematics::with_gauge_length(
+        &Machine::builtin("bc-trunnion").unwrap(),
+        Machine::builtin("bc-trunnion").unwrap().probe.length,
+    );
+    let got = ErrorFile::load(&out, &k).unwrap();
+    let names = got.model.param_names();
+    for line in BC_ERRORS.lines().skip(1) {
+        let (name, v) = line.trim().split_once(':').unwrap();
+        let want: f64 = v.trim().parse().unwrap();
+        let i = names.iter().position(|n| n == name).unwrap();
+        let u = got.u[i].unwrap();
+        assert!(
+            (got.theta[i] - want).abs() < 4.0 * u + 0.05,
+            "{name}: {} +- {u} against {want}",
+            got.theta[i]
+        );
+    }
+}
