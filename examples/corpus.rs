@@ -13,6 +13,12 @@
 //! Prints one row per file and a total; exits non-zero on a panic, on a
 //! zero-error rewrite that changed a byte, or on a refusal that does not
 //! name a line (the "unexplained refusal").
+//!
+//! Each file's dialect is also detected from its text as a run without
+//! `--dialect` does, for a machine of each controller: a file detected as
+//! another dialect than its directory's is a failure, except plain G-code
+//! (no sign of FANUC or LinuxCNC) read by the ISO dialect of the machine,
+//! which either controller runs; those are counted apart.
 
 use std::io::BufReader;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -22,6 +28,7 @@ use fivecal::compensate::{CompensateError, Compensator, Settings, Summary};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::kinematics::Kinematics;
 use fivecal::model::Model;
+use fivecal::nc::dialect::{Detection, detect};
 use fivecal::{Dialect, Machine};
 
 /// One run's outcome.
@@ -68,8 +75,9 @@ fn main() {
     let mut failures = 0;
     let (mut identical, mut ran, mut refused, mut corrected) = (0, 0, 0, 0);
     let (mut moves, mut changed) = (0usize, 0usize);
-    println!("| file | dialect | machine | zero error | with errors |");
-    println!("|---|---|---|---|---|");
+    let (mut by_sign, mut by_hint, mut plain) = (0, 0, 0);
+    println!("| file | dialect | detected | machine | zero error | with errors |");
+    println!("|---|---|---|---|---|---|");
     for (path, dialect) in &files {
         let shown = path
             .strip_prefix(&dir)
@@ -84,6 +92,23 @@ fn main() {
                 continue;
             }
         };
+        let detected = match detection(path, &bytes, *dialect) {
+            Ok(d) => {
+                if d.why.starts_with("from the text") {
+                    by_sign += 1;
+                } else if d.why.starts_with("plain G-code") {
+                    plain += 1;
+                } else {
+                    by_hint += 1;
+                }
+                d.why
+            }
+            Err(m) => {
+                failures += 1;
+                m
+            }
+        };
+        let detected = one_line(&detected);
         let machine_name = machine_for(&bytes);
         let machine = Machine::builtin(machine_name).expect("built-in machine");
         let zero = run(path, &bytes, &machine, *dialect, 0.0);
@@ -120,10 +145,15 @@ fn main() {
             }
             other => cell(other, &mut failures),
         };
-        println!("| {shown} | {dialect} | {machine_name} | {zero_cell} | {with_cell} |");
+        println!(
+            "| {shown} | {dialect} | {detected} | {machine_name} | {zero_cell} | {with_cell} |"
+        );
     }
     let run_files = files.len();
     println!();
+    println!(
+        "dialect from the text, whatever the machine's controller: {by_sign} by a sign of their own, {by_hint} by extension or machine with no sign, {plain} plain G-code read by the machine's ISO dialect"
+    );
     println!(
         "{} files: zero error {}/{} byte-identical; with errors {} ran through ({} with a block corrected; {} moves, {} blocks changed), {} refused at a named line; {} failures (panics, changed bytes at zero error, refusals without a line)",
         files.len(),
@@ -139,6 +169,28 @@ fn main() {
     if failures > 0 {
         std::process::exit(1);
     }
+}
+
+/// The dialect a run without `--dialect` reads `bytes` in, on a machine
+/// of each controller: the detection on a machine of another controller
+/// than `dialect` (the hard case), or why a detection went wrong.
+fn detection(path: &Path, bytes: &[u8], dialect: Dialect) -> Result<Detection, String> {
+    let mut shown = None;
+    for machine in [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc] {
+        let d = detect(path, bytes, machine);
+        let iso = |x: Dialect| x != Dialect::Heidenhain;
+        let either = d.why.starts_with("plain G-code") && iso(dialect) && iso(d.dialect);
+        if d.dialect != dialect && !either {
+            return Err(format!(
+                "WRONG on a {machine} machine: read as {} ({})",
+                d.dialect, d.why
+            ));
+        }
+        if machine != dialect && shown.is_none() {
+            shown = Some(d);
+        }
+    }
+    Ok(shown.expect("three controllers, one the file's"))
 }
 
 /// The table cell of a run that did not finish.

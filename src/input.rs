@@ -190,6 +190,37 @@ pub fn open_stream(path: &Path, what: &str) -> Result<BufReader<BoundedLines<Fil
     ))
 }
 
+/// Why [`BoundedLines`] stopped, at which line: carried inside the
+/// `io::Error` it returns, so that a reader that knows the file's name
+/// can report `file:line: why` ([`LineError::located`]).
+#[derive(Debug)]
+pub struct LineError {
+    /// 1-based line.
+    pub line: usize,
+    /// What is wrong with it.
+    pub message: String,
+}
+
+impl std::fmt::Display for LineError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "line {}: {}", self.line, self.message)
+    }
+}
+
+impl std::error::Error for LineError {}
+
+impl LineError {
+    fn io(line: usize, message: String) -> io::Error {
+        io::Error::new(io::ErrorKind::InvalidData, LineError { line, message })
+    }
+
+    /// The error of file `path` that `e` carries, if it is one of these.
+    pub fn located(path: &Path, e: &io::Error) -> Option<SourceError> {
+        let l = e.get_ref()?.downcast_ref::<LineError>()?;
+        Some(SourceError::new(path, l.line, 0, l.message.clone()))
+    }
+}
+
 /// A reader that fails on a line longer than [`MAX_LINE_BYTES`] or on a
 /// NUL byte (see [`open_stream`]).
 pub struct BoundedLines<R> {
@@ -213,19 +244,18 @@ impl<R: Read> Read for BoundedLines<R> {
                     self.run = 0;
                 }
                 0 => {
-                    return Err(io::Error::new(
-                        io::ErrorKind::InvalidData,
-                        format!("line {}: a NUL byte: this is not a text file", self.line),
+                    return Err(LineError::io(
+                        self.line,
+                        "a NUL byte: this is not a text file".to_string(),
                     ));
                 }
                 _ => {
                     self.run += 1;
                     if self.run > MAX_LINE_BYTES {
-                        return Err(io::Error::new(
-                            io::ErrorKind::InvalidData,
+                        return Err(LineError::io(
+                            self.line,
                             format!(
-                                "line {} is longer than {} bytes: not a text file fivecal reads",
-                                self.line, MAX_LINE_BYTES
+                                "the line is longer than {MAX_LINE_BYTES} bytes: not a text file fivecal reads"
                             ),
                         ));
                     }

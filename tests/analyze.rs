@@ -408,6 +408,7 @@ pub fn plan_dir_with(
         .collect(),
         poses,
         identifies: None,
+        suggestions: Vec::new(),
     };
     let path = dir.join(format!("{test}.plan.yaml"));
     std::fs::write(&path, manifest.to_yaml()).unwrap();

@@ -211,30 +211,49 @@ fn simulate_nc_predicts_the_tool_tip_error_along_a_program() {
         assert!((r[11] - 25.0).abs() < 1e-3, "{r:?}");
     }
     assert!(!text.contains("no error"), "{text}");
-    // A G-code program on this HEIDENHAIN machine is not followed as
-    // Klartext (0 moves understood): refused, naming what it is.
+    // A G-code program on this HEIDENHAIN machine is read as the text
+    // shows (FANUC: its program number), and the run says so; read as
+    // Klartext on purpose it is refused, naming what it is.
     std::fs::write(
         d.join("g.nc"),
         "%\nO1 (G)\nN10 G90 G21\nN20 G0 X10. Y10. Z50. B0. C0.\nN30 G1 X20. F300.\nN40 M30\n%\n",
     )
     .unwrap();
-    let out = fivecal()
-        .current_dir(d)
-        .args([
-            "simulate",
-            "nc",
-            "--machine",
-            "head-table",
-            "--errors",
-            "shift.yaml",
-        ])
-        .args(["--program", "g.nc", "-o", "g.csv"])
-        .output()
-        .unwrap();
+    let run = |extra: &[&str]| {
+        fivecal()
+            .current_dir(d)
+            .args([
+                "simulate",
+                "nc",
+                "--machine",
+                "head-table",
+                "--errors",
+                "shift.yaml",
+            ])
+            .args(["--program", "g.nc", "-o", "g.csv"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("read as fanuc (from the text: `O-number` at line 2)"),
+        "{text}"
+    );
+    assert!(d.join("g.csv").exists());
+    std::fs::remove_file(d.join("g.csv")).unwrap();
+    let out = run(&["--dialect", "heidenhain"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("G-code program") && err.contains("not heidenhain"),
+        err.contains("g.nc:2: this is a fanuc program (`O-number`), not heidenhain"),
         "{err}"
     );
     assert!(!d.join("g.csv").exists());

@@ -600,11 +600,15 @@ const HEAD_TABLE_ERRORS: &str =
 
 /// A FANUC program on `head-table`, whose controller is HEIDENHAIN: read as
 /// Klartext it had 0 moves, was written out as an identical copy and the
-/// run exited 0 (issue 14). Plain G-code is named as G-code, a FANUC-only
-/// word as FANUC, and nothing is written.
+/// run exited 0 (issue 14); then it was refused (issue 14 item 5). The
+/// dialect now comes from the text (issue 16 item 1): the program is read
+/// as FANUC and the run says why; read as HEIDENHAIN on purpose
+/// (`--dialect`), it is refused naming the dialect it shows.
 #[test]
-fn compensate_fanuc_program_on_a_heidenhain_machine_is_refused_naming_its_dialect() {
-    let plain = "%\nO1001 (PLAIN)\nN10 G90 G54 G21\nN20 G0 X10. Y10. Z50. B0. C0.\nN30 G1 X20. F300.\nN40 M30\n%\n";
+fn compensate_fanuc_program_on_a_heidenhain_machine_is_read_as_fanuc_and_refused_as_heidenhain() {
+    let numbered = "%\nO1001 (PLAIN)\nN10 G90 G54 G21\nN20 G0 X10. Y10. Z50. B0. C0.\nN30 G1 X20. F300.\nN40 M30\n%\n";
+    let plain = numbered.replace("O1001 (PLAIN)", "(PLAIN)");
+    let tcp = plain.replace("N10 G90 G54 G21", "N10 G90 G54 G21 G43.4 H1");
     let args = [
         "compensate",
         "--machine",
@@ -615,24 +619,47 @@ fn compensate_fanuc_program_on_a_heidenhain_machine_is_refused_naming_its_dialec
         "-o",
         "out.nc",
     ];
-    let (code, _, err, left) = run_in(&[("e.yaml", HEAD_TABLE_ERRORS), ("p.nc", plain)], &args);
-    assert_eq!(code, Some(2), "{err}");
-    assert!(
-        err.contains("p.nc:4:")
-            && err.contains("G-code program (`G0`: FANUC or LinuxCNC), not heidenhain"),
-        "{err}"
-    );
-    assert_eq!(left, ["e.yaml", "p.nc"]);
-    let tcp = plain.replace("N10 G90 G54 G21", "N10 G90 G54 G21 G43.4 H1");
-    let (code, _, err, left) = run_in(&[("e.yaml", HEAD_TABLE_ERRORS), ("p.nc", &tcp)], &args);
-    assert_eq!(code, Some(2), "{err}");
-    assert!(
-        err.contains("p.nc:3:")
-            && err.contains("this is a fanuc program (`G43.4`), not heidenhain"),
-        "{err}"
-    );
-    assert_eq!(left, ["e.yaml", "p.nc"]);
-    // The other way round: Klartext read as FANUC.
+    for (program, why) in [
+        (numbered, "read as fanuc (from the text: `O-number` at line 2)".to_string()),
+        (&tcp, "read as fanuc (from the text: `G43.4` at line 3)".to_string()),
+        (
+            &plain,
+            "read as fanuc (plain G-code, `G0` at line 4, shows neither FANUC nor LinuxCNC: read as fanuc, the usual ISO control, the machine's being heidenhain; give --dialect to read it otherwise)".to_string(),
+        ),
+    ] {
+        let (code, out, err, left) =
+            run_in(&[("e.yaml", HEAD_TABLE_ERRORS), ("p.nc", program)], &args);
+        assert_eq!(code, Some(0), "{err}");
+        assert!(out.contains(&why), "{out}");
+        assert!(out.contains("2 moves: 2 blocks changed"), "{out}");
+        assert_eq!(left, ["e.yaml", "out.nc", "p.nc"]);
+    }
+    let mut heidenhain = args.to_vec();
+    heidenhain.extend(["--dialect", "heidenhain"]);
+    for (program, want) in [
+        (
+            numbered,
+            "p.nc:2: this is a fanuc program (`O-number`), not heidenhain",
+        ),
+        (
+            &tcp,
+            "p.nc:3: this is a fanuc program (`G43.4`), not heidenhain",
+        ),
+        (
+            &plain,
+            "p.nc:4: this is a G-code program (`G0`: FANUC or LinuxCNC), not heidenhain",
+        ),
+    ] {
+        let (code, _, err, left) = run_in(
+            &[("e.yaml", HEAD_TABLE_ERRORS), ("p.nc", program)],
+            &heidenhain,
+        );
+        assert_eq!(code, Some(2), "{err}");
+        assert!(err.contains(want), "{err}");
+        assert_eq!(left, ["e.yaml", "p.nc"]);
+    }
+    // The other way round: Klartext read as FANUC on purpose, and without
+    // --dialect on a FANUC machine, where the text decides.
     let klartext =
         "0 BEGIN PGM P MM\n1 L X+10 Y+10 Z+50 B+0 C+0 R0 FMAX\n2 L X+20 R0 F300\n3 END PGM P MM\n";
     let mut fanuc = args.to_vec();
@@ -643,6 +670,147 @@ fn compensate_fanuc_program_on_a_heidenhain_machine_is_refused_naming_its_dialec
         err.contains("this is a heidenhain program (`BEGIN PGM`), not fanuc"),
         "{err}"
     );
+}
+
+/// A FANUC program that only changes tools and calls a measuring macro
+/// (`G65 P919100`, as a real shop program of the corpus does) was refused
+/// as "a program for another controller?", though its text is FANUC's.
+#[test]
+fn compensate_program_without_moves_in_its_own_dialect_is_not_called_another_controller_s() {
+    let program = "%\nO917100 (TOOL LENGTHS)\nT02 M06\nG65 P919100 H02 I-45.0 J15.0\nM02\n%\n";
+    let (code, _, err, left) = run_in(
+        &[("e.yaml", HEAD_TABLE_ERRORS), ("p.nc", program)],
+        &[
+            "compensate",
+            "--machine",
+            "head-table",
+            "--errors",
+            "e.yaml",
+            "p.nc",
+            "-o",
+            "out.nc",
+        ],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("no motion block in its 6 blocks, which read as fanuc (the text shows it: `O-number` at line 2): nothing to compensate here"),
+        "{err}"
+    );
+    assert!(!err.contains("another controller"), "{err}");
+    assert_eq!(left, ["e.yaml", "p.nc"]);
+}
+
+/// FANUC axis words without a decimal point were readable only with
+/// `--integer-unit` on every run (issue 16 item 3): the machine file now
+/// says how its control reads them, and the flag still overrides it.
+#[test]
+fn compensate_integer_axis_words_follow_the_machine_file_s_integer_unit() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let machine = std::fs::read_to_string(root.join("examples/machines/bc-trunnion.yaml"))
+        .unwrap()
+        .replace("name: bc-trunnion", "name: my-fanuc");
+    assert!(machine.contains("name: my-fanuc"));
+    let errors = "machine: my-fanuc\nlocation_errors: {EX0B: 10.0}\n";
+    let program = "%\nO1003\nG90 G21 G54\nG0 X10000 Y10000 Z50000 B0 C0\nG1 X20000 F300\nM30\n%\n";
+    let args = [
+        "compensate",
+        "--machine",
+        "m.yaml",
+        "--errors",
+        "e.yaml",
+        "p.nc",
+        "-o",
+        "out.nc",
+    ];
+    // Unknown unit: nothing can be rewritten, and the refusal says how to
+    // tell.
+    let (code, _, err, _) = run_in(
+        &[("m.yaml", &machine), ("e.yaml", errors), ("p.nc", program)],
+        &args,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("set integer_unit in the machine file"),
+        "{err}"
+    );
+    // IS-B in the machine file: X10000 is 10 mm, corrected by EX0B's 10 um.
+    let is_b = format!("{machine}integer_unit: um\n");
+    let dir = crate::util::tempdir();
+    for (name, text) in [
+        ("m.yaml", is_b.as_str()),
+        ("e.yaml", errors),
+        ("p.nc", program),
+    ] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let run = |extra: &[&str]| {
+        let o = crate::cli::fivecal()
+            .current_dir(dir.path())
+            .args(args)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        std::fs::read_to_string(dir.path().join("out.nc")).unwrap()
+    };
+    let out = run(&[]);
+    assert!(
+        out.contains("G0 X10.01 Y10000 Z50000 B0 C0\nG1 X20.01 F300\n"),
+        "{out}"
+    );
+    // The flag overrides the file: IS-C reads X10000 as 1 mm.
+    let out = run(&["--integer-unit", "0.1um"]);
+    assert!(
+        out.contains("G0 X1.01 Y10000 Z50000 B0 C0\nG1 X2.01 F300\n"),
+        "{out}"
+    );
+    // A unit the control has not is refused at its key.
+    let (code, _, err, _) = run_in(
+        &[
+            ("m.yaml", &format!("{machine}integer_unit: nm\n")),
+            ("e.yaml", errors),
+            ("p.nc", program),
+        ],
+        &args,
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("m.yaml:") && err.contains("integer_unit"),
+        "{err}"
+    );
+}
+
+/// A NUL byte in an NC program was reported as `line 2: a NUL byte` with
+/// no file named.
+#[test]
+fn compensate_nul_byte_names_the_program_and_its_line() {
+    let (code, _, err, left) = run_in(
+        &[
+            ("e.yaml", HEAD_TABLE_ERRORS),
+            ("p.nc", "G0 X1 Y0 Z5 B0 C0\nG1 X2\0\n"),
+        ],
+        &[
+            "compensate",
+            "--machine",
+            "head-table",
+            "--errors",
+            "e.yaml",
+            "p.nc",
+            "-o",
+            "out.nc",
+        ],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("p.nc:2: a NUL byte: this is not a text file"),
+        "{err}"
+    );
+    assert_eq!(left, ["e.yaml", "p.nc"]);
 }
 
 /// The parser corpus klartext.h has 21 moves and not one a rewrite can

@@ -27,6 +27,7 @@ pub mod inputs;
 pub mod method;
 pub mod result;
 pub mod series;
+pub mod suggest;
 pub mod uncertainty;
 
 use std::borrow::Cow;

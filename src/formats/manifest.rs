@@ -105,6 +105,10 @@ pub struct Manifest {
     /// it from the design.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub identifies: Option<Identifies>,
+    /// Known changes of the test's template that would identify what this
+    /// design leaves unidentified, each re-planned and predicted by `plan`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub suggestions: Vec<SuggestedChange>,
 }
 
 /// What a plan will identify: the method, the noise the uncertainties are
@@ -140,6 +144,31 @@ pub struct PredictedSymbol {
     /// Why not, where not.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+}
+
+/// One entry of the manifest's `suggestions:`: a change of the template
+/// and what the test identifies with it beyond the plan as written.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SuggestedChange {
+    /// What the change is, in words (`more tilt angles`).
+    pub change: String,
+    /// The template keys to set, as a fragment of the template (nested
+    /// keys with their new values).
+    pub set: serde_yaml::Value,
+    /// The location errors it makes identifiable, with their predicted
+    /// standard uncertainty at the same noise.
+    pub identifies: IndexMap<String, PredictedSymbol>,
+    /// Location errors identified with the change, of all the machine's.
+    pub identified: usize,
+    /// Poses of the changed plan.
+    pub poses: usize,
+    /// Its estimated run time, min.
+    pub run_min: f64,
+    /// The `fivecal plan` command that plans it, once the template is
+    /// changed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub command: Option<String>,
 }
 
 impl Manifest {
@@ -211,6 +240,7 @@ mod tests {
                 end_min: 1.5,
             }],
             identifies: None,
+            suggestions: Vec::new(),
         };
         let text = m.to_yaml();
         assert_eq!(Manifest::parse(Path::new("p.yaml"), &text).unwrap(), m);

@@ -59,6 +59,37 @@ pub struct MachineFile {
     /// The control's own M functions, optional.
     #[serde(default, skip_serializing_if = "MCodesFile::is_empty")]
     pub m_codes: MCodesFile,
+    /// How a FANUC control reads an axis word without a decimal point,
+    /// optional (`compensate --integer-unit` overrides it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub integer_unit: Option<IntegerUnit>,
+}
+
+/// How a FANUC control reads `X100` (no decimal point): parameter 3401#0
+/// (DPI) set, in mm as a calculator does; else in least input increments
+/// of its increment system, 1 um (IS-B) or 0.1 um (IS-C).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum IntegerUnit {
+    /// Calculator-type input: `X100` is 100 mm.
+    #[serde(rename = "mm")]
+    Mm,
+    /// IS-B: `X100` is 0.1 mm.
+    #[serde(rename = "um")]
+    Um,
+    /// IS-C: `X100` is 0.01 mm.
+    #[serde(rename = "0.1um")]
+    TenthUm,
+}
+
+impl IntegerUnit {
+    /// Millimetres per unit.
+    pub fn mm(self) -> f64 {
+        match self {
+            IntegerUnit::Mm => 1.0,
+            IntegerUnit::Um => 1e-3,
+            IntegerUnit::TenthUm => 1e-4,
+        }
+    }
 }
 
 /// The M functions a control has beyond its dialect's standard ones, as
@@ -486,6 +517,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         limits: f.limits,
         controller_parameters: f.controller_parameters,
         m_codes,
+        integer_unit: f.integer_unit,
         source: src.to_string(),
     })
 }

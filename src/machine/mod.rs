@@ -274,6 +274,9 @@ pub struct Machine {
     pub controller_parameters: file::ControllerParameters,
     /// The control's own M functions (the file's optional `m_codes:`).
     pub m_codes: MCodes,
+    /// How its FANUC control reads an axis word without a decimal point
+    /// (the file's optional `integer_unit:`); unknown when absent.
+    pub integer_unit: Option<file::IntegerUnit>,
     /// The file text it was read from (for `machine show` and provenance).
     pub source: String,
 }

@@ -13,6 +13,8 @@
 //! the dialect of a G-code program read as HEIDENHAIN in which no motion
 //! block is understood.
 
+use std::path::Path;
+
 use crate::machine::Dialect;
 
 /// A sign of a dialect: the line and the word that shows it.
@@ -167,6 +169,65 @@ fn iso_motion(code: &str) -> Option<String> {
     None
 }
 
+/// A FANUC program number: `O1001` (or `:1001`, the ISO spelling) alone in
+/// its block, comments apart. LinuxCNC's o-words always carry a keyword
+/// (`o100 sub`), and `rs274` refuses a bare one.
+fn program_number(code: &str) -> bool {
+    let t = code.trim();
+    let Some(digits) = t.strip_prefix(['O', ':']) else {
+        return false;
+    };
+    !digits.is_empty() && digits.len() <= 8 && digits.bytes().all(|c| c.is_ascii_digit())
+}
+
+/// SINUMERIK blocks, by how they start (after the block number).
+const SINUMERIK_STARTS: [&str; 12] = [
+    "%_N_",
+    "DEF REAL",
+    "DEF INT",
+    "DEF BOOL",
+    "DEF STRING",
+    "DEF CHAR",
+    "DEF AXIS",
+    "DEF FRAME",
+    "PROC ",
+    "ENDIF",
+    "ENDWHILE",
+    "ENDLOOP",
+];
+
+/// SINUMERIK words no other dialect takes (outside comments): its
+/// transformations, swivel cycle, frame suppression, pre-processing stop,
+/// jumps and measuring words.
+const SINUMERIK_WORDS: [&str; 10] = [
+    "TRAORI", "TRAFOOF", "CYCLE800", "CYCLE832", "SUPA", "STOPRE", "GOTOF", "GOTOB", "TRANS",
+    "ATRANS",
+];
+
+/// SINUMERIK spellings inside a block: `X=AC(..)`, `=IC(..)`, `=DC(..)`,
+/// a measuring block, system variables, a tool called by name.
+const SINUMERIK_SPELLINGS: [&str; 8] =
+    ["=AC", "=IC", "=DC", "MEAS=", "$AA_", "$AC_", "$P_", "T=\""];
+
+/// The SINUMERIK sign of a block, if it has one: `upper` is the whole
+/// block, `body` after its number, `code` without comments. A `;` comment
+/// is no sign: HEIDENHAIN writes them too.
+fn sinumerik_sign(upper: &str, body: &str, code: &str) -> Option<&'static str> {
+    if upper.trim_start().starts_with(";$PATH=") {
+        return Some(";$PATH=");
+    }
+    if let Some(s) = SINUMERIK_STARTS.iter().find(|s| body.starts_with(**s)) {
+        return Some(s);
+    }
+    if let Some(w) = SINUMERIK_WORDS.iter().find(|w| has_word(code, w)) {
+        return Some(w);
+    }
+    SINUMERIK_SPELLINGS
+        .iter()
+        .find(|w| code.contains(**w))
+        .copied()
+}
+
 /// The signs in one block's text, by dialect.
 fn signs(text: &str) -> Vec<(Dialect, &'static str)> {
     let upper = text.to_ascii_uppercase();
@@ -197,6 +258,8 @@ fn signs(text: &str) -> Vec<(Dialect, &'static str)> {
     } else if body.starts_with("WHILE") && code.contains(" DO") || body.starts_with("WHILE[") {
         // FANUC's loop starts its block; LinuxCNC's follows an o-word.
         out.push((Dialect::Fanuc, "WHILE [...] DO"));
+    } else if program_number(&code) {
+        out.push((Dialect::Fanuc, "O-number"));
     }
     if let Some(c) = LINUXCNC_COMMENTS.iter().find(|c| upper.contains(**c)) {
         out.push((Dialect::Linuxcnc, *c));
@@ -220,6 +283,9 @@ fn signs(text: &str) -> Vec<(Dialect, &'static str)> {
         if O_WORDS.contains(&kw) {
             out.push((Dialect::Linuxcnc, "o-word"));
         }
+    }
+    if let Some(sign) = sinumerik_sign(&upper, body, &code) {
+        out.push((Dialect::Sinumerik, sign));
     }
     out
 }
@@ -273,6 +339,145 @@ impl Evidence {
     }
 }
 
+/// The dialect a file's name suggests: `.h` is HEIDENHAIN Klartext (the
+/// extension the TNC gives it), `.ngc` LinuxCNC's, `.mpf` and `.spf`
+/// SINUMERIK's main programs and subprograms. Other extensions
+/// (`.nc`, `.tap`, `.txt`...) are used by every G-code control.
+pub fn hinted(path: &Path) -> Option<Dialect> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    match ext.as_str() {
+        "h" => Some(Dialect::Heidenhain),
+        "ngc" => Some(Dialect::Linuxcnc),
+        "mpf" | "spf" => Some(Dialect::Sinumerik),
+        _ => None,
+    }
+}
+
+/// How much of a program's beginning [`detect`] reads: the signs of a
+/// dialect are in a program's first blocks (its number, `BEGIN PGM`, the
+/// TCP call, the first subroutine), and a sign of another dialect further
+/// on still refuses the read ([`super::Blocks::finish`]).
+pub const DETECT_BYTES: usize = 256 * 1024;
+
+/// The dialect a run reads a program in, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Detection {
+    /// The dialect used.
+    pub dialect: Dialect,
+    /// Why, in words: the sign and its line, `--dialect`, or the fallback.
+    pub why: String,
+}
+
+impl std::fmt::Display for Detection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} ({})", self.dialect, self.why)
+    }
+}
+
+/// The dialect of the program whose beginning is `head` (at most
+/// [`DETECT_BYTES`] of it is looked at), named `path`, for a machine whose
+/// controller speaks `machine`.
+///
+/// The text decides where it shows a sign ([`Evidence`]): HEIDENHAIN
+/// Klartext (`BEGIN PGM`, `L X+.. R0 FMAX`), FANUC (a program number
+/// `O1001`, `G43.4`, macro `GOTO`...) or LinuxCNC (o-words, `#<named>`
+/// parameters, `G38.2`...). Where it shows signs of both G-code dialects,
+/// the file's extension and then the machine choose between them. Plain
+/// G-code with no sign is read as the machine's dialect if that is a
+/// G-code one, else as the extension says, else as FANUC, the usual ISO
+/// control (said, with `--dialect` to change it).
+pub fn detect(path: &Path, head: &[u8], machine: Dialect) -> Detection {
+    let head = &head[..head.len().min(DETECT_BYTES)];
+    let mut e = Evidence::default();
+    for (i, line) in head.split(|&c| c == b'\n' || c == b'\r').enumerate() {
+        e.observe(line, i + 1);
+    }
+    detect_from(&e, hinted(path), machine)
+}
+
+fn detect_from(e: &Evidence, hint: Option<Dialect>, machine: Dialect) -> Detection {
+    let by_sign = |c: &Clue| Detection {
+        dialect: c.dialect,
+        why: format!("from the text: `{}` at line {}", c.sign, c.line),
+    };
+    let iso = [Dialect::Fanuc, Dialect::Linuxcnc, Dialect::Sinumerik];
+    let shown: Vec<&Clue> = DIALECTS.iter().filter_map(|&d| e.clue(d)).collect();
+    // Klartext has no ISO motion word: a G-code program with a block that
+    // merely starts like one of its blocks is still G-code.
+    let klartext = e.clue(Dialect::Heidenhain);
+    if let Some(k) = klartext
+        && (e.iso().is_none() || shown.len() == 1 && e.iso().is_some_and(|(l, _)| l > k.line))
+    {
+        return by_sign(k);
+    }
+    // A SINUMERIK sign (`%_N_`, TRAORI, `X=AC(`...) is nothing FANUC or
+    // LinuxCNC takes, while its `GOTO label` reads as FANUC's GOTO.
+    if let Some(si) = e.clue(Dialect::Sinumerik) {
+        return by_sign(si);
+    }
+    let g: Vec<&Clue> = shown
+        .iter()
+        .copied()
+        .filter(|c| c.dialect != Dialect::Heidenhain)
+        .collect();
+    match g.as_slice() {
+        [one] => return by_sign(one),
+        [a, b] => {
+            let pick = hint
+                .filter(|h| iso.contains(h))
+                .or(Some(machine).filter(|m| iso.contains(m)));
+            let (chosen, other) = match pick {
+                Some(d) if d == b.dialect => (b, a),
+                Some(_) => (a, b),
+                None if a.line <= b.line => (a, b),
+                None => (b, a),
+            };
+            return Detection {
+                dialect: chosen.dialect,
+                why: format!(
+                    "from the text: `{}` at line {}; it also shows {} (`{}` at line {}), {}",
+                    chosen.sign,
+                    chosen.line,
+                    other.dialect,
+                    other.sign,
+                    other.line,
+                    match pick {
+                        Some(d) if hint == Some(d) => "the file's extension chose",
+                        Some(_) => "the machine's controller chose",
+                        None => "the first sign chose",
+                    }
+                ),
+            };
+        }
+        _ => {}
+    }
+    if let Some((line, word)) = e.iso() {
+        let (dialect, why) = match (hint, machine) {
+            (Some(h), _) if iso.contains(&h) => (h, "the file's extension".to_string()),
+            (_, m) if iso.contains(&m) => (m, "the machine's controller".to_string()),
+            (_, m) => (
+                Dialect::Fanuc,
+                format!("the usual ISO control, the machine's being {m}"),
+            ),
+        };
+        return Detection {
+            dialect,
+            why: format!(
+                "plain G-code, `{word}` at line {line}, shows neither FANUC nor LinuxCNC: read as {dialect}, {why}; give --dialect to read it otherwise"
+            ),
+        };
+    }
+    let dialect = hint.unwrap_or(machine);
+    Detection {
+        dialect,
+        why: if hint.is_some() {
+            "no dialect's sign in the text: the file's extension".to_string()
+        } else {
+            "no dialect's sign in the text: the machine's controller".to_string()
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -295,7 +500,7 @@ mod tests {
             vec![(Dialect::Heidenhain, 1)]
         );
         assert_eq!(
-            shown("%\nO1001 (P)\nN10 G90 G54\nN20 G43.4 H1\nN30 G0 X1.\n"),
+            shown("%\n(P)\nN10 G90 G54\nN20 G43.4 H1\nN30 G0 X1.\n"),
             vec![(Dialect::Fanuc, 4)]
         );
         assert_eq!(
@@ -315,7 +520,7 @@ mod tests {
     #[test]
     fn plain_g_code_and_comments_show_nothing() {
         assert!(
-            shown("%\nO1001 (TOOL CALL G43.4 POPEN)\nG0 X1. Y2.\nG1 Z-1. F100.\nM30\n%\n")
+            shown("%\n(O1001 TOOL CALL G43.4 POPEN)\nG0 X1. Y2.\nG1 Z-1. F100.\nM30\n%\n")
                 .is_empty()
         );
         // A longer number is another word.
@@ -380,5 +585,168 @@ mod tests {
         // Signs of both G-code dialects: reading as either is not refused.
         assert_eq!(e.other_than(Dialect::Linuxcnc), None);
         assert_eq!(e.other_than(Dialect::Heidenhain).map(|c| c.line), Some(3));
+    }
+
+    fn detected(path: &str, src: &str, machine: Dialect) -> Detection {
+        detect(Path::new(path), src.as_bytes(), machine)
+    }
+
+    #[test]
+    fn the_text_decides_the_dialect_whatever_the_machine() {
+        let klartext = "0 BEGIN PGM P MM\n1 L X+10 R0 FMAX\n2 END PGM P MM\n";
+        let fanuc = "%\nO1001 (P)\nN10 G90 G54\nN20 G0 X1.\n%\n";
+        let linuxcnc = "(probe)\no<touch> sub\nG38.2 Z-10 F100\no<touch> endsub\nG0 X1\n";
+        for m in DIALECTS {
+            let d = detected("p.nc", klartext, m);
+            assert_eq!(d.dialect, Dialect::Heidenhain, "{m}");
+            assert_eq!(d.why, "from the text: `BEGIN PGM` at line 1");
+            let d = detected("p.h", fanuc, m);
+            assert_eq!(d.dialect, Dialect::Fanuc, "{m}");
+            assert_eq!(d.why, "from the text: `O-number` at line 2");
+            assert_eq!(detected("p.nc", linuxcnc, m).dialect, Dialect::Linuxcnc);
+        }
+        // A ~ continuation or a comment does not hide Klartext.
+        let d = detected("x", "1 L X+10 Y+5 R0 FMAX ; G1\n", Dialect::Fanuc);
+        assert_eq!(d.dialect, Dialect::Heidenhain);
+    }
+
+    #[test]
+    fn plain_g_code_goes_by_extension_then_machine_then_fanuc() {
+        let plain = "G90 G21\nG0 X10 Y10\nG1 Z-1 F100\nM2\n";
+        let d = detected("p.ngc", plain, Dialect::Fanuc);
+        assert_eq!(d.dialect, Dialect::Linuxcnc);
+        assert!(d.why.contains("`G0` at line 2") && d.why.contains("extension"));
+        assert_eq!(
+            detected("p.nc", plain, Dialect::Linuxcnc).dialect,
+            Dialect::Linuxcnc
+        );
+        assert_eq!(
+            detected("p.nc", plain, Dialect::Fanuc).dialect,
+            Dialect::Fanuc
+        );
+        let d = detected("p.nc", plain, Dialect::Heidenhain);
+        assert_eq!(d.dialect, Dialect::Fanuc);
+        assert!(
+            d.why
+                .contains("the usual ISO control, the machine's being heidenhain"),
+            "{}",
+            d.why
+        );
+        // A .h extension does not make G-code Klartext.
+        assert_eq!(
+            detected("p.h", plain, Dialect::Heidenhain).dialect,
+            Dialect::Fanuc
+        );
+    }
+
+    #[test]
+    fn signs_of_both_g_code_dialects_are_settled_by_extension_or_machine() {
+        let both = "N10 G43.4 H1\n#<depth> = 2\nG1 X1 F100\n";
+        let d = detected("p.ngc", both, Dialect::Fanuc);
+        assert_eq!(d.dialect, Dialect::Linuxcnc);
+        assert!(d.why.contains("extension chose"), "{}", d.why);
+        let d = detected("p.nc", both, Dialect::Linuxcnc);
+        assert_eq!(d.dialect, Dialect::Linuxcnc);
+        assert!(d.why.contains("machine's controller chose"), "{}", d.why);
+        let d = detected("p.nc", both, Dialect::Heidenhain);
+        assert_eq!(d.dialect, Dialect::Fanuc);
+        assert!(d.why.contains("first sign chose"), "{}", d.why);
+    }
+
+    #[test]
+    fn a_program_number_is_fanuc_but_an_o_word_is_not() {
+        for block in ["O1001", "O0001 (MAIN)", ":1234", "%O12"] {
+            let mut e = Evidence::default();
+            e.observe(block.as_bytes(), 1);
+            let want = !block.starts_with('%');
+            assert_eq!(e.clue(Dialect::Fanuc).is_some(), want, "{block}");
+        }
+        for block in ["o100 sub", "O<x> call", "O1001 X5", "OX1"] {
+            let mut e = Evidence::default();
+            e.observe(block.as_bytes(), 1);
+            assert!(e.clue(Dialect::Fanuc).is_none(), "{block}");
+        }
+    }
+
+    #[test]
+    fn nothing_to_go_by_is_the_extension_or_the_machine() {
+        let d = detected("p.h", "(nothing)\n", Dialect::Fanuc);
+        assert_eq!(d.dialect, Dialect::Heidenhain);
+        assert_eq!(d.why, "no dialect's sign in the text: the file's extension");
+        assert_eq!(
+            detected("p.txt", "", Dialect::Linuxcnc).dialect,
+            Dialect::Linuxcnc
+        );
+    }
+}
+
+#[cfg(test)]
+mod sinumerik_tests {
+    use super::*;
+
+    fn first_sign(src: &str) -> Option<(Dialect, usize, &'static str)> {
+        let mut e = Evidence::default();
+        for (i, l) in src.lines().enumerate() {
+            e.observe(l.as_bytes(), i + 1);
+        }
+        e.clue(Dialect::Sinumerik)
+            .map(|c| (c.dialect, c.line, c.sign))
+    }
+
+    #[test]
+    fn sinumerik_shows_by_its_header_transformations_cycles_and_spellings() {
+        for (block, sign) in [
+            ("%_N_SHAFT123_MPF", "%_N_"),
+            (";$PATH=/_N_MPF_DIR", ";$PATH="),
+            ("N30 DEF REAL _camtolerance", "DEF REAL"),
+            ("N10 TRAORI", "TRAORI"),
+            (
+                "CYCLE800(0,\"TC1\",0,192,0,0,0,0,30,45,0,0,0,1)",
+                "CYCLE800",
+            ),
+            ("SUPA G0 Z0 D0", "SUPA"),
+            ("IF R6<R3 GOTOF END", "GOTOF"),
+            ("G1 X=AC(10) Y5", "=AC"),
+            ("MEAS=1 G1 X10 Y0 Z5 F100", "MEAS="),
+            ("R1=$AA_MW[X]", "$AA_"),
+            ("T=\"D8 MILL\" M6", "T=\""),
+            ("ENDIF", "ENDIF"),
+        ] {
+            assert_eq!(
+                first_sign(block),
+                Some((Dialect::Sinumerik, 1, sign)),
+                "{block}"
+            );
+        }
+        // A `;` comment is HEIDENHAIN's too; plain words are everyone's.
+        for block in [
+            "G0 X1 Y2 ; TRAORI in a comment",
+            "5 L X+1 R0 FMAX ; comment",
+            "G1 X10 F100",
+            "(CYCLE800 in a FANUC comment)",
+        ] {
+            assert_eq!(first_sign(block), None, "{block}");
+        }
+    }
+
+    #[test]
+    fn a_sinumerik_program_is_read_as_sinumerik_whatever_the_machine() {
+        let program = "N10 G17 G90 G710\nN20 LBL1:\nN30 GOTO LBL1\nN40 TRAORI\nN50 G1 X1 F100\n";
+        for m in DIALECTS {
+            let d = detect(Path::new("p.nc"), program.as_bytes(), m);
+            assert_eq!(d.dialect, Dialect::Sinumerik, "{m}");
+            assert_eq!(d.why, "from the text: `TRAORI` at line 4");
+        }
+        // Plain G-code: the .mpf extension, or a SINUMERIK machine.
+        let plain = "G90 G0 X10 Y10\nG1 Z-1 F100\nM30\n";
+        assert_eq!(
+            detect(Path::new("P.MPF"), plain.as_bytes(), Dialect::Fanuc).dialect,
+            Dialect::Sinumerik
+        );
+        assert_eq!(
+            detect(Path::new("p.nc"), plain.as_bytes(), Dialect::Sinumerik).dialect,
+            Dialect::Sinumerik
+        );
+        assert_eq!(hinted(Path::new("sub.spf")), Some(Dialect::Sinumerik));
     }
 }

@@ -127,6 +127,13 @@ impl<R: BufRead> Blocks<R> {
                         "no motion block understood in its {} blocks read as {d}: {} could not be read (the first at line {line}, column {column}: {why}); nothing to compensate",
                         self.count, self.unreadable
                     )
+                } else if let Some(own) = self.evidence.clue(d) {
+                    // The right dialect: the program just makes no move
+                    // itself (tool changes, macro or subprogram calls).
+                    format!(
+                        "no motion block in its {} blocks, which read as {d} (the text shows it: `{}` at line {}): nothing to compensate here; moves made by the subprograms or macros it calls are corrected in those programs",
+                        self.count, own.sign, own.line
+                    )
                 } else {
                     format!(
                         "no motion block understood in its {} blocks read as {d}: a program for another controller? (--dialect fanuc, heidenhain, linuxcnc or sinumerik)",
@@ -156,7 +163,14 @@ impl<R: BufRead> Blocks<R> {
     /// text, with [`Block::unreadable`] saying why.
     pub fn next_block(&mut self) -> Result<Option<&Block>, ReadError> {
         self.block.unreadable = None;
-        if !self.reader.read(&mut self.block).map_err(ReadError::Io)? {
+        let read =
+            self.reader.read(&mut self.block).map_err(
+                |e| match crate::input::LineError::located(&self.path, &e) {
+                    Some(located) => ReadError::Syntax(located),
+                    None => ReadError::Io(e),
+                },
+            )?;
+        if !read {
             return Ok(None);
         }
         self.count += 1;

@@ -11,7 +11,9 @@ use std::path::{Path, PathBuf};
 use indexmap::IndexMap;
 
 use super::{MachiningPlan, Plan, ProbingPlan};
-use crate::formats::manifest::{Identifies, KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry};
+use crate::formats::manifest::{
+    Identifies, KinematicsMode, MANIFEST_VERSION, Manifest, PoseEntry, SuggestedChange,
+};
 use crate::io::{OutputError, StagedDir, ensure_not_input};
 use crate::mesh::Mesh;
 
@@ -132,6 +134,7 @@ impl Plan {
             files,
             poses,
             identifies: None,
+            suggestions: Vec::new(),
         }
     }
 
@@ -171,21 +174,23 @@ impl Plan {
     /// Every output file: (name relative to the plan directory, bytes),
     /// the manifest last.
     pub fn outputs(&self, stem: &str) -> Vec<(PathBuf, Vec<u8>)> {
-        self.outputs_with(stem, "", None)
+        self.outputs_with(stem, "", None, &[])
     }
 
     /// [`Plan::outputs`], with `appendix` (Markdown) closing the setup
-    /// sheet and `identifies` in the manifest: what `plan` found out about
-    /// the design beyond the plan itself.
+    /// sheet and `identifies` and `suggestions` in the manifest: what `plan`
+    /// found out about the design beyond the plan itself.
     pub fn outputs_with(
         &self,
         stem: &str,
         appendix: &str,
         identifies: Option<&Identifies>,
+        suggestions: &[SuggestedChange],
     ) -> Vec<(PathBuf, Vec<u8>)> {
         let title = format!("{} on {} (fivecal)", self.test(), self.machine().name);
         let mut manifest = self.manifest(stem);
         manifest.identifies = identifies.cloned();
+        manifest.suggestions = suggestions.to_vec();
         let program = self.program();
         let mut v: Vec<(PathBuf, Vec<u8>)> = Vec::new();
         for (role, path) in self.file_names(stem) {
@@ -231,11 +236,12 @@ impl Plan {
         stem: &str,
         inputs: &[&Path],
     ) -> Result<Vec<PathBuf>, OutputError> {
-        self.write_with(dir, stem, inputs, "", None)
+        self.write_with(dir, stem, inputs, "", None, &[])
     }
 
     /// [`Plan::write`], with `appendix` closing the setup sheet and
-    /// `identifies` in the manifest ([`Plan::outputs_with`]).
+    /// `identifies` and `suggestions` in the manifest
+    /// ([`Plan::outputs_with`]).
     pub fn write_with(
         &self,
         dir: &Path,
@@ -243,8 +249,9 @@ impl Plan {
         inputs: &[&Path],
         appendix: &str,
         identifies: Option<&Identifies>,
+        suggestions: &[SuggestedChange],
     ) -> Result<Vec<PathBuf>, OutputError> {
-        let outs = self.outputs_with(stem, appendix, identifies);
+        let outs = self.outputs_with(stem, appendix, identifies, suggestions);
         let paths: Vec<PathBuf> = outs.iter().map(|(p, _)| dir.join(p)).collect();
         for p in &paths {
             ensure_not_input(p, inputs)?;

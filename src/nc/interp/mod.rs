@@ -228,7 +228,7 @@ impl std::fmt::Display for Skip {
             Skip::UnknownAxis(a) => write!(f, "axis {} is not an axis of this machine", *a as char),
             Skip::FanucInteger => write!(
                 f,
-                "axis value without a decimal point (FANUC reads it in mm or in least input increments by parameter 3401#0; pass --integer-unit)"
+                "axis value without a decimal point (FANUC reads it in mm or in least input increments by parameter 3401#0; pass --integer-unit or set integer_unit in the machine file)"
             ),
             Skip::PositionUnknown(a) => write!(
                 f,

@@ -5,6 +5,7 @@
 //! error and program options shared with `simulate nc` in [`Common`]); the
 //! library does the work.
 
+use std::io::{BufRead, BufReader, Cursor, Read};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
@@ -13,6 +14,7 @@ use fivecal::compensate::{AtomicOutput, Compensator, Coordinates, Settings, Summ
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::io::{Shape, check_outputs};
 use fivecal::machine::MachineOrigin;
+use fivecal::nc::dialect::Detection;
 use fivecal::{Dialect, Kinematics, Machine};
 use nalgebra::Vector3;
 
@@ -35,7 +37,9 @@ pub struct MachineArgs {
     /// Machine file or built-in name (bc-trunnion, ac-trunnion, head-table, head-head).
     #[arg(long, value_name = "M.yaml")]
     pub machine: String,
-    /// Controller dialect of the program [default: the machine's].
+    /// Controller dialect of the program [default: what its text shows
+    /// (BEGIN PGM, O-numbers, o-words, G43.4, %_N_.._MPF, TRAORI...), then
+    /// its extension (.h, .ngc, .mpf, .spf), then the machine's].
     #[arg(long, value_name = "D", value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     pub dialect: Option<String>,
     /// Where the program zero lies in W at rotary zero, mm [default: 0,0,0,
@@ -46,8 +50,9 @@ pub struct MachineArgs {
     #[arg(long, value_enum, default_value = "auto")]
     pub coordinates: CoordsArg,
     /// FANUC axis words without a decimal point: `mm` (calculator-type
-    /// input), `um` (IS-B increments) or `0.1um` (IS-C); without it such
-    /// moves are left as written and reported.
+    /// input), `um` (IS-B increments) or `0.1um` (IS-C) [default: the
+    /// machine file's `integer_unit`]; without either such moves are left
+    /// as written and reported.
     #[arg(long, value_name = "UNIT", value_parser = ["mm", "um", "0.1um"])]
     pub integer_unit: Option<String>,
     /// Gauge length of the tool in use, mm [default: the machine file's tool].
@@ -64,7 +69,8 @@ pub struct Common {
     /// Where the machine came from (built in or a file).
     pub machine_origin: MachineOrigin,
     pub kin: Kinematics,
-    pub dialect: Dialect,
+    /// `--dialect`, if given; else the program's text decides ([`open_program`]).
+    pub dialect: Option<Dialect>,
     pub origin: Vector3<f64>,
     pub coordinates: Coordinates,
     pub integer_unit: Option<f64>,
@@ -108,18 +114,20 @@ impl MachineArgs {
             None => Kinematics::new(&machine),
         };
         let dialect = match &self.dialect {
-            Some(d) => d.parse::<Dialect>().map_err(anyhow::Error::msg)?,
-            None => machine.dialect,
+            Some(d) => Some(d.parse::<Dialect>().map_err(anyhow::Error::msg)?),
+            None => None,
         };
         let origin = match &self.origin {
             Some(s) => parse_triple(s, "--origin")?,
             None => Vector3::zeros(),
         };
-        let integer_unit = self.integer_unit.as_deref().map(|u| match u {
-            "mm" => 1.0,
-            "um" => 0.001,
-            _ => 0.0001,
-        });
+        // The flag, else the machine file's setting of its control.
+        let integer_unit = match self.integer_unit.as_deref() {
+            Some("mm") => Some(1.0),
+            Some("um") => Some(1e-3),
+            Some(_) => Some(1e-4),
+            None => machine.integer_unit.map(|u| u.mm()),
+        };
         let mut inputs = Vec::new();
         if let MachineOrigin::File(p) = &machine_origin {
             inputs.push(p.clone());
@@ -139,6 +147,35 @@ impl MachineArgs {
             strict: self.strict,
             inputs,
         })
+    }
+}
+
+impl Common {
+    /// Opens the NC program at `path` and settles the dialect it is read
+    /// in: `--dialect` if given, else what its beginning shows
+    /// ([`fivecal::nc::dialect::detect`]). The beginning read to decide is
+    /// handed on in front of the rest, so a FIFO or a pipe is read once.
+    pub fn open_program(&self, path: &Path) -> anyhow::Result<(Detection, impl BufRead)> {
+        let mut file = fivecal::input::open_stream(path, "NC program")?;
+        let mut head = Vec::new();
+        if let Err(e) = (&mut file)
+            .take(fivecal::nc::dialect::DETECT_BYTES as u64)
+            .read_to_end(&mut head)
+        {
+            return Err(match fivecal::input::LineError::located(path, &e) {
+                Some(located) => located.into(),
+                None => anyhow::Error::new(e)
+                    .context(format!("cannot read NC program {}", path.display())),
+            });
+        }
+        let detection = match self.dialect {
+            Some(d) => Detection {
+                dialect: d,
+                why: "--dialect".to_string(),
+            },
+            None => fivecal::nc::dialect::detect(path, &head, self.machine.dialect),
+        };
+        Ok((detection, BufReader::new(Cursor::new(head).chain(file))))
     }
 }
 
@@ -277,7 +314,8 @@ impl CompensateArgs {
                 self.max_c_swing
             );
         }
-        let mut settings = Settings::new(common.dialect);
+        // The program's dialect is settled when it is opened.
+        let mut settings = Settings::new(common.dialect.unwrap_or(common.machine.dialect));
         settings.strict = common.strict;
         settings.tolerance = self.tolerance * 1e-3;
         settings.max_correction = self.max_correction;
@@ -413,9 +451,14 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     // What the run leaves as it was, said in its last line.
     let mut copy: Option<String> = None;
     if let Some((input, output)) = &cfg.rewrite {
-        let file = fivecal::input::open_stream(input, "NC program")?;
-        let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, cfg.settings.clone());
+        // The output first: a program coming through a FIFO may keep the
+        // run waiting for its beginning, and an interrupted run then still
+        // has its temporary file to remove.
         let mut out = AtomicOutput::create(output)?;
+        let (detection, file) = cfg.common.open_program(input)?;
+        let mut settings = cfg.settings.clone();
+        settings.dialect = detection.dialect;
+        let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, settings);
         // On any error `out` is dropped: its temporary file goes, nothing is written.
         let summary = c.run(input, file, &mut out)?;
         let unchanged = summary.changed == 0 && summary.inserted == 0;
@@ -448,7 +491,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
             );
         }
         out.commit()?;
-        out!("{}", describe(&summary, input, output, &cfg));
+        out!("{}", describe(&summary, input, output, &detection, &cfg));
         if unchanged {
             // Legitimate (a machine whose errors are all but zero), but
             // never silent.
@@ -572,20 +615,26 @@ pub fn reasons(skipped: &[(String, fivecal::compensate::Lines)]) -> String {
 }
 
 /// The summary a user reads after a rewrite.
-fn describe(s: &Summary, input: &Path, output: &Path, cfg: &Config) -> String {
+fn describe(
+    s: &Summary,
+    input: &Path,
+    output: &Path,
+    detection: &Detection,
+    cfg: &Config,
+) -> String {
     use std::fmt::Write;
     let mut t = String::new();
     let m = &cfg.common.machine;
     let _ = writeln!(
         t,
-        "compensated {} -> {} ({}, machine {} ({}), errors {})",
+        "compensated {} -> {} (machine {} ({}), errors {})",
         input.display(),
         output.display(),
-        cfg.settings.dialect,
         m.name,
         cfg.common.machine_origin,
         cfg.errors_path.display()
     );
+    let _ = writeln!(t, "  read as {detection}");
     let _ = writeln!(
         t,
         "  {} blocks, {} moves: {} blocks changed, {} blocks added ({} moves subdivided, {} arcs linearized) to stay within {} um",

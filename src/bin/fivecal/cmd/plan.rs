@@ -67,7 +67,8 @@ pub struct PlanArgs {
     #[arg(long)]
     tool: Option<String>,
     /// `all`: refuse (and write nothing) when the test will not identify
-    /// every location error of the machine, as predicted from the plan.
+    /// every location error of the machine, as predicted from the plan,
+    /// naming the known changes of the template that would identify more.
     #[arg(long, value_name = "WHAT", value_parser = ["all"])]
     require: Option<String>,
 }
@@ -81,6 +82,13 @@ struct Config {
     origin: String,
     /// `--require all`.
     require_all: bool,
+    /// The template file given with `--template`.
+    template_file: Option<PathBuf>,
+    /// Whether the template is the one `--supplement` asked for.
+    supplement: bool,
+    /// This run's `fivecal plan` command without its template and output
+    /// options, for the changes `plan` suggests.
+    command: String,
 }
 
 fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
@@ -252,6 +260,19 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         })?),
     };
     let test = template.test();
+    let mut command = format!("fivecal plan {test} --machine {spec}");
+    for (flag, value) in [
+        ("--dialect", &a.dialect),
+        ("--postprocessor", &a.postprocessor),
+        ("--tool", &a.tool),
+    ] {
+        if let Some(v) = value {
+            command.push_str(&format!(" {flag} {}", shell_word(v)));
+        }
+    }
+    if a.kinematics == Some(KinematicsArg::Controller) {
+        command.push_str(" --kinematics controller");
+    }
     if test.kind() == TestKind::Probing {
         if a.kinematics == Some(KinematicsArg::Controller) {
             bail!(
@@ -288,7 +309,48 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         inputs,
         origin,
         require_all: a.require.is_some(),
+        template_file: a.template.clone(),
+        supplement: supplement.is_some(),
+        command,
     })
+}
+
+/// `v` as one word of a shell command line.
+fn shell_word(v: &str) -> String {
+    if !v.is_empty()
+        && v.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+".contains(c))
+    {
+        v.to_string()
+    } else {
+        format!("'{}'", v.replace('\'', "'\\''"))
+    }
+}
+
+/// Where a user makes a change `plan` suggests: the template file given,
+/// else a copy of the one this plan used (the built-in one, or the
+/// supplement's as written beside the plan).
+fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
+    use fivecal::analyze::suggest::Recipe;
+    match &cfg.template_file {
+        Some(p) => Recipe {
+            file: shell_word(&p.display().to_string()),
+            copy_of: None,
+            command: Some(cfg.command.clone()),
+        },
+        None => Recipe {
+            file: format!("my-{test}.yaml"),
+            copy_of: Some(if cfg.supplement {
+                format!(
+                    "{}, the supplementary test's template as this plan writes it",
+                    cfg.out.join(format!("{test}.template.yaml")).display()
+                )
+            } else {
+                format!("templates/{test}.yaml")
+            }),
+            command: Some(cfg.command.clone()),
+        },
+    }
 }
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
@@ -306,15 +368,19 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     })?;
     let predicted = fivecal::analyze::design::predict(&planned, None, None)
         .with_context(|| format!("cannot predict what {} identifies", planned.test()))?;
+    // What would identify what the design leaves unidentified.
+    let suggested = fivecal::analyze::suggest::suggest(p, &planned, &predicted, None);
+    let recipe = recipe(&cfg, planned.test());
     if cfg.require_all {
         let missing = predicted.missing();
         if !missing.is_empty() {
             bail!(
-                "--require all: {} on {} does not identify {} (nothing written):\n{}",
+                "--require all: {} on {} does not identify {} (nothing written):\n{}{}",
                 planned.test(),
                 planned.machine().name,
                 missing.join(", "),
-                predicted.render()
+                predicted.render(),
+                suggested.render(&recipe)
             );
         }
     }
@@ -324,8 +390,9 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             &cfg.out,
             planned.test().as_str(),
             &inputs,
-            &predicted.markdown(),
+            &(predicted.markdown() + &suggested.markdown(&recipe)),
             Some(&predicted.manifest_entry()),
+            &suggested.manifest_entries(&recipe),
         )
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     match &planned {
@@ -353,6 +420,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         ),
     }
     out!("{}", predicted.render());
+    out!("{}", suggested.render(&recipe));
     if predicted.method != fivecal::identify::Method::Global {
         let global = fivecal::analyze::design::predict(
             &planned,

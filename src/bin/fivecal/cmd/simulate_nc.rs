@@ -80,14 +80,14 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let mut settings = SimSettings::new(common.dialect);
+    let (detection, file) = common.open_program(&args.program)?;
+    let mut settings = SimSettings::new(detection.dialect);
     settings.strict = common.strict;
     settings.origin = common.origin;
     settings.coordinates = common.coordinates;
     settings.fanuc_integer_unit = common.integer_unit;
     settings.step = args.step;
     let sim = Simulator::new(&errors.model, &errors.theta, settings);
-    let file = fivecal::input::open_stream(&args.program, "NC program")?;
     // Samples are kept only when a CSV or the CMM points need them.
     let keep = args.output.is_some() || cmm_points.is_some();
     let mut samples: Vec<Sample> = Vec::new();
@@ -182,6 +182,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         common.machine_origin,
         args.errors.display()
     );
+    outln!("  read as {detection}");
     outln!(
         "  {} blocks, {} moves, {} samples",
         summary.blocks,
