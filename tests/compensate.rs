@@ -106,6 +106,14 @@ pub fn ring_program(m: &Machine, d: Dialect, tcp: bool, n: usize, radius: f64) -
                 lines.push("M128".into());
             }
         }
+        Dialect::Sinumerik => {
+            lines.push("%_N_RING_MPF".into());
+            lines.push("; generated 5-axis ring".into());
+            lines.push("G17 G90 G710 G94 G54 D1".into());
+            if tcp {
+                lines.push("TRAORI".into());
+            }
+        }
     }
     for i in 0..=n {
         let (p, t, c) = pose(i);
@@ -134,6 +142,12 @@ pub fn ring_program(m: &Machine, d: Dialect, tcp: bool, n: usize, radius: f64) -
         }
         Dialect::Linuxcnc => lines.push("M2".into()),
         Dialect::Heidenhain => lines.push("END PGM RING MM".into()),
+        Dialect::Sinumerik => {
+            if tcp {
+                lines.push("TRAFOOF".into());
+            }
+            lines.push("M30".into());
+        }
     }
     if hh {
         lines = lines

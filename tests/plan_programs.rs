@@ -89,7 +89,7 @@ fn axes_of(t: &MachiningPlan, c: &Canon) -> Axes {
 
 /// The planned feed moves the program writes (a move whose rounded
 /// coordinates repeat the previous ones writes no block).
-fn planned_feeds(t: &MachiningPlan) -> Vec<Vector3<f64>> {
+pub fn planned_feeds(t: &MachiningPlan) -> Vec<Vector3<f64>> {
     let fmt = |v: &Vector3<f64>| format!("{:.4} {:.4} {:.4}", v.x, v.y, v.z);
     let mut last = String::new();
     let mut out = Vec::new();

@@ -10,7 +10,7 @@ use std::path::Path;
 use fivecal::formats::measured;
 use fivecal::formats::points::PlanPoints;
 use fivecal::formats::probe_log::{
-    self, Logged, ProbeLog, ReadOptions, Repeats, fanuc, heidenhain, linuxcnc, write,
+    self, Logged, ProbeLog, ReadOptions, Repeats, fanuc, heidenhain, linuxcnc, sinumerik, write,
 };
 use fivecal::kinematics::Kinematics;
 use fivecal::machine::Dialect;
@@ -413,6 +413,7 @@ fn every_touch_of_a_plan_reads_back_through_each_dialect() {
         let mut fan = String::from("%\nFIVECAL PROBE-COLUMNS\n");
         let mut hh = String::from("FIVECAL probe-columns\n");
         let mut lc = String::from("FIVECAL probe-columns\n");
+        let mut si = String::from("FIVECAL probe-columns\n");
         for (i, t) in plan.touches.iter().enumerate() {
             // The controller reports commanded X, Y, Z at the trigger.
             let ball_w = t.contact.ball_w + t.normal_w * offset(i);
@@ -420,6 +421,7 @@ fn every_touch_of_a_plan_reads_back_through_each_dialect() {
             fan += &(fanuc::touch_line(t.index, &xyz, fanuc::Prt::Spaces) + "\n");
             hh += &(heidenhain::touch_line(t.index, &xyz, Logged::BallCentre, true) + "\n");
             lc += &(linuxcnc::log_line(&t.label, &xyz) + "\n");
+            si += &(sinumerik::touch_line(t.index, &xyz) + "\n");
             assert!(
                 [t.start.axes.xyz, t.end.axes.xyz]
                     .iter()
@@ -434,6 +436,7 @@ fn every_touch_of_a_plan_reads_back_through_each_dialect() {
             (Dialect::Fanuc, &fan),
             (Dialect::Heidenhain, &hh),
             (Dialect::Linuxcnc, &lc),
+            (Dialect::Sinumerik, &si),
         ] {
             let log = probe_log::read(dialect, Path::new("log"), src, &points, kin, &o)
                 .unwrap_or_else(|e| panic!("{name} {dialect}: {e}"));
@@ -510,6 +513,8 @@ fn log_writers_round_trip_through_the_readers_in_every_dialect_and_control_setti
         ("head-table", "probe-sphere", Dialect::Heidenhain),
         ("head-table", "probe-columns", Dialect::Linuxcnc),
         ("head-head", "probe-sphere", Dialect::Linuxcnc),
+        ("bc-trunnion", "probe-columns", Dialect::Sinumerik),
+        ("head-head", "probe-sphere", Dialect::Sinumerik),
     ] {
         let p = probing(m, test, d);
         let base = p.log_format();
@@ -560,6 +565,9 @@ fn log_writers_print_exactly_what_the_control_prints() {
         first(&l),
         "FIVECAL probe-sphere\nT A0C0_xp X82.000000 Y0.000000 Z50.000000\n"
     );
+    // SINUMERIK: the program rounds to four decimals; `<<` leaves no zeros.
+    let s = probing("ac-trunnion", "probe-sphere", Dialect::Sinumerik);
+    assert_eq!(first(&s), "FIVECAL probe-sphere\nT1 X82 Y0 Z50\n");
 }
 
 /// A HEIDENHAIN definition whose format file prints ball centres (`T`)

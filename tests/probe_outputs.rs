@@ -582,7 +582,7 @@ fn single_axis_probing_leaves_out_oblique_touches_and_says_so() {
 /// plan really wrote beside it.
 #[test]
 fn the_setup_sheet_names_the_command_that_reads_the_log_back() {
-    for d in [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc] {
+    for d in Dialect::ALL {
         let p = probing("ac-trunnion", "probe-columns", d);
         let (_keep, dir) = written(&p);
         let sheet = std::fs::read_to_string(dir.join("probe-columns.md")).unwrap();

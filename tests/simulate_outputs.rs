@@ -117,7 +117,7 @@ fn every_output_format_reads_back_into_the_simulated_points() {
         assert!((a.height_um - b.height_um).abs() <= 5e-5);
     }
     // Probe logs of every dialect, and the canonical CSV of the contacts.
-    for dialect in [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc] {
+    for dialect in Dialect::ALL {
         for test in ["probe-columns", "probe-sphere"] {
             let plan = Plan::Probing(Box::new(probing("ac-trunnion", test, dialect)));
             let errors = errors_for(&plan);

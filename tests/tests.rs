@@ -40,4 +40,5 @@ mod regression;
 mod simulate;
 mod simulate_forward;
 mod simulate_outputs;
+mod sinumerik;
 mod store;

@@ -308,7 +308,7 @@ impl Reader for ProbeLog {
         let (plan, kin, opts) = probe_context(path, ctx, "a probe log")?;
         // The plan's dialect first; a log of another dialect is still read
         // when its lines say which it is.
-        let mut order = vec![Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc];
+        let mut order = Dialect::ALL.to_vec();
         if let Some(d) = ctx.dialect {
             order.retain(|x| *x != d);
             order.insert(0, d);
@@ -322,7 +322,7 @@ impl Reader for ProbeLog {
                 }
             }
         }
-        Err(first_error.expect("three dialects were tried"))
+        Err(first_error.expect("every dialect was tried"))
     }
 }
 

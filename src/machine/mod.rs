@@ -56,11 +56,19 @@ pub enum Dialect {
     Heidenhain,
     /// LinuxCNC rs274ngc.
     Linuxcnc,
+    /// SINUMERIK 840D sl / ONE (DIN 66025 words with Siemens high-level
+    /// language: `;` comments, `X=expr`, R parameters, TRAORI, CYCLE800).
+    Sinumerik,
 }
 
 impl Dialect {
     /// All dialects.
-    pub const ALL: [Dialect; 3] = [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc];
+    pub const ALL: [Dialect; 4] = [
+        Dialect::Fanuc,
+        Dialect::Heidenhain,
+        Dialect::Linuxcnc,
+        Dialect::Sinumerik,
+    ];
 
     /// Lower-case name as used on the command line and in files.
     pub fn name(self) -> &'static str {
@@ -68,6 +76,7 @@ impl Dialect {
             Dialect::Fanuc => "fanuc",
             Dialect::Heidenhain => "heidenhain",
             Dialect::Linuxcnc => "linuxcnc",
+            Dialect::Sinumerik => "sinumerik",
         }
     }
 }
@@ -85,8 +94,9 @@ impl FromStr for Dialect {
             "fanuc" => Ok(Dialect::Fanuc),
             "heidenhain" => Ok(Dialect::Heidenhain),
             "linuxcnc" => Ok(Dialect::Linuxcnc),
+            "sinumerik" => Ok(Dialect::Sinumerik),
             _ => Err(format!(
-                "unknown dialect `{s}`: expected fanuc, heidenhain or linuxcnc"
+                "unknown dialect `{s}`: expected fanuc, heidenhain, linuxcnc or sinumerik"
             )),
         }
     }

@@ -31,19 +31,21 @@ pub struct Clue {
 /// What a program's blocks have shown so far.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Evidence {
-    /// The first clue of each dialect (fanuc, heidenhain, linuxcnc).
-    first: [Option<Clue>; 3],
+    /// The first clue of each dialect (fanuc, heidenhain, linuxcnc,
+    /// sinumerik).
+    first: [Option<Clue>; 4],
     /// The first ISO G-code motion word (`G0`, `G01`...): line and word.
     iso: Option<(usize, String)>,
 }
 
-const DIALECTS: [Dialect; 3] = [Dialect::Fanuc, Dialect::Heidenhain, Dialect::Linuxcnc];
+const DIALECTS: [Dialect; 4] = Dialect::ALL;
 
 fn slot(d: Dialect) -> usize {
     match d {
         Dialect::Fanuc => 0,
         Dialect::Heidenhain => 1,
         Dialect::Linuxcnc => 2,
+        Dialect::Sinumerik => 3,
     }
 }
 
@@ -178,6 +180,54 @@ fn program_number(code: &str) -> bool {
     !digits.is_empty() && digits.len() <= 8 && digits.bytes().all(|c| c.is_ascii_digit())
 }
 
+/// SINUMERIK blocks, by how they start (after the block number).
+const SINUMERIK_STARTS: [&str; 12] = [
+    "%_N_",
+    "DEF REAL",
+    "DEF INT",
+    "DEF BOOL",
+    "DEF STRING",
+    "DEF CHAR",
+    "DEF AXIS",
+    "DEF FRAME",
+    "PROC ",
+    "ENDIF",
+    "ENDWHILE",
+    "ENDLOOP",
+];
+
+/// SINUMERIK words no other dialect takes (outside comments): its
+/// transformations, swivel cycle, frame suppression, pre-processing stop,
+/// jumps and measuring words.
+const SINUMERIK_WORDS: [&str; 10] = [
+    "TRAORI", "TRAFOOF", "CYCLE800", "CYCLE832", "SUPA", "STOPRE", "GOTOF", "GOTOB", "TRANS",
+    "ATRANS",
+];
+
+/// SINUMERIK spellings inside a block: `X=AC(..)`, `=IC(..)`, `=DC(..)`,
+/// a measuring block, system variables, a tool called by name.
+const SINUMERIK_SPELLINGS: [&str; 8] =
+    ["=AC", "=IC", "=DC", "MEAS=", "$AA_", "$AC_", "$P_", "T=\""];
+
+/// The SINUMERIK sign of a block, if it has one: `upper` is the whole
+/// block, `body` after its number, `code` without comments. A `;` comment
+/// is no sign: HEIDENHAIN writes them too.
+fn sinumerik_sign(upper: &str, body: &str, code: &str) -> Option<&'static str> {
+    if upper.trim_start().starts_with(";$PATH=") {
+        return Some(";$PATH=");
+    }
+    if let Some(s) = SINUMERIK_STARTS.iter().find(|s| body.starts_with(**s)) {
+        return Some(s);
+    }
+    if let Some(w) = SINUMERIK_WORDS.iter().find(|w| has_word(code, w)) {
+        return Some(w);
+    }
+    SINUMERIK_SPELLINGS
+        .iter()
+        .find(|w| code.contains(**w))
+        .copied()
+}
+
 /// The signs in one block's text, by dialect.
 fn signs(text: &str) -> Vec<(Dialect, &'static str)> {
     let upper = text.to_ascii_uppercase();
@@ -234,6 +284,9 @@ fn signs(text: &str) -> Vec<(Dialect, &'static str)> {
             out.push((Dialect::Linuxcnc, "o-word"));
         }
     }
+    if let Some(sign) = sinumerik_sign(&upper, body, &code) {
+        out.push((Dialect::Sinumerik, sign));
+    }
     out
 }
 
@@ -287,13 +340,15 @@ impl Evidence {
 }
 
 /// The dialect a file's name suggests: `.h` is HEIDENHAIN Klartext (the
-/// extension the TNC gives it), `.ngc` LinuxCNC's. Other extensions
+/// extension the TNC gives it), `.ngc` LinuxCNC's, `.mpf` and `.spf`
+/// SINUMERIK's main programs and subprograms. Other extensions
 /// (`.nc`, `.tap`, `.txt`...) are used by every G-code control.
 pub fn hinted(path: &Path) -> Option<Dialect> {
     let ext = path.extension()?.to_str()?.to_ascii_lowercase();
     match ext.as_str() {
         "h" => Some(Dialect::Heidenhain),
         "ngc" => Some(Dialect::Linuxcnc),
+        "mpf" | "spf" => Some(Dialect::Sinumerik),
         _ => None,
     }
 }
@@ -345,7 +400,7 @@ fn detect_from(e: &Evidence, hint: Option<Dialect>, machine: Dialect) -> Detecti
         dialect: c.dialect,
         why: format!("from the text: `{}` at line {}", c.sign, c.line),
     };
-    let iso = [Dialect::Fanuc, Dialect::Linuxcnc];
+    let iso = [Dialect::Fanuc, Dialect::Linuxcnc, Dialect::Sinumerik];
     let shown: Vec<&Clue> = DIALECTS.iter().filter_map(|&d| e.clue(d)).collect();
     // Klartext has no ISO motion word: a G-code program with a block that
     // merely starts like one of its blocks is still G-code.
@@ -354,6 +409,11 @@ fn detect_from(e: &Evidence, hint: Option<Dialect>, machine: Dialect) -> Detecti
         && (e.iso().is_none() || shown.len() == 1 && e.iso().is_some_and(|(l, _)| l > k.line))
     {
         return by_sign(k);
+    }
+    // A SINUMERIK sign (`%_N_`, TRAORI, `X=AC(`...) is nothing FANUC or
+    // LinuxCNC takes, while its `GOTO label` reads as FANUC's GOTO.
+    if let Some(si) = e.clue(Dialect::Sinumerik) {
+        return by_sign(si);
     }
     let g: Vec<&Clue> = shown
         .iter()
@@ -617,5 +677,76 @@ mod tests {
             detected("p.txt", "", Dialect::Linuxcnc).dialect,
             Dialect::Linuxcnc
         );
+    }
+}
+
+#[cfg(test)]
+mod sinumerik_tests {
+    use super::*;
+
+    fn first_sign(src: &str) -> Option<(Dialect, usize, &'static str)> {
+        let mut e = Evidence::default();
+        for (i, l) in src.lines().enumerate() {
+            e.observe(l.as_bytes(), i + 1);
+        }
+        e.clue(Dialect::Sinumerik)
+            .map(|c| (c.dialect, c.line, c.sign))
+    }
+
+    #[test]
+    fn sinumerik_shows_by_its_header_transformations_cycles_and_spellings() {
+        for (block, sign) in [
+            ("%_N_SHAFT123_MPF", "%_N_"),
+            (";$PATH=/_N_MPF_DIR", ";$PATH="),
+            ("N30 DEF REAL _camtolerance", "DEF REAL"),
+            ("N10 TRAORI", "TRAORI"),
+            (
+                "CYCLE800(0,\"TC1\",0,192,0,0,0,0,30,45,0,0,0,1)",
+                "CYCLE800",
+            ),
+            ("SUPA G0 Z0 D0", "SUPA"),
+            ("IF R6<R3 GOTOF END", "GOTOF"),
+            ("G1 X=AC(10) Y5", "=AC"),
+            ("MEAS=1 G1 X10 Y0 Z5 F100", "MEAS="),
+            ("R1=$AA_MW[X]", "$AA_"),
+            ("T=\"D8 MILL\" M6", "T=\""),
+            ("ENDIF", "ENDIF"),
+        ] {
+            assert_eq!(
+                first_sign(block),
+                Some((Dialect::Sinumerik, 1, sign)),
+                "{block}"
+            );
+        }
+        // A `;` comment is HEIDENHAIN's too; plain words are everyone's.
+        for block in [
+            "G0 X1 Y2 ; TRAORI in a comment",
+            "5 L X+1 R0 FMAX ; comment",
+            "G1 X10 F100",
+            "(CYCLE800 in a FANUC comment)",
+        ] {
+            assert_eq!(first_sign(block), None, "{block}");
+        }
+    }
+
+    #[test]
+    fn a_sinumerik_program_is_read_as_sinumerik_whatever_the_machine() {
+        let program = "N10 G17 G90 G710\nN20 LBL1:\nN30 GOTO LBL1\nN40 TRAORI\nN50 G1 X1 F100\n";
+        for m in DIALECTS {
+            let d = detect(Path::new("p.nc"), program.as_bytes(), m);
+            assert_eq!(d.dialect, Dialect::Sinumerik, "{m}");
+            assert_eq!(d.why, "from the text: `TRAORI` at line 4");
+        }
+        // Plain G-code: the .mpf extension, or a SINUMERIK machine.
+        let plain = "G90 G0 X10 Y10\nG1 Z-1 F100\nM30\n";
+        assert_eq!(
+            detect(Path::new("P.MPF"), plain.as_bytes(), Dialect::Fanuc).dialect,
+            Dialect::Sinumerik
+        );
+        assert_eq!(
+            detect(Path::new("p.nc"), plain.as_bytes(), Dialect::Sinumerik).dialect,
+            Dialect::Sinumerik
+        );
+        assert_eq!(hinted(Path::new("sub.spf")), Some(Dialect::Sinumerik));
     }
 }

@@ -1,5 +1,6 @@
 //! NC programs as a lossless concrete syntax tree, for FANUC (ISO G-code
-//! with Custom Macro B), LinuxCNC (rs274ngc) and HEIDENHAIN Klartext.
+//! with Custom Macro B), LinuxCNC (rs274ngc), HEIDENHAIN Klartext and
+//! SINUMERIK.
 //!
 //! A program is read one *block* at a time (a line; on HEIDENHAIN a line
 //! plus the lines its `~` continues onto), so memory does not grow with the

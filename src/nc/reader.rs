@@ -136,7 +136,7 @@ impl<R: BufRead> Blocks<R> {
                     )
                 } else {
                     format!(
-                        "no motion block understood in its {} blocks read as {d}: a program for another controller? (--dialect fanuc, heidenhain or linuxcnc)",
+                        "no motion block understood in its {} blocks read as {d}: a program for another controller? (--dialect fanuc, heidenhain, linuxcnc or sinumerik)",
                         self.count
                     )
                 },

@@ -165,7 +165,7 @@ struct TemplateSpot {
 pub enum DefinitionError {
     /// Neither a path nor a built-in definition.
     #[error(
-        "no built-in postprocessor `{0}` (built-in: fanuc, heidenhain, linuxcnc); a postprocessor file is named by its path, with a `/` or a `.yaml` extension (./{0}.yaml)"
+        "no built-in postprocessor `{0}` (built-in: fanuc, heidenhain, linuxcnc, sinumerik); a postprocessor file is named by its path, with a `/` or a `.yaml` extension (./{0}.yaml)"
     )]
     NotFound(String),
     /// Malformed definition or template.
@@ -217,7 +217,7 @@ impl std::fmt::Debug for PostDefinition {
 }
 
 /// Built-in definitions: (name, YAML text).
-pub const BUILTIN: [(&str, &str); 3] = [
+pub const BUILTIN: [(&str, &str); 4] = [
     ("fanuc", include_str!("../../postprocessors/fanuc.yaml")),
     (
         "heidenhain",
@@ -226,6 +226,10 @@ pub const BUILTIN: [(&str, &str); 3] = [
     (
         "linuxcnc",
         include_str!("../../postprocessors/linuxcnc.yaml"),
+    ),
+    (
+        "sinumerik",
+        include_str!("../../postprocessors/sinumerik.yaml"),
     ),
 ];
 

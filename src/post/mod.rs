@@ -6,8 +6,8 @@
 //! the tilted-plane frame while a [`Op::TiltedPlane`] is active). A
 //! definition is a YAML file with the dialect's number formats, block
 //! numbering, comment rules, line-length limit and one MiniJinja template
-//! per op; the three built-in definitions (`fanuc`, `heidenhain`,
-//! `linuxcnc`) are embedded in the binary, and a user can copy one, edit it
+//! per op; the four built-in definitions (`fanuc`, `heidenhain`,
+//! `linuxcnc`, `sinumerik`) are embedded in the binary, and a user can copy one, edit it
 //! and pass it by path. The engine, not the templates, enforces the safety
 //! rules every program must keep: a [`Op::Retract`] before every
 //! [`Op::Rotary`] index (no move in between), no rotary index while a tilted
@@ -17,21 +17,21 @@
 //!
 //! What each op becomes in the built-in definitions:
 //!
-//! | op | FANUC | HEIDENHAIN | LinuxCNC |
-//! |---|---|---|---|
-//! | `Rapid` / `Feed` | `G0 X..` / `G1 X.. F..` | `L X+.. R0 FMAX` / `L X+.. R0 F..` | `G0` / `G1` |
-//! | `Retract` | `G0 Z..` | `L Z+.. R0 FMAX` | `G0 Z..` |
-//! | `Rotary` | `G0 B.. C..` | `L B+.. C+.. R0 FMAX` | `G0 B.. C..` |
-//! | `TiltedPlane` | `G68.2 X0 Y0 Z0 I J K` + `G53.1` | `PLANE SPATIAL SPA SPB SPC STAY` | (none: refused) |
-//! | `TcpOn` | `G43.4 H..` | `FUNCTION TCPM ...` | (none: refused) |
-//! | `ProbeMove` | `G31 X.. F..` | `TCH PROBE 0.0 REF. PLANE Q.. Z-` / `0.1` start point | `G38.2 X.. F..` |
-//! | `ProbeRead` | `#101=#5061` ... | `FN 18: SYSREAD Q101 = ID360 NR1 IDX1` ... | `#101=#5061` ... |
-//! | `LogOpen` | `POPEN`, `DPRNT[FIVECAL*TEST]` | `FN 16: F-PRINT <log>-head.A / <log>.txt` | `(LOGOPEN,<log>.log)`, `(LOG,FIVECAL test)` |
-//! | `LogPoint` | `#199=i`, `DPRNT[T#199[50]*X#5061[44]*...]` | `FN 18` reads of ID360, `Q1900 = i`, `FN 16: F-PRINT <log>-touch.A / ...` | `(LOG,T label X#5061 Y#5062 Z#5063)` |
-//! | `LogClose` | `PCLOS` | (nothing) | `(LOGCLOSE)` |
+//! | op | FANUC | HEIDENHAIN | LinuxCNC | SINUMERIK |
+//! |---|---|---|---|---|
+//! | `Rapid` / `Feed` | `G0 X..` / `G1 X.. F..` | `L X+.. R0 FMAX` / `L X+.. R0 F..` | `G0` / `G1` | `G0` / `G1` |
+//! | `Retract` | `G0 Z..` | `L Z+.. R0 FMAX` | `G0 Z..` | `G0 Z..` |
+//! | `Rotary` | `G0 B.. C..` | `L B+.. C+.. R0 FMAX` | `G0 B.. C..` | `G0 B.. C..` |
+//! | `TiltedPlane` | `G68.2 X0 Y0 Z0 I J K` + `G53.1` | `PLANE SPATIAL SPA SPB SPC STAY` | (none: refused) | `CYCLE800(0,"TC1",0,192,...)` (rotary positions) |
+//! | `TcpOn` | `G43.4 H..` | `FUNCTION TCPM ...` | (none: refused) | `TRAORI` |
+//! | `ProbeMove` | `G31 X.. F..` | `TCH PROBE 0.0 REF. PLANE Q.. Z-` / `0.1` start point | `G38.2 X.. F..` | `MEAS=1 G1 X.. Y.. Z.. F..`, `STOPRE`, alarm if `$AC_MEA[1]==0` |
+//! | `ProbeRead` | `#101=#5061` ... | `FN 18: SYSREAD Q101 = ID360 NR1 IDX1` ... | `#101=#5061` ... | `R101=$AA_MW[X]` ... |
+//! | `LogOpen` | `POPEN`, `DPRNT[FIVECAL*TEST]` | `FN 16: F-PRINT <log>-head.A / <log>.txt` | `(LOGOPEN,<log>.log)`, `(LOG,FIVECAL test)` | `DELETE` of an old log, `WRITE(FCERR,"FIVECAL_<LOG>","FIVECAL test")` |
+//! | `LogPoint` | `#199=i`, `DPRNT[T#199[50]*X#5061[44]*...]` | `FN 18` reads of ID360, `Q1900 = i`, `FN 16: F-PRINT <log>-touch.A / ...` | `(LOG,T label X#5061 Y#5062 Z#5063)` | `R1=$AA_MW[X]`..., `FCLINE="T<i> X"<<ROUND(R1*10000)/10000<<...`, `WRITE` |
+//! | `LogClose` | `PCLOS` | (nothing) | `(LOGCLOSE)` | (nothing) |
 //!
 //! The log lines are exactly what [`crate::formats::probe_log`] reads
-//! (FANUC and HEIDENHAIN by touch index, LinuxCNC by label; HEIDENHAIN's
+//! (FANUC, HEIDENHAIN and SINUMERIK by touch index, LinuxCNC by label; HEIDENHAIN's
 //! cycle-0 touch point is already radius-compensated and logged as a `K`
 //! line). HEIDENHAIN prints through two format files that
 //! [`PostDefinition::render`] returns as auxiliary files (`<log>-head.a`,

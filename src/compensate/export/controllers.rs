@@ -281,6 +281,12 @@ pub(super) fn parameters(
                 0.0,
             ));
         }
+        (Dialect::Sinumerik, _) => {
+            return Err(ExportError::Unsupported(format!(
+                "the SINUMERIK swivel data record export is not part of this build; rewrite the programs of {} with `fivecal compensate` instead",
+                m.name
+            )));
+        }
         (Dialect::Linuxcnc, s) => {
             return Err(ExportError::Unsupported(format!(
                 "LinuxCNC's stock kinematics with pivot offsets (xyzac-trt-kins, xyzbc-trt-kins) are for tilting-table machines; {} is {s}: rewrite its programs with `fivecal compensate` instead",
@@ -454,6 +460,8 @@ setp {kins}.conventional-directions 1
             );
             none_else(&mut s, "#");
         }
+        // `parameters` refuses the target before anything is rendered.
+        Dialect::Sinumerik => {}
     }
     s
 }

@@ -14,6 +14,7 @@
 //! | FANUC | `T    17 X   33.0000 Y-  45.0000 Z  135.0021` | [`fanuc::touch_blocks`]: `#199=17`, `DPRNT[T#199[50]*X#5061[44]*Y#5062[44]*Z#5063[44]]` |
 //! | HEIDENHAIN | `K17 X33,0000 Y-45,0000 Z132,0021` (cycle 0's compensated touch point; `T` for ball centres) | [`heidenhain::cycle0_reads`], [`heidenhain::touch_format_file`] (`.A`) and [`heidenhain::touch_statements`] (`FN 16: F-PRINT`) |
 //! | LinuxCNC | `T A0C0_C1_xp X33.000000 Y-45.000000 Z135.002100` | [`linuxcnc::touch_line`]: `(LOG,T A0C0_C1_xp X#5061 Y#5062 Z#5063)` |
+//! | SINUMERIK | `T17 X33 Y-45 Z135.0021` | `R1=$AA_MW[X]` ..., `FCLINE="T17 X"<<ROUND(R1*10000)/10000<<...`, `WRITE(FCERR,"FIVECAL_COLUMNS",FCLINE)` ([`sinumerik`]) |
 //!
 //! and a header line `FIVECAL <test>` at the start of each run.
 //! [`write::LogFormat`] writes these logs as the control would, for a
@@ -53,6 +54,7 @@
 pub mod fanuc;
 pub mod heidenhain;
 pub mod linuxcnc;
+pub mod sinumerik;
 pub mod write;
 
 use std::collections::HashMap;
@@ -181,6 +183,7 @@ pub fn read(
         Dialect::Fanuc => fanuc::parse(path, src)?,
         Dialect::Heidenhain => heidenhain::parse(path, src)?,
         Dialect::Linuxcnc => linuxcnc::parse_log(path, src)?,
+        Dialect::Sinumerik => sinumerik::parse(path, src)?,
     };
     join(path, &raw, plan, kin, opts)
 }

@@ -33,13 +33,16 @@
 //!   control's language writes one ([`LogFormat::comma`]).
 //! - LinuxCNC (`(LOG,T label X#5061 Y#5062 Z#5063)`): `%lf`, six
 //!   decimals, the label instead of the index.
+//! - SINUMERIK (`WRITE` of `"T17 X"<<ROUND(R1*10000)/10000<<...`, R1 to R3
+//!   from `$AA_MW`): the index and the values rounded to four decimals,
+//!   trailing zeros left out.
 //!
 //! Every log starts with the header line `FIVECAL <test>` (FANUC in
 //! capitals, as DPRNT prints literal text).
 
 use nalgebra::Vector3;
 
-use super::{Logged, fanuc, heidenhain, linuxcnc};
+use super::{Logged, fanuc, heidenhain, linuxcnc, sinumerik};
 use crate::machine::Dialect;
 use crate::post::RenderedProgram;
 use crate::procedure::probing::{Touch, TouchPlan};
@@ -109,7 +112,9 @@ impl LogFormat {
                 v.push(format!("FIVECAL {}", test.to_ascii_uppercase()));
                 v
             }
-            Dialect::Heidenhain | Dialect::Linuxcnc => vec![format!("FIVECAL {test}")],
+            Dialect::Heidenhain | Dialect::Linuxcnc | Dialect::Sinumerik => {
+                vec![format!("FIVECAL {test}")]
+            }
         }
     }
 
@@ -145,6 +150,7 @@ impl LogFormat {
                 heidenhain::touch_line(index, &p, self.logged, self.comma)
             }
             Dialect::Linuxcnc => linuxcnc::log_line(label, recorded),
+            Dialect::Sinumerik => sinumerik::touch_line(index, recorded),
         }
     }
 

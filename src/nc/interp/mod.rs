@@ -17,7 +17,8 @@
 //! controller picks.
 //!
 //! The semantics of each dialect live in one file: [`gcode`] holds the
-//! word-address G-code of FANUC and LinuxCNC, `heidenhain` Klartext;
+//! word-address G-code of FANUC and LinuxCNC, `heidenhain` Klartext,
+//! `sinumerik` the SINUMERIK language;
 //! another dialect is one more file and one more arm in
 //! [`Interpreter::step`].
 //!
@@ -34,6 +35,7 @@ pub mod coordinates;
 pub mod gcode;
 mod heidenhain;
 pub mod interpolation;
+mod sinumerik;
 
 use std::sync::Arc as Shared;
 
@@ -449,6 +451,8 @@ pub struct Interpreter {
     pub unmodelled: Option<Unmodelled>,
     /// A machine-file M function switched TCP in this statement.
     tcp_remapped: bool,
+    /// SINUMERIK block `IF`s open here, innermost last.
+    branches: Vec<sinumerik::Branch>,
 }
 
 /// What a work offset changed by G10 leaves unknown.
@@ -476,10 +480,11 @@ impl Interpreter {
             feed_mode: FeedMode::PerMinute,
             feed: None,
             plane: Plane::Xy,
-            work_offset: if dialect == Dialect::Heidenhain {
-                100_000
-            } else {
-                540
+            work_offset: match dialect {
+                Dialect::Heidenhain => 100_000,
+                // G500: no settable offset until the program selects one.
+                Dialect::Sinumerik => 5000,
+                Dialect::Fanuc | Dialect::Linuxcnc => 540,
             },
             tool_length: dialect == Dialect::Heidenhain,
             tcp: Tcp::Off,
@@ -496,6 +501,7 @@ impl Interpreter {
             altered_offsets: Vec::new(),
             unmodelled: None,
             tcp_remapped: false,
+            branches: Vec::new(),
         }
     }
 
@@ -538,6 +544,7 @@ impl Interpreter {
         let ev = match self.cfg.settings.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
             Dialect::Heidenhain => self.heidenhain(block, seg),
+            Dialect::Sinumerik => self.sinumerik(block, seg),
         };
         if self.tcp != tcp_before {
             self.tcp_cause = Some(TcpCause {
@@ -820,10 +827,16 @@ pub fn known_m(dialect: Dialect, m: u32) -> bool {
         104, 105, 106, 107, 108, 109, 110, 111, 114, 115, 116, 117, 118, 120, 124, 126, 127, 128,
         129, 130, 134, 135, 136, 137, 138, 140, 141, 142, 143, 144, 145, 148, 149, 150, 197,
     ];
+    // SINUMERIK: stop, end, spindle, tool change, coolant, subprogram end,
+    // spindle positioning and gear stages (M40-M45), M70 (spindle as axis).
+    const SINUMERIK: &[u32] = &[
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 17, 19, 30, 40, 41, 42, 43, 44, 45, 70,
+    ];
     let list = match dialect {
         Dialect::Fanuc => FANUC,
         Dialect::Linuxcnc => LINUXCNC,
         Dialect::Heidenhain => HEIDENHAIN,
+        Dialect::Sinumerik => SINUMERIK,
     };
     list.binary_search(&m).is_ok()
 }
@@ -864,6 +877,15 @@ fn may_change_state(dialect: Dialect, code: &[u8]) -> bool {
         Dialect::Fanuc | Dialect::Linuxcnc => {
             letter_word(code, b"GMO") || code.iter().any(|c| matches!(c, b'#' | b'=' | b'<'))
         }
+        // Any G, M or D word, assignment, command or call (a name of two
+        // letters or more): only plain axis and feed words are left.
+        Dialect::Sinumerik => {
+            letter_word(code, b"GMD")
+                || code.contains(&b'=')
+                || code.windows(2).any(|w| {
+                    w[0].is_ascii_alphabetic() && (w[1].is_ascii_alphabetic() || w[1] == b'_')
+                })
+        }
         Dialect::Heidenhain => {
             let body: Vec<u8> = code
                 .iter()
@@ -895,7 +917,8 @@ fn code_of(dialect: Dialect, text: &[u8]) -> Vec<u8> {
     for &c in text {
         match c {
             b';' if dialect != Dialect::Fanuc => break,
-            b'(' if dialect != Dialect::Heidenhain => depth += 1,
+            // SINUMERIK's `(` opens a parameter list, not a comment.
+            b'(' if matches!(dialect, Dialect::Fanuc | Dialect::Linuxcnc) => depth += 1,
             b')' if depth > 0 => depth -= 1,
             _ if depth == 0 => code.push(c.to_ascii_uppercase()),
             _ => {}

@@ -1,7 +1,9 @@
 //! Tokenizing a block in its dialect: [`word_address`] for FANUC and
-//! LinuxCNC (with their macro languages), [`klartext`] for HEIDENHAIN.
+//! LinuxCNC (with their macro languages), [`klartext`] for HEIDENHAIN,
+//! [`sinumerik`] for SINUMERIK.
 
 pub mod klartext;
+pub mod sinumerik;
 pub mod word_address;
 
 use super::{Block, BlockError};
@@ -25,6 +27,7 @@ impl Syntax {
         match self.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => word_address::parse(self, block),
             Dialect::Heidenhain => klartext::parse(self, block),
+            Dialect::Sinumerik => sinumerik::parse(self, block),
         }?;
         debug_assert!(covers(block), "tokens must cover the block exactly");
         Ok(())

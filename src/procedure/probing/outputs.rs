@@ -131,6 +131,13 @@ impl ProbingPlan {
                 ),
                 "LOG writes the touch label and the probe position #5061-#5063",
             ),
+            crate::machine::Dialect::Sinumerik => (
+                format!(
+                    "the file `FIVECAL_{}` of the program's directory (copy it off the control; the program deletes the log of an earlier run first)",
+                    log_name(self.test).to_ascii_uppercase()
+                ),
+                "WRITE appends the touch index and the latched position $AA_MW (rounded to 4 decimals by the program)",
+            ),
         };
         let _ = writeln!(o, "- Written to {where_}: {how}.");
         if let Some(e) = example {

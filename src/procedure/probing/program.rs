@@ -539,6 +539,7 @@ pub fn plan(cfg: &PlanConfig) -> Result<ProbingPlan, PlanError> {
         Dialect::Fanuc => "POPEN output (DPRNT)".to_string(),
         Dialect::Heidenhain => format!("TNC:\\fivecal\\{log}.txt (FN 16)"),
         Dialect::Linuxcnc => format!("{log}.log (LOGOPEN)"),
+        Dialect::Sinumerik => format!("FIVECAL_{} (WRITE)", log.to_ascii_uppercase()),
     };
     let mut lines = vec![
         format!("fivecal plan: {test}: {what}"),

@@ -38,9 +38,9 @@ pub struct MachineArgs {
     #[arg(long, value_name = "M.yaml")]
     pub machine: String,
     /// Controller dialect of the program [default: what its text shows
-    /// (BEGIN PGM, O-numbers, o-words, G43.4...), then its extension (.h,
-    /// .ngc), then the machine's].
-    #[arg(long, value_name = "D", value_parser = ["fanuc", "heidenhain", "linuxcnc"])]
+    /// (BEGIN PGM, O-numbers, o-words, G43.4, %_N_.._MPF, TRAORI...), then
+    /// its extension (.h, .ngc, .mpf, .spf), then the machine's].
+    #[arg(long, value_name = "D", value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     pub dialect: Option<String>,
     /// Where the program zero lies in W at rotary zero, mm [default: 0,0,0,
     /// as `fivecal plan` writes programs].

@@ -41,7 +41,7 @@ pub struct PlanArgs {
     /// Measure it and give both tests to the next `discover`.
     #[arg(long, value_name = "DISCOVER.yaml", conflicts_with = "template")]
     supplement: Option<PathBuf>,
-    /// Controller dialect: fanuc, heidenhain or linuxcnc [default: the
+    /// Controller dialect: fanuc, heidenhain, linuxcnc or sinumerik [default: the
     /// machine file's controller].
     #[arg(long)]
     dialect: Option<String>,
