@@ -335,8 +335,15 @@ impl Evidence {
             .iter()
             .filter(|&&d| d != reading_as)
             .filter_map(|&d| self.clue(d))
+            .filter(|c| !shared_with(c, reading_as))
             .min_by_key(|c| c.line)
     }
+}
+
+/// Whether `c`, a sign of its dialect among the three others, is also
+/// good `d`: FANUC's macro `GOTO` is SINUMERIK's jump as well.
+fn shared_with(c: &Clue, d: Dialect) -> bool {
+    c.dialect == Dialect::Fanuc && c.sign == "GOTO" && d == Dialect::Sinumerik
 }
 
 /// The dialect a file's name suggests: `.h` is HEIDENHAIN Klartext (the
@@ -420,7 +427,25 @@ fn detect_from(e: &Evidence, hint: Option<Dialect>, machine: Dialect) -> Detecti
         .copied()
         .filter(|c| c.dialect != Dialect::Heidenhain)
         .collect();
+    // FANUC's `GOTO` alone is SINUMERIK's too: the extension or the
+    // machine says which.
+    let sinumerik = hint.or(Some(machine)).filter(|&d| d == Dialect::Sinumerik);
     match g.as_slice() {
+        [one] if sinumerik.is_some_and(|d| shared_with(one, d)) => {
+            return Detection {
+                dialect: Dialect::Sinumerik,
+                why: format!(
+                    "from the text: `{}` at line {}, FANUC's or SINUMERIK's; {} chose",
+                    one.sign,
+                    one.line,
+                    if hint.is_some() {
+                        "the file's extension"
+                    } else {
+                        "the machine's controller"
+                    }
+                ),
+            };
+        }
         [one] => return by_sign(one),
         [a, b] => {
             let pick = hint
@@ -678,11 +703,8 @@ mod tests {
             Dialect::Linuxcnc
         );
     }
-}
 
-#[cfg(test)]
-mod sinumerik_tests {
-    use super::*;
+    // SINUMERIK's signs.
 
     fn first_sign(src: &str) -> Option<(Dialect, usize, &'static str)> {
         let mut e = Evidence::default();
@@ -748,5 +770,29 @@ mod sinumerik_tests {
             Dialect::Sinumerik
         );
         assert_eq!(hinted(Path::new("sub.spf")), Some(Dialect::Sinumerik));
+    }
+
+    #[test]
+    fn a_lone_goto_is_sinumerik_s_where_the_extension_or_machine_says_so() {
+        let src = "; jumps\nGOTO\nN10 G1 X1 F100\n";
+        let d = detected("jumps.spf", src, Dialect::Fanuc);
+        assert_eq!(d.dialect, Dialect::Sinumerik);
+        assert!(d.why.contains("the file's extension chose"), "{}", d.why);
+        assert_eq!(
+            detected("jumps.nc", src, Dialect::Sinumerik).dialect,
+            Dialect::Sinumerik
+        );
+        assert_eq!(
+            detected("jumps.nc", src, Dialect::Fanuc).dialect,
+            Dialect::Fanuc
+        );
+        // Read as SINUMERIK, its GOTO is no sign of another dialect.
+        let mut e = Evidence::default();
+        e.observe(b"GOTO", 2);
+        assert_eq!(e.other_than(Dialect::Sinumerik), None);
+        assert_eq!(
+            e.other_than(Dialect::Linuxcnc).map(|c| c.dialect),
+            Some(Dialect::Fanuc)
+        );
     }
 }
