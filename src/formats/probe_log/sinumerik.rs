@@ -35,15 +35,9 @@
 use std::path::Path;
 
 use nalgebra::Vector3;
-use nom::Parser;
 
-use super::{
-    LogRecord, Logged, RawLog, TouchKey, blanks, end_of_line, expect, index, line_error,
-    parse_touch_lines, xyz,
-};
+use super::RawLog;
 use crate::source::SourceError;
-
-const TOUCH_LINE: &str = "T<index> X<x> Y<y> Z<z>";
 
 /// Decimals the program rounds each value to.
 pub const DECIMALS: i32 = 4;
@@ -73,32 +67,11 @@ pub fn touch_line(index: usize, ball: &Vector3<f64>) -> String {
     )
 }
 
-/// Parses a log written by `WRITE`.
+/// Parses a log written by `WRITE`: its lines are those of FANUC's DPRNT
+/// log (`T<index> X<x> Y<y> Z<z>`, any decimal spelling), read by one
+/// reader.
 pub fn parse(path: &Path, src: &str) -> Result<RawLog, SourceError> {
-    parse_touch_lines(src, |no, line, body, column| {
-        let mut touch = (
-            expect(
-                "`T` and the touch index",
-                nom::sequence::preceded(
-                    (nom::character::complete::char('T'), blanks),
-                    index(false),
-                ),
-            ),
-            xyz(false),
-            end_of_line,
-        );
-        let (_, (k, p, ())) = touch
-            .parse(body)
-            .map_err(|e| line_error(path, no, line, e, TOUCH_LINE))?;
-        Ok(LogRecord {
-            key: TouchKey::Index(k),
-            position: p,
-            logged: Logged::BallCentre,
-            rotary: None,
-            line: no,
-            column,
-        })
-    })
+    super::fanuc::parse(path, src)
 }
 
 #[cfg(test)]
@@ -113,7 +86,7 @@ mod tests {
         let src = format!("FIVECAL probe-columns\n{l}\nT18 X33.0000 Y-.5 Z0\n");
         let raw = parse(Path::new("log"), &src).unwrap();
         assert_eq!(raw.headers, vec![(1, "probe-columns".to_string())]);
-        assert_eq!(raw.records[0].key, TouchKey::Index(17));
+        assert_eq!(raw.records[0].key, super::super::TouchKey::Index(17));
         assert!((raw.records[0].position - ball).norm() < 0.6e-4);
         assert_eq!(raw.records[1].position, Vector3::new(33.0, -0.5, 0.0));
         assert_eq!(
