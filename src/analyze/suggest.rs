@@ -15,14 +15,25 @@
 //! tests, denser tilt x C grids over the tilt range, the same grids,
 //! coarse to fine, that `discover` tries for its supplementary test
 //! ([`crate::discover::separate::candidates`]).
+//!
+//! Some aliases no pose of one run separates: on a head machine the B
+//! head's offset and its angle move the probe's ball alike through the
+//! lever of the pivot and the probe's gauge length. A second run of the
+//! same test with another probe length does; the two runs are fitted
+//! together as `discover` fits several tests of one machine (each run its
+//! own setup and sphere-position nuisance, the location errors shared,
+//! [`crate::discover::Fitter`]), and that joint design is what such a
+//! suggestion predicts.
 
 use std::fmt::Write as _;
 
 use rayon::prelude::*;
 use serde_yaml::{Mapping, Value};
 
-use super::design::{Prediction, Row, predict};
-use crate::formats::manifest::{PredictedSymbol, SuggestedChange};
+use super::design::{Prediction, Row, nominal_data, predict};
+use crate::formats::manifest::{PredictedSymbol, SecondRunEntry, SuggestedChange};
+use crate::identify::Dataset;
+use crate::kinematics::Kinematics;
 use crate::procedure::{Plan, PlanConfig, Template, Test};
 
 /// Denser grids tried per probing test, cheapest first.
@@ -30,6 +41,9 @@ const GRIDS: usize = 2;
 
 /// Suggestions shown, most errors added first.
 const SHOWN: usize = 3;
+
+/// Probe lengths tried for a second run, as fractions of the first run's.
+const PROBE_LENGTHS: [f64; 2] = [1.6, 0.6];
 
 /// A change of the template: what it is and the keys it sets.
 #[derive(Clone, Debug, PartialEq)]
@@ -85,6 +99,53 @@ pub struct Suggestion {
     pub poses: usize,
     /// Its estimated run time, min.
     pub run_min: f64,
+    /// Where the change is a second run analysed together with the plan's:
+    /// what differs (`poses` and `run_min` are the second run's,
+    /// `prediction` the two runs' together).
+    pub second: Option<SecondRun>,
+}
+
+/// A second run of the same test on the same machine with another probe,
+/// measured beside the plan's run and analysed together with it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SecondRun {
+    /// The machine's name (the copy of its file keeps it: `discover` fits
+    /// one machine).
+    pub machine: String,
+    /// The first run's probe gauge length, mm.
+    pub was: f64,
+    /// The second run's, mm (the machine file's `probe.length`).
+    pub probe_length: f64,
+}
+
+impl SecondRun {
+    /// The keys to set in a copy of the machine file.
+    pub fn machine_keys(&self) -> Value {
+        let mut root = Value::Mapping(Mapping::new());
+        set(
+            &mut root,
+            &["probe".to_string(), "length".to_string()],
+            number(self.probe_length),
+        );
+        root
+    }
+
+    /// The name of that copy.
+    pub fn machine_file(&self) -> String {
+        format!(
+            "{}-probe{}.machine.yaml",
+            self.machine,
+            crate::procedure::short(self.probe_length)
+        )
+    }
+
+    fn what(&self) -> String {
+        format!(
+            "a second run with a {} mm probe (this one: {} mm), analysed together with this one",
+            crate::procedure::short(self.probe_length),
+            crate::procedure::short(self.was)
+        )
+    }
 }
 
 impl Suggestion {
@@ -92,8 +153,18 @@ impl Suggestion {
     fn outcome(&self) -> String {
         let total = self.prediction.rows.len();
         format!(
-            "{} of {total} ({} poses, about {:.0} min), adding {}",
+            "{}{} of {total} ({}{} poses, about {:.0} min), adding {}",
+            if self.second.is_some() {
+                "together "
+            } else {
+                ""
+            },
             total - self.prediction.missing().len(),
+            if self.second.is_some() {
+                "second run: "
+            } else {
+                ""
+            },
             self.poses,
             self.run_min,
             self.gains
@@ -117,9 +188,81 @@ pub struct Recipe {
     /// `fivecal plan TEST --machine M ...`, to which `--template FILE` is
     /// added.
     pub command: Option<String>,
+    /// This plan's output directory (`--out`): its manifest and the copy of
+    /// its machine file are there, for a second run beside it.
+    pub out: Option<String>,
+    /// The `--machine` argument of `command`, replaced by the copy of the
+    /// machine file a second run is planned with.
+    pub machine: Option<String>,
 }
 
 impl Recipe {
+    /// The copy of the machine file this plan wrote beside itself.
+    fn machine_copy(&self, test: Test) -> String {
+        let name = format!("{test}.machine.yaml");
+        match &self.out {
+            Some(o) => std::path::Path::new(o).join(name).display().to_string(),
+            None => name,
+        }
+    }
+
+    /// The second run's directory, beside this plan's.
+    fn second_out(&self) -> String {
+        match self.out.as_deref().map(|o| o.trim_end_matches('/')) {
+            Some(o) if !o.is_empty() && o != "." => format!("{o}-second"),
+            _ => "second".into(),
+        }
+    }
+
+    /// `fivecal plan` for the second run: this plan's command on the copy
+    /// of the machine file (with the template given, if one was).
+    fn second_command(&self, second: &SecondRun) -> Option<String> {
+        let c = self.command.as_ref()?;
+        let m = self.machine.as_ref()?;
+        let c = c.replacen(
+            &format!("--machine {m}"),
+            &format!("--machine {}", second.machine_file()),
+            1,
+        );
+        let template = match self.copy_of {
+            None => format!(" --template {}", self.file),
+            Some(_) => String::new(),
+        };
+        Some(format!("{c}{template} --out {}", self.second_out()))
+    }
+
+    /// `fivecal discover` on both runs' measurements.
+    fn together(&self, test: Test) -> String {
+        let manifest = format!("{test}.plan.yaml");
+        let first = match &self.out {
+            Some(o) => std::path::Path::new(o).join(&manifest),
+            None => manifest.clone().into(),
+        };
+        let second = std::path::Path::new(&self.second_out()).join(&manifest);
+        format!(
+            "fivecal discover --plan {} --measured FIRST-RUN-MEASURED --plan {} --measured SECOND-RUN-MEASURED",
+            first.display(),
+            second.display()
+        )
+    }
+
+    /// How to make the second run's machine file.
+    fn machine_edit(&self, test: Test, second: &SecondRun) -> String {
+        format!(
+            "copy {} (the machine file this plan used, as written beside it) to {} and set {} in it",
+            self.machine_copy(test),
+            second.machine_file(),
+            Change {
+                what: String::new(),
+                set: vec![(
+                    vec!["probe".into(), "length".into()],
+                    number(second.probe_length)
+                )],
+            }
+            .keys()
+        )
+    }
+
     fn command(&self) -> Option<String> {
         self.command
             .as_ref()
@@ -146,6 +289,8 @@ pub struct Suggestions {
     pub found: Vec<Suggestion>,
     /// Whether the plan left anything to suggest for.
     pub wanted: bool,
+    /// The test suggested for.
+    pub test: Option<Test>,
 }
 
 impl Suggestions {
@@ -173,6 +318,20 @@ impl Suggestions {
             "changes that identify more (each planned on this machine and predicted as above):"
         );
         for f in &self.found {
+            if let (Some(second), Some(test)) = (&f.second, self.test) {
+                let _ = writeln!(
+                    s,
+                    "  {}: {}",
+                    f.change.what,
+                    recipe.machine_edit(test, second)
+                );
+                let _ = writeln!(s, "    identifies {}", f.outcome());
+                if let Some(c) = recipe.second_command(second) {
+                    let _ = writeln!(s, "    {c}");
+                }
+                let _ = writeln!(s, "    then, both runs measured: {}", recipe.together(test));
+                continue;
+            }
             let _ = writeln!(
                 s,
                 "  {}: set {} {}",
@@ -201,9 +360,34 @@ impl Suggestions {
         }
         s.push_str(
             "Each change below was planned on this machine and predicted as above: set its keys in the \
-             template (each replaces that key's value; keys not shown stay as they are) and plan again.\n",
+             template (each replaces that key's value; keys not shown stay as they are) and plan again",
         );
+        s.push_str(if self.found.iter().any(|f| f.second.is_some()) {
+            "; a second run is planned on a copy of the machine file instead.\n"
+        } else {
+            ".\n"
+        });
         for f in &self.found {
+            if let (Some(second), Some(test)) = (&f.second, self.test) {
+                let _ = write!(
+                    s,
+                    "\n### {}\n\nIdentifies {}. The two runs are analysed together by `fivecal discover` (each with its own setups or sphere position; the location errors shared). To plan the second run, {}:\n\n```yaml\n{}```\n",
+                    f.change.what,
+                    f.outcome(),
+                    recipe.machine_edit(test, second),
+                    block(&second.machine_keys(), 0),
+                );
+                let _ = writeln!(s, "\n```");
+                if let Some(c) = recipe.second_command(second) {
+                    let _ = writeln!(s, "{c}");
+                }
+                let _ = writeln!(
+                    s,
+                    "# then, both runs measured:\n{}\n```",
+                    recipe.together(test)
+                );
+                continue;
+            }
             let fragment = block(&f.change.fragment(), 0);
             let _ = write!(
                 s,
@@ -244,7 +428,20 @@ impl Suggestions {
                 identified: f.prediction.rows.len() - f.prediction.missing().len(),
                 poses: f.poses,
                 run_min: crate::procedure::round(f.run_min, 1),
-                command: recipe.command(),
+                command: match &f.second {
+                    Some(second) => recipe.second_command(second),
+                    None => recipe.command(),
+                },
+                second_run: f
+                    .second
+                    .as_ref()
+                    .zip(self.test)
+                    .map(|(second, test)| SecondRunEntry {
+                        machine_file: second.machine_file(),
+                        copy_of: recipe.machine_copy(test),
+                        machine_set: second.machine_keys(),
+                        together: recipe.together(test),
+                    }),
             })
             .collect()
     }
@@ -301,6 +498,7 @@ pub fn suggest(cfg: &PlanConfig, plan: &Plan, now: &Prediction, noise: Option<f6
             prediction,
             poses,
             run_min,
+            second: None,
         });
     }
     // Most errors added first, then the shortest run.
@@ -311,7 +509,172 @@ pub fn suggest(cfg: &PlanConfig, plan: &Plan, now: &Prediction, noise: Option<f6
             .then(a.run_min.total_cmp(&b.run_min))
     });
     out.found.truncate(SHOWN);
+    out.test = Some(plan.test());
+    if plan.kind() == crate::formats::manifest::TestKind::Probing {
+        let (tried, refused, best) = second_runs(cfg, plan, now);
+        out.tried.extend(tried);
+        out.refused += refused;
+        out.found.extend(best);
+    }
     out
+}
+
+/// A run as `discover` takes it: its plan, its kinematics (with its
+/// probe) and its measurements (here the nominal ones, its design).
+pub type Run<'a> = (&'a Plan, &'a Kinematics, &'a Dataset);
+
+/// What `runs` identify fitted together as `discover` fits several tests
+/// of one machine: the location errors shared, each run with its own
+/// nuisance (setup, sphere position). Every location error's row, with its
+/// u at `noise` um where the joint design identifies it, and the design's
+/// rank of its free parameters.
+pub fn joint(runs: &[Run<'_>], noise: f64) -> Result<(Vec<Row>, (usize, usize)), String> {
+    let labels: Vec<String> = (1..=runs.len()).map(|i| format!("run {i}")).collect();
+    let parts: Vec<crate::discover::Part<'_>> = runs
+        .iter()
+        .zip(&labels)
+        .map(|((plan, kin, data), label)| crate::discover::Part {
+            kin,
+            data,
+            plan: Some(plan),
+            label,
+        })
+        .collect();
+    let (fitter, _) = crate::discover::Fitter::new(&parts, &[]).map_err(|e| e.to_string())?;
+    let symbols = &crate::model::Model::new(runs[0].1.clone(), Vec::new()).symbols;
+    let all: Vec<usize> = (0..symbols.location.len()).collect();
+    // The nominal measurements fit the nominal machine exactly: the fit is
+    // the design at it, with discover's own rule of what it identifies.
+    let fit = fitter
+        .fit(&fitter.location(&all), None)
+        .map_err(|e| e.to_string())?;
+    let rows = symbols
+        .location
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let seen = fit.identifiable(i) && !fit.fixed(i);
+            Row {
+                symbol: l.name.clone(),
+                unit: l.unit.to_string(),
+                u: seen.then(|| fit.cov_unit[(i, i)].max(0.0).sqrt() * noise),
+                reason: (!seen).then(|| "the runs together do not see it".to_string()),
+            }
+        })
+        .collect();
+    let id = fit.identifiability();
+    Ok((rows, (id.rank, id.free)))
+}
+
+/// `machine` with its probe's gauge length set to `length` mm, as a user
+/// sets it in a copy of the machine file (and as checked on reading one).
+fn with_probe(machine: &crate::machine::Machine, length: f64) -> Option<crate::machine::Machine> {
+    let mut doc: Value = serde_yaml::from_str(&machine.source).ok()?;
+    set(
+        &mut doc,
+        &["probe".to_string(), "length".to_string()],
+        number(length),
+    );
+    let text = serde_yaml::to_string(&doc).ok()?;
+    let path = format!("<{} with probe.length: {length}>", machine.name);
+    crate::machine::Machine::from_yaml(std::path::Path::new(&path), &text).ok()
+}
+
+/// A second run of the plan with another probe length, fitted together
+/// with the plan's: the lengths tried (in words), how many the planner
+/// refused, and the best of those that identify more than the plan alone.
+fn second_runs(
+    cfg: &PlanConfig,
+    plan: &Plan,
+    now: &Prediction,
+) -> (Vec<String>, usize, Option<Suggestion>) {
+    let was = plan.machine().probe.length;
+    let first_kin = crate::simulate::plan_kinematics(plan);
+    let Ok(first_data) = nominal_data(plan) else {
+        return (Vec::new(), 0, None);
+    };
+    let noise = now.noise.um;
+    let first: Run<'_> = (plan, &first_kin, &first_data);
+    // What the plan's run alone gives in the same fit: a gain is what the
+    // second run adds, not what another method would see.
+    let Ok((alone, _)) = joint(&[first], noise) else {
+        return (Vec::new(), 0, None);
+    };
+    let lengths: Vec<f64> = PROBE_LENGTHS
+        .iter()
+        .map(|f| (was * f).round())
+        .filter(|l| *l > 0.0 && (l - was).abs() >= 1.0)
+        .collect();
+    let outcomes: Vec<Option<Suggestion>> = lengths
+        .par_iter()
+        .map(|&length| {
+            let machine = with_probe(plan.machine(), length)?;
+            let second = crate::procedure::plan(&PlanConfig {
+                machine,
+                ..cfg.clone()
+            })
+            .ok()?;
+            let kin = crate::simulate::plan_kinematics(&second);
+            let data = nominal_data(&second).ok()?;
+            let (rows, rank) = joint(&[first, (&second, &kin, &data)], noise).ok()?;
+            let had = |s: &str| {
+                let seen = |rows: &[Row]| rows.iter().any(|r| r.symbol == s && r.u.is_some());
+                seen(&alone) || seen(&now.rows)
+            };
+            let gains: Vec<Row> = rows
+                .iter()
+                .filter(|r| r.u.is_some_and(f64::is_finite) && !had(&r.symbol))
+                .cloned()
+                .collect();
+            let run = SecondRun {
+                machine: plan.machine().name.clone(),
+                was,
+                probe_length: length,
+            };
+            Some(Suggestion {
+                change: Change {
+                    what: run.what(),
+                    set: Vec::new(),
+                },
+                gains,
+                prediction: Prediction {
+                    method: crate::identify::Method::Global,
+                    noise: now.noise.clone(),
+                    rank,
+                    rows,
+                    unseen: Vec::new(),
+                },
+                poses: second.poses().len(),
+                run_min: second.run_minutes(),
+                second: Some(run),
+            })
+        })
+        .collect();
+    let mut tried = Vec::new();
+    let mut refused = 0;
+    let mut best: Option<Suggestion> = None;
+    for (length, outcome) in lengths.iter().zip(outcomes) {
+        let Some(s) = outcome else {
+            refused += 1;
+            continue;
+        };
+        tried.push(format!(
+            "a second run with a {} mm probe",
+            crate::procedure::short(*length)
+        ));
+        if s.gains.is_empty() {
+            continue;
+        }
+        // The most errors added, then the smallest u of what is added.
+        let worst = |s: &Suggestion| s.gains.iter().filter_map(|r| r.u).fold(0.0, f64::max);
+        if best.as_ref().is_none_or(|b| {
+            s.gains.len() > b.gains.len()
+                || (s.gains.len() == b.gains.len() && worst(&s) < worst(b))
+        }) {
+            best = Some(s);
+        }
+    }
+    (tried, refused, best)
 }
 
 /// The known changes of the plan's template, in the order they are tried.

@@ -169,6 +169,29 @@ pub struct SuggestedChange {
     /// changed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<String>,
+    /// Where the change is a second run of the test with another probe,
+    /// analysed together with this one (then `set` is empty, `poses` and
+    /// `run_min` are the second run's, `identified` the two runs'
+    /// together, and `command` plans the second run).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub second_run: Option<SecondRunEntry>,
+}
+
+/// The second run of a suggestion: the machine file it is planned with and
+/// how both runs are analysed together.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SecondRunEntry {
+    /// The copy of the machine file to make (it keeps the machine's name).
+    pub machine_file: String,
+    /// What it is a copy of: the machine file written beside this plan.
+    pub copy_of: String,
+    /// The machine file keys to set in the copy, as a fragment of it.
+    pub machine_set: serde_yaml::Value,
+    /// The `fivecal discover` command fitting both runs' measurements
+    /// together (`FIRST-RUN-MEASURED`, `SECOND-RUN-MEASURED`: the
+    /// measurement files of each run).
+    pub together: String,
 }
 
 impl Manifest {

@@ -89,6 +89,8 @@ struct Config {
     /// This run's `fivecal plan` command without its template and output
     /// options, for the changes `plan` suggests.
     command: String,
+    /// Its `--machine` argument as written in `command`.
+    machine_arg: String,
 }
 
 fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
@@ -312,6 +314,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         template_file: a.template.clone(),
         supplement: supplement.is_some(),
         command,
+        machine_arg: spec,
     })
 }
 
@@ -337,6 +340,8 @@ fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
             file: shell_word(&p.display().to_string()),
             copy_of: None,
             command: Some(cfg.command.clone()),
+            out: Some(shell_word(&cfg.out.display().to_string())),
+            machine: Some(cfg.machine_arg.clone()),
         },
         None => Recipe {
             file: format!("my-{test}.yaml"),
@@ -352,6 +357,8 @@ fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
                 }
             )),
             command: Some(cfg.command.clone()),
+            out: Some(shell_word(&cfg.out.display().to_string())),
+            machine: Some(cfg.machine_arg.clone()),
         },
     }
 }
