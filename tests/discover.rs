@@ -328,14 +328,21 @@ fn drift_on_the_column_probing_test_is_named_on_its_own_clock() {
     );
 }
 
-#[test]
-fn two_hidden_effects_are_both_found_the_larger_first() {
+/// The stepped square cut with two hidden effects: an end mill 3 um
+/// larger than nominal and the B axis's positioning map EBB(B) = 60, -15,
+/// -45 urad at -90, 0, 90 deg (seed 19).
+fn two_hidden_effects() -> Inputs {
     let plan = stepped_square();
     let hidden = [
         (Effect::ToolRadius, vec![3.0]),
         (tilt_map(&plan, "EBB(B)"), vec![60.0, -15.0, -45.0]),
     ];
-    let d = discover(&simulated(&plan, &hidden, 19));
+    simulated(&plan, &hidden, 19)
+}
+
+#[test]
+fn two_hidden_effects_are_both_found_the_larger_first() {
+    let d = discover(&two_hidden_effects());
     assert_found(&d, &["tool_radius", "map.EBB(B)"]);
     // "Larger": alone, the radius closes more of the starting gap than the
     // map does.
@@ -467,12 +474,7 @@ fn the_fast_scan_picks_what_full_refits_pick_with_the_same_values() {
     // location errors' estimate falls short of the converged fit by up to
     // 0.15 u (their sums of squares by 0.3 %), within 0.2 u. Those that
     // come near significance are iterated in every round anyway.
-    let plan = stepped_square();
-    let hidden = [
-        (Effect::ToolRadius, vec![3.0]),
-        (tilt_map(&plan, "EBB(B)"), vec![60.0, -15.0, -45.0]),
-    ];
-    let inputs = simulated(&plan, &hidden, 19);
+    let inputs = two_hidden_effects();
     let parts = [inputs.part()];
     let cat = discover::catalogue::catalogue(&parts);
     let (fitter, _) = discover::Fitter::new(&parts, &cat.candidates).unwrap();
