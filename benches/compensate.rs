@@ -6,6 +6,9 @@
 //! the peak heap of a run with 100 000 and with 1 000 000 blocks to show
 //! that memory does not grow with the file.
 //!
+//! Beside them, the parse alone of the same program by the `gcode` crate
+//! (0.6.1), held in memory as one string as that crate needs it.
+//!
 //! Also: one inverse kinematics call on the closed-form fast path against
 //! the generic `Kinematics::inverse` it replaces.
 //!
@@ -266,6 +269,16 @@ fn bench(c: &mut Criterion<ThreadCpu>) {
     });
     g.bench_function("parse and re-print only", |b| {
         b.iter(|| reprint(Program::new(&lines, BLOCKS)))
+    });
+    // The peer: the `gcode` crate (0.6.1) parses a program held in memory
+    // as one string, lossily (comments and unknown words dropped), and
+    // writes nothing.
+    let mut whole = String::new();
+    Program::new(&lines, BLOCKS)
+        .read_to_string(&mut whole)
+        .unwrap();
+    g.bench_function("peer: gcode 0.6.1 parse only, program in memory", |b| {
+        b.iter(|| gcode::parse(black_box(&whole)).count())
     });
     g.finish();
 }

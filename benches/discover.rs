@@ -1,8 +1,11 @@
 //! Speed of a discovery: the worked example of `examples/discover/` (a
 //! stepped square on `bc-trunnion` with three hidden effects: three steps
 //! and a last round, 42 candidates each, with the simulator's forward
-//! model), and one round on a piece without a hidden effect (the case the
-//! 100-run test repeats).
+//! model), one round on a piece without a hidden effect (the case the
+//! 100-run test repeats), and the two probing tests on `ac-trunnion` run
+//! on the machine of `fivecal simulate --truth-example --machine
+//! ac-trunnion` (every effect of the catalogue at once: the columns and
+//! the sphere).
 
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -10,7 +13,9 @@ use std::path::{Path, PathBuf};
 use criterion::{Criterion, criterion_group, criterion_main};
 use fivecal::discover::{DiscoverOptions, Inputs};
 use fivecal::errorfile::ErrorFile;
+use fivecal::procedure::{PlanConfig, Test};
 use fivecal::simulate::{self, SimOptions};
+use fivecal::{Kinematics, Machine};
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -48,7 +53,29 @@ fn bench(c: &mut Criterion) {
     group.bench_function("piece without a hidden effect: one round", |b| {
         b.iter(|| black_box(&null).discover(&opts).unwrap())
     });
+    for test in [Test::ProbeColumns, Test::ProbeSphere] {
+        let inputs = probing(test);
+        group.bench_function(format!("{test:?} on ac-trunnion, truth example"), |b| {
+            b.iter(|| black_box(&inputs).discover(&opts).unwrap())
+        });
+    }
     group.finish();
+}
+
+/// The probing test `test` planned for `ac-trunnion`, run on the machine of
+/// its truth example (seed 1, as `fivecal simulate` runs it).
+fn probing(test: Test) -> Inputs {
+    let machine = Machine::builtin("ac-trunnion").unwrap();
+    let kin = Kinematics::new(&machine);
+    let plan = fivecal::procedure::plan(&PlanConfig::builtin(machine, test)).unwrap();
+    let src = simulate::truth::example(&kin);
+    let path = Path::new("truth.yaml");
+    let truth = ErrorFile::parse(path, &src)
+        .unwrap()
+        .to_model(&kin, path, &src)
+        .unwrap();
+    let out = simulate::run(&plan, &truth, &SimOptions::default()).unwrap();
+    Inputs::from_points(plan, out.points, Path::new("probe.csv")).unwrap()
 }
 
 criterion_group!(benches, bench);

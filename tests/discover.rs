@@ -328,14 +328,21 @@ fn drift_on_the_column_probing_test_is_named_on_its_own_clock() {
     );
 }
 
-#[test]
-fn two_hidden_effects_are_both_found_the_larger_first() {
+/// The stepped square cut with two hidden effects: an end mill 3 um
+/// larger than nominal and the B axis's positioning map EBB(B) = 60, -15,
+/// -45 urad at -90, 0, 90 deg (seed 19).
+fn two_hidden_effects() -> Inputs {
     let plan = stepped_square();
     let hidden = [
         (Effect::ToolRadius, vec![3.0]),
         (tilt_map(&plan, "EBB(B)"), vec![60.0, -15.0, -45.0]),
     ];
-    let d = discover(&simulated(&plan, &hidden, 19));
+    simulated(&plan, &hidden, 19)
+}
+
+#[test]
+fn two_hidden_effects_are_both_found_the_larger_first() {
+    let d = discover(&two_hidden_effects());
     assert_found(&d, &["tool_radius", "map.EBB(B)"]);
     // "Larger": alone, the radius closes more of the starting gap than the
     // map does.
@@ -452,4 +459,74 @@ fn effects_a_test_cannot_tell_apart_are_reported_and_none_is_picked() {
         "{:?}",
         s.notes
     );
+}
+
+#[test]
+fn the_fast_scan_picks_what_full_refits_pick_with_the_same_values() {
+    // A round's candidate scan scores each candidate by an update of the
+    // current model's one factorization (one Gauss-Newton step from its
+    // estimate); here every candidate is also fitted anew to convergence.
+    // On a piece with two hidden effects both rank the same effect first,
+    // and agree on every candidate's values within a tenth of their
+    // uncertainty, except the effects whose cut surface the forward model
+    // builds piece by piece (a straightness between its nodes, a drift per
+    // minute along the clock of each cut): there the one step from the
+    // location errors' estimate falls short of the converged fit by up to
+    // 0.15 u (their sums of squares by 0.3 %), within 0.2 u. Those that
+    // come near significance are iterated in every round anyway.
+    let inputs = two_hidden_effects();
+    let parts = [inputs.part()];
+    let cat = discover::catalogue::catalogue(&parts);
+    let (fitter, _) = discover::Fitter::new(&parts, &cat.candidates).unwrap();
+    let base = fitter
+        .fit(&fitter.location(&(0..8).collect::<Vec<_>>()), None)
+        .unwrap();
+    let screen = fitter.screen(&base).unwrap();
+    let n = fitter.len();
+    let mut compared = 0;
+    let mut best_fast: Option<(f64, String)> = None;
+    let mut best_full: Option<(f64, String)> = None;
+    for c in &cat.candidates {
+        let Some(spec) = fitter.extend(&base.spec, c) else {
+            continue;
+        };
+        let (d, _, ranges) = fitter.design(&spec);
+        let free = ranges.last().unwrap().len();
+        // Only what the test sees whole: a candidate it sees in part is
+        // first constrained, as discover does.
+        if d.rank != base.rank + free {
+            continue;
+        }
+        let fast = fitter.score(&screen, &spec, free);
+        let k = spec.model.n_params() - base.n;
+        let mut start = base.theta().to_vec();
+        start.extend(std::iter::repeat_n(0.0, k));
+        start.extend_from_slice(&base.x[base.n..]);
+        let full = fitter.fit(&spec, Some(start)).unwrap();
+        let kinked = c.name.ends_with("/minute") || c.name.starts_with("straightness.");
+        for (i, v) in fast.values.iter().enumerate() {
+            let Some(u) = full.u(base.n + i) else {
+                continue;
+            };
+            let exact = full.x[base.n + i];
+            let within = if kinked { 0.2 } else { 0.1 };
+            assert!(
+                (v - exact).abs() <= within * u,
+                "{}: parameter {i}: scan {v} against refit {exact} (u {u})",
+                c.name
+            );
+        }
+        let bic =
+            |rss: f64| discover::stats::compare(n, base.rss, base.rank, rss, d.rank).delta_bic;
+        for (best, rss) in [(&mut best_fast, fast.rss), (&mut best_full, full.rss)] {
+            if best.as_ref().is_none_or(|(b, _)| bic(rss) < *b) {
+                *best = Some((bic(rss), c.name.clone()));
+            }
+        }
+        compared += 1;
+    }
+    assert!(compared >= 25, "only {compared} candidates compared");
+    let (fast, full) = (best_fast.unwrap().1, best_full.unwrap().1);
+    assert_eq!(fast, full);
+    assert_eq!(full, "tool_radius");
 }

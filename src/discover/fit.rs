@@ -22,12 +22,15 @@
 //! A round of the search tries every candidate on the current model. One
 //! evaluation of the catalogue model at the current estimate gives every
 //! candidate's Jacobian columns there, and each candidate is first judged
-//! by one Gauss-Newton step from the current estimate ([`Fitter::step`]):
-//! the current model is converged, and an added effect enters the chain
-//! linearly in its own parameters, so the step lands within parts in 10^8
-//! of the sum of squares the iterated fit reaches. The candidates that
-//! come near significance, and every model the story reports, are then
-//! iterated exactly ([`Fitter::fit`]).
+//! by one Gauss-Newton step from the current estimate: the current model
+//! is converged, and an added effect enters the chain linearly in its own
+//! parameters, so the step lands within parts in 10^8 of the sum of
+//! squares the iterated fit reaches. The step is not solved anew per
+//! candidate: the current model's design is factorized once a round
+//! ([`Fitter::screen`]) and each candidate scored by the update its own
+//! columns make to it ([`Fitter::score`]). The candidates that come near
+//! significance, and every model the story reports, are then iterated
+//! exactly ([`Fitter::fit`]).
 //!
 //! A discovery may fit several tests of one machine together ([`Part`]: a
 //! test and the supplementary test its ambiguity asked for). Their
@@ -108,12 +111,70 @@ pub struct Spec {
     pub constraints: Vec<Vec<(Vec<f64>, String)>>,
     /// Per parameter, its index in the catalogue model.
     full: Vec<usize>,
+    /// Per effect, the free directions of its constraints as last computed
+    /// (and the rows they were computed from): every design of a round
+    /// shares them.
+    blocks: Vec<Arc<Block>>,
+}
+
+/// The orthonormal basis of the directions an effect's constraint rows
+/// leave free.
+#[derive(Debug)]
+struct Block {
+    rows: Vec<Vec<f64>>,
+    basis: DMatrix<f64>,
+}
+
+impl Block {
+    fn new(n: usize, rows: &[(Vec<f64>, String)]) -> Arc<Block> {
+        let c = DMatrix::from_fn(rows.len(), n, |i, j| rows[i].0[j]);
+        Arc::new(Block {
+            rows: rows.iter().map(|(r, _)| r.clone()).collect(),
+            basis: lsq::constraint_basis(&c),
+        })
+    }
+
+    fn holds(&self, rows: &[(Vec<f64>, String)]) -> bool {
+        self.rows.len() == rows.len() && self.rows.iter().zip(rows).all(|(a, (b, _))| a == b)
+    }
 }
 
 impl Spec {
     /// Index of the effect named `name`.
     pub fn find(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
+    }
+
+    /// The free directions of effect `ei`'s constraints: the cached ones
+    /// while its rows are those they were computed from.
+    fn block(&self, ei: usize) -> Arc<Block> {
+        let rows = &self.constraints[ei];
+        match self.blocks.get(ei) {
+            Some(b) if b.holds(rows) => b.clone(),
+            _ => Block::new(self.model.param_range(ei).len(), rows),
+        }
+    }
+
+    /// Fixes the combinations `rows` of effect `ei`'s parameters at zero,
+    /// each saying why.
+    pub fn constrain(&mut self, ei: usize, rows: Vec<(Vec<f64>, String)>) {
+        self.constraints[ei].extend(rows);
+        let b = Block::new(self.model.param_range(ei).len(), &self.constraints[ei]);
+        if let Some(slot) = self.blocks.get_mut(ei) {
+            *slot = b;
+        }
+    }
+
+    /// Whether model parameter `i` is fixed by the constraints (no free
+    /// direction moves it).
+    pub fn fixed(&self, i: usize) -> bool {
+        let Some(ei) =
+            (0..self.constraints.len()).find(|&e| self.model.param_range(e).contains(&i))
+        else {
+            return false;
+        };
+        let b = self.block(ei);
+        b.basis.row(i - self.model.param_range(ei).start).norm() < 1e-9
     }
 
     /// The orthonormal basis of the parameter directions the constraints
@@ -123,10 +184,9 @@ impl Spec {
     pub fn basis(&self, extra: usize) -> (DMatrix<f64>, Vec<Range<usize>>) {
         let n = self.model.n_params();
         let mut blocks = Vec::new();
-        for (ei, rows) in self.constraints.iter().enumerate() {
+        for ei in 0..self.constraints.len() {
             let r = self.model.param_range(ei);
-            let c = DMatrix::from_fn(rows.len(), r.len(), |i, j| rows[i].0[j]);
-            blocks.push((r, lsq::constraint_basis(&c)));
+            blocks.push((r, self.block(ei).basis.clone()));
         }
         let mut ranges = Vec::new();
         let mut free = 0;
@@ -242,8 +302,7 @@ impl Fit {
     /// Whether model parameter `i` is fixed by the constraints (no free
     /// direction moves it: a value the test does not see, held at zero).
     pub fn fixed(&self, i: usize) -> bool {
-        let (b, _) = self.spec.basis(0);
-        b.row(i).norm() < 1e-9
+        self.spec.fixed(i)
     }
 
     /// Standard uncertainty of model parameter `i` (residual-scaled),
@@ -307,6 +366,68 @@ struct FitPart<'a> {
     rows: Range<usize>,
     /// Its nuisance (and placement) columns, after the catalogue's.
     extra: Range<usize>,
+    /// The plan's machine with the gauge length, and the plan.
+    kin: Kinematics,
+    plan: Option<PlanRef>,
+}
+
+/// A part's forward model of one fitted model ([`Fitter::own`]).
+struct Own {
+    /// Its own, or none for the part's catalogue forward model.
+    fm: Option<Box<dyn ForwardModel>>,
+    /// The fitted model's parameter of each of the forward model's
+    /// ([`UNUSED`]: none, held at zero).
+    params: Vec<usize>,
+}
+
+impl FitPart<'_> {
+    /// The part's residuals (its rows of `r`) with forward model `fm` at
+    /// `theta` and the part's nuisance and placement `extra`; `jac` takes
+    /// the forward model's parameters, then `extra`, into its columns
+    /// `cols` (none if [`UNUSED`]).
+    fn eval(
+        &self,
+        fm: &dyn ForwardModel,
+        theta: &[f64],
+        extra: &[f64],
+        r: &mut [f64],
+        mut jac: Option<(&mut DMatrix<f64>, &[usize])>,
+    ) -> Result<(), FitError> {
+        let nuisance = &extra[..self.k];
+        let rho = if self.p0.is_some() {
+            let o = &extra[self.k..self.k + 6];
+            [o[0], o[1], o[2], o[3], o[4], o[5]]
+        } else {
+            [0.0; 6]
+        };
+        let nm = theta.len();
+        for (i, row) in self.rows.clone().enumerate() {
+            let point = self.data.point(i);
+            let pred = fm.predict(theta, nuisance, point, self.minutes[i])?;
+            let fr = face_residual(&rho, &pred.point, &pred.normal, &self.u[i]);
+            r[row] = fr.r;
+            if let Some((j, cols)) = jac.as_mut() {
+                for (c, &col) in cols[..nm + self.k].iter().enumerate() {
+                    if col == UNUSED {
+                        continue;
+                    }
+                    let mut v = 0.0;
+                    for a in 0..3 {
+                        v += fr.d_q[a] * pred.d_point[(a, c)] + fr.d_n[a] * pred.d_normal[(a, c)];
+                    }
+                    j[(row, col)] = v;
+                }
+                if self.p0.is_some() {
+                    for (a, &col) in cols[nm + self.k..].iter().enumerate() {
+                        if col != UNUSED {
+                            j[(row, col)] = fr.d_rho[a];
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The measurements prepared once for every fit: each part's catalogue
@@ -327,6 +448,8 @@ pub struct Fitter<'a> {
     j0: DMatrix<f64>,
     /// Least-squares options.
     pub opts: lsq::Options,
+    /// Each catalogue effect's constraint basis, made when first needed.
+    blocks: Vec<std::sync::OnceLock<Arc<Block>>>,
 }
 
 /// The catalogue model a part's forward model takes: the location symbols
@@ -399,7 +522,7 @@ impl<'a> Fitter<'a> {
             let mut refused = Vec::new();
             let plan = part.plan.map(PlanRef::new);
             let (fm, served) = part_model(part, plan.as_ref(), &location, &all, &mut refused)?;
-            built.push((fm, served));
+            built.push((fm, served, plan));
             refusals.push(refused);
         }
         // The catalogue: every candidate some part applies, in catalogue
@@ -411,7 +534,7 @@ impl<'a> Fitter<'a> {
             .filter(|c| {
                 built
                     .iter()
-                    .any(|(_, s)| s.iter().any(|x| x.name == c.name))
+                    .any(|(_, s, _)| s.iter().any(|x| x.name == c.name))
             })
             .collect();
         let refused: Vec<(String, String)> = refusals
@@ -435,7 +558,7 @@ impl<'a> Fitter<'a> {
         let mut fparts = Vec::new();
         let mut extra_names = Vec::new();
         let mut rows = 0;
-        for (part, (fm, part_served)) in parts.iter().zip(built) {
+        for (part, (fm, part_served, plan)) in parts.iter().zip(built) {
             let mut cols: Vec<usize> = (0..sym.location.len())
                 .flat_map(|s| ranges[s].clone())
                 .collect();
@@ -467,6 +590,8 @@ impl<'a> Fitter<'a> {
                 minutes,
                 rows: rows..rows + n,
                 extra,
+                kin: part.kin.clone(),
+                plan,
             });
             rows += n;
         }
@@ -480,10 +605,16 @@ impl<'a> Fitter<'a> {
             n_rows: rows,
             j0: DMatrix::zeros(0, 0),
             opts: lsq::Options::default(),
+            blocks: (0..count).map(|_| std::sync::OnceLock::new()).collect(),
         };
         let mut r = vec![0.0; f.len()];
         let mut j = DMatrix::zeros(f.len(), n_full + f.extra());
-        f.eval_full(&vec![0.0; n_full + f.extra()], &mut r, Some(&mut j))?;
+        let every: Vec<usize> = (0..n_full + f.extra()).collect();
+        f.eval_full(
+            &vec![0.0; n_full + f.extra()],
+            &mut r,
+            Some((&mut j, &every)),
+        )?;
         f.j0 = j;
         Ok((f, refused))
     }
@@ -524,6 +655,7 @@ impl<'a> Fitter<'a> {
             names: vec!["location".into()],
             constraints: vec![Vec::new()],
             full: symbols.iter().map(|&s| self.ranges[s].start).collect(),
+            blocks: vec![Block::new(symbols.len(), &[])],
         }
     }
 
@@ -535,6 +667,11 @@ impl<'a> Fitter<'a> {
         s.model.push(c.effect.clone());
         s.names.push(c.name.clone());
         s.constraints.push(c.constraints.clone());
+        s.blocks.push(
+            self.blocks[i]
+                .get_or_init(|| Block::new(self.ranges[i].len(), &c.constraints))
+                .clone(),
+        );
         s.full.extend(self.ranges[i].clone());
         Some(s)
     }
@@ -585,47 +722,109 @@ impl<'a> Fitter<'a> {
     }
 
     /// Residuals (and the Jacobian) of the catalogue model at `x` (its
-    /// parameters, then each part's nuisance and placement).
+    /// parameters, then each part's nuisance and placement); `jac` takes
+    /// the catalogue's column `c` into its column `map[c]` (none if
+    /// [`UNUSED`]).
     fn eval_full(
         &self,
         x: &[f64],
         r: &mut [f64],
-        mut jac: Option<&mut DMatrix<f64>>,
+        mut jac: Option<(&mut DMatrix<f64>, &[usize])>,
     ) -> Result<(), FitError> {
         let n = self.n_full;
         for part in &self.parts {
             let theta: Vec<f64> = part.cols.iter().map(|&c| x[c]).collect();
             let e = n + part.extra.start;
-            let nuisance = &x[e..e + part.k];
-            let o = e + part.k;
-            let rho = if part.p0.is_some() {
-                [x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5]]
-            } else {
-                [0.0; 6]
+            let cols: Vec<usize> = match &jac {
+                Some((_, map)) => part
+                    .cols
+                    .iter()
+                    .copied()
+                    .chain(e..e + part.extra.len())
+                    .map(|c| map[c])
+                    .collect(),
+                None => Vec::new(),
             };
-            let nm = theta.len();
-            for (i, row) in part.rows.clone().enumerate() {
-                let point = part.data.point(i);
-                let pred = part.fm.predict(&theta, nuisance, point, part.minutes[i])?;
-                let fr = face_residual(&rho, &pred.point, &pred.normal, &part.u[i]);
-                r[row] = fr.r;
-                if let Some(j) = jac.as_deref_mut() {
-                    for c in 0..nm + part.k {
-                        let mut v = 0.0;
-                        for a in 0..3 {
-                            v += fr.d_q[a] * pred.d_point[(a, c)]
-                                + fr.d_n[a] * pred.d_normal[(a, c)];
+            let j = jac.as_mut().map(|(j, _)| (&mut **j, cols.as_slice()));
+            part.eval(&*part.fm, &theta, &x[e..e + part.extra.len()], r, j)?;
+        }
+        if r.iter().any(|v| !v.is_finite()) {
+            return Err(FitError::NotFinite);
+        }
+        Ok(())
+    }
+
+    /// Each part's forward model of `spec` alone (the effects of it the
+    /// part applies), and the spec's parameter of each of its parameters:
+    /// an evaluation then costs what the model does, not what the whole
+    /// catalogue does. Every other effect of the catalogue is at zero in
+    /// the model's fits, where it adds nothing. A machining test keeps the
+    /// catalogue's forward model (see below).
+    fn own(&self, spec: &Spec) -> Result<Vec<Own>, FitError> {
+        self.parts
+            .iter()
+            .map(|part| {
+                if let Some(PlanRef::Machining(_)) = part.plan {
+                    // A cut's surface is built with the breaks of every
+                    // effect of its model (straightness nodes, the clock of
+                    // a drift per minute): the catalogue's, with which the
+                    // candidates are scored, serves.
+                    let mut params = vec![UNUSED; part.cols.len()];
+                    for (i, &c) in spec.full.iter().enumerate() {
+                        if let Some(k) = part.cols.iter().position(|&p| p == c) {
+                            params[k] = i;
                         }
-                        let col = if c < nm { part.cols[c] } else { e + c - nm };
-                        j[(row, col)] = v;
                     }
-                    if part.p0.is_some() {
-                        for a in 0..6 {
-                            j[(row, o + a)] = fr.d_rho[a];
-                        }
+                    return Ok(Own { fm: None, params });
+                }
+                let mut effects = Vec::new();
+                let mut params = Vec::new();
+                for (ei, e) in spec.model.effects.iter().enumerate() {
+                    let r = spec.model.param_range(ei);
+                    let applies = matches!(e, Effect::Location { .. })
+                        || r.is_empty()
+                        || part.cols.contains(&spec.full[r.start]);
+                    if applies {
+                        effects.push(e.clone());
+                        params.extend(r);
                     }
                 }
-            }
+                let model = Model::new(part.kin.clone(), effects);
+                Ok(Own {
+                    fm: Some(forward_model(model, part.data, part.plan.as_ref())?),
+                    params,
+                })
+            })
+            .collect()
+    }
+
+    /// Residuals (and the Jacobian, the spec's columns) of `spec` at its
+    /// parameters `x`, with its own forward models ([`Fitter::own`]).
+    fn eval_own(
+        &self,
+        spec: &Spec,
+        own: &[Own],
+        x: &[f64],
+        r: &mut [f64],
+        mut jac: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), FitError> {
+        let n = spec.model.n_params();
+        for (part, o) in self.parts.iter().zip(own) {
+            let theta: Vec<f64> = o
+                .params
+                .iter()
+                .map(|&c| if c == UNUSED { 0.0 } else { x[c] })
+                .collect();
+            let e = n + part.extra.start;
+            let cols: Vec<usize> = o
+                .params
+                .iter()
+                .copied()
+                .chain(e..e + part.extra.len())
+                .collect();
+            let j = jac.as_deref_mut().map(|j| (j, cols.as_slice()));
+            let fm = o.fm.as_deref().unwrap_or(&*part.fm);
+            part.eval(fm, &theta, &x[e..e + part.extra.len()], r, j)?;
         }
         if r.iter().any(|v| !v.is_finite()) {
             return Err(FitError::NotFinite);
@@ -642,33 +841,16 @@ impl<'a> Fitter<'a> {
         full
     }
 
-    /// Residuals (and the Jacobian) of `spec` at its parameters `x`.
-    fn eval(
+    /// Residuals and Jacobian (the spec's columns) at `x`.
+    fn eval_jac(
         &self,
         spec: &Spec,
+        own: &[Own],
         x: &[f64],
-        r: &mut [f64],
-        jac: Option<&mut DMatrix<f64>>,
-    ) -> Result<(), FitError> {
-        let full = self.scatter(spec, x);
-        match jac {
-            None => self.eval_full(&full, r, None),
-            Some(j) => {
-                let mut jf = DMatrix::zeros(self.len(), full.len());
-                self.eval_full(&full, r, Some(&mut jf))?;
-                for (c, fc) in self.columns(spec).into_iter().enumerate() {
-                    j.set_column(c, &jf.column(fc));
-                }
-                Ok(())
-            }
-        }
-    }
-
-    /// Residuals and Jacobian (the spec's columns) at `x`.
-    fn eval_jac(&self, spec: &Spec, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), FitError> {
+    ) -> Result<(Vec<f64>, DMatrix<f64>), FitError> {
         let mut r = vec![0.0; self.len()];
         let mut j = DMatrix::zeros(self.len(), x.len());
-        self.eval(spec, x, &mut r, Some(&mut j))?;
+        self.eval_own(spec, own, x, &mut r, Some(&mut j))?;
         Ok((r, j))
     }
 
@@ -730,7 +912,8 @@ impl<'a> Fitter<'a> {
         let (d, basis, _) = self.design(spec);
         let p = spec.model.n_params() + self.extra();
         let mut x = start.unwrap_or_else(|| vec![0.0; p]);
-        let (mut r, mut j) = self.eval_jac(spec, &x)?;
+        let own = self.own(spec)?;
+        let (mut r, mut j) = self.eval_jac(spec, &own, &x)?;
         let mut cost: f64 = r.iter().map(|v| v * v).sum();
         let mut converged = false;
         let mut cov = DMatrix::zeros(p, p);
@@ -741,7 +924,7 @@ impl<'a> Fitter<'a> {
             let mut accepted = None;
             for _ in 0..12 {
                 let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, b)| a + t * b).collect();
-                let (rn, jn) = self.eval_jac(spec, &xn)?;
+                let (rn, jn) = self.eval_jac(spec, &own, &xn)?;
                 let cn: f64 = rn.iter().map(|v| v * v).sum();
                 if cn <= cost {
                     accepted = Some((xn, rn, jn, cn));
@@ -777,27 +960,115 @@ impl<'a> Fitter<'a> {
         let x = self.scatter(&fit.spec, &fit.x);
         let mut r = vec![0.0; self.len()];
         let mut j = DMatrix::zeros(self.len(), x.len());
-        self.eval_full(&x, &mut r, Some(&mut j))?;
+        let every: Vec<usize> = (0..x.len()).collect();
+        self.eval_full(&x, &mut r, Some((&mut j, &every)))?;
         Ok(Linearization { r, j })
     }
+}
 
-    /// One Gauss-Newton step for `spec` (a model that extends `base`) from
-    /// `base`'s estimate, with the Jacobian of `lin` (taken there): the
-    /// residuals it predicts, their sum of squares, and the parameters.
-    /// Not converged by definition; [`Fitter::fit`] iterates.
-    pub fn step(&self, spec: &Spec, base: &Fit, lin: &Linearization) -> Fit {
-        let (d, basis, _) = self.design(spec);
-        let cols = self.columns(spec);
-        let j = DMatrix::from_fn(self.len(), cols.len(), |r, c| lin.j[(r, cols[c])]);
-        let (dx, cov) = self.gn_step(&j, &lin.r, &basis, d.rank);
-        let mut x = base.theta().to_vec();
-        x.extend(std::iter::repeat_n(0.0, spec.model.n_params() - base.n));
-        x.extend_from_slice(&base.x[base.n..]);
-        for (xi, di) in x.iter_mut().zip(dx.iter()) {
-            *xi += di;
+/// A Jacobian column no output column takes.
+const UNUSED: usize = usize::MAX;
+
+/// The current model factorized once for a round of the candidate scan:
+/// the catalogue model linearized at its estimate, the orthonormal basis of
+/// what the model (with the nuisance) does there, and the residuals with
+/// what it could still absorb removed.
+///
+/// A candidate adds columns `C` to the model's design `B`. The one
+/// Gauss-Newton step of the extended model from the estimate minimises
+/// `|r + B db + C dc|`; its candidate part is the regression of the
+/// residuals on the part of `C` orthogonal to `B` (Frisch, Waugh and
+/// Lovell), and the residuals it leaves are those with their projection
+/// on that part removed. So every candidate of a round is scored with
+/// the one factorization of `B` and a product and a small SVD of its own
+/// columns, instead of a factorization of the whole extended design.
+#[derive(Clone, Debug)]
+pub struct Screen {
+    lin: Linearization,
+    q: DMatrix<f64>,
+    r: DVector<f64>,
+}
+
+/// A candidate scored by the update of [`Screen`]: what one Gauss-Newton
+/// step of the extended model from the current estimate reaches.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Screened {
+    /// The residuals the step leaves, um.
+    pub residuals: Vec<f64>,
+    /// Their sum of squares, um^2.
+    pub rss: f64,
+    /// The candidate's parameters.
+    pub values: Vec<f64>,
+}
+
+impl Fitter<'_> {
+    /// Factorizes `base` (a converged fit) once for a round of
+    /// [`Fitter::score`].
+    pub fn screen(&self, base: &Fit) -> Result<Screen, FitError> {
+        let lin = self.linearize(base)?;
+        let (basis, _) = base.spec.basis(self.extra());
+        let cols = self.columns(&base.spec);
+        let jm = Mat::<f64>::from_fn(self.len(), cols.len(), |r, c| lin.j[(r, cols[c])]);
+        let q = lsq::column_basis(&jm, Some(&basis), self.opts.rank_rtol, Some(base.rank));
+        let r0 = DVector::from_column_slice(&lin.r);
+        let r = &r0 - &q * q.tr_mul(&r0);
+        Ok(Screen { lin, q, r })
+    }
+
+    /// Scores `spec` (the model of `screen` with one effect appended, its
+    /// last) by the update: `added` is the number of directions the effect
+    /// adds to the model's design at the nominal machine (the rank
+    /// increase), the number of directions of its own the step moves
+    /// along.
+    pub fn score(&self, screen: &Screen, spec: &Spec, added: usize) -> Screened {
+        let ei = spec.names.len() - 1;
+        let xr = spec.model.param_range(ei);
+        let block = spec.block(ei);
+        let n = self.len();
+        let jc = DMatrix::from_fn(n, xr.len(), |r, c| {
+            screen.lin.j[(r, spec.full[xr.start + c])]
+        });
+        let mut c = jc * &block.basis;
+        // Columns scaled to unit length, as the designs are; round-off
+        // columns are nothing the test sees.
+        let norms: Vec<f64> = c.column_iter().map(|v| v.norm()).collect();
+        let max = norms.iter().copied().fold(0.0, f64::max);
+        let mut scale = vec![0.0; c.ncols()];
+        for (k, mut col) in c.column_iter_mut().enumerate() {
+            if norms[k] > 1e-12 * max {
+                scale[k] = norms[k];
+                col /= norms[k];
+            } else {
+                col.fill(0.0);
+            }
         }
-        let pred = DVector::from_column_slice(&lin.r) + &j * &dx;
-        self.finish(spec, x, pred.as_slice().to_vec(), d, cov, false)
+        let c = &c - &screen.q * screen.q.tr_mul(&c);
+        let k = c.ncols();
+        let svd = c.svd(true, true);
+        let (u, vt) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for V"));
+        let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+        order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+        let mut residuals = screen.r.clone();
+        let mut z = DVector::zeros(k);
+        for &k in order.iter().take(added) {
+            let s = svd.singular_values[k];
+            if s <= 0.0 {
+                continue;
+            }
+            let uk = u.column(k);
+            let a = uk.dot(&screen.r);
+            residuals -= uk * a;
+            z -= vt.row(k).transpose() * (a / s);
+        }
+        for (k, zk) in z.iter_mut().enumerate() {
+            *zk = if scale[k] > 0.0 { *zk / scale[k] } else { 0.0 };
+        }
+        let values = (&block.basis * z).as_slice().to_vec();
+        Screened {
+            rss: residuals.norm_squared(),
+            residuals: residuals.as_slice().to_vec(),
+            values,
+        }
     }
 }
 
@@ -834,6 +1105,7 @@ mod tests {
                 vec![(vec![1.0, 1.0, 1.0], "averages to zero".into())],
             ],
             full: (0..5).collect(),
+            blocks: Vec::new(),
         };
         let (b, ranges) = spec.basis(6);
         assert_eq!(b.shape(), (2 + 3 + 6, 2 + 2 + 6));

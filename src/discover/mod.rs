@@ -310,7 +310,12 @@ struct Rivalry {
 /// A candidate tried against a model.
 struct Tried {
     trial: Trial,
+    /// The iterated fit (none for a candidate only screened).
     fit: Option<Fit>,
+    /// The model with the candidate, its unseen combinations fixed.
+    spec: Option<Spec>,
+    /// Whether it was fitted (screened or iterated), not refused.
+    fitted: bool,
 }
 
 fn refused(name: &str, reason: String) -> Tried {
@@ -325,6 +330,8 @@ fn refused(name: &str, reason: String) -> Tried {
             alongside: None,
         },
         fit: None,
+        spec: None,
+        fitted: false,
     }
 }
 
@@ -351,12 +358,31 @@ pub(crate) fn column_space(a: &DMatrix<f64>, rtol: f64) -> DMatrix<f64> {
     DMatrix::from_fn(rows, keep.len(), |r, c| u[(r, keep[c])])
 }
 
+/// The model of a round, factorized once for every candidate tried on it.
+struct Round {
+    /// The linearized model for the scores ([`Fitter::score`]).
+    screen: fit::Screen,
+    /// Orthonormal basis of what the model and the nuisance do at the
+    /// nominal machine, for the canonical correlations.
+    others: DMatrix<f64>,
+}
+
+impl Round {
+    fn new(fitter: &Fitter<'_>, base: &Fit) -> Result<Round, FitError> {
+        let (basis, _) = base.spec.basis(fitter.extra());
+        Ok(Round {
+            screen: fitter.screen(base)?,
+            others: column_space(&(fitter.jacobian0(&base.spec) * &basis), 1e-9),
+        })
+    }
+}
+
 /// How a candidate's fit is made.
 #[derive(Clone, Copy)]
 enum Mode<'a> {
-    /// One Gauss-Newton step from the base's estimate, with the catalogue
-    /// model linearized there.
-    Screen(&'a fit::Linearization),
+    /// Scored by the update of the round's factorization: one
+    /// Gauss-Newton step from the base's estimate.
+    Screen(&'a Round),
     /// Iterated to convergence.
     Exact,
 }
@@ -379,7 +405,7 @@ fn try_candidate(
     let xr = spec.model.param_range(ei);
     let names = fitter.names(&spec);
     let cand_names: Vec<String> = names[xr.clone()].to_vec();
-    let (d, _, _) = fitter.design(&spec);
+    let (mut d, mut basis, mut ranges) = fitter.design(&spec);
     if d.rank <= base.rank {
         let setup = spec.setup();
         let rep = crate::identify::identifiability::report(
@@ -409,6 +435,7 @@ fn try_candidate(
     // see (alone or traded against the model's) are fixed at zero, each
     // named: what is left is what the test identifies.
     let mut unseen = Vec::new();
+    let mut rows = Vec::new();
     if d.null.ncols() > 0 {
         let vc = d.null.rows(xr.start, xr.len()).into_owned();
         let svd = vc.svd(true, false);
@@ -418,20 +445,29 @@ fn try_candidate(
                 let row: Vec<f64> = u.column(i).iter().copied().collect();
                 let what = combination(&row, &cand_names);
                 unseen.push(what.clone());
-                spec.constraints[ei].push((row, format!("{what} = 0: this test does not see it")));
+                rows.push((row, format!("{what} = 0: this test does not see it")));
             }
         }
     }
-    let (d, basis, ranges) = fitter.design(&spec);
+    if !rows.is_empty() {
+        spec.constrain(ei, rows);
+        (d, basis, ranges) = fitter.design(&spec);
+    }
     let rank_increase = d.rank.saturating_sub(base.rank);
     // Canonical correlation of the candidate's free directions with
     // everything else (model and nuisance), in the scaled design.
-    let jz = fitter.jacobian0(&spec) * &basis;
     let zc = ranges[ei].clone();
-    let others: Vec<usize> = (0..jz.ncols()).filter(|c| !zc.contains(c)).collect();
-    let a = DMatrix::from_fn(jz.nrows(), others.len(), |r, c| jz[(r, others[c])]);
-    let b = jz.columns(zc.start, zc.len()).into_owned();
-    let qa = column_space(&a, 1e-9);
+    let j0 = fitter.jacobian0(&spec);
+    let b = j0.columns(xr.start, xr.len()) * basis.view((xr.start, zc.start), (xr.len(), zc.len()));
+    let qa = match mode {
+        Mode::Screen(round) => round.others.clone(),
+        Mode::Exact => {
+            let jz = j0 * &basis;
+            let others: Vec<usize> = (0..jz.ncols()).filter(|c| !zc.contains(c)).collect();
+            let a = DMatrix::from_fn(jz.nrows(), others.len(), |r, c| jz[(r, others[c])]);
+            column_space(&a, 1e-9)
+        }
+    };
     let qb = column_space(&b, 1e-9);
     let canonical = if qa.ncols() == 0 || qb.ncols() == 0 {
         0.0
@@ -489,33 +525,71 @@ fn try_candidate(
         t.trial.alongside = Some(alongside);
         return t;
     }
-    let fitted = match mode {
-        Mode::Screen(lin) => Ok(fitter.step(&spec, base, lin)),
-        Mode::Exact => {
-            // From the model's estimate, the candidate at zero.
-            let mut start = base.theta().to_vec();
-            start.extend(std::iter::repeat_n(0.0, xr.len()));
-            start.extend_from_slice(&base.x[base.n..]);
-            fitter.fit(&spec, Some(start))
-        }
+    let trial = |rss: f64, rank: usize, residuals: &[f64]| Trial {
+        name: cand.name.clone(),
+        verdict: Verdict::NotSignificant,
+        reason: None,
+        gap_after: Some(gap::size(residuals)),
+        test: Some(stats::compare(fitter.len(), base.rss, base.rank, rss, rank)),
+        p_adjusted: None,
+        alongside: Some(alongside.clone()),
     };
-    match fitted {
-        Ok(f) => {
-            let cmp = stats::compare(fitter.len(), base.rss, base.rank, f.rss, f.rank);
+    match mode {
+        Mode::Screen(round) => {
+            let s = fitter.score(&round.screen, &spec, rank_increase);
             Tried {
-                trial: Trial {
-                    name: cand.name.clone(),
-                    verdict: Verdict::NotSignificant,
-                    reason: None,
-                    gap_after: Some(gap::size(&f.residuals)),
-                    test: Some(cmp),
-                    p_adjusted: None,
-                    alongside: Some(alongside),
-                },
-                fit: Some(f),
+                trial: trial(s.rss, d.rank, &s.residuals),
+                fit: None,
+                spec: Some(spec),
+                fitted: true,
             }
         }
-        Err(e) => refused(&cand.name, format!("the fit failed ({e})")),
+        Mode::Exact => match exact(fitter, base, &spec) {
+            Ok(f) => Tried {
+                trial: trial(f.rss, f.rank, &f.residuals),
+                fit: Some(f),
+                spec: Some(spec),
+                fitted: true,
+            },
+            Err(e) => refused(&cand.name, format!("the fit failed ({e})")),
+        },
+    }
+}
+
+/// The exact fit of `spec` (`base` with one effect appended), from the
+/// base's estimate with the new effect at zero.
+fn exact(fitter: &Fitter<'_>, base: &Fit, spec: &Spec) -> Result<Fit, FitError> {
+    let added = spec.model.n_params() - base.n;
+    let mut start = base.theta().to_vec();
+    start.extend(std::iter::repeat_n(0.0, added));
+    start.extend_from_slice(&base.x[base.n..]);
+    fitter.fit(spec, Some(start))
+}
+
+/// A screened candidate fitted exactly: the same identifiability, the fit
+/// and the comparison of the iterated fit.
+fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried) -> Tried {
+    let Some(spec) = screened.spec else {
+        return screened;
+    };
+    match exact(fitter, base, &spec) {
+        Ok(f) => Tried {
+            trial: Trial {
+                gap_after: Some(gap::size(&f.residuals)),
+                test: Some(stats::compare(
+                    fitter.len(),
+                    base.rss,
+                    base.rank,
+                    f.rss,
+                    f.rank,
+                )),
+                ..screened.trial
+            },
+            fit: Some(f),
+            spec: Some(spec),
+            fitted: true,
+        },
+        Err(e) => refused(&screened.trial.name, format!("the fit failed ({e})")),
     }
 }
 
@@ -763,7 +837,7 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
         // Every candidate screened by one Gauss-Newton step from the
         // current estimate; those that come near significance (adjusted p
         // below 100 alpha) fitted again, iterated.
-        let lin = fitter.linearize(&current)?;
+        let round = Round::new(&fitter, &current)?;
         let mut tried: Vec<Tried> = pool
             .par_iter()
             .map(|c| match unserved.get(&c.name) {
@@ -773,11 +847,11 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
                     &current,
                     c,
                     Some(opts.near_alias),
-                    Mode::Screen(&lin),
+                    Mode::Screen(&round),
                 ),
             })
             .collect();
-        let m = tried.iter().filter(|t| t.fit.is_some()).count();
+        let m = tried.iter().filter(|t| t.fitted).count();
         let near: Vec<usize> = (0..tried.len())
             .filter(|&i| {
                 tried[i]
@@ -787,22 +861,20 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
                     .is_some_and(|c| stats::adjusted(c.p, m) < 100.0 * opts.alpha)
             })
             .collect();
-        let exact: Vec<(usize, Tried)> = near
-            .par_iter()
+        let screened: Vec<(usize, Tried)> = near
+            .iter()
             .map(|&i| {
                 (
                     i,
-                    try_candidate(
-                        &fitter,
-                        &current,
-                        pool[i],
-                        Some(opts.near_alias),
-                        Mode::Exact,
-                    ),
+                    std::mem::replace(&mut tried[i], refused("", String::new())),
                 )
             })
             .collect();
-        for (i, t) in exact {
+        let iterated: Vec<(usize, Tried)> = screened
+            .into_par_iter()
+            .map(|(i, t)| (i, refit(&fitter, &current, t)))
+            .collect();
+        for (i, t) in iterated {
             tried[i] = t;
         }
         for t in tried.iter_mut() {
@@ -848,16 +920,23 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
         let pool_idx = |name: &str| pool.iter().position(|c| c.name == name).unwrap();
         let rivalry = |best: usize| -> Rivalry {
             let mut out = Rivalry::default();
-            for &c in sig.iter().filter(|&&c| c != best) {
+            let rivals: Vec<usize> = sig.iter().copied().filter(|&c| c != best).collect();
+            // The pairs fitted in parallel, judged in order.
+            let pairs: Vec<Tried> = rivals
+                .par_iter()
+                .map(|&c| {
+                    try_candidate(
+                        &fitter,
+                        tried[best].fit.as_ref().expect("tested"),
+                        pool[pool_idx(&tried[c].trial.name)],
+                        None,
+                        Mode::Exact,
+                    )
+                })
+                .collect();
+            for (&c, both) in rivals.iter().zip(pairs) {
                 let fb = tried[best].fit.as_ref().expect("tested");
                 let fc = tried[c].fit.as_ref().expect("tested");
-                let both = try_candidate(
-                    &fitter,
-                    fb,
-                    pool[pool_idx(&tried[c].trial.name)],
-                    None,
-                    Mode::Exact,
-                );
                 let (rss_both, rank_both) = match &both.fit {
                     Some(f) => (f.rss, f.rank),
                     // Nothing of the rival is seen beside the best:

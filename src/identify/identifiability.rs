@@ -30,6 +30,8 @@
 //! (For the sphere method the design's measurements are the sphere
 //! centres, so there the figure is per um of noise of a centre.)
 
+use std::fmt::Write;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::lsq::Design;
@@ -235,12 +237,12 @@ pub fn combination(coef: &[f64], names: &[String]) -> String {
                 s.push('-');
             }
         } else {
-            s.push_str(&format!(" {sign} "));
+            let _ = write!(s, " {sign} ");
         }
         if (mag - 1.0).abs() < 1e-9 {
             s.push_str(n);
         } else {
-            s.push_str(&format!("{mag:.4} {n}"));
+            let _ = write!(s, "{mag:.4} {n}");
         }
     }
     s

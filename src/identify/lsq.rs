@@ -339,21 +339,15 @@ pub fn design_ranked(
         None => DMatrix::identity(n, n),
     };
     // x-space direction of scaled z-direction v: N D^-1 v.
-    let to_x = |k: usize, sigma_pow: i32| -> DVector<f64> {
+    let to_x = |k: usize| -> DVector<f64> {
         let z = DVector::from_fn(p, |j, _| sv.v[(j, k)] / sv.scale[j]);
-        let s = if sigma_pow == 0 {
-            1.0
-        } else {
-            sv.s[k].powi(sigma_pow)
-        };
-        &nb * z * s
+        &nb * z
     };
-    let mut cov = DMatrix::zeros(n, n);
-    for k in 0..sv.rank {
-        let w = to_x(k, -1);
-        cov += &w * w.transpose();
-    }
-    let mut nulls: Vec<DVector<f64>> = (sv.rank..p).map(|k| to_x(k, 0)).collect();
+    // (J^T J)^+ = W W^T with W = N D^-1 V_r S_r^-1: one product.
+    let vz = DMatrix::from_fn(p, sv.rank, |j, k| sv.v[(j, k)] / sv.scale[j] / sv.s[k]);
+    let w = &nb * vz;
+    let cov = &w * w.transpose();
+    let mut nulls: Vec<DVector<f64>> = (sv.rank..p).map(to_x).collect();
     // Orthonormalise the null directions in x-space.
     let mut basis_out: Vec<DVector<f64>> = Vec::new();
     for v in nulls.iter_mut() {
@@ -385,6 +379,20 @@ pub fn design_ranked(
         cov_unit: cov,
         null,
     }
+}
+
+/// Orthonormal basis (columns) of the column space of `J N` (of `J` when
+/// there is no basis): the left singular vectors of the column-scaled
+/// design that [`design`] keeps, at most `max_rank` of them.
+pub fn column_basis(
+    jac: &Mat<f64>,
+    basis: Option<&DMatrix<f64>>,
+    rtol: f64,
+    max_rank: Option<usize>,
+) -> DMatrix<f64> {
+    let sv = scaled_svd(&reduce(jac, basis), rtol);
+    let rank = max_rank.map_or(sv.rank, |r| sv.rank.min(r));
+    DMatrix::from_fn(jac.nrows(), rank, |r, c| sv.u[(r, c)])
 }
 
 /// Orthonormal basis (columns) of `{x : C x = 0}` for a constraint matrix
