@@ -785,6 +785,72 @@ fn compensate_integer_axis_words_follow_the_machine_file_s_integer_unit() {
     );
 }
 
+/// `simulate -o x.csv` on a nine-section plan wrote the machined piece's
+/// points as label,x,y,z, which analyze refuses for this test (its points
+/// have no nominal to measure heights from): the CSV it writes for
+/// nine-section is now the heights analyze reads.
+#[test]
+fn simulate_nine_section_csv_is_the_heights_analyze_reads() {
+    let dir = crate::util::tempdir();
+    let d = dir.path();
+    let run = |args: &[&str]| {
+        let o = crate::cli::fivecal()
+            .current_dir(d)
+            .args(args)
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    run(&["plan", "nine-section", "--out", "p"]);
+    std::fs::write(
+        d.join("t.yaml"),
+        "machine: bc-trunnion\nlocation_errors: {EX0B: 10.0, EA0B: 40.0}\n",
+    )
+    .unwrap();
+    let said = run(&[
+        "simulate",
+        "--plan",
+        "p/nine-section.plan.yaml",
+        "--errors",
+        "t.yaml",
+        "-o",
+        "x.csv",
+    ]);
+    assert!(said.contains("(heights)"), "{said}");
+    let csv = std::fs::read_to_string(d.join("x.csv")).unwrap();
+    assert!(csv.contains("\nsection,height_um\n1,0.0000\n"), "{csv}");
+    let said = run(&[
+        "analyze",
+        "--plan",
+        "p/nine-section.plan.yaml",
+        "--measured",
+        "x.csv",
+        "--out",
+        "r.yaml",
+    ]);
+    assert!(said.contains("wrote r.yaml"), "{said}");
+    // The points are still there for whoever asks for them by name.
+    run(&[
+        "simulate",
+        "--plan",
+        "p/nine-section.plan.yaml",
+        "--errors",
+        "t.yaml",
+        "-o",
+        "pts.csv",
+        "--format",
+        "csv",
+    ]);
+    let pts = std::fs::read_to_string(d.join("pts.csv")).unwrap();
+    assert!(pts.contains("\nlabel,x,y,z\n"), "{pts}");
+}
+
 /// A NUL byte in an NC program was reported as `line 2: a NUL byte` with
 /// no file named.
 #[test]

@@ -55,12 +55,13 @@ impl Format {
         }
     }
 
-    /// The format a file name suggests for a test of `kind`: `.dmo`, `.out`,
-    /// `.dmis` DMIS output; `.qif` QIF results; `.log`, `.txt`, `.lst` a
-    /// probe log; `.csv`
-    /// canonical CSV; anything else the test's natural output (CSV for a
-    /// machined piece, the log for on-machine probing).
-    pub fn for_path(path: &Path, kind: TestKind) -> Format {
+    /// The format a file name suggests for `test`, of `kind`: `.dmo`,
+    /// `.out`, `.dmis` DMIS output; `.qif` QIF results; `.log`, `.txt`,
+    /// `.lst` a probe log; `.csv` canonical CSV, or for nine-section its
+    /// section heights (the CSV analyze reads for it); anything else the
+    /// test's natural output (CSV for a machined piece, heights for
+    /// nine-section, the log for on-machine probing).
+    pub fn for_path(path: &Path, kind: TestKind, test: Test) -> Format {
         let ext = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase())
@@ -69,8 +70,12 @@ impl Format {
             "dmo" | "out" | "dmis" => Format::Dmis,
             "qif" => Format::Qif,
             "log" | "txt" | "lst" => Format::Log,
+            // The one CSV of the nine-section test that analyze reads: its
+            // points carry no nominal of their own to measure heights from.
+            "csv" if test == Test::NineSection => Format::Heights,
             "csv" => Format::Csv,
             _ => match kind {
+                TestKind::Machining if test == Test::NineSection => Format::Heights,
                 TestKind::Machining => Format::Csv,
                 TestKind::Probing => Format::Log,
             },

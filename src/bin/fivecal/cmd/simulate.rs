@@ -49,8 +49,9 @@ pub struct SimulateArgs {
     /// results, by the ids and names of the plan's .qif), log (the probe log
     /// the plan's program makes the control write) or heights (nine-section
     /// section,height_um). Default: from the file extension (.dmo/.out
-    /// dmis, .qif qif, .log/.txt log, .csv csv), else csv for a machined
-    /// piece and log for probing.
+    /// dmis, .qif qif, .log/.txt log, .csv csv, heights for nine-section),
+    /// else csv for a machined piece (heights for nine-section) and log
+    /// for probing.
     #[arg(long, value_name = "FORMAT")]
     format: Option<String>,
     /// Seed of every random draw (placement, setups, noise): the same seed
@@ -179,7 +180,9 @@ fn simulate(c: Config) -> anyhow::Result<()> {
     check_outputs(&refs, &[("--out", &c.out, Shape::File)])?;
     let plan = fivecal::procedure::load(&c.plan_path)?;
     let kind = plan.kind();
-    let format = c.format.unwrap_or_else(|| Format::for_path(&c.out, kind));
+    let format = c
+        .format
+        .unwrap_or_else(|| Format::for_path(&c.out, kind, plan.test()));
     simulate::output::check(format, kind, plan.test())?;
     let kin = simulate::plan_kinematics(&plan);
     let truth = ErrorFile::load(&c.errors, &kin)?;
