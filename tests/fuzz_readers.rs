@@ -514,6 +514,7 @@ fn nc_seeds() -> Vec<(Dialect, Vec<u8>)> {
         ("quirks/latin1_typos.h", Dialect::Heidenhain),
         ("quirks/hal_polar.ngc", Dialect::Linuxcnc),
         ("quirks/macro_packed.nc", Dialect::Fanuc),
+        ("quirks/sinumerik_frames.mpf", Dialect::Sinumerik),
     ] {
         out.push((d, std::fs::read(crate::nc::fixture(f)).unwrap()));
     }
@@ -527,6 +528,7 @@ fn zero_compensators() -> Vec<(Dialect, fivecal::model::Model, Vec<f64>)> {
         (Dialect::Fanuc, "bc-trunnion"),
         (Dialect::Linuxcnc, "bc-trunnion"),
         (Dialect::Heidenhain, "head-table"),
+        (Dialect::Sinumerik, "bc-trunnion"),
     ]
     .into_iter()
     .map(|(d, m)| {

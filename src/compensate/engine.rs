@@ -168,10 +168,23 @@ impl Compensator {
                                     }
                                     _ => None,
                                 });
+                                let vector = mv.vector.is_some();
                                 let mut sink = |pt: &Point, emitted: &[Option<f64>; 6], ins| {
                                     last_held = pt.held.is_some();
                                     if let Some(o) = observer.as_mut() {
-                                        o(&vertex(line, &f, pt, emitted, ins));
+                                        let mut shown = *emitted;
+                                        if vector {
+                                            // No rotary word is written: the
+                                            // control turns the written vector
+                                            // into the rotary positions solved.
+                                            let p = f.program(&pt.written);
+                                            for a in 3..6 {
+                                                if p[a].is_finite() {
+                                                    shown[a] = Some(p[a]);
+                                                }
+                                            }
+                                        }
+                                        o(&vertex(line, &f, pt, &shown, ins));
                                     }
                                 };
                                 motion_done = writer.write(

@@ -238,7 +238,7 @@ impl std::fmt::Display for Skip {
             Skip::Transformed(what) => write!(f, "{what} is active"),
             Skip::TiltedPlane => write!(
                 f,
-                "a tilted working plane is active (G68.2 / PLANE / CYCL DEF 19): the controller chooses the rotary positions"
+                "a tilted working plane is active (G68.2 / PLANE / CYCL DEF 19 / CYCLE800): the controller chooses the rotary positions"
             ),
             Skip::TcpSpatial => write!(f, "TCPM with spatial angles (AXIS SPAT) is not modelled"),
             Skip::MacroCall => write!(f, "macro call arguments (G65/G66)"),
