@@ -595,6 +595,18 @@ fn run_in(files: &[(&str, &str)], args: &[&str]) -> (Option<i32>, String, String
     )
 }
 
+/// `compensate p.nc -o out.nc` on head-table with the errors of `e.yaml`.
+const COMPENSATE_P_NC: [&str; 8] = [
+    "compensate",
+    "--machine",
+    "head-table",
+    "--errors",
+    "e.yaml",
+    "p.nc",
+    "-o",
+    "out.nc",
+];
+
 const HEAD_TABLE_ERRORS: &str =
     "machine: head-table\nlocation_errors: {EX0C: 12.0, EY0C: -8.0, EX0B: 5.0}\n";
 
@@ -609,16 +621,7 @@ fn compensate_fanuc_program_on_a_heidenhain_machine_is_read_as_fanuc_and_refused
     let numbered = "%\nO1001 (PLAIN)\nN10 G90 G54 G21\nN20 G0 X10. Y10. Z50. B0. C0.\nN30 G1 X20. F300.\nN40 M30\n%\n";
     let plain = numbered.replace("O1001 (PLAIN)", "(PLAIN)");
     let tcp = plain.replace("N10 G90 G54 G21", "N10 G90 G54 G21 G43.4 H1");
-    let args = [
-        "compensate",
-        "--machine",
-        "head-table",
-        "--errors",
-        "e.yaml",
-        "p.nc",
-        "-o",
-        "out.nc",
-    ];
+    let args = COMPENSATE_P_NC;
     for (program, why) in [
         (numbered, "read as fanuc (from the text: `O-number` at line 2)".to_string()),
         (&tcp, "read as fanuc (from the text: `G43.4` at line 3)".to_string()),
@@ -680,16 +683,7 @@ fn compensate_program_without_moves_in_its_own_dialect_is_not_called_another_con
     let program = "%\nO917100 (TOOL LENGTHS)\nT02 M06\nG65 P919100 H02 I-45.0 J15.0\nM02\n%\n";
     let (code, _, err, left) = run_in(
         &[("e.yaml", HEAD_TABLE_ERRORS), ("p.nc", program)],
-        &[
-            "compensate",
-            "--machine",
-            "head-table",
-            "--errors",
-            "e.yaml",
-            "p.nc",
-            "-o",
-            "out.nc",
-        ],
+        &COMPENSATE_P_NC,
     );
     assert_eq!(code, Some(2), "{err}");
     assert!(
@@ -860,16 +854,7 @@ fn compensate_nul_byte_names_the_program_and_its_line() {
             ("e.yaml", HEAD_TABLE_ERRORS),
             ("p.nc", "G0 X1 Y0 Z5 B0 C0\nG1 X2\0\n"),
         ],
-        &[
-            "compensate",
-            "--machine",
-            "head-table",
-            "--errors",
-            "e.yaml",
-            "p.nc",
-            "-o",
-            "out.nc",
-        ],
+        &COMPENSATE_P_NC,
     );
     assert_eq!(code, Some(2), "{err}");
     assert!(

@@ -129,14 +129,7 @@ impl<'a> Lx<'a> {
 }
 
 /// Tokenizes one Klartext block (with its continuation lines).
-pub(super) fn parse(syn: &Syntax, b: &mut Block) -> Result<(), BlockError> {
-    let text = std::mem::take(&mut b.text);
-    let r = parse_text(syn, &text, b);
-    b.text = text;
-    r
-}
-
-fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
+pub(super) fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
     let lx = Lx {
         s,
         strict: syn.strict,

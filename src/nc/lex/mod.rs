@@ -24,11 +24,15 @@ impl Syntax {
     pub fn parse(&self, block: &mut Block) -> Result<(), BlockError> {
         block.tokens.clear();
         block.segments.clear();
-        match self.dialect {
-            Dialect::Fanuc | Dialect::Linuxcnc => word_address::parse(self, block),
-            Dialect::Heidenhain => klartext::parse(self, block),
-            Dialect::Sinumerik => sinumerik::parse(self, block),
-        }?;
+        // The lexers read the text while they push tokens into the block.
+        let text = std::mem::take(&mut block.text);
+        let r = match self.dialect {
+            Dialect::Fanuc | Dialect::Linuxcnc => word_address::parse_text(self, &text, block),
+            Dialect::Heidenhain => klartext::parse_text(self, &text, block),
+            Dialect::Sinumerik => sinumerik::parse_text(self, &text, block),
+        };
+        block.text = text;
+        r?;
         debug_assert!(covers(block), "tokens must cover the block exactly");
         Ok(())
     }
@@ -39,6 +43,24 @@ pub(crate) const BOM: &[u8] = b"\xEF\xBB\xBF";
 
 /// DOS's end-of-file mark.
 pub(crate) const DOS_EOF: u8 = 0x1A;
+
+/// A one-line block split into its body and line ending (`\r\n`, `\n`
+/// or a bare `\r`): the body's length and the ending's. A line break
+/// inside the body is an error.
+pub(crate) fn split_line_end(s: &[u8]) -> Result<(usize, usize), BlockError> {
+    let le = if s.ends_with(b"\r\n") {
+        2
+    } else if s.ends_with(b"\n") || s.ends_with(b"\r") {
+        1
+    } else {
+        0
+    };
+    let n = s.len() - le;
+    match s[..n].iter().position(|&c| c == b'\n') {
+        Some(p) => Err(BlockError::new(p, "unexpected line break")),
+        None => Ok((n, le)),
+    }
+}
 
 /// A number beyond the range of any controller (and of a 64-bit float).
 pub(crate) fn too_large(offset: usize, lexeme: &[u8]) -> BlockError {

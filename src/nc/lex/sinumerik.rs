@@ -220,25 +220,8 @@ fn starts_with_word(s: &[u8], kw: &str) -> bool {
 }
 
 /// Tokenizes one SINUMERIK line.
-pub(super) fn parse(syn: &Syntax, b: &mut Block) -> Result<(), BlockError> {
-    let text = std::mem::take(&mut b.text);
-    let r = parse_text(syn, &text, b);
-    b.text = text;
-    r
-}
-
-fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
-    let mut n = s.len();
-    let mut le = 0;
-    if s.ends_with(b"\r\n") {
-        le = 2;
-    } else if s.ends_with(b"\n") || s.ends_with(b"\r") {
-        le = 1;
-    }
-    n -= le;
-    if let Some(p) = s[..n].iter().position(|&c| c == b'\n') {
-        return Err(BlockError::new(p, "unexpected line break"));
-    }
+pub(super) fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), BlockError> {
+    let (n, le) = super::split_line_end(s)?;
     let lx = Lexer { s, n, syn };
     let mut first = b.tokens.len();
     let mut i = 0;
