@@ -254,12 +254,9 @@ impl Reader<'_> {
         cols: Option<[usize; 3]>,
     ) -> Result<Option<Vector3<f64>>, SourceError> {
         match self.vector(row, cols)? {
-            Some(v) if v.norm() < 1e-9 => Err(self.err(
-                row.line,
-                row.get(cols.map(|c| c[0])).map_or(1, |f| f.0),
-                "the direction must not be zero",
-            )),
-            Some(v) => Ok(Some(v.normalize())),
+            Some(v) => super::unit_direction(v, "the direction")
+                .map(Some)
+                .map_err(|m| self.err(row.line, row.get(cols.map(|c| c[0])).map_or(1, |f| f.0), m)),
             None => Ok(None),
         }
     }

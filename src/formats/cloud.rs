@@ -106,15 +106,10 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
         e.actual = Some(Vector3::new(num(0)?, num(1)?, num(2)?) * mm);
         if f.len() == 6 {
             let d = Vector3::new(num(3)?, num(4)?, num(5)?);
-            if d.norm() < 1e-9 {
-                return Err(SourceError::new(
-                    path,
-                    line,
-                    f[3].0,
-                    "the direction i j k must not be zero",
-                ));
-            }
-            e.normal = Some(d.normalize());
+            e.normal = Some(
+                super::unit_direction(d, "the direction i j k")
+                    .map_err(|m| SourceError::new(path, line, f[3].0, m))?,
+            );
         }
         inv.entries.push(e);
     }
@@ -136,7 +131,7 @@ mod tests {
 
     #[test]
     fn directions_are_read_renormalized_and_every_line_keeps_the_layout() {
-        let src = "# x y z i j k\n1 2 3 0 0 2\n4;5;6;0.6;0.8;0\n";
+        let src = "# x y z i j k\n1 2 3 0 0 1.0001\n4;5;6;0.6;0.8;0\n";
         assert!(looks_like_cloud(src));
         let inv = parse(Path::new("c.txt"), src, &MeasuredOptions::default()).unwrap();
         assert_eq!(inv.entries[0].normal, Some(Vector3::new(0.0, 0.0, 1.0)));
@@ -160,5 +155,17 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert_eq!(e, "c.txt:1:7: the direction i j k must not be zero");
+        // Not a rounded unit vector: refused, not stretched into one.
+        let e = parse(
+            Path::new("c.txt"),
+            "1 2 3 0 0 2\n",
+            &MeasuredOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.starts_with("c.txt:1:7: the direction i j k has length 2.000000"),
+            "{e}"
+        );
     }
 }

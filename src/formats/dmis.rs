@@ -677,7 +677,7 @@ fn parse_feature(
     match kind {
         FeatureKind::Point => {
             // i, j, k when present (renormalized: writers print 4
-            // decimals); anything beyond is an extra field, ignored.
+            // decimals; refused when not a unit vector); anything beyond is an extra field, ignored.
             let given = (k..k + 3)
                 .filter(|&i| fields.get(i).is_some_and(|f| !f.1.is_empty()))
                 .count();
@@ -689,13 +689,10 @@ fn parse_feature(
                         opt(k + 1, "j")?.unwrap_or(0.0),
                         opt(k + 2, "k")?.unwrap_or(0.0),
                     );
-                    if v.norm() < 1e-9 {
-                        return Err(err(
-                            fields[k].0,
-                            "the direction i,j,k of a point must not be zero".into(),
-                        ));
-                    }
-                    ijk = Some(v.normalize());
+                    ijk = Some(
+                        super::unit_direction(v, "the direction i,j,k of a point")
+                            .map_err(|m| err(fields[k].0, m))?,
+                    );
                 }
                 n => {
                     return Err(err(
@@ -724,10 +721,9 @@ fn parse_feature(
             if let (Ok(Some(i)), Ok(Some(j)), Ok(Some(kk))) =
                 (opt(k, "i"), opt(k + 1, "j"), opt(k + 2, "k"))
             {
-                let v = Vector3::new(i, j, kk);
-                if v.norm() > 1e-9 {
-                    ijk = Some(v.normalize());
-                }
+                // Only informative here: a direction that is not a rounded
+                // unit vector is dropped, never stretched into one.
+                ijk = super::unit_direction(Vector3::new(i, j, kk), "").ok();
             }
             if matches!(kind_name.as_str(), "CIRCLE" | "CYLINDER")
                 && let Ok(Some(d)) = opt(k + 3, "size")

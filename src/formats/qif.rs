@@ -116,13 +116,10 @@ impl Ctx<'_, '_> {
         Ok(Vector3::new(v[0], v[1], v[2]))
     }
 
-    /// A unit direction (renormalized).
+    /// A unit direction (renormalized when rounded, refused when not one).
     fn direction(&self, n: Node<'_, '_>) -> Result<Vector3<f64>, SourceError> {
         let v = self.triple(n)?;
-        if v.norm() < 1e-9 {
-            return Err(self.err(n, format!("<{}>: a zero direction", name(&n))));
-        }
-        Ok(v.normalize())
+        super::unit_direction(v, &format!("<{}>", name(&n))).map_err(|m| self.err(n, m))
     }
 
     /// Location and direction of a feature nominal or measurement:
@@ -535,6 +532,9 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
                         why,
                     });
                 }
+                // Probe-ball centres compensated here, with the surface
+                // points they became.
+                let mut centres: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
                 for (what, set) in refs {
                     for (k, &p) in set.points.iter().enumerate() {
                         let p = p * mm;
@@ -545,6 +545,11 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
                                 n.map(|n| p - n.normalize() * r * mm)
                             }
                         };
+                        if let (Some(s), false, Some(_)) =
+                            (surface, set.compensated, set.probe_radius)
+                        {
+                            centres.push((p, s));
+                        }
                         match surface {
                             Some(s) => e.points.push(s),
                             None => {
@@ -557,9 +562,46 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
                         }
                     }
                 }
+                // Real writers (the QIF community's own PTS sample) give a
+                // point's Location as the uncompensated ball centre of its
+                // one point: a surface point a ball radius off the surface.
+                // The compensated point is the measurement.
+                if let (Some(a), [(centre, surface)]) = (e.actual, centres.as_slice())
+                    && e.kind == "point"
+                    && (a - centre).norm() <= 1e-9 * (1.0 + a.norm())
+                {
+                    e.actual = Some(*surface);
+                    inv.warnings.push(format!(
+                        "line {}: `{}` gives its Location as the probe-ball centre of its uncompensated point set; the point compensated by the probe radius along the normal is used ({:.4} mm away)",
+                        e.line,
+                        e.label,
+                        (surface - centre).norm()
+                    ));
+                }
                 if e.actual.is_none() && e.kind == "point" && !e.points.is_empty() {
                     let sum: Vector3<f64> = e.points.iter().sum();
                     e.actual = Some(sum / e.points.len() as f64);
+                }
+            }
+            // A point without raw points cannot be compensated; if it sits
+            // a ball radius of this run off its nominal along the normal,
+            // it is most likely a ball centre too, and the user is told.
+            if let (Some(a), Some(nom), Some(n), true) =
+                (e.actual, e.nominal, e.normal, e.points.is_empty())
+                && e.kind == "point"
+            {
+                let off = (a - nom).dot(&n);
+                if let Some(r) = sets
+                    .values()
+                    .filter(|s| !s.compensated)
+                    .filter_map(|s| s.probe_radius)
+                    .map(|r| r * mm)
+                    .find(|r| (off.abs() - r).abs() < 0.2 * r)
+                {
+                    inv.warnings.push(format!(
+                        "line {}: `{}` lies {off:.4} mm from its nominal along the normal, close to this run's probe radius {r:.4} mm, and has no raw points to compensate: it may be an uncompensated ball centre",
+                        e.line, e.label
+                    ));
                 }
             }
             if e.actual.is_none() {

@@ -288,15 +288,11 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
         e.actual = v3(actual)?.map(|v| v * mm);
         e.nominal = v3(nominal)?.map(|v| v * mm);
         if let Some(d) = v3(dir)? {
-            if d.norm() < 1e-9 {
-                return Err(SourceError::new(
-                    path,
-                    line,
-                    get(dir[0].unwrap_or(0))?.0,
-                    "the direction i,j,k must not be zero",
-                ));
-            }
-            e.normal = Some(d.normalize());
+            let col = get(dir[0].unwrap_or(0))?.0;
+            e.normal = Some(
+                super::unit_direction(d, "the direction i,j,k")
+                    .map_err(|m| SourceError::new(path, line, col, m))?,
+            );
         }
         inv.entries.push(e);
     }
