@@ -293,7 +293,7 @@ fn probe_pretravel_on_the_column_probing_test_is_named_with_what_it_cannot_see()
     // The error file writes what the test saw and says what it did not.
     let f = d.error_file(
         &inputs.data,
-        &[fivecal::analyze::fit::ExpectedNoise::new(
+        &[fivecal::analyze::goodness::ExpectedNoise::new(
             None,
             inputs.data.kind,
             inputs.plan.test(),

@@ -8,7 +8,7 @@
 
 use std::sync::OnceLock;
 
-use fivecal::analyze::fit::ExpectedNoise;
+use fivecal::analyze::goodness::ExpectedNoise;
 use fivecal::discover::{DiscoverOptions, Discovery, Inputs};
 use fivecal::errorfile::{ErrorFile, FitVerdict};
 

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use fivecal::fit::{
+use fivecal::shape_fit::{
     FitError, SphereCheck, circle_through_three, fit_circle, fit_plane, fit_sphere,
     fit_sphere_algebraic,
 };

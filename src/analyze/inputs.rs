@@ -19,7 +19,6 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Point3, Vector3};
 
 use super::AnalyzeError;
-use crate::fit::SphereCheck;
 use crate::formats::detect::{self, MeasuredOptions, Measurement, PointSet, ReadContext};
 use crate::formats::heights::SectionHeight;
 use crate::formats::manifest::{Manifest, TestKind};
@@ -33,6 +32,7 @@ use crate::procedure::Plan;
 use crate::procedure::probing::columns::ColumnsTemplate;
 use crate::procedure::probing::sphere::SphereTemplate;
 use crate::procedure::{TemplateSource, Test};
+use crate::shape_fit::SphereCheck;
 
 /// Which probed piece each touch is on, by label.
 #[derive(Clone, Debug, PartialEq)]

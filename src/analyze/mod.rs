@@ -12,8 +12,8 @@
 //! - [`inputs`]: the measured files read in whatever format and joined to
 //!   the plan's points (also what `discover` and the demo read with);
 //! - [`method`]: which identification runs, and with which forward model;
-//! - [`design`]: what a plan will identify, before anything is measured;
-//! - [`fit`]: whether the model explains the measurements as well as the
+//! - [`preview`]: what a plan will identify, before anything is measured;
+//! - [`goodness`]: whether the model explains the measurements as well as the
 //!   instrument's noise allows, and what a result that does not must say;
 //! - [`uncertainty`]: the covariance each method reports and the
 //!   Monte-Carlo study that replaces it on request;
@@ -21,10 +21,10 @@
 //! - [`series`]: several pieces side by side, and an earlier result beside
 //!   the new one.
 
-pub mod design;
-pub mod fit;
+pub mod goodness;
 pub mod inputs;
 pub mod method;
+pub mod preview;
 pub mod result;
 pub mod series;
 pub mod suggest;
@@ -134,7 +134,7 @@ pub struct Request {
     /// How the sphere method fits the axis lines.
     pub circle: CircleMethod,
     /// The instrument's noise per measured point, um, that the fit is
-    /// judged against; `None`: the instrument's default ([`fit::ExpectedNoise`]).
+    /// judged against; `None`: the instrument's default ([`goodness::ExpectedNoise`]).
     pub noise: Option<f64>,
     /// What the user said about the measurement files (run, units,
     /// encoding).
@@ -351,9 +351,9 @@ fn identify_piece(
         None
     };
     let est = method::identify_with_plan(method, &setup, &data, sphere, plan.as_deref())?;
-    let fit = fit::of(
+    let fit = goodness::of(
         &est,
-        &fit::ExpectedNoise::new(req.noise, data.kind, ctx.test),
+        &goodness::ExpectedNoise::new(req.noise, data.kind, ctx.test),
     );
     // The covariance is scaled by the residual variance, so its u already
     // carries the Birge ratio; a Monte-Carlo study draws at the stated noise
@@ -391,7 +391,7 @@ fn identify_piece(
         )
         .map_err(AnalyzeError::MonteCarlo)?;
         let mut s = s;
-        s.widen(fit::widening(fit.as_ref()));
+        s.widen(goodness::widening(fit.as_ref()));
         u = s.u(&est);
         study = Some(s);
     }

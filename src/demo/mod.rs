@@ -291,7 +291,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let final_est = discovery.identification(data);
     // Judged against the same noise as the first analysis, as `discover
     // --out` writes it.
-    let expected = crate::analyze::fit::ExpectedNoise::new(None, data.kind, identified.test);
+    let expected = crate::analyze::goodness::ExpectedNoise::new(None, data.kind, identified.test);
     let final_file = discovery.error_file(data, std::slice::from_ref(&expected));
     let final_path = out.join("discovered.yaml");
     let final_text = final_file.to_yaml();

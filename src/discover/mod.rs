@@ -37,7 +37,7 @@ pub mod story;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use crate::analyze::fit::ExpectedNoise;
+use crate::analyze::goodness::ExpectedNoise;
 use crate::errorfile::{AmbiguitySection, ErrorFile, Noise, NotIdentified, Quantity, RivalEntry};
 use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::combination;
@@ -176,7 +176,7 @@ impl Discovery {
             noise.probe = noise.probe.or(n.probe);
         }
         file.effects.noise = Some(noise);
-        file.fit = crate::analyze::fit::of(&est, &self.expected(expected));
+        file.fit = crate::analyze::goodness::of(&est, &self.expected(expected));
         file.ambiguity = self.story.ambiguity.as_ref().map(|a| AmbiguitySection {
             reason: a.reason.clone(),
             rivals: a

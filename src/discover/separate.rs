@@ -6,7 +6,7 @@
 //! from coarse to fine; the probe-sphere test takes any pose), each
 //! planned and measured on the simulator without errors or noise (its
 //! design, as `plan` predicts what a test identifies,
-//! [`crate::analyze::design`]), and fitted together with the first test's
+//! [`crate::analyze::preview`]), and fitted together with the first test's
 //! measurements, as the next `discover` run will fit them. Each rival is
 //! then set, with the values it was fitted with, against every other: the
 //! directions it adds beside the other (the identifiability analysis of the
@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector};
 use super::catalogue::{self, Candidate};
 use super::fit::{Fit, Fitter, Part, Spec};
 use super::{DiscoverOptions, column_space, stats};
-use crate::analyze::fit::ExpectedNoise;
+use crate::analyze::goodness::ExpectedNoise;
 use crate::errorfile::{Separation, Supplement};
 use crate::formats::manifest::KinematicsMode;
 use crate::model::Effect;
@@ -264,7 +264,7 @@ pub fn find(
         let Ok(plan) = plan_supplement(first, &s) else {
             continue;
         };
-        let Ok(nominal) = crate::analyze::design::nominal_data(&plan) else {
+        let Ok(nominal) = crate::analyze::preview::nominal_data(&plan) else {
             continue;
         };
         tried += 1;

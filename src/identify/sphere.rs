@@ -7,7 +7,7 @@
 //!   radius), from the algebraic fit (Cubas Brizuela & Yeh 2023, eq. 3.1-3.2) refined
 //!   geometrically. Cubas Brizuela & Yeh 2023 averages four 4-point fits instead; with five
 //!   points the least-squares fit is the same estimate with less variance.
-//!   The fit is [`crate::fit::fit_sphere`]; [`fit_sphere`] adds the
+//!   The fit is [`crate::shape_fit::fit_sphere`]; [`fit_sphere`] adds the
 //!   centre's covariance the line fits weigh by.
 //! - Axis lines: the centres at one tilt angle and many C angles lie on a
 //!   circle about the C axis; those at one C angle and many tilt angles on an
@@ -37,10 +37,10 @@ use super::forward::ForwardModel;
 use super::lsq::{self, Problem};
 use super::result::PoseFit;
 use super::{Dataset, Identification, IdentifyError, Method, Setup, identifiability};
-use crate::fit::SphereCheck;
 use crate::geom::{tangent_basis, wrap180};
 use crate::kinematics::Axes;
 use crate::model::{Context, Effect, Model};
+use crate::shape_fit::SphereCheck;
 
 /// How the axis lines are fitted to the centres.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,10 +92,10 @@ pub struct Sphere {
 }
 
 /// Fits a sphere (free radius) to at least four points: the geometric
-/// least-squares fit of [`crate::fit::fit_sphere`], with the centre's
+/// least-squares fit of [`crate::shape_fit::fit_sphere`], with the centre's
 /// covariance per unit noise from the fit's Jacobian at the solution.
 pub fn fit_sphere(pts: &[Vector3<f64>]) -> Option<Sphere> {
-    let fit = crate::fit::fit_sphere(pts).ok()?;
+    let fit = crate::shape_fit::fit_sphere(pts).ok()?;
     let c = fit.sphere.centre;
     // Rows d(|p - c| - r)/d(c, r) = (-(p - c)/|p - c|, -1).
     let mut jtj = nalgebra::Matrix4::<f64>::zeros();
@@ -350,7 +350,7 @@ pub fn combinations_line(
                 if gaps.iter().any(|&g| g < 30.0 - 1e-9) {
                     continue;
                 }
-                let Ok(circle) = crate::fit::circle_through_three(
+                let Ok(circle) = crate::shape_fit::circle_through_three(
                     &axis.centres[i],
                     &axis.centres[j],
                     &axis.centres[k],
@@ -1159,7 +1159,7 @@ mod tests {
             .collect();
         let ls = fit_circle(&pts, false, &Vector3::z()).unwrap();
         assert!((ls.centre - centre).norm() < 1e-9 && (ls.normal - n).norm() < 1e-12);
-        let c3 = crate::fit::circle_through_three(&pts[0], &pts[4], &pts[8]).unwrap();
+        let c3 = crate::shape_fit::circle_through_three(&pts[0], &pts[4], &pts[8]).unwrap();
         assert!((c3.centre - centre).norm() < 1e-9 && c3.normal.cross(&n).norm() < 1e-9);
         pts[3] += n * 0.05;
         let rb = fit_circle(&pts, true, &Vector3::z()).unwrap();

@@ -303,8 +303,8 @@ fn print_piece(c: &Config, p: &Piece) {
         outln!("== piece {k}: {}", p.name());
     }
     if let Some(f) = p.misfit() {
-        let next = analyze::fit::discover_command(&c.request.manifest, &p.data.files);
-        outln!("{}\n", analyze::fit::banner(f, &next));
+        let next = analyze::goodness::discover_command(&c.request.manifest, &p.data.files);
+        outln!("{}\n", analyze::goodness::banner(f, &next));
     }
     out!("{}", p.est.summary());
     match &p.fit {

@@ -237,9 +237,9 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
         ));
     }
     if let Some(out) = &c.out {
-        let expected: Vec<analyze::fit::ExpectedNoise> = inputs
+        let expected: Vec<analyze::goodness::ExpectedNoise> = inputs
             .iter()
-            .map(|i| analyze::fit::ExpectedNoise::new(c.noise, i.data.kind, i.plan.test()))
+            .map(|i| analyze::goodness::ExpectedNoise::new(c.noise, i.data.kind, i.plan.test()))
             .collect();
         let mut f = d.error_file(&view, &expected);
         if let Some(s) = f.ambiguity.as_mut().and_then(|a| a.supplement.as_mut()) {

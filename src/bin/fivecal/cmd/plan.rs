@@ -376,7 +376,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             p.post.dialect
         )
     })?;
-    let predicted = fivecal::analyze::design::predict(&planned, None, None)
+    let predicted = fivecal::analyze::preview::predict(&planned, None, None)
         .with_context(|| format!("cannot predict what {} identifies", planned.test()))?;
     // What would identify what the design leaves unidentified.
     let suggested = fivecal::analyze::suggest::suggest(p, &planned, &predicted, None);
@@ -432,7 +432,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     out!("{}", predicted.render());
     out!("{}", suggested.render(&recipe));
     if predicted.method != fivecal::identify::Method::Global {
-        let global = fivecal::analyze::design::predict(
+        let global = fivecal::analyze::preview::predict(
             &planned,
             Some(fivecal::identify::Method::Global),
             None,

@@ -245,7 +245,7 @@ pub fn weak_poses(plan: &TouchPlan) -> Vec<String> {
                 .iter()
                 .map(|t| t.contact_w)
                 .collect();
-            crate::fit::fit_sphere_algebraic(&pts).err().map(|e| {
+            crate::shape_fit::fit_sphere_algebraic(&pts).err().map(|e| {
                 format!(
                     "pose {}: its {} touches do not fix the sphere: {e}",
                     pose.id,

@@ -354,8 +354,8 @@ impl SphereTemplate {
 
     /// The per-pose sphere check for touches logged as ball centres of a
     /// ball of radius `ball_radius`.
-    pub fn sphere_check(&self, ball_radius: f64) -> crate::fit::SphereCheck {
-        crate::fit::SphereCheck {
+    pub fn sphere_check(&self, ball_radius: f64) -> crate::shape_fit::SphereCheck {
+        crate::shape_fit::SphereCheck {
             expected_radius: self.diameter / 2.0 + ball_radius,
             radius_tolerance: self.radius_tolerance,
             form_tolerance: self.form_tolerance,

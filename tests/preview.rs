@@ -2,7 +2,7 @@
 //! cut or probed, and the uncertainties it predicts are the ones `analyze`
 //! then reports.
 
-use fivecal::analyze::design;
+use fivecal::analyze::preview;
 use fivecal::identify::Setup;
 
 use crate::analyze_sim::{identify, measure};
@@ -23,9 +23,9 @@ fn plan_predicts_the_symbols_and_u_that_analyze_reports() {
         ("head-table", "probe-sphere"),
     ] {
         let plan = crate::simulate::planned(machine, test);
-        let predicted = design::predict(&plan, None, None).unwrap();
+        let predicted = preview::predict(&plan, None, None).unwrap();
         let kin = fivecal::simulate::plan_kinematics(&plan);
-        let truth = crate::simulate::truth(&plan, &crate::fit::location_truth(&kin));
+        let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
         let data = measure(&plan, &truth, &Default::default());
         let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
         let est = identify(&plan, &setup, &data, predicted.method);
@@ -144,9 +144,9 @@ fn predicted_u_matches_the_spread_of_200_simulated_runs() {
         ("head-table", "probe-columns"),
     ] {
         let plan = crate::simulate::planned(machine, test);
-        let predicted = design::predict(&plan, None, None).unwrap();
+        let predicted = preview::predict(&plan, None, None).unwrap();
         let kin = fivecal::simulate::plan_kinematics(&plan);
-        let truth = crate::simulate::truth(&plan, &crate::fit::location_truth(&kin));
+        let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
         let runs: Vec<Vec<(String, f64)>> = (0..200u64)
             .into_par_iter()
             .map(|seed| {
@@ -359,7 +359,7 @@ fn a_suggested_change_identifies_what_it_claims() {
                 cfg.template = template;
                 let plan = fivecal::procedure::plan(&cfg).unwrap();
                 let kin = fivecal::simulate::plan_kinematics(&plan);
-                let truth = crate::simulate::truth(&plan, &crate::fit::location_truth(&kin));
+                let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
                 let data = measure(&plan, &truth, &Default::default());
                 let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
                 let method = id.method.parse().unwrap();
@@ -385,7 +385,7 @@ fn a_suggested_change_identifies_what_it_claims() {
 #[test]
 fn a_complete_design_suggests_nothing() {
     let plan = crate::simulate::planned("bc-trunnion", "probe-columns");
-    let predicted = design::predict(&plan, None, None).unwrap();
+    let predicted = preview::predict(&plan, None, None).unwrap();
     assert!(predicted.missing().is_empty());
     let cfg = fivecal::procedure::PlanConfig::builtin(
         plan.machine().clone(),
@@ -506,7 +506,10 @@ fn a_second_run_with_another_probe_frees_the_head_alias() {
     // seed, and the two fitted together as the suggestion says.
     let plan = crate::simulate::planned("head-table", "probe-columns");
     let kin = fivecal::simulate::plan_kinematics(&plan);
-    let truth = format!("machine: head-table\n{}", crate::fit::location_truth(&kin));
+    let truth = format!(
+        "machine: head-table\n{}",
+        crate::goodness::location_truth(&kin)
+    );
     std::fs::write(dir.join("truth.yaml"), &truth).unwrap();
     let out = words(command)
         .iter()
@@ -555,9 +558,9 @@ fn a_second_run_with_another_probe_frees_the_head_alias() {
 #[test]
 fn the_joint_design_of_one_run_is_its_own() {
     let plan = crate::simulate::planned("head-table", "probe-columns");
-    let predicted = design::predict(&plan, Some(fivecal::identify::Method::Global), None).unwrap();
+    let predicted = preview::predict(&plan, Some(fivecal::identify::Method::Global), None).unwrap();
     let kin = fivecal::simulate::plan_kinematics(&plan);
-    let data = design::nominal_data(&plan).unwrap();
+    let data = preview::nominal_data(&plan).unwrap();
     let (rows, _) =
         fivecal::analyze::suggest::joint(&[(&plan, &kin, &data)], predicted.noise.um).unwrap();
     for (a, b) in predicted.rows.iter().zip(&rows) {

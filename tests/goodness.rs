@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use fivecal::analyze::fit::{self, ExpectedNoise};
+use fivecal::analyze::goodness::{self, ExpectedNoise};
 use fivecal::errorfile::{ErrorFile, FitVerdict};
 
 use fivecal::identify::{Method, Setup};
@@ -62,7 +62,7 @@ fn every_test_machine_and_method_fits_and_reports_within_4u() {
                 let expected = ExpectedNoise::new(None, data.kind, plan.test());
                 for &method in &methods {
                     let est = identify(&plan, &setup, &data, method);
-                    let f = fit::of(&est, &expected).unwrap();
+                    let f = goodness::of(&est, &expected).unwrap();
                     assert_eq!(
                         f.verdict,
                         FitVerdict::Fits,
@@ -250,7 +250,7 @@ fn a_drifting_piece_is_flagged_refused_then_discovered_and_accepted() {
 /// noisier CMM fit, and the result file says where the figure came from.
 #[test]
 fn a_stated_noise_judges_the_fit() {
-    let r = fit::judge(
+    let r = goodness::judge(
         2.5,
         130,
         &ExpectedNoise::new(

@@ -11,7 +11,7 @@
 
 use std::fmt::Write as _;
 
-use super::fit::ExpectedNoise;
+use super::goodness::ExpectedNoise;
 use super::{AnalyzeError, method};
 use crate::errorfile::ErrorFile;
 use crate::formats::manifest::{Identifies, PredictedSymbol};
