@@ -30,7 +30,7 @@ use crate::machine::Machine;
 use crate::source::SourceError;
 
 /// Coverage factor of the expanded uncertainty the decision uses.
-pub const COVERAGE: f64 = 2.0;
+pub(crate) const COVERAGE: f64 = 2.0;
 
 /// The acceptance interval of one symbol, in the symbol's unit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,7 +120,7 @@ impl Limits {
 
     /// Checks every name against the machine's location symbols; `path`
     /// and `src` (the file the limits were read from) locate the error.
-    pub fn check_symbols(
+    pub(crate) fn check_symbols(
         &self,
         symbols: &SymbolTable,
         path: &Path,
@@ -191,7 +191,7 @@ impl LimitsSource {
     }
 
     /// The limits of a machine file read from `path`.
-    pub fn of_machine(m: &Machine, path: &Path) -> LimitsSource {
+    pub(crate) fn of_machine(m: &Machine, path: &Path) -> LimitsSource {
         LimitsSource {
             limits: m.limits.clone(),
             machine: Some(m.name.clone()),
@@ -405,7 +405,7 @@ impl Verdict {
 
 /// The unit of a location symbol, from its ISO 230-1 name: `EX..`, `EY..`,
 /// `EZ..` are positions (um), `EA..`, `EB..`, `EC..` orientations (urad).
-pub fn unit_of(symbol: &str) -> &'static str {
+pub(crate) fn unit_of(symbol: &str) -> &'static str {
     match symbol.as_bytes().get(1) {
         Some(b'X' | b'Y' | b'Z') => "um",
         Some(b'A' | b'B' | b'C') => "urad",
@@ -415,7 +415,7 @@ pub fn unit_of(symbol: &str) -> &'static str {
 
 /// FAIL if any fails, PASS if all pass (and there is at least one), else
 /// cannot decide.
-pub fn combine(decisions: impl Iterator<Item = Decision>) -> Decision {
+pub(crate) fn combine(decisions: impl Iterator<Item = Decision>) -> Decision {
     let mut any = false;
     let mut all_pass = true;
     for d in decisions {

@@ -118,7 +118,7 @@ impl Mesh {
     }
 
     /// Reads an OBJ file (polygons are triangulated).
-    pub fn from_obj(path: &Path) -> Result<Mesh, MeshError> {
+    pub(crate) fn from_obj(path: &Path) -> Result<Mesh, MeshError> {
         let opts = tobj::LoadOptions {
             triangulate: true,
             single_index: true,
@@ -151,7 +151,7 @@ impl Mesh {
     /// Reads a glTF (`.gltf` with external or embedded buffers) or binary
     /// `.glb` file; every triangle primitive of the default scene, with its
     /// node transforms.
-    pub fn from_gltf(path: &Path) -> Result<Mesh, MeshError> {
+    pub(crate) fn from_gltf(path: &Path) -> Result<Mesh, MeshError> {
         let bytes = read_model(path)?;
         let fmt = |message: String| MeshError::Format {
             path: path.to_path_buf(),
@@ -234,25 +234,6 @@ impl Mesh {
             }
         }
         Ok(mesh)
-    }
-
-    /// The mesh of a triangle soup (as [`crate::mesh::Mesh`] holds it);
-    /// equal positions become one vertex.
-    pub fn from_triangles<'a>(triangles: impl IntoIterator<Item = &'a [Vector3<f64>; 3]>) -> Mesh {
-        let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
-        let mut mesh = Mesh::default();
-        for t in triangles {
-            let mut f = [0u32; 3];
-            for (k, v) in t.iter().enumerate() {
-                let key = [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-                f[k] = *ids.entry(key).or_insert_with(|| {
-                    mesh.vertices.push(*v);
-                    (mesh.vertices.len() - 1) as u32
-                });
-            }
-            mesh.triangles.push(f);
-        }
-        mesh
     }
 }
 
@@ -742,7 +723,7 @@ mod tests {
     use super::*;
 
     /// A unit-free cube [0, 10]^3 with outward triangles.
-    pub fn cube() -> Mesh {
+    pub(crate) fn cube() -> Mesh {
         let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
         let vertices = vec![
             v(0., 0., 0.),

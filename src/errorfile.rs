@@ -161,7 +161,7 @@ pub struct Noise {
 impl Noise {
     /// A noise of `sigma_um` (if finite) as the CMM's for a machined piece
     /// or the probe's for on-machine probing.
-    pub fn of_kind(kind: crate::formats::manifest::TestKind, sigma_um: f64) -> Noise {
+    pub(crate) fn of_kind(kind: crate::formats::manifest::TestKind, sigma_um: f64) -> Noise {
         let sigma = sigma_um.is_finite().then_some(sigma_um);
         match kind {
             crate::formats::manifest::TestKind::Machining => Noise {
@@ -245,7 +245,7 @@ impl FitVerdict {
     }
 
     /// The verdict a result file states in `fit: {verdict: ...}`, if any.
-    pub fn of_result(content: &str) -> Option<FitVerdict> {
+    pub(crate) fn of_result(content: &str) -> Option<FitVerdict> {
         let v: serde_yaml::Value = serde_yaml::from_str(content).ok()?;
         v.get("fit")?.get("verdict")?.as_str()?.parse().ok()
     }

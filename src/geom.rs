@@ -10,9 +10,9 @@
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
 /// Millimetres per micrometre.
-pub const MM_PER_UM: f64 = 1e-3;
+pub(crate) const MM_PER_UM: f64 = 1e-3;
 /// Radians per microradian.
-pub const RAD_PER_URAD: f64 = 1e-6;
+pub(crate) const RAD_PER_URAD: f64 = 1e-6;
 
 /// A coordinate axis of a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -45,7 +45,7 @@ impl Axis3 {
     }
 
     /// The axis with index 0, 1 or 2.
-    pub fn from_index(i: usize) -> Axis3 {
+    pub(crate) fn from_index(i: usize) -> Axis3 {
         match i {
             0 => Axis3::X,
             1 => Axis3::Y,
@@ -59,13 +59,13 @@ impl Axis3 {
     }
 
     /// Letter of the rotation about this axis (`A`, `B`, `C`).
-    pub fn rot_letter(self) -> char {
+    pub(crate) fn rot_letter(self) -> char {
         ['A', 'B', 'C'][self.index()]
     }
 }
 
 /// Translation along `axis` by `v` (mm): `Dx`, `Dy` or `Dz`.
-pub fn trans(axis: Axis3, v: f64) -> Isometry3<f64> {
+pub(crate) fn trans(axis: Axis3, v: f64) -> Isometry3<f64> {
     Isometry3::from_parts(
         Translation3::from(axis.unit() * v),
         UnitQuaternion::identity(),
@@ -106,7 +106,7 @@ pub fn deg(rad: f64) -> f64 {
 }
 
 /// Wraps an angle in degrees into `(-180, 180]`.
-pub fn wrap180(a: f64) -> f64 {
+pub(crate) fn wrap180(a: f64) -> f64 {
     let mut r = a.rem_euclid(360.0);
     if r > 180.0 {
         r -= 360.0;
@@ -115,7 +115,7 @@ pub fn wrap180(a: f64) -> f64 {
 }
 
 /// Two unit vectors orthogonal to `u` and to each other (a tangent basis).
-pub fn tangent_basis(u: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+pub(crate) fn tangent_basis(u: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let helper = if u.x.abs() < 0.9 {
         Vector3::x()
     } else {

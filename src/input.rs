@@ -139,7 +139,7 @@ pub fn text_of(path: &Path, what: &str, bytes: Vec<u8>) -> Result<String, Source
 
 /// Text whose lines end in a bare CR (old Mac files) with LF line ends;
 /// CRLF and LF text unchanged.
-pub fn with_lf_lines(text: String) -> String {
+pub(crate) fn with_lf_lines(text: String) -> String {
     let b = text.as_bytes();
     let bare_cr = b
         .iter()
@@ -153,7 +153,7 @@ pub fn with_lf_lines(text: String) -> String {
 }
 
 /// Reads a binary file (a mesh) of at most `limit` bytes.
-pub fn read_bytes(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, SourceError> {
+pub(crate) fn read_bytes(path: &Path, what: &str, limit: u64) -> Result<Vec<u8>, SourceError> {
     check_readable(path, what)?;
     let file = File::open(path)
         .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read {what}: {e}")))?;

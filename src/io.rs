@@ -243,7 +243,7 @@ fn is_special_location(path: &Path) -> bool {
 }
 
 /// Classifies an output path for a file output named by `flag`.
-pub fn classify(flag: &str, path: &Path) -> Result<Target, OutputError> {
+pub(crate) fn classify(flag: &str, path: &Path) -> Result<Target, OutputError> {
     let wrong = |what: String| OutputError::WrongKind {
         flag: flag.to_string(),
         path: path.to_path_buf(),

@@ -63,7 +63,10 @@ pub enum PlacementError {
 
 /// The rigid transform `T` minimising `sum |T w_i - c_i|^2` (Kabsch/Horn):
 /// from W points `w` to CMM points `c`.
-pub fn kabsch(w: &[Vector3<f64>], c: &[Vector3<f64>]) -> Result<Isometry3<f64>, PlacementError> {
+pub(crate) fn kabsch(
+    w: &[Vector3<f64>],
+    c: &[Vector3<f64>],
+) -> Result<Isometry3<f64>, PlacementError> {
     assert_eq!(w.len(), c.len());
     if w.len() < 3 {
         return Err(PlacementError::TooFewPoints {
@@ -110,7 +113,7 @@ fn scaled_rank(a: &DMatrix<f64>, rtol: f64) -> usize {
 /// Refines a placement by point-to-plane least squares. Returns the fit
 /// (with `constrained < 6` when the faces leave some motion free; the free
 /// motion then stays where `init` put it).
-pub fn refine(obs: &[PlaneObservation], init: &Isometry3<f64>) -> PlacementFit {
+pub(crate) fn refine(obs: &[PlaneObservation], init: &Isometry3<f64>) -> PlacementFit {
     // Work with Q = P^-1 (CMM to W); residual r = n . (Q m - p).
     let mut q = init.inverse();
     let rows = obs.len();

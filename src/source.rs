@@ -76,7 +76,7 @@ impl fmt::Display for SourceError {
 /// writes it, `` `...` `` as fivecal does) cut to the first line and
 /// [`ECHO_CHARS`] characters: a file dumped into a string field, or a
 /// number ten megabytes long, is named, not printed.
-pub fn shorten_echoes(msg: &str) -> String {
+pub(crate) fn shorten_echoes(msg: &str) -> String {
     let mut out = String::with_capacity(msg.len().min(512));
     let mut rest = msg;
     while let Some(i) = rest.find(['"', '`']) {

@@ -19,7 +19,7 @@ use crate::procedure::Test;
 /// chance with this probability or less, were the model complete. Small,
 /// because a wrong refusal costs a `discover` run while a right one keeps
 /// biased values out of a control: one clean run in a thousand is flagged.
-pub const MISFIT_SIGNIFICANCE: f64 = 1e-3;
+pub(crate) const MISFIT_SIGNIFICANCE: f64 = 1e-3;
 
 /// The noise a measurement should show, um, and where that figure comes
 /// from.
@@ -68,7 +68,7 @@ impl ExpectedNoise {
     /// its instrument's noise and number of points: the root mean square
     /// of the noises over the points (a residual's expected square is its
     /// instrument's variance).
-    pub fn pooled(parts: &[(&str, &ExpectedNoise, usize)]) -> ExpectedNoise {
+    pub(crate) fn pooled(parts: &[(&str, &ExpectedNoise, usize)]) -> ExpectedNoise {
         if let [(_, one, _)] = parts {
             return (*one).clone();
         }
@@ -125,7 +125,7 @@ pub fn of(est: &Identification, expected: &ExpectedNoise) -> Option<FitSection> 
 /// ratio when the model does not fit, else 1. Covariance uncertainties
 /// scaled by the residual variance carry it already; uncertainties drawn
 /// at the stated noise (a Monte-Carlo study) do not.
-pub fn widening(fit: Option<&FitSection>) -> f64 {
+pub(crate) fn widening(fit: Option<&FitSection>) -> f64 {
     match fit {
         Some(f) if f.verdict == FitVerdict::Misfit && f.ratio > 1.0 => f.ratio,
         _ => 1.0,

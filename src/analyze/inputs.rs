@@ -377,7 +377,7 @@ impl PlanContext {
     /// `source` in messages. Not checked against the nominal points: a
     /// simulation without errors and noise is how `plan` predicts what its
     /// test identifies.
-    pub fn join_points(
+    pub(crate) fn join_points(
         &self,
         points: Vec<MeasuredPoint>,
         format: &'static str,

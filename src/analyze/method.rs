@@ -82,7 +82,7 @@ pub fn identify_with(
 /// The identification a Monte-Carlo run repeats: the same estimator, the
 /// reporting (what is identifiable) taken from the study's first fit, so
 /// the sphere method's judge is not run again.
-pub fn identify_for_study(
+pub(crate) fn identify_for_study(
     method: Method,
     setup: &Setup,
     data: &Dataset,

@@ -32,7 +32,7 @@ pub fn error_file(est: &Identification, u: &[Option<f64>], kind: TestKind) -> Er
 }
 
 /// The file of piece `k` of a series written to `out`: `RESULT.k.yaml`.
-pub fn piece_path(out: &Path, k: usize, json: bool) -> PathBuf {
+pub(crate) fn piece_path(out: &Path, k: usize, json: bool) -> PathBuf {
     let stem = out
         .file_stem()
         .map_or("result".into(), |s| s.to_string_lossy().to_string());

@@ -120,7 +120,7 @@ pub struct SecondRun {
 
 impl SecondRun {
     /// The keys to set in a copy of the machine file.
-    pub fn machine_keys(&self) -> Value {
+    pub(crate) fn machine_keys(&self) -> Value {
         let mut root = Value::Mapping(Mapping::new());
         set(
             &mut root,
@@ -858,7 +858,7 @@ fn block(v: &Value, indent: usize) -> String {
 }
 
 /// A value in YAML flow style, as a user types it into a template.
-pub fn flow(v: &Value) -> String {
+pub(crate) fn flow(v: &Value) -> String {
     match v {
         Value::Null => "null".into(),
         Value::Bool(b) => b.to_string(),

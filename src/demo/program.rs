@@ -100,7 +100,7 @@ fn block(a: &Axes, tilt: char) -> String {
 }
 
 /// The program text (FANUC, `%`-delimited, O2001) for `kin`'s machine.
-pub fn frustum_program(kin: &Kinematics) -> Result<String, ProgramError> {
+pub(crate) fn frustum_program(kin: &Kinematics) -> Result<String, ProgramError> {
     let m = kin.machine();
     if m.structure != crate::machine::Structure::TableTable {
         return Err(ProgramError::Structure(m.structure.to_string()));

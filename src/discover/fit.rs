@@ -157,7 +157,7 @@ impl Spec {
 
     /// Fixes the combinations `rows` of effect `ei`'s parameters at zero,
     /// each saying why.
-    pub fn constrain(&mut self, ei: usize, rows: Vec<(Vec<f64>, String)>) {
+    pub(crate) fn constrain(&mut self, ei: usize, rows: Vec<(Vec<f64>, String)>) {
         self.constraints[ei].extend(rows);
         let b = Block::new(self.model.param_range(ei).len(), &self.constraints[ei]);
         if let Some(slot) = self.blocks.get_mut(ei) {
@@ -634,11 +634,6 @@ impl<'a> Fitter<'a> {
         self.extra_names.len()
     }
 
-    /// The rows of each part's observations.
-    pub fn part_rows(&self) -> Vec<Range<usize>> {
-        self.parts.iter().map(|p| p.rows.clone()).collect()
-    }
-
     /// Whether the catalogue model holds the candidate `name`.
     pub fn serves(&self, name: &str) -> bool {
         self.index.contains_key(name)
@@ -703,7 +698,7 @@ impl<'a> Fitter<'a> {
     }
 
     /// The nominal Jacobian's columns of `spec` (and the nuisance).
-    pub fn jacobian0(&self, spec: &Spec) -> DMatrix<f64> {
+    pub(crate) fn jacobian0(&self, spec: &Spec) -> DMatrix<f64> {
         let cols = self.columns(spec);
         DMatrix::from_fn(self.len(), cols.len(), |r, c| self.j0[(r, cols[c])])
     }
@@ -956,7 +951,7 @@ impl<'a> Fitter<'a> {
 
     /// The catalogue model's residuals and Jacobian at `fit`'s estimate
     /// (every other effect at zero): every candidate's columns there.
-    pub fn linearize(&self, fit: &Fit) -> Result<Linearization, FitError> {
+    pub(crate) fn linearize(&self, fit: &Fit) -> Result<Linearization, FitError> {
         let x = self.scatter(&fit.spec, &fit.x);
         let mut r = vec![0.0; self.len()];
         let mut j = DMatrix::zeros(self.len(), x.len());

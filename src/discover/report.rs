@@ -30,7 +30,12 @@ fn err<E: std::fmt::Debug>(e: E) -> String {
 
 /// The gap after each state (start, then each step): RMS and maximum, with
 /// the final residual sigma as the floor it can reach.
-pub fn gap_plot(labels: &[String], rms: &[f64], max: &[f64], sigma: f64) -> Result<String, String> {
+pub(crate) fn gap_plot(
+    labels: &[String],
+    rms: &[f64],
+    max: &[f64],
+    sigma: f64,
+) -> Result<String, String> {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (760, 400)).into_drawing_area();

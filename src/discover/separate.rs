@@ -30,7 +30,7 @@ use crate::post::PostDefinition;
 use crate::procedure::{Plan, PlanConfig, Template, Test};
 
 /// The power every rival must have against every other.
-pub const POWER: f64 = 0.9;
+pub(crate) const POWER: f64 = 0.9;
 
 /// The supplementary test's name.
 const TEST: Test = Test::ProbeSphere;
@@ -73,7 +73,7 @@ pub fn template_text(s: &Supplement) -> String {
 }
 
 /// The supplementary test planned for the machine and dialect of `first`.
-pub fn plan_supplement(first: &Plan, s: &Supplement) -> Result<Plan, String> {
+pub(crate) fn plan_supplement(first: &Plan, s: &Supplement) -> Result<Plan, String> {
     let text = template_text(s);
     let template =
         Template::parse(std::path::Path::new("<supplement>"), &text).map_err(|e| e.to_string())?;
@@ -98,7 +98,7 @@ pub struct Rival<'a> {
 /// The values of `old`'s parameters (`values`) carried to `new`, the same
 /// effect on another grid: a map or a straightness read at the new nodes
 /// by its own interpolation, any other effect as it is.
-pub fn regrid(old: &Effect, values: &[f64], new: &Effect) -> Option<Vec<f64>> {
+pub(crate) fn regrid(old: &Effect, values: &[f64], new: &Effect) -> Option<Vec<f64>> {
     match (old, new) {
         (
             Effect::Map {

@@ -43,7 +43,7 @@ pub struct Comparison {
 /// Upper tail of the F distribution, `P(F(d1, d2) > f)`, computed as
 /// `I_x(d2/2, d1/2)` with `x = d2 / (d2 + d1 f)` so that small tails keep
 /// their relative precision.
-pub fn f_upper_tail(f: f64, d1: f64, d2: f64) -> f64 {
+pub(crate) fn f_upper_tail(f: f64, d1: f64, d2: f64) -> f64 {
     if f.is_nan() {
         return f64::NAN;
     }
@@ -100,7 +100,7 @@ pub fn compare(n: usize, rss0: f64, r0: usize, rss1: f64, r1: usize) -> Comparis
 /// freedom and noncentrality `lambda` at `x`: the Poisson mixture
 /// `sum_j e^(-lambda/2) (lambda/2)^j / j! P(chi2(k + 2j) > x)`, summed from
 /// the Poisson mode outwards until the weights no longer count.
-pub fn noncentral_chi2_sf(x: f64, k: f64, lambda: f64) -> f64 {
+pub(crate) fn noncentral_chi2_sf(x: f64, k: f64, lambda: f64) -> f64 {
     use statrs::distribution::{ChiSquared, ContinuousCDF};
     use statrs::function::gamma::ln_gamma;
     if !(x.is_finite() && k > 0.0 && lambda >= 0.0 && lambda.is_finite()) {
@@ -153,7 +153,7 @@ pub fn power(df: usize, lambda: f64, alpha: f64) -> f64 {
 }
 
 /// Bonferroni's adjustment of the best of `m` p-values.
-pub fn adjusted(p: f64, m: usize) -> f64 {
+pub(crate) fn adjusted(p: f64, m: usize) -> f64 {
     (p * m.max(1) as f64).min(1.0)
 }
 

@@ -54,7 +54,7 @@ pub enum Table {
 
 impl Table {
     /// The file name suffix CALYPSO gives the table.
-    pub fn suffix(self) -> &'static str {
+    pub(crate) fn suffix(self) -> &'static str {
         match self {
             Table::Characteristics => "_chr",
             Table::Features => "_fet",
@@ -135,7 +135,7 @@ fn header(src: &str) -> Option<Header> {
 }
 
 /// Whether a text is a CALYPSO table, and which.
-pub fn sniff(src: &str) -> Option<Table> {
+pub(crate) fn sniff(src: &str) -> Option<Table> {
     let h = header(src)?;
     // `planid`/`partnb` or `idsymbol` mark CALYPSO; a plain table naming
     // x, y, z is the table reader's.
@@ -403,7 +403,7 @@ fn ignored(r: &Reader<'_>, used: &[Option<usize>], inv: &mut Inventory) {
 }
 
 /// Why a `_hdr` table gives no points.
-pub const HEADER_HOLDS_NO_MEASUREMENT: &str = "a CALYPSO run header (_hdr) holds no measurement: the features and their positions are in the run's _fet table, the characteristics in its _chr table";
+pub(crate) const HEADER_HOLDS_NO_MEASUREMENT: &str = "a CALYPSO run header (_hdr) holds no measurement: the features and their positions are in the run's _fet table, the characteristics in its _chr table";
 
 /// Reads a CALYPSO table (any of the three) into an inventory.
 pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Inventory, SourceError> {

@@ -47,7 +47,7 @@ pub(crate) fn fields(line: &str) -> Vec<(usize, &str)> {
 
 /// Whether a text is a point cloud: its first two data lines start with
 /// three numbers.
-pub fn looks_like_cloud(src: &str) -> bool {
+pub(crate) fn looks_like_cloud(src: &str) -> bool {
     let mut data = src
         .lines()
         .map(str::trim)

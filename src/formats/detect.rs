@@ -91,7 +91,7 @@ impl MeasuredOptions {
     /// Millimetres per length unit of a file that states none: the unit
     /// the user named, else mm (the plain formats' contract); the
     /// inventory says which.
-    pub fn unstated_unit_mm(&self, inv: &mut Inventory) -> f64 {
+    pub(crate) fn unstated_unit_mm(&self, inv: &mut Inventory) -> f64 {
         match self.units {
             Some(u) => {
                 inv.units = format!("{} (given with --units; the file states none)", u.name());
@@ -168,7 +168,7 @@ pub trait Reader: Sync {
 
 /// The points of the run the options choose, from a file's inventory: a
 /// file with several runs needs `--run`.
-pub fn chosen_run(
+pub(crate) fn chosen_run(
     path: &Path,
     inv: &Inventory,
     options: &MeasuredOptions,
@@ -379,7 +379,7 @@ fn dmis_program_error(path: &Path, o: &dmis::DmisOutput) -> SourceError {
 /// file is one of the plan's (a CMM program that renamed the features,
 /// labels in another script), they join by nearest nominal instead, and a
 /// warning says which.
-pub fn label_policy(set: &mut PointSet, ctx: &ReadContext<'_>) {
+pub(crate) fn label_policy(set: &mut PointSet, ctx: &ReadContext<'_>) {
     let Some(plan) = ctx.plan else {
         return;
     };
@@ -669,7 +669,7 @@ pub fn detect(src: &str) -> Option<&'static dyn Reader> {
 }
 
 /// The reader that accepts `src` in a context.
-pub fn detect_in(src: &str, ctx: &ReadContext<'_>) -> Option<&'static dyn Reader> {
+pub(crate) fn detect_in(src: &str, ctx: &ReadContext<'_>) -> Option<&'static dyn Reader> {
     readers().into_iter().find(|r| r.sniff(src, ctx))
 }
 
@@ -709,7 +709,7 @@ pub fn inventory(path: &Path, ctx: &ReadContext<'_>) -> Result<Inventory, Source
 }
 
 /// What measurement text holds.
-pub fn parse_inventory(
+pub(crate) fn parse_inventory(
     path: &Path,
     src: &str,
     ctx: &ReadContext<'_>,
@@ -739,7 +739,7 @@ pub fn parse_measurement(path: &Path, src: &str) -> Result<Measurement, SourceEr
 }
 
 /// Reads measurement text in whatever format it is, in a context.
-pub fn parse_measurement_in(
+pub(crate) fn parse_measurement_in(
     path: &Path,
     src: &str,
     ctx: &ReadContext<'_>,

@@ -335,7 +335,7 @@ impl DmisOutput {
 
 /// Whether a text looks like DMIS output: its first statements are DMIS
 /// keywords or feature definitions.
-pub fn looks_like_dmis(src: &str) -> bool {
+pub(crate) fn looks_like_dmis(src: &str) -> bool {
     src.lines()
         .map(str::trim)
         .filter(|l| !l.is_empty() && !l.starts_with("$$"))

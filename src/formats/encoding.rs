@@ -120,7 +120,7 @@ fn guess(bytes: &[u8]) -> &'static str {
 /// The text of a measurement file, and notes on what was mended. With an
 /// encoding named, the bytes are decoded with it (a byte-order mark wins
 /// over it, as the WHATWG decoders do); otherwise they must be UTF-8.
-pub fn decode(
+pub(crate) fn decode(
     path: &Path,
     bytes: &[u8],
     encoding: Option<&'static Encoding>,

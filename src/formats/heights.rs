@@ -48,7 +48,7 @@ pub fn to_csv(heights: &[SectionHeight], comments: &[&str]) -> String {
 
 /// Whether the text is a heights file (its header names `section` and
 /// `height_um`).
-pub fn looks_like_heights(src: &str) -> bool {
+pub(crate) fn looks_like_heights(src: &str) -> bool {
     csv_lines(src).next().is_some_and(|h| {
         let cols: Vec<String> = h.fields.iter().map(|f| f.1.to_ascii_lowercase()).collect();
         cols.iter().any(|c| c == "section") && cols.iter().any(|c| c == "height_um")

@@ -109,7 +109,7 @@ impl Inventory {
 
     /// What a point reader read, as an inventory: each point with the
     /// nominal the file states for its label.
-    pub fn of_points(set: &PointSet) -> Inventory {
+    pub(crate) fn of_points(set: &PointSet) -> Inventory {
         let mut inv = Inventory::new(set.format);
         let nominal = |label: &str| -> Option<&Nominal> {
             if label.is_empty() {
@@ -132,7 +132,7 @@ impl Inventory {
 
     /// The measured points of run `run`, for `analyze`: labelled when every
     /// point of that run has a label, with the nominals the file states.
-    pub fn point_set(&self, run: usize) -> PointSet {
+    pub(crate) fn point_set(&self, run: usize) -> PointSet {
         let entries: Vec<&Entry> = self
             .entries
             .iter()

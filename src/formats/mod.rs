@@ -23,7 +23,7 @@ pub mod table;
 /// 3; anything further off is not a rounded unit vector but another number
 /// in its place (a real QIF 2 sample has `Location` and `Normal` swapped,
 /// a "normal" 2,700 mm long), and renormalizing it would invent a direction.
-pub const DIRECTION_SLACK: f64 = 0.01;
+pub(crate) const DIRECTION_SLACK: f64 = 0.01;
 
 /// A written direction as the unit vector it stands for, renormalized, or
 /// why it is none: `what` names it in the message (`the direction i,j,k`).
@@ -55,12 +55,12 @@ pub(crate) struct CsvLine<'a> {
 
 impl CsvLine<'_> {
     /// Field `i`.
-    pub fn get(&self, i: usize) -> &str {
+    pub(crate) fn get(&self, i: usize) -> &str {
         self.fields.get(i).map_or("", |f| f.1)
     }
 
     /// Column of field `i`.
-    pub fn col(&self, i: usize) -> usize {
+    pub(crate) fn col(&self, i: usize) -> usize {
         self.fields.get(i).map_or(1, |f| f.0)
     }
 }
@@ -97,7 +97,7 @@ pub(crate) fn parse_finite(s: &str) -> Result<f64, String> {
 }
 
 /// Whether a label uses only `[A-Za-z0-9_.-]` and is not empty.
-pub fn valid_label(s: &str) -> bool {
+pub(crate) fn valid_label(s: &str) -> bool {
     !s.is_empty()
         && s.bytes()
             .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'.' || b == b'-')

@@ -46,7 +46,7 @@ pub struct PlanPoints {
 }
 
 /// Writes a number without a negative zero, with `decimals` places.
-pub fn fmt_num(v: f64, decimals: usize) -> String {
+pub(crate) fn fmt_num(v: f64, decimals: usize) -> String {
     let s = format!("{v:.decimals$}");
     if s.starts_with('-') && s[1..].bytes().all(|b| b == b'0' || b == b'.') {
         s[1..].to_string()

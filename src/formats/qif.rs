@@ -41,7 +41,7 @@ use super::inventory::{Entry, Inventory, Skipped};
 use crate::source::SourceError;
 
 /// Whether a text is a QIF document.
-pub fn looks_like_qif(src: &str) -> bool {
+pub(crate) fn looks_like_qif(src: &str) -> bool {
     let head: String = src.chars().take(4000).collect();
     head.trim_start().starts_with('<') && head.contains("<QIFDocument")
 }

@@ -51,7 +51,7 @@ fn nominal_id(k: usize) -> usize {
 }
 
 /// Id of the feature item of point `k`.
-pub fn item_id(k: usize) -> usize {
+pub(crate) fn item_id(k: usize) -> usize {
     2 * k + 3
 }
 

@@ -154,7 +154,7 @@ fn fields(line: &str, sep: Option<u8>) -> Vec<(usize, String)> {
 
 /// Whether a text is a table with a header naming x, y and z columns (and
 /// not the canonical `label,x,y,z`, which its own reader takes).
-pub fn looks_like_table(src: &str) -> bool {
+pub(crate) fn looks_like_table(src: &str) -> bool {
     let Some((_, h)) = header_line(src) else {
         return false;
     };

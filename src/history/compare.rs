@@ -40,7 +40,7 @@ impl Change {
     }
 
     /// Whether the value after is within its expanded uncertainty of zero.
-    pub fn zero_after(&self) -> Option<bool> {
+    pub(crate) fn zero_after(&self) -> Option<bool> {
         let (v, u) = self.after?;
         Some(v.abs() <= COVERAGE * u?)
     }

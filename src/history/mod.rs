@@ -197,7 +197,7 @@ impl History {
 }
 
 /// A date-time as printed: minutes, UTC.
-pub fn short_time(t: Timestamp) -> String {
+pub(crate) fn short_time(t: Timestamp) -> String {
     t.strftime("%Y-%m-%d %H:%M").to_string()
 }
 

@@ -112,13 +112,13 @@ impl Line {
 
     /// Whether a straight line explains the samples within their u (the
     /// chi-square's upper tail above 1 %).
-    pub fn is_straight(&self) -> bool {
+    pub(crate) fn is_straight(&self) -> bool {
         let dof = (self.n - 2) as f64;
         ChiSquared::new(dof).is_ok_and(|c| 1.0 - c.cdf(self.chi2) >= LINE_ALPHA)
     }
 
     /// The bound the slope must exceed, in units of its u.
-    pub fn critical(&self) -> f64 {
+    pub(crate) fn critical(&self) -> f64 {
         let q = 0.5 + SLOPE_LEVEL / 2.0;
         if self.birge > 1.0 {
             StudentsT::new(0.0, 1.0, (self.n - 2) as f64)
@@ -132,11 +132,6 @@ impl Line {
     /// Whether the slope differs from zero at the 95 % level.
     pub fn significant(&self) -> bool {
         self.slope.abs() > self.critical() * self.u_slope
-    }
-
-    /// The line's value at `t`.
-    pub fn value_at(&self, t: Timestamp) -> f64 {
-        self.value + self.slope * days_between(self.at, t)
     }
 }
 

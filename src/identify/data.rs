@@ -21,13 +21,13 @@ use crate::source::SourceError;
 
 /// Coordinates beyond this (mm) are not measurements of a machine tool or
 /// a piece on a CMM; they are refused before any arithmetic can overflow.
-pub const MAX_COORDINATE_MM: f64 = 1.0e5;
+pub(crate) const MAX_COORDINATE_MM: f64 = 1.0e5;
 
 /// Measured points of a machined piece land within a fraction of a
 /// millimetre of their nominal points once the piece is placed (machine
 /// errors move them by tens of um); farther means they do not measure this
 /// plan's piece, mm.
-pub const FIT_LIMIT_MM: f64 = 1.0;
+pub(crate) const FIT_LIMIT_MM: f64 = 1.0;
 
 /// One measured point and the plan point it measures.
 #[derive(Clone, Debug, PartialEq)]
@@ -91,7 +91,7 @@ impl Dataset {
 
     /// Index of the reference pose: the one at tilt = C = 0 if measured,
     /// otherwise the first in execution order.
-    pub fn reference_pose(&self) -> usize {
+    pub(crate) fn reference_pose(&self) -> usize {
         self.poses
             .iter()
             .position(|p| p.tilt.abs() < 1e-9 && crate::geom::wrap180(p.c).abs() < 1e-9)
@@ -382,7 +382,7 @@ fn check_fit(
 /// point was joined to means the point lies on another face, deg. Probing
 /// directions and measured normals stay within a few degrees of the
 /// surface normal; a face beside it is 90 deg away.
-pub const DIRECTION_LIMIT_DEG: f64 = 45.0;
+pub(crate) const DIRECTION_LIMIT_DEG: f64 = 45.0;
 
 /// Points that carry a direction (a cloud `x y z i j k`) must lie on a
 /// face whose normal agrees with it: the nearest nominal point can be on

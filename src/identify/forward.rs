@@ -205,13 +205,13 @@ impl ForwardModel for RigidPoseMachining {
 }
 
 /// Names of the setup nuisance of [`RigidPoseProbing`].
-pub const SETUP_NAMES: [&str; 6] = [
+pub(crate) const SETUP_NAMES: [&str; 6] = [
     "setup.dx", "setup.dy", "setup.dz", "setup.a", "setup.b", "setup.c",
 ];
 
 /// The names of each piece's setup nuisance: `names` as they are for a
 /// single piece, `setup[<piece>].dx` ... for several.
-pub fn setup_names(names: &[&str], pieces: &[String]) -> Vec<String> {
+pub(crate) fn setup_names(names: &[&str], pieces: &[String]) -> Vec<String> {
     if pieces.len() == 1 {
         return names.iter().map(|s| s.to_string()).collect();
     }
@@ -248,7 +248,7 @@ impl RigidPoseProbing {
 
     /// Separately set-up pieces: their names, and the piece of each plan
     /// point by label (points not listed belong to the first).
-    pub fn with_pieces(
+    pub(crate) fn with_pieces(
         model: Model,
         pieces: Vec<String>,
         piece_of: std::collections::HashMap<String, usize>,
@@ -320,7 +320,7 @@ impl ForwardModel for RigidPoseProbing {
 /// The rigid-pose model of a dataset's test: [`RigidPoseMachining`] for a
 /// machined piece, [`RigidPoseProbing`] with one setup per separately
 /// set-up piece for on-machine probing.
-pub fn rigid_for(
+pub(crate) fn rigid_for(
     model: Model,
     data: &crate::identify::Dataset,
 ) -> Result<Box<dyn ForwardModel>, ForwardError> {

@@ -21,7 +21,7 @@ use super::{Dataset, Identification, IdentifyError, Method, Setup, identifiabili
 use crate::formats::manifest::TestKind;
 
 /// Names of the placement nuisance parameters.
-pub const PLACEMENT_NAMES: [&str; 6] = [
+pub(crate) const PLACEMENT_NAMES: [&str; 6] = [
     "placement.dx",
     "placement.dy",
     "placement.dz",
@@ -43,7 +43,7 @@ pub struct Observed {
 }
 
 /// [`Observed`] for a dataset.
-pub fn observed(data: &Dataset) -> Result<Observed, IdentifyError> {
+pub(crate) fn observed(data: &Dataset) -> Result<Observed, IdentifyError> {
     let p0 = match data.kind {
         TestKind::Machining => Some(super::initial_placement(data)?),
         TestKind::Probing => None,

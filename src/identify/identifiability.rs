@@ -92,7 +92,7 @@ pub struct Identifiability {
 
 impl Identifiability {
     /// Whether parameter `i` is identifiable.
-    pub fn is_identifiable(&self, i: usize) -> bool {
+    pub(crate) fn is_identifiable(&self, i: usize) -> bool {
         self.params[i].identifiable
     }
 

@@ -321,7 +321,7 @@ pub fn design(jac: &Mat<f64>, basis: Option<&DMatrix<f64>>, rtol: f64) -> Design
 /// [`design`] keeping at most `max_rank` directions: the covariance at an
 /// estimate, with the rank of the design at the nominal machine (see
 /// [`solve`]).
-pub fn design_ranked(
+pub(crate) fn design_ranked(
     jac: &Mat<f64>,
     basis: Option<&DMatrix<f64>>,
     rtol: f64,
@@ -384,7 +384,7 @@ pub fn design_ranked(
 /// Orthonormal basis (columns) of the column space of `J N` (of `J` when
 /// there is no basis): the left singular vectors of the column-scaled
 /// design that [`design`] keeps, at most `max_rank` of them.
-pub fn column_basis(
+pub(crate) fn column_basis(
     jac: &Mat<f64>,
     basis: Option<&DMatrix<f64>>,
     rtol: f64,
@@ -397,7 +397,7 @@ pub fn column_basis(
 
 /// Orthonormal basis (columns) of `{x : C x = 0}` for a constraint matrix
 /// `C` (rows: constraints).
-pub fn constraint_basis(c: &DMatrix<f64>) -> DMatrix<f64> {
+pub(crate) fn constraint_basis(c: &DMatrix<f64>) -> DMatrix<f64> {
     let n = c.ncols();
     if c.nrows() == 0 {
         return DMatrix::identity(n, n);
@@ -418,7 +418,7 @@ pub fn constraint_basis(c: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 /// Converts a faer matrix into nalgebra's.
-pub fn to_nalgebra(m: &Mat<f64>) -> DMatrix<f64> {
+pub(crate) fn to_nalgebra(m: &Mat<f64>) -> DMatrix<f64> {
     DMatrix::from_fn(m.nrows(), m.ncols(), |r, c| m[(r, c)])
 }
 

@@ -217,7 +217,7 @@ impl Setup {
 
     /// For the pose-quality figure: each rotary axis with its location
     /// symbols (parameter index, is an angle).
-    pub fn quality_axes(&self) -> Vec<(char, Vec<(usize, bool)>)> {
+    pub(crate) fn quality_axes(&self) -> Vec<(char, Vec<(usize, bool)>)> {
         let sym = &self.model.symbols;
         let mut axes: Vec<(char, Vec<(usize, bool)>)> =
             vec![(sym.tilt, Vec::new()), ('C', Vec::new())];
@@ -262,7 +262,7 @@ pub fn initial_placement(data: &Dataset) -> Result<Isometry3<f64>, IdentifyError
 }
 
 /// Checks the data suit a method (poses, points, test kind).
-pub fn check_data(data: &Dataset, method: Method) -> Result<(), IdentifyError> {
+pub(crate) fn check_data(data: &Dataset, method: Method) -> Result<(), IdentifyError> {
     if data.poses.len() < 2 {
         return Err(IdentifyError::Data(format!(
             "the measurements cover {} pose(s): identification needs several index angles",

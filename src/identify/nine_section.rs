@@ -46,7 +46,10 @@ impl NineSection {
     /// sections are the plan's poses in execution order (section 1
     /// first), each point's deviation is along the file's own nominal
     /// direction. Fails, saying why, when a point lacks its nominal.
-    pub fn from_deviations(plan: &PlanPoints, set: &PointSet) -> Result<NineSection, String> {
+    pub(crate) fn from_deviations(
+        plan: &PlanPoints,
+        set: &PointSet,
+    ) -> Result<NineSection, String> {
         let mut poses: Vec<(u32, String)> = Vec::new();
         for p in &plan.points {
             if !poses.iter().any(|q| q.1 == p.pose) {

@@ -95,7 +95,7 @@ pub struct ResidualRow {
 }
 
 /// Names a face by its normal.
-pub fn face_name(n: &Vector3<f64>) -> String {
+pub(crate) fn face_name(n: &Vector3<f64>) -> String {
     for (i, l) in ['X', 'Y', 'Z'].iter().enumerate() {
         if (n[i].abs() - 1.0).abs() < 1e-6 {
             return format!("{}{l}", if n[i] > 0.0 { '+' } else { '-' });

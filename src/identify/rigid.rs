@@ -9,7 +9,7 @@ use crate::geom::{self, Axis3};
 
 /// The six numbers of `D(dx, dy, dz, a, b, c)` (mm, rad) of an isometry:
 /// the inverse of [`geom::d6`] (exact for |b| < 90 deg).
-pub fn d6_inverse(iso: &Isometry3<f64>) -> [f64; 6] {
+pub(crate) fn d6_inverse(iso: &Isometry3<f64>) -> [f64; 6] {
     let r = iso.rotation.to_rotation_matrix().into_inner();
     let t = iso.translation.vector;
     let b = r[(0, 2)].clamp(-1.0, 1.0).asin();
@@ -19,7 +19,7 @@ pub fn d6_inverse(iso: &Isometry3<f64>) -> [f64; 6] {
 }
 
 /// `D` from six numbers in um and urad.
-pub fn d6_um(x: &[f64]) -> Isometry3<f64> {
+pub(crate) fn d6_um(x: &[f64]) -> Isometry3<f64> {
     geom::d6(&[
         x[0] * 1e-3,
         x[1] * 1e-3,
@@ -31,7 +31,7 @@ pub fn d6_um(x: &[f64]) -> Isometry3<f64> {
 }
 
 /// The six numbers of an isometry in um and urad.
-pub fn d6_inverse_um(iso: &Isometry3<f64>) -> [f64; 6] {
+pub(crate) fn d6_inverse_um(iso: &Isometry3<f64>) -> [f64; 6] {
     let v = d6_inverse(iso);
     [
         v[0] * 1e3,
@@ -45,7 +45,7 @@ pub fn d6_inverse_um(iso: &Isometry3<f64>) -> [f64; 6] {
 
 /// `D(x) q` (x in um and urad, q in mm) and its derivative with respect to
 /// the six numbers (mm per um or urad), 3 x 6.
-pub fn d6_apply(x: &[f64], q: &Vector3<f64>) -> (Vector3<f64>, nalgebra::Matrix3x6<f64>) {
+pub(crate) fn d6_apply(x: &[f64], q: &Vector3<f64>) -> (Vector3<f64>, nalgebra::Matrix3x6<f64>) {
     let (a, b, c) = (x[3] * 1e-6, x[4] * 1e-6, x[5] * 1e-6);
     let ra = geom::rot(Axis3::X, a)
         .rotation
@@ -95,7 +95,7 @@ pub struct FaceResidual {
 }
 
 /// See [`FaceResidual`].
-pub fn face_residual(
+pub(crate) fn face_residual(
     rho: &[f64],
     q: &Vector3<f64>,
     n: &Vector3<f64>,

@@ -323,7 +323,7 @@ pub struct AxisCentres {
 /// Cubas Brizuela & Yeh's (2023) combinations: the lines of every admissible three-centre
 /// circle, trimmed to mean +- sigma/2 per line number, averaged. Returns
 /// the line and the number of combinations (all, admissible, kept).
-pub fn combinations_line(
+pub(crate) fn combinations_line(
     axis: &AxisCentres,
     hint: &Vector3<f64>,
     reference: &Vector3<f64>,
@@ -431,7 +431,12 @@ fn rotation_axis(iso: &Isometry3<f64>, hint: &Vector3<f64>) -> Line {
 
 /// The tilt-axis line and the C-axis line (at tilt `t0`) of the model with
 /// parameters `theta`, in the machine frame (origin at the W origin).
-pub fn model_lines(model: &Model, theta: &[f64], t0: f64, tilt_span: (f64, f64)) -> (Line, Line) {
+pub(crate) fn model_lines(
+    model: &Model,
+    theta: &[f64],
+    t0: f64,
+    tilt_span: (f64, f64),
+) -> (Line, Line) {
     let rtw = |t: f64, c: f64| {
         let ctx = Context::at(Axes::new(0.0, 0.0, 0.0, t, c));
         model
@@ -514,7 +519,7 @@ impl Problem for LineProblem<'_> {
 }
 
 /// The location symbols whose model has the given axis lines.
-pub fn symbols_from_lines(
+pub(crate) fn symbols_from_lines(
     model: &Model,
     tilt: &Line,
     c: &Line,

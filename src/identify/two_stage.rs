@@ -44,7 +44,7 @@ use crate::kinematics::{Axes, Kinematics};
 use crate::model::{Context, Model};
 
 /// Names of the stage-2 nuisance numbers.
-pub const REFERENCE_NAMES: [&str; 6] = [
+pub(crate) const REFERENCE_NAMES: [&str; 6] = [
     "reference.dx",
     "reference.dy",
     "reference.dz",
@@ -90,7 +90,7 @@ impl Frame {
     /// The frame a dataset is analysed in: Ibaraki, Iritani & Matsushita's (2013) relative form for a
     /// probing test whose touches are mostly tied to the reference pose by
     /// their feature names.
-    pub fn for_data(data: &Dataset, placement: Option<Isometry3<f64>>) -> Frame {
+    pub(crate) fn for_data(data: &Dataset, placement: Option<Isometry3<f64>>) -> Frame {
         match data.kind {
             TestKind::Machining => Frame::Piece(placement),
             TestKind::Probing => {
@@ -196,7 +196,7 @@ impl Problem for PoseProblem {
 
 /// Stage 1 in the frame [`Frame::for_data`] chooses (used by every method
 /// for the per-pose plots).
-pub fn pose_fits(
+pub(crate) fn pose_fits(
     data: &Dataset,
     kin: &Kinematics,
     placement: Option<&Isometry3<f64>>,
@@ -207,7 +207,7 @@ pub fn pose_fits(
 /// Stage 1: the motion of every pose, with its uncertainty from the pooled
 /// residual variance of all poses. In Ibaraki, Iritani & Matsushita's (2013) form the reference pose,
 /// which defines the frame, has no fit of its own.
-pub fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<PoseFit> {
+pub(crate) fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<PoseFit> {
     stage1(data, kin, frame).0
 }
 

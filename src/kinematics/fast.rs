@@ -239,7 +239,7 @@ impl FastChain {
 
     /// Forward kinematics with a given linear-axis error (for errors that
     /// depend on X, Y, Z), mm.
-    pub fn forward_lin(&self, a: &Axes, lin: &Vector3<f64>) -> ToolPose {
+    pub(crate) fn forward_lin(&self, a: &Axes, lin: &Vector3<f64>) -> ToolPose {
         if self.exact_nominal && *lin == Vector3::zeros() {
             return self.forward_nominal(a);
         }
@@ -315,7 +315,11 @@ impl FastChain {
     /// The two (tilt, C) solutions (deg; C not yet turned to any reference)
     /// that point the tool along `u`, or `None` when no tilt reaches it.
     /// `c_ref` (deg) is used when C is indeterminate (tool along the C axis).
-    pub fn orientation_roots(&self, u: &Vector3<f64>, c_ref: f64) -> Option<[(f64, f64); 2]> {
+    pub(crate) fn orientation_roots(
+        &self,
+        u: &Vector3<f64>,
+        c_ref: f64,
+    ) -> Option<[(f64, f64); 2]> {
         self.roots(u, c_ref).map(|r| r.map(|x| (x.tilt, x.c)))
     }
 
@@ -366,7 +370,7 @@ impl FastChain {
 
     /// The tilt (deg) that brings the tool axis closest to `u` with C held
     /// at `c` (deg): the exact maximum of `u . axis(t)` over the tilt.
-    pub fn tilt_for_c(&self, u: &Vector3<f64>, c: f64) -> f64 {
+    pub(crate) fn tilt_for_c(&self, u: &Vector3<f64>, c: f64) -> f64 {
         let k = self.m * rot(Axis3::Z, self.dc * geom::rad(c)) * self.n;
         let ku = k.transpose() * u;
         let phi = ku.dot(&self.e_x_v).atan2(ku.dot(&self.v_perp));

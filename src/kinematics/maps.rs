@@ -33,7 +33,7 @@ impl MapDim {
 
     /// Builds a dimension, sorting the nodes (periodic ones into [0, 360));
     /// returns it with `order[k]` = the input index of sorted node `k`.
-    pub fn sorted(
+    pub(crate) fn sorted(
         angle: usize,
         nodes: &[f64],
         periodic: bool,
@@ -124,7 +124,7 @@ impl MapGrid {
     }
 
     /// Node angles of flat index `i`, as (tilt, C) where present.
-    pub fn node_angles(&self, i: usize) -> Vec<(usize, f64)> {
+    pub(crate) fn node_angles(&self, i: usize) -> Vec<(usize, f64)> {
         let mut rest = i;
         let mut out = vec![(0, 0.0); self.dims.len()];
         for (k, d) in self.dims.iter().enumerate().rev() {

@@ -39,18 +39,16 @@ use crate::machine::{Machine, Structure};
 pub use chain::Op;
 pub use inverse::IkError;
 
-/// Number of error terms per link (dx, dy, dz, a, b, c).
-pub const TERMS_PER_LINK: usize = 6;
 /// Number of links with error terms (two rotary axes and the spindle).
-pub const LINKS: usize = 3;
+pub(crate) const LINKS: usize = 3;
 /// Slot of the linear-axis error in X (Y, Z follow), mm, machine frame.
 pub const SLOT_LIN: usize = 18;
 /// Slot of the tool (or probe) length error, mm: positive = longer.
 pub const SLOT_TOOL_LENGTH: usize = 21;
 /// Slot of the tool radius error, mm: positive = larger (machining only).
-pub const SLOT_TOOL_RADIUS: usize = 22;
+pub(crate) const SLOT_TOOL_RADIUS: usize = 22;
 /// Slot of the probe pre-travel along the approach direction, mm (probing only).
-pub const SLOT_PRETRAVEL: usize = 23;
+pub(crate) const SLOT_PRETRAVEL: usize = 23;
 /// Number of perturbation slots.
 pub const N_SLOTS: usize = 24;
 /// Number of chain variables: five axis values then the slots.
@@ -264,7 +262,7 @@ impl Kinematics {
 
     /// The tool axis in the machine frame for the head angles, nominal
     /// (always +Z on a table-table machine).
-    pub fn nominal_tool_axis_machine(&self, tilt: f64, c: f64) -> Vector3<f64> {
+    pub(crate) fn nominal_tool_axis_machine(&self, tilt: f64, c: f64) -> Vector3<f64> {
         let m = &self.machine;
         let mut r = Isometry3::identity();
         if !m.c.on_table {

@@ -68,7 +68,7 @@ const ZERO_POINT: &str = "zero (angular positioning) error";
 impl LocationSymbol {
     /// Whether it is the zero (angular positioning) error of an axis:
     /// where the axis reads zero, not where its line lies.
-    pub fn is_zero_point(&self) -> bool {
+    pub(crate) fn is_zero_point(&self) -> bool {
         self.description.starts_with(ZERO_POINT)
     }
 }
@@ -441,7 +441,7 @@ impl SymbolTable {
     }
 
     /// The location symbol names, comma-separated.
-    pub fn location_names(&self) -> String {
+    pub(crate) fn location_names(&self) -> String {
         self.location
             .iter()
             .map(|s| s.name.as_str())

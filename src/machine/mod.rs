@@ -398,11 +398,6 @@ impl Machine {
         self.tilt.letter
     }
 
-    /// Rotary axes in letter order (tilt first: A or B come before C).
-    pub fn rotary_letters(&self) -> [char; 2] {
-        [self.tilt.letter, 'C']
-    }
-
     /// Whether the spindle gauge point, given in program coordinates (work
     /// offset on the W origin at rotary zero), is inside the strokes.
     /// Returns the first violation as (axis letter, machine coordinate,

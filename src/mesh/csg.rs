@@ -236,7 +236,7 @@ pub struct Csg {
 
 impl Csg {
     /// `self` minus `other`.
-    pub fn subtract(&self, other: &Csg) -> Csg {
+    pub(crate) fn subtract(&self, other: &Csg) -> Csg {
         let mut a = Node::new(self.polygons.clone());
         let mut b = Node::new(other.polygons.clone());
         a.invert();
@@ -253,7 +253,7 @@ impl Csg {
     }
 
     /// `self` or `other`.
-    pub fn union(&self, other: &Csg) -> Csg {
+    pub(crate) fn union(&self, other: &Csg) -> Csg {
         let mut a = Node::new(self.polygons.clone());
         let mut b = Node::new(other.polygons.clone());
         a.clip_to(&b);
@@ -262,22 +262,6 @@ impl Csg {
         b.clip_to(&a);
         b.invert();
         a.build(b.all_polygons());
-        Csg {
-            polygons: a.all_polygons(),
-        }
-    }
-
-    /// `self` and `other`.
-    pub fn intersect(&self, other: &Csg) -> Csg {
-        let mut a = Node::new(self.polygons.clone());
-        let mut b = Node::new(other.polygons.clone());
-        a.invert();
-        b.clip_to(&a);
-        b.invert();
-        a.clip_to(&b);
-        b.clip_to(&a);
-        a.build(b.all_polygons());
-        a.invert();
         Csg {
             polygons: a.all_polygons(),
         }

@@ -106,7 +106,7 @@ impl Solid {
     }
 
     /// The boundary as polygons.
-    pub fn to_csg(&self) -> Csg {
+    pub(crate) fn to_csg(&self) -> Csg {
         match self {
             Solid::Cuboid(b) => Csg {
                 polygons: b.polygons(),
@@ -145,7 +145,7 @@ pub struct Mesh {
 
 impl Mesh {
     /// Triangulates a polygon set (fans; the polygons are convex).
-    pub fn from_csg(csg: &Csg, groups: BTreeMap<u32, String>) -> Mesh {
+    pub(crate) fn from_csg(csg: &Csg, groups: BTreeMap<u32, String>) -> Mesh {
         let mut triangles = Vec::new();
         for p in &csg.polygons {
             if p.area() < 1e-10 {

@@ -63,7 +63,7 @@ impl Squareness {
     }
 
     /// From the ISO symbol.
-    pub fn from_symbol(s: &str) -> Option<Squareness> {
+    pub(crate) fn from_symbol(s: &str) -> Option<Squareness> {
         Squareness::ALL.into_iter().find(|q| q.symbol() == s)
     }
 }
@@ -243,7 +243,7 @@ impl Effect {
 
     /// Calls `sink(slot, local parameter index, coefficient)` for every
     /// nonzero `d slot / d parameter` at `ctx`.
-    pub fn coefficients(
+    pub(crate) fn coefficients(
         &self,
         sym: &SymbolTable,
         ctx: &Context,
@@ -317,7 +317,7 @@ impl Effect {
 
 /// Weights of the six pre-travel parameters for a unit approach direction:
 /// the squared positive components, which sum to one.
-pub fn pretravel_weights(d: &Vector3<f64>) -> [f64; 6] {
+pub(crate) fn pretravel_weights(d: &Vector3<f64>) -> [f64; 6] {
     let d = d.normalize();
     let mut w = [0.0; 6];
     for i in 0..3 {

@@ -18,9 +18,10 @@ mod effect;
 use nalgebra::{DMatrix, Vector3};
 
 use crate::kinematics::symbols::SymbolTable;
-use crate::kinematics::{Axes, IkError, Kinematics, N_SLOTS, Perturbation, PoseJacobian, ToolPose};
+use crate::kinematics::{Axes, IkError, Kinematics, Perturbation, PoseJacobian, ToolPose};
 
-pub use effect::{DriftBasis, Effect, PROBE_DIRECTIONS, Squareness};
+pub use effect::PROBE_DIRECTIONS;
+pub use effect::{DriftBasis, Effect, Squareness};
 
 /// Where and when the machine is: what the effects depend on.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -115,7 +116,7 @@ impl Model {
     }
 
     /// Sparse `d slot / d parameter` at a context: (slot, parameter, coefficient).
-    pub fn slot_coefficients(&self, ctx: &Context) -> Vec<(usize, usize, f64)> {
+    pub(crate) fn slot_coefficients(&self, ctx: &Context) -> Vec<(usize, usize, f64)> {
         let mut out = Vec::new();
         for (i, e) in self.effects.iter().enumerate() {
             let o = self.offsets[i];
@@ -185,6 +186,3 @@ impl Model {
         self.effects.iter().position(|e| e.id(&self.symbols) == id)
     }
 }
-
-/// The number of perturbation slots, re-exported for sizing.
-pub const SLOTS: usize = N_SLOTS;

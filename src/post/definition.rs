@@ -16,7 +16,7 @@ use crate::machine::Dialect;
 use crate::source::{SourceError, locate_yaml_key};
 
 /// Every template a definition may hold, with whether it is required.
-pub const TEMPLATE_NAMES: [(&str, bool); 27] = [
+pub(crate) const TEMPLATE_NAMES: [(&str, bool); 27] = [
     ("header", true),
     ("preamble", true),
     ("footer", true),
@@ -217,7 +217,7 @@ impl std::fmt::Debug for PostDefinition {
 }
 
 /// Built-in definitions: (name, YAML text).
-pub const BUILTIN: [(&str, &str); 4] = [
+pub(crate) const BUILTIN: [(&str, &str); 4] = [
     ("fanuc", include_str!("../../postprocessors/fanuc.yaml")),
     (
         "heidenhain",

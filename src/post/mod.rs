@@ -44,7 +44,7 @@ mod render;
 
 use nalgebra::{Matrix3, Vector3};
 
-pub use definition::{ControllerKinematics, DefinitionError, PostDefinition, TEMPLATE_NAMES};
+pub use definition::{ControllerKinematics, DefinitionError, PostDefinition};
 pub use number::{NumberFormat, PointRule};
 pub use render::{AuxFile, PostError, ProgramInfo, RenderedProgram};
 
@@ -207,23 +207,11 @@ pub enum Op {
     Stop(String),
 }
 
-impl Op {
-    /// Whether the op moves the machine.
-    pub fn is_motion(&self) -> bool {
-        matches!(
-            self,
-            Op::Rapid(_)
-                | Op::Feed { .. }
-                | Op::Retract { .. }
-                | Op::Rotary { .. }
-                | Op::ProbeMove { .. }
-        )
-    }
-}
+impl Op {}
 
 /// Rotating Z-X'-Z'' Euler angles (deg) of a rotation: `R = Rz(i) Rx(j) Rz(k)`
 /// (FANUC `G68.2 I J K`).
-pub fn euler_zxz(r: &Matrix3<f64>) -> [f64; 3] {
+pub(crate) fn euler_zxz(r: &Matrix3<f64>) -> [f64; 3] {
     let j = r[(2, 2)].clamp(-1.0, 1.0).acos();
     let (i, k) = if j.sin().abs() > 1e-12 {
         (r[(0, 2)].atan2(-r[(1, 2)]), r[(2, 0)].atan2(r[(2, 1)]))
@@ -237,7 +225,7 @@ pub fn euler_zxz(r: &Matrix3<f64>) -> [f64; 3] {
 
 /// Static X, then Y, then Z angles (deg) of a rotation: `R = Rz(c) Ry(b) Rx(a)`
 /// (HEIDENHAIN `PLANE SPATIAL SPA SPB SPC`).
-pub fn euler_spatial(r: &Matrix3<f64>) -> [f64; 3] {
+pub(crate) fn euler_spatial(r: &Matrix3<f64>) -> [f64; 3] {
     let sb = (-r[(2, 0)]).clamp(-1.0, 1.0);
     let b = sb.asin();
     let (a, c) = if b.cos().abs() > 1e-12 {

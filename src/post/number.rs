@@ -62,11 +62,6 @@ impl NumberFormat {
             s
         }
     }
-
-    /// The value this format writes for `v`, read back.
-    pub fn quantize(&self, v: f64) -> f64 {
-        self.format(v).parse().unwrap_or(v)
-    }
 }
 
 #[cfg(test)]
@@ -114,6 +109,5 @@ mod tests {
             plus: false,
         };
         assert_eq!(rpm.format(3978.9), "3979");
-        assert_eq!(rpm.quantize(3978.9), 3979.0);
     }
 }

@@ -180,7 +180,7 @@ impl<'a> Blocks<'a> {
 
 impl PostDefinition {
     /// Comment text as this control accepts it.
-    pub fn sanitize_comment(&self, text: &str) -> String {
+    pub(crate) fn sanitize_comment(&self, text: &str) -> String {
         let rules = &self.comment;
         let mut s: String = text
             .chars()

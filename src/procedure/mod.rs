@@ -236,7 +236,7 @@ impl Plan {
     }
 
     /// Output file names by role, for a plan named `stem`.
-    pub fn file_names(&self, stem: &str) -> Vec<(&'static str, PathBuf)> {
+    pub(crate) fn file_names(&self, stem: &str) -> Vec<(&'static str, PathBuf)> {
         outputs::file_names(self, stem)
     }
 }

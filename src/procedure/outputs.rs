@@ -60,7 +60,7 @@ fn pose_entry(id: &str, seq: u32, tilt: f64, c: f64, start: f64, end: f64) -> Po
 
 impl MachiningPlan {
     /// The poses as the manifest lists them (seq, angles, minutes).
-    pub fn pose_entries(&self) -> Vec<PoseEntry> {
+    pub(crate) fn pose_entries(&self) -> Vec<PoseEntry> {
         self.poses
             .iter()
             .map(|p| pose_entry(&p.id, p.seq, p.tilt, p.c, p.start_min, p.end_min))
@@ -70,7 +70,7 @@ impl MachiningPlan {
 
 impl ProbingPlan {
     /// The poses as the manifest lists them (seq, angles, minutes).
-    pub fn pose_entries(&self) -> Vec<PoseEntry> {
+    pub(crate) fn pose_entries(&self) -> Vec<PoseEntry> {
         self.poses()
             .iter()
             .map(|p| pose_entry(&p.id, p.seq, p.tilt, p.c, p.start_min, p.end_min))
@@ -147,7 +147,7 @@ impl Plan {
     }
 
     /// The points.csv text.
-    pub fn points_csv(&self) -> String {
+    pub(crate) fn points_csv(&self) -> String {
         match self {
             Plan::Machining(t) => t.points_csv(),
             Plan::Probing(p) => p.points_csv(),

@@ -24,7 +24,7 @@ pub struct ShownPoint {
 }
 
 /// Blue - white - red for -1 .. 1.
-pub fn diverging(t: f64) -> [f32; 3] {
+pub(crate) fn diverging(t: f64) -> [f32; 3] {
     let t = t.clamp(-1.0, 1.0) as f32;
     if t < 0.0 {
         [1.0 + t, 1.0 + t, 1.0]

@@ -103,7 +103,7 @@ pub fn deviations(data: &Dataset, est: &Identification) -> Vec<ShownPoint> {
 
 /// A round magnification (1, 2 or 5 times a power of ten) that shows the
 /// largest deviation at about `fraction` of `extent_mm`.
-pub fn magnification(max_dev_um: f64, extent_mm: f64, fraction: f64) -> f64 {
+pub(crate) fn magnification(max_dev_um: f64, extent_mm: f64, fraction: f64) -> f64 {
     if max_dev_um <= 0.0 || extent_mm <= 0.0 {
         return 1.0;
     }

@@ -34,7 +34,7 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
 }
 
 /// Values with error bars (k = 1), one per named item.
-pub fn values_with_bars(
+pub(crate) fn values_with_bars(
     title: &str,
     unit: &str,
     items: &[(String, f64, Option<f64>)],
@@ -104,7 +104,7 @@ pub fn values_with_bars(
 
 /// One error map against angle: a series per row (a C map has one row per
 /// tilt angle), each node with its error bar.
-pub fn map_plot(
+pub(crate) fn map_plot(
     title: &str,
     x_desc: &str,
     unit: &str,
@@ -177,7 +177,7 @@ pub fn map_plot(
 }
 
 /// Residuals by observation, coloured by pose, with the +-sigma band.
-pub fn residual_plot(groups: &[(String, Vec<(usize, f64)>)], sigma: f64) -> PlotResult {
+pub(crate) fn residual_plot(groups: &[(String, Vec<(usize, f64)>)], sigma: f64) -> PlotResult {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
@@ -245,7 +245,11 @@ pub struct ViewPoint {
 /// The measured deviations of one pose, magnified, in two views side by
 /// side (Ibaraki & Ota 2014, figs. 7-8): dots at the nominal points, circles at the
 /// measured ones, a segment along the normal between them.
-pub fn pose_plot(title: &str, views: &[(String, Vec<ViewPoint>)], max_dev: f64) -> PlotResult {
+pub(crate) fn pose_plot(
+    title: &str,
+    views: &[(String, Vec<ViewPoint>)],
+    max_dev: f64,
+) -> PlotResult {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
@@ -349,7 +353,7 @@ pub struct TimeSeries<'a> {
 /// A time series: the u band shaded around the line through the values,
 /// dots by fit verdict, exports as vertical lines, limits as red lines,
 /// the trend dashed.
-pub fn time_series(p: &TimeSeries<'_>) -> PlotResult {
+pub(crate) fn time_series(p: &TimeSeries<'_>) -> PlotResult {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();

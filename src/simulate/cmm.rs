@@ -56,7 +56,7 @@ impl Placement {
 /// One Gaussian draw of standard deviation `sigma_um`, in mm (zero without
 /// drawing when the deviation is zero, so a noiseless run consumes no
 /// random numbers).
-pub fn noise_mm<R: Rng + ?Sized>(sigma_um: f64, rng: &mut R) -> f64 {
+pub(crate) fn noise_mm<R: Rng + ?Sized>(sigma_um: f64, rng: &mut R) -> f64 {
     if sigma_um > 0.0 {
         Normal::new(0.0, sigma_um * 1e-3).unwrap().sample(rng)
     } else {

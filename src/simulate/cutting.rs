@@ -197,12 +197,12 @@ impl Cutting {
     }
 
     /// The tool-radius error, mm (it does not depend on where the tool is).
-    pub fn radius_error(&self, theta: &[f64]) -> f64 {
+    pub(crate) fn radius_error(&self, theta: &[f64]) -> f64 {
         self.model.perturbation(theta, &Context::default()).0[SLOT_TOOL_RADIUS]
     }
 
     /// `d radius_error / d theta`, mm per parameter unit.
-    pub fn radius_gradient(&self) -> Vec<f64> {
+    pub(crate) fn radius_gradient(&self) -> Vec<f64> {
         let mut g = vec![0.0; self.model.n_params()];
         for (slot, k, c) in self.model.slot_coefficients(&Context::default()) {
             if slot == SLOT_TOOL_RADIUS {
@@ -213,7 +213,7 @@ impl Cutting {
     }
 
     /// The nominal tool tip at a move's ends, and its axis.
-    pub fn nominal_segment(
+    pub(crate) fn nominal_segment(
         &self,
         pose: usize,
         mv: usize,
@@ -228,7 +228,7 @@ impl Cutting {
 
 /// The actual cutter: the plan's tool with its radius off by `dr` mm (a
 /// ball grows as a ball; a bull-nose or flat end keeps its corner).
-pub fn actual_cutter(nominal: &Cutter, dr: f64) -> Cutter {
+pub(crate) fn actual_cutter(nominal: &Cutter, dr: f64) -> Cutter {
     let ball = (nominal.corner - nominal.radius).abs() < 1e-12;
     Cutter {
         radius: nominal.radius + dr,

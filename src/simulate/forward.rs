@@ -78,7 +78,7 @@ use crate::procedure::{MachiningPlan, Plan, ProbingPlan};
 
 /// The model of `errors` rebuilt on the kinematics a plan runs with (its
 /// tool's or probe's gauge length), after checking the machine.
-pub fn model_for(kin: Kinematics, model: &Model) -> Result<Model, ForwardError> {
+pub(crate) fn model_for(kin: Kinematics, model: &Model) -> Result<Model, ForwardError> {
     if kin.machine().name != model.kin.machine().name {
         return Err(ForwardError::Other(format!(
             "the errors are for machine `{}` but the plan runs on `{}`",
@@ -654,7 +654,7 @@ impl ProbingForward {
     /// The unit direction the probe travels on the touch of `label`: the
     /// line its measured point moves along when anything moves the surface
     /// or the probe, in the frame of the predicted point.
-    pub fn line_direction(&self, label: &str) -> Option<Vector3<f64>> {
+    pub(crate) fn line_direction(&self, label: &str) -> Option<Vector3<f64>> {
         Some(self.probing.line(*self.index.get(label)?).1)
     }
 

@@ -24,7 +24,7 @@ use crate::procedure::machining::Cutter;
 
 /// How far inside the material the probing line starts, mm: the surface
 /// may lie this far on either side of its nominal place.
-pub const LINE_DEPTH: f64 = 0.5;
+pub(crate) const LINE_DEPTH: f64 = 0.5;
 
 /// A cutting move with its nominal swept box.
 #[derive(Clone, Debug)]
@@ -71,7 +71,7 @@ fn candidates(cut: &Cutting) -> Vec<Candidate> {
 
 /// The offset of the actual surface from each nominal plan point along its
 /// nominal normal, mm (negative: cut deeper), in plan order.
-pub fn surface_offsets(cut: &Cutting, theta: &[f64]) -> Result<Vec<f64>, SimError> {
+pub(crate) fn surface_offsets(cut: &Cutting, theta: &[f64]) -> Result<Vec<f64>, SimError> {
     let cands = candidates(cut);
     let cutter = actual_cutter(&cut.plan.cutter, cut.radius_error(theta));
     let reach = 1.0;

@@ -69,14 +69,14 @@ pub use output::Format;
 
 /// Measurement noise when the truth file gives none, um (Ibaraki & Ota 2014, table 4:
 /// non-systematic error, sigma 0.35 um).
-pub const DEFAULT_NOISE_UM: f64 = 0.35;
+pub(crate) const DEFAULT_NOISE_UM: f64 = 0.35;
 /// Largest setup shift of a probed piece, mm.
 pub const SETUP_SHIFT_MM: f64 = 0.1;
 /// Largest setup rotation of a probed piece, rad.
 pub const SETUP_ANGLE_RAD: f64 = 1e-3;
 /// Form error of a calibration sphere when not given, um (largest radial
 /// deviation; a grade-10 ball is within 0.25 um).
-pub const DEFAULT_SPHERE_FORM_UM: f64 = 0.1;
+pub(crate) const DEFAULT_SPHERE_FORM_UM: f64 = 0.1;
 
 /// How probed pieces sit on the table.
 #[derive(Clone, Debug, PartialEq)]

@@ -128,7 +128,7 @@ pub fn check(format: Format, kind: TestKind, test: Test) -> Result<(), SimError>
 
 impl SimOutput {
     /// Whether this run can be written as `format`, and if not, why.
-    pub fn check_format(&self, format: Format) -> Result<(), SimError> {
+    pub(crate) fn check_format(&self, format: Format) -> Result<(), SimError> {
         check(format, self.kind, self.test)
     }
 

@@ -44,7 +44,7 @@ pub struct Probing {
 
 /// The nominal head rotation at a pose (identity on a table-table machine):
 /// it turns the probe's own frame into the machine frame.
-pub fn head_rotation(m: &Machine, tilt: f64, c: f64) -> UnitQuaternion<f64> {
+pub(crate) fn head_rotation(m: &Machine, tilt: f64, c: f64) -> UnitQuaternion<f64> {
     let mut r = Isometry3::identity();
     if !m.c.on_table {
         r *= geom::rot(Axis3::Z, m.c.direction * geom::rad(c));
@@ -96,13 +96,13 @@ impl Probing {
     }
 
     /// Where along its line touch `i` meets the nominal surface, mm.
-    pub fn nominal_tau(&self, i: usize) -> f64 {
+    pub(crate) fn nominal_tau(&self, i: usize) -> f64 {
         let (s, d, _) = self.line(i);
         (self.plan.plan.touches[i].contact.axes.xyz - s).dot(&d)
     }
 
     /// The middle of the manifest interval of touch `i`'s pose, minutes.
-    pub fn pose_mid(&self, i: usize) -> f64 {
+    pub(crate) fn pose_mid(&self, i: usize) -> f64 {
         self.mid[self.plan.plan.touches[i].pose]
     }
 
@@ -209,7 +209,7 @@ impl Form {
 }
 
 /// A uniformly random unit vector.
-pub fn random_unit<R: Rng + ?Sized>(rng: &mut R) -> Vector3<f64> {
+pub(crate) fn random_unit<R: Rng + ?Sized>(rng: &mut R) -> Vector3<f64> {
     loop {
         let v = Vector3::new(
             rng.random_range(-1.0..1.0),

@@ -29,10 +29,10 @@ pub use schema::CURRENT_VERSION;
 use sql::{Conn, Value};
 
 /// The version of fivecal that writes a record.
-pub const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
+pub(crate) const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// Environment variable naming the store when `--db` is not given.
-pub const ENV_DB: &str = "FIVECAL_DB";
+pub(crate) const ENV_DB: &str = "FIVECAL_DB";
 
 /// How long a writer waits for another one holding SQLite's write lock.
 const BUSY_TIMEOUT: Duration = Duration::from_secs(60);
@@ -230,7 +230,7 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 
 /// A date-time as stored: RFC 3339 in UTC with microseconds, so the text
 /// sorts as the time does.
-pub fn format_time(t: Timestamp) -> String {
+pub(crate) fn format_time(t: Timestamp) -> String {
     t.strftime("%Y-%m-%dT%H:%M:%S%.6fZ").to_string()
 }
 
@@ -338,7 +338,7 @@ impl Location {
 
     /// The default SQLite file: `fivecal/history.db` in the user's data
     /// directory (`$XDG_DATA_HOME`, else `~/.local/share` on Linux).
-    pub fn default_path() -> Result<PathBuf, StoreError> {
+    pub(crate) fn default_path() -> Result<PathBuf, StoreError> {
         dirs::data_dir()
             .map(|d| d.join("fivecal").join("history.db"))
             .ok_or(StoreError::NoDataDir)

@@ -204,7 +204,10 @@ impl Contributors {
     /// Draws the directional pre-travel variation: the `probe_pretravel`
     /// effect with one value per approach direction, `None` when the
     /// contributors have none.
-    pub fn sample_pretravel<R: Rng + ?Sized>(&self, rng: &mut R) -> Option<(Effect, Vec<f64>)> {
+    pub(crate) fn sample_pretravel<R: Rng + ?Sized>(
+        &self,
+        rng: &mut R,
+    ) -> Option<(Effect, Vec<f64>)> {
         if self.pretravel_um <= 0.0 {
             return None;
         }
@@ -215,7 +218,7 @@ impl Contributors {
     }
 
     /// Draws the setup error of one probed piece.
-    pub fn sample_setup<R: Rng + ?Sized>(&self, rng: &mut R) -> Isometry3<f64> {
+    pub(crate) fn sample_setup<R: Rng + ?Sized>(&self, rng: &mut R) -> Isometry3<f64> {
         let normal = |v: f64, rng: &mut R| {
             if v > 0.0 {
                 Normal::new(0.0, v).unwrap().sample(rng)

@@ -32,7 +32,8 @@ use crate::identify::sphere::SphereOptions;
 use crate::identify::{self, Dataset, Identification, Method, Setup, synthetic};
 use crate::model::Model;
 
-pub use bound::{Bound, cramer_rao_bound};
+pub use bound::Bound;
+pub use bound::cramer_rao_bound;
 pub use contributors::{Contributors, Disturbance};
 pub use montecarlo::{McOptions, McResult};
 

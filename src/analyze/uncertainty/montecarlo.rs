@@ -45,7 +45,7 @@ pub struct McResult {
 }
 
 /// The seed of run `i` of a study seeded `seed` (SplitMix64 of both).
-pub fn run_seed(seed: u64, i: usize) -> u64 {
+pub(crate) fn run_seed(seed: u64, i: usize) -> u64 {
     let mut z = seed ^ (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);

@@ -167,7 +167,7 @@ pub fn sim_options<R: Rng + ?Sized>(t: &SimulatedTest<'_>, rng: &mut R) -> SimOp
 
 /// Simulates one run and joins it as the real measurement was joined:
 /// the same points (those the real file had), the same pieces.
-pub fn simulate_run<R: Rng + ?Sized>(
+pub(crate) fn simulate_run<R: Rng + ?Sized>(
     t: &SimulatedTest<'_>,
     rng: &mut R,
 ) -> Result<(SimOutput, Dataset), String> {

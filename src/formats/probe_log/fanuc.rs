@@ -59,11 +59,11 @@ use super::{
 use crate::source::SourceError;
 
 /// The macro variable holding the touch index.
-pub const INDEX_VARIABLE: u32 = 199;
+pub(crate) const INDEX_VARIABLE: u32 = 199;
 /// Integer digits of the coordinate fields.
-pub const INT_DIGITS: usize = 4;
+pub(crate) const INT_DIGITS: usize = 4;
 /// Decimal digits of the coordinate fields.
-pub const DEC_DIGITS: usize = 4;
+pub(crate) const DEC_DIGITS: usize = 4;
 
 const TOUCH_LINE: &str = "T<index> X<x> Y<y> Z<z>";
 

@@ -58,9 +58,9 @@ use super::{
 use crate::source::SourceError;
 
 /// Q parameter holding the touch index.
-pub const INDEX_Q: u32 = 1900;
+pub(crate) const INDEX_Q: u32 = 1900;
 /// Q parameters holding X, Y, Z of the recorded position: `X_Q`, +1, +2.
-pub const X_Q: u32 = 1901;
+pub(crate) const X_Q: u32 = 1901;
 
 const TOUCH_LINE: &str = "T<index> X<x> Y<y> Z<z> (or K<index> ...)";
 

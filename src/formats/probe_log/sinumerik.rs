@@ -40,7 +40,7 @@ use super::RawLog;
 use crate::source::SourceError;
 
 /// Decimals the program rounds each value to.
-pub const DECIMALS: i32 = 4;
+pub(crate) const DECIMALS: i32 = 4;
 
 /// A value as the program writes it: rounded to [`DECIMALS`], without
 /// trailing zeros, never `-0`.

@@ -85,7 +85,7 @@ impl LogFormat {
     /// The log a rendered program writes: as [`LogFormat::builtin`], with
     /// the HEIDENHAIN tag taken from the program's touch format file
     /// (`"K%D ...` or `"T%D ...`).
-    pub fn for_program(dialect: Dialect, program: &RenderedProgram) -> LogFormat {
+    pub(crate) fn for_program(dialect: Dialect, program: &RenderedProgram) -> LogFormat {
         let mut f = LogFormat::builtin(dialect);
         if let Some(a) = program.aux.iter().find(|a| a.name.ends_with("-touch.a")) {
             if a.text.contains("\"T%") {
@@ -119,7 +119,7 @@ impl LogFormat {
     }
 
     /// The lines a run writes after its last touch.
-    pub fn footer(&self) -> Vec<String> {
+    pub(crate) fn footer(&self) -> Vec<String> {
         match self.dialect {
             Dialect::Fanuc if self.tape_marks => vec!["%".to_string()],
             _ => Vec::new(),

@@ -103,7 +103,12 @@ impl Cutter {
     }
 
     /// The part of the tool nearest to `q`.
-    pub fn part_at(&self, tip: &Vector3<f64>, axis: &Vector3<f64>, q: &Vector3<f64>) -> ToolPart {
+    pub(crate) fn part_at(
+        &self,
+        tip: &Vector3<f64>,
+        axis: &Vector3<f64>,
+        q: &Vector3<f64>,
+    ) -> ToolPart {
         let (rho, zeta) = self.meridian(tip, axis, q);
         let r = self.corner;
         let w = self.radius - r;
@@ -135,7 +140,7 @@ impl Cutter {
 
     /// Signed distance from `q` to the tool swept from tip `a` to tip `b`
     /// (constant axis), with the move parameter in [0, 1] where it is least.
-    pub fn swept_distance(
+    pub(crate) fn swept_distance(
         &self,
         a: &Vector3<f64>,
         b: &Vector3<f64>,

@@ -65,7 +65,7 @@ impl MachiningPlan {
     /// The QIF 3 measurement plan: the points to probe, with their
     /// nominals and normals, as features a CMM importing QIF plans measures
     /// and names in its QIF results.
-    pub fn qif_plan(&self) -> String {
+    pub(crate) fn qif_plan(&self) -> String {
         let comments = vec![
             format!(
                 "fivecal plan: {} on {}: {} points, QIF 3 measurement plan",
@@ -80,7 +80,7 @@ impl MachiningPlan {
     }
 
     /// The points.csv text.
-    pub fn points_csv(&self) -> String {
+    pub(crate) fn points_csv(&self) -> String {
         let head = format!(
             "{} on {} (fivecal plan): nominal points in W, mm; n = outward unit normal",
             self.test, self.machine.name

@@ -93,7 +93,7 @@ impl Solid {
     }
 
     /// A centre and a radius of a ball that contains the solid.
-    pub fn bounding_ball(&self) -> (Vector3<f64>, f64) {
+    pub(crate) fn bounding_ball(&self) -> (Vector3<f64>, f64) {
         match self {
             Solid::Cuboid { centre, half, .. } => (*centre, half.norm()),
             Solid::Ball { centre, radius } => (*centre, *radius),
@@ -105,14 +105,14 @@ impl Solid {
 
     /// The largest coordinate of the solid along the unit direction `d`,
     /// after the rigid map `m` (e.g. W to program coordinates).
-    pub fn extent_along(&self, m: &nalgebra::Isometry3<f64>, d: &Vector3<f64>) -> f64 {
+    pub(crate) fn extent_along(&self, m: &nalgebra::Isometry3<f64>, d: &Vector3<f64>) -> f64 {
         let d_local = m.rotation.inverse() * d;
         let p = self.support(&d_local);
         (m * nalgebra::Point3::from(p)).coords.dot(d)
     }
 
     /// The largest distance of a point of the solid from `o`.
-    pub fn farthest_from(&self, o: &Vector3<f64>) -> f64 {
+    pub(crate) fn farthest_from(&self, o: &Vector3<f64>) -> f64 {
         match self {
             Solid::Cuboid { centre, axes, half } => {
                 let mut best = 0.0_f64;
@@ -216,7 +216,7 @@ pub struct Capsule {
 impl ProbeShape {
     /// The capsules with the ball centre at `ball` and the probe axis
     /// (ball towards spindle, unit) `axis`.
-    pub fn capsules(&self, ball: &Vector3<f64>, axis: &Vector3<f64>) -> [Capsule; 4] {
+    pub(crate) fn capsules(&self, ball: &Vector3<f64>, axis: &Vector3<f64>) -> [Capsule; 4] {
         let s = ball + axis * self.stylus_length;
         let g = s + axis * self.body_length;
         [

@@ -289,7 +289,7 @@ pub struct TouchPlan {
     /// What was left out.
     pub skipped: Vec<Skipped>,
     /// Poses whose touches do not determine what the test measures there
-    /// on their own (see [`columns::weak_poses`], [`sphere::weak_poses`]).
+    /// on their own (see `columns::design::weak_poses`, `sphere::design::weak_poses`).
     pub warnings: Vec<String>,
 }
 
@@ -392,7 +392,7 @@ pub(crate) fn limits_text(axis: &crate::machine::RotaryAxis) -> String {
 }
 
 /// A pose id from its angles: `A-30C60`, `B0C0`, at most three decimals.
-pub fn pose_id(tilt_letter: char, tilt: f64, c: f64) -> String {
+pub(crate) fn pose_id(tilt_letter: char, tilt: f64, c: f64) -> String {
     format!("{tilt_letter}{}C{}", short(tilt), short(c))
 }
 

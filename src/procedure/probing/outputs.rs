@@ -8,7 +8,7 @@ use crate::procedure::{push_notes, round, short};
 
 impl ProbingPlan {
     /// The points.csv text.
-    pub fn points_csv(&self) -> String {
+    pub(crate) fn points_csv(&self) -> String {
         let head = format!(
             "{} on {} (fivecal plan): nominal contact points in W, mm; n = outward unit normal; row i = touch i",
             self.test, self.machine.name

@@ -53,12 +53,12 @@ impl PoseFrame {
     }
 
     /// A direction of W in program coordinates.
-    pub fn dir_to_prog(&self, d_w: &Vector3<f64>) -> Vector3<f64> {
+    pub(crate) fn dir_to_prog(&self, d_w: &Vector3<f64>) -> Vector3<f64> {
         self.w_to_prog.rotation * d_w
     }
 
     /// A direction in program coordinates, in W.
-    pub fn dir_to_w(&self, d_prog: &Vector3<f64>) -> Vector3<f64> {
+    pub(crate) fn dir_to_w(&self, d_prog: &Vector3<f64>) -> Vector3<f64> {
         self.w_to_prog.rotation.inverse() * d_prog
     }
 
@@ -84,7 +84,7 @@ impl PoseFrame {
 
     /// The probe's axis (from the ball towards the spindle) in program
     /// coordinates.
-    pub fn probe_axis_prog(&self) -> Vector3<f64> {
+    pub(crate) fn probe_axis_prog(&self) -> Vector3<f64> {
         self.probe_axis_prog
     }
 
@@ -94,13 +94,13 @@ impl PoseFrame {
     }
 
     /// The rigid map from W to program coordinates (`rTw*`).
-    pub fn w_to_prog(&self) -> Isometry3<f64> {
+    pub(crate) fn w_to_prog(&self) -> Isometry3<f64> {
         self.w_to_prog
     }
 
     /// Ball centre in program coordinates minus commanded X, Y, Z: zero on
     /// a table-table machine.
-    pub fn head_offset(&self) -> Vector3<f64> {
+    pub(crate) fn head_offset(&self) -> Vector3<f64> {
         self.head_offset
     }
 }

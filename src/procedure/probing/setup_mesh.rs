@@ -21,7 +21,7 @@ pub const SEGMENTS: usize = 64;
 
 /// The mesh of a setup: one group per obstacle, named after it, tags from
 /// 1 in the obstacles' order.
-pub fn setup_mesh(obstacles: &[Obstacle]) -> Mesh {
+pub(crate) fn setup_mesh(obstacles: &[Obstacle]) -> Mesh {
     let mut triangles = Vec::new();
     let mut groups = BTreeMap::new();
     for (i, o) in obstacles.iter().enumerate() {

@@ -23,11 +23,11 @@ use crate::procedure::{PlanError, Test};
 
 /// Thickness of the table modelled below its surface, mm (the machine file
 /// gives only its top and radius).
-pub const TABLE_THICKNESS: f64 = 50.0;
+pub(crate) const TABLE_THICKNESS: f64 = 50.0;
 
 /// The table as an obstacle: a disc of the machine's table radius from its
 /// surface down by [`TABLE_THICKNESS`].
-pub fn table_obstacle(m: &Machine) -> Obstacle {
+pub(crate) fn table_obstacle(m: &Machine) -> Obstacle {
     Obstacle {
         name: "table".into(),
         solid: Solid::Cylinder {
@@ -84,7 +84,7 @@ pub(crate) fn probe_shape(
 }
 
 /// A column as a box in W, standing on the table surface.
-pub fn column_obstacle(m: &Machine, c: &ColumnSpec) -> Obstacle {
+pub(crate) fn column_obstacle(m: &Machine, c: &ColumnSpec) -> Obstacle {
     let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw.to_radians());
     Obstacle {
         name: c.name.clone(),
@@ -140,7 +140,7 @@ pub fn touch_plan(m: &Machine, t: &ColumnsTemplate) -> Result<TouchPlan, PlanErr
 
 /// Plans the column test on machine `m` for a control with `limits`
 /// (touches it cannot make are left out, with the reason).
-pub fn touch_plan_with(
+pub(crate) fn touch_plan_with(
     m: &Machine,
     t: &ColumnsTemplate,
     limits: &ControlLimits,
@@ -242,7 +242,7 @@ pub fn touch_plan_with(
 /// rows `[n, p x n]` of a pose's touches must have rank 6. Such a pose
 /// still adds to a joint identification of the rotary axes' errors, but
 /// not to a per-pose error map.
-pub fn weak_poses(plan: &TouchPlan) -> Vec<String> {
+pub(crate) fn weak_poses(plan: &TouchPlan) -> Vec<String> {
     let mut out = Vec::new();
     for pose in &plan.poses {
         let touches = &plan.touches[pose.touches.clone()];

@@ -7,5 +7,7 @@
 pub mod design;
 pub mod template;
 
-pub use design::{column_obstacle, touch_plan, touch_plan_with, weak_poses};
+pub(crate) use design::column_obstacle;
+pub use design::touch_plan;
+pub(crate) use design::touch_plan_with;
 pub use template::{BUILTIN_TEMPLATE, ColumnSpec, ColumnsTemplate, Side};

@@ -40,7 +40,7 @@ pub fn sphere_centre(m: &Machine, t: &SphereTemplate) -> Vector3<f64> {
 }
 
 /// The sphere and its stem as obstacles.
-pub fn sphere_obstacles(m: &Machine, t: &SphereTemplate) -> [Obstacle; 2] {
+pub(crate) fn sphere_obstacles(m: &Machine, t: &SphereTemplate) -> [Obstacle; 2] {
     let c = sphere_centre(m, t);
     [
         Obstacle {
@@ -113,7 +113,7 @@ pub fn touch_plan(m: &Machine, t: &SphereTemplate) -> Result<TouchPlan, PlanErro
 }
 
 /// Plans the sphere test on machine `m` for a control with `limits`.
-pub fn touch_plan_with(
+pub(crate) fn touch_plan_with(
     m: &Machine,
     t: &SphereTemplate,
     limits: &ControlLimits,
@@ -237,7 +237,7 @@ pub fn touch_plan_with(
 
 /// Poses whose touches do not determine the sphere's centre: fewer than
 /// four, or all on one plane.
-pub fn weak_poses(plan: &TouchPlan) -> Vec<String> {
+pub(crate) fn weak_poses(plan: &TouchPlan) -> Vec<String> {
     plan.poses
         .iter()
         .filter_map(|pose| {

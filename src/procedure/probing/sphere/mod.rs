@@ -7,5 +7,6 @@
 pub mod design;
 pub mod template;
 
-pub use design::{poses, sphere_centre, sphere_obstacles, touch_plan, touch_plan_with, weak_poses};
+pub(crate) use design::touch_plan_with;
+pub use design::{poses, sphere_centre, touch_plan};
 pub use template::{BUILTIN_TEMPLATE, SpherePattern, SphereTemplate};
