@@ -281,12 +281,7 @@ pub(super) fn parameters(
                 0.0,
             ));
         }
-        (Dialect::Sinumerik, _) => {
-            return Err(ExportError::Unsupported(format!(
-                "the SINUMERIK swivel data record export is not part of this build; rewrite the programs of {} with `fivecal compensate` instead",
-                m.name
-            )));
-        }
+        (Dialect::Sinumerik, _) => return super::sinumerik::parameters(kin, g, gn),
         (Dialect::Linuxcnc, s) => {
             return Err(ExportError::Unsupported(format!(
                 "LinuxCNC's stock kinematics with pivot offsets (xyzac-trt-kins, xyzbc-trt-kins) are for tilting-table machines; {} is {s}: rewrite its programs with `fivecal compensate` instead",
@@ -460,8 +455,7 @@ setp {kins}.conventional-directions 1
             );
             none_else(&mut s, "#");
         }
-        // `parameters` refuses the target before anything is rendered.
-        Dialect::Sinumerik => {}
+        Dialect::Sinumerik => s += &super::sinumerik::render(m, export, not_held, source),
     }
     s
 }
