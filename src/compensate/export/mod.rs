@@ -739,6 +739,34 @@ fn not_held(model: &Model, theta: &[f64], dialect: Dialect) -> Vec<String> {
     out
 }
 
+/// The values listed for the machine builder (not entered), a comment
+/// line each: value and u in urad, what it is, the limit it is beyond.
+fn listed_lines(s: &mut String, export: &Export, comment: &str) {
+    for p in export.parameters.iter().filter(|p| !p.entered) {
+        let _ = writeln!(
+            s,
+            "{comment}   {} = {}, u {}  ({}){}",
+            p.name,
+            signed(p.value, 2),
+            p.u.map_or_else(|| "not given".to_string(), |u| format!("{u:.2} urad")),
+            p.what,
+            p.beyond
+                .as_ref()
+                .map_or_else(String::new, |b| format!(": {b}, not to be entered"))
+        );
+    }
+}
+
+/// What no parameter holds, a comment line each (`(nothing)` for none).
+fn not_held_lines(s: &mut String, not_held: &[String], comment: &str) {
+    if not_held.is_empty() {
+        let _ = writeln!(s, "{comment}   (nothing)");
+    }
+    for b in not_held {
+        let _ = writeln!(s, "{comment}   {b}");
+    }
+}
+
 /// The header lines every target starts with, after `comment`.
 fn header(m: &Machine, export: &Export, title: &str, source: &str, comment: &str) -> String {
     let mut s = String::new();

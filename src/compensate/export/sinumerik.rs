@@ -27,7 +27,7 @@ use std::fmt::Write as _;
 use nalgebra::Vector3;
 
 use super::controllers::Raw;
-use super::{Export, ExportError, Geometry, Kind, header, signed};
+use super::{Export, ExportError, Geometry, Kind, header, listed_lines, not_held_lines, signed};
 use crate::kinematics::Kinematics;
 use crate::machine::{Machine, RotaryAxis, Structure};
 
@@ -330,7 +330,8 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
     let _ = writeln!(
         s,
         "; Not written: the axis directions (coarse fields; the record has no fine ones), for the machine builder
-;   and to compare with CYCLE996, each the full vector with the errors (8 decimals: 0.01 urad):"
+;   and to compare with CYCLE996, each the full vector with the errors (8 decimals: 0.01 urad), then the
+;   components across each axis (the vector's component times 10^6, urad):"
     );
     let listed: Vec<_> = export.parameters.iter().filter(|p| !p.entered).collect();
     for (j, (&f, vn)) in V_COARSE.iter().zip(&rn.v).enumerate() {
@@ -354,29 +355,12 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
             number(v.z, 8)
         );
     }
-    for p in &listed {
-        let _ = writeln!(
-            s,
-            ";   {} = {} urad, u {}  ({}){}",
-            p.name,
-            signed(p.value, 2),
-            p.u.map_or_else(|| "not given".to_string(), |u| format!("{u:.2} urad")),
-            p.what,
-            p.beyond
-                .as_ref()
-                .map_or_else(String::new, |b| format!(": {b}, not to be entered"))
-        );
-    }
+    listed_lines(&mut s, export, ";");
     let _ = writeln!(
         s,
         "; Not held by the swivel data record; rewrite programs with `fivecal compensate` for them:"
     );
-    if not_held.is_empty() {
-        let _ = writeln!(s, ";   (nothing)");
-    }
-    for b in not_held {
-        let _ = writeln!(s, ";   {b}");
-    }
+    not_held_lines(&mut s, not_held, ";");
     s += "M30\n";
     s
 }
