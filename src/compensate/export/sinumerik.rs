@@ -283,6 +283,8 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
         s,
         "; It writes only fine offset fields: the coarse values stay, and setting each field below to 0 undoes it.
 ; The fine offsets act only with SD42974 $SC_TOCARR_FINE_CORRECTION = TRUE; MD20188/MD20190 limit their size.
+; CYCLE996 measures and writes this record: compare its offset vectors (coarse plus fine) and v1, v2
+;   with these, its free components (SD55645) with the ones kept below (docs/controllers.md).
 ; Expected, not written here (the machine file's nominal geometry, its machine coordinates; a record
 ;   whose machine reference point lies elsewhere differs by a constant in l2 and l4, the fine values do not):
 ;   $TC_CARR23[{n}]=\"{ty}\" ({}), axis 1 = {} ($TC_CARR21), axis 2 = {} ($TC_CARR22)",
