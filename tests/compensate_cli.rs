@@ -816,6 +816,7 @@ fn every_exported_parameter_is_documented_with_its_public_source() {
         (Dialect::Fanuc, "FANUC"),
         (Dialect::Heidenhain, "HEIDENHAIN"),
         (Dialect::Linuxcnc, "LinuxCNC"),
+        (Dialect::Sinumerik, "SINUMERIK"),
     ] {
         let text = section(title);
         assert!(text.contains("Sources:"), "{title}");
@@ -834,7 +835,16 @@ fn every_exported_parameter_is_documented_with_its_public_source() {
             assert!(listed(tag), "{title}: [{tag}] has no address");
         }
         for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
-            let m = Machine::builtin(name).unwrap();
+            // A SINUMERIK export needs the swivel record's number.
+            let (_, yaml) = fivecal::machine::BUILTIN
+                .iter()
+                .find(|(n, _)| *n == name)
+                .unwrap();
+            let m = Machine::from_yaml(
+                Path::new("m.yaml"),
+                &format!("{yaml}\nsinumerik: {{swivel_record: 1}}\n"),
+            )
+            .unwrap();
             let kin = Kinematics::new(&m);
             let src = format!("machine: {name}\n");
             let path = Path::new("e.yaml");
@@ -885,5 +895,125 @@ fn every_exported_parameter_is_documented_with_its_public_source() {
                 );
             }
         }
+    }
+}
+
+/// Issue 19, item 4: `--export sinumerik` end to end. The machine file
+/// names the swivel data record; the export is a part program of fine
+/// offset assignments to that record, beside a rewritten program as
+/// `OUT.sinumerik.MPF`; without the record number, or with a malformed
+/// one, nothing is written and the file is named.
+#[test]
+fn sinumerik_export_writes_the_fine_offsets_of_the_machine_file_s_swivel_record() {
+    let dir = tempdir();
+    let d = dir.path();
+    let (_, bc) = fivecal::machine::BUILTIN
+        .iter()
+        .find(|(n, _)| *n == "bc-trunnion")
+        .unwrap();
+    let machine = write(
+        d,
+        "dmu.yaml",
+        &format!("{bc}sinumerik: {{swivel_record: 2}}\n"),
+    );
+    let errs = write(d, "e.yaml", ERRORS);
+    let out = fivecal()
+        .args(["compensate", "--no-record", "--machine"])
+        .arg(&machine)
+        .arg("--errors")
+        .arg(&errs)
+        .args(["--export", "sinumerik"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let text = String::from_utf8(out.stdout.clone()).unwrap();
+    assert!(
+        text.starts_with("; fivecal: SINUMERIK swivel data record 2 ($TC_CARR..[2], type P)"),
+        "{text}"
+    );
+    // EX0B = 30 um is l2's X, EY0C = -18 um l3's Y; the directions and
+    // the zero point of B are not written.
+    assert!(
+        text.contains("\n$TC_CARR44[2]=0.03000 ; fine l2 X"),
+        "{text}"
+    );
+    assert!(
+        text.contains("\n$TC_CARR56[2]=-0.01800 ; fine l3 Y"),
+        "{text}"
+    );
+    assert!(text.contains("$TC_CARR45[2] (fine l2 Y"), "{text}");
+    assert!(!text.contains("\n$TC_CARR7["), "{text}");
+    assert!(text.contains("EB0B = 15.00 urad"), "{text}");
+    assert!(text.ends_with("\nM30\n"), "{text}");
+    let note = stderr_of(&out);
+    assert!(
+        note.contains("sinumerik parameters to enter change from the machine file's nominal geometry: $TC_CARR44")
+            && note.contains("listed for the machine builder, not entered: $TC_CARR7"),
+        "{note}"
+    );
+
+    // Beside a rewritten program: next to it, as a part program.
+    let prog = write(
+        d,
+        "p.nc",
+        "%\nO1\nG90 G21 G54 G43 H1\nG0 X10. Y10. Z30. B20. C20.\nG1 X12. Y10. Z20. B25. C40. F300.\nM30\n%\n",
+    );
+    let out = fivecal()
+        .args(["compensate", "--no-record", "--machine"])
+        .arg(&machine)
+        .arg("--errors")
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(d.join("out.nc"))
+        .args(["--export", "sinumerik"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let mpf = std::fs::read_to_string(d.join("out.nc.sinumerik.MPF")).unwrap();
+    assert_eq!(mpf, text);
+
+    // The built-in machine names no record: refused, nothing written.
+    let out = fivecal()
+        .args([
+            "compensate",
+            "--no-record",
+            "--machine",
+            "bc-trunnion",
+            "--errors",
+        ])
+        .arg(&errs)
+        .arg(&prog)
+        .arg("-o")
+        .arg(d.join("none.nc"))
+        .args(["--export", "sinumerik"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = stderr_of(&out);
+    assert!(err.contains("sinumerik: {swivel_record: N}"), "{err}");
+    assert!(!d.join("none.nc").exists() && !d.join("none.nc.sinumerik.MPF").exists());
+
+    // A record 0 (TCARR=0 deselects) and an unknown key: the file, line
+    // and what was expected.
+    for (bad, want) in [
+        ("sinumerik: {swivel_record: 0}\n", "1 or more"),
+        (
+            "sinumerik: {swivel_record: 1, type: P}\n",
+            "unknown field `type`",
+        ),
+    ] {
+        let m = write(d, "bad.yaml", &format!("{bc}{bad}"));
+        let out = fivecal()
+            .args(["compensate", "--no-record", "--machine"])
+            .arg(&m)
+            .arg("--errors")
+            .arg(&errs)
+            .args(["--export", "sinumerik"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = stderr_of(&out);
+        assert!(err.contains("bad.yaml") && err.contains(want), "{err}");
     }
 }

@@ -63,6 +63,20 @@ pub struct MachineFile {
     /// optional (`compensate --integer-unit` overrides it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub integer_unit: Option<IntegerUnit>,
+    /// Where a SINUMERIK control holds this machine's kinematics,
+    /// optional (`compensate --export sinumerik` needs it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sinumerik: Option<SinumerikFile>,
+}
+
+/// Where a SINUMERIK control holds the machine's kinematics: the number of
+/// its swivel data record (orientable toolholder, `$TC_CARR..[n]`, the
+/// `TCARR=n` a program selects and CYCLE996 measures).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SinumerikFile {
+    /// The swivel data record number, 1 or more.
+    pub swivel_record: u32,
 }
 
 /// How a FANUC control reads `X100` (no decimal point): parameter 3401#0
@@ -499,6 +513,14 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         ));
     }
     let m_codes = m_codes(&f.m_codes, &err)?;
+    if let Some(sk) = f.sinumerik
+        && sk.swivel_record == 0
+    {
+        return Err(err(
+            &["sinumerik", "swivel_record"],
+            "swivel_record 0 deselects the swivel data record (TCARR=0): expected the record's number, 1 or more".to_string(),
+        ));
+    }
     Ok(Machine {
         name: f.name,
         description: f.description,
@@ -518,6 +540,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         controller_parameters: f.controller_parameters,
         m_codes,
         integer_unit: f.integer_unit,
+        sinumerik: f.sinumerik,
         source: src.to_string(),
     })
 }

@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use crate::geom::Axis3;
 use crate::source::SourceError;
 
-pub use file::{ControllerParameters, MachineFile, check_tool};
+pub use file::{ControllerParameters, MachineFile, SinumerikFile, check_tool};
 
 /// Where the two rotary axes sit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -277,6 +277,9 @@ pub struct Machine {
     /// How its FANUC control reads an axis word without a decimal point
     /// (the file's optional `integer_unit:`); unknown when absent.
     pub integer_unit: Option<file::IntegerUnit>,
+    /// Where a SINUMERIK control holds the kinematics (the file's optional
+    /// `sinumerik: {swivel_record: N}`).
+    pub sinumerik: Option<file::SinumerikFile>,
     /// The file text it was read from (for `machine show` and provenance).
     pub source: String,
 }

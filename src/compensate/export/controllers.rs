@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
-use super::{Export, ExportError, Geometry, Kind, header, signed};
+use super::{Export, ExportError, Geometry, Kind, header, listed_lines, not_held_lines, signed};
 use crate::geom::Axis3;
 use crate::kinematics::Kinematics;
 use crate::machine::{Dialect, Machine, Structure};
@@ -281,12 +281,7 @@ pub(super) fn parameters(
                 0.0,
             ));
         }
-        (Dialect::Sinumerik, _) => {
-            return Err(ExportError::Unsupported(format!(
-                "the SINUMERIK swivel data record export is not part of this build; rewrite the programs of {} with `fivecal compensate` instead",
-                m.name
-            )));
-        }
+        (Dialect::Sinumerik, _) => return super::sinumerik::parameters(kin, g, gn),
         (Dialect::Linuxcnc, s) => {
             return Err(ExportError::Unsupported(format!(
                 "LinuxCNC's stock kinematics with pivot offsets (xyzac-trt-kins, xyzbc-trt-kins) are for tilting-table machines; {} is {s}: rewrite its programs with `fivecal compensate` instead",
@@ -308,14 +303,6 @@ fn trt_kins(m: &Machine) -> &'static str {
 pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: &str) -> String {
     let t = m.tilt.letter;
     let mut s = String::new();
-    let none_else = |s: &mut String, c: &str| {
-        if not_held.is_empty() {
-            let _ = writeln!(s, "{c}   (nothing)");
-        }
-        for b in not_held {
-            let _ = writeln!(s, "{c}   {b}");
-        }
-    };
     match export.dialect {
         Dialect::Fanuc => {
             s += &header(
@@ -356,7 +343,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 s,
                 "# Not held by these parameters (positions only); rewrite programs with `fivecal compensate` for them:"
             );
-            none_else(&mut s, "#");
+            not_held_lines(&mut s, not_held, "#");
         }
         Dialect::Heidenhain => {
             s += &header(
@@ -393,24 +380,12 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
 ;   table; no public source consulted gives its sign convention, docs/controllers.md), urad,
 ;   the right-handed turn about the machine axis named that takes each nominal direction to the actual:
 ";
-            for p in export.parameters.iter().filter(|p| !p.entered) {
-                let _ = writeln!(
-                    s,
-                    ";   {} = {}, u {}  ({}){}",
-                    p.name,
-                    signed(p.value, 2),
-                    p.u.map_or_else(|| "not given".to_string(), |u| format!("{u:.2} urad")),
-                    p.what,
-                    p.beyond
-                        .as_ref()
-                        .map_or_else(String::new, |b| format!(": {b}, not to be entered"))
-                );
-            }
+            listed_lines(&mut s, export, ";");
             let _ = writeln!(
                 s,
                 "; Not held by the kinematics; rewrite programs with `fivecal compensate` for them:"
             );
-            none_else(&mut s, ";");
+            not_held_lines(&mut s, not_held, ";");
         }
         Dialect::Linuxcnc => {
             let kins = trt_kins(m);
@@ -458,10 +433,9 @@ setp {kins}.conventional-directions 1
                 s,
                 "# trt-kins takes no orientation errors and no zero-point errors of the rotary axes; not held:"
             );
-            none_else(&mut s, "#");
+            not_held_lines(&mut s, not_held, "#");
         }
-        // `parameters` refuses the target before anything is rendered.
-        Dialect::Sinumerik => {}
+        Dialect::Sinumerik => s += &super::sinumerik::render(m, export, not_held, source),
     }
     s
 }

@@ -23,6 +23,13 @@ impl AxisLine {
         self.point + self.dir * (q - self.point).dot(&self.dir)
     }
 
+    /// The point of the line whose machine coordinate `i` (0, 1, 2 for X,
+    /// Y, Z) is `value`; the line must not be perpendicular to that axis
+    /// (it is used along the axis the line runs nearly parallel to).
+    pub fn at(&self, i: usize, value: f64) -> Vector3<f64> {
+        self.point + self.dir * ((value - self.point[i]) / self.dir[i])
+    }
+
     /// The feet of the common perpendicular of two lines (on self, on other).
     pub fn common_perpendicular(
         &self,

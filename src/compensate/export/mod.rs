@@ -1,5 +1,5 @@
 //! The identified location errors as the corrected pivot data of a
-//! controller (`fivecal compensate --export fanuc|heidenhain|linuxcnc`),
+//! controller (`fivecal compensate --export fanuc|heidenhain|linuxcnc|sinumerik`),
 //! each value with its uncertainty and its change from what the control
 //! holds now, refused when a change or an uncertainty is too large, a
 //! value would drive an axis beyond its stroke, or none of the errors
@@ -19,6 +19,9 @@
 //!   listed for the machine builder.
 //! - LinuxCNC `xyzbc-trt-kins` / `xyzac-trt-kins` (tilting tables): the
 //!   C axis position and the tilt axis's offset from it.
+//! - SINUMERIK swivel data record (`$TC_CARR`, [`sinumerik`]): the fine
+//!   offsets of its vector chain, as a part program; the axis directions
+//!   listed.
 //!
 //! The uncertainty of a parameter comes from the error file's `u` of each
 //! symbol through the derivative of the parameter (central differences of
@@ -28,6 +31,7 @@
 
 mod controllers;
 mod geometry;
+mod sinumerik;
 
 use std::fmt::{self, Write as _};
 
@@ -527,7 +531,11 @@ pub fn export(
         &model.perturbation(&theta_pos, &Context::default()),
         &export,
     )?;
-    let not_held = not_held(model, theta, dialect);
+    let mut not_held = not_held(model, theta, dialect);
+    if dialect == Dialect::Sinumerik {
+        let g = geometry(kin, &model.perturbation(&theta_held, &Context::default()));
+        not_held.extend(sinumerik::tool_tilt(&g));
+    }
     // Errors there are, and none reaches a parameter: an export that
     // enters the nominal values again compensates nothing.
     if export.changes_nothing()
@@ -701,6 +709,10 @@ fn not_held(model: &Model, theta: &[f64], dialect: Dialect) -> Vec<String> {
                             "{} = {v:.2} urad ({}): where the axis reads zero, set at the axis (its reference offset), not in the kinematics",
                             ls.name, ls.description
                         ));
+                    } else if dialect == Dialect::Sinumerik && ls.canonical.0 / 6 < 2 {
+                        // The line of the axis of link 0 or 1: listed as
+                        // its direction v1 or v2; the spindle's (link 2)
+                        // is not held.
                     } else if dialect != Dialect::Heidenhain {
                         out.push(format!("{} = {v:.2} urad ({})", ls.name, ls.description));
                     }
@@ -725,6 +737,34 @@ fn not_held(model: &Model, theta: &[f64], dialect: Dialect) -> Vec<String> {
         }
     }
     out
+}
+
+/// The values listed for the machine builder (not entered), a comment
+/// line each: value and u in urad, what it is, the limit it is beyond.
+fn listed_lines(s: &mut String, export: &Export, comment: &str) {
+    for p in export.parameters.iter().filter(|p| !p.entered) {
+        let _ = writeln!(
+            s,
+            "{comment}   {} = {}, u {}  ({}){}",
+            p.name,
+            signed(p.value, 2),
+            p.u.map_or_else(|| "not given".to_string(), |u| format!("{u:.2} urad")),
+            p.what,
+            p.beyond
+                .as_ref()
+                .map_or_else(String::new, |b| format!(": {b}, not to be entered"))
+        );
+    }
+}
+
+/// What no parameter holds, a comment line each (`(nothing)` for none).
+fn not_held_lines(s: &mut String, not_held: &[String], comment: &str) {
+    if not_held.is_empty() {
+        let _ = writeln!(s, "{comment}   (nothing)");
+    }
+    for b in not_held {
+        let _ = writeln!(s, "{comment}   {b}");
+    }
 }
 
 /// The header lines every target starts with, after `comment`.

@@ -3,6 +3,7 @@ use nalgebra::{Point3, Vector3};
 use super::*;
 use crate::Machine;
 use crate::errorfile::{ErrorFile, LoadedErrors};
+use crate::machine::Structure;
 
 fn load(machine: &Machine, yaml: &str) -> LoadedErrors {
     load_with(&Kinematics::new(machine), yaml)
@@ -586,4 +587,328 @@ fn linuxcnc_is_told_which_way_the_table_turns() {
     let l = run(&rev, BC, Dialect::Linuxcnc).unwrap();
     assert!(!l.text.contains("conventional-directions 1"), "{}", l.text);
     assert!(l.text.contains("trt-kins's default"), "{}", l.text);
+}
+
+/// A swivel data record read back from a SINUMERIK export's text: every
+/// `$TC_CARRn[r]=value`, written or listed in a comment, as written
+/// (rounded), with the record number `r` it names.
+fn swivel_fields(text: &str) -> (std::collections::BTreeMap<u32, f64>, Vec<u32>) {
+    let mut fields = std::collections::BTreeMap::new();
+    let mut records = Vec::new();
+    for word in text.split_whitespace() {
+        let Some(rest) = word.strip_prefix("$TC_CARR") else {
+            continue;
+        };
+        let Some((n, rest)) = rest.split_once('[') else {
+            continue;
+        };
+        let Some((r, v)) = rest.split_once("]=") else {
+            continue;
+        };
+        let (Ok(n), Ok(r), Ok(v)) = (n.parse::<u32>(), r.parse::<u32>(), v.parse::<f64>()) else {
+            continue;
+        };
+        fields.insert(n, v);
+        records.push(r);
+    }
+    (fields, records)
+}
+
+/// The kinematic chain of a swivel data record as its definition gives
+/// it, written apart from the export: offset vectors l1..l4 and axis
+/// directions v1, v2 in machine coordinates, unswivelled; each axis turns
+/// what it carries right-handed about its v by its position; axis 2 is
+/// carried by axis 1. Type T: the tool adapter hangs from the reference
+/// point by -l1 - R1 (l2 + R2 l3); P: a table point p sits at
+/// l2 + R1 (l3 + R2 (l4 + p)); M: the head (axis 1) carries the tool by
+/// -l1 - R1 l2, the table (axis 2) is l3 + R2 (l4 + p).
+struct SwivelRecord {
+    ty: char,
+    l: [Vector3<f64>; 4],
+    v: [Vector3<f64>; 2],
+}
+
+impl SwivelRecord {
+    fn r(&self, j: usize, deg: f64) -> nalgebra::Rotation3<f64> {
+        nalgebra::Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(self.v[j]),
+            deg.to_radians(),
+        )
+    }
+
+    /// A table point given at rotary zero, machine coordinates, at the
+    /// record's axis positions `a`.
+    fn table(&self, a: [f64; 2], p: &Vector3<f64>) -> Vector3<f64> {
+        let l = &self.l;
+        match self.ty {
+            'P' => l[1] + self.r(0, a[0]) * (l[2] + self.r(1, a[1]) * (l[3] + p)),
+            'M' => l[2] + self.r(1, a[1]) * (l[3] + p),
+            _ => *p,
+        }
+    }
+
+    /// The tool tip and axis, the tool adapter's reference at `reference`
+    /// and the tool hanging from it by `u` (adapter minus tip, unswivelled).
+    fn tool(
+        &self,
+        a: [f64; 2],
+        reference: &Vector3<f64>,
+        u: &Vector3<f64>,
+        axis: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let l = &self.l;
+        match self.ty {
+            'T' => {
+                let r12 = self.r(0, a[0]) * self.r(1, a[1]);
+                (
+                    reference - l[0] - self.r(0, a[0]) * l[1] - r12 * (l[2] + u),
+                    r12 * axis,
+                )
+            }
+            'M' => (
+                reference - l[0] - self.r(0, a[0]) * (l[1] + u),
+                self.r(0, a[0]) * axis,
+            ),
+            _ => (reference - u, *axis),
+        }
+    }
+}
+
+/// Issue 19, item 4: the export's round trip. Every location error a line
+/// of the machine is made of (all but the zero points), on a B/C and an
+/// A/C trunnion (type P), a head-table (M) and a head-head (T) machine: the
+/// nominal swivel record (from the machine file, by the record's own
+/// conventions) plus the fine offsets and directions the export writes,
+/// read back from its text as rounded there, run through the record's
+/// chain, moves the table and the tool as the exact kinematic chain of the
+/// erroneous machine does, within 0.1 um and 0.1 urad, at rotary positions
+/// across the range. Relative to rotary zero: the record, closed, changes
+/// nothing there, where the errors shift the tool by what a work offset
+/// takes up.
+#[test]
+fn the_sinumerik_swivel_record_reproduces_the_erroneous_machine() {
+    use crate::kinematics::symbols::{SymbolTable, Unit};
+    for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
+        let mut m = builtin(name);
+        m.sinumerik = Some(crate::machine::SinumerikFile { swivel_record: 3 });
+        let kin = Kinematics::new(&m);
+        let symbols = SymbolTable::for_kinematics(&kin);
+        let (mut um, mut urad) = (
+            [23.0, -17.0, 31.0, -9.0, 14.0].iter().cycle(),
+            [70.0, -45.0, 110.0, -85.0, 30.0].iter().cycle(),
+        );
+        let mut yaml = format!("machine: {name}\nlocation_errors:\n");
+        for s in symbols.location.iter().filter(|s| !s.is_zero_point()) {
+            let v = match s.unit {
+                Unit::Um => um.next().unwrap(),
+                Unit::Urad => urad.next().unwrap(),
+            };
+            yaml += &format!("  {}: {v}\n", s.name);
+        }
+        let e = load(&m, &yaml);
+        let x = export(
+            &e.model,
+            &e.theta,
+            &e.u,
+            Dialect::Sinumerik,
+            "errors.yaml",
+            &Limits::default(),
+        )
+        .unwrap_or_else(|err| panic!("{name}: {err}"));
+        let (fields, records) = swivel_fields(&x.text);
+        assert!(records.iter().all(|&r| r == 3), "{name}: {records:?}");
+        // The nominal record, from the machine file: a table's axis turns
+        // the part, so its vector is the machine file's direction turned
+        // round; the tool adapter is the spindle gauge point, a head's
+        // pivot `pivot_length` above it; the chains closed.
+        let e_t = m.tilt.about.unit();
+        let (dt, dc) = (m.tilt.direction, m.c.direction);
+        let z = Vector3::z();
+        let zero = Vector3::zeros();
+        let h = m.pivot_length * z;
+        let mut rec = match m.structure {
+            Structure::TableTable => SwivelRecord {
+                ty: 'P',
+                l: [zero, m.pivot, zero, -m.pivot],
+                v: [-dt * e_t, -dc * z],
+            },
+            Structure::HeadHead => SwivelRecord {
+                ty: 'T',
+                l: [-h, zero, h, zero],
+                v: [dc * z, dt * e_t],
+            },
+            Structure::HeadTable => SwivelRecord {
+                ty: 'M',
+                l: [-h, h, m.pivot, -m.pivot],
+                v: [dt * e_t, -dc * z],
+            },
+        };
+        assert!(
+            x.text.contains(&format!("$TC_CARR23[3]=\"{}\"", rec.ty)),
+            "{name}"
+        );
+        for (k, first) in [41u32, 44, 55, 58].into_iter().enumerate() {
+            for i in 0..3 {
+                rec.l[k][i] += fields.get(&(first + i as u32)).copied().unwrap_or(0.0);
+            }
+        }
+        for (j, first) in [7u32, 10].into_iter().enumerate() {
+            rec.v[j] = Vector3::new(fields[&first], fields[&(first + 1)], fields[&(first + 2)]);
+        }
+        // No coarse field is written.
+        for line in x.text.lines().filter(|l| !l.starts_with(';')) {
+            if let Some(n) = line.strip_prefix("$TC_CARR") {
+                let n: u32 = n.split('[').next().unwrap().parse().unwrap();
+                assert!(
+                    (41..=46).contains(&n) || (55..=60).contains(&n),
+                    "{name}: {line}"
+                );
+            }
+        }
+        let p = e.model.perturbation(&e.theta, &Context::default());
+        let lg = kin.gauge_length();
+        let tilts: Vec<f64> = [-90.0, -40.0, 0.0, 35.0, 90.0]
+            .into_iter()
+            .filter(|&t| m.tilt.within(t, 0.0))
+            .collect();
+        // The tool's pose in machine coordinates, and the table's motion.
+        let tool = |t: f64, c: f64| {
+            let pose = kin.forward(&Axes::new(0.0, 0.0, 0.0, t, c), &p);
+            let w = kin.table_transform(t, c, &p);
+            ((w * Point3::from(pose.tip)).coords + m.pivot, w * pose.axis)
+        };
+        let (tip0, axis0) = tool(0.0, 0.0);
+        let reference = m.pivot + lg * z;
+        let w0 = kin.table_transform(0.0, 0.0, &p).inverse();
+        let (mut worst_um, mut worst_urad) = (0.0f64, 0.0f64);
+        for &t in &tilts {
+            for c in [0.0, 90.0, 200.0, -135.0] {
+                let a = match m.structure {
+                    Structure::HeadHead => [c, t],
+                    _ => [t, c],
+                };
+                // The table: points on it, relative to rotary zero.
+                let w = kin.table_transform(t, c, &p) * w0;
+                for q in [
+                    Vector3::zeros(),
+                    Vector3::new(200.0, 0.0, 0.0),
+                    Vector3::new(0.0, 200.0, 0.0),
+                    Vector3::new(0.0, 0.0, 150.0),
+                ] {
+                    let exact = (w * Point3::from(q)).coords + m.pivot;
+                    let d = (rec.table(a, &(q + m.pivot)) - exact).norm();
+                    worst_um = worst_um.max(d * 1e3);
+                }
+                // Its turn: the images of unit steps.
+                let o = rec.table(a, &m.pivot);
+                for e_i in [Vector3::x(), Vector3::y(), Vector3::z()] {
+                    let d = (rec.table(a, &(m.pivot + e_i)) - o) - w.rotation * e_i;
+                    worst_urad = worst_urad.max(d.norm() * 1e6);
+                }
+                // The tool, hanging from the gauge point along its own
+                // axis, relative to rotary zero.
+                let (tip, axis) = tool(t, c);
+                let (rt, ra) = rec.tool(a, &reference, &(lg * axis0), &axis0);
+                let (rt0, _) = rec.tool([0.0, 0.0], &reference, &(lg * axis0), &axis0);
+                worst_um = worst_um.max(((rt - rt0) - (tip - tip0)).norm() * 1e3);
+                worst_urad = worst_urad.max((ra - axis).norm() * 1e6);
+            }
+        }
+        assert!(
+            worst_um < 0.1 && worst_urad < 0.1,
+            "{name}: the record misses the machine by {worst_um:.4} um, {worst_urad:.4} urad\n{}",
+            x.text
+        );
+        // And the errors are large enough to matter: the nominal record
+        // misses by far more.
+        assert!(x.changed().len() >= 4, "{name}: {:?}", x.changed());
+    }
+}
+
+fn with_record(name: &str, n: u32) -> Machine {
+    let mut m = builtin(name);
+    m.sinumerik = Some(crate::machine::SinumerikFile { swivel_record: n });
+    m
+}
+
+#[test]
+fn a_sinumerik_export_needs_the_record_number_from_the_machine_file() {
+    let e = run(&builtin("bc-trunnion"), BC, Dialect::Sinumerik).unwrap_err();
+    let t = e.to_string();
+    assert!(
+        t.contains("sinumerik: {swivel_record: N}") && t.contains("nothing written"),
+        "{t}"
+    );
+}
+
+#[test]
+fn a_sinumerik_export_is_refused_and_counted_like_the_others() {
+    let m = with_record("bc-trunnion", 1);
+    // A change beyond --max-change names the fine field.
+    let big = "machine: bc-trunnion\nlocation_errors: {EX0B: 150.0}\n";
+    match run(&m, big, Dialect::Sinumerik).unwrap_err() {
+        ExportError::TooLarge { name, .. } => assert_eq!(name, "$TC_CARR44"),
+        other => panic!("{other}"),
+    }
+    // A u beyond --max-u too.
+    let vague = "machine: bc-trunnion\nlocation_errors:\n  EY0C: {value: 5.0, u: 20.0}\n";
+    match run(&m, vague, Dialect::Sinumerik).unwrap_err() {
+        ExportError::Uncertain { name, .. } => assert_eq!(name, "$TC_CARR56"),
+        other => panic!("{other}"),
+    }
+    // What the fine fields hold now: the change is counted from it, and
+    // a field the export does not write is refused.
+    let mut now = m.clone();
+    now.controller_parameters.insert(
+        Dialect::Sinumerik,
+        [("$TC_CARR44".to_string(), 0.010)].into_iter().collect(),
+    );
+    let x = run(&now, BC, Dialect::Sinumerik).unwrap();
+    let p = param(&x, "$TC_CARR44");
+    assert!((p.value - 0.012).abs() < 1e-9 && (p.change() - 0.002).abs() < 1e-9);
+    assert!(
+        x.text.contains("controller_parameters.sinumerik"),
+        "{}",
+        x.text
+    );
+    // The free component along B is not a field the export writes.
+    now.controller_parameters
+        .get_mut(&Dialect::Sinumerik)
+        .unwrap()
+        .insert("$TC_CARR45".into(), 0.0);
+    assert!(matches!(
+        run(&now, BC, Dialect::Sinumerik).unwrap_err(),
+        ExportError::UnknownCurrent { name, .. } if name == "$TC_CARR45"
+    ));
+    // Only a zero point: nothing a field holds, refused.
+    let zero = "machine: bc-trunnion\nlocation_errors: {EB0B: 100.0}\n";
+    assert!(matches!(
+        run(&m, zero, Dialect::Sinumerik).unwrap_err(),
+        ExportError::NothingHeld { .. }
+    ));
+}
+
+#[test]
+fn a_head_s_tool_tilt_at_rotary_zero_is_not_held_by_the_swivel_record() {
+    // The spindle leaning in its head: the record has no field for the
+    // tool's direction unswivelled; said, with its size, not written.
+    let m = with_record("head-table", 1);
+    let k = Kinematics::new(&m);
+    let s = crate::kinematics::symbols::SymbolTable::for_kinematics(&k);
+    let spindle = s
+        .location
+        .iter()
+        .find(|l| l.name.ends_with(")S"))
+        .unwrap()
+        .name
+        .clone();
+    let yaml = format!("machine: head-table\nlocation_errors: {{EX0C: 10.0, {spindle}: 40.0}}\n");
+    let x = run(&m, &yaml, Dialect::Sinumerik).unwrap();
+    assert!(
+        x.text.contains(&format!("{spindle} = 40.00 urad"))
+            && x.text.contains("the tool axis at rotary zero, turned"),
+        "{}",
+        x.text
+    );
+    assert!(x.text.ends_with("M30\n"));
 }

@@ -215,11 +215,12 @@ pub struct CompensateArgs {
     #[arg(long, value_name = "DEG", default_value_t = 1.0)]
     max_c_swing: f64,
     /// Also write the location errors as the corrected pivot parameters of
-    /// this controller.
-    #[arg(long, value_name = "CONTROLLER", value_parser = ["fanuc", "heidenhain", "linuxcnc"])]
+    /// this controller (sinumerik: a part program writing the fine offsets
+    /// of the machine file's swivel data record).
+    #[arg(long, value_name = "CONTROLLER", value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     export: Option<String>,
     /// Where --export writes [default: standard output without a program,
-    /// else next to OUT as OUT.<controller>.txt].
+    /// else next to OUT as OUT.<controller>.txt, OUT.sinumerik.MPF].
     #[arg(long, value_name = "FILE")]
     export_to: Option<PathBuf>,
     /// With --export: refuse (naming it, writing nothing) any parameter
@@ -375,7 +376,13 @@ impl CompensateArgs {
             let target = target.or_else(|| {
                 rewrite.as_ref().map(|(_, out)| {
                     let mut name = out.as_os_str().to_owned();
-                    name.push(format!(".{d}.txt"));
+                    // A SINUMERIK export is a part program to run.
+                    let ext = if d == Dialect::Sinumerik {
+                        "MPF"
+                    } else {
+                        "txt"
+                    };
+                    name.push(format!(".{d}.{ext}"));
                     PathBuf::from(name)
                 })
             });
