@@ -580,7 +580,7 @@ impl ErrorFile {
                 let (dim, order) = MapDim::sorted(d, nodes, d == 1)
                     .and_then(|(dim, order)| {
                         if d == 0 && order.iter().enumerate().any(|(i, &o)| i != o) {
-                            Err("node angles must be strictly increasing".to_string())
+                            Err(crate::kinematics::maps::NodeError::NotIncreasing)
                         } else {
                             Ok((dim, order))
                         }

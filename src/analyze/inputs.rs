@@ -362,7 +362,9 @@ impl PlanContext {
             crate::identify::data::join(points, self.kind, &self.minutes, sets, &nominal)?;
         match &self.pieces {
             Pieces::One => {}
-            Pieces::Planned(map) => data.set_pieces(map).map_err(AnalyzeError::Plan)?,
+            Pieces::Planned(map) => data
+                .set_pieces(map)
+                .map_err(|e| AnalyzeError::Plan(e.to_string()))?,
             Pieces::Rebuilt(map) => {
                 if let Err(e) = data.set_pieces(map) {
                     data.warnings

@@ -21,28 +21,43 @@ pub fn default_for(test: Test) -> Method {
     }
 }
 
+/// Why a method does not suit a test.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum MethodError {
+    /// The sphere method on a machining test.
+    #[error("--method sphere needs a probing plan (a calibration sphere); {0} is a machining test")]
+    SphereNeedsProbing(Test),
+    /// The two-stage method on the sphere test.
+    #[error(
+        "--method two-stage fits planar faces at each station; the sphere test's touches lie on a sphere: use the sphere or global method"
+    )]
+    TwoStageOnSphere,
+    /// Maps with the sphere method.
+    #[error(
+        "--maps needs the two-stage or global method; the sphere method identifies location errors only"
+    )]
+    MapsNeedAnotherMethod,
+}
+
 /// Checks that `method` suits a test of `kind` and the maps asked for.
-pub fn check(method: Method, test: Test, kind: TestKind, maps: &[String]) -> Result<(), String> {
+pub fn check(
+    method: Method,
+    test: Test,
+    kind: TestKind,
+    maps: &[String],
+) -> Result<(), MethodError> {
     if method == Method::Sphere && kind != TestKind::Probing {
-        return Err(format!(
-            "--method sphere needs a probing plan (a calibration sphere); {test} is a machining test"
-        ));
+        return Err(MethodError::SphereNeedsProbing(test));
     }
     if method == Method::TwoStage && test == Test::ProbeSphere {
         // Its first stage fits each station's touches as points on planar
         // faces; a sphere set up a tenth of a millimetre off its place
         // leaves residuals as large as the probe's noise (the fit test
         // flags it), and the values follow them.
-        return Err(
-            "--method two-stage fits planar faces at each station; the sphere test's touches lie on a sphere: use the sphere or global method"
-                .into(),
-        );
+        return Err(MethodError::TwoStageOnSphere);
     }
     if method == Method::Sphere && !maps.is_empty() {
-        return Err(
-            "--maps needs the two-stage or global method; the sphere method identifies location errors only"
-                .into(),
-        );
+        return Err(MethodError::MapsNeedAnotherMethod);
     }
     Ok(())
 }

@@ -75,6 +75,9 @@ pub enum AnalyzeError {
     /// cannot take).
     #[error("{0}")]
     Request(String),
+    /// The method asked for does not suit the test.
+    #[error(transparent)]
+    Method(#[from] method::MethodError),
     /// The identification failed.
     #[error(transparent)]
     Identify(#[from] IdentifyError),
@@ -258,7 +261,7 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
     };
     ctx.options = req.options;
     let method = req.method.unwrap_or(method::default_for(ctx.test));
-    method::check(method, ctx.test, ctx.kind, &req.maps).map_err(AnalyzeError::Request)?;
+    method::check(method, ctx.test, ctx.kind, &req.maps)?;
     let measured = ctx.read(&req.measured)?;
     let found = if !measured.heights.is_empty() {
         if !measured.points.is_empty() {

@@ -172,7 +172,7 @@ pub fn predict(
     let kin = simulate::plan_kinematics(plan);
     let expected = ExpectedNoise::new(noise, plan.kind(), test);
     let method = method.unwrap_or(method::default_for(test));
-    method::check(method, test, plan.kind(), &[]).map_err(AnalyzeError::Request)?;
+    method::check(method, test, plan.kind(), &[])?;
     let symbols = crate::kinematics::symbols::SymbolTable::for_kinematics(&kin);
     let nothing = |reason: &str| Prediction {
         method,

@@ -83,6 +83,14 @@ pub struct Dataset {
     pub piece_of: Vec<usize>,
 }
 
+/// A plan point that no piece of a multi-piece setup holds.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("plan point `{label}` belongs to no piece")]
+pub struct NoPiece {
+    /// The point's label.
+    pub label: String,
+}
+
 impl Dataset {
     /// The plan point of observation `k`.
     pub fn point(&self, k: usize) -> &PlanPoint {
@@ -100,12 +108,14 @@ impl Dataset {
 
     /// Assigns the plan points to separately set-up pieces (by label, e.g.
     /// from the probing plan's touches); fails naming a point without one.
-    pub fn set_pieces(&mut self, piece: &HashMap<String, String>) -> Result<(), String> {
+    pub fn set_pieces(&mut self, piece: &HashMap<String, String>) -> Result<(), NoPiece> {
         let mut names: Vec<String> = Vec::new();
         let mut of = Vec::with_capacity(self.plan.points.len());
         for p in &self.plan.points {
             let Some(name) = piece.get(&p.label) else {
-                return Err(format!("plan point `{}` belongs to no piece", p.label));
+                return Err(NoPiece {
+                    label: p.label.clone(),
+                });
             };
             let i = match names.iter().position(|n| n == name) {
                 Some(i) => i,

@@ -160,7 +160,10 @@ impl Setup {
             let mut dims = Vec::new();
             for &d in &deps {
                 let (nodes, periodic) = if d == 0 { (&tilts, false) } else { (&cs, true) };
-                dims.push(MapDim::new(d, nodes, periodic).map_err(IdentifyError::Symbol)?);
+                dims.push(
+                    MapDim::new(d, nodes, periodic)
+                        .map_err(|e| IdentifyError::Symbol(e.to_string()))?,
+                );
             }
             let grid = MapGrid { dims };
             let start = model.n_params();

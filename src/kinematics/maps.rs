@@ -19,14 +19,34 @@ pub struct MapDim {
     pub periodic: bool,
 }
 
+/// Why a list of node angles is no map dimension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum NodeError {
+    /// No node at all.
+    #[error("a map needs at least one node")]
+    Empty,
+    /// A NaN or infinite angle.
+    #[error("map nodes must be finite")]
+    NotFinite,
+    /// Two nodes at one angle (`periodic`: modulo 360 deg).
+    #[error("map nodes repeat {}", if *.periodic { "an angle (mod 360)" } else { "a position" })]
+    Repeated {
+        /// Whether the angles were compared modulo 360 deg.
+        periodic: bool,
+    },
+    /// Nodes given out of order where order is required.
+    #[error("map nodes must be strictly increasing")]
+    NotIncreasing,
+}
+
 impl MapDim {
     /// Builds a dimension from nodes in increasing order (periodic nodes
     /// are taken mod 360 and must then be increasing too). Fails on
     /// repeats or non-finite nodes.
-    pub fn new(angle: usize, nodes: &[f64], periodic: bool) -> Result<MapDim, String> {
+    pub fn new(angle: usize, nodes: &[f64], periodic: bool) -> Result<MapDim, NodeError> {
         let (d, order) = MapDim::sorted(angle, nodes, periodic)?;
         if order.iter().enumerate().any(|(i, &o)| i != o) {
-            return Err("map nodes must be strictly increasing".into());
+            return Err(NodeError::NotIncreasing);
         }
         Ok(d)
     }
@@ -37,12 +57,12 @@ impl MapDim {
         angle: usize,
         nodes: &[f64],
         periodic: bool,
-    ) -> Result<(MapDim, Vec<usize>), String> {
+    ) -> Result<(MapDim, Vec<usize>), NodeError> {
         if nodes.is_empty() {
-            return Err("a map needs at least one node".into());
+            return Err(NodeError::Empty);
         }
         if nodes.iter().any(|v| !v.is_finite()) {
-            return Err("map nodes must be finite".into());
+            return Err(NodeError::NotFinite);
         }
         let n: Vec<f64> = if periodic {
             nodes.iter().map(|v| v.rem_euclid(360.0)).collect()
@@ -53,11 +73,7 @@ impl MapDim {
         order.sort_by(|&a, &b| n[a].total_cmp(&n[b]));
         let sorted: Vec<f64> = order.iter().map(|&i| n[i]).collect();
         if sorted.windows(2).any(|w| w[1] - w[0] < 1e-9) {
-            return Err(if periodic {
-                "map nodes repeat an angle (mod 360)".into()
-            } else {
-                "map nodes repeat a position".into()
-            });
+            return Err(NodeError::Repeated { periodic });
         }
         Ok((
             MapDim {

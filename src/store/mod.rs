@@ -234,10 +234,21 @@ pub(crate) fn format_time(t: Timestamp) -> String {
     t.strftime("%Y-%m-%dT%H:%M:%S%.6fZ").to_string()
 }
 
+/// A date-time that does not read as RFC 3339.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("`{text}`: expected an RFC 3339 date-time such as 2026-03-01T08:30:00Z ({why})")]
+pub struct TimeError {
+    /// The text given.
+    pub text: String,
+    /// The parser's reason.
+    pub why: String,
+}
+
 /// Reads an RFC 3339 date-time (any offset).
-pub fn parse_time(s: &str) -> Result<Timestamp, String> {
-    s.parse::<Timestamp>().map_err(|e| {
-        format!("`{s}`: expected an RFC 3339 date-time such as 2026-03-01T08:30:00Z ({e})")
+pub fn parse_time(s: &str) -> Result<Timestamp, TimeError> {
+    s.parse::<Timestamp>().map_err(|e| TimeError {
+        text: s.to_string(),
+        why: e.to_string(),
     })
 }
 
@@ -691,7 +702,7 @@ fn select(
                 .int()?
                 .ok_or_else(|| StoreError::Corrupt("a record without id".into()))?;
             let time = |v: &Value, col: &str| -> Result<Timestamp, StoreError> {
-                parse_time(&v.text_req(col)?).map_err(StoreError::Corrupt)
+                parse_time(&v.text_req(col)?).map_err(|e| StoreError::Corrupt(e.to_string()))
             };
             Ok(Stored {
                 id,
@@ -741,7 +752,12 @@ mod tests {
         let t = parse_time("2026-03-01T09:30:00.25+01:00").unwrap();
         assert_eq!(format_time(t), "2026-03-01T08:30:00.250000Z");
         assert_eq!(parse_time(&format_time(t)).unwrap(), t);
-        assert!(parse_time("yesterday").unwrap_err().contains("RFC 3339"));
+        assert!(
+            parse_time("yesterday")
+                .unwrap_err()
+                .to_string()
+                .contains("RFC 3339")
+        );
     }
 
     #[test]
