@@ -117,6 +117,15 @@ pub(super) fn flatten(
                     continue;
                 };
                 let Some(v) = wv.value else {
+                    // A tool name, or a feed set outside the program: its
+                    // parameter is still assigned where it was.
+                    let axis = w
+                        .addr
+                        .as_letter()
+                        .is_some_and(|c| b"XYZABCIJKR".contains(&c));
+                    if !axis {
+                        continue;
+                    }
                     let why = trace
                         .first_unknown
                         .as_ref()
