@@ -258,11 +258,7 @@ impl Compensator {
                 CompensateError::Syntax(SourceError::new(path, e.line, 1, e.message))
             })?;
             if self.settings.expand {
-                for block in &expand::flatten(path, syntax, &rest, &trace)
-                    .map_err(CompensateError::Syntax)?
-                {
-                    process(block, None)?;
-                }
+                expand::flatten(path, syntax, &rest, &trace, &mut |b| process(b, None))?;
             } else {
                 let known = exec::known_words(&trace).unwrap_or_default();
                 for (i, block) in rest.iter().enumerate() {

@@ -42,13 +42,9 @@ fn dropped(stmt: Stmt) -> bool {
     )
 }
 
-/// The blocks of `blocks` as `trace` ran them, flattened.
-pub(super) fn flatten(
-    path: &Path,
-    syntax: Syntax,
-    blocks: &[Block],
-    trace: &Trace,
-) -> Result<Vec<Block>, SourceError> {
+/// Whether `trace` can be written flattened: it ran to the end of the
+/// program, and every coordinate it needs has a value.
+pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), SourceError> {
     if let Some(h) = &trace.halt {
         return Err(SourceError::new(
             path,
@@ -60,15 +56,70 @@ pub(super) fn flatten(
             ),
         ));
     }
+    for s in &trace.steps {
+        let block = &blocks[s.block as usize];
+        for wv in &trace.values[s.values.0 as usize..s.values.1 as usize] {
+            let TokenKind::Word(w) = block.tokens[wv.token as usize].kind else {
+                continue;
+            };
+            // A tool name, or a feed set outside the program, stays as
+            // written: its parameter is still assigned where it was.
+            let coordinate = w
+                .addr
+                .as_letter()
+                .is_some_and(|c| b"XYZABCIJKR".contains(&c));
+            if wv.value.is_none() && coordinate {
+                let why = trace
+                    .first_unknown
+                    .as_ref()
+                    .filter(|(l, _)| *l == block.line)
+                    .map_or_else(String::new, |(_, w)| format!(": {w}"));
+                let (line, column) = block.locate(w.value_span.start as usize);
+                return Err(SourceError::new(
+                    path,
+                    line,
+                    column,
+                    format!("--expand: the value of {} is not known here{why}", w.addr),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Hands `emit` the blocks of `blocks` as `trace` ran them, flattened, one
+/// at a time (a long loop is never all in memory); [`check`] first.
+pub(super) fn flatten<E: From<SourceError>>(
+    path: &Path,
+    syntax: Syntax,
+    blocks: &[Block],
+    trace: &Trace,
+    emit: &mut dyn FnMut(&Block) -> Result<(), E>,
+) -> Result<(), E> {
+    check(path, blocks, trace)?;
     let dialect = syntax.dialect;
     let eol: &[u8] = blocks.iter().find_map(Block::line_ending).unwrap_or(b"\n");
-    let mut out = Vec::new();
     let mut number = blocks.iter().find_map(|b| {
         b.tokens.iter().find_map(|t| match t.kind {
             TokenKind::BlockNumber(n) => Some(i64::from(n)),
             _ => None,
         })
     });
+    // The last block is held back until the next: a block without a line
+    // ending (the file's last) gets one when another follows it.
+    let mut held: Option<Block> = None;
+    let mut out = |text: Vec<u8>, line: usize| -> Result<(), E> {
+        if let Some(mut prev) = held.take() {
+            if prev.line_ending().is_none() {
+                let mut t = std::mem::take(&mut prev.text);
+                t.extend_from_slice(eol);
+                prev = parse(path, syntax, t, prev.line)?;
+            }
+            emit(&prev)?;
+        }
+        held = Some(parse(path, syntax, text, line)?);
+        Ok(())
+    };
     let mut edits = Edits::default();
     let mut k = 0;
     let steps = &trace.steps;
@@ -86,8 +137,7 @@ pub(super) fn flatten(
         edits.clear();
         let mut kept = false;
         for (si, seg) in block.segments.iter().enumerate() {
-            let step = steps[k..j].iter().find(|s| s.seg as usize == si);
-            let Some(step) = step else {
+            let Some(step) = steps[k..j].iter().find(|s| s.seg as usize == si) else {
                 delete(&mut edits, block, seg);
                 continue;
             };
@@ -116,56 +166,30 @@ pub(super) fn flatten(
                 let TokenKind::Word(w) = block.tokens[wv.token as usize].kind else {
                     continue;
                 };
-                let Some(v) = wv.value else {
-                    // A tool name, or a feed set outside the program: its
-                    // parameter is still assigned where it was.
-                    let axis = w
-                        .addr
-                        .as_letter()
-                        .is_some_and(|c| b"XYZABCIJKR".contains(&c));
-                    if !axis {
-                        continue;
-                    }
-                    let why = trace
-                        .first_unknown
-                        .as_ref()
-                        .filter(|(l, _)| *l == block.line)
-                        .map_or_else(String::new, |(_, w)| format!(": {w}"));
-                    let (line, column) = block.locate(w.value_span.start as usize);
-                    return Err(SourceError::new(
-                        path,
-                        line,
-                        column,
-                        format!("--expand: the value of {} is not known here{why}", w.addr),
-                    ));
-                };
-                edits.replace(w.value_span, |o| literal(o, dialect, w.addr, v));
+                if let Some(v) = wv.value {
+                    edits.replace(w.value_span, |o| literal(o, dialect, w.addr, v));
+                }
             }
         }
         let only_blank = block.segments.iter().all(|s| s.stmt == Stmt::Blank);
-        if !kept && !only_blank {
-            k = j;
-            continue;
+        if kept || only_blank {
+            if dialect == Dialect::Heidenhain
+                && let Some(n) = number.as_mut()
+                && let Some(t) = block
+                    .tokens
+                    .iter()
+                    .find(|t| matches!(t.kind, TokenKind::BlockNumber(_)))
+            {
+                let v = *n;
+                edits.replace(t.span, |o| lexeme::push_u64(o, v.max(0) as u64));
+                *n += 1;
+            }
+            let mut text = Vec::new();
+            edits
+                .write_block(block, &mut text)
+                .expect("writing to memory");
+            out(text, block.line)?;
         }
-        if dialect == Dialect::Heidenhain
-            && let Some(n) = number.as_mut()
-            && let Some(t) = block
-                .tokens
-                .iter()
-                .find(|t| matches!(t.kind, TokenKind::BlockNumber(_)))
-        {
-            let v = *n;
-            edits.replace(t.span, |o| lexeme::push_u64(o, v.max(0) as u64));
-            *n += 1;
-        }
-        let mut text = Vec::new();
-        edits
-            .write_block(block, &mut text)
-            .expect("writing to memory");
-        if block.line_ending().is_none() && j < steps.len() {
-            text.extend_from_slice(eol);
-        }
-        out.push(parse(path, syntax, text, block.line)?);
         k = j;
     }
     // What follows the end (`%`, blank lines, comments) is kept.
@@ -176,19 +200,14 @@ pub(super) fn flatten(
                 .iter()
                 .all(|s| matches!(s.stmt, Stmt::Blank | Stmt::Percent))
             {
-                let text = block.text.clone();
-                if let Some(prev) = out.last_mut()
-                    && prev.line_ending().is_none()
-                {
-                    let mut t = std::mem::take(&mut prev.text);
-                    t.extend_from_slice(eol);
-                    *prev = parse(path, syntax, t, prev.line)?;
-                }
-                out.push(parse(path, syntax, text, block.line)?);
+                out(block.text.clone(), block.line)?;
             }
         }
     }
-    Ok(out)
+    if let Some(b) = held {
+        emit(&b)?;
+    }
+    Ok(())
 }
 
 /// Removes a statement (its line ending stays, so the line does).

@@ -361,6 +361,12 @@ impl CompensateError {
     }
 }
 
+impl From<SourceError> for CompensateError {
+    fn from(e: SourceError) -> Self {
+        CompensateError::Syntax(e)
+    }
+}
+
 impl From<std::io::Error> for CompensateError {
     fn from(e: std::io::Error) -> Self {
         CompensateError::Io(e)

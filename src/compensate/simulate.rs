@@ -273,12 +273,8 @@ impl Simulator {
         if !rest.is_empty() {
             let trace = crate::nc::exec::run(syntax.dialect, &rest)
                 .map_err(|e| SourceError::new(path, e.line, 1, e.message))?;
-            match super::expand::flatten(path, syntax, &rest, &trace) {
-                Ok(flat) => {
-                    for block in &flat {
-                        process(block)?;
-                    }
-                }
+            match super::expand::check(path, &rest, &trace) {
+                Ok(()) => super::expand::flatten(path, syntax, &rest, &trace, &mut process)?,
                 Err(e) => {
                     // Not followed to the end: in file order, moves with
                     // variables left out.

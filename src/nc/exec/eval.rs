@@ -57,6 +57,16 @@ pub trait Params {
     fn get(&self, key: &Key) -> Result<f64, Stop>;
 }
 
+/// No parameter has a value: for reading a parameter reference whose
+/// index is a plain number (an assignment's target, a loop variable).
+pub struct NoParams;
+
+impl Params for NoParams {
+    fn get(&self, _: &Key) -> Result<f64, Stop> {
+        Err(Stop::Unknown("an indexed parameter".into()))
+    }
+}
+
 /// Evaluates `text` (a whole expression) in `dialect`.
 pub fn eval(dialect: Dialect, text: &[u8], params: &dyn Params) -> Result<f64, Stop> {
     let mut p = Parser {
@@ -228,23 +238,30 @@ impl Parser<'_> {
         Ok(lhs)
     }
 
+    /// Signs and NOT before an operand, read in a loop (a long run of
+    /// them must not deepen the stack) and applied innermost first.
     fn unary(&mut self) -> Result<f64, Stop> {
-        self.ws();
-        match self.peek() {
-            Some(b'-') => {
-                self.i += 1;
-                Ok(-self.unary()?)
+        let mut ops = Vec::new();
+        loop {
+            self.ws();
+            match self.peek() {
+                Some(b'-') => {
+                    ops.push(b'-');
+                    self.i += 1;
+                }
+                Some(b'+') => self.i += 1,
+                _ if self.dialect == Dialect::Sinumerik && self.starts("NOT") => {
+                    ops.push(b'!');
+                    self.i += 3;
+                }
+                _ => break,
             }
-            Some(b'+') => {
-                self.i += 1;
-                self.unary()
-            }
-            _ if self.dialect == Dialect::Sinumerik && self.starts("NOT") => {
-                self.i += 3;
-                Ok(truth(self.unary()? == 0.0))
-            }
-            _ => self.atom(),
         }
+        let mut v = self.atom()?;
+        for op in ops.iter().rev() {
+            v = if *op == b'-' { -v } else { truth(v == 0.0) };
+        }
+        Ok(v)
     }
 
     fn atom(&mut self) -> Result<f64, Stop> {
@@ -314,6 +331,12 @@ impl Parser<'_> {
                         Ok(Some(Key::Num(index(v)?)))
                     }
                     Some(b'#') => {
+                        self.depth += 1;
+                        if self.depth > MAX_EXPR_DEPTH {
+                            return Err(Stop::Alarm(format!(
+                                "parameter references chained deeper than {MAX_EXPR_DEPTH} levels"
+                            )));
+                        }
                         let k = self.param()?.expect("a # follows");
                         let v = self.params.get(&k)?;
                         Ok(Some(Key::Num(index(v)?)))
@@ -605,5 +628,9 @@ mod tests {
         assert!(matches!(ev(s, "$AA_IM[X]"), Err(Stop::Unknown(_))));
         let deep = format!("{}1{}", "(".repeat(100), ")".repeat(100));
         assert!(ev(s, &deep).is_err());
+        // 200,000 signs in a row do not overflow the stack.
+        let signs = format!("{}1", "- ".repeat(200_000));
+        assert!(close(ev(Dialect::Heidenhain, &signs).unwrap(), 1.0));
+        assert!(close(ev(s, "NOT NOT -2").unwrap(), 1.0));
     }
 }

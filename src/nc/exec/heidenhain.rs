@@ -5,18 +5,10 @@
 //! (a subprogram call) and `CALL LBL n REP m` (the section since the label
 //! run m more times), `END PGM`; `CALL PGM` leaves the file.
 
-use super::eval::{self, Key, Stop};
+use super::eval::{self, NoParams};
 use super::{After, Cond, Op, Program, RunawayError, Target};
 use crate::machine::Dialect;
 use crate::nc::{Addr, HhKind, Stmt, TokenKind, Value};
-
-struct NoParams;
-
-impl eval::Params for NoParams {
-    fn get(&self, _: &Key) -> Result<f64, Stop> {
-        Err(Stop::Unknown("indexed".into()))
-    }
-}
 
 pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
     let n = p.at.len();

@@ -703,17 +703,13 @@ impl Runner<'_, '_> {
         if self.p.dialect != Dialect::Linuxcnc {
             return Vec::new();
         }
-        let local = |k: &Key| match k {
-            Key::Num(n) => (1..=30).contains(n),
-            Key::Name(s) => !s.starts_with('_'),
-        };
         let mut saved = Vec::new();
         let keys: Vec<Key> = self
             .vars
             .known
             .keys()
             .chain(self.vars.unknown.keys())
-            .filter(|k| local(k))
+            .filter(|k| linuxcnc_local(k))
             .cloned()
             .collect();
         for k in keys {
@@ -732,12 +728,8 @@ impl Runner<'_, '_> {
         if saved.is_empty() {
             return;
         }
-        let local = |k: &Key| match k {
-            Key::Num(n) => (1..=30).contains(n),
-            Key::Name(s) => !s.starts_with('_'),
-        };
-        self.vars.known.retain(|k, _| !local(k));
-        self.vars.unknown.retain(|k, _| !local(k));
+        self.vars.known.retain(|k, _| !linuxcnc_local(k));
+        self.vars.unknown.retain(|k, _| !linuxcnc_local(k));
         for (k, v) in saved {
             match v {
                 Some(Ok(v)) => {
@@ -749,6 +741,14 @@ impl Runner<'_, '_> {
                 None => {}
             }
         }
+    }
+}
+
+/// LinuxCNC: whether a parameter is local to a subroutine call.
+fn linuxcnc_local(k: &Key) -> bool {
+    match k {
+        Key::Num(n) => (1..=30).contains(n),
+        Key::Name(s) => !s.starts_with('_'),
     }
 }
 

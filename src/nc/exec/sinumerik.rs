@@ -210,13 +210,7 @@ fn close(open: &mut Vec<(&'static str, usize)>, kind: &str) -> Option<usize> {
 }
 
 fn key(name: &str) -> Option<Key> {
-    struct None_;
-    impl eval::Params for None_ {
-        fn get(&self, _: &Key) -> Result<f64, eval::Stop> {
-            Err(eval::Stop::Unknown("indexed".into()))
-        }
-    }
-    eval::param_ref(Dialect::Sinumerik, name.trim().as_bytes(), &None_)
+    eval::param_ref(Dialect::Sinumerik, name.trim().as_bytes(), &eval::NoParams)
         .ok()
         .filter(|(_, n)| *n == name.trim().len())
         .map(|(k, _)| k)
