@@ -27,6 +27,7 @@ pub fn corpus() -> Vec<(PathBuf, Dialect, &'static str)> {
         ("fanuc", Dialect::Fanuc, "bc-trunnion"),
         ("linuxcnc", Dialect::Linuxcnc, "bc-trunnion"),
         ("heidenhain", Dialect::Heidenhain, "head-table"),
+        ("sinumerik", Dialect::Sinumerik, "bc-trunnion"),
     ] {
         let mut files: Vec<PathBuf> = std::fs::read_dir(fixture(dir))
             .unwrap()
