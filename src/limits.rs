@@ -23,6 +23,14 @@ pub(crate) const MAX_YAML_DEPTH: usize = 64;
 /// parameter references together): FANUC allows five levels of brackets.
 pub const MAX_EXPR_DEPTH: usize = 64;
 
+/// Most statements `compensate` executes when it runs a program's macro
+/// logic (parameters, loops, jumps, calls): a loop that does not end
+/// stops there with its line named instead of hanging.
+pub const MAX_EXEC_STATEMENTS: usize = 2_000_000;
+/// Deepest nesting of subprogram calls followed (FANUC allows 10
+/// subprogram and 5 macro levels, LinuxCNC 10).
+pub const MAX_CALL_DEPTH: usize = 16;
+
 /// Longest piece of the input an error message echoes, characters (cut
 /// to its first line as well).
 pub(crate) const ECHO_CHARS: usize = 60;

@@ -256,7 +256,7 @@ fn seg_dist(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 /// simulated on the erroneous machine must reach every intended end point
 /// (in order) within 0.1 um and 0.1 urad and never leave the intended path
 /// by more than the tolerance.
-fn check_against_simulation(
+pub(crate) fn check_against_simulation(
     l: &LoadedErrors,
     d: Dialect,
     coords: Coordinates,
@@ -271,7 +271,7 @@ fn check_against_simulation(
 /// As [`check_against_simulation`]; at the `held` lines (C held next to the
 /// singularity) only the tip is checked.
 #[allow(clippy::too_many_arguments)]
-fn check_held(
+pub(crate) fn check_held(
     l: &LoadedErrors,
     d: Dialect,
     coords: Coordinates,

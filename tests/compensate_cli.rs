@@ -1017,3 +1017,54 @@ fn sinumerik_export_writes_the_fine_offsets_of_the_machine_file_s_swivel_record(
         assert!(err.contains("bad.yaml") && err.contains(want), "{err}");
     }
 }
+
+#[test]
+fn expand_from_the_command_line_flattens_a_loop_and_reports_without_it() {
+    let dir = tempdir();
+    let errs = write(
+        dir.path(),
+        "e.yaml",
+        "machine: ac-trunnion\nlocation_errors: {EY0A: 20.0, EX0C: -15.0, EC0A: 30.0}\n",
+    );
+    let prog = fixture("fanuc/macro_while.nc");
+    let run = |extra: &[&str], out: &Path| {
+        fivecal()
+            .args(["compensate", "--machine", "ac-trunnion", "--errors"])
+            .arg(&errs)
+            .arg(&prog)
+            .arg("-o")
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let kept = run(&[], &dir.path().join("kept.nc"));
+    assert!(kept.status.success(), "{}", stderr_of(&kept));
+    let text = String::from_utf8_lossy(&kept.stdout);
+    assert!(
+        text.contains("the block runs 5 times with different values (a macro loop or repeated call); use --expand: lines 16, 17"),
+        "{text}"
+    );
+    let flat = run(&["--expand"], &dir.path().join("flat.nc"));
+    assert!(flat.status.success(), "{}", stderr_of(&flat));
+    let written = std::fs::read_to_string(dir.path().join("flat.nc")).unwrap();
+    assert_eq!(written.matches("N100 G1 X").count(), 5, "{written}");
+    assert!(!written.contains("WHILE ["), "{written}");
+    let text = String::from_utf8_lossy(&flat.stdout);
+    assert!(text.contains("no move left as written"), "{text}");
+    // --expand is about a program: with --export alone it is refused.
+    let out = fivecal()
+        .args(["compensate", "--machine", "ac-trunnion", "--errors"])
+        .arg(&errs)
+        .args(["--export", "fanuc", "--expand"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(
+        stderr_of(&out).contains("--expand flattens an NC program"),
+        "{}",
+        stderr_of(&out)
+    );
+    let help = fivecal().args(["compensate", "--help"]).output().unwrap();
+    assert!(String::from_utf8_lossy(&help.stdout).contains("--expand"));
+}

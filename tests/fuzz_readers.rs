@@ -682,6 +682,14 @@ fn damaged_real_nc_programs_print_back_as_read_and_compensate_to_themselves() {
         .iter()
         .map(|(d, m, t)| (*d, Compensator::new(m, t, Settings::new(*d))))
         .collect();
+    let expanders: Vec<(Dialect, Compensator)> = zero_compensators()
+        .iter()
+        .map(|(d, m, t)| {
+            let mut s = Settings::new(*d);
+            s.expand = true;
+            (*d, Compensator::new(m, t, s))
+        })
+        .collect();
     let mut runner = TestRunner::new(config(2000, 20));
     runner
         .run(
@@ -693,7 +701,18 @@ fn damaged_real_nc_programs_print_back_as_read_and_compensate_to_themselves() {
                     bytes = damaged(&bytes, d, &|_| true);
                 }
                 let c = &compensators.iter().find(|(d, _)| d == dialect).unwrap().1;
-                nc_round_trip(*dialect, c, &bytes)
+                nc_round_trip(*dialect, c, &bytes)?;
+                // --expand runs the damaged macro logic: it writes a
+                // program, or refuses with a line of the input.
+                let e = &expanders.iter().find(|(d, _)| d == dialect).unwrap().1;
+                match e.run(Path::new(PATH), bytes.as_slice(), &mut Vec::new()) {
+                    Ok(_) => Ok(()),
+                    Err(fivecal::compensate::CompensateError::Syntax(e)) => {
+                        prop_assert!(e.to_string().starts_with(PATH), "{e}");
+                        Ok(())
+                    }
+                    Err(e) => Err(TestCaseError::fail(format!("{dialect}: --expand: {e}"))),
+                }
             },
         )
         .unwrap();

@@ -23,6 +23,7 @@ mod identifiability;
 mod identify;
 mod kinematics;
 mod machine;
+mod macros;
 mod measured;
 mod montecarlo;
 mod nc;

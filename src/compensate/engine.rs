@@ -8,13 +8,16 @@ use std::path::Path;
 use indexmap::IndexMap;
 
 use super::correction::{Plan, Point, Refusal, size};
+use super::expand;
 use super::solver::Solver;
 use super::writer::Writer;
 use super::{CompensateError, CoordinateSection, Largest, Lines, Settings, Summary, Vertex};
 use crate::model::{Effect, Model};
+use crate::nc::exec;
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::{self, Event, Frame, Interpreter, Skip};
-use crate::nc::{Blocks, ReadError, Syntax};
+use crate::nc::{Block, Blocks, ReadError, Syntax};
+use crate::source::SourceError;
 
 /// A program rewriter for one machine and one set of errors.
 #[derive(Clone, Debug)]
@@ -117,14 +120,8 @@ impl Compensator {
             dialect: self.settings.dialect,
             strict: self.settings.strict,
         };
-        let mut blocks = Blocks::new(path, input, syntax);
-        loop {
-            let block = match blocks.next_block() {
-                Ok(Some(b)) => b,
-                Ok(None) => break,
-                Err(ReadError::Io(e)) => return Err(CompensateError::Io(e)),
-                Err(ReadError::Syntax(e)) => return Err(CompensateError::Syntax(e)),
-            };
+        let mut macro_note = None;
+        let mut process = |block: &Block, why: Option<&str>| -> Result<(), CompensateError> {
             let line = block.line;
             writer.begin(block);
             summary.blocks += 1;
@@ -217,7 +214,11 @@ impl Compensator {
                     }
                     Event::Skip(s) => {
                         summary.moves += 1;
-                        skipped.entry(s.to_string()).or_default().push(line);
+                        let reason = match (s, why) {
+                            (Skip::Expression, Some(w)) => w.to_string(),
+                            _ => s.to_string(),
+                        };
+                        skipped.entry(reason).or_default().push(line);
                         writer.keep(block, &seg, &interp, &before);
                         last_held = false;
                     }
@@ -233,6 +234,44 @@ impl Compensator {
                 summary.changed += 1;
             }
             writer.edits.write_block(block, output)?;
+            Ok(())
+        };
+        let mut blocks = Blocks::new(path, input, syntax);
+        // Blocks stream through until the first one with macro logic; from
+        // there the rest of the program is read and run first.
+        let mut rest: Vec<Block> = Vec::new();
+        loop {
+            let block = match blocks.next_block() {
+                Ok(Some(b)) => b,
+                Ok(None) => break,
+                Err(ReadError::Io(e)) => return Err(CompensateError::Io(e)),
+                Err(ReadError::Syntax(e)) => return Err(CompensateError::Syntax(e)),
+            };
+            if rest.is_empty() && !expand::needs_logic(block) {
+                process(block, None)?;
+            } else {
+                rest.push(block.clone());
+            }
+        }
+        if !rest.is_empty() {
+            let trace = exec::run(syntax.dialect, &rest).map_err(|e| {
+                CompensateError::Syntax(SourceError::new(path, e.line, 1, e.message))
+            })?;
+            if self.settings.expand {
+                expand::flatten(path, syntax, &rest, &trace, &mut |b| process(b, None))?;
+            } else {
+                let known = exec::known_words(&trace).unwrap_or_default();
+                for (i, block) in rest.iter().enumerate() {
+                    let (b, why) = expand::substitute(block, i as u32, syntax.dialect, &known);
+                    process(&b, why.as_deref())?;
+                }
+                macro_note = trace.halt.map(|h| {
+                    format!(
+                        "the macro logic was followed up to line {}: {}; moves with variables are left as written",
+                        h.line, h.why
+                    )
+                });
+            }
         }
         blocks
             .finish(summary.moves)
@@ -241,6 +280,7 @@ impl Compensator {
         summary.inserted = writer.inserted;
         summary.skipped = skipped.into_iter().collect();
         summary.unmodelled = unmodelled.into_iter().collect();
+        summary.macro_logic = macro_note;
         Ok(summary)
     }
 }

@@ -29,6 +29,7 @@
 mod correction;
 mod edit;
 mod engine;
+mod expand;
 pub mod export;
 pub mod simulate;
 mod solver;
@@ -79,6 +80,9 @@ pub struct Settings {
     /// FANUC axis values without a decimal point: mm per unit, or `None`
     /// to leave such moves as written.
     pub fanuc_integer_unit: Option<f64>,
+    /// Write the program flattened as its macro logic runs (loops and
+    /// calls unrolled, every move literal) and correct that.
+    pub expand: bool,
 }
 
 impl Settings {
@@ -97,6 +101,7 @@ impl Settings {
             coordinates: Coordinates::Auto,
             max_c_swing: 1.0,
             fanuc_integer_unit: None,
+            expand: false,
         }
     }
 }
@@ -245,6 +250,8 @@ pub struct Summary {
     pub unmodelled: Vec<(String, Lines)>,
     /// How the moves' coordinates were read, section by section.
     pub coordinates: Vec<CoordinateSection>,
+    /// Where following the macro logic stopped short of the end, and why.
+    pub macro_logic: Option<String>,
 }
 
 /// Takes what the last statement did that the interpreter does not model
@@ -351,6 +358,12 @@ impl CompensateError {
             },
             other => other,
         }
+    }
+}
+
+impl From<SourceError> for CompensateError {
+    fn from(e: SourceError) -> Self {
+        CompensateError::Syntax(e)
     }
 }
 

@@ -24,7 +24,7 @@ use crate::model::Model;
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::interpolation::{ArcGeo, Path as MovePath};
 use crate::nc::interp::{self, AXES, Event, Frame, Interpreter, MoveKind, Skip, Tcp};
-use crate::nc::{Blocks, ReadError, Syntax};
+use crate::nc::{Block, Blocks, ReadError, Syntax};
 use crate::source::SourceError;
 
 /// Settings of a simulation.
@@ -174,20 +174,13 @@ impl Simulator {
         let mut skipped: IndexMap<String, Lines> = IndexMap::new();
         let mut unmodelled: IndexMap<String, Lines> = IndexMap::new();
         let (mut sum, mut sum2) = (0.0, 0.0);
-        loop {
-            let block = match blocks.next_block() {
-                Ok(Some(b)) => b,
-                Ok(None) => break,
-                Err(ReadError::Io(e)) => {
-                    return Err(SourceError::new(path, 0, 0, format!("cannot read: {e}")));
-                }
-                Err(ReadError::Syntax(e)) => return Err(e),
-            };
+        let st = s;
+        let mut process = |block: &Block| -> Result<(), SourceError> {
             summary.blocks += 1;
             for si in 0..block.segments.len() {
                 let seg = block.segments[si];
                 let event = interp.step(block, &seg);
-                super::take_unmodelled(&mut interp, block, path, s.strict, &mut unmodelled)?;
+                super::take_unmodelled(&mut interp, block, path, st.strict, &mut unmodelled)?;
                 let mv = match event {
                     Event::Move(mv) => mv,
                     Event::Skip(s) => {
@@ -256,6 +249,48 @@ impl Simulator {
                     sink(&sample);
                 }
             }
+            Ok(())
+        };
+        // Blocks stream through until the first one with macro logic; from
+        // there the rest is read, run, and driven in the order it runs.
+        let mut rest: Vec<Block> = Vec::new();
+        loop {
+            let block = match blocks.next_block() {
+                Ok(Some(b)) => b,
+                Ok(None) => break,
+                Err(ReadError::Io(e)) => {
+                    return Err(SourceError::new(path, 0, 0, format!("cannot read: {e}")));
+                }
+                Err(ReadError::Syntax(e)) => return Err(e),
+            };
+            if rest.is_empty() && !super::expand::needs_logic(block) {
+                process(block)?;
+            } else {
+                rest.push(block.clone());
+            }
+        }
+        let mut not_followed = None;
+        if !rest.is_empty() {
+            let trace = crate::nc::exec::run(syntax.dialect, &rest)
+                .map_err(|e| SourceError::new(path, e.line, 1, e.message))?;
+            match super::expand::check(path, &rest, &trace) {
+                Ok(()) => super::expand::flatten(path, syntax, &rest, &trace, &mut process)?,
+                Err(e) => {
+                    // Not followed to the end: in file order, moves with
+                    // variables left out.
+                    not_followed = Some((e.message.clone(), e.line));
+                    for block in &rest {
+                        process(block)?;
+                    }
+                }
+            }
+        }
+        if let Some((why, line)) = not_followed {
+            let why = why.trim_start_matches("--expand ").to_string();
+            skipped
+                .entry(format!("the macro logic is not followed: {why}"))
+                .or_default()
+                .push(line);
         }
         let unreadable = Skip::Unreadable.to_string();
         let skipped_moves: usize = skipped

@@ -19,6 +19,7 @@
 //! plane, datum shifts) and where each move goes.
 
 pub mod dialect;
+pub mod exec;
 pub mod expr;
 pub mod interp;
 pub mod lex;

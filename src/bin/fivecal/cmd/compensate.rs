@@ -214,6 +214,12 @@ pub struct CompensateArgs {
     /// corrected exactly.
     #[arg(long, value_name = "DEG", default_value_t = 1.0)]
     max_c_swing: f64,
+    /// Write the program flattened as its macro logic runs (parameters
+    /// evaluated, loops, jumps and calls unrolled, every move a literal
+    /// number) and correct that; without it a block that runs several
+    /// times with different values is left as written and reported.
+    #[arg(long)]
+    expand: bool,
     /// Also write the location errors as the corrected pivot parameters of
     /// this controller (sinumerik: a part program writing the fine offsets
     /// of the machine file's swivel data record).
@@ -324,6 +330,10 @@ impl CompensateArgs {
         settings.coordinates = common.coordinates;
         settings.max_c_swing = self.max_c_swing;
         settings.fanuc_integer_unit = common.integer_unit;
+        if self.expand && self.input.is_none() {
+            bail!("--expand flattens an NC program: give the program to rewrite (IN)");
+        }
+        settings.expand = self.expand;
         if let Some(d) = &self.decimals {
             let parts: Vec<Option<u8>> =
                 d.split(',').map(|x| x.trim().parse::<u8>().ok()).collect();
@@ -708,6 +718,9 @@ fn describe(
         for (what, lines) in &s.unmodelled {
             let _ = writeln!(t, "    {what}: lines {}", lines.list());
         }
+    }
+    if let Some(m) = &s.macro_logic {
+        let _ = writeln!(t, "  {m}");
     }
     if s.skipped.is_empty() {
         let _ = writeln!(t, "  no move left as written");

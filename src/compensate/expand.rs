@@ -1,0 +1,324 @@
+//! Programs with macro logic: which blocks need it run
+//! ([`needs_logic`]), the values a run gives a block's expression words
+//! written into it for a correction in place ([`substitute`]), and
+//! `--expand`: the program flattened as its macro logic runs. Every block
+//! that runs is written once per run, in the order it runs, with each
+//! expression word replaced by the literal value it had then (in the
+//! dialect's own number format); labels, jumps, loops, branches and calls
+//! are dropped; assignments are kept as they run (a cycle definition or a
+//! call may still read a parameter), as are the header, comments and
+//! every block that is not macro logic. HEIDENHAIN blocks are numbered
+//! again in order. Each written block keeps the line of the block it
+//! comes from, so what the rewrite reports names the source line.
+
+use std::collections::HashMap;
+
+use super::edit::Edits;
+use crate::machine::Dialect;
+use crate::nc::exec::Known;
+use crate::nc::exec::Trace;
+use crate::nc::lexeme::{self, NumStyle, WriteRules};
+use crate::nc::{Block, Flow, HhKind, Segment, Stmt, Syntax, TokenKind, Value};
+use crate::source::SourceError;
+use std::path::Path;
+
+/// Decimals of an expanded literal: 1 nm (and 1 udeg), below any
+/// control's resolution; the rewrite writes its own decimals over them.
+const DECIMALS: u8 = 6;
+
+/// Whether a statement is macro logic that an expanded program drops.
+fn dropped(stmt: Stmt) -> bool {
+    matches!(
+        stmt,
+        Stmt::Flow(_)
+            | Stmt::Hh(
+                HhKind::Lbl
+                    | HhKind::CallLbl
+                    | HhKind::Fn(9)
+                    | HhKind::Fn(10)
+                    | HhKind::Fn(11)
+                    | HhKind::Fn(12)
+            )
+    )
+}
+
+/// Whether `trace` can be written flattened: it ran to the end of the
+/// program, and every coordinate it needs has a value.
+pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), SourceError> {
+    if let Some(h) = &trace.halt {
+        return Err(SourceError::new(
+            path,
+            h.line,
+            1,
+            format!(
+                "--expand cannot follow the program here: {} (run without --expand to correct what can be corrected in place)",
+                h.why
+            ),
+        ));
+    }
+    for s in &trace.steps {
+        let block = &blocks[s.block as usize];
+        for wv in &trace.values[s.values.0 as usize..s.values.1 as usize] {
+            let TokenKind::Word(w) = block.tokens[wv.token as usize].kind else {
+                continue;
+            };
+            // A tool name, or a feed set outside the program, stays as
+            // written: its parameter is still assigned where it was.
+            let coordinate = w
+                .addr
+                .as_letter()
+                .is_some_and(|c| b"XYZABCIJKR".contains(&c));
+            if wv.value.is_none() && coordinate {
+                let why = trace
+                    .first_unknown
+                    .as_ref()
+                    .filter(|(l, _)| *l == block.line)
+                    .map_or_else(String::new, |(_, w)| format!(": {w}"));
+                let (line, column) = block.locate(w.value_span.start as usize);
+                return Err(SourceError::new(
+                    path,
+                    line,
+                    column,
+                    format!("--expand: the value of {} is not known here{why}", w.addr),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Hands `emit` the blocks of `blocks` as `trace` ran them, flattened, one
+/// at a time (a long loop is never all in memory); [`check`] first.
+pub(super) fn flatten<E: From<SourceError>>(
+    path: &Path,
+    syntax: Syntax,
+    blocks: &[Block],
+    trace: &Trace,
+    emit: &mut dyn FnMut(&Block) -> Result<(), E>,
+) -> Result<(), E> {
+    check(path, blocks, trace)?;
+    let dialect = syntax.dialect;
+    let eol: &[u8] = blocks.iter().find_map(Block::line_ending).unwrap_or(b"\n");
+    let mut number = blocks.iter().find_map(|b| {
+        b.tokens.iter().find_map(|t| match t.kind {
+            TokenKind::BlockNumber(n) => Some(i64::from(n)),
+            _ => None,
+        })
+    });
+    // The last block is held back until the next: a block without a line
+    // ending (the file's last) gets one when another follows it.
+    let mut held: Option<Block> = None;
+    let mut out = |text: Vec<u8>, line: usize| -> Result<(), E> {
+        if let Some(mut prev) = held.take() {
+            if prev.line_ending().is_none() {
+                let mut t = std::mem::take(&mut prev.text);
+                t.extend_from_slice(eol);
+                prev = parse(path, syntax, t, prev.line)?;
+            }
+            emit(&prev)?;
+        }
+        held = Some(parse(path, syntax, text, line)?);
+        Ok(())
+    };
+    let mut edits = Edits::default();
+    let mut k = 0;
+    let steps = &trace.steps;
+    let mut last_block = None;
+    while k < steps.len() {
+        // One run of a block: its consecutive statements.
+        let b = steps[k].block;
+        let mut j = k;
+        while j < steps.len() && steps[j].block == b && (j == k || steps[j].seg > steps[j - 1].seg)
+        {
+            j += 1;
+        }
+        let block = &blocks[b as usize];
+        last_block = Some(b as usize);
+        edits.clear();
+        let mut kept = false;
+        for (si, seg) in block.segments.iter().enumerate() {
+            let Some(step) = steps[k..j].iter().find(|s| s.seg as usize == si) else {
+                delete(&mut edits, block, seg);
+                continue;
+            };
+            if seg.stmt == Stmt::Flow(Flow::Branch) && dialect == Dialect::Fanuc && step.taken {
+                // IF [..] THEN #n = ..: the assignment stays.
+                if let Some(p) = block
+                    .seg_tokens(seg)
+                    .iter()
+                    .position(|t| t.kind == TokenKind::Param)
+                {
+                    let start = block.tokens[seg.body as usize].span.start;
+                    let at = block.tokens[seg.first as usize + p].span.start;
+                    edits.delete(crate::nc::Span { start, end: at });
+                    kept = true;
+                    continue;
+                }
+            }
+            if dropped(seg.stmt) {
+                delete(&mut edits, block, seg);
+                continue;
+            }
+            if !matches!(seg.stmt, Stmt::Blank) {
+                kept = true;
+            }
+            for wv in &trace.values[step.values.0 as usize..step.values.1 as usize] {
+                let TokenKind::Word(w) = block.tokens[wv.token as usize].kind else {
+                    continue;
+                };
+                if let Some(v) = wv.value {
+                    edits.replace(w.value_span, |o| literal(o, dialect, w.addr, v));
+                }
+            }
+        }
+        let only_blank = block.segments.iter().all(|s| s.stmt == Stmt::Blank);
+        if kept || only_blank {
+            if dialect == Dialect::Heidenhain
+                && let Some(n) = number.as_mut()
+                && let Some(t) = block
+                    .tokens
+                    .iter()
+                    .find(|t| matches!(t.kind, TokenKind::BlockNumber(_)))
+            {
+                let v = *n;
+                edits.replace(t.span, |o| lexeme::push_u64(o, v.max(0) as u64));
+                *n += 1;
+            }
+            let mut text = Vec::new();
+            edits
+                .write_block(block, &mut text)
+                .expect("writing to memory");
+            out(text, block.line)?;
+        }
+        k = j;
+    }
+    // What follows the end (`%`, blank lines, comments) is kept.
+    if let Some(last) = last_block {
+        for block in &blocks[last + 1..] {
+            if block
+                .segments
+                .iter()
+                .all(|s| matches!(s.stmt, Stmt::Blank | Stmt::Percent))
+            {
+                out(block.text.clone(), block.line)?;
+            }
+        }
+    }
+    if let Some(b) = held {
+        emit(&b)?;
+    }
+    Ok(())
+}
+
+/// Removes a statement (its line ending stays, so the line does).
+fn delete(edits: &mut Edits, block: &Block, seg: &Segment) {
+    let toks = block.seg_tokens(seg);
+    let end = toks
+        .iter()
+        .rposition(|t| t.kind != TokenKind::LineEnd)
+        .map(|p| toks[p].span.end);
+    if let (Some(first), Some(end)) = (toks.first(), end) {
+        // Block numbers and block delete stay with the block.
+        let start = block.tokens[seg.body as usize..seg.end as usize]
+            .first()
+            .map_or(first.span.start, |t| t.span.start);
+        if end > start {
+            edits.delete(crate::nc::Span { start, end });
+        }
+    }
+}
+
+/// A value as a literal of the dialect: integers plain for codes (`G1`,
+/// `M3`, `T2`), coordinates with a decimal point (FANUC reads `X1` in
+/// least input increments) and HEIDENHAIN's sign.
+fn literal(out: &mut Vec<u8>, dialect: Dialect, addr: crate::nc::Addr, v: f64) {
+    let code = addr
+        .as_letter()
+        .is_some_and(|l| matches!(l, b'G' | b'M' | b'T' | b'D' | b'H' | b'S' | b'P' | b'L'));
+    let integral = v.fract() == 0.0 && v.abs() < 1e9;
+    let rules = WriteRules {
+        force_point: dialect == Dialect::Fanuc && !(code && integral),
+        force_plus: dialect == Dialect::Heidenhain,
+    };
+    let style = NumStyle {
+        point: !(code && integral),
+        ..NumStyle::default()
+    };
+    lexeme::write(out, v, DECIMALS, &style, rules);
+}
+
+fn parse(path: &Path, syntax: Syntax, text: Vec<u8>, line: usize) -> Result<Block, SourceError> {
+    let mut b = Block {
+        text,
+        line,
+        ..Block::default()
+    };
+    syntax.parse(&mut b).map_err(|e| {
+        let (l, c) = b.locate(e.offset);
+        SourceError::new(
+            path,
+            l,
+            c,
+            format!("the expanded block does not read back: {}", e.message),
+        )
+    })?;
+    Ok(b)
+}
+
+/// Whether a block is macro logic or uses it: a parameter assignment,
+/// control flow (labels, jumps, loops, calls) or an expression word.
+pub(super) fn needs_logic(block: &Block) -> bool {
+    block.segments.iter().any(|s| {
+        matches!(
+            s.stmt,
+            Stmt::Assign
+                | Stmt::Flow(_)
+                | Stmt::Hh(HhKind::Q | HhKind::Fn(_) | HhKind::Lbl | HhKind::CallLbl)
+        )
+    }) || block
+        .tokens
+        .iter()
+        .any(|t| matches!(t.kind, TokenKind::Word(w) if w.value == Value::Expr))
+}
+
+/// `block` (index `index` of the part that was run) with the value of
+/// every expression word that has one value in every run written in as a
+/// number (its text is only replaced if the correction changes it), and
+/// why its other expression words cannot be corrected in place.
+pub(super) fn substitute(
+    block: &Block,
+    index: u32,
+    dialect: Dialect,
+    known: &HashMap<(u32, u32), Known>,
+) -> (Block, Option<String>) {
+    let mut b = block.clone();
+    let mut why = None;
+    for (ti, t) in b.tokens.iter_mut().enumerate() {
+        let TokenKind::Word(w) = &mut t.kind else {
+            continue;
+        };
+        if w.value != Value::Expr {
+            continue;
+        }
+        match known.get(&(index, ti as u32)) {
+            Some(Known::Value(v)) => {
+                w.value = Value::Num(*v);
+                // A computed value is in mm (or deg), never in increments.
+                w.style = NumStyle {
+                    point: dialect == Dialect::Fanuc,
+                    ..NumStyle::default()
+                };
+            }
+            Some(Known::Varies(n)) => {
+                why = Some(format!(
+                    "the block runs {n} times with different values (a macro loop or repeated call); use --expand"
+                ))
+            }
+            Some(Known::InCall) if why.is_none() => {
+                why = Some("the block runs inside a subprogram call; use --expand".to_string())
+            }
+            _ => {}
+        }
+    }
+    (b, why)
+}

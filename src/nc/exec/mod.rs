@@ -1,0 +1,805 @@
+//! Running a program's macro logic: parameters, jumps, loops and calls,
+//! executed as the controller would, so that moves written with variables
+//! get the values they have when they run.
+//!
+//! Each statement is decoded once into an [`Op`] (one file per dialect:
+//! [`iso`] for FANUC Macro B and LinuxCNC o-words, [`heidenhain`] for Q
+//! parameters, FN and labels, [`sinumerik`] for R parameters, `DEF`
+//! variables and the structured statements); the loops and branches are
+//! linked to their ends, and [`run`] steps through them from the first
+//! statement. The result is a [`Trace`]: every statement executed, in
+//! order, with the values its expression words had. A value the program
+//! does not fix (a system variable, a parameter set elsewhere) is unknown,
+//! never guessed; a condition or a jump that depends on one, or a call
+//! out of the program, ends the trace there ([`Trace::halt`]).
+//! Execution is bounded ([`MAX_EXEC_STATEMENTS`] statements,
+//! [`MAX_CALL_DEPTH`] nested calls): a loop that does not end is an error
+//! at its line, never a hang.
+
+pub mod eval;
+mod heidenhain;
+mod iso;
+mod sinumerik;
+
+use std::collections::HashMap;
+
+pub use crate::limits::{MAX_CALL_DEPTH, MAX_EXEC_STATEMENTS};
+use crate::machine::Dialect;
+use eval::{Key, Params, Stop};
+
+use super::{Block, TokenKind, Value};
+
+/// A condition.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Cond {
+    /// Always true.
+    Always,
+    /// An expression: true when not zero.
+    Expr(String),
+    /// HEIDENHAIN FN 9-12: `a op b` with op one of `==`, `<>`, `>`, `<`.
+    Cmp(String, &'static str, String),
+}
+
+/// What the statement does after its words (ISO M and G codes).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum After {
+    /// Nothing.
+    Next,
+    /// The program ends (M2, M30, END PGM, M99 in the main program).
+    End,
+    /// It goes where fivecal cannot follow (M98, G65, CALL PGM, ...).
+    Halt(String),
+}
+
+/// A decoded statement.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Op {
+    /// Nothing to execute (blank, comment, program number, a label).
+    Nop,
+    /// Words: their expressions are evaluated, then any assignments in
+    /// the statement (`Param = Expr` tokens) are made.
+    Words(After),
+    /// Assignments only (`Param = Expr` tokens).
+    Assign,
+    /// FANUC `IF [c] THEN #n = ...`.
+    IfThen(Cond),
+    /// `target = expression` decoded from the text (HEIDENHAIN FN, Q).
+    Set(Key, String),
+    /// The parameter becomes unknown (FN 18 SYSREAD), with why.
+    Forget(Key, String),
+    /// DEF: names set to the values.
+    Define(Vec<(Key, String)>),
+    /// A jump to a label, when the condition holds.
+    Goto {
+        cond: Cond,
+        /// Label expression (`N` + number, or the name).
+        target: Target,
+        /// Search forward (`Some(true)`), backward, or everywhere.
+        forward: Option<bool>,
+    },
+    /// Opens `if`: when false, go to `next` (elseif, else or endif).
+    If { cond: Cond, next: usize },
+    /// `elseif`: taken only when entered from a failed test.
+    ElseIf { cond: Cond, next: usize, end: usize },
+    /// `else`.
+    Else { end: usize },
+    /// Top of a loop tested first (WHILE, LinuxCNC while, FOR's test):
+    /// when false, go past `end`.
+    While { cond: Cond, end: usize },
+    /// Bottom of a loop: go back to `start` (its test).
+    Back { start: usize },
+    /// Bottom of a do-loop: back to `start + 1` while the condition holds.
+    BackIf { cond: Cond, start: usize },
+    /// `repeat [n]` top: the count; `end` is its endrepeat.
+    Repeat { count: String, end: usize },
+    /// `endrepeat`.
+    RepeatEnd { start: usize },
+    /// FOR var = from TO to.
+    For {
+        var: Key,
+        from: String,
+        to: String,
+        end: usize,
+    },
+    /// ENDFOR.
+    ForEnd { start: usize, var: Key },
+    /// `break` out of the loop ending at `end`.
+    Break { end: usize },
+    /// A subprogram body starts: skipped when reached without a call.
+    Sub { end: usize },
+    /// A subprogram returns (endsub, return, LBL 0 in a call).
+    Return,
+    /// A call with arguments (LinuxCNC `call`, HEIDENHAIN `CALL LBL`).
+    Call {
+        target: Target,
+        args: Vec<String>,
+        /// HEIDENHAIN `REP n` on a label before the call: the section is
+        /// run again n times.
+        rep: Option<u32>,
+    },
+    /// The program ends.
+    End,
+    /// Execution cannot go on (with why).
+    Halt(String),
+}
+
+/// A jump or call target.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Target {
+    /// A label known from the text.
+    Label(String),
+    /// FANUC `GOTO #1`: `N` and the value.
+    Number(String),
+}
+
+/// One statement executed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Step {
+    /// Block index in the program.
+    pub block: u32,
+    /// Statement index in the block.
+    pub seg: u32,
+    /// Call depth (0: the main program).
+    pub depth: u32,
+    /// Its values in [`Trace::values`].
+    pub values: (u32, u32),
+    /// A conditional statement's action was taken (FANUC IF-THEN).
+    pub taken: bool,
+}
+
+/// A word's value in one run of its statement.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WordValue {
+    /// Token index of the word in its block.
+    pub token: u32,
+    /// Its value, or `None` when unknown.
+    pub value: Option<f64>,
+}
+
+/// Where execution stopped before the end, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Halt {
+    /// 1-based line.
+    pub line: usize,
+    /// Why.
+    pub why: String,
+}
+
+/// A program's execution.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trace {
+    /// Statements executed, in order.
+    pub steps: Vec<Step>,
+    /// Values of the expression words of the steps.
+    pub values: Vec<WordValue>,
+    /// Where execution could not go on, when it could not.
+    pub halt: Option<Halt>,
+    /// The first unknown word value: line and why.
+    pub first_unknown: Option<(usize, String)>,
+}
+
+/// A program whose execution does not end within the bounds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunawayError {
+    /// 1-based line of the statement where the bound was reached.
+    pub line: usize,
+    /// What was exceeded.
+    pub message: String,
+}
+
+/// The parameter store.
+#[derive(Default)]
+struct Vars {
+    known: HashMap<Key, f64>,
+    unknown: HashMap<Key, String>,
+}
+
+impl Vars {
+    fn set(&mut self, k: Key, v: Result<f64, Stop>) {
+        match v {
+            Ok(v) => {
+                self.unknown.remove(&k);
+                self.known.insert(k, v);
+            }
+            Err(s) => {
+                self.known.remove(&k);
+                self.unknown.insert(k, s.to_string());
+            }
+        }
+    }
+}
+
+struct Store<'a> {
+    vars: &'a Vars,
+    dialect: Dialect,
+}
+
+impl Params for Store<'_> {
+    fn get(&self, key: &Key) -> Result<f64, Stop> {
+        if let Some(v) = self.vars.known.get(key) {
+            return Ok(*v);
+        }
+        if let Some(why) = self.vars.unknown.get(key) {
+            return Err(Stop::Unknown(why.clone()));
+        }
+        let shown = match (self.dialect, key) {
+            (Dialect::Fanuc | Dialect::Linuxcnc, Key::Num(n)) => format!("#{n}"),
+            (Dialect::Fanuc | Dialect::Linuxcnc, Key::Name(s)) => format!("#<{s}>"),
+            (Dialect::Heidenhain, Key::Num(n)) => format!("Q{n}"),
+            (Dialect::Sinumerik, Key::Num(n)) => format!("R{n}"),
+            (_, Key::Name(s)) => s.to_uppercase(),
+        };
+        Err(Stop::Unknown(format!(
+            "{shown} is not set by the program (a system variable, or set by the operator or another program)"
+        )))
+    }
+}
+
+/// The statements of a program, decoded and linked.
+pub(crate) struct Program<'a> {
+    dialect: Dialect,
+    blocks: &'a [Block],
+    /// (block, segment) of each statement.
+    at: Vec<(u32, u32)>,
+    ops: Vec<Op>,
+    /// Label -> statement indices, in order.
+    labels: HashMap<String, Vec<usize>>,
+}
+
+impl<'a> Program<'a> {
+    fn new(dialect: Dialect, blocks: &'a [Block]) -> Result<Program<'a>, RunawayError> {
+        let mut at = Vec::new();
+        for (b, block) in blocks.iter().enumerate() {
+            for s in 0..block.segments.len() {
+                at.push((b as u32, s as u32));
+            }
+        }
+        let mut p = Program {
+            dialect,
+            blocks,
+            at,
+            ops: Vec::new(),
+            labels: HashMap::new(),
+        };
+        match dialect {
+            Dialect::Fanuc | Dialect::Linuxcnc => iso::decode(&mut p)?,
+            Dialect::Heidenhain => heidenhain::decode(&mut p)?,
+            Dialect::Sinumerik => sinumerik::decode(&mut p)?,
+        }
+        Ok(p)
+    }
+
+    fn block(&self, i: usize) -> &Block {
+        &self.blocks[self.at[i].0 as usize]
+    }
+
+    fn seg(&self, i: usize) -> &super::Segment {
+        let (b, s) = self.at[i];
+        &self.blocks[b as usize].segments[s as usize]
+    }
+
+    fn line(&self, i: usize) -> usize {
+        self.at.get(i).map_or_else(
+            || self.blocks.last().map_or(1, |b| b.line),
+            |_| self.block(i).line,
+        )
+    }
+
+    /// The text of token range `[a, b)` of statement `i`.
+    fn text(&self, i: usize, span: super::Span) -> String {
+        String::from_utf8_lossy(self.block(i).bytes(span)).into_owned()
+    }
+
+    fn add_label(&mut self, name: String, i: usize) {
+        self.labels.entry(name).or_default().push(i);
+    }
+
+    /// The statement a jump from `from` to `label` lands on.
+    fn find(&self, label: &str, from: usize, forward: Option<bool>) -> Option<usize> {
+        let list = self.labels.get(label)?;
+        match forward {
+            Some(true) => list.iter().copied().find(|&i| i > from),
+            Some(false) => list.iter().copied().rev().find(|&i| i < from),
+            None => list
+                .iter()
+                .copied()
+                .find(|&i| i > from)
+                .or_else(|| list.first().copied()),
+        }
+    }
+}
+
+/// A call in progress.
+struct Frame {
+    ret: usize,
+    saved: Vec<(Key, Option<Result<f64, String>>)>,
+}
+
+/// Runs `blocks` (a whole program, in order).
+pub fn run(dialect: Dialect, blocks: &[Block]) -> Result<Trace, RunawayError> {
+    let p = Program::new(dialect, blocks)?;
+    Runner {
+        p: &p,
+        vars: Vars::default(),
+        trace: Trace::default(),
+        frames: Vec::new(),
+        counters: HashMap::new(),
+        entering: false,
+    }
+    .run()
+}
+
+struct Runner<'p, 'a> {
+    p: &'p Program<'a>,
+    vars: Vars,
+    trace: Trace,
+    frames: Vec<Frame>,
+    /// Loop counters by statement (repeat, REP).
+    counters: HashMap<usize, u64>,
+    /// The last jump was a failed branch test landing on the next test.
+    entering: bool,
+}
+
+enum Flow {
+    Next,
+    Jump(usize),
+    Stop,
+}
+
+impl Runner<'_, '_> {
+    fn store(&self) -> Store<'_> {
+        Store {
+            vars: &self.vars,
+            dialect: self.p.dialect,
+        }
+    }
+
+    fn eval(&self, text: &str) -> Result<f64, Stop> {
+        eval::eval(self.p.dialect, text.as_bytes(), &self.store())
+    }
+
+    fn cond(&self, c: &Cond) -> Result<bool, Stop> {
+        Ok(match c {
+            Cond::Always => true,
+            Cond::Expr(e) => self.eval(e)? != 0.0,
+            Cond::Cmp(a, op, b) => {
+                let (a, b) = (self.eval(a)?, self.eval(b)?);
+                match *op {
+                    "==" => (a - b).abs() < 1e-9,
+                    "<>" => (a - b).abs() >= 1e-9,
+                    ">" => a > b,
+                    _ => a < b,
+                }
+            }
+        })
+    }
+
+    fn halt(&mut self, i: usize, why: impl Into<String>) -> Flow {
+        self.trace.halt = Some(Halt {
+            line: self.p.line(i),
+            why: why.into(),
+        });
+        Flow::Stop
+    }
+
+    fn run(mut self) -> Result<Trace, RunawayError> {
+        let mut pc = 0usize;
+        let mut executed = 0usize;
+        while pc < self.p.ops.len() {
+            executed += 1;
+            if executed > MAX_EXEC_STATEMENTS {
+                return Err(RunawayError {
+                    line: self.p.line(pc),
+                    message: format!(
+                        "more than {MAX_EXEC_STATEMENTS} statements executed without reaching the end of the program: a loop that does not end?"
+                    ),
+                });
+            }
+            let entering = std::mem::take(&mut self.entering);
+            let (b, s) = self.p.at[pc];
+            let first = self.trace.values.len() as u32;
+            let mut taken = false;
+            let flow = self.step(pc, entering, &mut taken);
+            self.trace.steps.push(Step {
+                block: b,
+                seg: s,
+                depth: self.frames.len() as u32,
+                values: (first, self.trace.values.len() as u32),
+                taken,
+            });
+            match flow? {
+                Flow::Next => pc += 1,
+                Flow::Jump(t) => pc = t,
+                Flow::Stop => break,
+            }
+        }
+        Ok(self.trace)
+    }
+
+    /// Evaluates the statement's expression words and makes its
+    /// assignments.
+    fn words(&mut self, i: usize) {
+        let block = self.p.block(i);
+        let seg = *self.p.seg(i);
+        for t in seg.first..seg.end {
+            if let TokenKind::Word(w) = block.tokens[t as usize].kind
+                && w.value == Value::Expr
+            {
+                let text = self.p.text(i, w.value_span);
+                let v = self.eval(&text);
+                if let Err(why) = &v
+                    && self.trace.first_unknown.is_none()
+                {
+                    self.trace.first_unknown = Some((block.line, why.to_string()));
+                }
+                self.trace.values.push(WordValue {
+                    token: t,
+                    value: v.ok(),
+                });
+            }
+        }
+        self.assignments(i, seg.first as usize);
+    }
+
+    /// The `Param = Expr` assignments of statement `i` from token `from`.
+    fn assignments(&mut self, i: usize, from: usize) {
+        let block = self.p.block(i);
+        let seg = self.p.seg(i);
+        let toks = &block.tokens[from..seg.end as usize];
+        // LinuxCNC reads every parameter of a line before it sets any.
+        let mut sets = Vec::new();
+        for (k, t) in toks.iter().enumerate() {
+            if t.kind != TokenKind::Param {
+                continue;
+            }
+            let Some(e) = toks[k..].iter().find(|t| t.kind == TokenKind::Expr) else {
+                continue;
+            };
+            let target = eval::param_ref(self.p.dialect, block.bytes(t.span), &self.store());
+            let value = self.eval(&self.p.text(i, e.span));
+            if let Ok((key, _)) = target {
+                sets.push((key, value));
+            }
+        }
+        for (k, v) in sets {
+            self.vars.set(k, v);
+        }
+    }
+
+    fn step(&mut self, i: usize, entering: bool, taken: &mut bool) -> Result<Flow, RunawayError> {
+        let op = &self.p.ops[i];
+        Ok(match op {
+            Op::Nop => Flow::Next,
+            Op::Words(after) => {
+                self.words(i);
+                match after {
+                    After::Next => Flow::Next,
+                    After::End => Flow::Stop,
+                    After::Halt(why) => {
+                        let why = why.clone();
+                        self.halt(i, why)
+                    }
+                }
+            }
+            Op::Assign => {
+                self.assignments(i, self.p.seg(i).first as usize);
+                Flow::Next
+            }
+            Op::IfThen(c) => match self.cond(c) {
+                Ok(true) => {
+                    *taken = true;
+                    self.assignments(i, self.p.seg(i).first as usize);
+                    Flow::Next
+                }
+                Ok(false) => Flow::Next,
+                Err(e) => self.halt(i, format!("the condition is not known: {e}")),
+            },
+            Op::Set(k, e) => {
+                let v = self.eval(e);
+                self.vars.set(k.clone(), v);
+                Flow::Next
+            }
+            Op::Forget(k, why) => {
+                self.vars.set(k.clone(), Err(Stop::Unknown(why.clone())));
+                Flow::Next
+            }
+            Op::Define(list) => {
+                for (k, e) in list {
+                    let v = self.eval(e);
+                    self.vars.set(k.clone(), v);
+                }
+                Flow::Next
+            }
+            Op::Goto {
+                cond,
+                target,
+                forward,
+            } => match self.cond(cond) {
+                Ok(false) => Flow::Next,
+                Err(e) => self.halt(i, format!("the jump condition is not known: {e}")),
+                Ok(true) => match self.label(target) {
+                    Err(e) => self.halt(i, format!("the jump target is not known: {e}")),
+                    Ok(l) => match self.p.find(&l, i, *forward) {
+                        Some(t) => Flow::Jump(t),
+                        None => self.halt(i, format!("jump to {l}, which is not in the program")),
+                    },
+                },
+            },
+            Op::If { cond, next } => match self.cond(cond) {
+                Ok(true) => Flow::Next,
+                Ok(false) => {
+                    self.entering = true;
+                    Flow::Jump(*next)
+                }
+                Err(e) => self.halt(i, format!("the condition is not known: {e}")),
+            },
+            Op::ElseIf { cond, next, end } => {
+                if !entering {
+                    Flow::Jump(*end)
+                } else {
+                    match self.cond(cond) {
+                        Ok(true) => Flow::Next,
+                        Ok(false) => {
+                            self.entering = true;
+                            Flow::Jump(*next)
+                        }
+                        Err(e) => self.halt(i, format!("the condition is not known: {e}")),
+                    }
+                }
+            }
+            Op::Else { end } => {
+                if entering {
+                    Flow::Next
+                } else {
+                    Flow::Jump(*end)
+                }
+            }
+            Op::While { cond, end } => match self.cond(cond) {
+                Ok(true) => Flow::Next,
+                Ok(false) => Flow::Jump(end + 1),
+                Err(e) => self.halt(i, format!("the loop condition is not known: {e}")),
+            },
+            Op::Back { start } => Flow::Jump(*start),
+            Op::BackIf { cond, start } => match self.cond(cond) {
+                Ok(true) => Flow::Jump(start + 1),
+                Ok(false) => Flow::Next,
+                Err(e) => self.halt(i, format!("the loop condition is not known: {e}")),
+            },
+            Op::Repeat { count, end } => match self.eval(count) {
+                Ok(n) => {
+                    let n = n.max(0.0).round() as u64;
+                    if n == 0 {
+                        Flow::Jump(end + 1)
+                    } else {
+                        self.counters.insert(i, n - 1);
+                        Flow::Next
+                    }
+                }
+                Err(e) => self.halt(i, format!("the repeat count is not known: {e}")),
+            },
+            Op::RepeatEnd { start } => match self.counters.get_mut(start) {
+                Some(n) if *n > 0 => {
+                    *n -= 1;
+                    Flow::Jump(start + 1)
+                }
+                _ => {
+                    self.counters.remove(start);
+                    Flow::Next
+                }
+            },
+            Op::For { var, from, to, end } => {
+                // Entered from above: set the variable; from ENDFOR: it
+                // was incremented there.
+                if !entering {
+                    let v = self.eval(from);
+                    self.vars.set(var.clone(), v);
+                }
+                let now = self.store().get(var);
+                match (now, self.eval(to)) {
+                    (Ok(v), Ok(t)) if v <= t + 1e-9 => Flow::Next,
+                    (Ok(_), Ok(_)) => Flow::Jump(end + 1),
+                    (Err(e), _) | (_, Err(e)) => {
+                        self.halt(i, format!("the loop bounds are not known: {e}"))
+                    }
+                }
+            }
+            Op::ForEnd { start, var } => match self.store().get(var) {
+                Ok(v) => {
+                    self.vars.set(var.clone(), Ok(v + 1.0));
+                    self.entering = true;
+                    Flow::Jump(*start)
+                }
+                Err(e) => self.halt(i, format!("the loop variable is not known: {e}")),
+            },
+            Op::Break { end } => Flow::Jump(end + 1),
+            Op::Sub { end } => Flow::Jump(end + 1),
+            Op::Return => match self.frames.pop() {
+                Some(f) => {
+                    self.restore(f.saved);
+                    Flow::Jump(f.ret)
+                }
+                // HEIDENHAIN: LBL 0 reached without a call does nothing.
+                None if self.p.dialect == Dialect::Heidenhain => Flow::Next,
+                None => Flow::Stop,
+            },
+            Op::Call { target, args, rep } => {
+                let target = target.clone();
+                let args = args.clone();
+                let rep = *rep;
+                self.call(i, &target, &args, rep)?
+            }
+            Op::End => Flow::Stop,
+            Op::Halt(why) => {
+                let why = why.clone();
+                self.halt(i, why)
+            }
+        })
+    }
+
+    fn label(&self, t: &Target) -> Result<String, Stop> {
+        match t {
+            Target::Label(l) => Ok(l.clone()),
+            Target::Number(e) => {
+                let v = self.eval(e)?;
+                Ok(format!("N{}", v.round() as i64))
+            }
+        }
+    }
+
+    fn call(
+        &mut self,
+        i: usize,
+        target: &Target,
+        args: &[String],
+        rep: Option<u32>,
+    ) -> Result<Flow, RunawayError> {
+        let label = match self.label(target) {
+            Ok(l) => l,
+            Err(e) => return Ok(self.halt(i, format!("the call target is not known: {e}"))),
+        };
+        if let Some(n) = rep {
+            // HEIDENHAIN program-section repeat: back to the label n times.
+            if let Some(t) = self.p.find(&label, i, Some(false)) {
+                let left = self.counters.entry(i).or_insert(u64::from(n) + 1);
+                *left -= 1;
+                if *left == 0 {
+                    self.counters.remove(&i);
+                    return Ok(Flow::Next);
+                }
+                return Ok(Flow::Jump(t + 1));
+            }
+            return Ok(self.halt(
+                i,
+                format!("{label} is called with REP but not found before the call"),
+            ));
+        }
+        let Some(t) = self.p.find(&label, i, None) else {
+            return Ok(self.halt(i, format!("{label} is not in the program")));
+        };
+        if self.frames.len() >= MAX_CALL_DEPTH {
+            return Err(RunawayError {
+                line: self.p.line(i),
+                message: format!(
+                    "calls nested deeper than {MAX_CALL_DEPTH} levels: a subprogram that calls itself without end?"
+                ),
+            });
+        }
+        let mut values = Vec::new();
+        for a in args {
+            values.push(self.eval(a));
+        }
+        let saved = self.save_locals();
+        for (k, v) in values.into_iter().enumerate() {
+            self.vars.set(Key::Num(k as i64 + 1), v);
+        }
+        self.frames.push(Frame { ret: i + 1, saved });
+        // LinuxCNC lands on `sub` (skip it); HEIDENHAIN on `LBL n`.
+        Ok(Flow::Jump(t + 1))
+    }
+
+    /// LinuxCNC: #1-#30 and named parameters without `_` are local to a
+    /// call; the others are global (and all of HEIDENHAIN's).
+    fn save_locals(&mut self) -> Vec<(Key, Option<Result<f64, String>>)> {
+        if self.p.dialect != Dialect::Linuxcnc {
+            return Vec::new();
+        }
+        let mut saved = Vec::new();
+        let keys: Vec<Key> = self
+            .vars
+            .known
+            .keys()
+            .chain(self.vars.unknown.keys())
+            .filter(|k| linuxcnc_local(k))
+            .cloned()
+            .collect();
+        for k in keys {
+            let v = match self.vars.known.remove(&k) {
+                Some(v) => Some(Ok(v)),
+                None => self.vars.unknown.remove(&k).map(Err),
+            };
+            saved.push((k, v));
+        }
+        // Keys set inside the call are removed on return.
+        saved.push((Key::Name(String::new()), None));
+        saved
+    }
+
+    fn restore(&mut self, saved: Vec<(Key, Option<Result<f64, String>>)>) {
+        if saved.is_empty() {
+            return;
+        }
+        self.vars.known.retain(|k, _| !linuxcnc_local(k));
+        self.vars.unknown.retain(|k, _| !linuxcnc_local(k));
+        for (k, v) in saved {
+            match v {
+                Some(Ok(v)) => {
+                    self.vars.known.insert(k, v);
+                }
+                Some(Err(w)) => {
+                    self.vars.unknown.insert(k, w);
+                }
+                None => {}
+            }
+        }
+    }
+}
+
+/// LinuxCNC: whether a parameter is local to a subroutine call.
+fn linuxcnc_local(k: &Key) -> bool {
+    match k {
+        Key::Num(n) => (1..=30).contains(n),
+        Key::Name(s) => !s.starts_with('_'),
+    }
+}
+
+/// What the execution says about one expression word, over all its runs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Known {
+    /// One value in every run (at least one run, all in the main program).
+    Value(f64),
+    /// Several runs with different values.
+    Varies(usize),
+    /// Its runs are inside subprogram calls.
+    InCall,
+    /// Its value is not known (or the statement never ran).
+    Unknown,
+}
+
+/// Per block and word token: what the trace says, for blocks with
+/// expression words. `None` when execution did not reach the end (a later
+/// run of any statement could not be ruled out).
+pub fn known_words(trace: &Trace) -> Option<HashMap<(u32, u32), Known>> {
+    if trace.halt.is_some() {
+        return None;
+    }
+    // Runs, first value, values differ, a run unknown, a run in a call.
+    type Runs = (usize, Option<f64>, bool, bool, bool);
+    let mut out: HashMap<(u32, u32), Runs> = HashMap::new();
+    for s in &trace.steps {
+        for wv in &trace.values[s.values.0 as usize..s.values.1 as usize] {
+            let e = out
+                .entry((s.block, wv.token))
+                .or_insert((0, wv.value, false, false, false));
+            e.0 += 1;
+            match (e.1, wv.value) {
+                (Some(a), Some(b)) => e.2 |= a != b,
+                _ => e.3 = true,
+            }
+            e.4 |= s.depth > 0;
+        }
+    }
+    Some(
+        out.into_iter()
+            .map(|(k, (n, v, differs, unknown, in_call))| {
+                let known = match v {
+                    _ if unknown => Known::Unknown,
+                    Some(_) if differs => Known::Varies(n),
+                    Some(_) if in_call => Known::InCall,
+                    Some(v) => Known::Value(v),
+                    None => Known::Unknown,
+                };
+                (k, known)
+            })
+            .collect(),
+    )
+}
