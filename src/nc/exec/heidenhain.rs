@@ -28,25 +28,7 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                     Op::Nop
                 }
             }
-            Stmt::Hh(HhKind::CallLbl) => {
-                let rest = after_word(&code, "LBL");
-                let (lbl, rep) = match find_word(rest, "REP") {
-                    Some(k) => {
-                        let r = rest[k + 3..]
-                            .trim()
-                            .split(|c: char| !c.is_ascii_digit())
-                            .next()
-                            .and_then(|d| d.parse::<u32>().ok());
-                        (&rest[..k], Some(r.unwrap_or(0)))
-                    }
-                    None => (rest, None),
-                };
-                Op::Call {
-                    target: Target::Label(label(lbl)),
-                    args: Vec::new(),
-                    rep,
-                }
-            }
+            Stmt::Hh(HhKind::CallLbl) => call_lbl(after_word(&code, "LBL")),
             Stmt::Hh(HhKind::CallPgm) => Op::Halt("CALL PGM runs another program".into()),
             Stmt::Hh(HhKind::EndPgm) => Op::End,
             Stmt::Hh(_) => {
@@ -66,6 +48,41 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
         p.ops[i] = op;
     }
     Ok(())
+}
+
+/// `CALL LBL n [REP m]`: a subprogram call, or a section repeat.
+fn call_lbl(rest: &str) -> Op {
+    // `REP` may be glued to its count, also when a real
+    // program gives the count as a parameter (`REPQ13`).
+    let rep_at = find_word(rest, "REP").or_else(|| {
+        find_word(rest, "REPQ")
+            .or_else(|| find_word(rest, "REPQL"))
+            .or_else(|| find_word(rest, "REPQR"))
+    });
+    let (lbl, rep) = match rep_at {
+        Some(k) => {
+            let r = rest[k + 3..]
+                .trim()
+                .split(|c: char| !c.is_ascii_digit())
+                .next()
+                .and_then(|d| d.parse::<u32>().ok());
+            match r {
+                Some(r) => (&rest[..k], Some(r)),
+                None => {
+                    return Op::Halt(format!(
+                        "CALL LBL with a repeat count that is not a number (`{}`): how the control reads it is not confirmed",
+                        rest[k..].trim()
+                    ));
+                }
+            }
+        }
+        None => (rest, None),
+    };
+    Op::Call {
+        target: Target::Label(label(lbl)),
+        args: Vec::new(),
+        rep,
+    }
 }
 
 /// `Qn = rhs`: the parameter and the expression `f(rhs)`.

@@ -296,6 +296,11 @@ fn words_op(block: &crate::nc::Block, seg: &crate::nc::Segment) -> Op {
             }
         } else if w.addr == Addr::letter(b'G') && matches!(v, 65.0 | 66.0 | 66.1) {
             after = After::Halt(format!("G{v} calls a macro program outside the file"));
+        } else if w.addr == Addr::letter(b'G')
+            && ((31.0..32.0).contains(&v) || (38.0..39.0).contains(&v))
+            && after == After::Next
+        {
+            after = After::Probe;
         }
     }
     Op::Words(after)

@@ -49,6 +49,9 @@ pub(crate) enum After {
     End,
     /// It goes where fivecal cannot follow (M98, G65, CALL PGM, ...).
     Halt(String),
+    /// A probing move (G31, G38.x): the control writes where it touched,
+    /// and whether it did, into #5061-#5070, values no program text fixes.
+    Probe,
 }
 
 /// A decoded statement.
@@ -474,6 +477,18 @@ impl Runner<'_, '_> {
                 self.words(i);
                 match after {
                     After::Next => Flow::Next,
+                    After::Probe => {
+                        let line = self.p.line(i);
+                        for n in 5061..=5070 {
+                            self.vars.set(
+                                Key::Num(n),
+                                Err(Stop::Unknown(format!(
+                                    "#{n} is set by the probing move at line {line}"
+                                ))),
+                            );
+                        }
+                        Flow::Next
+                    }
                     After::End => Flow::Stop,
                     After::Halt(why) => {
                         let why = why.clone();
