@@ -288,6 +288,10 @@ fn record(summary: &mut Summary, pt: &Point, line: usize) {
         summary.held_c.push(line);
         summary.held_c_axis_error = summary.held_c_axis_error.max(h * 1e6);
     }
+    if let Some(h) = pt.plane_axis {
+        summary.tilted_plane.push(line);
+        summary.tilted_plane_axis_error = summary.tilted_plane_axis_error.max(h * 1e6);
+    }
     if let Some(h) = pt.held_tilt {
         summary.held_tilt.push(line);
         summary.held_tilt_axis_error = summary.held_tilt_axis_error.max(h * 1e6);
@@ -310,6 +314,7 @@ fn vertex(
         target: pt.target,
         tcp: f.tcp,
         held_c: pt.held.is_some(),
+        tilted_plane: pt.plane_axis.is_some(),
         inserted,
         nominal_program: f.program(&pt.nominal),
         program,

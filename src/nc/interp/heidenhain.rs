@@ -115,14 +115,8 @@ impl Interpreter {
                 self.hh_cycle(block, seg, number, sub);
                 Event::None
             }
-            HhKind::Plane => {
-                self.tilted = true;
-                self.forget();
-                Event::None
-            }
-            HhKind::PlaneReset => {
-                self.tilted = false;
-                self.forget();
+            HhKind::Plane | HhKind::PlaneReset => {
+                self.hh_plane(block, seg);
                 Event::None
             }
             HhKind::FunctionTcpm => {
@@ -171,6 +165,11 @@ impl Interpreter {
             .iter()
             .any(|t| t.kind == TokenKind::Text && block.bytes(t.span).starts_with(b"#"));
         match (number, sub) {
+            (7, s) if s >= 1 && self.tilted => {
+                // A shift along the tilted axes.
+                let at = block.tokens[seg.body as usize].span.start as usize;
+                self.plane_unmodelled(block.line, at, "a datum shift inside the tilted plane");
+            }
             (7, s) if s >= 1 => {
                 if hash {
                     self.shift_known = false;
@@ -202,11 +201,33 @@ impl Interpreter {
                 self.forget();
             }
             (19, s) if s >= 1 => {
-                let any = words.iter().any(|w| {
-                    matches!(w.value, Value::Num(v) if v != 0.0) || w.value == Value::Expr
-                });
-                self.tilted = any;
-                self.forget();
+                // Spatial angles A, then B, then C about the fixed axes
+                // (the common setting of the machine parameter; a machine
+                // set to axis angles needs PLANE AXIAL's model). The cycle
+                // does not turn the rotary axes: a later block does.
+                let at = block.tokens[seg.body as usize].span.start as usize;
+                let mut abc = [0.0; 3];
+                for w in &words {
+                    match (w.addr.as_letter(), w.value) {
+                        (Some(l @ (b'A' | b'B' | b'C')), Value::Num(v)) => {
+                            abc[(l - b'A') as usize] = v
+                        }
+                        (Some(b'A' | b'B' | b'C'), _) => {
+                            return self.plane_unmodelled(
+                                block.line,
+                                at,
+                                "a parameter in CYCL DEF 19",
+                            );
+                        }
+                        _ => {}
+                    }
+                }
+                if abc == [0.0; 3] {
+                    self.set_plane(None);
+                } else {
+                    let rot = super::plane::spatial(abc[0], abc[1], abc[2]);
+                    self.set_plane(Some(super::Tilt::Plane(super::WorkPlane::new(rot))));
+                }
             }
             (10, s) if s >= 1 => {
                 let rot = words.iter().any(|w| {
@@ -231,6 +252,61 @@ impl Interpreter {
                 self.forget();
             }
             _ => {}
+        }
+    }
+
+    /// PLANE ...: the plane, and the rotary positions TURN / MOVE give
+    /// (SEQ+ / SEQ- picks the sign of the tilt, else the shortest way
+    /// from where the axes are); STAY leaves them where they are.
+    fn hh_plane(&mut self, block: &Block, seg: &Segment) {
+        let code = String::from_utf8_lossy(&super::code_of(self.cfg.settings.dialect, &block.text))
+            .into_owned();
+        let at = block.tokens[seg.body as usize].span.start as usize;
+        let k = super::plane::klartext(&code);
+        let line = block.line;
+        match k.plane {
+            None => {
+                self.set_plane(None);
+                if k.turn {
+                    // PLANE RESET TURN: the axes go back to their home
+                    // positions.
+                    self.pos[3..].fill(None);
+                }
+            }
+            Some(Err(why)) => self.plane_unmodelled(line, at, why),
+            Some(Ok(def)) => {
+                let rot = match (def, self.working_plane) {
+                    (super::plane::Definition::Absolute(r), _) => r,
+                    (super::plane::Definition::Relative(r), Some(super::Tilt::Plane(w))) => {
+                        w.rot * r
+                    }
+                    (super::plane::Definition::Relative(r), None) => r,
+                    (
+                        super::plane::Definition::Relative(_),
+                        Some(super::Tilt::Unmodelled { .. }),
+                    ) => {
+                        return self.plane_unmodelled(
+                            line,
+                            at,
+                            "PLANE RELATIV on a plane fivecal does not model",
+                        );
+                    }
+                };
+                self.set_plane(Some(super::Tilt::Plane(super::WorkPlane::new(rot))));
+                if k.sym {
+                    self.note(
+                        at,
+                        "SYM+/SYM-: a choice of rotary solution fivecal does not model (the moves in the plane are left as written)",
+                    );
+                    self.pos[3..].fill(None);
+                } else if k.turn {
+                    let choice = match k.seq {
+                        Some(sign) => super::plane::Choice::Sign { sign, strict: true },
+                        None => super::plane::Choice::Nearest,
+                    };
+                    self.position_for_plane(line, at, choice);
+                }
+            }
         }
     }
 
