@@ -272,7 +272,7 @@ fn check_against_simulation(
 /// As [`check_against_simulation`]; at the `held` lines (C held next to the
 /// singularity) only the tip is checked.
 #[allow(clippy::too_many_arguments)]
-fn check_held(
+pub fn check_held(
     l: &LoadedErrors,
     d: Dialect,
     coords: Coordinates,

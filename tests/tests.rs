@@ -29,6 +29,7 @@ mod montecarlo;
 mod nc;
 mod plan;
 mod plan_programs;
+mod planes;
 mod post;
 mod probe_fit;
 mod probe_log;

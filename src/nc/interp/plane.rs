@@ -210,15 +210,25 @@ pub fn rotary_for(
         axis: *normal,
     };
     let c_ref = before.1.unwrap_or(0.0);
-    let solve = |tilt_ref: f64| {
+    // Each root of the orientation, if the machine reaches it within its
+    // strokes (C on its turn nearest the reference).
+    let roots = nominal
+        .orientation_roots(normal, c_ref)
+        .ok_or("no rotary positions of the machine put the tool along it")?;
+    let reach = |(t, c): (f64, f64)| {
+        let c = c_ref + crate::geom::wrap180(c - c_ref);
         nominal
-            .inverse(&pose, &Axes::new(0.0, 0.0, 0.0, tilt_ref, c_ref))
+            .inverse(&pose, &Axes::new(0.0, 0.0, 0.0, t, c))
             .ok()
+            .filter(|a| (a.tilt - t).abs() < 1e-9)
             .map(|a| (a.tilt, a.c))
     };
-    // The branch with the larger and the one with the smaller tilt.
-    let hi = solve(1e4);
-    let lo = solve(-1e4);
+    let (a, b) = (reach(roots[0]), reach(roots[1]));
+    let (hi, lo) = match (a, b) {
+        (Some(x), Some(y)) if y.0 > x.0 => (Some(y), Some(x)),
+        (Some(x), Some(y)) => (Some(x), Some(y)),
+        (x, y) => (x.or(y), x.or(y)),
+    };
     let unique = match (hi, lo) {
         (None, None) => return Err("no rotary positions of the machine put the tool along it"),
         (Some(a), None) | (None, Some(a)) => Some(a),
@@ -226,10 +236,22 @@ pub fn rotary_for(
         _ => None,
     };
     match choice {
-        Choice::Nearest => match (unique, before.0) {
-            (Some(a), _) => Ok(a),
-            (None, Some(t)) => solve(t).ok_or("no rotary positions"),
-            (None, None) => Err(
+        Choice::Nearest => match (unique, hi, lo, before.0) {
+            (Some(a), ..) => Ok(a),
+            (None, Some(h), Some(l), Some(t)) => {
+                // The way of each: the tilt's, and C's where C is known.
+                let way =
+                    |a: (f64, f64)| (a.0 - t).abs() + before.1.map_or(0.0, |c| (a.1 - c).abs());
+                let (dh, dl) = (way(h), way(l));
+                if (dh - dl).abs() < 1e-9 {
+                    Err("two rotary solutions are equally near the positions before the plane")
+                } else if dh < dl {
+                    Ok(h)
+                } else {
+                    Ok(l)
+                }
+            }
+            _ => Err(
                 "two rotary solutions lie within the strokes and the positions before the plane are not known",
             ),
         },
