@@ -360,6 +360,13 @@ impl Interpreter {
                     Event::None
                 }
             }
+            520 | 920 if self.tilted && has_axis => {
+                // A shift along the plane's axes or the workpiece's: which
+                // one the control takes is not modelled.
+                let at = g_offset(block, seg, g);
+                self.plane_unmodelled(block.line, at, "G52/G92 inside the tilted plane");
+                Event::None
+            }
             520 => {
                 // G52: local coordinate system (absolute values; X0 cancels).
                 for (_, w) in block.words(seg) {

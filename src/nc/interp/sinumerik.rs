@@ -495,6 +495,14 @@ impl Interpreter {
         }
         let absolute = !name.starts_with('A');
         let old = self.local_shift;
+        if self.tilted && any {
+            let at = block.tokens[seg.body as usize].span.start as usize;
+            return self.plane_unmodelled(
+                block.line,
+                at,
+                "a programmable frame inside the swivel plane",
+            );
+        }
         match name {
             "TRANS" | "ATRANS" => {
                 if absolute {
