@@ -248,7 +248,7 @@ impl Compensator {
 /// Extends the last section of `sections` to the move at `line`, or
 /// starts one where the coordinates change meaning.
 fn section(sections: &mut Vec<CoordinateSection>, interp: &Interpreter, line: usize) {
-    let meaning = interp.frame().tcp.meaning();
+    let meaning = interp.coordinates_meaning();
     match sections.last_mut() {
         Some(s) if s.meaning == meaning => s.lines.1 = line,
         _ => sections.push(CoordinateSection {

@@ -429,6 +429,8 @@ pub struct Interpreter {
     pub tilted: bool,
     /// The tilted working plane in force (`Some` exactly when `tilted`).
     pub working_plane: Option<Tilt>,
+    /// What defined the tilted plane in force.
+    pub plane_cause: Option<TcpCause>,
     /// A transformation fivecal does not model, by name.
     pub transformed: Option<&'static str>,
     /// G92 / CYCL DEF 7 datum shift per linear axis, program units.
@@ -496,6 +498,7 @@ impl Interpreter {
             tcp: Tcp::Off,
             tilted: false,
             working_plane: None,
+            plane_cause: None,
             transformed: None,
             shift: [0.0; 3],
             local_shift: [0.0; 3],
@@ -547,6 +550,7 @@ impl Interpreter {
             return Event::Skip(Skip::Unreadable);
         }
         let tcp_before = self.tcp;
+        let plane_before = self.working_plane;
         self.tcp_remapped = false;
         let ev = match self.cfg.settings.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
@@ -558,6 +562,13 @@ impl Interpreter {
                 line: block.line,
                 code: statement_text(block, seg),
                 machine_file: self.tcp_remapped,
+            });
+        }
+        if self.working_plane != plane_before {
+            self.plane_cause = self.working_plane.map(|_| TcpCause {
+                line: block.line,
+                code: statement_text(block, seg),
+                machine_file: false,
             });
         }
         self.check_offset();
@@ -695,9 +706,21 @@ impl Interpreter {
         None
     }
 
+    /// What the program's coordinates are here: as the TCP mode says, or
+    /// X Y Z in a tilted working plane.
+    pub fn coordinates_meaning(&self) -> &'static str {
+        match self.frame().plane {
+            Some(_) => "X Y Z in a tilted working plane (3+2: the plane's rotary positions, tool length along the tool)",
+            None => self.frame().tcp.meaning(),
+        }
+    }
+
     /// Why the program's coordinates mean what [`Interpreter::frame`] says
     /// here: the flag that forces it, or the code that switched it.
     pub fn coordinates_why(&self) -> String {
+        if let (Some(_), Some(c)) = (self.frame().plane, &self.plane_cause) {
+            return format!("`{}` at line {}", c.code, c.line);
+        }
         match (self.cfg.settings.coordinates, &self.tcp_cause) {
             (Coordinates::Axes, _) => "--coordinates axes".into(),
             (Coordinates::Tcp, _) if self.tcp == Tcp::Off => "--coordinates tcp".into(),
