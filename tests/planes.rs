@@ -266,3 +266,38 @@ fn a_plane_fivecal_does_not_model_is_reported_at_its_own_line() {
     assert_eq!(out, fanuc);
     assert!(s.unmodelled[0].1.first == [3], "{:?}", s.unmodelled);
 }
+
+#[test]
+fn heidenhain_q120_to_q122_are_the_positions_the_control_computed() {
+    // After CYCL DEF 19 the TNC puts the rotary positions for the plane in
+    // Q120..Q122; `L A+Q120 C+Q122` turns there. With the axes at A0 C0
+    // before, the nearer of A-25 C0 and A+25 C180 is taken.
+    let literal = read("heidenhain/cycle19.h");
+    let q = literal
+        .replace("11 L A-25 C+0 R0 FMAX", "11 L A+Q120 C+Q122 R0 FMAX")
+        .replace("4  L Z+100 R0 FMAX M91", "4  L A+0 C+0 R0 FMAX");
+    let l = errors("ac-trunnion", 84, 30.0, "");
+    let (_, s, vs) = compensate(&l, Settings::new(Dialect::Heidenhain), &q);
+    assert_eq!(
+        s.tilted_plane.first,
+        [13, 14, 15, 16, 17, 18, 19, 20],
+        "{:?}",
+        s.skipped
+    );
+    for v in &vs {
+        assert_reaches(&l, v, "Q120..Q122");
+    }
+    // Without the positions before the plane both solutions are as near:
+    // the moves are left as written, with the reason.
+    let unknown = literal.replace("11 L A-25 C+0 R0 FMAX", "11 L A+Q120 C+Q122 R0 FMAX");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), &unknown);
+    assert_eq!(out, unknown);
+    assert!(
+        s.skipped.iter().any(
+            |(why, lines)| why.contains("rotary positions the controller chose")
+                && lines.first.contains(&13)
+        ),
+        "{:?}",
+        s.skipped
+    );
+}

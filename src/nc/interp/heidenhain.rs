@@ -198,7 +198,15 @@ impl Interpreter {
                         }
                     }
                 }
-                self.forget();
+                // The linear positions move with the datum; a rotary axis
+                // keeps its position unless the shift names it.
+                self.pos[..3].fill(None);
+                self.pole = None;
+                for w in &words {
+                    if let Some(i) = self.axis_index(w.addr).filter(|&i| i >= 3) {
+                        self.pos[i] = None;
+                    }
+                }
             }
             (19, s) if s >= 1 => {
                 // Spatial angles A, then B, then C about the fixed axes
@@ -310,6 +318,33 @@ impl Interpreter {
         }
     }
 
+    /// `A+Q120`, `B+Q121`, `C+Q122` in a tilted plane: the rotary
+    /// positions the control computed for it (the solution nearest the
+    /// positions before, as without SEQ), when they can be known.
+    fn computed_rotary(&self, block: &Block, w: &Word, i: usize) -> Option<f64> {
+        let text = block.bytes(w.value_span).to_ascii_uppercase();
+        let text = text.strip_prefix(b"+").unwrap_or(&text);
+        if w.incremental || text != format!("Q{}", 117 + i).as_bytes() {
+            return None;
+        }
+        let Some(super::Tilt::Plane(plane)) = self.working_plane else {
+            return None;
+        };
+        let t = self.cfg.tilt;
+        let (tilt, c) = super::plane::rotary_for(
+            &self.cfg.nominal,
+            &plane.normal(),
+            (self.pos[t], self.pos[5]),
+            super::plane::Choice::Nearest,
+        )
+        .ok()?;
+        match i {
+            5 => Some(c),
+            _ if i == t => Some(tilt),
+            _ => None,
+        }
+    }
+
     fn hh_targets(&mut self, block: &Block, seg: &Segment, mv: &mut Move, skip: &mut Option<Skip>) {
         for (ti, w) in block.words(seg) {
             if let Some(i) = self.axis_index(w.addr) {
@@ -325,6 +360,9 @@ impl Interpreter {
                         } else {
                             Some(v)
                         };
+                    }
+                    Err(Skip::Expression) if self.computed_rotary(block, &w, i).is_some() => {
+                        mv.end[i] = self.computed_rotary(block, &w, i);
                     }
                     Err(s) => {
                         mv.end[i] = None;

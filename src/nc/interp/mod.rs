@@ -710,7 +710,9 @@ impl Interpreter {
     /// X Y Z in a tilted working plane.
     pub fn coordinates_meaning(&self) -> &'static str {
         match self.frame().plane {
-            Some(_) => "X Y Z in a tilted working plane (3+2: the plane's rotary positions, tool length along the tool)",
+            Some(_) => {
+                "X Y Z in a tilted working plane (3+2: the plane's rotary positions, tool length along the tool)"
+            }
             None => self.frame().tcp.meaning(),
         }
     }
