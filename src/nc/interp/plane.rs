@@ -566,8 +566,13 @@ mod tests {
                 assert!(check(p) > 0.0 && check(q) < 0.0);
                 // Without a sign: the one nearest the positions before, and
                 // no choice when they are not known.
-                let near = rotary_for(&nominal, &n, (Some(-5.0), Some(0.0)), Choice::Nearest);
+                let near = rotary_for(&nominal, &n, (Some(-5.0), Some(170.0)), Choice::Nearest);
                 assert!(check(near.unwrap()) < 0.0);
+                // Equally near (A0 C90 between A+30 C0 and A-30 C180): no
+                // way to tell.
+                assert!(
+                    rotary_for(&nominal, &n, (Some(0.0), Some(90.0)), Choice::Nearest).is_err()
+                );
                 assert!(rotary_for(&nominal, &n, (None, None), Choice::Nearest).is_err());
             }
             (Ok(p), Err(_)) | (Err(_), Ok(p)) => {
