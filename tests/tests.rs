@@ -29,6 +29,7 @@ mod montecarlo;
 mod nc;
 mod plan;
 mod plan_programs;
+mod planes;
 mod post;
 mod preview;
 mod probe_fit;

@@ -28,6 +28,10 @@ pub(super) struct Point {
     pub program: [f64; 6],
     pub held: Option<f64>,
     pub held_tilt: Option<f64>,
+    /// 3+2 in a tilted plane: the rotary positions are the controller's
+    /// and stay; the angle left between the actual and the intended tool
+    /// axis, rad.
+    pub plane_axis: Option<f64>,
 }
 
 /// How a move is written.
@@ -120,6 +124,26 @@ impl Compensator {
             }
         }
         let target = self.target(f, &nominal, vector);
+        if f.plane.is_some() {
+            // 3+2: the rotary positions are the plane's, and only X, Y, Z
+            // in the plane are rewritten: the tip lands exactly, the tool
+            // axis stays as the erroneous machine tilts it.
+            let axes = Axes {
+                xyz: self
+                    .solver
+                    .position_at(&target.tip, nominal.tilt, nominal.c),
+                ..nominal
+            };
+            let sol = Solution {
+                axes,
+                held_c: None,
+                held_tilt: None,
+            };
+            let mut pt = self.point(f, nominal, target, &sol);
+            let got = self.solver.actual_pose(&axes).axis.normalize();
+            pt.plane_axis = Some(got.dot(&target.axis.normalize()).clamp(-1.0, 1.0).acos());
+            return Ok(pt);
+        }
         let why = |e| format!("no axis values reach the intended tool pose on this machine ({e})");
         let sol = match hold {
             Some(dc) => self.solver.solve_held(
@@ -168,6 +192,7 @@ impl Compensator {
             program: f.program(&written),
             held: sol.held_c,
             held_tilt: sol.held_tilt,
+            plane_axis: None,
         }
     }
 

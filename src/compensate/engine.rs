@@ -288,7 +288,7 @@ impl Compensator {
 /// Extends the last section of `sections` to the move at `line`, or
 /// starts one where the coordinates change meaning.
 fn section(sections: &mut Vec<CoordinateSection>, interp: &Interpreter, line: usize) {
-    let meaning = interp.frame().tcp.meaning();
+    let meaning = interp.coordinates_meaning();
     match sections.last_mut() {
         Some(s) if s.meaning == meaning => s.lines.1 = line,
         _ => sections.push(CoordinateSection {
@@ -328,6 +328,10 @@ fn record(summary: &mut Summary, pt: &Point, line: usize) {
         summary.held_c.push(line);
         summary.held_c_axis_error = summary.held_c_axis_error.max(h * 1e6);
     }
+    if let Some(h) = pt.plane_axis {
+        summary.tilted_plane.push(line);
+        summary.tilted_plane_axis_error = summary.tilted_plane_axis_error.max(h * 1e6);
+    }
     if let Some(h) = pt.held_tilt {
         summary.held_tilt.push(line);
         summary.held_tilt_axis_error = summary.held_tilt_axis_error.max(h * 1e6);
@@ -350,6 +354,7 @@ fn vertex(
         target: pt.target,
         tcp: f.tcp,
         held_c: pt.held.is_some(),
+        tilted_plane: pt.plane_axis.is_some(),
         inserted,
         nominal_program: f.program(&pt.nominal),
         program,

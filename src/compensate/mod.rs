@@ -122,6 +122,10 @@ pub struct Vertex {
     pub tcp: Tcp,
     /// C was held next to the singularity.
     pub held_c: bool,
+    /// 3+2 in a tilted working plane: the rotary positions are the
+    /// controller's, only the tip is corrected (the tool axis keeps the
+    /// machine's orientation error).
+    pub tilted_plane: bool,
     /// An end point inside a move that was subdivided or linearized (the
     /// move's own end point is the last of its pieces and is not inserted).
     pub inserted: bool,
@@ -241,6 +245,12 @@ pub struct Summary {
     pub held_tilt: Lines,
     /// Largest remaining tool-axis error there, urad.
     pub held_tilt_axis_error: f64,
+    /// Lines corrected in a tilted working plane (3+2: X, Y, Z in the
+    /// plane rewritten, the plane and its rotary positions as written).
+    pub tilted_plane: Lines,
+    /// Largest tool-axis error left there (a 3+2 section cannot correct
+    /// the orientation by coordinates), urad.
+    pub tilted_plane_axis_error: f64,
     /// Whether the closed-form fast path was used.
     pub fast_path: bool,
     /// Effects of the error file that a rewrite cannot cancel, with why.

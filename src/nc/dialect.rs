@@ -4,7 +4,7 @@
 //! into a copy of itself.
 //!
 //! Each sign is something the other two controllers reject (LinuxCNC's
-//! `rs274` refuses `G43.4`, `G68.2`, `G31`, `G65`, `POPEN`, `GOTO` and
+//! `rs274` refuses `G43.4`, `G31`, `G65`, `POPEN`, `GOTO` and
 //! `WHILE`; no ISO dialect has a line starting `BEGIN PGM` or `L X+.. R0
 //! FMAX`; FANUC has no o-words, `#<named>` parameters or `G38.2`). A
 //! program shows a dialect only by such a sign: plain G-code (`G0 X10.`)
@@ -65,9 +65,11 @@ const HEIDENHAIN_STARTS: [&str; 12] = [
     "PLANE ",
 ];
 
-/// FANUC words no other dialect takes (outside comments).
-const FANUC_WORDS: [&str; 11] = [
-    "G43.4", "G43.5", "G68.2", "G53.1", "G31", "G65", "POPEN", "PCLOS", "DPRNT", "BPRNT", "GOTO",
+/// FANUC words no other dialect takes (outside comments). `G68.2` and
+/// `G53.1` are not among them: LinuxCNC's five-axis configurations remap
+/// them (the tilted-work-plane remap).
+const FANUC_WORDS: [&str; 9] = [
+    "G43.4", "G43.5", "G31", "G65", "POPEN", "PCLOS", "DPRNT", "BPRNT", "GOTO",
 ];
 
 /// LinuxCNC comment commands.

@@ -211,7 +211,7 @@ impl Op {}
 
 /// Rotating Z-X'-Z'' Euler angles (deg) of a rotation: `R = Rz(i) Rx(j) Rz(k)`
 /// (FANUC `G68.2 I J K`).
-pub(crate) fn euler_zxz(r: &Matrix3<f64>) -> [f64; 3] {
+pub fn euler_zxz(r: &Matrix3<f64>) -> [f64; 3] {
     let j = r[(2, 2)].clamp(-1.0, 1.0).acos();
     let (i, k) = if j.sin().abs() > 1e-12 {
         (r[(0, 2)].atan2(-r[(1, 2)]), r[(2, 0)].atan2(r[(2, 1)]))

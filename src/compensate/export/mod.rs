@@ -19,7 +19,7 @@
 //!   listed for the machine builder.
 //! - LinuxCNC `xyzbc-trt-kins` / `xyzac-trt-kins` (tilting tables): the
 //!   C axis position and the tilt axis's offset from it.
-//! - SINUMERIK swivel data record (`$TC_CARR`, [`sinumerik`]): the fine
+//! - SINUMERIK swivel data record (`$TC_CARR`, `sinumerik.rs`): the fine
 //!   offsets of its vector chain, as a part program; the axis directions
 //!   listed.
 //!

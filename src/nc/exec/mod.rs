@@ -2,9 +2,9 @@
 //! executed as the controller would, so that moves written with variables
 //! get the values they have when they run.
 //!
-//! Each statement is decoded once into an [`Op`] (one file per dialect:
-//! [`iso`] for FANUC Macro B and LinuxCNC o-words, [`heidenhain`] for Q
-//! parameters, FN and labels, [`sinumerik`] for R parameters, `DEF`
+//! Each statement is decoded once into an `Op` (one file per dialect:
+//! `iso.rs` for FANUC Macro B and LinuxCNC o-words, `heidenhain.rs` for Q
+//! parameters, FN and labels, `sinumerik.rs` for R parameters, `DEF`
 //! variables and the structured statements); the loops and branches are
 //! linked to their ends, and [`run`] steps through them from the first
 //! statement. The result is a [`Trace`]: every statement executed, in

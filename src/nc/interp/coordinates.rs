@@ -5,6 +5,7 @@
 use nalgebra::Vector3;
 
 use super::Tcp;
+use super::plane::WorkPlane;
 use crate::kinematics::Axes;
 
 /// How program coordinates (X Y Z A B C, program units and degrees) map to
@@ -24,17 +25,24 @@ pub struct Frame {
     pub tcp: Tcp,
     /// Index of the tilt axis among X Y Z A B C.
     pub tilt: usize,
+    /// The tilted working plane X, Y, Z are written in (then `tcp` is
+    /// [`Tcp::Axes`]: the tip in W at the rotary positions in force).
+    pub plane: Option<WorkPlane>,
 }
 
 impl Frame {
     /// Program coordinates to model axes (or, under TCP, tip and rotary
     /// positions).
     pub fn model(&self, p: &[f64; 6]) -> Axes {
+        let mut q = Vector3::new(p[0], p[1], p[2]);
+        if let Some(w) = &self.plane {
+            q = w.to_workpiece(&q);
+        }
         Axes {
             xyz: Vector3::new(
-                (p[0] + self.shift[0]) * self.u + self.origin.x,
-                (p[1] + self.shift[1]) * self.u + self.origin.y,
-                (p[2] + self.shift[2]) * self.u + self.origin.z - self.tlc,
+                (q.x + self.shift[0]) * self.u + self.origin.x,
+                (q.y + self.shift[1]) * self.u + self.origin.y,
+                (q.z + self.shift[2]) * self.u + self.origin.z - self.tlc,
             ),
             tilt: p[self.tilt],
             c: p[5],
@@ -45,9 +53,17 @@ impl Frame {
     /// machine does not have).
     pub fn program(&self, a: &Axes) -> [f64; 6] {
         let mut p = [f64::NAN; 6];
-        p[0] = (a.xyz.x - self.origin.x) / self.u - self.shift[0];
-        p[1] = (a.xyz.y - self.origin.y) / self.u - self.shift[1];
-        p[2] = (a.xyz.z + self.tlc - self.origin.z) / self.u - self.shift[2];
+        let mut q = Vector3::new(
+            (a.xyz.x - self.origin.x) / self.u - self.shift[0],
+            (a.xyz.y - self.origin.y) / self.u - self.shift[1],
+            (a.xyz.z + self.tlc - self.origin.z) / self.u - self.shift[2],
+        );
+        if let Some(w) = &self.plane {
+            q = w.to_plane(&q);
+        }
+        p[0] = q.x;
+        p[1] = q.y;
+        p[2] = q.z;
         p[self.tilt] = a.tilt;
         p[5] = a.c;
         p

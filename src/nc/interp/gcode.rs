@@ -30,6 +30,10 @@ const LINUXCNC_G: &[u32] = &[
     940, 950, 960, 970, 980, 990,
 ];
 
+/// G codes LinuxCNC's five-axis configurations add by remapping (its
+/// tilted-work-plane remap: G68.2, G53.1, G69), value x 10.
+const LINUXCNC_REMAPPED_G: &[u32] = &[531, 682, 690];
+
 /// The G-code number of a literal G word value, times ten (`43.4` -> 434).
 pub fn g_code(v: f64) -> Option<u32> {
     let t = (v * 10.0).round();
@@ -39,7 +43,9 @@ pub fn g_code(v: f64) -> Option<u32> {
 /// Whether the dialect knows G code `g` (x 10).
 pub fn known_g(dialect: Dialect, g: u32) -> bool {
     match dialect {
-        Dialect::Linuxcnc => LINUXCNC_G.binary_search(&g).is_ok(),
+        Dialect::Linuxcnc => {
+            LINUXCNC_G.binary_search(&g).is_ok() || LINUXCNC_REMAPPED_G.contains(&g)
+        }
         _ => FANUC_G.binary_search(&g).is_ok(),
     }
 }
@@ -114,6 +120,7 @@ impl Interpreter {
                         | 650
                         | 660
                         | 531
+                        | 682
                         | 920 => g_nonmodal = Some(g),
                         670 => {}
                         170 => self.plane = Plane::Xy,
@@ -157,10 +164,19 @@ impl Interpreter {
                         }
                         541 => self.work_offset = 5410,
                         540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => self.work_offset = g,
-                        682..=684 => self.tilted = true,
+                        683 | 684 => {
+                            let at = block.tokens[ti].span.start as usize;
+                            self.plane_unmodelled(
+                                block.line,
+                                at,
+                                "G68.3/G68.4: a plane from the tool axis or incremental",
+                            );
+                        }
                         680 => self.transformed = Some("coordinate rotation (G68)"),
                         690 => {
-                            self.tilted = false;
+                            if self.tilted {
+                                self.set_plane(None);
+                            }
                             self.cancel("coordinate rotation (G68)");
                         }
                         510 => self.transformed = Some("scaling (G51)"),
@@ -224,8 +240,27 @@ impl Interpreter {
             self.units,
         );
         if frame_now != old_frame {
-            // The same numbers mean another place now.
+            // The same numbers mean another place now; rotary positions
+            // are machine positions and keep their meaning unless the work
+            // offset or TCP changes, and in a tilted plane tool length
+            // compensation moves the controlled point along the plane's Z
+            // only.
+            let kept = self.pos;
             self.forget();
+            let same = |i: usize| {
+                frame_now.0 == old_frame.0 && frame_now.2 == old_frame.2 && {
+                    i >= 3
+                        || (self.tilted
+                            && frame_now.3 == old_frame.3
+                            && frame_now.4 == old_frame.4
+                            && i < 2)
+                }
+            };
+            for (i, k) in kept.iter().enumerate() {
+                if same(i) {
+                    self.pos[i] = *k;
+                }
+            }
         }
         let calls = m_codes.iter().flatten().any(|&m| m == 98 || m == 99);
         if let Some(m) = motion_here {
@@ -302,12 +337,20 @@ impl Interpreter {
                 self.forget_named(block, seg);
                 Event::Quiet
             }
-            // G53.1 turns the rotary axes to the tilted plane.
+            // G53.1 turns the rotary axes to the tilted plane, the
+            // solution nearest where they are (the shortest path of the
+            // tilt, as LinuxCNC's remap does by default).
             531 => {
-                self.pos[3] = None;
-                self.pos[4] = None;
-                self.pos[5] = None;
-                Event::Quiet
+                let at = g_offset(block, seg, 531);
+                self.position_for_plane(block.line, at, super::plane::Choice::Nearest);
+                self.pos[0] = None;
+                self.pos[1] = None;
+                self.pos[2] = None;
+                Event::None
+            }
+            682 => {
+                self.g68_2(block, seg);
+                Event::None
             }
             650 | 660 => {
                 self.forget();
@@ -316,6 +359,13 @@ impl Interpreter {
                 } else {
                     Event::None
                 }
+            }
+            520 | 920 if self.tilted && has_axis => {
+                // A shift along the plane's axes or the workpiece's: which
+                // one the control takes is not modelled.
+                let at = g_offset(block, seg, g);
+                self.plane_unmodelled(block.line, at, "G52/G92 inside the tilted plane");
+                Event::None
             }
             520 => {
                 // G52: local coordinate system (absolute values; X0 cancels).
@@ -362,6 +412,80 @@ impl Interpreter {
             }
             _ => Event::None,
         }
+    }
+
+    /// G68.2: the feature coordinate system X Y Z (origin) I J K (Euler
+    /// angles). FANUC: rotating Z-X'-Z''. LinuxCNC's tilted-work-plane
+    /// remap: P0 (or none) proper Euler angles in the order of its Q word
+    /// (313, i.e. Z-X'-Z'', by default), P1 Tait-Bryan angles (Q 123 by
+    /// default), and R a turn about the plane's origin in the XY plane
+    /// before them; its P2 and P3 need several blocks and are not modelled.
+    fn g68_2(&mut self, block: &Block, seg: &Segment) {
+        let line = block.line;
+        let at = g_offset(block, seg, 682);
+        if self.tilted {
+            return self.plane_unmodelled(line, at, "G68.2 while a plane is active");
+        }
+        if !self.absolute {
+            return self.plane_unmodelled(line, at, "G68.2 under G91");
+        }
+        let linuxcnc = self.cfg.settings.dialect == Dialect::Linuxcnc;
+        let (mut xyz, mut ijk, mut r) = ([0.0; 3], [0.0; 3], 0.0);
+        let (mut p, mut q) = (0.0, None);
+        for (_, w) in block.words(seg) {
+            let l = w.addr.as_letter().unwrap_or(0);
+            if l == b'G' {
+                continue;
+            }
+            let Ok(v) = self.axis_value(&w) else {
+                return self.plane_unmodelled(
+                    line,
+                    at,
+                    "a parameter, an expression or a value without a decimal point in G68.2",
+                );
+            };
+            match l {
+                b'X' | b'Y' | b'Z' => xyz[(l - b'X') as usize] = v,
+                b'I' | b'J' | b'K' => ijk[(l - b'I') as usize] = v,
+                b'R' if linuxcnc => r = v,
+                b'P' if linuxcnc => p = v,
+                b'Q' if linuxcnc => q = Some(v),
+                _ => {
+                    return self.plane_unmodelled(
+                        line,
+                        at,
+                        "G68.2 with a word other than X Y Z I J K (another way to give the plane)",
+                    );
+                }
+            }
+        }
+        let order = match (p, q.map(|q| q.round() as i64)) {
+            (0.0, None) => *b"ZXZ",
+            (1.0, None) => *b"XYZ",
+            (p, Some(q)) if p == 0.0 || p == 1.0 => {
+                let proper = [121, 131, 212, 232, 313, 323];
+                let tait = [123, 132, 213, 231, 312, 321];
+                let list = if p == 0.0 { proper } else { tait };
+                if !list.contains(&q) {
+                    return self.plane_unmodelled(line, at, "G68.2 with an unknown Q order");
+                }
+                let d = |n: i64| b"XYZ"[(n - 1) as usize];
+                [d(q / 100), d(q / 10 % 10), d(q % 10)]
+            }
+            _ => {
+                return self.plane_unmodelled(
+                    line,
+                    at,
+                    "G68.2 P2/P3: a plane from points or vectors over several blocks",
+                );
+            }
+        };
+        let rot = super::plane::about(b'Z', r) * super::plane::intrinsic(&order, ijk);
+        let plane = super::plane::WorkPlane {
+            rot,
+            origin: nalgebra::Vector3::new(xyz[0], xyz[1], xyz[2]),
+        };
+        self.set_plane(Some(super::Tilt::Plane(plane)));
     }
 
     /// G10: work offset data (L2, L20) makes the offset it changes
@@ -568,4 +692,19 @@ impl Interpreter {
         }
         Event::Move(mv)
     }
+}
+
+/// Byte offset of the block's G word with this code (x 10), or of the
+/// statement.
+fn g_offset(block: &Block, seg: &Segment, g: u32) -> usize {
+    block
+        .words(seg)
+        .find(|(_, w)| {
+            w.addr.as_letter() == Some(b'G')
+                && matches!(w.value, Value::Num(v) if g_code(v) == Some(g))
+        })
+        .map_or(
+            block.tokens[seg.body as usize].span.start as usize,
+            |(ti, _)| block.tokens[ti].span.start as usize,
+        )
 }

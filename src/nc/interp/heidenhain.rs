@@ -115,14 +115,8 @@ impl Interpreter {
                 self.hh_cycle(block, seg, number, sub);
                 Event::None
             }
-            HhKind::Plane => {
-                self.tilted = true;
-                self.forget();
-                Event::None
-            }
-            HhKind::PlaneReset => {
-                self.tilted = false;
-                self.forget();
+            HhKind::Plane | HhKind::PlaneReset => {
+                self.hh_plane(block, seg);
                 Event::None
             }
             HhKind::FunctionTcpm => {
@@ -171,6 +165,11 @@ impl Interpreter {
             .iter()
             .any(|t| t.kind == TokenKind::Text && block.bytes(t.span).starts_with(b"#"));
         match (number, sub) {
+            (7, s) if s >= 1 && self.tilted => {
+                // A shift along the tilted axes.
+                let at = block.tokens[seg.body as usize].span.start as usize;
+                self.plane_unmodelled(block.line, at, "a datum shift inside the tilted plane");
+            }
             (7, s) if s >= 1 => {
                 if hash {
                     self.shift_known = false;
@@ -199,14 +198,44 @@ impl Interpreter {
                         }
                     }
                 }
-                self.forget();
+                // The linear positions move with the datum; a rotary axis
+                // keeps its position unless the shift names it.
+                self.pos[..3].fill(None);
+                self.pole = None;
+                for w in &words {
+                    if let Some(i) = self.axis_index(w.addr).filter(|&i| i >= 3) {
+                        self.pos[i] = None;
+                    }
+                }
             }
             (19, s) if s >= 1 => {
-                let any = words.iter().any(|w| {
-                    matches!(w.value, Value::Num(v) if v != 0.0) || w.value == Value::Expr
-                });
-                self.tilted = any;
-                self.forget();
+                // Spatial angles A, then B, then C about the fixed axes
+                // (the common setting of the machine parameter; a machine
+                // set to axis angles needs PLANE AXIAL's model). The cycle
+                // does not turn the rotary axes: a later block does.
+                let at = block.tokens[seg.body as usize].span.start as usize;
+                let mut abc = [0.0; 3];
+                for w in &words {
+                    match (w.addr.as_letter(), w.value) {
+                        (Some(l @ (b'A' | b'B' | b'C')), Value::Num(v)) => {
+                            abc[(l - b'A') as usize] = v
+                        }
+                        (Some(b'A' | b'B' | b'C'), _) => {
+                            return self.plane_unmodelled(
+                                block.line,
+                                at,
+                                "a parameter in CYCL DEF 19",
+                            );
+                        }
+                        _ => {}
+                    }
+                }
+                if abc == [0.0; 3] {
+                    self.set_plane(None);
+                } else {
+                    let rot = super::plane::spatial(abc[0], abc[1], abc[2]);
+                    self.set_plane(Some(super::Tilt::Plane(super::WorkPlane::new(rot))));
+                }
             }
             (10, s) if s >= 1 => {
                 let rot = words.iter().any(|w| {
@@ -234,6 +263,88 @@ impl Interpreter {
         }
     }
 
+    /// PLANE ...: the plane, and the rotary positions TURN / MOVE give
+    /// (SEQ+ / SEQ- picks the sign of the tilt, else the shortest way
+    /// from where the axes are); STAY leaves them where they are.
+    fn hh_plane(&mut self, block: &Block, seg: &Segment) {
+        let code = String::from_utf8_lossy(&super::code_of(self.cfg.settings.dialect, &block.text))
+            .into_owned();
+        let at = block.tokens[seg.body as usize].span.start as usize;
+        let k = super::plane::klartext(&code);
+        let line = block.line;
+        match k.plane {
+            None => {
+                self.set_plane(None);
+                if k.turn {
+                    // PLANE RESET TURN: the axes go back to their home
+                    // positions.
+                    self.pos[3..].fill(None);
+                }
+            }
+            Some(Err(why)) => self.plane_unmodelled(line, at, why),
+            Some(Ok(def)) => {
+                let rot = match (def, self.working_plane) {
+                    (super::plane::Definition::Absolute(r), _) => r,
+                    (super::plane::Definition::Relative(r), Some(super::Tilt::Plane(w))) => {
+                        w.rot * r
+                    }
+                    (super::plane::Definition::Relative(r), None) => r,
+                    (
+                        super::plane::Definition::Relative(_),
+                        Some(super::Tilt::Unmodelled { .. }),
+                    ) => {
+                        return self.plane_unmodelled(
+                            line,
+                            at,
+                            "PLANE RELATIV on a plane fivecal does not model",
+                        );
+                    }
+                };
+                self.set_plane(Some(super::Tilt::Plane(super::WorkPlane::new(rot))));
+                if k.sym {
+                    self.note(
+                        at,
+                        "SYM+/SYM-: a choice of rotary solution fivecal does not model (the moves in the plane are left as written)",
+                    );
+                    self.pos[3..].fill(None);
+                } else if k.turn {
+                    let choice = match k.seq {
+                        Some(sign) => super::plane::Choice::Sign { sign, strict: true },
+                        None => super::plane::Choice::Nearest,
+                    };
+                    self.position_for_plane(line, at, choice);
+                }
+            }
+        }
+    }
+
+    /// `A+Q120`, `B+Q121`, `C+Q122` in a tilted plane: the rotary
+    /// positions the control computed for it (the solution nearest the
+    /// positions before, as without SEQ), when they can be known.
+    fn computed_rotary(&self, block: &Block, w: &Word, i: usize) -> Option<f64> {
+        let text = block.bytes(w.value_span).to_ascii_uppercase();
+        let text = text.strip_prefix(b"+").unwrap_or(&text);
+        if w.incremental || text != format!("Q{}", 117 + i).as_bytes() {
+            return None;
+        }
+        let Some(super::Tilt::Plane(plane)) = self.working_plane else {
+            return None;
+        };
+        let t = self.cfg.tilt;
+        let (tilt, c) = super::plane::rotary_for(
+            &self.cfg.nominal,
+            &plane.normal(),
+            (self.pos[t], self.pos[5]),
+            super::plane::Choice::Nearest,
+        )
+        .ok()?;
+        match i {
+            5 => Some(c),
+            _ if i == t => Some(tilt),
+            _ => None,
+        }
+    }
+
     fn hh_targets(&mut self, block: &Block, seg: &Segment, mv: &mut Move, skip: &mut Option<Skip>) {
         for (ti, w) in block.words(seg) {
             if let Some(i) = self.axis_index(w.addr) {
@@ -249,6 +360,9 @@ impl Interpreter {
                         } else {
                             Some(v)
                         };
+                    }
+                    Err(Skip::Expression) if self.computed_rotary(block, &w, i).is_some() => {
+                        mv.end[i] = self.computed_rotary(block, &w, i);
                     }
                     Err(s) => {
                         mv.end[i] = None;

@@ -35,6 +35,7 @@ pub mod coordinates;
 pub mod gcode;
 mod heidenhain;
 pub mod interpolation;
+pub mod plane;
 mod sinumerik;
 
 use std::sync::Arc as Shared;
@@ -42,6 +43,7 @@ use std::sync::Arc as Shared;
 use nalgebra::Vector3;
 
 pub use coordinates::Frame;
+pub use plane::{PlaneSkip, Tilt, WorkPlane};
 
 use super::{Addr, Block, Segment, Stmt, TokenKind, Value, Word};
 use crate::kinematics::fast::FastChain;
@@ -191,8 +193,9 @@ pub enum Skip {
     PositionUnknown(u8),
     /// A transformation that is not modelled is active.
     Transformed(&'static str),
-    /// A tilted working plane is active.
-    TiltedPlane,
+    /// A tilted working plane is active and the move cannot be corrected
+    /// in it.
+    TiltedPlane(PlaneSkip),
     /// Tool centre point control with spatial angles.
     TcpSpatial,
     /// A macro call with axis arguments (G65/G66).
@@ -236,10 +239,7 @@ impl std::fmt::Display for Skip {
                 *a as char
             ),
             Skip::Transformed(what) => write!(f, "{what} is active"),
-            Skip::TiltedPlane => write!(
-                f,
-                "a tilted working plane is active (G68.2 / PLANE / CYCL DEF 19 / CYCLE800): the controller chooses the rotary positions"
-            ),
+            Skip::TiltedPlane(why) => write!(f, "{why}"),
             Skip::TcpSpatial => write!(f, "TCPM with spatial angles (AXIS SPAT) is not modelled"),
             Skip::MacroCall => write!(f, "macro call arguments (G65/G66)"),
             Skip::CannedCycle => write!(f, "canned cycle, spline or thread positions"),
@@ -393,6 +393,9 @@ struct Config {
     tool_length: f64,
     /// The nominal kinematics, as the controller has it.
     nominal: FastChain,
+    /// The machine's kinematics (the frame of a plane given by rotary
+    /// positions).
+    kin: Kinematics,
     /// The machine's own M functions.
     m_codes: crate::machine::MCodes,
 }
@@ -424,6 +427,10 @@ pub struct Interpreter {
     pub tcp: Tcp,
     /// Tilted working plane on.
     pub tilted: bool,
+    /// The tilted working plane in force (`Some` exactly when `tilted`).
+    pub working_plane: Option<Tilt>,
+    /// What defined the tilted plane in force.
+    pub plane_cause: Option<TcpCause>,
     /// A transformation fivecal does not model, by name.
     pub transformed: Option<&'static str>,
     /// G92 / CYCL DEF 7 datum shift per linear axis, program units.
@@ -469,6 +476,7 @@ impl Interpreter {
             tilt: if m.tilt.letter == 'A' { 3 } else { 4 },
             tool_length: kin.gauge_length(),
             nominal: FastChain::nominal(kin),
+            kin: kin.clone(),
             m_codes: m.m_codes.clone(),
         };
         Interpreter {
@@ -489,6 +497,8 @@ impl Interpreter {
             tool_length: dialect == Dialect::Heidenhain,
             tcp: Tcp::Off,
             tilted: false,
+            working_plane: None,
+            plane_cause: None,
             transformed: None,
             shift: [0.0; 3],
             local_shift: [0.0; 3],
@@ -540,6 +550,7 @@ impl Interpreter {
             return Event::Skip(Skip::Unreadable);
         }
         let tcp_before = self.tcp;
+        let plane_before = self.working_plane;
         self.tcp_remapped = false;
         let ev = match self.cfg.settings.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
@@ -553,7 +564,21 @@ impl Interpreter {
                 machine_file: self.tcp_remapped,
             });
         }
+        if self.working_plane != plane_before {
+            self.plane_cause = self.working_plane.map(|_| TcpCause {
+                line: block.line,
+                code: statement_text(block, seg),
+                machine_file: false,
+            });
+        }
         self.check_offset();
+        let ev = match ev {
+            Event::Move(mv) if self.tilted => match self.plane_skip(&mv) {
+                Some(why) => Event::Skip(Skip::TiltedPlane(why)),
+                None => Event::Move(mv),
+            },
+            ev => ev,
+        };
         match ev {
             Event::Move(mv)
                 if self.tcp == Tcp::Vector
@@ -573,6 +598,14 @@ impl Interpreter {
             Coordinates::Tcp if self.tcp == Tcp::Off => Tcp::Axes,
             Coordinates::Tcp => self.tcp,
         };
+        // In a tilted plane the controller turns the plane's coordinates
+        // into axis values with its kinematics at the rotary positions in
+        // force, as under TCP (tool length along the tool).
+        let plane = match self.working_plane {
+            Some(Tilt::Plane(w)) if self.tcp == Tcp::Off => Some(w),
+            _ => None,
+        };
+        let tcp = if plane.is_some() { Tcp::Axes } else { tcp };
         Frame {
             u: self.units.mm(),
             shift: self.total_shift(),
@@ -584,12 +617,112 @@ impl Interpreter {
             },
             tcp,
             tilt: self.cfg.tilt,
+            plane,
+        }
+    }
+
+    /// Sets the tilted working plane in force (`None`: none). The linear
+    /// positions are in another frame afterwards; the rotary positions
+    /// are machine positions and stay.
+    pub(super) fn set_plane(&mut self, t: Option<Tilt>) {
+        self.tilted = t.is_some();
+        self.working_plane = t;
+        self.pos[0] = None;
+        self.pos[1] = None;
+        self.pos[2] = None;
+        self.pole = None;
+    }
+
+    /// A plane definition at `line` that is not modelled: noted at its
+    /// offset, and the moves in it are left as written.
+    pub(super) fn plane_unmodelled(&mut self, line: usize, offset: usize, why: &'static str) {
+        self.note(
+            offset,
+            format!("a tilted working plane fivecal does not model ({why}): the moves in it are left as written"),
+        );
+        self.set_plane(Some(Tilt::Unmodelled { line, why }));
+    }
+
+    /// Turns the rotary axes to the plane in force as the controller
+    /// does (`choice`), or leaves their positions unknown with the reason
+    /// noted at `offset`.
+    pub(super) fn position_for_plane(&mut self, line: usize, offset: usize, choice: plane::Choice) {
+        let t = self.cfg.tilt;
+        match self.working_plane {
+            Some(Tilt::Plane(w)) => {
+                let before = (self.pos[t], self.pos[5]);
+                match plane::rotary_for(&self.cfg.nominal, &w.normal(), before, choice) {
+                    Ok((tilt, c)) => {
+                        self.pos[t] = Some(tilt);
+                        self.pos[5] = Some(c);
+                    }
+                    Err(why) => {
+                        self.pos[t] = None;
+                        self.pos[5] = None;
+                        self.note(
+                            offset,
+                            format!("the rotary positions for the tilted plane of line {line} are not known ({why}): the moves in it are left as written"),
+                        );
+                    }
+                }
+            }
+            _ => {
+                self.pos[t] = None;
+                self.pos[5] = None;
+            }
+        }
+    }
+
+    /// Why a move in the tilted plane in force cannot be corrected, if so.
+    fn plane_skip(&self, mv: &Move) -> Option<PlaneSkip> {
+        let w = match self.working_plane? {
+            Tilt::Unmodelled { line, why } => return Some(PlaneSkip::Unmodelled(line, why)),
+            Tilt::Plane(w) => w,
+        };
+        if self.tcp != Tcp::Off {
+            return Some(PlaneSkip::Tcp);
+        }
+        if !self.tool_length {
+            return Some(PlaneSkip::NoToolLength);
+        }
+        if mv.words[3..].iter().any(Option::is_some) {
+            return Some(PlaneSkip::RotaryMove);
+        }
+        let t = self.cfg.tilt;
+        let (Some(tilt), Some(c)) = (mv.end[t], mv.end[5]) else {
+            return Some(PlaneSkip::RotaryUnknown);
+        };
+        let axis = self
+            .cfg
+            .nominal
+            .forward(&crate::kinematics::Axes::new(0.0, 0.0, 0.0, tilt, c))
+            .axis;
+        // Rotary positions written with a few decimals put the tool along
+        // the plane's Z within about 1e-6 rad; another orientation is a
+        // program this model does not describe.
+        if (axis.normalize() - w.normal()).norm() > 1e-4 {
+            return Some(PlaneSkip::NotAlong);
+        }
+        None
+    }
+
+    /// What the program's coordinates are here: as the TCP mode says, or
+    /// X Y Z in a tilted working plane.
+    pub fn coordinates_meaning(&self) -> &'static str {
+        match self.frame().plane {
+            Some(_) => {
+                "X Y Z in a tilted working plane (3+2: the plane's rotary positions, tool length along the tool)"
+            }
+            None => self.frame().tcp.meaning(),
         }
     }
 
     /// Why the program's coordinates mean what [`Interpreter::frame`] says
     /// here: the flag that forces it, or the code that switched it.
     pub fn coordinates_why(&self) -> String {
+        if let (Some(_), Some(c)) = (self.frame().plane, &self.plane_cause) {
+            return format!("`{}` at line {}", c.code, c.line);
+        }
         match (self.cfg.settings.coordinates, &self.tcp_cause) {
             (Coordinates::Axes, _) => "--coordinates axes".into(),
             (Coordinates::Tcp, _) if self.tcp == Tcp::Off => "--coordinates tcp".into(),
@@ -782,9 +915,6 @@ impl Interpreter {
         }
         if let Some(t) = self.transformed {
             return Some(Skip::Transformed(t));
-        }
-        if self.tilted {
-            return Some(Skip::TiltedPlane);
         }
         if self.tcp == Tcp::Spatial {
             return Some(Skip::TcpSpatial);

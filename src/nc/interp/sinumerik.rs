@@ -186,10 +186,8 @@ impl Interpreter {
                 }
                 "TRAFOOF" => self.tcp = Tcp::Off,
                 "CYCLE800" => {
-                    let empty =
-                        args.is_none_or(|a| a.iter().all(|c| matches!(c, b'(' | b')' | b' ')));
-                    self.tilted = !empty;
-                    self.forget();
+                    let text = args.map(|a| String::from_utf8_lossy(a).into_owned());
+                    self.cycle800(block.line, offset, text.as_deref().unwrap_or(""));
                 }
                 "SUPA" => machine = true,
                 "CIP" | "CT" | "POLY" | "ASPLINE" | "BSPLINE" | "CSPLINE" => {
@@ -336,7 +334,7 @@ impl Interpreter {
             // changed (their positions are machine positions either way).
             let rotary = [self.pos[3], self.pos[4], self.pos[5]];
             self.forget();
-            if (now.0, now.3, now.4) == (old.0, old.3, old.4) {
+            if (now.0, now.4) == (old.0, old.4) {
                 self.pos[3..].copy_from_slice(&rotary);
             }
         }
@@ -409,6 +407,67 @@ impl Interpreter {
         }
     }
 
+    /// CYCLE800: the swivel plane, and the rotary positions the cycle
+    /// turns to (its `_DIR` names the preferred sign of the tilt; the
+    /// other solution when that one is out of the stroke; 0 leaves the
+    /// axes where they are).
+    fn cycle800(&mut self, line: usize, at: usize, args: &str) {
+        use super::plane::Swivel;
+        let (rot, abc, before, after, dir) = match super::plane::cycle800(args) {
+            Ok(Swivel::Reset) => {
+                if self.tilted {
+                    self.set_plane(None);
+                }
+                return;
+            }
+            Ok(Swivel::Plane {
+                rot,
+                abc,
+                before,
+                after,
+                dir,
+            }) => (rot, abc, before, after, dir),
+            Err(why) => return self.plane_unmodelled(line, at, why),
+        };
+        if self.local_shift != [0.0; 3] || self.shift != [0.0; 3] {
+            // fivecal follows TRANS as a shift added after the plane.
+            return self.plane_unmodelled(line, at, "CYCLE800 on a programmable frame (TRANS)");
+        }
+        let t = self.cfg.tilt;
+        let direct = rot.is_none();
+        let rot = rot.unwrap_or_else(|| {
+            let tilt = abc[t - 3];
+            crate::procedure::machining::design::pose_frame(&self.cfg.kin, tilt, abc[2])
+        });
+        if direct
+            && abc
+                .iter()
+                .enumerate()
+                .any(|(i, v)| *v != 0.0 && i + 3 != t && i != 2)
+        {
+            return self.plane_unmodelled(
+                line,
+                at,
+                "CYCLE800 direct mode with an axis this machine does not have",
+            );
+        }
+        let plane = super::WorkPlane {
+            rot,
+            origin: before + rot * after,
+        };
+        self.set_plane(Some(super::Tilt::Plane(plane)));
+        if direct && dir != 0.0 {
+            self.pos[t] = Some(abc[t - 3]);
+            self.pos[5] = Some(abc[2]);
+        } else if dir != 0.0 {
+            let choice = super::plane::Choice::Sign {
+                sign: dir.signum(),
+                strict: false,
+            };
+            self.position_for_plane(line, at, choice);
+        }
+    }
+
     /// `TRANS`/`ATRANS` shift the zero point by the block's axis values
     /// (followed); the other frame statements turn, scale or mirror it
     /// (not modelled) or, written alone, cancel their part.
@@ -436,6 +495,14 @@ impl Interpreter {
         }
         let absolute = !name.starts_with('A');
         let old = self.local_shift;
+        if self.tilted && any {
+            let at = block.tokens[seg.body as usize].span.start as usize;
+            return self.plane_unmodelled(
+                block.line,
+                at,
+                "a programmable frame inside the swivel plane",
+            );
+        }
         match name {
             "TRANS" | "ATRANS" => {
                 if absolute {

@@ -75,7 +75,7 @@ fn tcp_and_tilted_plane_and_machine_coordinates() {
     assert_eq!(m.tcp, Tcp::Axes);
     assert!(matches!(ev[1], Event::Move(_)));
     assert_eq!(ev[2], Event::Quiet);
-    assert_eq!(ev[5], Event::Skip(Skip::TiltedPlane));
+    assert_eq!(ev[5], Event::Skip(Skip::TiltedPlane(PlaneSkip::Tcp)));
     assert!(!m.tilted);
 }
 
@@ -180,7 +180,7 @@ fn heidenhain_blocks() {
     assert_eq!(mv(&ev[5]).end[0], Some(11.0));
     assert_eq!(m.tcp, Tcp::Axes);
     assert_eq!(m.shift[0], 100.0);
-    assert_eq!(ev[10], Event::Skip(Skip::TiltedPlane));
+    assert_eq!(ev[10], Event::Skip(Skip::TiltedPlane(PlaneSkip::Tcp)));
     assert!(!m.tilted);
 }
 

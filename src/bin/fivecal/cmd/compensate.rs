@@ -694,6 +694,15 @@ fn describe(
             s.held_tilt_axis_error
         );
     }
+    if !s.tilted_plane.is_empty() {
+        let _ = writeln!(
+            t,
+            "  3+2 in a tilted working plane: {} moves corrected in the plane (lines {}): tip exact; the tool axis keeps up to {:.1} urad of the machine's orientation error (not correctable by coordinates; the plane and its rotary positions are as written)",
+            s.tilted_plane.len(),
+            s.tilted_plane.list(),
+            s.tilted_plane_axis_error
+        );
+    }
     match s.coordinates.as_slice() {
         [] => {}
         [one] => {

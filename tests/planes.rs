@@ -1,0 +1,303 @@
+//! 3+2 programs: moves in a tilted working plane (FANUC and LinuxCNC
+//! G68.2 + G53.1, HEIDENHAIN PLANE and CYCL DEF 19, SINUMERIK CYCLE800)
+//! are corrected in the plane so that the tool tip, on the machine with
+//! the errors, lands where the program meant it; the plane definitions and
+//! their rotary positions stay as written and the orientation error that
+//! coordinates cannot correct is reported.
+
+use std::path::Path;
+
+use fivecal::Dialect;
+use fivecal::compensate::simulate::{SimSettings, Simulator};
+use fivecal::compensate::{Compensator, Coordinates, Settings};
+use fivecal::model::Model;
+use nalgebra::Vector3;
+
+use crate::compensate::{assert_reaches, check_held, compensate, errors};
+
+/// The fixture's text.
+fn read(rel: &str) -> String {
+    std::fs::read_to_string(crate::nc::fixture(rel)).unwrap()
+}
+
+/// End points of `program` on the nominal machine (no errors): line, tip, axis.
+fn nominal_ends(
+    machine: &str,
+    d: Dialect,
+    program: &str,
+) -> Vec<(usize, Vector3<f64>, Vector3<f64>)> {
+    let l = errors(machine, 0, 0.0, "");
+    let model = Model::new(l.model.kin.clone(), vec![]);
+    let sim = Simulator::new(&model, &[], SimSettings::new(d));
+    let mut out = Vec::new();
+    sim.run(Path::new("p"), program.as_bytes(), &mut |s| {
+        if s.fraction == 1.0 {
+            out.push((s.line, s.nominal.tip, s.nominal.axis));
+        }
+    })
+    .unwrap();
+    out
+}
+
+/// Lines whose text differs between two programs (1-based).
+fn changed_lines(a: &str, b: &str) -> Vec<usize> {
+    a.lines()
+        .zip(b.lines())
+        .enumerate()
+        .filter(|(_, (x, y))| x != y)
+        .map(|(i, _)| i + 1)
+        .collect()
+}
+
+#[test]
+fn a_3_plus_2_program_in_each_dialect_lands_on_the_intended_points() {
+    // fixture, dialect, machine, the lines corrected in the plane.
+    let cases: [(&str, Dialect, &str, &[usize]); 5] = [
+        (
+            "fanuc/tilted_plane.nc",
+            Dialect::Fanuc,
+            "bc-trunnion",
+            &[15, 16, 17, 18, 19, 20, 21, 22, 23],
+        ),
+        (
+            "heidenhain/plane_spatial.h",
+            Dialect::Heidenhain,
+            "ac-trunnion",
+            &[8, 9, 10, 11, 13, 14, 15, 16],
+        ),
+        (
+            "heidenhain/cycle19.h",
+            Dialect::Heidenhain,
+            "ac-trunnion",
+            &[13, 14, 15, 16, 17, 18, 19, 20],
+        ),
+        (
+            "linuxcnc/tilted_plane.ngc",
+            Dialect::Linuxcnc,
+            "head-table",
+            &[10, 11, 12, 13, 14, 15, 16, 17],
+        ),
+        (
+            "sinumerik/cycle800.mpf",
+            Dialect::Sinumerik,
+            "bc-trunnion",
+            &[9, 10, 11, 12, 13, 14, 15, 16, 17],
+        ),
+    ];
+    for (seed, (rel, d, m, lines)) in cases.into_iter().enumerate() {
+        let program = read(rel);
+        let zero = errors(m, 0, 0.0, "");
+        let (out, s0, _) = compensate(&zero, Settings::new(d), &program);
+        assert_eq!(out, program, "{rel}: zero error must give the same bytes");
+        assert_eq!(s0.tilted_plane.first, lines, "{rel}: {:?}", s0.skipped);
+        let l = errors(m, 70 + seed as u64, 30.0, "");
+        let (out, s, vs) = compensate(&l, Settings::new(d), &program);
+        assert_eq!(s.tilted_plane.first, lines, "{rel}: {:?}", s.skipped);
+        // Every move in the plane is rewritten (the errors move the tip
+        // by tens of um), and nothing else: the plane, its rotary
+        // positions and the moves outside it stay as written.
+        if s.inserted == 0 {
+            assert_eq!(changed_lines(&out, &program), lines, "{rel}:\n{out}");
+        } else {
+            // A HEIDENHAIN circle gets a new pole block before it, and the
+            // blocks after it are renumbered.
+            assert!(s.changed >= lines.len(), "{rel}:\n{out}");
+        }
+        for def in program.lines().filter(|t| {
+            [
+                "G68.2", "G53.1", "G69", "PLANE", "CYCL DEF", "CYCLE800", "B0. C0.",
+            ]
+            .iter()
+            .any(|k| t.contains(k))
+        }) {
+            assert!(
+                out.lines()
+                    .any(|o| o.ends_with(def.trim_start_matches(|c: char| c.is_ascii_digit()))),
+                "{rel}: {def}\n{out}"
+            );
+        }
+        // The orientation cannot be corrected by coordinates: what is left
+        // is reported, never claimed corrected.
+        assert!(
+            s.tilted_plane_axis_error > 1.0 && s.tilted_plane_axis_error < 500.0,
+            "{rel}: {} urad",
+            s.tilted_plane_axis_error
+        );
+        let in_plane: Vec<_> = vs.iter().filter(|v| v.tilted_plane).collect();
+        assert!(in_plane.len() >= lines.len(), "{rel}");
+        for v in &vs {
+            assert_reaches(&l, v, rel);
+        }
+        // Independently: the original on the nominal machine and the
+        // rewrite on the erroneous one, through fivecal's simulator.
+        check_held(&l, d, Coordinates::Auto, &program, &out, 0.001, lines, rel);
+    }
+}
+
+#[test]
+fn the_plane_frame_is_the_hand_computed_one() {
+    // G68.2 X10 I0 J30 K0: the plane's origin at X10, turned 30 deg about
+    // X. Its point (0, 10, 0) lies at (10, 10 cos 30, 10 sin 30) in the
+    // workpiece, the tool along (0, -sin 30, cos 30).
+    let fanuc = "G90 G21 G17\nG0 B30. C-90.\nG68.2 X10. Y0. Z0. I0. J30. K0.\nG53.1\nG43 H1\nG0 X0. Y10. Z0.\nG69\n";
+    let ends = nominal_ends("bc-trunnion", Dialect::Fanuc, fanuc);
+    let (line, tip, axis) = ends.last().copied().unwrap();
+    assert_eq!(line, 6);
+    let (s, c) = 30f64.to_radians().sin_cos();
+    assert!(
+        (tip - Vector3::new(10.0, 10.0 * c, 10.0 * s)).norm() < 1e-9,
+        "{tip}"
+    );
+    assert!((axis - Vector3::new(0.0, -s, c)).norm() < 1e-9, "{axis}");
+    // LinuxCNC's R turns the plane about the workpiece Z first: R90 puts
+    // the plane's X along the workpiece Y, so X10 lies at (0, 10, 0).
+    let linuxcnc =
+        "G21 G90\nG0 B-30 C180\nG68.2 R90 I0 J30 K0\nG53.1\nG43\nG0 X10 Y0 Z0\nG69\nM2\n";
+    let ends = nominal_ends("head-table", Dialect::Linuxcnc, linuxcnc);
+    let (_, tip, _) = ends.last().copied().unwrap();
+    assert!((tip - Vector3::new(0.0, 10.0, 0.0)).norm() < 1e-9, "{tip}");
+}
+
+#[test]
+fn one_plane_defined_four_ways_gives_the_same_compensated_program() {
+    // SPA+0 SPB+30 SPC+90 as spatial angles, as Euler angles, as its X
+    // and Z axes and as three points: the same frame, so the same moves.
+    let r = fivecal::nc::interp::plane::spatial(0.0, 30.0, 90.0);
+    let [pr, nu, rot] = fivecal::post::euler_zxz(&r);
+    let (x, z) = (r.column(0), r.column(2));
+    let y = r.column(1);
+    let forms = [
+        "PLANE SPATIAL SPA+0 SPB+30 SPC+90 TURN MB MAX FMAX SEQ-".to_string(),
+        format!("PLANE EULER EULPR{pr:+.9} EULNU{nu:+.9} EULROT{rot:+.9} TURN MB MAX FMAX SEQ-"),
+        format!(
+            "PLANE VECTOR BX{:+.9} BY{:+.9} BZ{:+.9} NX{:+.9} NY{:+.9} NZ{:+.9} TURN MB MAX FMAX SEQ-",
+            x[0], x[1], x[2], z[0], z[1], z[2]
+        ),
+        format!(
+            "PLANE POINTS P1X+0 P1Y+0 P1Z+0 P2X{:+.9} P2Y{:+.9} P2Z{:+.9} P3X{:+.9} P3Y{:+.9} P3Z{:+.9} TURN MB MAX FMAX SEQ-",
+            20.0 * x[0],
+            20.0 * x[1],
+            20.0 * x[2],
+            5.0 * y[0],
+            5.0 * y[1],
+            5.0 * y[2]
+        ),
+    ];
+    let l = errors("ac-trunnion", 81, 30.0, "");
+    let mut outs = Vec::new();
+    for form in &forms {
+        let program = format!(
+            "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z S5000\n2 {form}\n3 L X-10 Y-10 Z+20 R0 FMAX\n4 L Z-1 F300\n5 L X+25 F800\n6 L Y+15\n7 PLANE RESET STAY\n8 END PGM P MM\n"
+        );
+        let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), &program);
+        assert_eq!(
+            s.tilted_plane.first,
+            [4, 5, 6, 7],
+            "{form}: {:?}",
+            s.skipped
+        );
+        let moves: Vec<String> = out.lines().skip(3).map(String::from).collect();
+        outs.push((
+            moves,
+            nominal_ends("ac-trunnion", Dialect::Heidenhain, &program),
+        ));
+    }
+    for (k, (moves, ends)) in outs.iter().enumerate().skip(1) {
+        assert_eq!(moves, &outs[0].0, "{}", forms[k]);
+        for (a, b) in ends.iter().zip(&outs[0].1) {
+            // The angles and vectors are written with 9 decimals.
+            assert!(
+                (a.1 - b.1).norm() < 1e-7 && (a.2 - b.2).norm() < 1e-8,
+                "{}: {} {} {} {}",
+                forms[k],
+                a.1,
+                b.1,
+                a.2,
+                b.2
+            );
+        }
+    }
+}
+
+#[test]
+fn a_plane_fivecal_does_not_model_is_reported_at_its_own_line() {
+    let l = errors("ac-trunnion", 82, 30.0, "");
+    let program = "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z S5000\n2 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n3 PLANE PROJECTED PROPR+20 PROMIN+0 ROT+0 TURN FMAX\n4 L X-10 Y-10 Z+20 R0 FMAX\n5 L Z-1 F300\n6 PLANE RESET TURN FMAX\n7 END PGM P MM\n";
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    assert_eq!(changed_lines(&out, program), [3], "{out}");
+    let (what, lines) = &s.unmodelled[0];
+    assert!(
+        what.contains("PLANE PROJECTED") && lines.first == [4],
+        "{what}"
+    );
+    let (why, lines) = &s.skipped[s.skipped.len() - 1];
+    assert!(why.contains("line 4") && lines.first == [5, 6], "{why}");
+    // --strict refuses it, naming the line and column.
+    let mut strict = Settings::new(Dialect::Heidenhain);
+    strict.strict = true;
+    let c = Compensator::new(&l.model, &l.theta, strict);
+    let err = c
+        .run(Path::new("p.h"), program.as_bytes(), &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("p.h:4:") && err.contains("PLANE PROJECTED"),
+        "{err}"
+    );
+    // STAY: the rotary axes stay where they were (here not along the
+    // plane), so the moves are left as written with the reason.
+    let stay = program.replace(
+        "PLANE PROJECTED PROPR+20 PROMIN+0 ROT+0 TURN FMAX",
+        "PLANE SPATIAL SPA+20 SPB+0 SPC+0 STAY",
+    );
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), &stay);
+    assert_eq!(changed_lines(&out, &stay), [3], "{out}");
+    assert!(
+        s.skipped
+            .iter()
+            .any(|(why, lines)| why.contains("do not put the tool along") && lines.first == [5, 6]),
+        "{:?}",
+        s.skipped
+    );
+    // FANUC G68.2 with a macro variable: not known statically.
+    let fanuc = "G90 G21\nG0 B30. C-90.\nG68.2 X0. Y0. Z0. I0. J#1 K0.\nG53.1\nG43 H1\nG0 X0. Y10. Z5.\nG69\n";
+    let f = errors("bc-trunnion", 83, 30.0, "");
+    let (out, s, _) = compensate(&f, Settings::new(Dialect::Fanuc), fanuc);
+    assert_eq!(out, fanuc);
+    assert!(s.unmodelled[0].1.first == [3], "{:?}", s.unmodelled);
+}
+
+#[test]
+fn heidenhain_q120_to_q122_are_the_positions_the_control_computed() {
+    // After CYCL DEF 19 the TNC puts the rotary positions for the plane in
+    // Q120..Q122; `L A+Q120 C+Q122` turns there. With the axes at A0 C0
+    // before, the nearer of A-25 C0 and A+25 C180 is taken.
+    let literal = read("heidenhain/cycle19.h");
+    let q = literal
+        .replace("11 L A-25 C+0 R0 FMAX", "11 L A+Q120 C+Q122 R0 FMAX")
+        .replace("4  L Z+100 R0 FMAX M91", "4  L A+0 C+0 R0 FMAX");
+    let l = errors("ac-trunnion", 84, 30.0, "");
+    let (_, s, vs) = compensate(&l, Settings::new(Dialect::Heidenhain), &q);
+    assert_eq!(
+        s.tilted_plane.first,
+        [13, 14, 15, 16, 17, 18, 19, 20],
+        "{:?}",
+        s.skipped
+    );
+    for v in &vs {
+        assert_reaches(&l, v, "Q120..Q122");
+    }
+    // Without the positions before the plane both solutions are as near:
+    // the moves are left as written, with the reason.
+    let unknown = literal.replace("11 L A-25 C+0 R0 FMAX", "11 L A+Q120 C+Q122 R0 FMAX");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), &unknown);
+    assert_eq!(out, unknown);
+    assert!(
+        s.skipped.iter().any(
+            |(why, lines)| why.contains("rotary positions the controller chose")
+                && lines.first.contains(&13)
+        ),
+        "{:?}",
+        s.skipped
+    );
+}
