@@ -19,6 +19,10 @@
 //! another dialect than its directory's is a failure, except plain G-code
 //! (no sign of FANUC or LinuxCNC) read by the ISO dialect of the machine,
 //! which either controller runs; those are counted apart.
+//!
+//! Every measurement file under `cmm/` (the QIF schemas aside) is then read
+//! as `fivecal measured` reads it: it must give its format and entries or be
+//! refused with a message naming the file; a panic is a failure.
 
 use std::io::BufReader;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -26,6 +30,7 @@ use std::path::{Path, PathBuf};
 
 use fivecal::compensate::{CompensateError, Compensator, Settings, Summary};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
+use fivecal::formats::detect::{self, ReadContext};
 use fivecal::kinematics::Kinematics;
 use fivecal::model::Model;
 use fivecal::nc::dialect::{Detection, detect};
@@ -166,9 +171,62 @@ fn main() {
         refused,
         failures
     );
+    failures += measurement_files(&dir);
     if failures > 0 {
         std::process::exit(1);
     }
+}
+
+/// Reads every measurement file under `cmm/` as `fivecal measured` does;
+/// returns the failures (panics, refusals that do not name the file).
+fn measurement_files(dir: &Path) -> usize {
+    let mut found = Vec::new();
+    walk(&dir.join("cmm"), &mut found);
+    found.retain(|p| !p.components().any(|c| c.as_os_str() == "xsd"));
+    found.sort();
+    let (mut read, mut refused, mut failures) = (0, 0, 0);
+    println!();
+    println!("| measurement file | read as |");
+    println!("|---|---|");
+    for path in &found {
+        let shown = path.strip_prefix(dir).unwrap_or(path).display().to_string();
+        let outcome = catch_unwind(AssertUnwindSafe(|| {
+            detect::inventory(path, &ReadContext::default())
+        }));
+        let cell = match outcome {
+            Ok(Ok(inv)) => {
+                read += 1;
+                format!(
+                    "{} {}, {} entries, {} warnings",
+                    inv.format,
+                    inv.version.as_deref().unwrap_or(""),
+                    inv.entries.len(),
+                    inv.warnings.len()
+                )
+            }
+            Ok(Err(e)) => {
+                let m = e.to_string();
+                if m.contains(&path.display().to_string()) {
+                    refused += 1;
+                    format!("refused: {}", one_line(&m))
+                } else {
+                    failures += 1;
+                    format!("REFUSED WITHOUT THE FILE: {}", one_line(&m))
+                }
+            }
+            Err(_) => {
+                failures += 1;
+                "PANIC".to_string()
+            }
+        };
+        println!("| {shown} | {cell} |");
+    }
+    println!();
+    println!(
+        "{} measurement files: {read} read, {refused} refused naming the file; {failures} failures",
+        found.len()
+    );
+    failures
 }
 
 /// The dialect a run without `--dialect` reads `bytes` in, on a machine
