@@ -542,14 +542,13 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
                             (true, _) | (false, None) => Some(p),
                             (false, Some(r)) => {
                                 let n = set.normals.as_ref().map(|ns| ns[k]).or(e.normal);
-                                n.map(|n| p - n.normalize() * r * mm)
+                                let s = n.map(|n| p - n.normalize() * r * mm);
+                                if let Some(s) = s {
+                                    centres.push((p, s));
+                                }
+                                s
                             }
                         };
-                        if let (Some(s), false, Some(_)) =
-                            (surface, set.compensated, set.probe_radius)
-                        {
-                            centres.push((p, s));
-                        }
                         match surface {
                             Some(s) => e.points.push(s),
                             None => {
