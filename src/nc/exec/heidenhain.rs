@@ -54,11 +54,9 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
 fn call_lbl(rest: &str) -> Op {
     // `REP` may be glued to its count, also when a real
     // program gives the count as a parameter (`REPQ13`).
-    let rep_at = find_word(rest, "REP").or_else(|| {
-        find_word(rest, "REPQ")
-            .or_else(|| find_word(rest, "REPQL"))
-            .or_else(|| find_word(rest, "REPQR"))
-    });
+    let rep_at = ["REP", "REPQ", "REPQL", "REPQR"]
+        .iter()
+        .find_map(|w| find_word(rest, w));
     let (lbl, rep) = match rep_at {
         Some(k) => {
             let r = rest[k + 3..]
