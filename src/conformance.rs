@@ -105,9 +105,9 @@ impl<'de> Deserialize<'de> for Limit {
 /// Acceptance limits by symbol name, in the order written.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(transparent)]
-pub struct Limits(pub IndexMap<String, Limit>);
+pub struct AcceptanceLimits(pub IndexMap<String, Limit>);
 
-impl Limits {
+impl AcceptanceLimits {
     /// Whether no symbol has a limit.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
@@ -147,7 +147,7 @@ impl Limits {
 #[derive(Clone, Debug, PartialEq)]
 pub struct LimitsSource {
     /// The limits.
-    pub limits: Limits,
+    pub limits: AcceptanceLimits,
     /// The machine they are for, when the file says.
     pub machine: Option<String>,
     /// The file, as named.
@@ -161,7 +161,7 @@ pub struct LimitsSource {
 struct LimitsFile {
     #[serde(default)]
     machine: Option<String>,
-    limits: Limits,
+    limits: AcceptanceLimits,
 }
 
 impl LimitsSource {
@@ -316,7 +316,7 @@ pub struct SymbolDecision {
 
 /// The decisions for every limited symbol and for the machine.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Verdict {
+pub struct ConformanceVerdict {
     /// One per limited symbol, in the limits' order.
     pub symbols: Vec<SymbolDecision>,
     /// FAIL if any symbol fails, PASS if every one passes, else cannot
@@ -324,9 +324,9 @@ pub struct Verdict {
     pub machine: Decision,
 }
 
-impl Verdict {
+impl ConformanceVerdict {
     /// Decides every limited symbol of `result`.
-    pub fn of(result: &ErrorFile, limits: &Limits) -> Verdict {
+    pub fn of(result: &ErrorFile, limits: &AcceptanceLimits) -> ConformanceVerdict {
         let symbols: Vec<SymbolDecision> = limits
             .0
             .iter()
@@ -365,7 +365,7 @@ impl Verdict {
             })
             .collect();
         let machine = combine(symbols.iter().map(|s| s.decision));
-        Verdict { symbols, machine }
+        ConformanceVerdict { symbols, machine }
     }
 
     /// The verdict as printed: one line per symbol, then the machine's.
@@ -518,7 +518,7 @@ mod tests {
 
     #[test]
     fn limits_read_as_a_bound_or_an_interval_and_refuse_the_rest() {
-        let l: Limits = serde_yaml::from_str("EX0B: 10\nEA0B: [-20, 35]\n").unwrap();
+        let l: AcceptanceLimits = serde_yaml::from_str("EX0B: 10\nEA0B: [-20, 35]\n").unwrap();
         assert_eq!(l.get("EX0B"), Some(Limit::symmetric(10.0)));
         assert_eq!(
             l.get("EA0B"),
@@ -528,7 +528,9 @@ mod tests {
             })
         );
         for bad in ["EX0B: -1", "EX0B: [5, 1]", "EX0B: .nan", "EX0B: abc"] {
-            let e = serde_yaml::from_str::<Limits>(bad).unwrap_err().to_string();
+            let e = serde_yaml::from_str::<AcceptanceLimits>(bad)
+                .unwrap_err()
+                .to_string();
             assert!(e.contains("expected a bound > 0"), "{bad}: {e}");
         }
         assert_eq!(
@@ -545,9 +547,9 @@ mod tests {
             "machine: bc-trunnion\nlocation_errors:\n  EX0B: {value: 3.0, u: 0.5}\n  EZ0B: {value: -14.0, u: 0.5}\n  EA0B: {value: 19.5, u: 1.0}\n  EC0B: 1.0\nnot_identifiable:\n  - {symbol: EY0C, reason: no pose turns C}\n",
         )
         .unwrap();
-        let limits: Limits =
+        let limits: AcceptanceLimits =
             serde_yaml::from_str("EX0B: 10\nEZ0B: 10\nEA0B: 20\nEC0B: 20\nEY0C: 10\n").unwrap();
-        let v = Verdict::of(&result, &limits);
+        let v = ConformanceVerdict::of(&result, &limits);
         let d: Vec<Decision> = v.symbols.iter().map(|s| s.decision).collect();
         use Decision::*;
         assert_eq!(d, [Pass, Fail, CannotDecide, CannotDecide, CannotDecide]);

@@ -35,30 +35,30 @@ pub enum MeshError {
         /// What is wrong and what was expected.
         message: String,
     },
-    /// A mesh built in code that [`Mesh::check`] refuses.
+    /// A mesh built in code that [`PartMesh::check`] refuses.
     #[error("unusable mesh: {0}")]
     Invalid(String),
 }
 
 /// A triangle mesh, mm.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Mesh {
+pub struct PartMesh {
     /// Vertex positions.
     pub vertices: Vec<Vector3<f64>>,
     /// Triangles (vertex indices, counter-clockwise seen from outside).
     pub triangles: Vec<[u32; 3]>,
 }
 
-impl Mesh {
+impl PartMesh {
     /// Loads `.obj`, `.gltf` or `.glb` by extension.
-    pub fn load(path: &Path) -> Result<Mesh, MeshError> {
+    pub fn load(path: &Path) -> Result<PartMesh, MeshError> {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase());
         let mesh = match ext.as_deref() {
-            Some("obj") => Mesh::from_obj(path)?,
-            Some("glb") | Some("gltf") => Mesh::from_gltf(path)?,
+            Some("obj") => PartMesh::from_obj(path)?,
+            Some("glb") | Some("gltf") => PartMesh::from_gltf(path)?,
             _ => {
                 return Err(MeshError::Format {
                     path: path.to_path_buf(),
@@ -118,7 +118,7 @@ impl Mesh {
     }
 
     /// Reads an OBJ file (polygons are triangulated).
-    pub(crate) fn from_obj(path: &Path) -> Result<Mesh, MeshError> {
+    pub(crate) fn from_obj(path: &Path) -> Result<PartMesh, MeshError> {
         let opts = tobj::LoadOptions {
             triangulate: true,
             single_index: true,
@@ -133,7 +133,7 @@ impl Mesh {
             path: path.to_path_buf(),
             message: format!("not a readable OBJ model: {e}"),
         })?;
-        let mut mesh = Mesh::default();
+        let mut mesh = PartMesh::default();
         for m in models {
             let base = mesh.vertices.len() as u32;
             let p = &m.mesh.positions;
@@ -151,7 +151,7 @@ impl Mesh {
     /// Reads a glTF (`.gltf` with external or embedded buffers) or binary
     /// `.glb` file; every triangle primitive of the default scene, with its
     /// node transforms.
-    pub(crate) fn from_gltf(path: &Path) -> Result<Mesh, MeshError> {
+    pub(crate) fn from_gltf(path: &Path) -> Result<PartMesh, MeshError> {
         let bytes = read_model(path)?;
         let fmt = |message: String| MeshError::Format {
             path: path.to_path_buf(),
@@ -184,7 +184,7 @@ impl Mesh {
             };
             buffers.push(data);
         }
-        let mut mesh = Mesh::default();
+        let mut mesh = PartMesh::default();
         let scene = doc
             .default_scene()
             .or_else(|| doc.scenes().next())
@@ -451,11 +451,11 @@ pub struct Closest {
 
 impl Surface {
     /// Prepares `mesh` (vertices are welded by position so that normals
-    /// are shared across the facets of one surface). A mesh [`Mesh::check`]
+    /// are shared across the facets of one surface). A mesh [`PartMesh::check`]
     /// refuses (a vertex out of range, a triangle naming a vertex that does
     /// not exist, no triangle with an area) is refused here too, so that a
     /// mesh built in code rather than loaded cannot make a query panic.
-    pub fn new(mesh: &Mesh) -> Result<Surface, MeshError> {
+    pub fn new(mesh: &PartMesh) -> Result<Surface, MeshError> {
         mesh.check().map_err(MeshError::Invalid)?;
         let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
         let mut vertices = Vec::new();
@@ -723,7 +723,7 @@ mod tests {
     use super::*;
 
     /// A unit-free cube [0, 10]^3 with outward triangles.
-    pub(crate) fn cube() -> Mesh {
+    pub(crate) fn cube() -> PartMesh {
         let v = |x: f64, y: f64, z: f64| Vector3::new(x, y, z);
         let vertices = vec![
             v(0., 0., 0.),
@@ -747,7 +747,7 @@ mod tests {
         ] {
             triangles.extend(f);
         }
-        Mesh {
+        PartMesh {
             vertices,
             triangles,
         }
@@ -774,7 +774,7 @@ mod tests {
         }
     }
 
-    /// The models `fivecal plan` writes (through [`crate::mesh::Mesh`]) read
+    /// The models `fivecal plan` writes (through [`crate::mesh::PartMesh`]) read
     /// back here, OBJ and GLB alike.
     #[test]
     fn models_written_by_the_mesh_module_read_back() {
@@ -801,7 +801,7 @@ mod tests {
         let glb = dir.path().join("c.glb");
         std::fs::write(&glb, m.to_glb("cube")).unwrap();
         for p in [obj, glb] {
-            let back = Mesh::load(&p).unwrap();
+            let back = PartMesh::load(&p).unwrap();
             assert_eq!(back.triangles.len(), 12, "{p:?}");
             let s = Surface::new(&back).unwrap();
             assert!((s.closest(&Vector3::new(5., 5., 12.)).distance - 2.0).abs() < 1e-6);
@@ -812,26 +812,26 @@ mod tests {
     #[test]
     fn a_bad_mesh_built_in_code_is_refused_not_panicked_on() {
         // Each of these panicked in `Surface::new` or in a query when a
-        // caller skipped `Mesh::check`.
+        // caller skipped `PartMesh::check`.
         let point = Vector3::new(1.0, 2.0, 3.0);
         let bad = [
             // One triangle with three equal vertices (no area).
-            Mesh {
+            PartMesh {
                 vertices: vec![point; 3],
                 triangles: vec![[0, 1, 2]],
             },
             // A triangle naming a vertex that does not exist.
-            Mesh {
+            PartMesh {
                 vertices: cube().vertices,
                 triangles: vec![[0, 1, 99]],
             },
             // No triangles.
-            Mesh {
+            PartMesh {
                 vertices: cube().vertices,
                 triangles: Vec::new(),
             },
             // A vertex at infinity.
-            Mesh {
+            PartMesh {
                 vertices: vec![point, point * 2.0, Vector3::new(f64::INFINITY, 0.0, 0.0)],
                 triangles: vec![[0, 1, 2]],
             },

@@ -1,7 +1,7 @@
 //! Outputs that never leave a half-written file, never overwrite an input
 //! and never destroy what they replace.
 //!
-//! Every output path is one of three kinds ([`Target`]):
+//! Every output path is one of three kinds ([`OutputTarget`]):
 //! - `-`, `/dev/stdout`: standard output, through [`stdout`], which ends
 //!   quietly when the reader goes away (a broken pipe is recorded, not
 //!   raised, so the run still writes its files);
@@ -226,7 +226,7 @@ fn file_name_of(path: &Path) -> String {
 
 /// What an output path is.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Target {
+pub enum OutputTarget {
     /// Standard output (`-`, `/dev/stdout`).
     Stdout,
     /// A device, FIFO, socket or a path under `/dev/` or `/proc/`: written
@@ -243,7 +243,7 @@ fn is_special_location(path: &Path) -> bool {
 }
 
 /// Classifies an output path for a file output named by `flag`.
-pub(crate) fn classify(flag: &str, path: &Path) -> Result<Target, OutputError> {
+pub(crate) fn classify(flag: &str, path: &Path) -> Result<OutputTarget, OutputError> {
     let wrong = |what: String| OutputError::WrongKind {
         flag: flag.to_string(),
         path: path.to_path_buf(),
@@ -251,7 +251,7 @@ pub(crate) fn classify(flag: &str, path: &Path) -> Result<Target, OutputError> {
     };
     let s = path.as_os_str();
     if s == "-" || s == "/dev/stdout" || s == "/proc/self/fd/1" || s == "/dev/fd/1" {
-        return Ok(Target::Stdout);
+        return Ok(OutputTarget::Stdout);
     }
     if s.is_empty() {
         return Err(wrong("expected a file name".into()));
@@ -264,7 +264,7 @@ pub(crate) fn classify(flag: &str, path: &Path) -> Result<Target, OutputError> {
                     "does not exist, and fivecal creates no files under /dev or /proc".into(),
                 ));
             }
-            return Ok(Target::File(path.to_path_buf()));
+            return Ok(OutputTarget::File(path.to_path_buf()));
         }
         Err(e) => return Err(OutputError::io(path)(e)),
     };
@@ -286,10 +286,10 @@ pub(crate) fn classify(flag: &str, path: &Path) -> Result<Target, OutputError> {
         return Err(wrong("is a directory: expected a file name".into()));
     }
     if !meta.is_file() || is_special_location(path) {
-        return Ok(Target::InPlace(path.to_path_buf()));
+        return Ok(OutputTarget::InPlace(path.to_path_buf()));
     }
     let real = std::fs::canonicalize(path).map_err(OutputError::io(path))?;
-    Ok(Target::File(real))
+    Ok(OutputTarget::File(real))
 }
 
 /// Classifies an output directory named by `flag`: it must be a directory
@@ -419,7 +419,7 @@ pub fn check_outputs(
     let mut seen: Vec<(&str, PathBuf, Shape, bool)> = Vec::new();
     for &(flag, path, shape) in outputs {
         let stdout = match shape {
-            Shape::File => classify(flag, path)? == Target::Stdout,
+            Shape::File => classify(flag, path)? == OutputTarget::Stdout,
             Shape::Dir => {
                 check_dir_target(flag, path)?;
                 false
@@ -505,12 +505,12 @@ impl AtomicOutput {
     pub fn create(path: &Path) -> Result<AtomicOutput, OutputError> {
         let io = OutputError::io(path);
         let sink = match classify("output", path)? {
-            Target::Stdout => Sink::Stdout(BufWriter::with_capacity(1 << 16, stdout())),
-            Target::InPlace(p) => {
+            OutputTarget::Stdout => Sink::Stdout(BufWriter::with_capacity(1 << 16, stdout())),
+            OutputTarget::InPlace(p) => {
                 let f = OpenOptions::new().append(true).open(&p).map_err(&io)?;
                 Sink::InPlace(BufWriter::with_capacity(1 << 16, f))
             }
-            Target::File(target) => {
+            OutputTarget::File(target) => {
                 let dir = match target.parent() {
                     Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
                     _ => PathBuf::from("."),

@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use fivecal::discover::{self, DiscoverOptions, Discovery, Inputs, Verdict};
+use fivecal::discover::{self, CandidateVerdict, DiscoverOptions, Discovery, Inputs};
 use fivecal::errorfile::{LoadedErrors, Noise};
 use fivecal::formats::manifest::KinematicsMode;
 use fivecal::geom::Axis3;
@@ -229,7 +229,7 @@ fn tool_radius_error_is_named_and_the_tool_length_refused_as_an_alias() {
         .iter()
         .find(|t| t.name == "tool_length")
         .unwrap();
-    assert_eq!(t.verdict, Verdict::Refused);
+    assert_eq!(t.verdict, CandidateVerdict::Refused);
     let why = t.reason.as_deref().unwrap();
     assert!(
         why.starts_with("not identifiable alongside the model") && why.contains("EZ0B"),
@@ -391,7 +391,7 @@ fn every_candidate_of_a_round_is_tested_or_refused_with_a_reason() {
     assert_eq!(s.last_round.len(), 42);
     for t in &s.last_round {
         match t.verdict {
-            Verdict::Refused => assert!(
+            CandidateVerdict::Refused => assert!(
                 t.reason.as_ref().is_some_and(|r| !r.is_empty()),
                 "{}",
                 t.name

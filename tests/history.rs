@@ -9,12 +9,12 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use fivecal::analyze::{self, Found};
-use fivecal::conformance::{Limit, Limits};
+use fivecal::conformance::{AcceptanceLimits, Limit};
 use fivecal::errorfile::ErrorFile;
 use fivecal::history::History;
 use fivecal::history::trend::{Forecast, Outlook, days_between};
 use fivecal::store::runs::{self, RunNotes};
-use fivecal::store::{Kind, Location, Store, parse_time};
+use fivecal::store::{Location, RecordKind, Store, parse_time};
 
 use crate::cli::fivecal;
 
@@ -397,16 +397,16 @@ fn analyze_discover_and_export_record_into_the_store() {
     let all = store.list(None).unwrap();
     assert_eq!(all.len(), 3);
     let a = &all[0].record;
-    assert_eq!(a.kind, Kind::Analyze);
+    assert_eq!(a.kind, RecordKind::Analyze);
     assert_eq!(a.note.as_deref(), Some("weekly check"));
     assert_eq!(a.temperature, Some(21.5));
     assert_eq!(a.measured_at, parse_time("2026-03-01T07:30:00Z").unwrap());
     assert_eq!(a.test.as_deref(), Some("stepped-square"));
-    assert_eq!(all[1].record.kind, Kind::Discover);
+    assert_eq!(all[1].record.kind, RecordKind::Discover);
     let x = &all[2].record;
     assert_eq!(
         (x.kind, x.controller.as_deref()),
-        (Kind::Export, Some("fanuc"))
+        (RecordKind::Export, Some("fanuc"))
     );
     assert_eq!(
         x.exported.as_deref(),
@@ -475,7 +475,7 @@ fn the_trend_forecast_on_a_simulated_drift_finds_the_day_the_limit_is_reached() 
         }
     }
     let h = History::new("bc-trunnion", store.list(Some("bc-trunnion")).unwrap());
-    let mut limits = Limits::default();
+    let mut limits = AcceptanceLimits::default();
     limits.0.insert("EX0B".into(), Limit::symmetric(20.0));
     let (_, outlook) = h
         .outlooks(&limits)

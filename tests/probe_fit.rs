@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use fivecal::shape_fit::{
-    FitError, SphereCheck, circle_through_three, fit_circle, fit_plane, fit_sphere,
+    ShapeFitError, SphereCheck, circle_through_three, fit_circle, fit_plane, fit_sphere,
     fit_sphere_algebraic,
 };
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
@@ -215,7 +215,7 @@ fn a_sphere_needs_a_touch_off_the_equator_plane() {
     let sets = table1();
     let equator: Vec<_> = sets["C0"][..4].to_vec();
     let e = fit_sphere(&equator).unwrap_err();
-    assert!(matches!(e, FitError::Degenerate { .. }), "{e}");
+    assert!(matches!(e, ShapeFitError::Degenerate { .. }), "{e}");
     assert!(e.to_string().contains("lie in one plane"), "{e}");
 }
 

@@ -9,7 +9,7 @@ use fivecal::formats::manifest::{Manifest, TestKind};
 use fivecal::formats::probe_log;
 use fivecal::kinematics::Perturbation;
 use fivecal::post::PostDefinition;
-use fivecal::procedure::probing::Setup;
+use fivecal::procedure::probing::ProbedGeometry;
 use fivecal::procedure::{Plan, PlanConfig, ProbingPlan, Template, TemplateSource, Test, load};
 use fivecal::{Axes, Dialect};
 use nalgebra::Vector3;
@@ -382,8 +382,8 @@ fn the_setup_geometry_puts_each_touch_on_its_surface() {
             assert!(s.signed_distance(&(t.contact_w - t.normal_w * 0.5)) < 0.0);
         }
         match &p.setup {
-            Setup::Columns(cs) => assert_eq!(cs.len(), 3),
-            Setup::Sphere(s) => assert_eq!(
+            ProbedGeometry::Columns(cs) => assert_eq!(cs.len(), 3),
+            ProbedGeometry::Sphere(s) => assert_eq!(
                 (s.diameter, s.centre.z),
                 (30.0, 100.0 + machine("bc-trunnion").table.surface)
             ),

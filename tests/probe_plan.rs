@@ -10,7 +10,7 @@ use fivecal::kinematics::Kinematics;
 use fivecal::procedure::probing::columns::ColumnsTemplate;
 use fivecal::procedure::probing::sphere::SphereTemplate;
 use fivecal::procedure::probing::{
-    Checker, MoveKind, PoseFrame, Solid, TouchPlan, columns, sphere,
+    Checker, ConvexSolid, PoseFrame, ProbingMoveKind, TouchPlan, columns, sphere,
 };
 use fivecal::procedure::{PlanError, TemplateSource};
 use fivecal::{Axes, Machine};
@@ -175,7 +175,7 @@ fn every_touch_approaches_along_its_normal_and_never_from_below() {
             .moves
             .iter()
             .filter_map(|m| match m.kind {
-                MoveKind::Probe(i) => Some(i),
+                ProbingMoveKind::Probe(i) => Some(i),
                 _ => None,
             })
             .collect();
@@ -194,9 +194,9 @@ fn every_touch_approaches_along_its_normal_and_never_from_below() {
 
 /// Exact distance from a point to a solid (0 inside), written here apart
 /// from the planner's support-function code.
-fn distance(p: &Vector3<f64>, s: &Solid) -> f64 {
+fn distance(p: &Vector3<f64>, s: &ConvexSolid) -> f64 {
     match s {
-        Solid::Cuboid { centre, axes, half } => {
+        ConvexSolid::Cuboid { centre, axes, half } => {
             let local = axes.transpose() * (p - centre);
             let out = Vector3::new(
                 (local.x.abs() - half.x).max(0.0),
@@ -205,8 +205,8 @@ fn distance(p: &Vector3<f64>, s: &Solid) -> f64 {
             );
             out.norm()
         }
-        Solid::Ball { centre, radius } => ((p - centre).norm() - radius).max(0.0),
-        Solid::Cylinder { a, b, radius } => {
+        ConvexSolid::Ball { centre, radius } => ((p - centre).norm() - radius).max(0.0),
+        ConvexSolid::Cylinder { a, b, radius } => {
             let len = (b - a).norm();
             let ax = (b - a) / len;
             let along = (p - a).dot(&ax);
@@ -230,7 +230,7 @@ fn part_gap(
     s0: f64,
     s1: f64,
     radius: f64,
-    solid: &Solid,
+    solid: &ConvexSolid,
     h: f64,
     floor: f64,
 ) -> f64 {
@@ -256,7 +256,7 @@ fn sampled_gaps(plan: &TouchPlan) -> (f64, f64) {
     let (mut probe_gap, mut other_gap) = (f64::INFINITY, f64::INFINITY);
     for mv in &plan.moves {
         let (from, to) = match mv.kind {
-            MoveKind::Probe(t) => (mv.from.axes, plan.touches[t].contact.axes),
+            ProbingMoveKind::Probe(t) => (mv.from.axes, plan.touches[t].contact.axes),
             _ => (mv.from.axes, mv.to.axes),
         };
         let lerp = |s: f64| Axes {
@@ -264,7 +264,10 @@ fn sampled_gaps(plan: &TouchPlan) -> (f64, f64) {
             tilt: from.tilt + (to.tilt - from.tilt) * s,
             c: from.c + (to.c - from.c) * s,
         };
-        let probe_move = matches!(mv.kind, MoveKind::Probe(_) | MoveKind::Retract(_));
+        let probe_move = matches!(
+            mv.kind,
+            ProbingMoveKind::Probe(_) | ProbingMoveKind::Retract(_)
+        );
         let step = if probe_move { 0.1 } else { 1.0 };
         // Travel of the farthest probe point, from a coarse pass.
         let mut travel = 0.0_f64;
@@ -672,16 +675,16 @@ fn run_time_of_a_one_touch_plan_is_the_sum_of_its_moves() {
     let m = machine("ac-trunnion");
     let plan = columns::touch_plan(&m, &t).unwrap();
     assert_eq!(plan.touches.len(), 1);
-    let kinds: Vec<MoveKind> = plan.moves.iter().map(|m| m.kind).collect();
+    let kinds: Vec<ProbingMoveKind> = plan.moves.iter().map(|m| m.kind).collect();
     assert_eq!(
         kinds,
         [
-            MoveKind::Rapid,
-            MoveKind::Position,
-            MoveKind::Probe(0),
-            MoveKind::Retract(0),
-            MoveKind::Position,
-            MoveKind::Rapid
+            ProbingMoveKind::Rapid,
+            ProbingMoveKind::Position,
+            ProbingMoveKind::Probe(0),
+            ProbingMoveKind::Retract(0),
+            ProbingMoveKind::Position,
+            ProbingMoveKind::Rapid
         ]
     );
     let touch = &plan.touches[0];

@@ -334,7 +334,7 @@ fn probed_pieces_get_seeded_setup_errors_within_the_bounds() {
     let Plan::Probing(p) = &*plan else {
         unreachable!()
     };
-    let fivecal::procedure::probing::Setup::Columns(cols) = &p.setup else {
+    let fivecal::procedure::probing::ProbedGeometry::Columns(cols) = &p.setup else {
         unreachable!()
     };
     let run = |seed| {

@@ -21,7 +21,7 @@ use fivecal::nc::{Block, BlockReader, Syntax, Value};
 use fivecal::post::PostDefinition;
 use fivecal::procedure::MachiningPlan;
 use fivecal::procedure::machining::plan;
-use fivecal::procedure::probing::MoveKind;
+use fivecal::procedure::probing::ProbingMoveKind;
 use fivecal::{Dialect, Machine};
 use nalgebra::Vector3;
 
@@ -233,7 +233,7 @@ fn sinumerik_probing_programs_measure_each_touch_along_its_planned_line() {
                 .moves
                 .iter()
                 .filter_map(|mv| match mv.kind {
-                    MoveKind::Probe(i) => Some((
+                    ProbingMoveKind::Probe(i) => Some((
                         p.plan.touches[i].index,
                         p.plan.touches[i].start.axes.xyz,
                         mv.to.axes.xyz,

@@ -12,7 +12,7 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use fivecal::store::{
-    self, FileHash, FileRole, FitVerdict, Kind, Location, Record, Store, StoreError,
+    self, FileHash, FileRole, FitVerdict, Location, Record, RecordKind, Store, StoreError,
 };
 
 /// A result as `analyze` writes it.
@@ -25,7 +25,12 @@ location_errors:
 /// A record measured at `at` (RFC 3339) with every field set.
 pub fn record(machine: &str, at: &str, note: &str) -> Record {
     let t = store::parse_time(at).unwrap();
-    let mut r = Record::new(Kind::Analyze, machine, "result.yaml", RESULT.to_string());
+    let mut r = Record::new(
+        RecordKind::Analyze,
+        machine,
+        "result.yaml",
+        RESULT.to_string(),
+    );
     r.test = Some("stepped-square".into());
     r.measured_at = t;
     r.recorded_at = t;
@@ -127,7 +132,7 @@ fn records_are_listed_by_machine_in_measurement_order_and_shown_as_written() {
         let late = record("bc-trunnion", "2026-03-10T08:00:00Z", "after the crash");
         let early = record("bc-trunnion", "2026-03-01T08:00:00.123456Z", "weekly");
         let mut other = record("ac-trunnion", "2026-03-05T08:00:00Z", "other machine");
-        other.kind = Kind::Export;
+        other.kind = RecordKind::Export;
         other.test = None;
         other.controller = Some("fanuc".into());
         other.exported = Some("N19700 P1 ...\n".into());

@@ -45,7 +45,7 @@ use crate::procedure::{LoadError, Plan, Test};
 use crate::source::SourceError;
 
 pub use inputs::{Measurements, Pieces, PlanContext};
-pub use series::{Comparison, Series};
+pub use series::{EarlierComparison, Series};
 pub use uncertainty::{Contributors, McOptions, Study};
 
 /// Why an analysis cannot run.
@@ -166,7 +166,7 @@ impl Request {
 
 /// One identified piece.
 #[derive(Clone, Debug)]
-pub struct Piece {
+pub struct IdentifiedPiece {
     /// Its number in a series, from 1.
     pub number: Option<usize>,
     /// The measurements joined to the plan.
@@ -185,7 +185,7 @@ pub struct Piece {
     pub file: ErrorFile,
 }
 
-impl Piece {
+impl IdentifiedPiece {
     /// The fit, if the model does not fit.
     pub fn misfit(&self) -> Option<&crate::errorfile::FitSection> {
         self.fit
@@ -194,7 +194,7 @@ impl Piece {
     }
 }
 
-impl Piece {
+impl IdentifiedPiece {
     /// The name of the piece: its (first) measurement file.
     pub fn name(&self) -> String {
         self.data.files[0].display().to_string()
@@ -215,11 +215,11 @@ pub struct Identified {
     /// The test.
     pub test: Test,
     /// The pieces, in the order of the files.
-    pub pieces: Vec<Piece>,
+    pub pieces: Vec<IdentifiedPiece>,
     /// With `series`: every piece side by side.
     pub series: Option<Series>,
     /// With `compare`: the earlier result beside the new ones.
-    pub comparison: Option<Comparison>,
+    pub comparison: Option<EarlierComparison>,
 }
 
 /// The nine-section test's evaluation: section heights, no location error.
@@ -319,7 +319,7 @@ fn identify_pieces(
             let before = ErrorFile::load(path, &ctx.kin)?;
             let before =
                 ErrorFile::from_model(&before.model, &before.theta, &before.u, &before.noise);
-            Some(Comparison::new(
+            Some(EarlierComparison::new(
                 (path.display().to_string(), before),
                 &named,
             ))
@@ -341,7 +341,7 @@ fn identify_piece(
     sphere: &SphereOptions,
     data: Dataset,
     number: Option<usize>,
-) -> Result<Piece, AnalyzeError> {
+) -> Result<IdentifiedPiece, AnalyzeError> {
     let setup = Setup::new(&ctx.kin, &data.poses, &req.maps)?;
     // The global method on a model the rigid-pose models refuse (a head
     // machine) or on the sphere test inverts the simulator's forward model,
@@ -400,7 +400,7 @@ fn identify_piece(
     }
     let mut file = result::error_file(&est, &u, data.kind);
     file.fit = fit.clone();
-    Ok(Piece {
+    Ok(IdentifiedPiece {
         number,
         data,
         est,

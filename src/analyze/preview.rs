@@ -23,7 +23,7 @@ use crate::simulate::{self, SimOptions};
 /// One location error of the machine: the uncertainty the test will give
 /// it, or why it will not.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Row {
+pub struct PreviewRow {
     /// The symbol.
     pub symbol: String,
     /// um or urad.
@@ -36,7 +36,7 @@ pub struct Row {
 
 /// What a plan will identify with a method at a noise.
 #[derive(Clone, Debug)]
-pub struct Prediction {
+pub struct Preview {
     /// The method `analyze` will use.
     pub method: Method,
     /// The noise the uncertainties are predicted at.
@@ -45,12 +45,12 @@ pub struct Prediction {
     /// included).
     pub rank: (usize, usize),
     /// Every location error, in the machine's order.
-    pub rows: Vec<Row>,
+    pub rows: Vec<PreviewRow>,
     /// Combinations of symbols no measurement of this design sees.
     pub unseen: Vec<String>,
 }
 
-impl Prediction {
+impl Preview {
     /// The symbols the test will not identify.
     pub fn missing(&self) -> Vec<&str> {
         self.rows
@@ -167,21 +167,21 @@ pub fn predict(
     plan: &Plan,
     method: Option<Method>,
     noise: Option<f64>,
-) -> Result<Prediction, AnalyzeError> {
+) -> Result<Preview, AnalyzeError> {
     let test = plan.test();
     let kin = simulate::plan_kinematics(plan);
     let expected = ExpectedNoise::new(noise, plan.kind(), test);
     let method = method.unwrap_or(method::default_for(test));
     method::check(method, test, plan.kind(), &[])?;
     let symbols = crate::kinematics::symbols::SymbolTable::for_kinematics(&kin);
-    let nothing = |reason: &str| Prediction {
+    let nothing = |reason: &str| Preview {
         method,
         noise: expected.clone(),
         rank: (0, symbols.location.len()),
         rows: symbols
             .location
             .iter()
-            .map(|l| Row {
+            .map(|l| PreviewRow {
                 symbol: l.name.clone(),
                 unit: l.unit.to_string(),
                 u: None,
@@ -222,7 +222,7 @@ pub fn predict(
         .iter()
         .map(|l| {
             let q = file.location_errors.get(&l.name);
-            Row {
+            PreviewRow {
                 symbol: l.name.clone(),
                 unit: l.unit.to_string(),
                 u: q.and_then(|q| q.u),
@@ -245,7 +245,7 @@ pub fn predict(
         .filter(|n| !symbols.location.iter().any(|l| l.name == n.symbol))
         .map(|n| format!("{}: {}", n.symbol, n.reason))
         .collect();
-    Ok(Prediction {
+    Ok(Preview {
         method,
         noise: expected,
         rank: (est.identifiability.rank, est.identifiability.free),

@@ -13,7 +13,7 @@ use crate::errorfile::ErrorFile;
 
 /// A value with its standard uncertainty, if known.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Value {
+pub struct SeriesValue {
     /// The value.
     pub value: f64,
     /// Standard uncertainty (k = 1).
@@ -25,13 +25,13 @@ pub struct Value {
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SymbolSeries {
     /// Values per piece (`None` where that piece does not identify it).
-    pub values: Vec<Option<Value>>,
+    pub values: Vec<Option<SeriesValue>>,
     /// Change from the first piece.
-    pub change: Vec<Option<Value>>,
+    pub change: Vec<Option<SeriesValue>>,
     /// Slope of a straight line through the values, per piece, when at
     /// least three pieces identify the symbol.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub trend_per_piece: Option<Value>,
+    pub trend_per_piece: Option<SeriesValue>,
 }
 
 /// A series of results.
@@ -60,10 +60,10 @@ impl Series {
         }
         let mut out = IndexMap::new();
         for s in symbols {
-            let values: Vec<Option<Value>> = pieces
+            let values: Vec<Option<SeriesValue>> = pieces
                 .iter()
                 .map(|(_, f)| {
-                    f.location_errors.get(&s).map(|q| Value {
+                    f.location_errors.get(&s).map(|q| SeriesValue {
                         value: q.value,
                         u: q.u,
                     })
@@ -74,7 +74,7 @@ impl Series {
                 .iter()
                 .map(|v| {
                     let (v, f) = ((*v)?, first?);
-                    Some(Value {
+                    Some(SeriesValue {
                         value: v.value - f.value,
                         u: combine(v.u, f.u),
                     })
@@ -128,7 +128,7 @@ impl Series {
 
 /// Weighted straight line through (piece index, value): slope and its
 /// standard uncertainty.
-fn trend(values: &[Option<Value>]) -> Option<Value> {
+fn trend(values: &[Option<SeriesValue>]) -> Option<SeriesValue> {
     let pts: Vec<(f64, f64, f64)> = values
         .iter()
         .enumerate()
@@ -151,7 +151,7 @@ fn trend(values: &[Option<Value>]) -> Option<Value> {
         .iter()
         .flatten()
         .all(|v| v.u.is_some_and(|u| u > 0.0));
-    Some(Value {
+    Some(SeriesValue {
         value: slope,
         u: weighted.then(|| (1.0 / sxx).sqrt()),
     })
@@ -159,18 +159,18 @@ fn trend(values: &[Option<Value>]) -> Option<Value> {
 
 /// An earlier result beside new ones.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Comparison {
+pub struct EarlierComparison {
     /// The earlier result first, then the new ones; `change` is from the
     /// earlier one.
     pub table: Series,
 }
 
-impl Comparison {
+impl EarlierComparison {
     /// Sets `results` beside `earlier`.
-    pub fn new(earlier: (String, ErrorFile), results: &[(String, ErrorFile)]) -> Comparison {
+    pub fn new(earlier: (String, ErrorFile), results: &[(String, ErrorFile)]) -> EarlierComparison {
         let mut rows = vec![earlier];
         rows.extend(results.iter().cloned());
-        Comparison {
+        EarlierComparison {
             table: Series::new(&rows),
         }
     }
@@ -213,12 +213,12 @@ impl Comparison {
 }
 
 /// A value with its u, signed when it is a change; `-` when absent.
-fn cell(v: &Option<Value>, signed: bool) -> String {
+fn cell(v: &Option<SeriesValue>, signed: bool) -> String {
     match (v, signed) {
-        (Some(Value { value, u: Some(u) }), false) => format!("{value:.2} ({u:.2})"),
-        (Some(Value { value, u: None }), false) => format!("{value:.2}"),
-        (Some(Value { value, u: Some(u) }), true) => format!("{value:+.2} ({u:.2})"),
-        (Some(Value { value, u: None }), true) => format!("{value:+.2}"),
+        (Some(SeriesValue { value, u: Some(u) }), false) => format!("{value:.2} ({u:.2})"),
+        (Some(SeriesValue { value, u: None }), false) => format!("{value:.2}"),
+        (Some(SeriesValue { value, u: Some(u) }), true) => format!("{value:+.2} ({u:.2})"),
+        (Some(SeriesValue { value, u: None }), true) => format!("{value:+.2}"),
         (None, _) => "-".into(),
     }
 }
@@ -249,7 +249,7 @@ mod tests {
     fn comparison_shows_values_and_the_change_from_the_earlier_result() {
         let before = result(&[("EX0B", 10.0, Some(0.3)), ("EZ0B", -5.0, None)]);
         let after = result(&[("EX0B", 11.0, Some(0.4)), ("EC0B", 3.0, Some(1.0))]);
-        let c = Comparison::new(("cold.yaml".into(), before), &[("warm.dmo".into(), after)]);
+        let c = EarlierComparison::new(("cold.yaml".into(), before), &[("warm.dmo".into(), after)]);
         let text = c.render();
         let lines: Vec<&str> = text.lines().collect();
         let cells = |l: &str| l.split_whitespace().map(String::from).collect::<Vec<_>>();

@@ -30,7 +30,7 @@ use std::fmt::Write as _;
 use rayon::prelude::*;
 use serde_yaml::{Mapping, Value};
 
-use super::preview::{Prediction, Row, nominal_data, predict};
+use super::preview::{Preview, PreviewRow, nominal_data, predict};
 use crate::formats::manifest::{PredictedSymbol, SecondRunEntry, SuggestedChange};
 use crate::identify::Dataset;
 use crate::kinematics::Kinematics;
@@ -47,14 +47,14 @@ const PROBE_LENGTHS: [f64; 2] = [1.6, 0.6];
 
 /// A change of the template: what it is and the keys it sets.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Change {
+pub struct TemplateChange {
     /// In words (`more tilt angles`).
     pub what: String,
     /// Key paths of the template (`["poses", "tilt"]`) and their values.
     pub set: Vec<(Vec<String>, Value)>,
 }
 
-impl Change {
+impl TemplateChange {
     /// The keys as `poses.tilt: [0, -30]`, one after the other.
     pub fn keys(&self) -> String {
         self.set
@@ -90,11 +90,11 @@ impl Change {
 #[derive(Clone, Debug)]
 pub struct Suggestion {
     /// The change.
-    pub change: Change,
+    pub change: TemplateChange,
     /// The errors it makes identifiable, with their predicted u.
-    pub gains: Vec<Row>,
+    pub gains: Vec<PreviewRow>,
     /// What the changed plan identifies.
-    pub prediction: Prediction,
+    pub prediction: Preview,
     /// Poses of the changed plan.
     pub poses: usize,
     /// Its estimated run time, min.
@@ -252,7 +252,7 @@ impl Recipe {
             "copy {} (the machine file this plan used, as written beside it) to {} and set {} in it",
             self.machine_copy(test),
             second.machine_file(),
-            Change {
+            TemplateChange {
                 what: String::new(),
                 set: vec![(
                     vec!["probe".into(), "length".into()],
@@ -450,12 +450,12 @@ impl Suggestions {
 /// The changes that would make what `plan` (planned from `cfg`) leaves
 /// unidentified in `now` identifiable, predicted with the same method at
 /// the same stated noise (`noise` um, else the instrument's default).
-pub fn suggest(cfg: &PlanConfig, plan: &Plan, now: &Prediction, noise: Option<f64>) -> Suggestions {
+pub fn suggest(cfg: &PlanConfig, plan: &Plan, now: &Preview, noise: Option<f64>) -> Suggestions {
     if now.missing().is_empty() {
         return Suggestions::default();
     }
     let changes = changes(cfg, plan);
-    let outcomes: Vec<Option<(Prediction, usize, f64)>> = changes
+    let outcomes: Vec<Option<(Preview, usize, f64)>> = changes
         .par_iter()
         .map(|c| {
             let template = c.apply(&cfg.template).ok()?;
@@ -483,7 +483,7 @@ pub fn suggest(cfg: &PlanConfig, plan: &Plan, now: &Prediction, noise: Option<f6
             .rows
             .iter()
             .any(|r| r.u.is_none() && was(&r.symbol).is_some());
-        let gains: Vec<Row> = prediction
+        let gains: Vec<PreviewRow> = prediction
             .rows
             .iter()
             .filter(|r| r.u.is_some_and(f64::is_finite) && was(&r.symbol).is_none())
@@ -528,7 +528,7 @@ pub type Run<'a> = (&'a Plan, &'a Kinematics, &'a Dataset);
 /// nuisance (setup, sphere position). Every location error's row, with its
 /// u at `noise` um where the joint design identifies it, and the design's
 /// rank of its free parameters.
-pub fn joint(runs: &[Run<'_>], noise: f64) -> Result<(Vec<Row>, (usize, usize)), String> {
+pub fn joint(runs: &[Run<'_>], noise: f64) -> Result<(Vec<PreviewRow>, (usize, usize)), String> {
     let labels: Vec<String> = (1..=runs.len()).map(|i| format!("run {i}")).collect();
     let parts: Vec<crate::discover::Part<'_>> = runs
         .iter()
@@ -554,7 +554,7 @@ pub fn joint(runs: &[Run<'_>], noise: f64) -> Result<(Vec<Row>, (usize, usize)),
         .enumerate()
         .map(|(i, l)| {
             let seen = fit.identifiable(i) && !fit.fixed(i);
-            Row {
+            PreviewRow {
                 symbol: l.name.clone(),
                 unit: l.unit.to_string(),
                 u: seen.then(|| fit.cov_unit[(i, i)].max(0.0).sqrt() * noise),
@@ -586,7 +586,7 @@ fn with_probe(machine: &crate::machine::Machine, length: f64) -> Option<crate::m
 fn second_runs(
     cfg: &PlanConfig,
     plan: &Plan,
-    now: &Prediction,
+    now: &Preview,
 ) -> (Vec<String>, usize, Option<Suggestion>) {
     let was = plan.machine().probe.length;
     let first_kin = crate::simulate::plan_kinematics(plan);
@@ -618,10 +618,11 @@ fn second_runs(
             let data = nominal_data(&second).ok()?;
             let (rows, rank) = joint(&[first, (&second, &kin, &data)], noise).ok()?;
             let had = |s: &str| {
-                let seen = |rows: &[Row]| rows.iter().any(|r| r.symbol == s && r.u.is_some());
+                let seen =
+                    |rows: &[PreviewRow]| rows.iter().any(|r| r.symbol == s && r.u.is_some());
                 seen(&alone) || seen(&now.rows)
             };
-            let gains: Vec<Row> = rows
+            let gains: Vec<PreviewRow> = rows
                 .iter()
                 .filter(|r| r.u.is_some_and(f64::is_finite) && !had(&r.symbol))
                 .cloned()
@@ -632,12 +633,12 @@ fn second_runs(
                 probe_length: length,
             };
             Some(Suggestion {
-                change: Change {
+                change: TemplateChange {
                     what: run.what(),
                     set: Vec::new(),
                 },
                 gains,
-                prediction: Prediction {
+                prediction: Preview {
                     method: crate::identify::Method::Global,
                     noise: now.noise.clone(),
                     rank,
@@ -678,7 +679,7 @@ fn second_runs(
 }
 
 /// The known changes of the plan's template, in the order they are tried.
-pub fn changes(cfg: &PlanConfig, plan: &Plan) -> Vec<Change> {
+pub fn changes(cfg: &PlanConfig, plan: &Plan) -> Vec<TemplateChange> {
     let test = plan.test();
     let Ok(user) = serde_yaml::from_str::<Value>(&cfg.template.source().text) else {
         return Vec::new();
@@ -741,7 +742,7 @@ pub fn changes(cfg: &PlanConfig, plan: &Plan) -> Vec<Change> {
             (Some(a), Some(b)) if a <= b => other,
             _ => more,
         };
-        out.push(Change {
+        out.push(TemplateChange {
             what: what.to_string(),
             set,
         });
@@ -753,7 +754,7 @@ pub fn changes(cfg: &PlanConfig, plan: &Plan) -> Vec<Change> {
 }
 
 /// Denser tilt x C grids over the plan's tilt range, cheapest first.
-fn grids(plan: &Plan) -> Vec<Change> {
+fn grids(plan: &Plan) -> Vec<TemplateChange> {
     let poses = plan.poses();
     let mut tilts: Vec<f64> = Vec::new();
     let mut cs: Vec<f64> = Vec::new();
@@ -792,7 +793,7 @@ fn grids(plan: &Plan) -> Vec<Change> {
                     (vec!["poses".into(), "c".into()], list(&c)),
                 ],
             };
-            Change { what, set }
+            TemplateChange { what, set }
         })
         .collect()
 }
@@ -886,7 +887,7 @@ mod tests {
 
     #[test]
     fn a_change_sets_nested_keys_and_reads_as_the_user_types_it() {
-        let c = Change {
+        let c = TemplateChange {
             what: "more tilt angles".into(),
             set: vec![
                 (
@@ -909,7 +910,7 @@ mod tests {
         let t = Template::builtin(Test::ProbeColumns);
         let e = c.apply(&t).unwrap_err();
         assert!(e.contains("pattern"), "{e}");
-        let tilt_only = Change {
+        let tilt_only = TemplateChange {
             set: c.set[..1].to_vec(),
             ..c
         };

@@ -120,7 +120,7 @@ impl<T, E: std::fmt::Display> AtStage<T> for Result<T, E> {
 
 /// One location error: the truth, the first analysis and the final model.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Row {
+pub struct DemoRow {
     /// symbol of docs/model.md.
     pub symbol: String,
     /// Unit (um or urad).
@@ -153,7 +153,7 @@ pub type FoundValue = (String, f64, Option<f64>);
 #[derive(Clone, Debug)]
 pub struct Demo {
     /// Location errors.
-    pub rows: Vec<Row>,
+    pub rows: Vec<DemoRow>,
     /// The effects discovery added, with their fitted values and the
     /// truth where the truth has them.
     pub added: Vec<(String, Vec<FoundValue>)>,
@@ -455,7 +455,7 @@ fn value(est: &Identification, name: &str) -> Option<(f64, f64)> {
     }
 }
 
-fn rows(truth: &LoadedErrors, first: &Identification, last: &Identification) -> Vec<Row> {
+fn rows(truth: &LoadedErrors, first: &Identification, last: &Identification) -> Vec<DemoRow> {
     let names = truth.model.param_names();
     let units = truth.model.param_units();
     let range = match truth.model.find("location") {
@@ -463,7 +463,7 @@ fn rows(truth: &LoadedErrors, first: &Identification, last: &Identification) -> 
         None => 0..0,
     };
     range
-        .map(|i| Row {
+        .map(|i| DemoRow {
             symbol: names[i].clone(),
             unit: units[i].clone(),
             truth: truth.theta[i],

@@ -50,7 +50,7 @@ pub use catalogue::{Candidate, Catalogue};
 pub use fit::{Fit, FitError, Fitter, Part, Spec};
 pub use gap::{Gap, GapSize};
 pub use inputs::{InputError, Inputs};
-pub use story::{Story, Trial, Verdict};
+pub use story::{CandidateVerdict, Story, Trial};
 
 /// What a discovery is asked to do.
 #[derive(Clone, Debug, PartialEq)]
@@ -266,10 +266,10 @@ pub fn identification(f: &Fit, data: &Dataset) -> Identification {
 }
 
 /// The values of effect `ei` of a fit.
-fn effect_values(f: &Fit, ei: usize) -> Vec<story::Value> {
+fn effect_values(f: &Fit, ei: usize) -> Vec<story::FittedValue> {
     let r = f.spec.model.param_range(ei);
     let units = f.spec.model.param_units();
-    r.map(|i| story::Value {
+    r.map(|i| story::FittedValue {
         name: f.names[i].clone(),
         value: f.x[i],
         u: f.u(i),
@@ -322,7 +322,7 @@ fn refused(name: &str, reason: String) -> Tried {
     Tried {
         trial: Trial {
             name: name.to_string(),
-            verdict: Verdict::Refused,
+            verdict: CandidateVerdict::Refused,
             reason: Some(reason),
             gap_after: None,
             test: None,
@@ -527,7 +527,7 @@ fn try_candidate(
     }
     let trial = |rss: f64, rank: usize, residuals: &[f64]| Trial {
         name: cand.name.clone(),
-        verdict: Verdict::NotSignificant,
+        verdict: CandidateVerdict::NotSignificant,
         reason: None,
         gap_after: Some(gap::size(residuals)),
         test: Some(stats::compare(fitter.len(), base.rss, base.rank, rss, rank)),
@@ -882,12 +882,12 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
                 let pa = stats::adjusted(c.p, m);
                 t.trial.p_adjusted = Some(pa);
                 if pa < opts.alpha && c.delta_bic < 0.0 {
-                    t.trial.verdict = Verdict::Significant;
+                    t.trial.verdict = CandidateVerdict::Significant;
                 }
             }
         }
         let mut sig: Vec<usize> = (0..tried.len())
-            .filter(|&i| tried[i].trial.verdict == Verdict::Significant)
+            .filter(|&i| tried[i].trial.verdict == CandidateVerdict::Significant)
             .collect();
         if sig.is_empty() {
             let best = tried
@@ -1075,9 +1075,9 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
             } else {
                 "fitted together, none adds significantly to another, so this test cannot tell which is at work".to_string()
             };
-            let rivals: Vec<separate::Rival<'_>> = cands
+            let rivals: Vec<separate::AmbiguityRival<'_>> = cands
                 .iter()
-                .map(|&i| separate::Rival {
+                .map(|&i| separate::AmbiguityRival {
                     candidate: pool[pool_idx(&tried[i].trial.name)],
                     fit: tried[i].fit.as_ref().expect("tested"),
                 })
@@ -1230,7 +1230,7 @@ fn mark_added(steps: &mut [story::Step], last_round: &[Trial], ambiguous: &[Stri
                         .to_string();
                 }
                 match last_round.iter().find(|t| t.name == rv.name) {
-                    Some(t) if t.verdict == Verdict::Refused => format!(
+                    Some(t) if t.verdict == CandidateVerdict::Refused => format!(
                         "refused in the last round ({})",
                         t.reason.as_deref().unwrap_or("")
                     ),

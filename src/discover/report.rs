@@ -12,7 +12,7 @@ use plotters::prelude::*;
 
 use super::Discovery;
 use super::gap::{Gap, Group};
-use super::story::{Story, Verdict};
+use super::story::{CandidateVerdict, Story};
 use crate::identify::Dataset;
 use crate::io::StagedDir;
 use crate::report::{ReportError, plots};
@@ -371,9 +371,9 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
             "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=l>{}</td></tr>",
             esc(&t.name),
             match t.verdict {
-                Verdict::Significant => "significant",
-                Verdict::NotSignificant => "not significant",
-                Verdict::Refused => "refused",
+                CandidateVerdict::Significant => "significant",
+                CandidateVerdict::NotSignificant => "not significant",
+                CandidateVerdict::Refused => "refused",
             },
             t.gap_after
                 .map_or("-".into(), |g| format!("{:.3}", g.rms_um)),

@@ -88,7 +88,7 @@ pub(crate) fn plan_supplement(first: &Plan, s: &Supplement) -> Result<Plan, Stri
 }
 
 /// A rival of the ambiguity: its candidate and its fit beside the model.
-pub struct Rival<'a> {
+pub struct AmbiguityRival<'a> {
     /// The candidate.
     pub candidate: &'a Candidate,
     /// The model with it, fitted to the first test.
@@ -225,7 +225,7 @@ pub fn candidates(first: &Plan, tilts: &[f64], cs: &[f64]) -> Vec<(Vec<f64>, Vec
 pub fn find(
     parts: &[Part<'_>],
     base: &Spec,
-    rivals: &[Rival<'_>],
+    rivals: &[AmbiguityRival<'_>],
     opts: &DiscoverOptions,
     tested: usize,
 ) -> Result<Supplement, String> {
@@ -311,7 +311,7 @@ pub fn find(
                 .extend(&model, c)
                 .ok_or_else(|| format!("{n} is not served"))?;
         }
-        let joint: Vec<(&Rival<'_>, &Candidate)> = rivals
+        let joint: Vec<(&AmbiguityRival<'_>, &Candidate)> = rivals
             .iter()
             .filter_map(|r| {
                 wanted

@@ -21,7 +21,7 @@ use statrs::function::beta::beta_reg;
 
 /// The comparison of a model with one more effect against the current one.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Comparison {
+pub struct NestedTest {
     /// Number of observations.
     pub n: usize,
     /// Directions the candidate adds (rank increase).
@@ -59,7 +59,7 @@ pub(crate) fn f_upper_tail(f: f64, d1: f64, d2: f64) -> f64 {
 
 /// Compares the extended model (`rss1`, rank `r1`) with the current one
 /// (`rss0`, rank `r0`) on `n` observations.
-pub fn compare(n: usize, rss0: f64, r0: usize, rss1: f64, r1: usize) -> Comparison {
+pub fn compare(n: usize, rss0: f64, r0: usize, rss1: f64, r1: usize) -> NestedTest {
     let df1 = r1.saturating_sub(r0);
     let df2 = n.saturating_sub(r1);
     let nf = n as f64;
@@ -80,7 +80,7 @@ pub fn compare(n: usize, rss0: f64, r0: usize, rss1: f64, r1: usize) -> Comparis
     } else {
         f_upper_tail(f, df1 as f64, df2 as f64)
     };
-    Comparison {
+    NestedTest {
         n,
         df1,
         df2,

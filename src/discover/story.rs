@@ -6,11 +6,11 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::gap::{Gap, GapSize};
-use super::stats::Comparison;
+use super::stats::NestedTest;
 
 /// A fitted value.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Value {
+pub struct FittedValue {
     /// Parameter name (`EX0B`, `drift.EZ0B/seq`, `map.EBB(B)@B=90`, `scale.EXX`).
     pub name: String,
     /// Value, in `unit`.
@@ -58,7 +58,7 @@ pub struct Alongside {
 /// The verdict on one candidate in one round.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Verdict {
+pub enum CandidateVerdict {
     /// Significant (F-test after the multiple-comparison adjustment, and
     /// the BIC falls).
     Significant,
@@ -74,8 +74,8 @@ pub enum Verdict {
 pub struct Trial {
     /// Candidate name.
     pub name: String,
-    /// Verdict.
-    pub verdict: Verdict,
+    /// Significant, not significant or refused.
+    pub verdict: CandidateVerdict,
     /// Why it was refused.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
@@ -84,7 +84,7 @@ pub struct Trial {
     pub gap_after: Option<GapSize>,
     /// The comparison with the model so far.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub test: Option<Comparison>,
+    pub test: Option<NestedTest>,
     /// The p-value after the multiple-comparison adjustment.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub p_adjusted: Option<f64>,
@@ -150,7 +150,7 @@ pub struct Step {
     /// Its values as fitted at this step, with their uncertainty:
     /// provisional, since later steps refit them (the final model,
     /// [`Story::end`], is the one to quote).
-    pub provisional_values: Vec<Value>,
+    pub provisional_values: Vec<FittedValue>,
     /// The gap before the step.
     pub gap_before: GapSize,
     /// The gap after the step.
@@ -158,7 +158,7 @@ pub struct Step {
     /// Where the gap was concentrated before the step.
     pub concentrated: String,
     /// The significance test.
-    pub test: Comparison,
+    pub test: NestedTest,
     /// Its p-value after the multiple-comparison adjustment.
     pub p_adjusted: f64,
     /// Number of candidates tested in this round.
@@ -196,7 +196,7 @@ pub struct AmbiguousCandidate {
     /// (the best by the BIC), whatever its noise (the first has it too).
     pub exactly_indistinguishable: bool,
     /// Its fitted values.
-    pub values: Vec<Value>,
+    pub values: Vec<FittedValue>,
     /// The gap it leaves.
     pub gap_after: GapSize,
 }
@@ -207,7 +207,7 @@ pub struct State {
     /// The effects, by name.
     pub model: Vec<String>,
     /// Every value with its uncertainty.
-    pub values: Vec<Value>,
+    pub values: Vec<FittedValue>,
     /// The gap, with its breakdowns.
     pub gap: Gap,
     /// Residual standard deviation, um.
@@ -262,13 +262,13 @@ fn list(v: &[f64]) -> String {
         .join(", ")
 }
 
-fn values(s: &mut String, v: &[Value], indent: &str) {
+fn values(s: &mut String, v: &[FittedValue], indent: &str) {
     for x in v {
         let _ = writeln!(s, "{indent}{}", value_line(x));
     }
 }
 
-fn value_line(x: &Value) -> String {
+fn value_line(x: &FittedValue) -> String {
     match x.u {
         Some(u) => format!(
             "{:<24} {:>10.3} {:<9} u = {:.3}",
@@ -286,7 +286,7 @@ fn value_line(x: &Value) -> String {
 
 /// A step's values, provisional, each beside its value in the final
 /// model (the one to quote).
-fn provisional(s: &mut String, v: &[Value], end: &[Value]) {
+fn provisional(s: &mut String, v: &[FittedValue], end: &[FittedValue]) {
     let _ = writeln!(
         s,
         "  provisional values (this step's fit; the final model at the end is the one to quote):"
@@ -298,10 +298,10 @@ fn provisional(s: &mut String, v: &[Value], end: &[Value]) {
             Some(e) if same(e.value, x.value) && e.u.zip(x.u).is_none_or(|(a, b)| same(a, b)) => {
                 "   (as final)".to_string()
             }
-            Some(Value {
+            Some(FittedValue {
                 value, u: Some(u), ..
             }) => format!("   final {value:.3}, u = {u:.3}"),
-            Some(Value { value, u: None, .. }) => format!("   final {value:.3}"),
+            Some(FittedValue { value, u: None, .. }) => format!("   final {value:.3}"),
             None => String::new(),
         };
         let _ = writeln!(s, "    {}{fin}", value_line(x));
@@ -452,7 +452,7 @@ impl Story {
         let refused: Vec<&Trial> = self
             .last_round
             .iter()
-            .filter(|t| t.verdict == Verdict::Refused)
+            .filter(|t| t.verdict == CandidateVerdict::Refused)
             .collect();
         if !refused.is_empty() {
             let _ = writeln!(s, "refused in the last round:");

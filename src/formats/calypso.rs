@@ -38,12 +38,12 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::detect::{LengthUnit, MeasuredOptions};
-use super::inventory::{Entry, Inventory, Skipped};
+use super::inventory::{Entry, Inventory, Unread};
 use crate::source::SourceError;
 
 /// Which of the three tables a file is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Table {
+pub enum CalypsoTable {
     /// `_chr.txt`: characteristics.
     Characteristics,
     /// `_fet.txt`: features.
@@ -52,13 +52,13 @@ pub enum Table {
     Header,
 }
 
-impl Table {
+impl CalypsoTable {
     /// The file name suffix CALYPSO gives the table.
     pub(crate) fn suffix(self) -> &'static str {
         match self {
-            Table::Characteristics => "_chr",
-            Table::Features => "_fet",
-            Table::Header => "_hdr",
+            CalypsoTable::Characteristics => "_chr",
+            CalypsoTable::Features => "_fet",
+            CalypsoTable::Header => "_hdr",
         }
     }
 }
@@ -89,14 +89,14 @@ impl Header {
         ])
     }
 
-    fn table(&self) -> Option<Table> {
+    fn table(&self) -> Option<CalypsoTable> {
         let has = |n: &str| self.find(n).is_some();
         if has("id") && has("idsymbol") && has("actual") {
-            Some(Table::Characteristics)
+            Some(CalypsoTable::Characteristics)
         } else if has("id") && has("x") && has("y") && has("z") {
-            Some(Table::Features)
+            Some(CalypsoTable::Features)
         } else if has("planid") && has("partnb") {
-            Some(Table::Header)
+            Some(CalypsoTable::Header)
         } else {
             None
         }
@@ -135,7 +135,7 @@ fn header(src: &str) -> Option<Header> {
 }
 
 /// Whether a text is a CALYPSO table, and which.
-pub(crate) fn sniff(src: &str) -> Option<Table> {
+pub(crate) fn sniff(src: &str) -> Option<CalypsoTable> {
     let h = header(src)?;
     // `planid`/`partnb` or `idsymbol` mark CALYPSO; a plain table naming
     // x, y, z is the table reader's.
@@ -394,7 +394,7 @@ fn ignored(r: &Reader<'_>, used: &[Option<usize>], inv: &mut Inventory) {
         .map(|(_, (_, n))| n.as_str())
         .collect();
     if !names.is_empty() {
-        inv.skipped.push(Skipped {
+        inv.skipped.push(Unread {
             line: r.header.line,
             what: format!("columns {}", names.join(", ")),
             why: "not read (tolerances, groups, display positions, the localized type, ...)".into(),
@@ -441,19 +441,19 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
     inv.version = Some(table.suffix().trim_start_matches('_').to_string());
     let run_of = runs(&r, &rows, &mut inv);
     match table {
-        Table::Header => {
-            inv.skipped.push(Skipped {
+        CalypsoTable::Header => {
+            inv.skipped.push(Unread {
                 line: r.header.line,
                 what: "the run header (plan, part, date, operator, CMM, temperatures)".into(),
                 why: HEADER_HOLDS_NO_MEASUREMENT.into(),
             });
             return Ok(inv);
         }
-        Table::Features => {
+        CalypsoTable::Features => {
             let unit = length_unit(&r, &rows, options, &mut inv)?;
             features(&r, &rows, &run_of, unit.mm(), &mut inv)?;
         }
-        Table::Characteristics => {
+        CalypsoTable::Characteristics => {
             let unit = length_unit(&r, &rows, options, &mut inv)?;
             characteristics(&r, &rows, &run_of, unit.mm(), &mut inv)?;
         }
@@ -529,7 +529,7 @@ fn features(
         let nominal_dir = r.direction(row, nominal_dir)?;
         e.normal = measured_dir.or(nominal_dir);
         if e.actual.is_none() {
-            inv.skipped.push(Skipped {
+            inv.skipped.push(Unread {
                 line: row.line,
                 what: format!("feature `{label}`"),
                 why: "no actual position (x, y, z empty): not measured".into(),
@@ -600,7 +600,7 @@ fn characteristics(
         e.value = value;
         inv.entries.push(e);
         let Some(v) = value else {
-            inv.skipped.push(Skipped {
+            inv.skipped.push(Unread {
                 line: row.line,
                 what: format!("characteristic `{label}`"),
                 why: "no actual value: not measured".into(),
@@ -618,7 +618,7 @@ fn characteristics(
             };
             if let Some((_, _, first)) = coords[k].1[axis] {
                 if !ambiguous.contains(&key) {
-                    inv.skipped.push(Skipped {
+                    inv.skipped.push(Unread {
                         line: row.line,
                         what: format!("the position of feature `{f}`"),
                         why: format!(
@@ -664,7 +664,7 @@ mod tests {
 
     #[test]
     fn characteristics_by_name_with_coordinate_triples_as_points() {
-        assert_eq!(sniff(CHR), Some(Table::Characteristics));
+        assert_eq!(sniff(CHR), Some(CalypsoTable::Characteristics));
         let inv = parse(Path::new("r_chr.txt"), CHR, &MeasuredOptions::default()).unwrap();
         assert_eq!(inv.runs, ["PLAN part 7"]);
         assert_eq!(inv.entries.len(), 5);

@@ -519,7 +519,7 @@ impl Reader for Calypso {
         src: &str,
         ctx: &ReadContext<'_>,
     ) -> Result<Measurement, SourceError> {
-        if calypso::sniff(src) == Some(calypso::Table::Header) {
+        if calypso::sniff(src) == Some(calypso::CalypsoTable::Header) {
             return Err(SourceError::new(
                 path,
                 0,

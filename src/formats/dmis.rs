@@ -33,7 +33,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::inventory::{Entry, Inventory, Skipped};
+use super::inventory::{Entry, Inventory, Unread};
 use super::measured::MeasuredPoint;
 use super::points::fmt_num;
 use crate::source::SourceError;
@@ -250,7 +250,7 @@ pub struct DmisOutput {
     /// is a program to run on a CMM, not what a CMM wrote.
     pub program_statements: usize,
     /// Features not read, and why.
-    pub skipped: Vec<Skipped>,
+    pub skipped: Vec<Unread>,
     /// Quirks met on the way (not errors).
     pub warnings: Vec<String>,
 }
@@ -464,7 +464,7 @@ pub fn parse(path: &Path, src: &str) -> Result<DmisOutput, SourceError> {
         let data = match parse_feature(&text[body_off..], body_off, units, st, path)? {
             Ok(d) => d,
             Err(why) => {
-                skipped.push(Skipped {
+                skipped.push(Unread {
                     line: st.line(),
                     what: format!("{}({label})", if actual { "FA" } else { "F" }),
                     why,

@@ -40,7 +40,7 @@ pub struct DmisMoves {
 
 /// One point to probe with the free point the probe reaches it from.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Probing {
+pub struct ProbeTarget {
     /// The plan point.
     pub point: PlanPoint,
     /// A point in free space with a straight way to the start of the
@@ -50,7 +50,7 @@ pub struct Probing {
 }
 
 /// Writes a DMIS program measuring every point along its normal.
-pub fn program(name: &str, comments: &[String], items: &[Probing], moves: DmisMoves) -> String {
+pub fn program(name: &str, comments: &[String], items: &[ProbeTarget], moves: DmisMoves) -> String {
     let mut s = String::new();
     let n = |v: f64| fmt_num(v, 6);
     let _ = writeln!(s, "DMISMN/'{name}',05.0");
@@ -111,7 +111,7 @@ mod tests {
 
     #[test]
     fn every_point_is_a_feature_probed_along_its_normal() {
-        let pts = vec![Probing {
+        let pts = vec![ProbeTarget {
             point: PlanPoint {
                 label: "B0C0-XP1".into(),
                 pose: "B0C0".into(),

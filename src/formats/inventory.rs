@@ -63,7 +63,7 @@ impl Entry {
 
 /// Something in the file that was not read, and why.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Skipped {
+pub struct Unread {
     /// 1-based line (0 if unknown).
     pub line: usize,
     /// What it is.
@@ -88,7 +88,7 @@ pub struct Inventory {
     /// Its features, points and characteristics in file order.
     pub entries: Vec<Entry>,
     /// What was not read.
-    pub skipped: Vec<Skipped>,
+    pub skipped: Vec<Unread>,
     /// Quirks met while reading.
     pub warnings: Vec<String>,
 }

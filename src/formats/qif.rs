@@ -37,7 +37,7 @@ use nalgebra::Vector3;
 use roxmltree::{Document, Node};
 
 use super::detect::MeasuredOptions;
-use super::inventory::{Entry, Inventory, Skipped};
+use super::inventory::{Entry, Inventory, Unread};
 use crate::source::SourceError;
 
 /// Whether a text is a QIF document.
@@ -526,7 +526,7 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
             if let Some(list) = child(f, "PointList") {
                 let (refs, dangling) = point_refs(&ctx, list, &sets)?;
                 for why in dangling {
-                    inv.skipped.push(Skipped {
+                    inv.skipped.push(Unread {
                         line: ctx.line(list),
                         what: format!("the points of `{}`", e.label),
                         why,
@@ -552,7 +552,7 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
                         match surface {
                             Some(s) => e.points.push(s),
                             None => {
-                                inv.skipped.push(Skipped {
+                                inv.skipped.push(Unread {
                                     line: e.line,
                                     what: format!("point {} of {what} ({})", k + 1, e.label),
                                     why: "a probe-ball centre without a normal to compensate it along".into(),
@@ -604,7 +604,7 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
                 }
             }
             if e.actual.is_none() {
-                inv.skipped.push(Skipped {
+                inv.skipped.push(Unread {
                     line: e.line,
                     what: format!("{element} `{}`", e.label),
                     why: "no measured location".into(),

@@ -17,7 +17,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::detect::MeasuredOptions;
-use super::inventory::{Entry, Inventory, Skipped};
+use super::inventory::{Entry, Inventory, Unread};
 use crate::source::SourceError;
 
 /// The roles a column can have.
@@ -232,7 +232,7 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
         .map(|(c, _)| c.1.as_str())
         .collect();
     if !ignored.is_empty() {
-        inv.skipped.push(Skipped {
+        inv.skipped.push(Unread {
             line: hi + 1,
             what: format!("columns {}", ignored.join(", ")),
             why: "not a label, position, nominal or direction".into(),

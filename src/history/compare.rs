@@ -13,13 +13,13 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
-use crate::analyze::series::{Series, Value};
-use crate::conformance::{COVERAGE, Limits, Verdict, unit_of};
+use crate::analyze::series::{Series, SeriesValue};
+use crate::conformance::{AcceptanceLimits, COVERAGE, ConformanceVerdict, unit_of};
 use crate::errorfile::ErrorFile;
 
 /// One symbol before and after.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Change {
+pub struct SymbolChange {
     /// The symbol.
     pub symbol: String,
     /// um or urad.
@@ -32,7 +32,7 @@ pub struct Change {
     pub change: Option<(f64, Option<f64>)>,
 }
 
-impl Change {
+impl SymbolChange {
     /// Whether the change exceeds its expanded uncertainty.
     pub fn significant(&self) -> Option<bool> {
         let (d, u) = self.change?;
@@ -56,11 +56,11 @@ pub struct Comparison {
     /// What the second is.
     pub after: String,
     /// Every location symbol of either, in the first result's order.
-    pub changes: Vec<Change>,
+    pub changes: Vec<SymbolChange>,
     /// The compensated machine against its limits, when limits are given.
-    pub verdict_after: Option<Verdict>,
+    pub verdict_after: Option<ConformanceVerdict>,
     /// The machine before, against the same limits.
-    pub verdict_before: Option<Verdict>,
+    pub verdict_before: Option<ConformanceVerdict>,
 }
 
 impl Comparison {
@@ -69,7 +69,7 @@ impl Comparison {
     pub fn new(
         before: (&str, &ErrorFile),
         after: (&str, &ErrorFile),
-        limits: Option<&Limits>,
+        limits: Option<&AcceptanceLimits>,
     ) -> Result<Comparison, String> {
         let (bn, b) = before;
         let (an, a) = after;
@@ -82,11 +82,11 @@ impl Comparison {
         // The values side by side and the change with its combined u, as
         // `analyze --compare` tabulates them.
         let table = Series::new(&[(bn.to_string(), b.clone()), (an.to_string(), a.clone())]);
-        let pair = |v: &Option<Value>| v.map(|v| (v.value, v.u));
+        let pair = |v: &Option<SeriesValue>| v.map(|v| (v.value, v.u));
         let changes = table
             .location_errors
             .iter()
-            .map(|(s, row)| Change {
+            .map(|(s, row)| SymbolChange {
                 symbol: s.clone(),
                 unit: unit_of(s),
                 before: pair(&row.values[0]),
@@ -99,8 +99,8 @@ impl Comparison {
             before: bn.to_string(),
             after: an.to_string(),
             changes,
-            verdict_after: limits.map(|l| Verdict::of(a, l)),
-            verdict_before: limits.map(|l| Verdict::of(b, l)),
+            verdict_after: limits.map(|l| ConformanceVerdict::of(a, l)),
+            verdict_before: limits.map(|l| ConformanceVerdict::of(b, l)),
         })
     }
 

@@ -16,10 +16,10 @@ use indexmap::IndexMap;
 use jiff::Timestamp;
 use serde::{Deserialize, Serialize};
 
-use crate::conformance::{Limits, unit_of};
+use crate::conformance::{AcceptanceLimits, unit_of};
 use crate::errorfile::Quantity;
-use crate::store::{FileRole, FitVerdict, Kind, Stored, format_time};
-use trend::{Outlook, Sample};
+use crate::store::{FileRole, FitVerdict, RecordKind, Stored, format_time};
+use trend::{Outlook, TrendSample};
 
 /// The location errors of a result file's text (YAML or JSON), or `None`
 /// when it has none (nine-section statistics, a series table).
@@ -44,7 +44,7 @@ pub struct Point {
     #[serde(serialize_with = "ser_time")]
     pub at: Timestamp,
     /// analyze or discover.
-    pub kind: Kind,
+    pub kind: RecordKind,
     /// The result's fit verdict.
     pub fit: Option<FitVerdict>,
     /// The value.
@@ -59,7 +59,7 @@ fn ser_time<S: serde::Serializer>(t: &Timestamp, s: S) -> Result<S::Ok, S::Error
 
 /// One location error over time.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Series {
+pub struct SymbolHistory {
     /// The symbol.
     pub symbol: String,
     /// um or urad.
@@ -70,7 +70,7 @@ pub struct Series {
 
 /// A change of the control (`compensate --export`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Export {
+pub struct ExportRecord {
     /// The record.
     pub id: i64,
     /// When.
@@ -88,9 +88,9 @@ pub struct History {
     /// Its records, oldest measurement first.
     pub records: Vec<Stored>,
     /// One series per location symbol, in the order they first appear.
-    pub series: Vec<Series>,
+    pub series: Vec<SymbolHistory>,
     /// The exports, oldest first.
-    pub exports: Vec<Export>,
+    pub exports: Vec<ExportRecord>,
     /// Records that measured the same files as a later one and are left
     /// out of the series (the later result of a measurement counts).
     pub superseded: Vec<i64>,
@@ -108,7 +108,7 @@ impl History {
         let mut by_recorded: Vec<&Stored> = records.iter().collect();
         by_recorded.sort_by_key(|r| std::cmp::Reverse((r.record.recorded_at, r.id)));
         for r in by_recorded {
-            if r.record.kind == Kind::Export {
+            if r.record.kind == RecordKind::Export {
                 continue;
             }
             let mut key: Vec<String> = r
@@ -126,11 +126,11 @@ impl History {
                 superseded.push(r.id);
             }
         }
-        let mut series: IndexMap<String, Series> = IndexMap::new();
+        let mut series: IndexMap<String, SymbolHistory> = IndexMap::new();
         let mut exports = Vec::new();
         for r in &records {
-            if r.record.kind == Kind::Export {
-                exports.push(Export {
+            if r.record.kind == RecordKind::Export {
+                exports.push(ExportRecord {
                     id: r.id,
                     at: r.record.measured_at,
                     controller: r.record.controller.clone(),
@@ -143,7 +143,7 @@ impl History {
             for (sym, q) in location_errors(&r.record.content).unwrap_or_default() {
                 series
                     .entry(sym.clone())
-                    .or_insert_with(|| Series {
+                    .or_insert_with(|| SymbolHistory {
                         unit: unit_of(&sym),
                         symbol: sym.clone(),
                         points: Vec::new(),
@@ -172,13 +172,13 @@ impl History {
     /// The points of `s` since the last export (the control was changed
     /// there, so the values before it belong to another machine state),
     /// with an uncertainty.
-    pub fn current(&self, s: &Series) -> Vec<Sample> {
+    pub fn current(&self, s: &SymbolHistory) -> Vec<TrendSample> {
         let after = self.exports.last().map(|e| e.at);
         s.points
             .iter()
             .filter(|p| after.is_none_or(|t| p.at > t))
             .filter_map(|p| {
-                p.u.filter(|u| *u > 0.0).map(|u| Sample {
+                p.u.filter(|u| *u > 0.0).map(|u| TrendSample {
                     at: p.at,
                     value: p.value,
                     u,
@@ -188,7 +188,7 @@ impl History {
     }
 
     /// The outlook of every series against `limits`.
-    pub fn outlooks(&self, limits: &Limits) -> Vec<(&Series, Outlook)> {
+    pub fn outlooks(&self, limits: &AcceptanceLimits) -> Vec<(&SymbolHistory, Outlook)> {
         self.series
             .iter()
             .map(|s| (s, trend::outlook(&self.current(s), limits.get(&s.symbol))))
@@ -282,7 +282,7 @@ pub fn render_record(r: &Stored) -> String {
 }
 
 /// The trends as printed, one paragraph per symbol.
-pub fn render_outlooks(h: &History, limits: &Limits) -> String {
+pub fn render_outlooks(h: &History, limits: &AcceptanceLimits) -> String {
     use trend::{Forecast, Outlook as O};
     let mut s = String::new();
     if let Some(e) = h.exports.last() {

@@ -11,14 +11,18 @@ use jiff::Timestamp;
 
 use super::trend::{self, Forecast, Outlook};
 use super::{History, render_outlooks, short_time};
-use crate::conformance::Limits;
+use crate::conformance::AcceptanceLimits;
 use crate::io::write_atomic;
-use crate::report::plots::{self, TimePoint, TimeSeries, Verdict};
+use crate::report::plots::{self, FitMark, TimePoint, TimeSeries};
 use crate::report::{ReportError, esc, page_start};
 use crate::store::FitVerdict;
 
 /// Writes the page into `dir`; returns the files written.
-pub fn write(dir: &Path, h: &History, limits: &Limits) -> Result<Vec<PathBuf>, ReportError> {
+pub fn write(
+    dir: &Path,
+    h: &History,
+    limits: &AcceptanceLimits,
+) -> Result<Vec<PathBuf>, ReportError> {
     let mut files = Vec::new();
     let origin: Option<Timestamp> = h.records.iter().map(|r| r.record.measured_at).min();
     let origin = origin.unwrap_or_else(Timestamp::now);
@@ -43,9 +47,9 @@ pub fn write(dir: &Path, h: &History, limits: &Limits) -> Result<Vec<PathBuf>, R
                 value: p.value,
                 u: p.u,
                 verdict: match p.fit {
-                    Some(FitVerdict::Fits) => Verdict::Fits,
-                    Some(FitVerdict::Misfit) => Verdict::Misfit,
-                    None => Verdict::Unknown,
+                    Some(FitVerdict::Fits) => FitMark::Fits,
+                    Some(FitVerdict::Misfit) => FitMark::Misfit,
+                    None => FitMark::Unknown,
                 },
             });
         }

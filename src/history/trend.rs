@@ -28,7 +28,7 @@ const SLOPE_LEVEL: f64 = 0.95;
 
 /// One result in time: when, the value and its standard uncertainty.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sample {
+pub struct TrendSample {
     /// When the machine was measured.
     pub at: Timestamp,
     /// The value (um or urad).
@@ -39,7 +39,7 @@ pub struct Sample {
 
 /// A weighted straight line through samples.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Line {
+pub struct TrendLine {
     /// Number of samples.
     pub n: usize,
     /// The first sample's time.
@@ -63,16 +63,16 @@ pub struct Line {
     pub birge: f64,
 }
 
-impl Line {
+impl TrendLine {
     /// Fits `samples` (at least three, each with u > 0), time in days from
     /// the last sample. `None` when fewer or when they share one instant.
-    pub fn fit(samples: &[Sample]) -> Option<Line> {
+    pub fn fit(samples: &[TrendSample]) -> Option<TrendLine> {
         let n = samples.len();
         if n < 3 || samples.iter().any(|s| !(s.u > 0.0 && s.value.is_finite())) {
             return None;
         }
         let t0 = samples[n - 1].at;
-        let x = |s: &Sample| days_between(t0, s.at);
+        let x = |s: &TrendSample| days_between(t0, s.at);
         let (mut sw, mut sx, mut sxx, mut sy, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for s in samples {
             let w = 1.0 / (s.u * s.u);
@@ -96,7 +96,7 @@ impl Line {
         let dof = (n - 2) as f64;
         let birge = (chi2 / dof).sqrt().max(1.0);
         let scale = birge * birge;
-        Some(Line {
+        Some(TrendLine {
             n,
             since: samples[0].at,
             at: t0,
@@ -181,27 +181,27 @@ pub enum Outlook {
     /// The slope is within its 95 % bound of zero.
     NoTrend {
         /// The line fitted.
-        line: Line,
+        line: TrendLine,
     },
     /// Drifting since `line.since`.
     Drifting {
         /// The line fitted.
-        line: Line,
+        line: TrendLine,
         /// When it reaches its limit.
         forecast: Forecast,
     },
 }
 
 /// The outlook of `samples` (oldest first) against `limit`.
-pub fn outlook(samples: &[Sample], limit: Option<Limit>) -> Outlook {
+pub fn outlook(samples: &[TrendSample], limit: Option<Limit>) -> Outlook {
     let n = samples.len();
     if n < 3 {
         return Outlook::TooFew { n };
     }
     let line = (0..=n - 3)
-        .filter_map(|k| Line::fit(&samples[k..]))
-        .find(Line::is_straight)
-        .or_else(|| Line::fit(samples));
+        .filter_map(|k| TrendLine::fit(&samples[k..]))
+        .find(TrendLine::is_straight)
+        .or_else(|| TrendLine::fit(samples));
     let Some(line) = line else {
         return Outlook::TooFew { n };
     };
@@ -218,7 +218,7 @@ pub fn outlook(samples: &[Sample], limit: Option<Limit>) -> Outlook {
 /// When `line` reaches the limit it moves toward: `d = (L - a) / b` days
 /// after its last sample, u by first-order propagation of the covariance
 /// of (a, b).
-fn forecast(line: &Line, limit: Limit) -> Forecast {
+fn forecast(line: &TrendLine, limit: Limit) -> Forecast {
     let (a, b) = (line.value, line.slope);
     let l = limit.toward(b.signum());
     if (l - a) * b.signum() <= 0.0 {
@@ -252,15 +252,15 @@ mod tests {
     /// covariance matches the closed form for equal weights.
     #[test]
     fn a_straight_line_is_recovered_with_the_closed_form_covariance() {
-        let s: Vec<Sample> = [0.0, 2.0, 4.0, 6.0, 8.0]
+        let s: Vec<TrendSample> = [0.0, 2.0, 4.0, 6.0, 8.0]
             .iter()
-            .map(|&x| Sample {
+            .map(|&x| TrendSample {
                 at: day(x),
                 value: 2.0 + 0.5 * x,
                 u: 0.1,
             })
             .collect();
-        let l = Line::fit(&s).unwrap();
+        let l = TrendLine::fit(&s).unwrap();
         assert!((l.slope - 0.5).abs() < 1e-12 && (l.value - 6.0).abs() < 1e-12);
         assert!(l.chi2 < 1e-18 && l.birge == 1.0);
         // Equal weights: var(b) = u^2 / sum (x - xbar)^2 = 0.01 / 40.
@@ -274,16 +274,16 @@ mod tests {
     #[test]
     fn scatter_beyond_u_widens_by_the_birge_ratio() {
         let noise = [0.3, -0.3, 0.3, -0.3, 0.3, -0.3];
-        let s: Vec<Sample> = noise
+        let s: Vec<TrendSample> = noise
             .iter()
             .enumerate()
-            .map(|(k, e)| Sample {
+            .map(|(k, e)| TrendSample {
                 at: day(k as f64),
                 value: 1.0 + e,
                 u: 0.1,
             })
             .collect();
-        let l = Line::fit(&s).unwrap();
+        let l = TrendLine::fit(&s).unwrap();
         assert!(l.birge > 2.5, "{l:?}");
         assert!(!l.is_straight());
         let unscaled = (0.01f64 / 17.5).sqrt();
@@ -295,15 +295,15 @@ mod tests {
     /// forecast of reaching 10 follows from the closed form.
     #[test]
     fn the_drift_is_dated_from_where_it_starts_and_forecast_to_the_limit() {
-        let mut s: Vec<Sample> = (0..5)
-            .map(|k| Sample {
+        let mut s: Vec<TrendSample> = (0..5)
+            .map(|k| TrendSample {
                 at: day(k as f64),
                 value: 0.0,
                 u: 0.05,
             })
             .collect();
         for k in 5..9 {
-            s.push(Sample {
+            s.push(TrendSample {
                 at: day(k as f64),
                 value: (k - 4) as f64,
                 u: 0.05,
@@ -327,18 +327,18 @@ mod tests {
     /// forecasts that one; a value already past it says so.
     #[test]
     fn no_trend_downward_drift_and_beyond() {
-        let flat: Vec<Sample> = [0.02, -0.03, 0.01, 0.0, -0.01]
+        let flat: Vec<TrendSample> = [0.02, -0.03, 0.01, 0.0, -0.01]
             .iter()
             .enumerate()
-            .map(|(k, &v)| Sample {
+            .map(|(k, &v)| TrendSample {
                 at: day(k as f64 * 7.0),
                 value: v,
                 u: 0.05,
             })
             .collect();
         assert!(matches!(outlook(&flat, None), Outlook::NoTrend { .. }));
-        let fall: Vec<Sample> = (0..4)
-            .map(|k| Sample {
+        let fall: Vec<TrendSample> = (0..4)
+            .map(|k| TrendSample {
                 at: day(k as f64),
                 value: -2.0 * k as f64,
                 u: 0.1,
@@ -385,15 +385,15 @@ mod tests {
         let xs = [0.0, 3.0, 6.0, 9.0, 12.0, 15.0];
         let lim = Limit::symmetric(12.0);
         let one = |rng: &mut rand::rngs::StdRng| {
-            let s: Vec<Sample> = xs
+            let s: Vec<TrendSample> = xs
                 .iter()
-                .map(|&x| Sample {
+                .map(|&x| TrendSample {
                     at: day(x),
                     value: truth(x) + noise.sample(rng),
                     u: 0.2,
                 })
                 .collect();
-            let line = Line::fit(&s).unwrap();
+            let line = TrendLine::fit(&s).unwrap();
             (line, forecast(&line, lim))
         };
         let mut days = Vec::new();
@@ -407,15 +407,16 @@ mod tests {
             (days.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (days.len() - 1) as f64).sqrt();
         // The propagated u at the true line (u does not depend on the noise
         // draw when the scatter is within u).
-        let exact: Vec<Sample> = xs
+        let exact: Vec<TrendSample> = xs
             .iter()
-            .map(|&x| Sample {
+            .map(|&x| TrendSample {
                 at: day(x),
                 value: truth(x),
                 u: 0.2,
             })
             .collect();
-        let Forecast::Reaches { u_days, .. } = forecast(&Line::fit(&exact).unwrap(), lim) else {
+        let Forecast::Reaches { u_days, .. } = forecast(&TrendLine::fit(&exact).unwrap(), lim)
+        else {
             panic!()
         };
         assert!((sd / u_days - 1.0).abs() < 0.1, "spread {sd}, u {u_days}");

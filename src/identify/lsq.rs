@@ -52,7 +52,7 @@ impl Default for Options {
 
 /// The solution of [`solve`].
 #[derive(Clone, Debug)]
-pub struct Solution {
+pub struct LsqSolution {
     /// The parameters.
     pub x: Vec<f64>,
     /// Residuals at `x`.
@@ -215,7 +215,7 @@ pub fn solve<P: Problem + ?Sized>(
     x0: &[f64],
     basis: Option<&DMatrix<f64>>,
     opts: &Options,
-) -> Solution {
+) -> LsqSolution {
     let (m, n) = (problem.n_residuals(), problem.n_params());
     assert_eq!(x0.len(), n);
     let mut x = x0.to_vec();
@@ -281,7 +281,7 @@ pub fn solve<P: Problem + ?Sized>(
             };
         }
     }
-    Solution {
+    LsqSolution {
         x,
         residuals: r,
         jacobian: jac,

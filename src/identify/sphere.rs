@@ -7,7 +7,7 @@
 //!   radius), from the algebraic fit (Cubas Brizuela & Yeh 2023, eq. 3.1-3.2) refined
 //!   geometrically. Cubas Brizuela & Yeh 2023 averages four 4-point fits instead; with five
 //!   points the least-squares fit is the same estimate with less variance.
-//!   The fit is [`crate::shape_fit::fit_sphere`]; [`fit_sphere`] adds the
+//!   The fit is [`crate::shape_fit::fit_sphere`]; [`fit_centre`] adds the
 //!   centre's covariance the line fits weigh by.
 //! - Axis lines: the centres at one tilt angle and many C angles lie on a
 //!   circle about the C axis; those at one C angle and many tilt angles on an
@@ -78,9 +78,9 @@ impl FromStr for CircleMethod {
     }
 }
 
-/// A fitted sphere.
+/// A fitted sphere with its centre's covariance.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Sphere {
+pub struct CentreFit {
     /// Centre, mm.
     pub centre: Vector3<f64>,
     /// Radius, mm.
@@ -94,7 +94,7 @@ pub struct Sphere {
 /// Fits a sphere (free radius) to at least four points: the geometric
 /// least-squares fit of [`crate::shape_fit::fit_sphere`], with the centre's
 /// covariance per unit noise from the fit's Jacobian at the solution.
-pub fn fit_sphere(pts: &[Vector3<f64>]) -> Option<Sphere> {
+pub fn fit_centre(pts: &[Vector3<f64>]) -> Option<CentreFit> {
     let fit = crate::shape_fit::fit_sphere(pts).ok()?;
     let c = fit.sphere.centre;
     // Rows d(|p - c| - r)/d(c, r) = (-(p - c)/|p - c|, -1).
@@ -109,7 +109,7 @@ pub fn fit_sphere(pts: &[Vector3<f64>]) -> Option<Sphere> {
         jtj += row * row.transpose();
     }
     let inv = jtj.try_inverse()?;
-    Some(Sphere {
+    Some(CentreFit {
         centre: c,
         radius: fit.sphere.radius,
         rss: fit.residuals.iter().map(|r| r * r).sum(),
@@ -731,7 +731,7 @@ fn estimate_fixed(
 ) -> Option<Vec<f64>> {
     let centre = |j: usize| -> Option<Vector3<f64>> {
         let pts: Vec<Vector3<f64>> = data.poses[j].obs.iter().map(|&k| m[k]).collect();
-        fit_sphere(&pts).map(|s| s.centre)
+        fit_centre(&pts).map(|s| s.centre)
     };
     let mut g2 = Groups {
         tilt: g.tilt.clone(),
@@ -863,7 +863,7 @@ pub fn identify_judged(
     let mut notes = Vec::new();
     for pose in &data.poses {
         let pts: Vec<Vector3<f64>> = pose.obs.iter().map(|&k| data.obs[k].m).collect();
-        let s = fit_sphere(&pts).ok_or_else(|| {
+        let s = fit_centre(&pts).ok_or_else(|| {
             IdentifyError::Data(format!(
                 "pose `{}`: a sphere needs four or more probed points not on one circle ({} given)",
                 pose.id,
@@ -1147,7 +1147,7 @@ mod tests {
             Vector3::new(0.0, 0.0, 1.0),
         ];
         let pts: Vec<Vector3<f64>> = dirs.iter().map(|d| c + d * r).collect();
-        let s = fit_sphere(&pts).unwrap();
+        let s = fit_centre(&pts).unwrap();
         assert!((s.centre - c).norm() < 1e-9 && (s.radius - r).abs() < 1e-9);
     }
 

@@ -5,7 +5,7 @@
 //! best moves the pose's nominal faces onto its measured points, by exact
 //! point-to-plane least squares. Motions the pose's faces do not observe (a
 //! single face, say) get no number; the pose's information matrix carries
-//! that on. The nominal points depend on the test ([`Frame`]):
+//! that on. The nominal points depend on the test ([`NominalFrame`]):
 //!
 //! - a machined piece is compared in W, after the CMM placement;
 //! - probing, when the touches name their feature (`<pose>_<feature>`, as
@@ -55,7 +55,7 @@ pub(crate) const REFERENCE_NAMES: [&str; 6] = [
 
 /// How stage 1 frames the nominal points (see the module documentation).
 #[derive(Clone, Debug)]
-pub enum Frame {
+pub enum NominalFrame {
     /// A machined piece in W, placed on the CMM by this placement.
     Piece(Option<Isometry3<f64>>),
     /// Probing against the nominal points `rTw* p`.
@@ -86,13 +86,13 @@ fn reference_touch(data: &Dataset, reference: usize, k: usize) -> Option<usize> 
     })
 }
 
-impl Frame {
+impl NominalFrame {
     /// The frame a dataset is analysed in: Ibaraki, Iritani & Matsushita's (2013) relative form for a
     /// probing test whose touches are mostly tied to the reference pose by
     /// their feature names.
-    pub(crate) fn for_data(data: &Dataset, placement: Option<Isometry3<f64>>) -> Frame {
+    pub(crate) fn for_data(data: &Dataset, placement: Option<Isometry3<f64>>) -> NominalFrame {
         match data.kind {
-            TestKind::Machining => Frame::Piece(placement),
+            TestKind::Machining => NominalFrame::Piece(placement),
             TestKind::Probing => {
                 let reference = data.reference_pose();
                 let measured: HashMap<String, Vector3<f64>> = data.poses[reference]
@@ -112,12 +112,12 @@ impl Frame {
                     .filter(|&&k| reference_touch(data, reference, k).is_some())
                     .count();
                 if !others.is_empty() && 2 * tied >= others.len() {
-                    Frame::Relative {
+                    NominalFrame::Relative {
                         reference,
                         measured,
                     }
                 } else {
-                    Frame::Probed
+                    NominalFrame::Probed
                 }
             }
         }
@@ -126,7 +126,7 @@ impl Frame {
     /// Number of stage-2 nuisance numbers.
     fn nuisance(&self) -> usize {
         match self {
-            Frame::Relative { .. } => 0,
+            NominalFrame::Relative { .. } => 0,
             _ => 6,
         }
     }
@@ -142,18 +142,18 @@ impl Frame {
         let p = data.point(k);
         let m = data.obs[k].m;
         match self {
-            Frame::Piece(placement) => {
+            NominalFrame::Piece(placement) => {
                 let u = match placement {
                     Some(pl) => (pl.inverse() * Point3::from(m)).coords,
                     None => m,
                 };
                 Some((u, p.p, p.n))
             }
-            Frame::Probed => {
+            NominalFrame::Probed => {
                 let t = kin.nominal_table_transform(p.tilt, p.c);
                 Some((m, (t * Point3::from(p.p)).coords, t.rotation * p.n))
             }
-            Frame::Relative {
+            NominalFrame::Relative {
                 reference,
                 measured,
             } => {
@@ -194,20 +194,20 @@ impl Problem for PoseProblem {
     }
 }
 
-/// Stage 1 in the frame [`Frame::for_data`] chooses (used by every method
+/// Stage 1 in the frame [`NominalFrame::for_data`] chooses (used by every method
 /// for the per-pose plots).
 pub(crate) fn pose_fits(
     data: &Dataset,
     kin: &Kinematics,
     placement: Option<&Isometry3<f64>>,
 ) -> Vec<PoseFit> {
-    pose_fits_in(data, kin, &Frame::for_data(data, placement.copied()))
+    pose_fits_in(data, kin, &NominalFrame::for_data(data, placement.copied()))
 }
 
 /// Stage 1: the motion of every pose, with its uncertainty from the pooled
 /// residual variance of all poses. In Ibaraki, Iritani & Matsushita's (2013) form the reference pose,
 /// which defines the frame, has no fit of its own.
-pub(crate) fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &Frame) -> Vec<PoseFit> {
+pub(crate) fn pose_fits_in(data: &Dataset, kin: &Kinematics, frame: &NominalFrame) -> Vec<PoseFit> {
     stage1(data, kin, frame).0
 }
 
@@ -219,14 +219,18 @@ struct Stage1Map {
     p: DMatrix<f64>,
 }
 
-fn stage1(data: &Dataset, kin: &Kinematics, frame: &Frame) -> (Vec<PoseFit>, Vec<Stage1Map>) {
+fn stage1(
+    data: &Dataset,
+    kin: &Kinematics,
+    frame: &NominalFrame,
+) -> (Vec<PoseFit>, Vec<Stage1Map>) {
     let mut maps = Vec::new();
     let mut fits = Vec::new();
     let mut rss = 0.0;
     let mut dof = 0usize;
     let mut designs = Vec::new();
     for (pi, pose) in data.poses.iter().enumerate() {
-        if matches!(frame, Frame::Relative { reference, .. } if *reference == pi) {
+        if matches!(frame, NominalFrame::Relative { reference, .. } if *reference == pi) {
             continue;
         }
         let mut pp = PoseProblem {
@@ -320,7 +324,7 @@ fn rtw(model: &Model, theta: &[f64], tilt: f64, c: f64, seq: u32, minutes: f64) 
 
 struct Stage2<'a> {
     model: &'a Model,
-    frame: &'a Frame,
+    frame: &'a NominalFrame,
     data: &'a Dataset,
     poses: Vec<PoseObs>,
     rows: usize,
@@ -333,9 +337,9 @@ impl Stage2<'_> {
         let a = rtw(m, theta, pose.tilt, pose.c, pose.seq, pose.minutes);
         let nominal = m.kin.nominal_table_transform(pose.tilt, pose.c);
         let iso = match self.frame {
-            Frame::Piece(_) => d6_um(g) * a.inverse() * nominal,
-            Frame::Probed => a * d6_um(g) * nominal.inverse(),
-            Frame::Relative { reference, .. } => {
+            NominalFrame::Piece(_) => d6_um(g) * a.inverse() * nominal,
+            NominalFrame::Probed => a * d6_um(g) * nominal.inverse(),
+            NominalFrame::Relative { reference, .. } => {
                 let r = &self.data.poses[*reference];
                 let a_ref = rtw(m, theta, r.tilt, r.c, r.seq, r.minutes);
                 let n_ref = m.kin.nominal_table_transform(r.tilt, r.c);
@@ -419,10 +423,10 @@ pub fn identify(
         TestKind::Machining => Some(super::initial_placement(data)?),
         TestKind::Probing => None,
     };
-    let frame = Frame::for_data(data, placement);
+    let frame = NominalFrame::for_data(data, placement);
     let mut notes = Vec::new();
     match &frame {
-        Frame::Relative { reference, .. } => {
+        NominalFrame::Relative { reference, .. } => {
             let unused = data
                 .obs
                 .iter()
@@ -442,7 +446,7 @@ pub fn identify(
                 }
             ));
         }
-        Frame::Probed if data.pieces.len() > 1 => notes.push(format!(
+        NominalFrame::Probed if data.pieces.len() > 1 => notes.push(format!(
             "the {} pieces are taken as one rigid setup: their touches cannot be tied to the reference pose by feature (use the global method, which estimates each piece's setup)",
             data.pieces.len()
         )),
@@ -533,7 +537,7 @@ pub fn identify(
     );
     let mut cov_unit = design.cov_unit.view((0, 0), (n, n)).into_owned();
     let mut cov = &cov_unit * s2;
-    if let Frame::Relative { reference, .. } = &frame {
+    if let NominalFrame::Relative { reference, .. } = &frame {
         // Every pose's motion carries the reference touches' own noise:
         // the motions are correlated through it, and treating them as
         // independent would understate the uncertainty. Propagate instead:
@@ -590,7 +594,7 @@ pub fn identify(
         };
         let xi = st2.predicted(&theta, &g, &po);
         for &kk in &pose.obs {
-            if matches!(&frame, Frame::Relative { reference, .. } if *reference == pi) {
+            if matches!(&frame, NominalFrame::Relative { reference, .. } if *reference == pi) {
                 // The reference touches define the frame.
                 continue;
             }
@@ -616,7 +620,7 @@ pub fn identify(
         identifiability: report,
         // Per touch: in Ibaraki, Iritani & Matsushita's (2013) form a stage-1 residual holds two
         // touches' noise.
-        sigma_um: if matches!(frame, Frame::Relative { .. }) {
+        sigma_um: if matches!(frame, NominalFrame::Relative { .. }) {
             sigma1 / 2f64.sqrt()
         } else {
             sigma1

@@ -10,7 +10,7 @@ use crate::machine::{Machine, RotaryAxis, Structure};
 
 /// An elementary transform.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Op {
+pub enum ChainOp {
     /// Translation along an axis.
     T(Axis3),
     /// Right-handed rotation about an axis.
@@ -20,7 +20,7 @@ pub enum Op {
 /// One factor: `op(c0 + sum coef * var)`.
 #[derive(Clone, Debug)]
 struct Factor {
-    op: Op,
+    op: ChainOp,
     c0: f64,
     terms: Vec<(usize, f64)>,
 }
@@ -34,10 +34,10 @@ impl Factor {
 
     fn iso(&self, x: f64) -> Isometry3<f64> {
         match self.op {
-            Op::T(a) => {
+            ChainOp::T(a) => {
                 Isometry3::from_parts(Translation3::from(a.unit() * x), UnitQuaternion::identity())
             }
-            Op::R(a) => {
+            ChainOp::R(a) => {
                 let (s, c) = (0.5 * x).sin_cos();
                 let e = a.unit() * s;
                 let q = nalgebra::Quaternion::new(c, e.x, e.y, e.z);
@@ -68,14 +68,14 @@ fn var_of(axis: &RotaryAxis) -> usize {
 fn push_link(f: &mut Vec<Factor>, link: usize) {
     for (k, &a) in LIN_AXES.iter().enumerate() {
         f.push(Factor {
-            op: Op::T(a),
+            op: ChainOp::T(a),
             c0: 0.0,
             terms: vec![(slot(link * 6 + k), 1.0)],
         });
     }
     for (k, &a) in ROT_AXES.iter().enumerate() {
         f.push(Factor {
-            op: Op::R(a),
+            op: ChainOp::R(a),
             c0: 0.0,
             terms: vec![(slot(link * 6 + 3 + k), 1.0)],
         });
@@ -86,14 +86,14 @@ fn push_link(f: &mut Vec<Factor>, link: usize) {
 fn push_link_inverse(f: &mut Vec<Factor>, link: usize) {
     for k in (0..3).rev() {
         f.push(Factor {
-            op: Op::R(ROT_AXES[k]),
+            op: ChainOp::R(ROT_AXES[k]),
             c0: 0.0,
             terms: vec![(slot(link * 6 + 3 + k), -1.0)],
         });
     }
     for k in (0..3).rev() {
         f.push(Factor {
-            op: Op::T(LIN_AXES[k]),
+            op: ChainOp::T(LIN_AXES[k]),
             c0: 0.0,
             terms: vec![(slot(link * 6 + k), -1.0)],
         });
@@ -102,7 +102,7 @@ fn push_link_inverse(f: &mut Vec<Factor>, link: usize) {
 
 fn rotary(f: &mut Vec<Factor>, axis: &RotaryAxis, sign: f64) {
     f.push(Factor {
-        op: Op::R(axis.about),
+        op: ChainOp::R(axis.about),
         c0: 0.0,
         terms: vec![(var_of(axis), sign * axis.direction)],
     });
@@ -129,7 +129,7 @@ pub(super) fn build(m: &Machine, gauge_length: f64) -> (Chain, usize) {
     let table_factors = f.len();
     for (k, &a) in LIN_AXES.iter().enumerate() {
         f.push(Factor {
-            op: Op::T(a),
+            op: ChainOp::T(a),
             c0: 0.0,
             terms: vec![(k, 1.0), (slot(SLOT_LIN + k), 1.0)],
         });
@@ -137,7 +137,7 @@ pub(super) fn build(m: &Machine, gauge_length: f64) -> (Chain, usize) {
     if m.structure != Structure::TableTable {
         let lh = m.pivot_length + gauge_length;
         f.push(Factor {
-            op: Op::T(Axis3::Z),
+            op: ChainOp::T(Axis3::Z),
             c0: lh,
             terms: vec![],
         });
@@ -149,13 +149,13 @@ pub(super) fn build(m: &Machine, gauge_length: f64) -> (Chain, usize) {
         rotary(&mut f, &m.tilt, 1.0);
         push_link(&mut f, 2);
         f.push(Factor {
-            op: Op::T(Axis3::Z),
+            op: ChainOp::T(Axis3::Z),
             c0: -lh,
             terms: vec![],
         });
     }
     f.push(Factor {
-        op: Op::T(Axis3::Z),
+        op: ChainOp::T(Axis3::Z),
         c0: 0.0,
         terms: vec![(slot(SLOT_TOOL_LENGTH), -1.0)],
     });
@@ -198,7 +198,7 @@ impl Chain {
         for k in (0..n).rev() {
             let f = &self.factors[k];
             match f.op {
-                Op::T(a) => {
+                ChainOp::T(a) => {
                     let dt = pre[k] * a.unit();
                     for &(i, c) in &f.terms {
                         for r in 0..3 {
@@ -207,7 +207,7 @@ impl Chain {
                     }
                     q += a.unit() * values[k];
                 }
-                Op::R(a) => {
+                ChainOp::R(a) => {
                     let e = a.unit();
                     let dt = pre[k + 1] * e.cross(&q);
                     let da = pre[k + 1] * e.cross(&u);

@@ -36,7 +36,7 @@ use nalgebra::{Isometry3, SMatrix, Vector3};
 use crate::geom::{self, Axis3};
 use crate::machine::{Machine, Structure};
 
-pub use chain::Op;
+pub use chain::ChainOp;
 pub use inverse::IkError;
 
 /// Number of links with error terms (two rotary axes and the spindle).

@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::{Dialect, MCodes, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
-use crate::conformance::Limits;
+use crate::conformance::AcceptanceLimits;
 use crate::geom::Axis3;
 use crate::limits::{
     MAX_MACHINE_MM, MAX_PLAN_MM, MIN_PLAN_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN,
@@ -50,8 +50,8 @@ pub struct MachineFile {
     #[serde(default)]
     pub rapid: Rapid,
     /// Acceptance limits per location symbol (um / urad), optional.
-    #[serde(default, skip_serializing_if = "Limits::is_empty")]
-    pub limits: Limits,
+    #[serde(default, skip_serializing_if = "AcceptanceLimits::is_empty")]
+    pub limits: AcceptanceLimits,
     /// What the control holds now, per export target and parameter name
     /// (mm for lengths, urad for angles), optional.
     #[serde(default, skip_serializing_if = "IndexMap::is_empty")]

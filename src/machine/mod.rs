@@ -172,7 +172,7 @@ pub struct RotaryAxis {
     /// +1 when a positive command rotates as docs/model.md writes it
     /// (`R(-angle)` for table axes, `R(+angle)` for head axes), -1 otherwise.
     pub direction: f64,
-    /// Limits in degrees; `None` for a continuous axis.
+    /// AcceptanceLimits in degrees; `None` for a continuous axis.
     pub limits: Option<(f64, f64)>,
     /// The body it is mounted on, as a chain letter (`Y`, `Z`, `B`, ...),
     /// used in error-term names such as `dx_BY`.
@@ -266,7 +266,7 @@ pub struct Machine {
     pub rapid: Rapid,
     /// Acceptance limits per location symbol (the file's optional
     /// `limits:` section; see [`crate::conformance`]).
-    pub limits: crate::conformance::Limits,
+    pub limits: crate::conformance::AcceptanceLimits,
     /// What the control holds now, per export target and parameter (the
     /// file's optional `controller_parameters:` section; `compensate
     /// --export` prints each change from these, else from the nominal

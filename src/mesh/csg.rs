@@ -11,14 +11,14 @@ const EPS: f64 = 1e-7;
 
 /// An oriented plane `n . x = w`.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Plane {
+pub struct HalfSpace {
     /// Unit normal (outward for a solid's face).
     pub n: Vector3<f64>,
     /// Offset.
     pub w: f64,
 }
 
-impl Plane {
+impl HalfSpace {
     fn flip(&mut self) {
         self.n = -self.n;
         self.w = -self.w;
@@ -31,7 +31,7 @@ pub struct Polygon {
     /// Vertices, counter-clockwise seen from the front (outside).
     pub vertices: Vec<Vector3<f64>>,
     /// Its plane.
-    pub plane: Plane,
+    pub plane: HalfSpace,
     /// Which primitive face it came from.
     pub tag: u32,
 }
@@ -59,7 +59,7 @@ const BACK: u8 = 2;
 const SPANNING: u8 = 3;
 
 fn split(
-    plane: &Plane,
+    plane: &HalfSpace,
     poly: &Polygon,
     co_front: &mut Vec<Polygon>,
     co_back: &mut Vec<Polygon>,
@@ -133,7 +133,7 @@ fn split(
 
 #[derive(Default)]
 struct Node {
-    plane: Option<Plane>,
+    plane: Option<HalfSpace>,
     front: Option<Box<Node>>,
     back: Option<Box<Node>>,
     polygons: Vec<Polygon>,

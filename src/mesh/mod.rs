@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 
 use nalgebra::{Matrix3, Vector3};
 
-pub use csg::{Csg, Plane, Polygon};
+pub use csg::{Csg, HalfSpace, Polygon};
 
 /// A box with its own orientation: `center + axes * u` for `|u_i| <= half_i`.
 #[derive(Clone, Debug, PartialEq)]
@@ -72,7 +72,7 @@ impl Cuboid {
                 }
                 let n = ai * s;
                 out.push(Polygon {
-                    plane: Plane { n, w: n.dot(&c) },
+                    plane: HalfSpace { n, w: n.dot(&c) },
                     vertices: v,
                     tag: self.tag,
                 });

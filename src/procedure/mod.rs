@@ -122,7 +122,7 @@ pub enum PlanError {
         /// Index into [`probing::TouchPlan::moves`].
         move_index: usize,
         /// Its kind.
-        kind: probing::MoveKind,
+        kind: probing::ProbingMoveKind,
         /// What.
         collision: Box<probing::Collision>,
     },

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::{Point3, Vector3};
 
-use crate::analyze::Piece;
+use crate::analyze::IdentifiedPiece;
 use crate::analyze::uncertainty::McResult;
 use crate::errorfile::ErrorFile;
 use crate::formats::manifest::TestKind;
@@ -41,7 +41,7 @@ pub struct ReportInput<'a> {
 
 impl<'a> ReportInput<'a> {
     /// The report of an analysed piece of test `test`.
-    pub fn for_piece(test: &str, piece: &'a Piece) -> ReportInput<'a> {
+    pub fn for_piece(test: &str, piece: &'a IdentifiedPiece) -> ReportInput<'a> {
         ReportInput {
             title: format!("{test}: {}", piece.name()),
             data: &piece.data,

@@ -308,7 +308,7 @@ pub(crate) fn pose_plot(
 
 /// How a point of a time series is drawn: by its result's fit verdict.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Verdict {
+pub enum FitMark {
     /// The model fitted the measurement: a filled dot.
     Fits,
     /// It did not: a red cross.
@@ -327,7 +327,7 @@ pub struct TimePoint {
     /// Standard uncertainty (k = 1).
     pub u: Option<f64>,
     /// How it is drawn.
-    pub verdict: Verdict,
+    pub verdict: FitMark,
 }
 
 /// A value over time with its u band, the moments the control was changed,
@@ -460,26 +460,26 @@ pub(crate) fn time_series(p: &TimeSeries<'_>) -> PlotResult {
         let mut first = [true; 3];
         for q in points() {
             let (k, label) = match q.verdict {
-                Verdict::Fits => (0, "fits"),
-                Verdict::Misfit => (1, "misfit"),
-                Verdict::Unknown => (2, "no fit verdict"),
+                FitMark::Fits => (0, "fits"),
+                FitMark::Misfit => (1, "misfit"),
+                FitMark::Unknown => (2, "no fit verdict"),
             };
             let s = match q.verdict {
-                Verdict::Fits => chart
+                FitMark::Fits => chart
                     .draw_series(std::iter::once(Circle::new(
                         (q.x, q.value),
                         4,
                         BLUE.filled(),
                     )))
                     .map_err(err)?,
-                Verdict::Misfit => chart
+                FitMark::Misfit => chart
                     .draw_series(std::iter::once(Cross::new(
                         (q.x, q.value),
                         5,
                         RED.stroke_width(2),
                     )))
                     .map_err(err)?,
-                Verdict::Unknown => chart
+                FitMark::Unknown => chart
                     .draw_series(std::iter::once(Circle::new(
                         (q.x, q.value),
                         4,

@@ -12,7 +12,7 @@
 use nalgebra::{Matrix3, Vector2, Vector3};
 
 use super::plane::{canonical_sign, fit_plane};
-use super::{FitError, check_points, rms_max};
+use super::{ShapeFitError, check_points, rms_max};
 use crate::geom::tangent_basis;
 
 /// A circle in space.
@@ -66,7 +66,7 @@ pub fn circle_through_three(
     a: &Vector3<f64>,
     b: &Vector3<f64>,
     c: &Vector3<f64>,
-) -> Result<Circle3, FitError> {
+) -> Result<Circle3, ShapeFitError> {
     check_points(&[*a, *b, *c], "circle", 3)?;
     let u = b - a;
     let v = c - a;
@@ -74,7 +74,7 @@ pub fn circle_through_three(
     let w2 = w.norm_squared();
     let scale = u.norm_squared().max(v.norm_squared());
     if w2 <= 1e-18 * scale * scale || scale == 0.0 {
-        return Err(FitError::Degenerate {
+        return Err(ShapeFitError::Degenerate {
             shape: "circle",
             why: "the three points lie on one line (or coincide)".into(),
         });
@@ -88,10 +88,10 @@ pub fn circle_through_three(
 }
 
 /// Fits a circle to three or more points not on one line.
-pub fn fit_circle(points: &[Vector3<f64>]) -> Result<CircleFit, FitError> {
+pub fn fit_circle(points: &[Vector3<f64>]) -> Result<CircleFit, ShapeFitError> {
     check_points(points, "circle", 3)?;
     let plane = fit_plane(points)
-        .map_err(|_| FitError::Degenerate {
+        .map_err(|_| ShapeFitError::Degenerate {
             shape: "circle",
             why: "the points lie on one line (or coincide)".into(),
         })?
@@ -114,7 +114,7 @@ pub fn fit_circle(points: &[Vector3<f64>]) -> Result<CircleFit, FitError> {
     }
     let sol = ata
         .cholesky()
-        .ok_or_else(|| FitError::Degenerate {
+        .ok_or_else(|| ShapeFitError::Degenerate {
             shape: "circle",
             why: "the projected points do not determine a circle".into(),
         })?
@@ -122,7 +122,7 @@ pub fn fit_circle(points: &[Vector3<f64>]) -> Result<CircleFit, FitError> {
     let mut c = Vector2::new(-sol[0] / 2.0, -sol[1] / 2.0);
     let r2 = c.norm_squared() - sol[2];
     if r2 <= 0.0 {
-        return Err(FitError::Degenerate {
+        return Err(ShapeFitError::Degenerate {
             shape: "circle",
             why: "the algebraic fit has no real radius".into(),
         });

@@ -28,7 +28,7 @@ pub use sphere::{Sphere, SphereCheck, SphereFit, fit_sphere, fit_sphere_algebrai
 
 /// Why a fit has no answer.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum FitError {
+pub enum ShapeFitError {
     /// Fewer points than the shape has parameters.
     #[error("a {shape} needs at least {need} points, got {got}")]
     TooFewPoints {
@@ -66,9 +66,9 @@ pub(crate) fn check_points(
     points: &[Vector3<f64>],
     shape: &'static str,
     need: usize,
-) -> Result<(), FitError> {
+) -> Result<(), ShapeFitError> {
     if points.len() < need {
-        return Err(FitError::TooFewPoints {
+        return Err(ShapeFitError::TooFewPoints {
             shape,
             need,
             got: points.len(),
@@ -78,7 +78,7 @@ pub(crate) fn check_points(
         .iter()
         .position(|p| !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()))
     {
-        return Err(FitError::NotFinite { index });
+        return Err(ShapeFitError::NotFinite { index });
     }
     Ok(())
 }

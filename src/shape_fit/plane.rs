@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{FitError, centroid, check_points, rms_max};
+use super::{ShapeFitError, centroid, check_points, rms_max};
 
 /// A plane through `point` with unit `normal`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,7 +57,7 @@ pub(crate) fn canonical_sign(n: Vector3<f64>) -> Vector3<f64> {
 }
 
 /// Fits a plane to three or more points that are not all on one line.
-pub fn fit_plane(points: &[Vector3<f64>]) -> Result<PlaneFit, FitError> {
+pub fn fit_plane(points: &[Vector3<f64>]) -> Result<PlaneFit, ShapeFitError> {
     check_points(points, "plane", 3)?;
     let c = centroid(points);
     let mut s = Matrix3::zeros();
@@ -73,7 +73,7 @@ pub fn fit_plane(points: &[Vector3<f64>]) -> Result<PlaneFit, FitError> {
         eig.eigenvalues[order[2]].max(0.0),
     );
     if l_max.sqrt() < 1e-12 || l_mid.sqrt() <= 1e-9 * l_max.sqrt() {
-        return Err(FitError::Degenerate {
+        return Err(ShapeFitError::Degenerate {
             shape: "plane",
             why: "the points lie on one line (or coincide)".into(),
         });
@@ -114,6 +114,9 @@ mod tests {
         let p: Vec<_> = (0..4)
             .map(|i| Vector3::new(i as f64, 2.0 * i as f64, 1.0))
             .collect();
-        assert!(matches!(fit_plane(&p), Err(FitError::Degenerate { .. })));
+        assert!(matches!(
+            fit_plane(&p),
+            Err(ShapeFitError::Degenerate { .. })
+        ));
     }
 }

@@ -20,7 +20,7 @@ use std::fmt;
 
 use nalgebra::{Matrix4, Vector3, Vector4};
 
-use super::{FitError, centroid, check_points, rms_max};
+use super::{ShapeFitError, centroid, check_points, rms_max};
 
 /// A sphere.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,7 +46,7 @@ pub struct SphereFit {
 
 /// The algebraic (closed-form, Cubas Brizuela & Yeh 2023, eq. 3.2) sphere through four or
 /// more points that are not all in one plane.
-pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, FitError> {
+pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, ShapeFitError> {
     check_points(points, "sphere", 4)?;
     // Work relative to the centroid and in units of the spread, so that the
     // columns of the linear system are of comparable size.
@@ -54,7 +54,7 @@ pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, FitError>
     let spread =
         (points.iter().map(|p| (p - m).norm_squared()).sum::<f64>() / points.len() as f64).sqrt();
     if spread < 1e-12 {
-        return Err(FitError::Degenerate {
+        return Err(ShapeFitError::Degenerate {
             shape: "sphere",
             why: "all points coincide".into(),
         });
@@ -75,7 +75,7 @@ pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, FitError>
             (lo.min(v), hi.max(v))
         });
     if lo <= 1e-12 * hi {
-        return Err(FitError::Degenerate {
+        return Err(ShapeFitError::Degenerate {
             shape: "sphere",
             why: "the points lie in one plane (a sphere needs a point off it, such as the touch from above)"
                 .into(),
@@ -83,7 +83,7 @@ pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, FitError>
     }
     let sol = ata
         .cholesky()
-        .ok_or_else(|| FitError::Degenerate {
+        .ok_or_else(|| ShapeFitError::Degenerate {
             shape: "sphere",
             why: "the normal equations are singular".into(),
         })?
@@ -91,7 +91,7 @@ pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, FitError>
     let c = Vector3::new(-sol[0] / 2.0, -sol[1] / 2.0, -sol[2] / 2.0);
     let r2 = c.norm_squared() - sol[3];
     if r2 <= 0.0 {
-        return Err(FitError::Degenerate {
+        return Err(ShapeFitError::Degenerate {
             shape: "sphere",
             why: "the algebraic fit has no real radius".into(),
         });
@@ -104,7 +104,7 @@ pub fn fit_sphere_algebraic(points: &[Vector3<f64>]) -> Result<Sphere, FitError>
 
 /// The geometric least-squares sphere: minimizes the sum of squared
 /// distances `|p - c| - r`, starting from [`fit_sphere_algebraic`].
-pub fn fit_sphere(points: &[Vector3<f64>]) -> Result<SphereFit, FitError> {
+pub fn fit_sphere(points: &[Vector3<f64>]) -> Result<SphereFit, ShapeFitError> {
     let start = fit_sphere_algebraic(points)?;
     let m = centroid(points);
     let q: Vec<Vector3<f64>> = points.iter().map(|p| p - m).collect();
@@ -300,6 +300,9 @@ mod tests {
                 Vector3::new(a.cos() * 10.0, a.sin() * 10.0, 3.0)
             })
             .collect();
-        assert!(matches!(fit_sphere(&p), Err(FitError::Degenerate { .. })));
+        assert!(matches!(
+            fit_sphere(&p),
+            Err(ShapeFitError::Degenerate { .. })
+        ));
     }
 }

@@ -73,7 +73,7 @@ use crate::identify::rigid::d6_apply;
 use crate::kinematics::Kinematics;
 use crate::model::Model;
 use crate::procedure::machining::{Cutter, PlannedPoint, ToolPart};
-use crate::procedure::probing::Setup;
+use crate::procedure::probing::ProbedGeometry;
 use crate::procedure::{MachiningPlan, Plan, ProbingPlan};
 
 /// The model of `errors` rebuilt on the kinematics a plan runs with (its
@@ -662,11 +662,11 @@ impl ProbingForward {
     /// actual, one per piece as [`super::SimOutput::setups`] gives them).
     pub fn nuisance_of(&self, setups: &[nalgebra::Isometry3<f64>]) -> Vec<f64> {
         match &self.probing.plan.setup {
-            Setup::Columns(_) => setups
+            ProbedGeometry::Columns(_) => setups
                 .iter()
                 .flat_map(crate::identify::rigid::d6_inverse_um)
                 .collect(),
-            Setup::Sphere(s) => setups
+            ProbedGeometry::Sphere(s) => setups
                 .iter()
                 .flat_map(|iso| {
                     let d = (iso * Point3::from(s.centre)).coords - s.centre;
@@ -680,8 +680,8 @@ impl ProbingForward {
 impl Probing {
     fn nuisance_size(&self) -> usize {
         match self.plan.setup {
-            Setup::Columns(_) => 6,
-            Setup::Sphere(_) => 3,
+            ProbedGeometry::Columns(_) => 6,
+            ProbedGeometry::Sphere(_) => 3,
         }
     }
 }
@@ -734,7 +734,7 @@ impl ForwardModel for ProbingForward {
             },
         }
         let surf = match &pr.plan.setup {
-            Setup::Columns(_) => {
+            ProbedGeometry::Columns(_) => {
                 let (y, dy) = d6_apply(nu, &touch.contact_w);
                 let (y2, dy2) = d6_apply(nu, &(touch.contact_w + touch.normal_w));
                 Surf::Plane {
@@ -744,7 +744,7 @@ impl ForwardModel for ProbingForward {
                     dm: dy2 - dy,
                 }
             }
-            Setup::Sphere(s) => Surf::Sphere {
+            ProbedGeometry::Sphere(s) => Surf::Sphere {
                 centre: s.centre + Vector3::new(nu[0], nu[1], nu[2]) * 1e-3,
                 radius: s.diameter / 2.0,
             },

@@ -303,7 +303,10 @@ pub fn run(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Result<SimO
                 SetupErrors::Nominal => {
                     let mut a = probing::Artefact::nominal(n_pieces);
                     if opts.sphere_form_um > 0.0
-                        && matches!(p.setup, crate::procedure::probing::Setup::Sphere(_))
+                        && matches!(
+                            p.setup,
+                            crate::procedure::probing::ProbedGeometry::Sphere(_)
+                        )
                     {
                         a.form = probing::Form::random(opts.sphere_form_um, &mut rng);
                     }
@@ -321,7 +324,10 @@ pub fn run(plan: &Plan, errors: &LoadedErrors, opts: &SimOptions) -> Result<SimO
                     let mut a = probing::Artefact::nominal(n_pieces);
                     a.setups = v.clone();
                     if opts.sphere_form_um > 0.0
-                        && matches!(p.setup, crate::procedure::probing::Setup::Sphere(_))
+                        && matches!(
+                            p.setup,
+                            crate::procedure::probing::ProbedGeometry::Sphere(_)
+                        )
                     {
                         a.form = probing::Form::random(opts.sphere_form_um, &mut rng);
                     }

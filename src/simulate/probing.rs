@@ -24,7 +24,7 @@ use crate::machine::Machine;
 use crate::model::{Context, Model};
 use crate::procedure::ProbingPlan;
 use crate::procedure::probing::PoseFrame;
-use crate::procedure::probing::Setup;
+use crate::procedure::probing::ProbedGeometry;
 
 /// A probing plan on a machine with errors.
 #[derive(Clone, Debug)]
@@ -62,8 +62,8 @@ impl Probing {
             .map(|i| plan.plan.frame(i))
             .collect();
         let pieces: Vec<String> = match &plan.setup {
-            Setup::Columns(cs) => cs.iter().map(|c| c.name.clone()).collect(),
-            Setup::Sphere(_) => vec!["sphere".into()],
+            ProbedGeometry::Columns(cs) => cs.iter().map(|c| c.name.clone()).collect(),
+            ProbedGeometry::Sphere(_) => vec!["sphere".into()],
         };
         let piece_of = plan
             .plan
@@ -247,7 +247,7 @@ impl Artefact {
     /// turn of a sphere shows only through its form error, which turns with
     /// it: it is drawn in the sphere's frame).
     pub fn random<R: Rng + ?Sized>(
-        setup: &Setup,
+        setup: &ProbedGeometry,
         shift: f64,
         angle: f64,
         form_um: f64,
@@ -266,11 +266,11 @@ impl Artefact {
             Isometry3::from_parts((centre + t - r * centre).into(), r)
         };
         match setup {
-            Setup::Columns(cs) => Artefact {
+            ProbedGeometry::Columns(cs) => Artefact {
                 setups: cs.iter().map(|c| draw(c.centre, true)).collect(),
                 form: Form::none(),
             },
-            Setup::Sphere(s) => {
+            ProbedGeometry::Sphere(s) => {
                 let setups = vec![draw(s.centre, false)];
                 let form = if form_um > 0.0 {
                     Form::random(form_um, rng)
@@ -283,14 +283,14 @@ impl Artefact {
     }
 
     /// Signed distance from a point of W to the actual probed surfaces.
-    pub fn signed_distance(&self, setup: &Setup, x: &Vector3<f64>) -> f64 {
+    pub fn signed_distance(&self, setup: &ProbedGeometry, x: &Vector3<f64>) -> f64 {
         match setup {
-            Setup::Columns(cs) => cs
+            ProbedGeometry::Columns(cs) => cs
                 .iter()
                 .zip(&self.setups)
                 .map(|(c, s)| c.signed_distance(&(s.inverse() * Point3::from(*x)).coords))
                 .fold(f64::INFINITY, f64::min),
-            Setup::Sphere(sp) => {
+            ProbedGeometry::Sphere(sp) => {
                 let s = &self.setups[0];
                 let local = (s.inverse() * Point3::from(*x)).coords - sp.centre;
                 let r = local.norm();

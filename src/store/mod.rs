@@ -115,7 +115,7 @@ impl From<postgres::Error> for StoreError {
 /// What produced a record.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum Kind {
+pub enum RecordKind {
     /// An `analyze` result.
     Analyze,
     /// A `discover` result (the final model).
@@ -124,30 +124,30 @@ pub enum Kind {
     Export,
 }
 
-impl Kind {
+impl RecordKind {
     /// The name stored and printed.
     pub fn name(self) -> &'static str {
         match self {
-            Kind::Analyze => "analyze",
-            Kind::Discover => "discover",
-            Kind::Export => "export",
+            RecordKind::Analyze => "analyze",
+            RecordKind::Discover => "discover",
+            RecordKind::Export => "export",
         }
     }
 }
 
-impl fmt::Display for Kind {
+impl fmt::Display for RecordKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
     }
 }
 
-impl FromStr for Kind {
+impl FromStr for RecordKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
-            "analyze" => Ok(Kind::Analyze),
-            "discover" => Ok(Kind::Discover),
-            "export" => Ok(Kind::Export),
+            "analyze" => Ok(RecordKind::Analyze),
+            "discover" => Ok(RecordKind::Discover),
+            "export" => Ok(RecordKind::Export),
             _ => Err(format!(
                 "unknown record kind `{s}`: expected analyze, discover or export"
             )),
@@ -258,7 +258,7 @@ pub struct Record {
     /// The machine's name (the result file's `machine`).
     pub machine: String,
     /// What produced it.
-    pub kind: Kind,
+    pub kind: RecordKind,
     /// The test (`stepped-square`, ...); none for an export.
     pub test: Option<String>,
     /// When the machine was measured (the time trends use).
@@ -294,7 +294,7 @@ fn ser_time<S: serde::Serializer>(t: &Timestamp, s: S) -> Result<S::Ok, S::Error
 impl Record {
     /// A record of `kind` for `machine` measured and recorded now, by this
     /// fivecal, with nothing optional set.
-    pub fn new(kind: Kind, machine: &str, result_name: &str, content: String) -> Record {
+    pub fn new(kind: RecordKind, machine: &str, result_name: &str, content: String) -> Record {
         // The store keeps microseconds.
         let now = Timestamp::from_microsecond(Timestamp::now().as_microsecond())
             .expect("the present is a valid time");

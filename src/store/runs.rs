@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use jiff::Timestamp;
 
-use super::{FileHash, FileRole, Kind, Record, StoreError};
+use super::{FileHash, FileRole, Record, RecordKind, StoreError};
 use crate::analyze::{Found, Outcome};
 
 /// What the user adds to every record of a run.
@@ -61,7 +61,7 @@ pub fn analysis(
             let (path, text) = files
                 .last()
                 .ok_or_else(|| StoreError::Invalid("the analysis wrote no result".into()))?;
-            let mut r = Record::new(Kind::Analyze, &m.machine, &name(path), text.clone());
+            let mut r = Record::new(RecordKind::Analyze, &m.machine, &name(path), text.clone());
             r.test = Some(m.test.to_string());
             r.files = hashes(FileRole::Measured, measured)?;
             r.files.push(plan);
@@ -77,7 +77,7 @@ pub fn analysis(
                         StoreError::Invalid(format!("no result file for piece {}", k + 1))
                     })?;
                     let mut r = Record::new(
-                        Kind::Analyze,
+                        RecordKind::Analyze,
                         &piece.file.machine,
                         &name(path),
                         text.clone(),
@@ -109,7 +109,7 @@ pub fn discovery(
     notes: &RunNotes,
 ) -> Result<Record, StoreError> {
     let mut r = Record::new(
-        Kind::Discover,
+        RecordKind::Discover,
         machine,
         &result.display().to_string(),
         text.to_string(),
@@ -133,7 +133,7 @@ pub fn export(
     notes: &RunNotes,
 ) -> Result<Record, StoreError> {
     let mut r = Record::new(
-        Kind::Export,
+        RecordKind::Export,
         machine,
         &errors.display().to_string(),
         content.to_string(),

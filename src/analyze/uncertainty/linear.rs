@@ -407,7 +407,7 @@ impl LinearStudy {
             Forward::Machining(_) => None,
         };
         let n_pieces = match plan.probing().map(|p| &p.setup) {
-            Some(crate::procedure::probing::Setup::Columns(cs)) => cs.len(),
+            Some(crate::procedure::probing::ProbedGeometry::Columns(cs)) => cs.len(),
             _ => 1,
         };
         Ok(LinearStudy {

@@ -261,7 +261,7 @@ fn simulator_plan<'p>(plan: Result<&'p Plan, String>, data: &Dataset) -> Result<
 fn sphere_geometry(est: &Identification, data: &Dataset) -> Option<(Vector3<f64>, f64)> {
     let pose = &data.poses[0];
     let pts: Vec<Vector3<f64>> = pose.obs.iter().map(|&k| data.obs[k].m).collect();
-    let s = identify::sphere::fit_sphere(&pts)?;
+    let s = identify::sphere::fit_centre(&pts)?;
     let t = est.model.kin.nominal_table_transform(pose.tilt, pose.c);
     Some((
         (t.inverse() * nalgebra::Point3::from(s.centre)).coords,

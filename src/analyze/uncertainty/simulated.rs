@@ -28,7 +28,7 @@ use crate::identify::sphere::SphereOptions;
 use crate::identify::{Dataset, Identification, IdentifyError, Method, Setup};
 use crate::model::Model;
 use crate::procedure::Plan;
-use crate::procedure::probing::Setup as PieceSetup;
+use crate::procedure::probing::ProbedGeometry;
 use crate::simulate::{self, NoiseOverrides, Placement, SetupErrors, SimOptions, SimOutput};
 
 /// One simulated test and how it is identified.
@@ -101,7 +101,7 @@ pub fn plan_dataset(
 /// or a sphere).
 fn n_pieces(plan: &Plan) -> usize {
     match plan.probing().map(|p| &p.setup) {
-        Some(PieceSetup::Columns(cs)) => cs.len(),
+        Some(ProbedGeometry::Columns(cs)) => cs.len(),
         _ => 1,
     }
 }

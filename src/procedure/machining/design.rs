@@ -9,7 +9,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::Pass;
 use super::cutter::ToolPart;
-use super::template::{Clearance, Cutting, ToolChoice};
+use super::template::{Clearance, CuttingData, ToolChoice};
 use crate::geom::{self, Axis3};
 use crate::kinematics::Kinematics;
 use crate::machine::{Machine, Tool};
@@ -59,7 +59,7 @@ pub(crate) struct Design {
     pub description: String,
     pub program_number: u32,
     pub tool: Tool,
-    pub cutting: Cutting,
+    pub cutting: CuttingData,
     pub clearance: Clearance,
     pub stock: Cuboid,
     pub fixture: Option<Cuboid>,

@@ -83,7 +83,7 @@ use crate::mesh::{Cuboid, Mesh, Solid};
 use crate::post::{Op, PostDefinition, ProgramInfo, RenderedProgram};
 
 pub use cutter::{Cutter, ToolPart};
-pub use template::Cutting;
+pub use template::CuttingData;
 
 /// What a move is for. Rapids run only above the stock's extent along the
 /// tool axis (the clearance plane) or at the safe height.
@@ -247,7 +247,7 @@ pub struct MachiningPlan {
     /// The tool's solid.
     pub cutter: Cutter,
     /// Spindle speed, feeds and coolant.
-    pub cutting: Cutting,
+    pub cutting: CuttingData,
     /// Program Z of the safe height.
     pub safe_z: f64,
     /// Poses in execution order.

@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 
 use super::MachiningPlan;
-use crate::formats::dmis_program::{self, DmisMoves, Probing};
+use crate::formats::dmis_program::{self, DmisMoves, ProbeTarget};
 use crate::formats::qif_write;
 use crate::procedure::{push_notes, round, short};
 
@@ -29,7 +29,7 @@ impl MachiningPlan {
             .iter()
             .map(|c| c.z)
             .fold(f64::NEG_INFINITY, f64::max);
-        let items: Vec<Probing> = self
+        let items: Vec<ProbeTarget> = self
             .points
             .iter()
             .map(|p| {
@@ -40,7 +40,7 @@ impl MachiningPlan {
                     .map(|c| u.dot(c))
                     .fold(f64::NEG_INFINITY, f64::max)
                     + 10.0;
-                Probing {
+                ProbeTarget {
                     point: p.point.clone(),
                     free: start + u * (level - u.dot(&start)).max(0.0),
                 }

@@ -38,13 +38,13 @@ pub struct Stock {
     pub raise: bool,
 }
 
-/// Cutting data.
+/// CuttingData data.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Cutting {
+pub struct CuttingData {
     /// Spindle speed, rpm.
     pub spindle: f64,
-    /// Cutting feed, mm/min.
+    /// CuttingData feed, mm/min.
     pub feed: f64,
     /// Plunge (entry) feed, mm/min.
     pub plunge_feed: f64,
@@ -95,7 +95,7 @@ pub(crate) fn tool_choice(
 pub(crate) fn check_common(
     src: &TemplateSource,
     stock: &Stock,
-    cutting: &Cutting,
+    cutting: &CuttingData,
     clearance: &Clearance,
 ) -> Result<(), SourceError> {
     length(src, &["stock", "size"], stock.size)?;

@@ -27,7 +27,7 @@ use crate::kinematics::{Axes, Kinematics};
 
 /// A convex solid of the setup, in W.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Solid {
+pub enum ConvexSolid {
     /// A box: centre, orientation (columns are the box's unit axes) and
     /// half sizes along them.
     Cuboid {
@@ -56,12 +56,12 @@ pub enum Solid {
     },
 }
 
-impl Solid {
+impl ConvexSolid {
     /// The points of the solid span at most this far along `d` (unit)
     /// from the origin: the support function.
     fn support(&self, d: &Vector3<f64>) -> Vector3<f64> {
         match self {
-            Solid::Cuboid { centre, axes, half } => {
+            ConvexSolid::Cuboid { centre, axes, half } => {
                 let mut p = *centre;
                 for i in 0..3 {
                     let u = axes.column(i);
@@ -70,7 +70,7 @@ impl Solid {
                 }
                 p
             }
-            Solid::Ball { centre, radius } => {
+            ConvexSolid::Ball { centre, radius } => {
                 let n = d.norm();
                 if n > 0.0 {
                     centre + d * (radius / n)
@@ -78,7 +78,7 @@ impl Solid {
                     *centre
                 }
             }
-            Solid::Cylinder { a, b, radius } => {
+            ConvexSolid::Cylinder { a, b, radius } => {
                 let ax = (b - a).normalize();
                 let base = if d.dot(&(b - a)) >= 0.0 { b } else { a };
                 let radial = d - ax * ax.dot(d);
@@ -95,9 +95,9 @@ impl Solid {
     /// A centre and a radius of a ball that contains the solid.
     pub(crate) fn bounding_ball(&self) -> (Vector3<f64>, f64) {
         match self {
-            Solid::Cuboid { centre, half, .. } => (*centre, half.norm()),
-            Solid::Ball { centre, radius } => (*centre, *radius),
-            Solid::Cylinder { a, b, radius } => {
+            ConvexSolid::Cuboid { centre, half, .. } => (*centre, half.norm()),
+            ConvexSolid::Ball { centre, radius } => (*centre, *radius),
+            ConvexSolid::Cylinder { a, b, radius } => {
                 ((a + b) / 2.0, ((b - a).norm() / 2.0).hypot(*radius))
             }
         }
@@ -114,7 +114,7 @@ impl Solid {
     /// The largest distance of a point of the solid from `o`.
     pub(crate) fn farthest_from(&self, o: &Vector3<f64>) -> f64 {
         match self {
-            Solid::Cuboid { centre, axes, half } => {
+            ConvexSolid::Cuboid { centre, axes, half } => {
                 let mut best = 0.0_f64;
                 for k in 0..8 {
                     let s = Vector3::new(
@@ -127,8 +127,8 @@ impl Solid {
                 }
                 best
             }
-            Solid::Ball { centre, radius } => (centre - o).norm() + radius,
-            Solid::Cylinder { a, b, radius } => {
+            ConvexSolid::Ball { centre, radius } => (centre - o).norm() + radius,
+            ConvexSolid::Cylinder { a, b, radius } => {
                 // The farthest point lies on one of the two rim circles.
                 let ax = (b - a).normalize();
                 [a, b]
@@ -151,7 +151,7 @@ pub struct Obstacle {
     /// Name shown in messages (`C1`, `sphere`, `stem`, `table`).
     pub name: String,
     /// Its shape in W.
-    pub solid: Solid,
+    pub solid: ConvexSolid,
 }
 
 /// Which part of the probe.
@@ -467,7 +467,7 @@ impl Convex {
 /// Whether the distance between `a` and `b` is at most `threshold` (GJK on
 /// the Minkowski difference, stopping as soon as the bounds decide; when
 /// it cannot decide within its iterations it answers yes, the safe side).
-fn within(a: &Convex, b: &Solid, threshold: f64) -> bool {
+fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
     let support = |d: &Vector3<f64>| a.support(d) - b.support(&-d);
     let mut simplex: Vec<Vector3<f64>> = Vec::with_capacity(4);
     let mut v = support(&Vector3::x());
@@ -565,8 +565,8 @@ fn affine_closest(pts: &[Vector3<f64>]) -> Option<Vector3<f64>> {
 mod tests {
     use super::*;
 
-    fn unit_box() -> Solid {
-        Solid::Cuboid {
+    fn unit_box() -> ConvexSolid {
+        ConvexSolid::Cuboid {
             centre: Vector3::zeros(),
             axes: Matrix3::identity(),
             half: Vector3::new(1.0, 2.0, 3.0),
@@ -612,7 +612,7 @@ mod tests {
 
     #[test]
     fn cylinder_and_ball_supports_give_exact_distances() {
-        let cyl = Solid::Cylinder {
+        let cyl = ConvexSolid::Cylinder {
             a: Vector3::new(0.0, 0.0, -1.0),
             b: Vector3::new(0.0, 0.0, 1.0),
             radius: 2.0,
@@ -620,7 +620,7 @@ mod tests {
         let p = Convex::Segment(Vector3::new(3.0, 4.0, 0.0), Vector3::new(3.0, 4.0, 0.0));
         assert!(within(&p, &cyl, 3.0 + 1e-6));
         assert!(!within(&p, &cyl, 3.0 - 1e-6));
-        let ball = Solid::Ball {
+        let ball = ConvexSolid::Ball {
             centre: Vector3::new(0.0, 0.0, 10.0),
             radius: 2.0,
         };

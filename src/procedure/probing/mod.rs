@@ -39,7 +39,7 @@
 //! [`TouchPlan::safe_z`] first, then turning the rotary axes to the first
 //! pose, then moving X, Y. Then, per pose:
 //! - rapid in X, Y at `safe_z` above the first start point, rapid down to
-//!   the pose's clearance height [`Pose::clear_z`] (above every obstacle at
+//!   the pose's clearance height [`TouchPose::clear_z`] (above every obstacle at
 //!   this pose with the margin, and above every start point), position
 //!   down to the start;
 //! - each touch: the probing move, the retract; then to the next start
@@ -69,7 +69,7 @@
 //!
 //! # For the post-processor
 //! `program` renders a plan through the post engine as
-//! follows. Per [`MoveKind`]: `Rapid` is a G0 (or `L ... FMAX`) of X, Y, Z; `Rotary`
+//! follows. Per [`ProbingMoveKind`]: `Rapid` is a G0 (or `L ... FMAX`) of X, Y, Z; `Rotary`
 //! a G0 of the rotary axes alone, between the stored angles (at `safe_z`
 //! any direction of rotation is safe, so a controller's shortest-path mode
 //! does no harm); `Position` and `Retract` are linear moves at
@@ -96,7 +96,7 @@
 //! well, but its many faces add little over the sphere's five touches.
 //!
 //! # Labels and indices
-//! Poses are executed in order; [`Pose::seq`] counts from 0 and the pose id
+//! Poses are executed in order; [`TouchPose::seq`] counts from 0 and the pose id
 //! says where the machine is (`A-30C60`; `S07` for the the LAMDAMAP 2015 paper's spiral).
 //! Touches are numbered in execution order: [`Touch::index`] counts from 1
 //! and is the touch's row among the data rows of `points.csv`
@@ -125,9 +125,11 @@ use super::{PlanError, Template};
 use crate::formats::points::{PlanPoint, PlanPoints};
 use crate::kinematics::{Axes, Kinematics};
 
-pub use collision::{Checker, Collision, Obstacle, ProbePart, ProbeShape, Solid};
+pub use collision::{Checker, Collision, ConvexSolid, Obstacle, ProbePart, ProbeShape};
 pub use pose_frame::PoseFrame;
-pub use program::{ProbingPlan, ProbingPose, Setup, SetupColumn, SetupSphere, log_name, plan};
+pub use program::{
+    ProbedColumn, ProbedGeometry, ProbedSphere, ProbingPlan, ProbingPose, log_name, plan,
+};
 pub use time::RunTime;
 
 /// How touches are made (the template's `probing:` section).
@@ -204,7 +206,7 @@ pub struct Touch {
 
 /// A pose of the plan.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Pose {
+pub struct TouchPose {
     /// Id (`A-30C60`, `S07`, ...).
     pub id: String,
     /// Execution order, from 0.
@@ -221,7 +223,7 @@ pub struct Pose {
 
 /// What a move is, for the post-processor.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MoveKind {
+pub enum ProbingMoveKind {
     /// Rapid (G0) of the linear axes: straight up or down, or X, Y at a
     /// clearance or safe height.
     Rapid,
@@ -239,9 +241,9 @@ pub enum MoveKind {
 
 /// A move of the path.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Move {
+pub struct ProbingMove {
     /// What it is.
-    pub kind: MoveKind,
+    pub kind: ProbingMoveKind,
     /// Where it starts (for a retract, the nominal contact).
     pub from: Waypoint,
     /// Where it is programmed to end.
@@ -252,7 +254,7 @@ pub struct Move {
 
 /// A touch (or a whole pose) the plan leaves out, and why.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Skipped {
+pub struct LeftOut {
     /// The pose id.
     pub pose: String,
     /// The label the touch would have had (the pose id for a whole pose).
@@ -281,13 +283,13 @@ pub struct TouchPlan {
     /// axes at the first pose.
     pub start: Waypoint,
     /// Poses in execution order.
-    pub poses: Vec<Pose>,
+    pub poses: Vec<TouchPose>,
     /// Touches in execution order.
     pub touches: Vec<Touch>,
     /// The path.
-    pub moves: Vec<Move>,
+    pub moves: Vec<ProbingMove>,
     /// What was left out.
-    pub skipped: Vec<Skipped>,
+    pub skipped: Vec<LeftOut>,
     /// Poses whose touches do not determine what the test measures there
     /// on their own (see `columns::design::weak_poses`, `sphere::design::weak_poses`).
     pub warnings: Vec<String>,

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use super::{ProbingPlan, Setup, log_name};
+use super::{ProbedGeometry, ProbingPlan, log_name};
 use crate::procedure::{push_notes, round, short};
 
 impl ProbingPlan {
@@ -44,7 +44,7 @@ impl ProbingPlan {
         }
         let place = s.overtravel.min(s.safe_margin);
         match &self.setup {
-            Setup::Columns(_) => {
+            ProbedGeometry::Columns(_) => {
                 let _ = writeln!(
                     o,
                     "- Fix each column to the {} table within {} mm of its nominal place and square to the table: the probing moves start {} mm from the nominal faces and run {} mm past them, and the moves between touches keep {} mm from them.",
@@ -55,7 +55,7 @@ impl ProbingPlan {
                     short(s.safe_margin)
                 );
             }
-            Setup::Sphere(_) => {
+            ProbedGeometry::Sphere(_) => {
                 let _ = writeln!(
                     o,
                     "- Clamp the stem to the {} table so that the sphere's centre lies within {} mm of its nominal place; nothing else may stand on the table.",

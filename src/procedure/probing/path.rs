@@ -6,7 +6,8 @@ use nalgebra::Vector3;
 use super::collision::{Checker, Collision, Obstacle, ProbeShape};
 use super::pose_frame::PoseFrame;
 use super::{
-    ControlLimits, Move, MoveKind, Pose, ProbingSettings, Skipped, Touch, TouchPlan, Waypoint,
+    ControlLimits, LeftOut, ProbingMove, ProbingMoveKind, ProbingSettings, Touch, TouchPlan,
+    TouchPose, Waypoint,
 };
 use crate::kinematics::{Axes, Kinematics};
 use crate::machine::Structure;
@@ -28,7 +29,7 @@ pub(crate) struct Candidate {
 /// A pose with its candidate touches in the order they are made.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct PoseSpec {
-    /// Pose id.
+    /// TouchPose id.
     pub id: String,
     /// Tilt, deg.
     pub tilt: f64,
@@ -221,7 +222,7 @@ pub(crate) fn build(
             let end = waypoint(&frame, cand.contact_w + n * (r - settings.overtravel));
             let above = at_z(&frame, &start, clear);
             let high = at_z(&frame, &start, safe);
-            let skip = |why: String| Skipped {
+            let skip = |why: String| LeftOut {
                 pose: spec.id.clone(),
                 label: label.clone(),
                 reason: why,
@@ -280,7 +281,7 @@ pub(crate) fn build(
             });
         }
         if ok.is_empty() {
-            skipped.push(Skipped {
+            skipped.push(LeftOut {
                 pose: spec.id.clone(),
                 label: spec.id.clone(),
                 reason: "no touch of this pose is reachable without collision".into(),
@@ -299,50 +300,53 @@ pub(crate) fn build(
 
     let mut poses = Vec::new();
     let mut touches = Vec::new();
-    let mut moves: Vec<Move> = Vec::new();
+    let mut moves: Vec<ProbingMove> = Vec::new();
     let first = &planned[0];
     let start = at_z(&first.1, &first.3[0].touch.start, safe);
     let mut here = start.clone();
-    let push =
-        |moves: &mut Vec<Move>, here: &mut Waypoint, kind: MoveKind, to: Waypoint, pose: usize| {
-            let still = (to.axes.xyz - here.axes.xyz).norm() < 1e-9
-                && (to.axes.tilt - here.axes.tilt).abs() < 1e-12
-                && (to.axes.c - here.axes.c).abs() < 1e-12;
-            if still && matches!(kind, MoveKind::Rapid | MoveKind::Position) {
-                return;
-            }
-            moves.push(Move {
-                kind,
-                from: here.clone(),
-                to: to.clone(),
-                pose,
-            });
-            *here = to;
-        };
+    let push = |moves: &mut Vec<ProbingMove>,
+                here: &mut Waypoint,
+                kind: ProbingMoveKind,
+                to: Waypoint,
+                pose: usize| {
+        let still = (to.axes.xyz - here.axes.xyz).norm() < 1e-9
+            && (to.axes.tilt - here.axes.tilt).abs() < 1e-12
+            && (to.axes.c - here.axes.c).abs() < 1e-12;
+        if still && matches!(kind, ProbingMoveKind::Rapid | ProbingMoveKind::Position) {
+            return;
+        }
+        moves.push(ProbingMove {
+            kind,
+            from: here.clone(),
+            to: to.clone(),
+            pose,
+        });
+        *here = to;
+    };
     for (k, (spec, frame, clear, feas)) in planned.into_iter().enumerate() {
         if k > 0 {
             let turned = at_z(&frame, &here, safe);
-            push(&mut moves, &mut here, MoveKind::Rotary, turned, k);
+            push(&mut moves, &mut here, ProbingMoveKind::Rotary, turned, k);
         }
         let first_start = &feas[0].touch.start;
         push(
             &mut moves,
             &mut here,
-            MoveKind::Rapid,
+            ProbingMoveKind::Rapid,
             at_z(&frame, first_start, safe),
             k,
         );
         push(
             &mut moves,
             &mut here,
-            MoveKind::Rapid,
+            ProbingMoveKind::Rapid,
             feas[0].above.clone(),
             k,
         );
         push(
             &mut moves,
             &mut here,
-            MoveKind::Position,
+            ProbingMoveKind::Position,
             first_start.clone(),
             k,
         );
@@ -356,7 +360,7 @@ pub(crate) fn build(
             push(
                 &mut moves,
                 &mut here,
-                MoveKind::Probe(ti),
+                ProbingMoveKind::Probe(ti),
                 touch.end.clone(),
                 k,
             );
@@ -365,7 +369,7 @@ pub(crate) fn build(
             push(
                 &mut moves,
                 &mut here,
-                MoveKind::Retract(ti),
+                ProbingMoveKind::Retract(ti),
                 touch.start.clone(),
                 k,
             );
@@ -379,7 +383,7 @@ pub(crate) fn build(
                     push(
                         &mut moves,
                         &mut here,
-                        MoveKind::Position,
+                        ProbingMoveKind::Position,
                         next.touch.start.clone(),
                         k,
                     );
@@ -387,21 +391,21 @@ pub(crate) fn build(
                     push(
                         &mut moves,
                         &mut here,
-                        MoveKind::Position,
+                        ProbingMoveKind::Position,
                         f.above.clone(),
                         k,
                     );
                     push(
                         &mut moves,
                         &mut here,
-                        MoveKind::Rapid,
+                        ProbingMoveKind::Rapid,
                         next.above.clone(),
                         k,
                     );
                     push(
                         &mut moves,
                         &mut here,
-                        MoveKind::Position,
+                        ProbingMoveKind::Position,
                         next.touch.start.clone(),
                         k,
                     );
@@ -410,15 +414,15 @@ pub(crate) fn build(
                 push(
                     &mut moves,
                     &mut here,
-                    MoveKind::Position,
+                    ProbingMoveKind::Position,
                     f.above.clone(),
                     k,
                 );
                 let up = at_z(&frame, &here, safe);
-                push(&mut moves, &mut here, MoveKind::Rapid, up, k);
+                push(&mut moves, &mut here, ProbingMoveKind::Rapid, up, k);
             }
         }
-        poses.push(Pose {
+        poses.push(TouchPose {
             id: spec.id,
             seq: k as u32,
             tilt: spec.tilt,
@@ -464,10 +468,10 @@ pub(crate) fn check_moves(plan: &TouchPlan) -> Vec<(usize, Collision)> {
     let mut out = Vec::new();
     for (i, mv) in plan.moves.iter().enumerate() {
         let r = match mv.kind {
-            MoveKind::Probe(t) => {
+            ProbingMoveKind::Probe(t) => {
                 checker.check_move(&mv.from.axes, &plan.touches[t].contact.axes, -1e-6)
             }
-            MoveKind::Retract(_) => checker.check_move(&mv.from.axes, &mv.to.axes, -1e-6),
+            ProbingMoveKind::Retract(_) => checker.check_move(&mv.from.axes, &mv.to.axes, -1e-6),
             _ => checker.check_move(&mv.from.axes, &mv.to.axes, plan.settings.safe_margin),
         };
         if let Err(c) = r {

@@ -40,8 +40,8 @@
 //! - `machine`, `probe` (ball diameter, gauge length, tool number) and
 //!   `plan.kin`, the machine's kinematics with the probe's gauge length
 //!   (`Kinematics::with_gauge_length(&machine, probe.length)`).
-//! - `setup` ([`Setup`]): the nominal geometry probed, column boxes or the
-//!   sphere with its stem, in W, with [`Setup::signed_distance`] from a
+//! - `setup` ([`ProbedGeometry`]): the nominal geometry probed, column boxes or the
+//!   sphere with its stem, in W, with [`ProbedGeometry::signed_distance`] from a
 //!   point to the probed surfaces; `plan.obstacles` has the same solids plus
 //!   the table for collision checks, `mesh` the triangles written to
 //!   `.obj`/`.glb`.
@@ -74,8 +74,8 @@ use std::ops::Range;
 
 use nalgebra::{Isometry3, Matrix3, Vector3};
 
-use super::collision::Solid;
-use super::{ControlLimits, MoveKind, RunTime, TouchPlan, columns, setup_mesh, sphere};
+use super::collision::ConvexSolid;
+use super::{ControlLimits, ProbingMoveKind, RunTime, TouchPlan, columns, setup_mesh, sphere};
 use crate::formats::points::PlanPoints;
 use crate::formats::probe_log::write::LogFormat;
 use crate::formats::probe_log::{ReadOptions, fanuc};
@@ -86,7 +86,7 @@ use crate::procedure::{PlanConfig, PlanError, Template, Test, short};
 
 /// One column of the setup.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SetupColumn {
+pub struct ProbedColumn {
     /// Its name (`C1`), part of the labels of its touches.
     pub name: String,
     /// Centre of the box in W, mm (half its height above the table).
@@ -98,7 +98,7 @@ pub struct SetupColumn {
     pub half: Vector3<f64>,
 }
 
-impl SetupColumn {
+impl ProbedColumn {
     /// Signed distance from `p` (W) to the box surface: negative inside.
     pub fn signed_distance(&self, p: &Vector3<f64>) -> f64 {
         let u = self.axes.transpose() * (p - self.centre);
@@ -110,7 +110,7 @@ impl SetupColumn {
 
 /// The calibration sphere.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SetupSphere {
+pub struct ProbedSphere {
     /// Centre in W, mm.
     pub centre: Vector3<f64>,
     /// Diameter, mm.
@@ -123,30 +123,30 @@ pub struct SetupSphere {
 
 /// The nominal geometry a probing test touches, in W.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Setup {
+pub enum ProbedGeometry {
     /// Square columns standing on the table.
-    Columns(Vec<SetupColumn>),
+    Columns(Vec<ProbedColumn>),
     /// A sphere on a stem.
-    Sphere(SetupSphere),
+    Sphere(ProbedSphere),
 }
 
-impl Setup {
+impl ProbedGeometry {
     /// Signed distance from a point of W to the probed surfaces (the
     /// columns, or the sphere; not the stem or the table): negative inside.
     pub fn signed_distance(&self, p: &Vector3<f64>) -> f64 {
         match self {
-            Setup::Columns(cs) => cs
+            ProbedGeometry::Columns(cs) => cs
                 .iter()
                 .map(|c| c.signed_distance(p))
                 .fold(f64::INFINITY, f64::min),
-            Setup::Sphere(s) => (p - s.centre).norm() - s.diameter / 2.0,
+            ProbedGeometry::Sphere(s) => (p - s.centre).norm() - s.diameter / 2.0,
         }
     }
 
     /// The setup in words, for program headers and the setup sheet.
     pub fn describe(&self) -> Vec<String> {
         match self {
-            Setup::Columns(cs) => cs
+            ProbedGeometry::Columns(cs) => cs
                 .iter()
                 .map(|c| {
                     let yaw = c.axes[(1, 0)].atan2(c.axes[(0, 0)]).to_degrees();
@@ -166,7 +166,7 @@ impl Setup {
                     )
                 })
                 .collect(),
-            Setup::Sphere(s) => vec![format!(
+            ProbedGeometry::Sphere(s) => vec![format!(
                 "sphere D{} on a D{} stem, centre X{} Y{} Z{} in W ({} mm above the table)",
                 short(s.diameter),
                 short(s.stem_diameter),
@@ -199,7 +199,7 @@ pub struct ProbingPlan {
     /// Touches, path and setup obstacles.
     pub plan: TouchPlan,
     /// The nominal geometry probed.
-    pub setup: Setup,
+    pub setup: ProbedGeometry,
     /// Expected run time, per pose and per touch.
     pub run_time: RunTime,
     /// The neutral toolpath of the whole program.
@@ -279,18 +279,18 @@ impl ProbingPlan {
 
 /// The nominal setup of a probing template, and the test in words for the
 /// program header; a machining template is refused.
-fn setup_of(m: &Machine, t: &Template) -> Result<(Setup, String), PlanError> {
+fn setup_of(m: &Machine, t: &Template) -> Result<(ProbedGeometry, String), PlanError> {
     Ok(match t {
         Template::Columns(t) => (
-            Setup::Columns(
+            ProbedGeometry::Columns(
                 t.columns
                     .iter()
                     .map(|c| {
                         let o = columns::column_obstacle(m, c);
-                        let Solid::Cuboid { centre, axes, half } = o.solid else {
+                        let ConvexSolid::Cuboid { centre, axes, half } = o.solid else {
                             unreachable!("columns are boxes")
                         };
-                        SetupColumn {
+                        ProbedColumn {
                             name: c.name.clone(),
                             centre,
                             axes,
@@ -307,7 +307,7 @@ fn setup_of(m: &Machine, t: &Template) -> Result<(Setup, String), PlanError> {
         Template::Sphere(t) => {
             let centre = sphere::sphere_centre(m, t);
             (
-                Setup::Sphere(SetupSphere {
+                ProbedGeometry::Sphere(ProbedSphere {
                     centre,
                     diameter: t.diameter,
                     stem_diameter: t.stem_diameter,
@@ -391,7 +391,7 @@ fn toolpath(plan: &TouchPlan, probe: &Probe, log: &str) -> Vec<Op> {
     for mv in &plan.moves {
         let to = mv.to.axes.xyz;
         match mv.kind {
-            MoveKind::Rapid => {
+            ProbingMoveKind::Rapid => {
                 let up = (to.x - mv.from.axes.xyz.x).abs() < 1e-9
                     && (to.y - mv.from.axes.xyz.y).abs() < 1e-9
                     && (to.z - safe).abs() < 1e-9;
@@ -401,7 +401,7 @@ fn toolpath(plan: &TouchPlan, probe: &Probe, log: &str) -> Vec<Op> {
                     Op::Rapid(Target::xyz(to))
                 });
             }
-            MoveKind::Rotary => {
+            ProbingMoveKind::Rotary => {
                 if !matches!(ops.last(), Some(Op::Retract { .. })) {
                     ops.push(Op::Retract { z: safe });
                 }
@@ -411,11 +411,11 @@ fn toolpath(plan: &TouchPlan, probe: &Probe, log: &str) -> Vec<Op> {
                     c: mv.to.axes.c,
                 });
             }
-            MoveKind::Position | MoveKind::Retract(_) => ops.push(Op::Feed {
+            ProbingMoveKind::Position | ProbingMoveKind::Retract(_) => ops.push(Op::Feed {
                 to: Target::xyz(to),
                 feed,
             }),
-            MoveKind::Probe(i) => {
+            ProbingMoveKind::Probe(i) => {
                 let t = &plan.touches[i];
                 ops.push(Op::ProbeMove {
                     from: t.start.axes.xyz,
@@ -517,7 +517,7 @@ pub fn plan(cfg: &PlanConfig) -> Result<ProbingPlan, PlanError> {
     let mut mesh_obstacles = plan.obstacles.clone();
     // The model shows the table's top slab, not its whole thickness.
     for o in &mut mesh_obstacles {
-        if let (true, Solid::Cylinder { a, b, .. }) = (o.name == "table", &mut o.solid) {
+        if let (true, ConvexSolid::Cylinder { a, b, .. }) = (o.name == "table", &mut o.solid) {
             a.z = b.z - 10.0;
         }
     }

@@ -13,7 +13,7 @@ use std::f64::consts::PI;
 
 use nalgebra::Vector3;
 
-use super::collision::{Obstacle, Solid};
+use super::collision::{ConvexSolid, Obstacle};
 use crate::mesh::{Mesh, Triangle};
 
 /// Facets around a round solid.
@@ -39,7 +39,7 @@ pub(crate) fn setup_mesh(obstacles: &[Obstacle]) -> Mesh {
             }
         };
         match &o.solid {
-            Solid::Cuboid { centre, axes, half } => {
+            ConvexSolid::Cuboid { centre, axes, half } => {
                 let corner = |s: [f64; 3]| {
                     centre + axes * Vector3::new(s[0] * half.x, s[1] * half.y, s[2] * half.z)
                 };
@@ -65,7 +65,7 @@ pub(crate) fn setup_mesh(obstacles: &[Obstacle]) -> Mesh {
                     }
                 }
             }
-            Solid::Ball { centre, radius } => {
+            ConvexSolid::Ball { centre, radius } => {
                 let (nu, nv) = (SEGMENTS, SEGMENTS / 2);
                 let p = |i: usize, j: usize| {
                     let theta = PI * j as f64 / nv as f64; // from the north pole
@@ -89,7 +89,7 @@ pub(crate) fn setup_mesh(obstacles: &[Obstacle]) -> Mesh {
                     }
                 }
             }
-            Solid::Cylinder { a, b, radius } => {
+            ConvexSolid::Cylinder { a, b, radius } => {
                 let ax = (b - a).normalize();
                 let (e1, e2) = crate::geom::tangent_basis(&ax);
                 let rim = |end: &Vector3<f64>, i: usize| {
@@ -116,16 +116,16 @@ mod tests {
     #[test]
     fn meshes_close_around_the_volume_of_their_solids() {
         let shapes = [
-            Solid::Cuboid {
+            ConvexSolid::Cuboid {
                 centre: Vector3::new(1.0, 2.0, 3.0),
                 axes: *nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), 0.3).matrix(),
                 half: Vector3::new(10.0, 20.0, 30.0),
             },
-            Solid::Ball {
+            ConvexSolid::Ball {
                 centre: Vector3::new(5.0, 0.0, 0.0),
                 radius: 15.0,
             },
-            Solid::Cylinder {
+            ConvexSolid::Cylinder {
                 a: Vector3::zeros(),
                 b: Vector3::new(0.0, 0.0, 100.0),
                 radius: 6.0,

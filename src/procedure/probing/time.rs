@@ -7,7 +7,7 @@
 //! rotary axes, settling). Acceleration is not modelled: the overheads
 //! absorb it, and they are the template's to tune against a real run.
 
-use super::{MoveKind, TouchPlan};
+use super::{ProbingMoveKind, TouchPlan};
 
 /// Time split by activity.
 #[derive(Clone, Debug, PartialEq)]
@@ -52,12 +52,12 @@ pub(crate) fn estimate(plan: &TouchPlan) -> RunTime {
     for mv in &plan.moves {
         let d = mv.to.axes.xyz - mv.from.axes.xyz;
         let dt = match mv.kind {
-            MoveKind::Rapid => {
+            ProbingMoveKind::Rapid => {
                 let v = d.abs().max() / rapid.linear * 60.0;
                 rapid_s += v;
                 v
             }
-            MoveKind::Rotary => {
+            ProbingMoveKind::Rotary => {
                 let a = (mv.to.axes.tilt - mv.from.axes.tilt)
                     .abs()
                     .max((mv.to.axes.c - mv.from.axes.c).abs());
@@ -66,12 +66,12 @@ pub(crate) fn estimate(plan: &TouchPlan) -> RunTime {
                 overhead_s += s.pose_overhead;
                 v
             }
-            MoveKind::Position | MoveKind::Retract(_) => {
+            ProbingMoveKind::Position | ProbingMoveKind::Retract(_) => {
                 let v = d.norm() / s.positioning_feed * 60.0;
                 positioning_s += v;
                 v
             }
-            MoveKind::Probe(i) => {
+            ProbingMoveKind::Probe(i) => {
                 let touch = &plan.touches[i];
                 let v = (touch.contact.axes.xyz - mv.from.axes.xyz).norm() / touch.feed * 60.0;
                 probing_s += v;

@@ -9,10 +9,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
 use fivecal::analyze::{
-    self, ContributorChoice, Found, Identified, McOptions, MonteCarlo, NineSectionOutcome, Outcome,
-    Piece, Request,
+    self, ContributorChoice, Found, Identified, IdentifiedPiece, McOptions, MonteCarlo,
+    NineSectionOutcome, Outcome, Request,
 };
-use fivecal::conformance::{LimitsSource, Verdict};
+use fivecal::conformance::{ConformanceVerdict, LimitsSource};
 use fivecal::identify::Method;
 use fivecal::identify::sphere::CircleMethod;
 use fivecal::io::{Shape, check_outputs};
@@ -255,7 +255,10 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
         print_piece(c, piece);
         if let Some(l) = &c.limits {
             outln!("limits from {}:", l.path.display());
-            out!("{}", Verdict::of(&piece.file, &l.limits).render());
+            out!(
+                "{}",
+                ConformanceVerdict::of(&piece.file, &l.limits).render()
+            );
         }
         if let Some(dir) = &c.report {
             let dir = piece.report_dir(dir);
@@ -295,7 +298,7 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
 
 /// What the analysis of one piece found: identifiability and values, the
 /// Monte-Carlo study, the residuals.
-fn print_piece(c: &Config, p: &Piece) {
+fn print_piece(c: &Config, p: &IdentifiedPiece) {
     for w in &p.data.warnings {
         eprintln!("warning: {w}");
     }

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
-use fivecal::contour::{Mesh, Surface, evaluate};
+use fivecal::contour::{PartMesh, Surface, evaluate};
 use fivecal::formats::measured;
 
 #[derive(Args, Debug)]
@@ -29,7 +29,7 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
             &[("--output", o, fivecal::io::Shape::File)],
         )?;
     }
-    let mesh = Mesh::load(&args.model)?;
+    let mesh = PartMesh::load(&args.model)?;
     let src = fivecal::input::read_text(
         &args.measured,
         "CSV file",

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand, ValueEnum};
-use fivecal::conformance::{Limits, LimitsSource};
+use fivecal::conformance::{AcceptanceLimits, LimitsSource};
 use fivecal::history::{self, History};
 use fivecal::io::write_atomic;
 use fivecal::store::Store;
@@ -160,9 +160,9 @@ pub fn machine_history(store: &mut Store, machine: Option<&str>) -> anyhow::Resu
 }
 
 /// The limits of `--limits`, checked against the machine's name.
-fn limits(l: &LimitsArg, h: &History) -> anyhow::Result<Limits> {
+fn limits(l: &LimitsArg, h: &History) -> anyhow::Result<AcceptanceLimits> {
     let Some(path) = &l.limits else {
-        return Ok(Limits::default());
+        return Ok(AcceptanceLimits::default());
     };
     let src = LimitsSource::read(path)?;
     if let Some(m) = &src.machine

@@ -12,7 +12,7 @@ use fivecal::conformance::LimitsSource;
 use fivecal::errorfile::ErrorFile;
 use fivecal::history::compare::Comparison;
 use fivecal::io::{ensure_not_input, write_atomic};
-use fivecal::store::{Kind, Stored};
+use fivecal::store::{RecordKind, Stored};
 
 use super::history::machine_history;
 use super::record::open_for_reading;
@@ -96,7 +96,7 @@ fn from_store(db: Option<&str>, machine: &str) -> anyhow::Result<Pair> {
     let results: Vec<&Stored> = h
         .records
         .iter()
-        .filter(|r| r.record.kind != Kind::Export && !h.superseded.contains(&r.id))
+        .filter(|r| r.record.kind != RecordKind::Export && !h.superseded.contains(&r.id))
         .filter(|r| fivecal::history::location_errors(&r.record.content).is_some())
         .collect();
     let pick = match h.exports.last() {

@@ -21,7 +21,7 @@ use super::template::NineSectionTemplate;
 use crate::kinematics::Kinematics;
 use crate::limits::MAX_PLAN_MOVES;
 use crate::machine::ToolKind;
-use crate::mesh::{Csg, Cuboid, Plane, Polygon, Solid};
+use crate::mesh::{Csg, Cuboid, HalfSpace, Polygon, Solid};
 use crate::procedure::bounds::{echo, total};
 use crate::procedure::machining::Pass;
 use crate::procedure::machining::cutter::ToolPart;
@@ -353,7 +353,7 @@ pub(crate) fn design(
                 Vector3::new(x1, y1, h),
                 Vector3::new(x0, y1, h),
             ],
-            plane: Plane {
+            plane: HalfSpace {
                 n: Vector3::z(),
                 w: h,
             },

@@ -7,7 +7,7 @@ use serde::Deserialize;
 use crate::machine::ToolKind;
 use crate::procedure::bounds::{angle, count, length, length_or_zero};
 use crate::procedure::machining::template::{
-    Clearance, Cutting, Stock, ToolChoice, check_common, tool_choice,
+    Clearance, CuttingData, Stock, ToolChoice, check_common, tool_choice,
 };
 use crate::procedure::{TemplateSource, Test};
 use crate::source::SourceError;
@@ -38,8 +38,8 @@ pub struct NineSectionTemplate {
     pub sections: Vec<SectionAngles>,
     /// Tool.
     pub tool: ToolChoice,
-    /// Cutting data.
-    pub cutting: Cutting,
+    /// CuttingData data.
+    pub cutting: CuttingData,
     /// Clearances.
     pub clearance: Clearance,
     /// Points per section.
@@ -56,7 +56,7 @@ struct NineSectionFile {
     depth: f64,
     sections: Vec<SectionAngles>,
     tool: serde_yaml::Value,
-    cutting: Cutting,
+    cutting: CuttingData,
     clearance: Clearance,
     points: NinePointsFile,
 }

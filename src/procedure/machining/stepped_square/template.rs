@@ -8,7 +8,7 @@ use crate::limits::MAX_PLAN_POINTS;
 use crate::machine::ToolKind;
 use crate::procedure::bounds::{angles, count, echo, length, length_or_zero};
 use crate::procedure::machining::template::{
-    Clearance, Cutting, Stock, ToolChoice, check_common, tool_choice,
+    Clearance, CuttingData, Stock, ToolChoice, check_common, tool_choice,
 };
 use crate::procedure::{TemplateSource, Test};
 use crate::source::SourceError;
@@ -74,8 +74,8 @@ pub struct SteppedSquareTemplate {
     pub side: Steps,
     /// Tool.
     pub tool: ToolChoice,
-    /// Cutting data.
-    pub cutting: Cutting,
+    /// CuttingData data.
+    pub cutting: CuttingData,
     /// Clearances.
     pub clearance: Clearance,
     /// Points.
@@ -91,7 +91,7 @@ struct SteppedSquareFile {
     top: Steps,
     side: Steps,
     tool: serde_yaml::Value,
-    cutting: Cutting,
+    cutting: CuttingData,
     clearance: Clearance,
     points: StepPoints,
 }

@@ -15,7 +15,7 @@ use crate::kinematics::Kinematics;
 use crate::limits::{MAX_PLAN_POINTS, MAX_PLAN_POSES};
 use crate::machine::Machine;
 use crate::procedure::bounds::total;
-use crate::procedure::probing::collision::{Obstacle, ProbeShape, Solid};
+use crate::procedure::probing::collision::{ConvexSolid, Obstacle, ProbeShape};
 use crate::procedure::probing::path::{self, Candidate, PoseSpec};
 use crate::procedure::probing::template::StylusSpec;
 use crate::procedure::probing::{ControlLimits, TouchPlan, pose_id};
@@ -30,7 +30,7 @@ pub(crate) const TABLE_THICKNESS: f64 = 50.0;
 pub(crate) fn table_obstacle(m: &Machine) -> Obstacle {
     Obstacle {
         name: "table".into(),
-        solid: Solid::Cylinder {
+        solid: ConvexSolid::Cylinder {
             a: Vector3::new(0.0, 0.0, m.table.surface - TABLE_THICKNESS),
             b: Vector3::new(0.0, 0.0, m.table.surface),
             radius: m.table.radius,
@@ -88,7 +88,7 @@ pub(crate) fn column_obstacle(m: &Machine, c: &ColumnSpec) -> Obstacle {
     let rot = Rotation3::from_axis_angle(&Vector3::z_axis(), c.yaw.to_radians());
     Obstacle {
         name: c.name.clone(),
-        solid: Solid::Cuboid {
+        solid: ConvexSolid::Cuboid {
             centre: Vector3::new(c.centre.x, c.centre.y, m.table.surface + c.height / 2.0),
             axes: *rot.matrix(),
             half: Vector3::new(c.size.x / 2.0, c.size.y / 2.0, c.height / 2.0),

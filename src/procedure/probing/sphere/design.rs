@@ -27,7 +27,7 @@ use crate::kinematics::Kinematics;
 use crate::limits::{MAX_PLAN_POINTS, MAX_PLAN_POSES};
 use crate::machine::Machine;
 use crate::procedure::bounds::total;
-use crate::procedure::probing::collision::{Obstacle, Solid};
+use crate::procedure::probing::collision::{ConvexSolid, Obstacle};
 use crate::procedure::probing::columns::design::{probe_shape, table_obstacle};
 use crate::procedure::probing::path::{self, Candidate, PoseSpec};
 use crate::procedure::probing::pose_frame::PoseFrame;
@@ -45,14 +45,14 @@ pub(crate) fn sphere_obstacles(m: &Machine, t: &SphereTemplate) -> [Obstacle; 2]
     [
         Obstacle {
             name: "sphere".into(),
-            solid: Solid::Ball {
+            solid: ConvexSolid::Ball {
                 centre: c,
                 radius: t.diameter / 2.0,
             },
         },
         Obstacle {
             name: "stem".into(),
-            solid: Solid::Cylinder {
+            solid: ConvexSolid::Cylinder {
                 a: Vector3::new(c.x, c.y, m.table.surface),
                 b: c,
                 radius: t.stem_diameter / 2.0,
