@@ -289,7 +289,13 @@ fn probe_pretravel_on_the_column_probing_test_is_named_with_what_it_cannot_see()
         0,
         &[Some(3.0), Some(3.0), Some(3.0), Some(3.0), None, Some(2.0)],
     );
-    assert_eq!(d.story.steps[0].alongside.unseen, ["probe_pretravel.Z+"]);
+    let unseen: Vec<String> = d.story.steps[0]
+        .alongside
+        .unseen
+        .iter()
+        .map(|c| c.to_string())
+        .collect();
+    assert_eq!(unseen, ["probe_pretravel.Z+"]);
     // The error file writes what the test saw and says what it did not.
     let f = d.error_file(
         &inputs.data,

@@ -17,6 +17,7 @@
 use nalgebra::{DVector, Point3};
 
 use super::fit::Part;
+use super::fit::Why;
 use crate::formats::manifest::TestKind;
 use crate::geom::Axis3;
 use crate::identify::{Dataset, Setup};
@@ -34,7 +35,7 @@ pub struct Candidate {
     pub effect: Effect,
     /// Defining constraints on the effect's own parameters (rows of
     /// coefficients, one per parameter) and what each says.
-    pub constraints: Vec<(Vec<f64>, String)>,
+    pub constraints: Vec<(Vec<f64>, Why)>,
     /// What it is, in words.
     pub description: String,
 }
@@ -231,12 +232,14 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
                 (
                     level,
                     "a straightness has no mean where the test senses it (that is a position)"
-                        .to_string(),
+                        .to_string()
+                        .into(),
                 ),
                 (
                     slope,
                     "a straightness has no slope where the test senses it (that is a squareness)"
-                        .to_string(),
+                        .to_string()
+                        .into(),
                 ),
             ];
             out.candidates.push(c);
@@ -270,7 +273,8 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
         );
         for (row, name) in s.constraints.row_iter().zip(&s.constraint_names) {
             let v: DVector<f64> = row.transpose().rows(r.start, r.len()).into_owned();
-            c.constraints.push((v.as_slice().to_vec(), name.clone()));
+            c.constraints
+                .push((v.as_slice().to_vec(), Why::Text(name.clone())));
         }
         out.candidates.push(c);
     }

@@ -55,7 +55,7 @@ use super::catalogue::Candidate;
 use crate::identify::forward::{ForwardError, ForwardModel};
 use crate::identify::global::PLACEMENT_NAMES;
 use crate::identify::global::{Observed, observed};
-use crate::identify::identifiability::{self, Identifiability};
+use crate::identify::identifiability::{self, Combination, Identifiability};
 use crate::identify::lsq::{self, Design};
 use crate::identify::rigid::{d6_um, face_residual};
 use crate::identify::{Dataset, IdentifyError, Setup};
@@ -108,13 +108,41 @@ pub struct Spec {
     pub names: Vec<String>,
     /// Per effect: constraint rows on its own parameters, with what each
     /// says.
-    pub constraints: Vec<Vec<(Vec<f64>, String)>>,
+    pub constraints: Vec<Vec<(Vec<f64>, Why)>>,
     /// Per parameter, its index in the catalogue model.
     full: Vec<usize>,
     /// Per effect, the free directions of its constraints as last computed
     /// (and the rows they were computed from): every design of a round
     /// shares them.
     blocks: Vec<Arc<Block>>,
+}
+
+/// What a constraint row says.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Why {
+    /// A defining constraint, in words.
+    Text(String),
+    /// A combination of the effect's parameters the test does not see,
+    /// fixed at zero (named when shown).
+    Unseen(Combination),
+}
+
+/// How the words of a constraint fixing an unseen combination end.
+const UNSEEN: &str = "= 0: this test does not see it";
+
+impl std::fmt::Display for Why {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Why::Text(t) => f.write_str(t),
+            Why::Unseen(c) => write!(f, "{c} {UNSEEN}"),
+        }
+    }
+}
+
+impl From<String> for Why {
+    fn from(t: String) -> Why {
+        Why::Text(t)
+    }
 }
 
 /// The orthonormal basis of the directions an effect's constraint rows
@@ -126,7 +154,7 @@ struct Block {
 }
 
 impl Block {
-    fn new(n: usize, rows: &[(Vec<f64>, String)]) -> Arc<Block> {
+    fn new(n: usize, rows: &[(Vec<f64>, Why)]) -> Arc<Block> {
         let c = DMatrix::from_fn(rows.len(), n, |i, j| rows[i].0[j]);
         Arc::new(Block {
             rows: rows.iter().map(|(r, _)| r.clone()).collect(),
@@ -134,7 +162,7 @@ impl Block {
         })
     }
 
-    fn holds(&self, rows: &[(Vec<f64>, String)]) -> bool {
+    fn holds(&self, rows: &[(Vec<f64>, Why)]) -> bool {
         self.rows.len() == rows.len() && self.rows.iter().zip(rows).all(|(a, (b, _))| a == b)
     }
 }
@@ -157,7 +185,7 @@ impl Spec {
 
     /// Fixes the combinations `rows` of effect `ei`'s parameters at zero,
     /// each saying why.
-    pub(crate) fn constrain(&mut self, ei: usize, rows: Vec<(Vec<f64>, String)>) {
+    pub(crate) fn constrain(&mut self, ei: usize, rows: Vec<(Vec<f64>, Why)>) {
         self.constraints[ei].extend(rows);
         let b = Block::new(self.model.param_range(ei).len(), &self.constraints[ei]);
         if let Some(slot) = self.blocks.get_mut(ei) {
@@ -219,7 +247,7 @@ impl Spec {
                 for (j, v) in row.iter().enumerate() {
                     c[(k, o + j)] = *v;
                 }
-                names.push(name.clone());
+                names.push(name.to_string());
                 k += 1;
             }
         }
@@ -1097,7 +1125,7 @@ mod tests {
             names: vec!["location".into(), "map.EBB(B)".into()],
             constraints: vec![
                 Vec::new(),
-                vec![(vec![1.0, 1.0, 1.0], "averages to zero".into())],
+                vec![(vec![1.0, 1.0, 1.0], Why::Text("averages to zero".into()))],
             ],
             full: (0..5).collect(),
             blocks: Vec::new(),

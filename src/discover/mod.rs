@@ -40,11 +40,12 @@ use rayon::prelude::*;
 use crate::analyze::goodness::ExpectedNoise;
 use crate::errorfile::{AmbiguitySection, ErrorFile, Noise, NotIdentified, Quantity, RivalEntry};
 use crate::formats::manifest::TestKind;
-use crate::identify::identifiability::combination;
+use crate::identify::identifiability::Combination;
 use crate::identify::{Dataset, Identification, Method, two_stage};
 use crate::kinematics::Kinematics;
 use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS};
 use crate::procedure::Plan;
+use fit::Why;
 
 pub use catalogue::{Candidate, Catalogue};
 pub use fit::{Fit, FitError, Fitter, Part, Spec};
@@ -217,23 +218,21 @@ impl Discovery {
             }
             for (_, why) in f.spec.constraints[ei]
                 .iter()
-                .filter(|(_, w)| w.ends_with(UNSEEN))
+                .filter(|(_, w)| matches!(w, Why::Unseen(_)))
             {
+                let why = why.to_string();
                 if r.clone().any(|i| f.fixed(i)) && !why.contains(" + ") && !why.contains(" - ") {
                     continue;
                 }
                 file.not_identifiable.push(NotIdentified {
                     symbol: f.spec.names[ei].clone(),
-                    reason: why.clone(),
+                    reason: why,
                 });
             }
         }
         file
     }
 }
-
-/// How a constraint fixing a combination the test does not see ends.
-const UNSEEN: &str = "= 0: this test does not see it";
 
 /// A fit as the identification's result type.
 pub fn identification(f: &Fit, data: &Dataset) -> Identification {
@@ -437,15 +436,16 @@ fn try_candidate(
     let mut unseen = Vec::new();
     let mut rows = Vec::new();
     if d.null.ncols() > 0 {
+        let named: std::sync::Arc<[String]> = cand_names.clone().into();
         let vc = d.null.rows(xr.start, xr.len()).into_owned();
         let svd = vc.svd(true, false);
         let u = svd.u.expect("asked for U");
         for (i, s) in svd.singular_values.iter().enumerate() {
             if *s > 1e-6 {
                 let row: Vec<f64> = u.column(i).iter().copied().collect();
-                let what = combination(&row, &cand_names);
+                let what = Combination::new(row.clone(), named.clone());
                 unseen.push(what.clone());
-                rows.push((row, format!("{what} = 0: this test does not see it")));
+                rows.push((row, Why::Unseen(what)));
             }
         }
     }

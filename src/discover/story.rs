@@ -5,6 +5,8 @@ use std::fmt::Write as _;
 
 use serde::Serialize;
 
+use crate::identify::identifiability::Combination;
+
 use super::gap::{Gap, GapSize};
 use super::stats::NestedTest;
 
@@ -50,7 +52,7 @@ pub struct Alongside {
     pub largest_correlation: Option<Correlation>,
     /// Combinations of its parameters the test does not see, fixed at zero
     /// (each named).
-    pub unseen: Vec<String>,
+    pub unseen: Vec<Combination>,
     /// Condition number of the column-scaled design with it.
     pub condition: f64,
 }

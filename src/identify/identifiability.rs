@@ -217,6 +217,43 @@ fn combination_mentions(c: &str, name: &str) -> bool {
     c.split(|ch: char| ch.is_whitespace()).any(|t| t == name)
 }
 
+/// A linear combination of named parameters, written out only when shown:
+/// a discovery meets hundreds of unseen map combinations per candidate and
+/// shows a handful.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Combination {
+    coef: Vec<f64>,
+    names: std::sync::Arc<[String]>,
+}
+
+impl Combination {
+    /// The combination `coef . names` (one coefficient per name).
+    pub fn new(coef: Vec<f64>, names: std::sync::Arc<[String]>) -> Combination {
+        Combination { coef, names }
+    }
+
+    /// Whether `name` takes part in it.
+    pub fn involves(&self, name: &str) -> bool {
+        let max = self.coef.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        self.coef
+            .iter()
+            .zip(self.names.iter())
+            .any(|(c, n)| n == name && c.abs() >= 1e-6 * max && max > 0.0)
+    }
+}
+
+impl std::fmt::Display for Combination {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&combination(&self.coef, &self.names))
+    }
+}
+
+impl serde::Serialize for Combination {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
 /// Formats a linear combination `sum c_k name_k` with the largest
 /// coefficient 1, dropping negligible terms.
 pub fn combination(coef: &[f64], names: &[String]) -> String {

@@ -13,7 +13,7 @@
 //! it meaning.
 
 use faer::Mat;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
 /// A least-squares problem: residuals and their Jacobian at a point.
 pub trait Problem {
@@ -338,32 +338,29 @@ pub(crate) fn design_ranked(
         Some(b) => b.clone(),
         None => DMatrix::identity(n, n),
     };
-    // x-space direction of scaled z-direction v: N D^-1 v.
-    let to_x = |k: usize| -> DVector<f64> {
-        let z = DVector::from_fn(p, |j, _| sv.v[(j, k)] / sv.scale[j]);
-        &nb * z
-    };
     // (J^T J)^+ = W W^T with W = N D^-1 V_r S_r^-1: one product.
     let vz = DMatrix::from_fn(p, sv.rank, |j, k| sv.v[(j, k)] / sv.scale[j] / sv.s[k]);
     let w = &nb * vz;
     let cov = &w * w.transpose();
-    let mut nulls: Vec<DVector<f64>> = (sv.rank..p).map(to_x).collect();
-    // Orthonormalise the null directions in x-space.
-    let mut basis_out: Vec<DVector<f64>> = Vec::new();
-    for v in nulls.iter_mut() {
-        let mut w = v.clone();
-        for b in &basis_out {
-            w -= b * b.dot(&w);
-        }
-        let nrm = w.norm();
-        if nrm > 1e-12 {
-            basis_out.push(w / nrm);
-        }
-    }
-    let null = if basis_out.is_empty() {
+    // The null directions in x-space, N D^-1 v for the unseen v,
+    // orthonormalised (a QR: hundreds of them for a large map). They are
+    // independent, as N has orthonormal columns and D is invertible; a
+    // direction that round-off made dependent is dropped.
+    let nz = p - sv.rank;
+    let null = if nz == 0 {
         DMatrix::zeros(n, 0)
     } else {
-        DMatrix::from_columns(&basis_out)
+        let nbf = Mat::from_fn(n, p, |r, c| nb[(r, c)]);
+        let vn = Mat::from_fn(p, nz, |j, k| sv.v[(j, sv.rank + k)] / sv.scale[j]);
+        let x = &nbf * &vn;
+        let qr = x.qr();
+        let q = qr.compute_thin_Q();
+        let r = qr.thin_R();
+        let scale = (0..nz).fold(0.0f64, |a, k| a.max(x.col(k).norm_l2()));
+        let keep: Vec<usize> = (0..nz.min(n))
+            .filter(|&k| r[(k, k)].abs() > 1e-12 * scale.max(1e-300))
+            .collect();
+        DMatrix::from_fn(n, keep.len(), |i, k| q[(i, keep[k])])
     };
     let smax = sv.s.first().copied().unwrap_or(0.0);
     let smin = if sv.rank > 0 { sv.s[sv.rank - 1] } else { 0.0 };
@@ -402,19 +399,22 @@ pub(crate) fn constraint_basis(c: &DMatrix<f64>) -> DMatrix<f64> {
     if c.nrows() == 0 {
         return DMatrix::identity(n, n);
     }
-    // Null space of C from the SVD of C^T C (n x n, small).
-    let ctc = c.transpose() * c;
-    let e = ctc.symmetric_eigen();
-    let max = e.eigenvalues.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-    let cols: Vec<DVector<f64>> = (0..n)
-        .filter(|&k| e.eigenvalues[k].abs() <= 1e-10 * max.max(1e-300))
-        .map(|k| e.eigenvectors.column(k).into_owned())
+    // Null space of C from the eigenvectors of C^T C (n x n, small), with
+    // faer: a map's constraints make n several hundred, where nalgebra's
+    // eigensolver is what a discovery waits for.
+    let cf = Mat::from_fn(c.nrows(), n, |r, k| c[(r, k)]);
+    let ctc = cf.transpose() * &cf;
+    let Ok(e) = ctc.self_adjoint_eigen(faer::Side::Lower) else {
+        // Non-finite constraint rows leave no direction trustworthy.
+        return DMatrix::zeros(n, 0);
+    };
+    let vals = e.S().column_vector();
+    let vecs = e.U();
+    let max = (0..n).fold(0.0f64, |a, k| a.max(vals[k].abs()));
+    let keep: Vec<usize> = (0..n)
+        .filter(|&k| vals[k].abs() <= 1e-10 * max.max(1e-300))
         .collect();
-    if cols.is_empty() {
-        DMatrix::zeros(n, 0)
-    } else {
-        DMatrix::from_columns(&cols)
-    }
+    DMatrix::from_fn(n, keep.len(), |r, k| vecs[(r, keep[k])])
 }
 
 /// Converts a faer matrix into nalgebra's.
@@ -425,6 +425,7 @@ pub(crate) fn to_nalgebra(m: &Mat<f64>) -> DMatrix<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DVector;
 
     /// Fits y = a * exp(b t) (nonlinear) and checks against the known answer.
     struct Exp {
@@ -526,5 +527,40 @@ mod tests {
         let an = &a * &nb;
         let closed = &nb * (an.transpose() * &an).try_inverse().unwrap() * nb.transpose();
         assert!((d.cov_unit - closed).norm() < 1e-10);
+    }
+
+    /// At the size of a discovery's C-axis map (hundreds of parameters,
+    /// most of them fixed by constraints or unseen): the free directions
+    /// and the design's null directions are orthonormal and exact, checked
+    /// against the definitions (C N = 0, J null = 0) and the rank.
+    #[test]
+    fn free_and_null_directions_of_a_map_sized_problem_are_orthonormal_and_exact() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Uniform};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(17);
+        let u = Uniform::new(-1.0, 1.0).unwrap();
+        let n = 240;
+        // 180 random constraints, then 20 repeated as sums of others: rank 180.
+        let mut c = DMatrix::from_fn(200, n, |_, _| u.sample(&mut rng));
+        for k in 180..200 {
+            let row = c.row(k - 180) + c.row(k - 179) * 0.5;
+            c.set_row(k, &row);
+        }
+        let nb = constraint_basis(&c);
+        assert_eq!(nb.ncols(), n - 180);
+        assert!((&c * &nb).amax() < 1e-10);
+        let gram = nb.transpose() * &nb;
+        assert!((gram - DMatrix::identity(n - 180, n - 180)).amax() < 1e-10);
+        // A design that sees only 25 combinations of the 60 free ones.
+        let seen = DMatrix::from_fn(300, 25, |_, _| u.sample(&mut rng));
+        let mix = DMatrix::from_fn(25, n, |_, _| u.sample(&mut rng));
+        let j = &seen * &mix;
+        let jf = Mat::from_fn(j.nrows(), n, |r, k| j[(r, k)]);
+        let d = design(&jf, Some(&nb), 1e-9);
+        assert_eq!((d.rank, d.free, d.null.ncols()), (25, 60, 35));
+        assert!((&j * &d.null).amax() < 1e-9 * j.amax());
+        assert!((&c * &d.null).amax() < 1e-10);
+        let gram = d.null.transpose() * &d.null;
+        assert!((gram - DMatrix::identity(35, 35)).amax() < 1e-10);
     }
 }
