@@ -63,6 +63,22 @@ pub struct Comparison {
     pub verdict_before: Option<ConformanceVerdict>,
 }
 
+/// Two results that cannot be compared: they are of different machines.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "{before} is a result of machine `{before_machine}`, {after} of `{after_machine}`: compare results of one machine"
+)]
+pub struct DifferentMachines {
+    /// The first result's name.
+    pub before: String,
+    /// Its machine.
+    pub before_machine: String,
+    /// The second result's name.
+    pub after: String,
+    /// Its machine.
+    pub after_machine: String,
+}
+
 impl Comparison {
     /// Compares `before` and `after` (named for the printout); with
     /// `limits`, decides both. Refuses results of different machines.
@@ -70,14 +86,16 @@ impl Comparison {
         before: (&str, &ErrorFile),
         after: (&str, &ErrorFile),
         limits: Option<&AcceptanceLimits>,
-    ) -> Result<Comparison, String> {
+    ) -> Result<Comparison, DifferentMachines> {
         let (bn, b) = before;
         let (an, a) = after;
         if b.machine != a.machine {
-            return Err(format!(
-                "{bn} is a result of machine `{}`, {an} of `{}`: compare results of one machine",
-                b.machine, a.machine
-            ));
+            return Err(DifferentMachines {
+                before: bn.to_string(),
+                before_machine: b.machine.clone(),
+                after: an.to_string(),
+                after_machine: a.machine.clone(),
+            });
         }
         // The values side by side and the change with its combined u, as
         // `analyze --compare` tabulates them.

@@ -29,6 +29,35 @@ pub struct NineSection {
     pub rms_um: f64,
 }
 
+/// Why measured points cannot be read as section heights.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DeviationError {
+    /// A measured label the plan does not have.
+    #[error("line {line}: `{label}` is not a point of the plan")]
+    NotInPlan {
+        /// Line of the measurement file.
+        line: usize,
+        /// The label.
+        label: String,
+    },
+    /// A point without the nominal the deviation is measured along.
+    #[error(
+        "line {line}: `{label}` has no nominal point and direction: nine-section heights need the CMM's DMIS output (F and FA) or section,height_um"
+    )]
+    NoNominal {
+        /// Line of the measurement file.
+        line: usize,
+        /// The label.
+        label: String,
+    },
+    /// The reference section has no point.
+    #[error("section 1 (pose {pose}) was not measured")]
+    FirstSectionMissing {
+        /// The section's pose.
+        pose: String,
+    },
+}
+
 impl NineSection {
     /// Computes the statistics.
     pub fn new(heights: &[SectionHeight]) -> NineSection {
@@ -49,7 +78,7 @@ impl NineSection {
     pub(crate) fn from_deviations(
         plan: &PlanPoints,
         set: &PointSet,
-    ) -> Result<NineSection, String> {
+    ) -> Result<NineSection, DeviationError> {
         let mut poses: Vec<(u32, String)> = Vec::new();
         for p in &plan.points {
             if !poses.iter().any(|q| q.1 == p.pose) {
@@ -60,10 +89,10 @@ impl NineSection {
         let mut sums = vec![(0.0, 0usize); poses.len()];
         for m in &set.points {
             let Some(pp) = plan.points.iter().find(|p| p.label == m.label) else {
-                return Err(format!(
-                    "line {}: `{}` is not a point of the plan",
-                    m.line, m.label
-                ));
+                return Err(DeviationError::NotInPlan {
+                    line: m.line,
+                    label: m.label.clone(),
+                });
             };
             let Some((p, n)) = set
                 .nominals
@@ -71,17 +100,19 @@ impl NineSection {
                 .find(|n| n.label == m.label)
                 .and_then(|n| Some((n.p, n.n?)))
             else {
-                return Err(format!(
-                    "line {}: `{}` has no nominal point and direction: nine-section heights need the CMM's DMIS output (F and FA) or section,height_um",
-                    m.line, m.label
-                ));
+                return Err(DeviationError::NoNominal {
+                    line: m.line,
+                    label: m.label.clone(),
+                });
             };
             let k = poses.iter().position(|q| q.1 == pp.pose).unwrap_or(0);
             sums[k].0 += n.dot(&(m.p - p)) * 1e3;
             sums[k].1 += 1;
         }
         if sums[0].1 == 0 {
-            return Err(format!("section 1 (pose {}) was not measured", poses[0].1));
+            return Err(DeviationError::FirstSectionMissing {
+                pose: poses[0].1.clone(),
+            });
         }
         let reference = sums[0].0 / sums[0].1 as f64;
         let heights: Vec<SectionHeight> = sums

@@ -53,8 +53,7 @@ pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
     if let Some(l) = &limits {
         l.check_result(&af)?;
     }
-    let c = Comparison::new((&bn, &b), (&an, &af), limits.as_ref().map(|l| &l.limits))
-        .map_err(anyhow::Error::msg)?;
+    let c = Comparison::new((&bn, &b), (&an, &af), limits.as_ref().map(|l| &l.limits))?;
     out!("{}", c.render());
     if let Some(out) = &a.out {
         let mut inputs: Vec<&Path> = [&a.before, &a.after, &a.limits]
