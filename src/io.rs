@@ -735,6 +735,20 @@ impl Drop for StagedDir {
     }
 }
 
+/// `s` as one word of a POSIX shell command line, quoted only when it
+/// must be: the commands fivecal suggests are pasted into a shell, and a
+/// directory name with a space must stay one word.
+pub fn shell_word(s: &str) -> String {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._-/+:=,@".contains(c))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1341,3 +1341,69 @@ fn simulate_names_the_plan_and_the_errors_when_no_cut_reaches_a_point() {
     );
     assert!(!dir.path().join("m.dmo").exists());
 }
+
+/// An `--out` directory with a space and a trailing slash: the second-run
+/// commands `plan` suggests were built from the directory already quoted,
+/// so `'first dir/'-second` named a directory `first dir/-second`. Each
+/// suggested command, split by a real shell, must give the paths the plan
+/// wrote and the second run's directory beside it.
+#[test]
+fn suggested_commands_keep_an_out_directory_with_a_space_one_word() {
+    let tmp = crate::util::tempdir();
+    let dir = tmp.path();
+    let run = crate::cli::fivecal()
+        .args([
+            "plan",
+            "probe-columns",
+            "--machine",
+            "head-table",
+            "--out",
+            "first dir/",
+        ])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let manifest =
+        fivecal::formats::manifest::Manifest::read(&dir.join("first dir/probe-columns.plan.yaml"))
+            .unwrap();
+    let s = manifest
+        .suggestions
+        .iter()
+        .find(|s| s.second_run.is_some())
+        .expect("head-table's probe columns suggest a second run");
+    let shell_words = |command: &str| -> Vec<String> {
+        let out = std::process::Command::new("sh")
+            .arg("-c")
+            .arg(format!("printf '%s\\n' {command}"))
+            .output()
+            .unwrap();
+        String::from_utf8(out.stdout)
+            .unwrap()
+            .lines()
+            .map(String::from)
+            .collect()
+    };
+    let after = |words: &[String], flag: &str| -> Vec<String> {
+        words
+            .windows(2)
+            .filter(|w| w[0] == flag)
+            .map(|w| w[1].clone())
+            .collect()
+    };
+    let plan = shell_words(s.command.as_deref().unwrap());
+    assert_eq!(after(&plan, "--out"), ["first dir-second"], "{plan:?}");
+    let together = shell_words(&s.second_run.as_ref().unwrap().together);
+    assert_eq!(
+        after(&together, "--plan"),
+        [
+            "first dir/probe-columns.plan.yaml",
+            "first dir-second/probe-columns.plan.yaml"
+        ],
+        "{together:?}"
+    );
+}

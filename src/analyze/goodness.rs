@@ -161,15 +161,7 @@ pub fn discover_command(manifest: &std::path::Path, measured: &[std::path::PathB
 
 /// A path as a POSIX shell word.
 fn quote(p: &std::path::Path) -> String {
-    let s = p.display().to_string();
-    if !s.is_empty()
-        && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "._-/+:=,@".contains(c))
-    {
-        s
-    } else {
-        format!("'{}'", s.replace('\'', "'\\''"))
-    }
+    crate::io::shell_word(&p.display().to_string())
 }
 
 #[cfg(test)]

@@ -33,6 +33,7 @@ use serde_yaml::{Mapping, Value};
 use super::preview::{Preview, PreviewRow, nominal_data, predict};
 use crate::formats::manifest::{PredictedSymbol, SecondRunEntry, SuggestedChange};
 use crate::identify::Dataset;
+use crate::io::shell_word;
 use crate::kinematics::Kinematics;
 use crate::procedure::{Plan, PlanConfig, Template, Test};
 
@@ -181,18 +182,20 @@ impl Suggestion {
 /// plans it, without its `--template`.
 #[derive(Clone, Debug, Default)]
 pub struct Recipe {
-    /// The template file named in the text and in the command.
+    /// The template file named in the text and in the command (as a path:
+    /// commands quote it).
     pub file: String,
     /// What `file` is to be copied from first, if anything.
     pub copy_of: Option<String>,
     /// `fivecal plan TEST --machine M ...`, to which `--template FILE` is
     /// added.
     pub command: Option<String>,
-    /// This plan's output directory (`--out`): its manifest and the copy of
-    /// its machine file are there, for a second run beside it.
+    /// This plan's output directory (`--out`, as a path): its manifest and
+    /// the copy of its machine file are there, for a second run beside it.
     pub out: Option<String>,
-    /// The `--machine` argument of `command`, replaced by the copy of the
-    /// machine file a second run is planned with.
+    /// The `--machine` argument of `command` as written there (a shell
+    /// word), replaced by the copy of the machine file a second run is
+    /// planned with.
     pub machine: Option<String>,
 }
 
@@ -221,14 +224,17 @@ impl Recipe {
         let m = self.machine.as_ref()?;
         let c = c.replacen(
             &format!("--machine {m}"),
-            &format!("--machine {}", second.machine_file()),
+            &format!("--machine {}", shell_word(&second.machine_file())),
             1,
         );
         let template = match self.copy_of {
-            None => format!(" --template {}", self.file),
+            None => format!(" --template {}", shell_word(&self.file)),
             Some(_) => String::new(),
         };
-        Some(format!("{c}{template} --out {}", self.second_out()))
+        Some(format!(
+            "{c}{template} --out {}",
+            shell_word(&self.second_out())
+        ))
     }
 
     /// `fivecal discover` on both runs' measurements.
@@ -241,8 +247,8 @@ impl Recipe {
         let second = std::path::Path::new(&self.second_out()).join(&manifest);
         format!(
             "fivecal discover --plan {} --measured FIRST-RUN-MEASURED --plan {} --measured SECOND-RUN-MEASURED",
-            first.display(),
-            second.display()
+            shell_word(&first.display().to_string()),
+            shell_word(&second.display().to_string())
         )
     }
 
@@ -266,7 +272,7 @@ impl Recipe {
     fn command(&self) -> Option<String> {
         self.command
             .as_ref()
-            .map(|c| format!("{c} --template {}", self.file))
+            .map(|c| format!("{c} --template {}", shell_word(&self.file)))
     }
 
     fn in_file(&self) -> String {

@@ -203,7 +203,7 @@ pub(crate) fn chosen_run(
             format!(
                 "no measured point in the file ({} features or characteristics without a measured point location; `fivecal measured {}` lists them)",
                 inv.entries.iter().filter(|e| e.run == run).count(),
-                path.display()
+                crate::io::shell_word(&path.display().to_string())
             )
         } else {
             "nothing measured in the file".to_string()

@@ -10,6 +10,7 @@ use clap::Args;
 use fivecal::analyze;
 use fivecal::discover::{self, DiscoverOptions, Inputs};
 use fivecal::formats::detect::MeasuredOptions;
+use fivecal::io::shell_word;
 use fivecal::io::{Shape, check_outputs, write_atomic};
 use fivecal::store::runs;
 
@@ -272,14 +273,17 @@ pub fn run(args: DiscoverArgs) -> anyhow::Result<()> {
             if a.supplement.is_some() {
                 let mut again = String::new();
                 for (m, files) in &c.tests {
-                    again.push_str(&format!(" --plan {} --measured", m.display()));
+                    again.push_str(&format!(
+                        " --plan {} --measured",
+                        shell_word(&m.display().to_string())
+                    ));
                     for f in files {
-                        again.push_str(&format!(" {}", f.display()));
+                        again.push_str(&format!(" {}", shell_word(&f.display().to_string())));
                     }
                 }
                 say(format!(
                     "next: fivecal plan --supplement {} --out supplement\n  run supplement/probe-sphere.nc on the machine, then\n  fivecal discover{again} --plan supplement/probe-sphere.plan.yaml --measured LOG",
-                    out.display()
+                    shell_word(&out.display().to_string())
                 ));
             }
         }

@@ -66,7 +66,7 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
                     "wrote {} (machine {name}, copied from {}): edit its strokes, pivot, limits, tool and probe, then `fivecal machine show {}`",
                     out.display(),
                     m.name,
-                    out.display()
+                    fivecal::io::shell_word(&out.display().to_string())
                 );
             }
             Ok(())

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, bail};
 use clap::{Args, ValueEnum};
 use fivecal::formats::manifest::{KinematicsMode, TestKind};
+use fivecal::io::shell_word;
 use fivecal::machine::{Machine, MachineOrigin, Tool, check_tool};
 use fivecal::post::PostDefinition;
 use fivecal::procedure::{Plan, PlanConfig, Template, Test, plan};
@@ -262,7 +263,7 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         })?),
     };
     let test = template.test();
-    let mut command = format!("fivecal plan {test} --machine {spec}");
+    let mut command = format!("fivecal plan {test} --machine {}", shell_word(&spec));
     for (flag, value) in [
         ("--dialect", &a.dialect),
         ("--postprocessor", &a.postprocessor),
@@ -314,20 +315,8 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
         template_file: a.template.clone(),
         supplement: supplement.is_some(),
         command,
-        machine_arg: spec,
+        machine_arg: shell_word(&spec),
     })
-}
-
-/// `v` as one word of a shell command line.
-fn shell_word(v: &str) -> String {
-    if !v.is_empty()
-        && v.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+".contains(c))
-    {
-        v.to_string()
-    } else {
-        format!("'{}'", v.replace('\'', "'\\''"))
-    }
 }
 
 /// Where a user makes a change `plan` suggests: the template file given,
@@ -337,10 +326,10 @@ fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
     use fivecal::analyze::suggest::Recipe;
     match &cfg.template_file {
         Some(p) => Recipe {
-            file: shell_word(&p.display().to_string()),
+            file: p.display().to_string(),
             copy_of: None,
             command: Some(cfg.command.clone()),
-            out: Some(shell_word(&cfg.out.display().to_string())),
+            out: Some(cfg.out.display().to_string()),
             machine: Some(cfg.machine_arg.clone()),
         },
         None => Recipe {
@@ -357,7 +346,7 @@ fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
                 }
             )),
             command: Some(cfg.command.clone()),
-            out: Some(shell_word(&cfg.out.display().to_string())),
+            out: Some(cfg.out.display().to_string()),
             machine: Some(cfg.machine_arg.clone()),
         },
     }
