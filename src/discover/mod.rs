@@ -1085,7 +1085,7 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
             let (supplement, no_supplement) =
                 match separate::find(parts, &current.spec, &rivals, opts, m) {
                     Ok(s) => (Some(s), None),
-                    Err(why) => (None, Some(why)),
+                    Err(why) => (None, Some(why.to_string())),
                 };
             let next = match &supplement {
                 Some(s) => format!(

@@ -72,19 +72,55 @@ pub fn template_text(s: &Supplement) -> String {
     out
 }
 
+/// Why a supplementary test cannot be planned: its own template does not
+/// read, or the plan refuses it.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum SupplementError {
+    #[error(transparent)]
+    Template(#[from] crate::source::SourceError),
+    #[error(transparent)]
+    Plan(#[from] crate::procedure::PlanError),
+}
+
 /// The supplementary test planned for the machine and dialect of `first`.
-pub(crate) fn plan_supplement(first: &Plan, s: &Supplement) -> Result<Plan, String> {
+pub(crate) fn plan_supplement(first: &Plan, s: &Supplement) -> Result<Plan, SupplementError> {
     let text = template_text(s);
-    let template =
-        Template::parse(std::path::Path::new("<supplement>"), &text).map_err(|e| e.to_string())?;
-    crate::procedure::plan(&PlanConfig {
+    let template = Template::parse(std::path::Path::new("<supplement>"), &text)?;
+    Ok(crate::procedure::plan(&PlanConfig {
         machine: first.machine().clone(),
         template,
         post: PostDefinition::builtin(first.dialect()),
         kinematics: KinematicsMode::Post,
         tool: None,
-    })
-    .map_err(|e| e.to_string())
+    })?)
+}
+
+/// Why no supplementary test is proposed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NoSupplement {
+    /// Points without a plan: nothing to plan beside.
+    #[error("the measurements come without their plan, so no test can be planned beside them")]
+    NoPlan,
+    /// The model lacks the location errors every joint model starts from.
+    #[error("the model has no location errors")]
+    NoLocation,
+    /// An effect of the model has no counterpart on the two tests together.
+    #[error("{0} has no counterpart on the two tests together")]
+    NoCounterpart(String),
+    /// An effect of the model the joint forward model cannot apply.
+    #[error("{0} is not served")]
+    NotServed(String),
+    /// A rival's fitted values do not carry to the joint grid.
+    #[error("{0} cannot be carried to the joint grid")]
+    NotCarried(String),
+    /// No run of the test can be planned on the machine.
+    #[error("no {TEST} test can be planned on this machine beside the first test")]
+    NothingPlannable,
+    /// Runs were tried and none has the power asked for.
+    #[error(
+        "none of the {0} {TEST} runs tried (tilt steps of 45 to 10 deg over the test's tilt range, each tilt at its C angles or every 45 or 30 deg) tells every rival from every other with a power of {POWER} at the instruments' noise"
+    )]
+    NoneSeparates(usize),
 }
 
 /// A rival of the ambiguity: its candidate and its fit beside the model.
@@ -228,12 +264,9 @@ pub fn find(
     rivals: &[AmbiguityRival<'_>],
     opts: &DiscoverOptions,
     tested: usize,
-) -> Result<Supplement, String> {
+) -> Result<Supplement, NoSupplement> {
     let Some(first) = parts[0].plan else {
-        return Err(
-            "the measurements come without their plan, so no test can be planned beside them"
-                .into(),
-        );
+        return Err(NoSupplement::NoPlan);
     };
     let (tilts, cs) = angles(parts);
     // The next run tests each rival at the search's level, adjusted for
@@ -300,16 +333,16 @@ pub fn find(
             continue;
         };
         let Some(Effect::Location { symbols }) = base.model.effects.first() else {
-            return Err("the model has no location errors".into());
+            return Err(NoSupplement::NoLocation);
         };
         let mut model = fitter.location(symbols);
         for n in base.names.iter().skip(1) {
             let Some(c) = wanted.iter().find(|c| &c.name == n) else {
-                return Err(format!("{n} has no counterpart on the two tests together"));
+                return Err(NoSupplement::NoCounterpart(n.clone()));
             };
             model = fitter
                 .extend(&model, c)
-                .ok_or_else(|| format!("{n} is not served"))?;
+                .ok_or_else(|| NoSupplement::NotServed(n.clone()))?;
         }
         let joint: Vec<(&AmbiguityRival<'_>, &Candidate)> = rivals
             .iter()
@@ -328,7 +361,7 @@ pub fn find(
             let ei = ra.fit.spec.names.len() - 1;
             let range = ra.fit.spec.model.param_range(ei);
             let Some(values) = regrid(&ra.candidate.effect, &ra.fit.x[range], &ca.effect) else {
-                return Err(format!("{} cannot be carried to the joint grid", ca.name));
+                return Err(NoSupplement::NotCarried(ca.name.clone()));
             };
             let signal = fitter
                 .signal(&ca.name, &values)
@@ -373,11 +406,9 @@ pub fn find(
         }
     }
     Err(if tried == 0 {
-        format!("no {TEST} test can be planned on this machine beside the first test")
+        NoSupplement::NothingPlannable
     } else {
-        format!(
-            "none of the {tried} {TEST} runs tried (tilt steps of 45 to 10 deg over the test's tilt range, each tilt at its C angles or every 45 or 30 deg) tells every rival from every other with a power of {POWER} at the instruments' noise"
-        )
+        NoSupplement::NoneSeparates(tried)
     })
 }
 
