@@ -193,46 +193,10 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let mut files: Vec<PathBuf> = Vec::new();
 
     progress(Stage::Plan);
-    let e = Stage::Plan;
-    let machine = Machine::builtin(MACHINE)
-        .ok_or("the built-in machine is missing")
-        .at(e)?;
-    let template = Template::builtin(Test::SteppedSquare);
-    let planned = procedure::plan(&PlanConfig {
-        machine: machine.clone(),
-        template,
-        post: PostDefinition::builtin(Dialect::Fanuc),
-        kinematics: KinematicsMode::Post,
-        tool: None,
-    })
-    .at(e)?;
-    let plan_dir = out.join("plan");
-    let stem = planned.test().as_str();
-    for p in planned.write(&plan_dir, stem, &[]).at(e)? {
-        files.push(rel(out, &p));
-    }
-    let manifest_path = plan_dir.join(format!("{stem}.plan.yaml"));
-    let loaded = procedure::load(&manifest_path).at(e)?;
+    let (machine, manifest_path, loaded) = plan_stage(out, &mut files)?;
 
     progress(Stage::Simulate);
-    let e = Stage::Simulate;
-    let kin = simulate::plan_kinematics(&loaded);
-    let truth_path = out.join("truth.yaml");
-    write_atomic(&truth_path, TRUTH.as_bytes()).at(e)?;
-    files.push(rel(out, &truth_path));
-    let truth = ErrorFile::load(&truth_path, &kin).at(e)?;
-    let sim = simulate::run(
-        &loaded,
-        &truth,
-        &SimOptions {
-            seed: cfg.seed,
-            ..SimOptions::default()
-        },
-    )
-    .at(e)?;
-    let measured = out.join("measured.dmo");
-    sim.write(Format::Dmis, &measured).at(e)?;
-    files.push(rel(out, &measured));
+    let (kin, truth_path, truth, measured) = simulate_stage(cfg, &loaded, &mut files)?;
 
     progress(Stage::Analyze);
     let e = Stage::Analyze;
@@ -355,6 +319,66 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
         files,
         out: out.clone(),
     })
+}
+
+/// The plan stage: the stepped-square test planned for the built-in machine
+/// in FANUC and written; the machine, the plan's manifest and the plan as
+/// `analyze` loads it.
+fn plan_stage(
+    out: &Path,
+    files: &mut Vec<PathBuf>,
+) -> Result<(Machine, PathBuf, procedure::Plan), DemoError> {
+    let e = Stage::Plan;
+    let machine = Machine::builtin(MACHINE)
+        .ok_or("the built-in machine is missing")
+        .at(e)?;
+    let template = Template::builtin(Test::SteppedSquare);
+    let planned = procedure::plan(&PlanConfig {
+        machine: machine.clone(),
+        template,
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .at(e)?;
+    let plan_dir = out.join("plan");
+    let stem = planned.test().as_str();
+    for p in planned.write(&plan_dir, stem, &[]).at(e)? {
+        files.push(rel(out, &p));
+    }
+    let manifest_path = plan_dir.join(format!("{stem}.plan.yaml"));
+    let loaded = procedure::load(&manifest_path).at(e)?;
+    Ok((machine, manifest_path, loaded))
+}
+
+/// The simulate stage: the truth written and the plan run on the machine
+/// it describes, the measurements written as DMIS; the plan's kinematics,
+/// the truth (path and loaded) and the measured file.
+fn simulate_stage(
+    cfg: &DemoConfig,
+    loaded: &procedure::Plan,
+    files: &mut Vec<PathBuf>,
+) -> Result<(Kinematics, PathBuf, LoadedErrors, PathBuf), DemoError> {
+    let out = &cfg.out;
+    let e = Stage::Simulate;
+    let kin = simulate::plan_kinematics(loaded);
+    let truth_path = out.join("truth.yaml");
+    write_atomic(&truth_path, TRUTH.as_bytes()).at(e)?;
+    files.push(rel(out, &truth_path));
+    let truth = ErrorFile::load(&truth_path, &kin).at(e)?;
+    let sim = simulate::run(
+        loaded,
+        &truth,
+        &SimOptions {
+            seed: cfg.seed,
+            ..SimOptions::default()
+        },
+    )
+    .at(e)?;
+    let measured = out.join("measured.dmo");
+    sim.write(Format::Dmis, &measured).at(e)?;
+    files.push(rel(out, &measured));
+    Ok((kin, truth_path, truth, measured))
 }
 
 /// The compensate stage: the example program written, compensated with the
