@@ -332,6 +332,16 @@ impl Instant<'_> {
         d
     }
 
+    /// A contact whose normal turns with the tool axis.
+    fn contact(&self, s: f64, ds: DVector<f64>, normal: Vector3<f64>) -> Option<Local> {
+        Some(Local {
+            s,
+            ds,
+            normal,
+            dnormal: self.rot_normal(&normal),
+        })
+    }
+
     /// Whether a contact `tau` from the instant counts: a neighbour counts
     /// only where its contact instant lies on the move.
     fn on_move(&self, tau: f64) -> bool {
@@ -495,12 +505,7 @@ impl Instant<'_> {
         }
         let edge = if sq > 1e-12 { ak * y / sq } else { 0.0 };
         let normal = (u - ev * k - ew * edge).normalize();
-        Ok(Some(Local {
-            s,
-            ds,
-            normal,
-            dnormal: self.rot_normal(&normal),
-        }))
+        Ok(self.contact(s, ds, normal))
     }
 
     /// The ball end: the sphere swept along the path.
@@ -545,12 +550,7 @@ impl Instant<'_> {
             ds[j] = -dg / dgs;
         }
         let normal = wp.normalize();
-        Ok(Some(Local {
-            s,
-            ds,
-            normal,
-            dnormal: self.rot_normal(&normal),
-        }))
+        Ok(self.contact(s, ds, normal))
     }
 
     /// The torus (or corner) of a bull-nose: the actual cutter swept along
@@ -600,12 +600,7 @@ impl Instant<'_> {
             ds[j] = -dsd / den;
         }
         let normal = -gq;
-        Ok(Some(Local {
-            s,
-            ds,
-            normal,
-            dnormal: self.rot_normal(&normal),
-        }))
+        Ok(self.contact(s, ds, normal))
     }
 }
 
