@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::geom::Axis3;
 use crate::kinematics::Kinematics;
 use crate::kinematics::maps::{MapDim, MapGrid};
-use crate::kinematics::symbols::Unit;
+use crate::kinematics::symbols::{SymbolTable, Unit};
 use crate::limits::{
     MAX_ERROR_UM, MAX_ERROR_URAD, MAX_NOISE_UM, MAX_PRETRAVEL_UM, MAX_SCALE_UM_PER_M,
 };
@@ -426,6 +426,373 @@ impl LoadedErrors {
     }
 }
 
+/// The model of an error file built section by section: each effect
+/// appended with its values (checked finite and plausible) in model order.
+struct ModelBuilder<'a> {
+    path: &'a Path,
+    src: &'a str,
+    sym: SymbolTable,
+    model: Model,
+    theta: Vec<f64>,
+    u: Vec<Option<f64>>,
+}
+
+/// The largest plausible size of a value in `unit`, and the unit's name.
+fn bound(unit: Unit) -> (f64, &'static str) {
+    match unit {
+        Unit::Um => (MAX_ERROR_UM, "um"),
+        Unit::Urad => (MAX_ERROR_URAD, "urad"),
+    }
+}
+
+impl<'a> ModelBuilder<'a> {
+    fn new(kin: &Kinematics, path: &'a Path, src: &'a str) -> Self {
+        let model = Model::new(kin.clone(), Vec::new());
+        ModelBuilder {
+            path,
+            src,
+            sym: model.symbols.clone(),
+            model,
+            theta: Vec::new(),
+            u: Vec::new(),
+        }
+    }
+
+    /// An error at `keys` of the file.
+    fn err(&self, keys: &[&str], msg: String) -> SourceError {
+        SourceError::at_key(self.path, self.src, keys, msg)
+    }
+
+    /// Refuses a value beyond what a machine can have (limits module): a
+    /// location error of a metre is a unit mistake.
+    fn plausible(
+        &self,
+        keys: &[&str],
+        what: &str,
+        v: f64,
+        (max, unit): (f64, &str),
+    ) -> Result<(), SourceError> {
+        if v.abs() > max {
+            return Err(self.err(
+                keys,
+                format!(
+                    "{what} {} {unit} is not plausible: expected at most {max} {unit} in size (is it in the wrong unit?)",
+                    echo(v)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Appends one value with its uncertainty, both checked.
+    fn push(&mut self, q: &Quantity, keys: &[&str], limit: (f64, &str)) -> Result<(), SourceError> {
+        if !q.value.is_finite() || q.u.is_some_and(|x| !x.is_finite() || x < 0.0) {
+            return Err(self.err(
+                keys,
+                "value must be a finite number and u a finite number >= 0".to_string(),
+            ));
+        }
+        let name = keys.last().copied().unwrap_or("value");
+        self.plausible(keys, name, q.value, limit)?;
+        if let Some(x) = q.u {
+            self.plausible(keys, &format!("u of {name}"), x, limit)?;
+        }
+        self.theta.push(q.value);
+        self.u.push(q.u);
+        Ok(())
+    }
+
+    /// `location_errors:`, one effect for all of them.
+    fn location_errors(&mut self, entries: &IndexMap<String, Quantity>) -> Result<(), SourceError> {
+        let mut loc = Vec::new();
+        for (name, q) in entries {
+            let i = self
+                .sym
+                .location_index(name)
+                .map_err(|e| self.err(&["location_errors", name], e.to_string()))?;
+            if loc.contains(&i) {
+                return Err(self.err(&["location_errors", name], format!("{name} appears twice")));
+            }
+            loc.push(i);
+            let limit = bound(self.sym.location[i].unit);
+            self.push(q, &["location_errors", name], limit)?;
+        }
+        if !loc.is_empty() {
+            self.model.push(Effect::Location { symbols: loc });
+        }
+        Ok(())
+    }
+
+    /// `position_dependent:`, the error maps over the rotary axes: node
+    /// angles per axis (C wrapping at 360, tilt in order) and the values on
+    /// their grid.
+    fn maps(&mut self, entries: &IndexMap<String, MapEntry>) -> Result<(), SourceError> {
+        for (name, entry) in entries {
+            let keys = ["position_dependent", name.as_str()];
+            let i = self
+                .sym
+                .map_index(name)
+                .map_err(|e| self.err(&keys, e.to_string()))?;
+            let ms = &self.sym.maps[i];
+            let letters: Vec<String> = ms
+                .deps
+                .iter()
+                .map(|&d| {
+                    if d == 0 {
+                        self.sym.tilt.to_string()
+                    } else {
+                        "C".to_string()
+                    }
+                })
+                .collect();
+            for k in entry.nodes.keys() {
+                if !letters.contains(k) {
+                    return Err(self.err(
+                        &keys,
+                        format!(
+                            "{name} runs over {}; unexpected key `{k}` (expected {}, values and u)",
+                            letters.join(" and "),
+                            letters.join(", ")
+                        ),
+                    ));
+                }
+            }
+            let mut dims = Vec::new();
+            let mut perms = Vec::new();
+            for (l, &d) in letters.iter().zip(&ms.deps) {
+                let nodes = entry.nodes.get(l).ok_or_else(|| {
+                    self.err(
+                        &keys,
+                        format!("{name} needs its node angles `{l}: [...]` (degrees)"),
+                    )
+                })?;
+                // C wraps at 360; a tilt map must list its angles in order.
+                let (dim, order) = MapDim::sorted(d, nodes, d == 1)
+                    .and_then(|(dim, order)| {
+                        if d == 0 && order.iter().enumerate().any(|(i, &o)| i != o) {
+                            Err(crate::kinematics::maps::NodeError::NotIncreasing)
+                        } else {
+                            Ok((dim, order))
+                        }
+                    })
+                    .map_err(|e| {
+                        self.err(&[&keys[..], &[l.as_str()]].concat(), format!("{name}: {e}"))
+                    })?;
+                dims.push(dim);
+                perms.push(order);
+            }
+            let grid = MapGrid { dims };
+            let shape: Vec<usize> = grid.dims.iter().map(|d| d.nodes.len()).collect();
+            let vals = map_values(&entry.values, &shape, &perms, |m| {
+                self.err(&[&keys[..], &["values"]].concat(), format!("{name}: {m}"))
+            })?;
+            let us = match &entry.u {
+                None => vec![None; vals.len()],
+                Some(uv) => map_values(uv, &shape, &perms, |m| {
+                    self.err(&[&keys[..], &["u"]].concat(), format!("{name} u: {m}"))
+                })?
+                .into_iter()
+                .map(Some)
+                .collect(),
+            };
+            for v in vals.iter().chain(us.iter().flatten()) {
+                self.plausible(&keys, name, *v, bound(ms.unit))?;
+            }
+            self.theta.extend(vals);
+            self.u.extend(us);
+            self.model.push(Effect::Map { symbol: i, grid });
+        }
+        Ok(())
+    }
+
+    /// `effects.thermal_drift:`, a location error's rate per cut or minute.
+    fn drifts(&mut self, e: &Effects) -> Result<(), SourceError> {
+        for (name, d) in &e.thermal_drift {
+            let keys = ["effects", "thermal_drift", name.as_str()];
+            let i = self
+                .sym
+                .location_index(name)
+                .map_err(|x| self.err(&keys, format!("thermal drift of {}", x)))?;
+            let basis = match d.per.as_str() {
+                "seq" => DriftBasis::Seq,
+                "minute" | "min" => DriftBasis::Minute,
+                other => {
+                    return Err(self.err(
+                        &[&keys[..], &["per"]].concat(),
+                        format!("drift `per: {other}`: expected seq or minute"),
+                    ));
+                }
+            };
+            let (max, unit) = bound(self.sym.location[i].unit);
+            let per = match basis {
+                DriftBasis::Seq => format!("{unit} per cut"),
+                DriftBasis::Minute => format!("{unit} per minute"),
+            };
+            self.push(&d.rate, &keys, (max, per.as_str()))?;
+            self.model.push(Effect::Drift { symbol: i, basis });
+        }
+        Ok(())
+    }
+
+    /// `effects.linear_scale:`, EXX, EYY or EZZ in um/m.
+    fn linear_scales(&mut self, e: &Effects) -> Result<(), SourceError> {
+        for (name, q) in &e.linear_scale {
+            let keys = ["effects", "linear_scale", name.as_str()];
+            let axis = match name.as_str() {
+                "EXX" => Axis3::X,
+                "EYY" => Axis3::Y,
+                "EZZ" => Axis3::Z,
+                _ => {
+                    return Err(self.err(
+                        &keys,
+                        format!(
+                            "unknown linear scale error `{name}`: expected EXX, EYY or EZZ (um/m)"
+                        ),
+                    ));
+                }
+            };
+            self.push(q, &keys, (MAX_SCALE_UM_PER_M, "um/m"))?;
+            self.model.push(Effect::Scale { axis });
+        }
+        Ok(())
+    }
+
+    /// `effects.squareness:`, between two linear axes in urad.
+    fn squareness(&mut self, e: &Effects) -> Result<(), SourceError> {
+        for (name, q) in &e.squareness {
+            let keys = ["effects", "squareness", name.as_str()];
+            let kind = Squareness::from_symbol(name).ok_or_else(|| {
+                self.err(&keys, format!("unknown squareness error `{name}`: expected EC(0X)Y, EB(0X)Z or EA(0Y)Z (urad)"))
+            })?;
+            self.push(q, &keys, (MAX_ERROR_URAD, "urad"))?;
+            self.model.push(Effect::Squareness { kind });
+        }
+        Ok(())
+    }
+
+    /// `effects.straightness:`, a linear axis's deviation across its motion
+    /// at node positions along it.
+    fn straightness(&mut self, e: &Effects) -> Result<(), SourceError> {
+        for (name, entry) in &e.straightness {
+            let keys = ["effects", "straightness", name.as_str()];
+            let ch: Vec<char> = name.chars().collect();
+            let parsed = (ch.len() == 3 && ch[0] == 'E')
+                .then(|| (axis_of(ch[1]), axis_of(ch[2])))
+                .and_then(|(d, m)| Some((d?, m?)))
+                .filter(|(d, m)| d != m);
+            let Some((direction, moving)) = parsed else {
+                return Err(self.err(
+                    &keys,
+                    format!(
+                        "unknown straightness error `{name}`: expected EYX, EZX, EXY, EZY, EXZ or EYZ"
+                    ),
+                ));
+            };
+            let l = moving.letter().to_string();
+            for k in entry.nodes.keys() {
+                if *k != l {
+                    return Err(self.err(
+                        &keys,
+                        format!(
+                            "{name} runs along {l}; unexpected key `{k}` (expected {l}, values and u)"
+                        ),
+                    ));
+                }
+            }
+            let nodes = entry.nodes.get(&l).ok_or_else(|| {
+                self.err(
+                    &keys,
+                    format!("{name} needs its node positions `{l}: [...]` (mm)"),
+                )
+            })?;
+            let dim = MapDim::new(0, nodes, false)
+                .map_err(|m| self.err(&keys, format!("{name}: {m}")))?;
+            let grid = MapGrid { dims: vec![dim] };
+            let ident = vec![(0..nodes.len()).collect::<Vec<_>>()];
+            let vals = map_values(&entry.values, &[nodes.len()], &ident, |m| {
+                self.err(&keys, format!("{name}: {m}"))
+            })?;
+            let us: Vec<Option<f64>> = match &entry.u {
+                None => vec![None; vals.len()],
+                Some(uv) => map_values(uv, &[nodes.len()], &ident, |m| {
+                    self.err(&keys, format!("{name} u: {m}"))
+                })?
+                .into_iter()
+                .map(Some)
+                .collect(),
+            };
+            for v in vals.iter().chain(us.iter().flatten()) {
+                self.plausible(&keys, name, *v, (MAX_ERROR_UM, "um"))?;
+            }
+            self.theta.extend(vals);
+            self.u.extend(us);
+            self.model.push(Effect::Straightness {
+                moving,
+                direction,
+                nodes: grid.dims[0].nodes.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// `effects.tool_radius`, `tool_length` and `probe_pretravel` (one value
+    /// per approach direction, 0 where not given).
+    fn tool_and_probe(&mut self, e: &Effects) -> Result<(), SourceError> {
+        if let Some(q) = &e.tool_radius {
+            self.push(q, &["effects", "tool_radius"], (MAX_ERROR_UM, "um"))?;
+            self.model.push(Effect::ToolRadius);
+        }
+        if let Some(q) = &e.tool_length {
+            self.push(q, &["effects", "tool_length"], (MAX_ERROR_UM, "um"))?;
+            self.model.push(Effect::ToolLength);
+        }
+        if !e.probe_pretravel.is_empty() {
+            for k in e.probe_pretravel.keys() {
+                if !PROBE_DIRECTIONS.contains(&k.as_str()) {
+                    return Err(self.err(
+                        &["effects", "probe_pretravel", k],
+                        format!(
+                            "unknown approach direction `{k}`: expected {}",
+                            PROBE_DIRECTIONS.join(", ")
+                        ),
+                    ));
+                }
+            }
+            for d in PROBE_DIRECTIONS {
+                let q = e
+                    .probe_pretravel
+                    .get(d)
+                    .copied()
+                    .unwrap_or(Quantity::bare(0.0));
+                self.push(
+                    &q,
+                    &["effects", "probe_pretravel", d],
+                    (MAX_PRETRAVEL_UM, "um"),
+                )?;
+            }
+            self.model.push(Effect::ProbePretravel);
+        }
+        Ok(())
+    }
+
+    /// `effects.noise:`, each level a standard deviation in range.
+    fn noise(&self, e: &Effects) -> Result<Noise, SourceError> {
+        let noise = e.noise.clone().unwrap_or_default();
+        for (k, v) in [("cmm", noise.cmm), ("probe", noise.probe)] {
+            if v.is_some_and(|x| !(x.is_finite() && (0.0..=MAX_NOISE_UM).contains(&x))) {
+                return Err(self.err(
+                    &["effects", "noise", k],
+                    format!(
+                        "noise {k} {} um: expected a standard deviation from 0 to {MAX_NOISE_UM} um",
+                        echo(v.unwrap_or_default())
+                    ),
+                ));
+            }
+        }
+        Ok(noise)
+    }
+}
+
 fn axis_of(c: char) -> Option<Axis3> {
     match c {
         'X' => Some(Axis3::X),
@@ -465,9 +832,9 @@ impl ErrorFile {
         path: &Path,
         src: &str,
     ) -> Result<LoadedErrors, SourceError> {
-        let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
+        let mut b = ModelBuilder::new(kin, path, src);
         if self.machine != kin.machine().name {
-            return Err(err(
+            return Err(b.err(
                 &["machine"],
                 format!(
                     "error file is for machine `{}` but the machine in use is `{}`",
@@ -476,317 +843,19 @@ impl ErrorFile {
                 ),
             ));
         }
-        let mut model = Model::new(kin.clone(), Vec::new());
-        let sym = model.symbols.clone();
-        let mut theta = Vec::new();
-        let mut u = Vec::new();
-        // Every value within what a machine can have (limits module): a
-        // location error of a metre is a unit mistake.
-        let plausible = |keys: &[&str], what: &str, v: f64, (max, unit): (f64, &str)| {
-            if v.abs() > max {
-                return Err(err(
-                    keys,
-                    format!(
-                        "{what} {} {unit} is not plausible: expected at most {max} {unit} in size (is it in the wrong unit?)",
-                        echo(v)
-                    ),
-                ));
-            }
-            Ok(())
-        };
-        let bound = |unit: Unit| match unit {
-            Unit::Um => (MAX_ERROR_UM, "um"),
-            Unit::Urad => (MAX_ERROR_URAD, "urad"),
-        };
-        let push = |q: &Quantity,
-                    theta: &mut Vec<f64>,
-                    u: &mut Vec<Option<f64>>,
-                    keys: &[&str],
-                    limit: (f64, &str)| {
-            if !q.value.is_finite() || q.u.is_some_and(|x| !x.is_finite() || x < 0.0) {
-                return Err(err(
-                    keys,
-                    "value must be a finite number and u a finite number >= 0".to_string(),
-                ));
-            }
-            let name = keys.last().copied().unwrap_or("value");
-            plausible(keys, name, q.value, limit)?;
-            if let Some(x) = q.u {
-                plausible(keys, &format!("u of {name}"), x, limit)?;
-            }
-            theta.push(q.value);
-            u.push(q.u);
-            Ok(())
-        };
-
-        // Location errors.
-        let mut loc = Vec::new();
-        for (name, q) in &self.location_errors {
-            let i = sym
-                .location_index(name)
-                .map_err(|e| err(&["location_errors", name], e.to_string()))?;
-            if loc.contains(&i) {
-                return Err(err(
-                    &["location_errors", name],
-                    format!("{name} appears twice"),
-                ));
-            }
-            loc.push(i);
-            let limit = bound(sym.location[i].unit);
-            push(q, &mut theta, &mut u, &["location_errors", name], limit)?;
-        }
-        if !loc.is_empty() {
-            model.push(Effect::Location { symbols: loc });
-        }
-
-        // Maps.
-        for (name, entry) in &self.position_dependent {
-            let keys = ["position_dependent", name.as_str()];
-            let i = sym.map_index(name).map_err(|e| err(&keys, e.to_string()))?;
-            let ms = &sym.maps[i];
-            let letters: Vec<String> = ms
-                .deps
-                .iter()
-                .map(|&d| {
-                    if d == 0 {
-                        sym.tilt.to_string()
-                    } else {
-                        "C".to_string()
-                    }
-                })
-                .collect();
-            for k in entry.nodes.keys() {
-                if !letters.contains(k) {
-                    return Err(err(
-                        &keys,
-                        format!(
-                            "{name} runs over {}; unexpected key `{k}` (expected {}, values and u)",
-                            letters.join(" and "),
-                            letters.join(", ")
-                        ),
-                    ));
-                }
-            }
-            let mut dims = Vec::new();
-            let mut perms = Vec::new();
-            for (l, &d) in letters.iter().zip(&ms.deps) {
-                let nodes = entry.nodes.get(l).ok_or_else(|| {
-                    err(
-                        &keys,
-                        format!("{name} needs its node angles `{l}: [...]` (degrees)"),
-                    )
-                })?;
-                // C wraps at 360; a tilt map must list its angles in order.
-                let (dim, order) = MapDim::sorted(d, nodes, d == 1)
-                    .and_then(|(dim, order)| {
-                        if d == 0 && order.iter().enumerate().any(|(i, &o)| i != o) {
-                            Err(crate::kinematics::maps::NodeError::NotIncreasing)
-                        } else {
-                            Ok((dim, order))
-                        }
-                    })
-                    .map_err(|e| {
-                        err(&[&keys[..], &[l.as_str()]].concat(), format!("{name}: {e}"))
-                    })?;
-                dims.push(dim);
-                perms.push(order);
-            }
-            let grid = MapGrid { dims };
-            let shape: Vec<usize> = grid.dims.iter().map(|d| d.nodes.len()).collect();
-            let vals = map_values(&entry.values, &shape, &perms, |m| {
-                err(&[&keys[..], &["values"]].concat(), format!("{name}: {m}"))
-            })?;
-            let us = match &entry.u {
-                None => vec![None; vals.len()],
-                Some(uv) => map_values(uv, &shape, &perms, |m| {
-                    err(&[&keys[..], &["u"]].concat(), format!("{name} u: {m}"))
-                })?
-                .into_iter()
-                .map(Some)
-                .collect(),
-            };
-            for v in vals.iter().chain(us.iter().flatten()) {
-                plausible(&keys, name, *v, bound(ms.unit))?;
-            }
-            theta.extend(vals);
-            u.extend(us);
-            model.push(Effect::Map { symbol: i, grid });
-        }
-
-        // Effects.
+        b.location_errors(&self.location_errors)?;
+        b.maps(&self.position_dependent)?;
         let e = &self.effects;
-        for (name, d) in &e.thermal_drift {
-            let keys = ["effects", "thermal_drift", name.as_str()];
-            let i = sym
-                .location_index(name)
-                .map_err(|x| err(&keys, format!("thermal drift of {}", x)))?;
-            let basis = match d.per.as_str() {
-                "seq" => DriftBasis::Seq,
-                "minute" | "min" => DriftBasis::Minute,
-                other => {
-                    return Err(err(
-                        &[&keys[..], &["per"]].concat(),
-                        format!("drift `per: {other}`: expected seq or minute"),
-                    ));
-                }
-            };
-            let (max, unit) = bound(sym.location[i].unit);
-            let per = match basis {
-                DriftBasis::Seq => format!("{unit} per cut"),
-                DriftBasis::Minute => format!("{unit} per minute"),
-            };
-            push(&d.rate, &mut theta, &mut u, &keys, (max, per.as_str()))?;
-            model.push(Effect::Drift { symbol: i, basis });
-        }
-        for (name, q) in &e.linear_scale {
-            let keys = ["effects", "linear_scale", name.as_str()];
-            let axis = match name.as_str() {
-                "EXX" => Axis3::X,
-                "EYY" => Axis3::Y,
-                "EZZ" => Axis3::Z,
-                _ => {
-                    return Err(err(
-                        &keys,
-                        format!(
-                            "unknown linear scale error `{name}`: expected EXX, EYY or EZZ (um/m)"
-                        ),
-                    ));
-                }
-            };
-            push(q, &mut theta, &mut u, &keys, (MAX_SCALE_UM_PER_M, "um/m"))?;
-            model.push(Effect::Scale { axis });
-        }
-        for (name, q) in &e.squareness {
-            let keys = ["effects", "squareness", name.as_str()];
-            let kind = Squareness::from_symbol(name).ok_or_else(|| {
-                err(&keys, format!("unknown squareness error `{name}`: expected EC(0X)Y, EB(0X)Z or EA(0Y)Z (urad)"))
-            })?;
-            push(q, &mut theta, &mut u, &keys, (MAX_ERROR_URAD, "urad"))?;
-            model.push(Effect::Squareness { kind });
-        }
-        for (name, entry) in &e.straightness {
-            let keys = ["effects", "straightness", name.as_str()];
-            let ch: Vec<char> = name.chars().collect();
-            let parsed = (ch.len() == 3 && ch[0] == 'E')
-                .then(|| (axis_of(ch[1]), axis_of(ch[2])))
-                .and_then(|(d, m)| Some((d?, m?)))
-                .filter(|(d, m)| d != m);
-            let Some((direction, moving)) = parsed else {
-                return Err(err(
-                    &keys,
-                    format!(
-                        "unknown straightness error `{name}`: expected EYX, EZX, EXY, EZY, EXZ or EYZ"
-                    ),
-                ));
-            };
-            let l = moving.letter().to_string();
-            for k in entry.nodes.keys() {
-                if *k != l {
-                    return Err(err(
-                        &keys,
-                        format!(
-                            "{name} runs along {l}; unexpected key `{k}` (expected {l}, values and u)"
-                        ),
-                    ));
-                }
-            }
-            let nodes = entry.nodes.get(&l).ok_or_else(|| {
-                err(
-                    &keys,
-                    format!("{name} needs its node positions `{l}: [...]` (mm)"),
-                )
-            })?;
-            let dim =
-                MapDim::new(0, nodes, false).map_err(|m| err(&keys, format!("{name}: {m}")))?;
-            let grid = MapGrid { dims: vec![dim] };
-            let ident = vec![(0..nodes.len()).collect::<Vec<_>>()];
-            let vals = map_values(&entry.values, &[nodes.len()], &ident, |m| {
-                err(&keys, format!("{name}: {m}"))
-            })?;
-            let us: Vec<Option<f64>> = match &entry.u {
-                None => vec![None; vals.len()],
-                Some(uv) => map_values(uv, &[nodes.len()], &ident, |m| {
-                    err(&keys, format!("{name} u: {m}"))
-                })?
-                .into_iter()
-                .map(Some)
-                .collect(),
-            };
-            for v in vals.iter().chain(us.iter().flatten()) {
-                plausible(&keys, name, *v, (MAX_ERROR_UM, "um"))?;
-            }
-            theta.extend(vals);
-            u.extend(us);
-            model.push(Effect::Straightness {
-                moving,
-                direction,
-                nodes: grid.dims[0].nodes.clone(),
-            });
-        }
-        if let Some(q) = &e.tool_radius {
-            push(
-                q,
-                &mut theta,
-                &mut u,
-                &["effects", "tool_radius"],
-                (MAX_ERROR_UM, "um"),
-            )?;
-            model.push(Effect::ToolRadius);
-        }
-        if let Some(q) = &e.tool_length {
-            push(
-                q,
-                &mut theta,
-                &mut u,
-                &["effects", "tool_length"],
-                (MAX_ERROR_UM, "um"),
-            )?;
-            model.push(Effect::ToolLength);
-        }
-        if !e.probe_pretravel.is_empty() {
-            for k in e.probe_pretravel.keys() {
-                if !PROBE_DIRECTIONS.contains(&k.as_str()) {
-                    return Err(err(
-                        &["effects", "probe_pretravel", k],
-                        format!(
-                            "unknown approach direction `{k}`: expected {}",
-                            PROBE_DIRECTIONS.join(", ")
-                        ),
-                    ));
-                }
-            }
-            for d in PROBE_DIRECTIONS {
-                let q = e
-                    .probe_pretravel
-                    .get(d)
-                    .copied()
-                    .unwrap_or(Quantity::bare(0.0));
-                push(
-                    &q,
-                    &mut theta,
-                    &mut u,
-                    &["effects", "probe_pretravel", d],
-                    (MAX_PRETRAVEL_UM, "um"),
-                )?;
-            }
-            model.push(Effect::ProbePretravel);
-        }
-        let noise = e.noise.clone().unwrap_or_default();
-        for (k, v) in [("cmm", noise.cmm), ("probe", noise.probe)] {
-            if v.is_some_and(|x| !(x.is_finite() && (0.0..=MAX_NOISE_UM).contains(&x))) {
-                return Err(err(
-                    &["effects", "noise", k],
-                    format!(
-                        "noise {k} {} um: expected a standard deviation from 0 to {MAX_NOISE_UM} um",
-                        echo(v.unwrap_or_default())
-                    ),
-                ));
-            }
-        }
+        b.drifts(e)?;
+        b.linear_scales(e)?;
+        b.squareness(e)?;
+        b.straightness(e)?;
+        b.tool_and_probe(e)?;
+        let noise = b.noise(e)?;
         Ok(LoadedErrors {
-            model,
-            theta,
-            u,
+            model: b.model,
+            theta: b.theta,
+            u: b.u,
             noise,
             not_identifiable: self.not_identifiable.clone(),
             fit: self.fit.clone(),

@@ -193,46 +193,10 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let mut files: Vec<PathBuf> = Vec::new();
 
     progress(Stage::Plan);
-    let e = Stage::Plan;
-    let machine = Machine::builtin(MACHINE)
-        .ok_or("the built-in machine is missing")
-        .at(e)?;
-    let template = Template::builtin(Test::SteppedSquare);
-    let planned = procedure::plan(&PlanConfig {
-        machine: machine.clone(),
-        template,
-        post: PostDefinition::builtin(Dialect::Fanuc),
-        kinematics: KinematicsMode::Post,
-        tool: None,
-    })
-    .at(e)?;
-    let plan_dir = out.join("plan");
-    let stem = planned.test().as_str();
-    for p in planned.write(&plan_dir, stem, &[]).at(e)? {
-        files.push(rel(out, &p));
-    }
-    let manifest_path = plan_dir.join(format!("{stem}.plan.yaml"));
-    let loaded = procedure::load(&manifest_path).at(e)?;
+    let (machine, manifest_path, loaded) = plan_stage(out, &mut files)?;
 
     progress(Stage::Simulate);
-    let e = Stage::Simulate;
-    let kin = simulate::plan_kinematics(&loaded);
-    let truth_path = out.join("truth.yaml");
-    write_atomic(&truth_path, TRUTH.as_bytes()).at(e)?;
-    files.push(rel(out, &truth_path));
-    let truth = ErrorFile::load(&truth_path, &kin).at(e)?;
-    let sim = simulate::run(
-        &loaded,
-        &truth,
-        &SimOptions {
-            seed: cfg.seed,
-            ..SimOptions::default()
-        },
-    )
-    .at(e)?;
-    let measured = out.join("measured.dmo");
-    sim.write(Format::Dmis, &measured).at(e)?;
-    files.push(rel(out, &measured));
+    let (kin, truth_path, truth, measured) = simulate_stage(cfg, &loaded, &mut files)?;
 
     progress(Stage::Analyze);
     let e = Stage::Analyze;
@@ -310,113 +274,26 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     ids.push(store.record(&rec).at(e)?);
 
     progress(Stage::Compensate);
-    let e = Stage::Compensate;
-    let tool_kin = Kinematics::new(&machine);
-    let text = program::frustum_program(&tool_kin).at(e)?;
-    let original = out.join("frustum.nc");
-    write_atomic(&original, text.as_bytes()).at(e)?;
-    files.push(rel(out, &original));
-    let identified = ErrorFile::load(&final_path, &tool_kin).at(e)?;
-    let compensated = out.join("frustum.compensated.nc");
-    let c = Compensator::new(
-        &identified.model,
-        &identified.theta,
-        Settings::new(Dialect::Fanuc),
-    );
-    let mut w = AtomicOutput::create(&compensated).at(e)?;
-    c.run(&original, text.as_bytes(), &mut w).at(e)?;
-    w.commit().at(e)?;
-    files.push(rel(out, &compensated));
-    let truth_tool = ErrorFile::load(&truth_path, &tool_kin).at(e)?;
-    let (tip_before, tip_after) = tip_errors(&truth_tool, &original, &compensated).at(e)?;
+    let (identified, tip_before, tip_after) =
+        compensate_stage(out, &machine, &final_path, &truth_path, &mut files)?;
 
     progress(Stage::Verify);
-    let e = Stage::Verify;
-    // The control takes the discovered location errors as its pivot
-    // parameters: the machine after the export keeps, of each location
-    // error, what the export missed (the truth less the value exported),
-    // and all of its other effects.
-    let exported = crate::compensate::export::export(
-        &identified.model,
-        &identified.theta,
-        &identified.u,
-        Dialect::Fanuc,
-        &final_path.display().to_string(),
-        &crate::compensate::export::Limits::default(),
-    )
-    .at(e)?
-    .text;
-    let export_path = out.join("export.fanuc.txt");
-    write_atomic(&export_path, exported.as_bytes()).at(e)?;
-    files.push(rel(out, &export_path));
-    let rec = runs::export(
-        MACHINE,
-        &final_path,
-        &final_text,
-        "fanuc",
-        &exported,
-        &RunNotes {
-            note: Some("fivecal demo: the discovered location errors into the control".into()),
-            ..RunNotes::default()
+    let verify = verify_stage(
+        cfg,
+        &Exported {
+            loaded: &loaded,
+            kin: &kin,
+            manifest_path: &manifest_path,
+            truth_path: &truth_path,
+            identified: &identified,
+            final_path: &final_path,
+            final_text: &final_text,
+            final_file: &final_file,
+            before: &analysis.file,
         },
-    )
-    .at(e)?;
-    ids.push(store.record(&rec).at(e)?);
-    let mut after_truth: ErrorFile = ErrorFile::parse(&truth_path, TRUTH).at(e)?;
-    for (sym, q) in after_truth.location_errors.iter_mut() {
-        if let Some(x) = final_file.location_errors.get(sym) {
-            q.value -= x.value;
-        }
-    }
-    let after_truth_path = out.join("truth.after.yaml");
-    write_atomic(&after_truth_path, after_truth.to_yaml().as_bytes()).at(e)?;
-    files.push(rel(out, &after_truth_path));
-    let after_truth = ErrorFile::load(&after_truth_path, &kin).at(e)?;
-    let sim_after = simulate::run(
-        &loaded,
-        &after_truth,
-        &SimOptions {
-            seed: cfg.seed.wrapping_add(1),
-            ..SimOptions::default()
-        },
-    )
-    .at(e)?;
-    let measured_after = out.join("measured.after.dmo");
-    sim_after.write(Format::Dmis, &measured_after).at(e)?;
-    files.push(rel(out, &measured_after));
-    let outcome_after = analyze::run(&analyze::Request {
-        rebuilt: Some(loaded.clone()),
-        ..analyze::Request::new(&manifest_path, vec![measured_after.clone()])
-    })
-    .at(e)?;
-    let after_path = out.join("analyzed.after.yaml");
-    for p in analyze::result::write(&outcome_after, &after_path, false).at(e)? {
-        files.push(rel(out, &p));
-    }
-    let written = analyze::result::files(&outcome_after, &after_path, false).at(e)?;
-    for r in runs::analysis(
-        &outcome_after,
-        &manifest_path,
-        std::slice::from_ref(&measured_after),
-        &written,
-        &RunNotes {
-            note: Some("fivecal demo: after the export".into()),
-            ..RunNotes::default()
-        },
-    )
-    .at(e)?
-    {
-        ids.push(store.record(&r).at(e)?);
-    }
-    let analyze::Found::Identified(after) = &outcome_after.found else {
-        return Err("the stepped-square test identifies location errors").at(e);
-    };
-    let verify = Comparison::new(
-        ("analyzed.yaml", &analysis.file),
-        ("analyzed.after.yaml", &after.pieces[0].file),
-        None,
-    )
-    .at(e)?;
+        (&mut store, &mut ids),
+        &mut files,
+    )?;
     files.push(rel(out, &store_path));
 
     Ok(Demo {
@@ -442,6 +319,224 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
         files,
         out: out.clone(),
     })
+}
+
+/// The plan stage: the stepped-square test planned for the built-in machine
+/// in FANUC and written; the machine, the plan's manifest and the plan as
+/// `analyze` loads it.
+fn plan_stage(
+    out: &Path,
+    files: &mut Vec<PathBuf>,
+) -> Result<(Machine, PathBuf, procedure::Plan), DemoError> {
+    let e = Stage::Plan;
+    let machine = Machine::builtin(MACHINE)
+        .ok_or("the built-in machine is missing")
+        .at(e)?;
+    let template = Template::builtin(Test::SteppedSquare);
+    let planned = procedure::plan(&PlanConfig {
+        machine: machine.clone(),
+        template,
+        post: PostDefinition::builtin(Dialect::Fanuc),
+        kinematics: KinematicsMode::Post,
+        tool: None,
+    })
+    .at(e)?;
+    let plan_dir = out.join("plan");
+    let stem = planned.test().as_str();
+    for p in planned.write(&plan_dir, stem, &[]).at(e)? {
+        files.push(rel(out, &p));
+    }
+    let manifest_path = plan_dir.join(format!("{stem}.plan.yaml"));
+    let loaded = procedure::load(&manifest_path).at(e)?;
+    Ok((machine, manifest_path, loaded))
+}
+
+/// The simulate stage: the truth written and the plan run on the machine
+/// it describes, the measurements written as DMIS; the plan's kinematics,
+/// the truth (path and loaded) and the measured file.
+fn simulate_stage(
+    cfg: &DemoConfig,
+    loaded: &procedure::Plan,
+    files: &mut Vec<PathBuf>,
+) -> Result<(Kinematics, PathBuf, LoadedErrors, PathBuf), DemoError> {
+    let out = &cfg.out;
+    let e = Stage::Simulate;
+    let kin = simulate::plan_kinematics(loaded);
+    let truth_path = out.join("truth.yaml");
+    write_atomic(&truth_path, TRUTH.as_bytes()).at(e)?;
+    files.push(rel(out, &truth_path));
+    let truth = ErrorFile::load(&truth_path, &kin).at(e)?;
+    let sim = simulate::run(
+        loaded,
+        &truth,
+        &SimOptions {
+            seed: cfg.seed,
+            ..SimOptions::default()
+        },
+    )
+    .at(e)?;
+    let measured = out.join("measured.dmo");
+    sim.write(Format::Dmis, &measured).at(e)?;
+    files.push(rel(out, &measured));
+    Ok((kin, truth_path, truth, measured))
+}
+
+/// The compensate stage: the example program written, compensated with the
+/// discovered errors, and its tool-tip deviation under the truth before and
+/// after; the discovered errors loaded for the tool's kinematics.
+fn compensate_stage(
+    out: &Path,
+    machine: &Machine,
+    final_path: &Path,
+    truth_path: &Path,
+    files: &mut Vec<PathBuf>,
+) -> Result<(LoadedErrors, PathError, PathError), DemoError> {
+    let e = Stage::Compensate;
+    let tool_kin = Kinematics::new(machine);
+    let text = program::frustum_program(&tool_kin).at(e)?;
+    let original = out.join("frustum.nc");
+    write_atomic(&original, text.as_bytes()).at(e)?;
+    files.push(rel(out, &original));
+    let identified = ErrorFile::load(final_path, &tool_kin).at(e)?;
+    let compensated = out.join("frustum.compensated.nc");
+    let c = Compensator::new(
+        &identified.model,
+        &identified.theta,
+        Settings::new(Dialect::Fanuc),
+    );
+    let mut w = AtomicOutput::create(&compensated).at(e)?;
+    c.run(&original, text.as_bytes(), &mut w).at(e)?;
+    w.commit().at(e)?;
+    files.push(rel(out, &compensated));
+    let truth_tool = ErrorFile::load(truth_path, &tool_kin).at(e)?;
+    let (tip_before, tip_after) = tip_errors(&truth_tool, &original, &compensated).at(e)?;
+    Ok((identified, tip_before, tip_after))
+}
+
+/// What the verify stage starts from: the plan and its kinematics, the
+/// truth, the discovered errors (loaded, as written and as a file) and the
+/// first analysis' result file.
+struct Exported<'a> {
+    loaded: &'a procedure::Plan,
+    kin: &'a Kinematics,
+    manifest_path: &'a Path,
+    truth_path: &'a Path,
+    identified: &'a LoadedErrors,
+    final_path: &'a Path,
+    final_text: &'a str,
+    final_file: &'a ErrorFile,
+    before: &'a ErrorFile,
+}
+
+/// The verify stage: the discovered location errors exported into the
+/// control, the machine after the export (the truth less what was exported)
+/// measured and analysed again, and its result compared with the first;
+/// the runs recorded in the store.
+fn verify_stage(
+    cfg: &DemoConfig,
+    x: &Exported<'_>,
+    (store, ids): (&mut Store, &mut Vec<i64>),
+    files: &mut Vec<PathBuf>,
+) -> Result<Comparison, DemoError> {
+    let out = &cfg.out;
+    let Exported {
+        loaded,
+        kin,
+        manifest_path,
+        truth_path,
+        identified,
+        final_path,
+        final_text,
+        final_file,
+        before,
+    } = *x;
+    let e = Stage::Verify;
+    // The control takes the discovered location errors as its pivot
+    // parameters: the machine after the export keeps, of each location
+    // error, what the export missed (the truth less the value exported),
+    // and all of its other effects.
+    let exported = crate::compensate::export::export(
+        &identified.model,
+        &identified.theta,
+        &identified.u,
+        Dialect::Fanuc,
+        &final_path.display().to_string(),
+        &crate::compensate::export::Limits::default(),
+    )
+    .at(e)?
+    .text;
+    let export_path = out.join("export.fanuc.txt");
+    write_atomic(&export_path, exported.as_bytes()).at(e)?;
+    files.push(rel(out, &export_path));
+    let rec = runs::export(
+        MACHINE,
+        final_path,
+        final_text,
+        "fanuc",
+        &exported,
+        &RunNotes {
+            note: Some("fivecal demo: the discovered location errors into the control".into()),
+            ..RunNotes::default()
+        },
+    )
+    .at(e)?;
+    ids.push(store.record(&rec).at(e)?);
+    let mut after_truth: ErrorFile = ErrorFile::parse(truth_path, TRUTH).at(e)?;
+    for (sym, q) in after_truth.location_errors.iter_mut() {
+        if let Some(x) = final_file.location_errors.get(sym) {
+            q.value -= x.value;
+        }
+    }
+    let after_truth_path = out.join("truth.after.yaml");
+    write_atomic(&after_truth_path, after_truth.to_yaml().as_bytes()).at(e)?;
+    files.push(rel(out, &after_truth_path));
+    let after_truth = ErrorFile::load(&after_truth_path, kin).at(e)?;
+    let sim_after = simulate::run(
+        loaded,
+        &after_truth,
+        &SimOptions {
+            seed: cfg.seed.wrapping_add(1),
+            ..SimOptions::default()
+        },
+    )
+    .at(e)?;
+    let measured_after = out.join("measured.after.dmo");
+    sim_after.write(Format::Dmis, &measured_after).at(e)?;
+    files.push(rel(out, &measured_after));
+    let outcome_after = analyze::run(&analyze::Request {
+        rebuilt: Some(loaded.clone()),
+        ..analyze::Request::new(manifest_path, vec![measured_after.clone()])
+    })
+    .at(e)?;
+    let after_path = out.join("analyzed.after.yaml");
+    for p in analyze::result::write(&outcome_after, &after_path, false).at(e)? {
+        files.push(rel(out, &p));
+    }
+    let written = analyze::result::files(&outcome_after, &after_path, false).at(e)?;
+    for r in runs::analysis(
+        &outcome_after,
+        manifest_path,
+        std::slice::from_ref(&measured_after),
+        &written,
+        &RunNotes {
+            note: Some("fivecal demo: after the export".into()),
+            ..RunNotes::default()
+        },
+    )
+    .at(e)?
+    {
+        ids.push(store.record(&r).at(e)?);
+    }
+    let analyze::Found::Identified(after) = &outcome_after.found else {
+        return Err("the stepped-square test identifies location errors").at(e);
+    };
+    let verify = Comparison::new(
+        ("analyzed.yaml", before),
+        ("analyzed.after.yaml", &after.pieces[0].file),
+        None,
+    )
+    .at(e)?;
+    Ok(verify)
 }
 
 fn rel(base: &Path, p: &Path) -> PathBuf {

@@ -358,24 +358,31 @@ fn kind_of(element: &str, suffix: &str) -> String {
     }
 }
 
+/// Everything in a document with an id, for the id chains.
+type Ids<'a, 'i> = HashMap<&'a str, Node<'a, 'i>>;
+
+/// The element an id child `tag` of `n` refers to.
+fn deref<'a, 'i>(by_id: &Ids<'a, 'i>, n: Node<'a, 'i>, tag: &str) -> Option<Node<'a, 'i>> {
+    let id = text_of(child(n, tag)?);
+    by_id.get(id.as_str()).copied()
+}
+
+/// Whether an element is a feature measurement (QIF 3) or actual (QIF 2).
+fn is_feature(n: &Node<'_, '_>) -> bool {
+    n.is_element()
+        && (name(n).ends_with("FeatureMeasurement") || name(n).ends_with("FeatureActual"))
+}
+
+/// Whether an element is a characteristic measurement or actual.
+fn is_characteristic(n: &Node<'_, '_>) -> bool {
+    n.is_element()
+        && (name(n).ends_with("CharacteristicMeasurement")
+            || name(n).ends_with("CharacteristicActual"))
+}
+
 /// Reads a QIF document into an inventory (lengths in mm).
 pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Inventory, SourceError> {
-    let doc = Document::parse_with_options(
-        src,
-        roxmltree::ParsingOptions {
-            allow_dtd: false,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| {
-        let p = e.pos();
-        SourceError::new(
-            path,
-            p.row as usize,
-            p.col as usize,
-            format!("not well-formed XML: {e}"),
-        )
-    })?;
+    let doc = document(path, src)?;
     let ctx = Ctx { path, doc: &doc };
     let root = doc.root_element();
     if name(&root) != "QIFDocument" {
@@ -390,90 +397,28 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
     let mut inv = Inventory::new("qif");
     inv.version = root.attribute("versionQIF").map(str::to_string);
 
-    // Everything with an id, for the id chains.
-    let by_id: HashMap<&str, Node<'_, '_>> = doc
+    let by_id: Ids<'_, '_> = doc
         .descendants()
         .filter(|n| n.is_element())
         .filter_map(|n| n.attribute("id").map(|id| (id, n)))
         .collect();
-    let deref = |n: Node<'_, '_>, tag: &str| -> Option<Node<'_, '_>> {
-        let id = text_of(child(n, tag)?);
-        by_id.get(id.as_str()).copied()
-    };
-
     let runs: Vec<Node<'_, '_>> = doc
         .descendants()
         .filter(|n| name(n) == "MeasurementResults")
         .collect();
-    let is_feature = |n: &Node<'_, '_>| {
-        n.is_element()
-            && (name(n).ends_with("FeatureMeasurement") || name(n).ends_with("FeatureActual"))
-    };
-    let is_char = |n: &Node<'_, '_>| {
-        n.is_element()
-            && (name(n).ends_with("CharacteristicMeasurement")
-                || name(n).ends_with("CharacteristicActual"))
-    };
     if runs.is_empty() {
-        // QIF 3 keeps a plan in `Plan` (QIF 2 in `MeasurementPlan`).
-        let what = if doc
-            .root_element()
-            .children()
-            .any(|n| n.is_element() && matches!(name(&n), "Plan" | "MeasurementPlan"))
-        {
-            "a QIF plan (what to measure), not results"
-        } else {
-            "a QIF document without measurement results (a product definition or a plan)"
-        };
-        return Err(SourceError::new(
-            path,
-            0,
-            0,
-            format!("nothing measured: this is {what}; give the QIF results file the CMM wrote"),
-        ));
+        return Err(nothing_measured(path, &doc));
     }
     // QIF 2 may keep the feature actuals beside the runs: with one run,
     // the whole document is its scope.
     let single_run_outside = runs.len() == 1 && !runs[0].descendants().any(|d| is_feature(&d));
     let units = file_units(&ctx)?;
+    let mm = length_unit(&units, options, &mut inv);
     let mut unit_needed: Option<Node<'_, '_>> = None;
-    let mm = match (&units, options.units) {
-        (Some((mm, u)), _) => {
-            inv.units = if u.is_empty() {
-                format!("{mm} mm")
-            } else {
-                u.clone()
-            };
-            *mm
-        }
-        (None, Some(u)) => {
-            inv.units = format!("{} (given with --units; the file states none)", u.name());
-            u.mm()
-        }
-        (None, None) => {
-            inv.units = "none stated".into();
-            1.0
-        }
-    };
 
     inv.runs.clear();
     for (ri, run) in runs.iter().enumerate() {
-        let serial = child(*run, "ActualComponentIds")
-            .and_then(|ids| child(ids, "Id"))
-            .and_then(|id| by_id.get(text_of(id).as_str()).copied())
-            .and_then(|c| child(c, "SerialNumber"))
-            .map(text_of);
-        inv.runs.push(match serial {
-            Some(s) => format!(
-                "{} (MeasurementResults id {})",
-                s,
-                run.attribute("id").unwrap_or("?")
-            ),
-            None => format!(
-                "MeasurementResults id {}",
-                run.attribute("id").unwrap_or("?")
-            ),
-        });
+        inv.runs.push(run_name(&by_id, *run));
         let nodes = if single_run_outside {
             vec![root]
         } else {
@@ -488,6 +433,13 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
             let id = s.attribute("id").unwrap_or("").to_string();
             let _ = sets.insert(id, point_set(&ctx, s)?);
         }
+        let reader = Run {
+            ctx: &ctx,
+            by_id: &by_id,
+            index: ri,
+            sets,
+            mm,
+        };
         let mut features = 0;
         for f in nodes
             .iter()
@@ -495,166 +447,17 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
             .filter(is_feature)
         {
             features += 1;
-            let element = name(&f);
-            let suffix = if element.ends_with("FeatureMeasurement") {
-                "FeatureMeasurement"
-            } else {
-                "FeatureActual"
-            };
-            let item = deref(f, "FeatureItemId");
-            let nominal = item.and_then(|i| deref(i, "FeatureNominalId"));
-            let label = item
-                .and_then(|i| child(i, "FeatureName"))
-                .map(text_of)
-                .unwrap_or_else(|| format!("#{}", f.attribute("id").unwrap_or("?")));
-            let mut e = Entry::new(label, kind_of(element, suffix), ctx.line(f));
-            e.run = ri;
-            let (loc, dir) = ctx.place(f)?;
-            let (nloc, ndir) = match nominal {
-                Some(n) => ctx.place(n)?,
-                None => (None, None),
-            };
-            if loc.is_some() || nloc.is_some() {
-                unit_needed.get_or_insert(f);
-            }
-            e.actual = loc.map(|p| p * mm);
-            e.nominal = nloc.map(|p| p * mm);
-            e.normal = dir.or(ndir);
-            if let Some(d) = child(f, "Diameter") {
-                e.value = ctx.numbers(d)?.first().map(|v| v * mm);
-            }
-            if let Some(list) = child(f, "PointList") {
-                let (refs, dangling) = point_refs(&ctx, list, &sets)?;
-                for why in dangling {
-                    inv.skipped.push(Unread {
-                        line: ctx.line(list),
-                        what: format!("the points of `{}`", e.label),
-                        why,
-                    });
-                }
-                // Probe-ball centres compensated here, with the surface
-                // points they became.
-                let mut centres: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
-                for (what, set) in refs {
-                    for (k, &p) in set.points.iter().enumerate() {
-                        let p = p * mm;
-                        let surface = match (set.compensated, set.probe_radius) {
-                            (true, _) | (false, None) => Some(p),
-                            (false, Some(r)) => {
-                                let n = set.normals.as_ref().map(|ns| ns[k]).or(e.normal);
-                                let s = n.map(|n| p - n.normalize() * r * mm);
-                                if let Some(s) = s {
-                                    centres.push((p, s));
-                                }
-                                s
-                            }
-                        };
-                        match surface {
-                            Some(s) => e.points.push(s),
-                            None => {
-                                inv.skipped.push(Unread {
-                                    line: e.line,
-                                    what: format!("point {} of {what} ({})", k + 1, e.label),
-                                    why: "a probe-ball centre without a normal to compensate it along".into(),
-                                });
-                            }
-                        }
-                    }
-                }
-                // Real writers (the QIF community's own PTS sample) give a
-                // point's Location as the uncompensated ball centre of its
-                // one point: a surface point a ball radius off the surface.
-                // The compensated point is the measurement.
-                if let (Some(a), [(centre, surface)]) = (e.actual, centres.as_slice())
-                    && e.kind == "point"
-                    && (a - centre).norm() <= 1e-9 * (1.0 + a.norm())
-                {
-                    e.actual = Some(*surface);
-                    inv.warnings.push(format!(
-                        "line {}: `{}` gives its Location as the probe-ball centre of its uncompensated point set; the point compensated by the probe radius along the normal is used ({:.4} mm away)",
-                        e.line,
-                        e.label,
-                        (surface - centre).norm()
-                    ));
-                }
-                if e.actual.is_none() && e.kind == "point" && !e.points.is_empty() {
-                    let sum: Vector3<f64> = e.points.iter().sum();
-                    e.actual = Some(sum / e.points.len() as f64);
-                }
-            }
-            // A point without raw points cannot be compensated; if it sits
-            // a ball radius of this run off its nominal along the normal,
-            // it is most likely a ball centre too, and the user is told.
-            if let (Some(a), Some(nom), Some(n), true) =
-                (e.actual, e.nominal, e.normal, e.points.is_empty())
-                && e.kind == "point"
-            {
-                let off = (a - nom).dot(&n);
-                if let Some(r) = sets
-                    .values()
-                    .filter(|s| !s.compensated)
-                    .filter_map(|s| s.probe_radius)
-                    .map(|r| r * mm)
-                    .find(|r| (off.abs() - r).abs() < 0.2 * r)
-                {
-                    inv.warnings.push(format!(
-                        "line {}: `{}` lies {off:.4} mm from its nominal along the normal, close to this run's probe radius {r:.4} mm, and has no raw points to compensate: it may be an uncompensated ball centre",
-                        e.line, e.label
-                    ));
-                }
-            }
-            if e.actual.is_none() {
-                inv.skipped.push(Unread {
-                    line: e.line,
-                    what: format!("{element} `{}`", e.label),
-                    why: "no measured location".into(),
-                });
-            }
-            inv.entries.push(e);
+            reader.feature(f, &mut inv, &mut unit_needed)?;
         }
-        for c in nodes.iter().flat_map(|n| n.descendants()).filter(is_char) {
-            let element = name(&c);
-            let suffix = if element.ends_with("CharacteristicMeasurement") {
-                "CharacteristicMeasurement"
-            } else {
-                "CharacteristicActual"
-            };
-            let item = deref(c, "CharacteristicItemId");
-            let label = item
-                .and_then(|i| child(i, "Name"))
-                .map(text_of)
-                .unwrap_or_else(|| format!("#{}", c.attribute("id").unwrap_or("?")));
-            let mut e = Entry::new(
-                label,
-                format!("{} (characteristic)", kind_of(element, suffix)),
-                ctx.line(c),
-            );
-            e.run = ri;
-            if let Some(v) = child(c, "Value") {
-                e.value = ctx.numbers(v)?.first().copied();
-            }
-            inv.entries.push(e);
-        }
-        if features == 0
-            && let Some(ext) = doc
-                .descendants()
-                .find(|n| name(n) == "ExternalQIFReferences")
+        for c in nodes
+            .iter()
+            .flat_map(|n| n.descendants())
+            .filter(is_characteristic)
         {
-            let uri = ext
-                .descendants()
-                .find(|n| name(n) == "URI")
-                .map(text_of)
-                .unwrap_or_default();
-            if !inv.entries.iter().any(|e| e.run == ri) {
-                return Err(ctx.err(
-                    ext,
-                    format!("the results are kept in another QIF file ({uri}); give that file"),
-                ));
-            }
-            inv.warnings.push(format!(
-                "run {}: no feature measurements here; the features are defined in another QIF file ({uri}), only characteristic values are reported",
-                ri + 1
-            ));
+            inv.entries.push(reader.characteristic(c)?);
+        }
+        if features == 0 {
+            reader.external_features(&mut inv)?;
         }
     }
     if let Some(n) = unit_needed
@@ -675,4 +478,315 @@ pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Invent
         ));
     }
     Ok(inv)
+}
+
+/// The XML document, refused when not well-formed (DTDs refused too).
+fn document<'i>(path: &Path, src: &'i str) -> Result<Document<'i>, SourceError> {
+    Document::parse_with_options(
+        src,
+        roxmltree::ParsingOptions {
+            allow_dtd: false,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| {
+        let p = e.pos();
+        SourceError::new(
+            path,
+            p.row as usize,
+            p.col as usize,
+            format!("not well-formed XML: {e}"),
+        )
+    })
+}
+
+/// The refusal of a document without measurement results, saying what it
+/// is instead.
+fn nothing_measured(path: &Path, doc: &Document<'_>) -> SourceError {
+    // QIF 3 keeps a plan in `Plan` (QIF 2 in `MeasurementPlan`).
+    let what = if doc
+        .root_element()
+        .children()
+        .any(|n| n.is_element() && matches!(name(&n), "Plan" | "MeasurementPlan"))
+    {
+        "a QIF plan (what to measure), not results"
+    } else {
+        "a QIF document without measurement results (a product definition or a plan)"
+    };
+    SourceError::new(
+        path,
+        0,
+        0,
+        format!("nothing measured: this is {what}; give the QIF results file the CMM wrote"),
+    )
+}
+
+/// Millimetres per length unit: the file's, else `--units`, else 1 (and
+/// a refusal later if a length is read); the unit noted in the inventory.
+fn length_unit(
+    units: &Option<(f64, String)>,
+    options: &MeasuredOptions,
+    inv: &mut Inventory,
+) -> f64 {
+    match (units, options.units) {
+        (Some((mm, u)), _) => {
+            inv.units = if u.is_empty() {
+                format!("{mm} mm")
+            } else {
+                u.clone()
+            };
+            *mm
+        }
+        (None, Some(u)) => {
+            inv.units = format!("{} (given with --units; the file states none)", u.name());
+            u.mm()
+        }
+        (None, None) => {
+            inv.units = "none stated".into();
+            1.0
+        }
+    }
+}
+
+/// A run's name: the measured part's serial number if the id chain gives
+/// one, and the results' id.
+fn run_name(by_id: &Ids<'_, '_>, run: Node<'_, '_>) -> String {
+    let serial = child(run, "ActualComponentIds")
+        .and_then(|ids| child(ids, "Id"))
+        .and_then(|id| by_id.get(text_of(id).as_str()).copied())
+        .and_then(|c| child(c, "SerialNumber"))
+        .map(text_of);
+    match serial {
+        Some(s) => format!(
+            "{} (MeasurementResults id {})",
+            s,
+            run.attribute("id").unwrap_or("?")
+        ),
+        None => format!(
+            "MeasurementResults id {}",
+            run.attribute("id").unwrap_or("?")
+        ),
+    }
+}
+
+/// One run of results being read: the document, its ids, the run's point
+/// sets and the length unit.
+struct Run<'r, 'a, 'i> {
+    ctx: &'r Ctx<'a, 'i>,
+    by_id: &'r Ids<'a, 'i>,
+    /// The run's place among the document's runs.
+    index: usize,
+    sets: HashMap<String, PointSetData>,
+    /// Millimetres per length unit.
+    mm: f64,
+}
+
+impl<'a, 'i> Run<'_, 'a, 'i> {
+    /// One feature as an entry: its label and nominal through the id
+    /// chains, location, normal, diameter and points; what could not be
+    /// read noted in the inventory, and the first feature with a length
+    /// kept in `unit_needed`.
+    fn feature(
+        &self,
+        f: Node<'a, 'i>,
+        inv: &mut Inventory,
+        unit_needed: &mut Option<Node<'a, 'i>>,
+    ) -> Result<(), SourceError> {
+        let (ctx, mm) = (self.ctx, self.mm);
+        let element = name(&f);
+        let suffix = if element.ends_with("FeatureMeasurement") {
+            "FeatureMeasurement"
+        } else {
+            "FeatureActual"
+        };
+        let item = deref(self.by_id, f, "FeatureItemId");
+        let nominal = item.and_then(|i| deref(self.by_id, i, "FeatureNominalId"));
+        let label = item
+            .and_then(|i| child(i, "FeatureName"))
+            .map(text_of)
+            .unwrap_or_else(|| format!("#{}", f.attribute("id").unwrap_or("?")));
+        let mut e = Entry::new(label, kind_of(element, suffix), ctx.line(f));
+        e.run = self.index;
+        let (loc, dir) = ctx.place(f)?;
+        let (nloc, ndir) = match nominal {
+            Some(n) => ctx.place(n)?,
+            None => (None, None),
+        };
+        if loc.is_some() || nloc.is_some() {
+            unit_needed.get_or_insert(f);
+        }
+        e.actual = loc.map(|p| p * mm);
+        e.nominal = nloc.map(|p| p * mm);
+        e.normal = dir.or(ndir);
+        if let Some(d) = child(f, "Diameter") {
+            e.value = ctx.numbers(d)?.first().map(|v| v * mm);
+        }
+        if let Some(list) = child(f, "PointList") {
+            self.points(&mut e, list, inv)?;
+        }
+        self.warn_ball_centre(&e, inv);
+        if e.actual.is_none() {
+            inv.skipped.push(Unread {
+                line: e.line,
+                what: format!("{element} `{}`", e.label),
+                why: "no measured location".into(),
+            });
+        }
+        inv.entries.push(e);
+        Ok(())
+    }
+
+    /// A feature's points from its `PointList`: probe-ball centres
+    /// compensated along their normals, a point's Location given as its one
+    /// uncompensated centre replaced by the compensated point, and a point
+    /// without a Location placed at the mean of its points.
+    fn points(
+        &self,
+        e: &mut Entry,
+        list: Node<'_, '_>,
+        inv: &mut Inventory,
+    ) -> Result<(), SourceError> {
+        let (ctx, mm) = (self.ctx, self.mm);
+        let (refs, dangling) = point_refs(ctx, list, &self.sets)?;
+        for why in dangling {
+            inv.skipped.push(Unread {
+                line: ctx.line(list),
+                what: format!("the points of `{}`", e.label),
+                why,
+            });
+        }
+        // Probe-ball centres compensated here, with the surface
+        // points they became.
+        let mut centres: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::new();
+        for (what, set) in refs {
+            for (k, &p) in set.points.iter().enumerate() {
+                let p = p * mm;
+                let surface = match (set.compensated, set.probe_radius) {
+                    (true, _) | (false, None) => Some(p),
+                    (false, Some(r)) => {
+                        let n = set.normals.as_ref().map(|ns| ns[k]).or(e.normal);
+                        let s = n.map(|n| p - n.normalize() * r * mm);
+                        if let Some(s) = s {
+                            centres.push((p, s));
+                        }
+                        s
+                    }
+                };
+                match surface {
+                    Some(s) => e.points.push(s),
+                    None => {
+                        inv.skipped.push(Unread {
+                            line: e.line,
+                            what: format!("point {} of {what} ({})", k + 1, e.label),
+                            why: "a probe-ball centre without a normal to compensate it along"
+                                .into(),
+                        });
+                    }
+                }
+            }
+        }
+        // Real writers (the QIF community's own PTS sample) give a
+        // point's Location as the uncompensated ball centre of its
+        // one point: a surface point a ball radius off the surface.
+        // The compensated point is the measurement.
+        if let (Some(a), [(centre, surface)]) = (e.actual, centres.as_slice())
+            && e.kind == "point"
+            && (a - centre).norm() <= 1e-9 * (1.0 + a.norm())
+        {
+            e.actual = Some(*surface);
+            inv.warnings.push(format!(
+                "line {}: `{}` gives its Location as the probe-ball centre of its uncompensated point set; the point compensated by the probe radius along the normal is used ({:.4} mm away)",
+                e.line,
+                e.label,
+                (surface - centre).norm()
+            ));
+        }
+        if e.actual.is_none() && e.kind == "point" && !e.points.is_empty() {
+            let sum: Vector3<f64> = e.points.iter().sum();
+            e.actual = Some(sum / e.points.len() as f64);
+        }
+        Ok(())
+    }
+
+    /// Warns of a point that may be an uncompensated ball centre.
+    fn warn_ball_centre(&self, e: &Entry, inv: &mut Inventory) {
+        // A point without raw points cannot be compensated; if it sits
+        // a ball radius of this run off its nominal along the normal,
+        // it is most likely a ball centre too, and the user is told.
+        if let (Some(a), Some(nom), Some(n), true) =
+            (e.actual, e.nominal, e.normal, e.points.is_empty())
+            && e.kind == "point"
+        {
+            let off = (a - nom).dot(&n);
+            if let Some(r) = self
+                .sets
+                .values()
+                .filter(|s| !s.compensated)
+                .filter_map(|s| s.probe_radius)
+                .map(|r| r * self.mm)
+                .find(|r| (off.abs() - r).abs() < 0.2 * r)
+            {
+                inv.warnings.push(format!(
+                    "line {}: `{}` lies {off:.4} mm from its nominal along the normal, close to this run's probe radius {r:.4} mm, and has no raw points to compensate: it may be an uncompensated ball centre",
+                    e.line, e.label
+                ));
+            }
+        }
+    }
+
+    /// One characteristic as an entry: its name through the id chain and
+    /// its value.
+    fn characteristic(&self, c: Node<'a, 'i>) -> Result<Entry, SourceError> {
+        let element = name(&c);
+        let suffix = if element.ends_with("CharacteristicMeasurement") {
+            "CharacteristicMeasurement"
+        } else {
+            "CharacteristicActual"
+        };
+        let item = deref(self.by_id, c, "CharacteristicItemId");
+        let label = item
+            .and_then(|i| child(i, "Name"))
+            .map(text_of)
+            .unwrap_or_else(|| format!("#{}", c.attribute("id").unwrap_or("?")));
+        let mut e = Entry::new(
+            label,
+            format!("{} (characteristic)", kind_of(element, suffix)),
+            self.ctx.line(c),
+        );
+        e.run = self.index;
+        if let Some(v) = child(c, "Value") {
+            e.value = self.ctx.numbers(v)?.first().copied();
+        }
+        Ok(e)
+    }
+
+    /// For a run without features whose features are defined in another
+    /// QIF file: refused when the run has nothing else, else a warning that
+    /// only its characteristics are reported.
+    fn external_features(&self, inv: &mut Inventory) -> Result<(), SourceError> {
+        let ri = self.index;
+        if let Some(ext) = self
+            .ctx
+            .doc
+            .descendants()
+            .find(|n| name(n) == "ExternalQIFReferences")
+        {
+            let uri = ext
+                .descendants()
+                .find(|n| name(n) == "URI")
+                .map(text_of)
+                .unwrap_or_default();
+            if !inv.entries.iter().any(|e| e.run == ri) {
+                return Err(self.ctx.err(
+                    ext,
+                    format!("the results are kept in another QIF file ({uri}); give that file"),
+                ));
+            }
+            inv.warnings.push(format!(
+                "run {}: no feature measurements here; the features are defined in another QIF file ({uri}), only characteristic values are reported",
+                ri + 1
+            ));
+        }
+        Ok(())
+    }
 }

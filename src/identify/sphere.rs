@@ -858,28 +858,8 @@ pub fn identify_judged(
         ));
     }
     let model = &setup.model;
-    // Sphere centre per pose.
-    let mut spheres = Vec::new();
     let mut notes = Vec::new();
-    for pose in &data.poses {
-        let pts: Vec<Vector3<f64>> = pose.obs.iter().map(|&k| data.obs[k].m).collect();
-        let s = fit_centre(&pts).ok_or_else(|| {
-            IdentifyError::Data(format!(
-                "pose `{}`: a sphere needs four or more probed points not on one circle ({} given)",
-                pose.id,
-                pts.len()
-            ))
-        })?;
-        if let Some(check) = &opts.check
-            && let Err(bad) = check.check(&pose.id, &pts)
-        {
-            notes.push(format!(
-                "pose {} fails the sphere check: {} (the robust circle fit sets a bad centre aside)",
-                bad.pose, bad.reason
-            ));
-        }
-        spheres.push(s);
-    }
+    let spheres = pose_spheres(data, opts, &mut notes)?;
     let rss: f64 = spheres.iter().map(|s| s.rss).sum();
     let dof: usize = data.poses.iter().map(|p| p.obs.len() - 4).sum();
     let sigma_mm = if dof > 0 {
@@ -901,9 +881,149 @@ pub fn identify_judged(
         .ok_or_else(|| IdentifyError::Data("the centres do not determine a circle".into()))?;
     notes.extend(fitted.notes.iter().cloned());
     let theta = symbols_from_lines(model, &fitted.tilt, &fitted.c, g.t0, span);
-    // Linear propagation of the centres' covariance: through each circle
-    // fit (final weights fixed) to its line, then through the line
-    // inversion, d theta = Jr^-1 d gap (Jr: the inversion's Jacobian).
+    let (mut cov, mut cov_unit) = propagate(
+        model,
+        &g,
+        opts.circle,
+        &fitted,
+        &theta,
+        span,
+        &spheres,
+        sigma_mm,
+    );
+    let n = theta.len();
+
+    // Where the sphere sits on the table, from the first pose's centre.
+    let s_w = {
+        let t = model
+            .kin
+            .nominal_table_transform(data.poses[0].tilt, data.poses[0].c);
+        (t.inverse() * Point3::from(centres[0])).coords
+    };
+    let report = match fm {
+        None => {
+            let design = centre_design(model, data, n, s_w);
+            let mut names = model.param_names();
+            names.extend(
+                ["sphere.x", "sphere.y", "sphere.z"]
+                    .iter()
+                    .map(|s| s.to_string()),
+            );
+            identifiability::report(
+                &design,
+                3 * data.poses.len(),
+                n,
+                &names,
+                &[],
+                &setup.quality_axes(),
+            )
+        }
+        Some(fm) => {
+            if fm.model().n_params() != n {
+                return Err(IdentifyError::Data(
+                    "the forward model's parameters differ from the setup's".into(),
+                ));
+            }
+            let (full, nominal, d_points, nuisance) = full_design(fm, data)?;
+            let mut names = model.param_names();
+            names.extend(nuisance);
+            let mut report = identifiability::report(
+                &full,
+                data.obs.len(),
+                n,
+                &names,
+                &[],
+                &setup.quality_axes(),
+            );
+            let sens = sensitivity(
+                model,
+                data,
+                &g,
+                opts.circle,
+                span,
+                (&nominal, &d_points),
+                names.len(),
+            )
+            .ok_or_else(|| {
+                IdentifyError::Data("the nominal centres do not determine a circle".into())
+            })?;
+            report.judge_estimator(&sens);
+            if at_least_bound(&full, &mut cov, &mut cov_unit) {
+                notes.push(
+                    "the centres' propagation promised less than the design's Cramér-Rao bound for some symbols; their u is that bound".into(),
+                );
+            }
+            report
+        }
+    };
+    let (residuals, poses) = pose_fits(model, data, &spheres, s_w, sigma_mm);
+    notes.push(format!(
+        "sphere radius {:.4} mm (mean of {} fits); lines fitted by the {} circle fit",
+        spheres.iter().map(|s| s.radius).sum::<f64>() / spheres.len() as f64,
+        spheres.len(),
+        opts.circle
+    ));
+    Ok(Identification {
+        method: Method::Sphere,
+        model: model.clone(),
+        theta,
+        cov,
+        cov_unit,
+        identifiability: report,
+        sigma_um: sigma_mm * 1e3,
+        dof,
+        residuals,
+        poses,
+        placement: None,
+        notes,
+    })
+}
+
+/// The sphere fitted to each pose's points, with a note for each pose that
+/// fails the plausibility check.
+fn pose_spheres(
+    data: &Dataset,
+    opts: &SphereOptions,
+    notes: &mut Vec<String>,
+) -> Result<Vec<CentreFit>, IdentifyError> {
+    let mut spheres = Vec::new();
+    for pose in &data.poses {
+        let pts: Vec<Vector3<f64>> = pose.obs.iter().map(|&k| data.obs[k].m).collect();
+        let s = fit_centre(&pts).ok_or_else(|| {
+            IdentifyError::Data(format!(
+                "pose `{}`: a sphere needs four or more probed points not on one circle ({} given)",
+                pose.id,
+                pts.len()
+            ))
+        })?;
+        if let Some(check) = &opts.check
+            && let Err(bad) = check.check(&pose.id, &pts)
+        {
+            notes.push(format!(
+                "pose {} fails the sphere check: {} (the robust circle fit sets a bad centre aside)",
+                bad.pose, bad.reason
+            ));
+        }
+        spheres.push(s);
+    }
+    Ok(spheres)
+}
+
+/// The covariance of the symbols (and per unit noise variance) by linear
+/// propagation of the centres' covariance: through each circle fit (final
+/// weights fixed) to its line, then through the line inversion,
+/// d theta = Jr^-1 d gap (Jr: the inversion's Jacobian).
+#[allow(clippy::too_many_arguments)]
+fn propagate(
+    model: &Model,
+    g: &Groups,
+    circle: CircleMethod,
+    fitted: &FittedLines,
+    theta: &[f64],
+    span: (f64, f64),
+    spheres: &[CentreFit],
+    sigma_mm: f64,
+) -> (DMatrix<f64>, DMatrix<f64>) {
     let n = theta.len();
     let mut used: Vec<usize> = g.tilt_idx.iter().chain(&g.c_idx).copied().collect();
     used.sort_unstable();
@@ -911,7 +1031,7 @@ pub fn identify_judged(
     let tilt_hint = model.kin.machine().tilt.about.unit();
     let c_hint = model.kin.nominal_table_transform(g.t0, 0.0).rotation * Vector3::z();
     let refit = |axis: &AxisCentres, hint: &Vector3<f64>, w: &[f64]| -> Option<Line> {
-        match opts.circle {
+        match circle {
             CircleMethod::Combinations => {
                 combinations_line(axis, hint, &Vector3::zeros()).map(|x| x.0)
             }
@@ -960,7 +1080,7 @@ pub fn identify_judged(
     };
     let mut r0 = [0.0; 8];
     let mut jr = Mat::<f64>::zeros(8, n);
-    lp.eval(&theta, &mut r0, Some(&mut jr));
+    lp.eval(theta, &mut r0, Some(&mut jr));
     let jr = lsq::to_nalgebra(&jr);
     let jr_inv = jr
         .clone()
@@ -973,16 +1093,15 @@ pub fn identify_judged(
         let c = spheres[j].cov_unit * (sigma_mm * sigma_mm);
         cc.view_mut((3 * u, 3 * u), (3, 3)).copy_from(&c);
     }
-    let mut cov = &jac * &cc * jac.transpose();
-    let mut cov_unit = &cov * (1e-6 / (sigma_mm * sigma_mm));
-    // Identifiability of the sphere test: the centres as exact functions
-    // of the symbols and the sphere's position on the table.
-    let s_w = {
-        let t = model
-            .kin
-            .nominal_table_transform(data.poses[0].tilt, data.poses[0].c);
-        (t.inverse() * Point3::from(centres[0])).coords
-    };
+    let cov = &jac * &cc * jac.transpose();
+    let cov_unit = &cov * (1e-6 / (sigma_mm * sigma_mm));
+    (cov, cov_unit)
+}
+
+/// The design of the sphere test on its own: the centres as exact functions
+/// of the `n` symbols and of the sphere's position `s_w` on the table, judged
+/// at the nominal machine (see `global`).
+fn centre_design(model: &Model, data: &Dataset, n: usize, s_w: Vector3<f64>) -> lsq::Design {
     let centre_of = |x: &[f64], j: usize| -> Vector3<f64> {
         let p = &data.poses[j];
         let ctx = Context::at(Axes::new(0.0, 0.0, 0.0, p.tilt, p.c));
@@ -991,7 +1110,6 @@ pub fn identify_judged(
             .table_transform(p.tilt, p.c, &model.perturbation(&x[..n], &ctx));
         (t * Point3::new(x[n], x[n + 1], x[n + 2])).coords
     };
-    // Judged at the nominal machine (see `global`).
     let mut x = vec![0.0; n];
     x.extend_from_slice(&[s_w.x, s_w.y, s_w.z]);
     let mut d = Mat::<f64>::zeros(3 * data.poses.len(), n + 3);
@@ -1008,79 +1126,44 @@ pub fn identify_judged(
             }
         }
     }
-    let design = lsq::design(&d, None, 1e-9);
-    let mut names = model.param_names();
-    names.extend(
-        ["sphere.x", "sphere.y", "sphere.z"]
-            .iter()
-            .map(|s| s.to_string()),
-    );
-    let report = match fm {
-        None => identifiability::report(
-            &design,
-            3 * data.poses.len(),
-            n,
-            &names,
-            &[],
-            &setup.quality_axes(),
-        ),
-        Some(fm) => {
-            if fm.model().n_params() != n {
-                return Err(IdentifyError::Data(
-                    "the forward model's parameters differ from the setup's".into(),
-                ));
-            }
-            let (full, nominal, d_points, nuisance) = full_design(fm, data)?;
-            let mut names = model.param_names();
-            names.extend(nuisance);
-            let mut report = identifiability::report(
-                &full,
-                data.obs.len(),
-                n,
-                &names,
-                &[],
-                &setup.quality_axes(),
-            );
-            let sens = sensitivity(
-                model,
-                data,
-                &g,
-                opts.circle,
-                span,
-                (&nominal, &d_points),
-                names.len(),
-            )
-            .ok_or_else(|| {
-                IdentifyError::Data("the nominal centres do not determine a circle".into())
-            })?;
-            report.judge_estimator(&sens);
-            // No estimator does better than the complete design's
-            // Cramér-Rao bound at the points' noise: where the lines'
-            // propagation claims less (the head's degenerate arc on a head
-            // machine feeds it), the bound is the uncertainty, the
-            // correlations kept.
-            let mut scale = vec![1.0; n];
-            for (i, f) in scale.iter_mut().enumerate() {
-                let bound = full.cov_unit[(i, i)].max(0.0);
-                if cov_unit[(i, i)] > 0.0 && cov_unit[(i, i)] < bound {
-                    *f = (bound / cov_unit[(i, i)]).sqrt();
-                }
-            }
-            if scale.iter().any(|&f| f > 1.0) {
-                let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale));
-                cov = &d * &cov * &d;
-                cov_unit = &d * &cov_unit * &d;
-                notes.push(
-                    "the centres' propagation promised less than the design's Cramér-Rao bound for some symbols; their u is that bound".into(),
-                );
-            }
-            report
+    lsq::design(&d, None, 1e-9)
+}
+
+/// Raises the covariance to the complete design's Cramér-Rao bound at the
+/// points' noise where the lines' propagation claims less (the head's
+/// degenerate arc on a head machine feeds it), the correlations kept: no
+/// estimator does better. Whether any was raised.
+fn at_least_bound(full: &lsq::Design, cov: &mut DMatrix<f64>, cov_unit: &mut DMatrix<f64>) -> bool {
+    let n = cov.nrows();
+    let mut scale = vec![1.0; n];
+    for (i, f) in scale.iter_mut().enumerate() {
+        let bound = full.cov_unit[(i, i)].max(0.0);
+        if cov_unit[(i, i)] > 0.0 && cov_unit[(i, i)] < bound {
+            *f = (bound / cov_unit[(i, i)]).sqrt();
         }
-    };
-    // Residuals: distance of each point from its pose's sphere.
+    }
+    if scale.iter().any(|&f| f > 1.0) {
+        let d = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(scale));
+        *cov = &d * &*cov * &d;
+        *cov_unit = &d * &*cov_unit * &d;
+        return true;
+    }
+    false
+}
+
+/// Each point's residual (its distance from its pose's sphere, um) and each
+/// pose's fit: its centre's shift from where the nominal machine puts the
+/// sphere at `s_w`, with its u.
+fn pose_fits(
+    model: &Model,
+    data: &Dataset,
+    spheres: &[CentreFit],
+    s_w: Vector3<f64>,
+    sigma_mm: f64,
+) -> (Vec<f64>, Vec<PoseFit>) {
     let mut residuals = vec![0.0; data.obs.len()];
     let mut poses = Vec::new();
-    for (pose, s) in data.poses.iter().zip(&spheres) {
+    for (pose, s) in data.poses.iter().zip(spheres) {
         for &k in &pose.obs {
             residuals[k] = ((data.obs[k].m - s.centre).norm() - s.radius) * 1e3;
         }
@@ -1109,26 +1192,7 @@ pub fn identify_judged(
             info: DMatrix::zeros(6, 6),
         });
     }
-    notes.push(format!(
-        "sphere radius {:.4} mm (mean of {} fits); lines fitted by the {} circle fit",
-        spheres.iter().map(|s| s.radius).sum::<f64>() / spheres.len() as f64,
-        spheres.len(),
-        opts.circle
-    ));
-    Ok(Identification {
-        method: Method::Sphere,
-        model: model.clone(),
-        theta,
-        cov,
-        cov_unit,
-        identifiability: report,
-        sigma_um: sigma_mm * 1e3,
-        dof,
-        residuals,
-        poses,
-        placement: None,
-        notes,
-    })
+    (residuals, poses)
 }
 
 #[cfg(test)]

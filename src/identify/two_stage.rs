@@ -424,34 +424,7 @@ pub fn identify(
         TestKind::Probing => None,
     };
     let frame = NominalFrame::for_data(data, placement);
-    let mut notes = Vec::new();
-    match &frame {
-        NominalFrame::Relative { reference, .. } => {
-            let unused = data
-                .obs
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| {
-                    !data.poses[*reference].obs.contains(k)
-                        && frame.observation(data, kin, *k).is_none()
-                })
-                .count();
-            notes.push(format!(
-                "stage 1 relative to the touches of pose {} (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)): the setup of the pieces cancels{}",
-                data.poses[*reference].id,
-                if unused > 0 {
-                    format!("; {unused} touches of features not touched there are not used")
-                } else {
-                    String::new()
-                }
-            ));
-        }
-        NominalFrame::Probed if data.pieces.len() > 1 => notes.push(format!(
-            "the {} pieces are taken as one rigid setup: their touches cannot be tied to the reference pose by feature (use the global method, which estimates each piece's setup)",
-            data.pieces.len()
-        )),
-        _ => {}
-    }
+    let mut notes = frame_notes(data, kin, &frame);
     let (fits, maps) = stage1(data, kin, &frame);
     let stage1_dof: usize = fits
         .iter()
@@ -461,21 +434,7 @@ pub fn identify(
         .iter()
         .map(|f| f.rms_um * f.rms_um * f.points as f64)
         .sum();
-    let mut poses = Vec::new();
-    let mut rows = 0;
-    for f in &fits {
-        let pose = &data.poses[f.pose_index];
-        let w = weight_rows(&f.info);
-        rows += w.nrows();
-        poses.push(PoseObs {
-            tilt: pose.tilt,
-            c: pose.c,
-            seq: pose.seq,
-            minutes: pose.minutes,
-            xi: f.xi,
-            w,
-        });
-    }
+    let (poses, rows) = stage2_poses(data, &fits);
     let k = frame.nuisance();
     let st2 = Stage2 {
         model: &setup.model,
@@ -535,76 +494,26 @@ pub fn identify(
         &setup.constraint_names,
         &setup.quality_axes(),
     );
-    let mut cov_unit = design.cov_unit.view((0, 0), (n, n)).into_owned();
-    let mut cov = &cov_unit * s2;
-    if let NominalFrame::Relative { reference, .. } = &frame {
-        // Every pose's motion carries the reference touches' own noise:
-        // the motions are correlated through it, and treating them as
-        // independent would understate the uncertainty. Propagate instead:
-        // theta = M xi (stage 2 linearized), xi_j = -P_j r_j (stage 1), and
-        // r_k = e_k - e_ref(k) for a touch k and its reference touch, with
-        // every touch's noise independent, sigma^2 each.
-        let ref_of = |k: usize| reference_touch(data, *reference, k);
-        let n_xi = 6 * maps.len();
-        let mut z = DMatrix::zeros(n_xi, data.obs.len());
-        for (j, mp) in maps.iter().enumerate() {
-            for (c, &k) in mp.obs.iter().enumerate() {
-                let pcol = mp.p.column(c);
-                for i in 0..6 {
-                    z[(6 * j + i, k)] -= pcol[i];
-                    if let Some(rk) = ref_of(k) {
-                        z[(6 * j + i, rk)] += pcol[i];
-                    }
-                }
-            }
+    let (cov_unit, cov) = match &frame {
+        NominalFrame::Relative { reference, .. } => {
+            let m = design.cov_unit.view((0, 0), (n, n + k)).into_owned()
+                * lsq::to_nalgebra(&sol.jacobian).transpose()
+                * stacked_weights(&fits, rows, 6 * maps.len());
+            relative_covariance(data, *reference, &maps, &m, sigma1)
         }
-        // Stage 2: d theta = C J2^T W d xi, W stacking each pose's rows.
-        let j2 = lsq::to_nalgebra(&sol.jacobian);
-        let mut w_all = DMatrix::zeros(rows, n_xi);
-        let mut row = 0;
-        for (j, f) in fits.iter().enumerate() {
-            let w = weight_rows(&f.info);
-            w_all.view_mut((row, 6 * j), (w.nrows(), 6)).copy_from(&w);
-            row += w.nrows();
+        _ => {
+            let cov_unit = design.cov_unit.view((0, 0), (n, n)).into_owned();
+            let cov = &cov_unit * s2;
+            (cov_unit, cov)
         }
-        let m = design.cov_unit.view((0, 0), (n, n + k)).into_owned() * j2.transpose() * w_all;
-        let mz = &m * z;
-        cov_unit = &mz * mz.transpose();
-        // Stage-1 residuals are a touch's noise minus its reference's:
-        // twice the touches' variance.
-        cov = &cov_unit * (0.5 * sigma1 * sigma1);
-    }
+    };
     let theta = sol.x[..n].to_vec();
     let g: Vec<f64> = if k > 0 {
         sol.x[n..n + 6].to_vec()
     } else {
         vec![0.0; 6]
     };
-    // Point residuals of the final model, for the residual table: each
-    // point against its face moved as the model predicts for its pose.
-    let mut residuals = vec![0.0; data.obs.len()];
-    for (pi, pose) in data.poses.iter().enumerate() {
-        let po = PoseObs {
-            tilt: pose.tilt,
-            c: pose.c,
-            seq: pose.seq,
-            minutes: pose.minutes,
-            xi: [0.0; 6],
-            w: DMatrix::zeros(0, 6),
-        };
-        let xi = st2.predicted(&theta, &g, &po);
-        for &kk in &pose.obs {
-            if matches!(&frame, NominalFrame::Relative { reference, .. } if *reference == pi) {
-                // The reference touches define the frame.
-                continue;
-            }
-            if let Some((u, q, nn)) = frame.observation(data, kin, kk) {
-                residuals[kk] = face_residual(&xi, &q, &nn, &u).r;
-            } else {
-                residuals[kk] = f64::NAN;
-            }
-        }
-    }
+    let residuals = point_residuals(&st2, &theta, &g);
     if !sol.converged {
         notes.push(format!(
             "stage 2 stopped after {} steps without converging",
@@ -631,4 +540,139 @@ pub fn identify(
         placement,
         notes,
     })
+}
+
+/// What the frame of stage 1 means for the user: relative to a reference
+/// pose (and the touches that cannot be used), or several probed pieces
+/// taken as one setup.
+fn frame_notes(data: &Dataset, kin: &Kinematics, frame: &NominalFrame) -> Vec<String> {
+    let mut notes = Vec::new();
+    match frame {
+        NominalFrame::Relative { reference, .. } => {
+            let unused = data
+                .obs
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| {
+                    !data.poses[*reference].obs.contains(k)
+                        && frame.observation(data, kin, *k).is_none()
+                })
+                .count();
+            notes.push(format!(
+                "stage 1 relative to the touches of pose {} (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)): the setup of the pieces cancels{}",
+                data.poses[*reference].id,
+                if unused > 0 {
+                    format!("; {unused} touches of features not touched there are not used")
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        NominalFrame::Probed if data.pieces.len() > 1 => notes.push(format!(
+            "the {} pieces are taken as one rigid setup: their touches cannot be tied to the reference pose by feature (use the global method, which estimates each piece's setup)",
+            data.pieces.len()
+        )),
+        _ => {}
+    }
+    notes
+}
+
+/// Stage 2's observations: each pose's motion from stage 1 with its weight
+/// rows, and the number of rows in all.
+fn stage2_poses(data: &Dataset, fits: &[PoseFit]) -> (Vec<PoseObs>, usize) {
+    let mut poses = Vec::new();
+    let mut rows = 0;
+    for f in fits {
+        let pose = &data.poses[f.pose_index];
+        let w = weight_rows(&f.info);
+        rows += w.nrows();
+        poses.push(PoseObs {
+            tilt: pose.tilt,
+            c: pose.c,
+            seq: pose.seq,
+            minutes: pose.minutes,
+            xi: f.xi,
+            w,
+        });
+    }
+    (poses, rows)
+}
+
+/// Every pose's weight rows stacked block-diagonally, `rows` by `n_xi`
+/// (six columns a pose).
+fn stacked_weights(fits: &[PoseFit], rows: usize, n_xi: usize) -> DMatrix<f64> {
+    let mut w_all = DMatrix::zeros(rows, n_xi);
+    let mut row = 0;
+    for (j, f) in fits.iter().enumerate() {
+        let w = weight_rows(&f.info);
+        w_all.view_mut((row, 6 * j), (w.nrows(), 6)).copy_from(&w);
+        row += w.nrows();
+    }
+    w_all
+}
+
+/// The covariance (per unit variance, and at stage 1's noise) of a fit
+/// relative to a reference pose. Every pose's motion carries the reference
+/// touches' own noise: the motions are correlated through it, and treating
+/// them as independent would understate the uncertainty. Propagated
+/// instead: theta = M xi (stage 2 linearized, `m` = C J2^T W), xi_j = -P_j
+/// r_j (stage 1), and r_k = e_k - e_ref(k) for a touch k and its reference
+/// touch, with every touch's noise independent, sigma^2 each.
+fn relative_covariance(
+    data: &Dataset,
+    reference: usize,
+    maps: &[Stage1Map],
+    m: &DMatrix<f64>,
+    sigma1: f64,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let ref_of = |k: usize| reference_touch(data, reference, k);
+    let n_xi = 6 * maps.len();
+    let mut z = DMatrix::zeros(n_xi, data.obs.len());
+    for (j, mp) in maps.iter().enumerate() {
+        for (c, &k) in mp.obs.iter().enumerate() {
+            let pcol = mp.p.column(c);
+            for i in 0..6 {
+                z[(6 * j + i, k)] -= pcol[i];
+                if let Some(rk) = ref_of(k) {
+                    z[(6 * j + i, rk)] += pcol[i];
+                }
+            }
+        }
+    }
+    let mz = m * z;
+    let cov_unit = &mz * mz.transpose();
+    // Stage-1 residuals are a touch's noise minus its reference's:
+    // twice the touches' variance.
+    let cov = &cov_unit * (0.5 * sigma1 * sigma1);
+    (cov_unit, cov)
+}
+
+/// Point residuals of the final model, for the residual table: each point
+/// against its face moved as the model predicts for its pose (the
+/// reference touches, which define the frame, left at 0).
+fn point_residuals(st2: &Stage2<'_>, theta: &[f64], g: &[f64]) -> Vec<f64> {
+    let (data, frame, kin) = (st2.data, st2.frame, &st2.model.kin);
+    let mut residuals = vec![0.0; data.obs.len()];
+    for (pi, pose) in data.poses.iter().enumerate() {
+        let po = PoseObs {
+            tilt: pose.tilt,
+            c: pose.c,
+            seq: pose.seq,
+            minutes: pose.minutes,
+            xi: [0.0; 6],
+            w: DMatrix::zeros(0, 6),
+        };
+        let xi = st2.predicted(theta, g, &po);
+        for &kk in &pose.obs {
+            if matches!(frame, NominalFrame::Relative { reference, .. } if *reference == pi) {
+                continue;
+            }
+            if let Some((u, q, nn)) = frame.observation(data, kin, kk) {
+                residuals[kk] = face_residual(&xi, &q, &nn, &u).r;
+            } else {
+                residuals[kk] = f64::NAN;
+            }
+        }
+    }
+    residuals
 }

@@ -131,275 +131,23 @@ impl SymbolTable {
     /// The symbols of a machine.
     pub fn for_kinematics(k: &Kinematics) -> SymbolTable {
         let m = k.machine();
-        let t = m.tilt.letter;
-        let it = m.tilt.about.index();
-        let io = 1 - it;
-        let mut loc = Vec::new();
-        let mut add = |name: String,
-                       terms: Vec<(usize, f64)>,
-                       canonical: (usize, f64),
-                       unit,
-                       description: String| {
-            loc.push(LocationSymbol {
-                name,
-                terms,
-                canonical,
-                unit,
-                description,
-            })
-        };
-        let mut rej: Vec<(String, String)> = Vec::new();
-        let name = |slot: usize| k.slot_name(slot).unwrap_or_default();
+        let mut list = Listing::default();
         match m.structure {
-            Structure::TableTable => {
-                let one = |slot| (vec![(slot, 1.0)], (slot, 1.0));
-                let (a, b) = one(s(0, io));
-                add(
-                    format!("E{}0{t}", LIN[io]),
-                    a,
-                    b,
-                    Unit::Um,
-                    format!("position of the {t}-axis average line in {}", LIN[io]),
-                );
-                let (a, b) = one(s(0, 2));
-                add(
-                    format!("EZ0{t}"),
-                    a,
-                    b,
-                    Unit::Um,
-                    format!("position of the {t}-axis average line in Z"),
-                );
-                let (a, b) = one(s(0, 3 + io));
-                add(
-                    format!("E{}0{t}", ROT[io]),
-                    a,
-                    b,
-                    Unit::Urad,
-                    format!(
-                        "orientation of the {t}-axis average line around {}",
-                        LIN[io]
-                    ),
-                );
-                let (a, b) = one(s(0, 5));
-                add(
-                    format!("EC0{t}"),
-                    a,
-                    b,
-                    Unit::Urad,
-                    format!("orientation of the {t}-axis average line around Z"),
-                );
-                add(
-                    format!("E{}0{t}", ROT[it]),
-                    vec![(s(0, 3 + it), 1.0), (s(1, 3 + it), 1.0)],
-                    (s(1, 3 + it), 1.0),
-                    Unit::Urad,
-                    format!("{ZERO_POINT} of {t}"),
-                );
-                let (a, b) = one(s(1, io));
-                add(
-                    format!("E{}(0{t})C", LIN[io]),
-                    a,
-                    b,
-                    Unit::Um,
-                    format!(
-                        "position of the C-axis average line from {t} in {}",
-                        LIN[io]
-                    ),
-                );
-                add(
-                    format!("E{}0C", LIN[it]),
-                    vec![(s(0, it), 1.0), (s(1, it), 1.0)],
-                    (s(1, it), 1.0),
-                    Unit::Um,
-                    format!("position of the C-axis average line in {}", LIN[it]),
-                );
-                let (a, b) = one(s(1, 3 + io));
-                add(
-                    format!("E{}(0{t})C", ROT[io]),
-                    a,
-                    b,
-                    Unit::Urad,
-                    format!("squareness of C to {t} (around {})", LIN[io]),
-                );
-                rej.push((
-                    format!("E{}0{t}", LIN[it]),
-                    format!("{} moves the C axis along the {t} axis; only its sum with {} is seen, reported as E{}0C", name(s(0, it)), name(s(1, it)), LIN[it]),
-                ));
-                for n in ["EZ0C".to_string(), format!("EZ(0{t})C")] {
-                    rej.push((n, format!("{} moves the C axis along its own direction, which changes nothing a test can see", name(s(1, 2)))));
-                }
-                for n in ["EC0C".to_string(), format!("EC(0{t})C")] {
-                    rej.push((n, format!("{} (the zero of C) is indistinguishable from the workpiece's own rotation on the table", name(s(1, 5)))));
-                }
-                rej.push((
-                    format!("E{}(0{t})C", ROT[it]),
-                    format!(
-                        "{} is seen only in its sum with {}, reported as E{}0{t}",
-                        name(s(1, 3 + it)),
-                        name(s(0, 3 + it)),
-                        ROT[it]
-                    ),
-                ));
-                rej.push((
-                    format!("E{}(0{t})C", LIN[it]),
-                    format!(
-                        "{} is seen only in its sum with {}, reported as E{}0C",
-                        name(s(1, it)),
-                        name(s(0, it)),
-                        LIN[it]
-                    ),
-                ));
-            }
+            Structure::TableTable => list.table_table(k),
             Structure::HeadTable | Structure::HeadHead => {
-                let one = |slot, coef| (vec![(slot, coef)], (slot, coef));
                 if m.structure == Structure::HeadTable {
-                    for (i, what) in [(0usize, "position"), (1, "position")] {
-                        let (a, b) = one(s(0, i), 1.0);
-                        add(
-                            format!("E{}0C", LIN[i]),
-                            a,
-                            b,
-                            Unit::Um,
-                            format!("{what} of the C-table axis average line in {}", LIN[i]),
-                        );
-                    }
-                    for i in [0usize, 1] {
-                        let (a, b) = one(s(0, 3 + i), 1.0);
-                        add(
-                            format!("E{}0C", ROT[i]),
-                            a,
-                            b,
-                            Unit::Urad,
-                            format!(
-                                "orientation of the C-table axis average line around {}",
-                                LIN[i]
-                            ),
-                        );
-                    }
-                    rej.push(("EZ0C".into(), format!("{} moves the C table along its own axis, which a test cannot tell from a work-offset error", name(s(0, 2)))));
-                    rej.push(("EC0C".into(), format!("{} (the zero of a single C table) is indistinguishable from the workpiece's own rotation", name(s(0, 5)))));
+                    list.c_table(k);
                 } else {
-                    for i in [0usize, 1] {
-                        let (a, b) = one(s(1, i), -1.0);
-                        add(
-                            format!("E{}0C", LIN[i]),
-                            a,
-                            b,
-                            Unit::Um,
-                            format!(
-                                "position of the C-head axis line relative to the tool in {}",
-                                LIN[i]
-                            ),
-                        );
-                    }
-                    for i in [0usize, 1, 2] {
-                        let (a, b) = one(s(0, 3 + i), 1.0);
-                        let what = if i == 2 {
-                            format!("{ZERO_POINT} of the C head")
-                        } else {
-                            format!("orientation of the C-head axis line around {}", LIN[i])
-                        };
-                        add(format!("E{}0C", ROT[i]), a, b, Unit::Urad, what);
-                    }
-                    rej.push(("EZ0C".into(), format!("{} moves the C head along its own axis, which a test cannot tell from a work-offset error", name(s(0, 2)))));
-                    rej.push((format!("EC0{t}"), format!("{} turns the {t} axis about Z exactly as the zero of C does; reported as EC0C", name(s(1, 5)))));
+                    list.c_head(k);
                 }
-                let (a, b) = one(s(2, io), -1.0);
-                add(
-                    format!("E{}0{t}", LIN[io]),
-                    a,
-                    b,
-                    Unit::Um,
-                    format!(
-                        "position of the {t}-head axis line relative to the spindle axis in {}",
-                        LIN[io]
-                    ),
-                );
-                let (a, b) = one(s(2, 2), -1.0);
-                add(
-                    format!("EZ0{t}"),
-                    a,
-                    b,
-                    Unit::Um,
-                    format!(
-                        "height of the {t}-head axis line above the tool tip (pivot-length error; indistinguishable from a tool-length error)"
-                    ),
-                );
-                let (a, b) = one(s(1, 3 + io), 1.0);
-                add(
-                    format!("E{}0{t}", ROT[io]),
-                    a,
-                    b,
-                    Unit::Urad,
-                    format!("orientation of the {t}-head axis line around {}", LIN[io]),
-                );
-                if m.structure == Structure::HeadTable {
-                    let (a, b) = one(s(1, 5), 1.0);
-                    add(
-                        format!("EC0{t}"),
-                        a,
-                        b,
-                        Unit::Urad,
-                        format!("orientation of the {t}-head axis line around Z"),
-                    );
-                }
-                let (a, b) = one(s(1, 3 + it), 1.0);
-                add(
-                    format!("E{}0{t}", ROT[it]),
-                    a,
-                    b,
-                    Unit::Urad,
-                    format!("{ZERO_POINT} of the {t} head"),
-                );
-                let (a, b) = one(s(2, 3 + io), 1.0);
-                add(
-                    format!("E{}(0{t})S", ROT[io]),
-                    a,
-                    b,
-                    Unit::Urad,
-                    format!("squareness of the spindle axis to {t} (around {})", LIN[io]),
-                );
-                rej.push((
-                    format!("E{}0{t}", LIN[it]),
-                    if m.structure == Structure::HeadTable {
-                        format!("{} shifts the tool along the {t} axis by the same amount at every angle, which a test cannot tell from a work-offset error", name(s(2, it)))
-                    } else {
-                        format!("{} moves the tool along the {t} axis exactly as {} does; part of E{}0C", name(s(2, it)), name(s(1, it)), LIN[it])
-                    },
-                ));
-            }
-        }
-        let mut maps = Vec::new();
-        for (l, info) in k.links().iter().enumerate().take(LINKS) {
-            if info.map_deps.is_empty() {
-                continue;
-            }
-            let deps: Vec<String> = info
-                .map_deps
-                .iter()
-                .map(|&d| {
-                    if d == 0 {
-                        t.to_string()
-                    } else {
-                        "C".to_string()
-                    }
-                })
-                .collect();
-            for comp in 0..6 {
-                let letter = if comp < 3 { LIN[comp] } else { ROT[comp - 3] };
-                maps.push(MapSymbol {
-                    name: format!("E{letter}{}({})", info.child, deps.join(",")),
-                    slot: s(l, comp),
-                    deps: info.map_deps.clone(),
-                    unit: if comp < 3 { Unit::Um } else { Unit::Urad },
-                });
+                list.tilt_head(k);
             }
         }
         SymbolTable {
-            location: loc,
-            maps,
-            not_identifiable: rej,
-            tilt: t,
+            location: list.loc,
+            maps: map_symbols(k),
+            not_identifiable: list.rej,
+            tilt: m.tilt.letter,
         }
     }
 
@@ -448,4 +196,316 @@ impl SymbolTable {
             .collect::<Vec<_>>()
             .join(", ")
     }
+}
+
+/// The location symbols of a machine as they are listed, and the location
+/// errors rejected as not identifiable, each with its reason.
+#[derive(Default)]
+struct Listing {
+    loc: Vec<LocationSymbol>,
+    rej: Vec<(String, String)>,
+}
+
+impl Listing {
+    /// Lists one symbol: its name, its terms (slot, coefficient), the slot it
+    /// is canonically written to, its unit and what it is.
+    fn add(
+        &mut self,
+        name: String,
+        terms: Vec<(usize, f64)>,
+        canonical: (usize, f64),
+        unit: Unit,
+        description: String,
+    ) {
+        self.loc.push(LocationSymbol {
+            name,
+            terms,
+            canonical,
+            unit,
+            description,
+        })
+    }
+
+    /// A table-table machine: the tilt axis's and the C table's lines.
+    fn table_table(&mut self, k: &Kinematics) {
+        let m = k.machine();
+        let t = m.tilt.letter;
+        let it = m.tilt.about.index();
+        let io = 1 - it;
+        let name = |slot: usize| k.slot_name(slot).unwrap_or_default();
+        let one = |slot| (vec![(slot, 1.0)], (slot, 1.0));
+        let (a, b) = one(s(0, io));
+        self.add(
+            format!("E{}0{t}", LIN[io]),
+            a,
+            b,
+            Unit::Um,
+            format!("position of the {t}-axis average line in {}", LIN[io]),
+        );
+        let (a, b) = one(s(0, 2));
+        self.add(
+            format!("EZ0{t}"),
+            a,
+            b,
+            Unit::Um,
+            format!("position of the {t}-axis average line in Z"),
+        );
+        let (a, b) = one(s(0, 3 + io));
+        self.add(
+            format!("E{}0{t}", ROT[io]),
+            a,
+            b,
+            Unit::Urad,
+            format!(
+                "orientation of the {t}-axis average line around {}",
+                LIN[io]
+            ),
+        );
+        let (a, b) = one(s(0, 5));
+        self.add(
+            format!("EC0{t}"),
+            a,
+            b,
+            Unit::Urad,
+            format!("orientation of the {t}-axis average line around Z"),
+        );
+        self.add(
+            format!("E{}0{t}", ROT[it]),
+            vec![(s(0, 3 + it), 1.0), (s(1, 3 + it), 1.0)],
+            (s(1, 3 + it), 1.0),
+            Unit::Urad,
+            format!("{ZERO_POINT} of {t}"),
+        );
+        let (a, b) = one(s(1, io));
+        self.add(
+            format!("E{}(0{t})C", LIN[io]),
+            a,
+            b,
+            Unit::Um,
+            format!(
+                "position of the C-axis average line from {t} in {}",
+                LIN[io]
+            ),
+        );
+        self.add(
+            format!("E{}0C", LIN[it]),
+            vec![(s(0, it), 1.0), (s(1, it), 1.0)],
+            (s(1, it), 1.0),
+            Unit::Um,
+            format!("position of the C-axis average line in {}", LIN[it]),
+        );
+        let (a, b) = one(s(1, 3 + io));
+        self.add(
+            format!("E{}(0{t})C", ROT[io]),
+            a,
+            b,
+            Unit::Urad,
+            format!("squareness of C to {t} (around {})", LIN[io]),
+        );
+        self.rej.push((
+            format!("E{}0{t}", LIN[it]),
+            format!("{} moves the C axis along the {t} axis; only its sum with {} is seen, reported as E{}0C", name(s(0, it)), name(s(1, it)), LIN[it]),
+        ));
+        for n in ["EZ0C".to_string(), format!("EZ(0{t})C")] {
+            self.rej.push((n, format!("{} moves the C axis along its own direction, which changes nothing a test can see", name(s(1, 2)))));
+        }
+        for n in ["EC0C".to_string(), format!("EC(0{t})C")] {
+            self.rej.push((n, format!("{} (the zero of C) is indistinguishable from the workpiece's own rotation on the table", name(s(1, 5)))));
+        }
+        self.rej.push((
+            format!("E{}(0{t})C", ROT[it]),
+            format!(
+                "{} is seen only in its sum with {}, reported as E{}0{t}",
+                name(s(1, 3 + it)),
+                name(s(0, 3 + it)),
+                ROT[it]
+            ),
+        ));
+        self.rej.push((
+            format!("E{}(0{t})C", LIN[it]),
+            format!(
+                "{} is seen only in its sum with {}, reported as E{}0C",
+                name(s(1, it)),
+                name(s(0, it)),
+                LIN[it]
+            ),
+        ));
+    }
+
+    /// A head-table machine's C table: its line's position and orientation.
+    fn c_table(&mut self, k: &Kinematics) {
+        let name = |slot: usize| k.slot_name(slot).unwrap_or_default();
+        let one = |slot, coef| (vec![(slot, coef)], (slot, coef));
+        for (i, what) in [(0usize, "position"), (1, "position")] {
+            let (a, b) = one(s(0, i), 1.0);
+            self.add(
+                format!("E{}0C", LIN[i]),
+                a,
+                b,
+                Unit::Um,
+                format!("{what} of the C-table axis average line in {}", LIN[i]),
+            );
+        }
+        for i in [0usize, 1] {
+            let (a, b) = one(s(0, 3 + i), 1.0);
+            self.add(
+                format!("E{}0C", ROT[i]),
+                a,
+                b,
+                Unit::Urad,
+                format!(
+                    "orientation of the C-table axis average line around {}",
+                    LIN[i]
+                ),
+            );
+        }
+        self.rej.push(("EZ0C".into(), format!("{} moves the C table along its own axis, which a test cannot tell from a work-offset error", name(s(0, 2)))));
+        self.rej.push(("EC0C".into(), format!("{} (the zero of a single C table) is indistinguishable from the workpiece's own rotation", name(s(0, 5)))));
+    }
+
+    /// A head-head machine's C head: its line relative to the tool, its
+    /// orientation and zero.
+    fn c_head(&mut self, k: &Kinematics) {
+        let m = k.machine();
+        let t = m.tilt.letter;
+        let name = |slot: usize| k.slot_name(slot).unwrap_or_default();
+        let one = |slot, coef| (vec![(slot, coef)], (slot, coef));
+        for i in [0usize, 1] {
+            let (a, b) = one(s(1, i), -1.0);
+            self.add(
+                format!("E{}0C", LIN[i]),
+                a,
+                b,
+                Unit::Um,
+                format!(
+                    "position of the C-head axis line relative to the tool in {}",
+                    LIN[i]
+                ),
+            );
+        }
+        for i in [0usize, 1, 2] {
+            let (a, b) = one(s(0, 3 + i), 1.0);
+            let what = if i == 2 {
+                format!("{ZERO_POINT} of the C head")
+            } else {
+                format!("orientation of the C-head axis line around {}", LIN[i])
+            };
+            self.add(format!("E{}0C", ROT[i]), a, b, Unit::Urad, what);
+        }
+        self.rej.push(("EZ0C".into(), format!("{} moves the C head along its own axis, which a test cannot tell from a work-offset error", name(s(0, 2)))));
+        self.rej.push((
+            format!("EC0{t}"),
+            format!(
+                "{} turns the {t} axis about Z exactly as the zero of C does; reported as EC0C",
+                name(s(1, 5))
+            ),
+        ));
+    }
+
+    /// A tilting head (head-table or head-head): its line relative to the
+    /// spindle, its orientation and zero, the spindle's squareness to it.
+    fn tilt_head(&mut self, k: &Kinematics) {
+        let m = k.machine();
+        let t = m.tilt.letter;
+        let it = m.tilt.about.index();
+        let io = 1 - it;
+        let name = |slot: usize| k.slot_name(slot).unwrap_or_default();
+        let one = |slot, coef| (vec![(slot, coef)], (slot, coef));
+        let (a, b) = one(s(2, io), -1.0);
+        self.add(
+            format!("E{}0{t}", LIN[io]),
+            a,
+            b,
+            Unit::Um,
+            format!(
+                "position of the {t}-head axis line relative to the spindle axis in {}",
+                LIN[io]
+            ),
+        );
+        let (a, b) = one(s(2, 2), -1.0);
+        self.add(
+            format!("EZ0{t}"),
+            a,
+            b,
+            Unit::Um,
+            format!(
+                "height of the {t}-head axis line above the tool tip (pivot-length error; indistinguishable from a tool-length error)"
+            ),
+        );
+        let (a, b) = one(s(1, 3 + io), 1.0);
+        self.add(
+            format!("E{}0{t}", ROT[io]),
+            a,
+            b,
+            Unit::Urad,
+            format!("orientation of the {t}-head axis line around {}", LIN[io]),
+        );
+        if m.structure == Structure::HeadTable {
+            let (a, b) = one(s(1, 5), 1.0);
+            self.add(
+                format!("EC0{t}"),
+                a,
+                b,
+                Unit::Urad,
+                format!("orientation of the {t}-head axis line around Z"),
+            );
+        }
+        let (a, b) = one(s(1, 3 + it), 1.0);
+        self.add(
+            format!("E{}0{t}", ROT[it]),
+            a,
+            b,
+            Unit::Urad,
+            format!("{ZERO_POINT} of the {t} head"),
+        );
+        let (a, b) = one(s(2, 3 + io), 1.0);
+        self.add(
+            format!("E{}(0{t})S", ROT[io]),
+            a,
+            b,
+            Unit::Urad,
+            format!("squareness of the spindle axis to {t} (around {})", LIN[io]),
+        );
+        self.rej.push((
+            format!("E{}0{t}", LIN[it]),
+            if m.structure == Structure::HeadTable {
+                format!("{} shifts the tool along the {t} axis by the same amount at every angle, which a test cannot tell from a work-offset error", name(s(2, it)))
+            } else {
+                format!("{} moves the tool along the {t} axis exactly as {} does; part of E{}0C", name(s(2, it)), name(s(1, it)), LIN[it])
+            },
+        ));
+    }
+}
+
+/// The error-map symbols: six components of every link whose error
+/// depends on a rotary axis angle.
+fn map_symbols(k: &Kinematics) -> Vec<MapSymbol> {
+    let t = k.machine().tilt.letter;
+    let mut maps = Vec::new();
+    for (l, info) in k.links().iter().enumerate().take(LINKS) {
+        if info.map_deps.is_empty() {
+            continue;
+        }
+        let deps: Vec<String> = info
+            .map_deps
+            .iter()
+            .map(|&d| {
+                if d == 0 {
+                    t.to_string()
+                } else {
+                    "C".to_string()
+                }
+            })
+            .collect();
+        for comp in 0..6 {
+            let letter = if comp < 3 { LIN[comp] } else { ROT[comp - 3] };
+            maps.push(MapSymbol {
+                name: format!("E{letter}{}({})", info.child, deps.join(",")),
+                slot: s(l, comp),
+                deps: info.map_deps.clone(),
+                unit: if comp < 3 { Unit::Um } else { Unit::Urad },
+            });
+        }
+    }
+    maps
 }

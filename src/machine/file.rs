@@ -131,10 +131,7 @@ impl MCodesFile {
 
 /// `m_codes:` validated: each entry `M` and a whole number, none in two
 /// lists.
-fn m_codes(
-    f: &MCodesFile,
-    err: &dyn Fn(&[&str], String) -> SourceError,
-) -> Result<MCodes, SourceError> {
+fn m_codes(f: &MCodesFile, err: KeyError<'_>) -> Result<MCodes, SourceError> {
     let mut seen: BTreeMap<u32, &str> = BTreeMap::new();
     let mut list = |key: &'static str, items: &[String]| -> Result<Vec<u32>, SourceError> {
         let mut out = Vec::new();
@@ -193,11 +190,63 @@ pub struct HeadFile {
     pub pivot_length: f64,
 }
 
+/// How a located error of the file is made: the keys it concerns and the message.
+type KeyError<'a> = &'a dyn Fn(&[&str], String) -> SourceError;
+
 pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
     let f: MachineFile = crate::input::parse_yaml(path, src)?;
     let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
 
-    // Linear axes: exactly X, Y, Z with min < max.
+    let strokes = strokes(&f, &err)?;
+    let chain = Chain::parse(&f, &err)?;
+    let (tilt, c) = rotary_axes(&f, &chain, &err)?;
+    let pivot_length = pivot_length(&f, chain.structure, &err)?;
+    check_numbers(&f, pivot_length, &err)?;
+
+    // Every output is labelled with this name, and the history keys its
+    // results on it: a blank one would file them under nobody.
+    if f.name.trim().is_empty() || f.name.chars().any(char::is_control) {
+        return Err(err(
+            &["name"],
+            "machine name is empty or has control characters: expected a short name such as my-dmu-50".to_string(),
+        ));
+    }
+    let m_codes = m_codes(&f.m_codes, &err)?;
+    if let Some(sk) = f.sinumerik
+        && sk.swivel_record == 0
+    {
+        return Err(err(
+            &["sinumerik", "swivel_record"],
+            "swivel_record 0 deselects the swivel data record (TCARR=0): expected the record's number, 1 or more".to_string(),
+        ));
+    }
+    Ok(Machine {
+        name: f.name,
+        description: f.description,
+        structure: chain.structure,
+        chain: chain.text,
+        dialect: f.controller,
+        strokes,
+        tilt,
+        c,
+        pivot: Vector3::from(f.pivot),
+        pivot_length,
+        table: f.table,
+        tool: f.tool,
+        probe: f.probe,
+        rapid: f.rapid,
+        limits: f.limits,
+        controller_parameters: f.controller_parameters,
+        m_codes,
+        integer_unit: f.integer_unit,
+        sinumerik: f.sinumerik,
+        source: src.to_string(),
+    })
+}
+
+/// `linear_axes:` validated: the strokes of exactly X, Y, Z, each with
+/// min < max.
+fn strokes(f: &MachineFile, err: KeyError<'_>) -> Result<[(f64, f64); 3], SourceError> {
     let mut strokes = [(0.0, 0.0); 3];
     for (k, v) in &f.linear_axes {
         let i = match k.as_str() {
@@ -230,93 +279,136 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             ));
         }
     }
+    Ok(strokes)
+}
 
-    // Chain: letters from workpiece to tool.
-    let chain = f.chain.trim().to_ascii_uppercase();
-    let letters: Vec<char> = chain.chars().collect();
-    let count = |c: char| letters.iter().filter(|&&x| x == c).count();
-    let tilt_letter = match (count('A'), count('B')) {
-        (1, 0) => 'A',
-        (0, 1) => 'B',
-        _ => {
-            return Err(err(
-                &["chain"],
-                format!("chain `{chain}` must contain exactly one tilt axis (A or B) and one C"),
-            ));
+/// `chain:` validated: the six letters from workpiece to tool, and the
+/// structure they describe.
+struct Chain {
+    /// The chain as the machine keeps it (trimmed, upper case).
+    text: String,
+    letters: Vec<char>,
+    /// `A` or `B`.
+    tilt_letter: char,
+    structure: Structure,
+    /// Where the machine frame `F` sits in the chain.
+    f_pos: usize,
+}
+
+impl Chain {
+    /// Reads the chain, refusing one that is not F, X, Y, Z, C and one tilt
+    /// axis, that disagrees with `structure:`, or whose rotary axes sit in an
+    /// order docs/model.md does not describe.
+    fn parse(f: &MachineFile, err: KeyError<'_>) -> Result<Chain, SourceError> {
+        let chain = f.chain.trim().to_ascii_uppercase();
+        let letters: Vec<char> = chain.chars().collect();
+        let count = |c: char| letters.iter().filter(|&&x| x == c).count();
+        let tilt_letter = match (count('A'), count('B')) {
+            (1, 0) => 'A',
+            (0, 1) => 'B',
+            _ => {
+                return Err(err(
+                    &["chain"],
+                    format!(
+                        "chain `{chain}` must contain exactly one tilt axis (A or B) and one C"
+                    ),
+                ));
+            }
+        };
+        for c in ['F', 'X', 'Y', 'Z', 'C'] {
+            if count(c) != 1 {
+                return Err(err(
+                    &["chain"],
+                    format!(
+                        "chain `{chain}` must contain {c} exactly once (letters from workpiece to tool, F = machine frame)"
+                    ),
+                ));
+            }
         }
-    };
-    for c in ['F', 'X', 'Y', 'Z', 'C'] {
-        if count(c) != 1 {
-            return Err(err(
-                &["chain"],
-                format!(
-                    "chain `{chain}` must contain {c} exactly once (letters from workpiece to tool, F = machine frame)"
-                ),
-            ));
-        }
-    }
-    if letters.len() != 6 {
-        return Err(err(
-            &["chain"],
-            format!(
-                "chain `{chain}` has unexpected letters: expected the six letters F, X, Y, Z, C and A or B"
-            ),
-        ));
-    }
-    let pos = |c: char| letters.iter().position(|&x| x == c).unwrap();
-    let f_pos = pos('F');
-    let (t_pos, c_pos) = (pos(tilt_letter), pos('C'));
-    let derived = match (t_pos < f_pos, c_pos < f_pos) {
-        (true, true) => Structure::TableTable,
-        (false, true) => Structure::HeadTable,
-        (false, false) => Structure::HeadHead,
-        (true, false) => {
-            return Err(err(
-                &["chain"],
-                format!("chain `{chain}`: a tilting table under a C head is not supported"),
-            ));
-        }
-    };
-    if derived != f.structure {
-        return Err(err(
-            &["structure"],
-            format!(
-                "structure `{}` does not match chain `{chain}`, which describes a {derived} machine",
-                f.structure
-            ),
-        ));
-    }
-    // C must carry the tilt in head-head machines, and sit on the tilt in
-    // table-table machines (the order of docs/model.md).
-    match derived {
-        Structure::TableTable if c_pos > t_pos => {
+        if letters.len() != 6 {
             return Err(err(
                 &["chain"],
                 format!(
-                    "chain `{chain}`: the C table must sit on the tilt axis (C before {tilt_letter})"
+                    "chain `{chain}` has unexpected letters: expected the six letters F, X, Y, Z, C and A or B"
                 ),
             ));
         }
-        Structure::HeadHead if c_pos > t_pos => {
+        let pos = |c: char| letters.iter().position(|&x| x == c).unwrap();
+        let f_pos = pos('F');
+        let (t_pos, c_pos) = (pos(tilt_letter), pos('C'));
+        let derived = match (t_pos < f_pos, c_pos < f_pos) {
+            (true, true) => Structure::TableTable,
+            (false, true) => Structure::HeadTable,
+            (false, false) => Structure::HeadHead,
+            (true, false) => {
+                return Err(err(
+                    &["chain"],
+                    format!("chain `{chain}`: a tilting table under a C head is not supported"),
+                ));
+            }
+        };
+        if derived != f.structure {
             return Err(err(
-                &["chain"],
+                &["structure"],
                 format!(
-                    "chain `{chain}`: the tilt head must sit on the C head (C before {tilt_letter})"
+                    "structure `{}` does not match chain `{chain}`, which describes a {derived} machine",
+                    f.structure
                 ),
             ));
         }
-        _ => {}
+        // C must carry the tilt in head-head machines, and sit on the tilt in
+        // table-table machines (the order of docs/model.md).
+        match derived {
+            Structure::TableTable if c_pos > t_pos => {
+                return Err(err(
+                    &["chain"],
+                    format!(
+                        "chain `{chain}`: the C table must sit on the tilt axis (C before {tilt_letter})"
+                    ),
+                ));
+            }
+            Structure::HeadHead if c_pos > t_pos => {
+                return Err(err(
+                    &["chain"],
+                    format!(
+                        "chain `{chain}`: the tilt head must sit on the C head (C before {tilt_letter})"
+                    ),
+                ));
+            }
+            _ => {}
+        }
+        Ok(Chain {
+            text: chain,
+            letters,
+            tilt_letter,
+            structure: derived,
+            f_pos,
+        })
     }
-    // Parent: the neighbour towards F.
-    let parent = |p: usize| {
-        if p < f_pos {
-            letters[p + 1]
+
+    /// Where `c` sits in the chain.
+    fn pos(&self, c: char) -> usize {
+        self.letters.iter().position(|&x| x == c).unwrap()
+    }
+
+    /// The parent of the axis at `p`: its neighbour towards F.
+    fn parent(&self, p: usize) -> char {
+        if p < self.f_pos {
+            self.letters[p + 1]
         } else {
-            letters[p - 1]
+            self.letters[p - 1]
         }
-    };
+    }
+}
 
-    // Rotary axes.
+/// `rotary_axes:` validated against the chain: the tilt axis (with limits)
+/// and C, each with its direction and place in the chain.
+fn rotary_axes(
+    f: &MachineFile,
+    chain: &Chain,
+    err: KeyError<'_>,
+) -> Result<(RotaryAxis, RotaryAxis), SourceError> {
+    let tilt_letter = chain.tilt_letter;
     let mut tilt = None;
     let mut c_axis = None;
     for (k, v) in &f.rotary_axes {
@@ -332,7 +424,10 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         if letter != 'C' && letter != tilt_letter {
             return Err(err(
                 &["rotary_axes", k],
-                format!("rotary axis {k} is not in chain `{chain}` (expected {tilt_letter} and C)"),
+                format!(
+                    "rotary axis {k} is not in chain `{}` (expected {tilt_letter} and C)",
+                    chain.text
+                ),
             ));
         }
         if v.direction != 1 && v.direction != -1 {
@@ -361,7 +456,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
                 format!("the tilt axis {k} needs limits [min, max] in degrees"),
             ));
         }
-        let p = pos(letter);
+        let p = chain.pos(letter);
         let axis = RotaryAxis {
             letter,
             about: match letter {
@@ -369,10 +464,10 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
                 'B' => Axis3::Y,
                 _ => Axis3::Z,
             },
-            on_table: p < f_pos,
+            on_table: p < chain.f_pos,
             direction: v.direction as f64,
             limits,
-            parent: parent(p),
+            parent: chain.parent(p),
         };
         if letter == 'C' {
             c_axis = Some(axis);
@@ -387,9 +482,17 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         )
     })?;
     let c = c_axis.ok_or_else(|| err(&["rotary_axes"], "rotary axis C is missing".to_string()))?;
+    Ok((tilt, c))
+}
 
-    // Head.
-    let pivot_length = match (derived, &f.head) {
+/// `head:` validated against the structure: the head's pivot length (0 for
+/// a table-table machine, which has no head).
+fn pivot_length(
+    f: &MachineFile,
+    derived: Structure,
+    err: KeyError<'_>,
+) -> Result<f64, SourceError> {
+    Ok(match (derived, &f.head) {
         (Structure::TableTable, Some(_)) => {
             return Err(err(
                 &["head"],
@@ -417,8 +520,13 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             }
             h.pivot_length
         }
-    };
+    })
+}
 
+/// The file's numbers checked: pivot, table, tool, probe and rapid rates in
+/// range, controller parameters a control's, and no length beyond a
+/// machine tool's (a unit mistake).
+fn check_numbers(f: &MachineFile, pivot_length: f64, err: KeyError<'_>) -> Result<(), SourceError> {
     if f.pivot.iter().any(|v| !v.is_finite()) {
         return Err(err(
             &["pivot"],
@@ -503,46 +611,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
             ));
         }
     }
-
-    // Every output is labelled with this name, and the history keys its
-    // results on it: a blank one would file them under nobody.
-    if f.name.trim().is_empty() || f.name.chars().any(char::is_control) {
-        return Err(err(
-            &["name"],
-            "machine name is empty or has control characters: expected a short name such as my-dmu-50".to_string(),
-        ));
-    }
-    let m_codes = m_codes(&f.m_codes, &err)?;
-    if let Some(sk) = f.sinumerik
-        && sk.swivel_record == 0
-    {
-        return Err(err(
-            &["sinumerik", "swivel_record"],
-            "swivel_record 0 deselects the swivel data record (TCARR=0): expected the record's number, 1 or more".to_string(),
-        ));
-    }
-    Ok(Machine {
-        name: f.name,
-        description: f.description,
-        structure: derived,
-        chain,
-        dialect: f.controller,
-        strokes,
-        tilt,
-        c,
-        pivot: Vector3::from(f.pivot),
-        pivot_length,
-        table: f.table,
-        tool: f.tool,
-        probe: f.probe,
-        rapid: f.rapid,
-        limits: f.limits,
-        controller_parameters: f.controller_parameters,
-        m_codes,
-        integer_unit: f.integer_unit,
-        sinumerik: f.sinumerik,
-        source: src.to_string(),
-    })
+    Ok(())
 }
 
 /// Checks a tool's numbers; returns the offending key and a message.

@@ -3,7 +3,7 @@
 //! limit, and the safety rules of the engine.
 
 use minijinja::{Value, context};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::definition::PostDefinition;
 use super::{Coolant, Op, Target, euler_spatial, euler_zxz};
@@ -233,344 +233,22 @@ impl PostDefinition {
         }
         out.push_all(&self.render_template("preamble", head.clone())?)?;
 
-        let rule = |index: usize, op: &Op, message: String| PostError::Rule {
-            post: self.name.clone(),
-            index,
-            op: op_name(op),
-            message,
-        };
-        let mut last: [Option<String>; 3] = Default::default();
-        let mut last_feed: Option<String> = None;
-        let mut retracted = true;
-        let mut plane = false;
-        let mut tcp = false;
-        let mut spindle = false;
-        let mut log: Option<String> = None;
-        let mut log_used: Option<(String, String)> = None;
-        let mut tool_number: u32 = 0;
+        let mut w = Writer::new(self, info, out);
         for (index, op) in ops.iter().enumerate() {
-            let need = |name: &str| -> Result<(), PostError> {
-                if self.has(name) {
-                    Ok(())
-                } else {
-                    Err(rule(
-                        index,
-                        op,
-                        format!(
-                            "the {} postprocessor has no `{name}` template, so it cannot write this op",
-                            self.name
-                        ),
-                    ))
-                }
-            };
-            match op {
-                Op::Comment(t) => self.push_comment(&mut out, "comment", t)?,
-                Op::Section(t) => {
-                    let name = if self.has("section") {
-                        "section"
-                    } else {
-                        "comment"
-                    };
-                    self.push_comment(&mut out, name, t)?;
-                }
-                Op::ToolCall { number, name, rpm } => {
-                    tool_number = *number;
-                    let ctx = context! {
-                        number => *number,
-                        name => self.sanitize_comment(name),
-                        rpm => *rpm,
-                    };
-                    out.push_all(&self.render_template("tool_call", ctx)?)?;
-                    last = Default::default();
-                    last_feed = None;
-                }
-                Op::SpindleOn { rpm } => {
-                    out.push_all(&self.render_template("spindle_on", context! { rpm => *rpm })?)?;
-                    spindle = true;
-                }
-                Op::SpindleOff => {
-                    out.push_all(&self.render_template("spindle_off", context! {})?)?;
-                    spindle = false;
-                }
-                Op::Coolant(Coolant::Off) => {
-                    out.push_all(&self.render_template("coolant_off", context! {})?)?
-                }
-                Op::Coolant(k) => {
-                    let code = match k {
-                        Coolant::Flood => &self.coolant.flood,
-                        Coolant::Mist => &self.coolant.mist,
-                        _ => &self.coolant.air,
-                    };
-                    let ctx = context! { code => code.as_str(), kind => k.name() };
-                    out.push_all(&self.render_template("coolant_on", ctx)?)?;
-                }
-                Op::Rapid(t) => {
-                    let (words, [x, y, z]) = self.words(t, &mut last);
-                    if !words.is_empty() {
-                        let ctx = context! { words, x, y, z };
-                        out.push_all(&self.render_template("rapid", ctx)?)?;
-                        retracted = false;
-                    }
-                }
-                Op::Feed { to, feed } => {
-                    if !(feed.is_finite() && *feed > 0.0) {
-                        return Err(rule(
-                            index,
-                            op,
-                            format!("feed must be > 0 mm/min, got {feed}"),
-                        ));
-                    }
-                    let (words, [x, y, z]) = self.words(to, &mut last);
-                    if !words.is_empty() {
-                        let fw = self.numbers.feed.format(*feed);
-                        let new_feed = last_feed.as_deref() != Some(fw.as_str());
-                        last_feed = Some(fw);
-                        let ctx = context! { words, x, y, z, f => *feed, new_feed };
-                        out.push_all(&self.render_template("feed", ctx)?)?;
-                        retracted = false;
-                    }
-                }
-                Op::Retract { z } => {
-                    let t = Target {
-                        z: Some(*z),
-                        ..Target::default()
-                    };
-                    // A retract is always written, even when Z is unchanged:
-                    // it is the marker the safety rule and readers rely on.
-                    last[2] = None;
-                    let (words, _) = self.words(&t, &mut last);
-                    let ctx = context! { words => words.as_str(), z => *z };
-                    let block = self.render_template("retract", ctx)?;
-                    // Whatever the template says, a retract reaches the
-                    // safe height before a rotary index may follow.
-                    if !block.contains(&words) || moves_axes(&block, &['X', 'Y']) {
-                        return Err(rule(
-                            index,
-                            op,
-                            format!(
-                                "the retract template wrote `{}`, which does not move Z alone to `{words}`",
-                                block.trim()
-                            ),
-                        ));
-                    }
-                    out.push_all(&block)?;
-                    retracted = true;
-                }
-                Op::Rotary { tilt, c } => {
-                    if !retracted {
-                        return Err(rule(
-                            index,
-                            op,
-                            "a rotary index must follow a retract to the safe height, with no move in between".into(),
-                        ));
-                    }
-                    if plane {
-                        return Err(rule(
-                            index,
-                            op,
-                            "cancel the tilted working plane before indexing the rotary axes"
-                                .into(),
-                        ));
-                    }
-                    let a = &self.numbers.angle;
-                    let words =
-                        format!("{}{} C{}", info.tilt_letter, a.format(*tilt), a.format(*c));
-                    let ctx = context! {
-                        words,
-                        tilt => *tilt,
-                        c => *c,
-                        tilt_letter => info.tilt_letter.to_string(),
-                    };
-                    out.push_all(&self.render_template("rotary", ctx)?)?;
-                    last = Default::default();
-                }
-                Op::TiltedPlane {
-                    rotation,
-                    origin,
-                    tilt,
-                    c,
-                } => {
-                    need("tilted_plane")?;
-                    if plane || tcp {
-                        return Err(rule(
-                            index,
-                            op,
-                            "a tilted plane or TCP is already active".into(),
-                        ));
-                    }
-                    let [i, j, k] = euler_zxz(rotation);
-                    let [spa, spb, spc] = euler_spatial(rotation);
-                    let ctx = context! {
-                        i, j, k, spa, spb, spc,
-                        x => origin.x, y => origin.y, z => origin.z,
-                        tilt => *tilt, c => *c,
-                        tilt_letter => info.tilt_letter.to_string(),
-                    };
-                    out.push_all(&self.render_template("tilted_plane", ctx)?)?;
-                    plane = true;
-                    last = Default::default();
-                }
-                Op::TiltedPlaneOff => {
-                    need("tilted_plane_off")?;
-                    out.push_all(&self.render_template("tilted_plane_off", context! {})?)?;
-                    plane = false;
-                    last = Default::default();
-                }
-                Op::TcpOn => {
-                    need("tcp_on")?;
-                    if plane || tcp {
-                        return Err(rule(
-                            index,
-                            op,
-                            "a tilted plane or TCP is already active".into(),
-                        ));
-                    }
-                    let ctx = context! { number => tool_number };
-                    out.push_all(&self.render_template("tcp_on", ctx)?)?;
-                    tcp = true;
-                    last = Default::default();
-                }
-                Op::TcpOff => {
-                    need("tcp_off")?;
-                    let ctx = context! { number => tool_number };
-                    out.push_all(&self.render_template("tcp_off", ctx)?)?;
-                    tcp = false;
-                    last = Default::default();
-                }
-                Op::ProbeMove {
-                    from,
-                    to,
-                    feed,
-                    direction,
-                } => {
-                    need("probe_move")?;
-                    if spindle {
-                        return Err(rule(
-                            index,
-                            op,
-                            "probe moves need the spindle stopped".into(),
-                        ));
-                    }
-                    if !(feed.is_finite() && *feed > 0.0) {
-                        return Err(rule(
-                            index,
-                            op,
-                            format!("probing feed must be > 0 mm/min, got {feed}"),
-                        ));
-                    }
-                    let d = direction.normalize();
-                    let axis = (0..3).find(|&i| (d[i].abs() - 1.0).abs() < 1e-9);
-                    if self.probe_axis_aligned && axis.is_none() {
-                        return Err(rule(
-                            index,
-                            op,
-                            format!(
-                                "the {} control probes along one axis only; direction ({:.4}, {:.4}, {:.4}) is not along X, Y or Z",
-                                self.name, d.x, d.y, d.z
-                            ),
-                        ));
-                    }
-                    let (axis_letter, sign) = match axis {
-                        Some(i) => (
-                            ["X", "Y", "Z"][i].to_string(),
-                            if d[i] > 0.0 { "+" } else { "-" }.to_string(),
-                        ),
-                        None => (String::new(), String::new()),
-                    };
-                    // Probe moves always state every axis: the target is
-                    // what the controller compares the contact against.
-                    last = Default::default();
-                    let (words, _) = self.words(&Target::xyz(*to), &mut last);
-                    let ctx = context! {
-                        words,
-                        x => to.x, y => to.y, z => to.z,
-                        sx => from.x, sy => from.y, sz => from.z,
-                        f => *feed,
-                        axis => axis_letter,
-                        sign,
-                        aligned => axis.is_some(),
-                    };
-                    out.push_all(&self.render_template("probe_move", ctx)?)?;
-                    retracted = false;
-                    // The machine stops wherever contact happens, and the
-                    // probing feed is modal now: the next feed move names its own.
-                    last = Default::default();
-                    last_feed = None;
-                }
-                Op::ProbeRead { vars } => {
-                    need("probe_read")?;
-                    let ctx = context! { x => vars[0], y => vars[1], z => vars[2] };
-                    out.push_all(&self.render_template("probe_read", ctx)?)?;
-                }
-                Op::LogOpen { name, test } => {
-                    if log.is_some() {
-                        return Err(rule(index, op, "a log is already open".into()));
-                    }
-                    if self.has("log_open") {
-                        let ctx = context! { name => name.as_str(), test => test.as_str() };
-                        out.push_all(&self.render_template("log_open", ctx)?)?;
-                    }
-                    log = Some(name.clone());
-                    log_used = Some((name.clone(), test.clone()));
-                }
-                Op::LogPoint {
-                    index: touch,
-                    label,
-                } => {
-                    need("log_point")?;
-                    let Some(name) = &log else {
-                        return Err(rule(index, op, "no log is open (LogOpen first)".into()));
-                    };
-                    if !crate::formats::valid_label(label) {
-                        return Err(rule(
-                            index,
-                            op,
-                            format!("label `{label}` must be letters, digits, `_`, `.` and `-`"),
-                        ));
-                    }
-                    let ctx = context! {
-                        index => *touch,
-                        label => label.as_str(),
-                        name => name.as_str(),
-                    };
-                    out.push_all(&self.render_template("log_point", ctx)?)?;
-                }
-                Op::LogClose => {
-                    let Some(name) = log.take() else {
-                        return Err(rule(index, op, "no log is open".into()));
-                    };
-                    if self.has("log_close") {
-                        out.push_all(&self.render_template("log_close", context! { name })?)?;
-                    }
-                }
-                Op::Dwell(s) => {
-                    need("dwell")?;
-                    out.push_all(&self.render_template("dwell", context! { seconds => *s })?)?;
-                }
-                Op::Stop(t) => {
-                    need("stop")?;
-                    let ctx = context! { text => self.sanitize_comment(t) };
-                    out.push_all(&self.render_template("stop", ctx)?)?;
-                }
-            }
+            w.op(index, op)?;
         }
-        if let Some(name) = log {
-            return Err(PostError::Rule {
-                post: self.name.clone(),
-                index: ops.len(),
-                op: "log_close",
-                message: format!("log `{name}` is never closed"),
-            });
-        }
-        if plane || tcp {
-            return Err(PostError::Rule {
-                post: self.name.clone(),
-                index: ops.len(),
-                op: "footer",
-                message: "the program ends with a tilted plane or TCP still active".into(),
-            });
-        }
+        let (mut out, log_used) = w.finish(ops.len())?;
         out.push_all(&self.render_template("footer", head)?)?;
+        let aux = self.log_formats(log_used)?;
+        Ok(RenderedProgram {
+            text: out.text,
+            aux,
+        })
+    }
+
+    /// The format files of the probe log `(name, test)` the program wrote,
+    /// for the controls whose log needs them (HEIDENHAIN FN 16).
+    fn log_formats(&self, log_used: Option<(String, String)>) -> Result<Vec<AuxFile>, PostError> {
         let mut aux = Vec::new();
         if let Some((name, test)) = log_used {
             for (template, suffix) in [("log_header_format", "head"), ("log_touch_format", "touch")]
@@ -585,10 +263,7 @@ impl PostDefinition {
                 }
             }
         }
-        Ok(RenderedProgram {
-            text: out.text,
-            aux,
-        })
+        Ok(aux)
     }
 
     /// A comment, wrapped at spaces into as many blocks as it takes to
@@ -641,6 +316,434 @@ impl PostDefinition {
             rest = chars[cut..].iter().collect::<String>().trim().to_string();
         }
         Ok(())
+    }
+}
+
+/// A program being written: its blocks and the modal state the control
+/// holds after the ops so far, which decides what the next op writes and
+/// whether it may.
+struct Writer<'a> {
+    post: &'a PostDefinition,
+    info: &'a ProgramInfo,
+    out: Blocks<'a>,
+    /// The X, Y, Z words in force (an unchanged word is not written again).
+    last: [Option<String>; 3],
+    /// The feed word in force.
+    last_feed: Option<String>,
+    /// At the safe height, with no move since: a rotary index may follow.
+    retracted: bool,
+    /// A tilted working plane is active.
+    plane: bool,
+    /// TCP is active.
+    tcp: bool,
+    spindle: bool,
+    /// The probe log open now.
+    log: Option<String>,
+    /// The last probe log opened, with its test.
+    log_used: Option<(String, String)>,
+    tool_number: u32,
+}
+
+impl<'a> Writer<'a> {
+    fn new(post: &'a PostDefinition, info: &'a ProgramInfo, out: Blocks<'a>) -> Self {
+        Writer {
+            post,
+            info,
+            out,
+            last: Default::default(),
+            last_feed: None,
+            retracted: true,
+            plane: false,
+            tcp: false,
+            spindle: false,
+            log: None,
+            log_used: None,
+            tool_number: 0,
+        }
+    }
+
+    /// The error of op `index` breaking a rule of the engine.
+    fn rule(&self, index: usize, op: &Op, message: String) -> PostError {
+        PostError::Rule {
+            post: self.post.name.clone(),
+            index,
+            op: op_name(op),
+            message,
+        }
+    }
+
+    /// Refuses an op the definition has no template `name` for.
+    fn need(&self, index: usize, op: &Op, name: &str) -> Result<(), PostError> {
+        if self.post.has(name) {
+            Ok(())
+        } else {
+            Err(self.rule(
+                index,
+                op,
+                format!(
+                    "the {} postprocessor has no `{name}` template, so it cannot write this op",
+                    self.post.name
+                ),
+            ))
+        }
+    }
+
+    /// Renders template `name` and writes its blocks.
+    fn write(&mut self, name: &str, ctx: Value) -> Result<(), PostError> {
+        let text = self.post.render_template(name, ctx)?;
+        self.out.push_all(&text)
+    }
+
+    /// Writes op `index`.
+    fn op(&mut self, index: usize, op: &Op) -> Result<(), PostError> {
+        let post = self.post;
+        match op {
+            Op::Comment(t) => post.push_comment(&mut self.out, "comment", t)?,
+            Op::Section(t) => {
+                let name = if post.has("section") {
+                    "section"
+                } else {
+                    "comment"
+                };
+                post.push_comment(&mut self.out, name, t)?;
+            }
+            Op::ToolCall { number, name, rpm } => {
+                self.tool_number = *number;
+                let ctx = context! {
+                    number => *number,
+                    name => post.sanitize_comment(name),
+                    rpm => *rpm,
+                };
+                self.write("tool_call", ctx)?;
+                self.last = Default::default();
+                self.last_feed = None;
+            }
+            Op::SpindleOn { rpm } => {
+                self.write("spindle_on", context! { rpm => *rpm })?;
+                self.spindle = true;
+            }
+            Op::SpindleOff => {
+                self.write("spindle_off", context! {})?;
+                self.spindle = false;
+            }
+            Op::Coolant(Coolant::Off) => self.write("coolant_off", context! {})?,
+            Op::Coolant(k) => {
+                let code = match k {
+                    Coolant::Flood => &post.coolant.flood,
+                    Coolant::Mist => &post.coolant.mist,
+                    _ => &post.coolant.air,
+                };
+                let ctx = context! { code => code.as_str(), kind => k.name() };
+                self.write("coolant_on", ctx)?;
+            }
+            Op::Rapid(t) => {
+                let (words, [x, y, z]) = post.words(t, &mut self.last);
+                if !words.is_empty() {
+                    let ctx = context! { words, x, y, z };
+                    self.write("rapid", ctx)?;
+                    self.retracted = false;
+                }
+            }
+            Op::Feed { to, feed } => self.feed(index, op, to, *feed)?,
+            Op::Retract { z } => self.retract(index, op, *z)?,
+            Op::Rotary { tilt, c } => self.rotary(index, op, *tilt, *c)?,
+            Op::TiltedPlane {
+                rotation,
+                origin,
+                tilt,
+                c,
+            } => self.tilted_plane(index, op, rotation, origin, *tilt, *c)?,
+            Op::TiltedPlaneOff => {
+                self.need(index, op, "tilted_plane_off")?;
+                self.write("tilted_plane_off", context! {})?;
+                self.plane = false;
+                self.last = Default::default();
+            }
+            Op::TcpOn => {
+                self.need(index, op, "tcp_on")?;
+                if self.plane || self.tcp {
+                    return Err(self.rule(
+                        index,
+                        op,
+                        "a tilted plane or TCP is already active".into(),
+                    ));
+                }
+                self.write("tcp_on", context! { number => self.tool_number })?;
+                self.tcp = true;
+                self.last = Default::default();
+            }
+            Op::TcpOff => {
+                self.need(index, op, "tcp_off")?;
+                self.write("tcp_off", context! { number => self.tool_number })?;
+                self.tcp = false;
+                self.last = Default::default();
+            }
+            Op::ProbeMove {
+                from,
+                to,
+                feed,
+                direction,
+            } => self.probe_move(index, op, from, to, *feed, direction)?,
+            Op::ProbeRead { vars } => {
+                self.need(index, op, "probe_read")?;
+                let ctx = context! { x => vars[0], y => vars[1], z => vars[2] };
+                self.write("probe_read", ctx)?;
+            }
+            Op::LogOpen { name, test } => {
+                if self.log.is_some() {
+                    return Err(self.rule(index, op, "a log is already open".into()));
+                }
+                if post.has("log_open") {
+                    let ctx = context! { name => name.as_str(), test => test.as_str() };
+                    self.write("log_open", ctx)?;
+                }
+                self.log = Some(name.clone());
+                self.log_used = Some((name.clone(), test.clone()));
+            }
+            Op::LogPoint {
+                index: touch,
+                label,
+            } => self.log_point(index, op, *touch, label)?,
+            Op::LogClose => {
+                let Some(name) = self.log.take() else {
+                    return Err(self.rule(index, op, "no log is open".into()));
+                };
+                if post.has("log_close") {
+                    self.write("log_close", context! { name })?;
+                }
+            }
+            Op::Dwell(s) => {
+                self.need(index, op, "dwell")?;
+                self.write("dwell", context! { seconds => *s })?;
+            }
+            Op::Stop(t) => {
+                self.need(index, op, "stop")?;
+                let ctx = context! { text => post.sanitize_comment(t) };
+                self.write("stop", ctx)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// A feed move, its feed word written only when it changes.
+    fn feed(&mut self, index: usize, op: &Op, to: &Target, feed: f64) -> Result<(), PostError> {
+        if !(feed.is_finite() && feed > 0.0) {
+            return Err(self.rule(index, op, format!("feed must be > 0 mm/min, got {feed}")));
+        }
+        let (words, [x, y, z]) = self.post.words(to, &mut self.last);
+        if !words.is_empty() {
+            let fw = self.post.numbers.feed.format(feed);
+            let new_feed = self.last_feed.as_deref() != Some(fw.as_str());
+            self.last_feed = Some(fw);
+            let ctx = context! { words, x, y, z, f => feed, new_feed };
+            self.write("feed", ctx)?;
+            self.retracted = false;
+        }
+        Ok(())
+    }
+
+    /// A retract to the safe height, refused when the template writes
+    /// anything but a Z move there.
+    fn retract(&mut self, index: usize, op: &Op, z: f64) -> Result<(), PostError> {
+        let t = Target {
+            z: Some(z),
+            ..Target::default()
+        };
+        // A retract is always written, even when Z is unchanged:
+        // it is the marker the safety rule and readers rely on.
+        self.last[2] = None;
+        let (words, _) = self.post.words(&t, &mut self.last);
+        let ctx = context! { words => words.as_str(), z => z };
+        let block = self.post.render_template("retract", ctx)?;
+        // Whatever the template says, a retract reaches the
+        // safe height before a rotary index may follow.
+        if !block.contains(&words) || moves_axes(&block, &['X', 'Y']) {
+            return Err(self.rule(
+                index,
+                op,
+                format!(
+                    "the retract template wrote `{}`, which does not move Z alone to `{words}`",
+                    block.trim()
+                ),
+            ));
+        }
+        self.out.push_all(&block)?;
+        self.retracted = true;
+        Ok(())
+    }
+
+    /// A rotary index, refused unless right after a retract and with no
+    /// tilted plane active.
+    fn rotary(&mut self, index: usize, op: &Op, tilt: f64, c: f64) -> Result<(), PostError> {
+        if !self.retracted {
+            return Err(self.rule(
+                index,
+                op,
+                "a rotary index must follow a retract to the safe height, with no move in between"
+                    .into(),
+            ));
+        }
+        if self.plane {
+            return Err(self.rule(
+                index,
+                op,
+                "cancel the tilted working plane before indexing the rotary axes".into(),
+            ));
+        }
+        let a = &self.post.numbers.angle;
+        let tilt_letter = self.info.tilt_letter;
+        let words = format!("{}{} C{}", tilt_letter, a.format(tilt), a.format(c));
+        let ctx = context! {
+            words,
+            tilt => tilt,
+            c => c,
+            tilt_letter => tilt_letter.to_string(),
+        };
+        self.write("rotary", ctx)?;
+        self.last = Default::default();
+        Ok(())
+    }
+
+    /// A tilted working plane (both Euler conventions offered to the
+    /// template), refused when one or TCP is already active.
+    fn tilted_plane(
+        &mut self,
+        index: usize,
+        op: &Op,
+        rotation: &Matrix3<f64>,
+        origin: &Vector3<f64>,
+        tilt: f64,
+        c: f64,
+    ) -> Result<(), PostError> {
+        self.need(index, op, "tilted_plane")?;
+        if self.plane || self.tcp {
+            return Err(self.rule(index, op, "a tilted plane or TCP is already active".into()));
+        }
+        let [i, j, k] = euler_zxz(rotation);
+        let [spa, spb, spc] = euler_spatial(rotation);
+        let ctx = context! {
+            i, j, k, spa, spb, spc,
+            x => origin.x, y => origin.y, z => origin.z,
+            tilt => tilt, c => c,
+            tilt_letter => self.info.tilt_letter.to_string(),
+        };
+        self.write("tilted_plane", ctx)?;
+        self.plane = true;
+        self.last = Default::default();
+        Ok(())
+    }
+
+    /// A probing move, refused with the spindle on, at no feed, or off the
+    /// axes on a control that probes along one axis only.
+    fn probe_move(
+        &mut self,
+        index: usize,
+        op: &Op,
+        from: &Vector3<f64>,
+        to: &Vector3<f64>,
+        feed: f64,
+        direction: &Vector3<f64>,
+    ) -> Result<(), PostError> {
+        self.need(index, op, "probe_move")?;
+        if self.spindle {
+            return Err(self.rule(index, op, "probe moves need the spindle stopped".into()));
+        }
+        if !(feed.is_finite() && feed > 0.0) {
+            return Err(self.rule(
+                index,
+                op,
+                format!("probing feed must be > 0 mm/min, got {feed}"),
+            ));
+        }
+        let d = direction.normalize();
+        let axis = (0..3).find(|&i| (d[i].abs() - 1.0).abs() < 1e-9);
+        if self.post.probe_axis_aligned && axis.is_none() {
+            return Err(self.rule(
+                index,
+                op,
+                format!(
+                    "the {} control probes along one axis only; direction ({:.4}, {:.4}, {:.4}) is not along X, Y or Z",
+                    self.post.name, d.x, d.y, d.z
+                ),
+            ));
+        }
+        let (axis_letter, sign) = match axis {
+            Some(i) => (
+                ["X", "Y", "Z"][i].to_string(),
+                if d[i] > 0.0 { "+" } else { "-" }.to_string(),
+            ),
+            None => (String::new(), String::new()),
+        };
+        // Probe moves always state every axis: the target is
+        // what the controller compares the contact against.
+        self.last = Default::default();
+        let (words, _) = self.post.words(&Target::xyz(*to), &mut self.last);
+        let ctx = context! {
+            words,
+            x => to.x, y => to.y, z => to.z,
+            sx => from.x, sy => from.y, sz => from.z,
+            f => feed,
+            axis => axis_letter,
+            sign,
+            aligned => axis.is_some(),
+        };
+        self.write("probe_move", ctx)?;
+        self.retracted = false;
+        // The machine stops wherever contact happens, and the
+        // probing feed is modal now: the next feed move names its own.
+        self.last = Default::default();
+        self.last_feed = None;
+        Ok(())
+    }
+
+    /// One touch's record in the open probe log.
+    fn log_point(
+        &mut self,
+        index: usize,
+        op: &Op,
+        touch: usize,
+        label: &str,
+    ) -> Result<(), PostError> {
+        self.need(index, op, "log_point")?;
+        let Some(name) = &self.log else {
+            return Err(self.rule(index, op, "no log is open (LogOpen first)".into()));
+        };
+        if !crate::formats::valid_label(label) {
+            return Err(self.rule(
+                index,
+                op,
+                format!("label `{label}` must be letters, digits, `_`, `.` and `-`"),
+            ));
+        }
+        let ctx = context! {
+            index => touch,
+            label => label,
+            name => name.as_str(),
+        };
+        self.write("log_point", ctx)
+    }
+
+    /// The blocks written and the probe log used, refused when a log is
+    /// left open or a tilted plane or TCP still active after the last of
+    /// `n_ops` ops.
+    fn finish(self, n_ops: usize) -> Result<(Blocks<'a>, Option<(String, String)>), PostError> {
+        if let Some(name) = self.log {
+            return Err(PostError::Rule {
+                post: self.post.name.clone(),
+                index: n_ops,
+                op: "log_close",
+                message: format!("log `{name}` is never closed"),
+            });
+        }
+        if self.plane || self.tcp {
+            return Err(PostError::Rule {
+                post: self.post.name.clone(),
+                index: n_ops,
+                op: "footer",
+                message: "the program ends with a tilted plane or TCP still active".into(),
+            });
+        }
+        Ok((self.out, self.log_used))
     }
 }
 

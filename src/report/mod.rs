@@ -144,19 +144,45 @@ fn fmt_opt(u: Option<f64>) -> String {
 pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportError> {
     // Every file is staged: the report appears whole or not at all.
     let mut files = StagedDir::create(dir)?;
-    let put = |name: &str, bytes: &[u8], files: &mut StagedDir| -> Result<(), ReportError> {
-        files.write(Path::new(name), bytes)?;
-        Ok(())
-    };
-    let est = r.est;
-    let data = r.data;
-    let names = est.model.param_names();
-    let units = est.model.param_units();
-    let plot = |name: &str, res: Result<String, String>| {
-        res.map_err(|e| ReportError::Plot(name.into(), e))
-    };
+    let mut figs = location_figures(r, &mut files)?;
+    figs.extend(map_figures(r, &mut files)?);
+    let shown = deviations(r.data, r.est);
+    let (max_dev, mag) = shown_magnification(&shown);
+    let pose_figs = pose_figures(r, &shown, max_dev, mag, &mut files)?;
+    let groups = residual_groups(r.data, &r.est.residuals);
+    put(
+        &mut files,
+        "residuals.svg",
+        plot(
+            "residuals.svg",
+            plots::residual_plot(&groups, r.est.sigma_um),
+        )?
+        .as_bytes(),
+    )?;
+    put(&mut files, "piece.glb", &glb::glb(&shown, mag))?;
+    let h = page(r, &figs, &pose_figs, mag);
+    put(&mut files, "index.html", h.as_bytes())?;
+    Ok(files.commit()?)
+}
 
-    // Location errors, lengths and angles apart.
+/// Stages one file of the report.
+fn put(files: &mut StagedDir, name: &str, bytes: &[u8]) -> Result<(), ReportError> {
+    files.write(Path::new(name), bytes)?;
+    Ok(())
+}
+
+/// A plot's text, or the error naming its file.
+fn plot(name: &str, res: Result<String, String>) -> Result<String, ReportError> {
+    res.map_err(|e| ReportError::Plot(name.into(), e))
+}
+
+/// The plots of the identifiable location errors with their error bars,
+/// lengths and angles apart: (file, caption) of each.
+fn location_figures(
+    r: &ReportInput<'_>,
+    files: &mut StagedDir,
+) -> Result<Vec<(String, String)>, ReportError> {
+    let est = r.est;
     let mut figs: Vec<(String, String)> = Vec::new();
     if let Some(e) = est.model.find("location") {
         let range = est.model.param_range(e);
@@ -182,13 +208,13 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
                 if !items.is_empty() {
                     let file = format!("location-{unit}.svg");
                     put(
+                        files,
                         &file,
                         plot(
                             &file,
                             plots::values_with_bars(title, &unit.to_string(), &items),
                         )?
                         .as_bytes(),
-                        &mut files,
                     )?;
                     figs.push((
                         file,
@@ -198,7 +224,17 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
             }
         }
     }
-    // Maps against angle.
+    Ok(figs)
+}
+
+/// The plot of each error map against angle (one line per tilt node for
+/// a map over both axes): (file, caption) of each.
+fn map_figures(
+    r: &ReportInput<'_>,
+    files: &mut StagedDir,
+) -> Result<Vec<(String, String)>, ReportError> {
+    let est = r.est;
+    let mut figs = Vec::new();
     for (ei, e) in est.model.effects.iter().enumerate() {
         let Effect::Map { symbol, grid } = e else {
             continue;
@@ -239,13 +275,13 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         };
         let file = format!("map-{}.svg", ms.name.replace(['(', ')', ','], "_"));
         put(
+            files,
             &file,
             plot(
                 &file,
                 plots::map_plot(&ms.name, &x_desc, &ms.unit.to_string(), &rows),
             )?
             .as_bytes(),
-            &mut files,
         )?;
         figs.push((
             file,
@@ -255,8 +291,12 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
             ),
         ));
     }
-    // Deviations of every pose, magnified.
-    let shown = deviations(data, est);
+    Ok(figs)
+}
+
+/// The largest deviation (um) and the magnification that shows it at 8 %
+/// of the piece's extent.
+fn shown_magnification(shown: &[ShownPoint]) -> (f64, f64) {
     let max_dev = shown
         .iter()
         .fold(0.0f64, |a, p| a.max(p.deviation_um.abs()));
@@ -270,8 +310,20 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         );
         (hi - lo).max()
     };
-    let mag = magnification(max_dev, extent.max(1.0), 0.08);
-    let kin = &est.model.kin;
+    (max_dev, magnification(max_dev, extent.max(1.0), 0.08))
+}
+
+/// The plot of each pose's deviations, magnified, seen along the tool axis
+/// and from the side: the file of each.
+fn pose_figures(
+    r: &ReportInput<'_>,
+    shown: &[ShownPoint],
+    max_dev: f64,
+    mag: f64,
+    files: &mut StagedDir,
+) -> Result<Vec<String>, ReportError> {
+    let data = r.data;
+    let kin = &r.est.model.kin;
     let mut pose_figs = Vec::new();
     for pose in &data.poses {
         let inv = kin.nominal_table_transform(pose.tilt, pose.c).inverse();
@@ -307,22 +359,21 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         ];
         let file = format!("pose-{}.svg", pose.id);
         put(
+            files,
             &file,
             plot(&file, plots::pose_plot(&title, &views, max_dev))?.as_bytes(),
-            &mut files,
         )?;
         pose_figs.push(file);
     }
-    // Residuals.
-    let groups = residual_groups(data, &est.residuals);
-    put(
-        "residuals.svg",
-        plot("residuals.svg", plots::residual_plot(&groups, est.sigma_um))?.as_bytes(),
-        &mut files,
-    )?;
-    put("piece.glb", &glb::glb(&shown, mag), &mut files)?;
+    Ok(pose_figs)
+}
 
-    // The page.
+/// The report page: what was measured, the fit verdict, what the test
+/// identifies, the results table and plots, the deviations, the residuals
+/// and the notes.
+fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], mag: f64) -> String {
+    let (est, data) = (r.est, r.data);
+    let kin = &est.model.kin;
     let mut h = page_start(&r.title);
     let _ = writeln!(
         h,
@@ -338,6 +389,50 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
             .collect::<Vec<_>>()
             .join(", "))
     );
+    fit_section(&mut h, r);
+    let _ = writeln!(
+        h,
+        "<h2>What the test identifies</h2>\n<pre>{}</pre>",
+        esc(&est.identifiability.render())
+    );
+    results_section(&mut h, r, figs);
+    let _ = writeln!(
+        h,
+        "<h2>Measured deviations, magnified x{mag}</h2>\n<p>Dots: nominal points; circles: measured points with the deviation along the normal magnified (blue: into the material, red: proud). The same in 3-D: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>"
+    );
+    for f in pose_figs {
+        let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
+    }
+    h.push_str("</div>\n<h2>Residuals</h2>\n<img src=\"residuals.svg\" alt=\"residuals\">\n");
+    h.push_str("<table><tr><th>pose</th><th>face</th><th>points</th><th>mean um</th><th>rms um</th><th>max um</th></tr>\n");
+    for row in est.residual_table(data) {
+        let _ = writeln!(
+            h,
+            "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
+            esc(&row.pose),
+            esc(&row.face),
+            row.points,
+            row.mean_um,
+            row.rms_um,
+            row.max_um
+        );
+    }
+    h.push_str("</table>\n");
+    let notes: Vec<&String> = data.warnings.iter().chain(&est.notes).collect();
+    if !notes.is_empty() {
+        h.push_str("<h2>Notes</h2><ul>\n");
+        for n in notes {
+            let _ = writeln!(h, "<li>{}</li>", esc(n));
+        }
+        h.push_str("</ul>\n");
+    }
+    h.push_str("</body></html>\n");
+    h
+}
+
+/// The page's fit verdict, if the result file has one: a warning box when
+/// the model does not fit.
+fn fit_section(h: &mut String, r: &ReportInput<'_>) {
     if let Some(f) = &r.error_file.fit {
         let line = format!(
             "Residuals {:.3} um against {:.3} um expected ({}): ratio {:.2}, p = {:.1e} over {} degrees of freedom.",
@@ -353,11 +448,15 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
             let _ = writeln!(h, "<p>The model fits. {}</p>", esc(&line));
         }
     }
-    let _ = writeln!(
-        h,
-        "<h2>What the test identifies</h2>\n<pre>{}</pre>",
-        esc(&est.identifiability.render())
-    );
+}
+
+/// The page's results: every parameter with its value and u (or "not
+/// identifiable"), the reasons for those not identifiable, and the plots of
+/// the values.
+fn results_section(h: &mut String, r: &ReportInput<'_>, figs: &[(String, String)]) {
+    let est = r.est;
+    let names = est.model.param_names();
+    let units = est.model.param_units();
     let _ = writeln!(
         h,
         "<h2>Results</h2>\n<p>Residual standard deviation {:.3} um ({} degrees of freedom). Uncertainties are standard uncertainties (k = 1){}.</p>",
@@ -397,7 +496,7 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         h.push_str("</ul>\n");
     }
     h.push_str("<div class=grid>\n");
-    for (f, cap) in &figs {
+    for (f, cap) in figs {
         let _ = writeln!(
             h,
             "<figure><img src=\"{f}\" alt=\"{c}\"><figcaption>{c}</figcaption></figure>",
@@ -405,39 +504,6 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         );
     }
     h.push_str("</div>\n");
-    let _ = writeln!(
-        h,
-        "<h2>Measured deviations, magnified x{mag}</h2>\n<p>Dots: nominal points; circles: measured points with the deviation along the normal magnified (blue: into the material, red: proud). The same in 3-D: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>"
-    );
-    for f in &pose_figs {
-        let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
-    }
-    h.push_str("</div>\n<h2>Residuals</h2>\n<img src=\"residuals.svg\" alt=\"residuals\">\n");
-    h.push_str("<table><tr><th>pose</th><th>face</th><th>points</th><th>mean um</th><th>rms um</th><th>max um</th></tr>\n");
-    for row in est.residual_table(data) {
-        let _ = writeln!(
-            h,
-            "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
-            esc(&row.pose),
-            esc(&row.face),
-            row.points,
-            row.mean_um,
-            row.rms_um,
-            row.max_um
-        );
-    }
-    h.push_str("</table>\n");
-    let notes: Vec<&String> = data.warnings.iter().chain(&est.notes).collect();
-    if !notes.is_empty() {
-        h.push_str("<h2>Notes</h2><ul>\n");
-        for n in notes {
-            let _ = writeln!(h, "<li>{}</li>", esc(n));
-        }
-        h.push_str("</ul>\n");
-    }
-    h.push_str("</body></html>\n");
-    put("index.html", h.as_bytes(), &mut files)?;
-    Ok(files.commit()?)
 }
 
 /// Residuals grouped by pose for the residual plot: (pose id, (running

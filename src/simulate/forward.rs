@@ -243,14 +243,10 @@ impl MachiningForward {
         let cut = &self.cut;
         let model = &cut.model;
         let label = &pp.point.label;
-        let (p, n) = (pp.point.p, pp.point.n);
         let pose = pp.provenance.pose;
         let mv = g.mv;
-        let np = model.n_params();
         // The tool at the generating instant.
         let (pj, jt, ja) = model.pose_jacobian(theta, &cut.context(pose, mv, g.t, offset));
-        let tip = pj.pose.tip;
-        let u = pj.pose.axis;
         // The actual path direction: a chord about the instant within the
         // affine piece (exact on a straight piece, second-order on a bent one).
         let (lo, hi) = cut.piece(pose, mv, g.t);
@@ -266,225 +262,345 @@ impl MachiningForward {
         }
         let (p1, j1, _) = model.pose_jacobian(theta, &cut.context(pose, mv, t1, offset));
         let (p2, j2, _) = model.pose_jacobian(theta, &cut.context(pose, mv, t2, offset));
-        let v = (p2.pose.tip - p1.pose.tip) / (t2 - t1);
-        let dv = (&j2 - &j1) / (t2 - t1);
         let dr = cut.radius_error(theta);
-        let ra_grad = &self.radius_grad;
         let nominal = &cut.plan.cutter;
-        let ra = nominal.radius + dr;
-        let rot_normal = |normal: &Vector3<f64>| {
-            let mut d = DMatrix::zeros(3, np);
-            for j in 0..np {
-                let w = u.cross(&col(&ja, j));
-                set_col(&mut d, j, &w.cross(normal));
-            }
-            d
+        let at = Instant {
+            label,
+            p: pp.point.p,
+            n: pp.point.n,
+            g,
+            np: model.n_params(),
+            tip: pj.pose.tip,
+            u: pj.pose.axis,
+            v: (p2.pose.tip - p1.pose.tip) / (t2 - t1),
+            dv: (&j2 - &j1) / (t2 - t1),
+            jt,
+            ja,
+            lo,
+            hi,
+            nominal,
+            dr,
+            ra: nominal.radius + dr,
+            ra_grad: &self.radius_grad,
         };
-        // A neighbour counts only where its contact instant lies on the move.
-        let on_move = |tau: f64| g.generator || (g.t + tau >= -1e-9 && g.t + tau <= 1.0 + 1e-9);
-        let vv = v.norm_squared();
-        let miss = |e: ForwardError| if g.generator { Err(e) } else { Ok(None) };
         match g.part {
-            ToolPart::Flank => {
-                let w = u.cross(&v);
-                let wn = w.norm();
-                if wn < 1e-9 {
-                    return miss(ForwardError::Other(format!(
-                        "{label}: the tool moves along its own axis where its flank cuts"
-                    )));
-                }
-                let sign = if w.dot(&n) < 0.0 { -1.0 } else { 1.0 };
-                let m = w * (sign / wn);
-                let mn = m.dot(&n);
-                if mn.abs() < 1e-6 {
-                    return miss(ForwardError::NoIntersection(label.clone()));
-                }
-                let s = (m.dot(&(tip - p)) - ra) / mn;
-                if !on_move((p + n * s - tip).dot(&v) / vv) {
-                    return Ok(None);
-                }
-                let mut ds = DVector::zeros(np);
-                let mut dm = DMatrix::zeros(3, np);
-                for j in 0..np {
-                    let dw = (col(&ja, j).cross(&v) + u.cross(&col(&dv, j))) * sign;
-                    let dmj = (dw - m * m.dot(&dw)) / wn;
-                    set_col(&mut dm, j, &dmj);
-                    ds[j] =
-                        (dmj.dot(&(tip - p)) + m.dot(&col(&jt, j)) - ra_grad[j] - s * dmj.dot(&n))
-                            / mn;
-                }
-                Ok(Some(Local {
-                    s,
-                    ds,
-                    normal: m,
-                    dnormal: dm,
-                }))
-            }
-            ToolPart::FlatEnd => {
-                let beta = v.dot(&u);
-                let vp = v - u * beta;
-                let alpha = vp.norm();
-                if alpha < 1e-9 {
-                    return miss(ForwardError::Other(format!(
-                        "{label}: the tool plunges along its axis where its end cuts"
-                    )));
-                }
-                let ev = vp / alpha;
-                let ew = u.cross(&ev);
-                let k = beta / alpha;
-                // Below 1e-12 the edge term is under 1e-11 mm: the disc's plane.
-                let (ak, sk) = if k.abs() < 1e-12 {
-                    (0.0, 0.0)
-                } else {
-                    (k.abs(), k.signum())
-                };
-                // The flat part of the end: the whole end of a flat end mill,
-                // the core of a bull-nose (its torus rounds the rim, which
-                // lowers the edge by r (1 - cos) of the path's slope: below
-                // 1e-7 mm for slopes under 1e-3).
-                let rf = ra - nominal.corner;
-                let parts = |s: f64| {
-                    let x = p + n * s - tip;
-                    let y = ew.dot(&x);
-                    let sq = (rf * rf - y * y).max(0.0).sqrt();
-                    (x, ev.dot(&x), y, u.dot(&x), sq)
-                };
-                let f = |s: f64| {
-                    let (_, xx, _, zz, sq) = parts(s);
-                    zz - k * xx + ak * sq
-                };
-                let fp = |s: f64| {
-                    let (_, _, y, _, sq) = parts(s);
-                    let edge = if sq > 1e-12 {
-                        ak * y * ew.dot(&n) / sq
-                    } else {
-                        0.0
-                    };
-                    u.dot(&n) - k * ev.dot(&n) - edge
-                };
-                let mut s = 0.0;
-                for _ in 0..60 {
-                    let d = f(s) / fp(s);
-                    s -= d;
-                    if d.abs() < 1e-15 {
-                        break;
-                    }
-                }
-                let (x, xx, y, _, sq) = parts(s);
-                if !g.generator {
-                    // Under the disc, and cut while the tool was on the move.
-                    if y.abs() > rf {
-                        return Ok(None);
-                    }
-                    let (t_lo, t_hi) = if ak == 0.0 {
-                        ((xx - sq) / alpha, (xx + sq) / alpha)
-                    } else {
-                        let tau = (xx - sk * sq) / alpha;
-                        (tau, tau)
-                    };
-                    if g.t + t_hi < -1e-9 || g.t + t_lo > 1.0 + 1e-9 {
-                        return Ok(None);
-                    }
-                }
-                let fps = fp(s);
-                let mut ds = DVector::zeros(np);
-                for j in 0..np {
-                    let (dtip, du, dvj) = (col(&jt, j), col(&ja, j), col(&dv, j));
-                    let dbeta = dvj.dot(&u) + v.dot(&du);
-                    let dvp = dvj - u * dbeta - du * beta;
-                    let dalpha = ev.dot(&dvp);
-                    let dev = (dvp - ev * ev.dot(&dvp)) / alpha;
-                    let dew = du.cross(&ev) + u.cross(&dev);
-                    let dk = (dbeta - k * dalpha) / alpha;
-                    let dx = -dtip;
-                    let mut df =
-                        du.dot(&x) + u.dot(&dx) - dk * xx - k * (dev.dot(&x) + ev.dot(&dx))
-                            + sk * dk * sq;
-                    if sq > 1e-12 {
-                        df += ak * (rf * ra_grad[j] - y * (dew.dot(&x) + ew.dot(&dx))) / sq;
-                    }
-                    ds[j] = -df / fps;
-                }
-                let edge = if sq > 1e-12 { ak * y / sq } else { 0.0 };
-                let normal = (u - ev * k - ew * edge).normalize();
-                Ok(Some(Local {
-                    s,
-                    ds,
-                    normal,
-                    dnormal: rot_normal(&normal),
-                }))
-            }
-            ToolPart::Ball => {
-                let c = tip + u * ra;
-                let vn = v.norm();
-                let vh = v / vn;
-                let perp = |x: &Vector3<f64>| x - vh * vh.dot(x);
-                let a = perp(&n);
-                let b = perp(&(p - c));
-                let (aa, ab, bb) = (a.dot(&a), a.dot(&b), b.dot(&b) - ra * ra);
-                let disc = ab * ab - aa * bb;
-                if aa < 1e-12 || disc < 0.0 {
-                    return miss(ForwardError::NoIntersection(label.clone()));
-                }
-                let s = (-ab - disc.sqrt()) / aa;
-                let w = p + n * s - c;
-                if !on_move(w.dot(&v) / vv) {
-                    return Ok(None);
-                }
-                let wp = perp(&w);
-                let dgs = 2.0 * wp.dot(&n);
-                let mut ds = DVector::zeros(np);
-                for j in 0..np {
-                    let dc = col(&jt, j) + u * ra_grad[j] + col(&ja, j) * ra;
-                    let dvh = (col(&dv, j) - vh * vh.dot(&col(&dv, j))) / vn;
-                    let dg =
-                        2.0 * (-wp.dot(&dc) - vh.dot(&w) * wp.dot(&dvh)) - 2.0 * ra * ra_grad[j];
-                    ds[j] = -dg / dgs;
-                }
-                let normal = wp.normalize();
-                Ok(Some(Local {
-                    s,
-                    ds,
-                    normal,
-                    dnormal: rot_normal(&normal),
-                }))
-            }
-            ToolPart::Torus | ToolPart::Corner => {
-                let cutter = actual_cutter(nominal, dr);
-                let vn = v.norm();
-                let w = (cutter.radius + 2.0) / vn;
-                let (tl, th) = ((lo - g.t).max(-w), (hi - g.t).min(w));
-                let a = tip + v * tl;
-                let b = tip + v * th;
-                let q0 = p - n * LINE_DEPTH;
-                let Some(e) = cutter.entry_along(&a, &b, &u, &q0, &n, 0.0, 2.0 * LINE_DEPTH) else {
-                    return miss(ForwardError::NoIntersection(label.clone()));
-                };
-                let s = e - LINE_DEPTH;
-                let x = q0 + n * e;
-                let (_, tt) = cutter.swept_distance(&a, &b, &u, &x);
-                let tau = tl + tt * (th - tl);
-                let tc = tip + v * tau;
-                let (gq, gu, gr) = sd_gradient(&cutter, &tc, &u, &x);
-                let den = gq.dot(&n);
-                if den.abs() < 1e-9 {
-                    return miss(ForwardError::NoIntersection(label.clone()));
-                }
-                let mut ds = DVector::zeros(np);
-                for j in 0..np {
-                    let dtip = col(&jt, j) + col(&dv, j) * tau;
-                    let dsd = -gq.dot(&dtip) + gu.dot(&col(&ja, j)) + gr * ra_grad[j];
-                    ds[j] = -dsd / den;
-                }
-                let normal = -gq;
-                Ok(Some(Local {
-                    s,
-                    ds,
-                    normal,
-                    dnormal: rot_normal(&normal),
-                }))
+            ToolPart::Flank => at.flank(),
+            ToolPart::FlatEnd => at.flat_end(),
+            ToolPart::Ball => at.ball(),
+            ToolPart::Torus | ToolPart::Corner => at.torus(),
+        }
+    }
+}
+
+/// The tool at a point's generating instant (or a neighbour's), with the
+/// derivatives with respect to the parameters that the intersection of the
+/// point's normal line with the swept tool needs.
+struct Instant<'a> {
+    label: &'a String,
+    /// The nominal point and its normal.
+    p: Vector3<f64>,
+    n: Vector3<f64>,
+    g: &'a Candidate,
+    /// Number of parameters.
+    np: usize,
+    /// Tool tip and axis, and their Jacobians.
+    tip: Vector3<f64>,
+    u: Vector3<f64>,
+    jt: DMatrix<f64>,
+    ja: DMatrix<f64>,
+    /// Tip velocity along the move and its Jacobian.
+    v: Vector3<f64>,
+    dv: DMatrix<f64>,
+    /// The affine piece of the move around the instant.
+    lo: f64,
+    hi: f64,
+    nominal: &'a Cutter,
+    /// Radius error, actual radius and its gradient.
+    dr: f64,
+    ra: f64,
+    ra_grad: &'a [f64],
+}
+
+impl Instant<'_> {
+    /// The Jacobian of a normal turned with the tool axis.
+    fn rot_normal(&self, normal: &Vector3<f64>) -> DMatrix<f64> {
+        let mut d = DMatrix::zeros(3, self.np);
+        for j in 0..self.np {
+            let w = self.u.cross(&col(&self.ja, j));
+            set_col(&mut d, j, &w.cross(normal));
+        }
+        d
+    }
+
+    /// A contact whose normal turns with the tool axis.
+    fn contact(&self, s: f64, ds: DVector<f64>, normal: Vector3<f64>) -> Option<Local> {
+        Some(Local {
+            s,
+            ds,
+            normal,
+            dnormal: self.rot_normal(&normal),
+        })
+    }
+
+    /// Whether a contact `tau` from the instant counts: a neighbour counts
+    /// only where its contact instant lies on the move.
+    fn on_move(&self, tau: f64) -> bool {
+        let g = self.g;
+        g.generator || (g.t + tau >= -1e-9 && g.t + tau <= 1.0 + 1e-9)
+    }
+
+    /// No intersection: an error for a generator, nothing for a neighbour.
+    fn miss(&self, e: ForwardError) -> Result<Option<Local>, ForwardError> {
+        if self.g.generator { Err(e) } else { Ok(None) }
+    }
+
+    /// The flank: the cylinder swept along the path.
+    fn flank(&self) -> Result<Option<Local>, ForwardError> {
+        let Instant {
+            label,
+            p,
+            n,
+            np,
+            tip,
+            u,
+            v,
+            ra,
+            ra_grad,
+            ..
+        } = *self;
+        let (jt, ja, dv) = (&self.jt, &self.ja, &self.dv);
+        let vv = v.norm_squared();
+        let w = u.cross(&v);
+        let wn = w.norm();
+        if wn < 1e-9 {
+            return self.miss(ForwardError::Other(format!(
+                "{label}: the tool moves along its own axis where its flank cuts"
+            )));
+        }
+        let sign = if w.dot(&n) < 0.0 { -1.0 } else { 1.0 };
+        let m = w * (sign / wn);
+        let mn = m.dot(&n);
+        if mn.abs() < 1e-6 {
+            return self.miss(ForwardError::NoIntersection(label.clone()));
+        }
+        let s = (m.dot(&(tip - p)) - ra) / mn;
+        if !self.on_move((p + n * s - tip).dot(&v) / vv) {
+            return Ok(None);
+        }
+        let mut ds = DVector::zeros(np);
+        let mut dm = DMatrix::zeros(3, np);
+        for j in 0..np {
+            let dw = (col(ja, j).cross(&v) + u.cross(&col(dv, j))) * sign;
+            let dmj = (dw - m * m.dot(&dw)) / wn;
+            set_col(&mut dm, j, &dmj);
+            ds[j] = (dmj.dot(&(tip - p)) + m.dot(&col(jt, j)) - ra_grad[j] - s * dmj.dot(&n)) / mn;
+        }
+        Ok(Some(Local {
+            s,
+            ds,
+            normal: m,
+            dnormal: dm,
+        }))
+    }
+
+    /// The flat end: the disc (with its edge) swept along the path.
+    fn flat_end(&self) -> Result<Option<Local>, ForwardError> {
+        let Instant {
+            label,
+            p,
+            n,
+            g,
+            np,
+            tip,
+            u,
+            v,
+            ra,
+            ra_grad,
+            nominal,
+            ..
+        } = *self;
+        let (jt, ja, dv) = (&self.jt, &self.ja, &self.dv);
+        let beta = v.dot(&u);
+        let vp = v - u * beta;
+        let alpha = vp.norm();
+        if alpha < 1e-9 {
+            return self.miss(ForwardError::Other(format!(
+                "{label}: the tool plunges along its axis where its end cuts"
+            )));
+        }
+        let ev = vp / alpha;
+        let ew = u.cross(&ev);
+        let k = beta / alpha;
+        // Below 1e-12 the edge term is under 1e-11 mm: the disc's plane.
+        let (ak, sk) = if k.abs() < 1e-12 {
+            (0.0, 0.0)
+        } else {
+            (k.abs(), k.signum())
+        };
+        // The flat part of the end: the whole end of a flat end mill,
+        // the core of a bull-nose (its torus rounds the rim, which
+        // lowers the edge by r (1 - cos) of the path's slope: below
+        // 1e-7 mm for slopes under 1e-3).
+        let rf = ra - nominal.corner;
+        let parts = |s: f64| {
+            let x = p + n * s - tip;
+            let y = ew.dot(&x);
+            let sq = (rf * rf - y * y).max(0.0).sqrt();
+            (x, ev.dot(&x), y, u.dot(&x), sq)
+        };
+        let f = |s: f64| {
+            let (_, xx, _, zz, sq) = parts(s);
+            zz - k * xx + ak * sq
+        };
+        let fp = |s: f64| {
+            let (_, _, y, _, sq) = parts(s);
+            let edge = if sq > 1e-12 {
+                ak * y * ew.dot(&n) / sq
+            } else {
+                0.0
+            };
+            u.dot(&n) - k * ev.dot(&n) - edge
+        };
+        let mut s = 0.0;
+        for _ in 0..60 {
+            let d = f(s) / fp(s);
+            s -= d;
+            if d.abs() < 1e-15 {
+                break;
             }
         }
+        let (x, xx, y, _, sq) = parts(s);
+        if !g.generator {
+            // Under the disc, and cut while the tool was on the move.
+            if y.abs() > rf {
+                return Ok(None);
+            }
+            let (t_lo, t_hi) = if ak == 0.0 {
+                ((xx - sq) / alpha, (xx + sq) / alpha)
+            } else {
+                let tau = (xx - sk * sq) / alpha;
+                (tau, tau)
+            };
+            if g.t + t_hi < -1e-9 || g.t + t_lo > 1.0 + 1e-9 {
+                return Ok(None);
+            }
+        }
+        let fps = fp(s);
+        let mut ds = DVector::zeros(np);
+        for j in 0..np {
+            let (dtip, du, dvj) = (col(jt, j), col(ja, j), col(dv, j));
+            let dbeta = dvj.dot(&u) + v.dot(&du);
+            let dvp = dvj - u * dbeta - du * beta;
+            let dalpha = ev.dot(&dvp);
+            let dev = (dvp - ev * ev.dot(&dvp)) / alpha;
+            let dew = du.cross(&ev) + u.cross(&dev);
+            let dk = (dbeta - k * dalpha) / alpha;
+            let dx = -dtip;
+            let mut df =
+                du.dot(&x) + u.dot(&dx) - dk * xx - k * (dev.dot(&x) + ev.dot(&dx)) + sk * dk * sq;
+            if sq > 1e-12 {
+                df += ak * (rf * ra_grad[j] - y * (dew.dot(&x) + ew.dot(&dx))) / sq;
+            }
+            ds[j] = -df / fps;
+        }
+        let edge = if sq > 1e-12 { ak * y / sq } else { 0.0 };
+        let normal = (u - ev * k - ew * edge).normalize();
+        Ok(self.contact(s, ds, normal))
+    }
+
+    /// The ball end: the sphere swept along the path.
+    fn ball(&self) -> Result<Option<Local>, ForwardError> {
+        let Instant {
+            label,
+            p,
+            n,
+            np,
+            tip,
+            u,
+            v,
+            ra,
+            ra_grad,
+            ..
+        } = *self;
+        let (jt, ja, dv) = (&self.jt, &self.ja, &self.dv);
+        let vv = v.norm_squared();
+        let c = tip + u * ra;
+        let vn = v.norm();
+        let vh = v / vn;
+        let perp = |x: &Vector3<f64>| x - vh * vh.dot(x);
+        let a = perp(&n);
+        let b = perp(&(p - c));
+        let (aa, ab, bb) = (a.dot(&a), a.dot(&b), b.dot(&b) - ra * ra);
+        let disc = ab * ab - aa * bb;
+        if aa < 1e-12 || disc < 0.0 {
+            return self.miss(ForwardError::NoIntersection(label.clone()));
+        }
+        let s = (-ab - disc.sqrt()) / aa;
+        let w = p + n * s - c;
+        if !self.on_move(w.dot(&v) / vv) {
+            return Ok(None);
+        }
+        let wp = perp(&w);
+        let dgs = 2.0 * wp.dot(&n);
+        let mut ds = DVector::zeros(np);
+        for j in 0..np {
+            let dc = col(jt, j) + u * ra_grad[j] + col(ja, j) * ra;
+            let dvh = (col(dv, j) - vh * vh.dot(&col(dv, j))) / vn;
+            let dg = 2.0 * (-wp.dot(&dc) - vh.dot(&w) * wp.dot(&dvh)) - 2.0 * ra * ra_grad[j];
+            ds[j] = -dg / dgs;
+        }
+        let normal = wp.normalize();
+        Ok(self.contact(s, ds, normal))
+    }
+
+    /// The torus (or corner) of a bull-nose: the actual cutter swept along
+    /// the piece of the path, its signed distance differentiated.
+    fn torus(&self) -> Result<Option<Local>, ForwardError> {
+        let Instant {
+            label,
+            p,
+            n,
+            g,
+            np,
+            tip,
+            u,
+            v,
+            lo,
+            hi,
+            nominal,
+            dr,
+            ra_grad,
+            ..
+        } = *self;
+        let (jt, ja, dv) = (&self.jt, &self.ja, &self.dv);
+        let cutter = actual_cutter(nominal, dr);
+        let vn = v.norm();
+        let w = (cutter.radius + 2.0) / vn;
+        let (tl, th) = ((lo - g.t).max(-w), (hi - g.t).min(w));
+        let a = tip + v * tl;
+        let b = tip + v * th;
+        let q0 = p - n * LINE_DEPTH;
+        let Some(e) = cutter.entry_along(&a, &b, &u, &q0, &n, 0.0, 2.0 * LINE_DEPTH) else {
+            return self.miss(ForwardError::NoIntersection(label.clone()));
+        };
+        let s = e - LINE_DEPTH;
+        let x = q0 + n * e;
+        let (_, tt) = cutter.swept_distance(&a, &b, &u, &x);
+        let tau = tl + tt * (th - tl);
+        let tc = tip + v * tau;
+        let (gq, gu, gr) = sd_gradient(&cutter, &tc, &u, &x);
+        let den = gq.dot(&n);
+        if den.abs() < 1e-9 {
+            return self.miss(ForwardError::NoIntersection(label.clone()));
+        }
+        let mut ds = DVector::zeros(np);
+        for j in 0..np {
+            let dtip = col(jt, j) + col(dv, j) * tau;
+            let dsd = -gq.dot(&dtip) + gu.dot(&col(ja, j)) + gr * ra_grad[j];
+            ds[j] = -dsd / den;
+        }
+        let normal = -gq;
+        Ok(self.contact(s, ds, normal))
     }
 }
 

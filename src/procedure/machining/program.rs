@@ -125,7 +125,6 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
     let tool = d.tool.clone();
     let k = Kinematics::with_gauge_length(m, tool.length);
     let cutter = Cutter::of(&tool);
-    let letter = m.tilt_letter();
     if cfg.kinematics == KinematicsMode::Controller && post.controller == ControllerKinematics::None
     {
         return Err(PlanError::Impossible(format!(
@@ -134,14 +133,81 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
         )));
     }
 
-    // Safe height and the room above it.
     let (safe_z, safe_why) = safe_height(m, &d);
+    check_room(m, tool.length, safe_z, &safe_why)?;
+
+    let mut all_corners = corners_of(&d.stock);
+    if let Some(f) = &d.fixture {
+        all_corners.extend(corners_of(f));
+    }
+    let mut poses: Vec<PlannedPose> = Vec::new();
+    let mut prev_xy: Option<(f64, f64)> = None;
+    for (seq, pd) in d.poses.iter().enumerate() {
+        let (start, moves) = pose_moves(cfg, &d, &k, pd, &all_corners, safe_z, prev_xy)?;
+        let retract = moves.last().expect("moves").axes;
+        prev_xy = Some((retract.xyz.x, retract.xyz.y));
+        check_pose(m, &d, &k, &cutter, pd, &start, &moves)?;
+        poses.push(PlannedPose {
+            id: pd.id.clone(),
+            seq: seq as u32,
+            tilt: pd.tilt,
+            c: pd.c,
+            start_min: 0.0,
+            end_min: 0.0,
+            tool_axis: pd.axis,
+            frame: pd.frame,
+            feature: pd.feature.clone(),
+            start,
+            moves,
+        });
+    }
+
+    let ops = toolpath(cfg, &d, safe_z, &poses);
+    let run_minutes = estimate_times(m, &mut poses);
+
+    // Provenance of every point, and its place on the piece.
+    let mut points = Vec::new();
+    for pt in &d.points {
+        points.push(provenance(&cutter, &k, &d.poses, &poses, pt, &d)?);
+    }
+    let piece = piece(&d);
+
+    let info = program_info(cfg, &d, safe_z, &safe_why, &poses, run_minutes);
+    let program = post.render(&info, &ops)?;
+
+    Ok(MachiningPlan {
+        test: cfg.test(),
+        machine: m.clone(),
+        template: cfg.template.clone(),
+        post: post.clone(),
+        dialect: post.dialect,
+        kinematics: cfg.kinematics,
+        tool,
+        cutter,
+        cutting: d.cutting.clone(),
+        safe_z,
+        poses,
+        piece,
+        points,
+        toolpath: ops,
+        info,
+        program,
+        notes: d.notes,
+        run_minutes,
+        stock_text: d.stock_text,
+        safe_reason: safe_why,
+    })
+}
+
+/// Refuses a tool longer than the room between the safe height and the
+/// spindle's highest position.
+fn check_room(m: &Machine, length: f64, safe_z: f64, safe_why: &str) -> Result<(), PlanError> {
     let z_top = m.strokes[2].1 - m.pivot.z;
     let room = z_top - safe_z;
-    if tool.length > room {
+    if length > room {
         return Err(PlanError::Impossible(format!(
             "tool length {} mm is longer than the clearance of {} mm between the safe height Z{} ({safe_why}) and the spindle's highest position (gauge point at Z{} in program coordinates, machine Z {}) on {}",
-            short(tool.length),
+            short(length),
             short((room * 1000.0).round() / 1000.0),
             short((safe_z * 1000.0).round() / 1000.0),
             short((z_top * 1000.0).round() / 1000.0),
@@ -149,7 +215,155 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
             m.name
         )));
     }
-    let gauge = |a: &Axes| a.xyz + Vector3::z() * tool.length;
+    Ok(())
+}
+
+/// One pose's position after the rotary index and its moves, in W and in
+/// axes: down from the safe height to the approach above the stock, each
+/// stroke entered and left at feed, back up to the safe height; in the
+/// program coordinates of the kinematics mode.
+fn pose_moves(
+    cfg: &PlanConfig,
+    d: &Design,
+    k: &Kinematics,
+    pd: &PoseDesign,
+    all_corners: &[Vector3<f64>],
+    safe_z: f64,
+    prev_xy: Option<(f64, f64)>,
+) -> Result<(Axes, Vec<PathMove>), PlanError> {
+    let m = &cfg.machine;
+    let letter = m.tilt_letter();
+    let u = pd.axis;
+    let level = all_corners
+        .iter()
+        .map(|c| u.dot(c))
+        .fold(f64::NEG_INFINITY, f64::max)
+        + d.clearance.rapid;
+    let lift = |p: &Vector3<f64>| p + u * (level - u.dot(p)).max(0.0);
+    let mut hint = Axes {
+        xyz: Vector3::zeros(),
+        tilt: pd.tilt,
+        c: pd.c,
+    };
+    let mut ik = |tip: &Vector3<f64>, what: &str| -> Result<Axes, PlanError> {
+        let a = k
+            .inverse_nominal(&ToolPose { tip: *tip, axis: u }, Some(&hint))
+            .map_err(|source| PlanError::Kinematics {
+                context: format!("pose {}: {what}", pd.id),
+                source,
+            })?;
+        if (a.tilt - pd.tilt).abs() > 1e-7 || (a.c - pd.c).abs() > 1e-7 {
+            return Err(PlanError::Impossible(format!(
+                "pose {}: inverse kinematics reaches the tool axis at {letter} = {:.6}, C = {:.6} instead of the pose's {letter} = {}, C = {}",
+                pd.id, a.tilt, a.c, pd.tilt, pd.c
+            )));
+        }
+        let a = Axes {
+            tilt: pd.tilt,
+            c: pd.c,
+            ..a
+        };
+        hint = a;
+        Ok(a)
+    };
+    let first = pd
+        .strokes
+        .first()
+        .ok_or_else(|| PlanError::Impossible(format!("pose {} has no cut", pd.id)))?;
+    let approach = ik(&lift(&first.start), "approach")?;
+    let safe_axes = Axes {
+        xyz: Vector3::new(approach.xyz.x, approach.xyz.y, safe_z),
+        ..approach
+    };
+    let (sx, sy) = prev_xy.unwrap_or((approach.xyz.x, approach.xyz.y));
+    let start = Axes {
+        xyz: Vector3::new(sx, sy, safe_z),
+        tilt: pd.tilt,
+        c: pd.c,
+    };
+    let mut moves: Vec<PathMove> = Vec::new();
+    let mk = |axes: Axes, tip: Vector3<f64>, rapid: bool, feed: f64, pass: Pass| PathMove {
+        rapid,
+        feed,
+        pass,
+        axes,
+        program: axes.xyz,
+        tip,
+    };
+    let rapid = m.rapid.linear;
+    moves.push(mk(
+        safe_axes,
+        k.forward_nominal(&safe_axes).tip,
+        true,
+        rapid,
+        Pass::Air,
+    ));
+    moves.push(mk(approach, lift(&first.start), true, rapid, Pass::Air));
+    for (j, s) in pd.strokes.iter().enumerate() {
+        if j > 0 {
+            let p = lift(&s.start);
+            moves.push(mk(ik(&p, "move over")?, p, true, rapid, Pass::Air));
+        }
+        moves.push(mk(
+            ik(&s.start, "entry")?,
+            s.start,
+            false,
+            d.cutting.plunge_feed,
+            Pass::Entry,
+        ));
+        for (p, pass) in &s.segs {
+            moves.push(mk(ik(p, "cut")?, *p, false, d.cutting.feed, *pass));
+        }
+        // Out of the cut at feed: the tool may still rub material it
+        // just cut around; rapids only start above the stock.
+        let last = s.segs.last().map_or(s.start, |x| x.0);
+        let p = lift(&last);
+        moves.push(mk(
+            ik(&p, "exit")?,
+            p,
+            false,
+            d.cutting.plunge_feed,
+            Pass::Exit,
+        ));
+    }
+    let last = moves.last().expect("moves").axes;
+    let retract = Axes {
+        xyz: Vector3::new(last.xyz.x, last.xyz.y, safe_z),
+        ..last
+    };
+    moves.push(mk(
+        retract,
+        k.forward_nominal(&retract).tip,
+        true,
+        rapid,
+        Pass::Air,
+    ));
+
+    // Program coordinates of the mode (the retract is written untilted).
+    let n = moves.len();
+    if cfg.kinematics == KinematicsMode::Controller {
+        for mv in moves.iter_mut().take(n - 1) {
+            mv.program = match cfg.post.controller {
+                ControllerKinematics::TiltedPlane => pd.frame.transpose() * mv.tip,
+                _ => mv.tip,
+            };
+        }
+    }
+    Ok((start, moves))
+}
+
+/// Refuses a pose whose moves leave an axis stroke (at the gauge point) or
+/// whose rapids run into the stock or riser.
+fn check_pose(
+    m: &Machine,
+    d: &Design,
+    k: &Kinematics,
+    cutter: &Cutter,
+    pd: &PoseDesign,
+    start: &Axes,
+    moves: &[PathMove],
+) -> Result<(), PlanError> {
+    let gauge = |a: &Axes| a.xyz + Vector3::z() * d.tool.length;
     let check_strokes = |pose: &str, what: &str, a: &Axes| -> Result<(), PlanError> {
         m.check_strokes(&gauge(a))
             .map_err(|(axis, value, (lo, hi))| PlanError::Stroke {
@@ -162,177 +376,41 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
                 machine: m.name.clone(),
             })
     };
-
-    let mut all_corners = corners_of(&d.stock);
-    if let Some(f) = &d.fixture {
-        all_corners.extend(corners_of(f));
-    }
-
-    // Poses: moves in W and axes.
-    let mut poses: Vec<PlannedPose> = Vec::new();
-    let mut prev_xy: Option<(f64, f64)> = None;
-    for (seq, pd) in d.poses.iter().enumerate() {
-        let u = pd.axis;
-        let level = all_corners
-            .iter()
-            .map(|c| u.dot(c))
-            .fold(f64::NEG_INFINITY, f64::max)
-            + d.clearance.rapid;
-        let lift = |p: &Vector3<f64>| p + u * (level - u.dot(p)).max(0.0);
-        let mut hint = Axes {
-            xyz: Vector3::zeros(),
-            tilt: pd.tilt,
-            c: pd.c,
-        };
-        let mut ik = |tip: &Vector3<f64>, what: &str| -> Result<Axes, PlanError> {
-            let a = k
-                .inverse_nominal(&ToolPose { tip: *tip, axis: u }, Some(&hint))
-                .map_err(|source| PlanError::Kinematics {
-                    context: format!("pose {}: {what}", pd.id),
-                    source,
-                })?;
-            if (a.tilt - pd.tilt).abs() > 1e-7 || (a.c - pd.c).abs() > 1e-7 {
-                return Err(PlanError::Impossible(format!(
-                    "pose {}: inverse kinematics reaches the tool axis at {letter} = {:.6}, C = {:.6} instead of the pose's {letter} = {}, C = {}",
-                    pd.id, a.tilt, a.c, pd.tilt, pd.c
-                )));
-            }
-            let a = Axes {
-                tilt: pd.tilt,
-                c: pd.c,
-                ..a
-            };
-            hint = a;
-            Ok(a)
-        };
-        let first = pd
-            .strokes
-            .first()
-            .ok_or_else(|| PlanError::Impossible(format!("pose {} has no cut", pd.id)))?;
-        let approach = ik(&lift(&first.start), "approach")?;
-        let safe_axes = Axes {
-            xyz: Vector3::new(approach.xyz.x, approach.xyz.y, safe_z),
-            ..approach
-        };
-        let (sx, sy) = prev_xy.unwrap_or((approach.xyz.x, approach.xyz.y));
-        let start = Axes {
-            xyz: Vector3::new(sx, sy, safe_z),
-            tilt: pd.tilt,
-            c: pd.c,
-        };
-        let mut moves: Vec<PathMove> = Vec::new();
-        let mk = |axes: Axes, tip: Vector3<f64>, rapid: bool, feed: f64, pass: Pass| PathMove {
-            rapid,
-            feed,
-            pass,
-            axes,
-            program: axes.xyz,
-            tip,
-        };
-        let rapid = m.rapid.linear;
-        moves.push(mk(
-            safe_axes,
-            k.forward_nominal(&safe_axes).tip,
-            true,
-            rapid,
-            Pass::Air,
-        ));
-        moves.push(mk(approach, lift(&first.start), true, rapid, Pass::Air));
-        for (j, s) in pd.strokes.iter().enumerate() {
-            if j > 0 {
-                let p = lift(&s.start);
-                moves.push(mk(ik(&p, "move over")?, p, true, rapid, Pass::Air));
-            }
-            moves.push(mk(
-                ik(&s.start, "entry")?,
-                s.start,
-                false,
-                d.cutting.plunge_feed,
-                Pass::Entry,
-            ));
-            for (p, pass) in &s.segs {
-                moves.push(mk(ik(p, "cut")?, *p, false, d.cutting.feed, *pass));
-            }
-            // Out of the cut at feed: the tool may still rub material it
-            // just cut around; rapids only start above the stock.
-            let last = s.segs.last().map_or(s.start, |x| x.0);
-            let p = lift(&last);
-            moves.push(mk(
-                ik(&p, "exit")?,
-                p,
-                false,
-                d.cutting.plunge_feed,
-                Pass::Exit,
-            ));
-        }
-        let last = moves.last().expect("moves").axes;
-        let retract = Axes {
-            xyz: Vector3::new(last.xyz.x, last.xyz.y, safe_z),
-            ..last
-        };
-        moves.push(mk(
-            retract,
-            k.forward_nominal(&retract).tip,
-            true,
-            rapid,
-            Pass::Air,
-        ));
-        prev_xy = Some((retract.xyz.x, retract.xyz.y));
-
-        // Program coordinates of the mode (the retract is written untilted).
-        let n = moves.len();
-        if cfg.kinematics == KinematicsMode::Controller {
-            for mv in moves.iter_mut().take(n - 1) {
-                mv.program = match post.controller {
-                    ControllerKinematics::TiltedPlane => pd.frame.transpose() * mv.tip,
-                    _ => mv.tip,
-                };
-            }
-        }
-
-        // Checks: strokes everywhere, rapids clear of stock and riser.
-        check_strokes(&pd.id, "the position after the rotary index", &start)?;
-        let mut prev_tip = k.forward_nominal(&start).tip;
-        for (i, mv) in moves.iter().enumerate() {
-            check_strokes(&pd.id, &format!("move {}", i + 1), &mv.axes)?;
-            if mv.rapid {
-                let mut boxes = vec![&d.stock];
-                boxes.extend(d.fixture.as_ref());
-                for bx in boxes {
-                    if rapid_hits(&cutter, &prev_tip, &mv.tip, &u, bx) {
-                        return Err(PlanError::Impossible(format!(
-                            "pose {}: rapid move {} from ({:.3}, {:.3}, {:.3}) to ({:.3}, {:.3}, {:.3}) in W would run the tool into the stock or riser",
-                            pd.id,
-                            i + 1,
-                            prev_tip.x,
-                            prev_tip.y,
-                            prev_tip.z,
-                            mv.tip.x,
-                            mv.tip.y,
-                            mv.tip.z
-                        )));
-                    }
+    check_strokes(&pd.id, "the position after the rotary index", start)?;
+    let mut prev_tip = k.forward_nominal(start).tip;
+    for (i, mv) in moves.iter().enumerate() {
+        check_strokes(&pd.id, &format!("move {}", i + 1), &mv.axes)?;
+        if mv.rapid {
+            let mut boxes = vec![&d.stock];
+            boxes.extend(d.fixture.as_ref());
+            for bx in boxes {
+                if rapid_hits(cutter, &prev_tip, &mv.tip, &pd.axis, bx) {
+                    return Err(PlanError::Impossible(format!(
+                        "pose {}: rapid move {} from ({:.3}, {:.3}, {:.3}) to ({:.3}, {:.3}, {:.3}) in W would run the tool into the stock or riser",
+                        pd.id,
+                        i + 1,
+                        prev_tip.x,
+                        prev_tip.y,
+                        prev_tip.z,
+                        mv.tip.x,
+                        mv.tip.y,
+                        mv.tip.z
+                    )));
                 }
             }
-            prev_tip = mv.tip;
         }
-
-        poses.push(PlannedPose {
-            id: pd.id.clone(),
-            seq: seq as u32,
-            tilt: pd.tilt,
-            c: pd.c,
-            start_min: 0.0,
-            end_min: 0.0,
-            tool_axis: u,
-            frame: pd.frame,
-            feature: pd.feature.clone(),
-            start,
-            moves,
-        });
+        prev_tip = mv.tip;
     }
+    Ok(())
+}
 
-    // Neutral toolpath.
+/// The neutral toolpath the postprocessor renders: tool call, then per
+/// pose its section, the rotary index, the tilted plane or TCP of the
+/// controller mode, its moves and the retract.
+fn toolpath(cfg: &PlanConfig, d: &Design, safe_z: f64, poses: &[PlannedPose]) -> Vec<Op> {
+    let post = &cfg.post;
+    let tool = &d.tool;
+    let letter = cfg.machine.tilt_letter();
     let mut ops = vec![
         Op::ToolCall {
             number: tool.number,
@@ -347,7 +425,7 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
         ops.push(Op::Coolant(d.cutting.coolant));
     }
     ops.push(Op::Retract { z: safe_z });
-    for p in &poses {
+    for p in poses {
         ops.push(Op::Section(format!(
             "pose {} (seq {}): {letter} = {}, C = {}: {}",
             p.id,
@@ -389,12 +467,16 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
         }
         ops.push(Op::Retract { z: safe_z });
     }
+    ops
+}
 
-    // Time estimate.
+/// The run time in minutes (tool change, rotary indexes, every move at its
+/// feed), with each pose's start and end written into it.
+fn estimate_times(m: &Machine, poses: &mut [PlannedPose]) -> f64 {
     let mut minutes = 0.1; // tool change
     let mut at = Axes::default();
     let mut first = true;
-    for p in &mut poses {
+    for p in poses {
         p.start_min = minutes;
         let (dt, dc) = ((p.tilt - at.tilt).abs(), (p.c - at.c).abs());
         minutes += dt.max(dc) / m.rapid.rotary;
@@ -415,15 +497,11 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
         at = cur;
         p.end_min = minutes;
     }
-    let run_minutes = minutes;
+    minutes
+}
 
-    // Provenance of every point, and its place on the piece.
-    let mut points = Vec::new();
-    for pt in &d.points {
-        points.push(provenance(&cutter, &k, &d.poses, &poses, pt, &d)?);
-    }
-
-    // The piece.
+/// The finished piece: its solid, mesh and faces.
+fn piece(d: &Design) -> Piece {
     let mesh = Mesh::from_csg(&d.csg, d.groups.clone());
     let faces = d
         .csg
@@ -437,15 +515,29 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
             outline: p.vertices.clone(),
         })
         .collect();
-    let piece = Piece {
+    Piece {
         stock: d.stock.clone(),
         fixture: d.fixture.clone(),
         solid: d.solid.clone(),
         faces,
         mesh,
-    };
+    }
+}
 
-    // Header and program.
+/// The program's header: what it is, for which machine, dialect and
+/// kinematics mode, the tool, zero point, stock, safe height and run time.
+fn program_info(
+    cfg: &PlanConfig,
+    d: &Design,
+    safe_z: f64,
+    safe_why: &str,
+    poses: &[PlannedPose],
+    run_minutes: f64,
+) -> ProgramInfo {
+    let m = &cfg.machine;
+    let post = &cfg.post;
+    let tool = &d.tool;
+    let letter = m.tilt_letter();
     let kin_text = match cfg.kinematics {
         KinematicsMode::Post => format!(
             "kinematics post: X Y Z {letter} C computed by fivecal from the machine file (inverse kinematics); no TCP, no tilted plane"
@@ -465,7 +557,7 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
     };
     let ids: Vec<&str> = poses.iter().map(|p| p.id.as_str()).collect();
     let stem = cfg.test().to_string();
-    let info = ProgramInfo {
+    ProgramInfo {
         name: stem.clone(),
         number: d.program_number,
         title: format!("{} {}", cfg.test(), m.name),
@@ -506,31 +598,7 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, Pla
         stock_min: d.stock.center - d.stock.half,
         stock_max: d.stock.center + d.stock.half,
         tilt_letter: letter,
-    };
-    let program = post.render(&info, &ops)?;
-
-    Ok(MachiningPlan {
-        test: cfg.test(),
-        machine: m.clone(),
-        template: cfg.template.clone(),
-        post: post.clone(),
-        dialect: post.dialect,
-        kinematics: cfg.kinematics,
-        tool,
-        cutter,
-        cutting: d.cutting.clone(),
-        safe_z,
-        poses,
-        piece,
-        points,
-        toolpath: ops,
-        info,
-        program,
-        notes: d.notes,
-        run_minutes,
-        stock_text: d.stock_text,
-        safe_reason: safe_why,
-    })
+    }
 }
 
 /// The move parameter where the tool axis passes closest to `p`, or

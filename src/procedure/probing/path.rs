@@ -155,6 +155,26 @@ struct Feasible {
     above: Waypoint,
 }
 
+/// A pose with its frame and its clearance height (program Z).
+struct FramedPose {
+    spec: PoseSpec,
+    frame: PoseFrame,
+    clear: f64,
+}
+
+/// What every touch is checked against: the machine, the collision
+/// checker, the probing settings and the control's limits.
+struct Reach<'a> {
+    kin: &'a Kinematics,
+    checker: Checker<'a>,
+    settings: &'a ProbingSettings,
+    limits: &'a ControlLimits,
+    /// Ball radius.
+    r: f64,
+    /// The safe height (program Z).
+    safe: f64,
+}
+
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn build(
     test: Test,
@@ -167,128 +187,30 @@ pub(crate) fn build(
 ) -> Result<TouchPlan, PlanError> {
     let margin = settings.safe_margin;
     let safe = round_up(safe_z(&kin, &obstacles, &probe, margin));
-    let checker = Checker::new(&kin, &obstacles, &probe);
-    let m = kin.machine();
-    let r = probe.ball_radius;
+    let (framed, safe) = framed_poses(&kin, &obstacles, &probe, &settings, specs, safe)?;
+    check_safe_height(&kin, safe)?;
 
+    let reach = Reach {
+        kin: &kin,
+        checker: Checker::new(&kin, &obstacles, &probe),
+        settings: &settings,
+        limits,
+        r: probe.ball_radius,
+        safe,
+    };
     let mut skipped = Vec::new();
-    // Clearance heights first: the safe height must be at least as high
-    // as every pose's.
-    let mut framed = Vec::new();
-    let mut safe = safe;
-    for spec in specs {
-        for (axis, v) in [(&m.tilt, spec.tilt), (&m.c, spec.c)] {
-            if !axis.within(v, 1e-9) {
-                return Err(PlanError::Unreachable(format!(
-                    "pose {}: {} = {v} deg is outside the machine's limits {}",
-                    spec.id,
-                    axis.letter,
-                    super::limits_text(axis)
-                )));
-            }
-        }
-        let frame = PoseFrame::new(&kin, spec.tilt, spec.c);
-        let mut clear = clear_z(&frame, &obstacles, &probe, margin);
-        // Traverse above every start point too, so that each start is
-        // reached by a descent.
-        for cand in &spec.candidates {
-            let start = cand.contact_w + cand.normal_w.normalize() * (r + settings.clearance);
-            clear = clear.max(frame.commanded(&start).xyz.z);
-        }
-        let clear = round_up(clear);
-        safe = safe.max(clear);
-        framed.push((spec, frame, clear));
-    }
-    // The safe height must be within the Z stroke: without it the rotary
-    // axes cannot turn safely anywhere.
-    {
-        let gauge = safe + kin.gauge_length() + m.pivot.z;
-        let (lo, hi) = m.strokes[2];
-        if gauge > hi + 1e-9 || gauge < lo - 1e-9 {
-            return Err(PlanError::Unreachable(format!(
-                "the probe clears the setup at every rotary position only above Z{safe} (program \
-                 coordinates), where Z would be at {gauge:.3} in machine coordinates, outside its stroke [{lo}, {hi}]"
-            )));
-        }
-    }
-    let mut planned: Vec<(PoseSpec, PoseFrame, f64, Vec<Feasible>)> = Vec::new();
-    for (spec, frame, clear) in framed {
-        let mut ok = Vec::new();
-        for cand in &spec.candidates {
-            let label = format!("{}_{}", spec.id, cand.feature);
-            let n = cand.normal_w.normalize();
-            let start = waypoint(&frame, cand.contact_w + n * (r + settings.clearance));
-            let contact = waypoint(&frame, cand.contact_w + n * r);
-            let end = waypoint(&frame, cand.contact_w + n * (r - settings.overtravel));
-            let above = at_z(&frame, &start, clear);
-            let high = at_z(&frame, &start, safe);
-            let skip = |why: String| LeftOut {
-                pose: spec.id.clone(),
-                label: label.clone(),
-                reason: why,
-            };
-            let mut why = None;
-            let n_prog = frame.dir_to_prog(&n);
-            if limits.axis_aligned_probing && !axis_aligned(&n_prog) {
-                why = Some(format!(
-                    "the control probes along X, Y or Z only, and this approach runs along \
-                     ({:.4}, {:.4}, {:.4}) in program coordinates",
-                    -n_prog.x, -n_prog.y, -n_prog.z
-                ));
-            }
-            for (what, w) in [
-                ("start", &start),
-                ("overtravel end", &end),
-                ("clearance point", &above),
-                ("safe point", &high),
-            ] {
-                if why.is_some() {
-                    break;
-                }
-                if let Err(e) = check_strokes(&kin, &w.axes) {
-                    why = Some(format!("{what}: {e}"));
-                    break;
-                }
-            }
-            if why.is_none() {
-                if let Err(c) = checker.check_move(&above.axes, &start.axes, margin) {
-                    why = Some(format!("going down to the start point, {c}"));
-                } else if let Err(c) = checker.check_move(&start.axes, &contact.axes, -1e-6) {
-                    why = Some(format!("on the probing move, {c}"));
-                }
-            }
-            if let Some(w) = why {
-                skipped.push(skip(w));
-                continue;
-            }
-            ok.push(Feasible {
-                touch: Touch {
-                    index: 0,
-                    label,
-                    pose: 0,
-                    piece: cand.piece.clone(),
-                    feature: cand.feature.clone(),
-                    contact_w: cand.contact_w,
-                    normal_w: n,
-                    contact_prog: frame.to_prog(&cand.contact_w),
-                    normal_prog: frame.dir_to_prog(&n),
-                    start,
-                    contact,
-                    end,
-                    feed: settings.feed,
-                },
-                above,
-            });
-        }
+    let mut planned: Vec<(FramedPose, Vec<Feasible>)> = Vec::new();
+    for pose in framed {
+        let ok = reach.feasible(&pose, &mut skipped);
         if ok.is_empty() {
             skipped.push(LeftOut {
-                pose: spec.id.clone(),
-                label: spec.id.clone(),
+                pose: pose.spec.id.clone(),
+                label: pose.spec.id.clone(),
                 reason: "no touch of this pose is reachable without collision".into(),
             });
             continue;
         }
-        planned.push((spec, frame, clear, ok));
+        planned.push((pose, ok));
     }
     if planned.is_empty() {
         return Err(PlanError::Unreachable(format!(
@@ -297,140 +219,18 @@ pub(crate) fn build(
             skipped.first().map_or("-", |s| s.reason.as_str())
         )));
     }
-
-    let mut poses = Vec::new();
-    let mut touches = Vec::new();
-    let mut moves: Vec<ProbingMove> = Vec::new();
     let first = &planned[0];
-    let start = at_z(&first.1, &first.3[0].touch.start, safe);
-    let mut here = start.clone();
-    let push = |moves: &mut Vec<ProbingMove>,
-                here: &mut Waypoint,
-                kind: ProbingMoveKind,
-                to: Waypoint,
-                pose: usize| {
-        let still = (to.axes.xyz - here.axes.xyz).norm() < 1e-9
-            && (to.axes.tilt - here.axes.tilt).abs() < 1e-12
-            && (to.axes.c - here.axes.c).abs() < 1e-12;
-        if still && matches!(kind, ProbingMoveKind::Rapid | ProbingMoveKind::Position) {
-            return;
-        }
-        moves.push(ProbingMove {
-            kind,
-            from: here.clone(),
-            to: to.clone(),
-            pose,
-        });
-        *here = to;
+    let start = at_z(&first.0.frame, &first.1[0].touch.start, safe);
+    let mut path = PathBuilder {
+        moves: Vec::new(),
+        here: start.clone(),
+        touches: Vec::new(),
     };
-    for (k, (spec, frame, clear, feas)) in planned.into_iter().enumerate() {
-        if k > 0 {
-            let turned = at_z(&frame, &here, safe);
-            push(&mut moves, &mut here, ProbingMoveKind::Rotary, turned, k);
-        }
-        let first_start = &feas[0].touch.start;
-        push(
-            &mut moves,
-            &mut here,
-            ProbingMoveKind::Rapid,
-            at_z(&frame, first_start, safe),
-            k,
-        );
-        push(
-            &mut moves,
-            &mut here,
-            ProbingMoveKind::Rapid,
-            feas[0].above.clone(),
-            k,
-        );
-        push(
-            &mut moves,
-            &mut here,
-            ProbingMoveKind::Position,
-            first_start.clone(),
-            k,
-        );
-        let t0 = touches.len();
-        let count = feas.len();
-        for (i, f) in feas.iter().enumerate() {
-            let ti = touches.len();
-            let mut touch = f.touch.clone();
-            touch.index = ti + 1;
-            touch.pose = k;
-            push(
-                &mut moves,
-                &mut here,
-                ProbingMoveKind::Probe(ti),
-                touch.end.clone(),
-                k,
-            );
-            // The controller stops at the contact; retract from there.
-            here = touch.contact.clone();
-            push(
-                &mut moves,
-                &mut here,
-                ProbingMoveKind::Retract(ti),
-                touch.start.clone(),
-                k,
-            );
-            touches.push(touch);
-            if i + 1 < count {
-                let next = &feas[i + 1];
-                if checker
-                    .check_move(&here.axes, &next.touch.start.axes, margin)
-                    .is_ok()
-                {
-                    push(
-                        &mut moves,
-                        &mut here,
-                        ProbingMoveKind::Position,
-                        next.touch.start.clone(),
-                        k,
-                    );
-                } else {
-                    push(
-                        &mut moves,
-                        &mut here,
-                        ProbingMoveKind::Position,
-                        f.above.clone(),
-                        k,
-                    );
-                    push(
-                        &mut moves,
-                        &mut here,
-                        ProbingMoveKind::Rapid,
-                        next.above.clone(),
-                        k,
-                    );
-                    push(
-                        &mut moves,
-                        &mut here,
-                        ProbingMoveKind::Position,
-                        next.touch.start.clone(),
-                        k,
-                    );
-                }
-            } else {
-                push(
-                    &mut moves,
-                    &mut here,
-                    ProbingMoveKind::Position,
-                    f.above.clone(),
-                    k,
-                );
-                let up = at_z(&frame, &here, safe);
-                push(&mut moves, &mut here, ProbingMoveKind::Rapid, up, k);
-            }
-        }
-        poses.push(TouchPose {
-            id: spec.id,
-            seq: k as u32,
-            tilt: spec.tilt,
-            c: spec.c,
-            touches: t0..touches.len(),
-            clear_z: clear,
-        });
+    let mut poses = Vec::new();
+    for (k, (pose, feas)) in planned.into_iter().enumerate() {
+        poses.push(path.pose(&reach, k, pose, &feas));
     }
+    let PathBuilder { moves, touches, .. } = path;
     let plan = TouchPlan {
         test,
         kin,
@@ -445,6 +245,242 @@ pub(crate) fn build(
         skipped,
         warnings: Vec::new(),
     };
+    check_path(plan)
+}
+
+/// Each pose's frame and clearance height (above its setup and every start
+/// point, so that each start is reached by a descent), refused beyond the
+/// rotary limits; and the safe height, raised to at least every pose's
+/// clearance height.
+fn framed_poses(
+    kin: &Kinematics,
+    obstacles: &[Obstacle],
+    probe: &ProbeShape,
+    settings: &ProbingSettings,
+    specs: Vec<PoseSpec>,
+    safe: f64,
+) -> Result<(Vec<FramedPose>, f64), PlanError> {
+    let m = kin.machine();
+    let r = probe.ball_radius;
+    let mut framed = Vec::new();
+    let mut safe = safe;
+    for spec in specs {
+        for (axis, v) in [(&m.tilt, spec.tilt), (&m.c, spec.c)] {
+            if !axis.within(v, 1e-9) {
+                return Err(PlanError::Unreachable(format!(
+                    "pose {}: {} = {v} deg is outside the machine's limits {}",
+                    spec.id,
+                    axis.letter,
+                    super::limits_text(axis)
+                )));
+            }
+        }
+        let frame = PoseFrame::new(kin, spec.tilt, spec.c);
+        let mut clear = clear_z(&frame, obstacles, probe, settings.safe_margin);
+        for cand in &spec.candidates {
+            let start = cand.contact_w + cand.normal_w.normalize() * (r + settings.clearance);
+            clear = clear.max(frame.commanded(&start).xyz.z);
+        }
+        let clear = round_up(clear);
+        safe = safe.max(clear);
+        framed.push(FramedPose { spec, frame, clear });
+    }
+    Ok((framed, safe))
+}
+
+/// Refuses a safe height beyond the Z stroke: without it the rotary axes
+/// cannot turn safely anywhere.
+fn check_safe_height(kin: &Kinematics, safe: f64) -> Result<(), PlanError> {
+    let m = kin.machine();
+    let gauge = safe + kin.gauge_length() + m.pivot.z;
+    let (lo, hi) = m.strokes[2];
+    if gauge > hi + 1e-9 || gauge < lo - 1e-9 {
+        return Err(PlanError::Unreachable(format!(
+            "the probe clears the setup at every rotary position only above Z{safe} (program \
+             coordinates), where Z would be at {gauge:.3} in machine coordinates, outside its stroke [{lo}, {hi}]"
+        )));
+    }
+    Ok(())
+}
+
+impl Reach<'_> {
+    /// The touches of a pose that can be made, the others left out with the
+    /// reason.
+    fn feasible(&self, pose: &FramedPose, skipped: &mut Vec<LeftOut>) -> Vec<Feasible> {
+        let mut ok = Vec::new();
+        for cand in &pose.spec.candidates {
+            let label = format!("{}_{}", pose.spec.id, cand.feature);
+            match self.touch(pose, cand, label.clone()) {
+                Ok(f) => ok.push(f),
+                Err(reason) => skipped.push(LeftOut {
+                    pose: pose.spec.id.clone(),
+                    label,
+                    reason,
+                }),
+            }
+        }
+        ok
+    }
+
+    /// One candidate as a touch with its waypoints, or why it cannot be
+    /// made: an approach off the axes on a control that probes along them
+    /// only, a waypoint beyond the strokes, or a collision on the way down
+    /// or on the probing move.
+    fn touch(
+        &self,
+        pose: &FramedPose,
+        cand: &Candidate,
+        label: String,
+    ) -> Result<Feasible, String> {
+        let FramedPose { frame, clear, .. } = pose;
+        let (settings, r) = (self.settings, self.r);
+        let margin = settings.safe_margin;
+        let n = cand.normal_w.normalize();
+        let start = waypoint(frame, cand.contact_w + n * (r + settings.clearance));
+        let contact = waypoint(frame, cand.contact_w + n * r);
+        let end = waypoint(frame, cand.contact_w + n * (r - settings.overtravel));
+        let above = at_z(frame, &start, *clear);
+        let high = at_z(frame, &start, self.safe);
+        let n_prog = frame.dir_to_prog(&n);
+        if self.limits.axis_aligned_probing && !axis_aligned(&n_prog) {
+            return Err(format!(
+                "the control probes along X, Y or Z only, and this approach runs along \
+                 ({:.4}, {:.4}, {:.4}) in program coordinates",
+                -n_prog.x, -n_prog.y, -n_prog.z
+            ));
+        }
+        for (what, w) in [
+            ("start", &start),
+            ("overtravel end", &end),
+            ("clearance point", &above),
+            ("safe point", &high),
+        ] {
+            if let Err(e) = check_strokes(self.kin, &w.axes) {
+                return Err(format!("{what}: {e}"));
+            }
+        }
+        if let Err(c) = self.checker.check_move(&above.axes, &start.axes, margin) {
+            return Err(format!("going down to the start point, {c}"));
+        } else if let Err(c) = self.checker.check_move(&start.axes, &contact.axes, -1e-6) {
+            return Err(format!("on the probing move, {c}"));
+        }
+        Ok(Feasible {
+            touch: Touch {
+                index: 0,
+                label,
+                pose: 0,
+                piece: cand.piece.clone(),
+                feature: cand.feature.clone(),
+                contact_w: cand.contact_w,
+                normal_w: n,
+                contact_prog: frame.to_prog(&cand.contact_w),
+                normal_prog: frame.dir_to_prog(&n),
+                start,
+                contact,
+                end,
+                feed: settings.feed,
+            },
+            above,
+        })
+    }
+}
+
+/// The probe's path as it is laid: the moves so far, where the probe is,
+/// and the touches made.
+struct PathBuilder {
+    moves: Vec<ProbingMove>,
+    here: Waypoint,
+    touches: Vec<Touch>,
+}
+
+impl PathBuilder {
+    /// A move of pose `pose` to `to`; a rapid or positioning move that goes
+    /// nowhere is left out.
+    fn push(&mut self, kind: ProbingMoveKind, to: Waypoint, pose: usize) {
+        let here = &self.here;
+        let still = (to.axes.xyz - here.axes.xyz).norm() < 1e-9
+            && (to.axes.tilt - here.axes.tilt).abs() < 1e-12
+            && (to.axes.c - here.axes.c).abs() < 1e-12;
+        if still && matches!(kind, ProbingMoveKind::Rapid | ProbingMoveKind::Position) {
+            return;
+        }
+        self.moves.push(ProbingMove {
+            kind,
+            from: here.clone(),
+            to: to.clone(),
+            pose,
+        });
+        self.here = to;
+    }
+
+    /// The `k`-th pose's part of the path: turn at the safe height, go down
+    /// to the first start point, probe each touch in turn (going round by
+    /// the clearance height where the direct way collides), and back up.
+    fn pose(
+        &mut self,
+        reach: &Reach<'_>,
+        k: usize,
+        pose: FramedPose,
+        feas: &[Feasible],
+    ) -> TouchPose {
+        let FramedPose { spec, frame, clear } = pose;
+        let safe = reach.safe;
+        if k > 0 {
+            let turned = at_z(&frame, &self.here, safe);
+            self.push(ProbingMoveKind::Rotary, turned, k);
+        }
+        let first_start = &feas[0].touch.start;
+        self.push(ProbingMoveKind::Rapid, at_z(&frame, first_start, safe), k);
+        self.push(ProbingMoveKind::Rapid, feas[0].above.clone(), k);
+        self.push(ProbingMoveKind::Position, first_start.clone(), k);
+        let t0 = self.touches.len();
+        let count = feas.len();
+        for (i, f) in feas.iter().enumerate() {
+            let ti = self.touches.len();
+            let mut touch = f.touch.clone();
+            touch.index = ti + 1;
+            touch.pose = k;
+            self.push(ProbingMoveKind::Probe(ti), touch.end.clone(), k);
+            // The controller stops at the contact; retract from there.
+            self.here = touch.contact.clone();
+            self.push(ProbingMoveKind::Retract(ti), touch.start.clone(), k);
+            self.touches.push(touch);
+            if i + 1 < count {
+                let next = &feas[i + 1];
+                if reach
+                    .checker
+                    .check_move(
+                        &self.here.axes,
+                        &next.touch.start.axes,
+                        reach.settings.safe_margin,
+                    )
+                    .is_ok()
+                {
+                    self.push(ProbingMoveKind::Position, next.touch.start.clone(), k);
+                } else {
+                    self.push(ProbingMoveKind::Position, f.above.clone(), k);
+                    self.push(ProbingMoveKind::Rapid, next.above.clone(), k);
+                    self.push(ProbingMoveKind::Position, next.touch.start.clone(), k);
+                }
+            } else {
+                self.push(ProbingMoveKind::Position, f.above.clone(), k);
+                let up = at_z(&frame, &self.here, safe);
+                self.push(ProbingMoveKind::Rapid, up, k);
+            }
+        }
+        TouchPose {
+            id: spec.id,
+            seq: k as u32,
+            tilt: spec.tilt,
+            c: spec.c,
+            touches: t0..self.touches.len(),
+            clear_z: clear,
+        }
+    }
+}
+
+/// The plan, refused if a move leaves the machine's travel or collides.
+fn check_path(plan: TouchPlan) -> Result<TouchPlan, PlanError> {
     if let Some((i, e)) = plan.check_limits().into_iter().next() {
         return Err(PlanError::Unreachable(format!(
             "move {i} of the path ({:?}) leaves the machine's travel: {e}",

@@ -24,7 +24,7 @@ use crate::kinematics::Kinematics;
 use crate::limits::{
     MAX_PLAN_MOVES, MAX_PLAN_POINT_MOVES, MAX_PLAN_POINTS, MAX_PLAN_POSES, MIN_PLAN_MM,
 };
-use crate::machine::ToolKind;
+use crate::machine::{Tool, ToolKind};
 use crate::mesh::{Cuboid, Solid};
 use crate::procedure::bounds::{echo, total};
 use crate::procedure::machining::Pass;
@@ -76,6 +76,35 @@ impl Step {
     }
 }
 
+/// One pose of the test: its angles, the frame of W it sees and the face it cuts.
+struct Pose {
+    tilt: f64,
+    c: f64,
+    frame: Matrix3<f64>,
+    face: FaceKind,
+}
+
+/// Where the block and its two bands of steps lie, in W (mm).
+struct Layout {
+    /// Half the block's side.
+    l: f64,
+    /// Height of the block's bottom and top.
+    zb: f64,
+    zt: f64,
+    /// Steps on the top face.
+    n_top: usize,
+    /// Most steps on any one side face.
+    n_side_max: usize,
+    /// Top of the side band, below the top steps.
+    z_side_top: f64,
+    /// Depth of the deepest side step.
+    d_side: f64,
+    /// Height of the side bosses' centres.
+    zc: f64,
+    /// Room kept between neighbouring steps.
+    margin: f64,
+}
+
 pub(crate) fn design(
     cfg: &PlanConfig,
     t: &SteppedSquareTemplate,
@@ -95,9 +124,80 @@ pub(crate) fn design(
     let k = Kinematics::with_gauge_length(m, tool.length);
     let letter = m.tilt_letter();
     let r = tool.diameter / 2.0;
+    let so = stepover(t, &tool)?;
+    let mut notes = Vec::new();
+
+    let order = tilt_order(&k, t, &mut notes)?;
+    let poses = poses(&k, t, &order)?;
+    let layout = layout(cfg, t, riser, &poses, &tool)?;
+    check_fit(t, &poses, &layout, &tool)?;
+    let (steps, features) = steps(t, &poses, &layout, r, letter)?;
+    let allow = t.cutting.finish_allowance.unwrap_or(0.0);
+    let pose_designs = toolpaths(t, &tool, &poses, &steps, features, so, allow, letter)?;
+    let points = points(t, &steps, &pose_designs, r);
+    let (stock, solid) = piece(t, &layout, &steps);
+
+    let Layout {
+        l,
+        zb,
+        n_top,
+        n_side_max,
+        ..
+    } = layout;
+    let size = t.stock.size;
+    let ids: Vec<String> = pose_designs.iter().map(|p| p.id.clone()).collect();
+    let csg = solid.to_csg();
+    let groups = groups(&ids);
+    let fixture = (riser > 0.0).then(|| {
+        Cuboid::aligned(
+            Vector3::new(-l, -l, m.table.surface),
+            Vector3::new(l, l, zb),
+            u32::MAX,
+        )
+    });
+    if n_side_max > 0 {
+        notes.push(format!(
+            "at {letter} = +-90 the tool axis runs {} mm above the table top at its lowest: the tool holder and spindle nose must be narrower than twice that",
+            short(zb + t.side.bottom_lip + r - m.table.surface)
+        ));
+    }
+    Ok(Design {
+        title: "stepped-square machining test (Ibaraki & Ota 2014)".into(),
+        description: format!(
+            "{} poses; {n_top} steps on the top face, {} on the side faces; {} CMM points",
+            poses.len(),
+            poses.len() - n_top,
+            points.len()
+        ),
+        program_number: 1001,
+        tool,
+        cutting: t.cutting.clone(),
+        clearance: t.clearance.clone(),
+        stock,
+        fixture,
+        solid,
+        csg,
+        groups,
+        poses: pose_designs,
+        points,
+        notes,
+        stock_text: format!(
+            "block {} x {} x {} mm, centred on the W origin in X and Y, on a {} mm riser (bottom at Z{} in W)",
+            short(size),
+            short(size),
+            short(t.stock.height),
+            short(riser),
+            short(zb)
+        ),
+    })
+}
+
+/// The distance between roughing rings, refused when a control could not resolve it.
+fn stepover(t: &SteppedSquareTemplate, tool: &Tool) -> Result<f64, PlanError> {
     let so = t.cutting.stepover * tool.diameter;
     if so.is_nan() || so < MIN_PLAN_MM {
-        return Err(src
+        return Err(t
+            .source
             .error(
                 &["cutting", "stepover"],
                 format!(
@@ -109,9 +209,49 @@ pub(crate) fn design(
             )
             .into());
     }
-    let mut notes = Vec::new();
+    Ok(so)
+}
 
-    // Angles: the top tilt first, then the others in the listed order.
+/// The face a pose cuts (with the frame of W it sees), refused when its tool
+/// axis is normal to no face of the block.
+fn classify(
+    k: &Kinematics,
+    t: &SteppedSquareTemplate,
+    tilt: f64,
+    c: f64,
+) -> Result<(Matrix3<f64>, FaceKind), PlanError> {
+    let letter = k.machine().tilt_letter();
+    let f = pose_frame(k, tilt, c);
+    let u: Vector3<f64> = f.column(2).into_owned();
+    if (u - Vector3::z()).norm() < 1e-9 {
+        return Ok((f, FaceKind::Top));
+    }
+    if u.z.abs() < 1e-9 && dir_code(&u).is_some() {
+        return Ok((f, FaceKind::Side(u)));
+    }
+    Err(t
+        .source
+        .error(
+            &["angles"],
+            format!(
+                "at {letter} = {tilt}, C = {c} the tool axis in W is {}, normal to no face of the block: steps are cut on the top face (tool along +Z, {letter} = 0) or on a side face (tool along +-X or +-Y); use tilts 0 and +-90 with C at multiples of 90 there",
+                dir_name(&u)
+            ),
+        )
+        .into())
+}
+
+/// The tilt angles in execution order: the top tilt first, then the others
+/// in the listed order (the default set leaves out, with a note, a tilt
+/// beyond the machine's limits).
+fn tilt_order(
+    k: &Kinematics,
+    t: &SteppedSquareTemplate,
+    notes: &mut Vec<String>,
+) -> Result<Vec<f64>, PlanError> {
+    let m = k.machine();
+    let src = &t.source;
+    let letter = m.tilt_letter();
     let tilts: Vec<f64> = match &t.angles.tilt {
         TiltSet::Auto => {
             let mut v = Vec::new();
@@ -135,29 +275,10 @@ pub(crate) fn design(
     for &c in &t.angles.c {
         within_limits(m, 'C', c).map_err(|e| src.error(&["angles", "c"], e))?;
     }
-    let classify = |tilt: f64, c: f64| -> Result<(Matrix3<f64>, FaceKind), PlanError> {
-        let f = pose_frame(&k, tilt, c);
-        let u: Vector3<f64> = f.column(2).into_owned();
-        if (u - Vector3::z()).norm() < 1e-9 {
-            return Ok((f, FaceKind::Top));
-        }
-        if u.z.abs() < 1e-9 && dir_code(&u).is_some() {
-            return Ok((f, FaceKind::Side(u)));
-        }
-        Err(src
-            .error(
-                &["angles"],
-                format!(
-                    "at {letter} = {tilt}, C = {c} the tool axis in W is {}, normal to no face of the block: steps are cut on the top face (tool along +Z, {letter} = 0) or on a side face (tool along +-X or +-Y); use tilts 0 and +-90 with C at multiples of 90 there",
-                    dir_name(&u)
-                ),
-            )
-            .into())
-    };
     let mut order: Vec<f64> = tilts
         .iter()
         .copied()
-        .filter(|&a| classify(a, t.angles.c[0]).is_ok_and(|(_, f)| f == FaceKind::Top))
+        .filter(|&a| classify(k, t, a, t.angles.c[0]).is_ok_and(|(_, f)| f == FaceKind::Top))
         .collect();
     if order.is_empty() {
         return Err(src
@@ -175,15 +296,20 @@ pub(crate) fn design(
         .filter(|a| !order.contains(a))
         .collect();
     order.extend(rest);
+    Ok(order)
+}
 
-    struct P {
-        tilt: f64,
-        c: f64,
-        frame: Matrix3<f64>,
-        face: FaceKind,
-    }
-    // Counted before any pose is made: the checks below compare poses
-    // pairwise, and every pose gets its points.
+/// CMM points asked for at each pose (in floats: a template built in code
+/// may ask for usize::MAX points).
+fn points_per_pose(t: &SteppedSquareTemplate) -> f64 {
+    4.0 * (t.points.per_wall as f64 + t.points.per_floor_side as f64)
+}
+
+/// Every pose (each tilt with each C), counted against the limits before
+/// any is made: the checks after compare poses pairwise, and every pose
+/// gets its points.
+fn poses(k: &Kinematics, t: &SteppedSquareTemplate, order: &[f64]) -> Result<Vec<Pose>, PlanError> {
+    let src = &t.source;
     let n_poses = order.len() * t.angles.c.len();
     total(
         src,
@@ -193,8 +319,7 @@ pub(crate) fn design(
         "poses",
         "list fewer angles",
     )?;
-    // In floats: a template built in code may ask for usize::MAX points.
-    let per_pose = 4.0 * (t.points.per_wall as f64 + t.points.per_floor_side as f64);
+    let per_pose = points_per_pose(t);
     total(
         src,
         &["points"],
@@ -207,10 +332,10 @@ pub(crate) fn design(
         ),
     )?;
     let mut poses = Vec::new();
-    for &tilt in &order {
+    for &tilt in order {
         for &c in &t.angles.c {
-            let (frame, face) = classify(tilt, c)?;
-            poses.push(P {
+            let (frame, face) = classify(k, t, tilt, c)?;
+            poses.push(Pose {
                 tilt,
                 c,
                 frame,
@@ -218,29 +343,53 @@ pub(crate) fn design(
             });
         }
     }
+    Ok(poses)
+}
 
-    // Geometry.
+/// The poses that cut the side face with outward normal `n`.
+fn side_count(poses: &[Pose], n: &Vector3<f64>) -> usize {
+    poses
+        .iter()
+        .filter(|p| matches!(p.face, FaceKind::Side(v) if (v - n).norm() < 1e-9))
+        .count()
+}
+
+/// Half the size of the `i`-th top step.
+fn top_half(t: &SteppedSquareTemplate, i: usize) -> f64 {
+    t.top.first_size / 2.0 + i as f64 * t.top.size_increment / 2.0
+}
+
+/// Half the size of the `i`-th step on a side face.
+fn side_half(t: &SteppedSquareTemplate, i: usize) -> f64 {
+    t.side.first_size / 2.0 + i as f64 * t.side.size_increment / 2.0
+}
+
+/// The block's layout: the pyramid of top steps above the band of side
+/// steps, refused when the floor bands, the tool or the block are too
+/// small for it.
+fn layout(
+    cfg: &PlanConfig,
+    t: &SteppedSquareTemplate,
+    riser: f64,
+    poses: &[Pose],
+    tool: &Tool,
+) -> Result<Layout, PlanError> {
+    let m = &cfg.machine;
+    let src = &t.source;
+    let r = tool.diameter / 2.0;
     let size = t.stock.size;
     let l = size / 2.0;
     let zb = m.table.surface + riser;
     let zt = zb + t.stock.height;
     let n_top = poses.iter().filter(|p| p.face == FaceKind::Top).count();
-    let side_count = |n: &Vector3<f64>| {
-        poses
-            .iter()
-            .filter(|p| matches!(p.face, FaceKind::Side(v) if (v - n).norm() < 1e-9))
-            .count()
-    };
     let n_side_max = poses
         .iter()
         .filter_map(|p| match p.face {
-            FaceKind::Side(v) => Some(side_count(&v)),
+            FaceKind::Side(v) => Some(side_count(poses, &v)),
             FaceKind::Top => None,
         })
         .max()
         .unwrap_or(0);
-    let a = |i: usize| t.top.first_size / 2.0 + i as f64 * t.top.size_increment / 2.0;
-    let b = |i: usize| t.side.first_size / 2.0 + i as f64 * t.side.size_increment / 2.0;
     let z_side_top = zt - n_top as f64 * t.top.step;
     let d_side = n_side_max as f64 * t.side.step;
 
@@ -274,7 +423,7 @@ pub(crate) fn design(
     let (zone_needed, zc) = if n_side_max > 0 {
         // Below the widest side boss the roughing rings need their full
         // band above the lip; above it the floor band and a margin.
-        let half_needed = b(n_side_max - 1) + 2.0 * r + allow + 0.5;
+        let half_needed = side_half(t, n_side_max - 1) + 2.0 * r + allow + 0.5;
         let needed = t.side.bottom_lip + 2.0 * half_needed + margin;
         let zc = 0.5 * (zb + t.side.bottom_lip + z_side_top);
         (needed, zc)
@@ -293,24 +442,56 @@ pub(crate) fn design(
             )
             .into());
     }
+    Ok(Layout {
+        l,
+        zb,
+        zt,
+        n_top,
+        n_side_max,
+        z_side_top,
+        d_side,
+        zc,
+        margin,
+    })
+}
 
-    // Boss frames of the top steps: turned with the pose's machine X.
-    let top_angle = |f: &Matrix3<f64>| {
-        let e1: Vector3<f64> = f.column(0).into_owned();
-        let th = e1.y.atan2(e1.x);
-        // A square is symmetric under quarter turns.
-        let q = std::f64::consts::FRAC_PI_2;
-        let mut r = th.rem_euclid(q);
-        if r > q / 2.0 {
-            r -= q;
-        }
-        if r.abs() < 1e-12 { 0.0 } else { r }
-    };
+/// The turn of a top step's boss frame: the pose's machine X, reduced to
+/// within an eighth turn (a square is symmetric under quarter turns).
+fn top_angle(f: &Matrix3<f64>) -> f64 {
+    let e1: Vector3<f64> = f.column(0).into_owned();
+    let th = e1.y.atan2(e1.x);
+    let q = std::f64::consts::FRAC_PI_2;
+    let mut r = th.rem_euclid(q);
+    if r > q / 2.0 {
+        r -= q;
+    }
+    if r.abs() < 1e-12 { 0.0 } else { r }
+}
+
+/// Refuses steps that do not fit: a top step (turned with its pose) that
+/// reaches into the side steps or does not contain the one before, a side
+/// step wider than its face leaves room for, or side steps deeper than the
+/// tool reaches.
+fn check_fit(
+    t: &SteppedSquareTemplate,
+    poses: &[Pose],
+    layout: &Layout,
+    tool: &Tool,
+) -> Result<(), PlanError> {
+    let src = &t.source;
+    let r = tool.diameter / 2.0;
+    let size = t.stock.size;
+    let Layout {
+        n_side_max,
+        d_side,
+        margin,
+        ..
+    } = *layout;
     let inside = size / 2.0 - d_side - margin;
     let mut prev_top: Option<(f64, f64)> = None;
     for (top_index, p) in poses.iter().filter(|p| p.face == FaceKind::Top).enumerate() {
         let th = top_angle(&p.frame);
-        let half = a(top_index);
+        let half = top_half(t, top_index);
         let reach = (half + r + margin) * (th.cos().abs() + th.sin().abs());
         if reach > inside {
             return Err(src
@@ -349,7 +530,7 @@ pub(crate) fn design(
         prev_top = Some((half, th));
     }
     if n_side_max > 0 {
-        let reach = b(n_side_max - 1) + r + margin;
+        let reach = side_half(t, n_side_max - 1) + r + margin;
         let room = size / 2.0 - d_side - margin;
         if reach > room {
             return Err(src
@@ -357,7 +538,7 @@ pub(crate) fn design(
                     &["side", "first_size"],
                     format!(
                         "the widest side step ({} mm) with its floor band reaches {reach} mm from the face centre, but the face leaves {room} mm inside the neighbouring faces' steps: make the side steps smaller or the block larger",
-                        2.0 * b(n_side_max - 1)
+                        2.0 * side_half(t, n_side_max - 1)
                     ),
                 )
                 .into());
@@ -369,8 +550,26 @@ pub(crate) fn design(
             )));
         }
     }
+    Ok(())
+}
 
-    // Steps in execution order.
+/// The step each pose cuts, in execution order, with the line describing it.
+fn steps(
+    t: &SteppedSquareTemplate,
+    poses: &[Pose],
+    layout: &Layout,
+    r: f64,
+    letter: char,
+) -> Result<(Vec<Step>, Vec<String>), PlanError> {
+    let Layout {
+        l,
+        zb,
+        zt,
+        n_top,
+        z_side_top,
+        zc,
+        ..
+    } = *layout;
     let air = t.clearance.rapid.max(1.0);
     let block_corners: Vec<Vector3<f64>> = (0..8)
         .map(|i| {
@@ -385,7 +584,7 @@ pub(crate) fn design(
     let mut features = Vec::new();
     let mut top_i = 0;
     let mut side_i: Vec<(Vector3<f64>, usize)> = Vec::new();
-    for p in &poses {
+    for p in poses {
         match p.face {
             FaceKind::Top => {
                 let th = top_angle(&p.frame);
@@ -401,10 +600,10 @@ pub(crate) fn design(
                     limit[2] = limit[2].max(y);
                     limit[3] = limit[3].max(-y);
                 }
-                let half = a(top_i);
+                let half = top_half(t, top_i);
                 let floor = zt - (top_i + 1) as f64 * t.top.step;
                 let top = zt - top_i as f64 * t.top.step;
-                let next_half = (top_i + 1 < n_top).then(|| a(top_i + 1));
+                let next_half = (top_i + 1 < n_top).then(|| top_half(t, top_i + 1));
                 features.push(format!(
                     "top step {} of {n_top}{}: {} x {} mm square, floor at Z{} in W",
                     top_i + 1,
@@ -438,10 +637,10 @@ pub(crate) fn design(
                         0
                     }
                 };
-                let count = side_count(&n);
+                let count = side_count(poses, &n);
                 let q = Vector3::z();
                 let pdir = q.cross(&n);
-                let half = b(j);
+                let half = side_half(t, j);
                 let floor = l - (j + 1) as f64 * t.side.step;
                 let top = l - j as f64 * t.side.step;
                 let th = {
@@ -480,13 +679,31 @@ pub(crate) fn design(
                         f64::INFINITY,
                     ],
                     clamp: (zb + t.side.bottom_lip + r) - zc,
-                    next_half: (j + 1 < count).then(|| b(j + 1)),
+                    next_half: (j + 1 < count).then(|| side_half(t, j + 1)),
                 });
             }
         }
     }
+    Ok((steps, features))
+}
 
-    // Toolpaths, counted before any is made.
+/// Each pose's toolpath, its moves counted against the limits (alone and
+/// times the points traced back through them) before any is made.
+#[allow(clippy::too_many_arguments)]
+fn toolpaths(
+    t: &SteppedSquareTemplate,
+    tool: &Tool,
+    poses: &[Pose],
+    steps: &[Step],
+    features: Vec<String>,
+    so: f64,
+    allow: f64,
+    letter: char,
+) -> Result<Vec<PoseDesign>, PlanError> {
+    let src = &t.source;
+    let r = tool.diameter / 2.0;
+    let n_poses = poses.len();
+    let per_pose = points_per_pose(t);
     let axial = t.cutting.axial_depth.unwrap_or(f64::INFINITY);
     let moves: f64 = steps
         .iter()
@@ -519,7 +736,7 @@ pub(crate) fn design(
         ),
     )?;
     let mut pose_designs = Vec::new();
-    for (i, (p, s)) in poses.iter().zip(&steps).enumerate() {
+    for (i, (p, s)) in poses.iter().zip(steps).enumerate() {
         let strokes = step_strokes(s, r, so, allow, axial, t.cutting.zero_cut);
         pose_designs.push(PoseDesign {
             id: pose_id(letter, p.tilt, p.c),
@@ -531,8 +748,17 @@ pub(crate) fn design(
             strokes,
         });
     }
+    Ok(pose_designs)
+}
 
-    // Points.
+/// The CMM points of every step: spread along each wall at mid height, and
+/// on the floor band next to each wall.
+fn points(
+    t: &SteppedSquareTemplate,
+    steps: &[Step],
+    pose_designs: &[PoseDesign],
+    r: f64,
+) -> Vec<PointDesign> {
     let mut points = Vec::new();
     for (i, s) in steps.iter().enumerate() {
         let id = &pose_designs[i].id;
@@ -586,8 +812,14 @@ pub(crate) fn design(
             }
         }
     }
+    points
+}
 
-    // The piece: the block minus every pose's cut.
+/// The stock block and the finished piece: the block minus every pose's cut
+/// (a slab down to the step's floor, less its boss).
+fn piece(t: &SteppedSquareTemplate, layout: &Layout, steps: &[Step]) -> (Cuboid, Solid) {
+    let Layout { l, zb, zt, .. } = *layout;
+    let size = t.stock.size;
     let stock = Cuboid::aligned(Vector3::new(-l, -l, zb), Vector3::new(l, l, zt), 0);
     let big = size + 20.0;
     let mut cuts = Vec::new();
@@ -634,51 +866,7 @@ pub(crate) fn design(
         ));
     }
     let solid = Solid::Difference(Box::new(Solid::Cuboid(stock.clone())), cuts);
-    let ids: Vec<String> = pose_designs.iter().map(|p| p.id.clone()).collect();
-    let csg = solid.to_csg();
-    let groups = groups(&ids);
-    let fixture = (riser > 0.0).then(|| {
-        Cuboid::aligned(
-            Vector3::new(-l, -l, m.table.surface),
-            Vector3::new(l, l, zb),
-            u32::MAX,
-        )
-    });
-    if n_side_max > 0 {
-        notes.push(format!(
-            "at {letter} = +-90 the tool axis runs {} mm above the table top at its lowest: the tool holder and spindle nose must be narrower than twice that",
-            short(zb + t.side.bottom_lip + r - m.table.surface)
-        ));
-    }
-    Ok(Design {
-        title: "stepped-square machining test (Ibaraki & Ota 2014)".into(),
-        description: format!(
-            "{} poses; {n_top} steps on the top face, {} on the side faces; {} CMM points",
-            poses.len(),
-            poses.len() - n_top,
-            points.len()
-        ),
-        program_number: 1001,
-        tool,
-        cutting: t.cutting.clone(),
-        clearance: t.clearance.clone(),
-        stock,
-        fixture,
-        solid,
-        csg,
-        groups,
-        poses: pose_designs,
-        points,
-        notes,
-        stock_text: format!(
-            "block {} x {} x {} mm, centred on the W origin in X and Y, on a {} mm riser (bottom at Z{} in W)",
-            short(size),
-            short(size),
-            short(t.stock.height),
-            short(riser),
-            short(zb)
-        ),
-    })
+    (stock, solid)
 }
 
 /// The rings of one step: the finishing ring, the first (innermost)
