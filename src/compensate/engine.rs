@@ -106,8 +106,19 @@ impl Compensator {
         output: &mut W,
         observer: &mut dyn FnMut(&Vertex),
     ) -> Result<Summary, CompensateError> {
+        self.run_one(path, input, output, Some(observer))
+    }
+
+    /// The rewrite in this thread alone.
+    fn run_one<'a, R: BufRead, W: Write>(
+        &'a self,
+        path: &'a Path,
+        input: R,
+        output: &mut W,
+        observer: Option<&'a mut dyn FnMut(&Vertex)>,
+    ) -> Result<Summary, CompensateError> {
         let mut blocks = Blocks::new(path, input, self.syntax());
-        let mut pass = Pass::new(self, path, Some(observer));
+        let mut pass = Pass::new(self, path, observer);
         let mut block = Block::default();
         loop {
             match blocks.next_into(&mut block) {
@@ -136,7 +147,7 @@ impl Compensator {
         chunk: Option<usize>,
     ) -> Result<Summary, CompensateError> {
         let Some(chunk) = chunk.map(|c| c.max(1)) else {
-            return self.run_observed(path, input, output, &mut |_| {});
+            return self.run_one(path, input, output, None);
         };
         let mut blocks = Blocks::new(path, input, self.syntax());
         let (summary, read_err, write_err) = std::thread::scope(|scope| {
@@ -181,8 +192,22 @@ impl Compensator {
                 }
                 let _ = spare_tx.send(buf);
             };
+            let mut made = 0;
             loop {
-                let mut list = back_rx.try_recv().unwrap_or_default();
+                // A fixed pool of chunks: the blocks' buffers are reused and
+                // memory stays the same whatever the program's length.
+                let mut list = match back_rx.try_recv() {
+                    Ok(l) => l,
+                    Err(_) if made < POOL => {
+                        made += 1;
+                        Vec::with_capacity(chunk)
+                    }
+                    Err(_) => match back_rx.recv() {
+                        Ok(l) => l,
+                        // The worker stopped: its error says why.
+                        Err(_) => break,
+                    },
+                };
                 let mut n = 0;
                 let mut end = false;
                 while n < chunk {
@@ -252,7 +277,10 @@ impl Compensator {
 /// Blocks per chunk handed from the reading thread to the rewriting one:
 /// enough that handing over costs nothing per block, few enough that the
 /// chunks in flight stay small.
-const CHUNK: usize = 2048;
+const CHUNK: usize = 1024;
+
+/// Chunks in circulation: one being read, two waiting, one being rewritten.
+const POOL: usize = 4;
 
 /// What the reading thread hands over.
 enum Chunk {
