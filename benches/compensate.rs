@@ -34,7 +34,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Duration;
 
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
-use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use criterion::{
+    BenchmarkGroup, Criterion, SamplingMode, Throughput, criterion_group, criterion_main,
+};
 use fivecal::compensate::{Compensator, Settings};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::kinematics::Kinematics;
@@ -296,17 +298,21 @@ fn bench(c: &mut Criterion<ThreadCpu>) {
     g.bench_function("parse and re-print only", |b| {
         b.iter(|| reprint(Program::new(&lines, BLOCKS)))
     });
-    // The peer: the `gcode` crate (0.6.1) parses a program held in memory
-    // as one string, lossily (comments and unknown words dropped), and
-    // writes nothing.
+    peer(&mut g, &lines);
+    g.finish();
+}
+
+/// The peer: the `gcode` crate (0.6.1) parses a program held in memory as
+/// one string, lossily (comments and unknown words dropped), and writes
+/// nothing.
+fn peer<M: Measurement>(g: &mut BenchmarkGroup<M>, lines: &Rc<Vec<Vec<u8>>>) {
     let mut whole = String::new();
-    Program::new(&lines, BLOCKS)
+    Program::new(lines, BLOCKS)
         .read_to_string(&mut whole)
         .unwrap();
     g.bench_function("peer: gcode 0.6.1 parse only, program in memory", |b| {
         b.iter(|| gcode::parse(black_box(&whole)).count())
     });
-    g.finish();
 }
 
 /// The pipelined rewrite as `compensate` runs it, and the peer, in
@@ -327,13 +333,7 @@ fn bench_wall(c: &mut Criterion) {
         "rewrite with inverse kinematics on every block, pipelined (2 threads)",
         |b| b.iter(|| rewrite(&comp, Program::new(&lines, BLOCKS))),
     );
-    let mut whole = String::new();
-    Program::new(&lines, BLOCKS)
-        .read_to_string(&mut whole)
-        .unwrap();
-    g.bench_function("peer: gcode 0.6.1 parse only, program in memory", |b| {
-        b.iter(|| gcode::parse(black_box(&whole)).count())
-    });
+    peer(&mut g, &lines);
     g.finish();
 }
 
