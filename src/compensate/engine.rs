@@ -4,6 +4,7 @@
 
 use std::io::{BufRead, Write};
 use std::path::Path;
+use std::sync::mpsc;
 
 use indexmap::IndexMap;
 
@@ -78,16 +79,26 @@ impl Compensator {
 
     /// Rewrites the program read from `input` into `output`; `path` names
     /// it in errors.
+    ///
+    /// Two threads share the work: this one reads and tokenizes the blocks
+    /// (in chunks of a few thousand) and writes the rewritten text, the
+    /// other follows the program in order (interpretation, correction,
+    /// writing each block's edits) with the whole state handed from one
+    /// chunk to the next, exactly as one thread would. A few chunks are in
+    /// flight at a time, whatever the program's length; on an error
+    /// nothing after the failing block is written (and the caller's
+    /// [`AtomicOutput`](crate::io::AtomicOutput) writes nothing at all).
     pub fn run<R: BufRead, W: Write>(
         &self,
         path: &Path,
         input: R,
         output: &mut W,
     ) -> Result<Summary, CompensateError> {
-        self.run_inner(path, input, output, None)
+        self.run_chunked(path, input, output, Some(CHUNK))
     }
 
-    /// As [`Compensator::run`], calling `observer` with every end point written.
+    /// As [`Compensator::run`], calling `observer` with every end point
+    /// written (in one thread).
     pub fn run_observed<R: BufRead, W: Write>(
         &self,
         path: &Path,
@@ -95,175 +106,303 @@ impl Compensator {
         output: &mut W,
         observer: &mut dyn FnMut(&Vertex),
     ) -> Result<Summary, CompensateError> {
-        self.run_inner(path, input, output, Some(observer))
+        self.run_one(path, input, output, Some(observer))
     }
 
-    fn run_inner<R: BufRead, W: Write>(
+    /// The rewrite in this thread alone.
+    fn run_one<'a, R: BufRead, W: Write>(
+        &'a self,
+        path: &'a Path,
+        input: R,
+        output: &mut W,
+        observer: Option<&'a mut dyn FnMut(&Vertex)>,
+    ) -> Result<Summary, CompensateError> {
+        let mut blocks = Blocks::new(path, input, self.syntax());
+        let mut pass = Pass::new(self, path, observer);
+        let mut block = Block::default();
+        loop {
+            match blocks.next_into(&mut block) {
+                Ok(true) => pass.feed(&block, output)?,
+                Ok(false) => break,
+                Err(e) => return Err(read_error(e)),
+            }
+        }
+        let summary = pass.finish(output)?;
+        blocks
+            .finish(summary.moves)
+            .map_err(CompensateError::Syntax)?;
+        output.flush()?;
+        Ok(summary)
+    }
+
+    /// [`Compensator::run`] with `chunk` blocks handed over at a time
+    /// (`None`: all in this thread), so that tests can put a chunk boundary
+    /// between any two blocks.
+    #[doc(hidden)]
+    pub fn run_chunked<R: BufRead, W: Write>(
         &self,
         path: &Path,
         input: R,
         output: &mut W,
-        mut observer: Option<&mut dyn FnMut(&Vertex)>,
+        chunk: Option<usize>,
     ) -> Result<Summary, CompensateError> {
-        let mut interp = self.interpreter();
-        let mut writer = Writer::new(&self.settings);
-        let mut summary = Summary {
-            fast_path: self.solver.is_fast(),
-            not_compensated: self.not_compensated.clone(),
-            ..Default::default()
+        let Some(chunk) = chunk.map(|c| c.max(1)) else {
+            return self.run_one(path, input, output, None);
         };
-        let mut skipped: IndexMap<String, Lines> = IndexMap::new();
-        let mut unmodelled: IndexMap<String, Lines> = IndexMap::new();
-        // The last written end point had C held (the next move ramps C).
-        let mut last_held = false;
-        let syntax = Syntax {
-            dialect: self.settings.dialect,
-            strict: self.settings.strict,
-        };
-        let mut macro_note = None;
-        let mut process = |block: &Block, why: Option<&str>| -> Result<(), CompensateError> {
-            let line = block.line;
-            writer.begin(block);
-            summary.blocks += 1;
-            for si in 0..block.segments.len() {
-                let seg = block.segments[si];
-                let before = interp.pos;
-                let event = interp.step(block, &seg);
-                super::take_unmodelled(
-                    &mut interp,
-                    block,
-                    path,
-                    self.settings.strict,
-                    &mut unmodelled,
-                )
-                .map_err(CompensateError::Unmodelled)?;
-                if matches!(event, Event::Move(_) | Event::Skip(_))
-                    && !matches!(event, Event::Skip(Skip::Unreadable))
-                {
-                    section(&mut summary.coordinates, &interp, line);
-                }
-                let mut motion_done = false;
-                match event {
-                    Event::Move(mv) => {
-                        summary.moves += 1;
-                        let f = interp.frame();
-                        match self.plan(&f, &mv, &writer.emit, last_held, line) {
-                            Ok(plan) => {
-                                for pt in plan_points(&plan) {
-                                    record(&mut summary, pt, line);
-                                }
-                                match &plan {
-                                    Plan::Pieces {
-                                        linearize: true, ..
-                                    } => summary.linearized.push(line),
-                                    Plan::Pieces { .. } => summary.subdivided.push(line),
-                                    _ => {}
-                                }
-                                let tool_axis = mv.vector.and_then(|_| match &plan {
-                                    Plan::End(pt) => {
-                                        Some(self.solver.nominal_pose(&pt.written).axis)
-                                    }
-                                    _ => None,
-                                });
-                                let vector = mv.vector.is_some();
-                                let mut sink = |pt: &Point, emitted: &[Option<f64>; 6], ins| {
-                                    last_held = pt.held.is_some();
-                                    if let Some(o) = observer.as_mut() {
-                                        let mut shown = *emitted;
-                                        if vector {
-                                            // No rotary word is written: the
-                                            // control turns the written vector
-                                            // into the rotary positions solved.
-                                            let p = f.program(&pt.written);
-                                            for a in 3..6 {
-                                                if p[a].is_finite() {
-                                                    shown[a] = Some(p[a]);
-                                                }
-                                            }
-                                        }
-                                        o(&vertex(line, &f, pt, &shown, ins));
-                                    }
-                                };
-                                motion_done = writer.write(
-                                    block, &seg, &mv, &f, &interp, &plan, tool_axis, &mut sink,
-                                );
+        let mut blocks = Blocks::new(path, input, self.syntax());
+        let (summary, read_err, write_err) = std::thread::scope(|scope| {
+            let (chunk_tx, chunk_rx) = mpsc::sync_channel::<Chunk>(2);
+            let (back_tx, back_rx) = mpsc::channel::<Vec<Block>>();
+            let (out_tx, out_rx) = mpsc::channel::<Vec<u8>>();
+            let (spare_tx, spare_rx) = mpsc::channel::<Vec<u8>>();
+            let worker = scope.spawn(move || -> Result<Option<Summary>, CompensateError> {
+                let mut pass = Pass::new(self, path, None);
+                let mut pipe = Pipe {
+                    buf: Vec::new(),
+                    out: out_tx,
+                    spare: spare_rx,
+                };
+                for msg in chunk_rx {
+                    match msg {
+                        Chunk::Blocks(chunk) => {
+                            for b in &chunk {
+                                pass.feed(b, &mut pipe)?;
                             }
-                            Err(Refusal::Skip(reason)) => {
-                                skipped.entry(reason).or_default().push(line);
-                                writer.keep(block, &seg, &interp, &before);
-                                last_held = false;
-                            }
-                            Err(Refusal::Fatal(e)) => return Err(e.in_file(path)),
+                            pipe.flush()?;
+                            // The reader may be gone (it stopped): fine.
+                            let _ = back_tx.send(chunk);
+                        }
+                        Chunk::End => {
+                            let summary = pass.finish(&mut pipe)?;
+                            pipe.flush()?;
+                            return Ok(Some(summary));
                         }
                     }
-                    Event::Skip(Skip::Unreadable) => {
-                        // Kept byte for byte; what the controller does
-                        // after it is unknown (the interpreter forgot it).
-                        let why = block.unreadable.as_ref().map_or_else(String::new, |e| {
-                            let (_, column) = block.locate(e.offset);
-                            format!(" (column {column}: {})", e.message)
-                        });
-                        summary.unreadable.push(line);
-                        skipped
-                            .entry(format!("{}{why}", Skip::Unreadable))
-                            .or_default()
-                            .push(line);
-                        writer.keep(block, &seg, &interp, &before);
-                        writer.emit = [None; 6];
-                        last_held = false;
-                    }
-                    Event::Skip(s) => {
-                        summary.moves += 1;
-                        let reason = match (s, why) {
-                            (Skip::Expression, Some(w)) => w.to_string(),
-                            _ => s.to_string(),
-                        };
-                        skipped.entry(reason).or_default().push(line);
-                        writer.keep(block, &seg, &interp, &before);
-                        last_held = false;
-                    }
-                    Event::Quiet => {
-                        writer.follow(block, &seg, &interp, &before, true);
-                        last_held = false;
-                    }
-                    Event::None => writer.follow(block, &seg, &interp, &before, false),
                 }
-                writer.after_statement(block, &seg, &interp, motion_done);
-            }
-            if writer.end(block) {
-                summary.changed += 1;
-            }
-            writer.edits.write_block(block, output)?;
-            Ok(())
-        };
-        let mut blocks = Blocks::new(path, input, syntax);
-        // Blocks stream through until the first one with macro logic; from
-        // there the rest of the program is read and run first.
-        let mut rest: Vec<Block> = Vec::new();
-        loop {
-            let block = match blocks.next_block() {
-                Ok(Some(b)) => b,
-                Ok(None) => break,
-                Err(ReadError::Io(e)) => return Err(CompensateError::Io(e)),
-                Err(ReadError::Syntax(e)) => return Err(CompensateError::Syntax(e)),
+                // The reader stopped short of the end (it failed).
+                Ok(None)
+            });
+            let mut read_err = None;
+            let mut write_err = None;
+            let mut write = |buf: Vec<u8>, err: &mut Option<std::io::Error>| {
+                if err.is_none()
+                    && let Err(e) = output.write_all(&buf)
+                {
+                    *err = Some(e);
+                }
+                let _ = spare_tx.send(buf);
             };
-            if rest.is_empty() && !expand::needs_logic(block) {
-                process(block, None)?;
-            } else {
-                rest.push(block.clone());
+            let mut made = 0;
+            loop {
+                // A fixed pool of chunks: the blocks' buffers are reused and
+                // memory stays the same whatever the program's length.
+                let mut list = match back_rx.try_recv() {
+                    Ok(l) => l,
+                    Err(_) if made < POOL => {
+                        made += 1;
+                        Vec::with_capacity(chunk)
+                    }
+                    Err(_) => match back_rx.recv() {
+                        Ok(l) => l,
+                        // The worker stopped: its error says why.
+                        Err(_) => break,
+                    },
+                };
+                let mut n = 0;
+                let mut end = false;
+                while n < chunk {
+                    if n == list.len() {
+                        list.push(Block::default());
+                    }
+                    match blocks.next_into(&mut list[n]) {
+                        Ok(true) => n += 1,
+                        Ok(false) => {
+                            end = true;
+                            break;
+                        }
+                        Err(e) => {
+                            read_err = Some(read_error(e));
+                            break;
+                        }
+                    }
+                }
+                list.truncate(n);
+                let stop = end || read_err.is_some();
+                if (n > 0 && chunk_tx.send(Chunk::Blocks(list)).is_err())
+                    || (end && chunk_tx.send(Chunk::End).is_err())
+                {
+                    // The worker stopped: its error says why.
+                    break;
+                }
+                while let Ok(buf) = out_rx.try_recv() {
+                    write(buf, &mut write_err);
+                }
+                if stop || write_err.is_some() {
+                    break;
+                }
+            }
+            drop(chunk_tx);
+            for buf in out_rx {
+                write(buf, &mut write_err);
+            }
+            let summary = worker
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p));
+            (summary, read_err, write_err)
+        });
+        if let Some(e) = write_err {
+            return Err(CompensateError::Io(e));
+        }
+        let summary = summary?;
+        let summary = match (summary, read_err) {
+            (_, Some(e)) => return Err(e),
+            (Some(s), None) => s,
+            (None, None) => unreachable!("the worker ends at the end of the input or on an error"),
+        };
+        blocks
+            .finish(summary.moves)
+            .map_err(CompensateError::Syntax)?;
+        output.flush()?;
+        Ok(summary)
+    }
+
+    fn syntax(&self) -> Syntax {
+        Syntax {
+            dialect: self.settings.dialect,
+            strict: self.settings.strict,
+        }
+    }
+}
+
+/// Blocks per chunk handed from the reading thread to the rewriting one:
+/// enough that handing over costs nothing per block, few enough that the
+/// chunks in flight stay small.
+const CHUNK: usize = 1024;
+
+/// Chunks in circulation: one being read, two waiting, one being rewritten.
+const POOL: usize = 4;
+
+/// What the reading thread hands over.
+enum Chunk {
+    /// The next blocks (sent back empty for reuse).
+    Blocks(Vec<Block>),
+    /// The input ended (after the last chunk).
+    End,
+}
+
+/// The rewriting thread's output: text handed to the writing thread a
+/// chunk at a time.
+struct Pipe {
+    buf: Vec<u8>,
+    out: mpsc::Sender<Vec<u8>>,
+    spare: mpsc::Receiver<Vec<u8>>,
+}
+
+impl Write for Pipe {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.buf.extend_from_slice(b);
+        Ok(b.len())
+    }
+
+    fn write_all(&mut self, b: &[u8]) -> std::io::Result<()> {
+        self.buf.extend_from_slice(b);
+        Ok(())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if !self.buf.is_empty() {
+            let next = self.spare.try_recv().unwrap_or_default();
+            let full = std::mem::replace(&mut self.buf, next);
+            self.buf.clear();
+            if self.out.send(full).is_err() {
+                return Err(std::io::Error::other("the output is no longer written"));
             }
         }
-        if !rest.is_empty() {
+        Ok(())
+    }
+}
+
+fn read_error(e: ReadError) -> CompensateError {
+    match e {
+        ReadError::Io(e) => CompensateError::Io(e),
+        ReadError::Syntax(e) => CompensateError::Syntax(e),
+    }
+}
+
+/// One pass of the rewrite over a program: the controller's state, the
+/// writer's, and what has been seen so far.
+struct Pass<'a> {
+    c: &'a Compensator,
+    path: &'a Path,
+    interp: Interpreter,
+    writer: Writer,
+    summary: Summary,
+    skipped: IndexMap<String, Lines>,
+    unmodelled: IndexMap<String, Lines>,
+    /// The last written end point had C held (the next move ramps C).
+    last_held: bool,
+    /// From the first block with macro logic on: the rest of the program,
+    /// read and run first.
+    rest: Vec<Block>,
+    observer: Option<&'a mut dyn FnMut(&Vertex)>,
+}
+
+impl<'a> Pass<'a> {
+    fn new(
+        c: &'a Compensator,
+        path: &'a Path,
+        observer: Option<&'a mut dyn FnMut(&Vertex)>,
+    ) -> Pass<'a> {
+        Pass {
+            c,
+            path,
+            interp: c.interpreter(),
+            writer: Writer::new(&c.settings),
+            summary: Summary {
+                fast_path: c.solver.is_fast(),
+                not_compensated: c.not_compensated.clone(),
+                ..Default::default()
+            },
+            skipped: IndexMap::new(),
+            unmodelled: IndexMap::new(),
+            last_held: false,
+            rest: Vec::new(),
+            observer,
+        }
+    }
+
+    /// The next block of the program: rewritten, or kept for the macro
+    /// logic.
+    fn feed<W: Write>(&mut self, block: &Block, output: &mut W) -> Result<(), CompensateError> {
+        // Blocks stream through until the first one with macro logic; from
+        // there the rest of the program is read and run first.
+        if self.rest.is_empty() && !expand::needs_logic(block) {
+            self.process(block, None, output)
+        } else {
+            self.rest.push(block.clone());
+            Ok(())
+        }
+    }
+
+    /// After the last block: the macro logic's part, and the summary.
+    fn finish<W: Write>(mut self, output: &mut W) -> Result<Summary, CompensateError> {
+        let mut macro_note = None;
+        if !self.rest.is_empty() {
+            let rest = std::mem::take(&mut self.rest);
+            let syntax = self.c.syntax();
+            let path = self.path;
             let trace = exec::run(syntax.dialect, &rest).map_err(|e| {
                 CompensateError::Syntax(SourceError::new(path, e.line, 1, e.message))
             })?;
-            if self.settings.expand {
-                expand::flatten(path, syntax, &rest, &trace, &mut |b| process(b, None))?;
+            if self.c.settings.expand {
+                expand::flatten(path, syntax, &rest, &trace, &mut |b| {
+                    self.process(b, None, output)
+                })?;
             } else {
                 let known = exec::known_words(&trace).unwrap_or_default();
                 for (i, block) in rest.iter().enumerate() {
                     let (b, why) = expand::substitute(block, i as u32, syntax.dialect, &known);
-                    process(&b, why.as_deref())?;
+                    self.process(&b, why.as_deref(), output)?;
                 }
                 macro_note = trace.halt.map(|h| {
                     format!(
@@ -273,15 +412,132 @@ impl Compensator {
                 });
             }
         }
-        blocks
-            .finish(summary.moves)
-            .map_err(CompensateError::Syntax)?;
-        output.flush()?;
-        summary.inserted = writer.inserted;
-        summary.skipped = skipped.into_iter().collect();
-        summary.unmodelled = unmodelled.into_iter().collect();
+        let mut summary = self.summary;
+        summary.inserted = self.writer.inserted;
+        summary.skipped = self.skipped.into_iter().collect();
+        summary.unmodelled = self.unmodelled.into_iter().collect();
         summary.macro_logic = macro_note;
         Ok(summary)
+    }
+
+    fn process<W: Write>(
+        &mut self,
+        block: &Block,
+        why: Option<&str>,
+        output: &mut W,
+    ) -> Result<(), CompensateError> {
+        let c = self.c;
+        let path = self.path;
+        let line = block.line;
+        let interp = &mut self.interp;
+        let writer = &mut self.writer;
+        let summary = &mut self.summary;
+        let skipped = &mut self.skipped;
+        let last_held = &mut self.last_held;
+        let observer = &mut self.observer;
+        writer.begin(block);
+        summary.blocks += 1;
+        for si in 0..block.segments.len() {
+            let seg = block.segments[si];
+            let before = interp.pos;
+            let event = interp.step(block, &seg);
+            super::take_unmodelled(interp, block, path, c.settings.strict, &mut self.unmodelled)
+                .map_err(CompensateError::Unmodelled)?;
+            if matches!(event, Event::Move(_) | Event::Skip(_))
+                && !matches!(event, Event::Skip(Skip::Unreadable))
+            {
+                section(&mut summary.coordinates, interp, line);
+            }
+            let mut motion_done = false;
+            match event {
+                Event::Move(mv) => {
+                    summary.moves += 1;
+                    let f = interp.frame();
+                    match c.plan(&f, &mv, &writer.emit, *last_held, line) {
+                        Ok(plan) => {
+                            for pt in plan_points(&plan) {
+                                record(summary, pt, line);
+                            }
+                            match &plan {
+                                Plan::Pieces {
+                                    linearize: true, ..
+                                } => summary.linearized.push(line),
+                                Plan::Pieces { .. } => summary.subdivided.push(line),
+                                _ => {}
+                            }
+                            let tool_axis = mv.vector.and_then(|_| match &plan {
+                                Plan::End(pt) => Some(c.solver.nominal_pose(&pt.written).axis),
+                                _ => None,
+                            });
+                            let vector = mv.vector.is_some();
+                            let mut sink = |pt: &Point, emitted: &[Option<f64>; 6], ins| {
+                                *last_held = pt.held.is_some();
+                                if let Some(o) = observer.as_mut() {
+                                    let mut shown = *emitted;
+                                    if vector {
+                                        // No rotary word is written: the
+                                        // control turns the written vector
+                                        // into the rotary positions solved.
+                                        let p = f.program(&pt.written);
+                                        for a in 3..6 {
+                                            if p[a].is_finite() {
+                                                shown[a] = Some(p[a]);
+                                            }
+                                        }
+                                    }
+                                    o(&vertex(line, &f, pt, &shown, ins));
+                                }
+                            };
+                            motion_done = writer
+                                .write(block, &seg, &mv, &f, interp, &plan, tool_axis, &mut sink);
+                        }
+                        Err(Refusal::Skip(reason)) => {
+                            skipped.entry(reason).or_default().push(line);
+                            writer.keep(block, &seg, interp, &before);
+                            *last_held = false;
+                        }
+                        Err(Refusal::Fatal(e)) => return Err(e.in_file(path)),
+                    }
+                }
+                Event::Skip(Skip::Unreadable) => {
+                    // Kept byte for byte; what the controller does
+                    // after it is unknown (the interpreter forgot it).
+                    let why = block.unreadable.as_ref().map_or_else(String::new, |e| {
+                        let (_, column) = block.locate(e.offset);
+                        format!(" (column {column}: {})", e.message)
+                    });
+                    summary.unreadable.push(line);
+                    skipped
+                        .entry(format!("{}{why}", Skip::Unreadable))
+                        .or_default()
+                        .push(line);
+                    writer.keep(block, &seg, interp, &before);
+                    writer.emit = [None; 6];
+                    *last_held = false;
+                }
+                Event::Skip(s) => {
+                    summary.moves += 1;
+                    let reason = match (s, why) {
+                        (Skip::Expression, Some(w)) => w.to_string(),
+                        _ => s.to_string(),
+                    };
+                    skipped.entry(reason).or_default().push(line);
+                    writer.keep(block, &seg, interp, &before);
+                    *last_held = false;
+                }
+                Event::Quiet => {
+                    writer.follow(block, &seg, interp, &before, true);
+                    *last_held = false;
+                }
+                Event::None => writer.follow(block, &seg, interp, &before, false),
+            }
+            writer.after_statement(block, &seg, interp, motion_done);
+        }
+        if writer.end(block) {
+            summary.changed += 1;
+        }
+        writer.edits.write_block(block, output)?;
+        Ok(())
     }
 }
 

@@ -292,10 +292,154 @@ fn signs(text: &str) -> Vec<(Dialect, &'static str)> {
     out
 }
 
+/// The words and spellings of every sign above, by the text they are
+/// looked for in: the code (comments removed) or the whole upper-case
+/// block (block starts, comment commands).
+const CODE_SIGNS: [&[&str]; 4] = [
+    &FANUC_WORDS,
+    &["G38.2", "G38.3", "G38.4", "G38.5", "O<", "#<"],
+    &SINUMERIK_WORDS,
+    &SINUMERIK_SPELLINGS,
+];
+const TEXT_SIGNS: [&[&str]; 4] = [
+    &HEIDENHAIN_STARTS,
+    &["L ", "LN ", "LBL ", "WHILE", ";$PATH="],
+    &LINUXCNC_COMMENTS,
+    &SINUMERIK_STARTS,
+];
+
+/// The first two and three bytes of every sign, as bit sets.
+struct Grams {
+    /// Bytes a sign starts with.
+    first: [bool; 256],
+    /// Signs of two bytes.
+    two: [u64; 1024],
+    /// First two bytes of the longer signs.
+    pre: [u64; 1024],
+    /// First three bytes of the longer signs, sorted.
+    three: Vec<[u8; 3]>,
+}
+
+impl Grams {
+    fn get() -> &'static Grams {
+        static GRAMS: std::sync::OnceLock<Grams> = std::sync::OnceLock::new();
+        GRAMS.get_or_init(|| {
+            let mut g = Grams {
+                first: [false; 256],
+                two: [0; 1024],
+                pre: [0; 1024],
+                three: Vec::new(),
+            };
+            let set = |bits: &mut [u64; 1024], a: u8, b: u8| {
+                let i = (a as usize) << 8 | b as usize;
+                bits[i / 64] |= 1 << (i % 64);
+            };
+            for w in CODE_SIGNS.iter().chain(&TEXT_SIGNS).flat_map(|l| l.iter()) {
+                let b = w.as_bytes();
+                g.first[b[0] as usize] = true;
+                if b.len() == 2 {
+                    set(&mut g.two, b[0], b[1]);
+                } else {
+                    set(&mut g.pre, b[0], b[1]);
+                    g.three.push([b[0], b[1], b[2]]);
+                }
+            }
+            g.three.sort_unstable();
+            g.three.dedup();
+            g
+        })
+    }
+
+    /// Whether a sign begins with the bytes `a b c` (or `a b`, a sign of two).
+    #[inline]
+    fn hit(&self, a: u8, b: u8, c: u8) -> bool {
+        if !self.first[a as usize] {
+            return false;
+        }
+        let i = (a as usize) << 8 | b as usize;
+        self.two[i / 64] >> (i % 64) & 1 == 1
+            || self.pre[i / 64] >> (i % 64) & 1 == 1 && self.three.binary_search(&[a, b, c]).is_ok()
+    }
+}
+
+/// Whether a block may show a sign ([`signs`]), and whether its code has a
+/// `G` (an ISO motion word, [`iso_motion`]): `false` is certain, `true` a
+/// maybe. Every sign is a word or spelling of two or more ASCII bytes in
+/// the upper-case text or in its code (where removing a comment joins the
+/// bytes on either side), or a code starting with `O` or `:`; so a block
+/// in neither text of which any sign's first three bytes (two for the
+/// signs of two) occur shows none.
+fn may_show(text: &[u8]) -> (bool, bool) {
+    let g = Grams::get();
+    let up = |i: usize| text.get(i).map_or(0, u8::to_ascii_uppercase);
+    // Without a comment the code is the text up to its `;`: one pass
+    // looking only at the bytes a sign or the code's first byte may be.
+    let mut in_code = true;
+    let mut has_g = false;
+    for (i, &c) in text.iter().enumerate() {
+        let c = c.to_ascii_uppercase();
+        if !g.first[c as usize] && !matches!(c, b'(' | b';' | b'O' | b':' | b'G') {
+            continue;
+        }
+        match c {
+            b'(' => return may_show_commented(g, text),
+            b';' => in_code = false,
+            b'O' | b':' if in_code => return (true, true),
+            b'G' if in_code => has_g = true,
+            _ => {}
+        }
+        if g.hit(c, up(i + 1), up(i + 2)) {
+            return (true, true);
+        }
+    }
+    (false, has_g)
+}
+
+/// [`may_show`] of a block with a comment: the text and its code, where
+/// taking a comment out joins the bytes on either side, followed byte by
+/// byte.
+fn may_show_commented(g: &Grams, text: &[u8]) -> (bool, bool) {
+    // The last two bytes of the text and of the code (0: none).
+    let (mut t, mut k) = ([0u8; 2], [0u8; 2]);
+    let mut depth = 0usize;
+    let mut in_code = true;
+    let mut has_g = false;
+    for &c in text {
+        let c = c.to_ascii_uppercase();
+        if g.hit(t[0], t[1], c) || g.hit(t[1], c, 0) {
+            return (true, true);
+        }
+        t = [t[1], c];
+        if !in_code {
+            continue;
+        }
+        match c {
+            b';' if depth == 0 => in_code = false,
+            b'(' => depth += 1,
+            b')' if depth > 0 => depth -= 1,
+            _ if depth == 0 => {
+                if matches!(c, b'O' | b':') || g.hit(k[0], k[1], c) || g.hit(k[1], c, 0) {
+                    return (true, true);
+                }
+                has_g |= c == b'G';
+                k = [k[1], c];
+            }
+            _ => {}
+        }
+    }
+    (false, has_g)
+}
+
 impl Evidence {
     /// Looks at one block (`text`, starting at `line`).
     pub fn observe(&mut self, text: &[u8], line: usize) {
         if self.first.iter().all(Option::is_some) && self.iso.is_some() {
+            return;
+        }
+        // Most blocks (the moves) show nothing: settled in one pass over
+        // the bytes without building the upper-case text and its code.
+        let (sign, g) = may_show(text);
+        if !sign && (self.iso.is_some() || !g) {
             return;
         }
         let text = String::from_utf8_lossy(text);
@@ -796,5 +940,31 @@ mod tests {
             e.other_than(Dialect::Linuxcnc).map(|c| c.dialect),
             Some(Dialect::Fanuc)
         );
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(4000))]
+        /// The quick look never misses a sign or an ISO motion word: on
+        /// text made of the signs' own pieces, comments and `;`, whatever
+        /// it passes over shows nothing.
+        #[test]
+        fn the_quick_look_misses_no_sign(
+            parts in proptest::collection::vec(0usize..45, 0..8),
+        ) {
+            const PIECES: [&str; 45] = [
+                "G", "O", "L", "T", "P", "W", "D", "C", "A", "S", "(", ")", ";", " ", "N10 ",
+                "1", "3", "4", ".", "=", "<", "#", "$", "%", "_", "R", "E", "B", "M", "X1.5",
+                "g43.4", "o<x>", "l ", "goto", "(log,", "trans", "=ac", "begin pgm", "while", "\u{e9}", "(x)", "g4(a)3.4", "go(c)to", "=(i)c", "#(a)<",
+            ];
+            let text: String = parts.iter().map(|&i| PIECES[i]).collect();
+            let upper = text.to_ascii_uppercase();
+            let (sign, g) = may_show(text.as_bytes());
+            if !sign {
+                proptest::prop_assert!(signs(&text).is_empty(), "{text:?}");
+            }
+            if !sign && !g {
+                proptest::prop_assert!(iso_motion(&code(&upper)).is_none(), "{text:?}");
+            }
+        }
     }
 }
