@@ -39,6 +39,11 @@ pub(super) struct Writer {
     pub emit: [Option<f64>; 6],
     emit_motion: Option<Motion>,
     emit_pole: Option<[f64; 2]>,
+    /// In a canned cycle: the level the tool came from and the hole bottom
+    /// in force, as written.
+    emit_drill: Option<[Option<f64>; 2]>,
+    /// The current statement's hole was written.
+    drill_written: bool,
     eol: &'static [u8],
     eol_known: bool,
     /// HEIDENHAIN: blocks inserted so far (block numbers shift by it).
@@ -61,6 +66,8 @@ impl Writer {
             emit: [None; 6],
             emit_motion: None,
             emit_pole: None,
+            emit_drill: None,
+            drill_written: false,
             eol: b"\n",
             eol_known: false,
             hh_offset: 0,
@@ -134,6 +141,13 @@ impl Writer {
         } else if !motion_done {
             self.fix_motion_word(block, seg, interp.motion);
         }
+        match (interp.cycle, self.emit_drill.as_mut()) {
+            (None, _) => self.emit_drill = None,
+            // A hole left as written: its depth is the program's.
+            (Some(_), Some(d)) if !self.drill_written => d[1] = interp.cycle_depth,
+            _ => {}
+        }
+        self.drill_written = false;
     }
 
     /// ISO: a block that relies on the modal motion mode gets the program's
@@ -722,12 +736,26 @@ impl Writer {
         let rules = self.rules();
         let lower = lower(block, seg);
         let mut inserts: [Option<(usize, f64, u8, NumStyle)>; 6] = [None; 6];
+        // A hole: the bottom in force, and the level the cycle came from.
+        let drill = mv.drill.map(|d| {
+            let state = *self.emit_drill.get_or_insert([prev[d.axis], None]);
+            (d, state)
+        });
+        if let Some((d, [_, depth])) = drill {
+            emitted[d.axis] = depth;
+        }
         for a in f.axes() {
             if a >= 3 && mv.vector.is_some() {
                 // G43.5 programs the direction, not the rotary positions.
                 continue;
             }
             let v = values[a];
+            // A cycle block without the depth word drills to the depth in
+            // force, not from where the tool is.
+            let prev_a = match drill {
+                Some((d, [_, depth])) if d.axis == a => depth,
+                _ => prev[a],
+            };
             match mv.words[a] {
                 Some(ti) => {
                     let TokenKind::Word(w) = block.tokens[ti].kind else {
@@ -757,7 +785,7 @@ impl Writer {
                 None => {
                     let d = self.decimals(a, None, interp.units);
                     let half = lexeme::half_unit(d);
-                    let Some(pv) = prev[a] else { continue };
+                    let Some(pv) = prev_a else { continue };
                     let nv = round_to(v, d);
                     if (v - pv).abs() >= half {
                         let inc = !self.heidenhain() && !interp.absolute;
@@ -767,6 +795,16 @@ impl Writer {
                     }
                 }
             }
+        }
+        if let Some((d, [initial, _])) = drill {
+            // The depth now in force, and where the cycle leaves the tool.
+            self.emit_drill = Some([initial, emitted[d.axis]]);
+            self.drill_written = true;
+            emitted[d.axis] = match initial {
+                Some(z) if d.to_initial => Some(z.max(d.r_level)),
+                _ if d.to_initial => None,
+                _ => Some(d.r_level),
+            };
         }
         if inserts.iter().any(|i| i.is_some()) {
             let last = (0..6)
