@@ -132,3 +132,65 @@ fn an_incremental_cycle_is_reported_at_its_line() {
     assert_eq!(lines.first, [6], "{why}");
     assert_eq!(out.lines().nth(5), program.lines().nth(5));
 }
+
+#[test]
+fn heidenhain_polar_lines_and_circles_are_rewritten_around_the_pole() {
+    // A contour in polar coordinates as written at the control: absolute
+    // and incremental radius and angle, circles about the pole both ways,
+    // and a pole taken where the tool is (`CC` alone).
+    let program = "0 BEGIN PGM POLAR MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S4000\n4 L A-20 C+30 R0 FMAX\n5 L X+40 Y+0 Z+50 R0 FMAX\n6 CC X+0 Y+0\n7 L Z-2 F300\n8 LP PR+40 PA+45 F600\n9 LP IPA+45\n10 LP PR+25 IPA+30\n11 CP PA+180 DR+\n12 CP IPA-90 DR-\n13 LP IPR+10 PA+300\n14 CC\n15 LP PR+5 PA+0\n16 L Z+50 R0 FMAX\n17 END PGM POLAR MM\n";
+    let l = errors("ac-trunnion", 94, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Heidenhain, program, &[], "polar");
+    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
+    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    // Polar blocks stay polar, with their own words.
+    for kw in [
+        " LP PR+",
+        " IPA+",
+        " LP IPR+10 PA+",
+        " CP PA+",
+        " CP IPA-",
+        "\n15 CC\n",
+    ] {
+        assert!(out.contains(kw), "{kw}\n{out}");
+    }
+    // The circles turn about a corrected pole, inserted before them.
+    assert_eq!(s.inserted, 1, "{out}");
+    assert!(
+        !out.lines().any(|t| t.contains("LP") && t.contains(" X")),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_heidenhain_helix_with_ipa_and_iz_turns_as_often_as_written() {
+    let program = "0 BEGIN PGM HELIX MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 CC X+10 Y+5\n4 L X+22 Y+5 Z+2 R0 FMAX\n5 L Z+0 F300\n6 CP IPA+1080 IZ-6 DR+ F500\n7 L X+10 Y+5\n8 L Z+50 R0 FMAX\n9 END PGM HELIX MM\n";
+    let l = errors("ac-trunnion", 95, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Heidenhain, program, &[], "helix");
+    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
+    // Three turns down 6 mm, around a corrected pole.
+    let helix = out.lines().find(|t| t.contains(" CP ")).unwrap();
+    assert!(helix.contains("IPA+10") && helix.contains("IZ-"), "{out}");
+}
+
+#[test]
+fn heidenhain_elements_not_corrected_yet_are_reported_at_their_lines() {
+    let program = "0 BEGIN PGM REST MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+0 Y+0 Z+2 R0 FMAX\n4 L Z-1 F300\n5 L X+20 RL F600\n6 RND R2\n7 L Y+20\n8 CHF 1\n9 L X+0\n10 CT X-5 Y+15\n11 L Z+50 R0 FMAX\n12 CYCL DEF 200 DRILLING\n13 CYCL CALL POS X+10 Y+10 Z+0 FMAX\n14 END PGM REST MM\n";
+    let l = errors("ac-trunnion", 96, 30.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    for (what, line) in [
+        // File lines: block n is line n + 1.
+        ("rounding (RND)", 7),
+        ("chamfer (CHF)", 9),
+        ("tangential circle (CT)", 11),
+        ("CYCL CALL POS", 14),
+    ] {
+        let (_, lines) = s
+            .skipped
+            .iter()
+            .find(|(w, _)| w.contains(what))
+            .unwrap_or_else(|| panic!("{what}: {:?}", s.skipped));
+        assert_eq!(lines.first, [line], "{what}");
+        assert_eq!(out.lines().nth(line - 1), program.lines().nth(line - 1));
+    }
+}
