@@ -14,6 +14,7 @@ mod contour;
 mod discover;
 mod discover_ambiguity;
 mod discover_cli;
+mod elements;
 mod errorfile;
 mod fuzz_readers;
 mod goodness;

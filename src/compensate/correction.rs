@@ -15,7 +15,7 @@ use crate::kinematics::{Axes, ToolPose};
 use crate::limits::MAX_PIECES;
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::interpolation::{ArcGeo, Path, lerp};
-use crate::nc::interp::{AXES, Arc, Frame, Move, MoveKind, Skip, Tcp};
+use crate::nc::interp::{AXES, Arc, Drill, Frame, Move, MoveKind, Skip, Tcp};
 
 /// A corrected point: what the program asked for and what to write.
 #[derive(Clone, Copy, Debug)]
@@ -32,6 +32,11 @@ pub(super) struct Point {
     /// and stay; the angle left between the actual and the intended tool
     /// axis, rad.
     pub plane_axis: Option<f64>,
+    /// A hole of a canned cycle: the rotary positions stay (a cycle moves
+    /// the linear axes only); the angle left between the actual and the
+    /// intended hole axis, rad, and how far that puts the tip at the R
+    /// level from the intended hole axis, mm.
+    pub drill: Option<(f64, f64)>,
 }
 
 /// How a move is written.
@@ -112,36 +117,15 @@ impl Compensator {
         hold: Option<f64>,
     ) -> Result<Point, String> {
         let nominal = f.model(p);
+        self.check_strokes(&nominal)?;
         let m = self.solver.kinematics().machine();
-        for (axis, v) in [(&m.tilt, nominal.tilt), (&m.c, nominal.c)] {
-            if let Some((lo, hi)) = axis.limits
-                && !axis.within(v, 1e-9)
-            {
-                return Err(format!(
-                    "the program puts {} at {v:.4} deg, beyond the machine's stroke {lo}..{hi} deg (a program for another machine?)",
-                    axis.letter
-                ));
-            }
-        }
         let target = self.target(f, &nominal, vector);
         if f.plane.is_some() {
             // 3+2: the rotary positions are the plane's, and only X, Y, Z
             // in the plane are rewritten: the tip lands exactly, the tool
             // axis stays as the erroneous machine tilts it.
-            let axes = Axes {
-                xyz: self
-                    .solver
-                    .position_at(&target.tip, nominal.tilt, nominal.c),
-                ..nominal
-            };
-            let sol = Solution {
-                axes,
-                held_c: None,
-                held_tilt: None,
-            };
-            let mut pt = self.point(f, nominal, target, &sol);
-            let got = self.solver.actual_pose(&axes).axis.normalize();
-            pt.plane_axis = Some(got.dot(&target.axis.normalize()).clamp(-1.0, 1.0).acos());
+            let (mut pt, left) = self.tip_only(f, nominal, target, (nominal.tilt, nominal.c));
+            pt.plane_axis = Some(left);
             return Ok(pt);
         }
         let why = |e| format!("no axis values reach the intended tool pose on this machine ({e})");
@@ -183,6 +167,82 @@ impl Compensator {
         Ok(pt)
     }
 
+    /// A program point whose rotary positions are beyond the machine's
+    /// strokes is not this machine's.
+    fn check_strokes(&self, nominal: &Axes) -> Result<(), String> {
+        let m = self.solver.kinematics().machine();
+        for (axis, v) in [(&m.tilt, nominal.tilt), (&m.c, nominal.c)] {
+            if let Some((lo, hi)) = axis.limits
+                && !axis.within(v, 1e-9)
+            {
+                return Err(format!(
+                    "the program puts {} at {v:.4} deg, beyond the machine's stroke {lo}..{hi} deg (a program for another machine?)",
+                    axis.letter
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The point that puts the tip on `target` with the rotary axes at
+    /// `rotary` (tilt, C), and the angle left between the actual and the
+    /// intended tool axis, rad.
+    fn tip_only(
+        &self,
+        f: &Frame,
+        nominal: Axes,
+        target: ToolPose,
+        (tilt, c): (f64, f64),
+    ) -> (Point, f64) {
+        let axes = Axes {
+            xyz: self.solver.position_at(&target.tip, tilt, c),
+            tilt,
+            c,
+        };
+        let sol = Solution {
+            axes,
+            held_c: None,
+            held_tilt: None,
+        };
+        let pt = self.point(f, nominal, target, &sol);
+        let got = self.solver.actual_pose(&axes).axis.normalize();
+        let left = got.dot(&target.axis.normalize()).clamp(-1.0, 1.0).acos();
+        (pt, left)
+    }
+
+    /// The bottom of a hole of a canned cycle: the cycle moves the linear
+    /// axes only, so the tip is put on the intended bottom with the rotary
+    /// axes where the blocks before left them (`emit`, as written: an
+    /// orientation corrected there carries over); the drill then runs
+    /// along the actual tool axis, off the intended one by what is left of
+    /// the machine's orientation error.
+    fn correct_hole(
+        &self,
+        f: &Frame,
+        p: &[f64; 6],
+        drill: &Drill,
+        emit: &[Option<f64>; 6],
+    ) -> Result<Point, String> {
+        if f.plane.is_some() {
+            // In a tilted plane every point keeps the plane's positions.
+            return self.correct(f, p, None, None);
+        }
+        let nominal = f.model(p);
+        self.check_strokes(&nominal)?;
+        let target = self.target(f, &nominal, None);
+        let mut at = *p;
+        for a in [f.tilt, 5] {
+            if let Some(v) = emit[a] {
+                at[a] = v;
+            }
+        }
+        let written = f.model(&at);
+        let (mut pt, left) = self.tip_only(f, nominal, target, (written.tilt, written.c));
+        let depth = (p[drill.axis] - drill.r_level).abs() * f.u;
+        pt.drill = Some((left, left * depth));
+        Ok(pt)
+    }
+
     fn point(&self, f: &Frame, nominal: Axes, target: ToolPose, sol: &Solution) -> Point {
         let written = self.written_model(f, &sol.axes);
         Point {
@@ -193,6 +253,7 @@ impl Compensator {
             held: sol.held_c,
             held_tilt: sol.held_tilt,
             plane_axis: None,
+            drill: None,
         }
     }
 
@@ -375,7 +436,11 @@ impl Compensator {
         }
         let vector = mv.vector;
         let p1 = known(&mv.end);
-        let pt = self.correct(f, &p1, vector, None).map_err(Refusal::Skip)?;
+        let pt = match &mv.drill {
+            Some(d) => self.correct_hole(f, &p1, d, emit),
+            None => self.correct(f, &p1, vector, None),
+        }
+        .map_err(Refusal::Skip)?;
         self.check_limit(&pt, line)?;
         let start_known = f
             .axes()

@@ -588,6 +588,11 @@ fn record(summary: &mut Summary, pt: &Point, line: usize) {
         summary.tilted_plane.push(line);
         summary.tilted_plane_axis_error = summary.tilted_plane_axis_error.max(h * 1e6);
     }
+    if let Some((angle, residual)) = pt.drill {
+        summary.drilled.push(line);
+        summary.drilled_axis_error = summary.drilled_axis_error.max(angle * 1e6);
+        summary.drilled_residual = summary.drilled_residual.max(residual * 1e3);
+    }
     if let Some(h) = pt.held_tilt {
         summary.held_tilt.push(line);
         summary.held_tilt_axis_error = summary.held_tilt_axis_error.max(h * 1e6);

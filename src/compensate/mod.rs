@@ -251,6 +251,15 @@ pub struct Summary {
     /// Largest tool-axis error left there (a 3+2 section cannot correct
     /// the orientation by coordinates), urad.
     pub tilted_plane_axis_error: f64,
+    /// Lines of canned-cycle holes corrected at their bottom (X, Y and the
+    /// depth rewritten, the rotary positions as written).
+    pub drilled: Lines,
+    /// Largest angle left between the actual and the intended hole axis
+    /// there, urad.
+    pub drilled_axis_error: f64,
+    /// Largest distance that angle puts the tip from the intended hole
+    /// axis at the R level, um.
+    pub drilled_residual: f64,
     /// Whether the closed-form fast path was used.
     pub fast_path: bool,
     /// Effects of the error file that a rewrite cannot cancel, with why.

@@ -200,9 +200,17 @@ impl Simulator {
                 summary.moves += 1;
                 let vector = mv.vector;
                 let p1 = known(&mv.end);
-                let start_known = f.axes().iter().all(|&a| mv.start[a].is_some());
-                let p0 = known(&mv.start);
-                let feed = !matches!(mv.kind, MoveKind::Rapid);
+                let mut start_known = f.axes().iter().all(|&a| mv.start[a].is_some());
+                let mut p0 = known(&mv.start);
+                let mut feed = !matches!(mv.kind, MoveKind::Rapid);
+                if let Some(d) = mv.drill {
+                    // A hole: over it at the R level, then drilled along
+                    // the drill axis to its bottom.
+                    p0 = p1;
+                    p0[d.axis] = d.r_level;
+                    start_known = true;
+                    feed = true;
+                }
                 let path2 = match mv.kind {
                     MoveKind::Arc(arc) => MovePath::Arc {
                         p0,
@@ -224,14 +232,21 @@ impl Simulator {
                 } else {
                     1
                 };
-                for k in 1..=n {
+                // A hole starts with its point at the R level (reached by
+                // a rapid).
+                let first = usize::from(mv.drill.is_none());
+                for k in first..=n {
                     let s = k as f64 / n as f64;
-                    let p = if n == 1 { p1 } else { path2.at(s) };
+                    let p = match k {
+                        0 => p0,
+                        _ if n == 1 => p1,
+                        _ => path2.at(s),
+                    };
                     let (nominal, actual) = self.poses(&f, &p, vector);
                     let sample = Sample {
                         line: block.line,
                         fraction: s,
-                        feed,
+                        feed: feed && k > 0,
                         nominal,
                         actual,
                     };

@@ -14,7 +14,9 @@ use super::Settings;
 use super::correction::{Plan, Point};
 use super::edit::Edits;
 use crate::machine::Dialect;
-use crate::nc::interp::{AXES, Arc, FeedMode, Frame, Interpreter, Motion, Move, MoveKind, Units};
+use crate::nc::interp::{
+    AXES, Arc, FeedMode, Frame, Interpreter, Motion, Move, MoveKind, Polar, Units,
+};
 use crate::nc::lexeme::{self, NumStyle, WriteRules, round_to};
 use crate::nc::{Addr, Block, HhKind, Segment, Stmt, TokenKind, Value};
 
@@ -39,6 +41,13 @@ pub(super) struct Writer {
     pub emit: [Option<f64>; 6],
     emit_motion: Option<Motion>,
     emit_pole: Option<[f64; 2]>,
+    /// In a canned cycle: the level the tool came from and the hole bottom
+    /// in force, as written.
+    emit_drill: Option<[Option<f64>; 2]>,
+    /// The current statement's hole was written.
+    drill_written: bool,
+    /// The current statement is an arc written as lines.
+    linearizing: bool,
     eol: &'static [u8],
     eol_known: bool,
     /// HEIDENHAIN: blocks inserted so far (block numbers shift by it).
@@ -61,6 +70,9 @@ impl Writer {
             emit: [None; 6],
             emit_motion: None,
             emit_pole: None,
+            emit_drill: None,
+            drill_written: false,
+            linearizing: false,
             eol: b"\n",
             eol_known: false,
             hh_offset: 0,
@@ -129,11 +141,39 @@ impl Writer {
     ) {
         if self.heidenhain() {
             if let Stmt::Hh(HhKind::Cc) = seg.stmt {
-                self.emit_pole = interp.pole;
+                self.emit_pole = self.written_pole(block, seg, interp);
             }
         } else if !motion_done {
             self.fix_motion_word(block, seg, interp.motion);
         }
+        match (interp.cycle, self.emit_drill.as_mut()) {
+            (None, _) => self.emit_drill = None,
+            // A hole left as written: its depth is the program's.
+            (Some(_), Some(d)) if !self.drill_written => d[1] = interp.cycle_depth,
+            _ => {}
+        }
+        self.drill_written = false;
+    }
+
+    /// The pole a `CC` block sets in the written program: its absolute
+    /// words as written, an incremental word or an omitted one (`CC`
+    /// alone: the pole where the tool is) from the position as written.
+    fn written_pole(&self, block: &Block, seg: &Segment, interp: &Interpreter) -> Option<[f64; 2]> {
+        let program = interp.pole?;
+        let mut p = [self.emit[0], self.emit[1]];
+        for (_, w) in block.words(seg) {
+            let i = match w.addr.as_letter() {
+                Some(b'X') => 0,
+                Some(b'Y') => 1,
+                _ => continue,
+            };
+            p[i] = match w.value {
+                Value::Num(v) if w.incremental => p[i].map(|e| e + v),
+                Value::Num(_) => Some(program[i]),
+                _ => None,
+            };
+        }
+        Some([p[0]?, p[1]?])
     }
 
     /// ISO: a block that relies on the modal motion mode gets the program's
@@ -427,6 +467,181 @@ impl Writer {
         self.write_end(block, seg, mv, f, interp, pt, sink);
     }
 
+    /// HEIDENHAIN `LP`/`CP`: the corrected end point in the plane written
+    /// as polar radius and angle around the pole the written program has
+    /// in force (a corrected one, or the program's, which is inserted when
+    /// none is known), as absolute or incremental words the way the block
+    /// has them. A `CP` writes its angle only: its radius is where it
+    /// starts. Returns the end point the controller computes from them.
+    #[allow(clippy::too_many_arguments)]
+    fn write_polar(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        mv: &Move,
+        interp: &Interpreter,
+        pol: &Polar,
+        values: &[f64; 6],
+        prev: &[Option<f64>; 6],
+    ) -> [Option<f64>; 2] {
+        let units = interp.units;
+        let pole = match (self.emit_pole, interp.pole) {
+            (Some(p), _) => p,
+            (None, Some(p)) => {
+                self.insert_pole(block, p, units);
+                p
+            }
+            (None, None) => return [None, None],
+        };
+        let polar = |x: f64, y: f64| {
+            (
+                (x - pole[0]).hypot(y - pole[1]),
+                (y - pole[1]).atan2(x - pole[0]).to_degrees(),
+            )
+        };
+        let (r, a) = polar(values[0], values[1]);
+        let here = match (prev[0], prev[1]) {
+            (Some(x), Some(y)) => Some(polar(x, y)),
+            _ => None,
+        };
+        let circle = matches!(mv.kind, MoveKind::Arc(_)) && !self.linearizing;
+        let word = |ti: usize| match block.tokens[ti].kind {
+            TokenKind::Word(w) => match w.value {
+                Value::Num(v) => Some((w, v)),
+                _ => None,
+            },
+            _ => None,
+        };
+        let rules = self.rules();
+        let style = NumStyle {
+            plus: true,
+            point: true,
+            ..NumStyle::default()
+        };
+        let keyword = block
+            .seg_tokens(seg)
+            .iter()
+            .find(|t| t.kind == TokenKind::Keyword)
+            .map_or(0, |t| t.span.end);
+        // The radius: a CP keeps the one it starts at.
+        let mut radius = here.map(|h| h.0);
+        let mut after_radius = keyword;
+        if !circle {
+            let own = pol
+                .radius
+                .and_then(|(ti, _)| word(ti))
+                .map(|(w, _)| w.style);
+            let d = self.decimals(0, own.as_ref(), units);
+            let half = lexeme::half_unit(d);
+            match pol.radius {
+                Some((ti, inc)) => {
+                    let (w, orig) = match word(ti) {
+                        Some(x) => x,
+                        None => return [None, None],
+                    };
+                    after_radius = block.tokens[ti].span.end;
+                    let base = if inc { here.map(|h| h.0) } else { Some(0.0) };
+                    let Some(base) = base else {
+                        return [None, None];
+                    };
+                    let new = r - base;
+                    if (new - orig).abs() < half {
+                        radius = Some(base + orig);
+                    } else {
+                        let v = round_to(new, d);
+                        let st = w.style;
+                        self.edits
+                            .replace(w.value_span, |b| lexeme::write(b, v, d, &st, rules));
+                        radius = Some(base + v);
+                    }
+                }
+                None if here.is_none_or(|h| (r - h.0).abs() >= half) => {
+                    let v = round_to(r, d);
+                    self.edits.insert(keyword, |b| {
+                        b.extend_from_slice(b" PR");
+                        lexeme::write(
+                            b,
+                            v,
+                            d,
+                            &NumStyle {
+                                decimals: d,
+                                ..style
+                            },
+                            rules,
+                        );
+                    });
+                    radius = Some(v);
+                }
+                None => {}
+            }
+        }
+        let Some(radius) = radius else {
+            return [None, None];
+        };
+        // Enough decimals of a degree that half of the last one moves the
+        // point by no more than half a unit of a coordinate.
+        let d_lin = self.decimals(0, None, units);
+        let reach = (radius * units.mm() * std::f64::consts::PI / 180.0).max(1e-9);
+        let extra = reach.log10().ceil().max(0.0) as u8;
+        let angle_word = pol.angle.and_then(|(ti, _)| word(ti));
+        let d = angle_word
+            .map_or(0, |(w, _)| w.style.decimals)
+            .max(d_lin.saturating_add(extra))
+            .min(MAX_DECIMALS);
+        let half = lexeme::half_unit(d);
+        let angle = match pol.angle {
+            Some((_, inc)) => {
+                let Some((w, orig)) = angle_word else {
+                    return [None, None];
+                };
+                let base = if inc { here.map(|h| h.1) } else { Some(0.0) };
+                let Some(base) = base else {
+                    return [None, None];
+                };
+                // The same way round as written, whole turns and all.
+                let mut new = a - base;
+                new += 360.0 * ((orig - new) / 360.0).round();
+                if (new - orig).abs() < half {
+                    base + orig
+                } else {
+                    let v = round_to(new, d);
+                    let st = w.style;
+                    self.edits
+                        .replace(w.value_span, |b| lexeme::write(b, v, d, &st, rules));
+                    base + v
+                }
+            }
+            None => {
+                let Some((_, a0)) = here else {
+                    return [None, None];
+                };
+                let mut new = a;
+                new += 360.0 * ((a0 - new) / 360.0).round();
+                if (new - a0).abs() < half {
+                    a0
+                } else {
+                    let v = round_to(new, d);
+                    self.edits.insert(after_radius, |b| {
+                        b.extend_from_slice(b" PA");
+                        lexeme::write(
+                            b,
+                            v,
+                            d,
+                            &NumStyle {
+                                decimals: d,
+                                ..style
+                            },
+                            rules,
+                        );
+                    });
+                    v
+                }
+            }
+        };
+        let (s, c) = angle.to_radians().sin_cos();
+        [Some(pole[0] + radius * c), Some(pole[1] + radius * s)]
+    }
+
     /// HEIDENHAIN: inserts `CC X.. Y..` before the block.
     fn insert_pole(&mut self, block: &Block, c: [f64; 2], units: Units) {
         let d = self.decimals(0, None, units);
@@ -497,7 +712,10 @@ impl Writer {
                     .iter()
                     .find(|t| t.kind == TokenKind::Keyword)
                 {
-                    self.edits.replace(k.span, |b| b.push(b'L'));
+                    // A polar circle becomes a polar line: its first piece
+                    // is written in its own polar words.
+                    let kw: &[u8] = if mv.polar.is_some() { b"LP" } else { b"L" };
+                    self.edits.replace(k.span, |b| b.extend_from_slice(kw));
                 }
             } else if let Some(ti) = mv.motion_word {
                 let TokenKind::Word(w) = block.tokens[ti].kind else {
@@ -523,7 +741,9 @@ impl Writer {
         };
         let (u_first, first) = pieces[0];
         let f_first = feed_for(u_first);
+        self.linearizing = linearize;
         let emitted = self.write_words(block, seg, mv, f, interp, &first.program);
+        self.linearizing = false;
         if inverse_time && let (Some((ti, _)), Some(fv)) = (feed, f_first) {
             let TokenKind::Word(w) = block.tokens[ti].kind else {
                 return;
@@ -722,12 +942,29 @@ impl Writer {
         let rules = self.rules();
         let lower = lower(block, seg);
         let mut inserts: [Option<(usize, f64, u8, NumStyle)>; 6] = [None; 6];
+        // A hole: the bottom in force, and the level the cycle came from.
+        let drill = mv.drill.map(|d| {
+            let state = *self.emit_drill.get_or_insert([prev[d.axis], None]);
+            (d, state)
+        });
+        if let Some((d, [_, depth])) = drill {
+            emitted[d.axis] = depth;
+        }
         for a in f.axes() {
             if a >= 3 && mv.vector.is_some() {
                 // G43.5 programs the direction, not the rotary positions.
                 continue;
             }
+            if a < 2 && mv.polar.is_some() {
+                continue;
+            }
             let v = values[a];
+            // A cycle block without the depth word drills to the depth in
+            // force, not from where the tool is.
+            let prev_a = match drill {
+                Some((d, [_, depth])) if d.axis == a => depth,
+                _ => prev[a],
+            };
             match mv.words[a] {
                 Some(ti) => {
                     let TokenKind::Word(w) = block.tokens[ti].kind else {
@@ -757,7 +994,7 @@ impl Writer {
                 None => {
                     let d = self.decimals(a, None, interp.units);
                     let half = lexeme::half_unit(d);
-                    let Some(pv) = prev[a] else { continue };
+                    let Some(pv) = prev_a else { continue };
                     let nv = round_to(v, d);
                     if (v - pv).abs() >= half {
                         let inc = !self.heidenhain() && !interp.absolute;
@@ -767,6 +1004,21 @@ impl Writer {
                     }
                 }
             }
+        }
+        if let Some(pol) = &mv.polar {
+            let [x, y] = self.write_polar(block, seg, mv, interp, pol, values, &prev);
+            emitted[0] = x;
+            emitted[1] = y;
+        }
+        if let Some((d, [initial, _])) = drill {
+            // The depth now in force, and where the cycle leaves the tool.
+            self.emit_drill = Some([initial, emitted[d.axis]]);
+            self.drill_written = true;
+            emitted[d.axis] = match initial {
+                Some(z) if d.to_initial => Some(z.max(d.r_level)),
+                _ if d.to_initial => None,
+                _ => Some(d.r_level),
+            };
         }
         if inserts.iter().any(|i| i.is_some()) {
             let last = (0..6)

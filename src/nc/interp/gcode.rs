@@ -67,6 +67,7 @@ impl Interpreter {
         let mut g_nonmodal: Option<u32> = None;
         let mut motion_word = None;
         let mut motion_here: Option<Motion> = None;
+        let mut drill_here: Option<u32> = None;
         let mut m_codes: [Option<u32>; 4] = [None; 4];
         let mut nm = 0;
         let mut p_word: Option<f64> = None;
@@ -103,10 +104,14 @@ impl Interpreter {
                         50 | 51 | 52 | 53 | 330 | 331 | 760 | 730 | 740 | 810..=890 => {
                             motion_here = Some(Motion::Other);
                             motion_word = Some(ti);
+                            drill_here = Some(g);
                         }
                         800 => {
                             self.motion = None;
+                            self.end_cycle();
                         }
+                        980 => self.retract_initial = true,
+                        990 => self.retract_initial = false,
                         40
                         | 100
                         | 280
@@ -265,6 +270,11 @@ impl Interpreter {
         let calls = m_codes.iter().flatten().any(|&m| m == 98 || m == 99);
         if let Some(m) = motion_here {
             self.motion = Some(m);
+            // Another motion code ends the cycle and forgets its data.
+            match drill_here.filter(|&g| self.drill_cycle(g)) {
+                Some(g) => self.cycle = Some(g),
+                None => self.end_cycle(),
+            }
         }
         if expr_g {
             // A G code from a variable: nothing below can be trusted.
@@ -305,6 +315,7 @@ impl Interpreter {
         match motion {
             Some(Motion::Rapid) | Some(Motion::Linear) | Some(Motion::ArcCw)
             | Some(Motion::ArcCcw) => self.iso_move(block, seg, motion.unwrap(), motion_word),
+            Some(Motion::Other) if self.cycle.is_some() => self.drill(block, seg),
             Some(Motion::Other) => {
                 self.track_words(block, seg);
                 Event::Skip(Skip::CannedCycle)
@@ -687,6 +698,122 @@ impl Interpreter {
                 ));
             }
         }
+        if let Some(s) = skip.or_else(|| self.frame_skip()) {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+    /// Whether a motion code (x 10) is a drilling cycle whose holes are
+    /// positions: G73, G74, G81-G89, and FANUC's fine boring G76
+    /// (LinuxCNC's G76 is a threading cycle).
+    fn drill_cycle(&self, g: u32) -> bool {
+        matches!(g, 730 | 740 | 810..=890)
+            || (g == 760 && self.cfg.settings.dialect == Dialect::Fanuc)
+    }
+
+    /// G80 or another motion code: the cycle and its data are gone.
+    pub(super) fn end_cycle(&mut self) {
+        self.cycle = None;
+        self.cycle_depth = None;
+        self.cycle_r = None;
+    }
+
+    /// A block in a drilling cycle: one hole at X Y (the plane's axes), to
+    /// the bottom Z (the normal axis; modal), from the R level (modal).
+    /// The move is the hole's bottom, reached along the drill axis; the
+    /// tool then waits at the R level (G99) or the level it came from
+    /// (G98, never below R). The repeat count (FANUC K, LinuxCNC L) drills
+    /// the same hole again in G90; incremental cycles are left as written.
+    fn drill(&mut self, block: &Block, seg: &Segment) -> Event {
+        let (_, _, n) = self.plane.axes();
+        let linuxcnc = self.cfg.settings.dialect == Dialect::Linuxcnc;
+        let mut mv = Move::new(MoveKind::Rapid, self.pos, false);
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
+        let mut repeats = None;
+        for (ti, w) in block.words(seg) {
+            let Some(letter) = w.addr.as_letter() else {
+                continue;
+            };
+            if let Some(i) = self.axis_index(w.addr) {
+                mv.words[i] = Some(ti);
+                if i >= 3 {
+                    skip.get_or_insert(Skip::Element("a rotary axis word in a canned cycle"));
+                }
+                match self.axis_value(&w) {
+                    Ok(v) => mv.end[i] = Some(v),
+                    Err(s) => {
+                        mv.end[i] = None;
+                        skip.get_or_insert(s);
+                    }
+                }
+                continue;
+            }
+            match letter {
+                b'R' => match self.axis_value(&w) {
+                    Ok(v) => self.cycle_r = Some(v),
+                    Err(s) => {
+                        self.cycle_r = None;
+                        skip.get_or_insert(s);
+                    }
+                },
+                b'K' if !linuxcnc => repeats = Some(w.value),
+                b'L' => repeats = Some(w.value),
+                b'F' => {
+                    if let Value::Num(v) = w.value {
+                        mv.feed = Some((ti, v));
+                    }
+                }
+                b'U' | b'V' | b'W' => {
+                    skip.get_or_insert(Skip::UnknownAxis(letter));
+                }
+                _ => {}
+            }
+        }
+        if !self.absolute {
+            // Z and R count from the initial level and the R level: the
+            // holes of a G91 cycle with repeats are several places.
+            self.track_words(block, seg);
+            self.pos[n] = None;
+            return Event::Skip(Skip::Element(
+                "a canned cycle in incremental distance (G91)",
+            ));
+        }
+        if mv.words[n].is_some() {
+            self.cycle_depth = mv.end[n];
+        }
+        mv.end[n] = self.cycle_depth;
+        let initial = mv.start[n];
+        let r = self.cycle_r;
+        for i in 0..6 {
+            if i != n {
+                self.pos[i] = mv.end[i];
+            }
+        }
+        self.pos[n] = match (r, initial) {
+            (Some(r), Some(z)) if self.retract_initial => Some(z.max(r)),
+            (Some(r), _) if !self.retract_initial => Some(r),
+            _ => None,
+        };
+        match repeats {
+            Some(Value::Num(k)) if k.round() == 0.0 => {
+                // FANUC K0: the data is stored, no hole is drilled.
+                return Event::Skip(Skip::Element("a canned cycle block with K0/L0 (no hole)"));
+            }
+            Some(Value::Num(_)) | None => {}
+            Some(_) => {
+                skip.get_or_insert(Skip::Expression);
+            }
+        }
+        let Some(r_level) = r else {
+            return Event::Skip(
+                skip.unwrap_or(Skip::Element("a canned cycle without its R level")),
+            );
+        };
+        mv.drill = Some(super::Drill {
+            axis: n,
+            r_level,
+            to_initial: self.retract_initial,
+        });
         if let Some(s) = skip.or_else(|| self.frame_skip()) {
             return Event::Skip(s);
         }

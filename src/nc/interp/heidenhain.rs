@@ -18,6 +18,7 @@ impl Interpreter {
         };
         // M functions may appear in any block.
         let mut m91 = false;
+        let mut cycle_call = false;
         for (ti, w) in block.words(seg) {
             if w.addr == Addr::letter(b'M')
                 && let Value::Num(v) = w.value
@@ -35,6 +36,8 @@ impl Interpreter {
                     145 => self.cancel("M144 (kinematics at the actual/nominal positions)"),
                     // Retract along the tool axis: wherever that ends.
                     140 => self.forget(),
+                    // The cycle called here ends at its clearance height.
+                    89 | 99 => cycle_call = true,
                     _ => {}
                 }
                 self.m_function(m, block.tokens[ti].span.start as usize);
@@ -56,7 +59,13 @@ impl Interpreter {
                 }
                 Event::None
             }
-            HhKind::L => self.hh_line(block, seg, m91),
+            HhKind::L => {
+                let ev = self.hh_line(block, seg, m91);
+                if cycle_call {
+                    self.pos[2] = None;
+                }
+                ev
+            }
             HhKind::C | HhKind::Cr => self.hh_arc(block, seg, kind, m91),
             HhKind::Cc => {
                 let mut p = [self.pos[0], self.pos[1]];
@@ -85,12 +94,12 @@ impl Interpreter {
                 };
                 Event::None
             }
-            HhKind::Lp | HhKind::Cp | HhKind::Ct | HhKind::Appr | HhKind::Dep | HhKind::Ln => {
+            HhKind::Lp | HhKind::Cp => self.hh_polar(block, seg, kind, m91),
+            HhKind::Ct | HhKind::Appr | HhKind::Dep | HhKind::Ln => {
                 // Moves that are not rewritten: follow the Cartesian words,
-                // forget the plane position when polar.
-                let polar = matches!(kind, HhKind::Lp | HhKind::Cp);
+                // forget the plane position when it is not all given.
                 self.track_words(block, seg);
-                if polar || matches!(kind, HhKind::Appr | HhKind::Dep) {
+                if matches!(kind, HhKind::Appr | HhKind::Dep) {
                     let given: Vec<usize> = block
                         .words(seg)
                         .filter_map(|(_, w)| self.axis_index(w.addr))
@@ -102,15 +111,19 @@ impl Interpreter {
                     }
                 }
                 Event::Skip(Skip::Element(match kind {
-                    HhKind::Lp => "polar line (LP)",
-                    HhKind::Cp => "polar circle (CP)",
                     HhKind::Ct => "tangential circle (CT)",
                     HhKind::Appr => "approach (APPR)",
                     HhKind::Dep => "departure (DEP)",
                     _ => "vector line (LN)",
                 }))
             }
-            HhKind::Rnd | HhKind::Chf | HhKind::M => Event::None,
+            // The controller rounds or chamfers the corner between the
+            // neighbouring elements as they are written; fivecal does not
+            // follow that geometry (the neighbours' end points are
+            // corrected, the rounding is not checked).
+            HhKind::Rnd => Event::Skip(Skip::Element("rounding (RND)")),
+            HhKind::Chf => Event::Skip(Skip::Element("chamfer (CHF)")),
+            HhKind::M => Event::None,
             HhKind::CyclDef { number, sub } => {
                 self.hh_cycle(block, seg, number, sub);
                 Event::None
@@ -141,9 +154,22 @@ impl Interpreter {
                 }
                 Event::Quiet
             }
-            HhKind::ToolCall | HhKind::CyclCall => {
+            HhKind::ToolCall => {
                 self.forget();
                 Event::None
+            }
+            HhKind::CyclCall => {
+                // CYCL CALL POS: the cycle runs at the position it names,
+                // which is not corrected.
+                let pos = block
+                    .words(seg)
+                    .any(|(_, w)| self.axis_index(w.addr).is_some());
+                self.forget();
+                if pos {
+                    Event::Skip(Skip::Element("cycle call position (CYCL CALL POS)"))
+                } else {
+                    Event::None
+                }
             }
             HhKind::Lbl | HhKind::CallLbl | HhKind::CallPgm | HhKind::Stop => {
                 self.forget();
@@ -414,6 +440,151 @@ impl Interpreter {
         self.pos = mv.end;
         if mv.words.iter().all(|w| w.is_none()) {
             return Event::None;
+        }
+        if let Some(s) = skip.or_else(|| self.frame_skip()) {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+
+    /// `LP PR.. PA..` and `CP PA.. DR..`: a line or circle to a point given
+    /// in polar coordinates around the pole `CC`. `IPR`/`IPA` count from
+    /// the polar coordinates of the position before the block; a missing
+    /// `PR` keeps its radius (for CP always: the circle's radius is the
+    /// start's distance from the pole), a missing `PA` its angle. `CP IPA`
+    /// turns by that angle, whole turns and all (a helix with `IZ`).
+    fn hh_polar(&mut self, block: &Block, seg: &Segment, kind: HhKind, m91: bool) -> Event {
+        let circle = kind == HhKind::Cp;
+        let rapid = block.words(seg).any(|(_, w)| w.addr == Addr::new("FMAX"));
+        let mut mv = Move::new(
+            if rapid {
+                MoveKind::Rapid
+            } else {
+                MoveKind::Linear
+            },
+            self.pos,
+            false,
+        );
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
+        self.hh_targets(block, seg, &mut mv, &mut skip);
+        let mut radius: Option<(usize, f64, bool)> = None;
+        let mut angle: Option<(usize, f64, bool)> = None;
+        let mut cw = None;
+        for (ti, w) in block.words(seg) {
+            let slot = if w.addr == Addr::new("PR") {
+                &mut radius
+            } else if w.addr == Addr::new("PA") {
+                &mut angle
+            } else {
+                if w.addr == Addr::new("DR") {
+                    cw = Some(
+                        block.bytes(w.value_span).is_empty()
+                            && block.text[w.value_span.start as usize - 1] == b'-',
+                    );
+                }
+                continue;
+            };
+            match w.value {
+                Value::Num(v) if v.is_finite() && v.abs() <= crate::limits::MAX_NC_VALUE => {
+                    *slot = Some((ti, v, w.incremental));
+                }
+                Value::Num(_) => {
+                    skip.get_or_insert(Skip::OutOfRange(b'P'));
+                }
+                _ => {
+                    skip.get_or_insert(Skip::Expression);
+                }
+            }
+        }
+        // Where the tool is, in polar coordinates around the pole.
+        let pole = self.pole;
+        let here = match (pole, mv.start[0], mv.start[1]) {
+            (Some(p), Some(x), Some(y)) => Some((
+                (x - p[0]).hypot(y - p[1]),
+                (y - p[1]).atan2(x - p[0]).to_degrees(),
+            )),
+            _ => None,
+        };
+        let r = match radius {
+            _ if circle => here.map(|h| h.0),
+            Some((_, v, false)) => Some(v),
+            Some((_, v, true)) => here.map(|h| h.0 + v),
+            None => here.map(|h| h.0),
+        };
+        let a = match angle {
+            Some((_, v, false)) => Some(v),
+            Some((_, v, true)) => here.map(|h| h.1 + v),
+            None => here.map(|h| h.1),
+        };
+        let end = match (pole, r, a) {
+            (Some(p), Some(r), Some(a)) => {
+                let (s, c) = a.to_radians().sin_cos();
+                [Some(p[0] + r * c), Some(p[1] + r * s)]
+            }
+            _ => [None, None],
+        };
+        let cartesian = mv.words[0].is_some() || mv.words[1].is_some();
+        mv.end[0] = end[0];
+        mv.end[1] = end[1];
+        self.pos = mv.end;
+        if m91 {
+            return Event::Quiet;
+        }
+        if cartesian {
+            return Event::Skip(skip.unwrap_or(Skip::Element("X or Y in a polar block")));
+        }
+        let Some(p) = pole else {
+            return Event::Skip(
+                skip.unwrap_or(Skip::Element("polar element without a known pole (CC)")),
+            );
+        };
+        if self.plane != Plane::Xy {
+            return Event::Skip(Skip::Element("polar element outside the XY plane"));
+        }
+        mv.polar = Some(super::Polar {
+            radius: radius.map(|x| (x.0, x.2)),
+            angle: angle.map(|x| (x.0, x.2)),
+        });
+        if circle {
+            let Some((rs, a0)) = here else {
+                return Event::Skip(skip.unwrap_or(Skip::PositionUnknown(
+                    if mv.start[0].is_none() { b'X' } else { b'Y' },
+                )));
+            };
+            let Some((_, pa, inc)) = angle else {
+                return Event::Skip(skip.unwrap_or(Skip::Element("polar circle (CP) without PA")));
+            };
+            // IPA turns by its own sign unless DR says otherwise; the
+            // whole turns of a helix are beyond the end angle.
+            let sweep = if inc { pa } else { 0.0 };
+            let cw = match cw {
+                Some(cw) if inc && sweep != 0.0 && cw != (sweep < 0.0) => {
+                    return Event::Skip(Skip::Element(
+                        "polar circle whose IPA and DR turn opposite ways",
+                    ));
+                }
+                Some(cw) => cw,
+                None => sweep < 0.0,
+            };
+            if rs * self.units.mm() < 0.00127 || (inc && sweep == 0.0) {
+                return Event::Skip(
+                    skip.unwrap_or(Skip::Element("polar circle of zero radius or zero angle")),
+                );
+            }
+            let turns = if inc {
+                ((sweep.abs() / 360.0 - 1e-9).ceil() as u32).saturating_sub(1)
+            } else {
+                0
+            };
+            let _ = a0;
+            mv.kind = MoveKind::Arc(Arc {
+                plane: Plane::Xy,
+                cw,
+                center: p,
+                turns,
+                center_words: [None; 3],
+                radius_word: None,
+            });
         }
         if let Some(s) = skip.or_else(|| self.frame_skip()) {
             return Event::Skip(s);

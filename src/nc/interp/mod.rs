@@ -317,6 +317,35 @@ pub struct Move {
     /// G43.5: the programmed tool direction as a unit vector in W, once
     /// resolved into rotary positions.
     pub vector: Option<Vector3<f64>>,
+    /// HEIDENHAIN LP/CP: the end point in the plane is written as polar
+    /// radius and angle around the pole.
+    pub polar: Option<Polar>,
+    /// A canned drilling cycle: the move is the hole's bottom.
+    pub drill: Option<Drill>,
+}
+
+/// The polar words of a HEIDENHAIN `LP`/`CP` block: token index and
+/// whether it is incremental (`IPR`, `IPA`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Polar {
+    /// `PR` / `IPR`.
+    pub radius: Option<(usize, bool)>,
+    /// `PA` / `IPA`.
+    pub angle: Option<(usize, bool)>,
+}
+
+/// A hole of a canned drilling cycle (G73, G74, G76, G81-G89). Its
+/// [`Move`] ends at the bottom of the hole; the cycle reaches it from
+/// `r_level` along the drill axis, and leaves the tool at the R level
+/// (G99) or back at the level it came from (G98).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Drill {
+    /// The drill axis (index into X Y Z): the normal of the plane.
+    pub axis: usize,
+    /// The R level (program units, absolute).
+    pub r_level: f64,
+    /// G98: back to the initial level; G99: to the R level.
+    pub to_initial: bool,
 }
 
 impl Move {
@@ -331,6 +360,8 @@ impl Move {
             feed: None,
             tool_vector: None,
             vector: None,
+            polar: None,
+            drill: None,
         }
     }
 }
@@ -445,6 +476,14 @@ pub struct Interpreter {
     pub pos: [Option<f64>; 6],
     /// HEIDENHAIN pole (CC) in the XY plane.
     pub pole: Option<[f64; 2]>,
+    /// The canned drilling cycle in force (G code x 10), if any.
+    pub cycle: Option<u32>,
+    /// Its modal hole bottom along the drill axis (program units).
+    pub cycle_depth: Option<f64>,
+    /// Its modal R level (program units).
+    pub cycle_r: Option<f64>,
+    /// G98 (back to the initial level) rather than G99 (to the R level).
+    pub retract_initial: bool,
     /// The line of an unreadable block that may have changed the modal
     /// state; `None` when the state is known.
     pub state_unknown: Option<usize>,
@@ -506,6 +545,12 @@ impl Interpreter {
             radius_comp: false,
             pos: [None; 6],
             pole: None,
+            cycle: None,
+            cycle_depth: None,
+            cycle_r: None,
+            // FANUC powers on in G98; LinuxCNC's interpreter starts in
+            // G99 (R plane).
+            retract_initial: dialect != Dialect::Linuxcnc,
             state_unknown: None,
             tcp_cause: None,
             altered_offsets: Vec::new(),

@@ -703,6 +703,16 @@ fn describe(
             s.tilted_plane_axis_error
         );
     }
+    if !s.drilled.is_empty() {
+        let _ = writeln!(
+            t,
+            "  canned cycles: {} holes corrected at their bottom (lines {}): tip exact there; the cycle drills along the actual tool axis, which keeps up to {:.1} urad of the machine's orientation error (rotary positions as written), up to {:.2} um off the intended hole axis at the R level",
+            s.drilled.len(),
+            s.drilled.list(),
+            s.drilled_axis_error,
+            s.drilled_residual
+        );
+    }
     match s.coordinates.as_slice() {
         [] => {}
         [one] => {

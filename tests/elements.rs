@@ -1,0 +1,196 @@
+//! The moves a controller builds from words that are not end points:
+//! canned drilling cycles (FANUC and LinuxCNC G81-G89 with G98/G99 and
+//! repeats) and HEIDENHAIN polar elements around the pole (`LP`, `CP`,
+//! with `IPR`/`IPA` and helices). Each program is written as a shop
+//! writes it, compensated against known errors, and the rewrite driven
+//! through the erroneous machine by the simulator: the tip reaches every
+//! intended point and stays on the intended path within the tolerance,
+//! where the program as written misses by far more. At zero error the
+//! rewrite is the input, byte for byte.
+
+use fivecal::Dialect;
+use fivecal::compensate::simulate::Sample;
+use fivecal::compensate::{Coordinates, Settings, Summary};
+use fivecal::errorfile::LoadedErrors;
+use fivecal::model::Model;
+
+use crate::compensate::{check_held, compensate, errors, simulate};
+
+/// The end points of `program` on the nominal machine and of `rewritten`
+/// on the erroneous one, pairwise (the rewrite inserts no block here):
+/// the largest tip distance, mm. (A hole's R level is a clearance and
+/// not an end point: it moves with the corrected depth.)
+fn worst_end_miss(l: &LoadedErrors, d: Dialect, program: &str, rewritten: &str) -> f64 {
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let ends =
+        |s: Vec<Sample>| -> Vec<Sample> { s.into_iter().filter(|x| x.fraction == 1.0).collect() };
+    let a = ends(simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0));
+    let b = ends(simulate(
+        &l.model,
+        &l.theta,
+        d,
+        Coordinates::Auto,
+        rewritten,
+        0.0,
+    ));
+    assert_eq!(a.len(), b.len(), "the same points in both");
+    a.iter()
+        .zip(&b)
+        .map(|(x, y)| (x.nominal.tip - y.actual.tip).norm())
+        .fold(0.0, f64::max)
+}
+
+/// Compensates `program` at zero error (must give it back) and against
+/// `l`; the rewrite must hold the tolerance on the simulator and the
+/// program as written must not. At the `tip_only` lines (holes: the
+/// rotary axes stand as they are) the tool axis is not checked.
+fn holds(
+    l: &LoadedErrors,
+    d: Dialect,
+    program: &str,
+    tip_only: &[usize],
+    what: &str,
+) -> (String, Summary) {
+    let m = l.model.kin.machine().name.clone();
+    let zero = errors(&m, 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
+    assert_eq!(out, program, "{what}: zero error must give the same bytes");
+    assert_eq!(s0.changed, 0, "{what}");
+    let (out, s, _) = compensate(l, Settings::new(d), program);
+    check_held(
+        l,
+        d,
+        Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        tip_only,
+        what,
+    );
+    assert!(
+        worst_end_miss(l, d, program, &out) < 1e-4,
+        "{what}: an end point missed"
+    );
+    let before = worst_end_miss(l, d, program, program);
+    assert!(
+        before > 0.005,
+        "{what}: the errors move the tip by only {:.2} um as written",
+        before * 1e3
+    );
+    (out, s)
+}
+
+#[test]
+fn fanuc_drilling_cycles_put_every_hole_where_it_was_meant() {
+    // A post-side program: the part turned to B30 C45, four holes drilled
+    // and pecked along the machine's Z with the cycles' modal depth and R.
+    // The first hole comes straight after the rotary positioning, which is
+    // left as written (X and Y are not known there).
+    let program = "%\nO1001 (DRILL AND PECK)\nG90 G21 G17 G40 G49 G80\nG0 B30. C45.\nG43 H1 Z100.\nG98 G81 X10. Y10. Z-5. R2. F200.\nX30.\nY30. Z-6.\nG99 G83 X10. Y30. Z-8. R2. Q2. F150.\nG80\nG0 Z100.\nM30\n%\n";
+    let l = errors("bc-trunnion", 91, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Fanuc, program, &[6, 7, 8, 9], "fanuc cycles");
+    assert_eq!(s.drilled.first, [6, 7, 8, 9], "{:?}\n{out}", s.skipped);
+    assert_eq!(s.skipped.len(), 1, "{:?}", s.skipped);
+    assert_eq!(s.skipped[0].1.first, [4, 5], "{:?}", s.skipped);
+    // The cycle words stay, X, Y and the depth are rewritten; a hole
+    // without a depth word drills to the corrected depth in force.
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[5].starts_with("G98 G81 X") && lines[5].ends_with(" R2. F200."));
+    assert!(!lines[5].contains("Z-5. "), "{}", lines[5]);
+    assert!(lines[6].starts_with('X'), "{}", lines[6]);
+    assert!(lines[8].ends_with(" R2. Q2. F150."), "{}", lines[8]);
+    // The rotary axes stand as written: the holes keep the machine's
+    // orientation error, reported with what it does at the R level.
+    assert!(
+        s.drilled_axis_error > 1.0 && s.drilled_residual > 0.0 && s.drilled_residual < 1.0,
+        "{s:?}"
+    );
+}
+
+#[test]
+fn linuxcnc_drilling_in_g99_with_repeats_in_g90() {
+    // LinuxCNC starts in G99; L2 in G90 drills the same hole twice.
+    let program = "G21 G90 G17\nG0 A-20 C30\nG43 H1\nG0 Z50\nG0 X5 Y5\nG81 X5 Y5 Z-4 R1 F100 L2\nX25 Y5\nG80\nG0 Z50\nM2\n";
+    let l = errors("ac-trunnion", 92, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Linuxcnc, program, &[], "linuxcnc cycles");
+    assert_eq!(s.drilled.first, [6, 7], "{:?}\n{out}", s.skipped);
+    // The positioning move before corrected the orientation, and the
+    // cycle drills with it.
+    assert!(s.drilled_axis_error < 0.01, "{s:?}");
+}
+
+#[test]
+fn an_incremental_cycle_is_reported_at_its_line() {
+    let program = "G21 G90 G17\nG0 A-20 C30\nG43 H1\nG0 Z50\nG0 X5 Y5\nG91 G81 X10 Z-4 R-45 F100 L3\nG90 G80\nG0 Z50\nM2\n";
+    let l = errors("ac-trunnion", 93, 30.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Linuxcnc), program);
+    let (why, lines) = s
+        .skipped
+        .iter()
+        .find(|(w, _)| w.contains("incremental distance (G91)"))
+        .unwrap_or_else(|| panic!("{:?}", s.skipped));
+    assert_eq!(lines.first, [6], "{why}");
+    assert_eq!(out.lines().nth(5), program.lines().nth(5));
+}
+
+#[test]
+fn heidenhain_polar_lines_and_circles_are_rewritten_around_the_pole() {
+    // A contour in polar coordinates as written at the control: absolute
+    // and incremental radius and angle, circles about the pole both ways,
+    // and a pole taken where the tool is (`CC` alone).
+    let program = "0 BEGIN PGM POLAR MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S4000\n4 L A-20 C+30 R0 FMAX\n5 L X+40 Y+0 Z+50 R0 FMAX\n6 CC X+0 Y+0\n7 L Z-2 F300\n8 LP PR+40 PA+45 F600\n9 LP IPA+45\n10 LP PR+25 IPA+30\n11 CP PA+180 DR+\n12 CP IPA-90 DR-\n13 LP IPR+10 PA+300\n14 CC\n15 LP PR+5 PA+0\n16 L Z+50 R0 FMAX\n17 END PGM POLAR MM\n";
+    let l = errors("ac-trunnion", 94, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Heidenhain, program, &[], "polar");
+    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
+    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    // Polar blocks stay polar, with their own words.
+    for kw in [
+        " LP PR+",
+        " IPA+",
+        " LP IPR+10 PA+",
+        " CP PA+",
+        " CP IPA-",
+        "\n15 CC\n",
+    ] {
+        assert!(out.contains(kw), "{kw}\n{out}");
+    }
+    // The circles turn about a corrected pole, inserted before them.
+    assert_eq!(s.inserted, 1, "{out}");
+    assert!(
+        !out.lines().any(|t| t.contains("LP") && t.contains(" X")),
+        "{out}"
+    );
+}
+
+#[test]
+fn a_heidenhain_helix_with_ipa_and_iz_turns_as_often_as_written() {
+    let program = "0 BEGIN PGM HELIX MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 CC X+10 Y+5\n4 L X+22 Y+5 Z+2 R0 FMAX\n5 L Z+0 F300\n6 CP IPA+1080 IZ-6 DR+ F500\n7 L X+10 Y+5\n8 L Z+50 R0 FMAX\n9 END PGM HELIX MM\n";
+    let l = errors("ac-trunnion", 95, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Heidenhain, program, &[], "helix");
+    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
+    // Three turns down 6 mm, around a corrected pole.
+    let helix = out.lines().find(|t| t.contains(" CP ")).unwrap();
+    assert!(helix.contains("IPA+10") && helix.contains("IZ-"), "{out}");
+}
+
+#[test]
+fn heidenhain_elements_not_corrected_yet_are_reported_at_their_lines() {
+    let program = "0 BEGIN PGM REST MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+0 Y+0 Z+2 R0 FMAX\n4 L Z-1 F300\n5 L X+20 RL F600\n6 RND R2\n7 L Y+20\n8 CHF 1\n9 L X+0\n10 CT X-5 Y+15\n11 L Z+50 R0 FMAX\n12 CYCL DEF 200 DRILLING\n13 CYCL CALL POS X+10 Y+10 Z+0 FMAX\n14 END PGM REST MM\n";
+    let l = errors("ac-trunnion", 96, 30.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    for (what, line) in [
+        // File lines: block n is line n + 1.
+        ("rounding (RND)", 7),
+        ("chamfer (CHF)", 9),
+        ("tangential circle (CT)", 11),
+        ("CYCL CALL POS", 14),
+    ] {
+        let (_, lines) = s
+            .skipped
+            .iter()
+            .find(|(w, _)| w.contains(what))
+            .unwrap_or_else(|| panic!("{what}: {:?}", s.skipped));
+        assert_eq!(lines.first, [line], "{what}");
+        assert_eq!(out.lines().nth(line - 1), program.lines().nth(line - 1));
+    }
+}
