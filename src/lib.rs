@@ -11,6 +11,7 @@
 //! urad in error files and model parameters; mm and rad inside the chain.
 
 #![warn(missing_docs)]
+#![deny(unreachable_pub)]
 
 pub mod analyze;
 pub mod compensate;

@@ -16,25 +16,25 @@ struct Edit {
 
 /// The edits of one block (buffers are reused from block to block).
 #[derive(Default, Debug)]
-pub struct Edits {
+pub(super) struct Edits {
     items: Vec<Edit>,
     buf: Vec<u8>,
 }
 
 impl Edits {
     /// Forgets all edits.
-    pub fn clear(&mut self) {
+    pub(super) fn clear(&mut self) {
         self.items.clear();
         self.buf.clear();
     }
 
     /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
+    pub(super) fn is_empty(&self) -> bool {
         self.items.is_empty()
     }
 
     /// Replaces `span` with what `f` writes.
-    pub fn replace(&mut self, span: Span, f: impl FnOnce(&mut Vec<u8>)) {
+    pub(super) fn replace(&mut self, span: Span, f: impl FnOnce(&mut Vec<u8>)) {
         let a = self.buf.len() as u32;
         f(&mut self.buf);
         let b = self.buf.len() as u32;
@@ -49,17 +49,17 @@ impl Edits {
 
     /// Inserts what `f` writes at byte `at` (after earlier insertions at the
     /// same place).
-    pub fn insert(&mut self, at: u32, f: impl FnOnce(&mut Vec<u8>)) {
+    pub(super) fn insert(&mut self, at: u32, f: impl FnOnce(&mut Vec<u8>)) {
         self.replace(Span { start: at, end: at }, f);
     }
 
     /// Deletes `span`.
-    pub fn delete(&mut self, span: Span) {
+    pub(crate) fn delete(&mut self, span: Span) {
         self.replace(span, |_| {});
     }
 
     /// Writes the block with the edits applied.
-    pub fn write_block<W: Write>(&mut self, block: &Block, out: &mut W) -> io::Result<()> {
+    pub(crate) fn write_block<W: Write>(&mut self, block: &Block, out: &mut W) -> io::Result<()> {
         if self.items.is_empty() {
             return out.write_all(&block.text);
         }

@@ -137,7 +137,7 @@ pub struct Vertex {
 }
 
 /// Line numbers of a kind of event: how many there were and the first
-/// [`Lines::KEPT`] of them (so a summary does not grow with the program).
+/// `Lines::KEPT` of them (so a summary does not grow with the program).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Lines {
     /// How many.
@@ -149,7 +149,7 @@ pub struct Lines {
 
 impl Lines {
     /// How many line numbers are kept.
-    pub const KEPT: usize = 200;
+    pub(crate) const KEPT: usize = 200;
 
     /// Records `line` (a repeat of the last line is not counted again).
     pub fn push(&mut self, line: usize) {

@@ -31,7 +31,7 @@ use crate::model::{Context, Effect, Model};
 /// How far beyond its limit (deg) a tilt may be needed and still be held
 /// at the limit: more than an error model's few hundred urad means a
 /// program that leaves the tilt's range, not a correction.
-pub const TILT_OVERRUN: f64 = 0.1;
+pub(crate) const TILT_OVERRUN: f64 = 0.1;
 
 /// How the actual machine is evaluated (one per solver: the size
 /// difference between the variants does not matter).
@@ -391,7 +391,11 @@ impl Solver {
     /// The correction with C held at its nominal value (the fallback of
     /// the singularity policy, also used when the exact solution's swing of
     /// C would exceed the correction limit).
-    pub fn solve_held(&self, target: &ToolPose, nominal: &Axes) -> Result<Solution, IkError> {
+    pub(crate) fn solve_held(
+        &self,
+        target: &ToolPose,
+        nominal: &Axes,
+    ) -> Result<Solution, IkError> {
         let a = self.hold_c(target, nominal)?;
         let got = self.actual_pose(&a).axis;
         let residual = got
@@ -407,7 +411,7 @@ impl Solver {
     }
 
     /// X, Y, Z that put the tip at `tip` with the rotary axes fixed.
-    pub fn position_at(&self, tip: &Vector3<f64>, tilt: f64, c: f64) -> Vector3<f64> {
+    pub(crate) fn position_at(&self, tip: &Vector3<f64>, tilt: f64, c: f64) -> Vector3<f64> {
         let mut a = Axes {
             xyz: Vector3::zeros(),
             tilt,

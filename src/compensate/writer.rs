@@ -62,7 +62,7 @@ pub(super) struct Writer {
 }
 
 impl Writer {
-    pub fn new(settings: &Settings) -> Writer {
+    pub(super) fn new(settings: &Settings) -> Writer {
         Writer {
             dialect: settings.dialect,
             linear_decimals: settings.linear_decimals,
@@ -95,7 +95,7 @@ impl Writer {
     }
 
     /// Starts a block: no edits yet.
-    pub fn begin(&mut self, block: &Block) {
+    pub(crate) fn begin(&mut self, block: &Block) {
         self.edits.clear();
         if !self.eol_known
             && let Some(e) = block.line_ending()
@@ -108,7 +108,7 @@ impl Writer {
     }
 
     /// Ends a block (renumbering HEIDENHAIN blocks); whether it changed.
-    pub fn end(&mut self, block: &Block) -> bool {
+    pub(super) fn end(&mut self, block: &Block) -> bool {
         if self.heidenhain() {
             self.renumber(block);
         }
@@ -132,7 +132,7 @@ impl Writer {
     /// After a statement: HEIDENHAIN remembers the pole in force; ISO
     /// blocks that rely on a motion mode a linearized arc changed get their
     /// motion word back.
-    pub fn after_statement(
+    pub(crate) fn after_statement(
         &mut self,
         block: &Block,
         seg: &Segment,
@@ -215,7 +215,7 @@ impl Writer {
 
     /// A move left as written: a polar element needs the program's own
     /// pole; the controller then moves where the words say.
-    pub fn keep(
+    pub(super) fn keep(
         &mut self,
         block: &Block,
         seg: &Segment,
@@ -234,7 +234,7 @@ impl Writer {
 
     /// Follows a statement that is left as written: the controller moves
     /// where the words say, from wherever the previous blocks left it.
-    pub fn follow(
+    pub(super) fn follow(
         &mut self,
         block: &Block,
         seg: &Segment,
@@ -288,7 +288,7 @@ impl Writer {
     /// Writes a planned move; returns whether the motion-word bookkeeping
     /// was done here (a linearized arc).
     #[allow(clippy::too_many_arguments)]
-    pub fn write(
+    pub(super) fn write(
         &mut self,
         block: &Block,
         seg: &Segment,

@@ -432,7 +432,7 @@ fn may_show_commented(g: &Grams, text: &[u8]) -> (bool, bool) {
 
 impl Evidence {
     /// Looks at one block (`text`, starting at `line`).
-    pub fn observe(&mut self, text: &[u8], line: usize) {
+    pub(crate) fn observe(&mut self, text: &[u8], line: usize) {
         if self.first.iter().all(Option::is_some) && self.iso.is_some() {
             return;
         }
@@ -461,7 +461,7 @@ impl Evidence {
     }
 
     /// The first sign of `d`, if any.
-    pub fn clue(&self, d: Dialect) -> Option<&Clue> {
+    pub(crate) fn clue(&self, d: Dialect) -> Option<&Clue> {
         self.first[slot(d)].as_ref()
     }
 
@@ -473,7 +473,7 @@ impl Evidence {
 
     /// The dialect the text shows when read as `reading_as`: the first sign
     /// of another dialect, when the text has none of `reading_as`'s own.
-    pub fn other_than(&self, reading_as: Dialect) -> Option<&Clue> {
+    pub(crate) fn other_than(&self, reading_as: Dialect) -> Option<&Clue> {
         if self.clue(reading_as).is_some() {
             return None;
         }
@@ -496,7 +496,7 @@ fn shared_with(c: &Clue, d: Dialect) -> bool {
 /// extension the TNC gives it), `.ngc` LinuxCNC's, `.mpf` and `.spf`
 /// SINUMERIK's main programs and subprograms. Other extensions
 /// (`.nc`, `.tap`, `.txt`...) are used by every G-code control.
-pub fn hinted(path: &Path) -> Option<Dialect> {
+pub(crate) fn hinted(path: &Path) -> Option<Dialect> {
     let ext = path.extension()?.to_str()?.to_ascii_lowercase();
     match ext.as_str() {
         "h" => Some(Dialect::Heidenhain),

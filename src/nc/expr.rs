@@ -199,25 +199,25 @@ fn length(s: &[u8], parser: fn(&[u8]) -> Res<'_>) -> Result<Option<usize>, TooDe
 }
 
 /// Length of the expression at the start of `s`, `None` if there is none.
-pub fn expr_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+pub(crate) fn expr_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
     length(s, expr)
 }
 
 /// Length of the bracketed expression at the start of `s`.
-pub fn bracketed_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+pub(crate) fn bracketed_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
     length(s, bracketed)
 }
 
 /// Length of a parameter reference (`#12`, `#<name>`, `#[expr]`, `##3`)
 /// at the start of `s`.
-pub fn param_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+pub(crate) fn param_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
     length(s, param)
 }
 
 /// Length of a LinuxCNC "real value" at the start of `s`: a number, a
 /// parameter, a bracketed expression or a unary function, with optional
 /// signs (no unbracketed binary operator).
-pub fn real_value_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
+pub(crate) fn real_value_len(s: &[u8]) -> Result<Option<usize>, TooDeep> {
     length(s, atom)
 }
 

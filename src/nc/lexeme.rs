@@ -47,7 +47,7 @@ const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
 8081828384858687888990919293949596979899";
 
 /// `10^d` for `d` up to 22 (exact), else `powi`.
-pub fn pow10(d: u8) -> f64 {
+pub(crate) fn pow10(d: u8) -> f64 {
     POW10
         .get(d as usize)
         .copied()
@@ -55,12 +55,12 @@ pub fn pow10(d: u8) -> f64 {
 }
 
 /// Half a unit of the last of `d` decimals.
-pub fn half_unit(d: u8) -> f64 {
+pub(crate) fn half_unit(d: u8) -> f64 {
     0.5 / pow10(d)
 }
 
 /// `v` rounded to `d` decimals.
-pub fn round_to(v: f64, d: u8) -> f64 {
+pub(crate) fn round_to(v: f64, d: u8) -> f64 {
     let k = pow10(d);
     let x = v * k;
     // A cast rounds without a libm call on baseline x86-64.
@@ -74,7 +74,7 @@ pub fn round_to(v: f64, d: u8) -> f64 {
 
 /// Length of the numeric lexeme at the start of `s` (`[+-]? (d+ (. d*)? | . d+)`),
 /// or 0 when there is none. Spaces are not allowed inside.
-pub fn lex_len(s: &[u8]) -> usize {
+pub(crate) fn lex_len(s: &[u8]) -> usize {
     let mut i = 0;
     if i < s.len() && (s[i] == b'+' || s[i] == b'-') {
         i += 1;
@@ -99,13 +99,13 @@ pub fn lex_len(s: &[u8]) -> usize {
 }
 
 /// Lexes and reads the number at the start of `s` in one pass: the lexeme
-/// and its length, or `None` (the same acceptance as [`lex_len`]).
+/// and its length, or `None` (the same acceptance as `lex_len`).
 pub fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
     scan_with(s, b'.')
 }
 
 /// As [`scan`], with `sep` as the decimal separator (`.` or `,`).
-pub fn scan_with(s: &[u8], sep: u8) -> Option<(Lexeme, usize)> {
+pub(crate) fn scan_with(s: &[u8], sep: u8) -> Option<(Lexeme, usize)> {
     let mut style = NumStyle::default();
     let mut i = 0;
     let mut neg = false;
@@ -169,7 +169,7 @@ pub fn scan_with(s: &[u8], sep: u8) -> Option<(Lexeme, usize)> {
     ))
 }
 
-/// Reads a numeric lexeme that [`lex_len`] accepted in full.
+/// Reads a numeric lexeme that `lex_len` accepted in full.
 pub fn read(s: &[u8]) -> Lexeme {
     let mut style = NumStyle::default();
     let mut i = 0;
@@ -295,7 +295,7 @@ pub fn write(out: &mut Vec<u8>, value: f64, decimals: u8, like: &NumStyle, rules
 }
 
 /// Appends the decimal digits of `n`.
-pub fn push_u64(out: &mut Vec<u8>, mut n: u64) {
+pub(crate) fn push_u64(out: &mut Vec<u8>, mut n: u64) {
     let mut buf = [0u8; 20];
     let mut i = buf.len();
     loop {

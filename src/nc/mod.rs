@@ -87,7 +87,7 @@ impl Addr {
     }
 
     /// The single letter of a one-letter address.
-    pub fn as_letter(self) -> Option<u8> {
+    pub(crate) fn as_letter(self) -> Option<u8> {
         (self.0 & 0x00ff_ffff == 0).then_some((self.0 >> 24) as u8)
     }
 }
@@ -338,7 +338,7 @@ impl Block {
     }
 
     /// The tokens of a segment.
-    pub fn seg_tokens(&self, seg: &Segment) -> &[Token] {
+    pub(crate) fn seg_tokens(&self, seg: &Segment) -> &[Token] {
         &self.tokens[seg.first as usize..seg.end as usize]
     }
 
@@ -374,7 +374,7 @@ impl Block {
 
     /// The line ending this block uses (`\r\n`, `\n` or `\r`), if it has
     /// one.
-    pub fn line_ending(&self) -> Option<&'static [u8]> {
+    pub(crate) fn line_ending(&self) -> Option<&'static [u8]> {
         if self.text.ends_with(b"\r\n") {
             Some(b"\r\n")
         } else if self.text.ends_with(b"\n") {

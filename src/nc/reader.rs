@@ -160,7 +160,7 @@ impl<R: BufRead> Blocks<R> {
     /// As [`Blocks::next_block`], into `out`: `false` at the end of the
     /// input. The buffers `out` had are kept for a later block, so reading
     /// a program into a few recycled blocks allocates nothing per block.
-    pub fn next_into(&mut self, out: &mut Block) -> Result<bool, ReadError> {
+    pub(crate) fn next_into(&mut self, out: &mut Block) -> Result<bool, ReadError> {
         let read = self.next_block()?.is_some();
         if read {
             std::mem::swap(&mut self.block, out);

@@ -31,7 +31,7 @@ impl AxisLine {
     }
 
     /// The feet of the common perpendicular of two lines (on self, on other).
-    pub fn common_perpendicular(
+    pub(crate) fn common_perpendicular(
         &self,
         other: &AxisLine,
         near: &Vector3<f64>,

@@ -90,7 +90,11 @@ pub fn eval(dialect: Dialect, text: &[u8], params: &dyn Params) -> Result<f64, S
 /// Reads a parameter reference at the start of `text` (`#12`, `#<x>`,
 /// `#[#1+2]`, `Q3`, `QL2`, `R[2]`, `_NAME`), evaluating any index; returns
 /// the key and the bytes it took.
-pub fn param_ref(dialect: Dialect, text: &[u8], params: &dyn Params) -> Result<(Key, usize), Stop> {
+pub(crate) fn param_ref(
+    dialect: Dialect,
+    text: &[u8],
+    params: &dyn Params,
+) -> Result<(Key, usize), Stop> {
     let mut p = Parser {
         s: text,
         i: 0,

@@ -783,7 +783,7 @@ pub enum Known {
 /// Per block and word token: what the trace says, for blocks with
 /// expression words. `None` when execution did not reach the end (a later
 /// run of any statement could not be ruled out).
-pub fn known_words(trace: &Trace) -> Option<HashMap<(u32, u32), Known>> {
+pub(crate) fn known_words(trace: &Trace) -> Option<HashMap<(u32, u32), Known>> {
     if trace.halt.is_some() {
         return None;
     }

@@ -35,13 +35,13 @@ const LINUXCNC_G: &[u32] = &[
 const LINUXCNC_REMAPPED_G: &[u32] = &[531, 682, 690];
 
 /// The G-code number of a literal G word value, times ten (`43.4` -> 434).
-pub fn g_code(v: f64) -> Option<u32> {
+pub(crate) fn g_code(v: f64) -> Option<u32> {
     let t = (v * 10.0).round();
     ((v * 10.0 - t).abs() < 1e-6 && (0.0..1e9).contains(&t)).then_some(t as u32)
 }
 
 /// Whether the dialect knows G code `g` (x 10).
-pub fn known_g(dialect: Dialect, g: u32) -> bool {
+pub(crate) fn known_g(dialect: Dialect, g: u32) -> bool {
     match dialect {
         Dialect::Linuxcnc => {
             LINUXCNC_G.binary_search(&g).is_ok() || LINUXCNC_REMAPPED_G.contains(&g)

@@ -51,7 +51,7 @@ use crate::kinematics::{Axes, Kinematics, ToolPose};
 use crate::machine::Dialect;
 
 /// Axis indices: X, Y, Z, A, B, C.
-pub const AXES: [u8; 6] = *b"XYZABC";
+pub(crate) const AXES: [u8; 6] = *b"XYZABC";
 
 /// Length units of the program.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -565,11 +565,6 @@ impl Interpreter {
         &self.cfg.settings
     }
 
-    /// Index of the machine's tilt axis in [`AXES`] (3 for A, 4 for B).
-    pub fn tilt_index(&self) -> usize {
-        self.cfg.tilt
-    }
-
     /// Applies one statement of `block` and says what it does.
     pub fn step(&mut self, block: &Block, seg: &Segment) -> Event {
         if seg.stmt == Stmt::Unreadable {
@@ -753,7 +748,7 @@ impl Interpreter {
 
     /// What the program's coordinates are here: as the TCP mode says, or
     /// X Y Z in a tilted working plane.
-    pub fn coordinates_meaning(&self) -> &'static str {
+    pub(crate) fn coordinates_meaning(&self) -> &'static str {
         match self.frame().plane {
             Some(_) => {
                 "X Y Z in a tilted working plane (3+2: the plane's rotary positions, tool length along the tool)"
@@ -764,7 +759,7 @@ impl Interpreter {
 
     /// Why the program's coordinates mean what [`Interpreter::frame`] says
     /// here: the flag that forces it, or the code that switched it.
-    pub fn coordinates_why(&self) -> String {
+    pub(crate) fn coordinates_why(&self) -> String {
         if let (Some(_), Some(c)) = (self.frame().plane, &self.plane_cause) {
             return format!("`{}` at line {}", c.code, c.line);
         }
@@ -873,7 +868,7 @@ impl Interpreter {
     }
 
     /// Total datum shift per linear axis (program units).
-    pub fn total_shift(&self) -> [f64; 3] {
+    pub(crate) fn total_shift(&self) -> [f64; 3] {
         [
             self.shift[0] + self.local_shift[0],
             self.shift[1] + self.local_shift[1],
@@ -991,7 +986,7 @@ impl Interpreter {
 /// up exist only as remaps, so neither is known without the machine
 /// file). HEIDENHAIN TNC: the M functions of the Klartext manuals, and M7
 /// (mist coolant on most machines, as the bundled postprocessor writes it).
-pub fn known_m(dialect: Dialect, m: u32) -> bool {
+pub(crate) fn known_m(dialect: Dialect, m: u32) -> bool {
     const FANUC: &[u32] = &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 19, 29, 30, 98, 99, 198];
     const LINUXCNC: &[u32] = &[
         0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 19, 30, 48, 49, 50, 51, 52, 53, 60, 61, 62, 63, 64, 65, 66,
@@ -1125,7 +1120,7 @@ fn letter_word(code: &[u8], letters: &[u8]) -> bool {
 /// nowhere near the circle through both ends is a controller's alarm
 /// (FANUC PS0020, LinuxCNC "radius to end of arc differs from radius to
 /// start"), not a path to follow.
-pub fn arc_runs(s: [f64; 2], e: [f64; 2], c: [f64; 2], mm: f64) -> bool {
+pub(crate) fn arc_runs(s: [f64; 2], e: [f64; 2], c: [f64; 2], mm: f64) -> bool {
     const ZERO_RADIUS_MM: f64 = 0.00127;
     const SPIRAL_MM: f64 = 0.02 * std::f64::consts::SQRT_2;
     const SPIRAL_RELATIVE: f64 = 0.001;
@@ -1140,7 +1135,7 @@ pub fn arc_runs(s: [f64; 2], e: [f64; 2], c: [f64; 2], mm: f64) -> bool {
 
 /// The centre of an arc from `s` to `e` with radius `r` (positive: at most
 /// half a circle; negative: more), turning clockwise or not.
-pub fn center_from_radius(s: [f64; 2], e: [f64; 2], r: f64, cw: bool) -> Option<[f64; 2]> {
+pub(crate) fn center_from_radius(s: [f64; 2], e: [f64; 2], r: f64, cw: bool) -> Option<[f64; 2]> {
     let (dx, dy) = (e[0] - s[0], e[1] - s[1]);
     let d = dx.hypot(dy);
     if d == 0.0 || d > 2.0 * r.abs() * (1.0 + 1e-9) {

@@ -50,12 +50,12 @@ impl WorkPlane {
     }
 
     /// Workpiece coordinates of a point written in the plane.
-    pub fn to_workpiece(&self, p: &Vector3<f64>) -> Vector3<f64> {
+    pub(crate) fn to_workpiece(self, p: &Vector3<f64>) -> Vector3<f64> {
         self.origin + self.rot * p
     }
 
     /// Plane coordinates of a workpiece point.
-    pub fn to_plane(&self, q: &Vector3<f64>) -> Vector3<f64> {
+    pub(crate) fn to_plane(self, q: &Vector3<f64>) -> Vector3<f64> {
         self.rot.transpose() * (q - self.origin)
     }
 
@@ -139,7 +139,7 @@ pub fn about(axis: u8, deg: f64) -> Matrix3<f64> {
 
 /// Three rotations about the turned axes in `order` (intrinsic, e.g.
 /// `b"ZXZ"`): `R = R1(a) R2(b) R3(c)`.
-pub fn intrinsic(order: &[u8; 3], angles: [f64; 3]) -> Matrix3<f64> {
+pub(crate) fn intrinsic(order: &[u8; 3], angles: [f64; 3]) -> Matrix3<f64> {
     about(order[0], angles[0]) * about(order[1], angles[1]) * about(order[2], angles[2])
 }
 
@@ -152,7 +152,7 @@ pub fn spatial(spa: f64, spb: f64, spc: f64) -> Matrix3<f64> {
 /// The plane whose X axis points along `x` and whose Z axis along `z`
 /// (PLANE VECTOR, LinuxCNC G68.2 P3): both are normalized; they must be
 /// perpendicular within 1e-4 (the controllers refuse them otherwise).
-pub fn from_axes(x: &Vector3<f64>, z: &Vector3<f64>) -> Result<Matrix3<f64>, &'static str> {
+pub(crate) fn from_axes(x: &Vector3<f64>, z: &Vector3<f64>) -> Result<Matrix3<f64>, &'static str> {
     let (nx, nz) = (x.norm(), z.norm());
     if !(nx > 1e-9 && nz > 1e-9 && nx.is_finite() && nz.is_finite()) {
         return Err("a zero or unreadable vector");
@@ -199,7 +199,7 @@ pub enum Choice {
 /// The rotary positions (tilt, C) that put the tool along `normal` (in W),
 /// chosen as `choice` says from the positions before the plane `before`
 /// (`None`: not known).
-pub fn rotary_for(
+pub(crate) fn rotary_for(
     nominal: &FastChain,
     normal: &Vector3<f64>,
     before: (Option<f64>, Option<f64>),

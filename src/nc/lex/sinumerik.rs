@@ -39,7 +39,7 @@ const SINUMERIK_G: &[u32] = &[
 
 /// Whether SINUMERIK knows G code `g` (x 10): the list above and the
 /// settable work offsets G505 to G599.
-pub fn known_g(g: u32) -> bool {
+pub(crate) fn known_g(g: u32) -> bool {
     SINUMERIK_G.binary_search(&g).is_ok() || (5050..=5990).contains(&g) && g.is_multiple_of(10)
 }
 
