@@ -23,6 +23,7 @@ use crate::geom::Axis3;
 use crate::identify::{Dataset, Setup};
 use crate::kinematics::Kinematics;
 use crate::kinematics::maps::MapDim;
+use crate::kinematics::symbols::SymbolTable;
 use crate::model::{DriftBasis, Effect, Squareness};
 
 /// One candidate effect.
@@ -106,6 +107,18 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
     let mut out = Catalogue::default();
     let kin = parts[0].kin;
     let sym = crate::model::Model::new(kin.clone(), Vec::new()).symbols;
+    drifts(&mut out, parts, &sym);
+    scales(&mut out);
+    squarenesses(&mut out);
+    straightnesses(&mut out, parts);
+    maps(&mut out, parts, &sym);
+    tool_and_probe(&mut out, parts);
+    out
+}
+
+/// A thermal drift of each location error, per pose and, where the
+/// parts' clocks tell it apart, per minute.
+fn drifts(out: &mut Catalogue, parts: &[Part<'_>], sym: &SymbolTable) {
     let clock = |d: &Dataset| -> (bool, bool) {
         let seqs: Vec<f64> = d.poses.iter().map(|p| p.seq as f64).collect();
         let mins: Vec<f64> = d.poses.iter().map(|p| p.minutes).collect();
@@ -141,6 +154,10 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
             ));
         }
     }
+}
+
+/// The linear positioning (scale) error of each linear axis.
+fn scales(out: &mut Catalogue) {
     for axis in [Axis3::X, Axis3::Y, Axis3::Z] {
         out.candidates.push(Candidate::new(
             format!("scale.E{0}{0}", axis.letter()),
@@ -151,6 +168,10 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
             ),
         ));
     }
+}
+
+/// The three squareness errors of the linear axes.
+fn squarenesses(out: &mut Catalogue) {
     for kind in Squareness::ALL {
         let what = match kind {
             Squareness::CXY => "squareness of Y to X",
@@ -163,6 +184,12 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
             what.to_string(),
         ));
     }
+}
+
+/// The straightness of each linear axis the test moves, in each direction
+/// it senses.
+fn straightnesses(out: &mut Catalogue, parts: &[Part<'_>]) {
+    let kin = parts[0].kin;
     // Straightness: five nodes over the commanded range of the moving axis,
     // taken from its least-squares reference line over the positions where
     // the test senses it (each measured point weighted by the square of its
@@ -245,8 +272,13 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
             out.candidates.push(c);
         }
     }
-    // Maps on the plan's angles, with the papers' averaging constraints
-    // (built by the identification's own setup, so both agree).
+}
+
+/// An error map of each location error on the plan's angles, with the
+/// papers' averaging constraints.
+fn maps(out: &mut Catalogue, parts: &[Part<'_>], sym: &SymbolTable) {
+    let kin = parts[0].kin;
+    // Built by the identification's own setup, so both agree.
     let poses: Vec<crate::identify::data::Pose> = parts
         .iter()
         .flat_map(|p| p.data.poses.iter().cloned())
@@ -278,6 +310,11 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
         }
         out.candidates.push(c);
     }
+}
+
+/// The tool's radius and length errors where a piece was machined, the
+/// probe's length and pre-travel where it probed.
+fn tool_and_probe(out: &mut Catalogue, parts: &[Part<'_>]) {
     let has = |kind: TestKind| parts.iter().any(|p| p.data.kind == kind);
     if has(TestKind::Machining) {
         out.candidates.push(Candidate::new(
@@ -310,7 +347,6 @@ pub fn catalogue(parts: &[Part<'_>]) -> Catalogue {
             "probe pre-travel by approach direction (trigger beyond contact)".into(),
         ));
     }
-    out
 }
 
 #[cfg(test)]

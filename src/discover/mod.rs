@@ -766,6 +766,77 @@ pub fn merged(parts: &[Part<'_>]) -> Dataset {
 /// test its ambiguity asked for): one model, each part with its own
 /// forward model and nuisance.
 pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery, DiscoverError> {
+    check_parts(parts, opts)?;
+    let kin = parts[0].kin;
+    let view = merged(parts);
+    let data = &view;
+    let cat = catalogue::catalogue(parts);
+    let mut notes = cat.notes.clone();
+    let model0 = Model::new(kin.clone(), Vec::new());
+    check_names(opts, &cat, &model0)?;
+    // The catalogue model holds the candidates the search may try and those
+    // the start names.
+    let wanted: Vec<Candidate> = cat
+        .candidates
+        .iter()
+        .filter(|c| selected(c, opts, &model0) || opts.start.contains(&c.name))
+        .cloned()
+        .collect();
+    let (fitter, unserved) = Fitter::new(parts, &wanted)?;
+    let unserved: std::collections::HashMap<String, String> = unserved.into_iter().collect();
+    let current = start(&fitter, kin, &cat, &opts.start, &mut notes)?;
+    let start_state = state(kin, data, &current);
+    let ctx = Search {
+        parts,
+        data,
+        fitter: &fitter,
+        cat: &cat,
+        model0: &model0,
+        unserved: &unserved,
+        opts,
+    };
+    let Searched {
+        current,
+        fits,
+        mut steps,
+        ambiguity,
+        stop,
+        last_round,
+    } = ctx.search(current)?;
+    let ambiguous: Vec<String> = ambiguity
+        .as_ref()
+        .map(|a: &story::Ambiguity| a.candidates.iter().map(|c| c.name.clone()).collect())
+        .unwrap_or_default();
+    mark_added(&mut steps, &last_round, &ambiguous);
+    let end_state = state(kin, data, &current);
+    part_notes(parts, &mut notes);
+    let story = Story {
+        test: opts.test.clone(),
+        machine: kin.machine().name.clone(),
+        points: fitter.len(),
+        poses: data.poses.len(),
+        alpha: opts.alpha,
+        start: start_state,
+        steps,
+        end: end_state,
+        stop,
+        ambiguity,
+        last_round,
+        notes,
+    };
+    Ok(Discovery {
+        story,
+        fits,
+        parts: parts
+            .iter()
+            .map(|p| (p.label.to_string(), p.data.kind, p.data.obs.len()))
+            .collect(),
+    })
+}
+
+/// Refuses a discovery without measurements, over several machines or
+/// with a level outside (0, 1).
+fn check_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<(), DiscoverError> {
     let Some(first) = parts.first() else {
         return Err(DiscoverError::Options(
             "a discovery needs the measurements of one test at least".into(),
@@ -782,17 +853,22 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
             p.kin.machine().name
         )));
     }
-    let view = merged(parts);
-    let data = &view;
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
         return Err(DiscoverError::Options(format!(
             "alpha must lie between 0 and 1, not {}",
             opts.alpha
         )));
     }
-    let cat = catalogue::catalogue(parts);
-    let mut notes = cat.notes.clone();
-    let model0 = Model::new(kin.clone(), Vec::new());
+    Ok(())
+}
+
+/// Refuses an `--only` or `--exclude` name that matches no candidate of
+/// the catalogue.
+fn check_names(
+    opts: &DiscoverOptions,
+    cat: &Catalogue,
+    model0: &Model,
+) -> Result<(), DiscoverError> {
     for n in opts.only.iter().chain(&opts.exclude) {
         if !cat
             .candidates
@@ -809,42 +885,154 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
             )));
         }
     }
-    // The catalogue model holds the candidates the search may try and those
-    // the start names.
-    let wanted: Vec<Candidate> = cat
-        .candidates
-        .iter()
-        .filter(|c| selected(c, opts, &model0) || opts.start.contains(&c.name))
-        .cloned()
-        .collect();
-    let (fitter, unserved) = Fitter::new(parts, &wanted)?;
-    let unserved: std::collections::HashMap<String, String> = unserved.into_iter().collect();
-    let mut current = start(&fitter, kin, &cat, &opts.start, &mut notes)?;
-    let start_state = state(kin, data, &current);
-    let mut fits = vec![current.clone()];
-    let mut steps: Vec<story::Step> = Vec::new();
-    let mut ambiguity = None;
-    let n = fitter.len();
-    let stop;
-    let last_round;
-    loop {
-        let pool: Vec<&Candidate> = cat
+    Ok(())
+}
+
+/// The notes on the parts themselves: probing pieces set up separately,
+/// several tests fitted together.
+fn part_notes(parts: &[Part<'_>], notes: &mut Vec<String>) {
+    for p in parts {
+        let d = p.data;
+        if d.kind == TestKind::Probing && d.pieces.len() > 1 {
+            notes.push(format!(
+                "{}{} separately set-up pieces, each with its own setup (nuisance)",
+                if parts.len() > 1 {
+                    format!("{}: ", p.label)
+                } else {
+                    String::new()
+                },
+                d.pieces.len()
+            ));
+        }
+    }
+    if parts.len() > 1 {
+        notes.push(format!(
+            "{} tests fitted together ({}): one model, each test with its own nuisance; their residuals weigh alike",
+            parts.len(),
+            parts
+                .iter()
+                .map(|p| format!("{}, {} points", p.label, p.data.obs.len()))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+    }
+}
+
+/// What the search works with, fixed for all its rounds.
+struct Search<'a, 'p> {
+    parts: &'a [Part<'p>],
+    /// The measurements of all parts as one dataset.
+    data: &'a Dataset,
+    fitter: &'a Fitter<'p>,
+    cat: &'a Catalogue,
+    /// The machine's symbols, without effects.
+    model0: &'a Model,
+    /// Why the forward model cannot serve a candidate, by name.
+    unserved: &'a std::collections::HashMap<String, String>,
+    opts: &'a DiscoverOptions,
+}
+
+/// Where the search ended.
+struct Searched {
+    /// The final model's fit.
+    current: Fit,
+    /// The start's fit and each step's.
+    fits: Vec<Fit>,
+    steps: Vec<story::Step>,
+    ambiguity: Option<story::Ambiguity>,
+    /// Why the search stopped.
+    stop: String,
+    /// The trials of the round that added nothing.
+    last_round: Vec<Trial>,
+}
+
+/// One round's candidates and what came of trying each (`tried[i]` is
+/// `pool[i]`).
+struct Roundup<'c> {
+    pool: Vec<&'c Candidate>,
+    tried: Vec<Tried>,
+    /// How many were fitted: the round's multiplicity for the adjustment.
+    m: usize,
+}
+
+impl<'a, 'p> Search<'a, 'p> {
+    /// The rounds from `current`: each adds the best significant
+    /// candidate, until none is, the best is ambiguous, or the step limit.
+    fn search(&self, mut current: Fit) -> Result<Searched, DiscoverError> {
+        let opts = self.opts;
+        let mut fits = vec![current.clone()];
+        let mut steps: Vec<story::Step> = Vec::new();
+        loop {
+            let round = self.round(&current)?;
+            let sig = round.significant();
+            if sig.is_empty() {
+                return Ok(Searched {
+                    stop: round.none_significant(opts.alpha),
+                    last_round: round.tried.into_iter().map(|t| t.trial).collect(),
+                    current,
+                    fits,
+                    steps,
+                    ambiguity: None,
+                });
+            }
+            let (best, r) = self.choose(&round, &sig);
+            let same: Vec<usize> = r
+                .same
+                .iter()
+                .copied()
+                .filter(|&c| self.id_of(&round, c) != self.id_of(&round, best))
+                .collect();
+            let rivals = self.rivals_worded(&round, best, &r);
+            let bf = round.tried[best].fit.clone().expect("tested");
+            let before = gap::gap(self.parts[0].kin, self.data, &current.residuals);
+            if !same.is_empty() {
+                let (ambiguity, stop) = self.ambiguity(&round, &current, best, &same, &r, &before);
+                return Ok(Searched {
+                    stop,
+                    last_round: round.tried.into_iter().map(|t| t.trial).collect(),
+                    current,
+                    fits,
+                    steps,
+                    ambiguity: Some(ambiguity),
+                });
+            }
+            steps.push(self.step(&round, steps.len() + 1, best, &bf, &before, rivals));
+            current = bf;
+            fits.push(current.clone());
+            if steps.len() >= opts.max_steps {
+                return Ok(Searched {
+                    stop: format!("stopped after {} steps (--max-steps)", opts.max_steps),
+                    last_round: Vec::new(),
+                    current,
+                    fits,
+                    steps,
+                    ambiguity: None,
+                });
+            }
+        }
+    }
+
+    /// One round on `current`: every candidate not in it screened by one
+    /// Gauss-Newton step from the current estimate; those that come near
+    /// significance (adjusted p below 100 alpha) fitted again, iterated;
+    /// then each judged at the adjusted level.
+    fn round(&self, current: &Fit) -> Result<Roundup<'a>, DiscoverError> {
+        let opts = self.opts;
+        let pool: Vec<&Candidate> = self
+            .cat
             .candidates
             .iter()
             .filter(|c| current.spec.find(&c.name).is_none())
-            .filter(|c| selected(c, opts, &model0))
+            .filter(|c| selected(c, opts, self.model0))
             .collect();
-        // Every candidate screened by one Gauss-Newton step from the
-        // current estimate; those that come near significance (adjusted p
-        // below 100 alpha) fitted again, iterated.
-        let round = Round::new(&fitter, &current)?;
+        let round = Round::new(self.fitter, current)?;
         let mut tried: Vec<Tried> = pool
             .par_iter()
-            .map(|c| match unserved.get(&c.name) {
+            .map(|c| match self.unserved.get(&c.name) {
                 Some(why) => refused(&c.name, why.clone()),
                 None => try_candidate(
-                    &fitter,
-                    &current,
+                    self.fitter,
+                    current,
                     c,
                     Some(opts.near_alias),
                     Mode::Screen(&round),
@@ -852,13 +1040,21 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
             })
             .collect();
         let m = tried.iter().filter(|t| t.fitted).count();
+        self.refit_near(current, &mut tried, m);
+        judge(&mut tried, m, opts.alpha);
+        Ok(Roundup { pool, tried, m })
+    }
+
+    /// The screened candidates near significance fitted exactly, in
+    /// parallel.
+    fn refit_near(&self, current: &Fit, tried: &mut [Tried], m: usize) {
         let near: Vec<usize> = (0..tried.len())
             .filter(|&i| {
                 tried[i]
                     .trial
                     .test
                     .as_ref()
-                    .is_some_and(|c| stats::adjusted(c.p, m) < 100.0 * opts.alpha)
+                    .is_some_and(|c| stats::adjusted(c.p, m) < 100.0 * self.opts.alpha)
             })
             .collect();
         let screened: Vec<(usize, Tried)> = near
@@ -872,341 +1068,331 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
             .collect();
         let iterated: Vec<(usize, Tried)> = screened
             .into_par_iter()
-            .map(|(i, t)| (i, refit(&fitter, &current, t)))
+            .map(|(i, t)| (i, refit(self.fitter, current, t)))
             .collect();
         for (i, t) in iterated {
             tried[i] = t;
         }
-        for t in tried.iter_mut() {
-            if let Some(c) = &t.trial.test {
-                let pa = stats::adjusted(c.p, m);
-                t.trial.p_adjusted = Some(pa);
-                if pa < opts.alpha && c.delta_bic < 0.0 {
-                    t.trial.verdict = CandidateVerdict::Significant;
-                }
-            }
-        }
-        let mut sig: Vec<usize> = (0..tried.len())
-            .filter(|&i| tried[i].trial.verdict == CandidateVerdict::Significant)
-            .collect();
-        if sig.is_empty() {
-            let best = tried
-                .iter()
-                .filter_map(|t| {
-                    t.trial
-                        .test
-                        .as_ref()
-                        .map(|c| (t.trial.name.clone(), c.p, t.trial.p_adjusted.unwrap_or(1.0)))
-                })
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            stop = match best {
-                Some((name, p, pa)) => format!(
-                    "no candidate is significant at alpha = {} (the best, {name}, has p = {}, {} after the adjustment for {m} candidates)",
-                    opts.alpha,
-                    story_p(p),
-                    story_p(pa)
-                ),
-                None => "no candidate is left to try".to_string(),
-            };
-            last_round = tried.into_iter().map(|t| t.trial).collect();
-            break;
-        }
-        sig.sort_by(|&a, &b| {
-            let ba = tried[a].trial.test.as_ref().map_or(0.0, |c| c.delta_bic);
-            let bb = tried[b].trial.test.as_ref().map_or(0.0, |c| c.delta_bic);
-            ba.total_cmp(&bb)
-        });
-        // The encompassing test: the best fitted together with each rival.
-        let pool_idx = |name: &str| pool.iter().position(|c| c.name == name).unwrap();
-        let rivalry = |best: usize| -> Rivalry {
-            let mut out = Rivalry::default();
-            let rivals: Vec<usize> = sig.iter().copied().filter(|&c| c != best).collect();
-            // The pairs fitted in parallel, judged in order.
-            let pairs: Vec<Tried> = rivals
-                .par_iter()
-                .map(|&c| {
-                    try_candidate(
-                        &fitter,
-                        tried[best].fit.as_ref().expect("tested"),
-                        pool[pool_idx(&tried[c].trial.name)],
-                        None,
-                        Mode::Exact,
-                    )
-                })
-                .collect();
-            for (&c, both) in rivals.iter().zip(pairs) {
-                let fb = tried[best].fit.as_ref().expect("tested");
-                let fc = tried[c].fit.as_ref().expect("tested");
-                let (rss_both, rank_both) = match &both.fit {
-                    Some(f) => (f.rss, f.rank),
-                    // Nothing of the rival is seen beside the best:
-                    // together they are the best alone.
-                    None => (fb.rss, fb.rank),
-                };
-                // Neither adds a direction to the other: the design itself
-                // cannot tell them apart, whatever the noise.
-                let exact = rank_both == fb.rank && rank_both == fc.rank;
-                let p_c_over_b = stats::compare(n, fb.rss, fb.rank, rss_both, rank_both).p;
-                let p_b_over_c = stats::compare(n, fc.rss, fc.rank, rss_both, rank_both).p;
-                // At the round's adjusted level: overriding the ranking
-                // by the BIC, or calling two candidates different, needs
-                // the evidence a step needs.
-                let b_adds = stats::adjusted(p_b_over_c, m) < opts.alpha;
-                let c_adds = stats::adjusted(p_c_over_b, m) < opts.alpha;
-                let (bn, cn) = (tried[best].trial.name.clone(), tried[c].trial.name.clone());
-                let verdict = match (b_adds, c_adds) {
-                    (true, false) => {
-                        format!(
-                            "{bn} explains it away: {cn} adds nothing to {bn}, {bn} adds to {cn}"
-                        )
-                    }
-                    (true, true) => {
-                        "a different effect: each adds to the other (it may come next)".to_string()
-                    }
-                    (false, false) if exact => format!(
-                        "exactly indistinguishable from {bn} on this test: neither adds a direction the other does not give, so no measurement of this test can tell them apart"
-                    ),
-                    (false, false) => format!(
-                        "indistinguishable from {bn} on this test: neither adds significantly to the other"
-                    ),
-                    (false, true) => format!("{cn} explains {bn} away"),
-                };
-                if !b_adds && c_adds && out.encompassed_by.is_none() {
-                    out.encompassed_by = Some(c);
-                }
-                if !b_adds && !c_adds {
-                    out.same.push(c);
-                }
-                out.rivals.push((
-                    c,
-                    story::Rival {
-                        name: cn,
-                        gap_after: gap::size(&fc.residuals),
-                        p_effect_over_rival: p_b_over_c,
-                        p_rival_over_effect: p_c_over_b,
-                        exactly_indistinguishable: exact,
-                        residual_difference_um: gap::size(
-                            &fb.residuals
-                                .iter()
-                                .zip(&fc.residuals)
-                                .map(|(a, b)| a - b)
-                                .collect::<Vec<_>>(),
-                        )
-                        .rms_um,
-                        added_at: None,
-                        verdict,
-                    },
-                ));
-            }
-            out
-        };
-        let id_of = |i: usize| {
-            pool[pool_idx(&tried[i].trial.name)]
-                .effect
-                .id(&model0.symbols)
-        };
-        let basis_of = |i: usize| match pool[pool_idx(&tried[i].trial.name)].effect {
-            Effect::Drift { basis, .. } => Some(basis),
-            _ => None,
-        };
+    }
+
+    /// The best of the significant (`sig`, by BIC) and its rivalry: a
+    /// rival that explains it away takes its place, and so does the same
+    /// drift per pose when the test cannot tell it from the drift per
+    /// minute.
+    fn choose(&self, round: &Roundup<'_>, sig: &[usize]) -> (usize, Rivalry) {
         let mut best = sig[0];
-        let mut r = rivalry(best);
+        let mut r = self.rivalry(round, sig, best);
         // A rival that explains the best away becomes the best (once: two
         // candidates cannot each explain the other away).
         if let Some(c) = r.encompassed_by {
             best = c;
-            r = rivalry(best);
+            r = self.rivalry(round, sig, best);
         }
         // The same drift on the other clock (per pose or per minute) is
         // the same effect, not a rival cause: when the test cannot tell
         // the clocks apart (poses of nearly equal duration), the drift is
         // kept per pose, as the papers' thermal tests count it, and the
         // story says so.
-        if basis_of(best) == Some(DriftBasis::Minute)
-            && let Some(&c) = r
-                .same
-                .iter()
-                .find(|&&c| id_of(c) == id_of(best) && basis_of(c) == Some(DriftBasis::Seq))
+        if round.basis_of(best) == Some(DriftBasis::Minute)
+            && let Some(&c) = r.same.iter().find(|&&c| {
+                self.id_of(round, c) == self.id_of(round, best)
+                    && round.basis_of(c) == Some(DriftBasis::Seq)
+            })
         {
             best = c;
-            r = rivalry(best);
+            r = self.rivalry(round, sig, best);
         }
-        let same: Vec<usize> = r
-            .same
-            .iter()
-            .copied()
-            .filter(|&c| id_of(c) != id_of(best))
+        (best, r)
+    }
+
+    /// The encompassing test: `best` fitted together with each other
+    /// significant candidate, the pairs fitted in parallel, judged in order.
+    fn rivalry(&self, round: &Roundup<'_>, sig: &[usize], best: usize) -> Rivalry {
+        let (tried, m, n, alpha) = (&round.tried, round.m, self.fitter.len(), self.opts.alpha);
+        let mut out = Rivalry::default();
+        let rivals: Vec<usize> = sig.iter().copied().filter(|&c| c != best).collect();
+        let pairs: Vec<Tried> = rivals
+            .par_iter()
+            .map(|&c| {
+                try_candidate(
+                    self.fitter,
+                    tried[best].fit.as_ref().expect("tested"),
+                    round.candidate(c),
+                    None,
+                    Mode::Exact,
+                )
+            })
             .collect();
-        let rivals: Vec<story::Rival> = r
-            .rivals
+        for (&c, both) in rivals.iter().zip(pairs) {
+            let fb = tried[best].fit.as_ref().expect("tested");
+            let fc = tried[c].fit.as_ref().expect("tested");
+            let (rss_both, rank_both) = match &both.fit {
+                Some(f) => (f.rss, f.rank),
+                // Nothing of the rival is seen beside the best:
+                // together they are the best alone.
+                None => (fb.rss, fb.rank),
+            };
+            // Neither adds a direction to the other: the design itself
+            // cannot tell them apart, whatever the noise.
+            let exact = rank_both == fb.rank && rank_both == fc.rank;
+            let p_c_over_b = stats::compare(n, fb.rss, fb.rank, rss_both, rank_both).p;
+            let p_b_over_c = stats::compare(n, fc.rss, fc.rank, rss_both, rank_both).p;
+            // At the round's adjusted level: overriding the ranking
+            // by the BIC, or calling two candidates different, needs
+            // the evidence a step needs.
+            let b_adds = stats::adjusted(p_b_over_c, m) < alpha;
+            let c_adds = stats::adjusted(p_c_over_b, m) < alpha;
+            let (bn, cn) = (tried[best].trial.name.clone(), tried[c].trial.name.clone());
+            let verdict = match (b_adds, c_adds) {
+                (true, false) => {
+                    format!("{bn} explains it away: {cn} adds nothing to {bn}, {bn} adds to {cn}")
+                }
+                (true, true) => {
+                    "a different effect: each adds to the other (it may come next)".to_string()
+                }
+                (false, false) if exact => format!(
+                    "exactly indistinguishable from {bn} on this test: neither adds a direction the other does not give, so no measurement of this test can tell them apart"
+                ),
+                (false, false) => format!(
+                    "indistinguishable from {bn} on this test: neither adds significantly to the other"
+                ),
+                (false, true) => format!("{cn} explains {bn} away"),
+            };
+            if !b_adds && c_adds && out.encompassed_by.is_none() {
+                out.encompassed_by = Some(c);
+            }
+            if !b_adds && !c_adds {
+                out.same.push(c);
+            }
+            out.rivals.push((
+                c,
+                story::Rival {
+                    name: cn,
+                    gap_after: gap::size(&fc.residuals),
+                    p_effect_over_rival: p_b_over_c,
+                    p_rival_over_effect: p_c_over_b,
+                    exactly_indistinguishable: exact,
+                    residual_difference_um: gap::size(
+                        &fb.residuals
+                            .iter()
+                            .zip(&fc.residuals)
+                            .map(|(a, b)| a - b)
+                            .collect::<Vec<_>>(),
+                    )
+                    .rms_um,
+                    added_at: None,
+                    verdict,
+                },
+            ));
+        }
+        out
+    }
+
+    /// The effect identifier of the `i`-th candidate of the round.
+    fn id_of(&self, round: &Roundup<'_>, i: usize) -> String {
+        round.candidate(i).effect.id(&self.model0.symbols)
+    }
+
+    /// The best's rivals for the story, the same drift on another clock
+    /// worded as such.
+    fn rivals_worded(&self, round: &Roundup<'_>, best: usize, r: &Rivalry) -> Vec<story::Rival> {
+        r.rivals
             .iter()
             .cloned()
             .map(|(c, mut rv)| {
-                if id_of(c) == id_of(best) && r.same.contains(&c) {
+                if self.id_of(round, c) == self.id_of(round, best) && r.same.contains(&c) {
                     rv.verdict = format!(
                         "the same effect on another clock, indistinguishable on this test (its poses take nearly equal times): kept as {}",
-                        tried[best].trial.name
+                        round.tried[best].trial.name
                     );
                 }
                 rv
             })
+            .collect()
+    }
+
+    /// The ambiguity of `best` and the different effects the data cannot
+    /// tell from it (`same`), with the supplementary test that would
+    /// separate them, and the stop it words.
+    fn ambiguity(
+        &self,
+        round: &Roundup<'_>,
+        current: &Fit,
+        best: usize,
+        same: &[usize],
+        r: &Rivalry,
+        before: &Gap,
+    ) -> (story::Ambiguity, String) {
+        let tried = &round.tried;
+        let mut cands = vec![best];
+        cands.extend(same);
+        let list: Vec<String> = cands.iter().map(|&i| tried[i].trial.name.clone()).collect();
+        let rival = |c: usize| r.rivals.iter().find(|(i, _)| *i == c).map(|(_, rv)| rv);
+        let exact: Vec<bool> = cands
+            .iter()
+            .map(|&c| c == best || rival(c).is_some_and(|rv| rv.exactly_indistinguishable))
             .collect();
-        let bf = tried[best].fit.clone().expect("tested");
-        let ei = bf.spec.names.len() - 1;
-        let before = gap::gap(kin, data, &current.residuals);
-        if !same.is_empty() {
-            let mut cands = vec![best];
-            cands.extend(&same);
-            let list: Vec<String> = cands.iter().map(|&i| tried[i].trial.name.clone()).collect();
-            let rival = |c: usize| r.rivals.iter().find(|(i, _)| *i == c).map(|(_, rv)| rv);
-            let exact: Vec<bool> = cands
+        let why = if exact.iter().all(|&e| e) {
+            let diff = same
                 .iter()
-                .map(|&c| c == best || rival(c).is_some_and(|rv| rv.exactly_indistinguishable))
-                .collect();
-            let why = if exact.iter().all(|&e| e) {
-                let diff = same
-                    .iter()
-                    .filter_map(|&c| rival(c))
-                    .map(|rv| rv.residual_difference_um)
-                    .fold(0.0, f64::max);
-                format!(
-                    "exactly indistinguishable on this test: none adds a direction another does not give (their residuals differ by {diff:.1e} um RMS), so no measurement of this test can tell which is at work"
-                )
-            } else {
-                "fitted together, none adds significantly to another, so this test cannot tell which is at work".to_string()
+                .filter_map(|&c| rival(c))
+                .map(|rv| rv.residual_difference_um)
+                .fold(0.0, f64::max);
+            format!(
+                "exactly indistinguishable on this test: none adds a direction another does not give (their residuals differ by {diff:.1e} um RMS), so no measurement of this test can tell which is at work"
+            )
+        } else {
+            "fitted together, none adds significantly to another, so this test cannot tell which is at work".to_string()
+        };
+        let rivals: Vec<separate::AmbiguityRival<'_>> = cands
+            .iter()
+            .map(|&i| separate::AmbiguityRival {
+                candidate: round.candidate(i),
+                fit: tried[i].fit.as_ref().expect("tested"),
+            })
+            .collect();
+        let (supplement, no_supplement) =
+            match separate::find(self.parts, &current.spec, &rivals, self.opts, round.m) {
+                Ok(s) => (Some(s), None),
+                Err(why) => (None, Some(why.to_string())),
             };
-            let rivals: Vec<separate::AmbiguityRival<'_>> = cands
+        let next = match &supplement {
+            Some(s) => format!(
+                "a {} run with the new poses {} separates them (power {:.2} or more at {:.3} um noise): `fivecal plan --supplement RESULT.yaml` writes it from the result of `discover --out RESULT.yaml`; measure it and give both tests to the next discover",
+                s.test,
+                s.new_poses.join(", "),
+                s.power.iter().map(|p| p.power).fold(1.0, f64::min),
+                s.noise_um
+            ),
+            None => "add a test that separates them".to_string(),
+        };
+        let ambiguity = story::Ambiguity {
+            supplement,
+            no_supplement,
+            candidates: cands
                 .iter()
-                .map(|&i| separate::AmbiguityRival {
-                    candidate: pool[pool_idx(&tried[i].trial.name)],
-                    fit: tried[i].fit.as_ref().expect("tested"),
+                .zip(&exact)
+                .map(|(&i, &exactly)| {
+                    let f = tried[i].fit.as_ref().expect("tested");
+                    story::AmbiguousCandidate {
+                        name: tried[i].trial.name.clone(),
+                        exactly_indistinguishable: exactly,
+                        values: effect_values(f, f.spec.names.len() - 1),
+                        gap_after: gap::size(&f.residuals),
+                    }
                 })
-                .collect();
-            let (supplement, no_supplement) =
-                match separate::find(parts, &current.spec, &rivals, opts, m) {
-                    Ok(s) => (Some(s), None),
-                    Err(why) => (None, Some(why.to_string())),
-                };
-            let next = match &supplement {
-                Some(s) => format!(
-                    "a {} run with the new poses {} separates them (power {:.2} or more at {:.3} um noise): `fivecal plan --supplement RESULT.yaml` writes it from the result of `discover --out RESULT.yaml`; measure it and give both tests to the next discover",
-                    s.test,
-                    s.new_poses.join(", "),
-                    s.power.iter().map(|p| p.power).fold(1.0, f64::min),
-                    s.noise_um
-                ),
-                None => "add a test that separates them".to_string(),
-            };
-            ambiguity = Some(story::Ambiguity {
-                supplement,
-                no_supplement,
-                candidates: cands
-                    .iter()
-                    .zip(&exact)
-                    .map(|(&i, &exactly)| {
-                        let f = tried[i].fit.as_ref().expect("tested");
-                        story::AmbiguousCandidate {
-                            name: tried[i].trial.name.clone(),
-                            exactly_indistinguishable: exactly,
-                            values: effect_values(f, f.spec.names.len() - 1),
-                            gap_after: gap::size(&f.residuals),
-                        }
-                    })
-                    .collect(),
-                reason: format!(
-                    "the gap ({}) is explained equally by {}: {why}. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or {next}",
-                    before.summary,
-                    list.join(" or ")
-                ),
-            });
-            stop = format!(
-                "ambiguous: {} explain the gap equally; nothing is added",
-                list.join(", ")
-            );
-            last_round = tried.into_iter().map(|t| t.trial).collect();
-            break;
-        }
-        let t = &tried[best].trial;
-        let cand = pool[pool_idx(&t.name)];
-        steps.push(story::Step {
-            step: steps.len() + 1,
+                .collect(),
+            reason: format!(
+                "the gap ({}) is explained equally by {}: {why}. Nothing is added: rerun with --exclude naming all but one (if another measurement tells which), or {next}",
+                before.summary,
+                list.join(" or ")
+            ),
+        };
+        let stop = format!(
+            "ambiguous: {} explain the gap equally; nothing is added",
+            list.join(", ")
+        );
+        (ambiguity, stop)
+    }
+
+    /// Step `step` of the story: `best` added, its fit `bf`, the gap
+    /// `before` it.
+    fn step(
+        &self,
+        round: &Roundup<'_>,
+        step: usize,
+        best: usize,
+        bf: &Fit,
+        before: &Gap,
+        rivals: Vec<story::Rival>,
+    ) -> story::Step {
+        let t = &round.tried[best].trial;
+        let cand = round.candidate(best);
+        story::Step {
+            step,
             name: t.name.clone(),
-            effect: cand.effect.id(&model0.symbols),
+            effect: cand.effect.id(&self.model0.symbols),
             description: cand.description.clone(),
-            provisional_values: effect_values(&bf, ei),
+            provisional_values: effect_values(bf, bf.spec.names.len() - 1),
             gap_before: before.size(),
             gap_after: gap::size(&bf.residuals),
             concentrated: before.summary.clone(),
             test: t.test.expect("tested"),
             p_adjusted: t.p_adjusted.expect("tested"),
-            tested: m,
+            tested: round.m,
             alongside: t.alongside.clone().expect("tested"),
             rivals,
-            trials: tried.iter().map(|t| t.trial.clone()).collect(),
-        });
-        current = bf;
-        fits.push(current.clone());
-        if steps.len() >= opts.max_steps {
-            stop = format!("stopped after {} steps (--max-steps)", opts.max_steps);
-            last_round = Vec::new();
-            break;
+            trials: round.tried.iter().map(|t| t.trial.clone()).collect(),
         }
     }
-    let ambiguous: Vec<String> = ambiguity
-        .as_ref()
-        .map(|a: &story::Ambiguity| a.candidates.iter().map(|c| c.name.clone()).collect())
-        .unwrap_or_default();
-    mark_added(&mut steps, &last_round, &ambiguous);
-    let end_state = state(kin, data, &current);
-    let story = Story {
-        test: opts.test.clone(),
-        machine: kin.machine().name.clone(),
-        points: n,
-        poses: data.poses.len(),
-        alpha: opts.alpha,
-        start: start_state,
-        steps,
-        end: end_state,
-        stop,
-        ambiguity,
-        last_round,
-        notes: {
-            for p in parts {
-                let d = p.data;
-                if d.kind == TestKind::Probing && d.pieces.len() > 1 {
-                    notes.push(format!(
-                        "{}{} separately set-up pieces, each with its own setup (nuisance)",
-                        if parts.len() > 1 {
-                            format!("{}: ", p.label)
-                        } else {
-                            String::new()
-                        },
-                        d.pieces.len()
-                    ));
-                }
-            }
-            if parts.len() > 1 {
-                notes.push(format!(
-                    "{} tests fitted together ({}): one model, each test with its own nuisance; their residuals weigh alike",
-                    parts.len(),
-                    parts
-                        .iter()
-                        .map(|p| format!("{}, {} points", p.label, p.data.obs.len()))
-                        .collect::<Vec<_>>()
-                        .join("; ")
-                ));
-            }
-            notes
-        },
-    };
-    Ok(Discovery {
-        story,
-        fits,
-        parts: parts
+}
+
+impl Roundup<'_> {
+    /// The candidate tried as `tried[i]`.
+    fn candidate(&self, i: usize) -> &Candidate {
+        let name = &self.tried[i].trial.name;
+        self.pool[self.pool.iter().position(|c| &c.name == name).unwrap()]
+    }
+
+    /// The clock of the `i`-th candidate, if it is a drift.
+    fn basis_of(&self, i: usize) -> Option<DriftBasis> {
+        match self.candidate(i).effect {
+            Effect::Drift { basis, .. } => Some(basis),
+            _ => None,
+        }
+    }
+
+    /// The significant candidates, the lowest BIC first.
+    fn significant(&self) -> Vec<usize> {
+        let tried = &self.tried;
+        let mut sig: Vec<usize> = (0..tried.len())
+            .filter(|&i| tried[i].trial.verdict == CandidateVerdict::Significant)
+            .collect();
+        sig.sort_by(|&a, &b| {
+            let ba = tried[a].trial.test.as_ref().map_or(0.0, |c| c.delta_bic);
+            let bb = tried[b].trial.test.as_ref().map_or(0.0, |c| c.delta_bic);
+            ba.total_cmp(&bb)
+        });
+        sig
+    }
+
+    /// The stop of a round without a significant candidate, naming the best.
+    fn none_significant(&self, alpha: f64) -> String {
+        let best = self
+            .tried
             .iter()
-            .map(|p| (p.label.to_string(), p.data.kind, p.data.obs.len()))
-            .collect(),
-    })
+            .filter_map(|t| {
+                t.trial
+                    .test
+                    .as_ref()
+                    .map(|c| (t.trial.name.clone(), c.p, t.trial.p_adjusted.unwrap_or(1.0)))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match best {
+            Some((name, p, pa)) => format!(
+                "no candidate is significant at alpha = {} (the best, {name}, has p = {}, {} after the adjustment for {} candidates)",
+                alpha,
+                story_p(p),
+                story_p(pa),
+                self.m
+            ),
+            None => "no candidate is left to try".to_string(),
+        }
+    }
+}
+
+/// Each fitted candidate's adjusted p, and significant where it is below
+/// `alpha` and lowers the BIC.
+fn judge(tried: &mut [Tried], m: usize, alpha: f64) {
+    for t in tried.iter_mut() {
+        if let Some(c) = &t.trial.test {
+            let pa = stats::adjusted(c.p, m);
+            t.trial.p_adjusted = Some(pa);
+            if pa < alpha && c.delta_bic < 0.0 {
+                t.trial.verdict = CandidateVerdict::Significant;
+            }
+        }
+    }
 }
 
 /// Each step's rivals that a later step added, marked and worded so; a

@@ -155,14 +155,47 @@ fn gap_tables(h: &mut String, before: &Gap, after: &Gap) {
 pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, ReportError> {
     // Every file is staged: the report appears whole or not at all.
     let mut files = StagedDir::create(dir)?;
-    let put = |name: &str, bytes: &[u8], files: &mut StagedDir| -> Result<(), ReportError> {
-        files.write(Path::new(name), bytes)?;
-        Ok(())
-    };
-    let plot = |name: &str, res: Result<String, String>| {
-        res.map_err(|e| ReportError::Plot(name.into(), e))
-    };
     let s: &Story = &d.story;
+    gap_figure(&mut files, s)?;
+    residual_figures(&mut files, d, data)?;
+    let value_figs = step_figures(&mut files, s)?;
+    let mut h = String::new();
+    html_head(&mut h, s, data);
+    gap_section(&mut h, s);
+    ambiguity_section(&mut h, s);
+    steps_section(&mut h, s, &value_figs);
+    h.push_str("<h2>Residual patterns</h2>\n<div class=grid>\n<figure><img src=\"residuals-before.svg\" alt=\"before\"><figcaption>before: the starting model</figcaption></figure>\n<figure><img src=\"residuals-after.svg\" alt=\"after\"><figcaption>after: the final model</figcaption></figure>\n</div>\n");
+    gap_tables(&mut h, &s.start.gap, &s.end.gap);
+    last_round_section(&mut h, s);
+    notes_section(&mut h, s, data);
+    let _ = writeln!(
+        h,
+        "<h2>The story as printed</h2>\n<pre>{}</pre>",
+        esc(&s.render())
+    );
+    h.push_str("</body></html>\n");
+    put(&mut files, "index.html", h.as_bytes())?;
+    Ok(files.commit()?)
+}
+
+/// Stages one file of the report.
+fn put(files: &mut StagedDir, name: &str, bytes: &[u8]) -> Result<(), ReportError> {
+    files.write(Path::new(name), bytes)?;
+    Ok(())
+}
+
+/// Stages a drawn figure, or names it in the error if the drawing failed.
+fn put_plot(
+    files: &mut StagedDir,
+    name: &str,
+    res: Result<String, String>,
+) -> Result<(), ReportError> {
+    let svg = res.map_err(|e| ReportError::Plot(name.into(), e))?;
+    put(files, name, svg.as_bytes())
+}
+
+/// `gap.svg`: the gap's RMS and maximum after each step.
+fn gap_figure(files: &mut StagedDir, s: &Story) -> Result<(), ReportError> {
     let mut labels = vec!["start".to_string()];
     let mut rms = vec![s.start.gap.rms_um];
     let mut max = vec![s.start.gap.max_um];
@@ -171,37 +204,42 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
         rms.push(st.gap_after.rms_um);
         max.push(st.gap_after.max_um);
     }
-    put(
+    put_plot(
+        files,
         "gap.svg",
-        plot("gap.svg", gap_plot(&labels, &rms, &max, s.end.sigma_um))?.as_bytes(),
-        &mut files,
-    )?;
+        gap_plot(&labels, &rms, &max, s.end.sigma_um),
+    )
+}
+
+/// `residuals-before.svg` and `residuals-after.svg`: the residuals of the
+/// starting and the final model.
+fn residual_figures(
+    files: &mut StagedDir,
+    d: &Discovery,
+    data: &Dataset,
+) -> Result<(), ReportError> {
     let start = d.start();
     let end = d.end();
-    put(
+    put_plot(
+        files,
         "residuals-before.svg",
-        plot(
-            "residuals-before.svg",
-            plots::residual_plot(
-                &crate::report::residual_groups(data, &start.residuals),
-                start.sigma(),
-            ),
-        )?
-        .as_bytes(),
-        &mut files,
+        plots::residual_plot(
+            &crate::report::residual_groups(data, &start.residuals),
+            start.sigma(),
+        ),
     )?;
-    put(
+    put_plot(
+        files,
         "residuals-after.svg",
-        plot(
-            "residuals-after.svg",
-            plots::residual_plot(
-                &crate::report::residual_groups(data, &end.residuals),
-                end.sigma(),
-            ),
-        )?
-        .as_bytes(),
-        &mut files,
-    )?;
+        plots::residual_plot(
+            &crate::report::residual_groups(data, &end.residuals),
+            end.sigma(),
+        ),
+    )
+}
+
+/// `step-N.svg`: the provisional values of each step; returns their names.
+fn step_figures(files: &mut StagedDir, s: &Story) -> Result<Vec<String>, ReportError> {
     let mut value_figs = Vec::new();
     for st in &s.steps {
         let items: Vec<(String, f64, Option<f64>)> = st
@@ -214,19 +252,18 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
             .first()
             .map_or(String::new(), |v| v.unit.clone());
         let file = format!("step-{}.svg", st.step);
-        put(
+        put_plot(
+            files,
             &file,
-            plot(
-                &file,
-                plots::values_with_bars(&format!("step {}: {}", st.step, st.name), &unit, &items),
-            )?
-            .as_bytes(),
-            &mut files,
+            plots::values_with_bars(&format!("step {}: {}", st.step, st.name), &unit, &items),
         )?;
         value_figs.push(file);
     }
+    Ok(value_figs)
+}
 
-    let mut h = String::new();
+/// The page's head, title and what was measured.
+fn html_head(h: &mut String, s: &Story, data: &Dataset) {
     let title = format!("discover: {} on {}", s.test, s.machine);
     let _ = write!(
         h,
@@ -246,6 +283,10 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
             .join(", ")),
         s.alpha
     );
+}
+
+/// "The gap shrinking": its figure, the table of the models and the stop.
+fn gap_section(h: &mut String, s: &Story) {
     h.push_str("<h2>The gap shrinking</h2>\n<img src=\"gap.svg\" alt=\"gap per step\">\n");
     h.push_str("<table><tr><th>model</th><th>RMS um</th><th>max um</th><th>where it was concentrated</th></tr>\n");
     let _ = writeln!(
@@ -268,43 +309,53 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
     }
     h.push_str("</table>\n");
     let _ = writeln!(h, "<p><b>Stop:</b> {}</p>", esc(&s.stop));
-    if let Some(a) = &s.ambiguity {
-        let _ = writeln!(h, "<p><b>Ambiguous:</b> {}</p>", esc(&a.reason));
-        if let Some(p) = &a.supplement {
-            let list = |v: &[f64]| {
-                v.iter()
-                    .map(|x| crate::procedure::short(*x))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            };
+}
+
+/// The ambiguity that stopped the search, if any, with the supplementary
+/// test that would separate its candidates.
+fn ambiguity_section(h: &mut String, s: &Story) {
+    let Some(a) = &s.ambiguity else {
+        return;
+    };
+    let _ = writeln!(h, "<p><b>Ambiguous:</b> {}</p>", esc(&a.reason));
+    if let Some(p) = &a.supplement {
+        let list = |v: &[f64]| {
+            v.iter()
+                .map(|x| crate::procedure::short(*x))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(
+            h,
+            "<p><b>To separate them:</b> a {} run at the tilt angles {} with C = {} ({} poses, {} touches; new poses {}).</p>\n<table><tr><th>effect</th><th>told from</th><th>directions</th><th>power</th></tr>",
+            esc(&p.test),
+            list(&p.tilt),
+            list(&p.c),
+            p.poses,
+            p.touches,
+            esc(&p.new_poses.join(", "))
+        );
+        for q in &p.power {
             let _ = writeln!(
                 h,
-                "<p><b>To separate them:</b> a {} run at the tilt angles {} with C = {} ({} poses, {} touches; new poses {}).</p>\n<table><tr><th>effect</th><th>told from</th><th>directions</th><th>power</th></tr>",
-                esc(&p.test),
-                list(&p.tilt),
-                list(&p.c),
-                p.poses,
-                p.touches,
-                esc(&p.new_poses.join(", "))
+                "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{:.3}</td></tr>",
+                esc(&q.effect),
+                esc(&q.against),
+                q.directions,
+                q.power
             );
-            for q in &p.power {
-                let _ = writeln!(
-                    h,
-                    "<tr><td class=l>{}</td><td class=l>{}</td><td>{}</td><td>{:.3}</td></tr>",
-                    esc(&q.effect),
-                    esc(&q.against),
-                    q.directions,
-                    q.power
-                );
-            }
-            h.push_str("</table>\n");
         }
-        if let Some(why) = &a.no_supplement {
-            let _ = writeln!(h, "<p>No supplementary test proposed: {}</p>", esc(why));
-        }
+        h.push_str("</table>\n");
     }
+    if let Some(why) = &a.no_supplement {
+        let _ = writeln!(h, "<p>No supplementary test proposed: {}</p>", esc(why));
+    }
+}
+
+/// "Steps": each step's test, values (provisional and final) and rivals.
+fn steps_section(h: &mut String, s: &Story, value_figs: &[String]) {
     h.push_str("<h2>Steps</h2>\n");
-    for (st, fig) in s.steps.iter().zip(&value_figs) {
+    for (st, fig) in s.steps.iter().zip(value_figs) {
         let _ = writeln!(
             h,
             "<h3>Step {}: {}</h3>\n<p>{}. Gap {:.3} &rarr; {:.3} um RMS, {:.3} &rarr; {:.3} um max ({:.1} % of the squared gap). F = {:.4} ({}, {}), p = {:.3e}, {:.3e} after {} candidates; BIC {:+.1}. Alongside the model: +{} direction(s), canonical correlation {:.3}.</p>",
@@ -362,8 +413,10 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
             h.push_str("</ul>\n");
         }
     }
-    h.push_str("<h2>Residual patterns</h2>\n<div class=grid>\n<figure><img src=\"residuals-before.svg\" alt=\"before\"><figcaption>before: the starting model</figcaption></figure>\n<figure><img src=\"residuals-after.svg\" alt=\"after\"><figcaption>after: the final model</figcaption></figure>\n</div>\n");
-    gap_tables(&mut h, &s.start.gap, &s.end.gap);
+}
+
+/// "The last round": every candidate of the round that added nothing.
+fn last_round_section(h: &mut String, s: &Story) {
     h.push_str("<h2>The last round</h2>\n<table><tr><th>candidate</th><th>verdict</th><th>RMS after</th><th>p adjusted</th><th>BIC change</th><th>why refused</th></tr>\n");
     for t in &s.last_round {
         let _ = writeln!(
@@ -384,6 +437,10 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
         );
     }
     h.push_str("</table>\n");
+}
+
+/// "Notes": the discovery's notes and the data's warnings, if any.
+fn notes_section(h: &mut String, s: &Story, data: &Dataset) {
     if !s.notes.is_empty() || !data.warnings.is_empty() {
         h.push_str("<h2>Notes</h2><ul>\n");
         for n in s.notes.iter().chain(&data.warnings) {
@@ -391,12 +448,4 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
         }
         h.push_str("</ul>\n");
     }
-    let _ = writeln!(
-        h,
-        "<h2>The story as printed</h2>\n<pre>{}</pre>",
-        esc(&s.render())
-    );
-    h.push_str("</body></html>\n");
-    put("index.html", h.as_bytes(), &mut files)?;
-    Ok(files.commit()?)
 }
