@@ -557,19 +557,8 @@ impl Writer {
                 }
                 None if here.is_none_or(|h| (r - h.0).abs() >= half) => {
                     let v = round_to(r, d);
-                    self.edits.insert(keyword, |b| {
-                        b.extend_from_slice(b" PR");
-                        lexeme::write(
-                            b,
-                            v,
-                            d,
-                            &NumStyle {
-                                decimals: d,
-                                ..style
-                            },
-                            rules,
-                        );
-                    });
+                    self.edits
+                        .insert(keyword, |b| polar_word(b, b" PR", v, d, style, rules));
                     radius = Some(v);
                 }
                 None => {}
@@ -621,19 +610,8 @@ impl Writer {
                     a0
                 } else {
                     let v = round_to(new, d);
-                    self.edits.insert(after_radius, |b| {
-                        b.extend_from_slice(b" PA");
-                        lexeme::write(
-                            b,
-                            v,
-                            d,
-                            &NumStyle {
-                                decimals: d,
-                                ..style
-                            },
-                            rules,
-                        );
-                    });
+                    self.edits
+                        .insert(after_radius, |b| polar_word(b, b" PA", v, d, style, rules));
                     v
                 }
             }
@@ -1054,4 +1032,20 @@ fn motion_text(m: Option<Motion>) -> Option<&'static str> {
         Motion::ArcCcw => Some("G3"),
         Motion::Other => None,
     }
+}
+
+/// A polar word the block did not have (` PR..`, ` PA..`), written with
+/// `d` decimals in the style of the block's other numbers.
+fn polar_word(b: &mut Vec<u8>, word: &[u8], v: f64, d: u8, style: NumStyle, rules: WriteRules) {
+    b.extend_from_slice(word);
+    lexeme::write(
+        b,
+        v,
+        d,
+        &NumStyle {
+            decimals: d,
+            ..style
+        },
+        rules,
+    );
 }
