@@ -231,15 +231,6 @@ impl Combination {
     pub fn new(coef: Vec<f64>, names: std::sync::Arc<[String]>) -> Combination {
         Combination { coef, names }
     }
-
-    /// Whether `name` takes part in it.
-    pub fn involves(&self, name: &str) -> bool {
-        let max = self.coef.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
-        self.coef
-            .iter()
-            .zip(self.names.iter())
-            .any(|(c, n)| n == name && c.abs() >= 1e-6 * max && max > 0.0)
-    }
 }
 
 impl std::fmt::Display for Combination {
