@@ -26,7 +26,7 @@
 //! At full size, `fivecal analyze --mc 1000` and `--mc 1000 --mc-exact` on
 //! the same files print both studies' spreads for comparison by eye.
 
-use fivecal::analyze::uncertainty::linear::{LinearStudy, finite_difference_gain};
+use fivecal::analyze::uncertainty::linear::{LinearStudy, NotLinearized, finite_difference_gain};
 use fivecal::analyze::uncertainty::simulated::{self, SimulatedTest};
 use fivecal::analyze::uncertainty::{Contributors, Estimate, McOptions, montecarlo};
 use fivecal::errorfile::LoadedErrors;
@@ -224,7 +224,11 @@ fn the_sphere_method_is_simulated_run_by_run_and_says_why() {
     let why = LinearStudy::new(&c.plan, &c.estimate(), Contributors::seed000())
         .err()
         .expect("the sphere method is not linearized");
-    assert!(why.contains("not the sphere method's"), "{why}");
+    assert!(
+        matches!(why, NotLinearized::Method(Method::Sphere)),
+        "{why}"
+    );
+    assert!(why.to_string().contains("not the sphere method's"), "{why}");
 }
 
 #[test]

@@ -36,6 +36,7 @@ use crate::identify::Dataset;
 use crate::io::shell_word;
 use crate::kinematics::Kinematics;
 use crate::procedure::{Plan, PlanConfig, Template, Test};
+use crate::source::SourceError;
 
 /// Denser grids tried per probing test, cheapest first.
 const GRIDS: usize = 2;
@@ -74,16 +75,19 @@ impl TemplateChange {
         root
     }
 
-    /// `template` with the change made.
-    pub fn apply(&self, template: &Template) -> Result<Template, String> {
+    /// `template` with the change made, or why the changed template does
+    /// not read (named as the template with the keys set).
+    pub fn apply(&self, template: &Template) -> Result<Template, SourceError> {
         let src = template.source();
-        let mut doc: Value = serde_yaml::from_str(&src.text).map_err(|e| e.to_string())?;
+        let path = format!("<{} with {}>", src.path.display(), self.keys());
+        let path = std::path::Path::new(&path);
+        let yaml = |e: serde_yaml::Error| SourceError::from_yaml(path, &e);
+        let mut doc: Value = serde_yaml::from_str(&src.text).map_err(yaml)?;
         for (k, v) in &self.set {
             set(&mut doc, k, v.clone());
         }
-        let text = serde_yaml::to_string(&doc).map_err(|e| e.to_string())?;
-        let path = format!("<{} with {}>", src.path.display(), self.keys());
-        Template::parse(std::path::Path::new(&path), &text).map_err(|e| e.to_string())
+        let text = serde_yaml::to_string(&doc).map_err(yaml)?;
+        Template::parse(path, &text)
     }
 }
 
@@ -534,7 +538,10 @@ pub type Run<'a> = (&'a Plan, &'a Kinematics, &'a Dataset);
 /// nuisance (setup, sphere position). Every location error's row, with its
 /// u at `noise` um where the joint design identifies it, and the design's
 /// rank of its free parameters.
-pub fn joint(runs: &[Run<'_>], noise: f64) -> Result<(Vec<PreviewRow>, (usize, usize)), String> {
+pub fn joint(
+    runs: &[Run<'_>],
+    noise: f64,
+) -> Result<(Vec<PreviewRow>, (usize, usize)), crate::discover::FitError> {
     let labels: Vec<String> = (1..=runs.len()).map(|i| format!("run {i}")).collect();
     let parts: Vec<crate::discover::Part<'_>> = runs
         .iter()
@@ -546,14 +553,12 @@ pub fn joint(runs: &[Run<'_>], noise: f64) -> Result<(Vec<PreviewRow>, (usize, u
             label,
         })
         .collect();
-    let (fitter, _) = crate::discover::Fitter::new(&parts, &[]).map_err(|e| e.to_string())?;
+    let (fitter, _) = crate::discover::Fitter::new(&parts, &[])?;
     let symbols = &crate::model::Model::new(runs[0].1.clone(), Vec::new()).symbols;
     let all: Vec<usize> = (0..symbols.location.len()).collect();
     // The nominal measurements fit the nominal machine exactly: the fit is
     // the design at it, with discover's own rule of what it identifies.
-    let fit = fitter
-        .fit(&fitter.location(&all), None)
-        .map_err(|e| e.to_string())?;
+    let fit = fitter.fit(&fitter.location(&all), None)?;
     let rows = symbols
         .location
         .iter()
@@ -915,7 +920,7 @@ mod tests {
         // the template would be, with the key named.
         let t = Template::builtin(Test::ProbeColumns);
         let e = c.apply(&t).unwrap_err();
-        assert!(e.contains("pattern"), "{e}");
+        assert!(e.message.contains("pattern"), "{e}");
         let tilt_only = TemplateChange {
             set: c.set[..1].to_vec(),
             ..c

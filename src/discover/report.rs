@@ -15,7 +15,8 @@ use super::gap::{Gap, Group};
 use super::story::{CandidateVerdict, Story};
 use crate::identify::Dataset;
 use crate::io::StagedDir;
-use crate::report::{ReportError, plots};
+use crate::report::ReportError;
+use crate::report::plots::{self, PlotResult, err};
 
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -24,18 +25,9 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> String {
-    format!("{e:?}")
-}
-
 /// The gap after each state (start, then each step): RMS and maximum, with
 /// the final residual sigma as the floor it can reach.
-pub(crate) fn gap_plot(
-    labels: &[String],
-    rms: &[f64],
-    max: &[f64],
-    sigma: f64,
-) -> Result<String, String> {
+pub(crate) fn gap_plot(labels: &[String], rms: &[f64], max: &[f64], sigma: f64) -> PlotResult {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (760, 400)).into_drawing_area();
@@ -185,11 +177,7 @@ fn put(files: &mut StagedDir, name: &str, bytes: &[u8]) -> Result<(), ReportErro
 }
 
 /// Stages a drawn figure, or names it in the error if the drawing failed.
-fn put_plot(
-    files: &mut StagedDir,
-    name: &str,
-    res: Result<String, String>,
-) -> Result<(), ReportError> {
+fn put_plot(files: &mut StagedDir, name: &str, res: PlotResult) -> Result<(), ReportError> {
     let svg = res.map_err(|e| ReportError::Plot(name.into(), e))?;
     put(files, name, svg.as_bytes())
 }

@@ -61,7 +61,7 @@ pub enum ReportError {
     Output(#[from] OutputError),
     /// A plot failed.
     #[error("plot {0}: {1}")]
-    Plot(String, String),
+    Plot(String, plots::DrawError),
 }
 
 /// Each observation's nominal point, normal and measured deviation along
@@ -172,7 +172,7 @@ fn put(files: &mut StagedDir, name: &str, bytes: &[u8]) -> Result<(), ReportErro
 }
 
 /// A plot's text, or the error naming its file.
-fn plot(name: &str, res: Result<String, String>) -> Result<String, ReportError> {
+fn plot(name: &str, res: plots::PlotResult) -> Result<String, ReportError> {
     res.map_err(|e| ReportError::Plot(name.into(), e))
 }
 

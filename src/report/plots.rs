@@ -5,14 +5,22 @@
 
 use plotters::prelude::*;
 
-type PlotResult = Result<String, String>;
+/// A figure the drawing library could not draw, with its message.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct DrawError(String);
+
+/// A drawn figure's SVG text.
+pub(crate) type PlotResult = Result<String, DrawError>;
 
 /// A node of an error map as plotted: angle (deg), value, standard
 /// uncertainty.
 pub type MapNode = (f64, f64, Option<f64>);
 
-fn err<E: std::fmt::Debug>(e: E) -> String {
-    format!("{e:?}")
+/// plotters' errors are generic over the backend; only their message
+/// reaches the user.
+pub(crate) fn err<E: std::fmt::Debug>(e: E) -> DrawError {
+    DrawError(format!("{e:?}"))
 }
 
 const W: u32 = 720;

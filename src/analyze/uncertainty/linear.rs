@@ -38,6 +38,8 @@ use super::{Contributors, Estimate};
 use crate::analyze::method::{identify_with_plan, needs_plan};
 use crate::formats::manifest::TestKind;
 use crate::geom::Axis3;
+use crate::identify::IdentifyError;
+use crate::identify::forward::ForwardError;
 use crate::identify::forward::ForwardModel;
 use crate::identify::{self, Dataset, Method, Setup, lsq};
 use crate::kinematics::Kinematics;
@@ -72,6 +74,40 @@ struct Layout {
     len: usize,
 }
 
+/// Why a linearized study cannot serve a plan (`analyze` then simulates
+/// every run and says why), or why one of its runs failed.
+#[derive(Debug, thiserror::Error)]
+pub enum NotLinearized {
+    /// A method whose estimate is not a smooth function of the data.
+    #[error(
+        "only the global fit's response is linearized, not the {0} method's (the sphere method's robust fits are not smooth in the data)"
+    )]
+    Method(Method),
+    /// A contributor drawn as a new random shape on every run.
+    #[error(
+        "the sphere's form error is a new random shape every run, which a linear study does not draw"
+    )]
+    SphereForm,
+    /// The simulator's forward model cannot serve the plan.
+    #[error(transparent)]
+    Forward(#[from] ForwardError),
+    /// A measured point the plan does not touch.
+    #[error("`{0}` is not a touch of the plan")]
+    NotATouch(String),
+    /// The global fit's response could not be taken.
+    #[error(transparent)]
+    Identify(#[from] IdentifyError),
+    /// A drawn effect the study has no column for.
+    #[error("the study has no column for {0}")]
+    NoColumn(String),
+    /// Fewer drawn values than the drawn effects take.
+    #[error("fewer values than the effects take")]
+    FewerValues,
+    /// The measurement noise cannot be drawn with this spread.
+    #[error("the noise's spread: {0}")]
+    Noise(String),
+}
+
 /// The forward model of a plan, kept concrete for what only one kind has.
 enum Forward {
     Machining(MachiningForward),
@@ -79,14 +115,14 @@ enum Forward {
 }
 
 impl Forward {
-    fn new(model: &Model, plan: &Plan) -> Result<Forward, String> {
+    fn new(model: &Model, plan: &Plan) -> Result<Forward, NotLinearized> {
         Ok(match plan {
-            Plan::Machining(t) => Forward::Machining(
-                MachiningForward::new(model, Arc::new((**t).clone())).map_err(|e| e.to_string())?,
-            ),
-            Plan::Probing(p) => Forward::Probing(
-                ProbingForward::new(model, Arc::new((**p).clone())).map_err(|e| e.to_string())?,
-            ),
+            Plan::Machining(t) => {
+                Forward::Machining(MachiningForward::new(model, Arc::new((**t).clone()))?)
+            }
+            Plan::Probing(p) => {
+                Forward::Probing(ProbingForward::new(model, Arc::new((**p).clone()))?)
+            }
         })
     }
 
@@ -170,7 +206,7 @@ fn stroke_grids(kin: &Kinematics, step: f64) -> Vec<(Axis3, Axis3, Vec<f64>)> {
 /// The unit direction each measured point moves along, in the frame the
 /// identification compares in: the nominal normal of a machined point (the
 /// CMM probes along it), the travel of a probing touch.
-fn measuring_lines(fw: &Forward, data: &Dataset) -> Result<Vec<Vector3<f64>>, String> {
+fn measuring_lines(fw: &Forward, data: &Dataset) -> Result<Vec<Vector3<f64>>, NotLinearized> {
     (0..data.obs.len())
         .map(|k| {
             let p = data.point(k);
@@ -178,7 +214,7 @@ fn measuring_lines(fw: &Forward, data: &Dataset) -> Result<Vec<Vector3<f64>>, St
                 Forward::Machining(_) => Ok(p.n.normalize()),
                 Forward::Probing(f) => f
                     .line_direction(&p.label)
-                    .ok_or_else(|| format!("`{}` is not a touch of the plan", p.label)),
+                    .ok_or_else(|| NotLinearized::NotATouch(p.label.clone())),
             }
         })
         .collect()
@@ -205,19 +241,17 @@ fn sensitivity(
     lines: &[Vector3<f64>],
     first: usize,
     with_setup: bool,
-) -> Result<DMatrix<f64>, String> {
+) -> Result<DMatrix<f64>, NotLinearized> {
     let fm = fw.model();
     let np = fm.model().n_params();
     let nk = fm.nuisance_names().len();
     let cols = np - first + if with_setup { nk } else { 0 };
     let nuisance = vec![0.0; nk];
     let minutes = pose_minutes(data);
-    let rows: Vec<Result<Vec<f64>, String>> = (0..data.obs.len())
+    let rows: Vec<Result<Vec<f64>, NotLinearized>> = (0..data.obs.len())
         .into_par_iter()
         .map(|k| {
-            let pred = fm
-                .predict(theta, &nuisance, data.point(k), minutes[k])
-                .map_err(|e| e.to_string())?;
+            let pred = fm.predict(theta, &nuisance, data.point(k), minutes[k])?;
             Ok((0..cols)
                 .map(|c| {
                     let j = first + c;
@@ -252,24 +286,22 @@ pub fn finite_difference_gain(
     sphere: &identify::sphere::SphereOptions,
     plan: Option<&Plan>,
     lines: &[Vector3<f64>],
-) -> Result<DMatrix<f64>, String> {
+) -> Result<DMatrix<f64>, IdentifyError> {
     let rotation = match data.kind {
-        TestKind::Machining => identify::initial_placement(data)
-            .map_err(|e| e.to_string())?
+        TestKind::Machining => identify::initial_placement(data)?
             .rotation
             .to_rotation_matrix()
             .into_inner(),
         TestKind::Probing => nalgebra::Matrix3::identity(),
     };
     let n = setup.model.n_params();
-    let cols: Vec<Result<Vec<f64>, String>> = (0..data.obs.len())
+    let cols: Vec<Result<Vec<f64>, IdentifyError>> = (0..data.obs.len())
         .into_par_iter()
         .map(|k| {
-            let shifted = |h: f64| -> Result<Vec<f64>, String> {
+            let shifted = |h: f64| -> Result<Vec<f64>, IdentifyError> {
                 let mut d = data.clone();
                 d.obs[k].m += rotation * lines[k] * (h * 1e-3);
-                let r = identify_with_plan(method, setup, &d, sphere, plan)
-                    .map_err(|e| e.to_string())?;
+                let r = identify_with_plan(method, setup, &d, sphere, plan)?;
                 Ok(r.estimates_or_nan())
             };
             let (a, b) = (shifted(FD_STEP_UM)?, shifted(-FD_STEP_UM)?);
@@ -320,18 +352,12 @@ impl LinearStudy {
         plan: &Plan,
         e: &Estimate<'_>,
         contributors: Contributors,
-    ) -> Result<LinearStudy, String> {
+    ) -> Result<LinearStudy, NotLinearized> {
         if e.est.method != Method::Global {
-            return Err(format!(
-                "only the global fit's response is linearized, not the {} method's (the sphere method's robust fits are not smooth in the data)",
-                e.est.method
-            ));
+            return Err(NotLinearized::Method(e.est.method));
         }
         if contributors.sphere_form_um > 0.0 {
-            return Err(
-                "the sphere's form error is a new random shape every run, which a linear study does not draw"
-                    .into(),
-            );
+            return Err(NotLinearized::SphereForm);
         }
         let est = e.est;
         let data = e.data;
@@ -354,7 +380,7 @@ impl LinearStudy {
             })
             .collect();
         let n_theta = theta.len();
-        let build = |grids: &[(Axis3, Axis3, Vec<f64>)]| -> Result<_, String> {
+        let build = |grids: &[(Axis3, Axis3, Vec<f64>)]| -> Result<_, NotLinearized> {
             let (extra, layout) = contributor_effects(c, probing, grids);
             let mut effects = est.model.effects.clone();
             effects.extend(extra);
@@ -393,13 +419,10 @@ impl LinearStudy {
                     crate::simulate::forward::for_plan(&e.setup.model, plan)
                 } else {
                     identify::forward::rigid_for(e.setup.model.clone(), data)
-                }
-                .map_err(|e| e.to_string())?;
-                identify::global::response(fit_model.as_ref(), e.setup, data, &lines, &opts)
-                    .map_err(|e| e.to_string())?
-                    .1
+                }?;
+                identify::global::response(fit_model.as_ref(), e.setup, data, &lines, &opts)?.1
             }
-            m => return Err(format!("the {m} method is not linearized")),
+            m => return Err(NotLinearized::Method(m)),
         };
         let response = &gain * &sensitivity;
         let probing_fw = match fw {
@@ -443,20 +466,18 @@ impl LinearStudy {
         effects: &[Effect],
         values: &[f64],
         setups: Option<&[Isometry3<f64>]>,
-    ) -> Result<DVector<f64>, String> {
+    ) -> Result<DVector<f64>, NotLinearized> {
         let l = &self.layout;
         let mut c = DVector::zeros(self.sensitivity.ncols());
         let mut o = 0;
         for e in effects {
             let k = e.n_params();
-            let v = values
-                .get(o..o + k)
-                .ok_or("fewer values than the effects take")?;
+            let v = values.get(o..o + k).ok_or(NotLinearized::FewerValues)?;
             o += k;
             if v.iter().all(|x| *x == 0.0) {
                 continue;
             }
-            let missing = || format!("the study has no column for {e:?}");
+            let missing = || NotLinearized::NoColumn(format!("{e:?}"));
             match e {
                 Effect::Scale { axis } => c[l.scale.ok_or_else(missing)? + axis.index()] = v[0],
                 Effect::Squareness { kind } => {
@@ -515,7 +536,7 @@ impl LinearStudy {
 
     /// One run: the contributors drawn as the exact study draws them, the
     /// estimate moved by its response (NaN where not identifiable).
-    pub fn run<R: Rng + ?Sized>(&self, rng: &mut R) -> Result<Vec<f64>, String> {
+    pub fn run<R: Rng + ?Sized>(&self, rng: &mut R) -> Result<Vec<f64>, NotLinearized> {
         let ct = &self.contributors;
         let d = ct.sample(&self.kin, rng);
         let (mut effects, mut values) = (d.effects, d.theta);
@@ -531,7 +552,8 @@ impl LinearStudy {
             .map(|_| (0..self.n_pieces).map(|_| ct.sample_setup(rng)).collect());
         let c = self.columns(&effects, &values, setups.as_deref())?;
         let noise: Vec<f64> = if ct.noise_um > 0.0 {
-            let normal = Normal::new(0.0, ct.noise_um).map_err(|e| e.to_string())?;
+            let normal =
+                Normal::new(0.0, ct.noise_um).map_err(|e| NotLinearized::Noise(e.to_string()))?;
             (0..self.gain.ncols()).map(|_| normal.sample(rng)).collect()
         } else {
             vec![0.0; self.gain.ncols()]

@@ -287,9 +287,9 @@ pub fn study(
     let (result, how) = match &rebuilt {
         Ok(plan) => {
             let linear = if exact {
-                Err(String::new())
+                Err(None)
             } else {
-                linear::LinearStudy::new(plan, e, contributors.clone())
+                linear::LinearStudy::new(plan, e, contributors.clone()).map_err(Some)
             };
             match linear {
                 Ok(lin) => (
@@ -308,7 +308,7 @@ pub fn study(
                     );
                     let mut how = "on the simulator (the plan run again with the estimate and the contributors)"
                         .to_string();
-                    if !why.is_empty() {
+                    if let Some(why) = why {
                         how += &format!(", every run simulated: {why}");
                     }
                     (

@@ -52,10 +52,12 @@ pub(crate) fn run_seed(seed: u64, i: usize) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Runs the study.
-pub fn run<F>(opts: &McOptions, n_params: usize, f: F) -> McResult
+/// Runs the study; a run's error is kept as its message (the first one is
+/// reported with the count of failed runs).
+pub fn run<F, E>(opts: &McOptions, n_params: usize, f: F) -> McResult
 where
-    F: Fn(usize, &mut StdRng) -> Result<Vec<f64>, String> + Sync,
+    F: Fn(usize, &mut StdRng) -> Result<Vec<f64>, E> + Sync,
+    E: std::fmt::Display + Send,
 {
     let pb = if opts.progress && std::io::stderr().is_terminal() {
         let pb =
@@ -69,7 +71,7 @@ where
     } else {
         ProgressBar::hidden()
     };
-    let results: Vec<Result<Vec<f64>, String>> = (0..opts.runs)
+    let results: Vec<Result<Vec<f64>, E>> = (0..opts.runs)
         .into_par_iter()
         .map(|i| {
             let mut rng = StdRng::seed_from_u64(run_seed(opts.seed, i));
@@ -92,7 +94,7 @@ where
             }
             Err(e) => {
                 failed += 1;
-                first_error.get_or_insert(e);
+                first_error.get_or_insert_with(|| e.to_string());
             }
         }
     }
@@ -157,7 +159,7 @@ mod tests {
         };
         let f = |_: usize, r: &mut StdRng| {
             let d = Normal::new(0.0, 2.0).unwrap();
-            Ok(vec![d.sample(r), 5.0 + 0.5 * d.sample(r)])
+            Ok::<_, String>(vec![d.sample(r), 5.0 + 0.5 * d.sample(r)])
         };
         let a = run(&opts, 2, f);
         // Standard error of a standard deviation from 400 samples: 3.5 %.

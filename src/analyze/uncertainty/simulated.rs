@@ -252,7 +252,7 @@ pub fn study(
             row.extend(r.estimates_or_nan());
             row.extend(u.iter().map(|x| x.unwrap_or(f64::NAN)));
         }
-        Ok(row)
+        Ok::<_, String>(row)
     });
     methods
         .iter()
