@@ -90,197 +90,14 @@ pub(super) fn parameters(
     dialect: Dialect,
 ) -> Result<Vec<Raw>, ExportError> {
     let m = kin.machine();
-    let t = m.tilt.letter;
-    let pivot = m.pivot;
     let mut out = Vec::new();
     match (dialect, m.structure) {
-        (Dialect::Fanuc, Structure::TableTable) => {
-            let (a, b) = g.tilt.common_perpendicular(&g.c, &pivot);
-            let (an, bn) = gn.tilt.common_perpendicular(&gn.c, &pivot);
-            triple(
-                &mut out,
-                19700,
-                &format!("rotary table position: {t}-axis line, point nearest the C axis"),
-                &a,
-                &an,
-            );
-            triple(
-                &mut out,
-                19703,
-                &format!("intersection offset {t} axis -> C axis"),
-                &(b - a),
-                &(bn - an),
-            );
+        (Dialect::Fanuc, _) => fanuc(&mut out, m, g, gn),
+        (Dialect::Heidenhain, _) => {
+            heidenhain_offsets(&mut out, m, g, gn);
+            heidenhain_orientations(&mut out, m, g, gn);
         }
-        (Dialect::Fanuc, Structure::HeadTable) => {
-            triple(
-                &mut out,
-                19700,
-                "rotary table position: C-axis line, point nearest the pivot",
-                &g.c.nearest(&pivot),
-                &gn.c.nearest(&pivot),
-            );
-            let (h, hn) = (head_points(m, g), head_points(m, gn));
-            triple(
-                &mut out,
-                19709,
-                &format!("intersection offset tool axis (point D) -> {t} axis"),
-                &(h.e - h.d),
-                &(hn.e - hn.d),
-            );
-        }
-        (Dialect::Fanuc, Structure::HeadHead) => {
-            let (h, hn) = (head_points(m, g), head_points(m, gn));
-            triple(
-                &mut out,
-                19709,
-                &format!("intersection offset tool axis (point D) -> {t} axis"),
-                &(h.e - h.d),
-                &(hn.e - hn.d),
-            );
-            triple(
-                &mut out,
-                19712,
-                &format!("intersection offset {t} axis -> C axis"),
-                &(h.f - h.e),
-                &(hn.f - hn.e),
-            );
-        }
-        (Dialect::Heidenhain, structure) => {
-            let tilt_rows = across(m.tilt.about);
-            let c_rows = across(Axis3::Z);
-            let mut rows =
-                |axis: char, idx: [usize; 2], v: Vector3<f64>, vn: Vector3<f64>, stretch: &str| {
-                    for i in idx {
-                        out.push(length(
-                            format!("{axis}.{}", XYZ[i]),
-                            format!("Trans {} {stretch}", XYZ[i]),
-                            v[i],
-                            vn[i],
-                        ));
-                    }
-                };
-            match structure {
-                Structure::TableTable => {
-                    // The tilt row point stays where the table has it along
-                    // the tilt axis (its nominal point), so the C rows carry
-                    // all of C's offset from it.
-                    let (an, bn) = gn.tilt.common_perpendicular(&gn.c, &pivot);
-                    let a = g.tilt.nearest(&an);
-                    let b = g.c.nearest(&a);
-                    rows(
-                        t,
-                        tilt_rows,
-                        a,
-                        an,
-                        &format!("before MachAxis {t}: machine datum -> {t} axis"),
-                    );
-                    rows(
-                        'C',
-                        c_rows,
-                        b - a,
-                        bn - an,
-                        &format!("between MachAxis {t} and MachAxis C: {t} axis -> C axis"),
-                    );
-                }
-                Structure::HeadTable | Structure::HeadHead => {
-                    let (h, hn) = (head_points(m, g), head_points(m, gn));
-                    rows(
-                        t,
-                        tilt_rows,
-                        h.e - h.g,
-                        hn.e - hn.g,
-                        &format!("before MachAxis {t}: tool reference point -> {t} axis"),
-                    );
-                    // The C table stands on the machine; a C head carries the
-                    // tilt head.
-                    if structure == Structure::HeadTable {
-                        rows(
-                            'C',
-                            c_rows,
-                            g.c.nearest(&pivot),
-                            gn.c.nearest(&pivot),
-                            "before MachAxis C: machine datum -> C axis",
-                        );
-                    } else {
-                        rows(
-                            'C',
-                            c_rows,
-                            h.f - h.e,
-                            hn.f - hn.e,
-                            &format!("between MachAxis {t} and MachAxis C: {t} axis -> C axis"),
-                        );
-                    }
-                }
-            }
-            // The orientations, for the machine builder: the small rotation
-            // taking each nominal direction to the actual one, about the
-            // machine axes across it (about its own direction it is the
-            // axis's zero, not its line).
-            let mut lines = vec![
-                (t, m.tilt.about, &g.tilt, &gn.tilt),
-                ('C', Axis3::Z, &g.c, &gn.c),
-            ];
-            if m.structure != Structure::TableTable {
-                lines.push(('S', Axis3::Z, &g.spindle, &gn.spindle));
-            }
-            for (axis, about, l, ln) in lines {
-                let rot = ln.dir.cross(&l.dir) * 1e6;
-                let who = if axis == 'S' {
-                    "spindle axis".to_string()
-                } else {
-                    format!("{axis} axis")
-                };
-                for i in across(about) {
-                    out.push(Raw {
-                        name: format!(
-                            "{}.{}",
-                            if axis == 'S' {
-                                "spindle".into()
-                            } else {
-                                axis.to_string()
-                            },
-                            ['A', 'B', 'C'][i]
-                        ),
-                        what: format!("direction of the {who}, turned about {}", XYZ[i]),
-                        kind: Kind::Angle,
-                        value: rot[i],
-                        nominal: 0.0,
-                        entered: false,
-                    });
-                }
-            }
-        }
-        (Dialect::Linuxcnc, Structure::TableTable) => {
-            // C turns about (x-rot-point, y-rot-point); the tilt axis runs
-            // through (rot-point + offset).
-            let point = |g: &Geometry| {
-                let ct = g.c.nearest(&g.tilt.nearest(&pivot));
-                (ct, g.tilt.nearest(&ct))
-            };
-            let ((ct, tp), (ctn, tpn)) = (point(g), point(gn));
-            out.push(length("x-rot-point".into(), "C axis X".into(), ct.x, ctn.x));
-            out.push(length("y-rot-point".into(), "C axis Y".into(), ct.y, ctn.y));
-            out.push(length(
-                "z-rot-point".into(),
-                format!("Z where the {t} axis crosses C"),
-                tp.z,
-                tpn.z,
-            ));
-            let i = if t == 'A' { 1 } else { 0 };
-            out.push(length(
-                format!("{}-offset", ['x', 'y'][i]),
-                format!("{t} axis {} minus C axis {}", XYZ[i], XYZ[i]),
-                tp[i] - ct[i],
-                tpn[i] - ctn[i],
-            ));
-            out.push(length(
-                "z-offset".into(),
-                "kept 0: the height is all in z-rot-point".into(),
-                0.0,
-                0.0,
-            ));
-        }
+        (Dialect::Linuxcnc, Structure::TableTable) => linuxcnc_trt(&mut out, m, g, gn),
         (Dialect::Sinumerik, _) => return super::sinumerik::parameters(kin, g, gn),
         (Dialect::Linuxcnc, s) => {
             return Err(ExportError::Unsupported(format!(
@@ -290,6 +107,218 @@ pub(super) fn parameters(
         }
     }
     Ok(out)
+}
+
+/// FANUC's tool-holder and table parameters (19700-19714): each a point
+/// or an offset between axis lines, as X, Y, Z.
+fn fanuc(out: &mut Vec<Raw>, m: &Machine, g: &Geometry, gn: &Geometry) {
+    let t = m.tilt.letter;
+    let pivot = m.pivot;
+    match m.structure {
+        Structure::TableTable => {
+            let (a, b) = g.tilt.common_perpendicular(&g.c, &pivot);
+            let (an, bn) = gn.tilt.common_perpendicular(&gn.c, &pivot);
+            triple(
+                out,
+                19700,
+                &format!("rotary table position: {t}-axis line, point nearest the C axis"),
+                &a,
+                &an,
+            );
+            triple(
+                out,
+                19703,
+                &format!("intersection offset {t} axis -> C axis"),
+                &(b - a),
+                &(bn - an),
+            );
+        }
+        Structure::HeadTable => {
+            triple(
+                out,
+                19700,
+                "rotary table position: C-axis line, point nearest the pivot",
+                &g.c.nearest(&pivot),
+                &gn.c.nearest(&pivot),
+            );
+            let (h, hn) = (head_points(m, g), head_points(m, gn));
+            triple(
+                out,
+                19709,
+                &format!("intersection offset tool axis (point D) -> {t} axis"),
+                &(h.e - h.d),
+                &(hn.e - hn.d),
+            );
+        }
+        Structure::HeadHead => {
+            let (h, hn) = (head_points(m, g), head_points(m, gn));
+            triple(
+                out,
+                19709,
+                &format!("intersection offset tool axis (point D) -> {t} axis"),
+                &(h.e - h.d),
+                &(hn.e - hn.d),
+            );
+            triple(
+                out,
+                19712,
+                &format!("intersection offset {t} axis -> C axis"),
+                &(h.f - h.e),
+                &(hn.f - hn.e),
+            );
+        }
+    }
+}
+
+/// HEIDENHAIN's kinematics table: the Trans rows before each MachAxis,
+/// across the axis (along it a row moves nothing).
+fn heidenhain_offsets(out: &mut Vec<Raw>, m: &Machine, g: &Geometry, gn: &Geometry) {
+    let t = m.tilt.letter;
+    let pivot = m.pivot;
+    let structure = m.structure;
+    let tilt_rows = across(m.tilt.about);
+    let c_rows = across(Axis3::Z);
+    let mut rows =
+        |axis: char, idx: [usize; 2], v: Vector3<f64>, vn: Vector3<f64>, stretch: &str| {
+            for i in idx {
+                out.push(length(
+                    format!("{axis}.{}", XYZ[i]),
+                    format!("Trans {} {stretch}", XYZ[i]),
+                    v[i],
+                    vn[i],
+                ));
+            }
+        };
+    match structure {
+        Structure::TableTable => {
+            // The tilt row point stays where the table has it along
+            // the tilt axis (its nominal point), so the C rows carry
+            // all of C's offset from it.
+            let (an, bn) = gn.tilt.common_perpendicular(&gn.c, &pivot);
+            let a = g.tilt.nearest(&an);
+            let b = g.c.nearest(&a);
+            rows(
+                t,
+                tilt_rows,
+                a,
+                an,
+                &format!("before MachAxis {t}: machine datum -> {t} axis"),
+            );
+            rows(
+                'C',
+                c_rows,
+                b - a,
+                bn - an,
+                &format!("between MachAxis {t} and MachAxis C: {t} axis -> C axis"),
+            );
+        }
+        Structure::HeadTable | Structure::HeadHead => {
+            let (h, hn) = (head_points(m, g), head_points(m, gn));
+            rows(
+                t,
+                tilt_rows,
+                h.e - h.g,
+                hn.e - hn.g,
+                &format!("before MachAxis {t}: tool reference point -> {t} axis"),
+            );
+            // The C table stands on the machine; a C head carries the
+            // tilt head.
+            if structure == Structure::HeadTable {
+                rows(
+                    'C',
+                    c_rows,
+                    g.c.nearest(&pivot),
+                    gn.c.nearest(&pivot),
+                    "before MachAxis C: machine datum -> C axis",
+                );
+            } else {
+                rows(
+                    'C',
+                    c_rows,
+                    h.f - h.e,
+                    hn.f - hn.e,
+                    &format!("between MachAxis {t} and MachAxis C: {t} axis -> C axis"),
+                );
+            }
+        }
+    }
+}
+
+/// HEIDENHAIN: the axes' directions, listed and not entered.
+fn heidenhain_orientations(out: &mut Vec<Raw>, m: &Machine, g: &Geometry, gn: &Geometry) {
+    let t = m.tilt.letter;
+    // The orientations, for the machine builder: the small rotation
+    // taking each nominal direction to the actual one, about the
+    // machine axes across it (about its own direction it is the
+    // axis's zero, not its line).
+    let mut lines = vec![
+        (t, m.tilt.about, &g.tilt, &gn.tilt),
+        ('C', Axis3::Z, &g.c, &gn.c),
+    ];
+    if m.structure != Structure::TableTable {
+        lines.push(('S', Axis3::Z, &g.spindle, &gn.spindle));
+    }
+    for (axis, about, l, ln) in lines {
+        let rot = ln.dir.cross(&l.dir) * 1e6;
+        let who = if axis == 'S' {
+            "spindle axis".to_string()
+        } else {
+            format!("{axis} axis")
+        };
+        for i in across(about) {
+            out.push(Raw {
+                name: format!(
+                    "{}.{}",
+                    if axis == 'S' {
+                        "spindle".into()
+                    } else {
+                        axis.to_string()
+                    },
+                    ['A', 'B', 'C'][i]
+                ),
+                what: format!("direction of the {who}, turned about {}", XYZ[i]),
+                kind: Kind::Angle,
+                value: rot[i],
+                nominal: 0.0,
+                entered: false,
+            });
+        }
+    }
+}
+
+/// LinuxCNC's xyzac-trt-kins / xyzbc-trt-kins pins: the C axis's point,
+/// the height where the tilt axis crosses it, and the tilt axis's offset.
+fn linuxcnc_trt(out: &mut Vec<Raw>, m: &Machine, g: &Geometry, gn: &Geometry) {
+    let t = m.tilt.letter;
+    let pivot = m.pivot;
+    // C turns about (x-rot-point, y-rot-point); the tilt axis runs
+    // through (rot-point + offset).
+    let point = |g: &Geometry| {
+        let ct = g.c.nearest(&g.tilt.nearest(&pivot));
+        (ct, g.tilt.nearest(&ct))
+    };
+    let ((ct, tp), (ctn, tpn)) = (point(g), point(gn));
+    out.push(length("x-rot-point".into(), "C axis X".into(), ct.x, ctn.x));
+    out.push(length("y-rot-point".into(), "C axis Y".into(), ct.y, ctn.y));
+    out.push(length(
+        "z-rot-point".into(),
+        format!("Z where the {t} axis crosses C"),
+        tp.z,
+        tpn.z,
+    ));
+    let i = if t == 'A' { 1 } else { 0 };
+    out.push(length(
+        format!("{}-offset", ['x', 'y'][i]),
+        format!("{t} axis {} minus C axis {}", XYZ[i], XYZ[i]),
+        tp[i] - ct[i],
+        tpn[i] - ctn[i],
+    ));
+    out.push(length(
+        "z-offset".into(),
+        "kept 0: the height is all in z-rot-point".into(),
+        0.0,
+        0.0,
+    ));
 }
 
 fn trt_kins(m: &Machine) -> &'static str {
