@@ -40,154 +40,186 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
             .filter(|t| t.kind == TokenKind::Keyword)
             .map(|t| String::from_utf8_lossy(block.bytes(t.span)).to_ascii_lowercase())
             .collect();
-        let cond = |k: usize| exprs.get(k).map_or(Cond::Always, |e| Cond::Expr(e.clone()));
         let op = match seg.stmt {
             Stmt::Words => words_op(block, &seg),
             Stmt::Assign => Op::Assign,
-            Stmt::Flow(flow) if fanuc => match flow {
-                Flow::Jump => {
-                    let has_if = keywords.first().is_some_and(|k| k == "if");
-                    let target = exprs.last().cloned().unwrap_or_default();
-                    Op::Goto {
-                        cond: if has_if { cond(0) } else { Cond::Always },
-                        target: if !target.is_empty() && target.bytes().all(|c| c.is_ascii_digit())
-                        {
-                            Target::Label(format!("N{}", target.parse::<u64>().unwrap_or(0)))
-                        } else {
-                            Target::Number(target)
-                        },
-                        forward: None,
-                    }
-                }
-                Flow::Branch => Op::IfThen(cond(0)),
-                Flow::LoopStart => {
-                    let id = keywords.last().cloned().unwrap_or_default();
-                    let id = id.trim_start_matches("do").to_string();
-                    open.push((id, "while", i));
-                    Op::While {
-                        cond: cond(0),
-                        end: i,
-                    }
-                }
-                Flow::LoopEnd => {
-                    let id = keywords.last().cloned().unwrap_or_default();
-                    let id = id.trim_start_matches("end").to_string();
-                    match open.pop() {
-                        Some((o, _, start)) if o == id => {
-                            if let Op::While { end, .. } = &mut p.ops[start] {
-                                *end = i;
-                            }
-                            Op::Back { start }
-                        }
-                        _ => Op::Halt(format!("END{id} without its WHILE ... DO{id}")),
-                    }
-                }
-                _ => Op::Nop,
-            },
-            Stmt::Flow(flow) => {
-                let label = oword_label(keywords.first().map_or("", |s| s.as_str()));
-                let kw = keywords.get(1).cloned().unwrap_or_default();
-                let find_loop = |open: &[(String, &'static str, usize)]| {
-                    open.iter()
-                        .rev()
-                        .any(|(l, k, _)| *l == label && matches!(*k, "while" | "do" | "repeat"))
-                };
-                match (flow, kw.as_str()) {
-                    (_, "sub") => {
-                        p.add_label(label.clone(), i);
-                        open.push((label, "sub", i));
-                        Op::Sub { end: i }
-                    }
-                    (_, "endsub") => {
-                        close(p, &mut open, &label, "sub", i);
-                        Op::Return
-                    }
-                    (_, "return") => Op::Return,
-                    (_, "call") => Op::Call {
-                        target: Target::Label(label),
-                        args: exprs.iter().map(|e| e.to_string()).collect(),
-                        rep: None,
-                    },
-                    (_, "if") => {
-                        open.push((label, "if", i));
-                        chains.push(vec![i]);
-                        Op::If {
-                            cond: cond(0),
-                            next: i,
-                        }
-                    }
-                    (_, "elseif") | (_, "else") => {
-                        if let Some(c) = chains.last_mut() {
-                            c.push(i);
-                        }
-                        if kw == "else" {
-                            Op::Else { end: i }
-                        } else {
-                            Op::ElseIf {
-                                cond: cond(0),
-                                next: i,
-                                end: i,
-                            }
-                        }
-                    }
-                    (_, "endif") => {
-                        let chain = chains.pop().unwrap_or_default();
-                        link_chain(p, &chain, i);
-                        close(p, &mut open, &label, "if", i);
-                        Op::Nop
-                    }
-                    (_, "do") => {
-                        open.push((label, "do", i));
-                        Op::Nop
-                    }
-                    (_, "while") => match open.last() {
-                        Some((l, "do", s)) if *l == label => {
-                            let start = *s;
-                            open.pop();
-                            Op::BackIf {
-                                cond: cond(0),
-                                start,
-                            }
-                        }
-                        _ => {
-                            open.push((label, "while", i));
-                            Op::While {
-                                cond: cond(0),
-                                end: i,
-                            }
-                        }
-                    },
-                    (_, "endwhile") => match close(p, &mut open, &label, "while", i) {
-                        Some(start) => Op::Back { start },
-                        None => Op::Halt(format!("{label} endwhile without its while")),
-                    },
-                    (_, "repeat") => {
-                        open.push((label, "repeat", i));
-                        Op::Repeat {
-                            count: exprs.first().cloned().unwrap_or_default(),
-                            end: i,
-                        }
-                    }
-                    (_, "endrepeat") => match close(p, &mut open, &label, "repeat", i) {
-                        Some(start) => Op::RepeatEnd { start },
-                        None => Op::Halt(format!("{label} endrepeat without its repeat")),
-                    },
-                    // Resolved below, once the loop's end is known.
-                    (_, "break") | (_, "continue") if find_loop(&open) => {
-                        Op::Break { end: usize::MAX }
-                    }
-                    (_, "break") | (_, "continue") => {
-                        Op::Halt(format!("{label} {kw} outside its loop"))
-                    }
-                    _ => Op::Halt(format!("{label} {kw} is not followed")),
-                }
-            }
+            Stmt::Flow(flow) if fanuc => fanuc_flow(p, flow, &exprs, &keywords, &mut open, i),
+            Stmt::Flow(flow) => oword_flow(p, flow, &exprs, &keywords, &mut open, &mut chains, i),
             _ => Op::Nop,
         };
         p.ops[i] = op;
     }
-    // break/continue: to the end of their loop (continue runs the end's
-    // test, break goes past it).
+    link_breaks(p);
+    for (label, kind, i) in open {
+        p.ops[i] = Op::Halt(format!("{label} {kind} is never closed"));
+    }
+    Ok(())
+}
+
+/// A FANUC Macro B statement: GOTO, IF [..] GOTO / THEN, WHILE [..] DOm and
+/// ENDm (a `WHILE` opens in `open`, its `END` closes it).
+fn fanuc_flow(
+    p: &mut Program,
+    flow: Flow,
+    exprs: &[String],
+    keywords: &[String],
+    open: &mut Vec<(String, &'static str, usize)>,
+    i: usize,
+) -> Op {
+    let cond = |k: usize| exprs.get(k).map_or(Cond::Always, |e| Cond::Expr(e.clone()));
+    match flow {
+        Flow::Jump => {
+            let has_if = keywords.first().is_some_and(|k| k == "if");
+            let target = exprs.last().cloned().unwrap_or_default();
+            Op::Goto {
+                cond: if has_if { cond(0) } else { Cond::Always },
+                target: if !target.is_empty() && target.bytes().all(|c| c.is_ascii_digit()) {
+                    Target::Label(format!("N{}", target.parse::<u64>().unwrap_or(0)))
+                } else {
+                    Target::Number(target)
+                },
+                forward: None,
+            }
+        }
+        Flow::Branch => Op::IfThen(cond(0)),
+        Flow::LoopStart => {
+            let id = keywords.last().cloned().unwrap_or_default();
+            let id = id.trim_start_matches("do").to_string();
+            open.push((id, "while", i));
+            Op::While {
+                cond: cond(0),
+                end: i,
+            }
+        }
+        Flow::LoopEnd => {
+            let id = keywords.last().cloned().unwrap_or_default();
+            let id = id.trim_start_matches("end").to_string();
+            match open.pop() {
+                Some((o, _, start)) if o == id => {
+                    if let Op::While { end, .. } = &mut p.ops[start] {
+                        *end = i;
+                    }
+                    Op::Back { start }
+                }
+                _ => Op::Halt(format!("END{id} without its WHILE ... DO{id}")),
+            }
+        }
+        _ => Op::Nop,
+    }
+}
+
+/// A LinuxCNC o-word statement, linked to its opening statement by its
+/// o-label (`open`), with the if/elseif/else chains in `chains`; `break`
+/// and `continue` are resolved by [`link_breaks`] once every loop's end is
+/// known.
+fn oword_flow(
+    p: &mut Program,
+    flow: Flow,
+    exprs: &[String],
+    keywords: &[String],
+    open: &mut Vec<(String, &'static str, usize)>,
+    chains: &mut Vec<Vec<usize>>,
+    i: usize,
+) -> Op {
+    let cond = |k: usize| exprs.get(k).map_or(Cond::Always, |e| Cond::Expr(e.clone()));
+    let label = oword_label(keywords.first().map_or("", |s| s.as_str()));
+    let kw = keywords.get(1).cloned().unwrap_or_default();
+    let find_loop = |open: &[(String, &'static str, usize)]| {
+        open.iter()
+            .rev()
+            .any(|(l, k, _)| *l == label && matches!(*k, "while" | "do" | "repeat"))
+    };
+    match (flow, kw.as_str()) {
+        (_, "sub") => {
+            p.add_label(label.clone(), i);
+            open.push((label, "sub", i));
+            Op::Sub { end: i }
+        }
+        (_, "endsub") => {
+            close(p, open, &label, "sub", i);
+            Op::Return
+        }
+        (_, "return") => Op::Return,
+        (_, "call") => Op::Call {
+            target: Target::Label(label),
+            args: exprs.iter().map(|e| e.to_string()).collect(),
+            rep: None,
+        },
+        (_, "if") => {
+            open.push((label, "if", i));
+            chains.push(vec![i]);
+            Op::If {
+                cond: cond(0),
+                next: i,
+            }
+        }
+        (_, "elseif") | (_, "else") => {
+            if let Some(c) = chains.last_mut() {
+                c.push(i);
+            }
+            if kw == "else" {
+                Op::Else { end: i }
+            } else {
+                Op::ElseIf {
+                    cond: cond(0),
+                    next: i,
+                    end: i,
+                }
+            }
+        }
+        (_, "endif") => {
+            let chain = chains.pop().unwrap_or_default();
+            link_chain(p, &chain, i);
+            close(p, open, &label, "if", i);
+            Op::Nop
+        }
+        (_, "do") => {
+            open.push((label, "do", i));
+            Op::Nop
+        }
+        (_, "while") => match open.last() {
+            Some((l, "do", s)) if *l == label => {
+                let start = *s;
+                open.pop();
+                Op::BackIf {
+                    cond: cond(0),
+                    start,
+                }
+            }
+            _ => {
+                open.push((label, "while", i));
+                Op::While {
+                    cond: cond(0),
+                    end: i,
+                }
+            }
+        },
+        (_, "endwhile") => match close(p, open, &label, "while", i) {
+            Some(start) => Op::Back { start },
+            None => Op::Halt(format!("{label} endwhile without its while")),
+        },
+        (_, "repeat") => {
+            open.push((label, "repeat", i));
+            Op::Repeat {
+                count: exprs.first().cloned().unwrap_or_default(),
+                end: i,
+            }
+        }
+        (_, "endrepeat") => match close(p, open, &label, "repeat", i) {
+            Some(start) => Op::RepeatEnd { start },
+            None => Op::Halt(format!("{label} endrepeat without its repeat")),
+        },
+        // Resolved below, once the loop's end is known.
+        (_, "break") | (_, "continue") if find_loop(open) => Op::Break { end: usize::MAX },
+        (_, "break") | (_, "continue") => Op::Halt(format!("{label} {kw} outside its loop")),
+        _ => Op::Halt(format!("{label} {kw} is not followed")),
+    }
+}
+
+/// `break` and `continue`: to the end of their loop (continue runs the
+/// end's test, break goes past it).
+fn link_breaks(p: &mut Program) {
+    let n = p.at.len();
     for i in 0..n {
         if !matches!(p.ops[i], Op::Break { end: usize::MAX }) {
             continue;
@@ -224,10 +256,6 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
             None => Op::Halt(format!("{label} break without its loop end")),
         };
     }
-    for (label, kind, i) in open {
-        p.ops[i] = Op::Halt(format!("{label} {kind} is never closed"));
-    }
-    Ok(())
 }
 
 /// Closes the innermost open `kind` named `label`: its start, with its end
