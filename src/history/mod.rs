@@ -37,7 +37,7 @@ pub fn location_errors(content: &str) -> Option<IndexMap<String, Quantity>> {
 
 /// One value of a series.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Point {
+pub struct SeriesPoint {
     /// The record it comes from.
     pub id: i64,
     /// When the machine was measured.
@@ -65,7 +65,7 @@ pub struct SymbolHistory {
     /// um or urad.
     pub unit: &'static str,
     /// Oldest first.
-    pub points: Vec<Point>,
+    pub points: Vec<SeriesPoint>,
 }
 
 /// A change of the control (`compensate --export`).
@@ -149,7 +149,7 @@ impl History {
                         points: Vec::new(),
                     })
                     .points
-                    .push(Point {
+                    .push(SeriesPoint {
                         id: r.id,
                         at: r.record.measured_at,
                         kind: r.record.kind,

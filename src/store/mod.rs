@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 pub use schema::CURRENT_VERSION;
-use sql::{Conn, Value};
+use sql::{Conn, SqlValue};
 
 /// The version of fivecal that writes a record.
 pub(crate) const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -625,19 +625,19 @@ fn insert(c: &mut dyn Conn, r: &Record) -> Result<i64, StoreError> {
         "INSERT INTO records (machine, kind, test, measured_at, recorded_at, tool_version, result_name, content, note, temperature, controller, exported, fit)
          VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
         &[
-            Value::text(&r.machine),
-            Value::text(r.kind.name()),
-            Value::opt_text(r.test.as_deref()),
-            Value::text(&format_time(r.measured_at)),
-            Value::text(&format_time(r.recorded_at)),
-            Value::text(&r.tool_version),
-            Value::text(&r.result_name),
-            Value::text(&r.content),
-            Value::opt_text(r.note.as_deref()),
-            Value::Real(r.temperature),
-            Value::opt_text(r.controller.as_deref()),
-            Value::opt_text(r.exported.as_deref()),
-            Value::opt_text(r.fit.map(FitVerdict::name)),
+            SqlValue::text(&r.machine),
+            SqlValue::text(r.kind.name()),
+            SqlValue::opt_text(r.test.as_deref()),
+            SqlValue::text(&format_time(r.measured_at)),
+            SqlValue::text(&format_time(r.recorded_at)),
+            SqlValue::text(&r.tool_version),
+            SqlValue::text(&r.result_name),
+            SqlValue::text(&r.content),
+            SqlValue::opt_text(r.note.as_deref()),
+            SqlValue::Real(r.temperature),
+            SqlValue::opt_text(r.controller.as_deref()),
+            SqlValue::opt_text(r.exported.as_deref()),
+            SqlValue::opt_text(r.fit.map(FitVerdict::name)),
         ],
     )?;
     let id = rows
@@ -651,11 +651,11 @@ fn insert(c: &mut dyn Conn, r: &Record) -> Result<i64, StoreError> {
         c.exec(
             "INSERT INTO record_files (record_id, position, role, path, sha256) VALUES (?, ?, ?, ?, ?)",
             &[
-                Value::Int(Some(id)),
-                Value::Int(Some(k as i64)),
-                Value::text(f.role.name()),
-                Value::text(&f.path),
-                Value::text(&f.sha256),
+                SqlValue::Int(Some(id)),
+                SqlValue::Int(Some(k as i64)),
+                SqlValue::text(f.role.name()),
+                SqlValue::text(&f.path),
+                SqlValue::text(&f.sha256),
             ],
         )?;
     }
@@ -670,8 +670,8 @@ fn select(
     id: Option<i64>,
 ) -> Result<Vec<Stored>, StoreError> {
     let (filter, params) = match (machine, id) {
-        (_, Some(id)) => ("WHERE id = ?", vec![Value::Int(Some(id))]),
-        (Some(m), None) => ("WHERE machine = ?", vec![Value::text(m)]),
+        (_, Some(id)) => ("WHERE id = ?", vec![SqlValue::Int(Some(id))]),
+        (Some(m), None) => ("WHERE machine = ?", vec![SqlValue::text(m)]),
         (None, None) => ("", vec![]),
     };
     let rows = c.query(
@@ -701,7 +701,7 @@ fn select(
             let id = r[0]
                 .int()?
                 .ok_or_else(|| StoreError::Corrupt("a record without id".into()))?;
-            let time = |v: &Value, col: &str| -> Result<Timestamp, StoreError> {
+            let time = |v: &SqlValue, col: &str| -> Result<Timestamp, StoreError> {
                 parse_time(&v.text_req(col)?).map_err(|e| StoreError::Corrupt(e.to_string()))
             };
             Ok(Stored {

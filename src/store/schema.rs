@@ -9,7 +9,7 @@
 //! newer than this fivecal is refused rather than misread.
 
 use super::StoreError;
-use super::sql::{Backend, Conn, Value};
+use super::sql::{Backend, Conn, SqlValue};
 
 /// One step of the schema.
 pub(crate) struct Migration {
@@ -127,7 +127,7 @@ pub(crate) fn migrate(c: &mut dyn Conn, target: i64, now: &str) -> Result<i64, S
     if c.backend() == Backend::Postgres {
         c.exec(
             "SELECT pg_advisory_xact_lock(?)",
-            &[Value::Int(Some(PG_LOCK))],
+            &[SqlValue::Int(Some(PG_LOCK))],
         )?;
     }
     let found = version(c)?;
@@ -158,10 +158,10 @@ pub(crate) fn migrate(c: &mut dyn Conn, target: i64, now: &str) -> Result<i64, S
         c.exec(
             "INSERT INTO fivecal_schema (version, description, applied_at, tool_version) VALUES (?, ?, ?, ?)",
             &[
-                Value::Int(Some(m.version)),
-                Value::text(m.description),
-                Value::text(now),
-                Value::text(super::TOOL_VERSION),
+                SqlValue::Int(Some(m.version)),
+                SqlValue::text(m.description),
+                SqlValue::text(now),
+                SqlValue::text(super::TOOL_VERSION),
             ],
         )?;
     }

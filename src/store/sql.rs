@@ -9,7 +9,7 @@ use super::StoreError;
 
 /// A column value. Nulls carry their type, which PostgreSQL checks.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Value {
+pub(crate) enum SqlValue {
     /// 64-bit integer (`INTEGER` / `BIGINT`).
     Int(Option<i64>),
     /// Double (`REAL` / `DOUBLE PRECISION`).
@@ -18,18 +18,18 @@ pub(crate) enum Value {
     Text(Option<String>),
 }
 
-impl Value {
-    pub(crate) fn text(s: &str) -> Value {
-        Value::Text(Some(s.to_string()))
+impl SqlValue {
+    pub(crate) fn text(s: &str) -> SqlValue {
+        SqlValue::Text(Some(s.to_string()))
     }
 
-    pub(crate) fn opt_text(s: Option<&str>) -> Value {
-        Value::Text(s.map(str::to_string))
+    pub(crate) fn opt_text(s: Option<&str>) -> SqlValue {
+        SqlValue::Text(s.map(str::to_string))
     }
 
     pub(crate) fn int(&self) -> Result<Option<i64>, StoreError> {
         match self {
-            Value::Int(v) => Ok(*v),
+            SqlValue::Int(v) => Ok(*v),
             other => Err(StoreError::Corrupt(format!(
                 "expected an integer column, found {other:?}"
             ))),
@@ -38,9 +38,9 @@ impl Value {
 
     pub(crate) fn real(&self) -> Result<Option<f64>, StoreError> {
         match self {
-            Value::Real(v) => Ok(*v),
+            SqlValue::Real(v) => Ok(*v),
             // SQLite keeps a REAL that is integral as written.
-            Value::Int(v) => Ok(v.map(|i| i as f64)),
+            SqlValue::Int(v) => Ok(v.map(|i| i as f64)),
             other => Err(StoreError::Corrupt(format!(
                 "expected a number column, found {other:?}"
             ))),
@@ -49,9 +49,9 @@ impl Value {
 
     pub(crate) fn text_opt(&self) -> Result<Option<String>, StoreError> {
         match self {
-            Value::Text(v) => Ok(v.clone()),
+            SqlValue::Text(v) => Ok(v.clone()),
             // A NULL read back from SQLite has no type.
-            Value::Int(None) | Value::Real(None) => Ok(None),
+            SqlValue::Int(None) | SqlValue::Real(None) => Ok(None),
             other => Err(StoreError::Corrupt(format!(
                 "expected a text column, found {other:?}"
             ))),
@@ -67,9 +67,9 @@ impl Value {
 /// One transaction of either back end.
 pub(crate) trait Conn {
     /// Runs a statement; returns the rows changed.
-    fn exec(&mut self, sql: &str, params: &[Value]) -> Result<u64, StoreError>;
+    fn exec(&mut self, sql: &str, params: &[SqlValue]) -> Result<u64, StoreError>;
     /// Runs a query; returns its rows.
-    fn query(&mut self, sql: &str, params: &[Value]) -> Result<Vec<Vec<Value>>, StoreError>;
+    fn query(&mut self, sql: &str, params: &[SqlValue]) -> Result<Vec<Vec<SqlValue>>, StoreError>;
     /// Runs several statements without parameters.
     fn batch(&mut self, sql: &str) -> Result<(), StoreError>;
     /// Which back end, for the statements that differ.
@@ -83,25 +83,25 @@ pub(crate) enum Backend {
     Postgres,
 }
 
-impl rusqlite::ToSql for Value {
+impl rusqlite::ToSql for SqlValue {
     fn to_sql(&self) -> rusqlite::Result<rusqlite::types::ToSqlOutput<'_>> {
-        use rusqlite::types::{ToSqlOutput, Value as V};
+        use rusqlite::types::{Value as V, ToSqlOutput};
         Ok(ToSqlOutput::Owned(match self {
-            Value::Int(Some(i)) => V::Integer(*i),
-            Value::Real(Some(r)) => V::Real(*r),
-            Value::Text(Some(s)) => V::Text(s.clone()),
-            Value::Int(None) | Value::Real(None) | Value::Text(None) => V::Null,
+            SqlValue::Int(Some(i)) => V::Integer(*i),
+            SqlValue::Real(Some(r)) => V::Real(*r),
+            SqlValue::Text(Some(s)) => V::Text(s.clone()),
+            SqlValue::Int(None) | SqlValue::Real(None) | SqlValue::Text(None) => V::Null,
         }))
     }
 }
 
-fn from_sqlite(v: rusqlite::types::ValueRef<'_>) -> Result<Value, StoreError> {
+fn from_sqlite(v: rusqlite::types::ValueRef<'_>) -> Result<SqlValue, StoreError> {
     use rusqlite::types::ValueRef as V;
     Ok(match v {
-        V::Null => Value::Int(None),
-        V::Integer(i) => Value::Int(Some(i)),
-        V::Real(r) => Value::Real(Some(r)),
-        V::Text(t) => Value::Text(Some(
+        V::Null => SqlValue::Int(None),
+        V::Integer(i) => SqlValue::Int(Some(i)),
+        V::Real(r) => SqlValue::Real(Some(r)),
+        V::Text(t) => SqlValue::Text(Some(
             std::str::from_utf8(t)
                 .map_err(|e| StoreError::Corrupt(format!("text that is not UTF-8: {e}")))?
                 .to_string(),
@@ -111,11 +111,11 @@ fn from_sqlite(v: rusqlite::types::ValueRef<'_>) -> Result<Value, StoreError> {
 }
 
 impl Conn for rusqlite::Transaction<'_> {
-    fn exec(&mut self, sql: &str, params: &[Value]) -> Result<u64, StoreError> {
+    fn exec(&mut self, sql: &str, params: &[SqlValue]) -> Result<u64, StoreError> {
         Ok(self.execute(sql, rusqlite::params_from_iter(params))? as u64)
     }
 
-    fn query(&mut self, sql: &str, params: &[Value]) -> Result<Vec<Vec<Value>>, StoreError> {
+    fn query(&mut self, sql: &str, params: &[SqlValue]) -> Result<Vec<Vec<SqlValue>>, StoreError> {
         let mut st = self.prepare(sql)?;
         let n = st.column_count();
         let mut rows = st.query(rusqlite::params_from_iter(params))?;
@@ -155,27 +155,27 @@ fn numbered(sql: &str) -> String {
     out
 }
 
-fn pg_params(params: &[Value]) -> Vec<&(dyn ToSql + Sync)> {
+fn pg_params(params: &[SqlValue]) -> Vec<&(dyn ToSql + Sync)> {
     params
         .iter()
         .map(|v| match v {
-            Value::Int(i) => i as &(dyn ToSql + Sync),
-            Value::Real(r) => r as &(dyn ToSql + Sync),
-            Value::Text(t) => t as &(dyn ToSql + Sync),
+            SqlValue::Int(i) => i as &(dyn ToSql + Sync),
+            SqlValue::Real(r) => r as &(dyn ToSql + Sync),
+            SqlValue::Text(t) => t as &(dyn ToSql + Sync),
         })
         .collect()
 }
 
-fn from_pg(row: &postgres::Row, i: usize) -> Result<Value, StoreError> {
+fn from_pg(row: &postgres::Row, i: usize) -> Result<SqlValue, StoreError> {
     let t = row.columns()[i].type_();
     Ok(if *t == Type::INT8 {
-        Value::Int(row.try_get(i)?)
+        SqlValue::Int(row.try_get(i)?)
     } else if *t == Type::INT4 {
-        Value::Int(row.try_get::<_, Option<i32>>(i)?.map(i64::from))
+        SqlValue::Int(row.try_get::<_, Option<i32>>(i)?.map(i64::from))
     } else if *t == Type::FLOAT8 {
-        Value::Real(row.try_get(i)?)
+        SqlValue::Real(row.try_get(i)?)
     } else if *t == Type::TEXT || *t == Type::VARCHAR {
-        Value::Text(row.try_get(i)?)
+        SqlValue::Text(row.try_get(i)?)
     } else {
         return Err(StoreError::Corrupt(format!(
             "column {} has type {t}, which the store does not use",
@@ -185,11 +185,11 @@ fn from_pg(row: &postgres::Row, i: usize) -> Result<Value, StoreError> {
 }
 
 impl Conn for postgres::Transaction<'_> {
-    fn exec(&mut self, sql: &str, params: &[Value]) -> Result<u64, StoreError> {
+    fn exec(&mut self, sql: &str, params: &[SqlValue]) -> Result<u64, StoreError> {
         Ok(self.execute(numbered(sql).as_str(), &pg_params(params))?)
     }
 
-    fn query(&mut self, sql: &str, params: &[Value]) -> Result<Vec<Vec<Value>>, StoreError> {
+    fn query(&mut self, sql: &str, params: &[SqlValue]) -> Result<Vec<Vec<SqlValue>>, StoreError> {
         let rows = postgres::Transaction::query(self, numbered(sql).as_str(), &pg_params(params))?;
         rows.iter()
             .map(|r| (0..r.len()).map(|i| from_pg(r, i)).collect())

@@ -34,7 +34,7 @@ use crate::machine::{Machine, RotaryAxis, Structure};
 /// The offset vectors l1..l4 and the axis directions v1, v2 of a swivel
 /// data record, machine coordinates, mm (directions unit length).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Record {
+pub(super) struct SwivelRecord {
     pub l: [Vector3<f64>; 4],
     pub v: [Vector3<f64>; 2],
 }
@@ -130,7 +130,7 @@ fn stretches(m: &Machine) -> Vec<(usize, String, Option<usize>)> {
 /// The record of the axis lines `g`, the pivots placed where the nominal
 /// lines `gn` have them along each axis's own direction (the free
 /// components keep their nominal values exactly).
-pub(super) fn record(m: &Machine, g: &Geometry, gn: &Geometry) -> Record {
+pub(super) fn record(m: &Machine, g: &Geometry, gn: &Geometry) -> SwivelRecord {
     let it = m.tilt.about.index();
     let (tilt, c) = (sense(&m.tilt), sense(&m.c));
     let z = Vector3::zeros();
@@ -139,7 +139,7 @@ pub(super) fn record(m: &Machine, g: &Geometry, gn: &Geometry) -> Record {
             let (p1n, p2n) = gn.tilt.common_perpendicular(&gn.c, &m.pivot);
             let p1 = g.tilt.at(it, p1n[it]);
             let p2 = g.c.at(2, p1.z + (p2n - p1n).z);
-            Record {
+            SwivelRecord {
                 l: [z, p1, p2 - p1, -p2],
                 v: [tilt * g.tilt.dir, c * g.c.dir],
             }
@@ -150,7 +150,7 @@ pub(super) fn record(m: &Machine, g: &Geometry, gn: &Geometry) -> Record {
             let p1n = gn.c.nearest(&p2n);
             let p2 = g.tilt.at(it, ga[it] + (p2n - gan)[it]);
             let p1 = g.c.at(2, p2.z + (p1n - p2n).z);
-            Record {
+            SwivelRecord {
                 l: [ga - p1, p1 - p2, p2 - ga, z],
                 v: [c * g.c.dir, tilt * g.tilt.dir],
             }
@@ -161,7 +161,7 @@ pub(super) fn record(m: &Machine, g: &Geometry, gn: &Geometry) -> Record {
             let p2n = gn.c.nearest(&m.pivot);
             let p1 = g.tilt.at(it, ga[it] + (p1n - gan)[it]);
             let p2 = g.c.at(2, p2n.z);
-            Record {
+            SwivelRecord {
                 l: [ga - p1, p1 - ga, p2, -p2],
                 v: [tilt * g.tilt.dir, c * g.c.dir],
             }

@@ -54,7 +54,7 @@ pub(crate) struct PointDesign {
 
 /// A test's design.
 #[derive(Clone, Debug)]
-pub(crate) struct Design {
+pub(crate) struct MachiningDesign {
     pub title: String,
     pub description: String,
     pub program_number: u32,
@@ -177,7 +177,7 @@ pub(crate) fn pose_id(letter: char, tilt: f64, c: f64) -> String {
 }
 
 /// Dispatches to the test's designer.
-pub(crate) fn design(cfg: &PlanConfig, raise: f64) -> Result<Design, PlanError> {
+pub(crate) fn design(cfg: &PlanConfig, raise: f64) -> Result<MachiningDesign, PlanError> {
     match &cfg.template {
         Template::SteppedSquare(t) => super::stepped_square::design::design(cfg, t, raise),
         Template::NineSection(t) => super::nine_section::design::design(cfg, t, raise),

@@ -7,7 +7,7 @@
 use nalgebra::Vector3;
 
 use super::cutter::{Cutter, ToolPart};
-use super::design::{Design, PoseDesign};
+use super::design::{MachiningDesign, PoseDesign};
 use super::{
     Face, Generator, MachiningPlan, Pass, PathMove, Piece, PlannedPoint, PlannedPose, Provenance,
 };
@@ -26,7 +26,7 @@ const TOUCH: f64 = 1e-6;
 const SEPARATION: f64 = 0.05;
 
 /// The safe height (program Z) and why it is safe.
-fn safe_height(m: &Machine, d: &Design) -> (f64, String) {
+fn safe_height(m: &Machine, d: &MachiningDesign) -> (f64, String) {
     let mut corners = corners_of(&d.stock);
     if let Some(f) = &d.fixture {
         corners.extend(corners_of(f));
@@ -119,7 +119,7 @@ fn rapid_hits(
     false
 }
 
-pub(crate) fn assemble(cfg: &PlanConfig, d: Design) -> Result<MachiningPlan, PlanError> {
+pub(crate) fn assemble(cfg: &PlanConfig, d: MachiningDesign) -> Result<MachiningPlan, PlanError> {
     let m = &cfg.machine;
     let post = &cfg.post;
     let tool = d.tool.clone();
@@ -224,7 +224,7 @@ fn check_room(m: &Machine, length: f64, safe_z: f64, safe_why: &str) -> Result<(
 /// program coordinates of the kinematics mode.
 fn pose_moves(
     cfg: &PlanConfig,
-    d: &Design,
+    d: &MachiningDesign,
     k: &Kinematics,
     pd: &PoseDesign,
     all_corners: &[Vector3<f64>],
@@ -356,7 +356,7 @@ fn pose_moves(
 /// whose rapids run into the stock or riser.
 fn check_pose(
     m: &Machine,
-    d: &Design,
+    d: &MachiningDesign,
     k: &Kinematics,
     cutter: &Cutter,
     pd: &PoseDesign,
@@ -407,7 +407,7 @@ fn check_pose(
 /// The neutral toolpath the postprocessor renders: tool call, then per
 /// pose its section, the rotary index, the tilted plane or TCP of the
 /// controller mode, its moves and the retract.
-fn toolpath(cfg: &PlanConfig, d: &Design, safe_z: f64, poses: &[PlannedPose]) -> Vec<Op> {
+fn toolpath(cfg: &PlanConfig, d: &MachiningDesign, safe_z: f64, poses: &[PlannedPose]) -> Vec<Op> {
     let post = &cfg.post;
     let tool = &d.tool;
     let letter = cfg.machine.tilt_letter();
@@ -501,7 +501,7 @@ fn estimate_times(m: &Machine, poses: &mut [PlannedPose]) -> f64 {
 }
 
 /// The finished piece: its solid, mesh and faces.
-fn piece(d: &Design) -> Piece {
+fn piece(d: &MachiningDesign) -> Piece {
     let mesh = Mesh::from_csg(&d.csg, d.groups.clone());
     let faces = d
         .csg
@@ -528,7 +528,7 @@ fn piece(d: &Design) -> Piece {
 /// kinematics mode, the tool, zero point, stock, safe height and run time.
 fn program_info(
     cfg: &PlanConfig,
-    d: &Design,
+    d: &MachiningDesign,
     safe_z: f64,
     safe_why: &str,
     poses: &[PlannedPose],
@@ -639,7 +639,7 @@ fn provenance(
     designs: &[PoseDesign],
     poses: &[PlannedPose],
     pt: &super::design::PointDesign,
-    d: &Design,
+    d: &MachiningDesign,
 ) -> Result<PlannedPoint, PlanError> {
     let bug = |msg: String| PlanError::Impossible(format!("point {}: {msg}", pt.label));
     // Material below, air above.

@@ -15,7 +15,7 @@ use crate::procedure::{PlanError, Test};
 
 /// A surface point that a pose may probe.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Candidate {
+pub(crate) struct SurfaceCandidate {
     /// The obstacle it lies on.
     pub piece: String,
     /// Its name within the pose (`C1_t1`, `xp`, ...), the label's suffix.
@@ -36,7 +36,7 @@ pub(crate) struct PoseSpec {
     /// C, deg.
     pub c: f64,
     /// The candidates.
-    pub candidates: Vec<Candidate>,
+    pub candidates: Vec<SurfaceCandidate>,
 }
 
 fn waypoint(frame: &PoseFrame, ball_w: Vector3<f64>) -> Waypoint {
@@ -329,7 +329,7 @@ impl Reach<'_> {
     fn touch(
         &self,
         pose: &FramedPose,
-        cand: &Candidate,
+        cand: &SurfaceCandidate,
         label: String,
     ) -> Result<Feasible, String> {
         let FramedPose { frame, clear, .. } = pose;

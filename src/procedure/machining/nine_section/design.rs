@@ -26,8 +26,8 @@ use crate::procedure::bounds::{echo, total};
 use crate::procedure::machining::Pass;
 use crate::procedure::machining::cutter::ToolPart;
 use crate::procedure::machining::design::{
-    Design, PointDesign, PoseDesign, Stroke, check_work_area, dir_name, groups, pose_frame,
-    tool_of, within_limits,
+    MachiningDesign, PointDesign, PoseDesign, Stroke, check_work_area, dir_name, groups,
+    pose_frame, tool_of, within_limits,
 };
 use crate::procedure::{PlanConfig, PlanError, short};
 
@@ -84,7 +84,7 @@ pub(crate) fn design(
     cfg: &PlanConfig,
     t: &NineSectionTemplate,
     raise: f64,
-) -> Result<Design, PlanError> {
+) -> Result<MachiningDesign, PlanError> {
     let riser = t.stock.fixture_height + raise;
     let m = &cfg.machine;
     let src = &t.source;
@@ -162,7 +162,7 @@ pub(crate) fn design(
             u32::MAX,
         )
     });
-    Ok(Design {
+    Ok(MachiningDesign {
         title: "nine-section machining test (Cubas Brizuela & Yeh 2023)".into(),
         description: format!(
             "9 sections of {} x {} mm cut to Z{} in W; {} CMM points; result: each section's height relative to section 1",

@@ -30,7 +30,7 @@ use crate::procedure::bounds::{echo, total};
 use crate::procedure::machining::Pass;
 use crate::procedure::machining::cutter::ToolPart;
 use crate::procedure::machining::design::{
-    Design, PointDesign, PoseDesign, Stroke, check_work_area, dir_code, dir_name, groups,
+    MachiningDesign, PointDesign, PoseDesign, Stroke, check_work_area, dir_code, dir_name, groups,
     pose_frame, pose_id, tool_of, within_limits,
 };
 use crate::procedure::{PlanConfig, PlanError, short};
@@ -109,7 +109,7 @@ pub(crate) fn design(
     cfg: &PlanConfig,
     t: &SteppedSquareTemplate,
     raise: f64,
-) -> Result<Design, PlanError> {
+) -> Result<MachiningDesign, PlanError> {
     let riser = t.stock.fixture_height + raise;
     let m = &cfg.machine;
     let src = &t.source;
@@ -161,7 +161,7 @@ pub(crate) fn design(
             short(zb + t.side.bottom_lip + r - m.table.surface)
         ));
     }
-    Ok(Design {
+    Ok(MachiningDesign {
         title: "stepped-square machining test (Ibaraki & Ota 2014)".into(),
         description: format!(
             "{} poses; {n_top} steps on the top face, {} on the side faces; {} CMM points",

@@ -16,7 +16,7 @@ use crate::limits::{MAX_PLAN_POINTS, MAX_PLAN_POSES};
 use crate::machine::Machine;
 use crate::procedure::bounds::total;
 use crate::procedure::probing::collision::{ConvexSolid, Obstacle, ProbeShape};
-use crate::procedure::probing::path::{self, Candidate, PoseSpec};
+use crate::procedure::probing::path::{self, PoseSpec, SurfaceCandidate};
 use crate::procedure::probing::template::StylusSpec;
 use crate::procedure::probing::{ControlLimits, TouchPlan, pose_id};
 use crate::procedure::{PlanError, Test};
@@ -98,7 +98,7 @@ pub(crate) fn column_obstacle(m: &Machine, c: &ColumnSpec) -> Obstacle {
 
 /// The reference points of every column, in probing order: the top points
 /// (`t1`, `t2`, ...) then the sides in the template's order.
-fn reference_points(m: &Machine, t: &ColumnsTemplate) -> Vec<Candidate> {
+fn reference_points(m: &Machine, t: &ColumnsTemplate) -> Vec<SurfaceCandidate> {
     let mut out = Vec::new();
     for c in &t.columns {
         let rot: Matrix3<f64> =
@@ -106,7 +106,7 @@ fn reference_points(m: &Machine, t: &ColumnsTemplate) -> Vec<Candidate> {
         let top = m.table.surface + c.height;
         let centre = Vector3::new(c.centre.x, c.centre.y, top);
         for (k, off) in t.top.iter().enumerate() {
-            out.push(Candidate {
+            out.push(SurfaceCandidate {
                 piece: c.name.clone(),
                 feature: format!("{}_t{}", c.name, k + 1),
                 contact_w: centre + rot * Vector3::new(off.x, off.y, 0.0),
@@ -121,7 +121,7 @@ fn reference_points(m: &Machine, t: &ColumnsTemplate) -> Vec<Candidate> {
                 Side::YMinus => (-Vector3::y(), c.size.y / 2.0),
             };
             let n_w = rot * n;
-            out.push(Candidate {
+            out.push(SurfaceCandidate {
                 piece: c.name.clone(),
                 feature: format!("{}_{}", c.name, side.feature()),
                 contact_w: centre + n_w * half - Vector3::z() * t.side_depth,

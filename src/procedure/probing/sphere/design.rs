@@ -29,7 +29,7 @@ use crate::machine::Machine;
 use crate::procedure::bounds::total;
 use crate::procedure::probing::collision::{ConvexSolid, Obstacle};
 use crate::procedure::probing::columns::design::{probe_shape, table_obstacle};
-use crate::procedure::probing::path::{self, Candidate, PoseSpec};
+use crate::procedure::probing::path::{self, PoseSpec, SurfaceCandidate};
 use crate::procedure::probing::pose_frame::PoseFrame;
 use crate::procedure::probing::{ControlLimits, TouchPlan, pose_id};
 use crate::procedure::{PlanError, Test};
@@ -203,7 +203,7 @@ pub(crate) fn touch_plan_with(
                 .iter()
                 .map(|(approach, name)| {
                     let n_prog = -approach;
-                    Candidate {
+                    SurfaceCandidate {
                         piece: "sphere".into(),
                         feature: (*name).to_string(),
                         contact_w: frame.to_w(&(centre_prog + n_prog * radius)),
