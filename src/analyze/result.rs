@@ -54,13 +54,13 @@ fn serialize<T: Serialize>(v: &T, json: bool) -> Result<String, AnalyzeError> {
 /// The nine-section result file: each piece's statistics, and the symbols
 /// the test cannot identify.
 #[derive(Serialize)]
-struct NineSectionFile<'a> {
+struct NineSectionEntry<'a> {
     nine_section: Vec<(String, &'a NineSection)>,
     not_identifiable: &'a [NotIdentified],
 }
 
-fn nine_section_file(n: &NineSectionOutcome) -> NineSectionFile<'_> {
-    NineSectionFile {
+fn nine_section_entry(n: &NineSectionOutcome) -> NineSectionEntry<'_> {
+    NineSectionEntry {
         nine_section: n
             .stats
             .iter()
@@ -81,7 +81,7 @@ pub fn files(
     match &outcome.found {
         Found::NineSection(n) => Ok(vec![(
             out.to_path_buf(),
-            serialize(&nine_section_file(n), json)?,
+            serialize(&nine_section_entry(n), json)?,
         )]),
         Found::Identified(id) => match &id.series {
             Some(series) => {

@@ -85,7 +85,7 @@ pub(crate) enum Backend {
 
 impl rusqlite::ToSql for SqlValue {
     fn to_sql(&self) -> rusqlite::Result<rusqlite::types::ToSqlOutput<'_>> {
-        use rusqlite::types::{Value as V, ToSqlOutput};
+        use rusqlite::types::{ToSqlOutput, Value as V};
         Ok(ToSqlOutput::Owned(match self {
             SqlValue::Int(Some(i)) => V::Integer(*i),
             SqlValue::Real(Some(r)) => V::Real(*r),

@@ -59,7 +59,7 @@ const FD_STEP_UM: f64 = 0.5;
 
 /// Where the contributors sit among the columns of `S`.
 #[derive(Clone, Debug, Default)]
-struct Layout {
+struct ColumnLayout {
     /// First column of the scale errors of X, Y, Z.
     scale: Option<usize>,
     /// First column of the squareness errors ([`Squareness::ALL`]).
@@ -139,9 +139,9 @@ fn contributor_effects(
     c: &Contributors,
     probing: bool,
     grids: &[(Axis3, Axis3, Vec<f64>)],
-) -> (Vec<Effect>, Layout) {
+) -> (Vec<Effect>, ColumnLayout) {
     let mut effects = Vec::new();
-    let mut layout = Layout::default();
+    let mut layout = ColumnLayout::default();
     let mut col = 0;
     if c.linear_scale_um_per_m > 0.0 {
         layout.scale = Some(col);
@@ -335,7 +335,7 @@ pub struct LinearStudy {
     sensitivity: DMatrix<f64>,
     /// `G S`.
     response: DMatrix<f64>,
-    layout: Layout,
+    layout: ColumnLayout,
     contributors: Contributors,
     kin: Kinematics,
     /// The probing forward model, for the pieces' setups.
