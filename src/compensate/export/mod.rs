@@ -77,6 +77,11 @@ pub struct Parameter {
     /// For a listed value: the limit it is beyond (`u 106.13 urad beyond
     /// --max-u 0.05 mrad`).
     pub beyond: Option<String>,
+    /// No error the export holds moves it to first order: it keeps its
+    /// nominal value by the way the errors are split (a tilt taken up by an axis's zero, an
+    /// offset another row carries), so its `u` of 0 says nothing measured
+    /// and is shown as `fixed`.
+    pub fixed: bool,
 }
 
 impl Parameter {
@@ -97,6 +102,16 @@ impl Parameter {
         match self.kind {
             Kind::Length => v * 1e3,
             Kind::Angle => v,
+        }
+    }
+
+    /// The u as shown: in um or urad, `fixed` for a parameter no held
+    /// error moves, `not given` when a symbol it depends on has none.
+    fn u_text(&self) -> String {
+        match self.u {
+            _ if self.fixed => "fixed".to_string(),
+            Some(u) => format!("{:.2} {}", self.small(u), self.small_unit()),
+            None => "not given".to_string(),
         }
     }
 
@@ -360,10 +375,7 @@ impl Export {
                 Kind::Length => "mm",
                 Kind::Angle => "urad",
             };
-            let u = p.u.map_or_else(
-                || "not given".to_string(),
-                |u| format!("{:.2} {}", p.small(u), p.small_unit()),
-            );
+            let u = p.u_text();
             out.push(format!(
                 "{:<14} {:>12}  {:>14}  {:>10}  {}{}",
                 p.name,
@@ -467,6 +479,7 @@ pub fn export(
     // differences of 1 um or 1 urad; the geometry is smooth and nearly
     // linear at this scale), times that symbol's u.
     let mut us: Vec<Option<f64>> = vec![Some(0.0); raw.len()];
+    let mut moved = vec![false; raw.len()];
     for &k in &keep {
         let mut plus = theta_held.clone();
         let mut minus = theta_held.clone();
@@ -479,6 +492,15 @@ pub fn export(
                 Kind::Length => 1e-9,
                 Kind::Angle => 1e-6,
             };
+            // Moved to first order: 1 um or 1 urad of a symbol moves a
+            // length by at least nanometres over the machine's lever
+            // arms, an angle by about as much; second-order couplings of
+            // the other errors (1e-4 of that) do not count.
+            let first_order = match raw[i].kind {
+                Kind::Length => 1e-6,
+                Kind::Angle => 1e-2,
+            };
+            moved[i] |= d.abs() > first_order;
             if d.abs() > tiny {
                 *slot = match (*slot, u[k]) {
                     (Some(s), Some(uk)) => Some(s + d.abs() * uk),
@@ -506,7 +528,8 @@ pub fn export(
     let mut parameters: Vec<Parameter> = raw
         .into_iter()
         .zip(us)
-        .map(|(r, u)| Parameter {
+        .zip(moved)
+        .map(|((r, u), moved)| Parameter {
             current: current.and_then(|c| c.get(&r.name).copied()),
             name: r.name,
             what: r.what,
@@ -516,6 +539,7 @@ pub fn export(
             u,
             entered: r.entered,
             beyond: None,
+            fixed: !moved,
         })
         .collect();
     check_limits(&mut parameters, dialect, limits)?;
@@ -745,10 +769,14 @@ fn listed_lines(s: &mut String, export: &Export, comment: &str) {
     for p in export.parameters.iter().filter(|p| !p.entered) {
         let _ = writeln!(
             s,
-            "{comment}   {} = {}, u {}  ({}){}",
+            "{comment}   {} = {}, {}  ({}){}",
             p.name,
             signed(p.value, 2),
-            p.u.map_or_else(|| "not given".to_string(), |u| format!("{u:.2} urad")),
+            if p.fixed {
+                "fixed: no error held here moves it".to_string()
+            } else {
+                format!("u {}", p.u_text())
+            },
             p.what,
             p.beyond
                 .as_ref()

@@ -266,8 +266,18 @@ fn every_value_carries_its_u_and_its_change() {
     assert!((ba.value - 80.0).abs() < 0.01 && (ba.u.unwrap() - 2.0).abs() < 1e-3);
     let ca = param(&h, "C.A");
     assert!((ca.value - 125.0).abs() < 0.01 && (ca.u.unwrap() - 4.5).abs() < 1e-3);
-    // The zero of B is no direction of C.
-    assert!(param(&h, "C.B").value.abs() < 0.01, "{}", h.text);
+    // The zero of B is no direction of C: no error held moves C's
+    // direction about Y, and its 0 is a convention, not a measured 0 with
+    // a u of 0.
+    let cb = param(&h, "C.B");
+    assert!(cb.value.abs() < 0.01 && cb.fixed, "{}", h.text);
+    assert!(!ba.fixed && !ca.fixed);
+    assert!(
+        h.text.contains("C.B = +0.00, fixed: no error held here moves it"),
+        "{}",
+        h.text
+    );
+    assert!(!h.text.contains("u 0.00 urad"), "{}", h.text);
     assert!(h.text.contains("EB0B = 150.00 urad"), "{}", h.text);
     // A truth file (no u) says so instead of inventing one.
     let t = run(
