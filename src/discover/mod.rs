@@ -437,12 +437,30 @@ fn try_candidate(
     let mut rows = Vec::new();
     if d.null.ncols() > 0 {
         let named: std::sync::Arc<[String]> = cand_names.clone().into();
-        let vc = d.null.rows(xr.start, xr.len()).into_owned();
-        let svd = vc.svd(true, false);
-        let u = svd.u.expect("asked for U");
-        for (i, s) in svd.singular_values.iter().enumerate() {
-            if *s > 1e-6 {
-                let row: Vec<f64> = u.column(i).iter().copied().collect();
+        // The candidate's rows of the null directions: their column space
+        // is what the test does not see of it. faer's thin SVD, since the
+        // C-axis maps make this hundreds by hundreds once per candidate.
+        let vc = d.null.rows(xr.start, xr.len());
+        let m = faer::Mat::<f64>::from_fn(vc.nrows(), vc.ncols(), |i, j| vc[(i, j)]);
+        let Ok(svd) = m.thin_svd() else {
+            return refused(
+                &cand.name,
+                "the candidate's unseen combinations could not be computed".to_string(),
+            );
+        };
+        let (sv, u) = (svd.S().column_vector(), svd.U());
+        for i in 0..sv.nrows() {
+            if sv[i] > 1e-6 {
+                // A singular vector's sign is arbitrary: the largest
+                // coefficient is made positive, so the name reads the same
+                // whichever solver made it.
+                let mut row: Vec<f64> = (0..u.nrows()).map(|r| u[(r, i)]).collect();
+                let lead = row
+                    .iter()
+                    .fold(0.0f64, |a, &b| if b.abs() > a.abs() { b } else { a });
+                if lead < 0.0 {
+                    row.iter_mut().for_each(|x| *x = -*x);
+                }
                 let what = Combination::new(row.clone(), named.clone());
                 unseen.push(what.clone());
                 rows.push((row, Why::Unseen(what)));

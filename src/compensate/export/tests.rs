@@ -273,7 +273,8 @@ fn every_value_carries_its_u_and_its_change() {
     assert!(cb.value.abs() < 0.01 && cb.fixed, "{}", h.text);
     assert!(!ba.fixed && !ca.fixed);
     assert!(
-        h.text.contains("C.B = +0.00, fixed: no error held here moves it"),
+        h.text
+            .contains("C.B = +0.00, fixed: no error held here moves it"),
         "{}",
         h.text
     );
