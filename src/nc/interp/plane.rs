@@ -186,13 +186,17 @@ pub fn from_points(p: [Vector3<f64>; 3]) -> Result<Matrix3<f64>, &'static str> {
 /// the ZX plane makes `propr` with X and whose trace in the YZ plane makes
 /// `promin` with Y (the edges of a slanted face of a block seen from the
 /// front and from the left), its X axis along the ZX trace, then turned
-/// `rot` about its own Z. The TNC manuals define the angles by those
-/// views; the sign of each is the one that makes a single projection angle
-/// the spatial angle about the same axis (`PROPR` as `SPB`, `PROMIN` as
-/// `SPA`), derived here rather than read from the manual's figure. The
-/// traces fix the normal as (tan PROPR, -tan PROMIN, 1), which is why
-/// both angles must stay within +-90 deg. In closed form
-/// `R = Ry(PROPR) Rx(atan(tan PROMIN cos PROPR)) Rz(ROT)`.
+/// `rot` about its own Z. Read in HEIDENHAIN's TNC7 user's manual: the
+/// angles are those of the workpiece edges seen through the ZX and YZ
+/// planes, all three are required, ROT turns the plane's X. Derived, not
+/// read (the manual gives them in a figure): the sign of each angle, taken
+/// in the mathematically positive sense of the plane as named (Z towards
+/// X in ZX, Y towards Z in YZ), which makes a single projection angle the
+/// spatial angle about the same axis (`PROPR` as `SPB`, `PROMIN` as
+/// `SPA`), and the plane's X at ROT 0 along the ZX trace, as SINUMERIK's
+/// projection angles put it. The traces fix the normal as (tan PROPR,
+/// -tan PROMIN, 1), which is why both angles must stay within +-90 deg.
+/// In closed form `R = Ry(PROPR) Rx(atan(tan PROMIN cos PROPR)) Rz(ROT)`.
 pub(crate) fn projected(propr: f64, promin: f64, rot: f64) -> Result<Matrix3<f64>, &'static str> {
     if !(propr.abs() < 90.0 && promin.abs() < 90.0) {
         return Err("a PLANE PROJECTED angle outside +-90 deg");
@@ -554,7 +558,9 @@ pub enum Swivel {
         dir: f64,
         /// Additive (units digit of `_ST` 1): composed onto the plane in
         /// force, its reference point, rotation and zero point in that
-        /// plane's axes.
+        /// plane's axes. Siemens' operating manual says the additive
+        /// plane builds on the last one; chaining it as a further frame
+        /// is fivecal's reading of that.
         additive: bool,
     },
 }
