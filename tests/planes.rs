@@ -222,12 +222,14 @@ fn one_plane_defined_four_ways_gives_the_same_compensated_program() {
 #[test]
 fn a_plane_fivecal_does_not_model_is_reported_at_its_own_line() {
     let l = errors("ac-trunnion", 82, 30.0, "");
-    let program = "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z S5000\n2 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n3 PLANE PROJECTED PROPR+20 PROMIN+0 ROT+0 TURN FMAX\n4 L X-10 Y-10 Z+20 R0 FMAX\n5 L Z-1 F300\n6 PLANE RESET TURN FMAX\n7 END PGM P MM\n";
+    // PLANE AXIAL without C: whether the control keeps C where it is or
+    // takes it to 0 is not modelled.
+    let program = "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z S5000\n2 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n3 PLANE AXIAL A+20 TURN FMAX\n4 L X-10 Y-10 Z+20 R0 FMAX\n5 L Z-1 F300\n6 PLANE RESET TURN FMAX\n7 END PGM P MM\n";
     let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
     assert_eq!(changed_lines(&out, program), [3], "{out}");
     let (what, lines) = &s.unmodelled[0];
     assert!(
-        what.contains("PLANE PROJECTED") && lines.first == [4],
+        what.contains("both of the machine's rotary axes") && lines.first == [4],
         "{what}"
     );
     let (why, lines) = &s.skipped[s.skipped.len() - 1];
@@ -241,13 +243,13 @@ fn a_plane_fivecal_does_not_model_is_reported_at_its_own_line() {
         .unwrap_err()
         .to_string();
     assert!(
-        err.contains("p.h:4:") && err.contains("PLANE PROJECTED"),
+        err.contains("p.h:4:") && err.contains("both of the machine's rotary axes"),
         "{err}"
     );
     // STAY: the rotary axes stay where they were (here not along the
     // plane), so the moves are left as written with the reason.
     let stay = program.replace(
-        "PLANE PROJECTED PROPR+20 PROMIN+0 ROT+0 TURN FMAX",
+        "PLANE AXIAL A+20 TURN FMAX",
         "PLANE SPATIAL SPA+20 SPB+0 SPC+0 STAY",
     );
     let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), &stay);
@@ -299,5 +301,241 @@ fn heidenhain_q120_to_q122_are_the_positions_the_control_computed() {
         ),
         "{:?}",
         s.skipped
+    );
+}
+
+/// Compensates `program` on `machine` with and without errors and checks
+/// what every 3+2 test asserts: zero error gives the same bytes, the
+/// moves in the planes are the `lines` corrected, and the rewrite driven
+/// through the machine with the errors puts the tip where the original
+/// puts it on the nominal machine. Returns the rewrite.
+fn lands_on_the_path(
+    machine: &str,
+    d: Dialect,
+    seed: u64,
+    program: &str,
+    lines: &[usize],
+    what: &str,
+) -> String {
+    let zero = errors(machine, 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
+    assert_eq!(out, program, "{what}: zero error must give the same bytes");
+    assert_eq!(s0.tilted_plane.first, lines, "{what}: {:?}", s0.skipped);
+    assert!(s0.unmodelled.is_empty(), "{what}: {:?}", s0.unmodelled);
+    let l = errors(machine, seed, 30.0, "");
+    let (out, s, vs) = compensate(&l, Settings::new(d), program);
+    assert_eq!(s.tilted_plane.first, lines, "{what}: {:?}", s.skipped);
+    assert_eq!(changed_lines(&out, program), lines, "{what}:\n{out}");
+    for v in &vs {
+        assert_reaches(&l, v, what);
+    }
+    check_held(&l, d, Coordinates::Auto, program, &out, 0.001, lines, what);
+    out
+}
+
+#[test]
+fn heidenhain_plane_projected_and_plane_axial_land_on_the_intended_points() {
+    let program = "\
+0  BEGIN PGM PROJ MM
+1  BLK FORM 0.1 Z X-50 Y-50 Z-40
+2  BLK FORM 0.2  X+50  Y+50  Z+0
+3  TOOL CALL 5 Z S6000 F800
+4  L Z+100 R0 FMAX M91
+5  PLANE PROJECTED PROPR+15 PROMIN-20 ROT+10 TURN MB MAX FMAX SEQ-
+6  L X-20 Y-10 Z+20 R0 FMAX M3
+7  L Z+5 R0 FMAX
+8  L Z-1 R0 F300
+9  L X+20 R0 F800
+10 L Y+10
+11 L X-20
+12 L Z+50 R0 FMAX
+13 PLANE RESET TURN MB MAX FMAX
+14 PLANE AXIAL A-25 C+40 TURN MB MAX FMAX
+15 L X-20 Y-10 Z+20 R0 FMAX
+16 L Z+5 R0 FMAX
+17 L Z-1 R0 F300
+18 L X+20 R0 F800
+19 L Y+10
+20 L Z+50 R0 FMAX
+21 PLANE RESET TURN MB MAX FMAX
+22 M30
+23 END PGM PROJ MM
+";
+    let lines = [7, 8, 9, 10, 11, 12, 13, 16, 17, 18, 19, 20, 21];
+    lands_on_the_path(
+        "ac-trunnion",
+        Dialect::Heidenhain,
+        91,
+        program,
+        &lines,
+        "PROJECTED/AXIAL",
+    );
+    // The frames by hand. PROJECTED: the plane's X is its trace in the ZX
+    // plane, PROPR below X, turned ROT about the plane's normal
+    // (tan PROPR, -tan PROMIN, 1); the tool lies along that normal.
+    let ends = nominal_ends("ac-trunnion", Dialect::Heidenhain, program);
+    let at = |line: usize| ends.iter().rev().find(|e| e.0 == line).copied().unwrap();
+    let (a, b) = (15f64.to_radians(), (-20f64).to_radians());
+    let n = Vector3::new(a.tan(), -b.tan(), 1.0).normalize();
+    let x0 = Vector3::new(a.cos(), 0.0, -a.sin());
+    let (s, c) = 10f64.to_radians().sin_cos();
+    let x = c * x0 + s * n.cross(&x0);
+    let (_, tip, axis) = at(10);
+    // Line 10 is block 9: X+20 Y-10 Z-1 in the plane.
+    assert!((axis - n).norm() < 1e-9, "{axis} {n}");
+    assert!(
+        (tip - (20.0 * x - 10.0 * n.cross(&x) - n)).norm() < 1e-9,
+        "{tip}"
+    );
+    // AXIAL A-25 C+40: the tool along the machine's tool axis at those
+    // positions, the plane's X and Y the machine's X and Y seen from the
+    // table.
+    let l = errors("ac-trunnion", 0, 0.0, "");
+    let k = &l.model.kin;
+    let pose = |x: f64, y: f64, z: f64| {
+        k.forward_nominal(&fivecal::kinematics::Axes::new(x, y, z, -25.0, 40.0))
+    };
+    let o = pose(0.0, 0.0, 0.0);
+    let (px, py) = (
+        pose(1.0, 0.0, 0.0).tip - o.tip,
+        pose(0.0, 1.0, 0.0).tip - o.tip,
+    );
+    let (_, tip, axis) = at(19);
+    assert!((axis - o.axis).norm() < 1e-9, "{axis}");
+    assert!(
+        (tip - (20.0 * px - 10.0 * py - o.axis)).norm() < 1e-9,
+        "{tip}"
+    );
+}
+
+#[test]
+fn sinumerik_additive_cycle800_is_composed_onto_the_plane_in_force() {
+    // A 30 deg face (B about Y), then a further turn of 25 deg about its
+    // own Z with the zero point moved 5 along the X that turn gives.
+    let program = "\
+%_N_ADD_MPF
+N10 G17 G90 G710 G94
+N20 T=\"MILL D10\" M6
+N30 D1
+N40 G54
+N50 CYCLE800(1,\"TC1\",0,57,0,0,0,0,30,0,0,0,0,-1,100,1)
+N60 CYCLE800(1,\"TC1\",1,57,0,0,0,0,0,25,5,0,0,-1,100,1)
+N70 G0 X-20 Y-10 Z20
+N80 Z5
+N90 G1 Z-1 F300
+N100 X20 F800
+N110 Y10
+N120 X-20
+N130 G0 Z20
+N140 CYCLE800()
+N150 M30
+";
+    let lines = [8, 9, 10, 11, 12, 13, 14];
+    lands_on_the_path(
+        "bc-trunnion",
+        Dialect::Sinumerik,
+        92,
+        program,
+        &lines,
+        "additive",
+    );
+    // By hand: R = Ry(30) Rz(25), the zero point 5 along the new X:
+    // origin R (5, 0, 0).
+    let ends = nominal_ends("bc-trunnion", Dialect::Sinumerik, program);
+    let (_, tip, axis) = ends.iter().rev().find(|e| e.0 == 11).copied().unwrap();
+    let rot = |axis: Vector3<f64>, deg: f64| {
+        nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
+    };
+    let r = rot(Vector3::y(), 30.0) * rot(Vector3::z(), 25.0);
+    let origin = r * Vector3::new(5.0, 0.0, 0.0);
+    assert!((axis - r * Vector3::z()).norm() < 1e-9, "{axis}");
+    assert!(
+        (tip - (origin + r * Vector3::new(20.0, -10.0, -1.0))).norm() < 1e-9,
+        "{tip}"
+    );
+    // Additive on no plane is a new plane.
+    let alone = program.replace(
+        "N50 CYCLE800(1,\"TC1\",0,57,0,0,0,0,30,0,0,0,0,-1,100,1)\n",
+        "",
+    );
+    let again = alone.replace(
+        "CYCLE800(1,\"TC1\",1,57,0,0,0,0,0,25,5,0,0",
+        "CYCLE800(1,\"TC1\",0,57,0,0,0,0,0,25,5,0,0",
+    );
+    let e1 = nominal_ends("bc-trunnion", Dialect::Sinumerik, &alone);
+    let e2 = nominal_ends("bc-trunnion", Dialect::Sinumerik, &again);
+    assert_eq!(e1, e2);
+}
+
+#[test]
+fn linuxcnc_g68_2_by_points_and_by_vectors_is_the_same_plane_as_by_angles() {
+    // The fixture's plane (I90 J35 K-90 about the origin (5, -3, 0)) given
+    // three ways: Euler angles, three points at a right angle (P2) and
+    // the X direction and normal (P3), over several blocks in any order.
+    use fivecal::nc::interp::plane::about;
+    let r = about(b'Z', 90.0) * about(b'X', 35.0) * about(b'Z', -90.0);
+    let (x, y, z) = (r.column(0), r.column(1), r.column(2));
+    let o = Vector3::new(5.0, -3.0, 0.0);
+    let p = |v: Vector3<f64>| format!("X{:.12} Y{:.12} Z{:.12}", v[0], v[1], v[2]);
+    let ijk = |v: Vector3<f64>| format!("I{:.12} J{:.12} K{:.12}", v[0], v[1], v[2]);
+    let forms = [
+        "G68.2 X5 Y-3 Z0 I90 J35 K-90".to_string(),
+        format!(
+            "G68.2 P2 Q1 {}\nG68.2 P2 Q3 {}\nG68.2 P2 Q0 X5 Y-3 Z0\nG68.2 P2 Q2 {}",
+            p(o + 2.0 * x),
+            p(o + 2.0 * x + 7.0 * y),
+            p(o + 12.0 * x)
+        ),
+        format!(
+            "G68.2 P3 Q1 {}\nG68.2 P3 X5 Y-3 Z0 {}",
+            ijk(z.into_owned()),
+            ijk(o + 10.0 * x)
+        ),
+    ];
+    let mut outs = Vec::new();
+    for (k, form) in forms.iter().enumerate() {
+        let program = format!(
+            "G21 G90 G17 G94 G40 G49\nG54\nT2 M6\nS6000 M3\nG0 B-35 C180\n{form}\nG53.1\nG43 H2\nG0 X-15 Y-10 Z20\nG0 Z5\nG1 Z-0.5 F200\nG1 X15 F600\nG1 Y10\nG1 X-15\nG0 Z20\nG69\nG49\nG0 B0 C0\nM5\nM2\n"
+        );
+        let n = form.lines().count();
+        let lines: Vec<usize> = (9..=15).map(|l| l + n - 1).collect();
+        let out = lands_on_the_path("head-table", Dialect::Linuxcnc, 93, &program, &lines, form);
+        outs.push((
+            out.lines()
+                .skip(6 + n)
+                .map(String::from)
+                .collect::<Vec<_>>(),
+            nominal_ends("head-table", Dialect::Linuxcnc, &program),
+        ));
+        if k == 0 {
+            continue;
+        }
+        assert_eq!(outs[k].0, outs[0].0, "{form}");
+        for (a, b) in outs[k].1.iter().zip(&outs[0].1).skip(1) {
+            assert!(
+                (a.1 - b.1).norm() < 1e-9 && (a.2 - b.2).norm() < 1e-9,
+                "{form}"
+            );
+        }
+    }
+    // A plane not yet complete is no plane: with Q2 missing the moves
+    // run in the workpiece frame, and the definition is reported nowhere.
+    let partial = forms[1].lines().take(3).collect::<Vec<_>>().join("\n");
+    let program = format!("G21 G90\nG0 B-35 C180\n{partial}\nG43 H2\nG0 X-15 Y-10 Z20\nM2\n");
+    let zero = errors("head-table", 0, 0.0, "");
+    let (_, s, _) = compensate(&zero, Settings::new(Dialect::Linuxcnc), &program);
+    assert!(s.tilted_plane.first.is_empty() && s.unmodelled.is_empty());
+    // Points not at a right angle: the remap's frame is no rotation, left
+    // as written with the reason.
+    let skew = forms[1].replace(&p(o + 2.0 * x + 7.0 * y), &p(o + 5.0 * x + 7.0 * y));
+    let program =
+        format!("G21 G90\nG0 B-35 C180\n{skew}\nG53.1\nG43 H2\nG0 X-15 Y-10 Z20\nG69\nM2\n");
+    let l = errors("head-table", 94, 30.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Linuxcnc), &program);
+    assert_eq!(out, program);
+    assert!(
+        s.unmodelled.iter().any(|(w, _)| w.contains("right angle")),
+        "{:?}",
+        s.unmodelled
     );
 }

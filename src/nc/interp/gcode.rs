@@ -179,6 +179,7 @@ impl Interpreter {
                         }
                         680 => self.transformed = Some("coordinate rotation (G68)"),
                         690 => {
+                            self.plane_pending = None;
                             if self.tilted {
                                 self.set_plane(None);
                             }
@@ -426,11 +427,15 @@ impl Interpreter {
     }
 
     /// G68.2: the feature coordinate system X Y Z (origin) I J K (Euler
-    /// angles). FANUC: rotating Z-X'-Z''. LinuxCNC's tilted-work-plane
-    /// remap: P0 (or none) proper Euler angles in the order of its Q word
-    /// (313, i.e. Z-X'-Z'', by default), P1 Tait-Bryan angles (Q 123 by
-    /// default), and R a turn about the plane's origin in the XY plane
-    /// before them; its P2 and P3 need several blocks and are not modelled.
+    /// angles). FANUC: rotating Z-X'-Z''; its other forms (a P word:
+    /// roll-pitch-yaw, three points, two vectors, projection angles) are
+    /// left as written, their definitions not having been checked against
+    /// FANUC's manual. LinuxCNC's tilted-work-plane remap: P0 (or none)
+    /// proper Euler angles in the order of its Q word (313, i.e. Z-X'-Z'',
+    /// by default), P1 Tait-Bryan angles (Q 123 by default), and R a turn
+    /// about the plane's origin in the XY plane before them; P2 (three
+    /// points) and P3 (two vectors) over several blocks
+    /// ([`super::plane::Pending`]).
     fn g68_2(&mut self, block: &Block, seg: &Segment) {
         let line = block.line;
         let at = g_offset(block, seg, 682);
@@ -438,39 +443,56 @@ impl Interpreter {
             return self.plane_unmodelled(line, at, "G68.2 while a plane is active");
         }
         if !self.absolute {
+            self.plane_pending = None;
             return self.plane_unmodelled(line, at, "G68.2 under G91");
         }
         let linuxcnc = self.cfg.settings.dialect == Dialect::Linuxcnc;
-        let (mut xyz, mut ijk, mut r) = ([0.0; 3], [0.0; 3], 0.0);
-        let (mut p, mut q) = (0.0, None);
+        // X Y Z I J K R P Q, `None` where not given; `Err` for a word
+        // whose value is not known here.
+        let mut vals = [Ok(None::<f64>); 9];
         for (_, w) in block.words(seg) {
             let l = w.addr.as_letter().unwrap_or(0);
             if l == b'G' {
                 continue;
             }
-            let Ok(v) = self.axis_value(&w) else {
+            let Some(k) = b"XYZIJKRPQ".iter().position(|&c| c == l) else {
                 return self.plane_unmodelled(
                     line,
                     at,
-                    "a parameter, an expression or a value without a decimal point in G68.2",
+                    "G68.2 with a word other than X Y Z I J K (another way to give the plane)",
                 );
             };
-            match l {
-                b'X' | b'Y' | b'Z' => xyz[(l - b'X') as usize] = v,
-                b'I' | b'J' | b'K' => ijk[(l - b'I') as usize] = v,
-                b'R' if linuxcnc => r = v,
-                b'P' if linuxcnc => p = v,
-                b'Q' if linuxcnc => q = Some(v),
-                _ => {
-                    return self.plane_unmodelled(
-                        line,
-                        at,
-                        "G68.2 with a word other than X Y Z I J K (another way to give the plane)",
-                    );
-                }
+            if k >= 6 && !linuxcnc {
+                return self.plane_unmodelled(
+                    line,
+                    at,
+                    "FANUC G68.2 with R, P or Q (roll-pitch-yaw, three points, two vectors or projection angles: not checked against FANUC's manual)",
+                );
             }
+            vals[k] = self.axis_value(&w).map(Some);
         }
-        let order = match (p, q.map(|q| q.round() as i64)) {
+        let known = |k: usize| vals[k].ok().flatten();
+        let p = match vals[7] {
+            Ok(p) => p.unwrap_or(0.0),
+            Err(_) => {
+                self.plane_pending = None;
+                return self.plane_unmodelled(line, at, "a parameter or an expression in G68.2");
+            }
+        };
+        if p == 2.0 || p == 3.0 {
+            return self.g68_2_part(line, at, p as u8, &vals);
+        }
+        // A one-block form starts the definition afresh.
+        self.plane_pending = None;
+        if vals.iter().any(Result::is_err) {
+            return self.plane_unmodelled(
+                line,
+                at,
+                "a parameter, an expression or a value without a decimal point in G68.2",
+            );
+        }
+        let val = |k: usize| known(k).unwrap_or(0.0);
+        let order = match (p, known(8).map(|q| q.round() as i64)) {
             (0.0, None) => *b"ZXZ",
             (1.0, None) => *b"XYZ",
             (p, Some(q)) if p == 0.0 || p == 1.0 => {
@@ -483,20 +505,59 @@ impl Interpreter {
                 let d = |n: i64| b"XYZ"[(n - 1) as usize];
                 [d(q / 100), d(q / 10 % 10), d(q % 10)]
             }
-            _ => {
-                return self.plane_unmodelled(
-                    line,
-                    at,
-                    "G68.2 P2/P3: a plane from points or vectors over several blocks",
-                );
-            }
+            _ => return self.plane_unmodelled(line, at, "G68.2 with an unknown P form"),
         };
-        let rot = super::plane::about(b'Z', r) * super::plane::intrinsic(&order, ijk);
+        let rot = super::plane::about(b'Z', val(6))
+            * super::plane::intrinsic(&order, [val(3), val(4), val(5)]);
         let plane = super::plane::WorkPlane {
             rot,
-            origin: nalgebra::Vector3::new(xyz[0], xyz[1], xyz[2]),
+            origin: nalgebra::Vector3::new(val(0), val(1), val(2)),
         };
         self.set_plane(Some(super::Tilt::Plane(plane)));
+    }
+
+    /// One block of LinuxCNC's G68.2 P2 / P3: its part is kept, and the
+    /// plane is set once every part is given.
+    fn g68_2_part(&mut self, line: usize, at: usize, p: u8, vals: &[Result<Option<f64>, Skip>; 9]) {
+        let mut pending = match self.plane_pending {
+            Some(pd) if pd.p == p => pd,
+            // The remap keeps one definition state: parts of another form
+            // mix into it.
+            Some(_) => {
+                self.plane_pending = None;
+                return self.plane_unmodelled(line, at, "G68.2 P2 and P3 parts mixed");
+            }
+            None => super::plane::Pending::new(p),
+        };
+        let q = match vals[8] {
+            Ok(q) => q.unwrap_or(0.0),
+            Err(_) => {
+                self.plane_pending = None;
+                return self.plane_unmodelled(line, at, "a parameter or an expression in G68.2");
+            }
+        };
+        if q.fract() != 0.0 || q < 0.0 || q as usize >= pending.needed() {
+            self.plane_pending = None;
+            return self.plane_unmodelled(line, at, "G68.2 P2/P3 with an unknown Q");
+        }
+        let mut part = [0.0; 7];
+        for (k, v) in part.iter_mut().enumerate() {
+            match vals[k] {
+                Ok(x) => *v = x.unwrap_or(0.0),
+                Err(_) => pending.unknown = true,
+            }
+        }
+        pending.parts[q as usize] = Some(part);
+        match pending.plane() {
+            None => self.plane_pending = Some(pending),
+            Some(plane) => {
+                self.plane_pending = None;
+                match plane {
+                    Ok(w) => self.set_plane(Some(super::Tilt::Plane(w))),
+                    Err(why) => self.plane_unmodelled(line, at, why),
+                }
+            }
+        }
     }
 
     /// G10: work offset data (L2, L20) makes the offset it changes

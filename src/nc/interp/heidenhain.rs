@@ -315,6 +315,24 @@ impl Interpreter {
                         w.rot * r
                     }
                     (super::plane::Definition::Relative(r), None) => r,
+                    (super::plane::Definition::Axial(abc), _) => {
+                        // The rotary positions themselves: the frame the
+                        // machine's axes take there, and TURN / MOVE goes
+                        // to exactly them.
+                        let t = self.cfg.tilt;
+                        return match super::plane::axial(&self.cfg.kin, t, abc) {
+                            Ok(rot) => {
+                                self.set_plane(Some(super::Tilt::Plane(super::WorkPlane::new(
+                                    rot,
+                                ))));
+                                if k.turn {
+                                    self.pos[t] = abc[t - 3];
+                                    self.pos[5] = abc[2];
+                                }
+                            }
+                            Err(why) => self.plane_unmodelled(line, at, why),
+                        };
+                    }
                     (
                         super::plane::Definition::Relative(_),
                         Some(super::Tilt::Unmodelled { .. }),

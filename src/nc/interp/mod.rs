@@ -462,6 +462,8 @@ pub struct Interpreter {
     pub working_plane: Option<Tilt>,
     /// What defined the tilted plane in force.
     pub plane_cause: Option<TcpCause>,
+    /// A LinuxCNC G68.2 P2/P3 whose parts are still being given.
+    pub plane_pending: Option<plane::Pending>,
     /// A transformation fivecal does not model, by name.
     pub transformed: Option<&'static str>,
     /// G92 / CYCL DEF 7 datum shift per linear axis, program units.
@@ -538,6 +540,7 @@ impl Interpreter {
             tilted: false,
             working_plane: None,
             plane_cause: None,
+            plane_pending: None,
             transformed: None,
             shift: [0.0; 3],
             local_shift: [0.0; 3],

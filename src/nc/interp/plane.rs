@@ -10,11 +10,13 @@
 //! word and a turn R about the origin), HEIDENHAIN `PLANE SPATIAL` and
 //! `CYCL DEF 19` (rotations about the fixed X, then Y, then Z axes),
 //! `PLANE EULER` (Z-X'-Z''), `PLANE VECTOR` (the plane's X and Z axes),
-//! `PLANE POINTS` (three points), `PLANE RELATIV` (one more rotation about
-//! an axis of the plane in force) and `PLANE AXIAL` (the rotary positions
-//! themselves), SINUMERIK `CYCLE800` (axis-by-axis rotations about the
-//! turned axes in the order its mode names, between a reference point and
-//! a zero point after the swivel).
+//! `PLANE POINTS` (three points), `PLANE PROJECTED` (the plane's traces in
+//! the ZX and YZ planes), `PLANE RELATIV` (one more rotation about an axis
+//! of the plane in force) and `PLANE AXIAL` (the rotary positions
+//! themselves: the frame the machine's axes take there), SINUMERIK
+//! `CYCLE800` (axis-by-axis rotations about the turned axes in the order
+//! its mode names, between a reference point and a zero point after the
+//! swivel; new, or composed onto the plane in force).
 //!
 //! The rotary positions come from the nominal machine's inverse
 //! kinematics, as the controller computes them: of the two tilt solutions
@@ -180,6 +182,128 @@ pub fn from_points(p: [Vector3<f64>; 3]) -> Result<Matrix3<f64>, &'static str> {
     from_axes(&x, &z.normalize())
 }
 
+/// HEIDENHAIN `PLANE PROJECTED PROPR PROMIN ROT`: the plane whose trace in
+/// the ZX plane makes `propr` with X and whose trace in the YZ plane makes
+/// `promin` with Y (the edges of a slanted face of a block seen from the
+/// front and from the left), its X axis along the ZX trace, then turned
+/// `rot` about its own Z. Read in HEIDENHAIN's TNC7 user's manual: the
+/// angles are those of the workpiece edges seen through the ZX and YZ
+/// planes, all three are required, ROT turns the plane's X. Derived, not
+/// read (the manual gives them in a figure): the sign of each angle, taken
+/// in the mathematically positive sense of the plane as named (Z towards
+/// X in ZX, Y towards Z in YZ), which makes a single projection angle the
+/// spatial angle about the same axis (`PROPR` as `SPB`, `PROMIN` as
+/// `SPA`), and the plane's X at ROT 0 along the ZX trace, as SINUMERIK's
+/// projection angles put it. The traces fix the normal as (tan PROPR,
+/// -tan PROMIN, 1), which is why both angles must stay within +-90 deg.
+/// In closed form `R = Ry(PROPR) Rx(atan(tan PROMIN cos PROPR)) Rz(ROT)`.
+pub(crate) fn projected(propr: f64, promin: f64, rot: f64) -> Result<Matrix3<f64>, &'static str> {
+    if !(propr.abs() < 90.0 && promin.abs() < 90.0) {
+        return Err("a PLANE PROJECTED angle outside +-90 deg");
+    }
+    let a = propr.to_radians();
+    let nutation = (promin.to_radians().tan() * a.cos()).atan().to_degrees();
+    Ok(about(b'Y', propr) * about(b'X', nutation) * about(b'Z', rot))
+}
+
+/// The frame the machine's rotary axes at `abc` (A, B, C, `None` where
+/// not given) put the program in: the plane of HEIDENHAIN `PLANE AXIAL`
+/// and of SINUMERIK's direct `CYCLE800`, the same frame `fivecal plan`
+/// writes its tilted planes in. Both of the machine's rotary axes must be
+/// given, and no other.
+pub(crate) fn axial(
+    kin: &crate::kinematics::Kinematics,
+    tilt: usize,
+    abc: [Option<f64>; 3],
+) -> Result<Matrix3<f64>, &'static str> {
+    if abc
+        .iter()
+        .enumerate()
+        .any(|(i, v)| v.is_some_and(|v| v != 0.0) && i + 3 != tilt && i != 2)
+    {
+        return Err("rotary positions of an axis this machine does not have");
+    }
+    match (abc[tilt - 3], abc[2]) {
+        (Some(t), Some(c)) => Ok(crate::procedure::machining::design::pose_frame(kin, t, c)),
+        _ => Err("rotary positions without both of the machine's rotary axes"),
+    }
+}
+
+/// LinuxCNC's `G68.2 P2` (three points) and `G68.2 P3` (two vectors),
+/// given over several blocks as its tilted-work-plane remap reads them
+/// (the remap of LinuxCNC's five-axis simulation configurations,
+/// `configs/sim/axis/vismach/5axis/table-rotary_spindle-rotary-nutating/python/remap.py`):
+/// P2 takes `Q0 X Y Z R` (the origin and a turn about Z) and the points
+/// `Q1`, `Q2`, `Q3` (`X Y Z` each); P3 takes `Q0 X Y Z I J K R` (the
+/// origin, a point `I J K` whose direction from the origin is the plane's
+/// X, and the turn) and `Q1 I J K` (the normal). A missing Q is Q0 and a
+/// missing word 0; the plane is defined once every part is given, in any
+/// order, and a part given again replaces the earlier one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pending {
+    /// 2 or 3.
+    pub p: u8,
+    /// The X Y Z I J K R of each Q block so far.
+    pub parts: [Option<[f64; 7]>; 4],
+    /// A part held a parameter or an expression.
+    pub unknown: bool,
+}
+
+impl Pending {
+    /// Nothing given yet for `P p`.
+    pub fn new(p: u8) -> Pending {
+        Pending {
+            p,
+            parts: [None; 4],
+            unknown: false,
+        }
+    }
+
+    /// How many Q blocks the form takes.
+    pub fn needed(&self) -> usize {
+        if self.p == 2 { 4 } else { 2 }
+    }
+
+    /// The plane, once every part is given.
+    pub fn plane(&self) -> Option<Result<WorkPlane, &'static str>> {
+        let n = self.needed();
+        if self.parts[..n].iter().any(Option::is_none) {
+            return None;
+        }
+        if self.unknown {
+            return Some(Err("a parameter or an expression in G68.2"));
+        }
+        let part = |q: usize| self.parts[q].unwrap_or([0.0; 7]);
+        let v = |q: usize, k: usize| Vector3::new(part(q)[k], part(q)[k + 1], part(q)[k + 2]);
+        let (origin, r) = (v(0, 0), part(0)[6]);
+        let rot = if self.p == 2 {
+            let (x, y) = (v(2, 0) - v(1, 0), v(3, 0) - v(1, 0));
+            // The remap normalizes both directions and takes their cross
+            // product as the normal without normalizing it again: a frame
+            // only when the points make a right angle at the first.
+            let cos = x.dot(&y) / (x.norm() * y.norm());
+            if cos.abs() > 1e-9 {
+                return Some(Err(
+                    "G68.2 P2 with points not at a right angle at the first (LinuxCNC's remap then builds no rotation)",
+                ));
+            }
+            from_points([v(1, 0), v(2, 0), v(3, 0)])
+        } else {
+            let (x, z) = (v(0, 3) - origin, v(1, 3));
+            // The remap refuses vectors whose normalized dot product is
+            // not exactly 0.
+            if (x.normalize().dot(&z.normalize())).abs() > 1e-12 {
+                return Some(Err("G68.2 P3 with vectors that are not orthogonal"));
+            }
+            from_axes(&x, &z)
+        };
+        Some(rot.map(|rot| WorkPlane {
+            rot: about(b'Z', r) * rot,
+            origin,
+        }))
+    }
+}
+
 /// How a controller picks between the two rotary solutions.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Choice {
@@ -289,13 +413,16 @@ pub enum Definition {
     /// A rotation about the plane's own axes, applied after the plane in
     /// force.
     Relative(Matrix3<f64>),
+    /// PLANE AXIAL: the rotary positions A, B, C (`None` where not given);
+    /// the frame is the machine's ([`axial`]).
+    Axial([Option<f64>; 3]),
 }
 
 /// Reads a Klartext `PLANE ...` block (its text without the comment):
-/// SPATIAL (SPA SPB SPC), EULER (EULPR EULNU EULROT), VECTOR (BX BY BZ NX
-/// NY NZ), POINTS (P1X ... P3Z), RELATIV (one of SPA SPB SPC), RESET; the
-/// positioning TURN / MOVE / STAY and SEQ+ / SEQ-. PROJECTED and AXIAL
-/// are reported as not modelled.
+/// SPATIAL (SPA SPB SPC), PROJECTED (PROPR PROMIN ROT, or PROROT as older
+/// manuals write it), EULER (EULPR EULNU EULROT), VECTOR (BX BY BZ NX NY
+/// NZ), POINTS (P1X ... P3Z), RELATIV (one of SPA SPB SPC), AXIAL (A B C),
+/// RESET; the positioning TURN / MOVE / STAY and SEQ+ / SEQ-.
 pub fn klartext(code: &str) -> Klartext {
     let up = code.to_ascii_uppercase().replace(',', ".");
     let words: Vec<&str> = up.split_whitespace().collect();
@@ -309,9 +436,10 @@ pub fn klartext(code: &str) -> Klartext {
         seq: None,
         sym: false,
     };
-    const NAMES: [&str; 24] = [
-        "EULPR", "EULNU", "EULROT", "PROPR", "PROMIN", "SPA", "SPB", "SPC", "ROT", "BX", "BY",
-        "BZ", "NX", "NY", "NZ", "P1X", "P1Y", "P1Z", "P2X", "P2Y", "P2Z", "P3X", "P3Y", "P3Z",
+    const NAMES: [&str; 25] = [
+        "EULPR", "EULNU", "EULROT", "PROPR", "PROMIN", "PROROT", "SPA", "SPB", "SPC", "ROT", "BX",
+        "BY", "BZ", "NX", "NY", "NZ", "P1X", "P1Y", "P1Z", "P2X", "P2Y", "P2Z", "P3X", "P3Y",
+        "P3Z",
     ];
     let mut k = 0;
     while k < rest.len() {
@@ -323,7 +451,12 @@ pub fn klartext(code: &str) -> Klartext {
             "SEQ-" => out.seq = Some(-1.0),
             _ if w.starts_with("SYM") => out.sym = true,
             _ => {
-                let axial = form == "AXIAL" && matches!(w.as_bytes()[0], b'A' | b'B' | b'C');
+                // An axis word of PLANE AXIAL: `B+30`, `B +30`, `B+Q1`.
+                let axial = form == "AXIAL"
+                    && matches!(w.as_bytes()[0], b'A' | b'B' | b'C')
+                    && w.as_bytes()
+                        .get(1)
+                        .is_none_or(|c| c.is_ascii_digit() || b"+-.Q".contains(c));
                 let name = NAMES
                     .iter()
                     .find(|n| w.starts_with(**n))
@@ -388,10 +521,17 @@ pub fn klartext(code: &str) -> Klartext {
                 _ => Err("PLANE RELATIV with other than one spatial angle"),
             }
         }
-        "PROJECTED" => Err("PLANE PROJECTED (projection angles)"),
-        "AXIAL" => {
-            Err("PLANE AXIAL (axis angles: the plane's in-plane direction depends on the machine)")
-        }
+        "PROJECTED" => projected(
+            num("PROPR"),
+            num("PROMIN"),
+            get("ROT").or(get("PROROT")).flatten().unwrap_or(0.0),
+        )
+        .map(Definition::Absolute),
+        "AXIAL" => Ok(Definition::Axial([
+            get("A").flatten(),
+            get("B").flatten(),
+            get("C").flatten(),
+        ])),
         _ => Err("an unknown PLANE form"),
     });
     out
@@ -416,14 +556,23 @@ pub enum Swivel {
         after: Vector3<f64>,
         /// Preferred direction `_DIR` (0: the rotary axes do not move).
         dir: f64,
+        /// Additive (units digit of `_ST` 1): composed onto the plane in
+        /// force, its reference point, rotation and zero point in that
+        /// plane's axes. Siemens' operating manual says the additive
+        /// plane builds on the last one; chaining it as a further frame
+        /// is fivecal's reading of that.
+        additive: bool,
     },
 }
 
 /// Reads the argument list of `CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0,
 /// _Z0, _A, _B, _C, _X1, _Y1, _Z1, _DIR [, _FR_I, _DMODE])`: a new plane
-/// (units digit of `_ST` 0), axis by axis (`_MODE` bits 6-7 zero, the
-/// axis of each angle in bits 0-1, 2-3, 4-5: 1 X, 2 Y, 3 Z; each rotation
-/// about the axes the previous ones turned) or direct (192).
+/// (units digit of `_ST` 0) or one added to the plane in force (1), axis
+/// by axis (`_MODE` bits 6-7 zero, the axis of each angle in bits 0-1,
+/// 2-3, 4-5: 1 X, 2 Y, 3 Z; each rotation about the axes the previous
+/// ones turned) or direct (192, new planes only). Solid and projection
+/// angles (bits 6-7 01 and 10) stay refused: which value is which, and
+/// the sign of each angle, are shown only in the manual's figures.
 pub fn cycle800(args: &str) -> Result<Swivel, &'static str> {
     let inner = args.trim().trim_start_matches('(').trim_end_matches(')');
     if inner.trim().is_empty() {
@@ -453,9 +602,11 @@ pub fn cycle800(args: &str) -> Result<Swivel, &'static str> {
         return Err("CYCLE800 with fewer than 14 parameters");
     }
     let st = num(2)?;
-    if st.rem_euclid(10.0) != 0.0 {
-        return Err("an additive CYCLE800 (units digit of _ST not 0)");
+    let units = st.rem_euclid(10.0);
+    if units != 0.0 && units != 1.0 {
+        return Err("a CYCLE800 _ST whose units digit is neither 0 (new) nor 1 (additive)");
     }
+    let additive = units == 1.0;
     let mode = num(3)? as i64;
     let v3 = |k: usize| -> Result<Vector3<f64>, &'static str> {
         Ok(Vector3::new(num(k)?, num(k + 1)?, num(k + 2)?))
@@ -471,6 +622,7 @@ pub fn cycle800(args: &str) -> Result<Swivel, &'static str> {
             };
             Some(intrinsic(&[axis(0)?, axis(1)?, axis(2)?], abc))
         }
+        3 if additive => return Err("an additive CYCLE800 in direct mode (_MODE 192)"),
         3 => None,
         _ => return Err("CYCLE800 with solid or projection angles (_MODE bits 6-7 01 or 10)"),
     };
@@ -480,6 +632,7 @@ pub fn cycle800(args: &str) -> Result<Swivel, &'static str> {
         before: v3(4)?,
         after: v3(10)?,
         dir: num(13)?,
+        additive,
     })
 }
 
@@ -610,10 +763,10 @@ mod tests {
             klartext("3 PLANE SPATIAL SPA+0 SPB+Q1 SPC+0 STAY").plane,
             Some(Err(_))
         ));
-        assert!(matches!(
+        assert_eq!(
             klartext("3 PLANE AXIAL B+30 TURN FMAX").plane,
-            Some(Err(_))
-        ));
+            Some(Ok(Definition::Axial([None, Some(30.0), None])))
+        );
         assert!(klartext("3 PLANE SPATIAL SPA+0 SPB+30 SPC+0 TURN SYM+ FMAX").sym);
         // CYCLE800 mode 57: X, then the turned Y, then the turned Z.
         let Ok(Swivel::Plane {
@@ -639,11 +792,142 @@ mod tests {
         assert!(close(&r, &intrinsic(b"ZYX", [10.0, 30.0, 90.0])));
         assert_eq!(cycle800("()"), Ok(Swivel::Reset));
         assert!(cycle800("(1,\"T\",0,57,0,0,0,0,R1,0,0,0,0,1)").is_err());
+        let Ok(Swivel::Plane { additive, .. }) = cycle800("(1,\"T\",1,57,0,0,0,0,10,0,0,0,0,1)")
+        else {
+            panic!()
+        };
+        assert!(additive);
+        assert!(cycle800("(1,\"T\",1,192,0,0,0,0,10,0,0,0,0,1)").is_err());
+        assert!(cycle800("(1,\"T\",2,57,0,0,0,0,10,0,0,0,0,1)").is_err());
         assert!(cycle800("(1,\"T\",0,121,0,0,0,0,30,0,0,0,0,1)").is_err());
         let t = klartext("3 PLANE SPATIAL SPA+0 SPB+30 SPC+0 STAY SEQ- COORD ROT");
         assert_eq!(
             t.plane,
             Some(Ok(Definition::Absolute(spatial(0.0, 30.0, 0.0))))
         );
+    }
+
+    #[test]
+    fn projected_angles_are_the_traces_of_the_plane() {
+        for (pr, min, rot) in [(24.0, 24.0, 30.0), (-35.0, 12.0, 0.0), (10.0, -60.0, -75.0)] {
+            let r = projected(pr, min, rot).unwrap();
+            let (a, b) = (f64::to_radians(pr), f64::to_radians(min));
+            // Independently: the plane through the two traces, the ZX one
+            // (PROPR from X, down towards -Z for a positive angle, as SPB
+            // turns X) and the YZ one (PROMIN from Y, up towards +Z, as
+            // SPA turns Y); X along the ZX trace, then ROT about Z.
+            let l1 = Vector3::new(a.cos(), 0.0, -a.sin());
+            let l2 = Vector3::new(0.0, b.cos(), b.sin());
+            let n = l1.cross(&l2).normalize();
+            let (s, c) = rot.to_radians().sin_cos();
+            let x = c * l1 + s * n.cross(&l1);
+            assert!((r.column(2) - n).norm() < 1e-12, "{pr} {min}: {r}");
+            assert!((r.column(0) - x).norm() < 1e-12, "{pr} {min} {rot}: {r}");
+            assert!((r.determinant() - 1.0).abs() < 1e-12);
+            // The plane's traces measured back: its X at ROT 0 seen in the
+            // ZX plane, and the line where it cuts the YZ plane.
+            let r0 = projected(pr, min, 0.0).unwrap();
+            let x0 = r0.column(0);
+            assert!(x0[1].abs() < 1e-12);
+            assert!((f64::atan2(-x0[2], x0[0]).to_degrees() - pr).abs() < 1e-9);
+            let nn = r0.column(2);
+            let trace = Vector3::new(0.0, nn[2], -nn[1]);
+            assert!((f64::atan2(trace[2], trace[1]).to_degrees() - min).abs() < 1e-9);
+        }
+        // One projection angle alone is the spatial angle about that axis.
+        assert!(close(
+            &projected(30.0, 0.0, 0.0).unwrap(),
+            &spatial(0.0, 30.0, 0.0)
+        ));
+        assert!(close(
+            &projected(0.0, -20.0, 0.0).unwrap(),
+            &spatial(-20.0, 0.0, 0.0)
+        ));
+        assert!(projected(90.0, 0.0, 0.0).is_err() && projected(0.0, -95.0, 0.0).is_err());
+        let k = klartext("5 PLANE PROJECTED PROPR+24 PROMIN+24 ROT+30 TURN MB MAX FMAX SEQ-");
+        assert_eq!(
+            k.plane,
+            Some(Ok(Definition::Absolute(
+                projected(24.0, 24.0, 30.0).unwrap()
+            )))
+        );
+        assert!(k.turn && k.seq == Some(-1.0));
+        let older = klartext("5 PLANE PROJECTED PROPR+24 PROMIN+24 PROROT+30 STAY");
+        assert_eq!(older.plane, k.plane);
+    }
+
+    #[test]
+    fn axial_is_the_frame_the_machine_axes_take() {
+        let m = crate::machine::Machine::builtin("bc-trunnion").unwrap();
+        let kin = crate::kinematics::Kinematics::new(&m);
+        let nominal = FastChain::nominal(&kin);
+        let r = axial(&kin, 4, [None, Some(30.0), Some(-70.0)]).unwrap();
+        // Independently, through the nominal forward kinematics: the
+        // table turns the workpiece, so the machine's X and Y and the
+        // tool axis, seen from the workpiece, are where a unit move of X
+        // and of Y takes the tip, and the tool axis there.
+        let at = |x: f64, y: f64| nominal.forward(&Axes::new(x, y, 0.0, 30.0, -70.0));
+        let o = at(0.0, 0.0);
+        assert!(
+            (r.column(0) - (at(1.0, 0.0).tip - o.tip)).norm() < 1e-9,
+            "{r}"
+        );
+        assert!(
+            (r.column(1) - (at(0.0, 1.0).tip - o.tip)).norm() < 1e-9,
+            "{r}"
+        );
+        assert!((r.column(2) - o.axis).norm() < 1e-9, "{r}");
+        // Both of the machine's rotary axes, and no other.
+        assert!(axial(&kin, 4, [None, Some(30.0), None]).is_err());
+        assert!(axial(&kin, 4, [Some(5.0), Some(30.0), Some(0.0)]).is_err());
+        assert!(axial(&kin, 4, [Some(0.0), Some(30.0), Some(0.0)]).is_ok());
+        let k = klartext("7 PLANE AXIAL B+30 C-70 TURN MB MAX FMAX");
+        assert_eq!(
+            k.plane,
+            Some(Ok(Definition::Axial([None, Some(30.0), Some(-70.0)])))
+        );
+        assert!(k.turn);
+        let spaced = klartext("7 PLANE AXIAL B +30 C -70 STAY");
+        assert_eq!(spaced.plane, k.plane);
+        assert!(!spaced.turn);
+        assert!(matches!(
+            klartext("7 PLANE AXIAL B+Q5 C+0 TURN FMAX").plane,
+            Some(Err(_))
+        ));
+    }
+
+    #[test]
+    fn linuxcnc_points_and_vectors_build_the_remaps_frame() {
+        // P2: origin (10, 0, 5) from Q0 (not the first point), turned
+        // R 90 about Z; the points make X along (1, 1, 0)/sqrt 2 and put
+        // the third on the +Y side, which here is +Z.
+        let mut p2 = Pending::new(2);
+        p2.parts[1] = Some([1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        p2.parts[3] = Some([1.0, 1.0, 4.0, 0.0, 0.0, 0.0, 0.0]);
+        p2.parts[2] = Some([3.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert!(p2.plane().is_none());
+        p2.parts[0] = Some([10.0, 0.0, 5.0, 0.0, 0.0, 0.0, 90.0]);
+        let w = p2.plane().unwrap().unwrap();
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let (x, y) = (Vector3::new(h, h, 0.0), Vector3::z());
+        let by_hand = about(b'Z', 90.0) * Matrix3::from_columns(&[x, y, x.cross(&y)]);
+        assert!(close(&w.rot, &by_hand), "{}", w.rot);
+        assert_eq!(w.origin, Vector3::new(10.0, 0.0, 5.0));
+        // Not at a right angle: the remap's frame is no rotation.
+        p2.parts[3] = Some([2.0, 1.0, 4.0, 0.0, 0.0, 0.0, 0.0]);
+        assert!(p2.plane().unwrap().is_err());
+        // P3: X towards the point I J K from the origin, Z the normal.
+        let mut p3 = Pending::new(3);
+        p3.parts[1] = Some([0.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0]);
+        p3.parts[0] = Some([5.0, 5.0, 0.0, 7.0, 5.0, 0.0, 0.0]);
+        let w = p3.plane().unwrap().unwrap();
+        let z = Vector3::new(0.0, -h, h);
+        let by_hand = Matrix3::from_columns(&[Vector3::x(), z.cross(&Vector3::x()), z]);
+        assert!(close(&w.rot, &by_hand), "{}", w.rot);
+        assert_eq!(w.origin, Vector3::new(5.0, 5.0, 0.0));
+        p3.parts[1] = Some([0.0, 0.0, 0.0, 0.01, -1.0, 1.0, 0.0]);
+        assert!(p3.plane().unwrap().is_err());
+        p3.unknown = true;
+        assert!(p3.plane().unwrap().is_err());
     }
 }

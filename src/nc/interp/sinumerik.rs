@@ -410,10 +410,12 @@ impl Interpreter {
     /// CYCLE800: the swivel plane, and the rotary positions the cycle
     /// turns to (its `_DIR` names the preferred sign of the tilt; the
     /// other solution when that one is out of the stroke; 0 leaves the
-    /// axes where they are).
+    /// axes where they are). An additive swivel is built in the axes of
+    /// the plane in force, as a further frame on top of it: reference
+    /// point, rotation about the turned axes and zero point after it.
     fn cycle800(&mut self, line: usize, at: usize, args: &str) {
         use super::plane::Swivel;
-        let (rot, abc, before, after, dir) = match super::plane::cycle800(args) {
+        let (rot, abc, before, after, dir, additive) = match super::plane::cycle800(args) {
             Ok(Swivel::Reset) => {
                 if self.tilted {
                     self.set_plane(None);
@@ -426,7 +428,8 @@ impl Interpreter {
                 before,
                 after,
                 dir,
-            }) => (rot, abc, before, after, dir),
+                additive,
+            }) => (rot, abc, before, after, dir, additive),
             Err(why) => return self.plane_unmodelled(line, at, why),
         };
         if self.local_shift != [0.0; 3] || self.shift != [0.0; 3] {
@@ -435,26 +438,35 @@ impl Interpreter {
         }
         let t = self.cfg.tilt;
         let direct = rot.is_none();
-        let rot = rot.unwrap_or_else(|| {
-            let tilt = abc[t - 3];
-            crate::procedure::machining::design::pose_frame(&self.cfg.kin, tilt, abc[2])
-        });
-        if direct
-            && abc
-                .iter()
-                .enumerate()
-                .any(|(i, v)| *v != 0.0 && i + 3 != t && i != 2)
-        {
-            return self.plane_unmodelled(
-                line,
-                at,
-                "CYCLE800 direct mode with an axis this machine does not have",
-            );
-        }
-        let plane = super::WorkPlane {
+        let rot = match rot {
+            Some(r) => r,
+            None => match super::plane::axial(&self.cfg.kin, t, abc.map(Some)) {
+                Ok(r) => r,
+                Err(why) => return self.plane_unmodelled(line, at, why),
+            },
+        };
+        let mut plane = super::WorkPlane {
             rot,
             origin: before + rot * after,
         };
+        if additive {
+            match self.working_plane {
+                Some(super::Tilt::Plane(w)) => {
+                    plane = super::WorkPlane {
+                        rot: w.rot * plane.rot,
+                        origin: w.to_workpiece(&plane.origin),
+                    };
+                }
+                Some(super::Tilt::Unmodelled { .. }) => {
+                    return self.plane_unmodelled(
+                        line,
+                        at,
+                        "an additive CYCLE800 on a plane fivecal does not model",
+                    );
+                }
+                None => {}
+            }
+        }
         self.set_plane(Some(super::Tilt::Plane(plane)));
         if direct && dir != 0.0 {
             self.pos[t] = Some(abc[t - 3]);

@@ -302,3 +302,61 @@ fn the_code_that_switched_tcp_is_quoted_without_its_comment() {
     );
     assert_eq!(m.coordinates_why(), "`1 M128` at line 2");
 }
+
+#[test]
+fn linuxcnc_g68_2_parts_are_kept_until_the_plane_is_whole() {
+    // G69 drops the parts given so far, as the remap's reset does; the
+    // plane is set by the block that gives the last part.
+    let parts = "G68.2 P2 Q1 X0 Y0 Z0\nG68.2 P2 Q2 X1 Y0 Z0\nG68.2 P2 Q3 X0 Y1 Z0\n";
+    let (_, m) = run(
+        &format!("G21 G90\nG68.2 P2 Q0 X5 Y0 Z0\nG69\n{parts}"),
+        Dialect::Linuxcnc,
+    );
+    assert!(m.working_plane.is_none() && !m.tilted);
+    assert_eq!(m.plane_pending.map(|p| p.parts[0]), Some(None));
+    let (_, m) = run(
+        &format!("G21 G90\n{parts}G68.2 P2 Q0 X5 Y0 Z0 R90\n"),
+        Dialect::Linuxcnc,
+    );
+    let Some(Tilt::Plane(w)) = m.working_plane else {
+        panic!("{:?}", m.working_plane)
+    };
+    assert!(m.plane_pending.is_none());
+    assert!((w.rot - plane::about(b'Z', 90.0)).abs().max() < 1e-12);
+    assert_eq!(w.origin, Vector3::new(5.0, 0.0, 0.0));
+    // Parts of P3 among those of P2: not one definition.
+    let (_, m) = run(
+        "G21 G90\nG68.2 P2 Q1 X0 Y0 Z0\nG68.2 P3 Q1 I0 J0 K1\n",
+        Dialect::Linuxcnc,
+    );
+    assert!(matches!(m.working_plane, Some(Tilt::Unmodelled { .. })));
+    // FANUC's P forms are not guessed.
+    let (_, m) = run(
+        "G21 G90\nG68.2 P1 X0. Y0. Z0. I10. J20. K0.\n",
+        Dialect::Fanuc,
+    );
+    assert!(matches!(m.working_plane, Some(Tilt::Unmodelled { why, .. }) if why.contains("FANUC")));
+}
+
+#[test]
+fn an_additive_cycle800_needs_a_plane_it_can_build_on() {
+    // Additive on a plane fivecal does not model (a parameter in it).
+    let (_, m) = run(
+        "G17 G90\nCYCLE800(1,\"T\",0,57,0,0,0,0,R1,0,0,0,0,1)\nCYCLE800(1,\"T\",1,57,0,0,0,0,0,20,0,0,0,1)\n",
+        Dialect::Sinumerik,
+    );
+    assert!(
+        matches!(m.working_plane, Some(Tilt::Unmodelled { why, .. }) if why.contains("additive")),
+        "{:?}",
+        m.working_plane
+    );
+    // Two additive turns about Z make one of their sum.
+    let (_, m) = run(
+        "G17 G90\nCYCLE800(1,\"T\",1,57,0,0,0,0,0,20,0,0,0,0)\nCYCLE800(1,\"T\",1,57,0,0,0,0,0,15,0,0,0,0)\n",
+        Dialect::Sinumerik,
+    );
+    let Some(Tilt::Plane(w)) = m.working_plane else {
+        panic!("{:?}", m.working_plane)
+    };
+    assert!((w.rot - plane::about(b'Z', 35.0)).abs().max() < 1e-12);
+}
