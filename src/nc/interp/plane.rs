@@ -414,7 +414,7 @@ pub enum Definition {
     /// force.
     Relative(Matrix3<f64>),
     /// PLANE AXIAL: the rotary positions A, B, C (`None` where not given);
-    /// the frame is the machine's ([`axial`]).
+    /// the frame is the machine's (`axial`).
     Axial([Option<f64>; 3]),
 }
 
