@@ -38,12 +38,29 @@ impl Factor {
                 Isometry3::from_parts(Translation3::from(a.unit() * x), UnitQuaternion::identity())
             }
             ChainOp::R(a) => {
-                let (s, c) = (0.5 * x).sin_cos();
+                let (s, c) = half_sin_cos(x);
                 let e = a.unit() * s;
                 let q = nalgebra::Quaternion::new(c, e.x, e.y, e.z);
                 Isometry3::from_parts(Translation3::identity(), UnitQuaternion::new_unchecked(q))
             }
         }
+    }
+}
+
+/// `sin(x / 2)` and `cos(x / 2)`. Most factors of a chain are error
+/// rotations of microradians, where the Taylor series to the ninth power
+/// is exact to the last bit (the first term left out is below 1e-27 of
+/// the result for |x / 2| < 1e-3) and costs a fraction of `sin_cos`, which
+/// the forward model calls for every factor of every point of every fit.
+fn half_sin_cos(x: f64) -> (f64, f64) {
+    let h = 0.5 * x;
+    if h.abs() < 1e-3 {
+        let h2 = h * h;
+        let s = h * (1.0 - h2 / 6.0 * (1.0 - h2 / 20.0 * (1.0 - h2 / 42.0 * (1.0 - h2 / 72.0))));
+        let c = 1.0 - h2 / 2.0 * (1.0 - h2 / 12.0 * (1.0 - h2 / 30.0 * (1.0 - h2 / 56.0)));
+        (s, c)
+    } else {
+        h.sin_cos()
     }
 }
 
@@ -168,14 +185,23 @@ impl Chain {
     }
 
     pub(super) fn eval_prefix(&self, v: &[f64; N_VARS], n: usize) -> Isometry3<f64> {
-        let mut acc = Isometry3::identity();
+        // The product of the factors kept as a rotation and a translation:
+        // a translation factor moves the origin along the rotated axis, a
+        // rotation factor turns the rotation (no quaternion product with
+        // an identity, no rotation of a zero translation).
+        let mut rot = UnitQuaternion::identity();
+        let mut t = Vector3::zeros();
         for f in &self.factors[..n] {
             let x = f.value(v);
-            if x != 0.0 {
-                acc *= f.iso(x);
+            if x == 0.0 {
+                continue;
+            }
+            match f.op {
+                ChainOp::T(a) => t += rot * (a.unit() * x),
+                ChainOp::R(_) => rot *= f.iso(x).rotation,
             }
         }
-        acc
+        Isometry3::from_parts(Translation3::from(t), rot)
     }
 
     pub(super) fn jacobian(&self, v: &[f64; N_VARS]) -> PoseJacobian {
@@ -273,6 +299,57 @@ impl Chain {
                 r(&m.tilt, false),
                 link(2)
             ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::SeedableRng;
+    use rand::rngs::StdRng;
+    use rand_distr::{Distribution, Uniform};
+
+    use super::*;
+
+    #[test]
+    fn the_small_angle_series_is_sin_cos_to_the_last_bit() {
+        let mut rng = StdRng::seed_from_u64(11);
+        for k in 0..20_000 {
+            // Angles from 1e-12 rad up to past the switch at 2e-3.
+            let x = 10f64.powf(Uniform::new(-12.0, -2.5).unwrap().sample(&mut rng))
+                * if k % 2 == 0 { 1.0 } else { -1.0 };
+            let (s, c) = half_sin_cos(x);
+            let (s0, c0) = (0.5 * x).sin_cos();
+            assert!(
+                (s - s0).abs() <= 2.0 * f64::EPSILON * s0.abs(),
+                "sin at {x}"
+            );
+            assert!((c - c0).abs() <= 2.0 * f64::EPSILON, "cos at {x}");
+        }
+    }
+
+    #[test]
+    fn the_split_product_is_the_product_of_the_factors() {
+        let m = Machine::builtin("head-head").unwrap();
+        let (chain, _) = build(&m, 150.0);
+        let mut rng = StdRng::seed_from_u64(12);
+        for _ in 0..200 {
+            let mut v = [0.0; N_VARS];
+            v[0] = Uniform::new(-400.0, 400.0).unwrap().sample(&mut rng);
+            v[1] = Uniform::new(-300.0, 300.0).unwrap().sample(&mut rng);
+            v[2] = Uniform::new(-300.0, 100.0).unwrap().sample(&mut rng);
+            v[3] = Uniform::new(-1.5, 1.5).unwrap().sample(&mut rng);
+            v[4] = Uniform::new(-3.0, 3.0).unwrap().sample(&mut rng);
+            for x in v.iter_mut().skip(5) {
+                *x = Uniform::new(-50e-6, 50e-6).unwrap().sample(&mut rng);
+            }
+            let fast = chain.eval(&v);
+            let mut acc = Isometry3::identity();
+            for f in &chain.factors {
+                acc *= f.iso(f.value(&v));
+            }
+            assert!((fast.translation.vector - acc.translation.vector).norm() < 1e-10);
+            assert!(fast.rotation.angle_to(&acc.rotation) < 1e-13);
         }
     }
 }
