@@ -174,6 +174,46 @@ fn a_heidenhain_helix_with_ipa_and_iz_turns_as_often_as_written() {
 }
 
 #[test]
+fn heidenhain_cycl_call_pos_holes_land_at_their_bottom() {
+    // A 3+2 drilling job as a CAM post writes it: the part tilted to
+    // A-20 C+30, cycle 200 defined once with its parameters on
+    // continuation lines, then called at each hole; the Z of the call is
+    // the datum the cycle's surface Q203 counts from (two holes on a step
+    // 2 mm down). A third hole is called by M99 on a positioning block.
+    let program = "0 BEGIN PGM DRILL MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 5 Z S3000\n4 L A-20 C+30 R0 FMAX\n5 L X+0 Y+0 Z+100 R0 FMAX\n6 CYCL DEF 200 DRILLING ~\n  Q200=+2 ;SET-UP CLEARANCE ~\n  Q201=-8 ;DEPTH ~\n  Q206=+150 ;FEED RATE FOR PLNGNG ~\n  Q202=+3 ;PLUNGING DEPTH ~\n  Q210=+0 ;DWELL TIME AT TOP ~\n  Q203=+0 ;SURFACE COORDINATE ~\n  Q204=+50 ;2ND SET-UP CLEARANCE ~\n  Q211=+0 ;DWELL TIME AT DEPTH\n7 CYCL CALL POS X+10 Y+10 Z+0 FMAX\n8 CYCL CALL POS X+20 Y-5 Z-2 FMAX\n9 CYCL CALL POS X-15 Y+25 Z-2 FMAX M13\n10 L Z+100 R0 FMAX\n11 L X+30 Y+30 R0 FMAX M99\n12 L Z+100 R0 FMAX\n13 END PGM DRILL MM\n";
+    let l = errors("ac-trunnion", 97, 30.0, "");
+    let (out, s) = holds(
+        &l,
+        Dialect::Heidenhain,
+        program,
+        &[16, 17, 18],
+        "cycl call pos",
+    );
+    // File lines: the CYCL DEF takes nine.
+    assert_eq!(s.drilled.first, [16, 17, 18], "{:?}\n{out}", s.skipped);
+    // Every hole's X, Y and Z datum rewritten; the cycle definition stays
+    // (other calls may share it).
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines[6..15], program.lines().collect::<Vec<_>>()[6..15]);
+    for (k, line) in lines.iter().enumerate().take(18).skip(15) {
+        assert!(line.contains(" CYCL CALL POS X"), "{line}");
+        assert_ne!(*line, program.lines().nth(k).unwrap());
+    }
+    assert!(lines[17].ends_with(" FMAX M13"), "{}", lines[17]);
+    // The positioning move before corrected the orientation (line 6), and
+    // the cycle drills with it.
+    assert!(s.drilled_axis_error < 0.01, "{s:?}");
+    // The M99 hole: its positioning block is a move like any other, the
+    // depth of the cycle it calls is the CYCL DEF's, said at its line.
+    let (why, lines) = s
+        .unmodelled
+        .iter()
+        .find(|(w, _)| w.contains("M99"))
+        .unwrap_or_else(|| panic!("{:?}", s.unmodelled));
+    assert_eq!(lines.first, [20], "{why}");
+}
+
+#[test]
 fn heidenhain_elements_not_corrected_yet_are_reported_at_their_lines() {
     let program = "0 BEGIN PGM REST MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+0 Y+0 Z+2 R0 FMAX\n4 L Z-1 F300\n5 L X+20 RL F600\n6 RND R2\n7 L Y+20\n8 CHF 1\n9 L X+0\n10 CT X-5 Y+15\n11 L Z+50 R0 FMAX\n12 CYCL DEF 200 DRILLING\n13 CYCL CALL POS X+10 Y+10 Z+0 FMAX\n14 END PGM REST MM\n";
     let l = errors("ac-trunnion", 96, 30.0, "");

@@ -63,6 +63,13 @@ impl Interpreter {
                 let ev = self.hh_line(block, seg, m91);
                 if cycle_call {
                     self.pos[2] = None;
+                    if matches!(ev, Event::Move(_)) && self.hh_cycle.is_some_and(|c| c.is_hole()) {
+                        let at = block.tokens[seg.body as usize].span.start as usize;
+                        self.note(
+                            at,
+                            "M99/M89: the cycle called here drills to the depth its CYCL DEF gives (Q203 + Q201), which no word of this block moves: the hole is left as the machine drills it (a hole called by CYCL CALL POS X.. Y.. Z.. is corrected)",
+                        );
+                    }
                 }
                 ev
             }
@@ -159,15 +166,15 @@ impl Interpreter {
                 Event::None
             }
             HhKind::CyclCall => {
-                // CYCL CALL POS: the cycle runs at the position it names,
-                // which is not corrected.
                 let pos = block
                     .words(seg)
                     .any(|(_, w)| self.axis_index(w.addr).is_some());
-                self.forget();
                 if pos {
-                    Event::Skip(Skip::Element("cycle call position (CYCL CALL POS)"))
+                    self.hh_cycle_call(block, seg)
                 } else {
+                    // CYCL CALL: the cycle runs where the tool is and
+                    // leaves it at a clearance of its own.
+                    self.forget();
                     Event::None
                 }
             }
@@ -183,7 +190,70 @@ impl Interpreter {
         }
     }
 
+    /// `CYCL CALL POS X.. Y.. Z..`: the cycle defined last runs at X Y,
+    /// its tool-axis word a datum its own surface `Q203` counts from. A
+    /// drilling cycle is one hole: the move ends at its bottom
+    /// (`Z + Q203 + Q201`), reached along the tool axis from the set-up
+    /// clearance (`Z + Q203 + Q200`); the cycle moves the linear axes
+    /// only and leaves the tool at a clearance of its own.
+    fn hh_cycle_call(&mut self, block: &Block, seg: &Segment) -> Event {
+        let mut mv = Move::new(MoveKind::Rapid, self.pos, false);
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
+        self.hh_targets(block, seg, &mut mv, &mut skip);
+        self.pos = mv.end;
+        self.pos[2] = None;
+        if mv.words[3..].iter().any(Option::is_some) {
+            skip.get_or_insert(Skip::CycleCall("a rotary axis word in the cycle call"));
+        }
+        if let Some(s) = skip {
+            return Event::Skip(s);
+        }
+        let Some(cycle) = self.hh_cycle else {
+            return Event::Skip(Skip::CycleCall("no cycle is defined before it"));
+        };
+        if !cycle.is_hole() {
+            return Event::Skip(Skip::CycleCall(
+                "a cycle other than the drilling cycles 200-203, 205-207, 209 and 241 (its moves are not one hole)",
+            ));
+        }
+        let (Some(q200), Some(q201), Some(q203)) = (cycle.clearance, cycle.depth, cycle.surface)
+        else {
+            return Event::Skip(Skip::CycleCall(
+                "the cycle's Q200, Q201 or Q203 is not written as a number in its CYCL DEF",
+            ));
+        };
+        if q201 == 0.0 {
+            return Event::Skip(Skip::CycleCall("the cycle's depth Q201 is 0 (no hole)"));
+        }
+        if self.plane != Plane::Xy {
+            return Event::Skip(Skip::CycleCall("a tool axis other than Z"));
+        }
+        if mv.words[..3].iter().any(Option::is_none) {
+            // The control asks for all three; fivecal does not guess.
+            return Event::Skip(Skip::CycleCall("the call does not name X, Y and Z"));
+        }
+        let Some(z) = mv.end[2] else {
+            return Event::Skip(Skip::PositionUnknown(b'Z'));
+        };
+        mv.end[2] = Some(z + q203 + q201);
+        mv.drill = Some(super::Drill {
+            axis: 2,
+            r_level: z + q203 + q200,
+            to_initial: false,
+            call_offset: Some(q203 + q201),
+        });
+        if let Some(s) = self.frame_skip() {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+
     fn hh_cycle(&mut self, block: &Block, seg: &Segment, number: u32, sub: Option<u32>) {
+        if !DEF_ACTIVE.contains(&number) {
+            // A machining cycle: what CYCL CALL and M99 run from here.
+            self.hh_cycle = Some(CycleDef::read(block, seg, number));
+            return;
+        }
         let sub = sub.unwrap_or(0);
         let words: Vec<Word> = block.words(seg).map(|(_, w)| w).collect();
         let hash = block
@@ -672,6 +742,82 @@ impl Interpreter {
             return Event::Skip(s);
         }
         Event::Move(mv)
+    }
+}
+
+/// Cycles that act where they are defined (coordinate transformations,
+/// dwell, tolerance, the contour of SL cycles): a `CYCL DEF` of one of
+/// them leaves the cycle that `CYCL CALL` runs as it was.
+const DEF_ACTIVE: [u32; 12] = [7, 8, 9, 10, 11, 12, 13, 14, 19, 26, 32, 247];
+
+/// Drilling cycles that drill one hole along the tool axis from the
+/// surface `Q203` to the depth `Q201` (counted from the surface, its sign
+/// the direction), starting at the set-up clearance `Q200` above the
+/// surface: drilling, reaming, boring, universal drilling, universal
+/// pecking, tapping (floating and rigid, with chip breaking) and
+/// single-lip deep-hole drilling.
+const HOLES: [u32; 9] = [200, 201, 202, 203, 205, 206, 207, 209, 241];
+
+/// A machining cycle defined by `CYCL DEF`, with the parameters a hole
+/// needs where they are written as numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CycleDef {
+    /// The cycle number.
+    pub number: u32,
+    /// `Q200`: the set-up clearance above the surface.
+    pub clearance: Option<f64>,
+    /// `Q201`: the depth, from the surface.
+    pub depth: Option<f64>,
+    /// `Q203`: the surface coordinate.
+    pub surface: Option<f64>,
+}
+
+impl CycleDef {
+    /// The cycle of a `CYCL DEF` block: its `Qn=value` assignments
+    /// (`Q201=-8 ;DEPTH ~` on continuation lines); a value that is not a
+    /// number (`Q201=+Q5`) stays unknown.
+    fn read(block: &Block, seg: &Segment, number: u32) -> CycleDef {
+        let mut code = Vec::new();
+        for t in block.seg_tokens(seg) {
+            match t.kind {
+                TokenKind::Comment => {}
+                TokenKind::Space | TokenKind::LineEnd | TokenKind::Continuation => code.push(b' '),
+                _ => code.extend_from_slice(block.bytes(t.span)),
+            }
+        }
+        let q = |n: u32| -> Option<f64> {
+            let name = format!("Q{n}");
+            let at = code
+                .windows(name.len())
+                .enumerate()
+                .find(|(i, w)| {
+                    w.eq_ignore_ascii_case(name.as_bytes())
+                        && (*i == 0 || !code[i - 1].is_ascii_alphanumeric())
+                        && !code.get(i + name.len()).is_some_and(u8::is_ascii_digit)
+                })?
+                .0;
+            let rest = &code[at + name.len()..];
+            let rest = rest
+                .trim_ascii_start()
+                .strip_prefix(b"=")?
+                .trim_ascii_start();
+            let n = crate::nc::lexeme::lex_len(rest);
+            let after = rest.get(n).copied();
+            (n > 0 && after.is_none_or(|c| c == b' '))
+                .then(|| crate::nc::lexeme::read(&rest[..n]).value)
+                .filter(|v| v.is_finite() && v.abs() <= crate::limits::MAX_NC_VALUE)
+        };
+        CycleDef {
+            number,
+            clearance: q(200),
+            depth: q(201),
+            surface: q(203),
+        }
+    }
+
+    /// Whether the cycle drills one hole along the tool axis.
+    pub fn is_hole(&self) -> bool {
+        HOLES.contains(&self.number)
     }
 }
 

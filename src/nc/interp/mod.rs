@@ -43,6 +43,7 @@ use std::sync::Arc as Shared;
 use nalgebra::Vector3;
 
 pub use coordinates::Frame;
+pub use heidenhain::CycleDef;
 pub use plane::{PlaneSkip, Tilt, WorkPlane};
 
 use super::{Addr, Block, Segment, Stmt, TokenKind, Value, Word};
@@ -202,6 +203,8 @@ pub enum Skip {
     MacroCall,
     /// Canned cycle positions.
     CannedCycle,
+    /// A HEIDENHAIN cycle call whose hole is not corrected, and why.
+    CycleCall(&'static str),
     /// A contour element that is not compensated (polar, tangential,
     /// approach/departure, vector blocks, splines).
     Element(&'static str),
@@ -243,6 +246,10 @@ impl std::fmt::Display for Skip {
             Skip::TcpSpatial => write!(f, "TCPM with spatial angles (AXIS SPAT) is not modelled"),
             Skip::MacroCall => write!(f, "macro call arguments (G65/G66)"),
             Skip::CannedCycle => write!(f, "canned cycle, spline or thread positions"),
+            Skip::CycleCall(why) => write!(
+                f,
+                "cycle call position (CYCL CALL POS) left as written: {why}"
+            ),
             Skip::Element(what) => write!(f, "{what} elements are not compensated"),
             Skip::ShiftUnknown => write!(f, "the datum shift comes from a table (value unknown)"),
             Skip::NoToolVector => write!(f, "tool direction (I J K) not programmed"),
@@ -346,6 +353,11 @@ pub struct Drill {
     pub r_level: f64,
     /// G98: back to the initial level; G99: to the R level.
     pub to_initial: bool,
+    /// A HEIDENHAIN `CYCL CALL POS`: its tool-axis word is the datum the
+    /// cycle's own depth counts from, so the word holds the bottom minus
+    /// this (`Q203 + Q201`), and where the cycle leaves the tool is not
+    /// followed. `None` for the G-code cycles, whose word is the bottom.
+    pub call_offset: Option<f64>,
 }
 
 impl Move {
@@ -476,6 +488,9 @@ pub struct Interpreter {
     pub pos: [Option<f64>; 6],
     /// HEIDENHAIN pole (CC) in the XY plane.
     pub pole: Option<[f64; 2]>,
+    /// HEIDENHAIN: the machining cycle the last `CYCL DEF` defined (what
+    /// `CYCL CALL` and `M99` run).
+    pub hh_cycle: Option<heidenhain::CycleDef>,
     /// The canned drilling cycle in force (G code x 10), if any.
     pub cycle: Option<u32>,
     /// Its modal hole bottom along the drill axis (program units).
@@ -545,6 +560,7 @@ impl Interpreter {
             radius_comp: false,
             pos: [None; 6],
             pole: None,
+            hh_cycle: None,
             cycle: None,
             cycle_depth: None,
             cycle_r: None,
