@@ -43,6 +43,134 @@ impl Interpreter {
                 self.m_function(m, block.tokens[ti].span.start as usize);
             }
         }
+        if matches!(kind, HhKind::Comment | HhKind::Structure) {
+            return Event::None;
+        }
+        let line_before = self.hh_line_before.take();
+        let pending = self.hh_corner.take();
+        let ev = self.hh_statement(block, seg, kind, m91, cycle_call, line_before);
+        let ev = match pending {
+            Some(c) => self.after_corner(c, kind, ev),
+            None => ev,
+        };
+        if let Event::Move(mv) = &ev
+            && kind == HhKind::L
+            && mv.kind == MoveKind::Linear
+        {
+            self.hh_line_before = self.plane_point(&mv.start).zip(self.plane_point(&mv.end));
+        }
+        ev
+    }
+
+    /// The axes a move is followed in, as an array (an axis the machine
+    /// does not have as 0), if all of them are known.
+    fn plane_point(&self, p: &[Option<f64>; 6]) -> Option<[f64; 6]> {
+        let mut out = [0.0; 6];
+        for i in [0, 1, 2, self.cfg.tilt, 5] {
+            out[i] = p[i]?;
+        }
+        Some(out)
+    }
+
+    /// `RND R..` / `CHF ..`: the corner of the line before, to be cut
+    /// when the line after it comes.
+    fn read_corner(
+        &self,
+        block: &Block,
+        seg: &Segment,
+        kind: HhKind,
+        line_before: Option<([f64; 6], [f64; 6])>,
+    ) -> PendingCorner {
+        let mut size = None;
+        for t in block.seg_tokens(seg) {
+            match t.kind {
+                TokenKind::Word(w) if kind == HhKind::Rnd && w.addr == Addr::letter(b'R') => {
+                    size = Some(w.value);
+                }
+                TokenKind::Text if kind == HhKind::Chf && size.is_none() => {
+                    let b = block.bytes(t.span);
+                    let n = crate::nc::lexeme::lex_len(b);
+                    size = Some(if n > 0 && n == b.len() {
+                        Value::Num(crate::nc::lexeme::read(b).value)
+                    } else {
+                        Value::Expr
+                    });
+                }
+                _ => {}
+            }
+        }
+        let geo = match (size, line_before) {
+            _ if self.plane != Plane::Xy => Err("a working plane other than XY"),
+            (Some(Value::Num(v)), Some((from, at)))
+                if v.is_finite() && v != 0.0 && v.abs() <= crate::limits::MAX_NC_VALUE =>
+            {
+                let k = if kind == HhKind::Rnd {
+                    super::corner::CornerKind::Round(v)
+                } else {
+                    super::corner::CornerKind::Chamfer(v)
+                };
+                Ok((k, from, at))
+            }
+            (_, None) => {
+                Err("the element before it is not a straight line (L) whose ends are known")
+            }
+            _ => Err("its radius or length is not a number"),
+        };
+        PendingCorner {
+            line: block.line,
+            geo,
+        }
+    }
+
+    /// The statement after a `RND`/`CHF`: a straight line carries the
+    /// corner; another move is left as written (the controller cuts the
+    /// corner in a way fivecal does not follow); a statement that does not
+    /// move keeps it waiting.
+    fn after_corner(&mut self, c: PendingCorner, kind: HhKind, ev: Event) -> Event {
+        let mut mv = match ev {
+            Event::Move(mv) => mv,
+            Event::None if !matches!(kind, HhKind::Rnd | HhKind::Chf) => {
+                self.hh_corner = Some(c);
+                return ev;
+            }
+            ev => return ev,
+        };
+        let why = match c.geo {
+            Err(why) => why,
+            Ok(_) if kind != HhKind::L || mv.kind != MoveKind::Linear => {
+                "the element after it is not a straight line (L)"
+            }
+            Ok((k, from, at)) => match (self.plane_point(&mv.start), self.plane_point(&mv.end)) {
+                (Some(s), Some(e)) if s == at => {
+                    match super::corner::corner_path(&from, &at, &e, k, self.units.mm()) {
+                        Ok(_) => {
+                            mv.corner = Some(super::corner::Corner {
+                                line: c.line,
+                                kind: k,
+                                from,
+                                at,
+                            });
+                            return Event::Move(mv);
+                        }
+                        Err(why) => why,
+                    }
+                }
+                _ => "the position after it is not known",
+            },
+        };
+        Event::Skip(Skip::AfterCorner(c.line, why))
+    }
+
+    /// One statement of a block, with the M functions it has read.
+    fn hh_statement(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        kind: HhKind,
+        m91: bool,
+        cycle_call: bool,
+        line_before: Option<([f64; 6], [f64; 6])>,
+    ) -> Event {
         let text_has = |needle: &str| {
             block.seg_tokens(seg).iter().any(|t| {
                 matches!(t.kind, TokenKind::Text | TokenKind::Keyword)
@@ -124,12 +252,12 @@ impl Interpreter {
                     _ => "vector line (LN)",
                 }))
             }
-            // The controller rounds or chamfers the corner between the
-            // neighbouring elements as they are written; fivecal does not
-            // follow that geometry (the neighbours' end points are
-            // corrected, the rounding is not checked).
-            HhKind::Rnd => Event::Skip(Skip::Element("rounding (RND)")),
-            HhKind::Chf => Event::Skip(Skip::Element("chamfer (CHF)")),
+            // The controller cuts the corner between the line before and
+            // the line after: the line after carries it.
+            HhKind::Rnd | HhKind::Chf => {
+                self.hh_corner = Some(self.read_corner(block, seg, kind, line_before));
+                Event::None
+            }
             HhKind::M => Event::None,
             HhKind::CyclDef { number, sub } => {
                 self.hh_cycle(block, seg, number, sub);
@@ -743,6 +871,16 @@ impl Interpreter {
         }
         Event::Move(mv)
     }
+}
+
+/// A `RND`/`CHF` waiting for the element after it: its line, and the
+/// rounding or chamfer with the line before it (start, corner), or why
+/// the corner cannot be followed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct PendingCorner {
+    line: usize,
+    #[allow(clippy::type_complexity)]
+    geo: Result<(super::corner::CornerKind, [f64; 6], [f64; 6]), &'static str>,
 }
 
 /// Cycles that act where they are defined (coordinate transformations,

@@ -32,6 +32,7 @@
 //! handed from one stretch of a program to the next.
 
 pub mod coordinates;
+pub mod corner;
 pub mod gcode;
 mod heidenhain;
 pub mod interpolation;
@@ -205,6 +206,9 @@ pub enum Skip {
     CannedCycle,
     /// A HEIDENHAIN cycle call whose hole is not corrected, and why.
     CycleCall(&'static str),
+    /// The move after a `RND`/`CHF` (at this line) whose corner fivecal
+    /// does not follow, and why.
+    AfterCorner(usize, &'static str),
     /// A contour element that is not compensated (polar, tangential,
     /// approach/departure, vector blocks, splines).
     Element(&'static str),
@@ -246,6 +250,10 @@ impl std::fmt::Display for Skip {
             Skip::TcpSpatial => write!(f, "TCPM with spatial angles (AXIS SPAT) is not modelled"),
             Skip::MacroCall => write!(f, "macro call arguments (G65/G66)"),
             Skip::CannedCycle => write!(f, "canned cycle, spline or thread positions"),
+            Skip::AfterCorner(line, why) => write!(
+                f,
+                "the element after the rounding or chamfer at line {line}, which fivecal follows only between two straight lines: {why}"
+            ),
             Skip::CycleCall(why) => write!(
                 f,
                 "cycle call position (CYCL CALL POS) left as written: {why}"
@@ -329,6 +337,9 @@ pub struct Move {
     pub polar: Option<Polar>,
     /// A canned drilling cycle: the move is the hole's bottom.
     pub drill: Option<Drill>,
+    /// HEIDENHAIN `RND`/`CHF` before this line: the controller cuts the
+    /// corner between the line before and this one.
+    pub corner: Option<corner::Corner>,
 }
 
 /// The polar words of a HEIDENHAIN `LP`/`CP` block: token index and
@@ -374,6 +385,7 @@ impl Move {
             vector: None,
             polar: None,
             drill: None,
+            corner: None,
         }
     }
 }
@@ -491,6 +503,11 @@ pub struct Interpreter {
     /// HEIDENHAIN: the machining cycle the last `CYCL DEF` defined (what
     /// `CYCL CALL` and `M99` run).
     pub hh_cycle: Option<heidenhain::CycleDef>,
+    /// HEIDENHAIN: the last statement was a straight line with known ends
+    /// (start, end), which a `RND`/`CHF` after it may cut.
+    hh_line_before: Option<([f64; 6], [f64; 6])>,
+    /// HEIDENHAIN: a `RND`/`CHF` waiting for the line after it.
+    hh_corner: Option<heidenhain::PendingCorner>,
     /// The canned drilling cycle in force (G code x 10), if any.
     pub cycle: Option<u32>,
     /// Its modal hole bottom along the drill axis (program units).
@@ -561,6 +578,8 @@ impl Interpreter {
             pos: [None; 6],
             pole: None,
             hh_cycle: None,
+            hh_line_before: None,
+            hh_corner: None,
             cycle: None,
             cycle_depth: None,
             cycle_r: None,
