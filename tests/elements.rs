@@ -1,7 +1,8 @@
 //! The moves a controller builds from words that are not end points:
 //! canned drilling cycles (FANUC and LinuxCNC G81-G89 with G98/G99 and
-//! repeats) and HEIDENHAIN polar elements around the pole (`LP`, `CP`,
-//! with `IPR`/`IPA` and helices). Each program is written as a shop
+//! repeats), HEIDENHAIN polar elements around the pole (`LP`, `CP`,
+//! with `IPR`/`IPA` and helices), `CYCL CALL POS` holes and the corners
+//! `RND`/`CHF` cut between two lines. Each program is written as a shop
 //! writes it, compensated against known errors, and the rewrite driven
 //! through the erroneous machine by the simulator: the tip reaches every
 //! intended point and stays on the intended path within the tolerance,

@@ -1,8 +1,10 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
-//! `CC`, `CR`), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! `CC`, `CR`, polar `LP`/`CP`, and the corners `RND`/`CHF` cut between
+//! two lines), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
-//! PLANE and FUNCTION TCPM, touch probe cycles and program control.
+//! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
+//! TCPM, touch probe cycles and program control.
 
 use super::{
     AXES, Arc, Event, Interpreter, Move, MoveKind, Plane, Skip, Tcp, Units, arc_runs,
