@@ -887,7 +887,7 @@ fn compensate_program_whose_every_move_is_left_as_written_is_refused() {
     );
     assert_eq!(code, Some(2), "{out}{err}");
     assert!(
-        err.contains("none of its 24 moves could be rewritten")
+        err.contains("none of its 22 moves could be rewritten")
             && err.contains("tangential circle (CT) elements are not compensated: lines 21")
             && err.contains("nothing written"),
         "{err}"

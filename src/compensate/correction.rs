@@ -14,6 +14,7 @@ use super::{CompensateError, Compensator, Solution};
 use crate::kinematics::{Axes, ToolPose};
 use crate::limits::MAX_PIECES;
 use crate::nc::interp::coordinates::known;
+use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, Path, lerp};
 use crate::nc::interp::{AXES, Arc, Drill, Frame, Move, MoveKind, Skip, Tcp};
 
@@ -565,6 +566,35 @@ impl Compensator {
             pieces,
             linearize: true,
         })
+    }
+}
+
+impl Compensator {
+    /// How far the tip leaves the intended rounding or chamfer `c` where
+    /// the controller cuts the corner of the written lines `a`-`p`-`b`
+    /// (program frame: the last piece written before the corner, and the
+    /// first after it), mm; the intended element is the one it cuts
+    /// between the program's own lines, ending at `end`. With the rotary
+    /// axes fixed the correction is a rigid motion, which carries a
+    /// tangent arc of the same radius (a chamfer of the same side length)
+    /// into the intended one; seventeen points along both compare them.
+    pub(super) fn corner_deviation(
+        &self,
+        f: &Frame,
+        c: &Corner,
+        end: &[f64; 6],
+        [a, p, b]: [&[f64; 6]; 3],
+    ) -> Result<f64, &'static str> {
+        let (_, _, intended) = corner_path(&c.from, &c.at, end, c.kind, f.u)?;
+        let (_, _, written) = corner_path(a, p, b, c.kind, f.u)?;
+        let mut worst: f64 = 0.0;
+        for k in 0..=16 {
+            let u = k as f64 / 16.0;
+            let target = self.target(f, &f.model(&intended.at(u)), None);
+            let w = f.model(&written.at(u));
+            worst = worst.max((self.actual(f, &w).tip - target.tip).norm());
+        }
+        Ok(worst)
     }
 }
 

@@ -344,6 +344,10 @@ struct Pass<'a> {
     /// From the first block with macro logic on: the rest of the program,
     /// read and run first.
     rest: Vec<Block>,
+    /// The last stretch the written program moves along (start and end,
+    /// program frame): where a HEIDENHAIN rounding or chamfer after it
+    /// begins.
+    last_piece: Option<Stretch>,
     observer: Option<&'a mut dyn FnMut(&Vertex)>,
 }
 
@@ -367,6 +371,7 @@ impl<'a> Pass<'a> {
             unmodelled: IndexMap::new(),
             last_held: false,
             rest: Vec::new(),
+            last_piece: None,
             observer,
         }
     }
@@ -470,7 +475,13 @@ impl<'a> Pass<'a> {
                                 _ => None,
                             });
                             let vector = mv.vector.is_some();
+                            let mut piece_from = writer.emit;
+                            let mut first_piece = None;
+                            let mut last_piece = None;
                             let mut sink = |pt: &Point, emitted: &[Option<f64>; 6], ins| {
+                                first_piece.get_or_insert((piece_from, *emitted));
+                                last_piece = Some((piece_from, *emitted));
+                                piece_from = *emitted;
                                 *last_held = pt.held.is_some();
                                 if let Some(o) = observer.as_mut() {
                                     let mut shown = *emitted;
@@ -490,11 +501,27 @@ impl<'a> Pass<'a> {
                             };
                             motion_done = writer
                                 .write(block, &seg, &mv, &f, interp, &plan, tool_axis, &mut sink);
+                            if let Some(corner) = &mv.corner
+                                && let Some(why) =
+                                    check_corner(c, &f, corner, &mv, self.last_piece, first_piece)
+                            {
+                                skipped.entry(why).or_default().push(corner.line);
+                            }
+                            self.last_piece = last_piece;
                         }
                         Err(Refusal::Skip(reason)) => {
                             skipped.entry(reason).or_default().push(line);
+                            let from = writer.emit;
                             writer.keep(block, &seg, interp, &before);
                             *last_held = false;
+                            if let Some(corner) = &mv.corner {
+                                let why = "the line after it is left as written";
+                                skipped
+                                    .entry(Skip::AfterCorner(corner.line, why).to_string())
+                                    .or_default()
+                                    .push(corner.line);
+                            }
+                            self.last_piece = Some((from, writer.emit));
                         }
                         Err(Refusal::Fatal(e)) => return Err(e.in_file(path)),
                     }
@@ -516,6 +543,7 @@ impl<'a> Pass<'a> {
                     *last_held = false;
                 }
                 Event::Skip(s) => {
+                    self.last_piece = None;
                     summary.moves += 1;
                     let reason = match (s, why) {
                         (Skip::Expression, Some(w)) => w.to_string(),
@@ -538,6 +566,59 @@ impl<'a> Pass<'a> {
         }
         writer.edits.write_block(block, output)?;
         Ok(())
+    }
+}
+
+/// A stretch the written program moves along: start and end, program
+/// frame, where known.
+type Stretch = ([Option<f64>; 6], [Option<f64>; 6]);
+
+/// Whether the controller's rounding or chamfer `corner` between the
+/// written line before it (`before`: its last piece) and the written
+/// line after it (`after`: its first piece, ending `mv`) stays on the
+/// intended one within the tolerance; the reason to report it otherwise.
+fn check_corner(
+    c: &Compensator,
+    f: &Frame,
+    corner: &interp::corner::Corner,
+    mv: &interp::Move,
+    before: Option<Stretch>,
+    after: Option<Stretch>,
+) -> Option<String> {
+    let fill = |p: &[Option<f64>; 6]| -> Option<[f64; 6]> {
+        let mut out = [0.0; 6];
+        for i in f.axes() {
+            out[i] = p[i]?;
+        }
+        Some(out)
+    };
+    let mut end = fill(&mv.end)?;
+    // The axis the machine does not have, as the interpreter has it.
+    for (i, e) in end.iter_mut().enumerate() {
+        if !f.axes().contains(&i) {
+            *e = corner.at[i];
+        }
+    }
+    let written = match (before, after) {
+        (Some((a, p)), Some((p2, b))) if p == p2 => fill(&a).zip(fill(&p)).zip(fill(&b)),
+        _ => None,
+    };
+    let Some(((a, p), b)) = written else {
+        return Some(
+            Skip::AfterCorner(corner.line, "the written lines around it are not known").to_string(),
+        );
+    };
+    let tol = c.settings.tolerance;
+    match c.corner_deviation(f, corner, &end, [&a, &p, &b]) {
+        Ok(d) if d <= tol => None,
+        Ok(d) => Some(format!(
+            "rounding or chamfer: the controller's element between the corrected lines leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+            d * 1e3,
+            tol * 1e3
+        )),
+        Err(why) => Some(format!(
+            "rounding or chamfer: the controller cannot cut it between the corrected lines ({why})"
+        )),
     }
 }
 

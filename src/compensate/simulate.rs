@@ -22,6 +22,7 @@ use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
 use crate::model::Model;
 use crate::nc::interp::coordinates::known;
+use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, Path as MovePath};
 use crate::nc::interp::{self, AXES, Event, Frame, Interpreter, MoveKind, Skip, Tcp};
 use crate::nc::{Block, Blocks, ReadError, Syntax};
@@ -170,13 +171,19 @@ impl Simulator {
             strict: s.strict,
         };
         let mut blocks = Blocks::new(path, input, syntax);
-        let mut summary = SimSummary::default();
+        let mut run = Run {
+            sim: self,
+            summary: SimSummary::default(),
+            sum: 0.0,
+            sum2: 0.0,
+            held: None,
+            sink,
+        };
         let mut skipped: IndexMap<String, Lines> = IndexMap::new();
         let mut unmodelled: IndexMap<String, Lines> = IndexMap::new();
-        let (mut sum, mut sum2) = (0.0, 0.0);
         let st = s;
         let mut process = |block: &Block| -> Result<(), SourceError> {
-            summary.blocks += 1;
+            run.summary.blocks += 1;
             for si in 0..block.segments.len() {
                 let seg = block.segments[si];
                 let event = interp.step(block, &seg);
@@ -197,7 +204,7 @@ impl Simulator {
                         .push(block.line);
                     continue;
                 }
-                summary.moves += 1;
+                run.summary.moves += 1;
                 let vector = mv.vector;
                 let p1 = known(&mv.end);
                 let mut start_known = f.axes().iter().all(|&a| mv.start[a].is_some());
@@ -219,50 +226,31 @@ impl Simulator {
                     },
                     _ => MovePath::Line { p0, p1 },
                 };
-                let n = if feed && start_known && self.settings.step > 0.0 {
-                    let (a, _) = self.poses(&f, &p0, vector);
-                    let (b, _) = self.poses(&f, &p1, vector);
-                    let len = match path2 {
-                        MovePath::Arc { geo, .. } => {
-                            (geo.sweep.abs() * geo.rs.max(geo.re) * f.u).max((b.tip - a.tip).norm())
-                        }
-                        _ => (b.tip - a.tip).norm(),
-                    };
-                    ((len / self.settings.step).ceil() as usize).clamp(1, 100_000)
-                } else {
-                    1
+                let mut job = Job {
+                    line: block.line,
+                    f,
+                    path: path2,
+                    feed,
+                    start_known,
+                    vector,
+                    // A hole starts with its point at the R level (reached
+                    // by a rapid).
+                    first: usize::from(mv.drill.is_none()),
                 };
-                // A hole starts with its point at the R level (reached by
-                // a rapid).
-                let first = usize::from(mv.drill.is_none());
-                for k in first..=n {
-                    let s = k as f64 / n as f64;
-                    let p = match k {
-                        0 => p0,
-                        _ if n == 1 => p1,
-                        _ => path2.at(s),
-                    };
-                    let (nominal, actual) = self.poses(&f, &p, vector);
-                    let sample = Sample {
-                        line: block.line,
-                        fraction: s,
-                        feed: feed && k > 0,
-                        nominal,
-                        actual,
-                    };
-                    let e = sample.error().norm() * 1e3;
-                    sum += e;
-                    sum2 += e * e;
-                    summary.samples += 1;
-                    if summary.max_um.is_none_or(|l| e > l.value) {
-                        summary.max_um = Some(Largest {
-                            value: e,
-                            line: block.line,
-                        });
+                match mv.corner {
+                    Some(c) => {
+                        if let Err(why) = run.cut_corner(&c, &mut job) {
+                            skipped
+                                .entry(format!(
+                                    "rounding or chamfer not simulated (the corner is run sharp): {why}"
+                                ))
+                                .or_default()
+                                .push(c.line);
+                        }
                     }
-                    summary.max_axis_urad = summary.max_axis_urad.max(sample.axis_error() * 1e6);
-                    sink(&sample);
+                    None => run.flush(),
                 }
+                run.held = Some(job);
             }
             Ok(())
         };
@@ -300,6 +288,8 @@ impl Simulator {
                 }
             }
         }
+        // The move held back last (`process` is done with `run`).
+        run.flush();
         if let Some((why, line)) = not_followed {
             let why = why.trim_start_matches("--expand ").to_string();
             skipped
@@ -307,6 +297,7 @@ impl Simulator {
                 .or_default()
                 .push(line);
         }
+        let (mut summary, sum, sum2) = (run.summary, run.sum, run.sum2);
         let unreadable = Skip::Unreadable.to_string();
         let skipped_moves: usize = skipped
             .iter()
@@ -321,6 +312,143 @@ impl Simulator {
         summary.skipped = skipped.into_iter().collect();
         summary.unmodelled = unmodelled.into_iter().collect();
         Ok(summary)
+    }
+}
+
+/// A move waiting to be sampled: the next one may cut its end (a
+/// HEIDENHAIN rounding or chamfer).
+struct Job {
+    line: usize,
+    f: Frame,
+    path: MovePath,
+    feed: bool,
+    start_known: bool,
+    vector: Option<Vector3<f64>>,
+    /// 1: the start is the previous move's end, not sampled again.
+    first: usize,
+}
+
+/// A simulation's running state: the tallies and the move held back.
+struct Run<'a, 's> {
+    sim: &'a Simulator,
+    summary: SimSummary,
+    sum: f64,
+    sum2: f64,
+    held: Option<Job>,
+    sink: &'a mut (dyn FnMut(&Sample) + 's),
+}
+
+impl Run<'_, '_> {
+    /// Samples the move held back, if any.
+    fn flush(&mut self) {
+        if let Some(job) = self.held.take() {
+            self.sample(&job);
+        }
+    }
+
+    /// A rounding or chamfer between the move held back and `next`: the
+    /// first ends where the element starts, the element is sampled, the
+    /// next starts where it ends.
+    fn cut_corner(&mut self, c: &Corner, next: &mut Job) -> Result<(), &'static str> {
+        let Some(mut before) = self.held.take() else {
+            return Err("no line before it was simulated");
+        };
+        let (MovePath::Line { p0: a, p1: p }, MovePath::Line { p0: q, p1: b }) =
+            (before.path, next.path)
+        else {
+            self.held = Some(before);
+            self.flush();
+            return Err("it is not between two straight lines");
+        };
+        let cut = match corner_path(&a, &p, &b, c.kind, next.f.u) {
+            Ok(_)
+                if !(p.iter().zip(&q)).all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
+                    || !before.start_known
+                    || !next.start_known =>
+            {
+                Err("the lines around it do not meet")
+            }
+            x => x,
+        };
+        let (_, _, path) = match cut {
+            Ok(x) => x,
+            Err(why) => {
+                self.held = Some(before);
+                self.flush();
+                return Err(why);
+            }
+        };
+        before.path = MovePath::Line {
+            p0: a,
+            p1: path.at(0.0),
+        };
+        self.sample(&before);
+        let element = Job {
+            line: c.line,
+            f: next.f,
+            path,
+            feed: true,
+            start_known: true,
+            vector: next.vector,
+            first: 1,
+        };
+        self.sample(&element);
+        next.path = MovePath::Line {
+            p0: path.at(1.0),
+            p1: b,
+        };
+        Ok(())
+    }
+
+    /// Samples a move: its end point, and with a step points along it.
+    fn sample(&mut self, job: &Job) {
+        let sim = self.sim;
+        let f = &job.f;
+        let (p0, p1) = match job.path {
+            MovePath::Line { p0, p1 } | MovePath::Arc { p0, p1, .. } => (p0, p1),
+        };
+        let n = if job.feed && job.start_known && sim.settings.step > 0.0 {
+            let (a, _) = sim.poses(f, &p0, job.vector);
+            let (b, _) = sim.poses(f, &p1, job.vector);
+            let len = match job.path {
+                MovePath::Arc { geo, .. } => {
+                    (geo.sweep.abs() * geo.rs.max(geo.re) * f.u).max((b.tip - a.tip).norm())
+                }
+                _ => (b.tip - a.tip).norm(),
+            };
+            ((len / sim.settings.step).ceil() as usize).clamp(1, 100_000)
+        } else {
+            1
+        };
+        for k in job.first..=n {
+            let s = k as f64 / n as f64;
+            let p = match k {
+                0 => p0,
+                _ if n == 1 => p1,
+                _ => job.path.at(s),
+            };
+            let (nominal, actual) = sim.poses(f, &p, job.vector);
+            let sample = Sample {
+                line: job.line,
+                fraction: s,
+                feed: job.feed && k > 0,
+                nominal,
+                actual,
+            };
+            let e = sample.error().norm() * 1e3;
+            self.sum += e;
+            self.sum2 += e * e;
+            let summary = &mut self.summary;
+            summary.samples += 1;
+            if summary.max_um.is_none_or(|l| e > l.value) {
+                summary.max_um = Some(Largest {
+                    value: e,
+                    line: job.line,
+                });
+            }
+            summary.max_axis_urad = summary.max_axis_urad.max(sample.axis_error() * 1e6);
+            (self.sink)(&sample);
+        }
     }
 }
 

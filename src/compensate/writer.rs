@@ -936,7 +936,13 @@ impl Writer {
             if a < 2 && mv.polar.is_some() {
                 continue;
             }
-            let v = values[a];
+            // A HEIDENHAIN cycle call's tool-axis word is the datum its
+            // depth counts from: the word moves with the bottom.
+            let offset = match drill {
+                Some((d, _)) if d.axis == a => d.call_offset.unwrap_or(0.0),
+                _ => 0.0,
+            };
+            let v = values[a] - offset;
             // A cycle block without the depth word drills to the depth in
             // force, not from where the tool is.
             let prev_a = match drill {
@@ -954,6 +960,7 @@ impl Writer {
                     let (Some(e_end), Some(s)) = (mv.end[a], mv.start[a].or(Some(0.0))) else {
                         continue;
                     };
+                    let e_end = e_end - offset;
                     let orig = if inc { e_end - s } else { e_end };
                     let base = if inc { prev[a] } else { Some(0.0) };
                     let Some(base) = base else { continue };
@@ -993,6 +1000,8 @@ impl Writer {
             self.emit_drill = Some([initial, emitted[d.axis]]);
             self.drill_written = true;
             emitted[d.axis] = match initial {
+                // The cycle's own clearance: not followed.
+                _ if d.call_offset.is_some() => None,
                 Some(z) if d.to_initial => Some(z.max(d.r_level)),
                 _ if d.to_initial => None,
                 _ => Some(d.r_level),

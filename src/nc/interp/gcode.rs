@@ -874,6 +874,7 @@ impl Interpreter {
             axis: n,
             r_level,
             to_initial: self.retract_initial,
+            call_offset: None,
         });
         if let Some(s) = skip.or_else(|| self.frame_skip()) {
             return Event::Skip(s);

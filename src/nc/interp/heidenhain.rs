@@ -1,8 +1,10 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
-//! `CC`, `CR`), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! `CC`, `CR`, polar `LP`/`CP`, and the corners `RND`/`CHF` cut between
+//! two lines), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
-//! PLANE and FUNCTION TCPM, touch probe cycles and program control.
+//! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
+//! TCPM, touch probe cycles and program control.
 
 use super::{
     AXES, Arc, Event, Interpreter, Move, MoveKind, Plane, Skip, Tcp, Units, arc_runs,
@@ -43,6 +45,134 @@ impl Interpreter {
                 self.m_function(m, block.tokens[ti].span.start as usize);
             }
         }
+        if matches!(kind, HhKind::Comment | HhKind::Structure) {
+            return Event::None;
+        }
+        let line_before = self.hh_line_before.take();
+        let pending = self.hh_corner.take();
+        let ev = self.hh_statement(block, seg, kind, m91, cycle_call, line_before);
+        let ev = match pending {
+            Some(c) => self.after_corner(c, kind, ev),
+            None => ev,
+        };
+        if let Event::Move(mv) = &ev
+            && kind == HhKind::L
+            && mv.kind == MoveKind::Linear
+        {
+            self.hh_line_before = self.plane_point(&mv.start).zip(self.plane_point(&mv.end));
+        }
+        ev
+    }
+
+    /// The axes a move is followed in, as an array (an axis the machine
+    /// does not have as 0), if all of them are known.
+    fn plane_point(&self, p: &[Option<f64>; 6]) -> Option<[f64; 6]> {
+        let mut out = [0.0; 6];
+        for i in [0, 1, 2, self.cfg.tilt, 5] {
+            out[i] = p[i]?;
+        }
+        Some(out)
+    }
+
+    /// `RND R..` / `CHF ..`: the corner of the line before, to be cut
+    /// when the line after it comes.
+    fn read_corner(
+        &self,
+        block: &Block,
+        seg: &Segment,
+        kind: HhKind,
+        line_before: Option<([f64; 6], [f64; 6])>,
+    ) -> PendingCorner {
+        let mut size = None;
+        for t in block.seg_tokens(seg) {
+            match t.kind {
+                TokenKind::Word(w) if kind == HhKind::Rnd && w.addr == Addr::letter(b'R') => {
+                    size = Some(w.value);
+                }
+                TokenKind::Text if kind == HhKind::Chf && size.is_none() => {
+                    let b = block.bytes(t.span);
+                    let n = crate::nc::lexeme::lex_len(b);
+                    size = Some(if n > 0 && n == b.len() {
+                        Value::Num(crate::nc::lexeme::read(b).value)
+                    } else {
+                        Value::Expr
+                    });
+                }
+                _ => {}
+            }
+        }
+        let geo = match (size, line_before) {
+            _ if self.plane != Plane::Xy => Err("a working plane other than XY"),
+            (Some(Value::Num(v)), Some((from, at)))
+                if v.is_finite() && v != 0.0 && v.abs() <= crate::limits::MAX_NC_VALUE =>
+            {
+                let k = if kind == HhKind::Rnd {
+                    super::corner::CornerKind::Round(v)
+                } else {
+                    super::corner::CornerKind::Chamfer(v)
+                };
+                Ok((k, from, at))
+            }
+            (_, None) => {
+                Err("the element before it is not a straight line (L) whose ends are known")
+            }
+            _ => Err("its radius or length is not a number"),
+        };
+        PendingCorner {
+            line: block.line,
+            geo,
+        }
+    }
+
+    /// The statement after a `RND`/`CHF`: a straight line carries the
+    /// corner; another move is left as written (the controller cuts the
+    /// corner in a way fivecal does not follow); a statement that does not
+    /// move keeps it waiting.
+    fn after_corner(&mut self, c: PendingCorner, kind: HhKind, ev: Event) -> Event {
+        let mut mv = match ev {
+            Event::Move(mv) => mv,
+            Event::None if !matches!(kind, HhKind::Rnd | HhKind::Chf) => {
+                self.hh_corner = Some(c);
+                return ev;
+            }
+            ev => return ev,
+        };
+        let why = match c.geo {
+            Err(why) => why,
+            Ok(_) if kind != HhKind::L || mv.kind != MoveKind::Linear => {
+                "the element after it is not a straight line (L)"
+            }
+            Ok((k, from, at)) => match (self.plane_point(&mv.start), self.plane_point(&mv.end)) {
+                (Some(s), Some(e)) if s == at => {
+                    match super::corner::corner_path(&from, &at, &e, k, self.units.mm()) {
+                        Ok(_) => {
+                            mv.corner = Some(super::corner::Corner {
+                                line: c.line,
+                                kind: k,
+                                from,
+                                at,
+                            });
+                            return Event::Move(mv);
+                        }
+                        Err(why) => why,
+                    }
+                }
+                _ => "the position after it is not known",
+            },
+        };
+        Event::Skip(Skip::AfterCorner(c.line, why))
+    }
+
+    /// One statement of a block, with the M functions it has read.
+    fn hh_statement(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        kind: HhKind,
+        m91: bool,
+        cycle_call: bool,
+        line_before: Option<([f64; 6], [f64; 6])>,
+    ) -> Event {
         let text_has = |needle: &str| {
             block.seg_tokens(seg).iter().any(|t| {
                 matches!(t.kind, TokenKind::Text | TokenKind::Keyword)
@@ -63,6 +193,13 @@ impl Interpreter {
                 let ev = self.hh_line(block, seg, m91);
                 if cycle_call {
                     self.pos[2] = None;
+                    if matches!(ev, Event::Move(_)) && self.hh_cycle.is_some_and(|c| c.is_hole()) {
+                        let at = block.tokens[seg.body as usize].span.start as usize;
+                        self.note(
+                            at,
+                            "M99/M89: the cycle called here drills to the depth its CYCL DEF gives (Q203 + Q201), which no word of this block moves: the hole is left as the machine drills it (a hole called by CYCL CALL POS X.. Y.. Z.. is corrected)",
+                        );
+                    }
                 }
                 ev
             }
@@ -117,12 +254,12 @@ impl Interpreter {
                     _ => "vector line (LN)",
                 }))
             }
-            // The controller rounds or chamfers the corner between the
-            // neighbouring elements as they are written; fivecal does not
-            // follow that geometry (the neighbours' end points are
-            // corrected, the rounding is not checked).
-            HhKind::Rnd => Event::Skip(Skip::Element("rounding (RND)")),
-            HhKind::Chf => Event::Skip(Skip::Element("chamfer (CHF)")),
+            // The controller cuts the corner between the line before and
+            // the line after: the line after carries it.
+            HhKind::Rnd | HhKind::Chf => {
+                self.hh_corner = Some(self.read_corner(block, seg, kind, line_before));
+                Event::None
+            }
             HhKind::M => Event::None,
             HhKind::CyclDef { number, sub } => {
                 self.hh_cycle(block, seg, number, sub);
@@ -159,15 +296,15 @@ impl Interpreter {
                 Event::None
             }
             HhKind::CyclCall => {
-                // CYCL CALL POS: the cycle runs at the position it names,
-                // which is not corrected.
                 let pos = block
                     .words(seg)
                     .any(|(_, w)| self.axis_index(w.addr).is_some());
-                self.forget();
                 if pos {
-                    Event::Skip(Skip::Element("cycle call position (CYCL CALL POS)"))
+                    self.hh_cycle_call(block, seg)
                 } else {
+                    // CYCL CALL: the cycle runs where the tool is and
+                    // leaves it at a clearance of its own.
+                    self.forget();
                     Event::None
                 }
             }
@@ -183,7 +320,70 @@ impl Interpreter {
         }
     }
 
+    /// `CYCL CALL POS X.. Y.. Z..`: the cycle defined last runs at X Y,
+    /// its tool-axis word a datum its own surface `Q203` counts from. A
+    /// drilling cycle is one hole: the move ends at its bottom
+    /// (`Z + Q203 + Q201`), reached along the tool axis from the set-up
+    /// clearance (`Z + Q203 + Q200`); the cycle moves the linear axes
+    /// only and leaves the tool at a clearance of its own.
+    fn hh_cycle_call(&mut self, block: &Block, seg: &Segment) -> Event {
+        let mut mv = Move::new(MoveKind::Rapid, self.pos, false);
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
+        self.hh_targets(block, seg, &mut mv, &mut skip);
+        self.pos = mv.end;
+        self.pos[2] = None;
+        if mv.words[3..].iter().any(Option::is_some) {
+            skip.get_or_insert(Skip::CycleCall("a rotary axis word in the cycle call"));
+        }
+        if let Some(s) = skip {
+            return Event::Skip(s);
+        }
+        let Some(cycle) = self.hh_cycle else {
+            return Event::Skip(Skip::CycleCall("no cycle is defined before it"));
+        };
+        if !cycle.is_hole() {
+            return Event::Skip(Skip::CycleCall(
+                "a cycle other than the drilling cycles 200-203, 205-207, 209 and 241 (its moves are not one hole)",
+            ));
+        }
+        let (Some(q200), Some(q201), Some(q203)) = (cycle.clearance, cycle.depth, cycle.surface)
+        else {
+            return Event::Skip(Skip::CycleCall(
+                "the cycle's Q200, Q201 or Q203 is not written as a number in its CYCL DEF",
+            ));
+        };
+        if q201 == 0.0 {
+            return Event::Skip(Skip::CycleCall("the cycle's depth Q201 is 0 (no hole)"));
+        }
+        if self.plane != Plane::Xy {
+            return Event::Skip(Skip::CycleCall("a tool axis other than Z"));
+        }
+        if mv.words[..3].iter().any(Option::is_none) {
+            // The control asks for all three; fivecal does not guess.
+            return Event::Skip(Skip::CycleCall("the call does not name X, Y and Z"));
+        }
+        let Some(z) = mv.end[2] else {
+            return Event::Skip(Skip::PositionUnknown(b'Z'));
+        };
+        mv.end[2] = Some(z + q203 + q201);
+        mv.drill = Some(super::Drill {
+            axis: 2,
+            r_level: z + q203 + q200,
+            to_initial: false,
+            call_offset: Some(q203 + q201),
+        });
+        if let Some(s) = self.frame_skip() {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+
     fn hh_cycle(&mut self, block: &Block, seg: &Segment, number: u32, sub: Option<u32>) {
+        if !DEF_ACTIVE.contains(&number) {
+            // A machining cycle: what CYCL CALL and M99 run from here.
+            self.hh_cycle = Some(CycleDef::read(block, seg, number));
+            return;
+        }
         let sub = sub.unwrap_or(0);
         let words: Vec<Word> = block.words(seg).map(|(_, w)| w).collect();
         let hash = block
@@ -690,6 +890,92 @@ impl Interpreter {
             return Event::Skip(s);
         }
         Event::Move(mv)
+    }
+}
+
+/// A `RND`/`CHF` waiting for the element after it: its line, and the
+/// rounding or chamfer with the line before it (start, corner), or why
+/// the corner cannot be followed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct PendingCorner {
+    line: usize,
+    #[allow(clippy::type_complexity)]
+    geo: Result<(super::corner::CornerKind, [f64; 6], [f64; 6]), &'static str>,
+}
+
+/// Cycles that act where they are defined (coordinate transformations,
+/// dwell, tolerance, the contour of SL cycles): a `CYCL DEF` of one of
+/// them leaves the cycle that `CYCL CALL` runs as it was.
+const DEF_ACTIVE: [u32; 12] = [7, 8, 9, 10, 11, 12, 13, 14, 19, 26, 32, 247];
+
+/// Drilling cycles that drill one hole along the tool axis from the
+/// surface `Q203` to the depth `Q201` (counted from the surface, its sign
+/// the direction), starting at the set-up clearance `Q200` above the
+/// surface: drilling, reaming, boring, universal drilling, universal
+/// pecking, tapping (floating and rigid, with chip breaking) and
+/// single-lip deep-hole drilling.
+const HOLES: [u32; 9] = [200, 201, 202, 203, 205, 206, 207, 209, 241];
+
+/// A machining cycle defined by `CYCL DEF`, with the parameters a hole
+/// needs where they are written as numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CycleDef {
+    /// The cycle number.
+    pub number: u32,
+    /// `Q200`: the set-up clearance above the surface.
+    pub clearance: Option<f64>,
+    /// `Q201`: the depth, from the surface.
+    pub depth: Option<f64>,
+    /// `Q203`: the surface coordinate.
+    pub surface: Option<f64>,
+}
+
+impl CycleDef {
+    /// The cycle of a `CYCL DEF` block: its `Qn=value` assignments
+    /// (`Q201=-8 ;DEPTH ~` on continuation lines); a value that is not a
+    /// number (`Q201=+Q5`) stays unknown.
+    fn read(block: &Block, seg: &Segment, number: u32) -> CycleDef {
+        let mut code = Vec::new();
+        for t in block.seg_tokens(seg) {
+            match t.kind {
+                TokenKind::Comment => {}
+                TokenKind::Space | TokenKind::LineEnd | TokenKind::Continuation => code.push(b' '),
+                _ => code.extend_from_slice(block.bytes(t.span)),
+            }
+        }
+        let q = |n: u32| -> Option<f64> {
+            let name = format!("Q{n}");
+            let at = code
+                .windows(name.len())
+                .enumerate()
+                .find(|(i, w)| {
+                    w.eq_ignore_ascii_case(name.as_bytes())
+                        && (*i == 0 || !code[i - 1].is_ascii_alphanumeric())
+                        && !code.get(i + name.len()).is_some_and(u8::is_ascii_digit)
+                })?
+                .0;
+            let rest = &code[at + name.len()..];
+            let rest = rest
+                .trim_ascii_start()
+                .strip_prefix(b"=")?
+                .trim_ascii_start();
+            let n = crate::nc::lexeme::lex_len(rest);
+            let after = rest.get(n).copied();
+            (n > 0 && after.is_none_or(|c| c == b' '))
+                .then(|| crate::nc::lexeme::read(&rest[..n]).value)
+                .filter(|v| v.is_finite() && v.abs() <= crate::limits::MAX_NC_VALUE)
+        };
+        CycleDef {
+            number,
+            clearance: q(200),
+            depth: q(201),
+            surface: q(203),
+        }
+    }
+
+    /// Whether the cycle drills one hole along the tool axis.
+    pub fn is_hole(&self) -> bool {
+        HOLES.contains(&self.number)
     }
 }
 

@@ -32,6 +32,7 @@
 //! handed from one stretch of a program to the next.
 
 pub mod coordinates;
+pub mod corner;
 pub mod gcode;
 mod heidenhain;
 pub mod interpolation;
@@ -43,6 +44,7 @@ use std::sync::Arc as Shared;
 use nalgebra::Vector3;
 
 pub use coordinates::Frame;
+pub use heidenhain::CycleDef;
 pub use plane::{PlaneSkip, Tilt, WorkPlane};
 
 use super::{Addr, Block, Segment, Stmt, TokenKind, Value, Word};
@@ -202,6 +204,11 @@ pub enum Skip {
     MacroCall,
     /// Canned cycle positions.
     CannedCycle,
+    /// A HEIDENHAIN cycle call whose hole is not corrected, and why.
+    CycleCall(&'static str),
+    /// The move after a `RND`/`CHF` (at this line) whose corner fivecal
+    /// does not follow, and why.
+    AfterCorner(usize, &'static str),
     /// A contour element that is not compensated (polar, tangential,
     /// approach/departure, vector blocks, splines).
     Element(&'static str),
@@ -243,6 +250,14 @@ impl std::fmt::Display for Skip {
             Skip::TcpSpatial => write!(f, "TCPM with spatial angles (AXIS SPAT) is not modelled"),
             Skip::MacroCall => write!(f, "macro call arguments (G65/G66)"),
             Skip::CannedCycle => write!(f, "canned cycle, spline or thread positions"),
+            Skip::AfterCorner(line, why) => write!(
+                f,
+                "the element after the rounding or chamfer at line {line}, which fivecal follows only between two straight lines: {why}"
+            ),
+            Skip::CycleCall(why) => write!(
+                f,
+                "cycle call position (CYCL CALL POS) left as written: {why}"
+            ),
             Skip::Element(what) => write!(f, "{what} elements are not compensated"),
             Skip::ShiftUnknown => write!(f, "the datum shift comes from a table (value unknown)"),
             Skip::NoToolVector => write!(f, "tool direction (I J K) not programmed"),
@@ -322,6 +337,9 @@ pub struct Move {
     pub polar: Option<Polar>,
     /// A canned drilling cycle: the move is the hole's bottom.
     pub drill: Option<Drill>,
+    /// HEIDENHAIN `RND`/`CHF` before this line: the controller cuts the
+    /// corner between the line before and this one.
+    pub corner: Option<corner::Corner>,
 }
 
 /// The polar words of a HEIDENHAIN `LP`/`CP` block: token index and
@@ -346,6 +364,11 @@ pub struct Drill {
     pub r_level: f64,
     /// G98: back to the initial level; G99: to the R level.
     pub to_initial: bool,
+    /// A HEIDENHAIN `CYCL CALL POS`: its tool-axis word is the datum the
+    /// cycle's own depth counts from, so the word holds the bottom minus
+    /// this (`Q203 + Q201`), and where the cycle leaves the tool is not
+    /// followed. `None` for the G-code cycles, whose word is the bottom.
+    pub call_offset: Option<f64>,
 }
 
 impl Move {
@@ -362,6 +385,7 @@ impl Move {
             vector: None,
             polar: None,
             drill: None,
+            corner: None,
         }
     }
 }
@@ -478,6 +502,14 @@ pub struct Interpreter {
     pub pos: [Option<f64>; 6],
     /// HEIDENHAIN pole (CC) in the XY plane.
     pub pole: Option<[f64; 2]>,
+    /// HEIDENHAIN: the machining cycle the last `CYCL DEF` defined (what
+    /// `CYCL CALL` and `M99` run).
+    pub hh_cycle: Option<heidenhain::CycleDef>,
+    /// HEIDENHAIN: the last statement was a straight line with known ends
+    /// (start, end), which a `RND`/`CHF` after it may cut.
+    hh_line_before: Option<([f64; 6], [f64; 6])>,
+    /// HEIDENHAIN: a `RND`/`CHF` waiting for the line after it.
+    hh_corner: Option<heidenhain::PendingCorner>,
     /// The canned drilling cycle in force (G code x 10), if any.
     pub cycle: Option<u32>,
     /// Its modal hole bottom along the drill axis (program units).
@@ -548,6 +580,9 @@ impl Interpreter {
             radius_comp: false,
             pos: [None; 6],
             pole: None,
+            hh_cycle: None,
+            hh_line_before: None,
+            hh_corner: None,
             cycle: None,
             cycle_depth: None,
             cycle_r: None,
