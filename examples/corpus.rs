@@ -20,10 +20,19 @@
 //! (no sign of FANUC or LinuxCNC) read by the ISO dialect of the machine,
 //! which either controller runs; those are counted apart.
 //!
+//! Each run with errors also counts the file's motion blocks (blocks that
+//! move an axis) and how many of them were corrected, with the others by
+//! the reason they were left as written. A file is five-axis when it writes
+//! a rotary axis word (A, B or C with a value) or switches on tool centre
+//! point control or a tilted working plane; the row says which sign and
+//! where. The table after the files gives the share of motion blocks
+//! corrected over the five-axis files, and their reasons grouped.
+//!
 //! Every measurement file under `cmm/` (the QIF schemas aside) is then read
 //! as `fivecal measured` reads it: it must give its format and entries or be
 //! refused with a message naming the file; a panic is a failure.
 
+use std::collections::BTreeMap;
 use std::io::BufReader;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
@@ -34,6 +43,7 @@ use fivecal::formats::detect::{self, ReadContext};
 use fivecal::kinematics::Kinematics;
 use fivecal::model::Model;
 use fivecal::nc::dialect::{Detection, detect};
+use fivecal::nc::{Addr, Block, Blocks, HhKind, Stmt, Syntax, TokenKind, Value};
 use fivecal::{Dialect, Machine};
 
 /// One run's outcome.
@@ -81,8 +91,17 @@ fn main() {
     let (mut identical, mut ran, mut refused, mut corrected) = (0, 0, 0, 0);
     let (mut moves, mut changed) = (0usize, 0usize);
     let (mut by_sign, mut by_hint, mut plain) = (0, 0, 0);
-    println!("| file | dialect | detected | machine | zero error | with errors |");
-    println!("|---|---|---|---|---|---|");
+    // Over the five-axis files that ran through: motion blocks, corrected,
+    // and the others by reason (blocks, files).
+    let (mut five_files, mut five_refused) = (0, 0);
+    let (mut five_motion, mut five_corrected, mut five_unreadable) = (0usize, 0usize, 0usize);
+    let mut five_reasons: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+    // The same, file by file: (file, reason, blocks, first lines).
+    let mut five_left: Vec<(String, String, usize, String)> = Vec::new();
+    println!(
+        "| file | dialect | detected | machine | five-axis | zero error | with errors | motion blocks corrected |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
     for (path, dialect) in &files {
         let shown = path
             .strip_prefix(&dir)
@@ -114,6 +133,8 @@ fn main() {
             }
         };
         let detected = one_line(&detected);
+        let five = five_axis(path, &bytes, *dialect);
+        let five_cell = five.clone().unwrap_or_else(|| "-".into());
         let machine_name = machine_for(&bytes);
         let machine = Machine::builtin(machine_name).expect("built-in machine");
         let zero = run(path, &bytes, &machine, *dialect, 0.0);
@@ -129,8 +150,24 @@ fn main() {
             other => cell(other, &mut failures),
         };
         let with = run(path, &bytes, &machine, *dialect, 20.0);
+        let mut blocks_cell = "-".to_string();
+        if five.is_some() {
+            five_files += 1;
+        }
         let with_cell = match &with {
             Outcome::Done(s, _) => {
+                blocks_cell = motion_cell(s);
+                if five.is_some() {
+                    five_motion += s.motion_blocks;
+                    five_corrected += s.corrected_blocks;
+                    five_unreadable += s.unreadable.len();
+                    for (reason, lines) in &s.uncorrected_blocks {
+                        let e = five_reasons.entry(reason_group(reason)).or_default();
+                        e.0 += lines.len();
+                        e.1 += 1;
+                        five_left.push((shown.clone(), reason.clone(), lines.len(), lines.list()));
+                    }
+                }
                 ran += 1;
                 moves += s.moves;
                 changed += s.changed;
@@ -146,12 +183,15 @@ fn main() {
             }
             Outcome::Refused(m) => {
                 refused += 1;
+                if five.is_some() {
+                    five_refused += 1;
+                }
                 format!("refused: {}", one_line(m))
             }
             other => cell(other, &mut failures),
         };
         println!(
-            "| {shown} | {dialect} | {detected} | {machine_name} | {zero_cell} | {with_cell} |"
+            "| {shown} | {dialect} | {detected} | {machine_name} | {five_cell} | {zero_cell} | {with_cell} | {blocks_cell} |"
         );
     }
     let run_files = files.len();
@@ -171,6 +211,33 @@ fn main() {
         refused,
         failures
     );
+    println!();
+    let rate = if five_motion > 0 {
+        format!(
+            "{:.1} %",
+            100.0 * five_corrected as f64 / five_motion as f64
+        )
+    } else {
+        "-".into()
+    };
+    println!(
+        "five-axis files: {five_files} ({} ran through, {five_refused} refused); motion blocks {five_motion}, corrected {five_corrected}: {rate}; {five_unreadable} unreadable blocks besides (whether they move is not known)",
+        five_files - five_refused
+    );
+    println!();
+    println!("| why motion blocks of the five-axis files were left as written | blocks | files |");
+    println!("|---|---|---|");
+    let mut reasons: Vec<_> = five_reasons.into_iter().collect();
+    reasons.sort_by(|a, b| b.1.0.cmp(&a.1.0).then(a.0.cmp(&b.0)));
+    for (reason, (blocks, files)) in reasons {
+        println!("| {} | {blocks} | {files} |", one_line(&reason));
+    }
+    println!();
+    println!("| five-axis file | why motion blocks were left as written | blocks | lines |");
+    println!("|---|---|---|---|");
+    for (file, reason, blocks, lines) in &five_left {
+        println!("| {file} | {} | {blocks} | {lines} |", one_line(reason));
+    }
     failures += measurement_files(&dir);
     if failures > 0 {
         std::process::exit(1);
@@ -249,6 +316,98 @@ fn detection(path: &Path, bytes: &[u8], dialect: Dialect) -> Result<Detection, S
         }
     }
     Ok(shown.expect("three controllers, one the file's"))
+}
+
+/// The motion blocks of a run, corrected, and the largest reason left.
+fn motion_cell(s: &Summary) -> String {
+    let mut cell = format!("{}/{}", s.corrected_blocks, s.motion_blocks);
+    if let Some((reason, lines)) = s.uncorrected_blocks.iter().max_by_key(|(_, l)| l.len()) {
+        cell.push_str(&format!(
+            "; most left: {} ({})",
+            one_line(&reason_group(reason)),
+            lines.len()
+        ));
+    }
+    cell
+}
+
+/// A reason with what varies from file to file taken out, so that
+/// reasons group: the line and column numbers, the number of runs of a
+/// loop, and what an unreadable block stopped at.
+fn reason_group(reason: &str) -> String {
+    let mut out = reason.to_string();
+    if let Some(i) = out.find(" (column ") {
+        out.truncate(i);
+    }
+    for key in ["line ", "lines ", "runs "] {
+        let mut from = 0;
+        while let Some(i) = out[from..].find(key) {
+            let at = from + i + key.len();
+            let digits = out[at..].bytes().take_while(u8::is_ascii_digit).count();
+            if digits > 0 {
+                out.replace_range(at..at + digits, "N");
+            }
+            from = at;
+        }
+    }
+    out
+}
+
+/// Why a program is five-axis, with the line: its first rotary axis word
+/// (A, B or C with a value, in a statement of words or a HEIDENHAIN
+/// straight line, not the arguments of a macro call) or its first code for tool centre point control or a
+/// tilted working plane; `None` for a program with neither.
+fn five_axis(path: &Path, bytes: &[u8], dialect: Dialect) -> Option<String> {
+    let syntax = Syntax {
+        dialect,
+        strict: false,
+    };
+    let mut blocks = Blocks::new(path, BufReader::new(bytes), syntax);
+    while let Ok(Some(b)) = blocks.next_block() {
+        if let Some(sign) = five_axis_sign(b) {
+            return Some(format!("{sign} (line {})", b.line));
+        }
+    }
+    None
+}
+
+fn five_axis_sign(b: &Block) -> Option<String> {
+    for seg in &b.segments {
+        match seg.stmt {
+            Stmt::Hh(HhKind::Plane) => return Some("PLANE".into()),
+            Stmt::Hh(HhKind::FunctionTcpm) => return Some("FUNCTION TCPM".into()),
+            Stmt::Hh(HhKind::CyclDef { number: 19, .. }) => return Some("CYCL DEF 19".into()),
+            Stmt::Words | Stmt::Hh(HhKind::L | HhKind::M) => {}
+            _ => continue,
+        }
+        // The letters of a macro call (G65, G66) are its arguments.
+        let call = b.words(seg).any(|(_, w)| {
+            w.addr == Addr::new("G") && matches!(w.value, Value::Num(v) if v == 65.0 || v == 66.0)
+        });
+        for (_, w) in b.words(seg).filter(|_| !call) {
+            let is = |s: &str| w.addr == Addr::new(s);
+            if (is("A") || is("B") || is("C")) && w.value != Value::None {
+                return Some(format!("{} word", w.addr));
+            }
+            let Value::Num(v) = w.value else { continue };
+            let code = (v * 10.0).round() as i64;
+            if is("G") && matches!(code, 434 | 435 | 682 | 683 | 684 | 531) {
+                return Some(format!("G{v}"));
+            }
+            if is("M") && matches!(code, 1280 | 4280) {
+                return Some(format!("M{v}"));
+            }
+        }
+        for t in &b.tokens[seg.first as usize..seg.end as usize] {
+            if t.kind == TokenKind::Keyword {
+                let k = String::from_utf8_lossy(b.bytes(t.span)).to_ascii_uppercase();
+                if k == "TRAORI" || k == "CYCLE800" {
+                    return Some(k);
+                }
+            }
+        }
+    }
+    None
 }
 
 /// The table cell of a run that did not finish.

@@ -246,20 +246,21 @@ impl Interpreter {
         );
         if frame_now != old_frame {
             // The same numbers mean another place now; rotary positions
-            // are machine positions and keep their meaning unless the work
-            // offset or TCP changes, and in a tilted plane tool length
+            // are machine positions (no work offset has a rotary part:
+            // each lies on the W origin at rotary zero) and keep their
+            // meaning unless TCP changes, and in a tilted plane tool length
             // compensation moves the controlled point along the plane's Z
             // only.
             let kept = self.pos;
             self.forget();
             let same = |i: usize| {
-                frame_now.0 == old_frame.0 && frame_now.2 == old_frame.2 && {
-                    i >= 3
-                        || (self.tilted
+                frame_now.2 == old_frame.2
+                    && (i >= 3
+                        || (frame_now.0 == old_frame.0
+                            && self.tilted
                             && frame_now.3 == old_frame.3
                             && frame_now.4 == old_frame.4
-                            && i < 2)
-                }
+                            && i < 2))
             };
             for (i, k) in kept.iter().enumerate() {
                 if same(i) {
@@ -338,9 +339,15 @@ impl Interpreter {
                 self.data_setting(block, seg);
                 Event::None
             }
-            // Reference return and machine coordinates.
-            280 | 281 | 300 | 301 | 530 => {
+            // Reference return.
+            280 | 281 | 300 | 301 => {
                 self.forget_named(block, seg);
+                if has_axis { Event::Quiet } else { Event::None }
+            }
+            // Machine coordinates.
+            530 => {
+                let absolute = self.absolute;
+                self.machine_move(block, seg, |_, w| absolute && !w.incremental);
                 if has_axis { Event::Quiet } else { Event::None }
             }
             // Probing: the machine stops somewhere along the move.

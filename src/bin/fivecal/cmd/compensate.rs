@@ -663,6 +663,11 @@ fn describe(
         s.linearized.len(),
         cfg.settings.tolerance * 1e3
     );
+    let _ = writeln!(
+        t,
+        "  {} of {} motion blocks (blocks that move an axis) corrected",
+        s.corrected_blocks, s.motion_blocks
+    );
     match (s.largest_linear, s.largest_rotary) {
         (Some(l), Some(r)) => {
             let _ = writeln!(
