@@ -28,6 +28,12 @@
 //! where. The table after the files gives the share of motion blocks
 //! corrected over the five-axis files, and their reasons grouped.
 //!
+//! Where LinuxCNC's interpreter `rs274` is installed (Debian package
+//! `linuxcnc-uspace`), each LinuxCNC program and its rewrite with errors
+//! are run through it: the rewrite must make as many moves as the input
+//! (plus the pieces the rewrite inserted); an input rs274 refuses itself
+//! is shown with its reason.
+//!
 //! Every measurement file under `cmm/` (the QIF schemas aside) is then read
 //! as `fivecal measured` reads it: it must give its format and entries or be
 //! refused with a message naming the file; a panic is a failure.
@@ -48,7 +54,8 @@ use fivecal::{Dialect, Machine};
 
 /// One run's outcome.
 enum Outcome {
-    Done(Box<Summary>, bool),
+    /// Finished: the summary, the rewritten program.
+    Done(Box<Summary>, Vec<u8>),
     /// Stopped with a message that names the line.
     Refused(String),
     /// Stopped without a line.
@@ -85,6 +92,10 @@ fn main() {
         );
         std::process::exit(2);
     }
+    // LinuxCNC's own interpreter checks every LinuxCNC output, where
+    // installed.
+    let rs274 = Rs274::find();
+    let mut rs_tally = RsTally::default();
     // Silence the default panic message: the table reports it.
     std::panic::set_hook(Box::new(|_| {}));
     let mut failures = 0;
@@ -99,9 +110,9 @@ fn main() {
     // The same, file by file: (file, reason, blocks, first lines).
     let mut five_left: Vec<(String, String, usize, String)> = Vec::new();
     println!(
-        "| file | dialect | detected | machine | five-axis | zero error | with errors | motion blocks corrected |"
+        "| file | dialect | detected | machine | five-axis | zero error | with errors | motion blocks corrected | rs274 moves, input -> output |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for (path, dialect) in &files {
         let shown = path
             .strip_prefix(&dir)
@@ -139,7 +150,7 @@ fn main() {
         let machine = Machine::builtin(machine_name).expect("built-in machine");
         let zero = run(path, &bytes, &machine, *dialect, 0.0);
         let zero_cell = match &zero {
-            Outcome::Done(_, true) => {
+            Outcome::Done(_, out) if *out == bytes => {
                 identical += 1;
                 "identical".to_string()
             }
@@ -151,12 +162,18 @@ fn main() {
         };
         let with = run(path, &bytes, &machine, *dialect, 20.0);
         let mut blocks_cell = "-".to_string();
+        let mut rs_cell = "-".to_string();
         if five.is_some() {
             five_files += 1;
         }
         let with_cell = match &with {
-            Outcome::Done(s, _) => {
+            Outcome::Done(s, out) => {
                 blocks_cell = motion_cell(s);
+                if *dialect == Dialect::Linuxcnc
+                    && let Some(rs) = &rs274
+                {
+                    rs_cell = rs274_cell(rs, path, &bytes, out, s, &mut rs_tally);
+                }
                 if five.is_some() {
                     five_motion += s.motion_blocks;
                     five_corrected += s.corrected_blocks;
@@ -191,7 +208,7 @@ fn main() {
             other => cell(other, &mut failures),
         };
         println!(
-            "| {shown} | {dialect} | {detected} | {machine_name} | {five_cell} | {zero_cell} | {with_cell} | {blocks_cell} |"
+            "| {shown} | {dialect} | {detected} | {machine_name} | {five_cell} | {zero_cell} | {with_cell} | {blocks_cell} | {rs_cell} |"
         );
     }
     let run_files = files.len();
@@ -211,6 +228,18 @@ fn main() {
         refused,
         failures
     );
+    match &rs274 {
+        Some(_) => {
+            println!(
+                "rs274 on the LinuxCNC outputs: {} as many moves as their input (with the pieces fivecal inserted), {} with another number; {} inputs rs274 refuses itself, {} outputs it refuses",
+                rs_tally.same, rs_tally.different, rs_tally.input_refused, rs_tally.output_refused
+            );
+            failures += rs_tally.different + rs_tally.output_refused;
+        }
+        None => println!(
+            "rs274 (LinuxCNC's interpreter, Debian package linuxcnc-uspace) is not installed: the LinuxCNC outputs were not run through it"
+        ),
+    }
     println!();
     let rate = if five_motion > 0 {
         format!(
@@ -316,6 +345,185 @@ fn detection(path: &Path, bytes: &[u8], dialect: Dialect) -> Result<Detection, S
         }
     }
     Ok(shown.expect("three controllers, one the file's"))
+}
+
+/// What rs274 made of the LinuxCNC outputs.
+#[derive(Default)]
+struct RsTally {
+    same: usize,
+    different: usize,
+    input_refused: usize,
+    output_refused: usize,
+}
+
+/// The rs274 cell of a LinuxCNC file: the moves rs274 makes of the input
+/// and of the rewritten program, which must be as many as the input's
+/// plus the blocks the rewrite inserted (pieces of subdivided moves and
+/// linearized arcs).
+fn rs274_cell(
+    rs: &Rs274,
+    path: &Path,
+    input: &[u8],
+    output: &[u8],
+    s: &Summary,
+    tally: &mut RsTally,
+) -> String {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    // A file that is one subroutine (`o<name> sub` ... `endsub`, as
+    // LinuxCNC's nc_files keep them) is run by a call of it.
+    let stem = path.file_stem().map(|s| s.to_string_lossy().to_lowercase());
+    let sub = stem.filter(|stem| {
+        let text = String::from_utf8_lossy(input)
+            .to_lowercase()
+            .replace([' ', '\t'], "");
+        text.contains(&format!("o<{stem}>sub"))
+    });
+    let sub = sub.as_deref();
+    let before = match rs.moves(input, dir, sub) {
+        Ok(n) => n,
+        Err(why) => {
+            tally.input_refused += 1;
+            return format!("refuses the input: {}", one_line(&why));
+        }
+    };
+    match rs.moves(output, dir, sub) {
+        Ok(after) if after == before + s.inserted => {
+            tally.same += 1;
+            if s.inserted > 0 {
+                format!("{before} -> {after} ({} inserted)", s.inserted)
+            } else {
+                format!("{before} -> {after}")
+            }
+        }
+        Ok(after) => {
+            tally.different += 1;
+            format!(
+                "MOVES DIFFER: {before} -> {after} ({} inserted)",
+                s.inserted
+            )
+        }
+        Err(why) => {
+            tally.output_refused += 1;
+            format!("REFUSES THE OUTPUT: {}", one_line(&why))
+        }
+    }
+}
+
+/// LinuxCNC's standalone interpreter `rs274`, with an INI file that
+/// remaps the 5-axis demos' TCP codes (M428-M430) to empty subroutines
+/// and a tool table with tools 1 to 99, so that it runs the corpus's
+/// programs as their configurations would.
+struct Rs274 {
+    dir: tempfile::TempDir,
+}
+
+impl Rs274 {
+    /// `None` where rs274 is not installed.
+    fn find() -> Option<Rs274> {
+        let ok = std::process::Command::new("rs274")
+            .arg("-h")
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok();
+        if !ok {
+            return None;
+        }
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        for m in ["m428", "m429", "m430"] {
+            std::fs::write(
+                dir.path().join(format!("{m}.ngc")),
+                format!("o<{m}> sub\no<{m}> endsub\nm2\n"),
+            )
+            .expect("subroutine written");
+        }
+        let tools: String = (1..100)
+            .map(|n| format!("T{n} P{n} Z0 D6 ;corpus\n"))
+            .collect();
+        std::fs::write(dir.path().join("tool.tbl"), tools).expect("tool table written");
+        Some(Rs274 { dir })
+    }
+
+    /// The moves rs274 makes of `program` (STRAIGHT_TRAVERSE,
+    /// STRAIGHT_FEED, ARC_FEED, STRAIGHT_PROBE), its subroutines looked for
+    /// in `dir` as well; or why it stopped. A program that is the
+    /// subroutine `sub` is called (without arguments) from a main program.
+    fn moves(&self, program: &[u8], dir: &Path, sub: Option<&str>) -> Result<usize, String> {
+        let home = self.dir.path();
+        let ini = home.join("corpus.ini");
+        std::fs::write(
+            &ini,
+            format!(
+                "[RS274NGC]\nSUBROUTINE_PATH = {}:{}\nREMAP = M428 modalgroup=10 ngc=m428\nREMAP = M429 modalgroup=10 ngc=m429\nREMAP = M430 modalgroup=10 ngc=m430\n",
+                home.display(),
+                dir.display()
+            ),
+        )
+        .map_err(|e| e.to_string())?;
+        let prog = home.join("program.ngc");
+        match sub {
+            Some(name) => {
+                std::fs::write(home.join(format!("{name}.ngc")), program)
+                    .map_err(|e| e.to_string())?;
+                std::fs::write(&prog, format!("o<{name}> call\nm2\n"))
+                    .map_err(|e| e.to_string())?;
+            }
+            None => std::fs::write(&prog, program).map_err(|e| e.to_string())?,
+        }
+        let canon = home.join("program.canon");
+        let stderr = home.join("program.err");
+        // rs274 keeps its tool table in $HOME/.tool.mmap.
+        let mut child = std::process::Command::new("rs274")
+            .env("HOME", home)
+            .arg("-i")
+            .arg(&ini)
+            .arg("-t")
+            .arg(home.join("tool.tbl"))
+            .arg("-g")
+            .arg(&prog)
+            .stdin(std::process::Stdio::null())
+            .stdout(std::fs::File::create(&canon).map_err(|e| e.to_string())?)
+            .stderr(std::fs::File::create(&stderr).map_err(|e| e.to_string())?)
+            .spawn()
+            .map_err(|e| e.to_string())?;
+        // A program that loops for ever is stopped after a minute.
+        let start = std::time::Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+                break s;
+            }
+            if start.elapsed() > std::time::Duration::from_secs(60) {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err("still running after 60 s".into());
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        let err = std::fs::read_to_string(&stderr).unwrap_or_default();
+        if !status.success() {
+            let why: Vec<&str> = err
+                .lines()
+                .filter(|l| !l.trim().is_empty() && l.trim() != "executing")
+                .take(2)
+                .collect();
+            return Err(why.join(": "));
+        }
+        let text = std::fs::read_to_string(&canon).map_err(|e| e.to_string())?;
+        Ok(text
+            .lines()
+            .filter(|l| {
+                [
+                    "STRAIGHT_TRAVERSE(",
+                    "STRAIGHT_FEED(",
+                    "ARC_FEED(",
+                    "STRAIGHT_PROBE(",
+                ]
+                .iter()
+                .any(|m| l.contains(m))
+            })
+            .count())
+    }
 }
 
 /// The motion blocks of a run, corrected, and the largest reason left.
@@ -491,10 +699,7 @@ fn run(path: &Path, bytes: &[u8], machine: &Machine, dialect: Dialect, size: f64
         c.run(path, BufReader::new(bytes), &mut out)
     }));
     match r {
-        Ok(Ok(s)) => {
-            let same = out == bytes;
-            Outcome::Done(Box::new(s), same)
-        }
+        Ok(Ok(s)) => Outcome::Done(Box::new(s), out),
         Ok(Err(err)) => {
             let m = err.to_string();
             match err {
