@@ -4,7 +4,8 @@
 //! `nc/linuxcnc` and `nc/sinumerik` under DIR, once at zero error, where
 //! the rewrite must be byte-identical to the input, and once with location
 //! errors of about 20 um and 20 urad, where the run must go through or stop
-//! with a reason at a line.
+//! with a reason at a line. The machine is a built-in one with the
+//! program's rotary axes, its tilt stroke widened to at least +-120 deg.
 //!
 //! ```text
 //! cargo run --release --example corpus -- tests/corpus
@@ -147,7 +148,14 @@ fn main() {
         let five = five_axis(path, &bytes, *dialect);
         let five_cell = five.clone().unwrap_or_else(|| "-".into());
         let machine_name = machine_for(&bytes);
-        let machine = Machine::builtin(machine_name).expect("built-in machine");
+        let mut machine = Machine::builtin(machine_name).expect("built-in machine");
+        // The programs come from machines of every size: a tilt stroke of
+        // at least +-120 deg (a Haas UMC-750 tilts B to 120) keeps the
+        // run on the interpreter rather than on the built-in's stroke.
+        machine.tilt.limits = machine
+            .tilt
+            .limits
+            .map(|(lo, hi)| (lo.min(-TILT_STROKE), hi.max(TILT_STROKE)));
         let zero = run(path, &bytes, &machine, *dialect, 0.0);
         let zero_cell = match &zero {
             Outcome::Done(_, out) if *out == bytes => {
@@ -657,6 +665,9 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
         }
     }
 }
+
+/// The tilt stroke the runs allow at least, deg.
+const TILT_STROKE: f64 = 120.0;
 
 /// A built-in machine with the rotary axes the program uses: B and C
 /// (bc-trunnion) when it writes B words and no A, else A and C.

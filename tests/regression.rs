@@ -1536,3 +1536,60 @@ fn compensate_rotary_axis_positioned_in_machine_coordinates_is_known_after() {
         s.skipped
     );
 }
+
+/// The NX post for a Haas UMC-750 (read as FANUC) switches tool centre
+/// point control on with Haas's `G234 H02` and positions 3+2 sections
+/// with the dynamic work offset `G254`, cancelled by `G255`. Both were
+/// unknown codes "taken to move no axis", so the tip coordinates after
+/// `G234` were corrected as axis positions. `G234` is now read as `G43.4`
+/// is (the same rewrite), the rotary positions written before it stay
+/// known under it (switching TCP turns no rotary axis), and moves under
+/// `G254`, which is not modelled, are left as written and reported.
+#[test]
+fn compensate_haas_g234_is_tool_centre_point_control_and_g254_is_reported() {
+    let l = crate::compensate::errors("bc-trunnion", 20, 20.0, "");
+    let program = |tcp: &str| {
+        format!(
+            "G17 G54 G90\nG00 B7.125 C0.\n{tcp} H02\nG90 X-4.6 Y41.3 Z88.3\nG01 X-10.9 Y41.5 Z35.7 F250.\nX-10.4 Y41.8 Z35.\nG255\nG53 G00 Z0.\nG00 B82.875 C-180.\nG254\nG54 G90 G00 X-48.8 Y-59.\nG43 H01 Z7.\nG01 Y-64.1 Z6.8 F250.\nG255\nM30\n"
+        )
+    };
+    let settings = || fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
+    let (haas, s, vs) = crate::compensate::compensate(&l, settings(), &program("G234"));
+    let (fanuc, _, _) = crate::compensate::compensate(&l, settings(), &program("G43.4"));
+    let tail = |t: &str| t.lines().skip(3).map(str::to_string).collect::<Vec<_>>();
+    assert_eq!(tail(&haas), tail(&fanuc));
+    assert!(
+        s.coordinates
+            .iter()
+            .any(|c| c.meaning.contains("TCP") && c.why.contains("G234") && c.lines.0 == 4),
+        "{:?}",
+        s.coordinates
+    );
+    // B and C, positioned before G234, stay known under it: every move
+    // of the section is corrected.
+    let tcpc: Vec<_> = vs.iter().filter(|v| (4..=6).contains(&v.line)).collect();
+    assert_eq!(
+        tcpc.iter().map(|v| v.line).collect::<Vec<_>>(),
+        vec![4, 5, 6],
+        "{:?}",
+        s.skipped
+    );
+    for v in tcpc {
+        assert!(v.tcp != fivecal::nc::interp::Tcp::Off, "line {}", v.line);
+        crate::compensate::assert_reaches(&l, v, "under G234");
+    }
+    let dwo: Vec<usize> = s
+        .skipped
+        .iter()
+        .filter(|(r, _)| r.contains("G254"))
+        .flat_map(|(_, l)| l.first.clone())
+        .collect();
+    assert_eq!(dwo, vec![11, 12, 13]);
+    assert!(
+        !s.unmodelled
+            .iter()
+            .any(|(w, _)| w.contains("G234") || w.contains("G254") || w.contains("G255")),
+        "{:?}",
+        s.unmodelled
+    );
+}

@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CoordsArg {
     /// As the program switches tool centre point control on and off
-    /// (G43.4/G43.5, M128, FUNCTION TCPM).
+    /// (G43.4/G43.5, Haas G234, M128, FUNCTION TCPM, TRAORI).
     Auto,
     /// Axis positions throughout (post-side program).
     Axes,
