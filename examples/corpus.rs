@@ -4,7 +4,8 @@
 //! `nc/linuxcnc` and `nc/sinumerik` under DIR, once at zero error, where
 //! the rewrite must be byte-identical to the input, and once with location
 //! errors of about 20 um and 20 urad, where the run must go through or stop
-//! with a reason at a line.
+//! with a reason at a line. The machine is a built-in one with the
+//! program's rotary axes, its tilt stroke widened to at least +-120 deg.
 //!
 //! ```text
 //! cargo run --release --example corpus -- tests/corpus
@@ -20,10 +21,25 @@
 //! (no sign of FANUC or LinuxCNC) read by the ISO dialect of the machine,
 //! which either controller runs; those are counted apart.
 //!
+//! Each run with errors also counts the file's motion blocks (blocks that
+//! move an axis) and how many of them were corrected, with the others by
+//! the reason they were left as written. A file is five-axis when it writes
+//! a rotary axis word (A, B or C with a value) or switches on tool centre
+//! point control or a tilted working plane; the row says which sign and
+//! where. The table after the files gives the share of motion blocks
+//! corrected over the five-axis files, and their reasons grouped.
+//!
+//! Where LinuxCNC's interpreter `rs274` is installed (Debian package
+//! `linuxcnc-uspace`), each LinuxCNC program and its rewrite with errors
+//! are run through it: the rewrite must make as many moves as the input
+//! (plus the pieces the rewrite inserted); an input rs274 refuses itself
+//! is shown with its reason.
+//!
 //! Every measurement file under `cmm/` (the QIF schemas aside) is then read
 //! as `fivecal measured` reads it: it must give its format and entries or be
 //! refused with a message naming the file; a panic is a failure.
 
+use std::collections::BTreeMap;
 use std::io::BufReader;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
@@ -34,11 +50,13 @@ use fivecal::formats::detect::{self, ReadContext};
 use fivecal::kinematics::Kinematics;
 use fivecal::model::Model;
 use fivecal::nc::dialect::{Detection, detect};
+use fivecal::nc::{Addr, Block, Blocks, HhKind, Stmt, Syntax, TokenKind, Value};
 use fivecal::{Dialect, Machine};
 
 /// One run's outcome.
 enum Outcome {
-    Done(Box<Summary>, bool),
+    /// Finished: the summary, the rewritten program.
+    Done(Box<Summary>, Vec<u8>),
     /// Stopped with a message that names the line.
     Refused(String),
     /// Stopped without a line.
@@ -75,14 +93,27 @@ fn main() {
         );
         std::process::exit(2);
     }
+    // LinuxCNC's own interpreter checks every LinuxCNC output, where
+    // installed.
+    let rs274 = Rs274::find();
+    let mut rs_tally = RsTally::default();
     // Silence the default panic message: the table reports it.
     std::panic::set_hook(Box::new(|_| {}));
     let mut failures = 0;
     let (mut identical, mut ran, mut refused, mut corrected) = (0, 0, 0, 0);
     let (mut moves, mut changed) = (0usize, 0usize);
     let (mut by_sign, mut by_hint, mut plain) = (0, 0, 0);
-    println!("| file | dialect | detected | machine | zero error | with errors |");
-    println!("|---|---|---|---|---|---|");
+    // Over the five-axis files that ran through: motion blocks, corrected,
+    // and the others by reason (blocks, files).
+    let (mut five_files, mut five_refused) = (0, 0);
+    let (mut five_motion, mut five_corrected, mut five_unreadable) = (0usize, 0usize, 0usize);
+    let mut five_reasons: BTreeMap<String, (usize, usize)> = BTreeMap::new();
+    // The same, file by file: (file, reason, blocks, first lines).
+    let mut five_left: Vec<(String, String, usize, String)> = Vec::new();
+    println!(
+        "| file | dialect | detected | machine | five-axis | zero error | with errors | motion blocks corrected | rs274 moves, input -> output |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
     for (path, dialect) in &files {
         let shown = path
             .strip_prefix(&dir)
@@ -114,11 +145,20 @@ fn main() {
             }
         };
         let detected = one_line(&detected);
+        let five = five_axis(path, &bytes, *dialect);
+        let five_cell = five.clone().unwrap_or_else(|| "-".into());
         let machine_name = machine_for(&bytes);
-        let machine = Machine::builtin(machine_name).expect("built-in machine");
+        let mut machine = Machine::builtin(machine_name).expect("built-in machine");
+        // The programs come from machines of every size: a tilt stroke of
+        // at least +-120 deg (a Haas UMC-750 tilts B to 120) keeps the
+        // run on the interpreter rather than on the built-in's stroke.
+        machine.tilt.limits = machine
+            .tilt
+            .limits
+            .map(|(lo, hi)| (lo.min(-TILT_STROKE), hi.max(TILT_STROKE)));
         let zero = run(path, &bytes, &machine, *dialect, 0.0);
         let zero_cell = match &zero {
-            Outcome::Done(_, true) => {
+            Outcome::Done(_, out) if *out == bytes => {
                 identical += 1;
                 "identical".to_string()
             }
@@ -129,8 +169,30 @@ fn main() {
             other => cell(other, &mut failures),
         };
         let with = run(path, &bytes, &machine, *dialect, 20.0);
+        let mut blocks_cell = "-".to_string();
+        let mut rs_cell = "-".to_string();
+        if five.is_some() {
+            five_files += 1;
+        }
         let with_cell = match &with {
-            Outcome::Done(s, _) => {
+            Outcome::Done(s, out) => {
+                blocks_cell = motion_cell(s);
+                if *dialect == Dialect::Linuxcnc
+                    && let Some(rs) = &rs274
+                {
+                    rs_cell = rs274_cell(rs, path, &bytes, out, s, &mut rs_tally);
+                }
+                if five.is_some() {
+                    five_motion += s.motion_blocks;
+                    five_corrected += s.corrected_blocks;
+                    five_unreadable += s.unreadable.len();
+                    for (reason, lines) in &s.uncorrected_blocks {
+                        let e = five_reasons.entry(reason_group(reason)).or_default();
+                        e.0 += lines.len();
+                        e.1 += 1;
+                        five_left.push((shown.clone(), reason.clone(), lines.len(), lines.list()));
+                    }
+                }
                 ran += 1;
                 moves += s.moves;
                 changed += s.changed;
@@ -146,12 +208,15 @@ fn main() {
             }
             Outcome::Refused(m) => {
                 refused += 1;
+                if five.is_some() {
+                    five_refused += 1;
+                }
                 format!("refused: {}", one_line(m))
             }
             other => cell(other, &mut failures),
         };
         println!(
-            "| {shown} | {dialect} | {detected} | {machine_name} | {zero_cell} | {with_cell} |"
+            "| {shown} | {dialect} | {detected} | {machine_name} | {five_cell} | {zero_cell} | {with_cell} | {blocks_cell} | {rs_cell} |"
         );
     }
     let run_files = files.len();
@@ -171,6 +236,45 @@ fn main() {
         refused,
         failures
     );
+    match &rs274 {
+        Some(_) => {
+            println!(
+                "rs274 on the LinuxCNC outputs: {} as many moves as their input (with the pieces fivecal inserted), {} with another number; {} inputs rs274 refuses itself, {} outputs it refuses",
+                rs_tally.same, rs_tally.different, rs_tally.input_refused, rs_tally.output_refused
+            );
+            failures += rs_tally.different + rs_tally.output_refused;
+        }
+        None => println!(
+            "rs274 (LinuxCNC's interpreter, Debian package linuxcnc-uspace) is not installed: the LinuxCNC outputs were not run through it"
+        ),
+    }
+    println!();
+    let rate = if five_motion > 0 {
+        format!(
+            "{:.1} %",
+            100.0 * five_corrected as f64 / five_motion as f64
+        )
+    } else {
+        "-".into()
+    };
+    println!(
+        "five-axis files: {five_files} ({} ran through, {five_refused} refused); motion blocks {five_motion}, corrected {five_corrected}: {rate}; {five_unreadable} unreadable blocks besides (whether they move is not known)",
+        five_files - five_refused
+    );
+    println!();
+    println!("| why motion blocks of the five-axis files were left as written | blocks | files |");
+    println!("|---|---|---|");
+    let mut reasons: Vec<_> = five_reasons.into_iter().collect();
+    reasons.sort_by(|a, b| b.1.0.cmp(&a.1.0).then(a.0.cmp(&b.0)));
+    for (reason, (blocks, files)) in reasons {
+        println!("| {} | {blocks} | {files} |", one_line(&reason));
+    }
+    println!();
+    println!("| five-axis file | why motion blocks were left as written | blocks | lines |");
+    println!("|---|---|---|---|");
+    for (file, reason, blocks, lines) in &five_left {
+        println!("| {file} | {} | {blocks} | {lines} |", one_line(reason));
+    }
     failures += measurement_files(&dir);
     if failures > 0 {
         std::process::exit(1);
@@ -251,6 +355,277 @@ fn detection(path: &Path, bytes: &[u8], dialect: Dialect) -> Result<Detection, S
     Ok(shown.expect("three controllers, one the file's"))
 }
 
+/// What rs274 made of the LinuxCNC outputs.
+#[derive(Default)]
+struct RsTally {
+    same: usize,
+    different: usize,
+    input_refused: usize,
+    output_refused: usize,
+}
+
+/// The rs274 cell of a LinuxCNC file: the moves rs274 makes of the input
+/// and of the rewritten program, which must be as many as the input's
+/// plus the blocks the rewrite inserted (pieces of subdivided moves and
+/// linearized arcs).
+fn rs274_cell(
+    rs: &Rs274,
+    path: &Path,
+    input: &[u8],
+    output: &[u8],
+    s: &Summary,
+    tally: &mut RsTally,
+) -> String {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    // A file that is one subroutine (`o<name> sub` ... `endsub`, as
+    // LinuxCNC's nc_files keep them) is run by a call of it.
+    let stem = path.file_stem().map(|s| s.to_string_lossy().to_lowercase());
+    let sub = stem.filter(|stem| {
+        let text = String::from_utf8_lossy(input)
+            .to_lowercase()
+            .replace([' ', '\t'], "");
+        text.contains(&format!("o<{stem}>sub"))
+    });
+    let sub = sub.as_deref();
+    let before = match rs.moves(input, dir, sub) {
+        Ok(n) => n,
+        Err(why) => {
+            tally.input_refused += 1;
+            return format!("refuses the input: {}", one_line(&why));
+        }
+    };
+    match rs.moves(output, dir, sub) {
+        Ok(after) if after == before + s.inserted => {
+            tally.same += 1;
+            if s.inserted > 0 {
+                format!("{before} -> {after} ({} inserted)", s.inserted)
+            } else {
+                format!("{before} -> {after}")
+            }
+        }
+        Ok(after) => {
+            tally.different += 1;
+            format!(
+                "MOVES DIFFER: {before} -> {after} ({} inserted)",
+                s.inserted
+            )
+        }
+        Err(why) => {
+            tally.output_refused += 1;
+            format!("REFUSES THE OUTPUT: {}", one_line(&why))
+        }
+    }
+}
+
+/// LinuxCNC's standalone interpreter `rs274`, with an INI file that
+/// remaps the 5-axis demos' TCP codes (M428-M430) to empty subroutines
+/// and a tool table with tools 1 to 99, so that it runs the corpus's
+/// programs as their configurations would.
+struct Rs274 {
+    dir: tempfile::TempDir,
+}
+
+impl Rs274 {
+    /// `None` where rs274 is not installed.
+    fn find() -> Option<Rs274> {
+        let ok = std::process::Command::new("rs274")
+            .arg("-h")
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok();
+        if !ok {
+            return None;
+        }
+        let dir = tempfile::tempdir().expect("a temporary directory");
+        for m in ["m428", "m429", "m430"] {
+            std::fs::write(
+                dir.path().join(format!("{m}.ngc")),
+                format!("o<{m}> sub\no<{m}> endsub\nm2\n"),
+            )
+            .expect("subroutine written");
+        }
+        let tools: String = (1..100)
+            .map(|n| format!("T{n} P{n} Z0 D6 ;corpus\n"))
+            .collect();
+        std::fs::write(dir.path().join("tool.tbl"), tools).expect("tool table written");
+        Some(Rs274 { dir })
+    }
+
+    /// The moves rs274 makes of `program` (STRAIGHT_TRAVERSE,
+    /// STRAIGHT_FEED, ARC_FEED, STRAIGHT_PROBE), its subroutines looked for
+    /// in `dir` as well; or why it stopped. A program that is the
+    /// subroutine `sub` is called (without arguments) from a main program.
+    fn moves(&self, program: &[u8], dir: &Path, sub: Option<&str>) -> Result<usize, String> {
+        let home = self.dir.path();
+        let ini = home.join("corpus.ini");
+        std::fs::write(
+            &ini,
+            format!(
+                "[RS274NGC]\nSUBROUTINE_PATH = {}:{}\nREMAP = M428 modalgroup=10 ngc=m428\nREMAP = M429 modalgroup=10 ngc=m429\nREMAP = M430 modalgroup=10 ngc=m430\n",
+                home.display(),
+                dir.display()
+            ),
+        )
+        .map_err(|e| e.to_string())?;
+        let prog = home.join("program.ngc");
+        match sub {
+            Some(name) => {
+                std::fs::write(home.join(format!("{name}.ngc")), program)
+                    .map_err(|e| e.to_string())?;
+                std::fs::write(&prog, format!("o<{name}> call\nm2\n"))
+                    .map_err(|e| e.to_string())?;
+            }
+            None => std::fs::write(&prog, program).map_err(|e| e.to_string())?,
+        }
+        let canon = home.join("program.canon");
+        let stderr = home.join("program.err");
+        // rs274 keeps its tool table in $HOME/.tool.mmap.
+        let mut child = std::process::Command::new("rs274")
+            .env("HOME", home)
+            .arg("-i")
+            .arg(&ini)
+            .arg("-t")
+            .arg(home.join("tool.tbl"))
+            .arg("-g")
+            .arg(&prog)
+            .stdin(std::process::Stdio::null())
+            .stdout(std::fs::File::create(&canon).map_err(|e| e.to_string())?)
+            .stderr(std::fs::File::create(&stderr).map_err(|e| e.to_string())?)
+            .spawn()
+            .map_err(|e| e.to_string())?;
+        // A program that loops for ever is stopped after a minute.
+        let start = std::time::Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+                break s;
+            }
+            if start.elapsed() > std::time::Duration::from_secs(60) {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err("still running after 60 s".into());
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        let err = std::fs::read_to_string(&stderr).unwrap_or_default();
+        if !status.success() {
+            let why: Vec<&str> = err
+                .lines()
+                .filter(|l| !l.trim().is_empty() && l.trim() != "executing")
+                .take(2)
+                .collect();
+            return Err(why.join(": "));
+        }
+        let text = std::fs::read_to_string(&canon).map_err(|e| e.to_string())?;
+        Ok(text
+            .lines()
+            .filter(|l| {
+                [
+                    "STRAIGHT_TRAVERSE(",
+                    "STRAIGHT_FEED(",
+                    "ARC_FEED(",
+                    "STRAIGHT_PROBE(",
+                ]
+                .iter()
+                .any(|m| l.contains(m))
+            })
+            .count())
+    }
+}
+
+/// The motion blocks of a run, corrected, and the largest reason left.
+fn motion_cell(s: &Summary) -> String {
+    let mut cell = format!("{}/{}", s.corrected_blocks, s.motion_blocks);
+    if let Some((reason, lines)) = s.uncorrected_blocks.iter().max_by_key(|(_, l)| l.len()) {
+        cell.push_str(&format!(
+            "; most left: {} ({})",
+            one_line(&reason_group(reason)),
+            lines.len()
+        ));
+    }
+    cell
+}
+
+/// A reason with what varies from file to file taken out, so that
+/// reasons group: the line and column numbers, the number of runs of a
+/// loop, and what an unreadable block stopped at.
+fn reason_group(reason: &str) -> String {
+    let mut out = reason.to_string();
+    if let Some(i) = out.find(" (column ") {
+        out.truncate(i);
+    }
+    for key in ["line ", "lines ", "runs "] {
+        let mut from = 0;
+        while let Some(i) = out[from..].find(key) {
+            let at = from + i + key.len();
+            let digits = out[at..].bytes().take_while(u8::is_ascii_digit).count();
+            if digits > 0 {
+                out.replace_range(at..at + digits, "N");
+            }
+            from = at;
+        }
+    }
+    out
+}
+
+/// Why a program is five-axis, with the line: its first rotary axis word
+/// (A, B or C with a value, in a statement of words or a HEIDENHAIN
+/// straight line, not the arguments of a macro call) or its first code for tool centre point control or a
+/// tilted working plane; `None` for a program with neither.
+fn five_axis(path: &Path, bytes: &[u8], dialect: Dialect) -> Option<String> {
+    let syntax = Syntax {
+        dialect,
+        strict: false,
+    };
+    let mut blocks = Blocks::new(path, BufReader::new(bytes), syntax);
+    while let Ok(Some(b)) = blocks.next_block() {
+        if let Some(sign) = five_axis_sign(b) {
+            return Some(format!("{sign} (line {})", b.line));
+        }
+    }
+    None
+}
+
+fn five_axis_sign(b: &Block) -> Option<String> {
+    for seg in &b.segments {
+        match seg.stmt {
+            Stmt::Hh(HhKind::Plane) => return Some("PLANE".into()),
+            Stmt::Hh(HhKind::FunctionTcpm) => return Some("FUNCTION TCPM".into()),
+            Stmt::Hh(HhKind::CyclDef { number: 19, .. }) => return Some("CYCL DEF 19".into()),
+            Stmt::Words | Stmt::Hh(HhKind::L | HhKind::M) => {}
+            _ => continue,
+        }
+        // The letters of a macro call (G65, G66) are its arguments.
+        let call = b.words(seg).any(|(_, w)| {
+            w.addr == Addr::new("G") && matches!(w.value, Value::Num(v) if v == 65.0 || v == 66.0)
+        });
+        for (_, w) in b.words(seg).filter(|_| !call) {
+            let is = |s: &str| w.addr == Addr::new(s);
+            if (is("A") || is("B") || is("C")) && w.value != Value::None {
+                return Some(format!("{} word", w.addr));
+            }
+            let Value::Num(v) = w.value else { continue };
+            let code = (v * 10.0).round() as i64;
+            if is("G") && matches!(code, 434 | 435 | 682 | 683 | 684 | 531) {
+                return Some(format!("G{v}"));
+            }
+            if is("M") && matches!(code, 1280 | 4280) {
+                return Some(format!("M{v}"));
+            }
+        }
+        for t in &b.tokens[seg.first as usize..seg.end as usize] {
+            if t.kind == TokenKind::Keyword {
+                let k = String::from_utf8_lossy(b.bytes(t.span)).to_ascii_uppercase();
+                if k == "TRAORI" || k == "CYCLE800" {
+                    return Some(k);
+                }
+            }
+        }
+    }
+    None
+}
+
 /// The table cell of a run that did not finish.
 fn cell(o: &Outcome, failures: &mut usize) -> String {
     match o {
@@ -290,6 +665,9 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
         }
     }
 }
+
+/// The tilt stroke the runs allow at least, deg.
+const TILT_STROKE: f64 = 120.0;
 
 /// A built-in machine with the rotary axes the program uses: B and C
 /// (bc-trunnion) when it writes B words and no A, else A and C.
@@ -332,10 +710,7 @@ fn run(path: &Path, bytes: &[u8], machine: &Machine, dialect: Dialect, size: f64
         c.run(path, BufReader::new(bytes), &mut out)
     }));
     match r {
-        Ok(Ok(s)) => {
-            let same = out == bytes;
-            Outcome::Done(Box::new(s), same)
-        }
+        Ok(Ok(s)) => Outcome::Done(Box::new(s), out),
         Ok(Err(err)) => {
             let m = err.to_string();
             match err {

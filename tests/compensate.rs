@@ -607,6 +607,32 @@ fn expression_and_variable_blocks_are_left_untouched_and_reported() {
     assert!(s.skipped_count() == 2, "{s:?}");
 }
 
+/// The summary counts the blocks that move an axis: a block that goes
+/// where the tool already is moves nothing, a full circle moves though it
+/// ends where it starts, and a move left as written (an expression, a move
+/// in machine coordinates) is a motion block not corrected, under its
+/// reason.
+#[test]
+fn motion_blocks_are_the_blocks_that_move_an_axis() {
+    let program = "G90 G21 G54 G43 H1\nG0 X10. Y10. Z30. B20. C20.\nG0 X10. Y10. Z30.\nG1 X[#1+2.] F300.\nG53 G0 Z0.\nG0 X12. Y10. Z20.\nG2 X12. Y10. I2. J0.\nM30\n";
+    let l = errors("bc-trunnion", 6, 20.0, "");
+    let (_, s, _) = compensate(&l, Settings::new(Dialect::Fanuc), program);
+    assert_eq!(s.moves, 5, "{s:?}");
+    assert_eq!((s.motion_blocks, s.corrected_blocks), (5, 3), "{s:?}");
+    let left: Vec<(&str, Vec<usize>)> = s
+        .uncorrected_blocks
+        .iter()
+        .map(|(r, l)| (r.as_str(), l.first.clone()))
+        .collect();
+    assert_eq!(
+        left,
+        vec![
+            ("coordinates are expressions or variables", vec![4]),
+            (fivecal::compensate::LEFT_ON_PURPOSE, vec![5]),
+        ]
+    );
+}
+
 #[test]
 fn next_to_the_tilt_singularity_c_is_held_and_the_tip_is_still_exact() {
     // Orientation errors make the tool axis along C reachable only with C

@@ -264,6 +264,7 @@ fn the_summary_names_changes_corrections_and_skipped_lines() {
     let text = String::from_utf8(out.stdout).unwrap();
     for want in [
         "9 blocks, 4 moves: 3 blocks changed",
+        "3 of 4 motion blocks (blocks that move an axis) corrected",
         "largest correction:",
         "um in X, Y, Z (line",
         "urad of tool orientation",

@@ -1409,3 +1409,187 @@ fn suggested_commands_keep_an_out_directory_with_a_space_one_word() {
         "{together:?}"
     );
 }
+
+/// The moves of `a` and `b` after their first `n_a` and `n_b` lines, as
+/// rewritten, and the number of their vertices that were written.
+fn tails(a: &str, n_a: usize, b: &str, n_b: usize) -> (Vec<String>, Vec<String>) {
+    let tail = |t: &str, n: usize| t.lines().skip(n).map(str::to_string).collect::<Vec<_>>();
+    (tail(a, n_a), tail(b, n_b))
+}
+
+/// ElMoe's SINUMERIK keychain program positions B and C in program
+/// coordinates, then selects its work offset (`G54`) and machines without
+/// another rotary word. The change of work offset once forgot B and C
+/// (233 of its 577 motion blocks left as written); the rotary positions
+/// are machine positions whatever the work offset (each lies on the W
+/// origin at rotary zero), so the moves after it are corrected exactly as
+/// without the `G54`, and land on the intended points.
+#[test]
+fn compensate_sinumerik_g54_after_rotary_positioning_keeps_b_and_c() {
+    let l = crate::compensate::errors("bc-trunnion", 16, 20.0, "");
+    let head = "N270 G0 X0 Y0 Z50. B30. C45.\nN280 CYCLE832(0.02,1,1)\nN290 COMPOF\n";
+    let moves = "N330 G0 X-10.46 Y-22.721 Z16.\nN340 G1 Z0.0 F2069.\nN350 X-14.543\nN360 G3 X-15.843 Y-24.021 I0.0 J-1.3\nN370 G1 Y-27.041\nM30\n";
+    let with = format!("{head}N320 G54\n{moves}");
+    let without = format!("{head}{moves}");
+    let settings = || fivecal::compensate::Settings::new(fivecal::Dialect::Sinumerik);
+    let (out_with, s, vs) = crate::compensate::compensate(&l, settings(), &with);
+    let (out_without, _, _) = crate::compensate::compensate(&l, settings(), &without);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert_eq!((s.motion_blocks, s.corrected_blocks), (6, 6));
+    let (a, b) = tails(&out_with, 4, &out_without, 3);
+    assert_eq!(a, b);
+    assert!(a[0] != "N330 G0 X-10.46 Y-22.721 Z16.", "{out_with}");
+    for v in vs.iter().filter(|v| v.line >= 5) {
+        crate::compensate::assert_reaches(&l, v, "after G54");
+    }
+}
+
+/// The same on FANUC and LinuxCNC: a change of work offset (`G55`) keeps
+/// the rotary positions; the linear ones are forgotten until written
+/// again.
+#[test]
+fn compensate_iso_work_offset_change_keeps_the_rotary_positions() {
+    let l = crate::compensate::errors("bc-trunnion", 17, 20.0, "");
+    for d in [fivecal::Dialect::Fanuc, fivecal::Dialect::Linuxcnc] {
+        let program =
+            "G90 G54 G0 X0. Y0. Z50. B30. C45.\nG55\nG0 X10. Y5. Z20.\nG1 X20. F500.\nM30\n";
+        let (out, s, vs) =
+            crate::compensate::compensate(&l, fivecal::compensate::Settings::new(d), program);
+        assert!(s.skipped.is_empty(), "{d}: {:?}", s.skipped);
+        assert_eq!((s.motion_blocks, s.corrected_blocks), (3, 3), "{d}");
+        assert!(out.lines().nth(2) != Some("G0 X10. Y5. Z20."), "{d}: {out}");
+        for v in &vs {
+            crate::compensate::assert_reaches(&l, v, "after G55");
+        }
+    }
+}
+
+/// 121philip's SINUMERIK CAM program homes its axes in machine
+/// coordinates (`SUPA ... A=_A_HOME C=_C_HOME` with the variables set to
+/// 0) and never writes A again: every one of its 973 moves was left as
+/// written ("the position of A is not known"). A rotary axis positioned in
+/// machine coordinates is at the angle written in program coordinates too
+/// (no work offset has a rotary part), so the moves after it are corrected
+/// as after a `G0 A0 C0`; on FANUC a `G53 B-30.` is a `G0 B-30.`, and an
+/// incremental G53 word or a linear axis stays unknown.
+#[test]
+fn compensate_rotary_axis_positioned_in_machine_coordinates_is_known_after() {
+    let l = crate::compensate::errors("ac-trunnion", 18, 20.0, "");
+    let sinumerik = |rotary: &str| {
+        format!(
+            "N10 DEF REAL _A_HOME, _C_HOME\nN20 _A_HOME=0 _C_HOME=0\nN30 G17 G710 G94 G90\n{rotary}\nN150 G54\nN180 G0 X165.356 Y114.944 Z60. D1\nN190 Z53.\nN200 G1 X166.816 Y118.479 F250.\nM30\n"
+        )
+    };
+    let settings = |d| fivecal::compensate::Settings::new(d);
+    let d = fivecal::Dialect::Sinumerik;
+    let (supa, s, vs) = crate::compensate::compensate(
+        &l,
+        settings(d),
+        &sinumerik("N90 SUPA G0 A=_A_HOME C=_C_HOME D1"),
+    );
+    let (plain, _, _) =
+        crate::compensate::compensate(&l, settings(d), &sinumerik("N90 G0 A0 C0 D1"));
+    assert_eq!(
+        s.skipped
+            .iter()
+            .map(|(r, _)| r.as_str())
+            .collect::<Vec<_>>(),
+        Vec::<&str>::new(),
+        "{supa}"
+    );
+    assert_eq!((s.motion_blocks, s.corrected_blocks), (4, 3));
+    let (a, b) = tails(&supa, 5, &plain, 5);
+    assert_eq!(a, b);
+    for v in &vs {
+        crate::compensate::assert_reaches(&l, v, "after SUPA");
+    }
+
+    let l = crate::compensate::errors("bc-trunnion", 19, 20.0, "");
+    let fanuc = |rotary: &str| {
+        format!(
+            "G90 G54 G0 X0. Y0. Z100. B0. C0.\n{rotary}\nG0 X10. Y5. Z20.\nG1 X20. F500.\nM30\n"
+        )
+    };
+    let d = fivecal::Dialect::Fanuc;
+    let (g53, s, vs) = crate::compensate::compensate(&l, settings(d), &fanuc("G53 B-30."));
+    let (_, _, plain) = crate::compensate::compensate(&l, settings(d), &fanuc("G0 B-30."));
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert_eq!(g53.lines().nth(1), Some("G53 B-30."));
+    // The G53 block is kept; the next move writes the corrected B and C
+    // that the `G0 B-30.` block wrote itself: the same axis positions.
+    let after = |v: &[fivecal::compensate::Vertex]| {
+        v.iter()
+            .filter(|v| v.line >= 3)
+            .map(|v| v.written)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(after(&vs).len(), 2);
+    assert_eq!(after(&vs), after(&plain));
+    for v in &vs {
+        crate::compensate::assert_reaches(&l, v, "after G53");
+    }
+    // Incremental: where B ends is not written, and stays unknown.
+    let (_, s, _) = crate::compensate::compensate(&l, settings(d), &fanuc("G91 G53 B-30.\nG90"));
+    assert!(
+        s.skipped.iter().any(|(r, _)| r.contains("position of B")),
+        "{:?}",
+        s.skipped
+    );
+}
+
+/// The NX post for a Haas UMC-750 (read as FANUC) switches tool centre
+/// point control on with Haas's `G234 H02` and positions 3+2 sections
+/// with the dynamic work offset `G254`, cancelled by `G255`. Both were
+/// unknown codes "taken to move no axis", so the tip coordinates after
+/// `G234` were corrected as axis positions. `G234` is now read as `G43.4`
+/// is (the same rewrite), the rotary positions written before it stay
+/// known under it (switching TCP turns no rotary axis), and moves under
+/// `G254`, which is not modelled, are left as written and reported.
+#[test]
+fn compensate_haas_g234_is_tool_centre_point_control_and_g254_is_reported() {
+    let l = crate::compensate::errors("bc-trunnion", 20, 20.0, "");
+    let program = |tcp: &str| {
+        format!(
+            "G17 G54 G90\nG00 B7.125 C0.\n{tcp} H02\nG90 X-4.6 Y41.3 Z88.3\nG01 X-10.9 Y41.5 Z35.7 F250.\nX-10.4 Y41.8 Z35.\nG255\nG53 G00 Z0.\nG00 B82.875 C-180.\nG254\nG54 G90 G00 X-48.8 Y-59.\nG43 H01 Z7.\nG01 Y-64.1 Z6.8 F250.\nG255\nM30\n"
+        )
+    };
+    let settings = || fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
+    let (haas, s, vs) = crate::compensate::compensate(&l, settings(), &program("G234"));
+    let (fanuc, _, _) = crate::compensate::compensate(&l, settings(), &program("G43.4"));
+    let tail = |t: &str| t.lines().skip(3).map(str::to_string).collect::<Vec<_>>();
+    assert_eq!(tail(&haas), tail(&fanuc));
+    assert!(
+        s.coordinates
+            .iter()
+            .any(|c| c.meaning.contains("TCP") && c.why.contains("G234") && c.lines.0 == 4),
+        "{:?}",
+        s.coordinates
+    );
+    // B and C, positioned before G234, stay known under it: every move
+    // of the section is corrected.
+    let tcpc: Vec<_> = vs.iter().filter(|v| (4..=6).contains(&v.line)).collect();
+    assert_eq!(
+        tcpc.iter().map(|v| v.line).collect::<Vec<_>>(),
+        vec![4, 5, 6],
+        "{:?}",
+        s.skipped
+    );
+    for v in tcpc {
+        assert!(v.tcp != fivecal::nc::interp::Tcp::Off, "line {}", v.line);
+        crate::compensate::assert_reaches(&l, v, "under G234");
+    }
+    let dwo: Vec<usize> = s
+        .skipped
+        .iter()
+        .filter(|(r, _)| r.contains("G254"))
+        .flat_map(|(_, l)| l.first.clone())
+        .collect();
+    assert_eq!(dwo, vec![11, 12, 13]);
+    assert!(
+        !s.unmodelled
+            .iter()
+            .any(|(w, _)| w.contains("G234") || w.contains("G254") || w.contains("G255")),
+        "{:?}",
+        s.unmodelled
+    );
+}

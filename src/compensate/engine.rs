@@ -339,6 +339,9 @@ struct Pass<'a> {
     summary: Summary,
     skipped: IndexMap<String, Lines>,
     unmodelled: IndexMap<String, Lines>,
+    /// Motion blocks not corrected, by the reason of their first move
+    /// left as written.
+    uncorrected: IndexMap<String, Lines>,
     /// The last written end point had C held (the next move ramps C).
     last_held: bool,
     /// From the first block with macro logic on: the rest of the program,
@@ -369,6 +372,7 @@ impl<'a> Pass<'a> {
             },
             skipped: IndexMap::new(),
             unmodelled: IndexMap::new(),
+            uncorrected: IndexMap::new(),
             last_held: false,
             rest: Vec::new(),
             last_piece: None,
@@ -421,6 +425,7 @@ impl<'a> Pass<'a> {
         summary.inserted = self.writer.inserted;
         summary.skipped = self.skipped.into_iter().collect();
         summary.unmodelled = self.unmodelled.into_iter().collect();
+        summary.uncorrected_blocks = self.uncorrected.into_iter().collect();
         summary.macro_logic = macro_note;
         Ok(summary)
     }
@@ -442,6 +447,10 @@ impl<'a> Pass<'a> {
         let observer = &mut self.observer;
         writer.begin(block);
         summary.blocks += 1;
+        // Whether the block moves an axis, and why it was not corrected
+        // (the first move left as written).
+        let mut moved = false;
+        let mut left: Option<String> = None;
         for si in 0..block.segments.len() {
             let seg = block.segments[si];
             let before = interp.pos;
@@ -457,6 +466,7 @@ impl<'a> Pass<'a> {
             match event {
                 Event::Move(mv) => {
                     summary.moves += 1;
+                    moved |= moves_an_axis(&mv);
                     let f = interp.frame();
                     match c.plan(&f, &mv, &writer.emit, *last_held, line) {
                         Ok(plan) => {
@@ -505,11 +515,17 @@ impl<'a> Pass<'a> {
                                 && let Some(why) =
                                     check_corner(c, &f, corner, &mv, self.last_piece, first_piece)
                             {
+                                // The path around the corner misses: the
+                                // line that carries it is not corrected.
+                                left.get_or_insert_with(|| why.clone());
                                 skipped.entry(why).or_default().push(corner.line);
                             }
                             self.last_piece = last_piece;
                         }
                         Err(Refusal::Skip(reason)) => {
+                            if moves_an_axis(&mv) {
+                                left.get_or_insert_with(|| reason.clone());
+                            }
                             skipped.entry(reason).or_default().push(line);
                             let from = writer.emit;
                             writer.keep(block, &seg, interp, &before);
@@ -549,11 +565,15 @@ impl<'a> Pass<'a> {
                         (Skip::Expression, Some(w)) => w.to_string(),
                         _ => s.to_string(),
                     };
+                    moved = true;
+                    left.get_or_insert_with(|| reason.clone());
                     skipped.entry(reason).or_default().push(line);
                     writer.keep(block, &seg, interp, &before);
                     *last_held = false;
                 }
                 Event::Quiet => {
+                    moved = true;
+                    left.get_or_insert_with(|| super::LEFT_ON_PURPOSE.to_string());
                     writer.follow(block, &seg, interp, &before, true);
                     *last_held = false;
                 }
@@ -563,6 +583,13 @@ impl<'a> Pass<'a> {
         }
         if writer.end(block) {
             summary.changed += 1;
+        }
+        if moved {
+            summary.motion_blocks += 1;
+            match left {
+                Some(reason) => self.uncorrected.entry(reason).or_default().push(line),
+                None => summary.corrected_blocks += 1,
+            }
         }
         writer.edits.write_block(block, output)?;
         Ok(())
@@ -620,6 +647,18 @@ fn check_corner(
             "rounding or chamfer: the controller cannot cut it between the corrected lines ({why})"
         )),
     }
+}
+
+/// Whether a move moves an axis: an axis ends elsewhere than it started
+/// or where it was not known, or it is an arc (a full circle ends where
+/// it starts).
+fn moves_an_axis(mv: &interp::Move) -> bool {
+    matches!(mv.kind, interp::MoveKind::Arc(_))
+        || mv
+            .start
+            .iter()
+            .zip(&mv.end)
+            .any(|(s, e)| e.is_some() && s != e)
 }
 
 /// Extends the last section of `sections` to the move at `line`, or

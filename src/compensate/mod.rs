@@ -271,7 +271,23 @@ pub struct Summary {
     pub coordinates: Vec<CoordinateSection>,
     /// Where following the macro logic stopped short of the end, and why.
     pub macro_logic: Option<String>,
+    /// Blocks that move an axis: a move whose end differs from its start
+    /// (or starts where the position is unknown, or is an arc), or an
+    /// axis word left as written (a skipped move, a move in machine
+    /// coordinates, a reference return, a probing move). Unreadable blocks
+    /// are not among them (whether they move is not known); see
+    /// [`Summary::unreadable`].
+    pub motion_blocks: usize,
+    /// Of [`Summary::motion_blocks`], those whose every move was corrected.
+    pub corrected_blocks: usize,
+    /// The other motion blocks, grouped by why the first move of each
+    /// was left as written.
+    pub uncorrected_blocks: Vec<(String, Lines)>,
 }
+
+/// Why a move in machine coordinates, a reference return or a probing
+/// move is left as written: it is not a position of the tool on the part.
+pub const LEFT_ON_PURPOSE: &str = "machine coordinates (G53, SUPA, M91, M92), reference return or probing: left as written on purpose";
 
 /// Takes what the last statement did that the interpreter does not model
 /// (shared by the rewrite and `simulate nc`): refused under `--strict` at

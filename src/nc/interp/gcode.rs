@@ -18,8 +18,12 @@ const FANUC_G: &[u32] = &[
     412, 420, 422, 430, 434, 435, 440, 450, 460, 470, 480, 490, 500, 501, 510, 511, 520, 530, 531,
     540, 541, 550, 560, 570, 580, 590, 600, 610, 620, 630, 640, 650, 660, 670, 680, 682, 683, 684,
     690, 730, 740, 760, 800, 810, 820, 830, 840, 850, 860, 870, 880, 890, 900, 910, 920, 930, 940,
-    950, 960, 970, 980, 990,
+    950, 960, 970, 980, 990, 2340, 2540, 2550,
 ];
+
+/// Haas's dynamic work offset (G254): X, Y, Z in the work offset turned
+/// with the table for 3+2 positioning; not modelled.
+const HAAS_DWO: &str = "a Haas dynamic work offset (G254)";
 
 /// G codes LinuxCNC 2.9 knows (value x 10).
 const LINUXCNC_G: &[u32] = &[
@@ -167,6 +171,25 @@ impl Interpreter {
                             self.tool_length = false;
                             self.tcp = Tcp::Off;
                         }
+                        // Haas G234, tool centre point control: in the
+                        // tool length group as G43.4, X, Y, Z the tip in
+                        // the work offset turning with the table.
+                        2340 => {
+                            self.tool_length = true;
+                            self.tcp = Tcp::Axes;
+                        }
+                        2540 => {
+                            if self.transformed.is_none() {
+                                self.transformed = Some(HAAS_DWO);
+                            }
+                            self.pos[..3].fill(None);
+                        }
+                        2550 => {
+                            if self.transformed == Some(HAAS_DWO) {
+                                self.pos[..3].fill(None);
+                            }
+                            self.cancel(HAAS_DWO);
+                        }
                         541 => self.work_offset = 5410,
                         540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => self.work_offset = g,
                         683 | 684 => {
@@ -247,20 +270,21 @@ impl Interpreter {
         );
         if frame_now != old_frame {
             // The same numbers mean another place now; rotary positions
-            // are machine positions and keep their meaning unless the work
-            // offset or TCP changes, and in a tilted plane tool length
-            // compensation moves the controlled point along the plane's Z
-            // only.
+            // are machine positions whatever the frame (no work offset has
+            // a rotary part: each lies on the W origin at rotary zero; TCP
+            // turns the linear axes, not the rotary ones) and keep their
+            // meaning, and in a tilted plane tool length compensation
+            // moves the controlled point along the plane's Z only.
             let kept = self.pos;
             self.forget();
             let same = |i: usize| {
-                frame_now.0 == old_frame.0 && frame_now.2 == old_frame.2 && {
-                    i >= 3
-                        || (self.tilted
-                            && frame_now.3 == old_frame.3
-                            && frame_now.4 == old_frame.4
-                            && i < 2)
-                }
+                i >= 3
+                    || (frame_now.0 == old_frame.0
+                        && frame_now.2 == old_frame.2
+                        && self.tilted
+                        && frame_now.3 == old_frame.3
+                        && frame_now.4 == old_frame.4
+                        && i < 2)
             };
             for (i, k) in kept.iter().enumerate() {
                 if same(i) {
@@ -339,9 +363,15 @@ impl Interpreter {
                 self.data_setting(block, seg);
                 Event::None
             }
-            // Reference return and machine coordinates.
-            280 | 281 | 300 | 301 | 530 => {
+            // Reference return.
+            280 | 281 | 300 | 301 => {
                 self.forget_named(block, seg);
+                if has_axis { Event::Quiet } else { Event::None }
+            }
+            // Machine coordinates.
+            530 => {
+                let absolute = self.absolute;
+                self.machine_move(block, seg, |_, w| absolute && !w.incremental);
                 if has_axis { Event::Quiet } else { Event::None }
             }
             // Probing: the machine stops somewhere along the move.

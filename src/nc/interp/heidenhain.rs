@@ -482,8 +482,12 @@ impl Interpreter {
                 self.transformed = (!unity).then_some("scaling (CYCL DEF 11/26)");
             }
             (247, _) => {
+                // The rotary positions are machine positions: no preset has
+                // a rotary part (each lies on the W origin at rotary zero).
                 self.work_offset = 100_000 + 247;
+                let rotary = [self.pos[3], self.pos[4], self.pos[5]];
                 self.forget();
+                self.pos[3..].copy_from_slice(&rotary);
             }
             _ => {}
         }

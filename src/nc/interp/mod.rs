@@ -975,8 +975,31 @@ impl Interpreter {
         }
     }
 
+    /// A move in machine coordinates (G53, SUPA): the linear axes it names
+    /// end where the program's frame does not say, a rotary axis at the
+    /// angle written, which is its program position too (no work offset
+    /// has a rotary part: each lies on the W origin at rotary zero,
+    /// docs/model.md). `absolute` says whether a word is an absolute
+    /// position.
+    fn machine_move(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        absolute: impl Fn(&Block, &Word) -> bool,
+    ) {
+        for (_, w) in block.words(seg) {
+            let Some(i) = self.axis_index(w.addr) else {
+                continue;
+            };
+            self.pos[i] = match self.axis_value(&w) {
+                Ok(v) if i >= 3 && absolute(block, &w) => Some(v),
+                _ => None,
+            };
+        }
+    }
+
     /// Forgets the axes the block names (a move that ends somewhere the
-    /// program does not say: probing, reference return, machine coordinates).
+    /// program does not say: probing, reference return).
     fn forget_named(&mut self, block: &Block, seg: &Segment) {
         for (_, w) in block.words(seg) {
             if let Some(i) = self.axis_index(w.addr) {

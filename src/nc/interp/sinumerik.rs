@@ -330,13 +330,12 @@ impl Interpreter {
         );
         if now != old {
             // The same numbers mean another place now; the rotary axes
-            // stay where they are when only TRAORI or the tool offset
-            // changed (their positions are machine positions either way).
+            // stay where they are (their positions are machine positions
+            // whatever the frame: no work offset has a rotary part, each
+            // lies on the W origin at rotary zero).
             let rotary = [self.pos[3], self.pos[4], self.pos[5]];
             self.forget();
-            if (now.0, now.4) == (old.0, old.4) {
-                self.pos[3..].copy_from_slice(&rotary);
-            }
+            self.pos[3..].copy_from_slice(&rotary);
         }
         if let Some(m) = motion_here {
             self.motion = Some(m);
@@ -355,7 +354,14 @@ impl Interpreter {
             };
         }
         if machine || probing || g_nonmodal.is_some_and(|g| g == 740 || g == 750) {
-            self.forget_named(block, seg);
+            if machine && !probing && g_nonmodal.is_none() {
+                let absolute = self.absolute;
+                self.machine_move(block, seg, |b, w| {
+                    written_mode(b, w).map_or(absolute, |inc| !inc)
+                });
+            } else {
+                self.forget_named(block, seg);
+            }
             if call {
                 self.forget();
             }

@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CoordsArg {
     /// As the program switches tool centre point control on and off
-    /// (G43.4/G43.5, M128, FUNCTION TCPM).
+    /// (G43.4/G43.5, Haas G234, M128, FUNCTION TCPM, TRAORI).
     Auto,
     /// Axis positions throughout (post-side program).
     Axes,
@@ -662,6 +662,11 @@ fn describe(
         s.subdivided.len(),
         s.linearized.len(),
         cfg.settings.tolerance * 1e3
+    );
+    let _ = writeln!(
+        t,
+        "  {} of {} motion blocks (blocks that move an axis) corrected",
+        s.corrected_blocks, s.motion_blocks
     );
     match (s.largest_linear, s.largest_rotary) {
         (Some(l), Some(r)) => {
