@@ -7,7 +7,8 @@
 //! programmable frames (`TRANS`/`ATRANS`, `ROT`/`AROT` with `X Y Z`
 //! angles or `RPL=` in G17 composed into one frame `R p + t`; `SCALE`,
 //! `MIRROR`, solid angles `ROTS`/`AROTS`/`CROTS`, `PAROT`, `TOROT` not
-//! modelled), blocks in machine coordinates
+//! modelled; a CYCLE800 on a programmable frame, a frame inside a swivel
+//! plane and TRAORI inside one are left as written with the reason), blocks in machine coordinates
 //! (`SUPA`, `G53`, `G153`), probing (`MEAS=`, `MEAW=`), cycles and
 //! subprogram calls (the position is unknown after them).
 
