@@ -8,9 +8,10 @@
 //! angles or `RPL=` in G17 composed into one frame `R p + t`; `SCALE`,
 //! `MIRROR`, solid angles `ROTS`/`AROTS`/`CROTS`, `PAROT`, `TOROT` not
 //! modelled; a CYCLE800 on a programmable frame, a frame inside a swivel
-//! plane and TRAORI inside one are left as written with the reason), blocks in machine coordinates
-//! (`SUPA`, `G53`, `G153`), probing (`MEAS=`, `MEAW=`), cycles and
-//! subprogram calls (the position is unknown after them).
+//! plane and TRAORI inside one are left as written with the reason),
+//! blocks in machine coordinates (`SUPA`, `G53`, `G153`), probing
+//! (`MEAS=`, `MEAW=`), cycles and subprogram calls (the position is
+//! unknown after them).
 
 use super::{
     AXES, Arc, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Plane, Skip, Tcp, Units,
