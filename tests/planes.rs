@@ -539,3 +539,136 @@ fn linuxcnc_g68_2_by_points_and_by_vectors_is_the_same_plane_as_by_angles() {
         s.unmodelled
     );
 }
+
+#[test]
+fn sinumerik_rot_and_arot_frames_land_on_the_intended_points() {
+    // A programmable frame built up step by step (TRANS, AROT about Z,
+    // ATRANS along the turned X, AROT about the turned X) with a line and
+    // a CR= arc in it, then ROT RPL= replacing it, with axis positions and
+    // under TRAORI; the rotary axes stay where N50 put them.
+    let program = "\
+%_N_ROT_MPF
+N10 G17 G90 G710 G94
+N20 T=\"MILL D10\" M6
+N30 D1
+N40 G54
+N50 G0 X0 Y0 Z60 B20 C10
+N60 TRANS X10 Y-5
+N70 AROT Z30
+N80 G1 X20 Y0 Z5 F500
+N90 ATRANS X5
+N100 AROT X10
+N110 G1 X20 Y10 Z2
+N120 G2 X30 Y0 CR=10
+N130 G0 Z40
+N140 ROT RPL=-45
+N150 G1 X15 Y5 Z3
+N160 TRAORI
+N170 G1 X10 Y5 Z3 B25 C15
+N180 X12 Y6 Z4 B30 C20
+N190 TRAFOOF
+N200 ROT
+N210 G0 X0 Y0 Z60
+N220 M30
+";
+    let moves = [6, 9, 12, 13, 14, 16, 18, 19, 22];
+    let zero = errors("bc-trunnion", 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(Dialect::Sinumerik), program);
+    assert_eq!(out, program, "zero error must give the same bytes");
+    assert!(s0.skipped.is_empty(), "{:?}", s0.skipped);
+    assert!(s0.unmodelled.is_empty(), "{:?}", s0.unmodelled);
+    let l = errors("bc-trunnion", 93, 30.0, "");
+    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Sinumerik), program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert_eq!(changed_lines(&out, program), moves, "{out}");
+    assert!(vs.len() >= moves.len());
+    for v in &vs {
+        assert_reaches(&l, v, "ROT/AROT");
+    }
+    check_held(
+        &l,
+        Dialect::Sinumerik,
+        Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        &[],
+        "ROT/AROT",
+    );
+    // The frames by hand, on the nominal machine: the axes at
+    // T(10, -5, 0) Rz(30) (T(5, 0, 0) Rx(10) p) for line 12, Rz(-45) p for
+    // line 16 (ROT replaced TRANS), and under TRAORI the tip in W is
+    // Rz(-45) p.
+    let ends = nominal_ends("bc-trunnion", Dialect::Sinumerik, program);
+    let at = |line: usize| ends.iter().rev().find(|e| e.0 == line).copied().unwrap();
+    let rot = |axis: Vector3<f64>, deg: f64| {
+        nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
+    };
+    let k = &zero.model.kin;
+    let tip = |p: Vector3<f64>, b: f64, c: f64| {
+        k.forward_nominal(&fivecal::kinematics::Axes::new(p.x, p.y, p.z, b, c))
+            .tip
+    };
+    let a12 = Vector3::new(10.0, -5.0, 0.0)
+        + rot(Vector3::z(), 30.0)
+            * (Vector3::new(5.0, 0.0, 0.0)
+                + rot(Vector3::x(), 10.0) * Vector3::new(20.0, 10.0, 2.0));
+    assert!(
+        (at(12).1 - tip(a12, 20.0, 10.0)).norm() < 1e-9,
+        "{}",
+        at(12).1
+    );
+    let a16 = rot(Vector3::z(), -45.0) * Vector3::new(15.0, 5.0, 3.0);
+    assert!(
+        (at(16).1 - tip(a16, 20.0, 10.0)).norm() < 1e-9,
+        "{}",
+        at(16).1
+    );
+    let w19 = rot(Vector3::z(), -45.0) * Vector3::new(12.0, 6.0, 4.0);
+    assert!((at(19).1 - w19).norm() < 1e-9, "{}", at(19).1);
+}
+
+#[test]
+fn sinumerik_traori_inside_a_swivel_plane_is_left_as_written_with_the_reason() {
+    // CYCLE800 then TRAORI with rotary positions and with a tool vector:
+    // the swivel frame would turn both the tip and the orientation, which
+    // fivecal does not model; those moves are kept byte for byte and
+    // named, and the 3+2 move before them is corrected.
+    let program = "\
+N10 G17 G90 G710
+N20 T=\"MILL D10\" M6
+N30 D1
+N40 G54
+N50 CYCLE800(1,\"TC1\",0,57,0,0,0,0,30,0,0,0,0,-1,100,1)
+N60 G0 X-20 Y-10 Z20
+N70 TRAORI
+N80 G1 X10 Y0 Z5 F500
+N90 X12 A3=0 B3=0.2 C3=1
+N100 X14 B20 C10
+N110 TRAFOOF
+N120 G0 X-20 Y-10 Z20
+N130 CYCLE800()
+N140 M30
+";
+    let l = errors("bc-trunnion", 94, 30.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Sinumerik), program);
+    assert_eq!(changed_lines(&out, program), [6], "{out}");
+    let left: Vec<(String, String)> = s
+        .skipped
+        .iter()
+        .map(|(why, lines)| (why.clone(), lines.list()))
+        .collect();
+    assert!(
+        left.iter().any(|(why, lines)| why
+            .contains("tool centre point control inside a tilted working plane")
+            && lines == "8, 9, 10"),
+        "{left:?}"
+    );
+    // N100 left the rotary axes off the plane: its moves after TRAFOOF
+    // are not 3+2 moves any more, and are said to be so.
+    assert!(
+        left.iter()
+            .any(|(why, lines)| why.contains("rotary positions") && lines == "12"),
+        "{left:?}"
+    );
+}

@@ -454,6 +454,7 @@ impl<'a> Pass<'a> {
         for si in 0..block.segments.len() {
             let seg = block.segments[si];
             let before = interp.pos;
+            let frame_before = interp.frame();
             let event = interp.step(block, &seg);
             super::take_unmodelled(interp, block, path, c.settings.strict, &mut self.unmodelled)
                 .map_err(CompensateError::Unmodelled)?;
@@ -577,7 +578,7 @@ impl<'a> Pass<'a> {
                     writer.follow(block, &seg, interp, &before, true);
                     *last_held = false;
                 }
-                Event::None => writer.follow(block, &seg, interp, &before, false),
+                Event::None => writer.reframe(block, &seg, interp, (&before, &frame_before)),
             }
             writer.after_statement(block, &seg, interp, motion_done);
         }

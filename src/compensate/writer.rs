@@ -232,6 +232,34 @@ impl Writer {
         self.follow(block, seg, interp, before, true);
     }
 
+    /// A statement that moved nothing but changed the frame (a datum
+    /// shift, a programmable frame): the written position is the same
+    /// place, now written in the new frame. When it is known on every axis
+    /// it is mapped exactly (a corrected point keeps its correction, turned
+    /// with the frame); otherwise it follows as any other statement.
+    pub(super) fn reframe(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        interp: &Interpreter,
+        before: (&[Option<f64>; 6], &Frame),
+    ) {
+        let to = interp.frame();
+        let axes = to.axes();
+        let known = |p: &[Option<f64>; 6]| axes.iter().all(|&a| p[a].is_some());
+        if to == *before.1 || !known(&self.emit) || !known(before.0) || !known(&interp.pos) {
+            return self.follow(block, seg, interp, before.0, false);
+        }
+        let p = to.program(
+            &before
+                .1
+                .model(&crate::nc::interp::coordinates::known(&self.emit)),
+        );
+        for a in axes {
+            self.emit[a] = Some(p[a]);
+        }
+    }
+
     /// Follows a statement that is left as written: the controller moves
     /// where the words say, from wherever the previous blocks left it.
     pub(super) fn follow(

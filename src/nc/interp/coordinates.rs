@@ -2,7 +2,7 @@
 //! shifts, where the program zero lies in W, and the tool length the
 //! program leaves to the controller or not.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 use super::Tcp;
 use super::plane::WorkPlane;
@@ -28,13 +28,17 @@ pub struct Frame {
     /// The tilted working plane X, Y, Z are written in (then `tcp` is
     /// [`Tcp::Axes`]: the tip in W at the rotary positions in force).
     pub plane: Option<WorkPlane>,
+    /// The rotation of a programmable frame (SINUMERIK `ROT`/`AROT`):
+    /// X, Y, Z are turned by it before the plane and the shifts, so that
+    /// with the shift it forms the frame `R p + t` (identity elsewhere).
+    pub rot: Matrix3<f64>,
 }
 
 impl Frame {
     /// Program coordinates to model axes (or, under TCP, tip and rotary
     /// positions).
     pub fn model(&self, p: &[f64; 6]) -> Axes {
-        let mut q = Vector3::new(p[0], p[1], p[2]);
+        let mut q = self.rot * Vector3::new(p[0], p[1], p[2]);
         if let Some(w) = &self.plane {
             q = w.to_workpiece(&q);
         }
@@ -61,6 +65,7 @@ impl Frame {
         if let Some(w) = &self.plane {
             q = w.to_plane(&q);
         }
+        let q = self.rot.transpose() * q;
         p[0] = q.x;
         p[1] = q.y;
         p[2] = q.z;

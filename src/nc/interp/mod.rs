@@ -41,7 +41,7 @@ mod sinumerik;
 
 use std::sync::Arc as Shared;
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 
 pub use coordinates::Frame;
 pub use heidenhain::CycleDef;
@@ -492,8 +492,13 @@ pub struct Interpreter {
     pub transformed: Option<&'static str>,
     /// G92 / CYCL DEF 7 datum shift per linear axis, program units.
     pub shift: [f64; 3],
-    /// G52 local shift per linear axis, program units.
+    /// G52 local shift per linear axis, program units (SINUMERIK: the
+    /// translation of the programmable frame, `TRANS`/`ATRANS`).
     pub local_shift: [f64; 3],
+    /// The rotation of SINUMERIK's programmable frame (`ROT`/`AROT`): a
+    /// point written at `p` lies at `frame_rot * p + local_shift` in the
+    /// work offset's coordinates; identity elsewhere.
+    pub frame_rot: Matrix3<f64>,
     /// Whether the shifts are known.
     pub shift_known: bool,
     /// Cutter radius compensation on (G41/G42, RL/RR).
@@ -576,6 +581,7 @@ impl Interpreter {
             transformed: None,
             shift: [0.0; 3],
             local_shift: [0.0; 3],
+            frame_rot: Matrix3::identity(),
             shift_known: true,
             radius_comp: false,
             pos: [None; 6],
@@ -696,6 +702,7 @@ impl Interpreter {
             tcp,
             tilt: self.cfg.tilt,
             plane,
+            rot: self.frame_rot,
         }
     }
 

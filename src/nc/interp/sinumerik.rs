@@ -4,10 +4,14 @@
 //! `X=IC()`), arcs with incremental or `=AC()` centres and `CR=` radii,
 //! tool offsets (`D0` off, `D1`.. on), TRAORI / TRAFOOF with rotary
 //! positions or `A3= B3= C3=` tool vectors, CYCLE800 swivel planes,
-//! programmable frames (`TRANS`/`ATRANS` followed; `ROT`, `SCALE`,
-//! `MIRROR`, `PAROT`, `TOROT` not modelled), blocks in machine coordinates
-//! (`SUPA`, `G53`, `G153`), probing (`MEAS=`, `MEAW=`), cycles and
-//! subprogram calls (the position is unknown after them).
+//! programmable frames (`TRANS`/`ATRANS`, `ROT`/`AROT` with `X Y Z`
+//! angles or `RPL=` in G17 composed into one frame `R p + t`; `SCALE`,
+//! `MIRROR`, solid angles `ROTS`/`AROTS`/`CROTS`, `PAROT`, `TOROT` not
+//! modelled; a CYCLE800 on a programmable frame, a frame inside a swivel
+//! plane and TRAORI inside one are left as written with the reason),
+//! blocks in machine coordinates (`SUPA`, `G53`, `G153`), probing
+//! (`MEAS=`, `MEAW=`), cycles and subprogram calls (the position is
+//! unknown after them).
 
 use super::{
     AXES, Arc, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Plane, Skip, Tcp, Units,
@@ -21,6 +25,42 @@ const FRAMES: [&str; 12] = [
     "TRANS", "ATRANS", "ROT", "AROT", "ROTS", "AROTS", "CROTS", "SCALE", "ASCALE", "MIRROR",
     "AMIRROR", "RPL",
 ];
+
+/// Programmable frames fivecal does not model, by why.
+const FRAME_SCALING: &str = "a programmable frame scaling or mirroring (SCALE, MIRROR)";
+const FRAME_SOLID: &str =
+    "a programmable frame rotation by solid angles (ROTS, AROTS, CROTS: not modelled)";
+const FRAME_ROTARY: &str = "a programmable frame on a rotary axis (TRANS/ROT with A, B or C)";
+const FRAME_PARAMETER: &str = "a programmable frame rotation by a parameter or an expression";
+const FRAME_RPL_AND_AXES: &str = "a programmable frame rotation with RPL= and axis angles together";
+const FRAME_RPL_PLANE: &str =
+    "a programmable frame rotation RPL= in the G18 or G19 plane (its sense there is not modelled)";
+const UNMODELLED_FRAMES: [&str; 6] = [
+    FRAME_SCALING,
+    FRAME_SOLID,
+    FRAME_ROTARY,
+    FRAME_PARAMETER,
+    FRAME_RPL_AND_AXES,
+    FRAME_RPL_PLANE,
+];
+
+/// The value of `RPL=` in a frame statement (`ROT RPL=30`: the turn in the
+/// plane), `Some(None)` when it is not a number.
+fn plane_rotation(block: &Block, seg: &Segment) -> Option<Option<f64>> {
+    let toks = block.seg_tokens(seg);
+    let at = toks.iter().position(|t| {
+        t.kind == TokenKind::Param && block.bytes(t.span).eq_ignore_ascii_case(b"RPL")
+    })?;
+    let value = toks[at + 1..]
+        .iter()
+        .find(|t| t.kind == TokenKind::Expr)
+        .map(|t| {
+            String::from_utf8_lossy(block.bytes(t.span))
+                .trim()
+                .to_string()
+        });
+    Some(value.and_then(|v| v.parse::<f64>().ok().filter(|v| v.is_finite())))
+}
 
 /// Commands that move no axis and change nothing fivecal models.
 const QUIET_COMMANDS: [&str; 52] = [
@@ -71,6 +111,7 @@ type Known = (
         [f64; 3],
         Option<&'static str>,
     ),
+    nalgebra::Matrix3<f64>,
 );
 
 impl Interpreter {
@@ -106,6 +147,7 @@ impl Interpreter {
                 self.local_shift,
                 self.transformed,
             ),
+            self.frame_rot,
         )
     }
 
@@ -210,7 +252,12 @@ impl Interpreter {
                         self.cancel("a modal subprogram call (MCALL)");
                     }
                 }
-                n if FRAMES.contains(&n) => frame = Some(n.to_string()),
+                // `RPL` belongs to the ROT/AROT before it.
+                n if FRAMES.contains(&n) => {
+                    if n != "RPL" || frame.is_none() {
+                        frame = Some(n.to_string());
+                    }
+                }
                 n if QUIET_COMMANDS.contains(&n) => {}
                 n if n.starts_with("CYCLE") => cycle = true,
                 _ => {
@@ -438,9 +485,19 @@ impl Interpreter {
             }) => (rot, abc, before, after, dir, additive),
             Err(why) => return self.plane_unmodelled(line, at, why),
         };
-        if self.local_shift != [0.0; 3] || self.shift != [0.0; 3] {
-            // fivecal follows TRANS as a shift added after the plane.
-            return self.plane_unmodelled(line, at, "CYCLE800 on a programmable frame (TRANS)");
+        if self.local_shift != [0.0; 3]
+            || self.shift != [0.0; 3]
+            || self.frame_rot != nalgebra::Matrix3::identity()
+        {
+            // The swivel acts on the frame chain, but which frame it turns
+            // about when a programmable one is in force (its zero point
+            // or the work offset's), and whether the programmable frame is
+            // kept in it, is not read in a primary text.
+            return self.plane_unmodelled(
+                line,
+                at,
+                "CYCLE800 on a programmable frame (TRANS/ROT in force): which zero point the swivel turns about is not known",
+            );
         }
         let t = self.cfg.tilt;
         let direct = rot.is_none();
@@ -486,16 +543,35 @@ impl Interpreter {
         }
     }
 
-    /// `TRANS`/`ATRANS` shift the zero point by the block's axis values
-    /// (followed); the other frame statements turn, scale or mirror it
-    /// (not modelled) or, written alone, cancel their part.
+    /// A programmable frame statement. SINUMERIK's programmable frame maps
+    /// a point written at `p` to `R p + t` in the coordinates of the work
+    /// offset (kept here as `frame_rot` and `local_shift`). Read in
+    /// Siemens' programming manuals (SINUMERIK ONE NC programming, the
+    /// 808D manual): `TRANS` is absolute and clears the previous offset,
+    /// rotation, scale and mirror, `ATRANS` adds; `ROT X.. Y.. Z..` turns
+    /// in the order Z, then the turned Y, then the twice-turned X (RPY,
+    /// the default of the control; a control set to Euler angles reads
+    /// the same words as Z, X', Z'', which the program does not show),
+    /// `ROT RPL=` turns in the plane, `AROT` adds; `TRANS`/`ROT` written
+    /// alone clear. The general rule of the frame chain, not read on a page
+    /// of its own (fivecal's reading, as every controller with frames
+    /// composes them): `ROT` (like every absolute frame statement)
+    /// replaces the whole programmable frame, and an additive statement
+    /// acts in the frame in force, so
+    /// `ATRANS v` adds `R v` and `AROT` composes `R R'` about the current
+    /// zero point. The sense of an angle is the right-hand rule about the
+    /// axis (as every rotation in `plane`). What stays unmodelled is
+    /// refused: scaling and mirroring, solid angles (`ROTS`, `AROTS`,
+    /// `CROTS`: the manuals' notes name them only), `RPL=` outside G17,
+    /// frames on rotary axes, values in parameters, and any frame inside a
+    /// CYCLE800 swivel plane.
     fn si_frame(&mut self, block: &Block, seg: &Segment, name: &str) {
-        const ROTATION: &str =
-            "a programmable frame rotation, scaling or mirroring (ROT, SCALE, MIRROR)";
+        use nalgebra::{Matrix3, Vector3};
         let mut vals = [None::<f64>; 3];
         let mut any = false;
         let mut unknown = false;
         let mut nonzero = false;
+        let mut rotary = false;
         for (_, w) in block.words(seg) {
             let Some(i) = self.axis_index(w.addr) else {
                 continue;
@@ -506,13 +582,24 @@ impl Interpreter {
                     nonzero |= v != 0.0;
                     if i < 3 {
                         vals[i] = Some(v);
+                    } else {
+                        rotary |= v != 0.0;
                     }
                 }
-                Err(_) => unknown = true,
+                Err(_) => {
+                    unknown = true;
+                    rotary |= i >= 3;
+                }
             }
         }
-        let absolute = !name.starts_with('A');
-        let old = self.local_shift;
+        let rpl = plane_rotation(block, seg);
+        if let Some(r) = rpl {
+            any = true;
+            match r {
+                Some(v) => nonzero |= v != 0.0,
+                None => unknown = true,
+            }
+        }
         if self.tilted && any {
             let at = block.tokens[seg.body as usize].span.start as usize;
             return self.plane_unmodelled(
@@ -521,44 +608,80 @@ impl Interpreter {
                 "a programmable frame inside the swivel plane",
             );
         }
+        let absolute = !name.starts_with('A');
+        let (old_rot, old_shift) = (self.frame_rot, Vector3::from(self.local_shift));
+        if absolute {
+            // An absolute frame statement replaces the whole programmable
+            // frame.
+            self.frame_rot = Matrix3::identity();
+            self.local_shift = [0.0; 3];
+            self.shift_known = true;
+            for what in UNMODELLED_FRAMES {
+                self.cancel(what);
+            }
+        }
+        let given = Vector3::new(
+            vals[0].unwrap_or(0.0),
+            vals[1].unwrap_or(0.0),
+            vals[2].unwrap_or(0.0),
+        );
         match name {
             "TRANS" | "ATRANS" => {
-                if absolute {
-                    // An absolute frame statement replaces the whole
-                    // programmable frame.
-                    self.cancel(ROTATION);
-                    self.local_shift = [0.0; 3];
-                }
                 if self.transformed.is_some() && !absolute {
-                    // Along turned axes: the shift is not along X, Y, Z.
+                    // Along axes scaled or mirrored: not a known shift.
                     self.forget();
                 }
-                for (shift, v) in self.local_shift.iter_mut().zip(vals) {
-                    if let Some(v) = v {
-                        *shift += v;
-                    }
-                }
+                let t = Vector3::from(self.local_shift) + self.frame_rot * given;
+                self.local_shift = t.into();
                 if unknown {
                     self.shift_known = false;
-                } else if absolute {
-                    self.shift_known = true;
+                }
+            }
+            "ROT" | "AROT" if any => {
+                let turn = match rpl {
+                    _ if rotary => Err(FRAME_ROTARY),
+                    _ if unknown => Err(FRAME_PARAMETER),
+                    Some(_) if vals.iter().any(Option::is_some) => Err(FRAME_RPL_AND_AXES),
+                    Some(_) if self.plane != Plane::Xy => Err(FRAME_RPL_PLANE),
+                    Some(a) => Ok(super::plane::about(b'Z', a.unwrap_or(0.0))),
+                    None => Ok(super::plane::intrinsic(b"ZYX", [given.z, given.y, given.x])),
+                };
+                match turn {
+                    Ok(r) => self.frame_rot *= r,
+                    Err(why) => self.transformed = Some(why),
+                }
+            }
+            "ROT" | "AROT" => {}
+            "ROTS" | "AROTS" | "CROTS" => {
+                if any {
+                    self.transformed = Some(FRAME_SOLID);
                 }
             }
             _ => {
-                if absolute {
-                    self.local_shift = [0.0; 3];
-                    self.cancel(ROTATION);
+                if any && (nonzero || unknown) {
+                    self.transformed = Some(FRAME_SCALING);
                 }
-                if any && (nonzero || unknown) || name == "RPL" {
-                    self.transformed = Some(ROTATION);
-                }
-                self.forget();
             }
         }
-        for ((p, o), n) in self.pos.iter_mut().zip(old).zip(self.local_shift) {
-            if let Some(v) = p {
-                *v += o - n;
+        if rotary {
+            self.transformed.get_or_insert(FRAME_ROTARY);
+            self.pos[3..].fill(None);
+        }
+        // The tracked positions, written in the new frame: the same points.
+        let (rot, shift) = (self.frame_rot, Vector3::from(self.local_shift));
+        let xyz = [self.pos[0], self.pos[1], self.pos[2]];
+        if rot == old_rot {
+            let d = rot.transpose() * (old_shift - shift);
+            for (p, d) in self.pos.iter_mut().zip(d.iter()) {
+                if let Some(v) = p {
+                    *v += d;
+                }
             }
+        } else if let [Some(x), Some(y), Some(z)] = xyz {
+            let p = rot.transpose() * (old_rot * Vector3::new(x, y, z) + old_shift - shift);
+            self.pos[..3].copy_from_slice(&[Some(p.x), Some(p.y), Some(p.z)]);
+        } else {
+            self.pos[..3].fill(None);
         }
     }
 
@@ -723,6 +846,13 @@ impl Interpreter {
                     "a tool vector (A3= B3= C3=) outside TRAORI or on an arc",
                 ));
             }
+            if self.frame_rot != nalgebra::Matrix3::identity() {
+                // The vector is in the turned frame and is written back in
+                // W by the rewriter.
+                return Event::Skip(Skip::Transformed(
+                    "a programmable frame rotation (ROT/AROT) under tool vectors (A3= B3= C3=)",
+                ));
+            }
             mv.tool_vector = Some((
                 [
                     vector[0].map_or(0.0, |x| x.1),
@@ -740,5 +870,128 @@ impl Interpreter {
             }
         }
         Event::Move(mv)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::tests::run;
+    use super::*;
+    use crate::machine::Dialect;
+    use nalgebra::{Matrix3, Rotation3, Vector3};
+
+    fn close(a: &Matrix3<f64>, b: &Matrix3<f64>) -> bool {
+        (a - b).abs().max() < 1e-12
+    }
+
+    #[test]
+    fn frames_compose_as_a_hand_computation() {
+        // TRANS X10 Y-5, turned 30 deg about Z there, moved 5 along the
+        // turned X, turned 10 deg about the twice-turned X: R = Rz(30)
+        // Rx(10), t = (10, -5, 0) + 5 (cos 30, sin 30, 0).
+        let (_, m) = run(
+            "G17 G90 G710 D1\nTRANS X10 Y-5\nAROT Z30\nATRANS X5\nAROT X10\n",
+            Dialect::Sinumerik,
+        );
+        let (s, c) = (0.5, 0.75f64.sqrt());
+        let x10 = 10f64.to_radians();
+        let by_hand = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+            * Matrix3::new(
+                1.0,
+                0.0,
+                0.0,
+                0.0,
+                x10.cos(),
+                -x10.sin(),
+                0.0,
+                x10.sin(),
+                x10.cos(),
+            );
+        assert!(close(&m.frame_rot, &by_hand), "{}", m.frame_rot);
+        let t = Vector3::from(m.local_shift);
+        assert!((t - Vector3::new(10.0 + 5.0 * c, -2.5, 0.0)).norm() < 1e-12);
+        // The frame puts a written point at R p + t.
+        let f = m.frame();
+        let p = Vector3::new(20.0, 10.0, 2.0);
+        let a = f.model(&[p.x, p.y, p.z, 0.0, 20.0, 10.0]);
+        assert!((a.xyz - (by_hand * p + t)).norm() < 1e-12);
+        let back = f.program(&a);
+        assert!((Vector3::new(back[0], back[1], back[2]) - p).norm() < 1e-12);
+
+        // ROT X Y Z turns Z, then the turned Y, then the twice-turned X
+        // (roll, pitch, yaw); an absolute ROT clears the translation.
+        let (_, m) = run("TRANS X3\nROT X10 Y20 Z=30\n", Dialect::Sinumerik);
+        let rpy = Rotation3::from_euler_angles(
+            10f64.to_radians(),
+            20f64.to_radians(),
+            30f64.to_radians(),
+        );
+        assert!(close(&m.frame_rot, rpy.matrix()));
+        assert_eq!(m.local_shift, [0.0; 3]);
+        // RPL= in G17 is the turn about Z; ROT alone and TRANS clear.
+        let (_, m) = run("ROT RPL=-45\n", Dialect::Sinumerik);
+        assert!(close(
+            &m.frame_rot,
+            &super::super::plane::about(b'Z', -45.0)
+        ));
+        let (_, m) = run("AROT RPL=20\nATRANS Y2\nROT\n", Dialect::Sinumerik);
+        assert!(m.frame_rot == Matrix3::identity() && m.local_shift == [0.0; 3]);
+        assert!(m.transformed.is_none());
+    }
+
+    #[test]
+    fn tracked_positions_stay_the_same_points_when_the_frame_turns() {
+        // X1 Y2 Z3 seen from a frame turned 90 deg about Z: (2, -1, 3).
+        let (_, m) = run("G90 G0 X1 Y2 Z3 B0 C0\nAROT Z90\n", Dialect::Sinumerik);
+        let p = [m.pos[0].unwrap(), m.pos[1].unwrap(), m.pos[2].unwrap()];
+        assert!(
+            (p[0] - 2.0).abs() < 1e-12 && (p[1] + 1.0).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert_eq!((p[2], m.pos[4], m.pos[5]), (3.0, Some(0.0), Some(0.0)));
+        // Then ATRANS X1 (along the turned X, the old Y): (1, -1, 3).
+        let (_, m) = run(
+            "G90 G0 X1 Y2 Z3 B0 C0\nAROT Z90\nATRANS X1\n",
+            Dialect::Sinumerik,
+        );
+        assert!((m.pos[0].unwrap() - 1.0).abs() < 1e-12);
+        assert!((m.pos[1].unwrap() + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn frames_fivecal_does_not_model_are_refused_with_the_reason() {
+        let why = |src: &str| {
+            let (ev, _) = run(src, Dialect::Sinumerik);
+            match ev.last() {
+                Some(Event::Skip(s)) => s.to_string(),
+                other => panic!("{src}: {other:?}"),
+            }
+        };
+        let head = "G17 G90 G710 D1\nG0 X0 Y0 Z50 B0 C0\n";
+        for (frame, reason) in [
+            ("AROTS X10 Y20", "solid angles"),
+            ("SCALE X2", "scaling"),
+            ("G18\nROT RPL=30", "G18 or G19"),
+            ("ROT Z=R1", "parameter"),
+            ("ROT X10 RPL=5", "RPL= and axis angles"),
+            ("TRANS C10", "rotary axis"),
+        ] {
+            let got = why(&format!("{head}{frame}\nG1 X10 Y0 Z0 F100\n"));
+            assert!(got.contains(reason), "{frame}: {got}");
+        }
+        let got = why(&format!(
+            "{head}TRAORI\nROT Z30\nG1 X10 Y0 Z0 A3=0 B3=0 C3=1 F100\n"
+        ));
+        assert!(got.contains("tool vectors"), "{got}");
+        // CYCLE800 on a turned programmable frame, and a frame inside the
+        // swivel plane.
+        let swivel = "CYCLE800(1,\"TC1\",0,57,0,0,0,0,30,0,0,0,0,-1,100,1)";
+        for src in [
+            format!("{head}ROT Z30\n{swivel}\nG1 X10 Y0 Z0 F100\n"),
+            format!("{head}{swivel}\nAROT Z30\nG1 X10 Y0 Z0 F100\n"),
+        ] {
+            let got = why(&src);
+            assert!(got.contains("does not model"), "{src}: {got}");
+        }
     }
 }

@@ -1,6 +1,6 @@
 use super::*;
 use crate::nc::Syntax;
-fn run(src: &str, d: Dialect) -> (Vec<Event>, Interpreter) {
+pub(super) fn run(src: &str, d: Dialect) -> (Vec<Event>, Interpreter) {
     let kin = Kinematics::new(&crate::machine::Machine::builtin("bc-trunnion").unwrap());
     let mut m = Interpreter::new(&Settings::new(d), &kin);
     let syn = Syntax {
