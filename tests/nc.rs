@@ -275,7 +275,7 @@ fn the_corpus_covers_every_construct_of_the_issue() {
 fn modal_state_along_the_five_axis_fanuc_program() {
     let path = fixture("fanuc/five_axis_tcp.nc");
     let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
-    let mut m = Interpreter::new(&interp::Settings::new(Dialect::Fanuc), &kin);
+    let mut m = Interpreter::new(&interp::InterpreterSettings::new(Dialect::Fanuc), &kin);
     let mut at = std::collections::HashMap::new();
     for b in blocks(&path, Dialect::Fanuc, true) {
         for s in &b.segments {

@@ -242,7 +242,8 @@ fn sinumerik_probing_programs_measure_each_touch_along_its_planned_line() {
                 })
                 .collect();
             let kin = Kinematics::with_gauge_length(&p.machine, p.probe.length);
-            let mut interp = Interpreter::new(&interp::Settings::new(Dialect::Sinumerik), &kin);
+            let mut interp =
+                Interpreter::new(&interp::InterpreterSettings::new(Dialect::Sinumerik), &kin);
             let bs = blocks(&p.program.text);
             let mut found = 0;
             for (bi, b) in bs.iter().enumerate() {

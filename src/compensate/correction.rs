@@ -2,7 +2,7 @@
 //! values that reach it on the machine with the errors, the limit on the
 //! size of a correction, and how many pieces the move needs (or whether an
 //! arc stays an arc) so the actual path stays within the tolerance. The
-//! result is a [`Plan`] of corrected points; writing them into the
+//! result is a [`WritePlan`] of corrected points; writing them into the
 //! program's text is the writer's business.
 
 use std::f64::consts::PI;
@@ -20,7 +20,7 @@ use crate::nc::interp::{AXES, Arc, Drill, Frame, Move, MoveKind, Skip, Tcp};
 
 /// A corrected point: what the program asked for and what to write.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Point {
+pub(super) struct CorrectedPoint {
     pub nominal: Axes,
     pub target: ToolPose,
     /// Written values in the model frame (unrounded).
@@ -42,18 +42,21 @@ pub(super) struct Point {
 
 /// How a move is written.
 #[derive(Clone, Debug)]
-pub(super) enum Plan {
+pub(super) enum WritePlan {
     /// Its end point, corrected, in the block itself.
-    End(Point),
+    End(CorrectedPoint),
     /// Pieces along it (fraction of the move, point): the block carries the
     /// first, the others follow as new blocks; `linearize` turns an arc
     /// into lines.
     Pieces {
-        pieces: Vec<(f64, Point)>,
+        pieces: Vec<(f64, CorrectedPoint)>,
         linearize: bool,
     },
     /// An arc kept as an arc around the corrected centre (program frame).
-    Arc { end: Point, center: [f64; 2] },
+    Arc {
+        end: CorrectedPoint,
+        center: [f64; 2],
+    },
 }
 
 /// Why a move is not corrected.
@@ -116,7 +119,7 @@ impl Compensator {
         p: &[f64; 6],
         vector: Option<Vector3<f64>>,
         hold: Option<f64>,
-    ) -> Result<Point, String> {
+    ) -> Result<CorrectedPoint, String> {
         let nominal = f.model(p);
         self.check_strokes(&nominal)?;
         let m = self.solver.kinematics().machine();
@@ -194,7 +197,7 @@ impl Compensator {
         nominal: Axes,
         target: ToolPose,
         (tilt, c): (f64, f64),
-    ) -> (Point, f64) {
+    ) -> (CorrectedPoint, f64) {
         let axes = Axes {
             xyz: self.solver.position_at(&target.tip, tilt, c),
             tilt,
@@ -223,7 +226,7 @@ impl Compensator {
         p: &[f64; 6],
         drill: &Drill,
         emit: &[Option<f64>; 6],
-    ) -> Result<Point, String> {
+    ) -> Result<CorrectedPoint, String> {
         if f.plane.is_some() {
             // In a tilted plane every point keeps the plane's positions.
             return self.correct(f, p, None, None);
@@ -244,9 +247,9 @@ impl Compensator {
         Ok(pt)
     }
 
-    fn point(&self, f: &Frame, nominal: Axes, target: ToolPose, sol: &Solution) -> Point {
+    fn point(&self, f: &Frame, nominal: Axes, target: ToolPose, sol: &Solution) -> CorrectedPoint {
         let written = self.written_model(f, &sol.axes);
-        Point {
+        CorrectedPoint {
             nominal,
             target,
             written,
@@ -258,14 +261,18 @@ impl Compensator {
         }
     }
 
-    fn exceeds(&self, pt: &Point) -> bool {
+    fn exceeds(&self, pt: &CorrectedPoint) -> bool {
         let (l, r) = size(pt);
         let limit = self.settings.max_correction;
         l > limit || r > limit
     }
 
     /// The correction limit: an error naming the line when `pt` exceeds it.
-    pub(super) fn check_limit(&self, pt: &Point, line: usize) -> Result<(), CompensateError> {
+    pub(super) fn check_limit(
+        &self,
+        pt: &CorrectedPoint,
+        line: usize,
+    ) -> Result<(), CompensateError> {
         let (lin_um, rot_urad) = size(pt);
         let limit = self.settings.max_correction;
         let m = self.solver.kinematics().machine();
@@ -337,7 +344,7 @@ impl Compensator {
     /// [`super::Solver::deviation_bound`] (post-side, constant errors):
     /// most blocks of a real program are short and are settled here without
     /// evaluating the path.
-    fn short_enough(&self, f: &Frame, p0: &[f64; 6], w0: &[f64; 6], end: &Point) -> bool {
+    fn short_enough(&self, f: &Frame, p0: &[f64; 6], w0: &[f64; 6], end: &CorrectedPoint) -> bool {
         if f.tcp != Tcp::Off || !self.solver.is_fast() {
             return false;
         }
@@ -358,12 +365,12 @@ impl Compensator {
         f: &Frame,
         path: &Path,
         w0: &[f64; 6],
-        end: &Point,
+        end: &CorrectedPoint,
         n0: usize,
         vector: Option<Vector3<f64>>,
         ramp: bool,
         line: usize,
-    ) -> Result<Vec<(f64, Point)>, CompensateError> {
+    ) -> Result<Vec<(f64, CorrectedPoint)>, CompensateError> {
         let tol = self.settings.tolerance;
         let mut n = n0.max(1);
         // Where C is held at either end, the pieces do not switch between
@@ -431,7 +438,7 @@ impl Compensator {
         emit: &[Option<f64>; 6],
         ramp: bool,
         line: usize,
-    ) -> Result<Plan, Refusal> {
+    ) -> Result<WritePlan, Refusal> {
         if let Some(&a) = f.axes().iter().find(|&&a| mv.end[a].is_none()) {
             return Err(Refusal::Skip(Skip::PositionUnknown(AXES[a]).to_string()));
         }
@@ -450,11 +457,11 @@ impl Compensator {
         let p0 = known(&mv.start);
         let w0 = known(emit);
         match mv.kind {
-            MoveKind::Rapid => Ok(Plan::End(pt)),
-            MoveKind::Linear if !start_known || vector.is_some() => Ok(Plan::End(pt)),
+            MoveKind::Rapid => Ok(WritePlan::End(pt)),
+            MoveKind::Linear if !start_known || vector.is_some() => Ok(WritePlan::End(pt)),
             MoveKind::Linear => {
                 if self.short_enough(f, &p0, &w0, &pt) {
-                    return Ok(Plan::End(pt));
+                    return Ok(WritePlan::End(pt));
                 }
                 let path = Path::Line { p0, p1 };
                 let pieces = self.pieces(f, &path, &w0, &pt, 1, vector, ramp, line)?;
@@ -462,9 +469,9 @@ impl Compensator {
                     self.check_limit(p, line)?;
                 }
                 if pieces.len() == 1 {
-                    return Ok(Plan::End(pt));
+                    return Ok(WritePlan::End(pt));
                 }
-                Ok(Plan::Pieces {
+                Ok(WritePlan::Pieces {
                     pieces,
                     linearize: false,
                 })
@@ -492,10 +499,10 @@ impl Compensator {
         p0: &[f64; 6],
         w0: &[f64; 6],
         p1: &[f64; 6],
-        pt: Point,
+        pt: CorrectedPoint,
         ramp: bool,
         line: usize,
-    ) -> Result<Plan, Refusal> {
+    ) -> Result<WritePlan, Refusal> {
         let tol = self.settings.tolerance;
         let axes = arc.plane.axes();
         let geo = ArcGeo::new(axes, arc.center, p0, p1, arc.cw, arc.turns);
@@ -549,7 +556,7 @@ impl Compensator {
             }
         }
         if keep {
-            return Ok(Plan::Arc { end: pt, center });
+            return Ok(WritePlan::Arc { end: pt, center });
         }
         let r = geo.rs.max(geo.re) * f.u;
         let step = if r > tol / 2.0 {
@@ -562,7 +569,7 @@ impl Compensator {
         for (_, p) in &pieces[..pieces.len() - 1] {
             self.check_limit(p, line)?;
         }
-        Ok(Plan::Pieces {
+        Ok(WritePlan::Pieces {
             pieces,
             linearize: true,
         })
@@ -602,7 +609,7 @@ impl Compensator {
 /// change of tool orientation the rotary corrections make (urad; a C
 /// correction counts with the sine of the tilt, since next to the
 /// singular tilt turning C barely turns the tool).
-pub(super) fn size(pt: &Point) -> (f64, f64) {
+pub(super) fn size(pt: &CorrectedPoint) -> (f64, f64) {
     let lin_um = (pt.written.xyz - pt.nominal.xyz).norm() * 1e3;
     let dt = (pt.written.tilt - pt.nominal.tilt).to_radians().abs();
     let dc = (pt.written.c - pt.nominal.c).to_radians().abs();

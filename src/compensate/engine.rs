@@ -8,7 +8,7 @@ use std::sync::mpsc;
 
 use indexmap::IndexMap;
 
-use super::correction::{Plan, Point, Refusal, size};
+use super::correction::{CorrectedPoint, Refusal, WritePlan, size};
 use super::expand;
 use super::solver::Solver;
 use super::writer::Writer;
@@ -68,7 +68,7 @@ impl Compensator {
     /// The interpreter for this machine and these settings, at power-on.
     pub fn interpreter(&self) -> Interpreter {
         let s = &self.settings;
-        let settings = interp::Settings {
+        let settings = interp::InterpreterSettings {
             dialect: s.dialect,
             coordinates: s.coordinates,
             origin: s.origin,
@@ -475,41 +475,42 @@ impl<'a> Pass<'a> {
                                 record(summary, pt, line);
                             }
                             match &plan {
-                                Plan::Pieces {
+                                WritePlan::Pieces {
                                     linearize: true, ..
                                 } => summary.linearized.push(line),
-                                Plan::Pieces { .. } => summary.subdivided.push(line),
+                                WritePlan::Pieces { .. } => summary.subdivided.push(line),
                                 _ => {}
                             }
                             let tool_axis = mv.vector.and_then(|_| match &plan {
-                                Plan::End(pt) => Some(c.solver.nominal_pose(&pt.written).axis),
+                                WritePlan::End(pt) => Some(c.solver.nominal_pose(&pt.written).axis),
                                 _ => None,
                             });
                             let vector = mv.vector.is_some();
                             let mut piece_from = writer.emit;
                             let mut first_piece = None;
                             let mut last_piece = None;
-                            let mut sink = |pt: &Point, emitted: &[Option<f64>; 6], ins| {
-                                first_piece.get_or_insert((piece_from, *emitted));
-                                last_piece = Some((piece_from, *emitted));
-                                piece_from = *emitted;
-                                *last_held = pt.held.is_some();
-                                if let Some(o) = observer.as_mut() {
-                                    let mut shown = *emitted;
-                                    if vector {
-                                        // No rotary word is written: the
-                                        // control turns the written vector
-                                        // into the rotary positions solved.
-                                        let p = f.program(&pt.written);
-                                        for a in 3..6 {
-                                            if p[a].is_finite() {
-                                                shown[a] = Some(p[a]);
+                            let mut sink =
+                                |pt: &CorrectedPoint, emitted: &[Option<f64>; 6], ins| {
+                                    first_piece.get_or_insert((piece_from, *emitted));
+                                    last_piece = Some((piece_from, *emitted));
+                                    piece_from = *emitted;
+                                    *last_held = pt.held.is_some();
+                                    if let Some(o) = observer.as_mut() {
+                                        let mut shown = *emitted;
+                                        if vector {
+                                            // No rotary word is written: the
+                                            // control turns the written vector
+                                            // into the rotary positions solved.
+                                            let p = f.program(&pt.written);
+                                            for a in 3..6 {
+                                                if p[a].is_finite() {
+                                                    shown[a] = Some(p[a]);
+                                                }
                                             }
                                         }
+                                        o(&vertex(line, &f, pt, &shown, ins));
                                     }
-                                    o(&vertex(line, &f, pt, &shown, ins));
-                                }
-                            };
+                                };
                             motion_done = writer
                                 .write(block, &seg, &mv, &f, interp, &plan, tool_axis, &mut sink);
                             if let Some(corner) = &mv.corner
@@ -677,17 +678,17 @@ fn section(sections: &mut Vec<CoordinateSection>, interp: &Interpreter, line: us
 }
 
 /// Every point a plan writes.
-fn plan_points(plan: &Plan) -> impl Iterator<Item = &Point> {
+fn plan_points(plan: &WritePlan) -> impl Iterator<Item = &CorrectedPoint> {
     let (one, many) = match plan {
-        Plan::End(pt) | Plan::Arc { end: pt, .. } => (Some(pt), &[][..]),
-        Plan::Pieces { pieces, .. } => (None, pieces.as_slice()),
+        WritePlan::End(pt) | WritePlan::Arc { end: pt, .. } => (Some(pt), &[][..]),
+        WritePlan::Pieces { pieces, .. } => (None, pieces.as_slice()),
     };
     one.into_iter().chain(many.iter().map(|(_, p)| p))
 }
 
 /// Adds a corrected point to the summary: the largest corrections and the
 /// lines where an axis was held.
-fn record(summary: &mut Summary, pt: &Point, line: usize) {
+fn record(summary: &mut Summary, pt: &CorrectedPoint, line: usize) {
     let (lin_um, rot_urad) = size(pt);
     if summary.largest_linear.is_none_or(|l| lin_um > l.value) {
         summary.largest_linear = Some(Largest {
@@ -724,7 +725,7 @@ fn record(summary: &mut Summary, pt: &Point, line: usize) {
 fn vertex(
     line: usize,
     f: &Frame,
-    pt: &Point,
+    pt: &CorrectedPoint,
     written: &[Option<f64>; 6],
     inserted: bool,
 ) -> Vertex {

@@ -158,7 +158,7 @@ impl Simulator {
     ) -> Result<SimSummary, SourceError> {
         let s = &self.settings;
         let mut interp = Interpreter::new(
-            &interp::Settings {
+            &interp::InterpreterSettings {
                 dialect: s.dialect,
                 coordinates: s.coordinates,
                 origin: s.origin,

@@ -11,7 +11,7 @@
 use nalgebra::Vector3;
 
 use super::Settings;
-use super::correction::{Plan, Point};
+use super::correction::{CorrectedPoint, WritePlan};
 use super::edit::Edits;
 use crate::machine::Dialect;
 use crate::nc::interp::{
@@ -29,7 +29,7 @@ const MAX_DECIMALS: u8 = 9;
 
 /// Where a written point goes: the point, what the controller has after
 /// it (program frame), and whether it is a piece inside the move.
-pub(super) type Sink<'s> = dyn FnMut(&Point, &[Option<f64>; 6], bool) + 's;
+pub(super) type Sink<'s> = dyn FnMut(&CorrectedPoint, &[Option<f64>; 6], bool) + 's;
 
 /// The writer's state along a program.
 pub(super) struct Writer {
@@ -323,26 +323,26 @@ impl Writer {
         mv: &Move,
         f: &Frame,
         interp: &Interpreter,
-        plan: &Plan,
+        plan: &WritePlan,
         tool_axis: Option<Vector3<f64>>,
         sink: &mut Sink,
     ) -> bool {
         match plan {
-            Plan::End(pt) => {
+            WritePlan::End(pt) => {
                 self.write_end(block, seg, mv, f, interp, pt, sink);
                 if let (Some((_, idx)), Some(axis)) = (mv.tool_vector, tool_axis) {
                     self.write_vector(block, axis, &idx);
                 }
                 false
             }
-            Plan::Arc { end, center } => {
+            WritePlan::Arc { end, center } => {
                 let MoveKind::Arc(arc) = mv.kind else {
                     unreachable!("an arc plan for an arc move")
                 };
                 self.write_arc(block, seg, mv, f, interp, &arc, end, *center, sink);
                 false
             }
-            Plan::Pieces { pieces, linearize } => {
+            WritePlan::Pieces { pieces, linearize } => {
                 self.write_pieces(block, seg, mv, f, interp, pieces, *linearize, sink);
                 *linearize
             }
@@ -357,7 +357,7 @@ impl Writer {
         mv: &Move,
         f: &Frame,
         interp: &Interpreter,
-        pt: &Point,
+        pt: &CorrectedPoint,
         sink: &mut Sink,
     ) {
         let emitted = self.write_words(block, seg, mv, f, interp, &pt.program);
@@ -408,7 +408,7 @@ impl Writer {
         f: &Frame,
         interp: &Interpreter,
         arc: &Arc,
-        pt: &Point,
+        pt: &CorrectedPoint,
         cstar: [f64; 2],
         sink: &mut Sink,
     ) {
@@ -689,7 +689,7 @@ impl Writer {
         mv: &Move,
         f: &Frame,
         interp: &Interpreter,
-        pieces: &[(f64, Point)],
+        pieces: &[(f64, CorrectedPoint)],
         linearize: bool,
         sink: &mut Sink,
     ) {

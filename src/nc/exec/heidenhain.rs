@@ -1,4 +1,4 @@
-//! HEIDENHAIN Klartext parameters as [`Op`]s: Q formulas (`Q1 = Q2 * 3`,
+//! HEIDENHAIN Klartext parameters as [`ExecOp`]s: Q formulas (`Q1 = Q2 * 3`,
 //! `QL`, `QR`), FN 0-FN 7 arithmetic, FN 9-FN 12 conditional jumps, FN 18
 //! (the parameter becomes unknown), FN 14 (an error: execution stops),
 //! `LBL n` / `LBL "name"`, `LBL 0` (end of a subprogram), `CALL LBL n`
@@ -6,13 +6,13 @@
 //! run m more times), `END PGM`; `CALL PGM` leaves the file.
 
 use super::eval::{self, NoParams};
-use super::{After, Cond, Op, Program, RunawayError, Target};
+use super::{After, Cond, ExecOp, JumpTarget, Program, RunawayError};
 use crate::machine::Dialect;
 use crate::nc::{Addr, HhKind, Stmt, TokenKind, Value};
 
 pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
     let n = p.at.len();
-    p.ops = vec![Op::Nop; n];
+    p.ops = vec![ExecOp::Nop; n];
     for i in 0..n {
         let seg = *p.seg(i);
         let code = p.code(i);
@@ -22,15 +22,15 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
             Stmt::Hh(HhKind::Lbl) => {
                 let name = label(after_word(&code, "LBL"));
                 if name == "LBL 0" {
-                    Op::Return
+                    ExecOp::Return
                 } else {
                     p.add_label(name, i);
-                    Op::Nop
+                    ExecOp::Nop
                 }
             }
             Stmt::Hh(HhKind::CallLbl) => call_lbl(after_word(&code, "LBL")),
-            Stmt::Hh(HhKind::CallPgm) => Op::Halt("CALL PGM runs another program".into()),
-            Stmt::Hh(HhKind::EndPgm) => Op::End,
+            Stmt::Hh(HhKind::CallPgm) => ExecOp::Halt("CALL PGM runs another program".into()),
+            Stmt::Hh(HhKind::EndPgm) => ExecOp::End,
             Stmt::Hh(_) => {
                 let block = p.block(i);
                 let mut after = After::Next;
@@ -41,9 +41,9 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                         after = After::End;
                     }
                 }
-                Op::Words(after)
+                ExecOp::Words(after)
             }
-            _ => Op::Nop,
+            _ => ExecOp::Nop,
         };
         p.ops[i] = op;
     }
@@ -51,7 +51,7 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
 }
 
 /// `CALL LBL n [REP m]`: a subprogram call, or a section repeat.
-fn call_lbl(rest: &str) -> Op {
+fn call_lbl(rest: &str) -> ExecOp {
     // `REP` may be glued to its count, also when a real
     // program gives the count as a parameter (`REPQ13`).
     let rep_at = ["REP", "REPQ", "REPQL", "REPQR"]
@@ -67,7 +67,7 @@ fn call_lbl(rest: &str) -> Op {
             match r {
                 Some(r) => (&rest[..k], Some(r)),
                 None => {
-                    return Op::Halt(format!(
+                    return ExecOp::Halt(format!(
                         "CALL LBL with a repeat count that is not a number (`{}`): how the control reads it is not confirmed",
                         rest[k..].trim()
                     ));
@@ -76,30 +76,30 @@ fn call_lbl(rest: &str) -> Op {
         }
         None => (rest, None),
     };
-    Op::Call {
-        target: Target::Label(label(lbl)),
+    ExecOp::Call {
+        target: JumpTarget::Label(label(lbl)),
         args: Vec::new(),
         rep,
     }
 }
 
 /// `Qn = rhs`: the parameter and the expression `f(rhs)`.
-fn assignment(code: &str, f: impl Fn(&str) -> String) -> Op {
+fn assignment(code: &str, f: impl Fn(&str) -> String) -> ExecOp {
     let Some(eq) = code.find('=') else {
-        return Op::Halt(format!("`{code}` has no `=`"));
+        return ExecOp::Halt(format!("`{code}` has no `=`"));
     };
     let target = code[..eq].trim();
     if target.to_ascii_uppercase().starts_with("QS") {
         // Strings are not numbers any move uses.
-        return Op::Nop;
+        return ExecOp::Nop;
     }
     match eval::param_ref(Dialect::Heidenhain, target.as_bytes(), &NoParams) {
-        Ok((key, _)) => Op::Set(key, f(code[eq + 1..].trim())),
-        Err(e) => Op::Halt(e.to_string()),
+        Ok((key, _)) => ExecOp::Set(key, f(code[eq + 1..].trim())),
+        Err(e) => ExecOp::Halt(e.to_string()),
     }
 }
 
-fn fn_op(f: u32, code: &str) -> Op {
+fn fn_op(f: u32, code: &str) -> ExecOp {
     // `FN 1: Q1 = +Q2 + +3`: the part after the colon.
     let body = code.split_once(':').map_or("", |(_, b)| b.trim());
     let strip = |rhs: &str, word: &str| {
@@ -121,38 +121,40 @@ fn fn_op(f: u32, code: &str) -> Op {
             let word = ["EQU", "NE", "GT", "LT"][(f - 9) as usize];
             let rest = after_word(body, "IF");
             let (Some(k), Some(g)) = (find_word(rest, word), find_word(rest, "GOTO")) else {
-                return Op::Halt(format!("FN {f}: expected IF a {word} b GOTO LBL n"));
+                return ExecOp::Halt(format!("FN {f}: expected IF a {word} b GOTO LBL n"));
             };
             if g < k {
-                return Op::Halt(format!("FN {f}: expected IF a {word} b GOTO LBL n"));
+                return ExecOp::Halt(format!("FN {f}: expected IF a {word} b GOTO LBL n"));
             }
-            Op::Goto {
+            ExecOp::Goto {
                 cond: Cond::Cmp(
                     rest[..k].trim().to_string(),
                     op,
                     rest[k + word.len()..g].trim().to_string(),
                 ),
-                target: Target::Label(label(after_word(&rest[g..], "LBL"))),
+                target: JumpTarget::Label(label(after_word(&rest[g..], "LBL"))),
                 forward: None,
             }
         }
-        14 => Op::Halt("FN 14: ERROR stops the program here".into()),
+        14 => ExecOp::Halt("FN 14: ERROR stops the program here".into()),
         18 => match body
             .split_once('=')
             .map(|(t, _)| eval::param_ref(Dialect::Heidenhain, t.trim().as_bytes(), &NoParams))
         {
-            Some(Ok((key, _))) => Op::Forget(key, "FN 18 SYSREAD reads controller data".into()),
-            _ => Op::Nop,
+            Some(Ok((key, _))) => ExecOp::Forget(key, "FN 18 SYSREAD reads controller data".into()),
+            _ => ExecOp::Nop,
         },
         8 | 13 => match body
             .split_once('=')
             .map(|(t, _)| eval::param_ref(Dialect::Heidenhain, t.trim().as_bytes(), &NoParams))
         {
-            Some(Ok((key, _))) => Op::Forget(key, format!("FN {f} is not evaluated by fivecal")),
-            _ => Op::Nop,
+            Some(Ok((key, _))) => {
+                ExecOp::Forget(key, format!("FN {f} is not evaluated by fivecal"))
+            }
+            _ => ExecOp::Nop,
         },
         // Output, waits, PLC and system writes move nothing and set no Q.
-        _ => Op::Nop,
+        _ => ExecOp::Nop,
     }
 }
 

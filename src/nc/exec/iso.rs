@@ -1,4 +1,4 @@
-//! FANUC Custom Macro B and LinuxCNC o-words as [`Op`]s: `GOTO n` and
+//! FANUC Custom Macro B and LinuxCNC o-words as [`ExecOp`]s: `GOTO n` and
 //! `IF [..] GOTO n` to sequence numbers, `IF [..] THEN`, `WHILE [..] DOm`
 //! / `ENDm`; LinuxCNC `if`/`elseif`/`else`/`endif`, `while`/`endwhile`,
 //! `do`/`while`, `repeat`/`endrepeat`, `break`/`continue`,
@@ -6,14 +6,14 @@
 //! M2/M30 (and M99 in the main program) end the program; M98 and G65/G66
 //! call programs outside the file and end what can be followed.
 
-use super::{After, Cond, Op, Program, RunawayError, Target};
+use super::{After, Cond, ExecOp, JumpTarget, Program, RunawayError};
 use crate::machine::Dialect;
 use crate::nc::{Addr, Flow, Stmt, TokenKind, Value};
 
 pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
     let fanuc = p.dialect == Dialect::Fanuc;
     let n = p.at.len();
-    p.ops = vec![Op::Nop; n];
+    p.ops = vec![ExecOp::Nop; n];
     // Open structures: (o-label or DO number, kind, statement).
     let mut open: Vec<(String, &'static str, usize)> = Vec::new();
     // if-chains: statements of the if/elseif/else of each open `if`.
@@ -42,16 +42,16 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
             .collect();
         let op = match seg.stmt {
             Stmt::Words => words_op(block, &seg),
-            Stmt::Assign => Op::Assign,
+            Stmt::Assign => ExecOp::Assign,
             Stmt::Flow(flow) if fanuc => fanuc_flow(p, flow, &exprs, &keywords, &mut open, i),
             Stmt::Flow(flow) => oword_flow(p, flow, &exprs, &keywords, &mut open, &mut chains, i),
-            _ => Op::Nop,
+            _ => ExecOp::Nop,
         };
         p.ops[i] = op;
     }
     link_breaks(p);
     for (label, kind, i) in open {
-        p.ops[i] = Op::Halt(format!("{label} {kind} is never closed"));
+        p.ops[i] = ExecOp::Halt(format!("{label} {kind} is never closed"));
     }
     Ok(())
 }
@@ -65,28 +65,28 @@ fn fanuc_flow(
     keywords: &[String],
     open: &mut Vec<(String, &'static str, usize)>,
     i: usize,
-) -> Op {
+) -> ExecOp {
     let cond = |k: usize| exprs.get(k).map_or(Cond::Always, |e| Cond::Expr(e.clone()));
     match flow {
         Flow::Jump => {
             let has_if = keywords.first().is_some_and(|k| k == "if");
             let target = exprs.last().cloned().unwrap_or_default();
-            Op::Goto {
+            ExecOp::Goto {
                 cond: if has_if { cond(0) } else { Cond::Always },
                 target: if !target.is_empty() && target.bytes().all(|c| c.is_ascii_digit()) {
-                    Target::Label(format!("N{}", target.parse::<u64>().unwrap_or(0)))
+                    JumpTarget::Label(format!("N{}", target.parse::<u64>().unwrap_or(0)))
                 } else {
-                    Target::Number(target)
+                    JumpTarget::Number(target)
                 },
                 forward: None,
             }
         }
-        Flow::Branch => Op::IfThen(cond(0)),
+        Flow::Branch => ExecOp::IfThen(cond(0)),
         Flow::LoopStart => {
             let id = keywords.last().cloned().unwrap_or_default();
             let id = id.trim_start_matches("do").to_string();
             open.push((id, "while", i));
-            Op::While {
+            ExecOp::While {
                 cond: cond(0),
                 end: i,
             }
@@ -96,15 +96,15 @@ fn fanuc_flow(
             let id = id.trim_start_matches("end").to_string();
             match open.pop() {
                 Some((o, _, start)) if o == id => {
-                    if let Op::While { end, .. } = &mut p.ops[start] {
+                    if let ExecOp::While { end, .. } = &mut p.ops[start] {
                         *end = i;
                     }
-                    Op::Back { start }
+                    ExecOp::Back { start }
                 }
-                _ => Op::Halt(format!("END{id} without its WHILE ... DO{id}")),
+                _ => ExecOp::Halt(format!("END{id} without its WHILE ... DO{id}")),
             }
         }
-        _ => Op::Nop,
+        _ => ExecOp::Nop,
     }
 }
 
@@ -120,7 +120,7 @@ fn oword_flow(
     open: &mut Vec<(String, &'static str, usize)>,
     chains: &mut Vec<Vec<usize>>,
     i: usize,
-) -> Op {
+) -> ExecOp {
     let cond = |k: usize| exprs.get(k).map_or(Cond::Always, |e| Cond::Expr(e.clone()));
     let label = oword_label(keywords.first().map_or("", |s| s.as_str()));
     let kw = keywords.get(1).cloned().unwrap_or_default();
@@ -133,22 +133,22 @@ fn oword_flow(
         (_, "sub") => {
             p.add_label(label.clone(), i);
             open.push((label, "sub", i));
-            Op::Sub { end: i }
+            ExecOp::Sub { end: i }
         }
         (_, "endsub") => {
             close(p, open, &label, "sub", i);
-            Op::Return
+            ExecOp::Return
         }
-        (_, "return") => Op::Return,
-        (_, "call") => Op::Call {
-            target: Target::Label(label),
+        (_, "return") => ExecOp::Return,
+        (_, "call") => ExecOp::Call {
+            target: JumpTarget::Label(label),
             args: exprs.iter().map(|e| e.to_string()).collect(),
             rep: None,
         },
         (_, "if") => {
             open.push((label, "if", i));
             chains.push(vec![i]);
-            Op::If {
+            ExecOp::If {
                 cond: cond(0),
                 next: i,
             }
@@ -158,9 +158,9 @@ fn oword_flow(
                 c.push(i);
             }
             if kw == "else" {
-                Op::Else { end: i }
+                ExecOp::Else { end: i }
             } else {
-                Op::ElseIf {
+                ExecOp::ElseIf {
                     cond: cond(0),
                     next: i,
                     end: i,
@@ -171,48 +171,48 @@ fn oword_flow(
             let chain = chains.pop().unwrap_or_default();
             link_chain(p, &chain, i);
             close(p, open, &label, "if", i);
-            Op::Nop
+            ExecOp::Nop
         }
         (_, "do") => {
             open.push((label, "do", i));
-            Op::Nop
+            ExecOp::Nop
         }
         (_, "while") => match open.last() {
             Some((l, "do", s)) if *l == label => {
                 let start = *s;
                 open.pop();
-                Op::BackIf {
+                ExecOp::BackIf {
                     cond: cond(0),
                     start,
                 }
             }
             _ => {
                 open.push((label, "while", i));
-                Op::While {
+                ExecOp::While {
                     cond: cond(0),
                     end: i,
                 }
             }
         },
         (_, "endwhile") => match close(p, open, &label, "while", i) {
-            Some(start) => Op::Back { start },
-            None => Op::Halt(format!("{label} endwhile without its while")),
+            Some(start) => ExecOp::Back { start },
+            None => ExecOp::Halt(format!("{label} endwhile without its while")),
         },
         (_, "repeat") => {
             open.push((label, "repeat", i));
-            Op::Repeat {
+            ExecOp::Repeat {
                 count: exprs.first().cloned().unwrap_or_default(),
                 end: i,
             }
         }
         (_, "endrepeat") => match close(p, open, &label, "repeat", i) {
-            Some(start) => Op::RepeatEnd { start },
-            None => Op::Halt(format!("{label} endrepeat without its repeat")),
+            Some(start) => ExecOp::RepeatEnd { start },
+            None => ExecOp::Halt(format!("{label} endrepeat without its repeat")),
         },
         // Resolved below, once the loop's end is known.
-        (_, "break") | (_, "continue") if find_loop(open) => Op::Break { end: usize::MAX },
-        (_, "break") | (_, "continue") => Op::Halt(format!("{label} {kw} outside its loop")),
-        _ => Op::Halt(format!("{label} {kw} is not followed")),
+        (_, "break") | (_, "continue") if find_loop(open) => ExecOp::Break { end: usize::MAX },
+        (_, "break") | (_, "continue") => ExecOp::Halt(format!("{label} {kw} outside its loop")),
+        _ => ExecOp::Halt(format!("{label} {kw} is not followed")),
     }
 }
 
@@ -221,7 +221,7 @@ fn oword_flow(
 fn link_breaks(p: &mut Program) {
     let n = p.at.len();
     for i in 0..n {
-        if !matches!(p.ops[i], Op::Break { end: usize::MAX }) {
+        if !matches!(p.ops[i], ExecOp::Break { end: usize::MAX }) {
             continue;
         }
         let block = p.block(i);
@@ -236,7 +236,7 @@ fn link_breaks(p: &mut Program) {
         let end = (i + 1..n).find(|&j| {
             matches!(
                 p.ops[j],
-                Op::Back { .. } | Op::BackIf { .. } | Op::RepeatEnd { .. }
+                ExecOp::Back { .. } | ExecOp::BackIf { .. } | ExecOp::RepeatEnd { .. }
             ) && {
                 let b = p.block(j);
                 let s = p.seg(j);
@@ -251,9 +251,9 @@ fn link_breaks(p: &mut Program) {
         });
         let continue_ = kws.get(1).is_some_and(|k| k == "continue");
         p.ops[i] = match end {
-            Some(e) if continue_ => Op::Back { start: e },
-            Some(e) => Op::Break { end: e },
-            None => Op::Halt(format!("{label} break without its loop end")),
+            Some(e) if continue_ => ExecOp::Back { start: e },
+            Some(e) => ExecOp::Break { end: e },
+            None => ExecOp::Halt(format!("{label} break without its loop end")),
         };
     }
 }
@@ -272,7 +272,7 @@ fn close(
         .rposition(|(l, k, _)| l == label && *k == kind)?;
     let (_, _, start) = open.remove(at);
     match &mut p.ops[start] {
-        Op::While { end, .. } | Op::Repeat { end, .. } | Op::Sub { end } => *end = i,
+        ExecOp::While { end, .. } | ExecOp::Repeat { end, .. } | ExecOp::Sub { end } => *end = i,
         _ => {}
     }
     Some(start)
@@ -283,12 +283,12 @@ fn link_chain(p: &mut Program, chain: &[usize], endif: usize) {
     for (k, &s) in chain.iter().enumerate() {
         let next = chain.get(k + 1).copied().unwrap_or(endif);
         match &mut p.ops[s] {
-            Op::If { next: n, .. } => *n = next,
-            Op::ElseIf { next: n, end, .. } => {
+            ExecOp::If { next: n, .. } => *n = next,
+            ExecOp::ElseIf { next: n, end, .. } => {
                 *n = next;
                 *end = endif;
             }
-            Op::Else { end } => *end = endif,
+            ExecOp::Else { end } => *end = endif,
             _ => {}
         }
     }
@@ -309,7 +309,7 @@ fn oword_label(s: &str) -> String {
 }
 
 /// A words statement: how it ends the program or leaves it.
-fn words_op(block: &crate::nc::Block, seg: &crate::nc::Segment) -> Op {
+fn words_op(block: &crate::nc::Block, seg: &crate::nc::Segment) -> ExecOp {
     let mut after = After::Next;
     for (_, w) in block.words(seg) {
         let Value::Num(v) = w.value else { continue };
@@ -331,5 +331,5 @@ fn words_op(block: &crate::nc::Block, seg: &crate::nc::Segment) -> Op {
             after = After::Probe;
         }
     }
-    Op::Words(after)
+    ExecOp::Words(after)
 }

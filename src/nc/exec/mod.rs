@@ -2,7 +2,7 @@
 //! executed as the controller would, so that moves written with variables
 //! get the values they have when they run.
 //!
-//! Each statement is decoded once into an `Op` (one file per dialect:
+//! Each statement is decoded once into an `ExecOp` (one file per dialect:
 //! `iso.rs` for FANUC Macro B and LinuxCNC o-words, `heidenhain.rs` for Q
 //! parameters, FN and labels, `sinumerik.rs` for R parameters, `DEF`
 //! variables and the structured statements); the loops and branches are
@@ -56,7 +56,7 @@ pub(crate) enum After {
 
 /// A decoded statement.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Op {
+pub(crate) enum ExecOp {
     /// Nothing to execute (blank, comment, program number, a label).
     Nop,
     /// Words: their expressions are evaluated, then any assignments in
@@ -76,7 +76,7 @@ pub(crate) enum Op {
     Goto {
         cond: Cond,
         /// Label expression (`N` + number, or the name).
-        target: Target,
+        target: JumpTarget,
         /// Search forward (`Some(true)`), backward, or everywhere.
         forward: Option<bool>,
     },
@@ -114,7 +114,7 @@ pub(crate) enum Op {
     Return,
     /// A call with arguments (LinuxCNC `call`, HEIDENHAIN `CALL LBL`).
     Call {
-        target: Target,
+        target: JumpTarget,
         args: Vec<String>,
         /// HEIDENHAIN `REP n` on a label before the call: the section is
         /// run again n times.
@@ -128,7 +128,7 @@ pub(crate) enum Op {
 
 /// A jump or call target.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Target {
+pub(crate) enum JumpTarget {
     /// A label known from the text.
     Label(String),
     /// FANUC `GOTO #1`: `N` and the value.
@@ -137,7 +137,7 @@ pub(crate) enum Target {
 
 /// One statement executed.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Step {
+pub struct Executed {
     /// Block index in the program.
     pub block: u32,
     /// Statement index in the block.
@@ -172,7 +172,7 @@ pub struct Halt {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trace {
     /// Statements executed, in order.
-    pub steps: Vec<Step>,
+    pub steps: Vec<Executed>,
     /// Values of the expression words of the steps.
     pub values: Vec<WordValue>,
     /// Where execution could not go on, when it could not.
@@ -244,7 +244,7 @@ pub(crate) struct Program<'a> {
     blocks: &'a [Block],
     /// (block, segment) of each statement.
     at: Vec<(u32, u32)>,
-    ops: Vec<Op>,
+    ops: Vec<ExecOp>,
     /// Label -> statement indices, in order.
     labels: HashMap<String, Vec<usize>>,
 }
@@ -403,7 +403,7 @@ impl Runner<'_, '_> {
             let first = self.trace.values.len() as u32;
             let mut taken = false;
             let flow = self.step(pc, entering, &mut taken);
-            self.trace.steps.push(Step {
+            self.trace.steps.push(Executed {
                 block: b,
                 seg: s,
                 depth: self.frames.len() as u32,
@@ -472,8 +472,8 @@ impl Runner<'_, '_> {
     fn step(&mut self, i: usize, entering: bool, taken: &mut bool) -> Result<Flow, RunawayError> {
         let op = &self.p.ops[i];
         Ok(match op {
-            Op::Nop => Flow::Next,
-            Op::Words(after) => {
+            ExecOp::Nop => Flow::Next,
+            ExecOp::Words(after) => {
                 self.words(i);
                 match after {
                     After::Next => Flow::Next,
@@ -496,11 +496,11 @@ impl Runner<'_, '_> {
                     }
                 }
             }
-            Op::Assign => {
+            ExecOp::Assign => {
                 self.assignments(i, self.p.seg(i).first as usize);
                 Flow::Next
             }
-            Op::IfThen(c) => match self.cond(c) {
+            ExecOp::IfThen(c) => match self.cond(c) {
                 Ok(true) => {
                     *taken = true;
                     self.assignments(i, self.p.seg(i).first as usize);
@@ -509,23 +509,23 @@ impl Runner<'_, '_> {
                 Ok(false) => Flow::Next,
                 Err(e) => self.halt(i, format!("the condition is not known: {e}")),
             },
-            Op::Set(k, e) => {
+            ExecOp::Set(k, e) => {
                 let v = self.eval(e);
                 self.vars.set(k.clone(), v);
                 Flow::Next
             }
-            Op::Forget(k, why) => {
+            ExecOp::Forget(k, why) => {
                 self.vars.set(k.clone(), Err(Stop::Unknown(why.clone())));
                 Flow::Next
             }
-            Op::Define(list) => {
+            ExecOp::Define(list) => {
                 for (k, e) in list {
                     let v = self.eval(e);
                     self.vars.set(k.clone(), v);
                 }
                 Flow::Next
             }
-            Op::Goto {
+            ExecOp::Goto {
                 cond,
                 target,
                 forward,
@@ -540,7 +540,7 @@ impl Runner<'_, '_> {
                     },
                 },
             },
-            Op::If { cond, next } => match self.cond(cond) {
+            ExecOp::If { cond, next } => match self.cond(cond) {
                 Ok(true) => Flow::Next,
                 Ok(false) => {
                     self.entering = true;
@@ -548,7 +548,7 @@ impl Runner<'_, '_> {
                 }
                 Err(e) => self.halt(i, format!("the condition is not known: {e}")),
             },
-            Op::ElseIf { cond, next, end } => {
+            ExecOp::ElseIf { cond, next, end } => {
                 if !entering {
                     Flow::Jump(*end)
                 } else {
@@ -562,25 +562,25 @@ impl Runner<'_, '_> {
                     }
                 }
             }
-            Op::Else { end } => {
+            ExecOp::Else { end } => {
                 if entering {
                     Flow::Next
                 } else {
                     Flow::Jump(*end)
                 }
             }
-            Op::While { cond, end } => match self.cond(cond) {
+            ExecOp::While { cond, end } => match self.cond(cond) {
                 Ok(true) => Flow::Next,
                 Ok(false) => Flow::Jump(end + 1),
                 Err(e) => self.halt(i, format!("the loop condition is not known: {e}")),
             },
-            Op::Back { start } => Flow::Jump(*start),
-            Op::BackIf { cond, start } => match self.cond(cond) {
+            ExecOp::Back { start } => Flow::Jump(*start),
+            ExecOp::BackIf { cond, start } => match self.cond(cond) {
                 Ok(true) => Flow::Jump(start + 1),
                 Ok(false) => Flow::Next,
                 Err(e) => self.halt(i, format!("the loop condition is not known: {e}")),
             },
-            Op::Repeat { count, end } => match self.eval(count) {
+            ExecOp::Repeat { count, end } => match self.eval(count) {
                 Ok(n) => {
                     let n = n.max(0.0).round() as u64;
                     if n == 0 {
@@ -592,7 +592,7 @@ impl Runner<'_, '_> {
                 }
                 Err(e) => self.halt(i, format!("the repeat count is not known: {e}")),
             },
-            Op::RepeatEnd { start } => match self.counters.get_mut(start) {
+            ExecOp::RepeatEnd { start } => match self.counters.get_mut(start) {
                 Some(n) if *n > 0 => {
                     *n -= 1;
                     Flow::Jump(start + 1)
@@ -602,7 +602,7 @@ impl Runner<'_, '_> {
                     Flow::Next
                 }
             },
-            Op::For { var, from, to, end } => {
+            ExecOp::For { var, from, to, end } => {
                 // Entered from above: set the variable; from ENDFOR: it
                 // was incremented there.
                 if !entering {
@@ -618,7 +618,7 @@ impl Runner<'_, '_> {
                     }
                 }
             }
-            Op::ForEnd { start, var } => match self.store().get(var) {
+            ExecOp::ForEnd { start, var } => match self.store().get(var) {
                 Ok(v) => {
                     self.vars.set(var.clone(), Ok(v + 1.0));
                     self.entering = true;
@@ -626,9 +626,9 @@ impl Runner<'_, '_> {
                 }
                 Err(e) => self.halt(i, format!("the loop variable is not known: {e}")),
             },
-            Op::Break { end } => Flow::Jump(end + 1),
-            Op::Sub { end } => Flow::Jump(end + 1),
-            Op::Return => match self.frames.pop() {
+            ExecOp::Break { end } => Flow::Jump(end + 1),
+            ExecOp::Sub { end } => Flow::Jump(end + 1),
+            ExecOp::Return => match self.frames.pop() {
                 Some(f) => {
                     self.restore(f.saved);
                     Flow::Jump(f.ret)
@@ -637,24 +637,24 @@ impl Runner<'_, '_> {
                 None if self.p.dialect == Dialect::Heidenhain => Flow::Next,
                 None => Flow::Stop,
             },
-            Op::Call { target, args, rep } => {
+            ExecOp::Call { target, args, rep } => {
                 let target = target.clone();
                 let args = args.clone();
                 let rep = *rep;
                 self.call(i, &target, &args, rep)?
             }
-            Op::End => Flow::Stop,
-            Op::Halt(why) => {
+            ExecOp::End => Flow::Stop,
+            ExecOp::Halt(why) => {
                 let why = why.clone();
                 self.halt(i, why)
             }
         })
     }
 
-    fn label(&self, t: &Target) -> Result<String, Stop> {
+    fn label(&self, t: &JumpTarget) -> Result<String, Stop> {
         match t {
-            Target::Label(l) => Ok(l.clone()),
-            Target::Number(e) => {
+            JumpTarget::Label(l) => Ok(l.clone()),
+            JumpTarget::Number(e) => {
                 let v = self.eval(e)?;
                 Ok(format!("N{}", v.round() as i64))
             }
@@ -664,7 +664,7 @@ impl Runner<'_, '_> {
     fn call(
         &mut self,
         i: usize,
-        target: &Target,
+        target: &JumpTarget,
         args: &[String],
         rep: Option<u32>,
     ) -> Result<Flow, RunawayError> {

@@ -1,4 +1,4 @@
-//! SINUMERIK as [`Op`]s: R parameters and `DEF REAL|INT|BOOL` variables
+//! SINUMERIK as [`ExecOp`]s: R parameters and `DEF REAL|INT|BOOL` variables
 //! (assignments in any block), labels and block numbers as jump targets,
 //! `GOTOF`/`GOTOB`/`GOTO`/`GOTOC` with or without `IF`,
 //! `IF`/`ELSE`/`ENDIF`, `LOOP`/`ENDLOOP`, `WHILE`/`ENDWHILE`,
@@ -6,13 +6,13 @@
 //! program; `CASE` and `REPEAT` over labels are not followed.
 
 use super::eval::{self, Key};
-use super::{After, Cond, Op, Program, RunawayError, Target};
+use super::{After, Cond, ExecOp, JumpTarget, Program, RunawayError};
 use crate::machine::Dialect;
 use crate::nc::{Addr, Flow, Stmt, TokenKind, Value};
 
 pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
     let n = p.at.len();
-    p.ops = vec![Op::Nop; n];
+    p.ops = vec![ExecOp::Nop; n];
     let mut open: Vec<(&'static str, usize)> = Vec::new();
     let mut chains: Vec<Vec<usize>> = Vec::new();
     for i in 0..n {
@@ -51,10 +51,10 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                 if let Some(name) = kw.strip_suffix(':') {
                     labels.push(name.to_string());
                 }
-                Op::Nop
+                ExecOp::Nop
             }
             Stmt::Flow(Flow::Jump) if kw == "CASE" => {
-                Op::Halt("CASE is not followed by fivecal".into())
+                ExecOp::Halt("CASE is not followed by fivecal".into())
             }
             Stmt::Flow(Flow::Jump) => {
                 let (cond, jump, target) = if kw == "IF" {
@@ -70,9 +70,9 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                         exprs.first().cloned().unwrap_or_default(),
                     )
                 };
-                Op::Goto {
+                ExecOp::Goto {
                     cond,
-                    target: Target::Label(target.trim().to_ascii_uppercase()),
+                    target: JumpTarget::Label(target.trim().to_ascii_uppercase()),
                     forward: match jump.as_str() {
                         "GOTOF" => Some(true),
                         "GOTOB" => Some(false),
@@ -84,7 +84,7 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                 "IF" => {
                     open.push(("IF", i));
                     chains.push(vec![i]);
-                    Op::If {
+                    ExecOp::If {
                         cond: cond(),
                         next: i,
                     }
@@ -93,7 +93,7 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                     if let Some(c) = chains.last_mut() {
                         c.push(i);
                     }
-                    Op::Else { end: i }
+                    ExecOp::Else { end: i }
                 }
                 _ => match close(&mut open, "IF") {
                     Some(_) => {
@@ -101,20 +101,20 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                         for (k, &s) in chain.iter().enumerate() {
                             let next = chain.get(k + 1).copied().unwrap_or(i);
                             match &mut p.ops[s] {
-                                Op::If { next: nx, .. } => *nx = next,
-                                Op::Else { end } => *end = i,
+                                ExecOp::If { next: nx, .. } => *nx = next,
+                                ExecOp::Else { end } => *end = i,
                                 _ => {}
                             }
                         }
-                        Op::Nop
+                        ExecOp::Nop
                     }
-                    None => Op::Halt("ENDIF without its IF".into()),
+                    None => ExecOp::Halt("ENDIF without its IF".into()),
                 },
             },
             Stmt::Flow(Flow::LoopStart) => match kw {
                 "WHILE" => {
                     open.push(("WHILE", i));
-                    Op::While {
+                    ExecOp::While {
                         cond: cond(),
                         end: i,
                     }
@@ -125,11 +125,11 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                 }
                 "LOOP" => {
                     open.push(("LOOP", i));
-                    Op::Nop
+                    ExecOp::Nop
                 }
                 _ => {
                     open.push(("REPEAT", i));
-                    Op::Nop
+                    ExecOp::Nop
                 }
             },
             Stmt::Flow(Flow::LoopEnd) => {
@@ -140,26 +140,26 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                     _ => "REPEAT",
                 };
                 match close(&mut open, kind) {
-                    None => Op::Halt(format!("{kw} without its {kind}")),
+                    None => ExecOp::Halt(format!("{kw} without its {kind}")),
                     Some(start) => match kind {
                         "WHILE" => {
-                            if let Op::While { end, .. } = &mut p.ops[start] {
+                            if let ExecOp::While { end, .. } = &mut p.ops[start] {
                                 *end = i;
                             }
-                            Op::Back { start }
+                            ExecOp::Back { start }
                         }
                         "FOR" => match &mut p.ops[start] {
-                            Op::For { end, var, .. } => {
+                            ExecOp::For { end, var, .. } => {
                                 *end = i;
-                                Op::ForEnd {
+                                ExecOp::ForEnd {
                                     start,
                                     var: var.clone(),
                                 }
                             }
-                            _ => Op::Halt("ENDFOR of a FOR fivecal does not follow".into()),
+                            _ => ExecOp::Halt("ENDFOR of a FOR fivecal does not follow".into()),
                         },
-                        "LOOP" => Op::Back { start },
-                        _ => Op::BackIf {
+                        "LOOP" => ExecOp::Back { start },
+                        _ => ExecOp::BackIf {
                             cond: match cond() {
                                 Cond::Expr(e) => Cond::Expr(format!("NOT ({e})")),
                                 c => c,
@@ -169,11 +169,11 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                     },
                 }
             }
-            Stmt::Flow(Flow::Call) => Op::Halt("REPEAT over labels is not followed".into()),
-            Stmt::Flow(Flow::Return) => Op::End,
+            Stmt::Flow(Flow::Call) => ExecOp::Halt("REPEAT over labels is not followed".into()),
+            Stmt::Flow(Flow::Return) => ExecOp::End,
             Stmt::Assign if kw == "DEF" => define(exprs.first().map_or("", String::as_str)),
-            Stmt::Assign if !kw.is_empty() => Op::Nop,
-            Stmt::Assign => Op::Assign,
+            Stmt::Assign if !kw.is_empty() => ExecOp::Nop,
+            Stmt::Assign => ExecOp::Assign,
             Stmt::Words => {
                 let mut after = After::Next;
                 for (_, w) in block.words(&seg) {
@@ -183,9 +183,9 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
                         after = After::End;
                     }
                 }
-                Op::Words(after)
+                ExecOp::Words(after)
             }
-            _ => Op::Nop,
+            _ => ExecOp::Nop,
         };
         p.ops[i] = op;
         for l in labels {
@@ -193,7 +193,7 @@ pub(super) fn decode(p: &mut Program) -> Result<(), RunawayError> {
         }
     }
     for (kind, i) in open {
-        p.ops[i] = Op::Halt(format!("{kind} is never closed"));
+        p.ops[i] = ExecOp::Halt(format!("{kind} is never closed"));
     }
     Ok(())
 }
@@ -217,28 +217,28 @@ fn key(name: &str) -> Option<Key> {
 }
 
 /// `FOR R1=0 TO 5`.
-fn for_op(text: &str, i: usize) -> Op {
+fn for_op(text: &str, i: usize) -> ExecOp {
     let upper = text.to_ascii_uppercase();
     let (Some(eq), Some(to)) = (text.find('='), upper.find(" TO ")) else {
-        return Op::Halt("FOR: expected FOR var=a TO b".into());
+        return ExecOp::Halt("FOR: expected FOR var=a TO b".into());
     };
     match key(&text[..eq]) {
-        Some(var) if eq < to => Op::For {
+        Some(var) if eq < to => ExecOp::For {
             var,
             from: text[eq + 1..to].trim().to_string(),
             to: text[to + 4..].trim().to_string(),
             end: i,
         },
-        _ => Op::Halt("FOR: expected FOR var=a TO b".into()),
+        _ => ExecOp::Halt("FOR: expected FOR var=a TO b".into()),
     }
 }
 
 /// `DEF REAL A=1, B`: numeric variables, 0 unless given a value.
-fn define(text: &str) -> Op {
+fn define(text: &str) -> ExecOp {
     let mut words = text.trim().splitn(2, [' ', '\t']);
     let ty = words.next().unwrap_or("").to_ascii_uppercase();
     if !matches!(ty.as_str(), "REAL" | "INT" | "BOOL") {
-        return Op::Nop;
+        return ExecOp::Nop;
     }
     let mut list = Vec::new();
     for part in words.next().unwrap_or("").split(',') {
@@ -251,5 +251,5 @@ fn define(text: &str) -> Op {
             list.push((k, value));
         }
     }
-    Op::Define(list)
+    ExecOp::Define(list)
 }

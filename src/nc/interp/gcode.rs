@@ -5,7 +5,7 @@
 //! setting, G52, G92) and the move a block of axis words makes.
 
 use super::{
-    AXES, Arc, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Plane, Skip, Tcp, Units,
+    AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Units,
     arc_runs, center_from_radius,
 };
 use crate::machine::Dialect;
@@ -132,9 +132,9 @@ impl Interpreter {
                         | 682
                         | 920 => g_nonmodal = Some(g),
                         670 => {}
-                        170 => self.plane = Plane::Xy,
-                        180 => self.plane = Plane::Zx,
-                        190 => self.plane = Plane::Yz,
+                        170 => self.plane = ArcPlane::Xy,
+                        180 => self.plane = ArcPlane::Zx,
+                        190 => self.plane = ArcPlane::Yz,
                         200 => self.units = Units::Inch,
                         210 => self.units = Units::Mm,
                         900 => {

@@ -7,7 +7,7 @@
 //! TCPM, touch probe cycles and program control.
 
 use super::{
-    AXES, Arc, Event, Interpreter, Move, MoveKind, Plane, Skip, Tcp, Units, arc_runs,
+    AXES, Arc, ArcPlane, Event, Interpreter, Move, MoveKind, Skip, Tcp, Units, arc_runs,
     center_from_radius,
 };
 use crate::nc::{Addr, Block, HhKind, Segment, Stmt, TokenKind, Value, Word};
@@ -102,7 +102,7 @@ impl Interpreter {
             }
         }
         let geo = match (size, line_before) {
-            _ if self.plane != Plane::Xy => Err("a working plane other than XY"),
+            _ if self.plane != ArcPlane::Xy => Err("a working plane other than XY"),
             (Some(Value::Num(v)), Some((from, at)))
                 if v.is_finite() && v != 0.0 && v.abs() <= crate::limits::MAX_NC_VALUE =>
             {
@@ -355,7 +355,7 @@ impl Interpreter {
         if q201 == 0.0 {
             return Event::Skip(Skip::CycleCall("the cycle's depth Q201 is 0 (no hole)"));
         }
-        if self.plane != Plane::Xy {
+        if self.plane != ArcPlane::Xy {
             return Event::Skip(Skip::CycleCall("a tool axis other than Z"));
         }
         if mv.words[..3].iter().any(Option::is_none) {
@@ -760,7 +760,7 @@ impl Interpreter {
                 skip.unwrap_or(Skip::Element("polar element without a known pole (CC)")),
             );
         };
-        if self.plane != Plane::Xy {
+        if self.plane != ArcPlane::Xy {
             return Event::Skip(Skip::Element("polar element outside the XY plane"));
         }
         mv.polar = Some(super::Polar {
@@ -800,7 +800,7 @@ impl Interpreter {
             };
             let _ = a0;
             mv.kind = MoveKind::Arc(Arc {
-                plane: Plane::Xy,
+                plane: ArcPlane::Xy,
                 cw,
                 center: p,
                 turns,
@@ -850,7 +850,7 @@ impl Interpreter {
                 },
             )));
         };
-        if mv.words[2].is_some() && self.plane != Plane::Xy {
+        if mv.words[2].is_some() && self.plane != ArcPlane::Xy {
             return Event::Skip(Skip::Element("circle outside the XY plane"));
         }
         let cw = cw.unwrap_or(false);
@@ -881,7 +881,7 @@ impl Interpreter {
             },
         };
         mv.kind = MoveKind::Arc(Arc {
-            plane: Plane::Xy,
+            plane: ArcPlane::Xy,
             cw,
             center,
             turns: 0,

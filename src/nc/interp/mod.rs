@@ -102,7 +102,7 @@ pub enum FeedMode {
 
 /// Arc plane.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Plane {
+pub enum ArcPlane {
     /// G17.
     Xy,
     /// G18.
@@ -111,13 +111,13 @@ pub enum Plane {
     Yz,
 }
 
-impl Plane {
+impl ArcPlane {
     /// (first, second, normal) axis indices.
     pub fn axes(self) -> (usize, usize, usize) {
         match self {
-            Plane::Xy => (0, 1, 2),
-            Plane::Zx => (2, 0, 1),
-            Plane::Yz => (1, 2, 0),
+            ArcPlane::Xy => (0, 1, 2),
+            ArcPlane::Zx => (2, 0, 1),
+            ArcPlane::Yz => (1, 2, 0),
         }
     }
 }
@@ -284,7 +284,7 @@ impl std::fmt::Display for Skip {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Arc {
     /// Plane.
-    pub plane: Plane,
+    pub plane: ArcPlane,
     /// Clockwise (G2, DR-).
     pub cw: bool,
     /// Centre, absolute program coordinates in the plane (first, second).
@@ -410,7 +410,7 @@ pub enum Event {
 
 /// What the interpreter is told about the program and the machine.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Settings {
+pub struct InterpreterSettings {
     /// The dialect.
     pub dialect: Dialect,
     /// How coordinates are meant.
@@ -423,11 +423,11 @@ pub struct Settings {
     pub integer_unit: Option<f64>,
 }
 
-impl Settings {
+impl InterpreterSettings {
     /// Defaults for a dialect: TCP as the program switches it, program
     /// zero on the W origin, integer FANUC words left alone.
-    pub fn new(dialect: Dialect) -> Settings {
-        Settings {
+    pub fn new(dialect: Dialect) -> InterpreterSettings {
+        InterpreterSettings {
             dialect,
             coordinates: Coordinates::Auto,
             origin: Vector3::zeros(),
@@ -439,7 +439,7 @@ impl Settings {
 /// What does not change along a program: the settings and the machine.
 #[derive(Debug)]
 struct Config {
-    settings: Settings,
+    settings: InterpreterSettings,
     /// Letters of the machine's two rotary axes (tilt, then C).
     rotary: [u8; 2],
     /// Index of the tilt axis in [`AXES`] (3 for A, 4 for B).
@@ -472,7 +472,7 @@ pub struct Interpreter {
     /// Last feed value.
     pub feed: Option<f64>,
     /// Plane.
-    pub plane: Plane,
+    pub plane: ArcPlane,
     /// Work offset in force: G code x 10 (540 = G54; 5410 + P for G54.1 P;
     /// 100000 + n for a HEIDENHAIN preset).
     pub work_offset: u32,
@@ -545,7 +545,7 @@ const ALTERED_OFFSET: &str = "a work offset whose data the program changes (G10 
 
 impl Interpreter {
     /// The power-on state of a controller of this dialect on this machine.
-    pub fn new(settings: &Settings, kin: &Kinematics) -> Interpreter {
+    pub fn new(settings: &InterpreterSettings, kin: &Kinematics) -> Interpreter {
         let m = kin.machine();
         let dialect = settings.dialect;
         let cfg = Config {
@@ -565,7 +565,7 @@ impl Interpreter {
             motion: None,
             feed_mode: FeedMode::PerMinute,
             feed: None,
-            plane: Plane::Xy,
+            plane: ArcPlane::Xy,
             work_offset: match dialect {
                 Dialect::Heidenhain => 100_000,
                 // G500: no settable offset until the program selects one.
@@ -605,7 +605,7 @@ impl Interpreter {
     }
 
     /// The settings.
-    pub fn settings(&self) -> &Settings {
+    pub fn settings(&self) -> &InterpreterSettings {
         &self.cfg.settings
     }
 

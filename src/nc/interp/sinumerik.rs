@@ -14,7 +14,7 @@
 //! unknown after them).
 
 use super::{
-    AXES, Arc, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Plane, Skip, Tcp, Units,
+    AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Units,
     arc_runs, center_from_radius,
 };
 use crate::nc::interp::gcode::g_code;
@@ -312,9 +312,9 @@ impl Interpreter {
                         // Dwell, working-area limits, reference and fixed points.
                         40 | 250 | 260 | 740 | 750 => g_nonmodal = Some(g),
                         530 | 1530 => machine = true,
-                        170 => self.plane = Plane::Xy,
-                        180 => self.plane = Plane::Zx,
-                        190 => self.plane = Plane::Yz,
+                        170 => self.plane = ArcPlane::Xy,
+                        180 => self.plane = ArcPlane::Zx,
+                        190 => self.plane = ArcPlane::Yz,
                         700 | 7000 => self.units = Units::Inch,
                         710 | 7100 => self.units = Units::Mm,
                         900 => {
@@ -642,7 +642,7 @@ impl Interpreter {
                     _ if rotary => Err(FRAME_ROTARY),
                     _ if unknown => Err(FRAME_PARAMETER),
                     Some(_) if vals.iter().any(Option::is_some) => Err(FRAME_RPL_AND_AXES),
-                    Some(_) if self.plane != Plane::Xy => Err(FRAME_RPL_PLANE),
+                    Some(_) if self.plane != ArcPlane::Xy => Err(FRAME_RPL_PLANE),
                     Some(a) => Ok(super::plane::about(b'Z', a.unwrap_or(0.0))),
                     None => Ok(super::plane::intrinsic(b"ZYX", [given.z, given.y, given.x])),
                 };

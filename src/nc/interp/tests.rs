@@ -2,7 +2,7 @@ use super::*;
 use crate::nc::Syntax;
 pub(super) fn run(src: &str, d: Dialect) -> (Vec<Event>, Interpreter) {
     let kin = Kinematics::new(&crate::machine::Machine::builtin("bc-trunnion").unwrap());
-    let mut m = Interpreter::new(&Settings::new(d), &kin);
+    let mut m = Interpreter::new(&InterpreterSettings::new(d), &kin);
     let syn = Syntax {
         dialect: d,
         strict: false,
@@ -36,7 +36,7 @@ fn tracks_units_distance_motion_feed_and_offsets() {
     assert!(!m.absolute);
     assert_eq!(m.feed_mode, FeedMode::InverseTime);
     assert_eq!(m.work_offset, 550);
-    assert_eq!(m.plane, Plane::Zx);
+    assert_eq!(m.plane, ArcPlane::Zx);
     assert_eq!(m.motion, Some(Motion::Linear));
     // Incremental from unknown positions: nothing known yet.
     assert_eq!(mv(&ev[1]).end, [None; 6]);
