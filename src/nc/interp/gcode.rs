@@ -54,6 +54,20 @@ pub(crate) fn known_g(dialect: Dialect, g: u32) -> bool {
     }
 }
 
+/// What the words of one block say, gathered before anything moves.
+#[derive(Default)]
+struct WordScan {
+    g_nonmodal: Option<u32>,
+    motion_word: Option<usize>,
+    motion_here: Option<Motion>,
+    drill_here: Option<u32>,
+    m_codes: [Option<u32>; 4],
+    nm: usize,
+    p_word: Option<f64>,
+    has_axis: bool,
+    expr_g: bool,
+}
+
 impl Interpreter {
     /// One FANUC or LinuxCNC statement.
     pub(super) fn gcode(&mut self, block: &Block, seg: &Segment) -> Event {
@@ -68,22 +82,8 @@ impl Interpreter {
     }
 
     fn words(&mut self, block: &Block, seg: &Segment) -> Event {
-        let mut g_nonmodal: Option<u32> = None;
-        let mut motion_word = None;
-        let mut motion_here: Option<Motion> = None;
-        let mut drill_here: Option<u32> = None;
-        let mut m_codes: [Option<u32>; 4] = [None; 4];
-        let mut nm = 0;
-        let mut p_word: Option<f64> = None;
-        let mut has_axis = false;
-        let old_frame = (
-            self.work_offset,
-            self.tool_length,
-            self.tcp,
-            self.tilted,
-            self.units,
-        );
-        let mut expr_g = false;
+        let old_frame = self.frame_key();
+        let mut s = WordScan::default();
         for (ti, w) in block.words(seg) {
             let Some(letter) = w.addr.as_letter() else {
                 continue;
@@ -91,154 +91,26 @@ impl Interpreter {
             match letter {
                 b'G' => {
                     let Value::Num(v) = w.value else {
-                        expr_g = true;
+                        s.expr_g = true;
                         continue;
                     };
-                    let Some(g) = g_code(v) else { continue };
-                    match g {
-                        0 | 10 | 20 | 30 => {
-                            motion_here = Some(match g {
-                                0 => Motion::Rapid,
-                                10 => Motion::Linear,
-                                20 => Motion::ArcCw,
-                                _ => Motion::ArcCcw,
-                            });
-                            motion_word = Some(ti);
-                        }
-                        50 | 51 | 52 | 53 | 330 | 331 | 760 | 730 | 740 | 810..=890 => {
-                            motion_here = Some(Motion::Other);
-                            motion_word = Some(ti);
-                            drill_here = Some(g);
-                        }
-                        800 => {
-                            self.motion = None;
-                            self.end_cycle();
-                        }
-                        980 => self.retract_initial = true,
-                        990 => self.retract_initial = false,
-                        40
-                        | 100
-                        | 280
-                        | 281
-                        | 300
-                        | 301
-                        | 310..=314
-                        | 382..=385
-                        | 520
-                        | 530
-                        | 650
-                        | 660
-                        | 531
-                        | 682
-                        | 920 => g_nonmodal = Some(g),
-                        670 => {}
-                        170 => self.plane = ArcPlane::Xy,
-                        180 => self.plane = ArcPlane::Zx,
-                        190 => self.plane = ArcPlane::Yz,
-                        200 => self.units = Units::Inch,
-                        210 => self.units = Units::Mm,
-                        900 => {
-                            self.absolute = true;
-                            self.state_unknown = None;
-                        }
-                        910 => {
-                            self.absolute = false;
-                            self.state_unknown = None;
-                        }
-                        901 => self.arc_absolute = true,
-                        911 => self.arc_absolute = false,
-                        921 | 922 => {
-                            self.shift = [0.0; 3];
-                        }
-                        930 => self.feed_mode = FeedMode::InverseTime,
-                        940 => self.feed_mode = FeedMode::PerMinute,
-                        950 => self.feed_mode = FeedMode::PerRev,
-                        400 => self.radius_comp = false,
-                        410 | 420 | 411 | 421 | 412 | 422 => self.radius_comp = true,
-                        430 | 431 | 432 | 440 => {
-                            self.tool_length = true;
-                            self.tcp = Tcp::Off;
-                        }
-                        434 => {
-                            self.tool_length = true;
-                            self.tcp = Tcp::Axes;
-                        }
-                        435 => {
-                            self.tool_length = true;
-                            self.tcp = Tcp::Vector;
-                        }
-                        490 => {
-                            self.tool_length = false;
-                            self.tcp = Tcp::Off;
-                        }
-                        // Haas G234, tool centre point control: in the
-                        // tool length group as G43.4, X, Y, Z the tip in
-                        // the work offset turning with the table.
-                        2340 => {
-                            self.tool_length = true;
-                            self.tcp = Tcp::Axes;
-                        }
-                        2540 => {
-                            if self.transformed.is_none() {
-                                self.transformed = Some(HAAS_DWO);
-                            }
-                            self.pos[..3].fill(None);
-                        }
-                        2550 => {
-                            if self.transformed == Some(HAAS_DWO) {
-                                self.pos[..3].fill(None);
-                            }
-                            self.cancel(HAAS_DWO);
-                        }
-                        541 => self.work_offset = 5410,
-                        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => self.work_offset = g,
-                        683 | 684 => {
-                            let at = block.tokens[ti].span.start as usize;
-                            self.plane_unmodelled(
-                                block.line,
-                                at,
-                                "G68.3/G68.4: a plane from the tool axis or incremental",
-                            );
-                        }
-                        680 => self.transformed = Some("coordinate rotation (G68)"),
-                        690 => {
-                            self.plane_pending = None;
-                            if self.tilted {
-                                self.set_plane(None);
-                            }
-                            self.cancel("coordinate rotation (G68)");
-                        }
-                        510 => self.transformed = Some("scaling (G51)"),
-                        500 => self.cancel("scaling (G51)"),
-                        511 => self.transformed = Some("programmable mirror image (G51.1)"),
-                        501 => self.cancel("programmable mirror image (G51.1)"),
-                        160 => self.transformed = Some("polar coordinate command (G16)"),
-                        150 => self.cancel("polar coordinate command (G16)"),
-                        121 => self.transformed = Some("polar coordinate interpolation (G12.1)"),
-                        131 => self.cancel("polar coordinate interpolation (G12.1)"),
-                        71 => {
-                            self.transformed = if self.transformed.is_none() {
-                                Some("cylindrical interpolation (G7.1)")
-                            } else {
-                                None
-                            }
-                        }
-                        _ => {}
+                    if let Some(g) = g_code(v) {
+                        self.g_word(block, ti, g, &mut s);
                     }
                 }
                 b'M' => {
                     if let Value::Num(v) = w.value {
                         let m = v.round() as u32;
-                        if nm < 4 {
-                            m_codes[nm] = Some(m);
-                            nm += 1;
+                        if s.nm < 4 {
+                            s.m_codes[s.nm] = Some(m);
+                            s.nm += 1;
                         }
                         self.m_function(m, block.tokens[ti].span.start as usize);
                     }
                 }
                 b'P' => {
                     if let Value::Num(v) = w.value {
-                        p_word = Some(v);
+                        s.p_word = Some(v);
                     }
                 }
                 b'F' => {
@@ -247,27 +119,21 @@ impl Interpreter {
                     }
                 }
                 // U, V and W move axes this machine does not have.
-                b'U' | b'V' | b'W' => has_axis = true,
+                b'U' | b'V' | b'W' => s.has_axis = true,
                 _ => {
                     if self.axis_index(w.addr).is_some() {
-                        has_axis = true;
+                        s.has_axis = true;
                     }
                 }
             }
         }
         // G54.1 P n selects an additional work offset.
         if self.work_offset == 5410
-            && let Some(p) = p_word
+            && let Some(p) = s.p_word
         {
             self.work_offset = 5410 + p.round() as u32;
         }
-        let frame_now = (
-            self.work_offset,
-            self.tool_length,
-            self.tcp,
-            self.tilted,
-            self.units,
-        );
+        let frame_now = self.frame_key();
         if frame_now != old_frame {
             // The same numbers mean another place now; rotary positions
             // are machine positions whatever the frame (no work offset has
@@ -292,27 +158,180 @@ impl Interpreter {
                 }
             }
         }
-        let calls = m_codes.iter().flatten().any(|&m| m == 98 || m == 99);
-        if let Some(m) = motion_here {
+        self.words_event(block, seg, &s)
+    }
+
+    /// The work offset, tool length, TCP, tilt and units: what the numbers
+    /// of an axis word mean.
+    pub(super) fn frame_key(&self) -> (u32, bool, Tcp, bool, Units) {
+        (
+            self.work_offset,
+            self.tool_length,
+            self.tcp,
+            self.tilted,
+            self.units,
+        )
+    }
+
+    /// One G code of a block: modal state set at once, the motion, cycle
+    /// and non-modal codes noted in `s` for [`Self::words_event`].
+    fn g_word(&mut self, block: &Block, ti: usize, g: u32, s: &mut WordScan) {
+        match g {
+            0 | 10 | 20 | 30 => {
+                s.motion_here = Some(match g {
+                    0 => Motion::Rapid,
+                    10 => Motion::Linear,
+                    20 => Motion::ArcCw,
+                    _ => Motion::ArcCcw,
+                });
+                s.motion_word = Some(ti);
+            }
+            50 | 51 | 52 | 53 | 330 | 331 | 760 | 730 | 740 | 810..=890 => {
+                s.motion_here = Some(Motion::Other);
+                s.motion_word = Some(ti);
+                s.drill_here = Some(g);
+            }
+            800 => {
+                self.motion = None;
+                self.end_cycle();
+            }
+            980 => self.retract_initial = true,
+            990 => self.retract_initial = false,
+            40
+            | 100
+            | 280
+            | 281
+            | 300
+            | 301
+            | 310..=314
+            | 382..=385
+            | 520
+            | 530
+            | 650
+            | 660
+            | 531
+            | 682
+            | 920 => s.g_nonmodal = Some(g),
+            670 => {}
+            170 => self.plane = ArcPlane::Xy,
+            180 => self.plane = ArcPlane::Zx,
+            190 => self.plane = ArcPlane::Yz,
+            200 => self.units = Units::Inch,
+            210 => self.units = Units::Mm,
+            900 => {
+                self.absolute = true;
+                self.state_unknown = None;
+            }
+            910 => {
+                self.absolute = false;
+                self.state_unknown = None;
+            }
+            901 => self.arc_absolute = true,
+            911 => self.arc_absolute = false,
+            921 | 922 => {
+                self.shift = [0.0; 3];
+            }
+            930 => self.feed_mode = FeedMode::InverseTime,
+            940 => self.feed_mode = FeedMode::PerMinute,
+            950 => self.feed_mode = FeedMode::PerRev,
+            400 => self.radius_comp = false,
+            410 | 420 | 411 | 421 | 412 | 422 => self.radius_comp = true,
+            430 | 431 | 432 | 440 => {
+                self.tool_length = true;
+                self.tcp = Tcp::Off;
+            }
+            434 => {
+                self.tool_length = true;
+                self.tcp = Tcp::Axes;
+            }
+            435 => {
+                self.tool_length = true;
+                self.tcp = Tcp::Vector;
+            }
+            490 => {
+                self.tool_length = false;
+                self.tcp = Tcp::Off;
+            }
+            // Haas G234, tool centre point control: in the
+            // tool length group as G43.4, X, Y, Z the tip in
+            // the work offset turning with the table.
+            2340 => {
+                self.tool_length = true;
+                self.tcp = Tcp::Axes;
+            }
+            2540 => {
+                if self.transformed.is_none() {
+                    self.transformed = Some(HAAS_DWO);
+                }
+                self.pos[..3].fill(None);
+            }
+            2550 => {
+                if self.transformed == Some(HAAS_DWO) {
+                    self.pos[..3].fill(None);
+                }
+                self.cancel(HAAS_DWO);
+            }
+            541 => self.work_offset = 5410,
+            540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => self.work_offset = g,
+            683 | 684 => {
+                let at = block.tokens[ti].span.start as usize;
+                self.plane_unmodelled(
+                    block.line,
+                    at,
+                    "G68.3/G68.4: a plane from the tool axis or incremental",
+                );
+            }
+            680 => self.transformed = Some("coordinate rotation (G68)"),
+            690 => {
+                self.plane_pending = None;
+                if self.tilted {
+                    self.set_plane(None);
+                }
+                self.cancel("coordinate rotation (G68)");
+            }
+            510 => self.transformed = Some("scaling (G51)"),
+            500 => self.cancel("scaling (G51)"),
+            511 => self.transformed = Some("programmable mirror image (G51.1)"),
+            501 => self.cancel("programmable mirror image (G51.1)"),
+            160 => self.transformed = Some("polar coordinate command (G16)"),
+            150 => self.cancel("polar coordinate command (G16)"),
+            121 => self.transformed = Some("polar coordinate interpolation (G12.1)"),
+            131 => self.cancel("polar coordinate interpolation (G12.1)"),
+            71 => {
+                self.transformed = if self.transformed.is_none() {
+                    Some("cylindrical interpolation (G7.1)")
+                } else {
+                    None
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// What a block does once its words are read: a move, a cycle's hole,
+    /// a non-modal code's effect, or why its axis words are not followed.
+    fn words_event(&mut self, block: &Block, seg: &Segment, s: &WordScan) -> Event {
+        let calls = s.m_codes.iter().flatten().any(|&m| m == 98 || m == 99);
+        if let Some(m) = s.motion_here {
             self.motion = Some(m);
             // Another motion code ends the cycle and forgets its data.
-            match drill_here.filter(|&g| self.drill_cycle(g)) {
+            match s.drill_here.filter(|&g| self.drill_cycle(g)) {
                 Some(g) => self.cycle = Some(g),
                 None => self.end_cycle(),
             }
         }
-        if expr_g {
+        if s.expr_g {
             // A G code from a variable: nothing below can be trusted.
             self.forget();
             self.motion = None;
-            return if has_axis {
+            return if s.has_axis {
                 Event::Skip(Skip::Expression)
             } else {
                 Event::None
             };
         }
-        if let Some(g) = g_nonmodal {
-            let ev = self.nonmodal(block, seg, g, has_axis);
+        if let Some(g) = s.g_nonmodal {
+            let ev = self.nonmodal(block, seg, g, s.has_axis);
             if calls {
                 self.forget();
             }
@@ -320,13 +339,13 @@ impl Interpreter {
         }
         if calls {
             self.forget();
-            return if has_axis {
+            return if s.has_axis {
                 Event::Skip(Skip::MacroCall)
             } else {
                 Event::None
             };
         }
-        if !has_axis {
+        if !s.has_axis {
             if let Some(u) = seg.unknown {
                 let word = String::from_utf8_lossy(block.bytes(u)).into_owned();
                 self.note(
@@ -339,7 +358,7 @@ impl Interpreter {
         let motion = self.motion;
         match motion {
             Some(Motion::Rapid) | Some(Motion::Linear) | Some(Motion::ArcCw)
-            | Some(Motion::ArcCcw) => self.iso_move(block, seg, motion.unwrap(), motion_word),
+            | Some(Motion::ArcCcw) => self.iso_move(block, seg, motion.unwrap(), s.motion_word),
             Some(Motion::Other) if self.cycle.is_some() => self.drill(block, seg),
             Some(Motion::Other) => {
                 self.track_words(block, seg);

@@ -114,6 +114,22 @@ type Known = (
     nalgebra::Matrix3<f64>,
 );
 
+/// What the commands and words of one block say, gathered before
+/// anything moves.
+#[derive(Default)]
+struct SiScan {
+    frame: Option<String>,
+    machine: bool,
+    probing: bool,
+    call: bool,
+    cycle: bool,
+    g_nonmodal: Option<u32>,
+    motion_word: Option<usize>,
+    motion_here: Option<Motion>,
+    has_axis: bool,
+    expr_g: bool,
+}
+
 impl Interpreter {
     /// One SINUMERIK statement.
     pub(super) fn sinumerik(&mut self, block: &Block, seg: &Segment) -> Event {
@@ -197,19 +213,26 @@ impl Interpreter {
     }
 
     fn si_words(&mut self, block: &Block, seg: &Segment) -> Event {
+        let old = self.frame_key();
+        let mut s = SiScan::default();
         // Commands first: they say what the block's words mean.
-        let mut frame: Option<String> = None;
-        let mut machine = false;
-        let mut probing = false;
-        let mut call = false;
-        let mut cycle = false;
-        let old = (
-            self.work_offset,
-            self.tool_length,
-            self.tcp,
-            self.tilted,
-            self.units,
-        );
+        self.si_commands(block, seg, &mut s);
+        self.si_address_words(block, seg, &mut s);
+        let now = self.frame_key();
+        if now != old {
+            // The same numbers mean another place now; the rotary axes
+            // stay where they are (their positions are machine positions
+            // whatever the frame: no work offset has a rotary part, each
+            // lies on the W origin at rotary zero).
+            let rotary = [self.pos[3], self.pos[4], self.pos[5]];
+            self.forget();
+            self.pos[3..].copy_from_slice(&rotary);
+        }
+        self.si_event(block, seg, &s)
+    }
+
+    /// The block's commands (TRAORI, CYCLE800, SUPA, frames, calls, ...).
+    fn si_commands(&mut self, block: &Block, seg: &Segment, s: &mut SiScan) {
         let toks = block.seg_tokens(seg);
         for (k, t) in toks.iter().enumerate() {
             if t.kind != TokenKind::Keyword {
@@ -231,7 +254,7 @@ impl Interpreter {
                     let text = args.map(|a| String::from_utf8_lossy(a).into_owned());
                     self.cycle800(block.line, offset, text.as_deref().unwrap_or(""));
                 }
-                "SUPA" => machine = true,
+                "SUPA" => s.machine = true,
                 "CIP" | "CT" | "POLY" | "ASPLINE" | "BSPLINE" | "CSPLINE" => {
                     self.motion = Some(Motion::Other)
                 }
@@ -254,17 +277,17 @@ impl Interpreter {
                 }
                 // `RPL` belongs to the ROT/AROT before it.
                 n if FRAMES.contains(&n) => {
-                    if n != "RPL" || frame.is_none() {
-                        frame = Some(n.to_string());
+                    if n != "RPL" || s.frame.is_none() {
+                        s.frame = Some(n.to_string());
                     }
                 }
                 n if QUIET_COMMANDS.contains(&n) => {}
-                n if n.starts_with("CYCLE") => cycle = true,
+                n if n.starts_with("CYCLE") => s.cycle = true,
                 _ => {
                     // A subprogram (by name or with a parameter list) or a
                     // command fivecal does not know: where the axes are
                     // afterwards is not known.
-                    call = true;
+                    s.call = true;
                     self.note(
                         offset,
                         format!(
@@ -274,15 +297,14 @@ impl Interpreter {
                 }
             }
         }
-        let mut g_nonmodal: Option<u32> = None;
-        let mut motion_word = None;
-        let mut motion_here: Option<Motion> = None;
-        let mut has_axis = false;
-        let mut expr_g = false;
+    }
+
+    /// The block's address words: G and M codes, D, F, L and the axes.
+    fn si_address_words(&mut self, block: &Block, seg: &Segment, s: &mut SiScan) {
         for (ti, w) in block.words(seg) {
             let a = w.addr;
             if a == Addr::new("MEAS") || a == Addr::new("MEAW") {
-                probing = true;
+                s.probing = true;
                 continue;
             }
             let Some(letter) = a.as_letter() else {
@@ -291,27 +313,27 @@ impl Interpreter {
             match letter {
                 b'G' => {
                     let Value::Num(v) = w.value else {
-                        expr_g = true;
+                        s.expr_g = true;
                         continue;
                     };
                     let Some(g) = g_code(v) else { continue };
                     match g {
                         0 | 10 | 20 | 30 => {
-                            motion_here = Some(match g {
+                            s.motion_here = Some(match g {
                                 0 => Motion::Rapid,
                                 10 => Motion::Linear,
                                 20 => Motion::ArcCw,
                                 _ => Motion::ArcCcw,
                             });
-                            motion_word = Some(ti);
+                            s.motion_word = Some(ti);
                         }
                         50 | 330 | 340 | 350 | 3310 | 3320 => {
-                            motion_here = Some(Motion::Other);
-                            motion_word = Some(ti);
+                            s.motion_here = Some(Motion::Other);
+                            s.motion_word = Some(ti);
                         }
                         // Dwell, working-area limits, reference and fixed points.
-                        40 | 250 | 260 | 740 | 750 => g_nonmodal = Some(g),
-                        530 | 1530 => machine = true,
+                        40 | 250 | 260 | 740 | 750 => s.g_nonmodal = Some(g),
+                        530 | 1530 => s.machine = true,
                         170 => self.plane = ArcPlane::Xy,
                         180 => self.plane = ArcPlane::Zx,
                         190 => self.plane = ArcPlane::Yz,
@@ -346,7 +368,7 @@ impl Interpreter {
                         if matches!(m, 6 | 17 | 2 | 30) {
                             // A tool change moves the axes where the machine
                             // has its change position.
-                            call = true;
+                            s.call = true;
                         }
                     }
                 }
@@ -360,48 +382,36 @@ impl Interpreter {
                         self.feed = Some(v);
                     }
                 }
-                b'L' => call = true,
+                b'L' => s.call = true,
                 _ => {
                     if self.axis_index(a).is_some() {
-                        has_axis = true;
+                        s.has_axis = true;
                     }
                 }
             }
         }
-        let now = (
-            self.work_offset,
-            self.tool_length,
-            self.tcp,
-            self.tilted,
-            self.units,
-        );
-        if now != old {
-            // The same numbers mean another place now; the rotary axes
-            // stay where they are (their positions are machine positions
-            // whatever the frame: no work offset has a rotary part, each
-            // lies on the W origin at rotary zero).
-            let rotary = [self.pos[3], self.pos[4], self.pos[5]];
-            self.forget();
-            self.pos[3..].copy_from_slice(&rotary);
-        }
-        if let Some(m) = motion_here {
+    }
+
+    /// What the block does once its commands and words are read.
+    fn si_event(&mut self, block: &Block, seg: &Segment, s: &SiScan) -> Event {
+        if let Some(m) = s.motion_here {
             self.motion = Some(m);
         }
-        if let Some(f) = frame {
-            self.si_frame(block, seg, &f);
+        if let Some(f) = &s.frame {
+            self.si_frame(block, seg, f);
             return Event::None;
         }
-        if expr_g {
+        if s.expr_g {
             self.forget();
             self.motion = None;
-            return if has_axis {
+            return if s.has_axis {
                 Event::Skip(Skip::Expression)
             } else {
                 Event::None
             };
         }
-        if machine || probing || g_nonmodal.is_some_and(|g| g == 740 || g == 750) {
-            if machine && !probing && g_nonmodal.is_none() {
+        if s.machine || s.probing || s.g_nonmodal.is_some_and(|g| g == 740 || g == 750) {
+            if s.machine && !s.probing && s.g_nonmodal.is_none() {
                 let absolute = self.absolute;
                 self.machine_move(block, seg, |b, w| {
                     written_mode(b, w).map_or(absolute, |inc| !inc)
@@ -409,31 +419,31 @@ impl Interpreter {
             } else {
                 self.forget_named(block, seg);
             }
-            if call {
+            if s.call {
                 self.forget();
             }
-            return if has_axis || probing {
+            return if s.has_axis || s.probing {
                 Event::Quiet
             } else {
                 Event::None
             };
         }
-        if g_nonmodal.is_some() {
+        if s.g_nonmodal.is_some() {
             return Event::None;
         }
-        if cycle {
+        if s.cycle {
             self.forget();
             return Event::Skip(Skip::CannedCycle);
         }
-        if call {
+        if s.call {
             self.forget();
-            return if has_axis {
+            return if s.has_axis {
                 Event::Skip(Skip::MacroCall)
             } else {
                 Event::None
             };
         }
-        if !has_axis {
+        if !s.has_axis {
             if let Some(u) = seg.unknown {
                 let word = String::from_utf8_lossy(block.bytes(u)).into_owned();
                 self.note(
@@ -445,7 +455,7 @@ impl Interpreter {
         }
         match self.motion {
             Some(m @ (Motion::Rapid | Motion::Linear | Motion::ArcCw | Motion::ArcCcw)) => {
-                self.si_move(block, seg, m, motion_word)
+                self.si_move(block, seg, m, s.motion_word)
             }
             Some(Motion::Other) => {
                 self.track_words(block, seg);
