@@ -270,7 +270,9 @@ fn effect_values(f: &Fit, ei: usize) -> Vec<story::FittedValue> {
     let units = f.spec.model.param_units();
     r.map(|i| story::FittedValue {
         name: f.names[i].clone(),
-        value: f.x[i],
+        // No free direction moves a fixed value: what the fit left there
+        // is round-off, which must not print as -0.000.
+        value: if f.fixed(i) { 0.0 } else { f.x[i] },
         u: f.u(i),
         unit: units[i].clone(),
         note: if f.fixed(i) {
