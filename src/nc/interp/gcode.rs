@@ -178,12 +178,7 @@ impl Interpreter {
     fn g_word(&mut self, block: &Block, ti: usize, g: u32, s: &mut WordScan) {
         match g {
             0 | 10 | 20 | 30 => {
-                s.motion_here = Some(match g {
-                    0 => Motion::Rapid,
-                    10 => Motion::Linear,
-                    20 => Motion::ArcCw,
-                    _ => Motion::ArcCcw,
-                });
+                s.motion_here = Motion::of_g(g);
                 s.motion_word = Some(ti);
             }
             50 | 51 | 52 | 53 | 330 | 331 | 760 | 730 | 740 | 810..=890 => {

@@ -89,6 +89,20 @@ pub enum Motion {
     Other,
 }
 
+impl Motion {
+    /// The motion of G0, G1, G2 or G3, as [`gcode::g_code`] numbers them
+    /// (ten times the code); `None` for any other code.
+    pub(crate) fn of_g(g: u32) -> Option<Motion> {
+        match g {
+            0 => Some(Motion::Rapid),
+            10 => Some(Motion::Linear),
+            20 => Some(Motion::ArcCw),
+            30 => Some(Motion::ArcCcw),
+            _ => None,
+        }
+    }
+}
+
 /// Feed mode.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FeedMode {

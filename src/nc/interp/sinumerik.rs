@@ -319,12 +319,7 @@ impl Interpreter {
                     let Some(g) = g_code(v) else { continue };
                     match g {
                         0 | 10 | 20 | 30 => {
-                            s.motion_here = Some(match g {
-                                0 => Motion::Rapid,
-                                10 => Motion::Linear,
-                                20 => Motion::ArcCw,
-                                _ => Motion::ArcCcw,
-                            });
+                            s.motion_here = Motion::of_g(g);
                             s.motion_word = Some(ti);
                         }
                         50 | 330 | 340 | 350 | 3310 | 3320 => {
