@@ -45,6 +45,7 @@
 //! virtual machine does; the rigid-pose models of `identify::forward`
 //! (location errors, maps, drift) for bare point sets.
 
+use std::cell::RefCell;
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -877,22 +878,6 @@ impl<'a> Fitter<'a> {
         Ok((r, j))
     }
 
-    /// The Gauss-Newton step at a Jacobian, within the free directions the
-    /// nominal design sees (`rank` of them), and the pseudo-inverse it
-    /// used.
-    fn gn_step(
-        &self,
-        j: &DMatrix<f64>,
-        r: &[f64],
-        basis: &DMatrix<f64>,
-        rank: usize,
-    ) -> (DVector<f64>, DMatrix<f64>) {
-        let jm = Mat::<f64>::from_fn(j.nrows(), j.ncols(), |a, b| j[(a, b)]);
-        let d = lsq::design_ranked(&jm, Some(basis), self.opts.rank_rtol, Some(rank));
-        let g = j.tr_mul(&DVector::from_column_slice(r));
-        (-(&d.cov_unit * g), d.cov_unit)
-    }
-
     fn finish(
         &self,
         spec: &Spec,
@@ -929,52 +914,40 @@ impl<'a> Fitter<'a> {
 
     /// Fits `spec` exactly, from `start` (its parameters, e.g. a smaller
     /// model's estimate padded with zeros; they must satisfy the
-    /// constraints) or from the nominal machine. The covariance is taken at
-    /// the estimate.
+    /// constraints) or from the nominal machine, by the damped Gauss-Newton
+    /// of [`lsq::solve_ranked`] along the directions the nominal design
+    /// sees. The covariance is taken at the estimate.
+    ///
+    /// The damping matters: a test can see a direction only through terms
+    /// of the order of the errors (a piece turned about its probed face
+    /// points, seen a ten-millionth as well as the rest), and an undamped
+    /// step sends such a direction metres away, where the linearization
+    /// no longer holds and a line search along the step gains almost
+    /// nothing: the fit would stop far from the minimum.
     pub fn fit(&self, spec: &Spec, start: Option<Vec<f64>>) -> Result<Fit, FitError> {
         let (d, basis, _) = self.design(spec);
         let p = spec.model.n_params() + self.extra();
-        let mut x = start.unwrap_or_else(|| vec![0.0; p]);
+        let x0 = start.unwrap_or_else(|| vec![0.0; p]);
         let own = self.own(spec)?;
-        let (mut r, mut j) = self.eval_jac(spec, &own, &x)?;
-        let mut cost: f64 = r.iter().map(|v| v * v).sum();
-        let mut converged = false;
-        let mut cov = DMatrix::zeros(p, p);
-        for _ in 0..self.opts.max_iter {
-            let (dx, c) = self.gn_step(&j, &r, &basis, d.rank);
-            cov = c;
-            let mut t = 1.0;
-            let mut accepted = None;
-            for _ in 0..12 {
-                let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, b)| a + t * b).collect();
-                let (rn, jn) = self.eval_jac(spec, &own, &xn)?;
-                let cn: f64 = rn.iter().map(|v| v * v).sum();
-                if cn <= cost {
-                    accepted = Some((xn, rn, jn, cn));
-                    break;
-                }
-                t *= 0.5;
-            }
-            let Some((xn, rn, jn, cn)) = accepted else {
-                // No step lowers the sum of squares: at the minimum, to
-                // round-off.
-                converged = true;
-                break;
-            };
-            let gain = cost - cn;
-            x = xn;
-            r = rn;
-            j = jn;
-            cost = cn;
-            let xnorm = x.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if gain <= 1e-10 * cost.max(1e-300) || t * dx.norm() <= 1e-12 * (1.0 + xnorm) {
-                converged = true;
-                let (_, c) = self.gn_step(&j, &r, &basis, d.rank);
-                cov = c;
-                break;
-            }
-        }
-        Ok(self.finish(spec, x, r, d, cov, converged))
+        let problem = SpecProblem {
+            fitter: self,
+            spec,
+            own: &own,
+            last: RefCell::new(None),
+        };
+        // The start must evaluate: a failure there is the fit's; later, a
+        // trial that fails is a step the damping shortens.
+        problem.evaluate(&x0)?;
+        let opts = lsq::Options {
+            ftol: GAIN_IN_VARIANCES / self.len().max(1) as f64,
+            stop_on_prediction: true,
+            ..self.opts
+        };
+        let sol = lsq::solve_ranked(&problem, &x0, Some(&basis), &opts, Some(d.rank));
+        let (r, j) = problem.evaluate(&sol.x)?;
+        let jm = Mat::<f64>::from_fn(j.nrows(), j.ncols(), |a, b| j[(a, b)]);
+        let cov = lsq::design_ranked(&jm, Some(&basis), self.opts.rank_rtol, Some(d.rank)).cov_unit;
+        Ok(self.finish(spec, sol.x, r, d, cov, sol.converged))
     }
 
     /// The catalogue model's residuals and Jacobian at `fit`'s estimate
@@ -986,6 +959,68 @@ impl<'a> Fitter<'a> {
         let every: Vec<usize> = (0..x.len()).collect();
         self.eval_full(&x, &mut r, Some((&mut j, &every)))?;
         Ok(Linearization { r, j })
+    }
+}
+
+/// The gain of a Gauss-Newton step, in variances of one residual, below
+/// which a fit has converged: a step that gains `g` variances moves the
+/// parameters by about `sqrt(g)` standard uncertainties, so this is a
+/// thousandth of one (the next step of a converging fit gains less).
+const GAIN_IN_VARIANCES: f64 = 1e-6;
+
+/// `spec`'s fit as a least-squares problem. Its forward models give the
+/// Jacobian with every prediction, so each evaluation keeps it: the
+/// solver asks for it at the point it has just accepted.
+struct SpecProblem<'f, 'a> {
+    fitter: &'f Fitter<'a>,
+    spec: &'f Spec,
+    own: &'f [Own],
+    last: RefCell<Option<Evaluation>>,
+}
+
+/// A point and the residuals and Jacobian there.
+type Evaluation = (Vec<f64>, Vec<f64>, DMatrix<f64>);
+
+impl SpecProblem<'_, '_> {
+    /// Residuals and Jacobian at `x`, from the last evaluation when it was
+    /// there.
+    fn evaluate(&self, x: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>), FitError> {
+        if let Some((lx, r, j)) = self.last.borrow().as_ref()
+            && lx.as_slice() == x
+        {
+            return Ok((r.clone(), j.clone()));
+        }
+        let (r, j) = self.fitter.eval_jac(self.spec, self.own, x)?;
+        *self.last.borrow_mut() = Some((x.to_vec(), r.clone(), j.clone()));
+        Ok((r, j))
+    }
+}
+
+impl lsq::Problem for SpecProblem<'_, '_> {
+    fn n_residuals(&self) -> usize {
+        self.fitter.len()
+    }
+
+    fn n_params(&self) -> usize {
+        self.spec.model.n_params() + self.fitter.extra()
+    }
+
+    fn eval(&self, x: &[f64], r: &mut [f64], jac: Option<&mut Mat<f64>>) {
+        match self.evaluate(x) {
+            Ok((rv, j)) => {
+                r.copy_from_slice(&rv);
+                if let Some(jm) = jac {
+                    for c in 0..j.ncols() {
+                        for a in 0..j.nrows() {
+                            jm[(a, c)] = j[(a, c)];
+                        }
+                    }
+                }
+            }
+            // A point where the model cannot be evaluated (a probe that
+            // misses its face) is a step the solver rejects.
+            Err(_) => r.fill(f64::NAN),
+        }
     }
 }
 

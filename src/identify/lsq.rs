@@ -37,6 +37,12 @@ pub struct Options {
     pub xtol: f64,
     /// Stop when the cost decreases by less than this (relative).
     pub ftol: f64,
+    /// Also stop, before evaluating it, when the linearized model says the
+    /// Gauss-Newton step would gain less than `ftol`. A caller that
+    /// differentiates the solution by re-solving from a warm start after a
+    /// tiny change of the data must leave this off: the step it wants is
+    /// exactly such a small one.
+    pub stop_on_prediction: bool,
 }
 
 impl Default for Options {
@@ -46,6 +52,7 @@ impl Default for Options {
             rank_rtol: 1e-9,
             xtol: 1e-12,
             ftol: 1e-14,
+            stop_on_prediction: false,
         }
     }
 }
@@ -216,6 +223,20 @@ pub fn solve<P: Problem + ?Sized>(
     basis: Option<&DMatrix<f64>>,
     opts: &Options,
 ) -> LsqSolution {
+    solve_ranked(problem, x0, basis, opts, None)
+}
+
+/// [`solve`] moving along at most `max_rank` directions: those a design
+/// decided elsewhere (e.g. at the nominal machine) sees, when the start
+/// is an estimate where the exact model couples unseen directions to seen
+/// ones.
+pub fn solve_ranked<P: Problem + ?Sized>(
+    problem: &P,
+    x0: &[f64],
+    basis: Option<&DMatrix<f64>>,
+    opts: &Options,
+    max_rank: Option<usize>,
+) -> LsqSolution {
     let (m, n) = (problem.n_residuals(), problem.n_params());
     assert_eq!(x0.len(), n);
     let mut x = x0.to_vec();
@@ -234,9 +255,21 @@ pub fn solve<P: Problem + ?Sized>(
         // model couples unseen directions to seen ones by terms of the
         // order of the parameters, which would otherwise turn a null
         // direction into a barely-seen one and send the step far along it.
-        match start_rank {
-            None => start_rank = Some(sv.rank),
-            Some(r) => sv.rank = sv.rank.min(r),
+        if let Some(r) = start_rank.or(max_rank) {
+            sv.rank = sv.rank.min(r);
+        }
+        start_rank.get_or_insert(sv.rank);
+        // What the full Gauss-Newton step would gain on the linearized
+        // model: when that is already below the tolerance, this is the
+        // minimum, and evaluating the step would only meet round-off.
+        if opts.stop_on_prediction && lambda == 0.0 {
+            let predicted: f64 = (0..sv.rank)
+                .map(|k| (0..m).map(|i| sv.u[(i, k)] * r[i]).sum::<f64>().powi(2))
+                .sum();
+            if predicted <= opts.ftol * c.max(1e-300) {
+                converged = true;
+                break 'outer;
+            }
         }
         let mut tries = 0;
         loop {
