@@ -443,9 +443,6 @@ N150 M30
     // origin R (5, 0, 0).
     let ends = nominal_ends("bc-trunnion", Dialect::Sinumerik, program);
     let (_, tip, axis) = ends.iter().rev().find(|e| e.0 == 11).copied().unwrap();
-    let rot = |axis: Vector3<f64>, deg: f64| {
-        nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
-    };
     let r = rot(Vector3::y(), 30.0) * rot(Vector3::z(), 25.0);
     let origin = r * Vector3::new(5.0, 0.0, 0.0);
     assert!((axis - r * Vector3::z()).norm() < 1e-9, "{axis}");
@@ -540,6 +537,50 @@ fn linuxcnc_g68_2_by_points_and_by_vectors_is_the_same_plane_as_by_angles() {
     );
 }
 
+/// Rotation by `deg` degrees about `axis` (right hand).
+fn rot(axis: Vector3<f64>, deg: f64) -> nalgebra::Matrix3<f64> {
+    nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
+        .into_inner()
+}
+
+/// A SINUMERIK program with programmable frames on the B/C trunnion: at
+/// zero errors it comes back byte for byte with nothing left or noted;
+/// with the errors of `seed` exactly the `moves` lines change, each
+/// corrected pose and the rewritten program driven through the erroneous
+/// machine reach the intended points and path. Returns the zero-error
+/// model for the hand computations.
+fn sinumerik_frames_corrected(
+    program: &str,
+    seed: u64,
+    moves: &[usize],
+    what: &str,
+) -> fivecal::errorfile::LoadedErrors {
+    let zero = errors("bc-trunnion", 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(Dialect::Sinumerik), program);
+    assert_eq!(out, program, "zero error must give the same bytes");
+    assert!(s0.skipped.is_empty(), "{:?}", s0.skipped);
+    assert!(s0.unmodelled.is_empty(), "{:?}", s0.unmodelled);
+    let l = errors("bc-trunnion", seed, 30.0, "");
+    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Sinumerik), program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert_eq!(changed_lines(&out, program), moves, "{out}");
+    assert!(vs.len() >= moves.len());
+    for v in &vs {
+        assert_reaches(&l, v, what);
+    }
+    check_held(
+        &l,
+        Dialect::Sinumerik,
+        Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        &[],
+        what,
+    );
+    zero
+}
+
 #[test]
 fn sinumerik_rot_and_arot_frames_land_on_the_intended_points() {
     // A programmable frame built up step by step (TRANS, AROT about Z,
@@ -572,38 +613,13 @@ N210 G0 X0 Y0 Z60
 N220 M30
 ";
     let moves = [6, 9, 12, 13, 14, 16, 18, 19, 22];
-    let zero = errors("bc-trunnion", 0, 0.0, "");
-    let (out, s0, _) = compensate(&zero, Settings::new(Dialect::Sinumerik), program);
-    assert_eq!(out, program, "zero error must give the same bytes");
-    assert!(s0.skipped.is_empty(), "{:?}", s0.skipped);
-    assert!(s0.unmodelled.is_empty(), "{:?}", s0.unmodelled);
-    let l = errors("bc-trunnion", 93, 30.0, "");
-    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Sinumerik), program);
-    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
-    assert_eq!(changed_lines(&out, program), moves, "{out}");
-    assert!(vs.len() >= moves.len());
-    for v in &vs {
-        assert_reaches(&l, v, "ROT/AROT");
-    }
-    check_held(
-        &l,
-        Dialect::Sinumerik,
-        Coordinates::Auto,
-        program,
-        &out,
-        0.001,
-        &[],
-        "ROT/AROT",
-    );
+    let zero = sinumerik_frames_corrected(program, 93, &moves, "ROT/AROT");
     // The frames by hand, on the nominal machine: the axes at
     // T(10, -5, 0) Rz(30) (T(5, 0, 0) Rx(10) p) for line 12, Rz(-45) p for
     // line 16 (ROT replaced TRANS), and under TRAORI the tip in W is
     // Rz(-45) p.
     let ends = nominal_ends("bc-trunnion", Dialect::Sinumerik, program);
     let at = |line: usize| ends.iter().rev().find(|e| e.0 == line).copied().unwrap();
-    let rot = |axis: Vector3<f64>, deg: f64| {
-        nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
-    };
     let k = &zero.model.kin;
     let tip = |p: Vector3<f64>, b: f64, c: f64| {
         k.forward_nominal(&fivecal::kinematics::Axes::new(p.x, p.y, p.z, b, c))
@@ -706,37 +722,11 @@ N230 ROT
 N240 G0 X0 Y0 Z60
 N250 M30
 ";
-    let zero = errors("bc-trunnion", 0, 0.0, "");
-    let (out, s0, _) = compensate(&zero, Settings::new(Dialect::Sinumerik), program);
-    assert_eq!(out, program, "zero error must give the same bytes");
-    assert!(s0.skipped.is_empty(), "{:?}", s0.skipped);
-    assert!(s0.unmodelled.is_empty(), "{:?}", s0.unmodelled);
-    let l = errors("bc-trunnion", 95, 30.0, "");
-    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Sinumerik), program);
-    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
     let moves = [6, 8, 9, 11, 12, 15, 18, 21, 22, 25];
-    assert_eq!(changed_lines(&out, program), moves, "{out}");
-    assert!(vs.len() >= moves.len());
-    for v in &vs {
-        assert_reaches(&l, v, "ROTS/RPL");
-    }
-    check_held(
-        &l,
-        Dialect::Sinumerik,
-        Coordinates::Auto,
-        program,
-        &out,
-        0.001,
-        &[],
-        "ROTS/RPL",
-    );
+    let zero = sinumerik_frames_corrected(program, 95, &moves, "ROTS/RPL");
     // The frames by hand on the nominal machine. ROTS X10 Y20: the plane
     // through its traces, X turned 20 deg about Y in ZX and Y turned
     // 10 deg about X in YZ, its X along the first.
-    let rot = |axis: Vector3<f64>, deg: f64| {
-        nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
-            .into_inner()
-    };
     let traces = |first: Vector3<f64>, second: Vector3<f64>, f: f64, s: f64| {
         // The turned first and third axes, the second completing them.
         let t1 = rot(second, s) * first;
