@@ -443,9 +443,6 @@ N150 M30
     // origin R (5, 0, 0).
     let ends = nominal_ends("bc-trunnion", Dialect::Sinumerik, program);
     let (_, tip, axis) = ends.iter().rev().find(|e| e.0 == 11).copied().unwrap();
-    let rot = |axis: Vector3<f64>, deg: f64| {
-        nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
-    };
     let r = rot(Vector3::y(), 30.0) * rot(Vector3::z(), 25.0);
     let origin = r * Vector3::new(5.0, 0.0, 0.0);
     assert!((axis - r * Vector3::z()).norm() < 1e-9, "{axis}");
@@ -540,6 +537,50 @@ fn linuxcnc_g68_2_by_points_and_by_vectors_is_the_same_plane_as_by_angles() {
     );
 }
 
+/// Rotation by `deg` degrees about `axis` (right hand).
+fn rot(axis: Vector3<f64>, deg: f64) -> nalgebra::Matrix3<f64> {
+    nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
+        .into_inner()
+}
+
+/// A SINUMERIK program with programmable frames on the B/C trunnion: at
+/// zero errors it comes back byte for byte with nothing left or noted;
+/// with the errors of `seed` exactly the `moves` lines change, each
+/// corrected pose and the rewritten program driven through the erroneous
+/// machine reach the intended points and path. Returns the zero-error
+/// model for the hand computations.
+fn sinumerik_frames_corrected(
+    program: &str,
+    seed: u64,
+    moves: &[usize],
+    what: &str,
+) -> fivecal::errorfile::LoadedErrors {
+    let zero = errors("bc-trunnion", 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(Dialect::Sinumerik), program);
+    assert_eq!(out, program, "zero error must give the same bytes");
+    assert!(s0.skipped.is_empty(), "{:?}", s0.skipped);
+    assert!(s0.unmodelled.is_empty(), "{:?}", s0.unmodelled);
+    let l = errors("bc-trunnion", seed, 30.0, "");
+    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Sinumerik), program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert_eq!(changed_lines(&out, program), moves, "{out}");
+    assert!(vs.len() >= moves.len());
+    for v in &vs {
+        assert_reaches(&l, v, what);
+    }
+    check_held(
+        &l,
+        Dialect::Sinumerik,
+        Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        &[],
+        what,
+    );
+    zero
+}
+
 #[test]
 fn sinumerik_rot_and_arot_frames_land_on_the_intended_points() {
     // A programmable frame built up step by step (TRANS, AROT about Z,
@@ -572,38 +613,13 @@ N210 G0 X0 Y0 Z60
 N220 M30
 ";
     let moves = [6, 9, 12, 13, 14, 16, 18, 19, 22];
-    let zero = errors("bc-trunnion", 0, 0.0, "");
-    let (out, s0, _) = compensate(&zero, Settings::new(Dialect::Sinumerik), program);
-    assert_eq!(out, program, "zero error must give the same bytes");
-    assert!(s0.skipped.is_empty(), "{:?}", s0.skipped);
-    assert!(s0.unmodelled.is_empty(), "{:?}", s0.unmodelled);
-    let l = errors("bc-trunnion", 93, 30.0, "");
-    let (out, s, vs) = compensate(&l, Settings::new(Dialect::Sinumerik), program);
-    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
-    assert_eq!(changed_lines(&out, program), moves, "{out}");
-    assert!(vs.len() >= moves.len());
-    for v in &vs {
-        assert_reaches(&l, v, "ROT/AROT");
-    }
-    check_held(
-        &l,
-        Dialect::Sinumerik,
-        Coordinates::Auto,
-        program,
-        &out,
-        0.001,
-        &[],
-        "ROT/AROT",
-    );
+    let zero = sinumerik_frames_corrected(program, 93, &moves, "ROT/AROT");
     // The frames by hand, on the nominal machine: the axes at
     // T(10, -5, 0) Rz(30) (T(5, 0, 0) Rx(10) p) for line 12, Rz(-45) p for
     // line 16 (ROT replaced TRANS), and under TRAORI the tip in W is
     // Rz(-45) p.
     let ends = nominal_ends("bc-trunnion", Dialect::Sinumerik, program);
     let at = |line: usize| ends.iter().rev().find(|e| e.0 == line).copied().unwrap();
-    let rot = |axis: Vector3<f64>, deg: f64| {
-        nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
-    };
     let k = &zero.model.kin;
     let tip = |p: Vector3<f64>, b: f64, c: f64| {
         k.forward_nominal(&fivecal::kinematics::Axes::new(p.x, p.y, p.z, b, c))
@@ -671,4 +687,103 @@ N140 M30
             .any(|(why, lines)| why.contains("rotary positions") && lines == "12"),
         "{left:?}"
     );
+}
+
+#[test]
+fn sinumerik_solid_angles_plane_rotations_and_turned_tool_vectors_land_on_the_intended_points() {
+    // ROTS by two solid angles (X, Y), AROTS by the pair (Z, X) on top of
+    // it, ROT RPL= in G18 replacing them and AROT RPL= in G19 adding to
+    // that, then TRAORI with tool vectors written in the turned frame.
+    let program = "\
+%_N_SOLID_MPF
+N10 G17 G90 G710 G94
+N20 T=\"MILL D10\" M6
+N30 D1
+N40 G54
+N50 G0 X0 Y0 Z60 B20 C10
+N60 ROTS X10 Y20
+N70 G1 X20 Y5 Z5 F500
+N80 G2 X30 Y-5 CR=10
+N90 AROTS Z15 X-10
+N100 G1 X25 Y8 Z4
+N110 G0 Z40
+N120 G18
+N130 ROT RPL=25
+N140 G1 X10 Y-5 Z12
+N150 G19
+N160 AROT RPL=-15
+N170 G1 X12 Y-4 Z10
+N180 G17
+N190 TRAORI
+N200 G1 X10 Y5 Z3 A3=0.1 B3=0.2 C3=1
+N210 X12 Y6 Z4 A3=-0.1 B3=0.15 C3=1
+N220 TRAFOOF
+N230 ROT
+N240 G0 X0 Y0 Z60
+N250 M30
+";
+    let moves = [6, 8, 9, 11, 12, 15, 18, 21, 22, 25];
+    let zero = sinumerik_frames_corrected(program, 95, &moves, "ROTS/RPL");
+    // The frames by hand on the nominal machine. ROTS X10 Y20: the plane
+    // through its traces, X turned 20 deg about Y in ZX and Y turned
+    // 10 deg about X in YZ, its X along the first.
+    let traces = |first: Vector3<f64>, second: Vector3<f64>, f: f64, s: f64| {
+        // The turned first and third axes, the second completing them.
+        let t1 = rot(second, s) * first;
+        let t2 = rot(first, f) * second;
+        let n = t1.cross(&t2).normalize();
+        (t1, n.cross(&t1), n)
+    };
+    let (x, y, z) = traces(Vector3::x(), Vector3::y(), 10.0, 20.0);
+    let r1 = nalgebra::Matrix3::from_columns(&[x, y, z]);
+    // AROTS Z15 X-10: the pair (Z, X) of G18, Z turned -10 deg about X in
+    // YZ, X turned 15 deg about Z in XY; the new Z, Y and X.
+    let (zz, xx, yy) = traces(Vector3::z(), Vector3::x(), 15.0, -10.0);
+    let r2 = nalgebra::Matrix3::from_columns(&[xx, yy, zz]);
+    let ends = nominal_ends("bc-trunnion", Dialect::Sinumerik, program);
+    let at = |line: usize| ends.iter().rev().find(|e| e.0 == line).copied().unwrap();
+    let k = &zero.model.kin;
+    let tip = |p: Vector3<f64>| {
+        k.forward_nominal(&fivecal::kinematics::Axes::new(p.x, p.y, p.z, 20.0, 10.0))
+            .tip
+    };
+    for (line, frame, p) in [
+        (8, r1, Vector3::new(20.0, 5.0, 5.0)),
+        (11, r1 * r2, Vector3::new(25.0, 8.0, 4.0)),
+        // RPL= in G18 about Y, then in G19 about the turned X.
+        (15, rot(Vector3::y(), 25.0), Vector3::new(10.0, -5.0, 12.0)),
+        (
+            18,
+            rot(Vector3::y(), 25.0) * rot(Vector3::x(), -15.0),
+            Vector3::new(12.0, -4.0, 10.0),
+        ),
+    ] {
+        let want = tip(frame * p);
+        assert!(
+            (at(line).1 - want).norm() < 1e-9,
+            "line {line}: {}",
+            at(line).1
+        );
+    }
+    // Under TRAORI the written vector is in the turned frame: the tool
+    // axis in W is R v.
+    let r = rot(Vector3::y(), 25.0) * rot(Vector3::x(), -15.0);
+    for (line, p, v) in [
+        (
+            21,
+            Vector3::new(10.0, 5.0, 3.0),
+            Vector3::new(0.1, 0.2, 1.0),
+        ),
+        (
+            22,
+            Vector3::new(12.0, 6.0, 4.0),
+            Vector3::new(-0.1, 0.15, 1.0),
+        ),
+    ] {
+        assert!((at(line).1 - r * p).norm() < 1e-9, "line {line}");
+        assert!(
+            (at(line).2 - (r * v).normalize()).norm() < 1e-9,
+            "line {line}"
+        );
+    }
 }

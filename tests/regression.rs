@@ -1678,3 +1678,64 @@ fn discover_starts_from_the_location_minimum_on_the_columns_of_the_truth_example
         start.rss
     );
 }
+
+/// A SINUMERIK program on the B/C trunnion: the zero-error rewrite is the
+/// same bytes; the errors of seed 20 and what `compensate` makes of them.
+fn sinumerik_on_bc_trunnion(
+    program: &str,
+) -> (
+    fivecal::errorfile::LoadedErrors,
+    (
+        String,
+        fivecal::compensate::Summary,
+        Vec<fivecal::compensate::Vertex>,
+    ),
+) {
+    let settings = fivecal::compensate::Settings::new(fivecal::Dialect::Sinumerik);
+    let zero = crate::compensate::errors("bc-trunnion", 0, 0.0, "");
+    let (out, _, _) = crate::compensate::compensate(&zero, settings.clone(), program);
+    assert_eq!(out, program);
+    let l = crate::compensate::errors("bc-trunnion", 20, 20.0, "");
+    let run = crate::compensate::compensate(&l, settings, program);
+    (l, run)
+}
+
+/// A move after tool-vector moves (SINUMERIK TRAORI `A3= B3= C3=`, FANUC
+/// G43.5 `I J K`) that does not write the rotary axes: the controller's
+/// rotary positions are the ones it solved for the written vector, but
+/// the rewriter kept those from before the vectors and, at zero errors,
+/// added `B.. C..` to the next block. Zero errors must give the same
+/// bytes; with errors the block after TRAFOOF still reaches its point.
+#[test]
+fn compensate_move_after_tool_vectors_keeps_the_rotary_positions_solved_for_them() {
+    let program = "N10 G17 G90 G710 G94\nN20 T=\"MILL D10\" M6\nN30 D1\nN40 G54\nN50 G0 X0 Y0 Z60 B20 C10\nN60 TRAORI\nN70 G1 X10 Y5 Z3 A3=0.1 B3=0.2 C3=1 F500\nN80 TRAFOOF\nN90 G0 X0 Y0 Z60\nN100 M30\n";
+    let (l, (_, s, vs)) = sinumerik_on_bc_trunnion(program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert!(vs.iter().any(|v| v.line == 9));
+    for v in &vs {
+        crate::compensate::assert_reaches(&l, v, "after tool vectors");
+    }
+}
+
+/// A tool vector that leaves a component out (`C3=1` alone, zero for
+/// the others): the correction of the orientation needs the others too.
+/// They were dropped, so the rewritten block turned the tool along the
+/// uncorrected direction; they are added after the block's vector words.
+/// Here the vector is written in a frame turned by `ROT X10`.
+#[test]
+fn compensate_tool_vector_components_the_block_leaves_out_are_added() {
+    let program = "N10 G17 G90 G710 G94\nN20 T=\"MILL D10\" M6\nN30 D1\nN40 G54\nN50 G0 X0 Y0 Z60 B15 C-80\nN60 ROT X10\nN70 TRAORI\nN80 G1 X10 Y5 Z3 C3=1 F500\nN90 X12\nN100 TRAFOOF\nN110 M30\n";
+    let (l, (out, s, _)) = sinumerik_on_bc_trunnion(program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    let n80 = out.lines().nth(7).unwrap();
+    assert!(n80.contains(" C3=1 A3=") && n80.contains(" B3="), "{n80}");
+    crate::compensate::check_against_simulation(
+        &l,
+        fivecal::Dialect::Sinumerik,
+        fivecal::compensate::Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        "C3= alone",
+    );
+}

@@ -331,7 +331,8 @@ impl Writer {
             WritePlan::End(pt) => {
                 self.write_end(block, seg, mv, f, interp, pt, sink);
                 if let (Some((_, idx)), Some(axis)) = (mv.tool_vector, tool_axis) {
-                    self.write_vector(block, axis, &idx);
+                    // Written in the programmable frame (SINUMERIK ROT).
+                    self.write_vector(block, seg, f.rot.transpose() * axis, &idx);
                 }
                 false
             }
@@ -367,20 +368,44 @@ impl Writer {
 
     /// G43.5: the tool direction `axis` (the one the nominal controller
     /// turns into the corrected rotary positions) into the I J K words.
-    fn write_vector(&mut self, block: &Block, axis: Vector3<f64>, idx: &[Option<usize>; 3]) {
+    /// Writes the corrected tool direction `axis` into the block's vector
+    /// words; a component the block leaves out (zero) that the correction
+    /// makes nonzero is added after them (`I`/`J`/`K` of G43.5, `A3=`
+    /// `B3=` `C3=` of SINUMERIK), in the style of the first one.
+    fn write_vector(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        axis: Vector3<f64>,
+        idx: &[Option<usize>; 3],
+    ) {
         let rules = self.rules();
         // Keep the program's vector length (it need not be a unit vector).
         let mut norm2 = 0.0;
+        let mut first_style = None;
         for ti in idx.iter().flatten() {
             if let TokenKind::Word(w) = block.tokens[*ti].kind
                 && let Value::Num(x) = w.value
             {
                 norm2 += x * x;
+                first_style.get_or_insert(w.style);
             }
         }
         let v = axis * norm2.sqrt();
+        let mut inserts = Vec::new();
         for (k, ti) in idx.iter().enumerate() {
-            let Some(ti) = *ti else { continue };
+            let Some(ti) = *ti else {
+                if let Some(style) = first_style {
+                    let d = style
+                        .decimals
+                        .max(self.rotary_decimals + 2)
+                        .min(MAX_DECIMALS);
+                    if v[k].abs() >= lexeme::half_unit(d) {
+                        inserts.push((k, v[k], d, style));
+                    }
+                }
+                continue;
+            };
             let TokenKind::Word(w) = block.tokens[ti].kind else {
                 continue;
             };
@@ -397,6 +422,30 @@ impl Writer {
                     .replace(w.value_span, |b| lexeme::write(b, v[k], d, &style, rules));
             }
         }
+        if inserts.is_empty() {
+            return;
+        }
+        let names: [&[u8]; 3] = if self.dialect == Dialect::Sinumerik {
+            [b"A3=", b"B3=", b"C3="]
+        } else {
+            [b"I", b"J", b"K"]
+        };
+        let lower = lower(block, seg);
+        let last = idx
+            .iter()
+            .flatten()
+            .map(|&ti| block.tokens[ti].span.end)
+            .max()
+            .unwrap_or(0);
+        self.edits.insert(last, |b| {
+            for (k, val, d, style) in &inserts {
+                b.push(b' ');
+                for &c in names[*k] {
+                    b.push(if lower { c.to_ascii_lowercase() } else { c });
+                }
+                lexeme::write(b, *val, *d, style, rules);
+            }
+        });
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -958,7 +1007,10 @@ impl Writer {
         }
         for a in f.axes() {
             if a >= 3 && mv.vector.is_some() {
-                // G43.5 programs the direction, not the rotary positions.
+                // G43.5 programs the direction, not the rotary positions:
+                // the controller turns the axes to the ones it solves for
+                // the written direction, the written point's.
+                emitted[a] = Some(values[a]);
                 continue;
             }
             if a < 2 && mv.polar.is_some() {

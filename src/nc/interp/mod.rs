@@ -513,6 +513,9 @@ pub struct Interpreter {
     /// point written at `p` lies at `frame_rot * p + local_shift` in the
     /// work offset's coordinates; identity elsewhere.
     pub frame_rot: Matrix3<f64>,
+    /// SINUMERIK `ORIMKS`: tool vectors in the machine coordinate system
+    /// (`ORIWKS`, the default: in the workpiece's).
+    pub ori_machine: bool,
     /// Whether the shifts are known.
     pub shift_known: bool,
     /// Cutter radius compensation on (G41/G42, RL/RR).
@@ -596,6 +599,7 @@ impl Interpreter {
             shift: [0.0; 3],
             local_shift: [0.0; 3],
             frame_rot: Matrix3::identity(),
+            ori_machine: false,
             shift_known: true,
             radius_comp: false,
             pos: [None; 6],

@@ -206,6 +206,65 @@ pub(crate) fn projected(propr: f64, promin: f64, rot: f64) -> Result<Matrix3<f64
     Ok(about(b'Y', propr) * about(b'X', nutation) * about(b'Z', rot))
 }
 
+/// SINUMERIK `ROTS`/`AROTS` with three solid angles (the control refuses
+/// them: two fix the plane).
+pub(crate) const SOLID_THREE: &str =
+    "a programmable frame rotation by three solid angles (ROTS/AROTS take at most two)";
+/// Two solid angles, one of them not within +-90 deg.
+pub(crate) const SOLID_STEEP: &str =
+    "a programmable frame rotation by two solid angles, one of them not within +-90 deg";
+
+/// SINUMERIK `ROTS`/`AROTS` (`X Y Z` angles, `None` where not written): the
+/// rotation of the workpiece coordinate system by solid angles.
+///
+/// Read in Siemens' function manual K2 (Axes, coordinate systems, frames,
+/// section 2.4 Frames, "solid angles": 08/2005 edition p. 2-101, 840D sl
+/// edition p. 775): one solid angle turns as `ROT`/`AROT` about that axis
+/// (also in the SINUMERIK ONE programming manual 12/2019, 2.12,
+/// p. 324); two name a plane, their axes first and second as G17 (X, Y),
+/// G18 (Z, X) and G19 (Y, Z) order them (ONE manual p. 324); the angle
+/// written with each axis letter is the turn about that axis which brings
+/// the plane's other axis onto the line where the turned plane cuts the
+/// plane of that other axis and the third one (with X and Y: Y's angle
+/// turns X about Y onto the plane's trace in ZX, X's angle turns Y about X
+/// onto its trace in YZ); the turned first axis lies in the plane of the
+/// first and third axes (the new X in the old ZX plane). Derived: the sense
+/// of each turn is the right-hand rule of every frame rotation (K2 2.4.2.3,
+/// read), which one angle alone being `ROT` also fixes; with two, the
+/// traces must stay off the third axis, so both within +-90 deg. The ONE
+/// manual's summary on p. 324 states the second turn as one about the
+/// turned first axis; K2's prose (the traces) is what is modelled, and
+/// with one angle zero both give the same rotation. With X and Y this is
+/// the plane HEIDENHAIN's `PLANE PROJECTED` builds from its traces
+/// (`projected(Y, X, 0)`); the G18 and G19 pairs are the same construction
+/// with the axes named cyclically.
+pub(crate) fn solid_angles(vals: [Option<f64>; 3]) -> Result<Matrix3<f64>, &'static str> {
+    let given: Vec<usize> = (0..3).filter(|&i| vals[i].is_some()).collect();
+    let v = |i: usize| vals[i].unwrap_or(0.0);
+    match given.as_slice() {
+        [] => Ok(Matrix3::identity()),
+        [i] => Ok(about(b"XYZ"[*i], v(*i))),
+        [a, b] => {
+            // (first, second, third) of the plane the two axes name.
+            let (f, s, t) = match (a, b) {
+                (0, 1) => (0, 1, 2),
+                (0, 2) => (2, 0, 1),
+                _ => (1, 2, 0),
+            };
+            let r = projected(v(s), v(f), 0.0).map_err(|_| SOLID_STEEP)?;
+            // The cyclic renaming X Y Z -> first, second, third keeps the
+            // right hand.
+            let p = Matrix3::from_columns(&[
+                Vector3::ith(f, 1.0),
+                Vector3::ith(s, 1.0),
+                Vector3::ith(t, 1.0),
+            ]);
+            Ok(p * r * p.transpose())
+        }
+        _ => Err(SOLID_THREE),
+    }
+}
+
 /// The frame the machine's rotary axes at `abc` (A, B, C, `None` where
 /// not given) put the program in: the plane of HEIDENHAIN `PLANE AXIAL`
 /// and of SINUMERIK's direct `CYCLE800`, the same frame `fivecal plan`
@@ -854,6 +913,60 @@ mod tests {
         assert!(k.turn && k.seq == Some(-1.0));
         let older = klartext("5 PLANE PROJECTED PROPR+24 PROMIN+24 PROROT+30 STAY");
         assert_eq!(older.plane, k.plane);
+    }
+
+    #[test]
+    fn solid_angles_are_the_traces_of_the_turned_plane() {
+        let e = |i: usize| Vector3::ith(i, 1.0);
+        // (written axes, their angles): the pairs of G17, G18 and G19.
+        for (first, second, third) in [(0, 1, 2), (2, 0, 1), (1, 2, 0)] {
+            for (af, as_) in [(20.0, 35.0), (-40.0, 10.0), (15.0, -70.0)] {
+                let mut vals = [None; 3];
+                vals[first] = Some(af);
+                vals[second] = Some(as_);
+                let r = solid_angles(vals).unwrap();
+                assert!((r.determinant() - 1.0).abs() < 1e-12);
+                assert!((r.transpose() * r - Matrix3::identity()).norm() < 1e-12);
+                // Measured back, independently of the construction: the
+                // turned first axis lies in the plane of the first and
+                // third axes, turned about the second by the second's
+                // angle (right hand: from the first towards -third).
+                let f = r.column(first);
+                assert!(f.dot(&e(second)).abs() < 1e-12, "{r}");
+                let got = f64::atan2(-f.dot(&e(third)), f.dot(&e(first)));
+                assert!((got.to_degrees() - as_).abs() < 1e-9, "{first}: {r}");
+                // The turned plane cuts the plane of the second and third
+                // axes along the second turned about the first by the
+                // first's angle (from the second towards +third).
+                let n = r.column(third);
+                let trace = n.cross(&e(first));
+                let got = f64::atan2(trace.dot(&e(third)), trace.dot(&e(second)));
+                assert!((got.to_degrees() - af).abs() < 1e-9, "{first}: {r}");
+            }
+        }
+        // One solid angle is ROT about that axis, none turns nothing.
+        for i in 0..3 {
+            let mut vals = [None; 3];
+            vals[i] = Some(-25.0);
+            assert!(close(
+                &solid_angles(vals).unwrap(),
+                &about(b"XYZ"[i], -25.0)
+            ));
+        }
+        assert_eq!(solid_angles([None; 3]), Ok(Matrix3::identity()));
+        // With X and Y it is the plane PLANE PROJECTED builds.
+        assert!(close(
+            &solid_angles([Some(12.0), Some(-30.0), None]).unwrap(),
+            &projected(-30.0, 12.0, 0.0).unwrap()
+        ));
+        assert_eq!(
+            solid_angles([Some(1.0), Some(2.0), Some(3.0)]),
+            Err(SOLID_THREE)
+        );
+        assert_eq!(
+            solid_angles([None, Some(95.0), Some(3.0)]),
+            Err(SOLID_STEEP)
+        );
     }
 
     #[test]

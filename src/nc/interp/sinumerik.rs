@@ -5,10 +5,11 @@
 //! tool offsets (`D0` off, `D1`.. on), TRAORI / TRAFOOF with rotary
 //! positions or `A3= B3= C3=` tool vectors, CYCLE800 swivel planes,
 //! programmable frames (`TRANS`/`ATRANS`, `ROT`/`AROT` with `X Y Z`
-//! angles or `RPL=` in G17 composed into one frame `R p + t`; `SCALE`,
-//! `MIRROR`, solid angles `ROTS`/`AROTS`/`CROTS`, `PAROT`, `TOROT` not
-//! modelled; a CYCLE800 on a programmable frame, a frame inside a swivel
-//! plane and TRAORI inside one are left as written with the reason),
+//! angles or `RPL=` in the working plane, `ROTS`/`AROTS` by solid angles,
+//! composed into one frame `R p + t`, tool vectors turned with it;
+//! `SCALE`, `MIRROR`, `CROTS`, `PAROT`, `TOROT` not modelled; a CYCLE800
+//! on a programmable frame, a frame inside a swivel plane and TRAORI
+//! inside one are left as written with the reason),
 //! blocks in machine coordinates (`SUPA`, `G53`, `G153`), probing
 //! (`MEAS=`, `MEAW=`), cycles and subprogram calls (the position is
 //! unknown after them).
@@ -29,19 +30,22 @@ const FRAMES: [&str; 12] = [
 /// Programmable frames fivecal does not model, by why.
 const FRAME_SCALING: &str = "a programmable frame scaling or mirroring (SCALE, MIRROR)";
 const FRAME_SOLID: &str =
-    "a programmable frame rotation by solid angles (ROTS, AROTS, CROTS: not modelled)";
+    "a frame rotation CROTS (it turns the frame in the data management: not modelled)";
 const FRAME_ROTARY: &str = "a programmable frame on a rotary axis (TRANS/ROT with A, B or C)";
 const FRAME_PARAMETER: &str = "a programmable frame rotation by a parameter or an expression";
 const FRAME_RPL_AND_AXES: &str = "a programmable frame rotation with RPL= and axis angles together";
-const FRAME_RPL_PLANE: &str =
-    "a programmable frame rotation RPL= in the G18 or G19 plane (its sense there is not modelled)";
-const UNMODELLED_FRAMES: [&str; 6] = [
+const FRAME_SOLID_RPL: &str = "a solid-angle frame rotation (ROTS/AROTS) with RPL=";
+const FRAME_VECTOR_MKS: &str =
+    "tool vectors (A3= B3= C3=) in the machine coordinate system (ORIMKS: not modelled)";
+const UNMODELLED_FRAMES: [&str; 8] = [
     FRAME_SCALING,
     FRAME_SOLID,
     FRAME_ROTARY,
     FRAME_PARAMETER,
     FRAME_RPL_AND_AXES,
-    FRAME_RPL_PLANE,
+    FRAME_SOLID_RPL,
+    super::plane::SOLID_THREE,
+    super::plane::SOLID_STEEP,
 ];
 
 /// The value of `RPL=` in a frame statement (`ROT RPL=30`: the turn in the
@@ -63,13 +67,13 @@ fn plane_rotation(block: &Block, seg: &Segment) -> Option<Option<f64>> {
 }
 
 /// Commands that move no axis and change nothing fivecal models.
-const QUIET_COMMANDS: [&str; 52] = [
+const QUIET_COMMANDS: [&str; 50] = [
     "STOPRE", "FNORM", "FFWON", "FFWOF", "SOFT", "BRISK", "DRIVE", "COMPOF", "COMPON", "COMPCURV",
-    "COMPCAD", "ORIWKS", "ORIMKS", "ORIAXES", "ORIVECT", "ORIPLANE", "ORICONO", "CFC", "CFTCP",
-    "CFIN", "UPATH", "SPATH", "DISPLOF", "DISPLON", "SAVE", "MSG", "WRITE", "DELETE", "SETAL",
-    "SETMS", "CYCLE832", "G642", "M17", "ENAT", "TNAT", "CUT2D", "CUT3DC", "CUT3DF", "CDON",
-    "CDOF", "CDOF2", "DIAMOF", "WALIMON", "WALIMOF", "OFFN", "TRAILOF", "SPOS", "SPOSA", "GWPSON",
-    "GWPSOF", "EXTCLOSE", "EXTOPEN",
+    "COMPCAD", "ORIAXES", "ORIVECT", "ORIPLANE", "ORICONO", "CFC", "CFTCP", "CFIN", "UPATH",
+    "SPATH", "DISPLOF", "DISPLON", "SAVE", "MSG", "WRITE", "DELETE", "SETAL", "SETMS", "CYCLE832",
+    "G642", "M17", "ENAT", "TNAT", "CUT2D", "CUT3DC", "CUT3DF", "CDON", "CDOF", "CDOF2", "DIAMOF",
+    "WALIMON", "WALIMOF", "OFFN", "TRAILOF", "SPOS", "SPOSA", "GWPSON", "GWPSOF", "EXTCLOSE",
+    "EXTOPEN",
 ];
 
 /// `=AC()` (absolute) or `=IC()` (incremental) written around a word's
@@ -110,6 +114,7 @@ type Known = (
         bool,
         [f64; 3],
         Option<&'static str>,
+        bool,
     ),
     nalgebra::Matrix3<f64>,
 );
@@ -162,6 +167,7 @@ impl Interpreter {
                 self.tilted,
                 self.local_shift,
                 self.transformed,
+                self.ori_machine,
             ),
             self.frame_rot,
         )
@@ -250,6 +256,8 @@ impl Interpreter {
                     self.tcp = Tcp::Axes;
                 }
                 "TRAFOOF" => self.tcp = Tcp::Off,
+                "ORIMKS" => self.ori_machine = true,
+                "ORIWKS" => self.ori_machine = false,
                 "CYCLE800" => {
                     let text = args.map(|a| String::from_utf8_lossy(a).into_owned());
                     self.cycle800(block.line, offset, text.as_deref().unwrap_or(""));
@@ -551,25 +559,33 @@ impl Interpreter {
     /// A programmable frame statement. SINUMERIK's programmable frame maps
     /// a point written at `p` to `R p + t` in the coordinates of the work
     /// offset (kept here as `frame_rot` and `local_shift`). Read in
-    /// Siemens' programming manuals (SINUMERIK ONE NC programming, the
-    /// 808D manual): `TRANS` is absolute and clears the previous offset,
-    /// rotation, scale and mirror, `ATRANS` adds; `ROT X.. Y.. Z..` turns
-    /// in the order Z, then the turned Y, then the twice-turned X (RPY,
-    /// the default of the control; a control set to Euler angles reads
-    /// the same words as Z, X', Z'', which the program does not show),
-    /// `ROT RPL=` turns in the plane, `AROT` adds; `TRANS`/`ROT` written
-    /// alone clear. The general rule of the frame chain, not read on a page
-    /// of its own (fivecal's reading, as every controller with frames
-    /// composes them): `ROT` (like every absolute frame statement)
-    /// replaces the whole programmable frame, and an additive statement
-    /// acts in the frame in force, so
-    /// `ATRANS v` adds `R v` and `AROT` composes `R R'` about the current
-    /// zero point. The sense of an angle is the right-hand rule about the
-    /// axis (as every rotation in `plane`). What stays unmodelled is
-    /// refused: scaling and mirroring, solid angles (`ROTS`, `AROTS`,
-    /// `CROTS`: the manuals' notes name them only), `RPL=` outside G17,
-    /// frames on rotary axes, values in parameters, and any frame inside a
-    /// CYCLE800 swivel plane.
+    /// Siemens' programming manuals (SINUMERIK ONE NC programming 12/2019,
+    /// 2.12, pp. 309-324; the 808D manual): `TRANS` is absolute and clears
+    /// the previous offset, rotation, scale and mirror, `ATRANS` adds;
+    /// `ROT X.. Y.. Z..` turns in the order Z, then the turned Y, then the
+    /// twice-turned X (RPY, the default of the control; a control set to
+    /// Euler angles reads the same words as Z, X', Z'', which the program
+    /// does not show), `ROT RPL=` turns in the working plane G17/G18/G19,
+    /// `AROT` adds; `TRANS`/`ROT` written alone clear; `ROTS`/`AROTS` turn
+    /// by solid angles ([`super::plane::solid_angles`]) as `ROT`/`AROT` do.
+    /// The sense of every turn is the right-hand rule about its axis (read:
+    /// function manual K2, 2.4.2.3). The axis of `RPL=` is derived, not read
+    /// on a page of its own: the turn "in the plane" is the one about the
+    /// plane's normal, as the frame function `CRPL` puts it beside its turns
+    /// about Z, Y and X (K2, 828D edition 09/2011, p. 728: "rotation in the
+    /// active plane"), so Z in G17, Y in G18 and X in G19, positive from
+    /// the plane's first axis towards its second (X to Y, Z to X, Y to Z,
+    /// the axis order of the planes on p. 324), which is the right-hand
+    /// rule about that normal. The general rule of the frame chain, not
+    /// read on a page of its own (fivecal's reading, as every controller
+    /// with frames composes them): `ROT` (like every absolute frame
+    /// statement) replaces the whole programmable frame, and an additive
+    /// statement acts in the frame in force, so `ATRANS v` adds `R v` and
+    /// `AROT` composes `R R'` about the current zero point. What stays
+    /// unmodelled is refused: scaling and mirroring, `CROTS` (it writes
+    /// the frame in the data management), three solid angles (the control
+    /// refuses them), frames on rotary axes, values in parameters, and any
+    /// frame inside a CYCLE800 swivel plane.
     fn si_frame(&mut self, block: &Block, seg: &Segment, name: &str) {
         use nalgebra::{Matrix3, Vector3};
         let mut vals = [None::<f64>; 3];
@@ -647,8 +663,12 @@ impl Interpreter {
                     _ if rotary => Err(FRAME_ROTARY),
                     _ if unknown => Err(FRAME_PARAMETER),
                     Some(_) if vals.iter().any(Option::is_some) => Err(FRAME_RPL_AND_AXES),
-                    Some(_) if self.plane != ArcPlane::Xy => Err(FRAME_RPL_PLANE),
-                    Some(a) => Ok(super::plane::about(b'Z', a.unwrap_or(0.0))),
+                    // The turn in the plane is about its normal: Z in G17,
+                    // Y in G18, X in G19 (see above).
+                    Some(a) => {
+                        let (_, _, normal) = self.plane.axes();
+                        Ok(super::plane::about(b"XYZ"[normal], a.unwrap_or(0.0)))
+                    }
                     None => Ok(super::plane::intrinsic(b"ZYX", [given.z, given.y, given.x])),
                 };
                 match turn {
@@ -657,7 +677,20 @@ impl Interpreter {
                 }
             }
             "ROT" | "AROT" => {}
-            "ROTS" | "AROTS" | "CROTS" => {
+            "ROTS" | "AROTS" if any => {
+                let turn = match rpl {
+                    _ if rotary => Err(FRAME_ROTARY),
+                    _ if unknown => Err(FRAME_PARAMETER),
+                    Some(_) => Err(FRAME_SOLID_RPL),
+                    None => super::plane::solid_angles(vals),
+                };
+                match turn {
+                    Ok(r) => self.frame_rot *= r,
+                    Err(why) => self.transformed = Some(why),
+                }
+            }
+            "ROTS" | "AROTS" => {}
+            "CROTS" => {
                 if any {
                     self.transformed = Some(FRAME_SOLID);
                 }
@@ -851,19 +884,22 @@ impl Interpreter {
                     "a tool vector (A3= B3= C3=) outside TRAORI or on an arc",
                 ));
             }
-            if self.frame_rot != nalgebra::Matrix3::identity() {
-                // The vector is in the turned frame and is written back in
-                // W by the rewriter.
-                return Event::Skip(Skip::Transformed(
-                    "a programmable frame rotation (ROT/AROT) under tool vectors (A3= B3= C3=)",
-                ));
+            if self.ori_machine {
+                return Event::Skip(Skip::Transformed(FRAME_VECTOR_MKS));
             }
-            mv.tool_vector = Some((
-                [
+            // ORIWKS (the default): the vector is in the workpiece
+            // coordinate system (JP-06 p. 245, read), the one the
+            // programmable frame leads to from the settable zero system
+            // (ONE manual 12/2019, 3.8, p. 631, read): turned into W by the
+            // frame's rotation, as the rewriter turns it back.
+            let v = self.frame_rot
+                * nalgebra::Vector3::new(
                     vector[0].map_or(0.0, |x| x.1),
                     vector[1].map_or(0.0, |x| x.1),
                     vector[2].map_or(0.0, |x| x.1),
-                ],
+                );
+            mv.tool_vector = Some((
+                [v.x, v.y, v.z],
                 [
                     vector[0].map(|x| x.0),
                     vector[1].map(|x| x.0),
@@ -945,6 +981,53 @@ mod tests {
     }
 
     #[test]
+    fn plane_rotations_and_solid_angles_compose_into_the_frame() {
+        use super::super::plane::about;
+        // RPL= turns about the working plane's normal: Z in G17, Y in
+        // G18 (Z towards X), X in G19 (Y towards Z).
+        for (g, axis, to) in [
+            ("G17", b'Z', Vector3::y()),
+            ("G18", b'Y', Vector3::x()),
+            ("G19", b'X', Vector3::z()),
+        ] {
+            let (_, m) = run(&format!("{g}\nROT RPL=90\n"), Dialect::Sinumerik);
+            assert!(close(&m.frame_rot, &about(axis, 90.0)), "{g}");
+            assert!(m.transformed.is_none());
+            // The plane's first axis turns onto its second.
+            let (first, _, _) = m.plane.axes();
+            let e = Vector3::ith(first, 1.0);
+            assert!((m.frame_rot * e - to).norm() < 1e-12, "{g}");
+        }
+        // ROTS replaces the frame, AROTS adds to it in the turned axes.
+        let (_, m) = run(
+            "TRANS X5\nROTS X10 Y20\nAROTS Z=-30\nAROTS Y15 Z5\n",
+            Dialect::Sinumerik,
+        );
+        let solid = |v: [Option<f64>; 3]| super::super::plane::solid_angles(v).unwrap();
+        let by_hand = solid([Some(10.0), Some(20.0), None])
+            * about(b'Z', -30.0)
+            * solid([None, Some(15.0), Some(5.0)]);
+        assert!(close(&m.frame_rot, &by_hand), "{}", m.frame_rot);
+        assert_eq!(m.local_shift, [0.0; 3]);
+        assert!(m.transformed.is_none());
+    }
+
+    #[test]
+    fn tool_vectors_are_turned_out_of_the_programmable_frame() {
+        // Under ROT X90 (ORIWKS) the written C3=1 (the frame's Z) is the
+        // workpiece's -Y: R (0, 0, 1) = (0, -sin 90, cos 90).
+        let (ev, _) = run(
+            "G17 G90 G710 D1\nG0 X0 Y0 Z50 B0 C0\nTRAORI\nROT X90\nG1 X10 Y0 Z0 A3=0 B3=0 C3=1 F100\n",
+            Dialect::Sinumerik,
+        );
+        let Some(Event::Move(mv)) = ev.last() else {
+            panic!("{:?}", ev.last())
+        };
+        let (v, _) = mv.tool_vector.unwrap();
+        assert!((Vector3::from(v) - Vector3::new(0.0, -1.0, 0.0)).norm() < 1e-12);
+    }
+
+    #[test]
     fn tracked_positions_stay_the_same_points_when_the_frame_turns() {
         // X1 Y2 Z3 seen from a frame turned 90 deg about Z: (2, -1, 3).
         let (_, m) = run("G90 G0 X1 Y2 Z3 B0 C0\nAROT Z90\n", Dialect::Sinumerik);
@@ -974,9 +1057,10 @@ mod tests {
         };
         let head = "G17 G90 G710 D1\nG0 X0 Y0 Z50 B0 C0\n";
         for (frame, reason) in [
-            ("AROTS X10 Y20", "solid angles"),
+            ("AROTS X10 Y20 Z5", "three solid angles"),
+            ("ROTS X95 Y10", "within +-90"),
+            ("CROTS X10 Y20", "CROTS"),
             ("SCALE X2", "scaling"),
-            ("G18\nROT RPL=30", "G18 or G19"),
             ("ROT Z=R1", "parameter"),
             ("ROT X10 RPL=5", "RPL= and axis angles"),
             ("TRANS C10", "rotary axis"),
@@ -985,9 +1069,9 @@ mod tests {
             assert!(got.contains(reason), "{frame}: {got}");
         }
         let got = why(&format!(
-            "{head}TRAORI\nROT Z30\nG1 X10 Y0 Z0 A3=0 B3=0 C3=1 F100\n"
+            "{head}TRAORI\nORIMKS\nG1 X10 Y0 Z0 A3=0 B3=0 C3=1 F100\n"
         ));
-        assert!(got.contains("tool vectors"), "{got}");
+        assert!(got.contains("ORIMKS"), "{got}");
         // CYCLE800 on a turned programmable frame, and a frame inside the
         // swivel plane.
         let swivel = "CYCLE800(1,\"TC1\",0,57,0,0,0,0,30,0,0,0,0,-1,100,1)";
