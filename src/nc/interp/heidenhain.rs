@@ -1,6 +1,6 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
-//! `CC`, `CR`, polar `LP`/`CP`, and the corners `RND`/`CHF` cut between
-//! two lines), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! `CC`, `CR`, polar `LP`/`CP`, the corners `RND`/`CHF` cut between two
+//! lines and the tangential circle `CT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
 //! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
@@ -252,6 +252,17 @@ impl Interpreter {
                 Event::None
             }
             HhKind::Lp | HhKind::Cp => self.hh_polar(block, seg, kind, m91),
+            // APPR/DEP (read: TNC 640 DIN/ISO user's manual 1/2015 p. 213,
+            // "Important positions for approach and departure"; TNC 410
+            // user's manual p. 72, APPR LCT; TNC7 basic 81762x-18, "Approach
+            // function APPR LT"): the control moves from the position before
+            // to an auxiliary point PH it computes from the block (LEN, R,
+            // CCA) and from the first contour element, the block after an
+            // APPR (the last one, before a DEP), then on a line or an arc
+            // tangent to that element to PA, with RL/RR offset by the tool
+            // radius. Derived: PH needs the element after the block, and
+            // under RL/RR the tool's radius; fivecal reads one block at a
+            // time and does not know the radius, so these moves are kept.
             HhKind::Appr | HhKind::Dep | HhKind::Ln => {
                 // Moves that are not rewritten: follow the Cartesian words,
                 // forget the plane position when it is not all given.
@@ -267,11 +278,10 @@ impl Interpreter {
                         }
                     }
                 }
-                Event::Skip(Skip::Element(match kind {
-                    HhKind::Appr => "approach (APPR)",
-                    HhKind::Dep => "departure (DEP)",
-                    _ => "vector line (LN)",
-                }))
+                Event::Skip(match kind {
+                    HhKind::Appr | HhKind::Dep => Skip::ApproachDeparture,
+                    _ => Skip::Element("vector line (LN)"),
+                })
             }
             // The controller cuts the corner between the line before and
             // the line after: the line after carries it.
@@ -850,15 +860,9 @@ impl Interpreter {
         if m91 {
             return Event::Quiet;
         }
-        let (s0, s1, e0, e1) = (mv.start[0], mv.start[1], mv.end[0], mv.end[1]);
-        let (Some(s0), Some(s1), Some(e0), Some(e1)) = (s0, s1, e0, e1) else {
-            return Event::Skip(skip.unwrap_or(Skip::PositionUnknown(
-                if mv.start[0].is_none() || mv.end[0].is_none() {
-                    b'X'
-                } else {
-                    b'Y'
-                },
-            )));
+        let ([s0, s1], [e0, e1]) = match plane_ends(&mv) {
+            Ok(x) => x,
+            Err(s) => return Event::Skip(skip.unwrap_or(s)),
         };
         if let Some(s) = skip {
             return Event::Skip(s);
@@ -923,15 +927,9 @@ impl Interpreter {
             return Event::Quiet;
         }
         // HEIDENHAIN circles are in the working plane; only XY is modelled.
-        let (s0, s1, e0, e1) = (mv.start[0], mv.start[1], mv.end[0], mv.end[1]);
-        let (Some(s0), Some(s1), Some(e0), Some(e1)) = (s0, s1, e0, e1) else {
-            return Event::Skip(skip.unwrap_or(Skip::PositionUnknown(
-                if mv.start[0].is_none() || mv.end[0].is_none() {
-                    b'X'
-                } else {
-                    b'Y'
-                },
-            )));
+        let ([s0, s1], [e0, e1]) = match plane_ends(&mv) {
+            Ok(x) => x,
+            Err(s) => return Event::Skip(skip.unwrap_or(s)),
         };
         if mv.words[2].is_some() && self.plane != ArcPlane::Xy {
             return Event::Skip(Skip::Element("circle outside the XY plane"));
@@ -988,6 +986,16 @@ pub(super) struct PendingCorner {
     line: usize,
     #[allow(clippy::type_complexity)]
     geo: Result<(super::corner::CornerKind, [f64; 6], [f64; 6]), &'static str>,
+}
+
+/// Where a move starts and ends in the XY plane, or which axis is not
+/// known there.
+fn plane_ends(mv: &Move) -> Result<([f64; 2], [f64; 2]), Skip> {
+    match (mv.start[0], mv.start[1], mv.end[0], mv.end[1]) {
+        (Some(s0), Some(s1), Some(e0), Some(e1)) => Ok(([s0, s1], [e0, e1])),
+        _ if mv.start[0].is_none() || mv.end[0].is_none() => Err(Skip::PositionUnknown(b'X')),
+        _ => Err(Skip::PositionUnknown(b'Y')),
+    }
 }
 
 /// The direction (XY, unit) a move ends in, where it moves in XY.

@@ -224,6 +224,10 @@ pub enum Skip {
     /// The move after a `RND`/`CHF` (at this line) whose corner fivecal
     /// does not follow, and why.
     AfterCorner(usize, &'static str),
+    /// A HEIDENHAIN `APPR`/`DEP`: its auxiliary point depends on the
+    /// contour element after (before) it and, under RL/RR, on the tool
+    /// radius.
+    ApproachDeparture,
     /// A HEIDENHAIN `CT` whose arc fivecal does not follow, and why.
     Tangential(&'static str),
     /// A contour element that is not compensated (polar, tangential,
@@ -274,6 +278,10 @@ impl std::fmt::Display for Skip {
             Skip::CycleCall(why) => write!(
                 f,
                 "cycle call position (CYCL CALL POS) left as written: {why}"
+            ),
+            Skip::ApproachDeparture => write!(
+                f,
+                "approach or departure (APPR/DEP) left as written: the control places its auxiliary point from the contour element after the APPR (before the DEP) and, with RL/RR, from the tool radius, neither of which the block gives"
             ),
             Skip::Tangential(why) => write!(f, "tangential circle (CT) left as written: {why}"),
             Skip::Element(what) => write!(f, "{what} elements are not compensated"),
