@@ -305,7 +305,13 @@ pub(crate) fn check_held(
         };
         j += k + 1;
     }
-    // Path: every actual sample of a feed move near the intended polyline.
+    assert_on_path(&intended, &actual, tol, what);
+}
+
+/// Every sample of a feed move of `actual` (the rewrite on the erroneous
+/// machine) lies within `tol` of the polyline of `intended` (the program
+/// on the nominal machine, sampled finely).
+pub(crate) fn assert_on_path(intended: &[Sample], actual: &[Sample], tol: f64, what: &str) {
     let mut worst: f64 = 0.0;
     let mut at: usize = 0;
     for a in actual.iter().filter(|s| s.feed) {

@@ -1,8 +1,8 @@
 //! The moves a controller builds from words that are not end points:
 //! canned drilling cycles (FANUC and LinuxCNC G81-G89 with G98/G99 and
 //! repeats), HEIDENHAIN polar elements around the pole (`LP`, `CP`,
-//! with `IPR`/`IPA` and helices), `CYCL CALL POS` holes and the corners
-//! `RND`/`CHF` cut between two lines. Each program is written as a shop
+//! with `IPR`/`IPA` and helices), `CYCL CALL POS` holes, the corners
+//! `RND`/`CHF` cut between two lines and the tangential circles `CT`. Each program is written as a shop
 //! writes it, compensated against known errors, and the rewrite driven
 //! through the erroneous machine by the simulator: the tip reaches every
 //! intended point and stays on the intended path within the tolerance,
@@ -15,7 +15,7 @@ use fivecal::compensate::{Coordinates, Settings, Summary};
 use fivecal::errorfile::LoadedErrors;
 use fivecal::model::Model;
 
-use crate::compensate::{check_held, compensate, errors, simulate};
+use crate::compensate::{assert_on_path, check_held, compensate, errors, simulate};
 
 /// The end points of `program` on the nominal machine and of `rewritten`
 /// on the erroneous one, pairwise (the rewrite inserts no block here):
@@ -329,7 +329,12 @@ fn heidenhain_elements_not_corrected_yet_are_reported_at_their_lines() {
         // File lines: block n is line n + 1. A rounding after a circle is
         // not followed: the line after it stays as written.
         ("rounding or chamfer at line 9", 10),
-        ("tangential circle (CT)", 11),
+        // A CT after that line: the direction it starts in is the one of
+        // a line left as written.
+        (
+            "tangential circle (CT) left as written: the element before",
+            11,
+        ),
         ("CYCL CALL POS", 14),
     ] {
         let (_, lines) = s
@@ -346,4 +351,121 @@ fn heidenhain_elements_not_corrected_yet_are_reported_at_their_lines() {
             "{body}\n{out}"
         );
     }
+}
+
+/// The centre of the circle that leaves `s` in the direction from `a` to
+/// `s` and runs through `e`, found as the point where the normal at `s`
+/// meets the perpendicular bisector of `s`-`e` (independently of the
+/// closed form the interpreter uses).
+fn tangent_circle_centre(a: [f64; 2], s: [f64; 2], e: [f64; 2]) -> [f64; 2] {
+    // Normal at s: s + k (-(s-a).y, (s-a).x); bisector: points p with
+    // (p - m).(e - s) = 0, m the midpoint.
+    let n = [-(s[1] - a[1]), s[0] - a[0]];
+    let m = [(s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0];
+    let d = [e[0] - s[0], e[1] - s[1]];
+    let k = ((m[0] - s[0]) * d[0] + (m[1] - s[1]) * d[1]) / (n[0] * d[0] + n[1] * d[1]);
+    [s[0] + k * n[0], s[1] + k * n[1]]
+}
+
+#[test]
+fn heidenhain_tangential_circles_stay_ct_and_on_the_intended_arc() {
+    // The manual's own contour (L X+0 Y+25, L X+25 Y+30, CT X+45 Y+20,
+    // L Y+0) at a fixed tilt under TCPM, continued by a CT after a line
+    // and a CT after that CT. The CTs keep their form: only their end
+    // points are written, and the control's arc from the corrected lines
+    // is the intended one on the erroneous machine.
+    let program = "0 BEGIN PGM TANGENT MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S4000\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 L X+0 Y+25 Z+2 A-20 C+30 R0 FMAX\n7 L Z-1 F300\n8 L X+25 Y+30 F600\n9 CT X+45 Y+20\n10 L Y+0\n11 CT X+20 Y-15\n12 CT X+0 Y+0\n13 L Z+50 R0 FMAX\n14 FUNCTION RESET TCPM\n15 END PGM TANGENT MM\n";
+    let l = errors("ac-trunnion", 101, 30.0, "");
+    let d = Dialect::Heidenhain;
+    let zero = errors("ac-trunnion", 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
+    assert_eq!(out, program, "zero error must give the same bytes");
+    assert_eq!(s0.changed, 0);
+    let (out, s, _) = compensate(&l, Settings::new(d), program);
+    // On the path within the tolerance all along; a CT carries X and Y
+    // only, so its end keeps the Z of its start, which the correction
+    // tilts by a fraction of a micrometre: its end lies on the intended
+    // one within the tolerance, every other end within 0.1 um.
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    assert_on_path(
+        &simulate(&nominal, &[], d, Coordinates::Auto, program, 0.01),
+        &simulate(&l.model, &l.theta, d, Coordinates::Auto, &out, 0.1),
+        0.001,
+        "tangential",
+    );
+    let ends = |m: &Model, th: &[f64], p: &str| -> Vec<Sample> {
+        simulate(m, th, d, Coordinates::Auto, p, 0.0)
+            .into_iter()
+            .filter(|x| x.fraction == 1.0)
+            .collect()
+    };
+    let (a, b) = (ends(&nominal, &[], program), ends(&l.model, &l.theta, &out));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        let miss = (x.nominal.tip - y.actual.tip).norm();
+        let ct = [10, 12, 13].contains(&x.line);
+        assert!(
+            miss < if ct { 1e-3 } else { 1e-4 },
+            "line {}: {miss}",
+            x.line
+        );
+    }
+    let before = a
+        .iter()
+        .zip(&ends(&l.model, &l.theta, program))
+        .map(|(x, y)| (x.nominal.tip - y.actual.tip).norm())
+        .fold(0.0, f64::max);
+    assert!(before > 0.005, "{before}");
+    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
+    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    assert!(s.linearized.first.is_empty(), "{out}");
+    for k in [9, 11, 12] {
+        let (a, b) = (out.lines().nth(k).unwrap(), program.lines().nth(k).unwrap());
+        assert!(a.split(' ').nth(1) == Some("CT") && a != b, "{a}");
+    }
+    // The simulator cuts the arc as the control does: on the nominal
+    // machine (TCPM: the tip is the program point) the samples of the
+    // first CT lie on the circle through its ends that leaves (25, 30) in
+    // the line's direction, and leave it in that direction.
+    let samples = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.2);
+    let (a, p, e) = ([0.0, 25.0], [25.0, 30.0], [45.0, 20.0]);
+    let c = tangent_circle_centre(a, p, e);
+    let r = (p[0] - c[0]).hypot(p[1] - c[1]);
+    let arc: Vec<&Sample> = samples.iter().filter(|x| x.line == 10).collect();
+    assert!(arc.len() > 5, "{}", arc.len());
+    for x in &arc {
+        let t = x.nominal.tip;
+        let d = (t.x - c[0]).hypot(t.y - c[1]);
+        assert!((d - r).abs() < 1e-9 && (t.z + 1.0).abs() < 1e-9, "{t:?}");
+    }
+    let last = arc.last().unwrap().nominal.tip;
+    assert!((last.x - e[0]).abs() < 1e-9 && (last.y - e[1]).abs() < 1e-9);
+    let first = arc[0].nominal.tip;
+    let (dir, line) = ([first.x - p[0], first.y - p[1]], [p[0] - a[0], p[1] - a[1]]);
+    let cos =
+        (dir[0] * line[0] + dir[1] * line[1]) / (dir[0].hypot(dir[1]) * line[0].hypot(line[1]));
+    assert!(cos > 0.999, "the arc leaves the line at acos {cos}");
+}
+
+#[test]
+fn a_tangential_circle_that_a_scale_error_bends_is_written_as_lines() {
+    // X and Y scale errors are no rigid motion: no circle from the
+    // corrected line through the corrected end is the intended arc on the
+    // machine. The CT is written as lines, which hold the tolerance.
+    let program = "0 BEGIN PGM BENTCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+0 Y+40 Z+2 R0 FMAX\n4 L Z-1 F300\n5 L X+20 Y+40 F600\n6 CT X+40 Y+0\n7 L X+40 Y-10\n8 L Z+50 R0 FMAX\n9 END PGM BENTCT MM\n";
+    let extra = "effects:\n  linear_scale: {EXX: 300.0, EYY: -200.0}\n";
+    let l = errors("ac-trunnion", 102, 30.0, extra);
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    assert_eq!(s.linearized.first, [7], "{out}");
+    assert!(!out.contains(" CT "), "{out}");
+    check_held(
+        &l,
+        Dialect::Heidenhain,
+        Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        &[],
+        "bent CT",
+    );
 }

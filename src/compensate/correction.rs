@@ -16,6 +16,7 @@ use crate::limits::MAX_PIECES;
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, Path, lerp};
+use crate::nc::interp::tangent::tangent_arc;
 use crate::nc::interp::{AXES, Arc, Drill, Frame, Move, MoveKind, Skip, Tcp};
 
 /// A corrected point: what the program asked for and what to write.
@@ -506,11 +507,6 @@ impl Compensator {
         let tol = self.settings.tolerance;
         let axes = arc.plane.axes();
         let geo = ArcGeo::new(axes, arc.center, p0, p1, arc.cw, arc.turns);
-        let path = Path::Arc {
-            p0: *p0,
-            p1: *p1,
-            geo,
-        };
         let rotary_fixed = p0[f.tilt] == p1[f.tilt] && p0[5] == p1[5];
         // The corrected centre, with the rotary axes where the arc runs
         // (where it ends when they move: the corrected centre is written
@@ -558,6 +554,29 @@ impl Compensator {
         if keep {
             return Ok(WritePlan::Arc { end: pt, center });
         }
+        self.linearize_arc(f, &geo, p0, w0, p1, pt, ramp, line)
+    }
+
+    /// The arc `geo` from `p0` to `p1` as lines from the written start
+    /// `w0`, each within the tolerance of it.
+    #[allow(clippy::too_many_arguments)]
+    fn linearize_arc(
+        &self,
+        f: &Frame,
+        geo: &ArcGeo,
+        p0: &[f64; 6],
+        w0: &[f64; 6],
+        p1: &[f64; 6],
+        pt: CorrectedPoint,
+        ramp: bool,
+        line: usize,
+    ) -> Result<WritePlan, Refusal> {
+        let tol = self.settings.tolerance;
+        let path = Path::Arc {
+            p0: *p0,
+            p1: *p1,
+            geo: *geo,
+        };
         let r = geo.rs.max(geo.re) * f.u;
         let step = if r > tol / 2.0 {
             2.0 * (1.0 - tol / 2.0 / r).clamp(-1.0, 1.0).acos()
@@ -577,6 +596,74 @@ impl Compensator {
 }
 
 impl Compensator {
+    /// A HEIDENHAIN `CT`: the control cuts the arc from where the written
+    /// program leaves the tool, in the direction `tangent` the written
+    /// element before it ends in, to the written end point. Where that
+    /// arc, with the corrected X and Y and the other axes where they
+    /// are, stays on the intended one within the tolerance (its end
+    /// included), the corrected X and Y are written into the `CT` itself
+    /// (with the rotary axes fixed the correction is a rigid motion,
+    /// which carries the intended arc and the direction it starts in into
+    /// the written ones, up to the micrometres it tilts the plane by);
+    /// otherwise the arc is written as lines, which do not depend
+    /// on the element before.
+    pub(super) fn plan_tangential(
+        &self,
+        f: &Frame,
+        mv: &Move,
+        emit: &[Option<f64>; 6],
+        tangent: Option<[f64; 2]>,
+        ramp: bool,
+        line: usize,
+    ) -> Result<WritePlan, Refusal> {
+        let plan = self.plan(f, mv, emit, ramp, line)?;
+        let (WritePlan::Arc { end, .. }, MoveKind::Arc(arc)) = (&plan, mv.kind) else {
+            return Ok(plan);
+        };
+        let (p0, p1, w0) = (known(&mv.start), known(&mv.end), known(emit));
+        let geo = ArcGeo::new((0, 1, 2), arc.center, &p0, &p1, arc.cw, 0);
+        let intended = Path::Arc { p0, p1, geo };
+        // A CT carries the two axes of its plane only (TNC7 user's manual,
+        // 81762x-16, "Circular path CT": at most two axes define the end
+        // point): the others stay where the written program has them.
+        let mut w1 = end.program;
+        w1[2..].copy_from_slice(&w0[2..]);
+        let written = tangent.and_then(|t| {
+            let (c, cw) = tangent_arc([w0[0], w0[1]], t, [w1[0], w1[1]], f.u).ok()?;
+            let wg = ArcGeo::new((0, 1, 2), c, &w0, &w1, cw, 0);
+            ((wg.sweep - geo.sweep).abs() < 0.5).then_some(Path::Arc {
+                p0: w0,
+                p1: w1,
+                geo: wg,
+            })
+        });
+        if let Some(w) = written
+            && self.path_deviation(f, &intended, &w) <= self.settings.tolerance
+        {
+            let written = f.model(&w1);
+            return Ok(WritePlan::End(CorrectedPoint {
+                written,
+                program: w1,
+                ..*end
+            }));
+        }
+        self.linearize_arc(f, &geo, &p0, &w0, &p1, *end, ramp, line)
+    }
+
+    /// The largest tip distance, mm, between the intended path and the
+    /// actual one of the written path (program frame), at seventeen
+    /// points along both.
+    fn path_deviation(&self, f: &Frame, intended: &Path, written: &Path) -> f64 {
+        let mut worst: f64 = 0.0;
+        for k in 0..=16 {
+            let u = k as f64 / 16.0;
+            let target = self.target(f, &f.model(&intended.at(u)), None);
+            let w = f.model(&written.at(u));
+            worst = worst.max((self.actual(f, &w).tip - target.tip).norm());
+        }
+        worst
+    }
+
     /// How far the tip leaves the intended rounding or chamfer `c` where
     /// the controller cuts the corner of the written lines `a`-`p`-`b`
     /// (program frame: the last piece written before the corner, and the
@@ -594,14 +681,7 @@ impl Compensator {
     ) -> Result<f64, &'static str> {
         let (_, _, intended) = corner_path(&c.from, &c.at, end, c.kind, f.u)?;
         let (_, _, written) = corner_path(a, p, b, c.kind, f.u)?;
-        let mut worst: f64 = 0.0;
-        for k in 0..=16 {
-            let u = k as f64 / 16.0;
-            let target = self.target(f, &f.model(&intended.at(u)), None);
-            let w = f.model(&written.at(u));
-            worst = worst.max((self.actual(f, &w).tip - target.tip).norm());
-        }
-        Ok(worst)
+        Ok(self.path_deviation(f, &intended, &written))
     }
 }
 

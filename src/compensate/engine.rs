@@ -351,6 +351,9 @@ struct Pass<'a> {
     /// program frame): where a HEIDENHAIN rounding or chamfer after it
     /// begins.
     last_piece: Option<Stretch>,
+    /// The direction (XY, unit, program frame) the written program's last
+    /// element ends in: where a HEIDENHAIN `CT` after it starts.
+    last_tangent: Option<[f64; 2]>,
     observer: Option<&'a mut dyn FnMut(&Vertex)>,
 }
 
@@ -376,6 +379,7 @@ impl<'a> Pass<'a> {
             last_held: false,
             rest: Vec::new(),
             last_piece: None,
+            last_tangent: None,
             observer,
         }
     }
@@ -469,7 +473,18 @@ impl<'a> Pass<'a> {
                     summary.moves += 1;
                     moved |= moves_an_axis(&mv);
                     let f = interp.frame();
-                    match c.plan(&f, &mv, &writer.emit, *last_held, line) {
+                    let planned = match mv.tangential {
+                        Some(_) => c.plan_tangential(
+                            &f,
+                            &mv,
+                            &writer.emit,
+                            self.last_tangent,
+                            *last_held,
+                            line,
+                        ),
+                        None => c.plan(&f, &mv, &writer.emit, *last_held, line),
+                    };
+                    match planned {
                         Ok(plan) => {
                             for pt in plan_points(&plan) {
                                 record(summary, pt, line);
@@ -522,6 +537,13 @@ impl<'a> Pass<'a> {
                                 left.get_or_insert_with(|| why.clone());
                                 skipped.entry(why).or_default().push(corner.line);
                             }
+                            self.last_tangent = written_direction(
+                                &plan,
+                                &mv,
+                                self.last_tangent,
+                                first_piece,
+                                last_piece,
+                            );
                             self.last_piece = last_piece;
                         }
                         Err(Refusal::Skip(reason)) => {
@@ -540,6 +562,7 @@ impl<'a> Pass<'a> {
                                     .push(corner.line);
                             }
                             self.last_piece = Some((from, writer.emit));
+                            self.last_tangent = None;
                         }
                         Err(Refusal::Fatal(e)) => return Err(e.in_file(path)),
                     }
@@ -558,10 +581,12 @@ impl<'a> Pass<'a> {
                         .push(line);
                     writer.keep(block, &seg, interp, &before);
                     writer.emit = [None; 6];
+                    self.last_tangent = None;
                     *last_held = false;
                 }
                 Event::Skip(s) => {
                     self.last_piece = None;
+                    self.last_tangent = None;
                     summary.moves += 1;
                     let reason = match (s, why) {
                         (Skip::Expression, Some(w)) => w.to_string(),
@@ -574,6 +599,7 @@ impl<'a> Pass<'a> {
                     *last_held = false;
                 }
                 Event::Quiet => {
+                    self.last_tangent = None;
                     moved = true;
                     left.get_or_insert_with(|| super::LEFT_ON_PURPOSE.to_string());
                     writer.follow(block, &seg, interp, &before, true);
@@ -648,6 +674,37 @@ fn check_corner(
         Err(why) => Some(format!(
             "rounding or chamfer: the controller cannot cut it between the corrected lines ({why})"
         )),
+    }
+}
+
+/// The direction (XY, unit) the written move ends in, as the control
+/// has it from the written text: a line's (the last piece's), an arc's
+/// around its written centre, a `CT` kept as written from the direction
+/// `before` the written element before it ends in.
+fn written_direction(
+    plan: &WritePlan,
+    mv: &interp::Move,
+    before: Option<[f64; 2]>,
+    first: Option<Stretch>,
+    last: Option<Stretch>,
+) -> Option<[f64; 2]> {
+    use interp::tangent::{arc_end_direction, direction, tangent_arc};
+    let xy = |p: &[Option<f64>; 6]| Some([p[0]?, p[1]?]);
+    let (from, to) = last?;
+    let end = xy(&to)?;
+    match (plan, mv.kind) {
+        (WritePlan::Arc { center, .. }, interp::MoveKind::Arc(arc))
+            if arc.plane == interp::ArcPlane::Xy =>
+        {
+            arc_end_direction(*center, end, arc.cw)
+        }
+        (WritePlan::Arc { .. }, _) => None,
+        (WritePlan::End(_), interp::MoveKind::Arc(_)) if mv.tangential.is_some() => {
+            let (c, cw) = tangent_arc(xy(&first?.0)?, before?, end, 1.0).ok()?;
+            arc_end_direction(c, end, cw)
+        }
+        (WritePlan::End(_), interp::MoveKind::Arc(_)) => None,
+        _ => direction(xy(&from)?, end),
     }
 }
 

@@ -1,6 +1,6 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
-//! `CC`, `CR`, polar `LP`/`CP`, and the corners `RND`/`CHF` cut between
-//! two lines), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! `CC`, `CR`, polar `LP`/`CP`, the corners `RND`/`CHF` cut between two
+//! lines and the tangential circle `CT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
 //! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
@@ -50,10 +50,30 @@ impl Interpreter {
         }
         let line_before = self.hh_line_before.take();
         let pending = self.hh_corner.take();
-        let ev = self.hh_statement(block, seg, kind, m91, cycle_call, line_before);
+        let tangent = self.hh_tangent.take();
+        let ev = if kind == HhKind::Ct {
+            self.hh_tangential(block, seg, m91, tangent)
+        } else {
+            self.hh_statement(block, seg, kind, m91, cycle_call, line_before)
+        };
         let ev = match pending {
             Some(c) => self.after_corner(c, kind, ev),
             None => ev,
+        };
+        // The direction a CT after this statement starts in: a statement
+        // that moves nothing and sets no other element (a pole, M
+        // functions) keeps it.
+        self.hh_tangent = match &ev {
+            Event::None if matches!(kind, HhKind::Cc | HhKind::M) => tangent,
+            Event::Move(mv)
+                if matches!(
+                    kind,
+                    HhKind::L | HhKind::Lp | HhKind::C | HhKind::Cr | HhKind::Cp | HhKind::Ct
+                ) =>
+            {
+                end_direction(mv)
+            }
+            _ => None,
         };
         if let Event::Move(mv) = &ev
             && kind == HhKind::L
@@ -232,7 +252,18 @@ impl Interpreter {
                 Event::None
             }
             HhKind::Lp | HhKind::Cp => self.hh_polar(block, seg, kind, m91),
-            HhKind::Ct | HhKind::Appr | HhKind::Dep | HhKind::Ln => {
+            // APPR/DEP (read: TNC 640 DIN/ISO user's manual 1/2015 p. 213,
+            // "Important positions for approach and departure"; TNC 410
+            // user's manual p. 72, APPR LCT; TNC7 basic 81762x-18, "Approach
+            // function APPR LT"): the control moves from the position before
+            // to an auxiliary point PH it computes from the block (LEN, R,
+            // CCA) and from the first contour element, the block after an
+            // APPR (the last one, before a DEP), then on a line or an arc
+            // tangent to that element to PA, with RL/RR offset by the tool
+            // radius. Derived: PH needs the element after the block, and
+            // under RL/RR the tool's radius; fivecal reads one block at a
+            // time and does not know the radius, so these moves are kept.
+            HhKind::Appr | HhKind::Dep | HhKind::Ln => {
                 // Moves that are not rewritten: follow the Cartesian words,
                 // forget the plane position when it is not all given.
                 self.track_words(block, seg);
@@ -247,12 +278,10 @@ impl Interpreter {
                         }
                     }
                 }
-                Event::Skip(Skip::Element(match kind {
-                    HhKind::Ct => "tangential circle (CT)",
-                    HhKind::Appr => "approach (APPR)",
-                    HhKind::Dep => "departure (DEP)",
-                    _ => "vector line (LN)",
-                }))
+                Event::Skip(match kind {
+                    HhKind::Appr | HhKind::Dep => Skip::ApproachDeparture,
+                    _ => Skip::Element("vector line (LN)"),
+                })
             }
             // The controller cuts the corner between the line before and
             // the line after: the line after carries it.
@@ -814,6 +843,64 @@ impl Interpreter {
         Event::Move(mv)
     }
 
+    /// `CT X.. Y..`: the arc from where the tool is, leaving it in the
+    /// direction `tangent` the element before ends in, to the end point
+    /// ([`super::tangent`]).
+    fn hh_tangential(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        m91: bool,
+        tangent: Option<[f64; 2]>,
+    ) -> Event {
+        let mut mv = Move::new(MoveKind::Linear, self.pos, false);
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
+        self.hh_targets(block, seg, &mut mv, &mut skip);
+        self.pos = mv.end;
+        if m91 {
+            return Event::Quiet;
+        }
+        let ([s0, s1], [e0, e1]) = match plane_ends(&mv) {
+            Ok(x) => x,
+            Err(s) => return Event::Skip(skip.unwrap_or(s)),
+        };
+        if let Some(s) = skip {
+            return Event::Skip(s);
+        }
+        // A two-dimensional element in the plane of the one before it.
+        let moves_off_plane = (2..6).any(|i| mv.words[i].is_some() && mv.start[i] != mv.end[i]);
+        let why = if self.plane != ArcPlane::Xy {
+            Err("a working plane other than XY")
+        } else if moves_off_plane {
+            Err(
+                "a word that moves the tool axis or a rotary axis (the control takes the two axes of the plane only)",
+            )
+        } else if let Some(t) = tangent {
+            super::tangent::tangent_arc([s0, s1], t, [e0, e1], self.units.mm()).map(|a| (t, a))
+        } else {
+            Err(
+                "the element before it is not a line or circle in the XY plane that fivecal follows (the arc starts in that element's direction)",
+            )
+        };
+        let (t, (center, cw)) = match why {
+            Ok(x) => x,
+            Err(why) => return Event::Skip(Skip::Tangential(why)),
+        };
+        mv.kind = MoveKind::Arc(Arc {
+            plane: ArcPlane::Xy,
+            cw,
+            center,
+            turns: 0,
+            center_words: [None; 3],
+            radius_word: None,
+        });
+        mv.tangential = Some(t);
+        if let Some(s) = self.frame_skip() {
+            return Event::Skip(s);
+        }
+        Event::Move(mv)
+    }
+
     fn hh_arc(&mut self, block: &Block, seg: &Segment, kind: HhKind, m91: bool) -> Event {
         let mut mv = Move::new(MoveKind::Linear, self.pos, false);
         let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
@@ -840,15 +927,9 @@ impl Interpreter {
             return Event::Quiet;
         }
         // HEIDENHAIN circles are in the working plane; only XY is modelled.
-        let (s0, s1, e0, e1) = (mv.start[0], mv.start[1], mv.end[0], mv.end[1]);
-        let (Some(s0), Some(s1), Some(e0), Some(e1)) = (s0, s1, e0, e1) else {
-            return Event::Skip(skip.unwrap_or(Skip::PositionUnknown(
-                if mv.start[0].is_none() || mv.end[0].is_none() {
-                    b'X'
-                } else {
-                    b'Y'
-                },
-            )));
+        let ([s0, s1], [e0, e1]) = match plane_ends(&mv) {
+            Ok(x) => x,
+            Err(s) => return Event::Skip(skip.unwrap_or(s)),
         };
         if mv.words[2].is_some() && self.plane != ArcPlane::Xy {
             return Event::Skip(Skip::Element("circle outside the XY plane"));
@@ -905,6 +986,28 @@ pub(super) struct PendingCorner {
     line: usize,
     #[allow(clippy::type_complexity)]
     geo: Result<(super::corner::CornerKind, [f64; 6], [f64; 6]), &'static str>,
+}
+
+/// Where a move starts and ends in the XY plane, or which axis is not
+/// known there.
+fn plane_ends(mv: &Move) -> Result<([f64; 2], [f64; 2]), Skip> {
+    match (mv.start[0], mv.start[1], mv.end[0], mv.end[1]) {
+        (Some(s0), Some(s1), Some(e0), Some(e1)) => Ok(([s0, s1], [e0, e1])),
+        _ if mv.start[0].is_none() || mv.end[0].is_none() => Err(Skip::PositionUnknown(b'X')),
+        _ => Err(Skip::PositionUnknown(b'Y')),
+    }
+}
+
+/// The direction (XY, unit) a move ends in, where it moves in XY.
+fn end_direction(mv: &Move) -> Option<[f64; 2]> {
+    let e = [mv.end[0]?, mv.end[1]?];
+    match mv.kind {
+        MoveKind::Arc(a) if a.plane == ArcPlane::Xy => {
+            super::tangent::arc_end_direction(a.center, e, a.cw)
+        }
+        MoveKind::Arc(_) => None,
+        _ => super::tangent::direction([mv.start[0]?, mv.start[1]?], e),
+    }
 }
 
 /// Cycles that act where they are defined (coordinate transformations,

@@ -38,6 +38,7 @@ mod heidenhain;
 pub mod interpolation;
 pub mod plane;
 mod sinumerik;
+pub mod tangent;
 
 use std::sync::Arc as Shared;
 
@@ -223,6 +224,12 @@ pub enum Skip {
     /// The move after a `RND`/`CHF` (at this line) whose corner fivecal
     /// does not follow, and why.
     AfterCorner(usize, &'static str),
+    /// A HEIDENHAIN `APPR`/`DEP`: its auxiliary point depends on the
+    /// contour element after (before) it and, under RL/RR, on the tool
+    /// radius.
+    ApproachDeparture,
+    /// A HEIDENHAIN `CT` whose arc fivecal does not follow, and why.
+    Tangential(&'static str),
     /// A contour element that is not compensated (polar, tangential,
     /// approach/departure, vector blocks, splines).
     Element(&'static str),
@@ -272,6 +279,11 @@ impl std::fmt::Display for Skip {
                 f,
                 "cycle call position (CYCL CALL POS) left as written: {why}"
             ),
+            Skip::ApproachDeparture => write!(
+                f,
+                "approach or departure (APPR/DEP) left as written: the control places its auxiliary point from the contour element after the APPR (before the DEP) and, with RL/RR, from the tool radius, neither of which the block gives"
+            ),
+            Skip::Tangential(why) => write!(f, "tangential circle (CT) left as written: {why}"),
             Skip::Element(what) => write!(f, "{what} elements are not compensated"),
             Skip::ShiftUnknown => write!(f, "the datum shift comes from a table (value unknown)"),
             Skip::NoToolVector => write!(f, "tool direction (I J K) not programmed"),
@@ -354,6 +366,10 @@ pub struct Move {
     /// HEIDENHAIN `RND`/`CHF` before this line: the controller cuts the
     /// corner between the line before and this one.
     pub corner: Option<corner::Corner>,
+    /// HEIDENHAIN `CT`: the arc leaves its start in this unit direction
+    /// (XY, program frame), the one the element before it ends in; its
+    /// centre follows from it and the end point.
+    pub tangential: Option<[f64; 2]>,
 }
 
 /// The polar words of a HEIDENHAIN `LP`/`CP` block: token index and
@@ -400,6 +416,7 @@ impl Move {
             polar: None,
             drill: None,
             corner: None,
+            tangential: None,
         }
     }
 }
@@ -532,6 +549,9 @@ pub struct Interpreter {
     hh_line_before: Option<([f64; 6], [f64; 6])>,
     /// HEIDENHAIN: a `RND`/`CHF` waiting for the line after it.
     hh_corner: Option<heidenhain::PendingCorner>,
+    /// HEIDENHAIN: the direction (XY, unit) the last contour element ends
+    /// in, which a `CT` after it starts in.
+    hh_tangent: Option<[f64; 2]>,
     /// The canned drilling cycle in force (G code x 10), if any.
     pub cycle: Option<u32>,
     /// Its modal hole bottom along the drill axis (program units).
@@ -607,6 +627,7 @@ impl Interpreter {
             hh_cycle: None,
             hh_line_before: None,
             hh_corner: None,
+            hh_tangent: None,
             cycle: None,
             cycle_depth: None,
             cycle_r: None,
