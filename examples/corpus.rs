@@ -148,6 +148,15 @@ fn main() {
         let five = five_axis(path, &bytes, *dialect);
         let five_cell = five.clone().unwrap_or_else(|| "-".into());
         let machine_name = machine_for(&bytes);
+        // A program that never writes C (an A-only or B-only four-axis
+        // program) leaves C where it is: the runner states it at 0 before
+        // the first block, as the user of such a program on this machine
+        // would with --rotary-start C=0.
+        let rotary_start = if has_word(&bytes, b'C') {
+            vec![]
+        } else {
+            vec![('C', 0.0)]
+        };
         let mut machine = Machine::builtin(machine_name).expect("built-in machine");
         // The programs come from machines of every size: a tilt stroke of
         // at least +-120 deg (a Haas UMC-750 tilts B to 120) keeps the
@@ -156,7 +165,7 @@ fn main() {
             .tilt
             .limits
             .map(|(lo, hi)| (lo.min(-TILT_STROKE), hi.max(TILT_STROKE)));
-        let zero = run(path, &bytes, &machine, *dialect, 0.0);
+        let zero = run(path, &bytes, &machine, *dialect, &rotary_start, 0.0);
         let zero_cell = match &zero {
             Outcome::Done(_, out) if *out == bytes => {
                 identical += 1;
@@ -168,7 +177,7 @@ fn main() {
             }
             other => cell(other, &mut failures),
         };
-        let with = run(path, &bytes, &machine, *dialect, 20.0);
+        let with = run(path, &bytes, &machine, *dialect, &rotary_start, 20.0);
         let mut blocks_cell = "-".to_string();
         let mut rs_cell = "-".to_string();
         if five.is_some() {
@@ -672,18 +681,21 @@ const TILT_STROKE: f64 = 120.0;
 /// A built-in machine with the rotary axes the program uses: B and C
 /// (bc-trunnion) when it writes B words and no A, else A and C.
 fn machine_for(bytes: &[u8]) -> &'static str {
-    let word = |letter: u8| {
-        bytes.windows(2).enumerate().any(|(i, w)| {
-            w[0].eq_ignore_ascii_case(&letter)
-                && (w[1].is_ascii_digit() || matches!(w[1], b'-' | b'+' | b'.'))
-                && (i == 0 || !bytes[i - 1].is_ascii_alphabetic())
-        })
-    };
-    if word(b'B') && !word(b'A') {
+    if has_word(bytes, b'B') && !has_word(bytes, b'A') {
         "bc-trunnion"
     } else {
         "ac-trunnion"
     }
+}
+
+/// Whether the text has a word of this letter with a literal value
+/// (`C0`, `c-12.5`), anywhere (comments too).
+fn has_word(bytes: &[u8], letter: u8) -> bool {
+    bytes.windows(2).enumerate().any(|(i, w)| {
+        w[0].eq_ignore_ascii_case(&letter)
+            && (w[1].is_ascii_digit() || matches!(w[1], b'-' | b'+' | b'.'))
+            && (i == 0 || !bytes[i - 1].is_ascii_alphabetic())
+    })
 }
 
 /// Location errors of `size` um / urad on every symbol (fixed pattern),
@@ -702,9 +714,18 @@ fn errors(machine: &Machine, size: f64) -> LoadedErrors {
         .expect("generated error file reads")
 }
 
-fn run(path: &Path, bytes: &[u8], machine: &Machine, dialect: Dialect, size: f64) -> Outcome {
+fn run(
+    path: &Path,
+    bytes: &[u8],
+    machine: &Machine,
+    dialect: Dialect,
+    rotary_start: &[(char, f64)],
+    size: f64,
+) -> Outcome {
     let e = errors(machine, size);
-    let c = Compensator::new(&e.model, &e.theta, Settings::new(dialect));
+    let mut settings = Settings::new(dialect);
+    settings.rotary_start = rotary_start.to_vec();
+    let c = Compensator::new(&e.model, &e.theta, settings);
     let mut out = Vec::with_capacity(bytes.len() + 1024);
     let r = catch_unwind(AssertUnwindSafe(|| {
         c.run(path, BufReader::new(bytes), &mut out)

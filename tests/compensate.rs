@@ -234,6 +234,18 @@ pub fn simulate(
 ) -> Vec<Sample> {
     let mut s = SimSettings::new(d);
     s.coordinates = coords;
+    simulate_with(model, theta, s, program, step)
+}
+
+/// As [`simulate`], with the simulator's settings given whole (origin,
+/// stated rotary start positions).
+pub fn simulate_with(
+    model: &Model,
+    theta: &[f64],
+    mut s: SimSettings,
+    program: &str,
+    step: f64,
+) -> Vec<Sample> {
     s.step = step;
     let sim = Simulator::new(model, theta, s);
     let mut out = Vec::new();
@@ -282,9 +294,26 @@ pub(crate) fn check_held(
     held: &[usize],
     what: &str,
 ) {
+    let mut s = SimSettings::new(d);
+    s.coordinates = coords;
+    check_simulated(l, &s, program, rewritten, tol, held, what)
+}
+
+/// As [`check_held`], with the simulator's settings given whole (the
+/// program's origin, stated rotary start positions), the same for the
+/// original on the nominal machine and the rewrite on the erroneous one.
+pub(crate) fn check_simulated(
+    l: &LoadedErrors,
+    settings: &SimSettings,
+    program: &str,
+    rewritten: &str,
+    tol: f64,
+    held: &[usize],
+    what: &str,
+) {
     let nominal_model = Model::new(l.model.kin.clone(), vec![]);
-    let intended = simulate(&nominal_model, &[], d, coords, program, 0.01);
-    let actual = simulate(&l.model, &l.theta, d, coords, rewritten, 0.1);
+    let intended = simulate_with(&nominal_model, &[], settings.clone(), program, 0.01);
+    let actual = simulate_with(&l.model, &l.theta, settings.clone(), rewritten, 0.1);
     let ends: Vec<&Sample> = intended.iter().filter(|s| s.fraction == 1.0).collect();
     let mut j = 0;
     for e in &ends {

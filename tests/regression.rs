@@ -1103,8 +1103,10 @@ fn export_of_an_implausible_error_is_refused_with_the_parameter_named() {
 /// `--strict` let unknown M functions and G10 work-offset changes pass,
 /// and an address the machine lacks (`W5`) or an unknown G code alone in a
 /// block went unreported (issue 16): each is named at its own line, the
-/// moves in an offset G10 changed are left as written, and `--strict`
-/// refuses at the line and column.
+/// moves in an offset G10 changed whose relation to the offset of the first
+/// move is not known are left as written, and `--strict` refuses what is
+/// not modelled at the line and column (G10 L2 to an offset not identified
+/// among them; G10 L2 with literal values is modelled).
 #[test]
 fn compensate_reports_unknown_m_codes_g10_and_foreign_addresses_at_their_own_line() {
     let program = "G54\nG0 X0 Y0 Z10 B0 C0\nM77\nG1 X10 Y0 Z0 F100\nG777\nW5\nG10 L2 P2 X5\nG1 X12 Y0 Z0\nG10 L2 P1 X5\nG1 X14 Y0 Z0\nG55\nG1 X15 Y0 Z0\nM2\n";
@@ -1117,10 +1119,15 @@ fn compensate_reports_unknown_m_codes_g10_and_foreign_addresses_at_their_own_lin
     };
     assert_eq!(lines_of(&s.unmodelled, "M77"), vec![3]);
     assert_eq!(lines_of(&s.unmodelled, "`G777`"), vec![5]);
-    assert_eq!(lines_of(&s.unmodelled, "G10"), vec![7, 9]);
+    assert!(
+        s.unmodelled.iter().all(|(w, _)| !w.contains("G10")),
+        "{:?}",
+        s.unmodelled
+    );
     assert_eq!(lines_of(&s.skipped, "axis W"), vec![6]);
-    // G10 on G55 (P2) leaves G54 as it was: line 8 is corrected; on G54
-    // (P1) it is not, and neither is G55 afterwards.
+    // G10 on G55 (P2) leaves G54 as it was: line 8 is corrected; G54's X
+    // set (P1) is no longer related to the value G54 had at the first
+    // move (unknown), and neither is G55's.
     assert_eq!(lines_of(&s.skipped, "G10 L2/L20"), vec![10, 12]);
     let row = |n: usize| out.lines().nth(n - 1).unwrap().to_string();
     assert_ne!(row(8), "G1 X12 Y0 Z0", "{out}");
@@ -1128,7 +1135,7 @@ fn compensate_reports_unknown_m_codes_g10_and_foreign_addresses_at_their_own_lin
     assert_eq!(row(12), "G1 X15 Y0 Z0");
     for (block, what) in [
         ("M77", "p.ngc:2:1: M77"),
-        ("N5 G10 L2 P1 X5", "p.ngc:2:4: G10"),
+        ("N5 G10 L2 P#1 X5", "p.ngc:2:4: G10"),
     ] {
         let cut = format!("G0 X0 Y0 Z10 B0 C0\n{block}\nM2\n");
         let e = compensate_text(&cut, "{EX0B: 30.0}", |s| s.strict = true).unwrap_err();

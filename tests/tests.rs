@@ -28,6 +28,7 @@ mod macros;
 mod measured;
 mod montecarlo;
 mod nc;
+mod offsets;
 mod plan;
 mod plan_programs;
 mod planes;

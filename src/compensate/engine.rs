@@ -73,6 +73,7 @@ impl Compensator {
             coordinates: s.coordinates,
             origin: s.origin,
             integer_unit: s.fanuc_integer_unit,
+            rotary_start: s.rotary_start.clone(),
         };
         Interpreter::new(&settings, self.solver.kinematics())
     }
@@ -605,7 +606,12 @@ impl<'a> Pass<'a> {
                     writer.follow(block, &seg, interp, &before, true);
                     *last_held = false;
                 }
-                Event::None => writer.reframe(block, &seg, interp, (&before, &frame_before)),
+                Event::None => {
+                    if let Some(words) = interp.setting_words {
+                        writer.move_setting(block, &words, interp, &before);
+                    }
+                    writer.reframe(block, &seg, interp, (&before, &frame_before))
+                }
             }
             writer.after_statement(block, &seg, interp, motion_done);
         }

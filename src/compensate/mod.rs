@@ -83,6 +83,10 @@ pub struct Settings {
     /// Write the program flattened as its macro logic runs (loops and
     /// calls unrolled, every move literal) and correct that.
     pub expand: bool,
+    /// Positions of rotary axes before the first block, as the user
+    /// states them (axis letter, deg); see
+    /// [`crate::nc::interp::InterpreterSettings::rotary_start`].
+    pub rotary_start: Vec<(char, f64)>,
 }
 
 impl Settings {
@@ -102,6 +106,7 @@ impl Settings {
             max_c_swing: 1.0,
             fanuc_integer_unit: None,
             expand: false,
+            rotary_start: Vec::new(),
         }
     }
 }

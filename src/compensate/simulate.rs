@@ -41,6 +41,8 @@ pub struct SimSettings {
     pub coordinates: Coordinates,
     /// FANUC axis values without a decimal point (mm per unit).
     pub fanuc_integer_unit: Option<f64>,
+    /// Rotary positions before the first block, as the user states them.
+    pub rotary_start: Vec<(char, f64)>,
     /// Sampling step along feed moves, mm of tool-tip path (0: end points only).
     pub step: f64,
 }
@@ -54,6 +56,7 @@ impl SimSettings {
             origin: Vector3::zeros(),
             coordinates: Coordinates::Auto,
             fanuc_integer_unit: None,
+            rotary_start: Vec::new(),
             step: 0.0,
         }
     }
@@ -163,6 +166,7 @@ impl Simulator {
                 coordinates: s.coordinates,
                 origin: s.origin,
                 integer_unit: s.fanuc_integer_unit,
+                rotary_start: s.rotary_start.clone(),
             },
             self.solver.kinematics(),
         );

@@ -63,11 +63,20 @@ pub(super) struct Writer {
 
 impl Writer {
     pub(super) fn new(settings: &Settings) -> Writer {
+        // Before the first block the controller has the stated rotary
+        // positions (and, where the program corrects such an axis, the
+        // word the rewrite adds moves it from there).
+        let mut emit = [None; 6];
+        for &(letter, v) in &settings.rotary_start {
+            if let Some(i) = AXES.iter().position(|&a| a as char == letter) {
+                emit[i] = Some(v);
+            }
+        }
         Writer {
             dialect: settings.dialect,
             linear_decimals: settings.linear_decimals,
             rotary_decimals: settings.rotary_decimals,
-            emit: [None; 6],
+            emit,
             emit_motion: None,
             emit_pole: None,
             emit_drill: None,
@@ -257,6 +266,37 @@ impl Writer {
         );
         for a in axes {
             self.emit[a] = Some(p[a]);
+        }
+    }
+
+    /// A LinuxCNC G10 L20 (`words`: its axis words' tokens) sets an offset
+    /// from the current position. Where the rewrite put the controller
+    /// elsewhere than the program (`before`), each value moves by the same
+    /// amount, so that the offset stored is the one the program meant.
+    pub(super) fn move_setting(
+        &mut self,
+        block: &Block,
+        words: &[Option<usize>; 6],
+        interp: &Interpreter,
+        before: &[Option<f64>; 6],
+    ) {
+        let rules = self.rules();
+        for (a, ti) in words.iter().enumerate() {
+            let (Some(ti), Some(p), Some(e)) = (*ti, before[a], self.emit[a]) else {
+                continue;
+            };
+            let TokenKind::Word(w) = block.tokens[ti].kind else {
+                continue;
+            };
+            let Value::Num(x) = w.value else { continue };
+            let d = self.decimals(a, Some(&w.style), interp.units);
+            if (e - p).abs() < lexeme::half_unit(d) {
+                continue;
+            }
+            let new = round_to(x + (e - p), d);
+            let style = w.style;
+            self.edits
+                .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
         }
     }
 

@@ -16,6 +16,9 @@ pub struct Frame {
     pub u: f64,
     /// Datum shift per linear axis, program units.
     pub shift: [f64; 3],
+    /// Rotary zero shift of the work offset (tilt, C), deg: the machine
+    /// axis is at the programmed angle plus this.
+    pub rotary: [f64; 2],
     /// Where the program zero lies in W at rotary zero, mm.
     pub origin: Vector3<f64>,
     /// Tool length the program's Z includes (tool length compensation off
@@ -48,8 +51,8 @@ impl Frame {
                 (q.y + self.shift[1]) * self.u + self.origin.y,
                 (q.z + self.shift[2]) * self.u + self.origin.z - self.tlc,
             ),
-            tilt: p[self.tilt],
-            c: p[5],
+            tilt: p[self.tilt] + self.rotary[0],
+            c: p[5] + self.rotary[1],
         }
     }
 
@@ -69,8 +72,8 @@ impl Frame {
         p[0] = q.x;
         p[1] = q.y;
         p[2] = q.z;
-        p[self.tilt] = a.tilt;
-        p[5] = a.c;
+        p[self.tilt] = a.tilt - self.rotary[0];
+        p[5] = a.c - self.rotary[1];
         p
     }
 

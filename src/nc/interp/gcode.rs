@@ -4,6 +4,7 @@
 //! positions (dwell, reference return, machine coordinates, probing, data
 //! setting, G52, G92) and the move a block of axis words makes.
 
+use super::offsets::MACHINE_ZERO;
 use super::{
     AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Units,
     arc_runs, center_from_radius,
@@ -83,6 +84,7 @@ impl Interpreter {
 
     fn words(&mut self, block: &Block, seg: &Segment) -> Event {
         let old_frame = self.frame_key();
+        let old_offset = self.offset_shift();
         let mut s = WordScan::default();
         for (ti, w) in block.words(seg) {
             let Some(letter) = w.addr.as_letter() else {
@@ -134,10 +136,17 @@ impl Interpreter {
             self.work_offset = 5410 + p.round() as u32;
         }
         let frame_now = self.frame_key();
-        if frame_now != old_frame {
+        let rest = |k: (u32, bool, Tcp, bool, Units)| (k.1, k.2, k.3, k.4);
+        let only_offset = frame_now.0 != old_frame.0 && rest(frame_now) == rest(old_frame);
+        if only_offset && self.offsets.set && old_offset.is_some() {
+            // Another offset whose values the program set: the same place
+            // has other numbers, by the difference of the two.
+            self.reoffset(old_offset);
+        } else if frame_now != old_frame {
             // The same numbers mean another place now; rotary positions
             // are machine positions whatever the frame (no work offset has
-            // a rotary part: each lies on the W origin at rotary zero; TCP
+            // a rotary part unless the program sets one, below: each lies
+            // on the W origin at rotary zero; TCP
             // turns the linear axes, not the rotary ones) and keep their
             // meaning, and in a tilted plane tool length compensation
             // moves the controlled point along the plane's Z only.
@@ -155,6 +164,17 @@ impl Interpreter {
             for (i, k) in kept.iter().enumerate() {
                 if same(i) {
                     self.pos[i] = *k;
+                }
+            }
+            // A rotary zero shift the program set moves the rotary
+            // positions' meaning with the offset.
+            let new_offset = self.offset_shift();
+            if self.offsets.set && new_offset != old_offset {
+                for i in [self.cfg.tilt, 5] {
+                    self.pos[i] = match (old_offset, new_offset, self.pos[i]) {
+                        (Some(b), Some(a), Some(p)) => Some(p + b[i] - a[i]),
+                        _ => None,
+                    };
                 }
             }
         }
@@ -604,18 +624,35 @@ impl Interpreter {
         }
     }
 
-    /// G10: work offset data (L2, L20) makes the offset it changes
-    /// unknown; every kind is noted.
+    /// G10 L2 / L20: work offset data ([`super::offsets`]). The offset
+    /// named gets the values written: L2 as values in machine coordinates
+    /// (FANUC adds them in G91; LinuxCNC's G10 ignores G90/G91), LinuxCNC
+    /// L20 the values that make the current position read as written, in
+    /// that offset (`V = position + V in force - value`); FANUC L20 sets
+    /// the additional offsets G54.1 P n as L2 does. Positions in the offset
+    /// in force follow its new values. What is not modelled is noted (and
+    /// `--strict` refuses it): the FANUC external offset (P0), an offset
+    /// not identified, LinuxCNC's rotation (R), a value not known here;
+    /// other G10 data (tools, parameters) is noted as such.
     fn data_setting(&mut self, block: &Block, seg: &Segment) {
         let mut l = None;
         let mut p = None;
         let mut at = 0;
+        let mut rotation = false;
+        let mut values: [Option<Option<f64>>; 6] = [None; 6];
+        let mut tokens = [None; 6];
         for (ti, w) in block.words(seg) {
             match (w.addr.as_letter(), w.value) {
                 (Some(b'G'), _) => at = block.tokens[ti].span.start as usize,
                 (Some(b'L'), Value::Num(v)) => l = Some(v.round() as i64),
                 (Some(b'P'), Value::Num(v)) => p = Some(v.round() as i64),
-                _ => {}
+                (Some(b'R'), _) => rotation = true,
+                _ => {
+                    if let Some(i) = self.axis_index(w.addr) {
+                        values[i] = Some(self.axis_value(&w).ok());
+                        tokens[i] = Some(ti);
+                    }
+                }
             }
         }
         let linuxcnc = self.cfg.settings.dialect == Dialect::Linuxcnc;
@@ -629,26 +666,72 @@ impl Interpreter {
             (Some(2 | 20), Some(n @ 7..=9)) if linuxcnc => Some(584 + n as u32),
             // FANUC G10 L20 P n: the additional offset G54.1 P n.
             (Some(20), Some(n @ 1..=300)) if !linuxcnc => Some(5410 + n as u32),
-            (Some(2 | 20), _) => Some(u32::MAX),
+            (Some(2 | 20), _) => Some(MACHINE_ZERO),
             _ => None,
         };
-        // The positions in the offset in use change with its data (and with
-        // the tool's); another offset's data changes nothing yet.
-        if offset.is_none_or(|o| o == u32::MAX || o == self.work_offset) {
-            self.forget();
-        }
-        let what = match offset {
-            Some(o) => {
-                if !self.altered_offsets.contains(&o) {
-                    self.altered_offsets.push(o);
-                }
-                "G10: the program changes work offset data (moves in that offset are left as written)"
-            }
-            None => {
-                "G10: the program changes tool or parameter data (the machine file's tool is used)"
-            }
+        let Some(id) = offset else {
+            // A tool's data may be the one in use: the linear positions
+            // may mean another place now; the rotary ones do not.
+            self.pos[..3].fill(None);
+            self.pole = None;
+            self.note(
+                at,
+                "G10: the program changes tool or parameter data (the machine file's tool is used)",
+            );
+            return;
         };
-        self.note(at, what);
+        let before = self.offset_shift();
+        if id == MACHINE_ZERO {
+            self.offsets.set = true;
+            self.offsets.lost = Some(if p == Some(0) {
+                "the external work offset (G10 L2 P0), which shifts every offset, was changed by the program by an amount fivecal does not relate to --origin"
+            } else {
+                "G10 L2/L20 changed a work offset fivecal cannot identify (P missing or from a variable): no offset is known relative to --origin after it"
+            });
+            self.note(
+                at,
+                "G10: the program changes work offset data fivecal does not model (moves after it are left as written)",
+            );
+            self.reoffset(before);
+            return;
+        }
+        let in_force = self.offsets.value(self.work_offset);
+        let mut v = self.offsets.value(id);
+        let incremental = !linuxcnc && !self.absolute;
+        let current = l == Some(20) && linuxcnc;
+        let mut unknown = rotation || (current && (self.tilted || self.tcp != super::Tcp::Off));
+        for (i, w) in values.iter().enumerate() {
+            let Some(w) = w else { continue };
+            let k = if i < 3 { self.units.mm() } else { 1.0 };
+            v[i] = match (*w, current) {
+                (Some(x), false) if incremental => v[i].map(|(b, d)| (b, d + x * k)),
+                (Some(x), false) => Some((MACHINE_ZERO, x * k)),
+                (Some(x), true) => match (self.pos[i], in_force[i]) {
+                    (Some(q), Some((b, d))) => Some((b, d + (q - x) * k)),
+                    _ => None,
+                },
+                (None, _) => None,
+            };
+            unknown |= v[i].is_none();
+        }
+        if rotation {
+            v = [None; 6];
+        }
+        if current {
+            self.setting_words = Some(tokens);
+        }
+        self.offsets.store(id, v);
+        if unknown {
+            self.note(
+                at,
+                if rotation {
+                    "G10: a work offset with a rotation (R), which fivecal does not model (moves in that offset are left as written)"
+                } else {
+                    "G10: work offset data whose value is not known here (an expression, or the position it counts from is unknown): moves in that offset are left as written"
+                },
+            );
+        }
+        self.reoffset(before);
     }
 
     /// Updates tracked positions from the axis words (for moves left as

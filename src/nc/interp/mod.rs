@@ -36,6 +36,7 @@ pub mod corner;
 pub mod gcode;
 mod heidenhain;
 pub mod interpolation;
+pub mod offsets;
 pub mod plane;
 mod sinumerik;
 pub mod tangent;
@@ -243,6 +244,9 @@ pub enum Skip {
     /// An axis, centre or radius value (this letter) beyond what a
     /// control takes ([`crate::limits::MAX_NC_VALUE`]).
     OutOfRange(u8),
+    /// The work offset in force is not known relative to the one at the
+    /// first move, and why.
+    OffsetUnknown(&'static str),
     /// The block could not be read (kept byte for byte).
     Unreadable,
     /// An unreadable block at this line may have changed the modal state
@@ -297,6 +301,7 @@ impl std::fmt::Display for Skip {
                 *a as char,
                 crate::limits::MAX_NC_VALUE
             ),
+            Skip::OffsetUnknown(why) => write!(f, "{why}"),
             Skip::Unreadable => write!(f, "the block could not be read"),
             Skip::StateUnknown(line) => write!(
                 f,
@@ -452,6 +457,10 @@ pub struct InterpreterSettings {
     /// (1 for calculator-type input, 0.001 or 0.0001 for least input
     /// increments), or `None` to leave such moves as written.
     pub integer_unit: Option<f64>,
+    /// Positions of rotary axes before the program's first block, as the
+    /// user states them (axis letter, deg): an axis the program never sets
+    /// is otherwise unknown.
+    pub rotary_start: Vec<(char, f64)>,
 }
 
 impl InterpreterSettings {
@@ -463,6 +472,7 @@ impl InterpreterSettings {
             coordinates: Coordinates::Auto,
             origin: Vector3::zeros(),
             integer_unit: None,
+            rotary_start: Vec::new(),
         }
     }
 }
@@ -565,9 +575,12 @@ pub struct Interpreter {
     pub state_unknown: Option<usize>,
     /// What last switched TCP on or off (`None`: nothing yet).
     pub tcp_cause: Option<TcpCause>,
-    /// Work offsets whose data the program changed (G10 L2/L20), as
-    /// [`Interpreter::work_offset`] numbers; `u32::MAX`: all of them.
-    pub altered_offsets: Vec<u32>,
+    /// The work offset data the program sets (G10 L2/L20).
+    pub offsets: offsets::WorkOffsets,
+    /// A LinuxCNC G10 L20 in the last statement: the token index of each
+    /// axis word. Its values count from the current position, so a rewrite
+    /// that moved that position must move them with it.
+    pub setting_words: Option<[Option<usize>; 6]>,
     /// The last statement's effect that is not modelled; the caller takes
     /// it after each [`Interpreter::step`].
     pub unmodelled: Option<Unmodelled>,
@@ -576,9 +589,6 @@ pub struct Interpreter {
     /// SINUMERIK block `IF`s open here, innermost last.
     branches: Vec<sinumerik::Branch>,
 }
-
-/// What a work offset changed by G10 leaves unknown.
-const ALTERED_OFFSET: &str = "a work offset whose data the program changes (G10 L2/L20)";
 
 impl Interpreter {
     /// The power-on state of a controller of this dialect on this machine.
@@ -594,6 +604,14 @@ impl Interpreter {
             kin: kin.clone(),
             m_codes: m.m_codes.clone(),
         };
+        // A stated start position is where the axis is until the program
+        // moves it or forgets it, like any tracked position.
+        let mut pos = [None; 6];
+        for &(letter, v) in &settings.rotary_start {
+            if let Some(i) = AXES.iter().position(|&a| a as char == letter) {
+                pos[i] = Some(v);
+            }
+        }
         Interpreter {
             cfg: Shared::new(cfg),
             units: Units::Mm,
@@ -622,7 +640,7 @@ impl Interpreter {
             ori_machine: false,
             shift_known: true,
             radius_comp: false,
-            pos: [None; 6],
+            pos,
             pole: None,
             hh_cycle: None,
             hh_line_before: None,
@@ -636,7 +654,8 @@ impl Interpreter {
             retract_initial: dialect != Dialect::Linuxcnc,
             state_unknown: None,
             tcp_cause: None,
-            altered_offsets: Vec::new(),
+            offsets: offsets::WorkOffsets::default(),
+            setting_words: None,
             unmodelled: None,
             tcp_remapped: false,
             branches: Vec::new(),
@@ -672,6 +691,7 @@ impl Interpreter {
             }
             return Event::Skip(Skip::Unreadable);
         }
+        self.setting_words = None;
         let tcp_before = self.tcp;
         let plane_before = self.working_plane;
         self.tcp_remapped = false;
@@ -694,7 +714,11 @@ impl Interpreter {
                 machine_file: false,
             });
         }
-        self.check_offset();
+        // The offset in force at the first move in work coordinates is
+        // the one `--origin` places.
+        if matches!(ev, Event::Move(_) | Event::Skip(_)) {
+            self.offsets.first_move(self.work_offset);
+        }
         let ev = match ev {
             Event::Move(mv) if self.tilted => match self.plane_skip(&mv) {
                 Some(why) => Event::Skip(Skip::TiltedPlane(why)),
@@ -729,9 +753,19 @@ impl Interpreter {
             _ => None,
         };
         let tcp = if plane.is_some() { Tcp::Axes } else { tcp };
+        let u = self.units.mm();
+        // Moves in an offset whose relation is not known are left as
+        // written ([`Self::frame_skip`]): no shift is as good as any there.
+        let o = self.offset_shift().unwrap_or([0.0; 6]);
+        let shift = self.total_shift();
         Frame {
-            u: self.units.mm(),
-            shift: self.total_shift(),
+            u,
+            shift: [
+                shift[0] + o[0] / u,
+                shift[1] + o[1] / u,
+                shift[2] + o[2] / u,
+            ],
+            rotary: [o[self.cfg.tilt], o[5]],
             origin: self.cfg.settings.origin,
             tlc: if tcp == Tcp::Off && !self.tool_length {
                 self.cfg.tool_length
@@ -894,20 +928,31 @@ impl Interpreter {
         });
     }
 
-    /// Moves in a work offset whose data the program changed are left as
-    /// written.
-    fn check_offset(&mut self) {
-        if self.altered_offsets.is_empty() {
+    /// What the work offset in force adds to the one in force at the
+    /// first move ([`offsets::WorkOffsets::shift`]): X, Y, Z in mm, the
+    /// rotary zero shifts in deg; `None` where that is not known.
+    pub fn offset_shift(&self) -> Option<[f64; 6]> {
+        self.offsets.shift(self.work_offset, [self.cfg.tilt, 5])
+    }
+
+    /// Program positions after the work offset's values changed from
+    /// `before` (machine positions stay): shifted by the difference where
+    /// both are known, else forgotten.
+    fn reoffset(&mut self, before: Option<[f64; 6]>) {
+        let after = self.offset_shift();
+        if after == before {
             return;
         }
-        let altered = self
-            .altered_offsets
-            .iter()
-            .any(|&o| o == u32::MAX || o == self.work_offset);
-        if altered && self.transformed.is_none() {
-            self.transformed = Some(ALTERED_OFFSET);
-        } else if !altered {
-            self.cancel(ALTERED_OFFSET);
+        let u = self.units.mm();
+        match (before, after) {
+            (Some(b), Some(a)) => {
+                for (i, p) in self.pos.iter_mut().enumerate() {
+                    let k = if i < 3 { 1.0 / u } else { 1.0 };
+                    *p = p.map(|v| v + (b[i] - a[i]) * k);
+                }
+                self.pole = None;
+            }
+            _ => self.forget(),
         }
     }
 
@@ -1023,22 +1068,25 @@ impl Interpreter {
 
     /// A move in machine coordinates (G53, SUPA): the linear axes it names
     /// end where the program's frame does not say, a rotary axis at the
-    /// angle written, which is its program position too (no work offset
-    /// has a rotary part: each lies on the W origin at rotary zero,
-    /// docs/model.md). `absolute` says whether a word is an absolute
-    /// position.
+    /// angle written, which is its program position less the rotary part
+    /// of the work offset (none unless the program sets one with G10: each
+    /// lies on the W origin at rotary zero, docs/model.md). `absolute` says
+    /// whether a word is an absolute position.
     fn machine_move(
         &mut self,
         block: &Block,
         seg: &Segment,
         absolute: impl Fn(&Block, &Word) -> bool,
     ) {
+        // A rotary zero shift the program set (G10) puts the programmed
+        // angle that much below the machine's.
+        let rotary_zero = self.offset_shift();
         for (_, w) in block.words(seg) {
             let Some(i) = self.axis_index(w.addr) else {
                 continue;
             };
-            self.pos[i] = match self.axis_value(&w) {
-                Ok(v) if i >= 3 && absolute(block, &w) => Some(v),
+            self.pos[i] = match (self.axis_value(&w), rotary_zero) {
+                (Ok(v), Some(o)) if i >= 3 && absolute(block, &w) => Some(v - o[i]),
                 _ => None,
             };
         }
@@ -1069,7 +1117,21 @@ impl Interpreter {
         if !self.shift_known {
             return Some(Skip::ShiftUnknown);
         }
-        None
+        match self.offset_shift() {
+            None => Some(Skip::OffsetUnknown(
+                self.offsets.lost.unwrap_or(offsets::UNRELATED),
+            )),
+            // The rotary positions a tilted plane or a tool direction
+            // gives are machine positions: with a rotary work offset they
+            // are not modelled.
+            Some(o)
+                if (o[self.cfg.tilt] != 0.0 || o[5] != 0.0)
+                    && (self.tilted || self.tcp == Tcp::Vector) =>
+            {
+                Some(Skip::OffsetUnknown(offsets::ROTARY_IN_PLANE))
+            }
+            Some(_) => None,
+        }
     }
 
     fn cancel(&mut self, what: &str) {

@@ -55,6 +55,13 @@ pub struct MachineArgs {
     /// as written and reported.
     #[arg(long, value_name = "UNIT", value_parser = ["mm", "um", "0.1um"])]
     pub integer_unit: Option<String>,
+    /// Position of a rotary axis before the program's first block, deg
+    /// (`C=0`; repeat or list with commas: `A=0,C=90`), for an axis the
+    /// program does not set before it moves (a four-axis program on a
+    /// five-axis machine): a statement of yours, reported as assumed.
+    /// Without it such an axis is unknown and its moves are left as written.
+    #[arg(long, value_name = "AXIS=DEG", allow_hyphen_values = true)]
+    pub rotary_start: Vec<String>,
     /// Gauge length of the tool in use, mm [default: the machine file's tool].
     #[arg(long, value_name = "MM")]
     pub tool_length: Option<f64>,
@@ -74,6 +81,9 @@ pub struct Common {
     pub origin: Vector3<f64>,
     pub coordinates: Coordinates,
     pub integer_unit: Option<f64>,
+    /// `--rotary-start`: (axis letter, deg), each a rotary axis of the
+    /// machine at most once, within its stroke.
+    pub rotary_start: Vec<(char, f64)>,
     pub strict: bool,
     /// Input files of the run (never to be overwritten).
     pub inputs: Vec<PathBuf>,
@@ -97,6 +107,64 @@ fn parse_triple(s: &str, what: &str) -> anyhow::Result<Vector3<f64>> {
             )
         })?;
     Ok(Vector3::new(v[0], v[1], v[2]))
+}
+
+/// `--rotary-start` values (`C=0`, `A=0,C=90`, repeated or listed) as
+/// (axis, deg): each names a rotary axis of `machine` once, with a finite
+/// angle inside its stroke.
+fn parse_rotary_start(values: &[String], machine: &Machine) -> anyhow::Result<Vec<(char, f64)>> {
+    let mut out: Vec<(char, f64)> = Vec::new();
+    for item in values.iter().flat_map(|v| v.split(',')) {
+        let item = item.trim();
+        let (letter, value) = item
+            .split_once('=')
+            .with_context(|| format!("--rotary-start `{item}`: expected AXIS=DEG, e.g. C=0"))?;
+        let letter = letter.trim().to_ascii_uppercase();
+        let axis = [&machine.tilt, &machine.c]
+            .into_iter()
+            .find(|a| a.letter.to_string() == letter)
+            .with_context(|| {
+                format!(
+                    "--rotary-start `{item}`: {letter} is not a rotary axis of machine {} (its rotary axes are {} and {})",
+                    machine.name, machine.tilt.letter, machine.c.letter
+                )
+            })?;
+        let v = value
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .with_context(|| {
+                format!("--rotary-start `{item}`: expected an angle in deg after `=`")
+            })?;
+        if !axis.within(v, 0.0) {
+            let (lo, hi) = axis.limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+            bail!(
+                "--rotary-start `{item}`: {v} deg is outside the stroke of {} ({lo} to {hi} deg)",
+                axis.letter
+            );
+        }
+        if out.iter().any(|(l, _)| *l == axis.letter) {
+            bail!("--rotary-start: {} is given more than once", axis.letter);
+        }
+        out.push((axis.letter, v));
+    }
+    Ok(out)
+}
+
+/// What `--rotary-start` makes the run assume, for its report.
+pub fn rotary_start_note(start: &[(char, f64)]) -> Option<String> {
+    if start.is_empty() {
+        return None;
+    }
+    let axes: Vec<String> = start
+        .iter()
+        .map(|(a, v)| format!("{a} taken at {v} deg"))
+        .collect();
+    Some(format!(
+        "{} before the first block, as --rotary-start states (until the program sets or forgets it)",
+        axes.join(", ")
+    ))
 }
 
 impl MachineArgs {
@@ -128,6 +196,7 @@ impl MachineArgs {
             Some(_) => Some(1e-4),
             None => machine.integer_unit.map(|u| u.mm()),
         };
+        let rotary_start = parse_rotary_start(&self.rotary_start, &machine)?;
         let mut inputs = Vec::new();
         if let MachineOrigin::File(p) = &machine_origin {
             inputs.push(p.clone());
@@ -144,6 +213,7 @@ impl MachineArgs {
                 CoordsArg::Tcp => Coordinates::Tcp,
             },
             integer_unit,
+            rotary_start,
             strict: self.strict,
             inputs,
         })
@@ -330,6 +400,7 @@ impl CompensateArgs {
         settings.coordinates = common.coordinates;
         settings.max_c_swing = self.max_c_swing;
         settings.fanuc_integer_unit = common.integer_unit;
+        settings.rotary_start = common.rotary_start.clone();
         if self.expand && self.input.is_none() {
             bail!("--expand flattens an NC program: give the program to rewrite (IN)");
         }
@@ -652,6 +723,9 @@ fn describe(
         cfg.errors_path.display()
     );
     let _ = writeln!(t, "  read as {detection}");
+    if let Some(n) = rotary_start_note(&cfg.settings.rotary_start) {
+        let _ = writeln!(t, "  {n}");
+    }
     let _ = writeln!(
         t,
         "  {} blocks, {} moves: {} blocks changed, {} blocks added ({} moves subdivided, {} arcs linearized) to stay within {} um",

@@ -86,6 +86,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     settings.origin = common.origin;
     settings.coordinates = common.coordinates;
     settings.fanuc_integer_unit = common.integer_unit;
+    settings.rotary_start = common.rotary_start.clone();
     settings.step = args.step;
     let sim = Simulator::new(&errors.model, &errors.theta, settings);
     // Samples are kept only when a CSV or the CMM points need them.
@@ -183,6 +184,9 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         args.errors.display()
     );
     outln!("  read as {detection}");
+    if let Some(n) = super::compensate::rotary_start_note(&common.rotary_start) {
+        outln!("  {n}");
+    }
     outln!(
         "  {} blocks, {} moves, {} samples",
         summary.blocks,
