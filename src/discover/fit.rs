@@ -12,9 +12,9 @@
 //!
 //! The fit is the `global` identification's (one least-squares fit of
 //! every point, residuals in um along the predicted normal, the placement
-//! `P0 D(rho)` with `P0` from the reference features), solved by
-//! Gauss-Newton steps on the exact residuals and Jacobians, with step
-//! halving where a step fails, until the sum of squares stops falling. The
+//! `P0 D(rho)` with `P0` from the reference features), solved by the same
+//! damped Gauss-Newton (`lsq::solve_ranked`) on the exact residuals and
+//! Jacobians, until a step gains nothing the noise could tell. The
 //! rank and the directions the test does not see come from the nominal
 //! design, as in `global` ("what the test identifies is a property of its
 //! design"), and every step and the covariance are taken with that rank.
