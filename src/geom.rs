@@ -114,6 +114,21 @@ pub(crate) fn wrap180(a: f64) -> f64 {
     r
 }
 
+/// The turn of `angle` (deg) nearest `reference` that lies within
+/// `limits` (none: an axis that turns without end), if any: a rotary axis
+/// reaches an orientation at every turn its stroke holds, and the program
+/// that `reference` comes from meant the nearest.
+pub(crate) fn nearest_turn(angle: f64, reference: f64, limits: Option<(f64, f64)>) -> Option<f64> {
+    let base = reference + wrap180(angle - reference);
+    match limits {
+        None => Some(base),
+        Some((lo, hi)) => (-3..=3)
+            .map(|k| base + 360.0 * k as f64)
+            .filter(|&x| x >= lo - 1e-9 && x <= hi + 1e-9)
+            .min_by(|a, b| (a - reference).abs().total_cmp(&(b - reference).abs())),
+    }
+}
+
 /// Two unit vectors orthogonal to `u` and to each other (a tangent basis).
 pub(crate) fn tangent_basis(u: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let helper = if u.x.abs() < 0.9 {
@@ -147,6 +162,27 @@ mod tests {
             }
             assert!((m[(i, 3)] - t[i]).abs() < 1e-15);
         }
+    }
+
+    #[test]
+    fn nearest_turn_is_the_reachable_turn_closest_to_the_reference() {
+        // A stroke of two turns reaches A = 180 at -180 too; the program
+        // coming from -179.5 means -180.
+        assert_eq!(
+            nearest_turn(180.0, -179.5, Some((-360.0, 360.0))),
+            Some(-180.0)
+        );
+        // A tilt of -120..30 reaches 170 at no turn.
+        assert_eq!(nearest_turn(170.0, 20.0, Some((-120.0, 30.0))), None);
+        // Inside a stroke of less than a turn, the angle itself.
+        assert_eq!(nearest_turn(-90.0, 0.0, Some((-120.0, 30.0))), Some(-90.0));
+        // Without limits, the turn of the reference.
+        assert_eq!(nearest_turn(1.0, 725.0, None), Some(721.0));
+        // At the stroke's end the nearer reachable turn, not the nearest.
+        assert_eq!(
+            nearest_turn(-350.0, 355.0, Some((-360.0, 360.0))),
+            Some(10.0)
+        );
     }
 
     #[test]

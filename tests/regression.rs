@@ -1748,3 +1748,52 @@ fn compensate_tool_vector_components_the_block_leaves_out_are_added() {
         "C3= alone",
     );
 }
+
+/// A machine whose tilt turns more than a turn either way (an A stroke of
+/// -360..360 deg) and a program that turns A through -180 to -200: the
+/// inverse kinematics took the tilt's principal value (A180 for the
+/// program's A-180., A160 for A-200.), a turn from what the program wrote,
+/// and the run was refused as a correction of 6,283,182 urad. The corrected
+/// A is at the program's own turn, and the tip stays on the path.
+#[test]
+fn compensate_keeps_the_programs_turn_of_a_tilt_whose_stroke_exceeds_a_turn() {
+    let mut machine = crate::util::machine("ac-trunnion");
+    machine.tilt.limits = Some((-360.0, 360.0));
+    let l = crate::compensate::errors_on(&machine, 3, 5.0, "");
+    let program = "%\nO1000\nG90 G54 G0 X0. Y0. Z50. A-150. C0.\nG1 X0.495 Z27. A-170. F2122.\nX0.5 Z27. A-180.\nX0.505 Z26.994 A-190.\nX1. A-200.\nM30\n%\n";
+    let settings = fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
+    let (out, s, _) = crate::compensate::compensate(&l, settings, program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    let a_words: Vec<f64> = out
+        .lines()
+        .filter_map(|line| {
+            let i = line.find('A')?;
+            let v: String = line[i + 1..]
+                .chars()
+                .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | '-'))
+                .collect();
+            v.parse().ok()
+        })
+        .collect();
+    // Each block's A within a hundredth of a degree of the program's (a
+    // correction is micro-radians), pieces of a split move in between.
+    for want in [-170.0, -180.0, -190.0, -200.0] {
+        assert!(
+            a_words.iter().any(|a| (a - want).abs() < 0.01),
+            "no A near {want}:\n{out}"
+        );
+    }
+    assert!(a_words.iter().all(|a| *a <= -149.99), "{out}");
+    // At A = -180 the tool lies along C, where C is held (the singularity
+    // policy): on lines 4 to 7 only the tip is checked.
+    crate::compensate::check_held(
+        &l,
+        fivecal::Dialect::Fanuc,
+        fivecal::compensate::Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        &[4, 5, 6, 7],
+        "A through -180 on a stroke of two turns",
+    );
+}

@@ -267,6 +267,11 @@ impl Solver {
     /// Axis values with C held at `c`: best tilt, exact tip.
     fn hold_c(&self, target: &ToolPose, nominal: &Axes) -> Result<Axes, IkError> {
         let u = target.axis.normalize();
+        let m = self.kin.machine();
+        // The tilt at the turn nearest the nominal one (a stroke of more
+        // than a turn reaches it at several).
+        let turned =
+            |t: f64| crate::geom::nearest_turn(t, nominal.tilt, m.tilt.limits).unwrap_or(t);
         let mut a = *nominal;
         let fixed;
         let chain = match &self.actual {
@@ -275,15 +280,14 @@ impl Solver {
                 // The link errors depend on the tilt: iterate.
                 let mut ch = self.chain_at(&a);
                 for _ in 0..6 {
-                    a.tilt = ch.tilt_for_c(&u, a.c);
+                    a.tilt = turned(ch.tilt_for_c(&u, a.c));
                     ch = self.chain_at(&a);
                 }
                 fixed = ch;
                 &fixed
             }
         };
-        a.tilt = chain.tilt_for_c(&u, a.c);
-        let m = self.kin.machine();
+        a.tilt = turned(chain.tilt_for_c(&u, a.c));
         if !m.tilt.within(a.tilt, 1e-9) {
             let (lo, hi) = m.tilt.limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
             return Err(IkError::TiltOutOfLimits {

@@ -400,15 +400,16 @@ impl FastChain {
         let mut best: Option<(f64, f64, f64, [f64; 4], usize)> = None;
         let mut c_err = None;
         for k in order {
-            let t = br.tilt[k];
-            if !within(self.tilt_limits, t) {
+            // A tilt stroke of more than a turn reaches the branch at
+            // several turns: the one nearest the reference, as for C.
+            let Some(t) = geom::nearest_turn(br.tilt[k], reference.tilt, self.tilt_limits) else {
                 continue;
-            }
+            };
             if best.is_some_and(|b| (t - reference.tilt).abs() > b.0 + 1e-9) {
                 continue;
             }
             let r = self.root(&br, k, reference.c);
-            match nearest_turn(r.c, reference.c, self.c_limits) {
+            match geom::nearest_turn(r.c, reference.c, self.c_limits) {
                 Some(c) => {
                     let d = (t - reference.tilt).abs() + (c - reference.c).abs();
                     // Ties go to the first branch, as in the generic inverse.
@@ -468,22 +469,6 @@ struct Root {
     tilt: f64,
     c: f64,
     sc: [f64; 4],
-}
-
-fn within(limits: Option<(f64, f64)>, a: f64) -> bool {
-    limits.is_none_or(|(lo, hi)| a >= lo - 1e-9 && a <= hi + 1e-9)
-}
-
-/// The turn of `c` nearest `reference` inside the limits.
-fn nearest_turn(c: f64, reference: f64, limits: Option<(f64, f64)>) -> Option<f64> {
-    let base = reference + geom::wrap180(c - reference);
-    match limits {
-        None => Some(base),
-        Some(_) => (-3..=3)
-            .map(|k| base + 360.0 * k as f64)
-            .filter(|&x| within(limits, x))
-            .min_by(|a, b| (a - reference).abs().total_cmp(&(b - reference).abs())),
-    }
 }
 
 #[cfg(test)]

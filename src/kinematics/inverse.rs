@@ -116,7 +116,16 @@ impl Kinematics {
         // hint itself is one more start, since near the singular tilt the
         // angle-dependent errors can move roots far in C.
         let singular = roots.is_empty() || self.near_singular(&roots);
-        let mut starts: Vec<(f64, f64)> = roots;
+        // A tilt stroke of more than a turn reaches a root at several
+        // turns: it is polished at the one nearest the hint (the errors
+        // may depend on the tilt, so the turn matters before polishing).
+        let mut starts: Vec<(f64, f64)> = roots
+            .into_iter()
+            .map(|(t, c)| {
+                let t = geom::nearest_turn(t, reference.tilt, m.tilt.limits).unwrap_or(t);
+                (t, c)
+            })
+            .collect();
         if hint.is_some() {
             starts.push((reference.tilt, reference.c));
         }
@@ -461,26 +470,14 @@ fn depends_on_c<F: Fn(&Axes) -> Perturbation>(perturb: &F, at: &Axes) -> bool {
 
 /// The turn of `c` closest to `reference` that lies within the limits.
 fn choose_c(c: f64, reference: f64, limits: Option<(f64, f64)>) -> Result<f64, IkError> {
-    let base = reference + geom::wrap180(c - reference);
-    match limits {
-        None => Ok(base),
-        Some((lo, hi)) => {
-            let mut best: Option<f64> = None;
-            for k in -3..=3 {
-                let cand = base + 360.0 * k as f64;
-                if cand >= lo - 1e-9 && cand <= hi + 1e-9 {
-                    let better =
-                        best.is_none_or(|b| (cand - reference).abs() < (b - reference).abs());
-                    if better {
-                        best = Some(cand);
-                    }
-                }
-            }
-            best.ok_or(IkError::COutOfLimits {
-                angle: c.rem_euclid(360.0),
-                lo,
-                hi,
-            })
-        }
+    match (geom::nearest_turn(c, reference, limits), limits) {
+        (Some(c), _) => Ok(c),
+        (None, Some((lo, hi))) => Err(IkError::COutOfLimits {
+            angle: c.rem_euclid(360.0),
+            lo,
+            hi,
+        }),
+        // An axis without limits reaches every turn.
+        (None, None) => Ok(c),
     }
 }
