@@ -470,14 +470,11 @@ fn depends_on_c<F: Fn(&Axes) -> Perturbation>(perturb: &F, at: &Axes) -> bool {
 
 /// The turn of `c` closest to `reference` that lies within the limits.
 fn choose_c(c: f64, reference: f64, limits: Option<(f64, f64)>) -> Result<f64, IkError> {
-    match (geom::nearest_turn(c, reference, limits), limits) {
-        (Some(c), _) => Ok(c),
-        (None, Some((lo, hi))) => Err(IkError::COutOfLimits {
-            angle: c.rem_euclid(360.0),
-            lo,
-            hi,
-        }),
-        // An axis without limits reaches every turn.
-        (None, None) => Ok(c),
-    }
+    // An axis without limits reaches every turn: only limits refuse.
+    let (lo, hi) = limits.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    geom::nearest_turn(c, reference, limits).ok_or(IkError::COutOfLimits {
+        angle: c.rem_euclid(360.0),
+        lo,
+        hi,
+    })
 }

@@ -356,9 +356,7 @@ impl Interpreter {
     /// clearance (`Z + Q203 + Q200`); the cycle moves the linear axes
     /// only and leaves the tool at a clearance of its own.
     fn hh_cycle_call(&mut self, block: &Block, seg: &Segment) -> Event {
-        let mut mv = Move::new(MoveKind::Rapid, self.pos, false);
-        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
-        self.hh_targets(block, seg, &mut mv, &mut skip);
+        let (mut mv, mut skip) = self.hh_move(block, seg, MoveKind::Rapid);
         self.pos = mv.end;
         self.pos[2] = None;
         if mv.words[3..].iter().any(Option::is_some) {
@@ -622,7 +620,13 @@ impl Interpreter {
         }
     }
 
-    fn hh_targets(&mut self, block: &Block, seg: &Segment, mv: &mut Move, skip: &mut Option<Skip>) {
+    /// A move of `kind` from the current position to the block's axis
+    /// words, with its feed and radius compensation read, and the first
+    /// reason it cannot be followed (an unknown word, an axis the machine
+    /// lacks, a value not known).
+    fn hh_move(&mut self, block: &Block, seg: &Segment, kind: MoveKind) -> (Move, Option<Skip>) {
+        let mut mv = Move::new(kind, self.pos, false);
+        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
         for (ti, w) in block.words(seg) {
             if let Some(i) = self.axis_index(w.addr) {
                 mv.words[i] = Some(ti);
@@ -664,6 +668,7 @@ impl Interpreter {
                 skip.get_or_insert(Skip::UnknownAxis(w.addr.as_letter().unwrap()));
             }
         }
+        (mv, skip)
     }
 
     fn hh_line(&mut self, block: &Block, seg: &Segment, m91: bool) -> Event {
@@ -673,9 +678,7 @@ impl Interpreter {
         } else {
             MoveKind::Linear
         };
-        let mut mv = Move::new(kind, self.pos, false);
-        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
-        self.hh_targets(block, seg, &mut mv, &mut skip);
+        let (mv, skip) = self.hh_move(block, seg, kind);
         if m91 {
             for i in 0..6 {
                 if mv.words[i].is_some() {
@@ -707,17 +710,15 @@ impl Interpreter {
     fn hh_polar(&mut self, block: &Block, seg: &Segment, kind: HhKind, m91: bool) -> Event {
         let circle = kind == HhKind::Cp;
         let rapid = block.words(seg).any(|(_, w)| w.addr == Addr::new("FMAX"));
-        let mut mv = Move::new(
+        let (mut mv, mut skip) = self.hh_move(
+            block,
+            seg,
             if rapid {
                 MoveKind::Rapid
             } else {
                 MoveKind::Linear
             },
-            self.pos,
-            false,
         );
-        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
-        self.hh_targets(block, seg, &mut mv, &mut skip);
         let mut radius: Option<(usize, f64, bool)> = None;
         let mut angle: Option<(usize, f64, bool)> = None;
         let mut cw = None;
@@ -853,9 +854,7 @@ impl Interpreter {
         m91: bool,
         tangent: Option<[f64; 2]>,
     ) -> Event {
-        let mut mv = Move::new(MoveKind::Linear, self.pos, false);
-        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
-        self.hh_targets(block, seg, &mut mv, &mut skip);
+        let (mut mv, skip) = self.hh_move(block, seg, MoveKind::Linear);
         self.pos = mv.end;
         if m91 {
             return Event::Quiet;
@@ -902,9 +901,7 @@ impl Interpreter {
     }
 
     fn hh_arc(&mut self, block: &Block, seg: &Segment, kind: HhKind, m91: bool) -> Event {
-        let mut mv = Move::new(MoveKind::Linear, self.pos, false);
-        let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
-        self.hh_targets(block, seg, &mut mv, &mut skip);
+        let (mut mv, mut skip) = self.hh_move(block, seg, MoveKind::Linear);
         let mut cw = None;
         let mut radius: Option<(usize, f64)> = None;
         for (ti, w) in block.words(seg) {
