@@ -5,7 +5,9 @@
 //! the rewrite must be byte-identical to the input, and once with location
 //! errors of about 20 um and 20 urad, where the run must go through or stop
 //! with a reason at a line. The machine is a built-in one with the
-//! program's rotary axes, its tilt stroke widened to at least +-120 deg.
+//! program's rotary axes, its tilt stroke widened to at least +-120 deg
+//! (ten turns each way for a program without C, written for a four-axis
+//! machine whose rotary table turns without end).
 //!
 //! ```text
 //! cargo run --release --example corpus -- tests/corpus
@@ -161,10 +163,18 @@ fn main() {
         // The programs come from machines of every size: a tilt stroke of
         // at least +-120 deg (a Haas UMC-750 tilts B to 120) keeps the
         // run on the interpreter rather than on the built-in's stroke.
-        machine.tilt.limits = machine
-            .tilt
-            .limits
-            .map(|(lo, hi)| (lo.min(-TILT_STROKE), hi.max(TILT_STROKE)));
+        machine.tilt.limits = if rotary_start.is_empty() {
+            machine
+                .tilt
+                .limits
+                .map(|(lo, hi)| (lo.min(-TILT_STROKE), hi.max(TILT_STROKE)))
+        } else {
+            // Without C the program was written for a four-axis machine
+            // (nc2csv's "ROBO 4X" turns A through -270 deg), whose rotary
+            // table turns without end: its machine file would give that
+            // axis several turns each way, and so does the runner.
+            Some((-FOURTH_AXIS_STROKE, FOURTH_AXIS_STROKE))
+        };
         let zero = run(path, &bytes, &machine, *dialect, &rotary_start, 0.0);
         let zero_cell = match &zero {
             Outcome::Done(_, out) if *out == bytes => {
@@ -677,6 +687,10 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
 
 /// The tilt stroke the runs allow at least, deg.
 const TILT_STROKE: f64 = 120.0;
+
+/// The stroke of a four-axis program's rotary table, deg: ten turns
+/// each way.
+const FOURTH_AXIS_STROKE: f64 = 3600.0;
 
 /// A built-in machine with the rotary axes the program uses: B and C
 /// (bc-trunnion) when it writes B words and no A, else A and C.
