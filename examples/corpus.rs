@@ -46,6 +46,9 @@ use std::io::BufReader;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
+use nalgebra::Vector3;
+
+use fivecal::compensate::simulate::{SimSettings, Simulator};
 use fivecal::compensate::{CompensateError, Compensator, Settings, Summary};
 use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::formats::detect::{self, ReadContext};
@@ -57,8 +60,9 @@ use fivecal::{Dialect, Machine};
 
 /// One run's outcome.
 enum Outcome {
-    /// Finished: the summary, the rewritten program.
-    Done(Box<Summary>, Vec<u8>),
+    /// Finished: the summary, the rewritten program, and (with errors)
+    /// the simulation's check of its corrected end points.
+    Done(Box<Summary>, Vec<u8>, Option<Check>),
     /// Stopped with a message that names the line.
     Refused(String),
     /// Stopped without a line.
@@ -112,6 +116,10 @@ fn main() {
     let mut five_reasons: BTreeMap<String, (usize, usize)> = BTreeMap::new();
     // The same, file by file: (file, reason, blocks, first lines).
     let mut five_left: Vec<(String, String, usize, String)> = Vec::new();
+    // The simulation's check of every corrected end point, and the files
+    // where it found one missing.
+    let mut checks = Check::default();
+    let mut check_failed: Vec<(String, String)> = Vec::new();
     println!(
         "| file | dialect | detected | machine | five-axis | zero error | with errors | motion blocks corrected | rs274 moves, input -> output |"
     );
@@ -177,7 +185,7 @@ fn main() {
         };
         let zero = run(path, &bytes, &machine, *dialect, &rotary_start, 0.0);
         let zero_cell = match &zero {
-            Outcome::Done(_, out) if *out == bytes => {
+            Outcome::Done(_, out, _) if *out == bytes => {
                 identical += 1;
                 "identical".to_string()
             }
@@ -194,7 +202,13 @@ fn main() {
             five_files += 1;
         }
         let with_cell = match &with {
-            Outcome::Done(s, out) => {
+            Outcome::Done(s, out, chk) => {
+                if let Some(chk) = chk {
+                    checks.add(chk);
+                    if let Some(why) = chk.failure() {
+                        check_failed.push((shown.clone(), why));
+                    }
+                }
                 blocks_cell = motion_cell(s);
                 if *dialect == Dialect::Linuxcnc
                     && let Some(rs) = &rs274
@@ -280,6 +294,22 @@ fn main() {
         "five-axis files: {five_files} ({} ran through, {five_refused} refused); motion blocks {five_motion}, corrected {five_corrected}: {rate}; {five_unreadable} unreadable blocks besides (whether they move is not known)",
         five_files - five_refused
     );
+    println!(
+        "corrected end points checked by simulation: {}; where the program goes on the nominal machine: {} not; reached in order by the rewrite on the machine with the errors (within {} um): {} not, the farthest {:.3} um off; {} files the simulator could not run",
+        checks.points,
+        checks.not_intended.len(),
+        REACH * 1e3,
+        checks.not_reached.len(),
+        checks.worst * 1e3,
+        check_failed
+            .iter()
+            .filter(|(_, w)| w.starts_with("simulator"))
+            .count()
+    );
+    for (file, why) in &check_failed {
+        println!("  {file}: {why}");
+    }
+    failures += checks.not_intended.len() + checks.not_reached.len();
     println!();
     println!("| why motion blocks of the five-axis files were left as written | blocks | files |");
     println!("|---|---|---|");
@@ -741,11 +771,31 @@ fn run(
     settings.rotary_start = rotary_start.to_vec();
     let c = Compensator::new(&e.model, &e.theta, settings);
     let mut out = Vec::with_capacity(bytes.len() + 1024);
+    let mut vertices = Vec::new();
     let r = catch_unwind(AssertUnwindSafe(|| {
-        c.run(path, BufReader::new(bytes), &mut out)
+        c.run_observed(path, BufReader::new(bytes), &mut out, &mut |v| {
+            if !v.inserted {
+                vertices.push((v.line, v.target.tip));
+            }
+        })
     }));
     match r {
-        Ok(Ok(s)) => Outcome::Done(Box::new(s), out),
+        Ok(Ok(s)) => {
+            let check = if size > 0.0 && !vertices.is_empty() {
+                Some(check(
+                    path,
+                    bytes,
+                    &out,
+                    &e,
+                    dialect,
+                    rotary_start,
+                    &vertices,
+                ))
+            } else {
+                None
+            };
+            Outcome::Done(Box::new(s), out, check)
+        }
         Ok(Err(err)) => {
             let m = err.to_string();
             match err {
@@ -763,4 +813,139 @@ fn run(
                 .unwrap_or_else(|| "panic".into()),
         ),
     }
+}
+
+/// The simulation's check of one rewrite: every end point the rewrite
+/// corrected, as `compensate` reports it, against the program itself run
+/// on the nominal machine (the point it meant to reach is where the
+/// program goes) and against the rewritten text run on the machine with
+/// the errors (the text really reaches it).
+#[derive(Default)]
+struct Check {
+    /// Corrected end points.
+    points: usize,
+    /// Whose target is not where the program goes on the nominal machine
+    /// (lines).
+    not_intended: Vec<usize>,
+    /// That the rewrite run on the erroneous machine does not reach, in
+    /// order (lines).
+    not_reached: Vec<usize>,
+    /// Why the simulator could not run one of the two.
+    refused: Option<String>,
+    /// The farthest a reached point is from its target, mm.
+    worst: f64,
+}
+
+impl Check {
+    /// What went wrong, if anything.
+    fn failure(&self) -> Option<String> {
+        let lines = |v: &[usize]| {
+            v.iter()
+                .take(8)
+                .map(|l| l.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if let Some(why) = &self.refused {
+            Some(format!("simulator refused {}", one_line(why)))
+        } else if !self.not_intended.is_empty() || !self.not_reached.is_empty() {
+            Some(format!(
+                "{} end points not where the program goes (lines {}), {} not reached (lines {})",
+                self.not_intended.len(),
+                lines(&self.not_intended),
+                self.not_reached.len(),
+                lines(&self.not_reached)
+            ))
+        } else {
+            None
+        }
+    }
+
+    fn add(&mut self, o: &Check) {
+        self.points += o.points;
+        self.not_intended.extend(&o.not_intended);
+        self.not_reached.extend(&o.not_reached);
+        self.worst = self.worst.max(o.worst);
+        if self.refused.is_none() {
+            self.refused.clone_from(&o.refused);
+        }
+    }
+}
+
+/// How close a corrected end point must come to its target, mm: the
+/// rewrite writes values to the program's own decimals, so a point is
+/// off by at most half a unit of the last decimal per axis, 0.5 um on
+/// the usual three-decimal programs; 1 um leaves room for the rotary
+/// axes' rounding carried out to the tip.
+const REACH: f64 = 1e-3;
+
+/// How far ahead in the rewrite's samples a corrected end point is
+/// looked for: the pieces of a subdivided move come before its end.
+const LOOK_AHEAD: usize = 70_000;
+
+fn check(
+    path: &Path,
+    bytes: &[u8],
+    out: &[u8],
+    e: &LoadedErrors,
+    dialect: Dialect,
+    rotary_start: &[(char, f64)],
+    vertices: &[(usize, Vector3<f64>)],
+) -> Check {
+    let mut settings = SimSettings::new(dialect);
+    settings.rotary_start = rotary_start.to_vec();
+    let run = |model: &Model, theta: &[f64], text: &[u8]| {
+        let sim = Simulator::new(model, theta, settings.clone());
+        let mut ends = Vec::new();
+        sim.run(path, BufReader::new(text), &mut |x| {
+            if x.fraction == 1.0 {
+                ends.push((x.line, x.nominal.tip, x.actual.tip));
+            }
+        })
+        .map(|_| ends)
+    };
+    let mut c = Check {
+        points: vertices.len(),
+        ..Check::default()
+    };
+    let nominal = Model::new(e.model.kin.clone(), vec![]);
+    let intended = match run(&nominal, &[], bytes) {
+        Ok(x) => x,
+        Err(err) => {
+            c.refused = Some(format!("the program: {err}"));
+            return c;
+        }
+    };
+    let actual = match run(&e.model, &e.theta, out) {
+        Ok(x) => x,
+        Err(err) => {
+            c.refused = Some(format!("the rewrite: {err}"));
+            return c;
+        }
+    };
+    let mut by_line: BTreeMap<usize, Vec<Vector3<f64>>> = BTreeMap::new();
+    for (line, tip, _) in &intended {
+        by_line.entry(*line).or_default().push(*tip);
+    }
+    let mut j = 0;
+    for (line, target) in vertices {
+        let meant = by_line
+            .get(line)
+            .is_some_and(|tips| tips.iter().any(|t| (t - target).norm() < REACH));
+        if !meant {
+            c.not_intended.push(*line);
+        }
+        let end = (j + LOOK_AHEAD).min(actual.len());
+        match actual[j..end]
+            .iter()
+            .position(|(_, _, tip)| (tip - target).norm() < REACH)
+        {
+            Some(k) => {
+                c.worst = c.worst.max((actual[j + k].2 - target).norm());
+                j += k + 1;
+            }
+            None => c.not_reached.push(*line),
+        }
+    }
+    c
 }

@@ -1797,3 +1797,50 @@ fn compensate_keeps_the_programs_turn_of_a_tilt_whose_stroke_exceeds_a_turn() {
         "A through -180 on a stroke of two turns",
     );
 }
+
+#[test]
+fn simulate_and_expand_keep_an_unreadable_block_after_the_macro_logic_starts() {
+    // A SINUMERIK post (rybakov25's, in the real-file corpus) writes a
+    // FANUC-style `(TOOL NAME: ..)` comment, which SINUMERIK cannot read.
+    // Once a program has macro logic, `simulate nc` and `--expand` run it
+    // flattened; the unreadable block used to stop both with "the
+    // expanded block does not read back".
+    use fivecal::compensate::Coordinates;
+    use fivecal::compensate::simulate::SimSettings;
+    use fivecal::model::Model;
+    let program = "G17 G90 G710\nR1=10.\nG0 X=R1 Y0 Z50 A0 C0\n(TOOL NAME: D25R4)\nG90 G1 X20 Y5 Z40 A0 C0 F500\nX=R1+20 Y10\nM30\n";
+    let d = fivecal::Dialect::Sinumerik;
+    let l = crate::compensate::errors("ac-trunnion", 5, 10.0, "");
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let samples =
+        crate::compensate::simulate_with(&nominal, &[], SimSettings::new(d), program, 0.0);
+    let ends: Vec<usize> = samples
+        .iter()
+        .filter(|s| s.fraction == 1.0)
+        .map(|s| s.line)
+        .collect();
+    // Line 5 states every axis again (G90, X Y Z A C) after the unreadable
+    // line 4: from there the position is known.
+    assert_eq!(ends, [3, 5, 6], "{samples:?}");
+    let end = samples.last().unwrap().nominal.tip;
+    let first = samples[0].nominal.tip;
+    assert!(((end - first) - nalgebra::Vector3::new(20.0, 10.0, -10.0)).norm() < 1e-9);
+    let mut settings = fivecal::compensate::Settings::new(d);
+    settings.expand = true;
+    settings.coordinates = Coordinates::Auto;
+    let (out, s, _) = crate::compensate::compensate(&l, settings.clone(), program);
+    assert_eq!(s.unreadable, vec![4], "{s:?}");
+    assert!(out.contains("\n(TOOL NAME: D25R4)\n"), "{out}");
+    assert_eq!(s.corrected_blocks, 3, "{s:?}\n{out}");
+    crate::compensate::check_simulated(
+        &l,
+        &SimSettings::new(d),
+        program,
+        &out,
+        settings.tolerance,
+        // A0: the tool lies along C, whose correction is held there (the
+        // tool axis within --max-c-swing's tolerance, the tip exact).
+        &[3, 5, 6],
+        "an unreadable block in a flattened program",
+    );
+}

@@ -18,7 +18,7 @@ use crate::machine::Dialect;
 use crate::nc::exec::Known;
 use crate::nc::exec::Trace;
 use crate::nc::lexeme::{self, NumStyle, WriteRules};
-use crate::nc::{Block, Flow, HhKind, Segment, Stmt, Syntax, TokenKind, Value};
+use crate::nc::{Block, BlockError, Flow, HhKind, Segment, Stmt, Syntax, TokenKind, Value};
 use crate::source::SourceError;
 use std::path::Path;
 
@@ -108,16 +108,20 @@ pub(super) fn flatten<E: From<SourceError>>(
     // The last block is held back until the next: a block without a line
     // ending (the file's last) gets one when another follows it.
     let mut held: Option<Block> = None;
-    let mut out = |text: Vec<u8>, line: usize| -> Result<(), E> {
+    // A block the source could not read stays unreadable as it runs: kept
+    // as written, what the controller does after it unknown, as where the
+    // program streams (it has no words the logic could fill in).
+    let mut out = |text: Vec<u8>, line: usize, bad: Option<&BlockError>| -> Result<(), E> {
         if let Some(mut prev) = held.take() {
             if prev.line_ending().is_none() {
                 let mut t = std::mem::take(&mut prev.text);
                 t.extend_from_slice(eol);
-                prev = parse(path, syntax, t, prev.line)?;
+                let was = prev.unreadable.take();
+                prev = parse(path, syntax, t, prev.line, was.as_ref())?;
             }
             emit(&prev)?;
         }
-        held = Some(parse(path, syntax, text, line)?);
+        held = Some(parse(path, syntax, text, line, bad)?);
         Ok(())
     };
     let mut edits = Edits::default();
@@ -188,7 +192,7 @@ pub(super) fn flatten<E: From<SourceError>>(
             edits
                 .write_block(block, &mut text)
                 .expect("writing to memory");
-            out(text, block.line)?;
+            out(text, block.line, block.unreadable.as_ref())?;
         }
         k = j;
     }
@@ -200,7 +204,7 @@ pub(super) fn flatten<E: From<SourceError>>(
                 .iter()
                 .all(|s| matches!(s.stmt, Stmt::Blank | Stmt::Percent))
             {
-                out(block.text.clone(), block.line)?;
+                out(block.text.clone(), block.line, block.unreadable.as_ref())?;
             }
         }
     }
@@ -247,12 +251,24 @@ fn literal(out: &mut Vec<u8>, dialect: Dialect, addr: crate::nc::Addr, v: f64) {
     lexeme::write(out, v, DECIMALS, &style, rules);
 }
 
-fn parse(path: &Path, syntax: Syntax, text: Vec<u8>, line: usize) -> Result<Block, SourceError> {
+/// The block `text` (from source line `line`) read back; `bad`: the
+/// source block was unreadable, and this one is too, for the same reason.
+fn parse(
+    path: &Path,
+    syntax: Syntax,
+    text: Vec<u8>,
+    line: usize,
+    bad: Option<&BlockError>,
+) -> Result<Block, SourceError> {
     let mut b = Block {
         text,
         line,
         ..Block::default()
     };
+    if let Some(e) = bad {
+        b.make_unreadable(e.clone());
+        return Ok(b);
+    }
     syntax.parse(&mut b).map_err(|e| {
         let (l, c) = b.locate(e.offset);
         SourceError::new(
