@@ -6,8 +6,8 @@
 
 use super::offsets::MACHINE_ZERO;
 use super::{
-    AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Units,
-    arc_runs, center_from_radius,
+    AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Tilt,
+    Units, arc_runs, center_from_radius,
 };
 use crate::machine::Dialect;
 use crate::nc::{Block, Segment, Stmt, Value};
@@ -22,9 +22,9 @@ const FANUC_G: &[u32] = &[
     950, 960, 970, 980, 990, 2340, 2540, 2550,
 ];
 
-/// Haas's dynamic work offset (G254): X, Y, Z in the work offset turned
-/// with the table for 3+2 positioning; not modelled.
-const HAAS_DWO: &str = "a Haas dynamic work offset (G254)";
+/// Haas's dynamic work offset (G254) given while a tilted plane is
+/// active: Haas's manual does not say what the two make together.
+const HAAS_DWO_IN_PLANE: &str = "a Haas dynamic work offset (G254) in a tilted working plane";
 
 /// G codes LinuxCNC 2.9 knows (value x 10).
 const LINUXCNC_G: &[u32] = &[
@@ -274,18 +274,23 @@ impl Interpreter {
                 self.tool_length = true;
                 self.tcp = Tcp::Axes;
             }
-            2540 => {
-                if self.transformed.is_none() {
-                    self.transformed = Some(HAAS_DWO);
+            // Haas's dynamic work offset: "after G254 is invoked, you
+            // must specify an X-, Y-, and Z-Axis position" (the Haas
+            // manual), so the linear positions start unknown.
+            2540 => match self.working_plane {
+                None | Some(Tilt::Workpiece) => self.set_plane(Some(Tilt::Workpiece)),
+                Some(_) => {
+                    let at = block.tokens[ti].span.start as usize;
+                    self.plane_unmodelled(block.line, at, HAAS_DWO_IN_PLANE);
                 }
-                self.pos[..3].fill(None);
+            },
+            2550 if self.working_plane == Some(Tilt::Workpiece)
+                || matches!(self.working_plane, Some(Tilt::Unmodelled { why, .. }) if why == HAAS_DWO_IN_PLANE) =>
+            {
+                self.set_plane(None)
             }
-            2550 => {
-                if self.transformed == Some(HAAS_DWO) {
-                    self.pos[..3].fill(None);
-                }
-                self.cancel(HAAS_DWO);
-            }
+            // G255 with no dynamic work offset active cancels nothing.
+            2550 => {}
             541 => self.work_offset = 5410,
             540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => self.work_offset = g,
             683 | 684 => {

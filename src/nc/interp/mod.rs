@@ -750,6 +750,9 @@ impl Interpreter {
         // force, as under TCP (tool length along the tool).
         let plane = match self.working_plane {
             Some(Tilt::Plane(w)) if self.tcp == Tcp::Off => Some(w),
+            Some(Tilt::Workpiece) if self.tcp == Tcp::Off => {
+                Some(WorkPlane::new(Matrix3::identity()))
+            }
             _ => None,
         };
         let tcp = if plane.is_some() { Tcp::Axes } else { tcp };
@@ -835,7 +838,8 @@ impl Interpreter {
     fn plane_skip(&self, mv: &Move) -> Option<PlaneSkip> {
         let w = match self.working_plane? {
             Tilt::Unmodelled { line, why } => return Some(PlaneSkip::Unmodelled(line, why)),
-            Tilt::Plane(w) => w,
+            Tilt::Plane(w) => Some(w),
+            Tilt::Workpiece => None,
         };
         if self.tcp != Tcp::Off {
             return Some(PlaneSkip::Tcp);
@@ -850,6 +854,9 @@ impl Interpreter {
         let (Some(tilt), Some(c)) = (mv.end[t], mv.end[5]) else {
             return Some(PlaneSkip::RotaryUnknown);
         };
+        // A dynamic work offset turns the workpiece's own coordinates
+        // with the table: the tool points wherever the axes put it.
+        let w = w?;
         let axis = self
             .cfg
             .nominal

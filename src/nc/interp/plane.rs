@@ -79,6 +79,15 @@ pub enum Tilt {
         /// What is not modelled.
         why: &'static str,
     },
+    /// Haas's dynamic work offset (`G254`, cancelled by `G255`): X, Y, Z
+    /// are the workpiece's own coordinates (the work offset at rotary
+    /// zero), which the control turns with the table to the rotary
+    /// positions in force, for 3+1 and 3+2 positioning. Haas's mill
+    /// operator's manual ("G254 - Dynamic Work Offset (DWO)") calls it
+    /// TCPC for positioning only: the rotary axes stay where they were
+    /// when it was invoked, the tool may point anywhere, and every rotary
+    /// move needs `G255` first.
+    Workpiece,
 }
 
 /// Why a move in a tilted plane is left as written.

@@ -540,7 +540,9 @@ impl Interpreter {
                         "an additive CYCLE800 on a plane fivecal does not model",
                     );
                 }
-                None => {}
+                // Haas's DWO (an ISO code) never reaches SINUMERIK; as a
+                // plane it is the workpiece's own axes.
+                None | Some(super::Tilt::Workpiece) => {}
             }
         }
         self.set_plane(Some(super::Tilt::Plane(plane)));
