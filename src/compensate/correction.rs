@@ -131,6 +131,7 @@ impl Compensator {
             // axis stays as the erroneous machine tilts it.
             let (mut pt, left) = self.tip_only(f, nominal, target, (nominal.tilt, nominal.c));
             pt.plane_axis = Some(left);
+            self.check_linear_strokes(f, &nominal, &pt)?;
             return Ok(pt);
         }
         let why = |e| format!("no axis values reach the intended tool pose on this machine ({e})");
@@ -156,6 +157,7 @@ impl Compensator {
                 ));
             }
         }
+        self.check_linear_strokes(f, &nominal, &pt)?;
         let (lin, rot) = size(&pt);
         let limit = self.settings.max_correction;
         if sol.held_c.is_none() && lin > limit && rot <= limit {
@@ -187,6 +189,43 @@ impl Compensator {
             }
         }
         Ok(())
+    }
+
+    /// A correction that drives X, Y or Z beyond its stroke, where the
+    /// program as written stays inside it, is refused. Where the program
+    /// itself is beyond (a program for another machine, or placed by
+    /// another `--origin`) the correction is not what takes it there, and
+    /// the strokes say nothing about it.
+    fn check_linear_strokes(
+        &self,
+        f: &Frame,
+        nominal: &Axes,
+        pt: &CorrectedPoint,
+    ) -> Result<(), String> {
+        let kin = self.solver.kinematics();
+        let machine_axes = |written: &Axes| match f.tcp {
+            Tcp::Off => *written,
+            // The control turns the written tip into axis values with
+            // its nominal kinematics.
+            _ => Axes {
+                xyz: self.solver.nominal().position(
+                    &written.xyz,
+                    written.tilt,
+                    written.c,
+                    &Vector3::zeros(),
+                ),
+                ..*written
+            },
+        };
+        let Err(why) = kin.check_strokes(&machine_axes(&pt.written)) else {
+            return Ok(());
+        };
+        match kin.check_strokes(&machine_axes(nominal)) {
+            Ok(()) => Err(format!(
+                "the correction puts the machine beyond its stroke: {why} (the program as written stays inside)"
+            )),
+            Err(_) => Ok(()),
+        }
     }
 
     /// The point that puts the tip on `target` with the rotary axes at

@@ -186,6 +186,20 @@ impl Kinematics {
         self.gauge_length
     }
 
+    /// Whether the linear axes at `axes` keep the spindle gauge point
+    /// inside the machine's strokes; which axis leaves them, and where,
+    /// otherwise.
+    pub fn check_strokes(&self, axes: &Axes) -> Result<(), String> {
+        let gauge = axes.xyz + Vector3::z() * self.gauge_length;
+        self.machine()
+            .check_strokes(&gauge)
+            .map_err(|(axis, v, (lo, hi))| {
+                format!(
+                    "{axis} would be at {v:.3} in machine coordinates, outside its stroke [{lo}, {hi}]"
+                )
+            })
+    }
+
     /// The links that carry error terms, in chain order from the base.
     pub fn links(&self) -> &[LinkInfo] {
         &self.links

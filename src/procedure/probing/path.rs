@@ -140,14 +140,7 @@ pub(crate) fn axis_aligned(d: &Vector3<f64>) -> bool {
 
 /// Checks that the commanded point lies inside the strokes.
 pub(crate) fn check_strokes(kin: &Kinematics, axes: &Axes) -> Result<(), String> {
-    let gauge = axes.xyz + Vector3::z() * kin.gauge_length();
-    kin.machine()
-        .check_strokes(&gauge)
-        .map_err(|(axis, v, (lo, hi))| {
-            format!(
-                "{axis} would be at {v:.3} in machine coordinates, outside its stroke [{lo}, {hi}]"
-            )
-        })
+    kin.check_strokes(axes)
 }
 
 struct Feasible {
