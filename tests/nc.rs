@@ -404,18 +404,21 @@ fn real_quirks_read_as_their_controllers_read_them_and_unreadable_blocks_are_kep
             "aptpost_spaced.h",
             Dialect::Heidenhain,
             "ac-trunnion",
-            vec![15],
-            "aptpost_spaced.h:15:20:",
+            // Line 15's bare `R` is an older TNC's empty dialog field (the
+            // radius compensation as it was): every block reads, in
+            // --strict too.
+            vec![],
+            None,
             // Line 13 `L Z + Q13 FMAX` runs once after `Q13 = 25`: its
             // value is known, so it is corrected in place.
-            vec![9, 10, 11, 13, 14, 16, 17],
+            vec![9, 10, 11, 13, 14, 15, 16, 17],
         ),
         (
             "latin1_typos.h",
             Dialect::Heidenhain,
             "ac-trunnion",
             vec![10, 12],
-            "latin1_typos.h:9:",
+            Some("latin1_typos.h:9:"),
             vec![8, 11],
         ),
         (
@@ -423,7 +426,7 @@ fn real_quirks_read_as_their_controllers_read_them_and_unreadable_blocks_are_kep
             Dialect::Fanuc,
             "ac-trunnion",
             vec![1, 2, 14, 18],
-            "macro_packed.nc:1:",
+            Some("macro_packed.nc:1:"),
             vec![13, 15, 16],
         ),
         // `Z - 1` (line 12) is read as the expression `-1`: left as
@@ -434,7 +437,7 @@ fn real_quirks_read_as_their_controllers_read_them_and_unreadable_blocks_are_kep
             Dialect::Linuxcnc,
             "ac-trunnion",
             vec![15, 17],
-            "hal_polar.ngc:15:",
+            Some("hal_polar.ngc:15:"),
             vec![7, 18, 19, 20],
         ),
     ] {
@@ -450,7 +453,7 @@ fn check_quirk(
     d: Dialect,
     machine: &str,
     unreadable: &[usize],
-    strict_at: &str,
+    strict_at: Option<&str>,
     corrected: &[usize],
 ) -> Result<(), String> {
     let mut errs: Vec<String> = Vec::new();
@@ -472,12 +475,12 @@ fn check_quirk(
 
         let mut strict = Settings::new(d);
         strict.strict = true;
-        let e = Compensator::new(&model, &theta, strict)
-            .run(&path, input.as_slice(), &mut Vec::new())
-            .unwrap_err()
-            .to_string();
-        if !e.contains(strict_at) {
-            errs.push(format!("{name}: strict: {e}"));
+        let r =
+            Compensator::new(&model, &theta, strict).run(&path, input.as_slice(), &mut Vec::new());
+        match (r, strict_at) {
+            (Err(e), Some(at)) if e.to_string().contains(at) => {}
+            (Ok(_), None) => {}
+            (r, _) => errs.push(format!("{name}: strict: {:?}", r.map(|_| ()))),
         }
 
         let e = crate::compensate::errors(machine, 16, 30.0, "");

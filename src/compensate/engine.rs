@@ -128,8 +128,8 @@ impl Compensator {
                 Err(e) => return Err(read_error(e)),
             }
         }
-        let summary = pass.finish(output)?;
-        blocks
+        let mut summary = pass.finish(output)?;
+        summary.no_motion = blocks
             .finish(summary.moves)
             .map_err(CompensateError::Syntax)?;
         output.flush()?;
@@ -255,12 +255,12 @@ impl Compensator {
             return Err(CompensateError::Io(e));
         }
         let summary = summary?;
-        let summary = match (summary, read_err) {
+        let mut summary = match (summary, read_err) {
             (_, Some(e)) => return Err(e),
             (Some(s), None) => s,
             (None, None) => unreachable!("the worker ends at the end of the input or on an error"),
         };
-        blocks
+        summary.no_motion = blocks
             .finish(summary.moves)
             .map_err(CompensateError::Syntax)?;
         output.flush()?;

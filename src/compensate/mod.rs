@@ -276,6 +276,9 @@ pub struct Summary {
     pub coordinates: Vec<CoordinateSection>,
     /// Where following the macro logic stopped short of the end, and why.
     pub macro_logic: Option<String>,
+    /// The program moves no axis itself (in its own dialect): why, said
+    /// once; it is then written as it was.
+    pub no_motion: Option<String>,
     /// Blocks that move an axis: a move whose end differs from its start
     /// (or starts where the position is unknown, or is an arc), or an
     /// axis word left as written (a skipped move, a move in machine

@@ -308,7 +308,14 @@ impl Simulator {
             .filter(|(k, _)| **k != unreadable)
             .map(|(_, l)| l.count)
             .sum();
-        blocks.finish(summary.moves + skipped_moves)?;
+        if let Some(note) = blocks.finish(summary.moves + skipped_moves)? {
+            return Err(SourceError::new(
+                path,
+                0,
+                0,
+                format!("{note}: nothing to simulate"),
+            ));
+        }
         if summary.samples > 0 {
             summary.mean_um = sum / summary.samples as f64;
             summary.rms_um = (sum2 / summary.samples as f64).sqrt();

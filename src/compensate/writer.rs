@@ -1012,10 +1012,14 @@ impl Writer {
                 return s;
             }
         }
+        // A word of the other kind still says how the control writes a
+        // number: its decimal comma (older TNCs) and its sign.
+        let other = (0..6).find_map(|a| mv.words[a].and_then(from));
         NumStyle {
-            plus: self.heidenhain(),
+            plus: other.map_or(self.heidenhain(), |o| o.plus),
             point: true,
             decimals: 3,
+            comma: other.is_some_and(|o| o.comma),
             ..NumStyle::default()
         }
     }

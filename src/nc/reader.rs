@@ -94,9 +94,12 @@ impl<R: BufRead> Blocks<R> {
 
     /// Refused when the text read shows another dialect than the one it
     /// is read in (a sign of that one and none of its own), or when it
-    /// had no move at all (`moves`, counted by the caller): a program read
-    /// in the wrong dialect is never passed through as a copy of itself.
-    pub fn finish(&self, moves: usize) -> Result<(), SourceError> {
+    /// had no move at all (`moves`, counted by the caller) and nothing
+    /// shows its dialect: a program read in the wrong dialect is never
+    /// passed through as a copy of itself. A program that shows its
+    /// dialect and moves no axis itself (tool changes, calls of
+    /// subprograms and macros) is no error: the note says so.
+    pub fn finish(&self, moves: usize) -> Result<Option<String>, SourceError> {
         let d = self.syntax.dialect;
         if let Some(c) = self.evidence.other_than(d) {
             return Err(self.mismatch(c));
@@ -130,10 +133,10 @@ impl<R: BufRead> Blocks<R> {
                 } else if let Some(own) = self.evidence.clue(d) {
                     // The right dialect: the program just makes no move
                     // itself (tool changes, macro or subprogram calls).
-                    format!(
-                        "no motion block in its {} blocks, which read as {d} (the text shows it: `{}` at line {}): nothing to compensate here; moves made by the subprograms or macros it calls are corrected in those programs",
+                    return Ok(Some(format!(
+                        "no motion block in its {} blocks, which read as {d} (the text shows it: `{}` at line {}): it moves no axis itself; moves made by the subprograms or macros it calls are in those programs",
                         self.count, own.sign, own.line
-                    )
+                    )));
                 } else {
                     format!(
                         "no motion block understood in its {} blocks read as {d}: a program for another controller? (--dialect fanuc, heidenhain, linuxcnc or sinumerik)",
@@ -142,7 +145,7 @@ impl<R: BufRead> Blocks<R> {
                 },
             ));
         }
-        Ok(())
+        Ok(None)
     }
 
     fn mismatch(&self, c: &Clue) -> SourceError {

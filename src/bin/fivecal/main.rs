@@ -40,9 +40,11 @@ enum Command {
     ///
     /// Nothing is done silently. A program is refused (exit 2, nothing
     /// written) when its text shows another dialect than the one it is read
-    /// in, when no motion block of it is understood, or when every move is
-    /// left as written. A program whose corrections all round away (errors
-    /// all but zero) is written as an unchanged copy, exit 0, and the last
+    /// in, when no motion block of it is understood and nothing in it shows
+    /// its dialect, or when every move is left as written. A program whose
+    /// corrections all round away (errors all but zero), or one in its own
+    /// dialect that moves no axis itself (tool changes, calls of
+    /// subprograms), is written as an unchanged copy, exit 0, and the last
     /// line says so. An export prints every parameter with its u and its
     /// change from what the control holds now (the machine file's
     /// controller_parameters, else its nominal geometry), refuses a change

@@ -545,7 +545,12 @@ impl Interpreter {
                     (super::plane::Definition::Relative(r), Some(super::Tilt::Plane(w))) => {
                         w.rot * r
                     }
-                    (super::plane::Definition::Relative(r), None) => r,
+                    // Haas's DWO (an ISO code) never reaches Klartext;
+                    // as a plane it is the workpiece's own axes.
+                    (
+                        super::plane::Definition::Relative(r),
+                        None | Some(super::Tilt::Workpiece),
+                    ) => r,
                     (super::plane::Definition::Axial(abc), _) => {
                         // The rotary positions themselves: the frame the
                         // machine's axes take there, and TURN / MOVE goes
@@ -656,9 +661,14 @@ impl Interpreter {
                         mv.feed = Some((ti, v));
                         self.feed = Some(v);
                     }
-                    _ => {
-                        skip.get_or_insert(Skip::Expression);
-                    }
+                    // An older TNC's feed field left without an entry
+                    // (`L X+12,500 R F M`): the feed as it was.
+                    Value::None => {}
+                    // A feed from a Q parameter: not known here, and not
+                    // needed (Klartext has no inverse-time feed a piece
+                    // would need its share of): the block's axis words are
+                    // corrected all the same.
+                    _ => self.feed = None,
                 }
             } else if w.addr == Addr::new("RL") || w.addr == Addr::new("RR") {
                 self.radius_comp = true;

@@ -517,6 +517,13 @@ fn path_words(
                 );
                 i = vend;
             }
+            // Older TNCs print a dialog field left without an entry as
+            // its bare letter (`L X+12,500 R F M`): the radius
+            // compensation, the feed and the M function as they were.
+            _ if matches!(addr, "R" | "F" | "M") && at_boundary(s, k) => {
+                word(addr, k, b);
+                i = k;
+            }
             _ => {
                 let w = s[start..e]
                     .iter()

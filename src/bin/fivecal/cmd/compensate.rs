@@ -550,55 +550,71 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         // On any error `out` is dropped: its temporary file goes, nothing is written.
         let summary = c.run(input, file, &mut out)?;
         let unchanged = summary.changed == 0 && summary.inserted == 0;
-        if unchanged && summary.largest_linear.is_none() {
-            // Moves there were (the library refuses a program without), and
-            // every one was left as written: a copy is no compensation.
-            bail!(
-                "{}: none of its {} moves could be rewritten ({}); nothing written",
-                input.display(),
-                summary.moves,
-                reasons(&summary.skipped)
-            );
-        }
-        let any_error = cfg.errors.theta.iter().any(|&v| v != 0.0);
-        let felt = |l: Option<fivecal::compensate::Largest>| l.is_some_and(|l| l.value > 1e-6);
-        if unchanged && any_error && !felt(summary.largest_linear) && !felt(summary.largest_rotary)
-        {
-            // Errors there are, and not one moves a pose this program
-            // writes (a tool radius error, a probing effect): a copy is not
-            // what was asked for.
-            bail!(
-                "{}: its errors move no tool pose of {} ({}); nothing written",
-                cfg.errors_path.display(),
-                input.display(),
-                if summary.not_compensated.is_empty() {
-                    "none is of a kind a rewrite corrects".to_string()
-                } else {
-                    summary.not_compensated.join("; ")
-                }
-            );
-        }
-        out.commit()?;
-        out!("{}", describe(&summary, input, output, &detection, &cfg));
-        if unchanged {
-            // Legitimate (a machine whose errors are all but zero), but
-            // never silent.
-            let why = if any_error {
-                format!(
-                    "every correction is below the resolution written ({} decimals in mm, {} in deg)",
-                    cfg.settings.linear_decimals, cfg.settings.rotary_decimals
-                )
-            } else {
-                format!(
-                    "{} holds no error (every value 0)",
-                    cfg.errors_path.display()
-                )
-            };
+        if let Some(why) = &summary.no_motion {
+            // Nothing to correct in it, and nothing wrong with it: a
+            // program of tool changes and calls is passed on as it is.
+            out.commit()?;
+            out!("{}", describe(&summary, input, output, &detection, &cfg));
             copy = Some(format!(
                 "{why}: {} is a copy of {}",
                 output.display(),
                 input.display()
             ));
+        } else {
+            if unchanged && summary.largest_linear.is_none() {
+                // Moves there were (a program without is passed on above or
+                // refused by the library), and every one was left as
+                // written: a copy is no compensation.
+                bail!(
+                    "{}: none of its {} moves could be rewritten ({}); nothing written",
+                    input.display(),
+                    summary.moves,
+                    reasons(&summary.skipped)
+                );
+            }
+            let any_error = cfg.errors.theta.iter().any(|&v| v != 0.0);
+            let felt = |l: Option<fivecal::compensate::Largest>| l.is_some_and(|l| l.value > 1e-6);
+            if unchanged
+                && any_error
+                && !felt(summary.largest_linear)
+                && !felt(summary.largest_rotary)
+            {
+                // Errors there are, and not one moves a pose this program
+                // writes (a tool radius error, a probing effect): a copy is
+                // not what was asked for.
+                bail!(
+                    "{}: its errors move no tool pose of {} ({}); nothing written",
+                    cfg.errors_path.display(),
+                    input.display(),
+                    if summary.not_compensated.is_empty() {
+                        "none is of a kind a rewrite corrects".to_string()
+                    } else {
+                        summary.not_compensated.join("; ")
+                    }
+                );
+            }
+            out.commit()?;
+            out!("{}", describe(&summary, input, output, &detection, &cfg));
+            if unchanged {
+                // Legitimate (a machine whose errors are all but zero), but
+                // never silent.
+                let why = if any_error {
+                    format!(
+                        "every correction is below the resolution written ({} decimals in mm, {} in deg)",
+                        cfg.settings.linear_decimals, cfg.settings.rotary_decimals
+                    )
+                } else {
+                    format!(
+                        "{} holds no error (every value 0)",
+                        cfg.errors_path.display()
+                    )
+                };
+                copy = Some(format!(
+                    "{why}: {} is a copy of {}",
+                    output.display(),
+                    input.display()
+                ));
+            }
         }
     }
     let Some(((d, target), exported)) = cfg.export.as_ref().zip(exported) else {
