@@ -2005,3 +2005,82 @@ fn compensate_older_tnc_empty_fields_and_parameter_feeds_keep_their_axis_words_c
         "empty dialog fields",
     );
 }
+
+/// Issue 16: G52, G51 and an `R0` arc were reported as "the move cannot
+/// be followed within --tolerance 1 um even in 65536 pieces" at the next
+/// line. G52 (local coordinates) is modelled: the moves after it land
+/// where the program means. G51 (scaling) is not: the moves under it are
+/// left as written with that reason at their own lines (the G51 block's
+/// X, Y are the scaling centre, not a move).
+/// An arc whose radius cannot reach its end is left as written at its
+/// own line, its reason in words.
+#[test]
+fn compensate_g52_g51_and_an_r0_arc_are_handled_at_their_own_lines() {
+    let d = fivecal::Dialect::Fanuc;
+    let l = crate::compensate::errors("bc-trunnion", 31, 20.0, "");
+    let settings = fivecal::compensate::Settings::new(d);
+    let g52 = "G0 X0. Y0. Z50. B20. C0.\nG52 X10. Y5.\nG1 X20. Y0. Z40. B30. C10. F100.\nX25. Y-5.\nG52 X0 Y0\nG1 X30. F100.\nM30\n";
+    let (out, s, vs) = crate::compensate::compensate(&l, settings.clone(), g52);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert_eq!(vs.iter().map(|v| v.line).collect::<Vec<_>>(), [1, 3, 4, 6]);
+    // The local shift is the program's: with it, line 3 is X30 Y5 in the
+    // work offset, on the nominal machine as on the actual one.
+    let nominal = fivecal::model::Model::new(l.model.kin.clone(), vec![]);
+    let samples = crate::compensate::simulate_with(
+        &nominal,
+        &[],
+        fivecal::compensate::simulate::SimSettings::new(d),
+        g52,
+        0.0,
+    );
+    let unshifted = crate::compensate::simulate_with(
+        &nominal,
+        &[],
+        fivecal::compensate::simulate::SimSettings::new(d),
+        "G0 X0. Y0. Z50. B20. C0.\nG1 X30. Y5. Z40. B30. C10. F100.\nM30\n",
+        0.0,
+    );
+    let end = |v: &[fivecal::compensate::simulate::Sample], line: usize| {
+        v.iter()
+            .find(|x| x.line == line && x.fraction == 1.0)
+            .map(|x| x.nominal.tip)
+            .unwrap()
+    };
+    assert!((end(&samples, 3) - end(&unshifted, 2)).norm() < 1e-9);
+    crate::compensate::check_simulated(
+        &l,
+        &fivecal::compensate::simulate::SimSettings::new(d),
+        g52,
+        &out,
+        settings.tolerance,
+        &[],
+        "moves after G52",
+    );
+
+    let g51 = "G0 X0. Y0. Z50. B20. C0.\nG51 X0 Y0 P2000\nG1 X20. Y0. Z40. B30. C10. F100.\nG50\nG1 X30. F100.\nM30\n";
+    let (out, s, _) = crate::compensate::compensate(&l, settings.clone(), g51);
+    let scaled: Vec<_> = s
+        .skipped
+        .iter()
+        .filter(|(r, _)| r.contains("scaling (G51)"))
+        .flat_map(|(_, l)| l.first.clone())
+        .collect();
+    assert_eq!(scaled, [3], "{:?}", s.skipped);
+    assert!(
+        out.contains("\nG1 X20. Y0. Z40. B30. C10. F100.\n"),
+        "{out}"
+    );
+    assert!(!out.contains("\nG1 X30. F100.\n"), "{out}");
+    let r0 = "G0 X0. Y0. Z50. B30. C0.\nG1 X10. F100.\nG2 X20. Y0. R0 F100.\nG1 X30.\nM30\n";
+    let (_, s, _) = crate::compensate::compensate(&l, settings, r0);
+    assert_eq!(
+        s.skipped
+            .iter()
+            .map(|(r, l)| (r.as_str(), l.first.clone()))
+            .collect::<Vec<_>>(),
+        [(
+            "not compensated: an arc whose radius does not reach its end point",
+            vec![3]
+        )]
+    );
+}

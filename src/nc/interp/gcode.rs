@@ -309,9 +309,17 @@ impl Interpreter {
                 }
                 self.cancel("coordinate rotation (G68)");
             }
-            510 => self.transformed = Some("scaling (G51)"),
+            // The axis words of a G51 block are the scaling centre, of a
+            // G51.1 block the mirror axes: no move.
+            510 => {
+                self.transformed = Some("scaling (G51)");
+                s.g_nonmodal = Some(g);
+            }
             500 => self.cancel("scaling (G51)"),
-            511 => self.transformed = Some("programmable mirror image (G51.1)"),
+            511 => {
+                self.transformed = Some("programmable mirror image (G51.1)");
+                s.g_nonmodal = Some(g);
+            }
             501 => self.cancel("programmable mirror image (G51.1)"),
             160 => self.transformed = Some("polar coordinate command (G16)"),
             150 => self.cancel("polar coordinate command (G16)"),
@@ -394,8 +402,9 @@ impl Interpreter {
     /// A block whose axis words belong to a non-modal G code.
     fn nonmodal(&mut self, block: &Block, seg: &Segment, g: u32, has_axis: bool) -> Event {
         match g {
-            // Dwell: the axis words are not positions.
-            40 => Event::None,
+            // Dwell, scaling centre, mirror axes: the axis words are not
+            // positions.
+            40 | 510 | 511 => Event::None,
             // Data setting (work offsets, tool offsets): the offsets in use
             // may have changed.
             100 => {

@@ -288,7 +288,7 @@ impl std::fmt::Display for Skip {
                 "approach or departure (APPR/DEP) left as written: the control places its auxiliary point from the contour element after the APPR (before the DEP) and, with RL/RR, from the tool radius, neither of which the block gives"
             ),
             Skip::Tangential(why) => write!(f, "tangential circle (CT) left as written: {why}"),
-            Skip::Element(what) => write!(f, "{what} elements are not compensated"),
+            Skip::Element(what) => write!(f, "not compensated: {what}"),
             Skip::ShiftUnknown => write!(f, "the datum shift comes from a table (value unknown)"),
             Skip::NoToolVector => write!(f, "tool direction (I J K) not programmed"),
             Skip::VectorOutOfReach => write!(
