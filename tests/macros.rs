@@ -10,9 +10,11 @@
 use std::path::Path;
 
 use fivecal::Dialect;
-use fivecal::compensate::{Compensator, Coordinates, Settings};
+use fivecal::compensate::{Compensator, Coordinates, Settings, Summary};
+use fivecal::errorfile::LoadedErrors;
+use fivecal::model::Model;
 
-use crate::compensate::{check_held, compensate, errors};
+use crate::compensate::{check_held, compensate, errors, simulate};
 use crate::nc::fixture;
 
 fn read(rel: &str) -> String {
@@ -21,7 +23,7 @@ fn read(rel: &str) -> String {
 
 /// LinuxCNC's five-axis kinematics always runs TCP; the other fixtures
 /// switch it on (G43.4, M128, TRAORI).
-fn coordinates(d: Dialect) -> Coordinates {
+pub(crate) fn coordinates(d: Dialect) -> Coordinates {
     if d == Dialect::Linuxcnc {
         Coordinates::Tcp
     } else {
@@ -238,4 +240,164 @@ fn a_loop_on_the_probe_result_or_a_parametric_repeat_stops_the_logic_not_the_run
         why.contains("repeat count that is not a number (`REPQ13`)"),
         "{why}"
     );
+}
+
+/// The end points (tool tip in W) of `program` on the nominal machine, as
+/// the simulator runs its macro logic: line and point. Every program below
+/// runs under TCP, so a tip is the point its block means.
+fn nominal_tips(l: &LoadedErrors, d: Dialect, program: &str) -> Vec<(usize, [f64; 3])> {
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    simulate(&nominal, &[], d, coordinates(d), program, 0.0)
+        .into_iter()
+        .filter(|s| s.fraction == 1.0)
+        .map(|s| (s.line, [s.nominal.tip.x, s.nominal.tip.y, s.nominal.tip.z]))
+        .collect()
+}
+
+/// Runs `program` through the macro logic as its controller would: the
+/// tips it reaches on the nominal machine are `want` (the path the
+/// manual's semantics give, worked out by hand), the program as written
+/// misses them on the machine with the errors, and the rewrite (flattened
+/// with `expand`) driven through that machine lands on them and on the
+/// path between within the tolerance, every move corrected. At zero error
+/// the program without `--expand` comes back byte for byte.
+pub(crate) fn lands(
+    l: &LoadedErrors,
+    d: Dialect,
+    program: &str,
+    expand: bool,
+    want: &[[f64; 3]],
+    what: &str,
+) -> (String, Summary) {
+    let zero = errors(&l.model.kin.machine().name, 0, 0.0, "");
+    let (same, _, _) = compensate(&zero, settings(d, false), program);
+    assert_eq!(same, program, "{what}: zero error must give the same bytes");
+    let tips: Vec<[f64; 3]> = nominal_tips(l, d, program)
+        .into_iter()
+        .map(|t| t.1)
+        .collect();
+    assert_eq!(tips.len(), want.len(), "{what}: {tips:?}");
+    for (got, want) in tips.iter().zip(want) {
+        // The simulator writes the values the logic gives as literals of
+        // 1 nm.
+        let off = (0..3).map(|k| (got[k] - want[k]).abs()).fold(0.0, f64::max);
+        assert!(off < 1e-6, "{what}: reached {got:?}, meant {want:?}");
+    }
+    let actual = simulate(&l.model, &l.theta, d, coordinates(d), program, 0.0);
+    let worst = actual
+        .iter()
+        .filter(|s| s.fraction == 1.0)
+        .map(|s| s.error().norm())
+        .fold(0.0, f64::max);
+    assert!(
+        worst > 0.005,
+        "{what}: the errors move the tip by only {worst} mm"
+    );
+    let (out, s, _) = compensate(l, settings(d, expand), program);
+    assert!(s.skipped.is_empty(), "{what}: {:?}\n{out}", s.skipped);
+    assert_eq!(s.macro_logic, None, "{what}");
+    assert_eq!(s.corrected_blocks, s.motion_blocks, "{what}: {s:?}\n{out}");
+    check_held(
+        l,
+        d,
+        coordinates(d),
+        program,
+        &out,
+        1e-3,
+        &s.held_c.first,
+        what,
+    );
+    (out, s)
+}
+
+#[test]
+fn fanuc_if_goto_goto_and_if_then_take_the_branch_the_control_takes() {
+    let l = errors("ac-trunnion", 31, 30.0, "");
+    // Forward jumps only: every block runs once and is corrected in place.
+    let program = "%\nO3001 (BRANCHES)\nG90 G21 G17 G40 G49 G80 G94\nG43.4 H1\nG0 X0. Y0. Z50. A-20. C30.\n#1=3.\n#2=0.\nN10 IF [#1 LT 2.] GOTO30\nG1 X[#1*10.] Y5. Z10. F500.\nIF [#1 GT 2.] THEN #2=7.5\nGOTO40\nN30 G1 X-9. Y-9. Z10. F500.\nN40 G1 X20. Y#2 Z5.\nIF [#2 EQ 0.] THEN #2=1.\nG1 X[#2+1.] Y-#2 Z5.\nG0 Z50.\nG49\nM30\n%\n";
+    let want = [
+        [0.0, 0.0, 50.0],
+        [30.0, 5.0, 10.0],
+        [20.0, 7.5, 5.0],
+        [8.5, -7.5, 5.0],
+        [8.5, -7.5, 50.0],
+    ];
+    let (out, _) = lands(&l, Dialect::Fanuc, program, false, &want, "IF GOTO");
+    // The branch not taken is left as it is; the logic too.
+    assert!(out.contains("\nN30 G1 X-9. Y-9. Z10. F500.\n"), "{out}");
+    assert!(
+        out.contains("\nIF [#1 GT 2.] THEN #2=7.5\nGOTO40\n"),
+        "{out}"
+    );
+
+    // A loop of jumps back: its block runs three times with different
+    // values, corrected flattened.
+    let program = "%\nO3002 (A LOOP OF JUMPS)\nG90 G21 G17 G40 G49 G80 G94\nG43.4 H1\nG0 X0. Y0. Z50. A-20. C30.\n#3=0\nN50 G1 X[#3*5.] Y20. Z5. F500.\n#3=#3+1.\nIF [#3 LT 3.] GOTO50\nG1 X15. Y25. Z5.\nG0 Z50.\nG49\nM30\n%\n";
+    let want = [
+        [0.0, 0.0, 50.0],
+        [0.0, 20.0, 5.0],
+        [5.0, 20.0, 5.0],
+        [10.0, 20.0, 5.0],
+        [15.0, 25.0, 5.0],
+        [15.0, 25.0, 50.0],
+    ];
+    let (_, s, _) = compensate(&l, settings(Dialect::Fanuc, false), program);
+    assert!(
+        s.skipped
+            .iter()
+            .any(|(r, at)| r.contains("runs 3 times") && at.first == [7]),
+        "{:?}",
+        s.skipped
+    );
+    let (flat, _) = lands(&l, Dialect::Fanuc, program, true, &want, "GOTO loop");
+    assert_eq!(flat.matches("G1 X").count(), 4, "{flat}");
+    assert!(!flat.contains("GOTO"), "{flat}");
+}
+
+#[test]
+fn linuxcnc_o_word_branches_loops_and_calls_run_as_linuxcnc_runs_them() {
+    let l = errors("ac-trunnion", 32, 30.0, "");
+    let d = Dialect::Linuxcnc;
+    let branches = "G21 G90 G17 G94\nG0 X0 Y0 Z50 A-20 C30\n#<r> = 12\no100 if [#<r> LT 10]\n  G1 X-9 Y-9 Z10 F500\no100 elseif [#<r> LT 20]\n  G1 X#<r> Y4 Z10 F500\no100 else\n  G1 X9 Y9 Z10 F500\no100 endif\no101 if [#<r> GT 100]\n  G1 X-1 Y-1 Z-1\no101 else\n  G1 X[#<r> + 3] Y-2 Z6\no101 endif\nG0 Z50\nM2\n";
+    let want = [
+        [0.0, 0.0, 50.0],
+        [12.0, 4.0, 10.0],
+        [15.0, -2.0, 6.0],
+        [15.0, -2.0, 50.0],
+    ];
+    let (out, s) = lands(&l, d, branches, false, &want, "if/elseif/else");
+    // The three blocks that run are corrected in place, the others not.
+    assert_eq!(s.motion_blocks, 4, "{s:?}");
+    for kept in [
+        "  G1 X-9 Y-9 Z10 F500\n",
+        "  G1 X9 Y9 Z10 F500\n",
+        "  G1 X-1 Y-1 Z-1\n",
+    ] {
+        assert!(out.contains(kept), "{out}");
+    }
+
+    // repeat, do/while with break, while with continue, a named
+    // subroutine called with arguments: each run of a block is its own.
+    let loops = "o<corner> sub\n  G1 X#1 Y#2 Z#3\no<corner> endsub\nG21 G90 G17 G94\nG0 X0 Y0 Z50 A-20 C30\nG1 X10 Y0 Z5 F500\no101 repeat [3]\n  G91 G1 X5 Y1\no101 endrepeat\nG90\n#1 = 0\no102 do\n  #1 = [#1 + 1]\n  o104 if [#1 GT 3]\n    o102 break\n  o104 endif\n  G1 X[20 + #1] Y[#1 * 2] Z8\no102 while [#1 LT 10]\n#2 = 0\no105 while [#2 LT 4]\n  #2 = [#2 + 1]\n  o106 if [#2 EQ 2]\n    o105 continue\n  o106 endif\n  G1 X30 Y[10 + #2] Z7\no105 endwhile\no<corner> call [30] [-5] [6]\nG0 Z50\nM2\n";
+    let want = [
+        [0.0, 0.0, 50.0],
+        [10.0, 0.0, 5.0],
+        [15.0, 1.0, 5.0],
+        [20.0, 2.0, 5.0],
+        [25.0, 3.0, 5.0],
+        [21.0, 2.0, 8.0],
+        [22.0, 4.0, 8.0],
+        [23.0, 6.0, 8.0],
+        [30.0, 11.0, 7.0],
+        [30.0, 13.0, 7.0],
+        [30.0, 14.0, 7.0],
+        [30.0, -5.0, 6.0],
+        [30.0, -5.0, 50.0],
+    ];
+    let (flat, _) = lands(&l, d, loops, true, &want, "repeat/do/while/call");
+    for logic in ["repeat", " do", "while", "break", "continue", "call", "sub"] {
+        assert!(!flat.contains(logic), "`{logic}` left in\n{flat}");
+    }
+    // The repeated incremental block, once per run.
+    assert_eq!(flat.matches("G91 G1 X").count(), 3, "{flat}");
 }

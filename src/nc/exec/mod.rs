@@ -27,7 +27,7 @@ pub use crate::limits::{MAX_CALL_DEPTH, MAX_EXEC_STATEMENTS};
 use crate::machine::Dialect;
 use eval::{Key, Params, Stop};
 
-use super::{Block, TokenKind, Value};
+use super::{Block, Entry, TokenKind, Value};
 
 /// A condition.
 #[derive(Clone, Debug, PartialEq)]
@@ -780,10 +780,20 @@ pub enum Known {
     Unknown,
 }
 
+/// What a run of the macro logic says for a correction in place.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct KnownWords {
+    /// Per block and word token, for blocks with expression words.
+    pub words: HashMap<(u32, u32), Known>,
+    /// Per block and statement: how it is reached ([`entries`]).
+    pub entries: HashMap<(u32, u32), Entry>,
+}
+
 /// Per block and word token: what the trace says, for blocks with
-/// expression words. `None` when execution did not reach the end (a later
-/// run of any statement could not be ruled out).
-pub(crate) fn known_words(trace: &Trace) -> Option<HashMap<(u32, u32), Known>> {
+/// expression words, and how each statement is reached. `None` when
+/// execution did not reach the end (a later run of any statement could
+/// not be ruled out).
+pub(crate) fn known_words(trace: &Trace) -> Option<KnownWords> {
     if trace.halt.is_some() {
         return None;
     }
@@ -803,18 +813,52 @@ pub(crate) fn known_words(trace: &Trace) -> Option<HashMap<(u32, u32), Known>> {
             e.4 |= s.depth > 0;
         }
     }
-    Some(
-        out.into_iter()
-            .map(|(k, (n, v, differs, unknown, in_call))| {
-                let known = match v {
-                    _ if unknown => Known::Unknown,
-                    Some(_) if differs => Known::Varies(n),
-                    Some(_) if in_call => Known::InCall,
-                    Some(v) => Known::Value(v),
-                    None => Known::Unknown,
-                };
-                (k, known)
-            })
-            .collect(),
-    )
+    let words = out
+        .into_iter()
+        .map(|(k, (n, v, differs, unknown, in_call))| {
+            let known = match v {
+                _ if unknown => Known::Unknown,
+                Some(_) if differs => Known::Varies(n),
+                Some(_) if in_call => Known::InCall,
+                Some(v) => Known::Value(v),
+                None => Known::Unknown,
+            };
+            (k, known)
+        })
+        .collect();
+    Some(KnownWords {
+        words,
+        entries: entries(trace),
+    })
+}
+
+/// How each statement that ran is reached ([`Entry`]; one that is not in
+/// the map never ran): straight when each of its runs comes right after
+/// the statement that runs last before it in the text, both running once
+/// (the statements between, never run, change nothing), otherwise
+/// jumped. Read in the order written with the statements that never run
+/// passed over, a straight statement then has the state it runs with.
+fn entries(trace: &Trace) -> HashMap<(u32, u32), Entry> {
+    let key = |s: &Executed| (s.block, s.seg);
+    let mut runs: std::collections::BTreeMap<(u32, u32), usize> = Default::default();
+    for s in &trace.steps {
+        *runs.entry(key(s)).or_default() += 1;
+    }
+    // The statement that ran next after each one, in text order.
+    let order: Vec<(u32, u32)> = runs.keys().copied().collect();
+    let next: HashMap<(u32, u32), (u32, u32)> = order.windows(2).map(|w| (w[0], w[1])).collect();
+    let mut out: HashMap<(u32, u32), Entry> = HashMap::new();
+    for (k, s) in trace.steps.iter().enumerate() {
+        let here = key(s);
+        let straight = runs[&here] == 1
+            && (k == 0 || {
+                let prev = key(&trace.steps[k - 1]);
+                runs[&prev] == 1 && next.get(&prev) == Some(&here)
+            });
+        let e = out.entry(here).or_insert(Entry::Straight);
+        if !straight {
+            *e = Entry::Jumped;
+        }
+    }
+    out
 }
