@@ -401,3 +401,149 @@ fn linuxcnc_o_word_branches_loops_and_calls_run_as_linuxcnc_runs_them() {
     // The repeated incremental block, once per run.
     assert_eq!(flat.matches("G91 G1 X").count(), 3, "{flat}");
 }
+
+/// FN 0-FN 8 and FN 13 as the TNC manuals write them, the FN 9-FN 12
+/// jumps taken and not taken, a subprogram `CALL LBL` ending in `LBL 0`
+/// and `PLANE RELATIV` after `PLANE SPATIAL`.
+#[test]
+fn heidenhain_fn_arithmetic_jumps_subprograms_and_plane_relativ_land_on_the_intended_path() {
+    let l = errors("ac-trunnion", 33, 30.0, "");
+    let d = Dialect::Heidenhain;
+    let program = "\
+0 BEGIN PGM FNJUMP MM
+1 BLK FORM 0.1 Z X-40 Y-30 Z-10
+2 BLK FORM 0.2 X+40 Y+30 Z+0
+3 TOOL CALL 1 Z S8000
+4 M128
+5 L X+0 Y+0 Z+50 A-20 C+30 R0 FMAX M3
+6 FN 0: Q1 = +12
+7 FN 2: Q2 = +Q1 - +4
+8 FN 4: Q3 = +Q2 DIV +4
+9 FN 5: Q4 = SQRT +Q1
+10 FN 6: Q5 = SIN +30
+11 FN 7: Q6 = COS +60
+12 FN 8: Q7 = +6 LEN +8
+13 FN 13: Q8 = +10 ANG -10
+14 FN 13: Q10 = -10 ANG +10
+15 FN 9: IF +Q1 EQU +12 GOTO LBL 1
+16 L X-9 Y-9 Z+10 R0 F500
+17 LBL 1
+18 L X+Q7 Y+Q3 Z+10 R0 F500
+19 FN 10: IF +Q2 NE +8 GOTO LBL 2
+20 L X+Q4 Y+Q5 Z+8
+21 LBL 2
+22 FN 11: IF +Q2 GT +Q1 GOTO LBL 3
+23 L X+20 Y+Q6 Z+6
+24 LBL 3
+25 FN 12: IF +Q2 LT +Q1 GOTO LBL 4
+26 L X-9 Y-9 Z+6
+27 LBL 4
+28 Q9 = Q8 / 10
+29 L X+Q9 Y-Q4 Z+4
+30 Q11 = Q10 / 20
+31 L X+Q11 Y+0 Z+4
+32 L Z+50 R0 FMAX
+33 M129
+34 END PGM FNJUMP MM
+";
+    let r12 = 12f64.sqrt();
+    // FN 13 `a ANG b`: the angle whose sine and cosine are as a to b,
+    // 0..360 (atan2(10, -10) = 135, atan2(-10, 10) = 315 deg).
+    let want = [
+        [0.0, 0.0, 50.0],
+        [10.0, 2.0, 10.0],
+        [r12, 30f64.to_radians().sin(), 8.0],
+        [20.0, 60f64.to_radians().cos(), 6.0],
+        [13.5, -r12, 4.0],
+        [15.75, 0.0, 4.0],
+        [15.75, 0.0, 50.0],
+    ];
+    let (out, _) = lands(&l, d, program, false, &want, "FN and jumps");
+    for kept in ["\n16 L X-9 Y-9 Z+10 R0 F500\n", "\n26 L X-9 Y-9 Z+6\n"] {
+        assert!(out.contains(kept), "{out}");
+    }
+
+    // A subprogram after the main program's end, called twice, in a plane
+    // tilted by PLANE SPATIAL and turned further by PLANE RELATIV.
+    let program = "\
+0 BEGIN PGM SUBREL MM
+1 BLK FORM 0.1 Z X-40 Y-30 Z-10
+2 BLK FORM 0.2 X+40 Y+30 Z+0
+3 TOOL CALL 1 Z S8000
+4 L Z+100 R0 FMAX M91
+5 PLANE SPATIAL SPA-25 SPB+0 SPC+0 TURN MB MAX FMAX SEQ-
+6 PLANE RELATIV SPA+10 TURN MB MAX FMAX SEQ-
+7 L X-10 Y-5 Z+20 R0 FMAX M3
+8 CALL LBL 5
+9 L X+5 Y+5 Z+20 R0 FMAX
+10 CALL LBL 5
+11 PLANE RESET TURN MB MAX FMAX
+12 M30
+13 LBL 5
+14 L IZ-18 R0 F300
+15 L IX+10
+16 L IY+10
+17 L IZ+18 R0 FMAX
+18 LBL 0
+19 END PGM SUBREL MM
+";
+    // The same program in the plane SPA-15 written at once.
+    let direct = program.replace("SPA-25", "SPA-15").replace(
+        "6 PLANE RELATIV SPA+10 TURN MB MAX FMAX SEQ-\n",
+        "6 ; RELATIV\n",
+    );
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let ends = |p: &str| -> Vec<(usize, nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)> {
+        simulate(&nominal, &[], d, Coordinates::Auto, p, 0.0)
+            .into_iter()
+            .filter(|s| s.fraction == 1.0)
+            .map(|s| (s.line, s.nominal.tip, s.nominal.axis))
+            .collect()
+    };
+    let (a, b) = (ends(program), ends(&direct));
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        assert!(
+            (x.1 - y.1).norm() < 1e-9 && (x.2 - y.2).norm() < 1e-12,
+            "line {}: {x:?} vs {y:?}",
+            x.0
+        );
+    }
+    let (s, c) = (-15f64).to_radians().sin_cos();
+    // SPA: about X; the tool along the plane's Z.
+    let axis = nalgebra::Vector3::new(0.0, -s, c);
+    let in_plane: Vec<_> = a
+        .iter()
+        // Blocks 7 and 9 and the subprogram's, twice (file lines).
+        .filter(|e| [8, 10, 15, 16, 17, 18].contains(&e.0))
+        .collect();
+    assert_eq!(in_plane.len(), 10, "{a:?}");
+    assert!(
+        in_plane.iter().all(|e| (e.2 - axis).norm() < 1e-12),
+        "{a:?}"
+    );
+    let zero = errors("ac-trunnion", 0, 0.0, "");
+    let (same, s0, _) = compensate(&zero, settings(d, false), program);
+    assert_eq!(same, program);
+    assert!(
+        s0.skipped.iter().any(|(r, _)| r.contains("not known")),
+        "without --expand the subprogram's moves are left: {:?}",
+        s0.skipped
+    );
+    let (flat, s, _) = compensate(&l, settings(d, true), program);
+    assert!(s.skipped.is_empty(), "{:?}\n{flat}", s.skipped);
+    assert!(!flat.contains("LBL"), "{flat}");
+    // In the plane the rotary positions are the plane's (the tip is checked
+    // to 0.1 um, the axis to 1 mrad).
+    let plane = [8, 10, 15, 16, 17, 18];
+    check_held(
+        &l,
+        d,
+        Coordinates::Auto,
+        program,
+        &flat,
+        1e-3,
+        &plane,
+        "CALL LBL",
+    );
+}

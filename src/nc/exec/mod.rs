@@ -68,6 +68,9 @@ pub(crate) enum ExecOp {
     IfThen(Cond),
     /// `target = expression` decoded from the text (HEIDENHAIN FN, Q).
     Set(Key, String),
+    /// `target = a op b` with a function of two values that the formula
+    /// syntax has no spelling for (HEIDENHAIN FN 8 `LEN`, FN 13 `ANG`).
+    SetPair(Key, Pair, String, String),
     /// The parameter becomes unknown (FN 18 SYSREAD), with why.
     Forget(Key, String),
     /// DEF: names set to the values.
@@ -124,6 +127,41 @@ pub(crate) enum ExecOp {
     End,
     /// Execution cannot go on (with why).
     Halt(String),
+}
+
+/// A function of two values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Pair {
+    /// HEIDENHAIN FN 8 `a LEN b`: the root of the sum of the squares.
+    Len,
+    /// HEIDENHAIN FN 13 `a ANG b`: the angle whose sine and cosine are
+    /// in the ratio a : b (the arc tangent of a / b, any quadrant),
+    /// degrees in [0, 360).
+    Ang,
+}
+
+impl Pair {
+    fn apply(self, a: f64, b: f64) -> Result<f64, Stop> {
+        let v = match self {
+            Pair::Len => a.hypot(b),
+            // Both zero is no direction: no angle to give, never a guess.
+            Pair::Ang if a == 0.0 && b == 0.0 => {
+                return Err(Stop::Alarm("FN 13 ANG of two zero values".into()));
+            }
+            Pair::Ang => {
+                let t = a.atan2(b).to_degrees();
+                // A hair below zero would round to 360 itself.
+                if t < 0.0 { (t + 360.0) % 360.0 } else { t }
+            }
+        };
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(Stop::Alarm(format!(
+                "{self:?} of {a} and {b} is not a finite number"
+            )))
+        }
+    }
 }
 
 /// A jump or call target.
@@ -511,6 +549,11 @@ impl Runner<'_, '_> {
             },
             ExecOp::Set(k, e) => {
                 let v = self.eval(e);
+                self.vars.set(k.clone(), v);
+                Flow::Next
+            }
+            ExecOp::SetPair(k, f, a, b) => {
+                let v = self.eval(a).and_then(|a| f.apply(a, self.eval(b)?));
                 self.vars.set(k.clone(), v);
                 Flow::Next
             }
