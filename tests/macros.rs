@@ -547,3 +547,22 @@ fn heidenhain_fn_arithmetic_jumps_subprograms_and_plane_relativ_land_on_the_inte
         "CALL LBL",
     );
 }
+
+/// A HEIDENHAIN value written apart from its letter (`L Z 25.000 FMAX`)
+/// and a parameter written so (`L Z + Q13 FMAX`), as older posts write
+/// them: the tool goes to Z 25 and to the value of Q13 (the simulator
+/// says so), and the rewrite lands there.
+#[test]
+fn heidenhain_values_apart_from_their_letter_are_the_values_meant() {
+    let l = errors("ac-trunnion", 34, 30.0, "");
+    let program = "0 BEGIN PGM SPACED MM\n1 TOOL CALL 1 Z S3000\n2 M128\n3 L X+0 Y+0 Z+50 A-20 C+30 R0 FMAX\n4 L X+10 Y+5 Z 25.000 FMAX\n5 Q13 = 32.5\n6 L Z + Q13 FMAX\n7 L X+12 Z - Q13 R0 F500\n8 M129\n9 END PGM SPACED MM\n";
+    let want = [
+        [0.0, 0.0, 50.0],
+        [10.0, 5.0, 25.0],
+        [10.0, 5.0, 32.5],
+        [12.0, 5.0, -32.5],
+    ];
+    let (out, _) = lands(&l, Dialect::Heidenhain, program, false, &want, "Z 25.000");
+    // Written back in the block's own way, the value still apart.
+    assert!(out.lines().nth(4).unwrap().contains(" Z +25.0"), "{out}");
+}

@@ -65,7 +65,7 @@ pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), 
             let coordinate = w
                 .addr
                 .as_letter()
-                .is_some_and(|c| b"XYZABCIJKR".contains(&c));
+                .is_some_and(|c| b"XYZABCIJKR@^".contains(&c));
             if wv.value.is_none() && coordinate {
                 let why = trace
                     .first_unknown

@@ -1078,6 +1078,12 @@ impl Interpreter {
     /// written): literal values are followed, expressions forget.
     fn track_words(&mut self, block: &Block, seg: &Segment) {
         for (_, w) in block.words(seg) {
+            if matches!(w.addr.as_letter(), Some(b'@' | b'^')) {
+                // LinuxCNC's polar words move X and Y.
+                self.pos[0] = None;
+                self.pos[1] = None;
+                continue;
+            }
             let Some(i) = self.axis_index(w.addr) else {
                 continue;
             };
