@@ -1269,3 +1269,97 @@ fn an_error_in_a_later_chunk_is_named_as_in_one_thread() {
         assert_eq!(run(Some(chunk)), one);
     }
 }
+
+/// FANUC tool centre point control type 2 (G43.5): each block gives the
+/// tool tip (X Y Z) and the tool direction (I J K) in the workpiece, and
+/// the control picks the rotary positions for the direction (the solution
+/// nearest the ones before). Corrected, the I J K words carry the
+/// direction the nominal control turns into the corrected rotary
+/// positions: on the machine with the errors the tip and the tool axis
+/// land on the intended ones at every end point, and the path between
+/// stays within the tolerance.
+#[test]
+fn fanuc_g43_5_tool_vectors_are_corrected_tip_and_axis() {
+    let d = Dialect::Fanuc;
+    let l = errors("bc-trunnion", 41, 30.0, "");
+    let k = &l.model.kin;
+    // Tips and the rotary positions whose tool direction each block
+    // writes, far from the tilt where the two solutions meet.
+    let blocks = [
+        ([0.0, 0.0, 50.0], 20.0, 30.0),
+        ([10.0, 5.0, 10.0], 25.0, 40.0),
+        ([20.0, 5.0, 8.0], 22.0, 60.0),
+        ([20.0, 15.0, 6.0], 18.0, 75.0),
+    ];
+    let vector = |b: f64, c: f64| {
+        k.forward_nominal(&Axes::new(0.0, 0.0, 0.0, b, c))
+            .axis
+            .normalize()
+    };
+    let mut program = String::from(
+        "%\nO4001 (TOOL VECTORS)\nG90 G21 G17 G40 G49 G80 G94\nG0 X0. Y0. Z100. B20. C30.\nG43.5 H1\n",
+    );
+    for (i, (p, b, c)) in blocks.iter().enumerate() {
+        let v = vector(*b, *c);
+        let motion = if i == 0 {
+            "G0 "
+        } else if i == 1 {
+            "G1 "
+        } else {
+            ""
+        };
+        let feed = if i == 1 { " F500." } else { "" };
+        program.push_str(&format!(
+            "{motion}X{:.1} Y{:.1} Z{:.1} I{:.7} J{:.7} K{:.7}{feed}\n",
+            p[0], p[1], p[2], v.x, v.y, v.z
+        ));
+    }
+    program.push_str("G49\nM30\n%\n");
+    let program = program.as_str();
+    let zero = errors("bc-trunnion", 0, 0.0, "");
+    let (same, s0, _) = compensate(&zero, Settings::new(d), program);
+    assert_eq!(same, program, "zero error must give the same bytes");
+    assert!(s0.skipped.is_empty(), "{:?}", s0.skipped);
+    // What the blocks mean: the tip is the point written, the tool axis
+    // the vector written, on the nominal machine.
+    let nominal = Model::new(k.clone(), vec![]);
+    let ends: Vec<Sample> = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0)
+        .into_iter()
+        .filter(|s| s.fraction == 1.0 && (6..=9).contains(&s.line))
+        .collect();
+    assert_eq!(ends.len(), blocks.len());
+    for (e, (p, b, c)) in ends.iter().zip(blocks) {
+        assert!((e.nominal.tip - Vector3::from(p)).norm() < 1e-9, "{e:?}");
+        // To the 7 decimals written.
+        assert!(
+            (e.nominal.axis.normalize() - vector(b, c)).norm() < 1e-6,
+            "{e:?}"
+        );
+    }
+    // As written, the errors move the tip and the axis by far more than
+    // the 0.1 um and 0.1 urad the rewrite is held to.
+    let as_written = simulate(&l.model, &l.theta, d, Coordinates::Auto, program, 0.0);
+    assert!(
+        as_written
+            .iter()
+            .filter(|s| s.fraction == 1.0 && s.line >= 6)
+            .all(|s| s.axis_error() > 1e-5 && s.error().norm() > 0.005),
+        "the errors barely move the tool"
+    );
+    let (out, s, vs) = compensate(&l, Settings::new(d), program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert!(vs.iter().filter(|v| v.tcp == Tcp::Vector).count() >= 4);
+    for v in &vs {
+        assert_reaches(&l, v, "G43.5");
+    }
+    // Each vector block's I J K is rewritten, no rotary position added.
+    for (a, b) in program.lines().zip(out.lines()).skip(5).take(4) {
+        assert_ne!(a, b);
+        assert!(
+            b.contains(" I") && b.contains(" J") && b.contains(" K"),
+            "{b}"
+        );
+        assert!(!b.contains('B') && !b.contains('C'), "{b}");
+    }
+    check_against_simulation(&l, d, Coordinates::Auto, program, &out, 0.001, "G43.5");
+}

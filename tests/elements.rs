@@ -469,3 +469,68 @@ fn a_tangential_circle_that_a_scale_error_bends_is_written_as_lines() {
         "bent CT",
     );
 }
+
+/// LinuxCNC's polar words: `@` the distance and `^` the angle of X Y from
+/// the origin of the XY plane; the word left out is the position's; in
+/// G91 `@` adds to the distance along the position's direction and `^`
+/// turns about the origin (LinuxCNC's G-code reference, "Polar
+/// Coordinates"). The holes of a G81 are given so too. Corrected, the
+/// words stay polar (rewritten so the corrected X and Y land) and the
+/// rewrite driven through the erroneous machine reaches every point.
+#[test]
+fn linuxcnc_polar_words_are_followed_and_corrected_in_their_own_words() {
+    let program = "G21 G90 G17 G94\nG0 X0 Y0 Z50 A-20 C30\nG0 @20 ^30 Z10\nG1 @25 F500\nG1 ^60\nG91 G1 ^30\nG1 @-5 Z-2\nG90 G1 @15 ^-45 Z6\nG0 Z20\nG98 G81 @20 ^120 R12 Z2\n@20 ^150\nG80\nG0 Z50\nM2\n";
+    let at = |r: f64, a: f64, z: f64| {
+        let (s, c) = a.to_radians().sin_cos();
+        [r * c, r * s, z]
+    };
+    let p8 = at(15.0, -45.0, 6.0);
+    let want = [
+        [0.0, 0.0, 50.0],
+        at(20.0, 30.0, 10.0),
+        at(25.0, 30.0, 10.0),
+        at(25.0, 60.0, 10.0),
+        at(25.0, 90.0, 10.0),
+        at(20.0, 90.0, 8.0),
+        p8,
+        [p8[0], p8[1], 20.0],
+        at(20.0, 120.0, 2.0),
+        at(20.0, 150.0, 2.0),
+        [at(20.0, 150.0, 0.0)[0], at(20.0, 150.0, 0.0)[1], 50.0],
+    ];
+    let l = errors("ac-trunnion", 93, 30.0, "");
+    let (out, s) = crate::macros::lands(&l, Dialect::Linuxcnc, program, false, &want, "polar");
+    assert_eq!(s.drilled.first, [10, 11], "{s:?}");
+    // Every polar block keeps its polar words (gaining the other where the
+    // corrected point needs it) and gets no X or Y.
+    for (a, b) in program.lines().zip(out.lines()).skip(2).take(9) {
+        if a.contains('@') || a.contains('^') {
+            assert_ne!(a, b);
+            assert!(!b.contains('X') && !b.contains('Y'), "{b}");
+            for w in ['@', '^'] {
+                assert!(!a.contains(w) || b.contains(w), "{a} -> {b}");
+            }
+        }
+    }
+    // Where LinuxCNC refuses the words, they are left as written, with why.
+    let refused = "G21 G90 G17 G94\nG0 X0 Y0 Z50 A-20 C30\nG1 @10 Z40 F500\nG1 X5 @10 ^30\nG18 G1 @10 ^30\nM2\n";
+    let (_, s, _) = crate::compensate::compensate(
+        &l,
+        {
+            let mut st = Settings::new(Dialect::Linuxcnc);
+            st.coordinates = Coordinates::Tcp;
+            st
+        },
+        refused,
+    );
+    let lines = |what: &str| {
+        s.skipped
+            .iter()
+            .find(|(r, _)| r.contains(what))
+            .map(|(_, at)| at.first.clone())
+            .unwrap_or_default()
+    };
+    assert_eq!(lines("at the origin"), [3], "{:?}", s.skipped);
+    assert_eq!(lines("X or Y with a polar word"), [4], "{:?}", s.skipped);
+    assert_eq!(lines("outside the XY plane"), [5], "{:?}", s.skipped);
+}

@@ -11,14 +11,12 @@
 //! again in order. Each written block keeps the line of the block it
 //! comes from, so what the rewrite reports names the source line.
 
-use std::collections::HashMap;
-
 use super::edit::Edits;
 use crate::machine::Dialect;
-use crate::nc::exec::Known;
 use crate::nc::exec::Trace;
+use crate::nc::exec::{Known, KnownWords};
 use crate::nc::lexeme::{self, NumStyle, WriteRules};
-use crate::nc::{Block, BlockError, Flow, HhKind, Segment, Stmt, Syntax, TokenKind, Value};
+use crate::nc::{Block, BlockError, Entry, Flow, HhKind, Segment, Stmt, Syntax, TokenKind, Value};
 use crate::source::SourceError;
 use std::path::Path;
 
@@ -67,7 +65,7 @@ pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), 
             let coordinate = w
                 .addr
                 .as_letter()
-                .is_some_and(|c| b"XYZABCIJKR".contains(&c));
+                .is_some_and(|c| b"XYZABCIJKR@^".contains(&c));
             if wv.value.is_none() && coordinate {
                 let why = trace
                     .first_unknown
@@ -299,15 +297,26 @@ pub(super) fn needs_logic(block: &Block) -> bool {
 
 /// `block` (index `index` of the part that was run) with the value of
 /// every expression word that has one value in every run written in as a
-/// number (its text is only replaced if the correction changes it), and
-/// why its other expression words cannot be corrected in place.
+/// number (its text is only replaced if the correction changes it), how
+/// each of its statements is reached when the program runs, and why its
+/// other expression words cannot be corrected in place.
 pub(super) fn substitute(
     block: &Block,
     index: u32,
     dialect: Dialect,
-    known: &HashMap<(u32, u32), Known>,
+    known: &KnownWords,
 ) -> (Block, Option<String>) {
     let mut b = block.clone();
+    // SINUMERIK's interpreter follows IF/ELSE blocks of its own.
+    if dialect != Dialect::Sinumerik && !known.entries.is_empty() {
+        for (si, seg) in b.segments.iter_mut().enumerate() {
+            seg.entry = known
+                .entries
+                .get(&(index, si as u32))
+                .copied()
+                .unwrap_or(Entry::NotRun);
+        }
+    }
     let mut why = None;
     for (ti, t) in b.tokens.iter_mut().enumerate() {
         let TokenKind::Word(w) = &mut t.kind else {
@@ -316,7 +325,7 @@ pub(super) fn substitute(
         if w.value != Value::Expr {
             continue;
         }
-        match known.get(&(index, ti as u32)) {
+        match known.words.get(&(index, ti as u32)) {
             Some(Known::Value(v)) => {
                 w.value = Value::Num(*v);
                 // A computed value is in mm (or deg), never in increments.

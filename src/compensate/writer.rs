@@ -14,6 +14,7 @@ use super::Settings;
 use super::correction::{CorrectedPoint, WritePlan};
 use super::edit::Edits;
 use crate::machine::Dialect;
+use crate::nc::interp::gcode::linuxcnc_polar;
 use crate::nc::interp::{
     AXES, Arc, FeedMode, Frame, Interpreter, Motion, Move, MoveKind, Polar, Units,
 };
@@ -323,6 +324,7 @@ impl Writer {
             }
             return;
         }
+        let start = self.emit;
         let mut named = [false; 6];
         let mut inc = [false; 6];
         for (_, w) in block.words(seg) {
@@ -351,6 +353,44 @@ impl Writer {
                 }
             };
         }
+        if self.dialect == Dialect::Linuxcnc {
+            self.follow_polar(block, seg, interp, start);
+        }
+    }
+
+    /// LinuxCNC polar words left as written: the controller computes X and
+    /// Y from them and from where the written program has the tool.
+    fn follow_polar(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        interp: &Interpreter,
+        start: [Option<f64>; 6],
+    ) {
+        let (mut radius, mut angle) = (None, None);
+        for (_, w) in block.words(seg) {
+            let v = match w.value {
+                Value::Num(v) => Some(v),
+                _ => None,
+            };
+            match w.addr.as_letter() {
+                Some(b'@') => radius = Some(v),
+                Some(b'^') => angle = Some(v),
+                _ => {}
+            }
+        }
+        if radius.is_none() && angle.is_none() {
+            return;
+        }
+        let cycle = interp.cycle.is_some();
+        // Incremental cycles step their holes by the words: not followed.
+        let p = (!cycle || interp.absolute)
+            .then(|| {
+                linuxcnc_polar([start[0], start[1]], radius, angle, !interp.absolute, cycle).ok()
+            })
+            .flatten();
+        self.emit[0] = p.map(|p| p[0]);
+        self.emit[1] = p.map(|p| p[1]);
     }
 
     /// Writes a planned move; returns whether the motion-word bookkeeping
@@ -602,7 +642,10 @@ impl Writer {
         prev: &[Option<f64>; 6],
     ) -> [Option<f64>; 2] {
         let units = interp.units;
+        // LinuxCNC's polar words count from the origin of the XY plane.
+        let linuxcnc = self.dialect == Dialect::Linuxcnc;
         let pole = match (self.emit_pole, interp.pole) {
+            _ if linuxcnc => [0.0, 0.0],
             (Some(p), _) => p,
             (None, Some(p)) => {
                 self.insert_pole(block, p, units);
@@ -621,7 +664,9 @@ impl Writer {
             (Some(x), Some(y)) => Some(polar(x, y)),
             _ => None,
         };
-        let circle = matches!(mv.kind, MoveKind::Arc(_)) && !self.linearizing;
+        // A CP keeps the radius it starts at; a LinuxCNC arc ends where
+        // its words say.
+        let circle = !linuxcnc && matches!(mv.kind, MoveKind::Arc(_)) && !self.linearizing;
         let word = |ti: usize| match block.tokens[ti].kind {
             TokenKind::Word(w) => match w.value {
                 Value::Num(v) => Some((w, v)),
@@ -630,16 +675,40 @@ impl Writer {
             _ => None,
         };
         let rules = self.rules();
-        let style = NumStyle {
-            plus: true,
-            point: true,
-            ..NumStyle::default()
+        let own_style =
+            |p: Option<(usize, bool)>| p.and_then(|(ti, _)| word(ti)).map(|(w, _)| w.style);
+        // A word the block leaves out is written as its other polar word
+        // is (HEIDENHAIN: with a sign and a point), after it (after the
+        // LP or CP).
+        let style = match (linuxcnc, own_style(pol.angle).or(own_style(pol.radius))) {
+            (true, Some(st)) => st,
+            _ => NumStyle {
+                plus: true,
+                point: true,
+                ..NumStyle::default()
+            },
         };
-        let keyword = block
-            .seg_tokens(seg)
-            .iter()
-            .find(|t| t.kind == TokenKind::Keyword)
-            .map_or(0, |t| t.span.end);
+        let keyword = if linuxcnc {
+            [pol.angle, pol.radius]
+                .iter()
+                .flatten()
+                .map(|&(ti, _)| block.tokens[ti].span.end)
+                .max()
+                .unwrap_or(0)
+        } else {
+            block
+                .seg_tokens(seg)
+                .iter()
+                .find(|t| t.kind == TokenKind::Keyword)
+                .map_or(0, |t| t.span.end)
+        };
+        let (radius_word, angle_word_name): (&[u8], &[u8]) = if linuxcnc {
+            (b" @", b" ^")
+        } else {
+            (b" PR", b" PA")
+        };
+        // LinuxCNC's G91 makes a word it adds incremental too.
+        let added_inc = linuxcnc && !interp.absolute;
         // The radius: a CP keeps the one it starts at.
         let mut radius = here.map(|h| h.0);
         let mut after_radius = keyword;
@@ -673,10 +742,15 @@ impl Writer {
                     }
                 }
                 None if here.is_none_or(|h| (r - h.0).abs() >= half) => {
-                    let v = round_to(r, d);
+                    let base = match here {
+                        Some(h) if added_inc => h.0,
+                        None if added_inc => return [None, None],
+                        _ => 0.0,
+                    };
+                    let v = round_to(r - base, d);
                     self.edits
-                        .insert(keyword, |b| polar_word(b, b" PR", v, d, style, rules));
-                    radius = Some(v);
+                        .insert(keyword, |b| polar_word(b, radius_word, v, d, style, rules));
+                    radius = Some(base + v);
                 }
                 None => {}
             }
@@ -726,10 +800,12 @@ impl Writer {
                 if (new - a0).abs() < half {
                     a0
                 } else {
-                    let v = round_to(new, d);
-                    self.edits
-                        .insert(after_radius, |b| polar_word(b, b" PA", v, d, style, rules));
-                    v
+                    let base = if added_inc { a0 } else { 0.0 };
+                    let v = round_to(new - base, d);
+                    self.edits.insert(after_radius, |b| {
+                        polar_word(b, angle_word_name, v, d, style, rules)
+                    });
+                    base + v
                 }
             }
         };
@@ -1132,8 +1208,15 @@ impl Writer {
             };
         }
         if inserts.iter().any(|i| i.is_some()) {
+            let polar = mv
+                .polar
+                .iter()
+                .flat_map(|p| [p.radius, p.angle])
+                .flatten()
+                .map(|(ti, _)| ti);
             let last = (0..6)
                 .filter_map(|a| mv.words[a])
+                .chain(polar)
                 .map(|ti| block.tokens[ti].span.end)
                 .max()
                 .unwrap_or(block.tokens[seg.body as usize].span.start);

@@ -313,6 +313,30 @@ pub struct Segment {
     /// A word this parser does not know (accepted outside `--strict`):
     /// the block must not be rewritten.
     pub unknown: Option<Span>,
+    /// How the statement is reached when the program runs, where its
+    /// macro logic was followed to the end (the lexers give
+    /// [`Entry::AsWritten`]).
+    pub entry: Entry,
+}
+
+/// How a statement is reached when the program runs. A correction in
+/// place reads the program in the order written; its macro logic, run
+/// first, says where that order is the one the controller runs it in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Entry {
+    /// Not known: read in the order written, a jump, loop or call
+    /// statement making the position unknown after it.
+    #[default]
+    AsWritten,
+    /// Never runs (a branch not taken, a block jumped over).
+    NotRun,
+    /// Runs once, straight after the statement that runs last before it
+    /// in the text: the state the order written gives it is the one it
+    /// runs with.
+    Straight,
+    /// Reached by a jump, a loop or a return, or run several times: the
+    /// position when it runs is not the one the order written gives.
+    Jumped,
 }
 
 /// One block: its raw text (with its line ending), tokens and statements.
@@ -411,6 +435,7 @@ impl Block {
             stmt: Stmt::Unreadable,
             body: 0,
             unknown: Some(Span::new(0, end)),
+            entry: Entry::AsWritten,
         });
         self.unreadable = Some(error);
     }

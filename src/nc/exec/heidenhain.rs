@@ -1,12 +1,14 @@
 //! HEIDENHAIN Klartext parameters as [`ExecOp`]s: Q formulas (`Q1 = Q2 * 3`,
-//! `QL`, `QR`), FN 0-FN 7 arithmetic, FN 9-FN 12 conditional jumps, FN 18
-//! (the parameter becomes unknown), FN 14 (an error: execution stops),
-//! `LBL n` / `LBL "name"`, `LBL 0` (end of a subprogram), `CALL LBL n`
+//! `QL`, `QR`), FN 0-FN 8 and FN 13 arithmetic, FN 9-FN 12 conditional
+//! jumps, FN 18 (the parameter becomes unknown), FN 14 (an error) and
+//! FN 17 (a write to controller data), where execution stops; FN 15,
+//! FN 16 and the FN above 18 move nothing and set no Q. `LBL n` /
+//! `LBL "name"`, `LBL 0` (end of a subprogram), `CALL LBL n`
 //! (a subprogram call) and `CALL LBL n REP m` (the section since the label
 //! run m more times), `END PGM`; `CALL PGM` leaves the file.
 
 use super::eval::{self, NoParams};
-use super::{After, Cond, ExecOp, JumpTarget, Program, RunawayError};
+use super::{After, Cond, ExecOp, JumpTarget, Pair, Program, RunawayError};
 use crate::machine::Dialect;
 use crate::nc::{Addr, HhKind, Stmt, TokenKind, Value};
 
@@ -144,17 +146,40 @@ fn fn_op(f: u32, code: &str) -> ExecOp {
             Some(Ok((key, _))) => ExecOp::Forget(key, "FN 18 SYSREAD reads controller data".into()),
             _ => ExecOp::Nop,
         },
-        8 | 13 => match body
-            .split_once('=')
-            .map(|(t, _)| eval::param_ref(Dialect::Heidenhain, t.trim().as_bytes(), &NoParams))
-        {
-            Some(Ok((key, _))) => {
-                ExecOp::Forget(key, format!("FN {f} is not evaluated by fivecal"))
-            }
-            _ => ExecOp::Nop,
-        },
+        8 => pair(body, "LEN", Pair::Len),
+        13 => pair(body, "ANG", Pair::Ang),
+        17 => ExecOp::Halt(
+            "FN 17 SYSWRITE writes controller data (a datum, a tool or a machine parameter) fivecal does not model".into(),
+        ),
         // Output, waits, PLC and system writes move nothing and set no Q.
         _ => ExecOp::Nop,
+    }
+}
+
+/// `FN 8: Q1 = a LEN b`, `FN 13: Q1 = a ANG b`: the two values either
+/// side of `word`.
+fn pair(body: &str, word: &str, f: Pair) -> ExecOp {
+    let Some(eq) = body.find('=') else {
+        return ExecOp::Halt(format!("`{body}` has no `=`"));
+    };
+    let rhs = &body[eq + 1..];
+    // A value may end in a digit glued to the word (`+Q1LEN+Q2`).
+    let at = rhs.match_indices(word).map(|(k, _)| k).find(|&k| {
+        let b = rhs.as_bytes();
+        (k == 0 || !b[k - 1].is_ascii_alphabetic())
+            && b.get(k + word.len())
+                .is_none_or(|c| !c.is_ascii_alphabetic())
+    });
+    let Some(k) = at else {
+        return ExecOp::Halt(format!("`{}`: expected a {word} b", body.trim()));
+    };
+    let (a, b) = (rhs[..k].trim(), rhs[k + word.len()..].trim());
+    if a.is_empty() || b.is_empty() {
+        return ExecOp::Halt(format!("`{}`: expected a {word} b", body.trim()));
+    }
+    match eval::param_ref(Dialect::Heidenhain, body[..eq].trim().as_bytes(), &NoParams) {
+        Ok((key, _)) => ExecOp::SetPair(key, f, a.to_string(), b.to_string()),
+        Err(e) => ExecOp::Halt(e.to_string()),
     }
 }
 

@@ -27,7 +27,7 @@ pub use crate::limits::{MAX_CALL_DEPTH, MAX_EXEC_STATEMENTS};
 use crate::machine::Dialect;
 use eval::{Key, Params, Stop};
 
-use super::{Block, TokenKind, Value};
+use super::{Block, Entry, TokenKind, Value};
 
 /// A condition.
 #[derive(Clone, Debug, PartialEq)]
@@ -68,6 +68,9 @@ pub(crate) enum ExecOp {
     IfThen(Cond),
     /// `target = expression` decoded from the text (HEIDENHAIN FN, Q).
     Set(Key, String),
+    /// `target = a op b` with a function of two values that the formula
+    /// syntax has no spelling for (HEIDENHAIN FN 8 `LEN`, FN 13 `ANG`).
+    SetPair(Key, Pair, String, String),
     /// The parameter becomes unknown (FN 18 SYSREAD), with why.
     Forget(Key, String),
     /// DEF: names set to the values.
@@ -124,6 +127,41 @@ pub(crate) enum ExecOp {
     End,
     /// Execution cannot go on (with why).
     Halt(String),
+}
+
+/// A function of two values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Pair {
+    /// HEIDENHAIN FN 8 `a LEN b`: the root of the sum of the squares.
+    Len,
+    /// HEIDENHAIN FN 13 `a ANG b`: the angle whose sine and cosine are
+    /// in the ratio a : b (the arc tangent of a / b, any quadrant),
+    /// degrees in [0, 360).
+    Ang,
+}
+
+impl Pair {
+    fn apply(self, a: f64, b: f64) -> Result<f64, Stop> {
+        let v = match self {
+            Pair::Len => a.hypot(b),
+            // Both zero is no direction: no angle to give, never a guess.
+            Pair::Ang if a == 0.0 && b == 0.0 => {
+                return Err(Stop::Alarm("FN 13 ANG of two zero values".into()));
+            }
+            Pair::Ang => {
+                let t = a.atan2(b).to_degrees();
+                // A hair below zero would round to 360 itself.
+                if t < 0.0 { (t + 360.0) % 360.0 } else { t }
+            }
+        };
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(Stop::Alarm(format!(
+                "{self:?} of {a} and {b} is not a finite number"
+            )))
+        }
+    }
 }
 
 /// A jump or call target.
@@ -514,6 +552,11 @@ impl Runner<'_, '_> {
                 self.vars.set(k.clone(), v);
                 Flow::Next
             }
+            ExecOp::SetPair(k, f, a, b) => {
+                let v = self.eval(a).and_then(|a| f.apply(a, self.eval(b)?));
+                self.vars.set(k.clone(), v);
+                Flow::Next
+            }
             ExecOp::Forget(k, why) => {
                 self.vars.set(k.clone(), Err(Stop::Unknown(why.clone())));
                 Flow::Next
@@ -780,10 +823,20 @@ pub enum Known {
     Unknown,
 }
 
+/// What a run of the macro logic says for a correction in place.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct KnownWords {
+    /// Per block and word token, for blocks with expression words.
+    pub words: HashMap<(u32, u32), Known>,
+    /// Per block and statement: how it is reached ([`entries`]).
+    pub entries: HashMap<(u32, u32), Entry>,
+}
+
 /// Per block and word token: what the trace says, for blocks with
-/// expression words. `None` when execution did not reach the end (a later
-/// run of any statement could not be ruled out).
-pub(crate) fn known_words(trace: &Trace) -> Option<HashMap<(u32, u32), Known>> {
+/// expression words, and how each statement is reached. `None` when
+/// execution did not reach the end (a later run of any statement could
+/// not be ruled out).
+pub(crate) fn known_words(trace: &Trace) -> Option<KnownWords> {
     if trace.halt.is_some() {
         return None;
     }
@@ -803,18 +856,52 @@ pub(crate) fn known_words(trace: &Trace) -> Option<HashMap<(u32, u32), Known>> {
             e.4 |= s.depth > 0;
         }
     }
-    Some(
-        out.into_iter()
-            .map(|(k, (n, v, differs, unknown, in_call))| {
-                let known = match v {
-                    _ if unknown => Known::Unknown,
-                    Some(_) if differs => Known::Varies(n),
-                    Some(_) if in_call => Known::InCall,
-                    Some(v) => Known::Value(v),
-                    None => Known::Unknown,
-                };
-                (k, known)
-            })
-            .collect(),
-    )
+    let words = out
+        .into_iter()
+        .map(|(k, (n, v, differs, unknown, in_call))| {
+            let known = match v {
+                _ if unknown => Known::Unknown,
+                Some(_) if differs => Known::Varies(n),
+                Some(_) if in_call => Known::InCall,
+                Some(v) => Known::Value(v),
+                None => Known::Unknown,
+            };
+            (k, known)
+        })
+        .collect();
+    Some(KnownWords {
+        words,
+        entries: entries(trace),
+    })
+}
+
+/// How each statement that ran is reached ([`Entry`]; one that is not in
+/// the map never ran): straight when each of its runs comes right after
+/// the statement that runs last before it in the text, both running once
+/// (the statements between, never run, change nothing), otherwise
+/// jumped. Read in the order written with the statements that never run
+/// passed over, a straight statement then has the state it runs with.
+fn entries(trace: &Trace) -> HashMap<(u32, u32), Entry> {
+    let key = |s: &Executed| (s.block, s.seg);
+    let mut runs: std::collections::BTreeMap<(u32, u32), usize> = Default::default();
+    for s in &trace.steps {
+        *runs.entry(key(s)).or_default() += 1;
+    }
+    // The statement that ran next after each one, in text order.
+    let order: Vec<(u32, u32)> = runs.keys().copied().collect();
+    let next: HashMap<(u32, u32), (u32, u32)> = order.windows(2).map(|w| (w[0], w[1])).collect();
+    let mut out: HashMap<(u32, u32), Entry> = HashMap::new();
+    for (k, s) in trace.steps.iter().enumerate() {
+        let here = key(s);
+        let straight = runs[&here] == 1
+            && (k == 0 || {
+                let prev = key(&trace.steps[k - 1]);
+                runs[&prev] == 1 && next.get(&prev) == Some(&here)
+            });
+        let e = out.entry(here).or_insert(Entry::Straight);
+        if !straight {
+            *e = Entry::Jumped;
+        }
+    }
+    out
 }

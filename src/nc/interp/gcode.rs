@@ -120,8 +120,9 @@ impl Interpreter {
                         self.feed = Some(v);
                     }
                 }
-                // U, V and W move axes this machine does not have.
-                b'U' | b'V' | b'W' => s.has_axis = true,
+                // U, V and W move axes this machine does not have;
+                // LinuxCNC's `@` and `^` put X and Y in polar coordinates.
+                b'U' | b'V' | b'W' | b'@' | b'^' => s.has_axis = true,
                 _ => {
                     if self.axis_index(w.addr).is_some() {
                         s.has_axis = true;
@@ -764,6 +765,7 @@ impl Interpreter {
         let mut ijk: [Option<(usize, f64)>; 3] = [None; 3];
         let mut r_word: Option<(usize, f64)> = None;
         let mut p_turns: Option<f64> = None;
+        let mut polar = PolarWords::default();
         for (ti, w) in block.words(seg) {
             let letter = w.addr.as_letter().unwrap_or(0);
             if let Some(i) = self.axis_index(w.addr) {
@@ -818,11 +820,27 @@ impl Interpreter {
                     // Otherwise the feed word stays as written and the
                     // axis words are corrected all the same (`F#650`).
                 }
+                b'@' | b'^' => polar.read(self, ti, &w, &mut skip),
                 b'U' | b'V' | b'W' => {
                     skip.get_or_insert(Skip::UnknownAxis(letter));
                 }
                 _ => {}
             }
+        }
+        if polar.any() {
+            let end = self.polar_end(&mv, &polar, !self.absolute, true);
+            match end {
+                Ok(p) => {
+                    mv.end[0] = Some(p[0]);
+                    mv.end[1] = Some(p[1]);
+                }
+                Err(s) => {
+                    mv.end[0] = None;
+                    mv.end[1] = None;
+                    skip.get_or_insert(s);
+                }
+            }
+            mv.polar = Some(polar.words(!self.absolute));
         }
         self.pos = mv.end;
         mv.kind = match motion {
@@ -932,6 +950,7 @@ impl Interpreter {
         let mut mv = Move::new(MoveKind::Rapid, self.pos, false);
         let mut skip = seg.unknown.map(|_| Skip::UnknownWord);
         let mut repeats = None;
+        let mut polar = PolarWords::default();
         for (ti, w) in block.words(seg) {
             let Some(letter) = w.addr.as_letter() else {
                 continue;
@@ -960,6 +979,7 @@ impl Interpreter {
                 },
                 b'K' if !linuxcnc => repeats = Some(w.value),
                 b'L' => repeats = Some(w.value),
+                b'@' | b'^' => polar.read(self, ti, &w, &mut skip),
                 b'F' => {
                     if let Value::Num(v) = w.value {
                         mv.feed = Some((ti, v));
@@ -979,6 +999,22 @@ impl Interpreter {
             return Event::Skip(Skip::Element(
                 "a canned cycle in incremental distance (G91)",
             ));
+        }
+        if polar.any() {
+            // A hole in polar coordinates: the word left out is where the
+            // tool stands (LinuxCNC's cycles do not refuse the origin).
+            match self.polar_end(&mv, &polar, false, false) {
+                Ok(p) => {
+                    mv.end[0] = Some(p[0]);
+                    mv.end[1] = Some(p[1]);
+                }
+                Err(s) => {
+                    mv.end[0] = None;
+                    mv.end[1] = None;
+                    skip.get_or_insert(s);
+                }
+            }
+            mv.polar = Some(polar.words(false));
         }
         if mv.words[n].is_some() {
             self.cycle_depth = mv.end[n];
@@ -1021,6 +1057,145 @@ impl Interpreter {
             return Event::Skip(s);
         }
         Event::Move(mv)
+    }
+}
+
+/// LinuxCNC's polar words of a block: `@` (the distance from the origin
+/// of the XY plane) and `^` (the angle from +X, deg, counter-clockwise),
+/// token index and value.
+#[derive(Default)]
+struct PolarWords {
+    radius: Option<(usize, Option<f64>)>,
+    angle: Option<(usize, Option<f64>)>,
+}
+
+impl PolarWords {
+    fn read(
+        &mut self,
+        interp: &Interpreter,
+        ti: usize,
+        w: &crate::nc::Word,
+        skip: &mut Option<Skip>,
+    ) {
+        let radius = w.addr.as_letter() == Some(b'@');
+        let v = match w.value {
+            Value::Num(v) => {
+                let unit = if radius { interp.units.mm() } else { 1.0 };
+                if v.is_finite() && (v * unit).abs() <= crate::limits::MAX_NC_VALUE {
+                    Some(v)
+                } else {
+                    skip.get_or_insert(Skip::OutOfRange(if radius { b'@' } else { b'^' }));
+                    None
+                }
+            }
+            _ => {
+                skip.get_or_insert(Skip::Expression);
+                None
+            }
+        };
+        if radius {
+            self.radius = Some((ti, v));
+        } else {
+            self.angle = Some((ti, v));
+        }
+    }
+
+    fn any(&self) -> bool {
+        self.radius.is_some() || self.angle.is_some()
+    }
+
+    fn words(&self, incremental: bool) -> super::Polar {
+        super::Polar {
+            radius: self.radius.map(|(ti, _)| (ti, incremental)),
+            angle: self.angle.map(|(ti, _)| (ti, incremental)),
+        }
+    }
+}
+
+/// Where LinuxCNC's polar words put X and Y, from `start` (program frame),
+/// as its interpreter computes them (`find_ends`, and the XY cycles):
+/// absolute, `@` and `^` are the point's distance and angle from the
+/// origin, the one left out the start's; incremental (G91), `@` adds to
+/// the start's distance along its direction, then `^` turns the point
+/// about the origin. From the origin a direction is missing: LinuxCNC
+/// refuses the block, except a cycle's in G90 (`origin_ok`), which takes
+/// the angle of zero.
+pub(crate) fn linuxcnc_polar(
+    start: [Option<f64>; 2],
+    radius: Option<Option<f64>>,
+    angle: Option<Option<f64>>,
+    incremental: bool,
+    origin_ok: bool,
+) -> Result<[f64; 2], Skip> {
+    let value = |w: Option<Option<f64>>| match w {
+        Some(Some(v)) => Ok(Some(v)),
+        Some(None) => Err(Skip::Expression),
+        None => Ok(None),
+    };
+    let (r, a) = (value(radius)?, value(angle)?);
+    if let (false, Some(r), Some(a)) = (incremental, r, a) {
+        let (s, c) = a.to_radians().sin_cos();
+        return Ok([r * c, r * s]);
+    }
+    let (Some(mut x), Some(mut y)) = (start[0], start[1]) else {
+        return Err(Skip::PositionUnknown(if start[0].is_none() {
+            b'X'
+        } else {
+            b'Y'
+        }));
+    };
+    const AT_ORIGIN: &str = "a polar word (@, ^) without the other at the origin, where LinuxCNC has no direction and refuses the block";
+    let at_origin = |x: f64, y: f64| x == 0.0 && y == 0.0 && !origin_ok;
+    if let Some(r) = r {
+        if at_origin(x, y) {
+            return Err(Skip::Element(AT_ORIGIN));
+        }
+        let t = y.atan2(x);
+        let r = if incremental { x.hypot(y) + r } else { r };
+        (x, y) = (r * t.cos(), r * t.sin());
+    }
+    if let Some(a) = a {
+        if at_origin(x, y) {
+            return Err(Skip::Element(AT_ORIGIN));
+        }
+        let t = if incremental {
+            y.atan2(x) + a.to_radians()
+        } else {
+            a.to_radians()
+        };
+        let r = x.hypot(y);
+        (x, y) = (r * t.cos(), r * t.sin());
+    }
+    Ok([x, y])
+}
+
+impl Interpreter {
+    /// The end point in X and Y of a block with LinuxCNC polar words; why
+    /// it has none (LinuxCNC refuses them with X or Y, outside G17).
+    fn polar_end(
+        &self,
+        mv: &Move,
+        polar: &PolarWords,
+        incremental: bool,
+        move_block: bool,
+    ) -> Result<[f64; 2], Skip> {
+        if mv.words[0].is_some() || mv.words[1].is_some() {
+            return Err(Skip::Element(
+                "X or Y with a polar word (@, ^), which LinuxCNC refuses",
+            ));
+        }
+        if self.plane != ArcPlane::Xy {
+            return Err(Skip::Element(
+                "a polar word (@, ^) outside the XY plane (G17), which LinuxCNC refuses",
+            ));
+        }
+        linuxcnc_polar(
+            [mv.start[0], mv.start[1]],
+            polar.radius.map(|x| x.1),
+            polar.angle.map(|x| x.1),
+            incremental,
+            !move_block,
+        )
     }
 }
 

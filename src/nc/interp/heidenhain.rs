@@ -345,6 +345,16 @@ impl Interpreter {
                 self.forget();
                 Event::None
             }
+            HhKind::Fn(17) => {
+                // A SYSWRITE may set a datum, a preset or tool data: where
+                // the next numbers put the tool is not known from here.
+                self.forget();
+                self.note(
+                    block.tokens[seg.body as usize].span.start as usize,
+                    "FN 17 SYSWRITE: the program writes controller data fivecal does not model",
+                );
+                Event::None
+            }
             _ => Event::None,
         }
     }

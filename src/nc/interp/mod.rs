@@ -49,7 +49,7 @@ pub use coordinates::Frame;
 pub use heidenhain::CycleDef;
 pub use plane::{PlaneSkip, Tilt, WorkPlane};
 
-use super::{Addr, Block, Segment, Stmt, TokenKind, Value, Word};
+use super::{Addr, Block, Entry, HhKind, Segment, Stmt, TokenKind, Value, Word};
 use crate::kinematics::fast::FastChain;
 use crate::kinematics::{Axes, Kinematics, ToolPose};
 use crate::machine::Dialect;
@@ -691,6 +691,30 @@ impl Interpreter {
             }
             return Event::Skip(Skip::Unreadable);
         }
+        match seg.entry {
+            // It never runs: the controller's state does not pass through it.
+            Entry::NotRun => return Event::None,
+            Entry::Jumped => self.forget(),
+            // A jump, branch or label the run passes straight through: the
+            // state is the one before it (the statement that follows is
+            // marked jumped where it is not).
+            Entry::Straight
+                if matches!(
+                    seg.stmt,
+                    Stmt::Flow(_)
+                        | Stmt::Hh(
+                            HhKind::Lbl
+                                | HhKind::Fn(9)
+                                | HhKind::Fn(10)
+                                | HhKind::Fn(11)
+                                | HhKind::Fn(12)
+                        )
+                ) =>
+            {
+                return Event::None;
+            }
+            _ => {}
+        }
         self.setting_words = None;
         let tcp_before = self.tcp;
         let plane_before = self.working_plane;
@@ -1061,6 +1085,12 @@ impl Interpreter {
     /// written): literal values are followed, expressions forget.
     fn track_words(&mut self, block: &Block, seg: &Segment) {
         for (_, w) in block.words(seg) {
+            if matches!(w.addr.as_letter(), Some(b'@' | b'^')) {
+                // LinuxCNC's polar words move X and Y.
+                self.pos[0] = None;
+                self.pos[1] = None;
+                continue;
+            }
             let Some(i) = self.axis_index(w.addr) else {
                 continue;
             };

@@ -13,8 +13,8 @@
 
 use super::Syntax;
 use crate::nc::{
-    Addr, Block, BlockError, HhKind, Segment, Span, Stmt, TokenKind, Value, Word, is_space, lexeme,
-    line_end_at,
+    Addr, Block, BlockError, Entry, HhKind, Segment, Span, Stmt, TokenKind, Value, Word, is_space,
+    lexeme, line_end_at,
 };
 
 /// Keywords in match order (longest first where one is a prefix of another).
@@ -140,6 +140,7 @@ pub(super) fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), Bl
         stmt: Stmt::Blank,
         body: 0,
         unknown: None,
+        entry: Entry::AsWritten,
     };
     let sp = |b: &mut Block, i: usize| {
         let j = lx.spaces(i);

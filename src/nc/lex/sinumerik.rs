@@ -22,7 +22,8 @@
 use super::Syntax;
 use crate::limits::MAX_EXPR_DEPTH;
 use crate::nc::{
-    Addr, Block, BlockError, Flow, Segment, Span, Stmt, TokenKind, Value, Word, is_space, lexeme,
+    Addr, Block, BlockError, Entry, Flow, Segment, Span, Stmt, TokenKind, Value, Word, is_space,
+    lexeme,
 };
 
 /// G codes the SINUMERIK 840D sl knows in Siemens mode (value x 10), from
@@ -286,6 +287,7 @@ pub(super) fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), Bl
                 stmt: Stmt::Flow(Flow::Label),
                 body: first as u32,
                 unknown: None,
+                entry: Entry::AsWritten,
             });
             first = b.tokens.len();
             i = j;
@@ -303,6 +305,7 @@ pub(super) fn parse_text(syn: &Syntax, s: &[u8], b: &mut Block) -> Result<(), Bl
         stmt,
         body: body as u32,
         unknown,
+        entry: Entry::AsWritten,
     });
     if le > 0 {
         b.push(TokenKind::LineEnd, n, n + le);
@@ -324,6 +327,7 @@ fn finish_line(
         stmt,
         body: first as u32,
         unknown,
+        entry: Entry::AsWritten,
     });
     if le > 0 {
         b.push(TokenKind::LineEnd, n, n + le);

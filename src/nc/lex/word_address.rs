@@ -13,8 +13,8 @@ use super::Syntax;
 use crate::machine::Dialect;
 use crate::nc::interp::gcode::{g_code, known_g};
 use crate::nc::{
-    Addr, Block, BlockError, Flow, Segment, Span, Stmt, TokenKind, Value, Word, expr, is_space,
-    lexeme,
+    Addr, Block, BlockError, Entry, Flow, Segment, Span, Stmt, TokenKind, Value, Word, expr,
+    is_space, lexeme,
 };
 
 const OWORD_KEYWORDS: [(&str, Flow); 15] = [
@@ -226,6 +226,7 @@ fn finish(b: &mut Block, seg: &Seg) {
         stmt: seg.stmt,
         body: seg.body as u32,
         unknown: seg.unknown,
+        entry: Entry::AsWritten,
     });
 }
 
