@@ -296,7 +296,8 @@ pub const LEFT_ON_PURPOSE: &str = "machine coordinates (G53, SUPA, M91, M92), re
 
 /// Takes what the last statement did that the interpreter does not model
 /// (shared by the rewrite and `simulate nc`): refused under `--strict` at
-/// its line and column, else listed by what it is.
+/// its line and column, else listed by what it is. A statement the control
+/// cannot run is an error at its line and column, `--strict` or not.
 pub(crate) fn take_unmodelled(
     interp: &mut crate::nc::interp::Interpreter,
     block: &crate::nc::Block,
@@ -304,6 +305,10 @@ pub(crate) fn take_unmodelled(
     strict: bool,
     list: &mut indexmap::IndexMap<String, Lines>,
 ) -> Result<(), SourceError> {
+    if let Some(a) = interp.alarm.take() {
+        let (line, column) = block.locate(a.offset);
+        return Err(SourceError::new(path, line, column, a.what));
+    }
     let Some(u) = interp.unmodelled.take() else {
         return Ok(());
     };
