@@ -1,7 +1,8 @@
 //! SINUMERIK programs through `compensate` and the simulator: circles
 //! through an intermediate point (`CIP`, in the working plane and
-//! inclined in space), written back as `CIP` or as lines, and arcs after a
-//! move left as written. At zero error each program comes back byte for
+//! inclined in space), written back as `CIP` or as lines, arcs after a
+//! move left as written, and the settable work offsets G505-G599 and
+//! G54-G57. At zero error each program comes back byte for
 //! byte; with errors, the rewrite driven through the erroneous machine
 //! puts the tool tip on the intended path.
 
@@ -296,4 +297,44 @@ N120 M30
     assert_eq!(at.first, vec![10]);
     assert_eq!(out.lines().nth(9), program.lines().nth(9));
     assert_ne!(out.lines().nth(10), program.lines().nth(10));
+}
+
+#[test]
+fn settable_work_offsets_g505_to_g599_and_g54_to_g57_are_work_offsets() {
+    // Read strictly (every code known), corrected and driven: the program
+    // zero of each is where --origin puts the first one's, since the
+    // program sets none of them.
+    corrected_in_place("offsets.mpf", 211);
+    let program = read("offsets.mpf");
+    let l = errors(MACHINE, 211, 30.0, "");
+    let mut st = settings(false);
+    st.strict = true;
+    let (_, s, _) = compensate(&l, st, &program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+
+    // A settable frame written by the program moves that offset's zero by
+    // what fivecal does not follow: nothing after it is corrected, and
+    // --strict refuses it at the assignment.
+    let written = program.replace(
+        "N110 G599\n",
+        "N110 $P_UIFR[99]=CTRANS(X,10,Y,0,Z,0)\nN115 G599\n",
+    );
+    let (out, s, _) = compensate(&l, settings(false), &written);
+    let (why, at) = s
+        .skipped
+        .iter()
+        .find(|(r, _)| r.contains("$P_UIFR"))
+        .unwrap_or_else(|| panic!("{:?}", s.skipped));
+    assert_eq!(at.first, (15..=22).collect::<Vec<_>>(), "{why}");
+    for k in 14..22 {
+        assert_eq!(out.lines().nth(k), written.lines().nth(k));
+    }
+    let mut st = settings(false);
+    st.strict = true;
+    let c = Compensator::new(&l.model, &l.theta, st);
+    let e = c
+        .run(Path::new("p.mpf"), written.as_bytes(), &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("p.mpf:13:6:") && e.contains("$P_UIFR"), "{e}");
 }

@@ -143,7 +143,14 @@ impl Interpreter {
     /// One SINUMERIK statement.
     pub(super) fn sinumerik(&mut self, block: &Block, seg: &Segment) -> Event {
         match seg.stmt {
-            Stmt::Words => self.si_words(block, seg),
+            Stmt::Words => {
+                self.si_frame_data(block, seg);
+                self.si_words(block, seg)
+            }
+            Stmt::Assign => {
+                self.si_frame_data(block, seg);
+                Event::None
+            }
             Stmt::Flow(Flow::Branch) => {
                 self.si_branch(block, seg);
                 Event::None
@@ -156,6 +163,33 @@ impl Interpreter {
                 Event::None
             }
             _ => Event::None,
+        }
+    }
+
+    /// An assignment to a frame in the control's data: `$P_UIFR[n]`, the
+    /// settable frame G54.., G505.. select, `$P_PFRAME` (the programmable
+    /// frame), the base frames (`$P_CHBFR`, `$P_NCBFR`), ... The values a
+    /// settable frame held before are not known, nor is which frame a
+    /// changed one moves: from here on no work offset relates to the one
+    /// of the first move, and nothing is corrected.
+    fn si_frame_data(&mut self, block: &Block, seg: &Segment) {
+        for t in block.seg_tokens(seg) {
+            if t.kind != TokenKind::Param {
+                continue;
+            }
+            let name = block.bytes(t.span).to_ascii_uppercase();
+            if name.starts_with(b"$P_") && name.windows(2).any(|w| w == b"FR") {
+                self.offsets.set = true;
+                self.offsets.lost = Some(FRAME_DATA);
+                self.pos[..3].fill(None);
+                self.note(
+                    t.span.start as usize,
+                    format!(
+                        "`{}`: {FRAME_DATA}: the moves after it are left as written",
+                        String::from_utf8_lossy(&name)
+                    ),
+                );
+            }
         }
     }
 
@@ -1006,6 +1040,10 @@ impl Interpreter {
         })
     }
 }
+
+/// Why nothing is corrected after a program writes a frame of the
+/// control's data.
+const FRAME_DATA: &str = "a frame written into the control's data ($P_UIFR, $P_PFRAME, ...), which fivecal does not model";
 
 /// Why a `CIP` that leaves out an intermediate coordinate under G90 is
 /// left as written.
