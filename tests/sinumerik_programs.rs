@@ -1,10 +1,15 @@
-//! SINUMERIK programs through `compensate` and the simulator: circles
-//! through an intermediate point (`CIP`, in the working plane and
-//! inclined in space), written back as `CIP` or as lines, arcs after a
-//! move left as written, and the settable work offsets G505-G599 and
-//! G54-G57. At zero error each program comes back byte for
-//! byte; with errors, the rewrite driven through the erroneous machine
-//! puts the tool tip on the intended path.
+//! SINUMERIK constructs written as the Siemens manuals write them, each
+//! through `compensate` and the simulator: circles through an
+//! intermediate point (`CIP`, in the working plane and inclined in
+//! space), label jumps (`GOTOB`, `GOTO`), `IF`/`ELSE`/`ENDIF`,
+//! `WHILE`/`ENDWHILE`, `REPEAT`/`UNTIL`, `LOOP`/`ENDLOOP` with a counter,
+//! arcs with `I=AC() J=AC()` centres, the settable work offsets G505-G599
+//! and G54-G57, and programs in lower case. At zero error each program
+//! comes back byte for byte; with errors, the rewrite (flattened by
+//! `--expand` where a loop runs a block with different values) driven
+//! through the erroneous machine puts the tool tip on the intended path,
+//! and without `--expand` such a loop's blocks are left as written and
+//! named.
 
 use std::path::Path;
 
@@ -77,6 +82,53 @@ fn corrected_in_place(name: &str, seed: u64) -> (String, String) {
     assert!(s.changed >= 5, "{name}: {s:?}");
     lands(&l, &program, &out, &s, &vs, name);
     (program, out)
+}
+
+/// A program with a loop whose `lines` run several times with different
+/// values: without `--expand` exactly those are left as written and named,
+/// the moves corrected reach their poses; flattened with `--expand`
+/// nothing is left, each of `gone` is dropped, `runs` blocks carry the
+/// loop's feed `feed`, and the rewrite lands on the intended path.
+fn corrected_flattened(
+    name: &str,
+    seed: u64,
+    lines: &[usize],
+    runs: usize,
+    feed: &str,
+    gone: &[&str],
+) -> String {
+    let program = read(name);
+    let l = zero_then_errors(&program, seed, name);
+    let (out, s, vs) = compensate(&l, settings(false), &program);
+    let (_, at) = s
+        .skipped
+        .iter()
+        .find(|(r, _)| r.contains(&format!("runs {runs} times with different values")))
+        .unwrap_or_else(|| panic!("{name}: {:?}", s.skipped));
+    assert_eq!(at.first, lines, "{name}");
+    for line in lines {
+        assert_eq!(
+            out.lines().nth(line - 1),
+            program.lines().nth(line - 1),
+            "{name}: line {line} is left as written"
+        );
+    }
+    assert!(
+        !vs.is_empty(),
+        "{name}: the moves before the loop are corrected"
+    );
+    for v in &vs {
+        assert_reaches(&l, v, name);
+    }
+
+    let (flat, s, vs) = compensate(&l, settings(true), &program);
+    assert!(s.skipped.is_empty(), "{name}: {:?}\n{flat}", s.skipped);
+    assert_eq!(flat.matches(feed).count(), runs, "{name}:\n{flat}");
+    for g in gone {
+        assert!(!flat.contains(g), "{name}: `{g}` left in\n{flat}");
+    }
+    lands(&l, &program, &flat, &s, &vs, name);
+    flat
 }
 
 /// The tool tip of every sample of `line` the simulator takes on the
@@ -265,38 +317,94 @@ fn a_cip_leaving_out_k1_in_g90_away_from_z0_is_left_as_written_with_the_reason()
 }
 
 #[test]
-fn an_arc_after_a_move_left_as_written_is_left_too_with_the_reason() {
-    // N80, an arc by opening angle, is left as written: the tool ends it
-    // where the errors put it, tens of um from where N90 should start. No
-    // arc nor lines from there follow N90 within the tolerance, which was
-    // an error for the whole run ("cannot be followed ... in 65536
-    // pieces"); it is left as written and named, and the line after it is
-    // corrected.
-    let program = "\
-%_N_AR_MPF
-N10 G17 G90 G710 G94
-N20 T=\"MILL D10\" M6
-N30 D1
-N40 G54
-N50 G0 X0 Y0 Z60 B20 C10
-N60 G0 X30 Y40 Z5
-N70 G1 Z-1 F300
-N80 G2 X50 Y40 AR=90 F600
-N90 G3 X60 Y30 CR=12
-N100 G1 X70 Y40
-N110 G0 Z60
-N120 M30
-";
-    let l = errors(MACHINE, 213, 30.0, "");
-    let (out, s, _) = compensate(&l, settings(false), program);
-    let (_, at) = s
-        .skipped
-        .iter()
-        .find(|(r, _)| r.contains("off its intended start"))
-        .unwrap_or_else(|| panic!("{:?}", s.skipped));
-    assert_eq!(at.first, vec![10]);
-    assert_eq!(out.lines().nth(9), program.lines().nth(9));
-    assert_ne!(out.lines().nth(10), program.lines().nth(10));
+fn gotob_and_goto_jumps_are_followed() {
+    // N90 (line 13) sets the depth of each of the three passes; GOTO
+    // jumps over N160, which never runs.
+    let flat = corrected_flattened(
+        "gotob.mpf",
+        205,
+        &[13],
+        3,
+        "F300",
+        &["N140 IF", "N150 GOTO", "PASS:", "LIFT:", "N160"],
+    );
+    assert!(flat.contains("\nN170 G0 Z"), "{flat}");
+}
+
+#[test]
+fn if_else_endif_runs_the_branch_its_condition_picks() {
+    let (_, out) = corrected_in_place("if_else.mpf", 206);
+    // Both branches end where they start: the moves after ENDIF are
+    // corrected from there.
+    assert_ne!(
+        out.lines().find(|t| t.starts_with("N200")),
+        Some("N200 G0 Z60")
+    );
+    let program = read("if_else.mpf");
+    let l = errors(MACHINE, 206, 30.0, "");
+    let (flat, s, vs) = compensate(&l, settings(true), &program);
+    for g in ["N100 IF", "N150 ELSE", "N190 ENDIF", "N160", "N170", "N180"] {
+        assert!(!flat.contains(g), "`{g}` left in\n{flat}");
+    }
+    lands(&l, &program, &flat, &s, &vs, "if_else.mpf --expand");
+}
+
+#[test]
+fn while_endwhile_is_followed_pass_by_pass() {
+    // The ring shrinks from 30 to 22 to 14: three passes of N100-N140.
+    corrected_flattened(
+        "while.mpf",
+        207,
+        &[13, 14, 15, 16, 17],
+        3,
+        "F600",
+        &["N90 WHILE", "N160 ENDWHILE"],
+    );
+}
+
+#[test]
+fn repeat_until_with_the_same_values_each_run_is_corrected_in_place() {
+    // A spring pass: the outline runs twice with the same values, so its
+    // blocks are corrected where they stand, and flattened they appear
+    // twice.
+    corrected_in_place("repeat_until.mpf", 208);
+    let program = read("repeat_until.mpf");
+    let l = errors(MACHINE, 208, 30.0, "");
+    let (flat, s, vs) = compensate(&l, settings(true), &program);
+    assert_eq!(flat.matches("N110 ").count(), 2, "{flat}");
+    assert!(
+        !flat.contains("N80 REPEAT") && !flat.contains("N150 UNTIL"),
+        "{flat}"
+    );
+    lands(&l, &program, &flat, &s, &vs, "repeat_until.mpf --expand");
+}
+
+#[test]
+fn an_endless_loop_counted_in_a_parameter_and_left_by_gotof_is_followed() {
+    // N90 (line 11) places each of the four slots.
+    corrected_flattened(
+        "loop_counter.mpf",
+        209,
+        &[11],
+        4,
+        "F600",
+        &["N80 LOOP", "N140 IF", "N150 ENDLOOP", "DONE:"],
+    );
+}
+
+#[test]
+fn arcs_with_absolute_centres_keep_them_absolute() {
+    let (program, out) = corrected_in_place("arc_ac.mpf", 210);
+    // Kept as arcs: the absolute centres rewritten inside their AC(),
+    // the incremental ones as increments from the written start.
+    for n in ["N80 G2", "N90 G2", "N100 G91 G2", "N110 G3"] {
+        let a = program.lines().find(|t| t.starts_with(n)).unwrap();
+        let b = out.lines().find(|t| t.starts_with(n)).unwrap();
+        assert_ne!(a, b);
+    }
+    let n80 = out.lines().find(|t| t.starts_with("N80 ")).unwrap();
+    assert!(n80.contains(" I=AC(") && n80.contains(" J=AC("), "{n80}");
+    assert!(!n80.contains("AC(0)") && !n80.contains("AC(10)"), "{n80}");
 }
 
 #[test]
@@ -337,4 +445,57 @@ fn settable_work_offsets_g505_to_g599_and_g54_to_g57_are_work_offsets() {
         .unwrap_err()
         .to_string();
     assert!(e.starts_with("p.mpf:13:6:") && e.contains("$P_UIFR"), "{e}");
+}
+
+#[test]
+fn a_program_in_lower_case_is_corrected_in_lower_case() {
+    let (program, out) = corrected_in_place("lower.mpf", 212);
+    for (a, b) in program.lines().zip(out.lines()) {
+        if a != b {
+            let code = b.split(';').next().unwrap();
+            assert_eq!(code, code.to_ascii_lowercase(), "{b}");
+        }
+    }
+    // The parameter words are rewritten as the numbers they are, the
+    // comment glued to the block stays.
+    let n80 = out.lines().find(|t| t.starts_with("n80 ")).unwrap();
+    assert!(
+        n80.starts_with("n80 g1 x=12.") && n80.ends_with(";to the end of the slot"),
+        "{n80}"
+    );
+}
+
+#[test]
+fn an_arc_after_a_move_left_as_written_is_left_too_with_the_reason() {
+    // N80, an arc by opening angle, is left as written: the tool ends it
+    // where the errors put it, tens of um from where N90 should start. No
+    // arc nor lines from there follow N90 within the tolerance, which was
+    // an error for the whole run ("cannot be followed ... in 65536
+    // pieces"); it is left as written and named, and the line after it is
+    // corrected.
+    let program = "\
+%_N_AR_MPF
+N10 G17 G90 G710 G94
+N20 T=\"MILL D10\" M6
+N30 D1
+N40 G54
+N50 G0 X0 Y0 Z60 B20 C10
+N60 G0 X30 Y40 Z5
+N70 G1 Z-1 F300
+N80 G2 X50 Y40 AR=90 F600
+N90 G3 X60 Y30 CR=12
+N100 G1 X70 Y40
+N110 G0 Z60
+N120 M30
+";
+    let l = errors(MACHINE, 213, 30.0, "");
+    let (out, s, _) = compensate(&l, settings(false), program);
+    let (_, at) = s
+        .skipped
+        .iter()
+        .find(|(r, _)| r.contains("off its intended start"))
+        .unwrap_or_else(|| panic!("{:?}", s.skipped));
+    assert_eq!(at.first, vec![10]);
+    assert_eq!(out.lines().nth(9), program.lines().nth(9));
+    assert_ne!(out.lines().nth(10), program.lines().nth(10));
 }
