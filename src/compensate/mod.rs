@@ -357,7 +357,8 @@ pub enum CompensateError {
         /// What and how much.
         what: String,
     },
-    /// `--strict`: a statement whose effect is not modelled.
+    /// `--strict`: a statement whose effect is not modelled; `--strict`
+    /// or not, a block the control cannot run (a `CIP` without a circle).
     Unmodelled(SourceError),
     /// A move that cannot be followed within the tolerance.
     Tolerance {
