@@ -45,4 +45,5 @@ mod simulate;
 mod simulate_forward;
 mod simulate_outputs;
 mod sinumerik;
+mod sinumerik_programs;
 mod store;

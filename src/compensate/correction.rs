@@ -15,7 +15,7 @@ use crate::kinematics::{Axes, ToolPose};
 use crate::limits::MAX_PIECES;
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::corner::{Corner, corner_path};
-use crate::nc::interp::interpolation::{ArcGeo, Path, lerp};
+use crate::nc::interp::interpolation::{ArcGeo, CircleGeo, Path, lerp};
 use crate::nc::interp::tangent::tangent_arc;
 use crate::nc::interp::{AXES, Arc, Drill, Frame, Move, MoveKind, Skip, Tcp};
 
@@ -53,10 +53,14 @@ pub(super) enum WritePlan {
         pieces: Vec<(f64, CorrectedPoint)>,
         linearize: bool,
     },
-    /// An arc kept as an arc around the corrected centre (program frame).
+    /// An arc kept as an arc around the corrected centre (program frame),
+    /// or a `CIP` kept through the corrected intermediate point `through`
+    /// (program frame, X Y Z; `center` is then its circle's centre on the
+    /// first two axes, which no word holds).
     Arc {
         end: CorrectedPoint,
         center: [f64; 2],
+        through: Option<[f64; 3]>,
     },
 }
 
@@ -516,13 +520,90 @@ impl Compensator {
                     linearize: false,
                 })
             }
-            MoveKind::Arc(arc) => {
-                if !start_known {
-                    return Err(Refusal::Skip(Skip::PositionUnknown(b'X').to_string()));
-                }
-                self.plan_arc(f, &arc, &p0, &w0, &p1, pt, ramp, line)
+            MoveKind::Arc(_) | MoveKind::Through(_) if !start_known => {
+                Err(Refusal::Skip(Skip::PositionUnknown(b'X').to_string()))
+            }
+            MoveKind::Arc(_) | MoveKind::Through(_) if !self.starts_on(f, &p0, &w0) => {
+                Err(Refusal::Skip(OFF_START.to_string()))
+            }
+            MoveKind::Arc(arc) => self.plan_arc(f, &arc, &p0, &w0, &p1, pt, ramp, line),
+            MoveKind::Through(t) => {
+                let path = Path::Through { p0, p1, geo: t.geo };
+                self.plan_through(f, &path, &w0, pt, ramp, line)
             }
         }
+    }
+
+    /// Whether the written start `w0` puts the tip on the intended start
+    /// `p0` within the tolerance: not so after a move left as written,
+    /// whose end the errors move.
+    fn starts_on(&self, f: &Frame, p0: &[f64; 6], w0: &[f64; 6]) -> bool {
+        let target = self.target(f, &f.model(p0), None);
+        (self.actual(f, &f.model(w0)).tip - target.tip).norm() <= self.settings.tolerance
+    }
+
+    /// A `CIP` stays a `CIP` through the corrected intermediate point when
+    /// the circle the control then cuts (through the written start, that
+    /// point and the corrected end) stays within the tolerance of the
+    /// intended one; otherwise it is written as lines. The intermediate
+    /// point is corrected as plan_arc corrects a centre: the machine axes
+    /// that put the actual tip on the intended one, with the rotary
+    /// positions the written move has there. With the rotary axes fixed
+    /// the correction is a rigid motion, which carries the intended
+    /// circle into the written one; sixteen points along both check it.
+    fn plan_through(
+        &self,
+        f: &Frame,
+        path: &Path,
+        w0: &[f64; 6],
+        pt: CorrectedPoint,
+        ramp: bool,
+        line: usize,
+    ) -> Result<WritePlan, Refusal> {
+        let Path::Through { geo, .. } = *path else {
+            unreachable!("a CIP's path")
+        };
+        let tol = self.settings.tolerance;
+        let um = geo.through_at / geo.sweep;
+        let tip = self.target(f, &f.model(&path.at(um)), None).tip;
+        // The rotary positions the written move has at the intermediate
+        // point: linear from the written start to the corrected end.
+        let w1 = pt.program;
+        let at = f.model(&lerp(w0, &w1, um));
+        let m = Axes {
+            xyz: self.solver.position_at(&tip, at.tilt, at.c),
+            ..at
+        };
+        let wm = f.program(&self.written_model(f, &m));
+        let written = CircleGeo::through(
+            [w0[0], w0[1], w0[2]],
+            [wm[0], wm[1], wm[2]],
+            [w1[0], w1[1], w1[2]],
+            f.u,
+        );
+        let keep = written.is_ok_and(|wg| {
+            let written = Path::Through {
+                p0: *w0,
+                p1: w1,
+                geo: wg,
+            };
+            (wg.sweep - geo.sweep).abs() < 0.5
+                && (1..16).all(|k| {
+                    let u = k as f64 / 16.0;
+                    let target = self.target(f, &f.model(&path.at(u)), None);
+                    let w = f.model(&written.at(u));
+                    (self.actual(f, &w).tip - target.tip).norm() <= tol
+                })
+        });
+        if keep {
+            return Ok(WritePlan::Arc {
+                end: pt,
+                center: [geo.center[0], geo.center[1]],
+                through: Some([wm[0], wm[1], wm[2]]),
+            });
+        }
+        let r = geo.r * f.u;
+        self.linearize_path(f, path, r, geo.sweep, w0, pt, ramp, line)
     }
 
     /// An arc stays an arc around the corrected centre when the corrected
@@ -591,7 +672,11 @@ impl Compensator {
             }
         }
         if keep {
-            return Ok(WritePlan::Arc { end: pt, center });
+            return Ok(WritePlan::Arc {
+                end: pt,
+                center,
+                through: None,
+            });
         }
         self.linearize_arc(f, &geo, p0, w0, p1, pt, ramp, line)
     }
@@ -610,20 +695,38 @@ impl Compensator {
         ramp: bool,
         line: usize,
     ) -> Result<WritePlan, Refusal> {
-        let tol = self.settings.tolerance;
         let path = Path::Arc {
             p0: *p0,
             p1: *p1,
             geo: *geo,
         };
         let r = geo.rs.max(geo.re) * f.u;
+        self.linearize_path(f, &path, r, geo.sweep, w0, pt, ramp, line)
+    }
+
+    /// A circular `path` of radius `r` (mm) turning through `sweep` (rad)
+    /// as lines from the written start `w0`, each within the tolerance of
+    /// it.
+    #[allow(clippy::too_many_arguments)]
+    fn linearize_path(
+        &self,
+        f: &Frame,
+        path: &Path,
+        r: f64,
+        sweep: f64,
+        w0: &[f64; 6],
+        pt: CorrectedPoint,
+        ramp: bool,
+        line: usize,
+    ) -> Result<WritePlan, Refusal> {
+        let tol = self.settings.tolerance;
         let step = if r > tol / 2.0 {
             2.0 * (1.0 - tol / 2.0 / r).clamp(-1.0, 1.0).acos()
         } else {
             PI / 2.0
         };
-        let n0 = ((geo.sweep.abs() / step.max(1e-4)).ceil() as usize).max(2);
-        let pieces = self.pieces(f, &path, w0, &pt, n0, None, ramp, line)?;
+        let n0 = ((sweep.abs() / step.max(1e-4)).ceil() as usize).max(2);
+        let pieces = self.pieces(f, path, w0, &pt, n0, None, ramp, line)?;
         for (_, p) in &pieces[..pieces.len() - 1] {
             self.check_limit(p, line)?;
         }
@@ -723,6 +826,11 @@ impl Compensator {
         Ok(self.path_deviation(f, &intended, &written))
     }
 }
+
+/// Why an arc is left as written where the tool does not start on its
+/// intended start: no arc or lines from there follow the intended path
+/// within the tolerance.
+const OFF_START: &str = "the arc starts where the move before it, left as written, leaves the tool: off its intended start by more than --tolerance, so neither an arc nor lines from there follow it";
 
 /// Size of a correction: X, Y, Z (um, length of the vector) and the
 /// change of tool orientation the rotary corrections make (urad; a C

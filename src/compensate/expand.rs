@@ -65,7 +65,14 @@ pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), 
             let coordinate = w
                 .addr
                 .as_letter()
-                .is_some_and(|c| b"XYZABCIJKR@^".contains(&c));
+                .is_some_and(|c| b"XYZABCIJKR@^".contains(&c))
+                || [
+                    crate::nc::Addr::new("I1"),
+                    crate::nc::Addr::new("J1"),
+                    crate::nc::Addr::new("K1"),
+                    crate::nc::Addr::new("CR"),
+                ]
+                .contains(&w.addr);
             if wv.value.is_none() && coordinate {
                 let why = trace
                     .first_unknown

@@ -299,7 +299,8 @@ pub const LEFT_ON_PURPOSE: &str = "machine coordinates (G53, SUPA, M91, M92), re
 
 /// Takes what the last statement did that the interpreter does not model
 /// (shared by the rewrite and `simulate nc`): refused under `--strict` at
-/// its line and column, else listed by what it is.
+/// its line and column, else listed by what it is. A statement the control
+/// cannot run is an error at its line and column, `--strict` or not.
 pub(crate) fn take_unmodelled(
     interp: &mut crate::nc::interp::Interpreter,
     block: &crate::nc::Block,
@@ -307,6 +308,10 @@ pub(crate) fn take_unmodelled(
     strict: bool,
     list: &mut indexmap::IndexMap<String, Lines>,
 ) -> Result<(), SourceError> {
+    if let Some(a) = interp.alarm.take() {
+        let (line, column) = block.locate(a.offset);
+        return Err(SourceError::new(path, line, column, a.what));
+    }
     let Some(u) = interp.unmodelled.take() else {
         return Ok(());
     };
@@ -355,7 +360,8 @@ pub enum CompensateError {
         /// What and how much.
         what: String,
     },
-    /// `--strict`: a statement whose effect is not modelled.
+    /// `--strict`: a statement whose effect is not modelled; `--strict`
+    /// or not, a block the control cannot run (a `CIP` without a circle).
     Unmodelled(SourceError),
     /// A move that cannot be followed within the tolerance.
     Tolerance {

@@ -6,7 +6,8 @@
 //! The controller is modelled as it interpolates: axis values linearly
 //! between end points (post-side programs), or tip and rotary positions
 //! linearly with its nominal kinematics turning them into axis values
-//! (TCP); arcs in their plane. The machine is the exact model with the
+//! (TCP); arcs in their plane, SINUMERIK's `CIP` on the circle through its
+//! three points. The machine is the exact model with the
 //! errors. Samples are taken at every end point and, with a step, along
 //! feed moves.
 
@@ -228,6 +229,7 @@ impl Simulator {
                         p1,
                         geo: ArcGeo::new(arc.plane.axes(), arc.center, &p0, &p1, arc.cw, arc.turns),
                     },
+                    MoveKind::Through(t) => MovePath::Through { p0, p1, geo: t.geo },
                     _ => MovePath::Line { p0, p1 },
                 };
                 let mut job = Job {
@@ -416,7 +418,9 @@ impl Run<'_, '_> {
         let sim = self.sim;
         let f = &job.f;
         let (p0, p1) = match job.path {
-            MovePath::Line { p0, p1 } | MovePath::Arc { p0, p1, .. } => (p0, p1),
+            MovePath::Line { p0, p1 }
+            | MovePath::Arc { p0, p1, .. }
+            | MovePath::Through { p0, p1, .. } => (p0, p1),
         };
         let n = if job.feed && job.start_known && sim.settings.step > 0.0 {
             let (a, _) = sim.poses(f, &p0, job.vector);
@@ -425,6 +429,7 @@ impl Run<'_, '_> {
                 MovePath::Arc { geo, .. } => {
                     (geo.sweep.abs() * geo.rs.max(geo.re) * f.u).max((b.tip - a.tip).norm())
                 }
+                MovePath::Through { geo, .. } => geo.sweep * geo.r * f.u,
                 _ => (b.tip - a.tip).norm(),
             };
             ((len / sim.settings.step).ceil() as usize).clamp(1, 100_000)

@@ -16,7 +16,7 @@ use super::edit::Edits;
 use crate::machine::Dialect;
 use crate::nc::interp::gcode::linuxcnc_polar;
 use crate::nc::interp::{
-    AXES, Arc, FeedMode, Frame, Interpreter, Motion, Move, MoveKind, Polar, Units,
+    AXES, Arc, FeedMode, Frame, Interpreter, Motion, Move, MoveKind, Polar, Through, Units,
 };
 use crate::nc::lexeme::{self, NumStyle, WriteRules, round_to};
 use crate::nc::{Addr, Block, HhKind, Segment, Stmt, TokenKind, Value};
@@ -154,7 +154,7 @@ impl Writer {
                 self.emit_pole = self.written_pole(block, seg, interp);
             }
         } else if !motion_done {
-            self.fix_motion_word(block, seg, interp.motion);
+            self.fix_motion_word(block, seg, interp);
         }
         match (interp.cycle, self.emit_drill.as_mut()) {
             (None, _) => self.emit_drill = None,
@@ -188,7 +188,8 @@ impl Writer {
 
     /// ISO: a block that relies on the modal motion mode gets the program's
     /// motion word back when a linearized arc changed the mode in force.
-    fn fix_motion_word(&mut self, block: &Block, seg: &Segment, motion: Option<Motion>) {
+    fn fix_motion_word(&mut self, block: &Block, seg: &Segment, interp: &Interpreter) {
+        let motion = interp.motion;
         if self.emit_motion == motion {
             // Nothing to restore, and nothing changes by recording it.
             return;
@@ -200,9 +201,19 @@ impl Writer {
             w.addr == Addr::letter(b'G')
                 && matches!(w.value, Value::Num(v) if [0.0, 1.0, 2.0, 3.0].contains(&v))
         });
+        // A SINUMERIK CIP is a command, not a G word.
+        let word = match motion {
+            Some(Motion::Other) if interp.cip => Some("CIP"),
+            m => motion_text(m),
+        };
+        let has_motion = has_motion
+            || interp.cip
+                && block.seg_tokens(seg).iter().any(|t| {
+                    t.kind == TokenKind::Keyword && block.bytes(t.span).eq_ignore_ascii_case(b"CIP")
+                });
         if has_axis
             && !has_motion
-            && let Some(word) = motion_text(motion)
+            && let Some(word) = word
         {
             let at = block.tokens[seg.body as usize..seg.end as usize]
                 .iter()
@@ -416,7 +427,19 @@ impl Writer {
                 }
                 false
             }
-            WritePlan::Arc { end, center } => {
+            WritePlan::Arc {
+                end,
+                through: Some(point),
+                ..
+            } => {
+                let MoveKind::Through(t) = mv.kind else {
+                    unreachable!("an intermediate point for a CIP")
+                };
+                self.write_through(block, seg, &t, point, interp);
+                self.write_end(block, seg, mv, f, interp, end, sink);
+                false
+            }
+            WritePlan::Arc { end, center, .. } => {
                 let MoveKind::Arc(arc) = mv.kind else {
                     unreachable!("an arc plan for an arc move")
                 };
@@ -622,6 +645,96 @@ impl Writer {
             }
         }
         self.write_end(block, seg, mv, f, interp, pt, sink);
+    }
+
+    /// A `CIP`'s corrected intermediate point into its `I1= J1= K1=`
+    /// words, absolute or counted from the written start as each is; one
+    /// the block leaves out (the start's coordinate) is added where the
+    /// corrected point leaves that, in the mode G90/G91 gives it.
+    fn write_through(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        t: &Through,
+        point: &[f64; 3],
+        interp: &Interpreter,
+    ) {
+        let units = interp.units;
+        let rules = self.rules();
+        let w0 = crate::nc::interp::coordinates::known(&self.emit);
+        let mut inserts = Vec::new();
+        for k in 0..3 {
+            match t.words[k] {
+                Some(ti) => {
+                    let TokenKind::Word(w) = block.tokens[ti].kind else {
+                        continue;
+                    };
+                    let Value::Num(orig) = w.value else { continue };
+                    let new_v = if t.incremental[k] {
+                        point[k] - w0[k]
+                    } else {
+                        point[k]
+                    };
+                    let d = self.decimals(k, Some(&w.style), units);
+                    if (new_v - orig).abs() >= lexeme::half_unit(d) {
+                        let style = w.style;
+                        let new = round_to(new_v, d);
+                        self.edits
+                            .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                    }
+                }
+                None => {
+                    let d = self.decimals(k, None, units);
+                    let from_start = point[k] - w0[k];
+                    // Left out, it is the start's coordinate only where
+                    // the manual's value 0 is one (G91, or a start at 0):
+                    // anywhere else the word is written.
+                    let reads_as_start = !interp.absolute || w0[k] == 0.0;
+                    if from_start.abs() >= lexeme::half_unit(d) || !reads_as_start {
+                        // Written as the block's own words are: the first
+                        // one's style, else the dialect's default.
+                        let style = t
+                            .words
+                            .iter()
+                            .flatten()
+                            .find_map(|&ti| match block.tokens[ti].kind {
+                                TokenKind::Word(w) => Some(w.style),
+                                _ => None,
+                            })
+                            .unwrap_or(NumStyle {
+                                point: true,
+                                decimals: 3,
+                                ..NumStyle::default()
+                            });
+                        let v = if interp.absolute {
+                            point[k]
+                        } else {
+                            from_start
+                        };
+                        inserts.push((k, round_to(v, d), d, style));
+                    }
+                }
+            }
+        }
+        if inserts.is_empty() {
+            return;
+        }
+        let lower = lower(block, seg);
+        let last = block
+            .words(seg)
+            .map(|(ti, _)| block.tokens[ti].span.end)
+            .max()
+            .unwrap_or(0);
+        self.edits.insert(last, |b| {
+            for (k, v, d, style) in &inserts {
+                b.push(b' ');
+                let name = [b"I1=", b"J1=", b"K1="][*k];
+                for &c in name {
+                    b.push(if lower { c.to_ascii_lowercase() } else { c });
+                }
+                lexeme::write(b, *v, *d, style, rules);
+            }
+        });
     }
 
     /// HEIDENHAIN `LP`/`CP`: the corrected end point in the plane written
@@ -863,12 +976,24 @@ impl Writer {
         // Turn the arc into a line.
         if linearize {
             let mut first_axis = None;
+            // SINUMERIK's arc words of more than one letter: the radius
+            // and a CIP's intermediate point.
+            let long: &[Addr] = if self.dialect == Dialect::Sinumerik {
+                &[
+                    Addr::new("CR"),
+                    Addr::new("I1"),
+                    Addr::new("J1"),
+                    Addr::new("K1"),
+                ]
+            } else {
+                &[]
+            };
             for (ti, w) in block.words(seg) {
                 let l = w.addr.as_letter();
                 let kill = if hh {
                     w.addr == Addr::new("DR") || w.addr == Addr::letter(b'R')
                 } else {
-                    matches!(l, Some(b'I' | b'J' | b'K' | b'R' | b'P'))
+                    matches!(l, Some(b'I' | b'J' | b'K' | b'R' | b'P')) || long.contains(&w.addr)
                 };
                 if kill {
                     self.delete_with_space(block, ti);
@@ -893,6 +1018,13 @@ impl Writer {
                     return;
                 };
                 self.edits.replace(w.value_span, |b| b.push(b'1'));
+            } else if let MoveKind::Through(Through {
+                keyword: Some(ti), ..
+            }) = mv.kind
+            {
+                let g: &[u8] = if lower(block, seg) { b"g1" } else { b"G1" };
+                self.edits
+                    .replace(block.tokens[ti].span, |b| b.extend_from_slice(g));
             } else {
                 let at = first_axis.map_or(block.tokens[seg.body as usize].span.start, |ti| {
                     block.tokens[ti].span.start

@@ -328,6 +328,24 @@ pub struct Arc {
     pub radius_word: Option<usize>,
 }
 
+/// A SINUMERIK `CIP`: the circle from the move's start through an
+/// intermediate point to its end.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Through {
+    /// The intermediate point, absolute program coordinates (X, Y, Z).
+    pub point: [f64; 3],
+    /// The circle it makes with the move's start and end.
+    pub geo: interpolation::CircleGeo,
+    /// Token indices of `I1=`, `J1=`, `K1=`, if written.
+    pub words: [Option<usize>; 3],
+    /// Which of them count from the start (G91 or `=IC()`); an omitted
+    /// one is the start's coordinate either way.
+    pub incremental: [bool; 3],
+    /// Token index of the `CIP` command, if the block has it (the mode is
+    /// modal).
+    pub keyword: Option<usize>,
+}
+
 /// What kind of move.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MoveKind {
@@ -337,6 +355,8 @@ pub enum MoveKind {
     Linear,
     /// Circular interpolation.
     Arc(Arc),
+    /// Circular interpolation through an intermediate point, in space.
+    Through(Through),
 }
 
 /// One move, in program coordinates (program units, degrees, before the
@@ -508,6 +528,9 @@ pub struct Interpreter {
     pub arc_absolute: bool,
     /// Motion mode (ISO).
     pub motion: Option<Motion>,
+    /// SINUMERIK: the motion mode in force is `CIP` (`motion` is
+    /// [`Motion::Other`] then).
+    pub cip: bool,
     /// Feed mode.
     pub feed_mode: FeedMode,
     /// Last feed value.
@@ -584,6 +607,11 @@ pub struct Interpreter {
     /// The last statement's effect that is not modelled; the caller takes
     /// it after each [`Interpreter::step`].
     pub unmodelled: Option<Unmodelled>,
+    /// The last statement is one the control cannot run (a `CIP` through
+    /// three points on a line): what and where; the caller takes it after
+    /// each [`Interpreter::step`] and stops there, since nothing after it
+    /// runs.
+    pub alarm: Option<Unmodelled>,
     /// A machine-file M function switched TCP in this statement.
     tcp_remapped: bool,
     /// SINUMERIK block `IF`s open here, innermost last.
@@ -618,6 +646,7 @@ impl Interpreter {
             absolute: true,
             arc_absolute: false,
             motion: None,
+            cip: false,
             feed_mode: FeedMode::PerMinute,
             feed: None,
             plane: ArcPlane::Xy,
@@ -657,6 +686,7 @@ impl Interpreter {
             offsets: offsets::WorkOffsets::default(),
             setting_words: None,
             unmodelled: None,
+            alarm: None,
             tcp_remapped: false,
             branches: Vec::new(),
         }

@@ -2,6 +2,7 @@
 //! G710, G90/G91, feed mode, settable work offsets G54..G57 and
 //! G505..G599, G500), per-word absolute and incremental values (`X=AC()`,
 //! `X=IC()`), arcs with incremental or `=AC()` centres and `CR=` radii,
+//! circles through an intermediate point in space (`CIP`),
 //! tool offsets (`D0` off, `D1`.. on), TRAORI / TRAFOOF with rotary
 //! positions or `A3= B3= C3=` tool vectors, CYCLE800 swivel planes,
 //! programmable frames (`TRANS`/`ATRANS`, `ROT`/`AROT` with `X Y Z`
@@ -14,9 +15,10 @@
 //! (`MEAS=`, `MEAW=`), cycles and subprogram calls (the position is
 //! unknown after them).
 
+use super::interpolation::CircleGeo;
 use super::{
-    AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Units,
-    arc_runs, center_from_radius,
+    AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Through,
+    Units, Unmodelled, arc_runs, center_from_radius,
 };
 use crate::nc::interp::gcode::g_code;
 use crate::nc::{Addr, Block, Flow, Segment, Stmt, TokenKind, Value, Word};
@@ -131,6 +133,8 @@ struct SiScan {
     g_nonmodal: Option<u32>,
     motion_word: Option<usize>,
     motion_here: Option<Motion>,
+    /// The token of a `CIP` command.
+    cip: Option<usize>,
     has_axis: bool,
     expr_g: bool,
 }
@@ -139,7 +143,14 @@ impl Interpreter {
     /// One SINUMERIK statement.
     pub(super) fn sinumerik(&mut self, block: &Block, seg: &Segment) -> Event {
         match seg.stmt {
-            Stmt::Words => self.si_words(block, seg),
+            Stmt::Words => {
+                self.si_frame_data(block, seg);
+                self.si_words(block, seg)
+            }
+            Stmt::Assign => {
+                self.si_frame_data(block, seg);
+                Event::None
+            }
             Stmt::Flow(Flow::Branch) => {
                 self.si_branch(block, seg);
                 Event::None
@@ -152,6 +163,33 @@ impl Interpreter {
                 Event::None
             }
             _ => Event::None,
+        }
+    }
+
+    /// An assignment to a frame in the control's data: `$P_UIFR[n]`, the
+    /// settable frame G54.., G505.. select, `$P_PFRAME` (the programmable
+    /// frame), the base frames (`$P_CHBFR`, `$P_NCBFR`), ... The values a
+    /// settable frame held before are not known, nor is which frame a
+    /// changed one moves: from here on no work offset relates to the one
+    /// of the first move, and nothing is corrected.
+    fn si_frame_data(&mut self, block: &Block, seg: &Segment) {
+        for t in block.seg_tokens(seg) {
+            if t.kind != TokenKind::Param {
+                continue;
+            }
+            let name = block.bytes(t.span).to_ascii_uppercase();
+            if name.starts_with(b"$P_") && name.windows(2).any(|w| w == b"FR") {
+                self.offsets.set = true;
+                self.offsets.lost = Some(FRAME_DATA);
+                self.pos[..3].fill(None);
+                self.note(
+                    t.span.start as usize,
+                    format!(
+                        "`{}`: {FRAME_DATA}: the moves after it are left as written",
+                        String::from_utf8_lossy(&name)
+                    ),
+                );
+            }
         }
     }
 
@@ -264,7 +302,11 @@ impl Interpreter {
                 }
                 "SUPA" => s.machine = true,
                 "CIP" | "CT" | "POLY" | "ASPLINE" | "BSPLINE" | "CSPLINE" => {
-                    self.motion = Some(Motion::Other)
+                    self.motion = Some(Motion::Other);
+                    self.cip = name == "CIP";
+                    if self.cip {
+                        s.cip = Some(seg.first as usize + k);
+                    }
                 }
                 "PAROT" | "TOROT" | "TOFRAME" | "TOROTX" | "TOROTY" | "TOROTZ" => {
                     self.transformed =
@@ -399,6 +441,7 @@ impl Interpreter {
     fn si_event(&mut self, block: &Block, seg: &Segment, s: &SiScan) -> Event {
         if let Some(m) = s.motion_here {
             self.motion = Some(m);
+            self.cip = false;
         }
         if let Some(f) = &s.frame {
             self.si_frame(block, seg, f);
@@ -458,12 +501,15 @@ impl Interpreter {
         }
         match self.motion {
             Some(m @ (Motion::Rapid | Motion::Linear | Motion::ArcCw | Motion::ArcCcw)) => {
-                self.si_move(block, seg, m, s.motion_word)
+                self.si_move(block, seg, m, s.motion_word, None)
+            }
+            Some(Motion::Other) if self.cip => {
+                self.si_move(block, seg, Motion::Other, None, Some(s.cip))
             }
             Some(Motion::Other) => {
                 self.track_words(block, seg);
                 Event::Skip(Skip::Element(
-                    "a CIP, CT, POLY, spline, thread or tapping motion",
+                    "a CT, POLY, spline, thread or tapping motion",
                 ))
             }
             None => {
@@ -725,18 +771,23 @@ impl Interpreter {
         }
     }
 
+    /// A move of the motion mode in force; `cip`: it is a `CIP` (with the
+    /// token of its command, when this block has it).
     fn si_move(
         &mut self,
         block: &Block,
         seg: &Segment,
         motion: Motion,
         motion_word: Option<usize>,
+        cip: Option<Option<usize>>,
     ) -> Event {
         let start = self.pos;
         let mut mv = Move::new(MoveKind::Rapid, start, !self.absolute);
         mv.motion_word = motion_word;
         let mut skip: Option<Skip> = seg.unknown.map(|_| Skip::UnknownWord);
         let mut ijk: [Option<(usize, f64, bool)>; 3] = [None; 3];
+        // CIP's intermediate point: token, value, incremental.
+        let mut ijk1: [Option<(usize, f64, bool)>; 3] = [None; 3];
         let mut vector: [Option<(usize, f64)>; 3] = [None; 3];
         let mut cr: Option<(usize, f64)> = None;
         for (ti, w) in block.words(seg) {
@@ -785,6 +836,18 @@ impl Interpreter {
                 }
                 continue;
             }
+            if let Some(k) = [Addr::new("I1"), Addr::new("J1"), Addr::new("K1")]
+                .iter()
+                .position(|x| *x == a)
+            {
+                match self.axis_value(&w) {
+                    Ok(v) => ijk1[k] = Some((ti, v, mode.unwrap_or(!self.absolute))),
+                    Err(s) => {
+                        skip.get_or_insert(s);
+                    }
+                }
+                continue;
+            }
             if a == Addr::new("AR") {
                 skip.get_or_insert(Skip::Element("an arc by opening angle (AR=)"));
                 continue;
@@ -816,6 +879,13 @@ impl Interpreter {
         // The writer writes centres as the block has them.
         self.arc_absolute = false;
         mv.kind = match motion {
+            _ if cip.is_some() => {
+                let keyword = cip.flatten();
+                match self.cip_circle(block, seg, (&start, &mv.end), ijk1, keyword) {
+                    Ok(t) => MoveKind::Through(t),
+                    Err(why) => return Event::Skip(skip.unwrap_or(why)),
+                }
+            }
             Motion::Rapid => MoveKind::Rapid,
             Motion::Linear => MoveKind::Linear,
             _ => {
@@ -881,7 +951,7 @@ impl Interpreter {
         }
         if vector.iter().any(Option::is_some) {
             // TRAORI with the tool direction: missing components are zero.
-            if self.tcp == Tcp::Off || matches!(mv.kind, MoveKind::Arc(_)) {
+            if self.tcp == Tcp::Off || matches!(mv.kind, MoveKind::Arc(_) | MoveKind::Through(_)) {
                 return Event::Skip(Skip::Element(
                     "a tool vector (A3= B3= C3=) outside TRAORI or on an arc",
                 ));
@@ -915,6 +985,71 @@ impl Interpreter {
         Event::Move(mv)
     }
 }
+
+impl Interpreter {
+    /// The circle of a `CIP` from the move's start through the
+    /// intermediate point its `I1= J1= K1=` give to its end, or why it
+    /// has none: a point not known, or (an alarm, noted at the block)
+    /// three points no circle passes through.
+    fn cip_circle(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        (start, end): (&[Option<f64>; 6], &[Option<f64>; 6]),
+        ijk1: [Option<(usize, f64, bool)>; 3],
+        keyword: Option<usize>,
+    ) -> Result<Through, Skip> {
+        let mut s = [0.0; 3];
+        let mut e = [0.0; 3];
+        let mut m = [0.0; 3];
+        for k in 0..3 {
+            s[k] = start[k].ok_or(Skip::PositionUnknown(AXES[k]))?;
+            e[k] = end[k].ok_or(Skip::PositionUnknown(AXES[k]))?;
+            m[k] = match ijk1[k] {
+                Some((_, v, true)) => s[k] + v,
+                Some((_, v, false)) => v,
+                // An interpolation parameter left out has the value 0
+                // (SINUMERIK ONE NC programming 12/2019, p. 198): counted
+                // from the start under G91, the start's coordinate; under
+                // G90 the point 0 itself, which the same page leaves
+                // unexplained where the start is elsewhere (a circle out
+                // of the start's plane): followed only where both agree.
+                None if !self.absolute || s[k] == 0.0 => s[k],
+                None => return Err(Skip::Element(CIP_OMITTED)),
+            };
+        }
+        let geo = match CircleGeo::through(s, m, e, self.units.mm()) {
+            Ok(g) => g,
+            Err(why) => {
+                let at = keyword
+                    .or(ijk1.iter().flatten().map(|x| x.0).next())
+                    .map_or(block.tokens[seg.body as usize].span.start, |t| {
+                        block.tokens[t].span.start
+                    });
+                self.alarm = Some(Unmodelled {
+                    offset: at as usize,
+                    what: format!("CIP: {why}: the control cannot run this block"),
+                });
+                return Err(Skip::Element("a CIP without a circle"));
+            }
+        };
+        Ok(Through {
+            point: m,
+            geo,
+            words: ijk1.map(|x| x.map(|x| x.0)),
+            incremental: ijk1.map(|x| x.is_some_and(|x| x.2)),
+            keyword,
+        })
+    }
+}
+
+/// Why nothing is corrected after a program writes a frame of the
+/// control's data.
+const FRAME_DATA: &str = "a frame written into the control's data ($P_UIFR, $P_PFRAME, ...), which fivecal does not model";
+
+/// Why a `CIP` that leaves out an intermediate coordinate under G90 is
+/// left as written.
+const CIP_OMITTED: &str = "a CIP that leaves out I1=, J1= or K1= under G90 where the start is not at 0 on that axis (the programming manual gives an omitted interpolation parameter the value 0: the point 0, a circle out of the start's plane, or the start's coordinate, it does not say which)";
 
 #[cfg(test)]
 mod tests {
@@ -1046,6 +1181,48 @@ mod tests {
         );
         assert!((m.pos[0].unwrap() - 1.0).abs() < 1e-12);
         assert!((m.pos[1].unwrap() + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cip_intermediate_points_follow_g90_g91_ac_and_ic_and_the_mode_is_modal() {
+        let (ev, m) = run(
+            "G17 G90 G710 D1\nG0 X30 Y40 Z0 B0 C0\nCIP X50 Y40 I1=40 J1=45\n\
+             X60 Y30 Z-5 I1=IC(8) J1=IC(-3) K1=IC(-2)\n\
+             G91 X-10 Y-10 I1=AC(58) J1=-8\nG90 G1 X0\n",
+            Dialect::Sinumerik,
+        );
+        let through = |e: &Event| match e {
+            Event::Move(Move {
+                kind: MoveKind::Through(t),
+                ..
+            }) => *t,
+            other => panic!("not a CIP: {other:?}"),
+        };
+        // K1 left out at a start on Z0: Z0 either way.
+        let t = through(&ev[2]);
+        assert_eq!(t.point, [40.0, 45.0, 0.0]);
+        assert!(t.keyword.is_some() && t.words[2].is_none());
+        // IC counts from the start (50, 40, 0), in a block with no CIP of
+        // its own.
+        let t = through(&ev[3]);
+        assert_eq!(t.point, [58.0, 37.0, -2.0]);
+        assert_eq!((t.incremental, t.keyword), ([true; 3], None));
+        // G91: J1 from the start (60, 30, -5), I1 absolute by AC, K1 left
+        // out the start's Z.
+        let t = through(&ev[4]);
+        assert_eq!(t.point, [58.0, 22.0, -5.0]);
+        assert_eq!(t.incremental, [false, true, false]);
+        let Event::Move(end) = ev[4] else { panic!() };
+        assert_eq!(&end.end[..3], &[Some(50.0), Some(20.0), Some(-5.0)]);
+        // G1 ends the mode.
+        assert!(matches!(
+            ev[5],
+            Event::Move(Move {
+                kind: MoveKind::Linear,
+                ..
+            })
+        ));
+        assert!(!m.cip);
     }
 
     #[test]
