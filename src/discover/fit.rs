@@ -13,8 +13,9 @@
 //! The fit is the `global` identification's (one least-squares fit of
 //! every point, residuals in um along the predicted normal, the placement
 //! `P0 D(rho)` with `P0` from the reference features), solved by the same
-//! damped Gauss-Newton (`lsq::solve_ranked`) on the exact residuals and
-//! Jacobians, until a step gains nothing the noise could tell. The
+//! damped Gauss-Newton (`lsq::solve_ranked`, its damping adapted to how
+//! well each step was predicted) on the exact residuals and Jacobians,
+//! until a step gains nothing the noise could tell. The
 //! rank and the directions the test does not see come from the nominal
 //! design, as in `global` ("what the test identifies is a property of its
 //! design"), and every step and the covariance are taken with that rank.
@@ -941,6 +942,7 @@ impl<'a> Fitter<'a> {
         let opts = lsq::Options {
             ftol: GAIN_IN_VARIANCES / self.len().max(1) as f64,
             stop_on_prediction: true,
+            adapt_damping: true,
             ..self.opts
         };
         let sol = lsq::solve_ranked(&problem, &x0, Some(&basis), &opts, Some(d.rank));

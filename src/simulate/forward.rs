@@ -723,6 +723,57 @@ impl MachiningForward {
     }
 }
 
+/// Newton's method for the root of `g` along a touch's line from `tau`
+/// (`slope`: g's derivative), 30 steps at most or until a step is below
+/// 1e-14 mm; the root and the slope there, `None` where the slope vanishes.
+///
+/// Near the root `g` is round-off (a ball centre hundreds of millimetres
+/// from the origin carries 1e-13 mm), and the steps often settle into a
+/// two-cycle of one unit in the last place that never drops below the
+/// tolerance. The iteration being a function of `tau` alone, a cycle
+/// repeats to the last step: it is not run out, but the point it would end
+/// on is taken, so the result is bit for bit that of the 30 steps (the
+/// sphere method's judge is sensitive to the last bits of the nominal
+/// predictions). The slopes already taken are reused for the same reason.
+fn contact_search(
+    mut tau: f64,
+    slope: impl Fn(f64) -> f64,
+    g: impl Fn(f64) -> f64,
+) -> Option<(f64, f64)> {
+    const STEPS: usize = 30;
+    // The last two points and their slopes, the newest last.
+    let mut seen = [(f64::NAN, f64::NAN); 2];
+    for k in 1..=STEPS {
+        let gp = slope(tau);
+        if gp.abs() < 1e-9 {
+            return None;
+        }
+        let d = g(tau) / gp;
+        let next = tau - d;
+        seen = [seen[1], (tau, gp)];
+        if d.abs() < 1e-14 {
+            tau = next;
+            break;
+        }
+        if next == seen[0].0 {
+            // next = tau_{k-2}: the points alternate from here; after
+            // STEPS steps the iteration stands where parity puts it.
+            if (STEPS - k) % 2 != 0 {
+                tau = seen[1].0;
+            } else {
+                tau = next;
+            }
+            break;
+        }
+        tau = next;
+    }
+    let gp = match seen.iter().find(|(t, _)| *t == tau) {
+        Some(&(_, gp)) => gp,
+        None => slope(tau),
+    };
+    Some((tau, gp))
+}
+
 /// The general probing forward model (see the module documentation).
 #[derive(Clone, Debug)]
 pub struct ProbingForward {
@@ -875,19 +926,10 @@ impl ForwardModel for ProbingForward {
             let c2 = pr.ball(theta, i, tau + h, offset);
             (g(&c2) - g(&c1)) / (2.0 * h)
         };
-        let mut tau = pr.nominal_tau(i);
-        for _ in 0..30 {
-            let gp = slope(tau);
-            if gp.abs() < 1e-9 {
-                return Err(ForwardError::NoIntersection(point.label.clone()));
-            }
-            let d = g(&pr.ball(theta, i, tau, offset)) / gp;
-            tau -= d;
-            if d.abs() < 1e-14 {
-                break;
-            }
-        }
-        let gp = slope(tau);
+        let (tau, gp) = contact_search(pr.nominal_tau(i), slope, |tau| {
+            g(&pr.ball(theta, i, tau, offset))
+        })
+        .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))?;
         let (pj, jt, _) = pr.model.pose_jacobian(theta, &pr.context(i, tau, offset));
         let c = pj.pose.tip;
         let mut dg = DVector::zeros(total);

@@ -40,6 +40,11 @@ pub struct Probing {
     pub piece_of: Vec<usize>,
     /// The middle of each pose's manifest interval, minutes.
     mid: Vec<f64>,
+    /// Per touch, its commanded line and its approach direction in the
+    /// probe's frame: a contact search asks for them at every trial
+    /// position, and they do not depend on it.
+    lines: Vec<(Vector3<f64>, Vector3<f64>, f64)>,
+    approaches: Vec<Vector3<f64>>,
 }
 
 /// The nominal head rotation at a pose (identity on a table-table machine):
@@ -76,6 +81,23 @@ impl Probing {
             .iter()
             .map(|p| 0.5 * (p.start_min + p.end_min))
             .collect();
+        let touches = &plan.plan.touches;
+        let lines = touches
+            .iter()
+            .map(|t| {
+                let d = t.end.axes.xyz - t.start.axes.xyz;
+                let len = d.norm();
+                (t.start.axes.xyz, d / len, len)
+            })
+            .collect();
+        let approaches = touches
+            .iter()
+            .map(|t| {
+                let p = &plan.plan.poses[t.pose];
+                let r = head_rotation(&plan.machine, p.tilt, p.c);
+                (r.inverse() * -t.normal_prog).normalize()
+            })
+            .collect();
         Probing {
             model,
             plan,
@@ -83,16 +105,15 @@ impl Probing {
             pieces,
             piece_of,
             mid,
+            lines,
+            approaches,
         }
     }
 
     /// The commanded probing line of touch `i`: start (program X, Y, Z),
     /// unit direction, and length to the programmed end.
     pub fn line(&self, i: usize) -> (Vector3<f64>, Vector3<f64>, f64) {
-        let t = &self.plan.plan.touches[i];
-        let d = t.end.axes.xyz - t.start.axes.xyz;
-        let len = d.norm();
-        (t.start.axes.xyz, d / len, len)
+        self.lines[i]
     }
 
     /// Where along its line touch `i` meets the nominal surface, mm.
@@ -108,10 +129,7 @@ impl Probing {
 
     /// The approach direction of touch `i` in the probe's own frame.
     pub fn approach(&self, i: usize) -> Vector3<f64> {
-        let t = &self.plan.plan.touches[i];
-        let p = &self.plan.plan.poses[t.pose];
-        let r = head_rotation(&self.plan.machine, p.tilt, p.c);
-        (r.inverse() * -t.normal_prog).normalize()
+        self.approaches[i]
     }
 
     /// The context of touch `i` at `tau` mm along its line; `offset`
