@@ -534,3 +534,76 @@ fn linuxcnc_polar_words_are_followed_and_corrected_in_their_own_words() {
     assert_eq!(lines("X or Y with a polar word"), [4], "{:?}", s.skipped);
     assert_eq!(lines("outside the XY plane"), [5], "{:?}", s.skipped);
 }
+
+/// Every drilling cycle FANUC reads as a hole at X Y to the depth Z from
+/// the R level (peck G73, left-hand tap G74, fine boring G76, dwell G82,
+/// tap G84, bore G85-G89; G87 bores back up from R below the piece to Z)
+/// is corrected as its hole: the tip reaches each hole's bottom on the
+/// erroneous machine where the program meant it, and the cycle words
+/// (Q, P, R, F) stay as written.
+#[test]
+fn every_fanuc_drilling_cycle_code_is_corrected_as_its_hole() {
+    let cycles = [
+        "G73 X10. Y10. Z-6. R2. Q1.5 F150.",
+        "G74 X20. Y10. Z-6. R2. F100.",
+        "G76 X30. Y10. Z-6. R2. Q0.2 F80.",
+        "G82 X10. Y20. Z-6. R2. P500 F150.",
+        "G84 X20. Y20. Z-6. R2. F100.",
+        "G85 X30. Y20. Z-6. R2. F80.",
+        "G86 X10. Y30. Z-6. R2. F80.",
+        "G87 X20. Y30. Z2. R-8. Q0.2 F80.",
+        "G88 X30. Y30. Z-6. R2. P300 F80.",
+        "G89 X20. Y40. Z-6. R2. P300 F80.",
+    ];
+    let mut program = String::from(
+        "%\nO1002 (EVERY CYCLE)\nG90 G21 G17 G40 G49 G80\nG0 B30. C45.\nG43 H1 Z100.\nG0 X0. Y0.\n",
+    );
+    for c in cycles {
+        program.push_str("G98 ");
+        program.push_str(c);
+        program.push('\n');
+    }
+    program.push_str("G80\nG0 Z100.\nM30\n%\n");
+    let first = 7;
+    let holes: Vec<usize> = (first..first + cycles.len()).collect();
+    let l = errors("bc-trunnion", 94, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Fanuc, &program, &holes, "every fanuc cycle");
+    assert_eq!(s.drilled.first, holes, "{:?}\n{out}", s.skipped);
+    for (line, c) in out.lines().skip(first - 1).zip(cycles) {
+        let code = &c[..4];
+        let tail = &c[c.find(" R").unwrap()..];
+        assert!(
+            line.starts_with(&format!("G98 {code}")) && line.ends_with(tail),
+            "{line}"
+        );
+        assert_ne!(&line[4..], c, "{code}: not corrected");
+    }
+}
+
+/// LinuxCNC's drilling cycles other than G81 (peck G73, dwell G82, chip
+/// break G83, tap G84, bore G85-G89), and the same program with the holes
+/// given in the G99 return: each hole is corrected.
+#[test]
+fn every_linuxcnc_drilling_cycle_code_is_corrected_as_its_hole() {
+    let cycles = [
+        "G73 X5 Y5 Z-4 R1 Q1 F100",
+        "G82 X15 Y5 Z-4 R1 P0.5 F100",
+        "G83 X25 Y5 Z-4 R1 Q1 F100",
+        "G84 X5 Y15 Z-4 R1 F100",
+        "G85 X15 Y15 Z-4 R1 F100",
+        "G86 X25 Y15 Z-4 R1 F100",
+        "G88 X5 Y25 Z-4 R1 F100",
+        "G89 X15 Y25 Z-4 R1 P0.5 F100",
+    ];
+    let mut program = String::from("G21 G90 G17\nG0 A-20 C30\nG43 H1\nG0 Z50\nG0 X0 Y0\n");
+    for c in cycles {
+        program.push_str(c);
+        program.push('\n');
+    }
+    program.push_str("G80\nG0 Z50\nM2\n");
+    let holes: Vec<usize> = (6..6 + cycles.len()).collect();
+    let l = errors("ac-trunnion", 95, 30.0, "");
+    let (out, s) = holds(&l, Dialect::Linuxcnc, &program, &[], "every linuxcnc cycle");
+    assert_eq!(s.drilled.first, holes, "{:?}\n{out}", s.skipped);
+    assert!(s.drilled_axis_error < 0.01, "{s:?}");
+}
