@@ -758,7 +758,7 @@ fn contact_search(
         if next == seen[0].0 {
             // next = tau_{k-2}: the points alternate from here; after
             // STEPS steps the iteration stands where parity puts it.
-            if (STEPS - k) % 2 != 0 {
+            if !(STEPS - k).is_multiple_of(2) {
                 tau = seen[1].0;
             } else {
                 tau = next;
