@@ -87,37 +87,42 @@ impl MapDim {
 
     /// Interpolation weights at angle `x`: up to two (node, weight) pairs.
     pub fn weights(&self, x: f64) -> [(usize, f64); 2] {
-        let n = &self.nodes;
-        let last = n.len() - 1;
-        if n.len() == 1 {
-            return [(0, 1.0), (0, 0.0)];
-        }
-        if self.periodic {
-            let x = x.rem_euclid(360.0);
-            if x >= n[last] || x < n[0] {
-                let gap = n[0] + 360.0 - n[last];
-                let d = if x >= n[last] {
-                    x - n[last]
-                } else {
-                    x + 360.0 - n[last]
-                };
-                let w = d / gap;
-                return [(last, 1.0 - w), (0, w)];
-            }
-            let i = n.partition_point(|&v| v <= x) - 1;
-            let w = (x - n[i]) / (n[i + 1] - n[i]);
-            return [(i, 1.0 - w), (i + 1, w)];
-        }
-        if x <= n[0] {
-            return [(0, 1.0), (0, 0.0)];
-        }
-        if x >= n[last] {
-            return [(last, 1.0), (last, 0.0)];
+        dim_weights(&self.nodes, self.periodic, x)
+    }
+}
+
+/// [`MapDim::weights`] on sorted `nodes`, for a caller that holds the
+/// nodes but no `MapDim` (a straightness effect, at every evaluation).
+pub(crate) fn dim_weights(n: &[f64], periodic: bool, x: f64) -> [(usize, f64); 2] {
+    let last = n.len() - 1;
+    if n.len() == 1 {
+        return [(0, 1.0), (0, 0.0)];
+    }
+    if periodic {
+        let x = x.rem_euclid(360.0);
+        if x >= n[last] || x < n[0] {
+            let gap = n[0] + 360.0 - n[last];
+            let d = if x >= n[last] {
+                x - n[last]
+            } else {
+                x + 360.0 - n[last]
+            };
+            let w = d / gap;
+            return [(last, 1.0 - w), (0, w)];
         }
         let i = n.partition_point(|&v| v <= x) - 1;
         let w = (x - n[i]) / (n[i + 1] - n[i]);
-        [(i, 1.0 - w), (i + 1, w)]
+        return [(i, 1.0 - w), (i + 1, w)];
     }
+    if x <= n[0] {
+        return [(0, 1.0), (0, 0.0)];
+    }
+    if x >= n[last] {
+        return [(last, 1.0), (last, 0.0)];
+    }
+    let i = n.partition_point(|&v| v <= x) - 1;
+    let w = (x - n[i]) / (n[i + 1] - n[i]);
+    [(i, 1.0 - w), (i + 1, w)]
 }
 
 /// A grid over one or two angles; node values are stored row-major (first
@@ -153,23 +158,73 @@ impl MapGrid {
 
     /// Interpolation weights at (tilt, c) deg: (flat node index, weight)
     /// pairs whose weights sum to one.
-    pub fn weights(&self, tilt: f64, c: f64) -> Vec<(usize, f64)> {
-        let mut out = vec![(0usize, 1.0f64)];
+    pub fn weights(&self, tilt: f64, c: f64) -> Weights {
+        let mut out = Weights {
+            items: [(0, 1.0); 4],
+            len: 1,
+        };
+        // Two dimensions at most (`MapGrid::dims`), two nodes each: four
+        // pairs, kept on the stack (the fits ask at every point).
+        debug_assert!(self.dims.len() <= 2, "a grid over tilt and C");
         for d in &self.dims {
             let x = if d.angle == 0 { tilt } else { c };
             let w = d.weights(x);
             let n = d.nodes.len();
-            let mut next = Vec::with_capacity(out.len() * 2);
-            for &(i, wi) in &out {
+            let mut next = Weights {
+                items: [(0, 0.0); 4],
+                len: 0,
+            };
+            for &(i, wi) in out.iter() {
                 for &(j, wj) in &w {
                     if wj != 0.0 {
-                        next.push((i * n + j, wi * wj));
+                        next.items[next.len] = (i * n + j, wi * wj);
+                        next.len += 1;
                     }
                 }
             }
             out = next;
         }
         out
+    }
+}
+
+/// The (flat node index, weight) pairs of [`MapGrid::weights`]: one to
+/// four, in the order of the grid's nodes.
+#[derive(Clone, Copy, Debug)]
+pub struct Weights {
+    items: [(usize, f64); 4],
+    len: usize,
+}
+
+impl Weights {
+    /// The pairs.
+    pub fn iter(&self) -> std::slice::Iter<'_, (usize, f64)> {
+        self.items[..self.len].iter()
+    }
+
+    /// How many pairs.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether there is none (never, for a grid with nodes).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+impl std::ops::Index<usize> for Weights {
+    type Output = (usize, f64);
+    fn index(&self, k: usize) -> &(usize, f64) {
+        &self.items[..self.len][k]
+    }
+}
+
+impl IntoIterator for Weights {
+    type Item = (usize, f64);
+    type IntoIter = std::iter::Take<std::array::IntoIter<(usize, f64), 4>>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.items.into_iter().take(self.len)
     }
 }
 

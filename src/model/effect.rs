@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 
 use super::Context;
 use crate::geom::{Axis3, MM_PER_UM, RAD_PER_URAD};
-use crate::kinematics::maps::{MapDim, MapGrid};
+use crate::kinematics::maps::MapGrid;
 use crate::kinematics::symbols::SymbolTable;
 use crate::kinematics::{SLOT_LIN, SLOT_PRETRAVEL, SLOT_TOOL_LENGTH, SLOT_TOOL_RADIUS};
 
@@ -289,12 +289,8 @@ impl Effect {
                 direction,
                 nodes,
             } => {
-                let dim = MapDim {
-                    angle: 0,
-                    nodes: nodes.clone(),
-                    periodic: false,
-                };
-                for (i, w) in dim.weights(ctx.axes.xyz[moving.index()]) {
+                let x = ctx.axes.xyz[moving.index()];
+                for (i, w) in crate::kinematics::maps::dim_weights(nodes, false, x) {
                     if w != 0.0 {
                         sink(SLOT_LIN + direction.index(), i, w * MM_PER_UM);
                     }
@@ -334,6 +330,7 @@ pub(crate) fn pretravel_weights(d: &Vector3<f64>) -> [f64; 6] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::maps::MapDim;
     use crate::{Kinematics, Machine};
 
     /// Every value is named after its effect (the issue that led here:

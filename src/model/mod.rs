@@ -157,11 +157,14 @@ impl Model {
         let n = self.n_params();
         let mut jt = DMatrix::zeros(3, n);
         let mut ja = DMatrix::zeros(3, n);
-        for (slot, k, c) in self.slot_coefficients(ctx) {
-            for r in 0..3 {
-                jt[(r, k)] += c * j.tip[(r, 5 + slot)];
-                ja[(r, k)] += c * j.axis[(r, 5 + slot)];
-            }
+        for (i, e) in self.effects.iter().enumerate() {
+            let o = self.offsets[i];
+            e.coefficients(&self.symbols, ctx, &mut |slot, p, c| {
+                for r in 0..3 {
+                    jt[(r, o + p)] += c * j.tip[(r, 5 + slot)];
+                    ja[(r, o + p)] += c * j.axis[(r, 5 + slot)];
+                }
+            });
         }
         (j, jt, ja)
     }
