@@ -2084,3 +2084,39 @@ fn compensate_g52_g51_and_an_r0_arc_are_handled_at_their_own_lines() {
         )]
     );
 }
+
+/// A HEIDENHAIN polar circle left as written (its IPA and DR turn
+/// opposite ways) still moves the tool, though it names neither X nor Y:
+/// the incremental line after it must count from where the control then
+/// stands, not from where the tool was before the circle.
+#[test]
+fn compensate_incremental_line_after_a_polar_circle_left_as_written_counts_from_its_end() {
+    let d = fivecal::Dialect::Heidenhain;
+    let l = crate::compensate::errors("ac-trunnion", 97, 30.0, "");
+    let program = "0 BEGIN PGM POLAR MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+0 Y+0 Z+2 R0 FMAX\n4 CC X+0 Y+0\n5 L X+10 Y+0 Z-1 F300\n6 CP IPA+90 DR- F300\n7 L IX+5 F300\n8 L Z+50 R0 FMAX\n9 END PGM POLAR MM\n";
+    let (out, s, _) =
+        crate::compensate::compensate(&l, fivecal::compensate::Settings::new(d), program);
+    assert!(
+        s.skipped.iter().any(|(w, _)| w.contains("IPA and DR")),
+        "{:?}",
+        s.skipped
+    );
+    let nominal = fivecal::model::Model::new(l.model.kin.clone(), vec![]);
+    let settings = fivecal::compensate::simulate::SimSettings::new(d);
+    let intended = crate::compensate::simulate_with(&nominal, &[], settings.clone(), program, 0.0);
+    let actual = crate::compensate::simulate_with(&l.model, &l.theta, settings, &out, 0.0);
+    let end_of = |v: &[fivecal::compensate::simulate::Sample], text: &str| {
+        let line = text.lines().position(|t| t.contains(" L IX")).unwrap() + 1;
+        v.iter()
+            .rfind(|x| x.line == line && x.fraction == 1.0)
+            .map(|x| (x.nominal.tip, x.actual.tip))
+            .unwrap()
+    };
+    let meant = end_of(&intended, program).0;
+    let reached = end_of(&actual, &out).1;
+    // The circle as written carries the machine's error (tens of um);
+    // counting from the tool's position before it would miss by the
+    // circle's own displacement (14 mm).
+    let miss = (meant - reached).norm();
+    assert!(miss < 0.1, "{miss} mm off:\n{out}");
+}

@@ -354,14 +354,18 @@ impl Writer {
                     _ => None,
                 },
                 Some(a) if named[i] => Some(a),
-                Some(a) => {
-                    if before[i].is_none() {
-                        // Newly known without being named (G92 and the like).
-                        Some(a)
-                    } else {
-                        self.emit[i]
-                    }
-                }
+                Some(a) => match before[i] {
+                    // Newly known without being named (G92 and the like).
+                    None => Some(a),
+                    Some(b) if b == a => self.emit[i],
+                    // Moved without being named (a HEIDENHAIN polar
+                    // element, a cycle's return level): the control went
+                    // somewhere the words left as written do not say in
+                    // the rewrite's coordinates, so it is unknown there
+                    // until a word sets it (keeping the old value put an
+                    // incremental move after a polar circle 10 mm off).
+                    Some(_) => None,
+                },
             };
         }
         if self.dialect == Dialect::Linuxcnc {
@@ -623,26 +627,16 @@ impl Writer {
                         let d = self.decimals(0, None, interp.units);
                         let new = round_to(new_v, d);
                         if new_v.abs() >= lexeme::half_unit(d) || interp.arc_absolute {
-                            inserts.push((letters[axis], new, d, self.style_of(block, mv, axis)));
+                            inserts.push((axis, new, d, self.style_of(block, mv, axis)));
                         }
                     }
                 }
             }
-            if !inserts.is_empty() {
-                let lower = lower(block, seg);
-                let last = block
-                    .words(seg)
-                    .map(|(ti, _)| block.tokens[ti].span.end)
-                    .max()
-                    .unwrap_or(0);
-                self.edits.insert(last, |b| {
-                    for (l, v, d, style) in &inserts {
-                        b.push(b' ');
-                        b.push(if lower { l.to_ascii_lowercase() } else { *l });
-                        lexeme::write(b, *v, *d, style, rules);
-                    }
-                });
-            }
+            let named: Vec<_> = inserts
+                .into_iter()
+                .map(|(l, v, d, style)| (std::slice::from_ref(&letters[l]), v, d, style))
+                .collect();
+            self.append_words(block, seg, &named);
         }
         self.write_end(block, seg, mv, f, interp, pt, sink);
     }
@@ -716,9 +710,21 @@ impl Writer {
                 }
             }
         }
-        if inserts.is_empty() {
+        let names: [&[u8]; 3] = [b"I1=", b"J1=", b"K1="];
+        let named: Vec<_> = inserts
+            .into_iter()
+            .map(|(k, v, d, style)| (names[k], v, d, style))
+            .collect();
+        self.append_words(block, seg, &named);
+    }
+
+    /// Appends words (address as written, value, decimals, style) after
+    /// the last word of the statement, in its case.
+    fn append_words(&mut self, block: &Block, seg: &Segment, words: &[(&[u8], f64, u8, NumStyle)]) {
+        if words.is_empty() {
             return;
         }
+        let rules = self.rules();
         let lower = lower(block, seg);
         let last = block
             .words(seg)
@@ -726,10 +732,9 @@ impl Writer {
             .max()
             .unwrap_or(0);
         self.edits.insert(last, |b| {
-            for (k, v, d, style) in &inserts {
+            for (name, v, d, style) in words {
                 b.push(b' ');
-                let name = [b"I1=", b"J1=", b"K1="][*k];
-                for &c in name {
+                for &c in *name {
                     b.push(if lower { c.to_ascii_lowercase() } else { c });
                 }
                 lexeme::write(b, *v, *d, style, rules);
