@@ -2120,3 +2120,36 @@ fn compensate_incremental_line_after_a_polar_circle_left_as_written_counts_from_
     let miss = (meant - reached).norm();
     assert!(miss < 0.1, "{miss} mm off:\n{out}");
 }
+
+/// A file that only defines a subroutine (as LinuxCNC's `qpocket.ngc`
+/// does) moves the axes whenever a program calls it, with the caller's
+/// values: its moves are reported as left as written, never passed on
+/// as "a program that moves no axis", and a move in a branch not taken
+/// is reported too, without disturbing the moves around it.
+#[test]
+fn compensate_moves_in_a_subroutine_never_called_here_are_reported_not_hidden() {
+    let d = fivecal::Dialect::Linuxcnc;
+    let l = crate::compensate::errors("ac-trunnion", 98, 30.0, "");
+    let settings = fivecal::compensate::Settings::new(d);
+    let library = "o<pocket> sub\nG0 X#1 Y#2 Z5\nG1 Z-1 F300\nG1 X[#1+10]\no<pocket> endsub\nM2\n";
+    let (out, s, _) = crate::compensate::compensate(&l, settings.clone(), library);
+    assert_eq!(out, library);
+    assert_eq!(s.moves, 3, "{s:?}");
+    let (why, lines) = s
+        .skipped
+        .iter()
+        .find(|(w, _)| w.contains("never runs"))
+        .unwrap_or_else(|| panic!("{:?}", s.skipped));
+    assert_eq!(lines.first, [2, 3, 4], "{why}");
+    // A branch not taken between two corrected moves: they stay corrected.
+    let branch = "G21 G90 G17\nG0 X0 Y0 Z10 A-20 C30\n#1 = 0\no10 if [#1 GT 0]\nG0 X50\no10 endif\nG1 X10 Y5 Z2 F300\nM2\n";
+    let (out, s, _) = crate::compensate::compensate(&l, settings, branch);
+    let (_, lines) = s
+        .skipped
+        .iter()
+        .find(|(w, _)| w.contains("never runs"))
+        .unwrap_or_else(|| panic!("{:?}", s.skipped));
+    assert_eq!(lines.first, [5]);
+    assert_eq!(out.lines().nth(4), Some("G0 X50"));
+    assert_ne!(out.lines().nth(6), Some("G1 X10 Y5 Z2 F300"), "{out}");
+}

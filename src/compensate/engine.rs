@@ -464,7 +464,7 @@ impl<'a> Pass<'a> {
             super::take_unmodelled(interp, block, path, c.settings.strict, &mut self.unmodelled)
                 .map_err(CompensateError::Unmodelled)?;
             if matches!(event, Event::Move(_) | Event::Skip(_))
-                && !matches!(event, Event::Skip(Skip::Unreadable))
+                && !matches!(event, Event::Skip(Skip::Unreadable | Skip::NeverRuns))
             {
                 section(&mut summary.coordinates, interp, line);
             }
@@ -584,6 +584,15 @@ impl<'a> Pass<'a> {
                     writer.emit = [None; 6];
                     self.last_tangent = None;
                     *last_held = false;
+                }
+                Event::Skip(Skip::NeverRuns) => {
+                    // Kept as written and counted, but the controller
+                    // never passes through it: what it knows is as before.
+                    summary.moves += 1;
+                    moved = true;
+                    let reason = Skip::NeverRuns.to_string();
+                    left.get_or_insert_with(|| reason.clone());
+                    skipped.entry(reason).or_default().push(line);
                 }
                 Event::Skip(s) => {
                     self.last_piece = None;

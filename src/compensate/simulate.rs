@@ -195,6 +195,8 @@ impl Simulator {
                 super::take_unmodelled(&mut interp, block, path, st.strict, &mut unmodelled)?;
                 let mv = match event {
                     Event::Move(mv) => mv,
+                    // Not run: nothing to simulate, nothing missed.
+                    Event::Skip(Skip::NeverRuns) => continue,
                     Event::Skip(s) => {
                         skipped.entry(s.to_string()).or_default().push(block.line);
                         continue;

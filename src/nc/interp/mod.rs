@@ -201,6 +201,10 @@ pub enum Coordinates {
 pub enum Skip {
     /// A coordinate is an expression or a parameter.
     Expression,
+    /// A block with axis words that the program's own logic never runs
+    /// (a branch not taken, a subroutine this file defines but does not
+    /// call): the controller's state does not pass through it.
+    NeverRuns,
     /// The block has a word this parser does not know.
     UnknownWord,
     /// An axis the machine does not have.
@@ -303,6 +307,10 @@ impl std::fmt::Display for Skip {
             ),
             Skip::OffsetUnknown(why) => write!(f, "{why}"),
             Skip::Unreadable => write!(f, "the block could not be read"),
+            Skip::NeverRuns => write!(
+                f,
+                "never runs in this program's own logic (a branch not taken, or a subroutine the file defines but does not call: its moves depend on its caller)"
+            ),
             Skip::StateUnknown(line) => write!(
                 f,
                 "the controller state is unknown after the unreadable block at line {line} (until G90/G91 or BEGIN PGM sets it again)"
@@ -723,7 +731,16 @@ impl Interpreter {
         }
         match seg.entry {
             // It never runs: the controller's state does not pass through it.
-            Entry::NotRun => return Event::None,
+            Entry::NotRun => {
+                let moves = block
+                    .words(seg)
+                    .any(|(_, w)| self.axis_index(w.addr).is_some());
+                return if moves {
+                    Event::Skip(Skip::NeverRuns)
+                } else {
+                    Event::None
+                };
+            }
             Entry::Jumped => self.forget(),
             // A jump, branch or label the run passes straight through: the
             // state is the one before it (the statement that follows is
