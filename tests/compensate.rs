@@ -159,6 +159,19 @@ pub fn ring_program(m: &Machine, d: Dialect, tcp: bool, n: usize, radius: f64) -
     lines.join("\n") + "\n"
 }
 
+/// [`compensate`] at zero error on `l`'s machine, which must give the
+/// program back byte for byte, then against `l`.
+pub(crate) fn compensate_checked(
+    l: &LoadedErrors,
+    settings: Settings,
+    program: &str,
+) -> (String, Summary, Vec<Vertex>) {
+    let zero = errors(&l.model.kin.machine().name, 0, 0.0, "");
+    let (same, _, _) = compensate(&zero, settings.clone(), program);
+    assert_eq!(same, program, "zero error must give the same bytes");
+    compensate(l, settings, program)
+}
+
 pub fn compensate(
     l: &LoadedErrors,
     settings: Settings,

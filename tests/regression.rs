@@ -1648,13 +1648,7 @@ fn compensate_haas_g254_moves_are_the_workpiece_s_coordinates_turned_with_the_ta
     let program = "G17 G90 G49\nG53 G00 Z0.\nG00 B82.875 C-180.\nG254\nG54 G90 G00 X-48.8 Y-59.\nG43 H01 Z7.\nG01 Y-64.1 Z6.8 F250.\nX-20. Y-40.\nG255\nG53 G00 Z0.\nG00 B30. C45.\nG254\nG00 X10. Y5.\nZ20.\nG01 X30. Z12.\nG255\nM30\n";
     let d = fivecal::Dialect::Fanuc;
     let settings = fivecal::compensate::Settings::new(d);
-    let (zero, _, _) = crate::compensate::compensate(
-        &crate::compensate::errors("bc-trunnion", 20, 0.0, ""),
-        settings.clone(),
-        program,
-    );
-    assert_eq!(zero, program);
-    let (out, s, vs) = crate::compensate::compensate(&l, settings.clone(), program);
+    let (out, s, vs) = crate::compensate::compensate_checked(&l, settings.clone(), program);
     // After G254 the control needs X, Y and Z again: line 5 writes no Z.
     let corrected: Vec<usize> = vs.iter().map(|v| v.line).collect();
     assert_eq!(corrected, [6, 7, 8, 14, 15], "{:?}\n{out}", s.skipped);
@@ -1977,13 +1971,7 @@ fn compensate_older_tnc_empty_fields_and_parameter_feeds_keep_their_axis_words_c
     let d = fivecal::Dialect::Heidenhain;
     let l = crate::compensate::errors("ac-trunnion", 7, 10.0, "");
     let settings = fivecal::compensate::Settings::new(d);
-    let (zero, _, _) = crate::compensate::compensate(
-        &crate::compensate::errors("ac-trunnion", 7, 0.0, ""),
-        settings.clone(),
-        program,
-    );
-    assert_eq!(zero, program);
-    let (out, s, vs) = crate::compensate::compensate(&l, settings.clone(), program);
+    let (out, s, vs) = crate::compensate::compensate_checked(&l, settings.clone(), program);
     assert!(s.unreadable.is_empty(), "{s:?}");
     let lines: Vec<usize> = vs.iter().map(|v| v.line).collect();
     // Line 2 positions A and C only: X, Y, Z are not known yet there.
