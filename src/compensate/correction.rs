@@ -13,6 +13,7 @@ use nalgebra::Vector3;
 use super::{CompensateError, Compensator, Solution};
 use crate::kinematics::{Axes, ToolPose};
 use crate::limits::MAX_PIECES;
+use crate::nc::interp::approach::departure_end;
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, CircleGeo, Path, lerp};
@@ -804,6 +805,140 @@ impl Compensator {
             worst = worst.max((self.actual(f, &w).tip - target.tip).norm());
         }
         worst
+    }
+
+    /// A HEIDENHAIN `APPR LT`: its end point PA corrected, the rotary axes
+    /// where the written program has them before it (the control builds
+    /// the approach as a two-dimensional element; a tool-axis word it
+    /// reaches by the auxiliary point, [`super::engine`] bounds how); the
+    /// end must still land within the tolerance. Its path through the
+    /// auxiliary point is checked once the first contour element after it
+    /// is written ([`Compensator::approach_deviation`]); a line that would
+    /// have to be written in pieces is left as written, since pieces would
+    /// move the start the control builds the approach from.
+    pub(super) fn plan_approach(
+        &self,
+        f: &Frame,
+        mv: &Move,
+        emit: &[Option<f64>; 6],
+        ramp: bool,
+        line: usize,
+    ) -> Result<WritePlan, Refusal> {
+        let refuse = |why: String| {
+            Refusal::Skip(format!(
+                "approach or departure (APPR/DEP) left as written: {why}"
+            ))
+        };
+        if f.axes().iter().any(|&a| emit[a].is_none()) {
+            return Err(refuse(
+                "where the written program has the tool before it is not known (the control starts the approach there)".into(),
+            ));
+        }
+        let WritePlan::End(end) = self.plan(f, mv, emit, ramp, line)? else {
+            return Err(refuse(
+                "its corrected line would have to be written in pieces, which would move the start the control builds the approach from".into(),
+            ));
+        };
+        let w0 = known(emit);
+        let mut w1 = end.program;
+        w1[3..].copy_from_slice(&w0[3..]);
+        let p1 = known(&mv.end);
+        let miss = self.path_deviation(
+            f,
+            &Path::Line { p0: p1, p1 },
+            &Path::Line { p0: w1, p1: w1 },
+        );
+        let tol = self.settings.tolerance;
+        if miss > tol {
+            return Err(refuse(format!(
+                "with the rotary axes where the block before leaves them, its corrected end lands {:.2} um from the intended one, more than --tolerance {} um",
+                miss * 1e3,
+                tol * 1e3
+            )));
+        }
+        Ok(WritePlan::End(CorrectedPoint {
+            written: f.model(&w1),
+            program: w1,
+            ..end
+        }))
+    }
+
+    /// How far the tip leaves the intended path of an `APPR LT` (`want`:
+    /// start, auxiliary point, first contour point, program frame) where
+    /// the control runs the one it builds from the written blocks
+    /// (`written`, likewise), mm: seventeen points along each of its two
+    /// lines. With the rotary axes fixed the correction is a rigid motion,
+    /// which carries the first element's direction, and so the auxiliary
+    /// point `LEN` back along it, into the intended ones.
+    pub(super) fn approach_deviation(
+        &self,
+        f: &Frame,
+        want: &[[f64; 6]; 3],
+        written: &[[f64; 6]; 3],
+    ) -> f64 {
+        let leg = |k: usize| {
+            self.path_deviation(
+                f,
+                &Path::Line {
+                    p0: want[k],
+                    p1: want[k + 1],
+                },
+                &Path::Line {
+                    p0: written[k],
+                    p1: written[k + 1],
+                },
+            )
+        };
+        leg(0).max(leg(1))
+    }
+
+    /// A HEIDENHAIN `DEP LT LEN..`: the control leaves the written last
+    /// contour point `emit` along the direction `tangent` the written last
+    /// element ends in. The block has no word to correct: where the line
+    /// the control runs stays within the tolerance of the intended one
+    /// (seventeen points along both: with the rotary axes fixed the
+    /// correction is a rigid motion, which carries the direction into the
+    /// intended one) its end is returned, where the written program now
+    /// has the tool; otherwise the reason to report it.
+    pub(super) fn plan_departure(
+        &self,
+        f: &Frame,
+        mv: &Move,
+        emit: &[Option<f64>; 6],
+        tangent: Option<[f64; 2]>,
+        len: f64,
+    ) -> Result<[f64; 6], String> {
+        let refuse =
+            |why: String| format!("approach or departure (APPR/DEP) left as written: {why}");
+        let Some(t) = tangent else {
+            return Err(refuse(
+                "the direction the written contour ends in is not known (the last element before it is left as written or not a line or circle in XY)".into(),
+            ));
+        };
+        if f.axes().iter().any(|&a| emit[a].is_none()) {
+            return Err(refuse(
+                "where the written program has the tool before it is not known".into(),
+            ));
+        }
+        let w0 = known(emit);
+        let pn = departure_end([w0[0], w0[1]], t, len);
+        let mut w1 = w0;
+        w1[0] = pn[0];
+        w1[1] = pn[1];
+        let intended = Path::Line {
+            p0: known(&mv.start),
+            p1: known(&mv.end),
+        };
+        let miss = self.path_deviation(f, &intended, &Path::Line { p0: w0, p1: w1 });
+        let tol = self.settings.tolerance;
+        if miss > tol {
+            return Err(refuse(format!(
+                "the DEP LT the control runs from the corrected contour leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+                miss * 1e3,
+                tol * 1e3
+            )));
+        }
+        Ok(w1)
     }
 
     /// How far the tip leaves the intended rounding or chamfer `c` where

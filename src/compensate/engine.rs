@@ -15,6 +15,7 @@ use super::writer::Writer;
 use super::{CompensateError, CoordinateSection, Largest, Lines, Settings, Summary, Vertex};
 use crate::model::{Effect, Model};
 use crate::nc::exec;
+use crate::nc::interp::approach::{Approach, Tangential, approach_aux};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::{self, Event, Frame, Interpreter, Skip};
 use crate::nc::{Block, Blocks, ReadError, Syntax};
@@ -355,6 +356,9 @@ struct Pass<'a> {
     /// The direction (XY, unit, program frame) the written program's last
     /// element ends in: where a HEIDENHAIN `CT` after it starts.
     last_tangent: Option<[f64; 2]>,
+    /// A HEIDENHAIN `APPR LT` written (its line) whose path through the
+    /// auxiliary point waits for the first contour element after it.
+    approach_open: Option<usize>,
     observer: Option<&'a mut dyn FnMut(&Vertex)>,
 }
 
@@ -381,6 +385,7 @@ impl<'a> Pass<'a> {
             rest: Vec::new(),
             last_piece: None,
             last_tangent: None,
+            approach_open: None,
             observer,
         }
     }
@@ -474,7 +479,36 @@ impl<'a> Pass<'a> {
                     summary.moves += 1;
                     moved |= moves_an_axis(&mv);
                     let f = interp.frame();
+                    if let Some(at) = self.approach_open.take()
+                        && mv.approach.is_none()
+                    {
+                        skipped.entry(approach_unchecked()).or_default().push(at);
+                    }
+                    if let Some(Tangential::Departure { len }) = mv.appr_dep {
+                        let from = writer.emit;
+                        match c.plan_departure(&f, &mv, &from, self.last_tangent, len) {
+                            Ok(end) => {
+                                // Nothing to write: the control's line from
+                                // the corrected contour is the intended one.
+                                for a in f.axes() {
+                                    writer.emit[a] = Some(end[a]);
+                                }
+                            }
+                            Err(reason) => {
+                                left.get_or_insert_with(|| reason.clone());
+                                skipped.entry(reason).or_default().push(line);
+                                writer.keep(block, &seg, interp, &before);
+                                self.last_tangent = None;
+                            }
+                        }
+                        *last_held = false;
+                        self.last_piece = Some((from, writer.emit));
+                        writer.after_statement(block, &seg, interp, false);
+                        continue;
+                    }
+                    let appr = matches!(mv.appr_dep, Some(Tangential::Approach { .. }));
                     let planned = match mv.tangential {
+                        _ if appr => c.plan_approach(&f, &mv, &writer.emit, *last_held, line),
                         Some(_) => c.plan_tangential(
                             &f,
                             &mv,
@@ -538,6 +572,22 @@ impl<'a> Pass<'a> {
                                 left.get_or_insert_with(|| why.clone());
                                 skipped.entry(why).or_default().push(corner.line);
                             }
+                            if let Some(a) = &mv.approach
+                                && let Some(why) = check_approach(
+                                    c,
+                                    &f,
+                                    a,
+                                    &mv,
+                                    &plan,
+                                    self.last_piece,
+                                    first_piece,
+                                )
+                            {
+                                skipped.entry(why).or_default().push(a.line);
+                            }
+                            if appr {
+                                self.approach_open = Some(line);
+                            }
                             self.last_tangent = written_direction(
                                 &plan,
                                 &mv,
@@ -555,6 +605,12 @@ impl<'a> Pass<'a> {
                             let from = writer.emit;
                             writer.keep(block, &seg, interp, &before);
                             *last_held = false;
+                            if let Some(a) = &mv.approach {
+                                skipped
+                                    .entry(approach_unchecked())
+                                    .or_default()
+                                    .push(a.line);
+                            }
                             if let Some(corner) = &mv.corner {
                                 let why = "the line after it is left as written";
                                 skipped
@@ -595,6 +651,9 @@ impl<'a> Pass<'a> {
                     skipped.entry(reason).or_default().push(line);
                 }
                 Event::Skip(s) => {
+                    if let Some(at) = self.approach_open.take() {
+                        skipped.entry(approach_unchecked()).or_default().push(at);
+                    }
                     self.last_piece = None;
                     self.last_tangent = None;
                     summary.moves += 1;
@@ -609,6 +668,9 @@ impl<'a> Pass<'a> {
                     *last_held = false;
                 }
                 Event::Quiet => {
+                    if let Some(at) = self.approach_open.take() {
+                        skipped.entry(approach_unchecked()).or_default().push(at);
+                    }
                     self.last_tangent = None;
                     moved = true;
                     left.get_or_insert_with(|| super::LEFT_ON_PURPOSE.to_string());
@@ -690,6 +752,76 @@ fn check_corner(
             "rounding or chamfer: the controller cannot cut it between the corrected lines ({why})"
         )),
     }
+}
+
+/// Why an `APPR LT` written with its end point corrected is reported: the
+/// statement after it, which fixes its auxiliary point, is not a contour
+/// element fivecal corrects.
+fn approach_unchecked() -> String {
+    "approach (APPR LT): its end point is corrected, but its path through the auxiliary point is not checked: the first contour element after it is left as written or not a line or circle in the XY plane"
+        .to_string()
+}
+
+/// Whether the control's `APPR LT` path, built from the written blocks
+/// (`before`: the approach as written; `first`: the first piece of the
+/// element after it, planned as `plan`), stays within the tolerance of
+/// the intended one; the reason to report it otherwise.
+fn check_approach(
+    c: &Compensator,
+    f: &Frame,
+    a: &Approach,
+    mv: &interp::Move,
+    plan: &WritePlan,
+    before: Option<Stretch>,
+    first: Option<Stretch>,
+) -> Option<String> {
+    use interp::tangent::{arc_end_direction, direction};
+    let want = match a.path {
+        Ok(p) => p,
+        Err(why) => {
+            return Some(format!(
+                "approach (APPR LT): its end point is corrected, but its path through the auxiliary point is not checked: {why}"
+            ));
+        }
+    };
+    let xy = |p: &[Option<f64>; 6]| Some([p[0]?, p[1]?]);
+    let written = (|| {
+        let ((ps, pa), (s, e)) = (before?, first?);
+        if pa != s || f.axes().iter().any(|&i| ps[i].is_none() || pa[i].is_none()) {
+            return None;
+        }
+        let d = match (plan, mv.kind) {
+            (WritePlan::Arc { center, .. }, interp::MoveKind::Arc(arc)) => {
+                arc_end_direction(*center, xy(&s)?, arc.cw)?
+            }
+            (WritePlan::Arc { .. }, _) | (WritePlan::End(_), interp::MoveKind::Arc(_)) => {
+                return None;
+            }
+            _ => direction(xy(&s)?, xy(&e)?)?,
+        };
+        let (ps, pa) = (known(&ps), known(&pa));
+        Some([ps, approach_aux(&pa, d, a.len), pa])
+    })();
+    let Some(written) = written else {
+        return Some(
+            "approach (APPR LT): its end point is corrected, but its path through the auxiliary point is not checked: the written blocks around it are not known"
+                .to_string(),
+        );
+    };
+    // The micrometres of tool axis an approach taken as flat moves (a
+    // correction's tilt), which the control moves by the auxiliary point:
+    // with the line to it (TNC7) or after it (TNC 640), paths that differ
+    // by at most that much from the straight one followed here.
+    let tool_axis = ((written[2][2] - written[0][2]).abs() + (want[2][2] - want[0][2]).abs()) * f.u;
+    let tol = c.settings.tolerance;
+    let d = c.approach_deviation(f, &want, &written) + tool_axis;
+    (d > tol).then(|| {
+        format!(
+            "approach (APPR LT): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+            d * 1e3,
+            tol * 1e3
+        )
+    })
 }
 
 /// The direction (XY, unit) the written move ends in, as the control

@@ -22,6 +22,7 @@ use super::{Coordinates, Largest, Lines};
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
 use crate::model::Model;
+use crate::nc::interp::approach::{Approach, Tangential};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, Path as MovePath};
@@ -187,6 +188,9 @@ impl Simulator {
         let mut skipped: IndexMap<String, Lines> = IndexMap::new();
         let mut unmodelled: IndexMap<String, Lines> = IndexMap::new();
         let st = s;
+        // An `APPR LT` held back (its line) until the first contour element
+        // after it places its auxiliary point.
+        let mut approach_open: Option<usize> = None;
         let mut process = |block: &Block| -> Result<(), SourceError> {
             run.summary.blocks += 1;
             for si in 0..block.segments.len() {
@@ -198,11 +202,34 @@ impl Simulator {
                     // Not run: nothing to simulate, nothing missed.
                     Event::Skip(Skip::NeverRuns) => continue,
                     Event::Skip(s) => {
+                        if let Some(at) = approach_open.take() {
+                            skipped
+                                .entry(APPROACH_STRAIGHT.to_string())
+                                .or_default()
+                                .push(at);
+                        }
                         skipped.entry(s.to_string()).or_default().push(block.line);
+                        continue;
+                    }
+                    Event::Quiet => {
+                        if let Some(at) = approach_open.take() {
+                            skipped
+                                .entry(APPROACH_STRAIGHT.to_string())
+                                .or_default()
+                                .push(at);
+                        }
                         continue;
                     }
                     _ => continue,
                 };
+                if let Some(at) = approach_open.take()
+                    && mv.approach.is_none()
+                {
+                    skipped
+                        .entry(APPROACH_STRAIGHT.to_string())
+                        .or_default()
+                        .push(at);
+                }
                 let f = interp.frame();
                 if let Some(&a) = f.axes().iter().find(|&&a| mv.end[a].is_none()) {
                     skipped
@@ -245,6 +272,17 @@ impl Simulator {
                     // by a rapid).
                     first: usize::from(mv.drill.is_none()),
                 };
+                if let Some(a) = mv.approach
+                    && let Err(why) = run.approach(&a)
+                {
+                    skipped
+                        .entry(format!("{APPROACH_STRAIGHT}: {why}"))
+                        .or_default()
+                        .push(a.line);
+                }
+                if matches!(mv.appr_dep, Some(Tangential::Approach { .. })) {
+                    approach_open = Some(block.line);
+                }
                 match mv.corner {
                     Some(c) => {
                         if let Err(why) = run.cut_corner(&c, &mut job) {
@@ -330,8 +368,13 @@ impl Simulator {
     }
 }
 
+/// An `APPR LT` whose auxiliary point is not known is run as a straight
+/// line to its end.
+const APPROACH_STRAIGHT: &str = "approach (APPR LT) not simulated through its auxiliary point (run as a straight line to its end): the first contour element after it is not a line or circle in the XY plane that is simulated";
+
 /// A move waiting to be sampled: the next one may cut its end (a
-/// HEIDENHAIN rounding or chamfer).
+/// HEIDENHAIN rounding or chamfer) or place its auxiliary point (an
+/// `APPR LT`).
 struct Job {
     line: usize,
     f: Frame,
@@ -412,6 +455,53 @@ impl Run<'_, '_> {
             p0: path.at(1.0),
             p1: b,
         };
+        Ok(())
+    }
+
+    /// An `APPR LT` held back: run from its start to the auxiliary point
+    /// `a` places, then on to its end; the element after it starts there.
+    fn approach(&mut self, a: &Approach) -> Result<(), &'static str> {
+        let path = match a.path {
+            Ok(p) => p,
+            Err(why) => {
+                self.flush();
+                return Err(why);
+            }
+        };
+        let Some(mut before) = self.held.take() else {
+            return Err("the approach itself was not simulated");
+        };
+        let same = |p: &[f64; 6], q: &[f64; 6]| {
+            p.iter()
+                .zip(q)
+                .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()))
+        };
+        match before.path {
+            MovePath::Line { p0, p1 } if same(&p0, &path[0]) && same(&p1, &path[2]) => {}
+            _ => {
+                self.held = Some(before);
+                self.flush();
+                return Err("the approach ran elsewhere than its path");
+            }
+        }
+        before.path = MovePath::Line {
+            p0: path[0],
+            p1: path[1],
+        };
+        self.sample(&before);
+        let to_pa = Job {
+            line: before.line,
+            f: before.f,
+            path: MovePath::Line {
+                p0: path[1],
+                p1: path[2],
+            },
+            feed: true,
+            start_known: before.start_known,
+            vector: before.vector,
+            first: 1,
+        };
+        self.sample(&to_pa);
         Ok(())
     }
 

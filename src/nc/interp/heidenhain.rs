@@ -1,6 +1,7 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
 //! `CC`, `CR`, polar `LP`/`CP`, the corners `RND`/`CHF` cut between two
-//! lines and the tangential circle `CT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! lines, the tangential circle `CT`, the approach and departure
+//! `APPR LT`/`DEP LT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
 //! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
@@ -51,13 +52,20 @@ impl Interpreter {
         let line_before = self.hh_line_before.take();
         let pending = self.hh_corner.take();
         let tangent = self.hh_tangent.take();
+        let approach = self.hh_approach.take();
         let ev = if kind == HhKind::Ct {
             self.hh_tangential(block, seg, m91, tangent)
+        } else if matches!(kind, HhKind::Appr | HhKind::Dep) {
+            self.hh_appr_dep(block, seg, kind, m91, tangent)
         } else {
             self.hh_statement(block, seg, kind, m91, cycle_call, line_before)
         };
         let ev = match pending {
             Some(c) => self.after_corner(c, kind, ev),
+            None => ev,
+        };
+        let ev = match approach {
+            Some(a) => self.after_approach(a, kind, ev),
             None => ev,
         };
         // The direction a CT after this statement starts in: a statement
@@ -92,6 +100,201 @@ impl Interpreter {
             out[i] = p[i]?;
         }
         Some(out)
+    }
+
+    /// `APPR ...` / `DEP ...` (read: TNC 640 user's manual, DIN/ISO
+    /// programming 1/2015 p. 213, "Important positions for approach and
+    /// departure"; TNC7 basic user's manual 81762x-18, "Approach function
+    /// APPR LT" ... "Departure function DEP LCT"; TNC7 user's manual
+    /// 81762x-16, "Approach functions APPR CT and APPR PCT"; TNC 426
+    /// pilot p. 13: "DEP blocks set the radius compensation to 0"): the
+    /// control moves from where the tool is through an auxiliary point it
+    /// computes from the block and from the first (last) contour element.
+    /// `APPR LT` and `DEP LT` without radius compensation are followed
+    /// ([`super::approach`]): the `APPR LT` is a move to its first contour
+    /// point PA whose path the element after it completes, the `DEP LT`
+    /// one `LEN` on along the element before. The others are kept, with
+    /// the reason.
+    fn hh_appr_dep(
+        &mut self,
+        block: &Block,
+        seg: &Segment,
+        kind: HhKind,
+        m91: bool,
+        tangent: Option<[f64; 2]>,
+    ) -> Event {
+        let dep = kind == HhKind::Dep;
+        let path = block
+            .seg_tokens(seg)
+            .iter()
+            .find(|t| t.kind == TokenKind::Keyword)
+            .map(|t| {
+                let b = block.bytes(t.span);
+                let b = &b[if dep { 3 } else { 4 }.min(b.len())..];
+                String::from_utf8_lossy(b).trim().to_ascii_uppercase()
+            })
+            .unwrap_or_default();
+        let comp_before = self.radius_comp;
+        let (mut mv, skip) = self.hh_move(block, seg, MoveKind::Linear);
+        let comp_after = self.radius_comp;
+        if dep {
+            self.radius_comp = false;
+        }
+        let mut len = None;
+        for (_, w) in block.words(seg) {
+            if w.addr == Addr::new("LEN") {
+                len = Some(match w.value {
+                    Value::Num(v)
+                        if v.is_finite()
+                            && v > 0.0
+                            && v * self.units.mm() <= crate::limits::MAX_NC_VALUE =>
+                    {
+                        Ok(v)
+                    }
+                    _ => Err(()),
+                });
+            }
+        }
+        let plane_word = |i: usize| mv.words[i].is_some();
+        let why = match path.as_str() {
+            "LT" => Ok(()),
+            "LN" | "PLN" => Err(
+                "a perpendicular approach or departure (LN): the control puts its auxiliary or end point on the side of the contour RL/RR picks, LEN plus the tool radius away (TNC 640 user's manual), and fivecal does not know the tool radius",
+            ),
+            "CT" | "LCT" | "PCT" | "PLCT" => Err(
+                "a circular approach or departure (CT, LCT): its arc turns the way RL/RR and the sign of R say (with R0 the TNC7 stops with an error message, user's manual 81762x-16), and with RL/RR the control offsets it by the tool radius, which fivecal does not know",
+            ),
+            "PLT" => Err("a first contour point in polar coordinates (APPR PLT)"),
+            _ => Err("no path type fivecal knows (LT, LN, CT, LCT)"),
+        };
+        let why = why.and_then(|()| {
+            if self.plane != ArcPlane::Xy {
+                Err("a working plane other than XY")
+            } else if !dep && comp_after {
+                Err(
+                    "radius compensation RL/RR: the control offsets the approach by the tool radius, which fivecal does not know (APPR LT with R0 is corrected)",
+                )
+            } else if dep && comp_before {
+                Err(
+                    "the contour before it runs with radius compensation RL/RR: the control leaves it offset by the tool radius, which fivecal does not know (DEP LT after a contour with R0 is corrected)",
+                )
+            } else if !matches!(len, Some(Ok(_))) {
+                Err("its LEN is not a positive number")
+            } else if dep && (plane_word(0) || plane_word(1)) {
+                Err("X or Y in a DEP LT (its end point is LEN along the last contour element)")
+            } else if !super::approach::flat(&mv.start, &mv.end, self.units.mm()) {
+                Err(
+                    "it moves the tool axis or a rotary axis: the TNC 640 manual has the control reach the auxiliary point in the working plane and then the tool-axis position, the TNC7 manual all three axes at once (APPR LCT, DEP LCT); which this control does is not known",
+                )
+            } else {
+                Ok(())
+            }
+        });
+        let len = match len {
+            Some(Ok(v)) => v,
+            _ => 0.0,
+        };
+        // Where the tool ends: a DEP LT LEN on along the last element, the
+        // others as their words say (a DEP LT, LN or CT names no end point
+        // in the plane).
+        let pe = [mv.start[0], mv.start[1]];
+        if dep {
+            let end = match (why, pe, tangent) {
+                (Ok(()), [Some(x), Some(y)], Some(t)) => {
+                    let p = super::approach::departure_end([x, y], t, len);
+                    [Some(p[0]), Some(p[1])]
+                }
+                _ => [None, None],
+            };
+            for (i, e) in end.into_iter().enumerate() {
+                if !plane_word(i) {
+                    mv.end[i] = e;
+                }
+            }
+        } else if why.is_err() {
+            for i in 0..2 {
+                if !plane_word(i) {
+                    mv.end[i] = None;
+                }
+            }
+        }
+        self.pos = mv.end;
+        if m91 {
+            return Event::Quiet;
+        }
+        if let Err(why) = why {
+            return Event::Skip(match skip {
+                Some(s @ (Skip::Expression | Skip::UnknownWord)) => s,
+                _ => Skip::ApproachDeparture(why),
+            });
+        }
+        if let Some(s) = skip {
+            return Event::Skip(s);
+        }
+        if dep && tangent.is_none() {
+            return Event::Skip(Skip::ApproachDeparture(
+                "the element before it is not a line or circle in the XY plane that fivecal follows (the departure continues in the direction that element ends in)",
+            ));
+        }
+        let (from, at) = match plane_ends(&mv) {
+            Ok(_) => (
+                super::coordinates::known(&mv.start),
+                super::coordinates::known(&mv.end),
+            ),
+            Err(s) => return Event::Skip(s),
+        };
+        if let Some(s) = self.frame_skip() {
+            return Event::Skip(s);
+        }
+        if dep {
+            mv.appr_dep = Some(super::approach::Tangential::Departure { len });
+        } else {
+            mv.appr_dep = Some(super::approach::Tangential::Approach { len });
+            self.hh_approach = Some(PendingApproach {
+                line: block.line,
+                from,
+                at,
+                len,
+            });
+        }
+        Event::Move(mv)
+    }
+
+    /// The statement after an `APPR LT`: the first contour element, whose
+    /// direction at its start places the auxiliary point; a statement
+    /// that moves nothing and sets no element (a pole, M functions) keeps
+    /// it waiting. Anything else leaves the approach's path unknown, which
+    /// whoever follows the moves reports.
+    fn after_approach(&mut self, a: PendingApproach, kind: HhKind, ev: Event) -> Event {
+        let mut mv = match ev {
+            // A contour element: not another APPR, a DEP or a cycle call.
+            Event::Move(mv)
+                if matches!(
+                    kind,
+                    HhKind::L | HhKind::Lp | HhKind::C | HhKind::Cr | HhKind::Cp
+                ) =>
+            {
+                mv
+            }
+            Event::None if matches!(kind, HhKind::Cc | HhKind::M) => {
+                self.hh_approach = Some(a);
+                return ev;
+            }
+            ev => return ev,
+        };
+        let starts_at_pa = matches!((mv.start[0], mv.start[1]), (Some(x), Some(y)) if x == a.at[0] && y == a.at[1]);
+        let path = if !starts_at_pa {
+            Err("the first contour element does not start at its end point")
+        } else {
+            super::approach::start_direction(&mv, self.units.mm())
+                .map(|d| [a.from, super::approach::approach_aux(&a.at, d, a.len), a.at])
+        };
+        mv.approach = Some(super::approach::Approach {
+            line: a.line,
+            len: a.len,
+            path,
+        });
+        Event::Move(mv)
     }
 
     /// `RND R..` / `CHF ..`: the corner of the line before, to be cut
@@ -252,36 +455,11 @@ impl Interpreter {
                 Event::None
             }
             HhKind::Lp | HhKind::Cp => self.hh_polar(block, seg, kind, m91),
-            // APPR/DEP (read: TNC 640 DIN/ISO user's manual 1/2015 p. 213,
-            // "Important positions for approach and departure"; TNC 410
-            // user's manual p. 72, APPR LCT; TNC7 basic 81762x-18, "Approach
-            // function APPR LT"): the control moves from the position before
-            // to an auxiliary point PH it computes from the block (LEN, R,
-            // CCA) and from the first contour element, the block after an
-            // APPR (the last one, before a DEP), then on a line or an arc
-            // tangent to that element to PA, with RL/RR offset by the tool
-            // radius. Derived: PH needs the element after the block, and
-            // under RL/RR the tool's radius; fivecal reads one block at a
-            // time and does not know the radius, so these moves are kept.
-            HhKind::Appr | HhKind::Dep | HhKind::Ln => {
-                // Moves that are not rewritten: follow the Cartesian words,
-                // forget the plane position when it is not all given.
+            HhKind::Appr | HhKind::Dep => unreachable!("APPR/DEP are read by hh_appr_dep"),
+            HhKind::Ln => {
+                // A vector line: not rewritten. Follow the Cartesian words.
                 self.track_words(block, seg);
-                if matches!(kind, HhKind::Appr | HhKind::Dep) {
-                    let given: Vec<usize> = block
-                        .words(seg)
-                        .filter_map(|(_, w)| self.axis_index(w.addr))
-                        .collect();
-                    for i in 0..2 {
-                        if !given.contains(&i) {
-                            self.pos[i] = None;
-                        }
-                    }
-                }
-                Event::Skip(match kind {
-                    HhKind::Appr | HhKind::Dep => Skip::ApproachDeparture,
-                    _ => Skip::Element("vector line (LN)"),
-                })
+                Event::Skip(Skip::Element("vector line (LN)"))
             }
             // The controller cuts the corner between the line before and
             // the line after: the line after carries it.
@@ -1003,6 +1181,17 @@ pub(super) struct PendingCorner {
     line: usize,
     #[allow(clippy::type_complexity)]
     geo: Result<(super::corner::CornerKind, [f64; 6], [f64; 6]), &'static str>,
+}
+
+/// An `APPR LT` waiting for the first contour element: its line, where it
+/// starts (PS) and its first contour point (PA; program coordinates,
+/// absolute, NaN on an axis the machine does not have), and its `LEN`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct PendingApproach {
+    line: usize,
+    from: [f64; 6],
+    at: [f64; 6],
+    len: f64,
 }
 
 /// Where a move starts and ends in the XY plane, or which axis is not

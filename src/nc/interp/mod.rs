@@ -31,6 +31,7 @@
 //! every axis. The whole state is a plain value: it can be cloned and
 //! handed from one stretch of a program to the next.
 
+pub mod approach;
 pub mod coordinates;
 pub mod corner;
 pub mod gcode;
@@ -229,10 +230,9 @@ pub enum Skip {
     /// The move after a `RND`/`CHF` (at this line) whose corner fivecal
     /// does not follow, and why.
     AfterCorner(usize, &'static str),
-    /// A HEIDENHAIN `APPR`/`DEP`: its auxiliary point depends on the
-    /// contour element after (before) it and, under RL/RR, on the tool
-    /// radius.
-    ApproachDeparture,
+    /// A HEIDENHAIN `APPR`/`DEP` whose path fivecal does not follow, and
+    /// why.
+    ApproachDeparture(&'static str),
     /// A HEIDENHAIN `CT` whose arc fivecal does not follow, and why.
     Tangential(&'static str),
     /// A contour element that is not compensated (polar, tangential,
@@ -287,10 +287,9 @@ impl std::fmt::Display for Skip {
                 f,
                 "cycle call position (CYCL CALL POS) left as written: {why}"
             ),
-            Skip::ApproachDeparture => write!(
-                f,
-                "approach or departure (APPR/DEP) left as written: the control places its auxiliary point from the contour element after the APPR (before the DEP) and, with RL/RR, from the tool radius, neither of which the block gives"
-            ),
+            Skip::ApproachDeparture(why) => {
+                write!(f, "approach or departure (APPR/DEP) left as written: {why}")
+            }
             Skip::Tangential(why) => write!(f, "tangential circle (CT) left as written: {why}"),
             Skip::Element(what) => write!(f, "not compensated: {what}"),
             Skip::ShiftUnknown => write!(f, "the datum shift comes from a table (value unknown)"),
@@ -403,6 +402,12 @@ pub struct Move {
     /// (XY, program frame), the one the element before it ends in; its
     /// centre follows from it and the end point.
     pub tangential: Option<[f64; 2]>,
+    /// HEIDENHAIN `APPR LT`/`DEP LT`: the move is one, and its `LEN`.
+    pub appr_dep: Option<approach::Tangential>,
+    /// HEIDENHAIN `APPR LT` before this move, the first contour element:
+    /// the control's auxiliary point follows from the direction this move
+    /// starts in.
+    pub approach: Option<approach::Approach>,
 }
 
 /// The polar words of a HEIDENHAIN `LP`/`CP` block: token index and
@@ -450,6 +455,8 @@ impl Move {
             drill: None,
             corner: None,
             tangential: None,
+            appr_dep: None,
+            approach: None,
         }
     }
 }
@@ -593,6 +600,8 @@ pub struct Interpreter {
     /// HEIDENHAIN: the direction (XY, unit) the last contour element ends
     /// in, which a `CT` after it starts in.
     hh_tangent: Option<[f64; 2]>,
+    /// HEIDENHAIN: an `APPR LT` waiting for the first contour element.
+    hh_approach: Option<heidenhain::PendingApproach>,
     /// The canned drilling cycle in force (G code x 10), if any.
     pub cycle: Option<u32>,
     /// Its modal hole bottom along the drill axis (program units).
@@ -683,6 +692,7 @@ impl Interpreter {
             hh_line_before: None,
             hh_corner: None,
             hh_tangent: None,
+            hh_approach: None,
             cycle: None,
             cycle_depth: None,
             cycle_r: None,

@@ -1,0 +1,202 @@
+//! HEIDENHAIN `APPR LT` and `DEP LT`: the straight lines tangential to the
+//! contour that the control builds to and from it.
+//!
+//! Source (read): TNC 640 user's manual, DIN/ISO programming 1/2015,
+//! p. 213, "Important positions for approach and departure", and the
+//! conversational edition 5/2013 p. 199: the control moves from the
+//! position before the `APPR` block (PS) to an auxiliary point PH it
+//! computes from the block and the first contour element, then to the
+//! first contour point PA the block names; a `DEP` block's end point PN
+//! "results from your input in the DEP block". TNC7 basic user's manual
+//! 81762x-18, "Approach function APPR LT": a straight line from PS to PH,
+//! then a straight line from PH to PA "tangential to the first contour
+//! element", `LEN` the distance of PH from the contour; "Departure
+//! function DEP LT" likewise leaves the last contour point PE on a
+//! straight line tangential to the last contour element, `LEN` long. So
+//! PH lies `LEN` back from PA against the direction the first element
+//! starts in, and PN `LEN` on from PE along the direction the last one
+//! ends in: neither needs the side of the contour, which only radius
+//! compensation (RL/RR) gives.
+
+use super::tangent::{arc_end_direction, direction};
+use super::{ArcPlane, Move, MoveKind};
+
+/// An `APPR LT` whose auxiliary point follows from the element after it,
+/// carried by that element's move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Approach {
+    /// 1-based line of the `APPR` block.
+    pub line: usize,
+    /// Its `LEN`, program units.
+    pub len: f64,
+    /// Its path as the control runs it (start PS, auxiliary point PH,
+    /// first contour point PA; program coordinates, absolute), or why
+    /// fivecal cannot say.
+    pub path: Result<[[f64; 6]; 3], &'static str>,
+}
+
+/// What an `APPR`/`DEP` block is, on its own move.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Tangential {
+    /// `APPR LT ... LEN..`: its end point PA is written; the line to it
+    /// starts at PH, `len` back along the element after it.
+    Approach {
+        /// `LEN`, program units.
+        len: f64,
+    },
+    /// `DEP LT LEN..`: its end PN is `len` on from where the tool is,
+    /// along the direction the element before ends in.
+    Departure {
+        /// `LEN`, program units.
+        len: f64,
+    },
+}
+
+/// Largest change of Z (mm) or of a rotary axis (deg) along a move for
+/// which it is still taken to lie in the XY plane: the micrometres a
+/// correction tilts a flat contour by, never a contour that climbs (as
+/// for a rounding, [`super::corner`]).
+const FLAT_MM: f64 = 0.01;
+const FLAT_DEG: f64 = 0.001;
+
+/// Whether a move from `s` to `e` stays in the XY plane: Z within
+/// [`FLAT_MM`] (program units times `mm`), the rotary axes within
+/// [`FLAT_DEG`]; an axis known at one end only does not.
+pub fn flat(s: &[Option<f64>; 6], e: &[Option<f64>; 6], mm: f64) -> bool {
+    (2..6).all(|i| match (s[i], e[i]) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            (b - a).abs() * if i == 2 { mm } else { 1.0 } <= if i == 2 { FLAT_MM } else { FLAT_DEG }
+        }
+        _ => false,
+    })
+}
+
+/// The auxiliary point of an `APPR LT`: `len` back from the first contour
+/// point `at` against the unit direction `dir` the first element starts
+/// in (XY), the other axes as at `at`.
+pub fn approach_aux(at: &[f64; 6], dir: [f64; 2], len: f64) -> [f64; 6] {
+    let mut p = *at;
+    p[0] -= len * dir[0];
+    p[1] -= len * dir[1];
+    p
+}
+
+/// The end point of a `DEP LT`: `len` on from the last contour point `at`
+/// along the unit direction `dir` the last element ends in (XY).
+pub fn departure_end(at: [f64; 2], dir: [f64; 2], len: f64) -> [f64; 2] {
+    [at[0] + len * dir[0], at[1] + len * dir[1]]
+}
+
+/// The direction (XY, unit) a move starts in, if it is a line or a circle
+/// in the XY plane that moves neither the tool axis nor a rotary axis
+/// (the approach is a two-dimensional element; `mm`: millimetres per
+/// program unit, see [`flat`]), or why not.
+pub fn start_direction(mv: &Move, mm: f64) -> Result<[f64; 2], &'static str> {
+    let (Some(s0), Some(s1), Some(e0), Some(e1)) = (mv.start[0], mv.start[1], mv.end[0], mv.end[1])
+    else {
+        return Err("the first contour element's ends are not known");
+    };
+    if !flat(&mv.start, &mv.end, mm) {
+        return Err(
+            "the first contour element moves the tool axis or a rotary axis (the control builds the approach in the working plane)",
+        );
+    }
+    if mv.tangential.is_some() {
+        return Err(
+            "the first contour element is a CT, which starts in the direction of the approach itself",
+        );
+    }
+    if mv.drill.is_some() || mv.corner.is_some() {
+        return Err("the first contour element is not a line or a circle");
+    }
+    match mv.kind {
+        MoveKind::Arc(a) if a.plane == ArcPlane::Xy && a.turns == 0 => {
+            arc_end_direction(a.center, [s0, s1], a.cw)
+                .ok_or("the first contour element is a circle of no radius")
+        }
+        MoveKind::Arc(_) | MoveKind::Through(_) => {
+            Err("the first contour element is a circle outside the XY plane or a helix")
+        }
+        MoveKind::Linear | MoveKind::Rapid => direction([s0, s1], [e0, e1])
+            .ok_or("the first contour element has no length in the XY plane"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_auxiliary_point_lies_len_back_along_the_first_element() {
+        // A contour starting at (20, 20) along +X: PH 10 mm before it on
+        // the line's extension, (10, 20); Z and the rotary axes as at PA.
+        let at = [20.0, 20.0, -1.0, 0.0, 5.0, 30.0];
+        let ph = approach_aux(&at, [1.0, 0.0], 10.0);
+        assert_eq!(ph, [10.0, 20.0, -1.0, 0.0, 5.0, 30.0]);
+        // Along the diagonal (3, 4) / 5, LEN 15: back by (9, 12).
+        let ph = approach_aux(&at, [0.6, 0.8], 15.0);
+        assert!((ph[0] - 11.0).abs() < 1e-12 && (ph[1] - 8.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_departure_end_lies_len_on_along_the_last_element() {
+        assert_eq!(departure_end([5.0, -3.0], [0.0, -1.0], 12.5), [5.0, -15.5]);
+    }
+
+    fn line(s: [f64; 3], e: [f64; 3]) -> Move {
+        let mut mv = Move::new(
+            MoveKind::Linear,
+            [
+                Some(s[0]),
+                Some(s[1]),
+                Some(s[2]),
+                Some(0.0),
+                None,
+                Some(0.0),
+            ],
+            false,
+        );
+        mv.end = [
+            Some(e[0]),
+            Some(e[1]),
+            Some(e[2]),
+            Some(0.0),
+            None,
+            Some(0.0),
+        ];
+        mv
+    }
+
+    #[test]
+    fn a_first_element_starts_in_its_own_direction() {
+        // A line: its direction; a counter-clockwise circle about (20, 30)
+        // from (20, 20): +X at its start (square to the radius, turning
+        // left), a clockwise one -X.
+        let d = start_direction(&line([20.0, 20.0, -1.0], [20.0, 35.0, -1.0]), 1.0).unwrap();
+        assert_eq!(d, [0.0, 1.0]);
+        let mut mv = line([20.0, 20.0, -1.0], [30.0, 30.0, -1.0]);
+        let arc = super::super::Arc {
+            plane: ArcPlane::Xy,
+            cw: false,
+            center: [20.0, 30.0],
+            turns: 0,
+            center_words: [None; 3],
+            radius_word: None,
+        };
+        mv.kind = MoveKind::Arc(arc);
+        let d = start_direction(&mv, 1.0).unwrap();
+        assert!((d[0] - 1.0).abs() < 1e-15 && d[1].abs() < 1e-15, "{d:?}");
+        mv.kind = MoveKind::Arc(super::super::Arc { cw: true, ..arc });
+        let d = start_direction(&mv, 1.0).unwrap();
+        assert!((d[0] + 1.0).abs() < 1e-15 && d[1].abs() < 1e-15, "{d:?}");
+    }
+
+    #[test]
+    fn a_first_element_that_leaves_the_plane_gives_no_direction() {
+        assert!(start_direction(&line([0.0, 0.0, 0.0], [10.0, 0.0, -1.0]), 1.0).is_err());
+        assert!(start_direction(&line([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]), 1.0).is_err());
+        // The micrometres a correction tilts a flat contour by keep it flat.
+        assert!(start_direction(&line([0.0, 0.0, 0.0], [10.0, 0.0, 0.003]), 1.0).is_ok());
+    }
+}
