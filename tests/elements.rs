@@ -607,3 +607,211 @@ fn every_linuxcnc_drilling_cycle_code_is_corrected_as_its_hole() {
     assert_eq!(s.drilled.first, holes, "{:?}\n{out}", s.skipped);
     assert!(s.drilled_axis_error < 0.01, "{s:?}");
 }
+
+/// The largest end misses: `program` on
+/// the nominal machine against `rewritten` on the erroneous one, pairwise,
+/// the lines `loose` (ends the control computes from the written
+/// directions: an `APPR LT`'s auxiliary point, a `DEP LT`'s end) apart.
+fn end_misses(l: &LoadedErrors, program: &str, rewritten: &str, loose: &[usize]) -> (f64, f64) {
+    let d = Dialect::Heidenhain;
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let ends = |m: &Model, th: &[f64], p: &str| -> Vec<Sample> {
+        simulate(m, th, d, Coordinates::Auto, p, 0.0)
+            .into_iter()
+            .filter(|x| x.fraction == 1.0)
+            .collect()
+    };
+    let (a, b) = (
+        ends(&nominal, &[], program),
+        ends(&l.model, &l.theta, rewritten),
+    );
+    assert_eq!(a.len(), b.len(), "the same points in both");
+    let (mut tight, mut wide) = (0.0f64, 0.0f64);
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.line, y.line);
+        let miss = (x.nominal.tip - y.actual.tip).norm();
+        if loose.contains(&x.line) {
+            wide = wide.max(miss);
+        } else {
+            tight = tight.max(miss);
+        }
+    }
+    (tight, wide)
+}
+
+/// HEIDENHAIN `APPR LT` and `DEP LT` without radius compensation: the
+/// control runs from the start to an auxiliary point `LEN` back along the
+/// first contour element, then tangentially onto it, and leaves the last
+/// one `LEN` on along its direction. A contour at a fixed tilt under
+/// TCPM, entered on a line and left after it, then entered on a circle
+/// and left after that circle: the approach's first contour point is
+/// rewritten, the departure (which has no coordinate) stays as written,
+/// and the rewrite on the erroneous machine stays on the intended path
+/// through the auxiliary points.
+#[test]
+fn heidenhain_appr_lt_and_dep_lt_stay_on_the_intended_path() {
+    let program = "0 BEGIN PGM APPR MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S4000\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 L X+40 Y-10 Z+2 A-20 C+30 R0 FMAX\n7 L Z-1 F300\n8 APPR LT X+20 Y+0 LEN10 R0 F600\n9 L X+35 Y+15\n10 L X+35 Y+30\n11 DEP LT LEN12.5\n12 L X-10 Y+30 R0 FMAX\n13 APPR LT X+0 Y+20 LEN5 F600\n14 CR X+10 Y+10 R+10 DR+\n15 DEP LT LEN8\n16 L Z+50 R0 FMAX\n17 FUNCTION RESET TCPM\n18 END PGM APPR MM\n";
+    let l = errors("ac-trunnion", 103, 30.0, "");
+    let d = Dialect::Heidenhain;
+    let zero = errors("ac-trunnion", 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
+    assert_eq!(out, program, "zero error must give the same bytes");
+    assert_eq!(s0.changed, 0);
+    assert_eq!(s0.skipped.len(), 1, "{:?}", s0.skipped);
+    let (out, s, _) = compensate(&l, Settings::new(d), program);
+    // Only the rotary positioning before X and Y are known is left.
+    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
+    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    // The approaches keep their form with the first contour point
+    // rewritten; the departures are the program's own text.
+    for k in [8, 13] {
+        let (a, b) = (out.lines().nth(k).unwrap(), program.lines().nth(k).unwrap());
+        assert!(
+            a.contains(" APPR LT X") && a.contains(" LEN") && a != b,
+            "{a}"
+        );
+    }
+    for k in [11, 15] {
+        assert_eq!(out.lines().nth(k), program.lines().nth(k));
+    }
+    // On the intended path within the tolerance all along; every end point
+    // within 0.1 um, except the ones the control computes from the
+    // written directions (the auxiliary points, the departures' ends),
+    // which the correction's tilt of the plane moves by a fraction of the
+    // tolerance.
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    assert_on_path(
+        &simulate(&nominal, &[], d, Coordinates::Auto, program, 0.01),
+        &simulate(&l.model, &l.theta, d, Coordinates::Auto, &out, 0.1),
+        0.001,
+        "appr/dep",
+    );
+    let (tight, wide) = end_misses(&l, program, &out, &[9, 12, 14, 16]);
+    assert!(tight < 1e-4 && wide < 1e-3, "{tight} {wide}");
+    let (before, _) = end_misses(&l, program, program, &[]);
+    assert!(before > 0.005, "{before}");
+    // The simulator runs the approach as the control does: on the nominal
+    // machine (TCPM: the tip is the program point) the first APPR LT
+    // passes through (20, 0) - 10 (1, 1) / sqrt(2), and the line after
+    // that point runs along the first element's direction; the second one
+    // through (0, 25), 5 before (0, 20) against the circle's start
+    // direction -Y; the departures end 12.5 along +Y from (35, 30) and 8
+    // along +X from (10, 10).
+    let samples = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0);
+    let at = |line: usize| -> Vec<[f64; 3]> {
+        samples
+            .iter()
+            .filter(|x| x.line == line)
+            .map(|x| [x.nominal.tip.x, x.nominal.tip.y, x.nominal.tip.z])
+            .collect()
+    };
+    let h = 10.0 / 2f64.sqrt();
+    let near = |p: [f64; 3], q: [f64; 3]| (0..3).all(|i| (p[i] - q[i]).abs() < 1e-9);
+    let first = at(9);
+    assert_eq!(first.len(), 2, "{first:?}");
+    assert!(near(first[0], [20.0 - h, -h, -1.0]), "{first:?}");
+    assert!(near(first[1], [20.0, 0.0, -1.0]), "{first:?}");
+    let second = at(14);
+    assert!(near(second[0], [0.0, 25.0, -1.0]), "{second:?}");
+    assert!(near(at(12)[0], [35.0, 42.5, -1.0]), "{:?}", at(12));
+    assert!(near(at(16)[0], [18.0, 10.0, -1.0]), "{:?}", at(16));
+}
+
+/// What fivecal does not correct of `APPR`/`DEP` is left as written and
+/// reported at its line with the reason: radius compensation (the tool
+/// radius offsets the path), the perpendicular and circular variants
+/// (their side comes from RL/RR), a tool-axis move in the block, and an
+/// approach whose first contour element is a `CT` (which starts in the
+/// approach's own direction).
+#[test]
+fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
+    let program = "0 BEGIN PGM NOAPPR MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR LT X+20 Y+0 LEN10 RR F600\n6 L X+35 Y+15\n7 DEP LT LEN10\n8 L X+40 Y-10 R0 FMAX\n9 APPR LN X+20 Y+0 LEN10 RL\n10 L X+35 Y+15\n11 DEP CT CCA90 R+5\n12 L X+40 Y-10 R0 FMAX\n13 APPR LCT X+20 Y+0 R5 RR\n14 L X+35 Y+15\n15 DEP LT LEN10\n16 L X+40 Y-10 R0 FMAX\n17 APPR LT X+20 Y+0 Z-3 LEN10 R0\n18 L X+35 Y+15\n19 L X+40 Y-10 Z-1 R0 FMAX\n20 APPR LT X+20 Y+0 LEN10 R0\n21 CT X+35 Y+15\n22 L Z+50 R0 FMAX\n23 END PGM NOAPPR MM\n";
+    let l = errors("ac-trunnion", 104, 30.0, "");
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    let lines = |what: &str| -> Vec<usize> {
+        s.skipped
+            .iter()
+            .filter(|(w, _)| w.contains(what))
+            .flat_map(|(_, at)| at.first.clone())
+            .collect()
+    };
+    assert_eq!(
+        lines("APPR/DEP) left as written: radius compensation RL/RR"),
+        [6],
+        "{:?}",
+        s.skipped
+    );
+    assert_eq!(
+        lines("the contour before it runs with radius compensation RL/RR"),
+        [8, 16],
+        "{:?}",
+        s.skipped
+    );
+    assert_eq!(lines("perpendicular approach or departure (LN)"), [10]);
+    assert_eq!(lines("circular approach or departure (CT, LCT)"), [12, 14]);
+    assert_eq!(lines("it moves the tool axis or a rotary axis"), [18]);
+    // The last APPR LT is corrected, but the CT after it cannot be
+    // followed: the approach is reported, its path not checked.
+    assert_eq!(
+        lines("path through the auxiliary point is not checked"),
+        [21]
+    );
+    // Every refused block is the program's own text.
+    for line in [6, 8, 10, 12, 14, 16, 18] {
+        assert_eq!(
+            out.lines().nth(line - 1),
+            program.lines().nth(line - 1),
+            "line {line}"
+        );
+    }
+}
+
+/// X and Y scale errors are no rigid motion: the auxiliary point the
+/// control puts `LEN` back along the corrected first element, and the end
+/// of a `DEP LT` along the corrected last one, are not the intended ones
+/// on the machine. The approach is reported at its line with how far it
+/// leaves the intended path (its end point is corrected), the departure
+/// is left as written with the same, and the simulator agrees.
+#[test]
+fn an_approach_and_departure_that_a_scale_error_bends_are_reported() {
+    let program = "0 BEGIN PGM BENTAPPR MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR LT X+20 Y+0 LEN30 R0 F600\n6 L X+35 Y+15\n7 L X+35 Y+30\n8 DEP LT LEN30\n9 L Z+50 R0 FMAX\n10 END PGM BENTAPPR MM\n";
+    let extra = "effects:\n  linear_scale: {EXX: 300.0, EYY: -200.0}\n";
+    let l = errors("ac-trunnion", 105, 30.0, extra);
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    let found = |what: &str| {
+        s.skipped
+            .iter()
+            .find(|(w, _)| w.contains(what))
+            .unwrap_or_else(|| panic!("{what}: {:?}\n{out}", s.skipped))
+            .clone()
+    };
+    let (why, lines) = found("approach (APPR LT): the control's path");
+    assert_eq!(lines.first, [6], "{why}");
+    let (why, lines) = found("the DEP LT the control runs");
+    assert_eq!(lines.first, [9], "{why}");
+    assert_eq!(out.lines().nth(8), program.lines().nth(8));
+    // The reported deviation is what the simulator finds: the auxiliary
+    // point as the control places it on the erroneous machine.
+    let reported: f64 = found("approach (APPR LT): the control's path")
+        .0
+        .split("by up to ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap();
+    let d = Dialect::Heidenhain;
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let a = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0);
+    let b = simulate(&l.model, &l.theta, d, Coordinates::Auto, &out, 0.0);
+    let ph = |x: &[Sample]| {
+        x.iter()
+            .find(|x| x.line == 6)
+            .map(|x| (x.nominal.tip, x.actual.tip))
+            .unwrap()
+    };
+    let miss = (ph(&a).0 - ph(&b).1).norm() * 1e3;
+    assert!(
+        miss > 1.0 && miss <= reported + 0.01,
+        "{miss} um, reported {reported} um"
+    );
+}
