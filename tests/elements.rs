@@ -764,6 +764,16 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
             "line {line}"
         );
     }
+    // An approach the program ends after: nothing places its auxiliary
+    // point, which is said.
+    let last = "0 BEGIN PGM LAST MM\n1 TOOL CALL 1 Z S4000\n2 L X+40 Y-10 Z-1 A-20 C+30 R0 FMAX\n3 APPR LT X+20 Y+0 LEN10 R0 F600\n4 END PGM LAST MM\n";
+    let (_, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), last);
+    let (_, at) = s
+        .skipped
+        .iter()
+        .find(|(w, _)| w.contains("path through the auxiliary point is not checked"))
+        .unwrap_or_else(|| panic!("{:?}", s.skipped));
+    assert_eq!(at.first, [4]);
 }
 
 /// X and Y scale errors are no rigid motion: the auxiliary point the

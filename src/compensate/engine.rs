@@ -431,6 +431,14 @@ impl<'a> Pass<'a> {
                 });
             }
         }
+        // An approach the program ends after: no element places its
+        // auxiliary point.
+        if let Some(at) = self.approach_open.take() {
+            self.skipped
+                .entry(approach_unchecked())
+                .or_default()
+                .push(at);
+        }
         let mut summary = self.summary;
         summary.inserted = self.writer.inserted;
         summary.skipped = self.skipped.into_iter().collect();

@@ -336,6 +336,12 @@ impl Simulator {
         }
         // The move held back last (`process` is done with `run`).
         run.flush();
+        if let Some(at) = approach_open {
+            skipped
+                .entry(APPROACH_STRAIGHT.to_string())
+                .or_default()
+                .push(at);
+        }
         if let Some((why, line)) = not_followed {
             let why = why.trim_start_matches("--expand ").to_string();
             skipped
