@@ -235,8 +235,8 @@ pub enum Skip {
     ApproachDeparture(&'static str),
     /// A HEIDENHAIN `CT` whose arc fivecal does not follow, and why.
     Tangential(&'static str),
-    /// A contour element that is not compensated (polar, tangential,
-    /// approach/departure, vector blocks, splines).
+    /// A contour element, or a form of one, that is not compensated, and
+    /// what it is.
     Element(&'static str),
     /// The datum shift is not known (datum table row).
     ShiftUnknown,
