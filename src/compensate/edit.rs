@@ -60,23 +60,88 @@ impl Edits {
 
     /// Writes the block with the edits applied.
     pub(crate) fn write_block<W: Write>(&mut self, block: &Block, out: &mut W) -> io::Result<()> {
-        if self.items.is_empty() {
-            return out.write_all(&block.text);
-        }
+        self.sort();
+        apply(&self.items, &self.buf, block, out)
+    }
+
+    fn sort(&mut self) {
         self.items
             .sort_unstable_by_key(|e| (e.start, e.end != e.start, e.seq));
-        let mut at = 0usize;
-        for e in &self.items {
-            let (s, t) = (e.start as usize, e.end as usize);
-            if s < at {
-                // Overlapping edits would be a bug upstream; never lose text.
-                continue;
-            }
-            out.write_all(&block.text[at..s])?;
-            out.write_all(&self.buf[e.text.0 as usize..e.text.1 as usize])?;
-            at = t;
+    }
+}
+
+/// `block` with `items` (sorted, their text in `buf`) applied.
+fn apply<W: Write>(items: &[Edit], buf: &[u8], block: &Block, out: &mut W) -> io::Result<()> {
+    if items.is_empty() {
+        return out.write_all(&block.text);
+    }
+    let mut at = 0usize;
+    for e in items {
+        let (s, t) = (e.start as usize, e.end as usize);
+        if s < at {
+            // Overlapping edits would be a bug upstream; never lose text.
+            continue;
         }
-        out.write_all(&block.text[at..])
+        out.write_all(&block.text[at..s])?;
+        out.write_all(&buf[e.text.0 as usize..e.text.1 as usize])?;
+        at = t;
+    }
+    out.write_all(&block.text[at..])
+}
+
+/// The edits of a run of blocks, kept to be applied by whoever writes the
+/// blocks: the thread that reads them has the time, the one that rewrites
+/// them has not.
+#[derive(Default, Debug)]
+pub(super) struct Deferred {
+    items: Vec<Edit>,
+    buf: Vec<u8>,
+    /// Per block, in order: its items, or `None` when it is not written
+    /// here (kept for the macro logic, written after the last block).
+    blocks: Vec<Option<(u32, u32)>>,
+}
+
+impl Deferred {
+    /// Forgets everything.
+    pub(super) fn clear(&mut self) {
+        self.items.clear();
+        self.buf.clear();
+        self.blocks.clear();
+    }
+
+    /// The next block is written with `e` (which is cleared).
+    pub(super) fn take(&mut self, e: &mut Edits) {
+        e.sort();
+        let first = self.items.len() as u32;
+        let base = self.buf.len() as u32;
+        self.buf.extend_from_slice(&e.buf);
+        self.items.extend(e.items.iter().map(|x| Edit {
+            text: (x.text.0 + base, x.text.1 + base),
+            ..*x
+        }));
+        self.blocks.push(Some((first, self.items.len() as u32)));
+        e.clear();
+    }
+
+    /// The next block is not written here.
+    pub(super) fn hold(&mut self) {
+        self.blocks.push(None);
+    }
+
+    /// Writes block `k` (the `k`-th given to [`Self::take`] or
+    /// [`Self::hold`]), which is `block`, unless it was held.
+    pub(super) fn write_block<W: Write>(
+        &self,
+        k: usize,
+        block: &Block,
+        out: &mut W,
+    ) -> io::Result<()> {
+        match self.blocks.get(k) {
+            Some(Some((a, b))) => {
+                apply(&self.items[*a as usize..*b as usize], &self.buf, block, out)
+            }
+            _ => Ok(()),
+        }
     }
 }
 
@@ -98,5 +163,46 @@ mod tests {
         let mut out = Vec::new();
         e.write_block(&block, &mut out).unwrap();
         assert_eq!(String::from_utf8(out).unwrap(), "X1.5 Y2. Z3. C4.\n");
+    }
+
+    /// Deferred, the same edits give the same text, each block its own.
+    #[test]
+    fn deferred_edits_write_each_block_as_at_once() {
+        let blocks = [
+            Block {
+                text: b"G1 X1. Y2.\n".to_vec(),
+                ..Default::default()
+            },
+            Block {
+                text: b"M5\n".to_vec(),
+                ..Default::default()
+            },
+            Block {
+                text: b"#1=2\n".to_vec(),
+                ..Default::default()
+            },
+            Block {
+                text: b"G0 Z5.\n".to_vec(),
+                ..Default::default()
+            },
+        ];
+        let mut d = Deferred::default();
+        let mut e = Edits::default();
+        e.insert(10, |b| b.extend_from_slice(b" C4."));
+        e.replace(Span { start: 4, end: 6 }, |b| b.extend_from_slice(b"1.5"));
+        d.take(&mut e);
+        assert!(e.is_empty());
+        d.take(&mut e);
+        d.hold();
+        e.replace(Span { start: 4, end: 6 }, |b| b.extend_from_slice(b"4.25"));
+        d.take(&mut e);
+        let mut out = Vec::new();
+        for (k, b) in blocks.iter().enumerate() {
+            d.write_block(k, b, &mut out).unwrap();
+        }
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "G1 X1.5 Y2. C4.\nM5\nG0 Z4.25\n"
+        );
     }
 }
