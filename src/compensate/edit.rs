@@ -4,6 +4,7 @@
 
 use std::io::{self, Write};
 
+use crate::nc::lexeme::{self, NumStyle, WriteRules};
 use crate::nc::{Block, Span};
 
 #[derive(Clone, Copy, Debug)]
@@ -12,6 +13,19 @@ struct Edit {
     end: u32,
     text: (u32, u32),
     seq: u32,
+    /// A number written in place of `text` when the block is written
+    /// (by the thread that writes it: formatting is a good part of the
+    /// rewrite's cost).
+    num: Option<Number>,
+}
+
+/// A number to write: value, decimals and style.
+#[derive(Clone, Copy, Debug)]
+struct Number {
+    value: f64,
+    decimals: u8,
+    style: NumStyle,
+    rules: WriteRules,
 }
 
 /// The edits of one block (buffers are reused from block to block).
@@ -19,6 +33,8 @@ struct Edit {
 pub(super) struct Edits {
     items: Vec<Edit>,
     buf: Vec<u8>,
+    /// Where numbers are formatted when the block is written.
+    scratch: Vec<u8>,
 }
 
 impl Edits {
@@ -44,6 +60,31 @@ impl Edits {
             end: span.end,
             text: (a, b),
             seq,
+            num: None,
+        });
+    }
+
+    /// Replaces `span` with `value` as [`lexeme::write`] writes it.
+    pub(super) fn replace_number(
+        &mut self,
+        span: Span,
+        value: f64,
+        decimals: u8,
+        style: NumStyle,
+        rules: WriteRules,
+    ) {
+        let seq = self.items.len() as u32;
+        self.items.push(Edit {
+            start: span.start,
+            end: span.end,
+            text: (0, 0),
+            seq,
+            num: Some(Number {
+                value,
+                decimals,
+                style,
+                rules,
+            }),
         });
     }
 
@@ -61,7 +102,7 @@ impl Edits {
     /// Writes the block with the edits applied.
     pub(crate) fn write_block<W: Write>(&mut self, block: &Block, out: &mut W) -> io::Result<()> {
         self.sort();
-        apply(&self.items, &self.buf, block, out)
+        apply(&self.items, &self.buf, block, out, &mut self.scratch)
     }
 
     fn sort(&mut self) {
@@ -70,8 +111,15 @@ impl Edits {
     }
 }
 
-/// `block` with `items` (sorted, their text in `buf`) applied.
-fn apply<W: Write>(items: &[Edit], buf: &[u8], block: &Block, out: &mut W) -> io::Result<()> {
+/// `block` with `items` (sorted, their text in `buf`) applied; numbers
+/// are formatted in `scratch`.
+fn apply<W: Write>(
+    items: &[Edit],
+    buf: &[u8],
+    block: &Block,
+    out: &mut W,
+    scratch: &mut Vec<u8>,
+) -> io::Result<()> {
     if items.is_empty() {
         return out.write_all(&block.text);
     }
@@ -83,7 +131,14 @@ fn apply<W: Write>(items: &[Edit], buf: &[u8], block: &Block, out: &mut W) -> io
             continue;
         }
         out.write_all(&block.text[at..s])?;
-        out.write_all(&buf[e.text.0 as usize..e.text.1 as usize])?;
+        match e.num {
+            Some(n) => {
+                scratch.clear();
+                lexeme::write(scratch, n.value, n.decimals, &n.style, n.rules);
+                out.write_all(scratch)?;
+            }
+            None => out.write_all(&buf[e.text.0 as usize..e.text.1 as usize])?,
+        }
         at = t;
     }
     out.write_all(&block.text[at..])
@@ -135,11 +190,16 @@ impl Deferred {
         k: usize,
         block: &Block,
         out: &mut W,
+        scratch: &mut Vec<u8>,
     ) -> io::Result<()> {
         match self.blocks.get(k) {
-            Some(Some((a, b))) => {
-                apply(&self.items[*a as usize..*b as usize], &self.buf, block, out)
-            }
+            Some(Some((a, b))) => apply(
+                &self.items[*a as usize..*b as usize],
+                &self.buf,
+                block,
+                out,
+                scratch,
+            ),
             _ => Ok(()),
         }
     }
@@ -194,11 +254,16 @@ mod tests {
         assert!(e.is_empty());
         d.take(&mut e);
         d.hold();
-        e.replace(Span { start: 4, end: 6 }, |b| b.extend_from_slice(b"4.25"));
+        let style = lexeme::read(b"5.").style;
+        let rules = WriteRules {
+            force_point: true,
+            force_plus: false,
+        };
+        e.replace_number(Span { start: 4, end: 6 }, 4.25, 3, style, rules);
         d.take(&mut e);
         let mut out = Vec::new();
         for (k, b) in blocks.iter().enumerate() {
-            d.write_block(k, b, &mut out).unwrap();
+            d.write_block(k, b, &mut out, &mut Vec::new()).unwrap();
         }
         assert_eq!(
             String::from_utf8(out).unwrap(),

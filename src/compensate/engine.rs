@@ -194,12 +194,13 @@ impl Compensator {
             let mut write_err: Option<std::io::Error> = None;
             // A chunk back from the worker: its blocks written with their
             // edits, in order.
+            let mut scratch = Vec::new();
             let mut put = |back: &Back, err: &mut Option<std::io::Error>| {
                 if err.is_some() {
                     return;
                 }
                 for (k, b) in back.0.iter().enumerate() {
-                    if let Err(e) = back.2.write_block(k, b, output) {
+                    if let Err(e) = back.2.write_block(k, b, output, &mut scratch) {
                         *err = Some(e);
                         return;
                     }

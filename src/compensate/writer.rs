@@ -308,7 +308,7 @@ impl Writer {
             let new = round_to(x + (e - p), d);
             let style = w.style;
             self.edits
-                .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                .replace_number(w.value_span, new, d, style, rules);
         }
     }
 
@@ -539,7 +539,7 @@ impl Writer {
             };
             if (v[k] - orig).abs() >= lexeme::half_unit(d) {
                 self.edits
-                    .replace(w.value_span, |b| lexeme::write(b, v[k], d, &style, rules));
+                    .replace_number(w.value_span, v[k], d, style, rules);
             }
         }
         if inserts.is_empty() {
@@ -609,7 +609,7 @@ impl Writer {
             if (r - orig).abs() >= lexeme::half_unit(d) {
                 let style = w.style;
                 self.edits
-                    .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                    .replace_number(w.value_span, new, d, style, rules);
             }
         } else if !self.heidenhain() {
             let letters = [b'I', b'J', b'K'];
@@ -633,7 +633,7 @@ impl Writer {
                         if (new_v - orig).abs() >= lexeme::half_unit(d) {
                             let style = w.style;
                             self.edits
-                                .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                                .replace_number(w.value_span, new, d, style, rules);
                         }
                     }
                     None => {
@@ -687,7 +687,7 @@ impl Writer {
                         let style = w.style;
                         let new = round_to(new_v, d);
                         self.edits
-                            .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                            .replace_number(w.value_span, new, d, style, rules);
                     }
                 }
                 None => {
@@ -867,8 +867,7 @@ impl Writer {
                     } else {
                         let v = round_to(new, d);
                         let st = w.style;
-                        self.edits
-                            .replace(w.value_span, |b| lexeme::write(b, v, d, &st, rules));
+                        self.edits.replace_number(w.value_span, v, d, st, rules);
                         radius = Some(base + v);
                     }
                 }
@@ -917,8 +916,7 @@ impl Writer {
                 } else {
                     let v = round_to(new, d);
                     let st = w.style;
-                    self.edits
-                        .replace(w.value_span, |b| lexeme::write(b, v, d, &st, rules));
+                    self.edits.replace_number(w.value_span, v, d, st, rules);
                     base + v
                 }
             }
@@ -1071,8 +1069,7 @@ impl Writer {
             };
             let style = w.style;
             let d = style.decimals.max(3);
-            self.edits
-                .replace(w.value_span, |b| lexeme::write(b, fv, d, &style, rules));
+            self.edits.replace_number(w.value_span, fv, d, style, rules);
         }
         self.emit = emitted;
         sink(&first, &emitted, pieces.len() > 1);
@@ -1322,7 +1319,7 @@ impl Writer {
                         let new = round_to(v - base, d);
                         let style = w.style;
                         self.edits
-                            .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                            .replace_number(w.value_span, new, d, style, rules);
                         emitted[a] = Some(base + new);
                     }
                 }
