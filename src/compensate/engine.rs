@@ -83,10 +83,11 @@ impl Compensator {
     /// it in errors.
     ///
     /// Two threads share the work: this one reads and tokenizes the blocks
-    /// (in chunks of a few thousand) and writes the rewritten text, the
-    /// other follows the program in order (interpretation, correction,
-    /// writing each block's edits) with the whole state handed from one
-    /// chunk to the next, exactly as one thread would. A few chunks are in
+    /// (in chunks of a thousand), notes which have macro logic, and writes
+    /// the rewritten text from the edits handed back (numbers formatted
+    /// here); the other follows the program in order (interpretation,
+    /// correction, the edits each block needs) with the whole state handed
+    /// from one chunk to the next, exactly as one thread would. A few chunks are in
     /// flight at a time, whatever the program's length; on an error
     /// nothing after the failing block is written (and the caller's
     /// [`AtomicOutput`](crate::io::AtomicOutput) writes nothing at all).
