@@ -228,24 +228,10 @@ mod tests {
     /// Deferred, the same edits give the same text, each block its own.
     #[test]
     fn deferred_edits_write_each_block_as_at_once() {
-        let blocks = [
-            Block {
-                text: b"G1 X1. Y2.\n".to_vec(),
-                ..Default::default()
-            },
-            Block {
-                text: b"M5\n".to_vec(),
-                ..Default::default()
-            },
-            Block {
-                text: b"#1=2\n".to_vec(),
-                ..Default::default()
-            },
-            Block {
-                text: b"G0 Z5.\n".to_vec(),
-                ..Default::default()
-            },
-        ];
+        let blocks = ["G1 X1. Y2.\n", "M5\n", "#1=2\n", "G0 Z5.\n"].map(|t| Block {
+            text: t.as_bytes().to_vec(),
+            ..Default::default()
+        });
         let mut d = Deferred::default();
         let mut e = Edits::default();
         e.insert(10, |b| b.extend_from_slice(b" C4."));

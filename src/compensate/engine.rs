@@ -156,9 +156,8 @@ impl Compensator {
         let (summary, read_err, write_err) = std::thread::scope(|scope| {
             let (chunk_tx, chunk_rx) = mpsc::sync_channel::<Chunk>(2);
             let (back_tx, back_rx) = mpsc::channel::<Back>();
-            let (out_tx, out_rx) = mpsc::channel::<Vec<u8>>();
-            let (spare_tx, spare_rx) = mpsc::channel::<Vec<u8>>();
-            let worker = scope.spawn(move || -> Result<Option<Summary>, CompensateError> {
+            type Done = Result<Option<(Summary, Vec<u8>)>, CompensateError>;
+            let worker = scope.spawn(move || -> Done {
                 let mut pass = Pass::new(self, path, None);
                 for msg in chunk_rx {
                     match msg {
@@ -176,15 +175,11 @@ impl Compensator {
                         }
                         Chunk::End => {
                             // What the macro logic's part writes comes after
-                            // every chunk's blocks.
-                            let mut pipe = Pipe {
-                                buf: Vec::new(),
-                                out: out_tx,
-                                spare: spare_rx,
-                            };
-                            let summary = pass.finish(&mut pipe)?;
-                            pipe.flush()?;
-                            return Ok(Some(summary));
+                            // every chunk's blocks: the reading thread writes
+                            // it last.
+                            let mut tail = Vec::new();
+                            let summary = pass.finish(&mut tail)?;
+                            return Ok(Some((summary, tail)));
                         }
                     }
                 }
@@ -271,17 +266,19 @@ impl Compensator {
             for back in back_rx {
                 put(&back, &mut write_err);
             }
-            for buf in out_rx {
-                if write_err.is_none()
-                    && let Err(e) = output.write_all(&buf)
-                {
-                    write_err = Some(e);
-                }
-                let _ = spare_tx.send(buf);
-            }
             let summary = worker
                 .join()
                 .unwrap_or_else(|p| std::panic::resume_unwind(p));
+            let summary = summary.map(|done| {
+                done.map(|(summary, tail)| {
+                    if write_err.is_none()
+                        && let Err(e) = output.write_all(&tail)
+                    {
+                        write_err = Some(e);
+                    }
+                    summary
+                })
+            });
             (summary, read_err, write_err)
         });
         if let Some(e) = write_err {
@@ -335,38 +332,6 @@ enum Chunk {
     Blocks(Vec<Block>, Vec<bool>, Deferred),
     /// The input ended (after the last chunk).
     End,
-}
-
-/// The rewriting thread's output: text handed to the writing thread a
-/// chunk at a time.
-struct Pipe {
-    buf: Vec<u8>,
-    out: mpsc::Sender<Vec<u8>>,
-    spare: mpsc::Receiver<Vec<u8>>,
-}
-
-impl Write for Pipe {
-    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
-        self.buf.extend_from_slice(b);
-        Ok(b.len())
-    }
-
-    fn write_all(&mut self, b: &[u8]) -> std::io::Result<()> {
-        self.buf.extend_from_slice(b);
-        Ok(())
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        if !self.buf.is_empty() {
-            let next = self.spare.try_recv().unwrap_or_default();
-            let full = std::mem::replace(&mut self.buf, next);
-            self.buf.clear();
-            if self.out.send(full).is_err() {
-                return Err(std::io::Error::other("the output is no longer written"));
-            }
-        }
-        Ok(())
-    }
 }
 
 fn read_error(e: ReadError) -> CompensateError {
