@@ -41,6 +41,7 @@ use crate::analyze::goodness::ExpectedNoise;
 use crate::errorfile::{AmbiguitySection, ErrorFile, Noise, NotIdentified, Quantity, RivalEntry};
 use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::Combination;
+use crate::identify::lsq::Design;
 use crate::identify::{Dataset, Identification, Method, two_stage};
 use crate::kinematics::Kinematics;
 use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS};
@@ -313,8 +314,9 @@ struct Tried {
     trial: Trial,
     /// The iterated fit (none for a candidate only screened).
     fit: Option<Fit>,
-    /// The model with the candidate, its unseen combinations fixed.
-    spec: Option<Spec>,
+    /// The model with the candidate, its unseen combinations fixed, and
+    /// its design.
+    model: Option<Designed>,
     /// Whether it was fitted (screened or iterated), not refused.
     fitted: bool,
 }
@@ -331,9 +333,18 @@ fn refused(name: &str, reason: String) -> Tried {
             alongside: None,
         },
         fit: None,
-        spec: None,
+        model: None,
         fitted: false,
     }
+}
+
+/// A candidate's model with the design its identifiability was judged on
+/// (at the nominal machine) and its constraint basis: its fit starts from
+/// them.
+struct Designed {
+    spec: Spec,
+    design: Design,
+    basis: DMatrix<f64>,
 }
 
 /// Orthonormal basis (columns) of the column space of `a`, columns scaled
@@ -370,12 +381,20 @@ struct Round {
 
 impl Round {
     fn new(fitter: &Fitter<'_>, base: &Fit) -> Result<Round, FitError> {
-        let (basis, _) = base.spec.basis(fitter.extra());
         Ok(Round {
             screen: fitter.screen(base)?,
-            others: column_space(&(fitter.jacobian0(&base.spec) * &basis), 1e-9),
+            others: others(fitter, base),
         })
     }
+}
+
+/// Orthonormal basis of what `base`'s model and the nuisance do at the
+/// nominal machine: the columns a candidate added to it is compared with
+/// for the canonical correlation, the same for every candidate tried on
+/// it, so made once for them all.
+fn others(fitter: &Fitter<'_>, base: &Fit) -> DMatrix<f64> {
+    let (basis, _) = base.spec.basis(fitter.extra());
+    column_space(&(fitter.jacobian0(&base.spec) * &basis), 1e-9)
 }
 
 /// How a candidate's fit is made.
@@ -384,8 +403,8 @@ enum Mode<'a> {
     /// Scored by the update of the round's factorization: one
     /// Gauss-Newton step from the base's estimate.
     Screen(&'a Round),
-    /// Iterated to convergence.
-    Exact,
+    /// Iterated to convergence; with [`others`] of the base.
+    Exact(&'a DMatrix<f64>),
 }
 
 /// Tries `cand` on top of `base`: identifiability alongside the model,
@@ -480,13 +499,8 @@ fn try_candidate(
     let j0 = fitter.jacobian0(&spec);
     let b = j0.columns(xr.start, xr.len()) * basis.view((xr.start, zc.start), (xr.len(), zc.len()));
     let qa = match mode {
-        Mode::Screen(round) => round.others.clone(),
-        Mode::Exact => {
-            let jz = j0 * &basis;
-            let others: Vec<usize> = (0..jz.ncols()).filter(|c| !zc.contains(c)).collect();
-            let a = DMatrix::from_fn(jz.nrows(), others.len(), |r, c| jz[(r, others[c])]);
-            column_space(&a, 1e-9)
-        }
+        Mode::Screen(round) => &round.others,
+        Mode::Exact(others) => others,
     };
     let qb = column_space(&b, 1e-9);
     let canonical = if qa.ncols() == 0 || qb.ncols() == 0 {
@@ -554,21 +568,26 @@ fn try_candidate(
         p_adjusted: None,
         alongside: Some(alongside.clone()),
     };
+    let model = Designed {
+        spec,
+        design: d,
+        basis,
+    };
     match mode {
         Mode::Screen(round) => {
-            let s = fitter.score(&round.screen, &spec, rank_increase);
+            let s = fitter.score(&round.screen, &model.spec, rank_increase);
             Tried {
-                trial: trial(s.rss, d.rank, &s.residuals),
+                trial: trial(s.rss, model.design.rank, &s.residuals),
                 fit: None,
-                spec: Some(spec),
+                model: Some(model),
                 fitted: true,
             }
         }
-        Mode::Exact => match exact(fitter, base, &spec) {
+        Mode::Exact(_) => match exact(fitter, base, &model) {
             Ok(f) => Tried {
                 trial: trial(f.rss, f.rank, &f.residuals),
                 fit: Some(f),
-                spec: Some(spec),
+                model: Some(model),
                 fitted: true,
             },
             Err(e) => refused(&cand.name, format!("the fit failed ({e})")),
@@ -578,21 +597,21 @@ fn try_candidate(
 
 /// The exact fit of `spec` (`base` with one effect appended), from the
 /// base's estimate with the new effect at zero.
-fn exact(fitter: &Fitter<'_>, base: &Fit, spec: &Spec) -> Result<Fit, FitError> {
-    let added = spec.model.n_params() - base.n;
+fn exact(fitter: &Fitter<'_>, base: &Fit, model: &Designed) -> Result<Fit, FitError> {
+    let added = model.spec.model.n_params() - base.n;
     let mut start = base.theta().to_vec();
     start.extend(std::iter::repeat_n(0.0, added));
     start.extend_from_slice(&base.x[base.n..]);
-    fitter.fit(spec, Some(start))
+    fitter.fit_designed(&model.spec, model.design.clone(), &model.basis, Some(start))
 }
 
 /// A screened candidate fitted exactly: the same identifiability, the fit
 /// and the comparison of the iterated fit.
 fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried) -> Tried {
-    let Some(spec) = screened.spec else {
+    let Some(model) = screened.model else {
         return screened;
     };
-    match exact(fitter, base, &spec) {
+    match exact(fitter, base, &model) {
         Ok(f) => Tried {
             trial: Trial {
                 gap_after: Some(gap::size(&f.residuals)),
@@ -606,7 +625,7 @@ fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried) -> Tried {
                 ..screened.trial
             },
             fit: Some(f),
-            spec: Some(spec),
+            model: Some(model),
             fitted: true,
         },
         Err(e) => refused(&screened.trial.name, format!("the fit failed ({e})")),
@@ -691,7 +710,7 @@ fn start(
                 known.join(", ")
             )));
         };
-        let t = try_candidate(fitter, &fit, c, None, Mode::Exact);
+        let t = try_candidate(fitter, &fit, c, None, Mode::Exact(&others(fitter, &fit)));
         match t.fit {
             Some(f) => fit = f,
             None => {
@@ -1131,20 +1150,21 @@ impl<'a, 'p> Search<'a, 'p> {
         let (tried, m, n, alpha) = (&round.tried, round.m, self.fitter.len(), self.opts.alpha);
         let mut out = Rivalry::default();
         let rivals: Vec<usize> = sig.iter().copied().filter(|&c| c != best).collect();
+        let fb = tried[best].fit.as_ref().expect("tested");
+        let with_best = others(self.fitter, fb);
         let pairs: Vec<Tried> = rivals
             .par_iter()
             .map(|&c| {
                 try_candidate(
                     self.fitter,
-                    tried[best].fit.as_ref().expect("tested"),
+                    fb,
                     round.candidate(c),
                     None,
-                    Mode::Exact,
+                    Mode::Exact(&with_best),
                 )
             })
             .collect();
         for (&c, both) in rivals.iter().zip(pairs) {
-            let fb = tried[best].fit.as_ref().expect("tested");
             let fc = tried[c].fit.as_ref().expect("tested");
             let (rss_both, rank_both) = match &both.fit {
                 Some(f) => (f.rss, f.rank),
