@@ -738,4 +738,57 @@ mod tests {
         let gram = d.null.transpose() * &d.null;
         assert!((gram - DMatrix::identity(35, 35)).amax() < 1e-10);
     }
+
+    /// A wide design (fewer residuals than directions) decomposed as it
+    /// is agrees with the same design padded square with zero rows, the
+    /// computation it replaces: the same rank, singular values to 1e-12 of
+    /// the largest, the same seen and unseen subspaces (their projectors to
+    /// 1e-10), and U S V^T gives the design back.
+    #[test]
+    fn a_wide_design_decomposes_as_the_padded_square_one() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Uniform};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(17);
+        let u = Uniform::new(-1.0, 1.0).unwrap();
+        // 40 residuals, 90 directions, 30 of them seen; a column 100 times
+        // longer than the rest, as a map's node beside an offset.
+        let (m, p, seen) = (40, 90, 30);
+        let a = DMatrix::from_fn(m, seen, |_, _| u.sample(&mut rng));
+        let b = DMatrix::from_fn(seen, p, |_, _| u.sample(&mut rng));
+        let mut j = &a * &b;
+        j.column_mut(7).scale_mut(100.0);
+        let jf = Mat::from_fn(m, p, |r, c| j[(r, c)]);
+        for want_u in [false, true] {
+            let w = scaled_svd(&jf, 1e-9, want_u);
+            let mut padded = Mat::<f64>::zeros(p, p);
+            for r in 0..m {
+                for c in 0..p {
+                    padded[(r, c)] = jf[(r, c)] / w.scale[c];
+                }
+            }
+            let svd = padded.thin_svd().unwrap();
+            let s = svd.S().column_vector();
+            let smax = s[0];
+            let rank = (0..p).filter(|&k| s[k] > 1e-9 * smax).count();
+            assert_eq!((w.rank, rank), (seen, seen));
+            for k in 0..p {
+                assert!((w.s[k] - s[k]).abs() < 1e-12 * smax, "{k}");
+            }
+            let v = to_nalgebra(&svd.V().to_owned());
+            let wv = to_nalgebra(&w.v);
+            let projector = |v: &DMatrix<f64>, cols: std::ops::Range<usize>| {
+                let vs = v.columns(cols.start, cols.len());
+                vs * vs.transpose()
+            };
+            assert!((projector(&wv, 0..seen) - projector(&v, 0..seen)).amax() < 1e-10);
+            assert!((projector(&wv, seen..p) - projector(&v, seen..p)).amax() < 1e-10);
+            if want_u {
+                let wu = to_nalgebra(&w.u);
+                let sv = DMatrix::from_fn(seen, seen, |r, c| if r == c { w.s[r] } else { 0.0 });
+                let back = wu.columns(0, seen) * sv * wv.columns(0, seen).transpose();
+                let js = DMatrix::from_fn(m, p, |r, c| j[(r, c)] / w.scale[c]);
+                assert!((back - js).amax() < 1e-12);
+            }
+        }
+    }
 }
