@@ -436,8 +436,54 @@ enum Mode<'a> {
     /// Scored by the update of the round's factorization: one
     /// Gauss-Newton step from the base's estimate.
     Screen(&'a Round),
-    /// Iterated to convergence; with [`others`] of the base.
-    Exact(&'a DMatrix<f64>),
+    /// Iterated to convergence; with [`others`] of the base, and the fits
+    /// the search keeps, if any.
+    Exact(&'a DMatrix<f64>, Option<&'a Fits>),
+}
+
+/// The exact fits of candidates on a base, kept: the rivals of a step are
+/// fitted beside the effect it adds, and the next round, on that model,
+/// fits those candidates again, from the same start with the same design,
+/// to the same bits. Each is keyed by the base's estimate (its bits) and
+/// the names of the model fitted.
+#[derive(Default)]
+struct Fits(std::sync::Mutex<std::collections::HashMap<FitKey, Result<Fit, FitError>>>);
+
+type FitKey = (Vec<u64>, Vec<String>);
+
+impl Fits {
+    fn key(base: &Fit, spec: &Spec) -> FitKey {
+        (
+            base.x.iter().map(|v| v.to_bits()).collect(),
+            spec.names.clone(),
+        )
+    }
+
+    /// The fit of `spec` on `base`, made by `fit` unless kept.
+    fn get_or(
+        &self,
+        base: &Fit,
+        spec: &Spec,
+        fit: impl FnOnce() -> Result<Fit, FitError>,
+    ) -> Result<Fit, FitError> {
+        let key = Fits::key(base, spec);
+        if let Some(f) = self.0.lock().expect("not poisoned").get(&key) {
+            return f.clone();
+        }
+        let f = fit();
+        self.0.lock().expect("not poisoned").insert(key, f.clone());
+        f
+    }
+
+    /// Forgets the fits on any base but `base` (a map's fit holds
+    /// megabytes).
+    fn keep_on(&self, base: &Fit) {
+        let bits: Vec<u64> = base.x.iter().map(|v| v.to_bits()).collect();
+        self.0
+            .lock()
+            .expect("not poisoned")
+            .retain(|k, _| k.0 == bits);
+    }
 }
 
 /// Tries `cand` on top of `base`: identifiability alongside the model,
@@ -533,7 +579,7 @@ fn try_candidate(
     let b = j0.columns(xr.start, xr.len()) * basis.view((xr.start, zc.start), (xr.len(), zc.len()));
     let qa = match mode {
         Mode::Screen(round) => &round.others,
-        Mode::Exact(others) => others,
+        Mode::Exact(others, _) => others,
     };
     let qb = column_space(&b, 1e-9);
     let canonical = if qa.ncols() == 0 || qb.ncols() == 0 {
@@ -616,7 +662,7 @@ fn try_candidate(
                 fitted: true,
             }
         }
-        Mode::Exact(_) => match exact(fitter, base, &model) {
+        Mode::Exact(_, fits) => match exact(fitter, base, &model, fits) {
             Ok(f) => Tried {
                 trial: trial(f.rss, f.rank, &f.residuals),
                 fit: Some(f),
@@ -630,21 +676,32 @@ fn try_candidate(
 
 /// The exact fit of `spec` (`base` with one effect appended), from the
 /// base's estimate with the new effect at zero.
-fn exact(fitter: &Fitter<'_>, base: &Fit, model: &Designed) -> Result<Fit, FitError> {
-    let added = model.spec.model.n_params() - base.n;
-    let mut start = base.theta().to_vec();
-    start.extend(std::iter::repeat_n(0.0, added));
-    start.extend_from_slice(&base.x[base.n..]);
-    fitter.fit_designed(&model.spec, model.design.clone(), &model.basis, Some(start))
+fn exact(
+    fitter: &Fitter<'_>,
+    base: &Fit,
+    model: &Designed,
+    fits: Option<&Fits>,
+) -> Result<Fit, FitError> {
+    let fit = || {
+        let added = model.spec.model.n_params() - base.n;
+        let mut start = base.theta().to_vec();
+        start.extend(std::iter::repeat_n(0.0, added));
+        start.extend_from_slice(&base.x[base.n..]);
+        fitter.fit_designed(&model.spec, model.design.clone(), &model.basis, Some(start))
+    };
+    match fits {
+        Some(kept) => kept.get_or(base, &model.spec, fit),
+        None => fit(),
+    }
 }
 
 /// A screened candidate fitted exactly: the same identifiability, the fit
 /// and the comparison of the iterated fit.
-fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried) -> Tried {
+fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried, fits: &Fits) -> Tried {
     let Some(model) = screened.model else {
         return screened;
     };
-    match exact(fitter, base, &model) {
+    match exact(fitter, base, &model, Some(fits)) {
         Ok(f) => Tried {
             trial: Trial {
                 gap_after: Some(gap::size(&f.residuals)),
@@ -743,7 +800,13 @@ fn start(
                 known.join(", ")
             )));
         };
-        let t = try_candidate(fitter, &fit, c, None, Mode::Exact(&others(fitter, &fit)));
+        let t = try_candidate(
+            fitter,
+            &fit,
+            c,
+            None,
+            Mode::Exact(&others(fitter, &fit), None),
+        );
         match t.fit {
             Some(f) => fit = f,
             None => {
@@ -866,6 +929,7 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
         model0: &model0,
         unserved: &unserved,
         opts,
+        fits: Fits::default(),
     };
     let Searched {
         current,
@@ -1002,6 +1066,8 @@ struct Search<'a, 'p> {
     /// Why the forward model cannot serve a candidate, by name.
     unserved: &'a std::collections::HashMap<String, String>,
     opts: &'a DiscoverOptions,
+    /// The exact fits on the current model.
+    fits: Fits,
 }
 
 /// Where the search ended.
@@ -1097,6 +1163,7 @@ impl<'a, 'p> Search<'a, 'p> {
             .filter(|c| current.spec.find(&c.name).is_none())
             .filter(|c| selected(c, opts, self.model0))
             .collect();
+        self.fits.keep_on(current);
         let round = Round::new(self.fitter, current)?;
         let mut tried: Vec<Tried> = pool
             .par_iter()
@@ -1140,7 +1207,7 @@ impl<'a, 'p> Search<'a, 'p> {
             .collect();
         let iterated: Vec<(usize, Tried)> = screened
             .into_par_iter()
-            .map(|(i, t)| (i, refit(self.fitter, current, t)))
+            .map(|(i, t)| (i, refit(self.fitter, current, t, &self.fits)))
             .collect();
         for (i, t) in iterated {
             tried[i] = t;
@@ -1193,7 +1260,7 @@ impl<'a, 'p> Search<'a, 'p> {
                     fb,
                     round.candidate(c),
                     None,
-                    Mode::Exact(&with_best),
+                    Mode::Exact(&with_best, Some(&self.fits)),
                 )
             })
             .collect();
@@ -1523,6 +1590,68 @@ fn story_p(p: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A fit the search keeps is the fit made again: a rival fitted beside
+    /// the chosen effect (exact, kept) and the same candidate screened on
+    /// that model in the next round and refitted give the same bits as a
+    /// fit made afresh, as the worked example's second step has them.
+    #[test]
+    fn a_kept_fit_is_the_fit_made_again() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/discover");
+        let inputs = Inputs::load(
+            &dir.join("stepped-square.plan.yaml"),
+            &[dir.join("piece.dmo")],
+            &Default::default(),
+        )
+        .unwrap();
+        let parts = [inputs.part()];
+        let cat = catalogue::catalogue(&parts);
+        let (fitter, _) = Fitter::new(&parts, &cat.candidates).unwrap();
+        let mut notes = Vec::new();
+        let loc = start(&fitter, &inputs.kin, &cat, &["location".into()], &mut notes).unwrap();
+        let named = |n: &str| cat.candidates.iter().find(|c| c.name == n).unwrap();
+        let with = |base: &Fit, n: &str| {
+            try_candidate(
+                &fitter,
+                base,
+                named(n),
+                None,
+                Mode::Exact(&others(&fitter, base), None),
+            )
+            .fit
+            .unwrap()
+        };
+        let base = with(&loc, "tool_radius");
+        let fits = Fits::default();
+        let cand = named("drift.EZ0B/seq");
+        let kept = try_candidate(
+            &fitter,
+            &base,
+            cand,
+            None,
+            Mode::Exact(&others(&fitter, &base), Some(&fits)),
+        );
+        assert_eq!(fits.0.lock().unwrap().len(), 1);
+        let round = Round::new(&fitter, &base).unwrap();
+        let screened = try_candidate(&fitter, &base, cand, Some(0.999), Mode::Screen(&round));
+        assert!(screened.fit.is_none());
+        let again = refit(&fitter, &base, screened, &fits);
+        let afresh = with(&base, "drift.EZ0B/seq");
+        for f in [kept.fit.unwrap(), again.fit.unwrap()] {
+            assert_eq!(f.spec.names, afresh.spec.names);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&f.x), bits(&afresh.x));
+            assert_eq!(bits(&f.residuals), bits(&afresh.residuals));
+            assert_eq!(f.rss.to_bits(), afresh.rss.to_bits());
+            assert_eq!(
+                bits(f.cov_unit.as_slice()),
+                bits(afresh.cov_unit.as_slice())
+            );
+        }
+        // Moving on to the next model forgets the fits on this one.
+        fits.keep_on(&afresh);
+        assert!(fits.0.lock().unwrap().is_empty());
+    }
 
     #[test]
     fn canonical_correlation_is_the_cosine_of_the_smallest_angle() {
