@@ -9,6 +9,7 @@ use std::sync::mpsc;
 use indexmap::IndexMap;
 
 use super::correction::{CorrectedPoint, Refusal, WritePlan, size};
+use super::edit::Deferred;
 use super::expand;
 use super::solver::Solver;
 use super::writer::Writer;
@@ -82,10 +83,11 @@ impl Compensator {
     /// it in errors.
     ///
     /// Two threads share the work: this one reads and tokenizes the blocks
-    /// (in chunks of a few thousand) and writes the rewritten text, the
-    /// other follows the program in order (interpretation, correction,
-    /// writing each block's edits) with the whole state handed from one
-    /// chunk to the next, exactly as one thread would. A few chunks are in
+    /// (in chunks of a thousand), notes which have macro logic, and writes
+    /// the rewritten text from the edits handed back (numbers formatted
+    /// here); the other follows the program in order (interpretation,
+    /// correction, the edits each block needs) with the whole state handed
+    /// from one chunk to the next, exactly as one thread would. A few chunks are in
     /// flight at a time, whatever the program's length; on an error
     /// nothing after the failing block is written (and the caller's
     /// [`AtomicOutput`](crate::io::AtomicOutput) writes nothing at all).
@@ -153,30 +155,31 @@ impl Compensator {
         let mut blocks = Blocks::new(path, input, self.syntax());
         let (summary, read_err, write_err) = std::thread::scope(|scope| {
             let (chunk_tx, chunk_rx) = mpsc::sync_channel::<Chunk>(2);
-            let (back_tx, back_rx) = mpsc::channel::<Vec<Block>>();
-            let (out_tx, out_rx) = mpsc::channel::<Vec<u8>>();
-            let (spare_tx, spare_rx) = mpsc::channel::<Vec<u8>>();
-            let worker = scope.spawn(move || -> Result<Option<Summary>, CompensateError> {
+            let (back_tx, back_rx) = mpsc::channel::<Back>();
+            type Done = Result<Option<(Summary, Vec<u8>)>, CompensateError>;
+            let worker = scope.spawn(move || -> Done {
                 let mut pass = Pass::new(self, path, None);
-                let mut pipe = Pipe {
-                    buf: Vec::new(),
-                    out: out_tx,
-                    spare: spare_rx,
-                };
                 for msg in chunk_rx {
                     match msg {
-                        Chunk::Blocks(chunk) => {
-                            for b in &chunk {
-                                pass.feed(b, &mut pipe)?;
+                        Chunk::Blocks(chunk, logic, mut edits) => {
+                            edits.clear();
+                            for (b, &l) in chunk.iter().zip(&logic) {
+                                pass.feed_known(
+                                    b,
+                                    l,
+                                    &mut Out::<std::io::Sink>::Later(&mut edits),
+                                )?;
                             }
-                            pipe.flush()?;
                             // The reader may be gone (it stopped): fine.
-                            let _ = back_tx.send(chunk);
+                            let _ = back_tx.send((chunk, logic, edits));
                         }
                         Chunk::End => {
-                            let summary = pass.finish(&mut pipe)?;
-                            pipe.flush()?;
-                            return Ok(Some(summary));
+                            // What the macro logic's part writes comes after
+                            // every chunk's blocks: the reading thread writes
+                            // it last.
+                            let mut tail = Vec::new();
+                            let summary = pass.finish(&mut tail)?;
+                            return Ok(Some((summary, tail)));
                         }
                     }
                 }
@@ -184,30 +187,47 @@ impl Compensator {
                 Ok(None)
             });
             let mut read_err = None;
-            let mut write_err = None;
-            let mut write = |buf: Vec<u8>, err: &mut Option<std::io::Error>| {
-                if err.is_none()
-                    && let Err(e) = output.write_all(&buf)
-                {
-                    *err = Some(e);
+            let mut write_err: Option<std::io::Error> = None;
+            // A chunk back from the worker: its blocks written with their
+            // edits, in order.
+            let mut scratch = Vec::new();
+            let mut put = |back: &Back, err: &mut Option<std::io::Error>| {
+                if err.is_some() {
+                    return;
                 }
-                let _ = spare_tx.send(buf);
+                for (k, b) in back.0.iter().enumerate() {
+                    if let Err(e) = back.2.write_block(k, b, output, &mut scratch) {
+                        *err = Some(e);
+                        return;
+                    }
+                }
             };
             let mut made = 0;
             loop {
                 // A fixed pool of chunks: the blocks' buffers are reused and
                 // memory stays the same whatever the program's length.
-                let mut list = match back_rx.try_recv() {
-                    Ok(l) => l,
+                let back = match back_rx.try_recv() {
+                    Ok(b) => Some(b),
                     Err(_) if made < POOL => {
                         made += 1;
-                        Vec::with_capacity(chunk)
+                        None
                     }
                     Err(_) => match back_rx.recv() {
-                        Ok(l) => l,
+                        Ok(b) => Some(b),
                         // The worker stopped: its error says why.
                         Err(_) => break,
                     },
+                };
+                let (mut list, mut logic, edits) = match back {
+                    Some(b) => {
+                        put(&b, &mut write_err);
+                        b
+                    }
+                    None => (
+                        Vec::with_capacity(chunk),
+                        Vec::with_capacity(chunk),
+                        Deferred::default(),
+                    ),
                 };
                 let mut n = 0;
                 let mut end = false;
@@ -228,27 +248,37 @@ impl Compensator {
                     }
                 }
                 list.truncate(n);
+                logic.clear();
+                logic.extend(list.iter().map(expand::needs_logic));
                 let stop = end || read_err.is_some();
-                if (n > 0 && chunk_tx.send(Chunk::Blocks(list)).is_err())
+                if (n > 0 && chunk_tx.send(Chunk::Blocks(list, logic, edits)).is_err())
                     || (end && chunk_tx.send(Chunk::End).is_err())
                 {
                     // The worker stopped: its error says why.
                     break;
-                }
-                while let Ok(buf) = out_rx.try_recv() {
-                    write(buf, &mut write_err);
                 }
                 if stop || write_err.is_some() {
                     break;
                 }
             }
             drop(chunk_tx);
-            for buf in out_rx {
-                write(buf, &mut write_err);
+            // The worker's sender goes when it stops: every chunk is back.
+            for back in back_rx {
+                put(&back, &mut write_err);
             }
             let summary = worker
                 .join()
                 .unwrap_or_else(|p| std::panic::resume_unwind(p));
+            let summary = summary.map(|done| {
+                done.map(|(summary, tail)| {
+                    if write_err.is_none()
+                        && let Err(e) = output.write_all(&tail)
+                    {
+                        write_err = Some(e);
+                    }
+                    summary
+                })
+            });
             (summary, read_err, write_err)
         });
         if let Some(e) = write_err {
@@ -283,44 +313,25 @@ const CHUNK: usize = 1024;
 /// Chunks in circulation: one being read, two waiting, one being rewritten.
 const POOL: usize = 4;
 
+/// A chunk handed back by the rewriting thread: its blocks, whether each
+/// has macro logic, and their edits.
+type Back = (Vec<Block>, Vec<bool>, Deferred);
+
+/// Where the rewrite of a block goes.
+enum Out<'o, W> {
+    /// Written at once.
+    Now(&'o mut W),
+    /// Its edits kept for the thread that writes the blocks.
+    Later(&'o mut Deferred),
+}
+
 /// What the reading thread hands over.
 enum Chunk {
-    /// The next blocks (sent back empty for reuse).
-    Blocks(Vec<Block>),
+    /// The next blocks (sent back for reuse), and whether each has macro
+    /// logic.
+    Blocks(Vec<Block>, Vec<bool>, Deferred),
     /// The input ended (after the last chunk).
     End,
-}
-
-/// The rewriting thread's output: text handed to the writing thread a
-/// chunk at a time.
-struct Pipe {
-    buf: Vec<u8>,
-    out: mpsc::Sender<Vec<u8>>,
-    spare: mpsc::Receiver<Vec<u8>>,
-}
-
-impl Write for Pipe {
-    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
-        self.buf.extend_from_slice(b);
-        Ok(b.len())
-    }
-
-    fn write_all(&mut self, b: &[u8]) -> std::io::Result<()> {
-        self.buf.extend_from_slice(b);
-        Ok(())
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        if !self.buf.is_empty() {
-            let next = self.spare.try_recv().unwrap_or_default();
-            let full = std::mem::replace(&mut self.buf, next);
-            self.buf.clear();
-            if self.out.send(full).is_err() {
-                return Err(std::io::Error::other("the output is no longer written"));
-            }
-        }
-        Ok(())
-    }
 }
 
 fn read_error(e: ReadError) -> CompensateError {
@@ -355,6 +366,8 @@ struct Pass<'a> {
     /// The direction (XY, unit, program frame) the written program's last
     /// element ends in: where a HEIDENHAIN `CT` after it starts.
     last_tangent: Option<[f64; 2]>,
+    /// The interpreter's frame after the last statement.
+    frame: Option<Frame>,
     observer: Option<&'a mut dyn FnMut(&Vertex)>,
 }
 
@@ -381,6 +394,7 @@ impl<'a> Pass<'a> {
             rest: Vec::new(),
             last_piece: None,
             last_tangent: None,
+            frame: None,
             observer,
         }
     }
@@ -388,11 +402,26 @@ impl<'a> Pass<'a> {
     /// The next block of the program: rewritten, or kept for the macro
     /// logic.
     fn feed<W: Write>(&mut self, block: &Block, output: &mut W) -> Result<(), CompensateError> {
+        self.feed_known(block, expand::needs_logic(block), &mut Out::Now(output))
+    }
+
+    /// [`Self::feed`] with [`expand::needs_logic`] of the block already
+    /// known (the reading thread works it out, the rewriting one is the
+    /// busier).
+    fn feed_known<W: Write>(
+        &mut self,
+        block: &Block,
+        logic: bool,
+        output: &mut Out<'_, W>,
+    ) -> Result<(), CompensateError> {
         // Blocks stream through until the first one with macro logic; from
         // there the rest of the program is read and run first.
-        if self.rest.is_empty() && !expand::needs_logic(block) {
+        if self.rest.is_empty() && !logic {
             self.process(block, None, output)
         } else {
+            if let Out::Later(d) = output {
+                d.hold();
+            }
             self.rest.push(block.clone());
             Ok(())
         }
@@ -410,13 +439,13 @@ impl<'a> Pass<'a> {
             })?;
             if self.c.settings.expand {
                 expand::flatten(path, syntax, &rest, &trace, &mut |b| {
-                    self.process(b, None, output)
+                    self.process(b, None, &mut Out::Now(output))
                 })?;
             } else {
                 let known = exec::known_words(&trace).unwrap_or_default();
                 for (i, block) in rest.iter().enumerate() {
                     let (b, why) = expand::substitute(block, i as u32, syntax.dialect, &known);
-                    self.process(&b, why.as_deref(), output)?;
+                    self.process(&b, why.as_deref(), &mut Out::Now(output))?;
                 }
                 macro_note = trace.halt.map(|h| {
                     format!(
@@ -439,7 +468,7 @@ impl<'a> Pass<'a> {
         &mut self,
         block: &Block,
         why: Option<&str>,
-        output: &mut W,
+        output: &mut Out<'_, W>,
     ) -> Result<(), CompensateError> {
         let c = self.c;
         let path = self.path;
@@ -459,8 +488,11 @@ impl<'a> Pass<'a> {
         for si in 0..block.segments.len() {
             let seg = block.segments[si];
             let before = interp.pos;
-            let frame_before = interp.frame();
+            // The frame after the statement before (nothing else moves the
+            // interpreter between statements): one frame per statement.
+            let frame_before = self.frame.take().unwrap_or_else(|| interp.frame());
             let event = interp.step(block, &seg);
+            let f = interp.frame();
             super::take_unmodelled(interp, block, path, c.settings.strict, &mut self.unmodelled)
                 .map_err(CompensateError::Unmodelled)?;
             if matches!(event, Event::Move(_) | Event::Skip(_))
@@ -473,7 +505,6 @@ impl<'a> Pass<'a> {
                 Event::Move(mv) => {
                     summary.moves += 1;
                     moved |= moves_an_axis(&mv);
-                    let f = interp.frame();
                     let planned = match mv.tangential {
                         Some(_) => c.plan_tangential(
                             &f,
@@ -619,10 +650,11 @@ impl<'a> Pass<'a> {
                     if let Some(words) = interp.setting_words {
                         writer.move_setting(block, &words, interp, &before);
                     }
-                    writer.reframe(block, &seg, interp, (&before, &frame_before))
+                    writer.reframe(block, &seg, interp, &f, (&before, &frame_before))
                 }
             }
             writer.after_statement(block, &seg, interp, motion_done);
+            self.frame = Some(f);
         }
         if writer.end(block) {
             summary.changed += 1;
@@ -634,7 +666,10 @@ impl<'a> Pass<'a> {
                 None => summary.corrected_blocks += 1,
             }
         }
-        writer.edits.write_block(block, output)?;
+        match output {
+            Out::Now(w) => writer.edits.write_block(block, *w)?,
+            Out::Later(d) => d.take(&mut writer.edits),
+        }
         Ok(())
     }
 }

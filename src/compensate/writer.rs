@@ -263,12 +263,12 @@ impl Writer {
         block: &Block,
         seg: &Segment,
         interp: &Interpreter,
+        to: &Frame,
         before: (&[Option<f64>; 6], &Frame),
     ) {
-        let to = interp.frame();
         let axes = to.axes();
         let known = |p: &[Option<f64>; 6]| axes.iter().all(|&a| p[a].is_some());
-        if to == *before.1 || !known(&self.emit) || !known(before.0) || !known(&interp.pos) {
+        if to == before.1 || !known(&self.emit) || !known(before.0) || !known(&interp.pos) {
             return self.follow(block, seg, interp, before.0, false);
         }
         let p = to.program(
@@ -308,7 +308,7 @@ impl Writer {
             let new = round_to(x + (e - p), d);
             let style = w.style;
             self.edits
-                .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                .replace_number(w.value_span, new, d, style, rules);
         }
     }
 
@@ -329,7 +329,20 @@ impl Writer {
             for i in 0..6 {
                 self.emit[i] = match after[i] {
                     None => None,
-                    Some(a) if before[i] != Some(a) => Some(a),
+                    Some(a) if before[i] != Some(a) => match (before[i], self.emit[i]) {
+                        // Newly known, or the rewrite has the tool where
+                        // the program has it: the same value.
+                        (None, _) => Some(a),
+                        (Some(b), Some(e)) if e == b => Some(a),
+                        // The rewrite has the tool elsewhere (a correction)
+                        // and the change of frame could not be followed
+                        // exactly ([`Self::reframe`]): where that puts the
+                        // tool in the new coordinates is not known here, and
+                        // taking the program's value would drop the
+                        // correction from the next incremental or omitted
+                        // word.
+                        _ => None,
+                    },
                     Some(_) => self.emit[i],
                 };
             }
@@ -526,7 +539,7 @@ impl Writer {
             };
             if (v[k] - orig).abs() >= lexeme::half_unit(d) {
                 self.edits
-                    .replace(w.value_span, |b| lexeme::write(b, v[k], d, &style, rules));
+                    .replace_number(w.value_span, v[k], d, style, rules);
             }
         }
         if inserts.is_empty() {
@@ -596,7 +609,7 @@ impl Writer {
             if (r - orig).abs() >= lexeme::half_unit(d) {
                 let style = w.style;
                 self.edits
-                    .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                    .replace_number(w.value_span, new, d, style, rules);
             }
         } else if !self.heidenhain() {
             let letters = [b'I', b'J', b'K'];
@@ -620,7 +633,7 @@ impl Writer {
                         if (new_v - orig).abs() >= lexeme::half_unit(d) {
                             let style = w.style;
                             self.edits
-                                .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                                .replace_number(w.value_span, new, d, style, rules);
                         }
                     }
                     None => {
@@ -674,7 +687,7 @@ impl Writer {
                         let style = w.style;
                         let new = round_to(new_v, d);
                         self.edits
-                            .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                            .replace_number(w.value_span, new, d, style, rules);
                     }
                 }
                 None => {
@@ -854,8 +867,7 @@ impl Writer {
                     } else {
                         let v = round_to(new, d);
                         let st = w.style;
-                        self.edits
-                            .replace(w.value_span, |b| lexeme::write(b, v, d, &st, rules));
+                        self.edits.replace_number(w.value_span, v, d, st, rules);
                         radius = Some(base + v);
                     }
                 }
@@ -904,8 +916,7 @@ impl Writer {
                 } else {
                     let v = round_to(new, d);
                     let st = w.style;
-                    self.edits
-                        .replace(w.value_span, |b| lexeme::write(b, v, d, &st, rules));
+                    self.edits.replace_number(w.value_span, v, d, st, rules);
                     base + v
                 }
             }
@@ -1058,8 +1069,7 @@ impl Writer {
             };
             let style = w.style;
             let d = style.decimals.max(3);
-            self.edits
-                .replace(w.value_span, |b| lexeme::write(b, fv, d, &style, rules));
+            self.edits.replace_number(w.value_span, fv, d, style, rules);
         }
         self.emit = emitted;
         sink(&first, &emitted, pieces.len() > 1);
@@ -1309,7 +1319,7 @@ impl Writer {
                         let new = round_to(v - base, d);
                         let style = w.style;
                         self.edits
-                            .replace(w.value_span, |b| lexeme::write(b, new, d, &style, rules));
+                            .replace_number(w.value_span, new, d, style, rules);
                         emitted[a] = Some(base + new);
                     }
                 }
@@ -1401,4 +1411,75 @@ fn polar_word(b: &mut Vec<u8>, word: &[u8], v: f64, d: u8, style: NumStyle, rule
         },
         rules,
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compensate::Compensator;
+    use crate::kinematics::Kinematics;
+    use crate::machine::Machine;
+    use crate::model::Model;
+    use crate::nc::Syntax;
+
+    fn block(text: &str) -> Block {
+        let mut b = Block {
+            text: text.as_bytes().to_vec(),
+            line: 1,
+            ..Default::default()
+        };
+        Syntax {
+            dialect: Dialect::Fanuc,
+            strict: false,
+        }
+        .parse(&mut b)
+        .unwrap();
+        b
+    }
+
+    /// A change of frame the writer cannot map exactly (one axis of the
+    /// rewrite's position unknown) must not hand a corrected axis the
+    /// program's value: the next incremental word would be written from
+    /// there, off by the correction.
+    #[test]
+    fn a_frame_change_not_followed_exactly_forgets_a_corrected_axis_it_moves() {
+        let kin = Kinematics::new(&Machine::builtin("bc-trunnion").unwrap());
+        let model = Model::new(kin, vec![]);
+        let settings = Settings::new(Dialect::Fanuc);
+        let c = Compensator::new(&model, &[], settings.clone());
+        let mut interp = c.interpreter();
+        let mut w = Writer::new(&settings);
+        let first = block("G90 G54 G0 X10. Y5. Z50. B0. C0.\n");
+        for seg in &first.segments {
+            interp.step(&first, seg);
+        }
+        assert_eq!(interp.pos[0], Some(10.0));
+        // Where the rewrite put the tool: X and Z corrected, Y unknown.
+        w.emit = [
+            Some(10.02),
+            None,
+            Some(49.99),
+            Some(0.0),
+            Some(0.0),
+            Some(0.0),
+        ];
+        let shift = block("G52 X5.\n");
+        let before = interp.pos;
+        let frame_before = interp.frame();
+        for seg in &shift.segments {
+            interp.step(&shift, seg);
+            let to = interp.frame();
+            w.reframe(&shift, seg, &interp, &to, (&before, &frame_before));
+        }
+        assert_eq!(interp.pos[0], Some(5.0), "G52 X5. shifts the program's X");
+        assert_eq!(
+            w.emit[0], None,
+            "X: the program's 5 would drop the 0.02 correction"
+        );
+        assert_eq!(
+            w.emit[2],
+            Some(49.99),
+            "Z is not shifted: its correction stays"
+        );
+    }
 }
