@@ -17,6 +17,14 @@
 //! starts in, and PN `LEN` on from PE along the direction the last one
 //! ends in: neither needs the side of the contour, which only radius
 //! compensation (RL/RR) gives.
+//!
+//! Under RL/RR these are the points of the programmed contour (tool
+//! radius zero), which is what fivecal corrects, as it does for every
+//! `L`/`C`/`CR` under RL/RR: the control offsets the corrected contour by
+//! the tool radius, a tangential line by the radius square to its own
+//! direction, which is exact where the correction is locally a rigid
+//! motion and off by about the radius times the local scale or
+//! squareness error otherwise (docs/formats.md).
 
 use super::tangent::{arc_end_direction, direction};
 use super::{ArcPlane, Move, MoveKind};

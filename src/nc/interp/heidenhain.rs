@@ -110,11 +110,13 @@ impl Interpreter {
     /// pilot p. 13: "DEP blocks set the radius compensation to 0"): the
     /// control moves from where the tool is through an auxiliary point it
     /// computes from the block and from the first (last) contour element.
-    /// `APPR LT` and `DEP LT` without radius compensation are followed
-    /// ([`super::approach`]): the `APPR LT` is a move to its first contour
-    /// point PA whose path the element after it completes, the `DEP LT`
-    /// one `LEN` on along the element before. The others are kept, with
-    /// the reason.
+    /// `APPR LT` and `DEP LT` are followed ([`super::approach`]): the
+    /// `APPR LT` is a move to its first contour point PA whose path the
+    /// element after it completes, the `DEP LT` one `LEN` on along the
+    /// element before. Under RL/RR this is the programmed contour's path,
+    /// as for every other element: the control offsets the corrected
+    /// contour by the tool radius, which fivecal does not model. The
+    /// others are kept, with the reason.
     fn hh_appr_dep(
         &mut self,
         block: &Block,
@@ -134,9 +136,7 @@ impl Interpreter {
                 String::from_utf8_lossy(b).trim().to_ascii_uppercase()
             })
             .unwrap_or_default();
-        let comp_before = self.radius_comp;
         let (mut mv, skip) = self.hh_move(block, seg, MoveKind::Linear);
-        let comp_after = self.radius_comp;
         if dep {
             self.radius_comp = false;
         }
@@ -170,14 +170,6 @@ impl Interpreter {
         let why = why.and_then(|()| {
             if self.plane != ArcPlane::Xy {
                 Err("a working plane other than XY")
-            } else if !dep && comp_after {
-                Err(
-                    "radius compensation RL/RR: the control offsets the approach by the tool radius, which fivecal does not know (APPR LT with R0 is corrected)",
-                )
-            } else if dep && comp_before {
-                Err(
-                    "the contour before it runs with radius compensation RL/RR: the control leaves it offset by the tool radius, which fivecal does not know (DEP LT after a contour with R0 is corrected)",
-                )
             } else if !matches!(len, Some(Ok(_))) {
                 Err("its LEN is not a positive number")
             } else if dep && (plane_word(0) || plane_word(1)) {
