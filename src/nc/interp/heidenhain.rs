@@ -170,7 +170,7 @@ impl Interpreter {
             ),
             "PLN" => Err("a first contour point in polar coordinates (APPR PLN)"),
             "CT" | "LCT" | "PCT" | "PLCT" => Err(
-                "a circular approach or departure (CT, LCT): its arc turns the way RL/RR and the sign of R say (with R0 the TNC7 stops with an error message, user's manual 81762x-16), and with RL/RR the control offsets it by the tool radius, which fivecal does not know",
+                "a circular approach or departure (CT, LCT): fivecal does not follow its arc yet (it turns the way RL/RR and the sign of R say, TNC7 user's manual 81762x-16; with R0 the TNC7 stops with an error message)",
             ),
             "PLT" => Err("a first contour point in polar coordinates (APPR PLT)"),
             _ => Err("no path type fivecal knows (LT, LN, CT, LCT)"),
