@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 use super::{CompensateError, Compensator, Solution};
 use crate::kinematics::{Axes, ToolPose};
 use crate::limits::MAX_PIECES;
-use crate::nc::interp::approach::departure_end;
+use crate::nc::interp::approach::{Leg, departure_end};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, CircleGeo, Path, lerp};
@@ -807,7 +807,7 @@ impl Compensator {
         worst
     }
 
-    /// A HEIDENHAIN `APPR LT`: its end point PA corrected, the rotary axes
+    /// A HEIDENHAIN `APPR LT`/`LN`: its end point PA corrected, the rotary axes
     /// where the written program has them before it (the control builds
     /// the approach as a two-dimensional element; a tool-axis word it
     /// reaches by the auxiliary point, [`super::engine`] bounds how); the
@@ -863,13 +863,13 @@ impl Compensator {
         }))
     }
 
-    /// How far the tip leaves the intended path of an `APPR LT` (`want`:
+    /// How far the tip leaves the intended path of an `APPR LT`/`LN` (`want`:
     /// start, auxiliary point, first contour point, program frame) where
     /// the control runs the one it builds from the written blocks
     /// (`written`, likewise), mm: seventeen points along each of its two
     /// lines. With the rotary axes fixed the correction is a rigid motion,
     /// which carries the first element's direction, and so the auxiliary
-    /// point `LEN` back along it, into the intended ones.
+    /// point `LEN` back along it or square to it, into the intended ones.
     pub(super) fn approach_deviation(
         &self,
         f: &Frame,
@@ -892,13 +892,14 @@ impl Compensator {
         leg(0).max(leg(1))
     }
 
-    /// A HEIDENHAIN `DEP LT LEN..`: the control leaves the written last
+    /// A HEIDENHAIN `DEP LT|LN LEN..`: the control leaves the written last
     /// contour point `emit` along the direction `tangent` the written last
-    /// element ends in. The block has no word to correct: where the line
-    /// the control runs stays within the tolerance of the intended one
-    /// (seventeen points along both: with the rotary axes fixed the
-    /// correction is a rigid motion, which carries the direction into the
-    /// intended one) its end is returned, where the written program now
+    /// element ends in (LT) or square to it on the tool's side (LN). The
+    /// block has no word to correct: where the line the control runs
+    /// stays within the tolerance of the intended one (seventeen points
+    /// along both: with the rotary axes fixed the correction is a rigid
+    /// motion, which carries the direction and its square into the
+    /// intended ones) its end is returned, where the written program now
     /// has the tool; otherwise the reason to report it.
     pub(super) fn plan_departure(
         &self,
@@ -907,6 +908,7 @@ impl Compensator {
         emit: &[Option<f64>; 6],
         tangent: Option<[f64; 2]>,
         len: f64,
+        leg: Leg,
     ) -> Result<[f64; 6], String> {
         let refuse =
             |why: String| format!("approach or departure (APPR/DEP) left as written: {why}");
@@ -921,7 +923,7 @@ impl Compensator {
             ));
         }
         let w0 = known(emit);
-        let pn = departure_end([w0[0], w0[1]], t, len);
+        let pn = departure_end([w0[0], w0[1]], t, len, leg);
         let mut w1 = w0;
         w1[0] = pn[0];
         w1[1] = pn[1];
@@ -933,7 +935,8 @@ impl Compensator {
         let tol = self.settings.tolerance;
         if miss > tol {
             return Err(refuse(format!(
-                "the DEP LT the control runs from the corrected contour leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+                "the DEP {} the control runs from the corrected contour leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+                leg.name(),
                 miss * 1e3,
                 tol * 1e3
             )));

@@ -367,7 +367,7 @@ struct Pass<'a> {
     /// The direction (XY, unit, program frame) the written program's last
     /// element ends in: where a HEIDENHAIN `CT` after it starts.
     last_tangent: Option<[f64; 2]>,
-    /// A HEIDENHAIN `APPR LT` written (its line) whose path through the
+    /// A HEIDENHAIN `APPR LT`/`LN` written (its line) whose path through the
     /// auxiliary point waits for the first contour element after it.
     approach_open: Option<usize>,
     /// The interpreter's frame after the last statement.
@@ -523,9 +523,9 @@ impl<'a> Pass<'a> {
                     {
                         skipped.entry(approach_unchecked()).or_default().push(at);
                     }
-                    if let Some(Tangential::Departure { len }) = mv.appr_dep {
+                    if let Some(Tangential::Departure { len, leg }) = mv.appr_dep {
                         let from = writer.emit;
-                        match c.plan_departure(&f, &mv, &from, self.last_tangent, len) {
+                        match c.plan_departure(&f, &mv, &from, self.last_tangent, len, leg) {
                             Ok(end) => {
                                 // Nothing to write: the control's line from
                                 // the corrected contour is the intended one.
@@ -798,15 +798,15 @@ fn check_corner(
     }
 }
 
-/// Why an `APPR LT` written with its end point corrected is reported: the
-/// statement after it, which fixes its auxiliary point, is not a contour
-/// element fivecal corrects.
+/// Why an `APPR LT`/`LN` written with its end point corrected is reported:
+/// the statement after it, which fixes its auxiliary point, is not a
+/// contour element fivecal corrects.
 fn approach_unchecked() -> String {
-    "approach (APPR LT): its end point is corrected, but its path through the auxiliary point is not checked: the first contour element after it is left as written or not a line or circle in the XY plane"
+    "approach (APPR LT, LN): its end point is corrected, but its path through the auxiliary point is not checked: the first contour element after it is left as written or not a line or circle in the XY plane"
         .to_string()
 }
 
-/// Whether the control's `APPR LT` path, built from the written blocks
+/// Whether the control's `APPR LT`/`LN` path, built from the written blocks
 /// (`before`: the approach as written; `first`: the first piece of the
 /// element after it, planned as `plan`), stays within the tolerance of
 /// the intended one; the reason to report it otherwise.
@@ -824,7 +824,8 @@ fn check_approach(
         Ok(p) => p,
         Err(why) => {
             return Some(format!(
-                "approach (APPR LT): its end point is corrected, but its path through the auxiliary point is not checked: {why}"
+                "approach (APPR {}): its end point is corrected, but its path through the auxiliary point is not checked: {why}",
+                a.leg.name()
             ));
         }
     };
@@ -844,13 +845,13 @@ fn check_approach(
             _ => direction(xy(&s)?, xy(&e)?)?,
         };
         let (ps, pa) = (known(&ps), known(&pa));
-        Some([ps, approach_aux(&pa, d, a.len), pa])
+        Some([ps, approach_aux(&pa, d, a.len, a.leg), pa])
     })();
     let Some(written) = written else {
-        return Some(
-            "approach (APPR LT): its end point is corrected, but its path through the auxiliary point is not checked: the written blocks around it are not known"
-                .to_string(),
-        );
+        return Some(format!(
+            "approach (APPR {}): its end point is corrected, but its path through the auxiliary point is not checked: the written blocks around it are not known",
+            a.leg.name()
+        ));
     };
     // The micrometres of tool axis an approach taken as flat moves (a
     // correction's tilt), which the control moves by the auxiliary point:
@@ -861,7 +862,8 @@ fn check_approach(
     let d = c.approach_deviation(f, &want, &written) + tool_axis;
     (d > tol).then(|| {
         format!(
-            "approach (APPR LT): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+            "approach (APPR {}): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+            a.leg.name(),
             d * 1e3,
             tol * 1e3
         )

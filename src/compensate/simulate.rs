@@ -374,9 +374,9 @@ impl Simulator {
     }
 }
 
-/// An `APPR LT` whose auxiliary point is not known is run as a straight
+/// An `APPR LT`/`LN` whose auxiliary point is not known is run as a straight
 /// line to its end.
-const APPROACH_STRAIGHT: &str = "approach (APPR LT) not simulated through its auxiliary point (run as a straight line to its end): the first contour element after it is not a line or circle in the XY plane that is simulated";
+const APPROACH_STRAIGHT: &str = "approach (APPR LT, LN) not simulated through its auxiliary point (run as a straight line to its end): the first contour element after it is not a line or circle in the XY plane that is simulated";
 
 /// A move waiting to be sampled: the next one may cut its end (a
 /// HEIDENHAIN rounding or chamfer) or place its auxiliary point (an

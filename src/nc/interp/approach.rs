@@ -17,18 +17,71 @@
 //! starts in, and PN `LEN` on from PE along the direction the last one
 //! ends in: neither needs the side of the contour, which only radius
 //! compensation (RL/RR) gives.
+//!
+//!
+//! `APPR LN`/`DEP LN` (TNC7 basic user's manual 81762x-18, "Approach
+//! function APPR LN", "Departure function DEP LN"; TNC 640 user's manual
+//! 5/2013): the line between PH (PN) and the contour is perpendicular to
+//! the first (last) contour element, PH (PN) "LEN plus the tool radius"
+//! from the contour point. The tool's centre on the contour lies the tool
+//! radius from it on the side RL/RR puts the tool (left, right of the
+//! direction of travel), so a line of length `LEN` square to the element
+//! from there reaches that distance only on the same side: the programmed
+//! contour's PH (PN) lies `LEN` from PA (PE) on the side RL/RR picks. With
+//! R0 there is no side, and the manuals read do not say what the control
+//! does; such a block is left as written.
+//!
+//! Under RL/RR these are the points of the programmed contour (tool
+//! radius zero), which is what fivecal corrects, as it does for every
+//! `L`/`C`/`CR` under RL/RR: the control offsets the corrected contour by
+//! the tool radius, a tangential line by the radius square to its own
+//! direction, which is exact where the correction is locally a rigid
+//! motion and off by about the radius times the local scale or
+//! squareness error otherwise (docs/formats.md).
 
 use super::tangent::{arc_end_direction, direction};
 use super::{ArcPlane, Move, MoveKind};
 
-/// An `APPR LT` whose auxiliary point follows from the element after it,
-/// carried by that element's move.
+/// Which side of the programmed contour radius compensation puts the
+/// tool on, looking along the direction of travel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// `RL`.
+    Left,
+    /// `RR`.
+    Right,
+}
+
+/// How the line between the contour and an approach's auxiliary point
+/// (a departure's end) meets the contour element.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Leg {
+    /// `LT`: along the element's direction.
+    Tangent,
+    /// `LN`: square to it, on the side radius compensation puts the tool.
+    Normal(Side),
+}
+
+impl Leg {
+    /// The path type as the block writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Leg::Tangent => "LT",
+            Leg::Normal(_) => "LN",
+        }
+    }
+}
+
+/// An `APPR LT`/`LN` whose auxiliary point follows from the element after
+/// it, carried by that element's move.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Approach {
     /// 1-based line of the `APPR` block.
     pub line: usize,
     /// Its `LEN`, program units.
     pub len: f64,
+    /// `LT` or `LN`.
+    pub leg: Leg,
     /// Its path as the control runs it (start PS, auxiliary point PH,
     /// first contour point PA; program coordinates, absolute), or why
     /// fivecal cannot say.
@@ -38,17 +91,21 @@ pub struct Approach {
 /// What an `APPR`/`DEP` block is, on its own move.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Tangential {
-    /// `APPR LT ... LEN..`: its end point PA is written; the line to it
-    /// starts at PH, `len` back along the element after it.
+    /// `APPR LT|LN ... LEN..`: its end point PA is written; the line to
+    /// it starts at PH, `len` from PA as `leg` says.
     Approach {
         /// `LEN`, program units.
         len: f64,
+        /// `LT` or `LN`.
+        leg: Leg,
     },
-    /// `DEP LT LEN..`: its end PN is `len` on from where the tool is,
-    /// along the direction the element before ends in.
+    /// `DEP LT|LN LEN..`: its end PN is `len` from where the tool is, as
+    /// `leg` says, from the direction the element before ends in.
     Departure {
         /// `LEN`, program units.
         len: f64,
+        /// `LT` or `LN`.
+        leg: Leg,
     },
 }
 
@@ -72,20 +129,38 @@ pub fn flat(s: &[Option<f64>; 6], e: &[Option<f64>; 6], mm: f64) -> bool {
     })
 }
 
-/// The auxiliary point of an `APPR LT`: `len` back from the first contour
-/// point `at` against the unit direction `dir` the first element starts
-/// in (XY), the other axes as at `at`.
-pub fn approach_aux(at: &[f64; 6], dir: [f64; 2], len: f64) -> [f64; 6] {
+/// The unit vector square to the unit direction `dir` on `side` of it.
+pub fn normal(dir: [f64; 2], side: Side) -> [f64; 2] {
+    match side {
+        Side::Left => [-dir[1], dir[0]],
+        Side::Right => [dir[1], -dir[0]],
+    }
+}
+
+/// The auxiliary point of an `APPR LT`/`LN`, `len` from the first contour
+/// point `at`: back against the unit direction `dir` the first element
+/// starts in (XY) for `LT`, square to it on the tool's side for `LN`; the
+/// other axes as at `at`.
+pub fn approach_aux(at: &[f64; 6], dir: [f64; 2], len: f64, leg: Leg) -> [f64; 6] {
+    let v = match leg {
+        Leg::Tangent => [-dir[0], -dir[1]],
+        Leg::Normal(side) => normal(dir, side),
+    };
     let mut p = *at;
-    p[0] -= len * dir[0];
-    p[1] -= len * dir[1];
+    p[0] += len * v[0];
+    p[1] += len * v[1];
     p
 }
 
-/// The end point of a `DEP LT`: `len` on from the last contour point `at`
-/// along the unit direction `dir` the last element ends in (XY).
-pub fn departure_end(at: [f64; 2], dir: [f64; 2], len: f64) -> [f64; 2] {
-    [at[0] + len * dir[0], at[1] + len * dir[1]]
+/// The end point of a `DEP LT`/`LN`, `len` from the last contour point
+/// `at`: on along the unit direction `dir` the last element ends in (XY)
+/// for `LT`, square to it on the tool's side for `LN`.
+pub fn departure_end(at: [f64; 2], dir: [f64; 2], len: f64, leg: Leg) -> [f64; 2] {
+    let v = match leg {
+        Leg::Tangent => dir,
+        Leg::Normal(side) => normal(dir, side),
+    };
+    [at[0] + len * v[0], at[1] + len * v[1]]
 }
 
 /// The direction (XY, unit) a move starts in, if it is a line or a circle
@@ -132,16 +207,50 @@ mod tests {
         // A contour starting at (20, 20) along +X: PH 10 mm before it on
         // the line's extension, (10, 20); Z and the rotary axes as at PA.
         let at = [20.0, 20.0, -1.0, 0.0, 5.0, 30.0];
-        let ph = approach_aux(&at, [1.0, 0.0], 10.0);
+        let ph = approach_aux(&at, [1.0, 0.0], 10.0, Leg::Tangent);
         assert_eq!(ph, [10.0, 20.0, -1.0, 0.0, 5.0, 30.0]);
         // Along the diagonal (3, 4) / 5, LEN 15: back by (9, 12).
-        let ph = approach_aux(&at, [0.6, 0.8], 15.0);
+        let ph = approach_aux(&at, [0.6, 0.8], 15.0, Leg::Tangent);
         assert!((ph[0] - 11.0).abs() < 1e-12 && (ph[1] - 8.0).abs() < 1e-12);
     }
 
     #[test]
     fn the_departure_end_lies_len_on_along_the_last_element() {
-        assert_eq!(departure_end([5.0, -3.0], [0.0, -1.0], 12.5), [5.0, -15.5]);
+        assert_eq!(
+            departure_end([5.0, -3.0], [0.0, -1.0], 12.5, Leg::Tangent),
+            [5.0, -15.5]
+        );
+    }
+
+    /// `LN`: checked against an independent construction, the direction
+    /// turned by +90 deg (RL) or -90 deg (RR) through its angle, over
+    /// directions all round: `LEN` from the contour point, square to the
+    /// element, on the side the cross product gives.
+    #[test]
+    fn a_perpendicular_point_lies_len_square_to_the_element_on_the_tools_side() {
+        let at = [3.0, -7.0, -2.0, 0.0, 10.0, 45.0];
+        let len = 12.5;
+        for k in 0..24 {
+            let a = 0.3 + k as f64 * std::f64::consts::TAU / 24.0;
+            let dir = [a.cos(), a.sin()];
+            for (side, turn) in [(Side::Left, 1.0), (Side::Right, -1.0)] {
+                let b = a + turn * std::f64::consts::FRAC_PI_2;
+                let want = [at[0] + len * b.cos(), at[1] + len * b.sin()];
+                let ph = approach_aux(&at, dir, len, Leg::Normal(side));
+                let pn = departure_end([at[0], at[1]], dir, len, Leg::Normal(side));
+                for p in [[ph[0], ph[1]], pn] {
+                    assert!((p[0] - want[0]).abs() < 1e-12 && (p[1] - want[1]).abs() < 1e-12);
+                    let v = [p[0] - at[0], p[1] - at[1]];
+                    assert!((v[0].hypot(v[1]) - len).abs() < 1e-12);
+                    assert!((v[0] * dir[0] + v[1] * dir[1]).abs() < 1e-12);
+                    // Left of the direction of travel: its cross product
+                    // with the offset is positive.
+                    let cross = dir[0] * v[1] - dir[1] * v[0];
+                    assert!(cross * turn > 0.0, "{side:?} {cross}");
+                }
+                assert_eq!(ph[2..], at[2..]);
+            }
+        }
     }
 
     fn line(s: [f64; 3], e: [f64; 3]) -> Move {

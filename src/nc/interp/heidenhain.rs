@@ -1,12 +1,13 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
 //! `CC`, `CR`, polar `LP`/`CP`, the corners `RND`/`CHF` cut between two
 //! lines, the tangential circle `CT`, the approach and departure
-//! `APPR LT`/`DEP LT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! `APPR LT|LN`/`DEP LT|LN`), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
 //! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
 //! TCPM, touch probe cycles and program control.
 
+use super::approach::Leg;
 use super::{
     AXES, Arc, ArcPlane, Event, Interpreter, Move, MoveKind, Skip, Tcp, Units, arc_runs,
     center_from_radius,
@@ -110,11 +111,14 @@ impl Interpreter {
     /// pilot p. 13: "DEP blocks set the radius compensation to 0"): the
     /// control moves from where the tool is through an auxiliary point it
     /// computes from the block and from the first (last) contour element.
-    /// `APPR LT` and `DEP LT` without radius compensation are followed
-    /// ([`super::approach`]): the `APPR LT` is a move to its first contour
-    /// point PA whose path the element after it completes, the `DEP LT`
-    /// one `LEN` on along the element before. The others are kept, with
-    /// the reason.
+    /// `APPR LT|LN` and `DEP LT|LN` are followed ([`super::approach`]):
+    /// the `APPR` is a move to its first contour point PA whose path the
+    /// element after it completes, the `DEP` one `LEN` on along the
+    /// element before (LT) or square to it on the tool's side (LN, under
+    /// RL/RR only: with R0 there is no side). Under RL/RR this is the programmed contour's path,
+    /// as for every other element: the control offsets the corrected
+    /// contour by the tool radius, which fivecal does not model. The
+    /// others are kept, with the reason.
     fn hh_appr_dep(
         &mut self,
         block: &Block,
@@ -134,11 +138,14 @@ impl Interpreter {
                 String::from_utf8_lossy(b).trim().to_ascii_uppercase()
             })
             .unwrap_or_default();
-        let comp_before = self.radius_comp;
+        let side_before = self.hh_comp_side;
         let (mut mv, skip) = self.hh_move(block, seg, MoveKind::Linear);
-        let comp_after = self.radius_comp;
+        // The side an LN's point lies on: the contour's before a DEP, the
+        // one the APPR sets for the contour after it.
+        let side = if dep { side_before } else { self.hh_comp_side };
         if dep {
             self.radius_comp = false;
+            self.hh_comp_side = None;
         }
         let mut len = None;
         for (_, w) in block.words(seg) {
@@ -157,51 +164,46 @@ impl Interpreter {
         }
         let plane_word = |i: usize| mv.words[i].is_some();
         let why = match path.as_str() {
-            "LT" => Ok(()),
-            "LN" | "PLN" => Err(
-                "a perpendicular approach or departure (LN): the control puts its auxiliary or end point on the side of the contour RL/RR picks, LEN plus the tool radius away (TNC 640 user's manual), and fivecal does not know the tool radius",
+            "LT" => Ok(Leg::Tangent),
+            "LN" => side.map(Leg::Normal).ok_or(
+                "a perpendicular approach or departure (LN) without radius compensation: the control puts its auxiliary or end point on the side of the contour RL/RR picks (TNC 640 user's manual, TNC7 basic user's manual 81762x-18), and with R0 none is picked; the manuals read do not say what the control does then",
             ),
+            "PLN" => Err("a first contour point in polar coordinates (APPR PLN)"),
             "CT" | "LCT" | "PCT" | "PLCT" => Err(
-                "a circular approach or departure (CT, LCT): its arc turns the way RL/RR and the sign of R say (with R0 the TNC7 stops with an error message, user's manual 81762x-16), and with RL/RR the control offsets it by the tool radius, which fivecal does not know",
+                "a circular approach or departure (CT, LCT): fivecal does not follow its arc yet (it turns the way RL/RR and the sign of R say, TNC7 user's manual 81762x-16; with R0 the TNC7 stops with an error message)",
             ),
             "PLT" => Err("a first contour point in polar coordinates (APPR PLT)"),
             _ => Err("no path type fivecal knows (LT, LN, CT, LCT)"),
         };
-        let why = why.and_then(|()| {
+        let why = why.and_then(|leg| {
             if self.plane != ArcPlane::Xy {
                 Err("a working plane other than XY")
-            } else if !dep && comp_after {
-                Err(
-                    "radius compensation RL/RR: the control offsets the approach by the tool radius, which fivecal does not know (APPR LT with R0 is corrected)",
-                )
-            } else if dep && comp_before {
-                Err(
-                    "the contour before it runs with radius compensation RL/RR: the control leaves it offset by the tool radius, which fivecal does not know (DEP LT after a contour with R0 is corrected)",
-                )
             } else if !matches!(len, Some(Ok(_))) {
                 Err("its LEN is not a positive number")
             } else if dep && (plane_word(0) || plane_word(1)) {
-                Err("X or Y in a DEP LT (its end point is LEN along the last contour element)")
+                Err(
+                    "X or Y in a DEP LT or LN (its end point is LEN from the last contour point, along the last contour element or square to it)",
+                )
             } else if !super::approach::flat(&mv.start, &mv.end, self.units.mm()) {
                 Err(
                     "it moves the tool axis or a rotary axis: the TNC 640 manual has the control reach the auxiliary point in the working plane and then the tool-axis position, the TNC7 manual all three axes at once (APPR LCT, DEP LCT); which this control does is not known",
                 )
             } else {
-                Ok(())
+                Ok(leg)
             }
         });
         let len = match len {
             Some(Ok(v)) => v,
             _ => 0.0,
         };
-        // Where the tool ends: a DEP LT LEN on along the last element, the
-        // others as their words say (a DEP LT, LN or CT names no end point
-        // in the plane).
+        // Where the tool ends: a DEP LT or LN LEN from the last contour
+        // point, the others as their words say (a DEP LT, LN or CT names
+        // no end point in the plane).
         let pe = [mv.start[0], mv.start[1]];
         if dep {
             let end = match (why, pe, tangent) {
-                (Ok(()), [Some(x), Some(y)], Some(t)) => {
-                    let p = super::approach::departure_end([x, y], t, len);
+                (Ok(leg), [Some(x), Some(y)], Some(t)) => {
+                    let p = super::approach::departure_end([x, y], t, len, leg);
                     [Some(p[0]), Some(p[1])]
                 }
                 _ => [None, None],
@@ -222,12 +224,15 @@ impl Interpreter {
         if m91 {
             return Event::Quiet;
         }
-        if let Err(why) = why {
-            return Event::Skip(match skip {
-                Some(s @ (Skip::Expression | Skip::UnknownWord)) => s,
-                _ => Skip::ApproachDeparture(why),
-            });
-        }
+        let leg = match why {
+            Ok(leg) => leg,
+            Err(why) => {
+                return Event::Skip(match skip {
+                    Some(s @ (Skip::Expression | Skip::UnknownWord)) => s,
+                    _ => Skip::ApproachDeparture(why),
+                });
+            }
+        };
         if let Some(s) = skip {
             return Event::Skip(s);
         }
@@ -247,20 +252,21 @@ impl Interpreter {
             return Event::Skip(s);
         }
         if dep {
-            mv.appr_dep = Some(super::approach::Tangential::Departure { len });
+            mv.appr_dep = Some(super::approach::Tangential::Departure { len, leg });
         } else {
-            mv.appr_dep = Some(super::approach::Tangential::Approach { len });
+            mv.appr_dep = Some(super::approach::Tangential::Approach { len, leg });
             self.hh_approach = Some(PendingApproach {
                 line: block.line,
                 from,
                 at,
                 len,
+                leg,
             });
         }
         Event::Move(mv)
     }
 
-    /// The statement after an `APPR LT`: the first contour element, whose
+    /// The statement after an `APPR LT`/`LN`: the first contour element, whose
     /// direction at its start places the auxiliary point; a statement
     /// that moves nothing and sets no element (a pole, M functions) keeps
     /// it waiting. Anything else leaves the approach's path unknown, which
@@ -286,12 +292,15 @@ impl Interpreter {
         let path = if !starts_at_pa {
             Err("the first contour element does not start at its end point")
         } else {
-            super::approach::start_direction(&mv, self.units.mm())
-                .map(|d| [a.from, super::approach::approach_aux(&a.at, d, a.len), a.at])
+            super::approach::start_direction(&mv, self.units.mm()).map(|d| {
+                let ph = super::approach::approach_aux(&a.at, d, a.len, a.leg);
+                [a.from, ph, a.at]
+            })
         };
         mv.approach = Some(super::approach::Approach {
             line: a.line,
             len: a.len,
+            leg: a.leg,
             path,
         });
         Event::Move(mv)
@@ -860,8 +869,14 @@ impl Interpreter {
                 }
             } else if w.addr == Addr::new("RL") || w.addr == Addr::new("RR") {
                 self.radius_comp = true;
+                self.hh_comp_side = Some(if w.addr == Addr::new("RL") {
+                    super::approach::Side::Left
+                } else {
+                    super::approach::Side::Right
+                });
             } else if w.addr == Addr::new("R0") {
                 self.radius_comp = false;
+                self.hh_comp_side = None;
             } else if matches!(w.addr.as_letter(), Some(b'U' | b'V' | b'W')) {
                 skip.get_or_insert(Skip::UnknownAxis(w.addr.as_letter().unwrap()));
             }
@@ -1183,15 +1198,16 @@ pub(super) struct PendingCorner {
     geo: Result<(super::corner::CornerKind, [f64; 6], [f64; 6]), &'static str>,
 }
 
-/// An `APPR LT` waiting for the first contour element: its line, where it
+/// An `APPR LT`/`LN` waiting for the first contour element: its line, where it
 /// starts (PS) and its first contour point (PA; program coordinates,
-/// absolute, NaN on an axis the machine does not have), and its `LEN`.
+/// absolute, NaN on an axis the machine does not have), its `LEN` and which of the two.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct PendingApproach {
     line: usize,
     from: [f64; 6],
     at: [f64; 6],
     len: f64,
+    leg: Leg,
 }
 
 /// Where a move starts and ends in the XY plane, or which axis is not

@@ -402,9 +402,10 @@ pub struct Move {
     /// (XY, program frame), the one the element before it ends in; its
     /// centre follows from it and the end point.
     pub tangential: Option<[f64; 2]>,
-    /// HEIDENHAIN `APPR LT`/`DEP LT`: the move is one, and its `LEN`.
+    /// HEIDENHAIN `APPR LT|LN`/`DEP LT|LN`: the move is one, its `LEN`
+    /// and which.
     pub appr_dep: Option<approach::Tangential>,
-    /// HEIDENHAIN `APPR LT` before this move, the first contour element:
+    /// HEIDENHAIN `APPR LT|LN` before this move, the first contour element:
     /// the control's auxiliary point follows from the direction this move
     /// starts in.
     pub approach: Option<approach::Approach>,
@@ -600,8 +601,11 @@ pub struct Interpreter {
     /// HEIDENHAIN: the direction (XY, unit) the last contour element ends
     /// in, which a `CT` after it starts in.
     hh_tangent: Option<[f64; 2]>,
-    /// HEIDENHAIN: an `APPR LT` waiting for the first contour element.
+    /// HEIDENHAIN: an `APPR LT`/`LN` waiting for the first contour element.
     hh_approach: Option<heidenhain::PendingApproach>,
+    /// HEIDENHAIN: the side of the contour `RL`/`RR` in force puts the
+    /// tool on (an `APPR LN`/`DEP LN`'s point lies there); `None` with R0.
+    hh_comp_side: Option<approach::Side>,
     /// The canned drilling cycle in force (G code x 10), if any.
     pub cycle: Option<u32>,
     /// Its modal hole bottom along the drill axis (program units).
@@ -693,6 +697,7 @@ impl Interpreter {
             hh_corner: None,
             hh_tangent: None,
             hh_approach: None,
+            hh_comp_side: None,
             cycle: None,
             cycle_depth: None,
             cycle_r: None,
