@@ -927,6 +927,20 @@ impl<'a> Fitter<'a> {
     /// nothing: the fit would stop far from the minimum.
     pub fn fit(&self, spec: &Spec, start: Option<Vec<f64>>) -> Result<Fit, FitError> {
         let (d, basis, _) = self.design(spec);
+        self.fit_designed(spec, d, &basis, start)
+    }
+
+    /// [`Fitter::fit`] with `spec`'s design at the nominal machine and its
+    /// constraint basis as [`Fitter::design`] made them: a candidate is
+    /// fitted with the design its identifiability was judged on, not one
+    /// made again (for a map over C, the design costs what its fit does).
+    pub(crate) fn fit_designed(
+        &self,
+        spec: &Spec,
+        d: Design,
+        basis: &DMatrix<f64>,
+        start: Option<Vec<f64>>,
+    ) -> Result<Fit, FitError> {
         let p = spec.model.n_params() + self.extra();
         let x0 = start.unwrap_or_else(|| vec![0.0; p]);
         let own = self.own(spec)?;
@@ -945,10 +959,10 @@ impl<'a> Fitter<'a> {
             adapt_damping: true,
             ..self.opts
         };
-        let sol = lsq::solve_ranked(&problem, &x0, Some(&basis), &opts, Some(d.rank));
+        let sol = lsq::solve_ranked(&problem, &x0, Some(basis), &opts, Some(d.rank));
         let (r, j) = problem.evaluate(&sol.x)?;
         let jm = Mat::<f64>::from_fn(j.nrows(), j.ncols(), |a, b| j[(a, b)]);
-        let cov = lsq::design_ranked(&jm, Some(&basis), self.opts.rank_rtol, Some(d.rank)).cov_unit;
+        let cov = lsq::design_ranked(&jm, Some(basis), self.opts.rank_rtol, Some(d.rank)).cov_unit;
         Ok(self.finish(spec, sol.x, r, d, cov, sol.converged))
     }
 

@@ -41,6 +41,7 @@ use crate::analyze::goodness::ExpectedNoise;
 use crate::errorfile::{AmbiguitySection, ErrorFile, Noise, NotIdentified, Quantity, RivalEntry};
 use crate::formats::manifest::TestKind;
 use crate::identify::identifiability::Combination;
+use crate::identify::lsq::Design;
 use crate::identify::{Dataset, Identification, Method, two_stage};
 use crate::kinematics::Kinematics;
 use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS};
@@ -313,8 +314,9 @@ struct Tried {
     trial: Trial,
     /// The iterated fit (none for a candidate only screened).
     fit: Option<Fit>,
-    /// The model with the candidate, its unseen combinations fixed.
-    spec: Option<Spec>,
+    /// The model with the candidate, its unseen combinations fixed, and
+    /// its design.
+    model: Option<Designed>,
     /// Whether it was fitted (screened or iterated), not refused.
     fitted: bool,
 }
@@ -331,9 +333,18 @@ fn refused(name: &str, reason: String) -> Tried {
             alongside: None,
         },
         fit: None,
-        spec: None,
+        model: None,
         fitted: false,
     }
+}
+
+/// A candidate's model with the design its identifiability was judged on
+/// (at the nominal machine) and its constraint basis: its fit starts from
+/// them.
+struct Designed {
+    spec: Spec,
+    design: Design,
+    basis: DMatrix<f64>,
 }
 
 /// Orthonormal basis (columns) of the column space of `a`, columns scaled
@@ -349,12 +360,45 @@ pub(crate) fn column_space(a: &DMatrix<f64>, rtol: f64) -> DMatrix<f64> {
     if a.ncols() == 0 || a.nrows() == 0 {
         return DMatrix::zeros(a.nrows(), 0);
     }
-    let rows = a.nrows();
-    let svd = a.svd(true, false);
-    let u = svd.u.expect("asked for U");
-    let smax = svd.singular_values.max();
-    let keep: Vec<usize> = (0..svd.singular_values.len())
-        .filter(|&i| svd.singular_values[i] > rtol * smax && smax > 0.0)
+    // faer's SVD without the right singular vectors: the span of a map's
+    // columns (hundreds, and the rows of a supplementary test) is what
+    // `separate` waits for, and nalgebra's unblocked SVD takes several
+    // times as long. The basis is another of the same span.
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::svd::{self, ComputeSvdVectors};
+    let (rows, cols) = a.shape();
+    let k = rows.min(cols);
+    let m = faer::Mat::<f64>::from_fn(rows, cols, |r, c| a[(r, c)]);
+    let par = faer::get_global_parallelism();
+    let req = svd::svd_scratch::<f64>(
+        rows,
+        cols,
+        ComputeSvdVectors::Thin,
+        ComputeSvdVectors::No,
+        par,
+        Default::default(),
+    );
+    let mut buf = MemBuffer::new(req);
+    let mut s = faer::diag::Diag::<f64>::zeros(k);
+    let mut u = faer::Mat::<f64>::zeros(rows, k);
+    if svd::svd(
+        m.as_ref(),
+        s.as_mut(),
+        Some(u.as_mut()),
+        None,
+        par,
+        MemStack::new(&mut buf),
+        Default::default(),
+    )
+    .is_err()
+    {
+        // Non-finite columns span nothing to rely on.
+        return DMatrix::zeros(rows, 0);
+    }
+    let s = s.column_vector();
+    let smax = (0..k).fold(0.0f64, |a, i| a.max(s[i]));
+    let keep: Vec<usize> = (0..k)
+        .filter(|&i| s[i] > rtol * smax && smax > 0.0)
         .collect();
     DMatrix::from_fn(rows, keep.len(), |r, c| u[(r, keep[c])])
 }
@@ -370,12 +414,20 @@ struct Round {
 
 impl Round {
     fn new(fitter: &Fitter<'_>, base: &Fit) -> Result<Round, FitError> {
-        let (basis, _) = base.spec.basis(fitter.extra());
         Ok(Round {
             screen: fitter.screen(base)?,
-            others: column_space(&(fitter.jacobian0(&base.spec) * &basis), 1e-9),
+            others: others(fitter, base),
         })
     }
+}
+
+/// Orthonormal basis of what `base`'s model and the nuisance do at the
+/// nominal machine: the columns a candidate added to it is compared with
+/// for the canonical correlation, the same for every candidate tried on
+/// it, so made once for them all.
+fn others(fitter: &Fitter<'_>, base: &Fit) -> DMatrix<f64> {
+    let (basis, _) = base.spec.basis(fitter.extra());
+    column_space(&(fitter.jacobian0(&base.spec) * &basis), 1e-9)
 }
 
 /// How a candidate's fit is made.
@@ -384,8 +436,54 @@ enum Mode<'a> {
     /// Scored by the update of the round's factorization: one
     /// Gauss-Newton step from the base's estimate.
     Screen(&'a Round),
-    /// Iterated to convergence.
-    Exact,
+    /// Iterated to convergence; with [`others`] of the base, and the fits
+    /// the search keeps, if any.
+    Exact(&'a DMatrix<f64>, Option<&'a Fits>),
+}
+
+/// The exact fits of candidates on a base, kept: the rivals of a step are
+/// fitted beside the effect it adds, and the next round, on that model,
+/// fits those candidates again, from the same start with the same design,
+/// to the same bits. Each is keyed by the base's estimate (its bits) and
+/// the names of the model fitted.
+#[derive(Default)]
+struct Fits(std::sync::Mutex<std::collections::HashMap<FitKey, Result<Fit, FitError>>>);
+
+type FitKey = (Vec<u64>, Vec<String>);
+
+impl Fits {
+    fn key(base: &Fit, spec: &Spec) -> FitKey {
+        (
+            base.x.iter().map(|v| v.to_bits()).collect(),
+            spec.names.clone(),
+        )
+    }
+
+    /// The fit of `spec` on `base`, made by `fit` unless kept.
+    fn get_or(
+        &self,
+        base: &Fit,
+        spec: &Spec,
+        fit: impl FnOnce() -> Result<Fit, FitError>,
+    ) -> Result<Fit, FitError> {
+        let key = Fits::key(base, spec);
+        if let Some(f) = self.0.lock().expect("not poisoned").get(&key) {
+            return f.clone();
+        }
+        let f = fit();
+        self.0.lock().expect("not poisoned").insert(key, f.clone());
+        f
+    }
+
+    /// Forgets the fits on any base but `base` (a map's fit holds
+    /// megabytes).
+    fn keep_on(&self, base: &Fit) {
+        let bits: Vec<u64> = base.x.iter().map(|v| v.to_bits()).collect();
+        self.0
+            .lock()
+            .expect("not poisoned")
+            .retain(|k, _| k.0 == bits);
+    }
 }
 
 /// Tries `cand` on top of `base`: identifiability alongside the model,
@@ -480,13 +578,8 @@ fn try_candidate(
     let j0 = fitter.jacobian0(&spec);
     let b = j0.columns(xr.start, xr.len()) * basis.view((xr.start, zc.start), (xr.len(), zc.len()));
     let qa = match mode {
-        Mode::Screen(round) => round.others.clone(),
-        Mode::Exact => {
-            let jz = j0 * &basis;
-            let others: Vec<usize> = (0..jz.ncols()).filter(|c| !zc.contains(c)).collect();
-            let a = DMatrix::from_fn(jz.nrows(), others.len(), |r, c| jz[(r, others[c])]);
-            column_space(&a, 1e-9)
-        }
+        Mode::Screen(round) => &round.others,
+        Mode::Exact(others, _) => others,
     };
     let qb = column_space(&b, 1e-9);
     let canonical = if qa.ncols() == 0 || qb.ncols() == 0 {
@@ -554,21 +647,26 @@ fn try_candidate(
         p_adjusted: None,
         alongside: Some(alongside.clone()),
     };
+    let model = Designed {
+        spec,
+        design: d,
+        basis,
+    };
     match mode {
         Mode::Screen(round) => {
-            let s = fitter.score(&round.screen, &spec, rank_increase);
+            let s = fitter.score(&round.screen, &model.spec, rank_increase);
             Tried {
-                trial: trial(s.rss, d.rank, &s.residuals),
+                trial: trial(s.rss, model.design.rank, &s.residuals),
                 fit: None,
-                spec: Some(spec),
+                model: Some(model),
                 fitted: true,
             }
         }
-        Mode::Exact => match exact(fitter, base, &spec) {
+        Mode::Exact(_, fits) => match exact(fitter, base, &model, fits) {
             Ok(f) => Tried {
                 trial: trial(f.rss, f.rank, &f.residuals),
                 fit: Some(f),
-                spec: Some(spec),
+                model: Some(model),
                 fitted: true,
             },
             Err(e) => refused(&cand.name, format!("the fit failed ({e})")),
@@ -578,21 +676,32 @@ fn try_candidate(
 
 /// The exact fit of `spec` (`base` with one effect appended), from the
 /// base's estimate with the new effect at zero.
-fn exact(fitter: &Fitter<'_>, base: &Fit, spec: &Spec) -> Result<Fit, FitError> {
-    let added = spec.model.n_params() - base.n;
-    let mut start = base.theta().to_vec();
-    start.extend(std::iter::repeat_n(0.0, added));
-    start.extend_from_slice(&base.x[base.n..]);
-    fitter.fit(spec, Some(start))
+fn exact(
+    fitter: &Fitter<'_>,
+    base: &Fit,
+    model: &Designed,
+    fits: Option<&Fits>,
+) -> Result<Fit, FitError> {
+    let fit = || {
+        let added = model.spec.model.n_params() - base.n;
+        let mut start = base.theta().to_vec();
+        start.extend(std::iter::repeat_n(0.0, added));
+        start.extend_from_slice(&base.x[base.n..]);
+        fitter.fit_designed(&model.spec, model.design.clone(), &model.basis, Some(start))
+    };
+    match fits {
+        Some(kept) => kept.get_or(base, &model.spec, fit),
+        None => fit(),
+    }
 }
 
 /// A screened candidate fitted exactly: the same identifiability, the fit
 /// and the comparison of the iterated fit.
-fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried) -> Tried {
-    let Some(spec) = screened.spec else {
+fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried, fits: &Fits) -> Tried {
+    let Some(model) = screened.model else {
         return screened;
     };
-    match exact(fitter, base, &spec) {
+    match exact(fitter, base, &model, Some(fits)) {
         Ok(f) => Tried {
             trial: Trial {
                 gap_after: Some(gap::size(&f.residuals)),
@@ -606,7 +715,7 @@ fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried) -> Tried {
                 ..screened.trial
             },
             fit: Some(f),
-            spec: Some(spec),
+            model: Some(model),
             fitted: true,
         },
         Err(e) => refused(&screened.trial.name, format!("the fit failed ({e})")),
@@ -691,7 +800,13 @@ fn start(
                 known.join(", ")
             )));
         };
-        let t = try_candidate(fitter, &fit, c, None, Mode::Exact);
+        let t = try_candidate(
+            fitter,
+            &fit,
+            c,
+            None,
+            Mode::Exact(&others(fitter, &fit), None),
+        );
         match t.fit {
             Some(f) => fit = f,
             None => {
@@ -814,6 +929,7 @@ pub fn run_parts(parts: &[Part<'_>], opts: &DiscoverOptions) -> Result<Discovery
         model0: &model0,
         unserved: &unserved,
         opts,
+        fits: Fits::default(),
     };
     let Searched {
         current,
@@ -950,6 +1066,8 @@ struct Search<'a, 'p> {
     /// Why the forward model cannot serve a candidate, by name.
     unserved: &'a std::collections::HashMap<String, String>,
     opts: &'a DiscoverOptions,
+    /// The exact fits on the current model.
+    fits: Fits,
 }
 
 /// Where the search ended.
@@ -1045,6 +1163,7 @@ impl<'a, 'p> Search<'a, 'p> {
             .filter(|c| current.spec.find(&c.name).is_none())
             .filter(|c| selected(c, opts, self.model0))
             .collect();
+        self.fits.keep_on(current);
         let round = Round::new(self.fitter, current)?;
         let mut tried: Vec<Tried> = pool
             .par_iter()
@@ -1088,7 +1207,7 @@ impl<'a, 'p> Search<'a, 'p> {
             .collect();
         let iterated: Vec<(usize, Tried)> = screened
             .into_par_iter()
-            .map(|(i, t)| (i, refit(self.fitter, current, t)))
+            .map(|(i, t)| (i, refit(self.fitter, current, t, &self.fits)))
             .collect();
         for (i, t) in iterated {
             tried[i] = t;
@@ -1131,20 +1250,21 @@ impl<'a, 'p> Search<'a, 'p> {
         let (tried, m, n, alpha) = (&round.tried, round.m, self.fitter.len(), self.opts.alpha);
         let mut out = Rivalry::default();
         let rivals: Vec<usize> = sig.iter().copied().filter(|&c| c != best).collect();
+        let fb = tried[best].fit.as_ref().expect("tested");
+        let with_best = others(self.fitter, fb);
         let pairs: Vec<Tried> = rivals
             .par_iter()
             .map(|&c| {
                 try_candidate(
                     self.fitter,
-                    tried[best].fit.as_ref().expect("tested"),
+                    fb,
                     round.candidate(c),
                     None,
-                    Mode::Exact,
+                    Mode::Exact(&with_best, Some(&self.fits)),
                 )
             })
             .collect();
         for (&c, both) in rivals.iter().zip(pairs) {
-            let fb = tried[best].fit.as_ref().expect("tested");
             let fc = tried[c].fit.as_ref().expect("tested");
             let (rss_both, rank_both) = match &both.fit {
                 Some(f) => (f.rss, f.rank),
@@ -1470,6 +1590,68 @@ fn story_p(p: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A fit the search keeps is the fit made again: a rival fitted beside
+    /// the chosen effect (exact, kept) and the same candidate screened on
+    /// that model in the next round and refitted give the same bits as a
+    /// fit made afresh, as the worked example's second step has them.
+    #[test]
+    fn a_kept_fit_is_the_fit_made_again() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/discover");
+        let inputs = Inputs::load(
+            &dir.join("stepped-square.plan.yaml"),
+            &[dir.join("piece.dmo")],
+            &Default::default(),
+        )
+        .unwrap();
+        let parts = [inputs.part()];
+        let cat = catalogue::catalogue(&parts);
+        let (fitter, _) = Fitter::new(&parts, &cat.candidates).unwrap();
+        let mut notes = Vec::new();
+        let loc = start(&fitter, &inputs.kin, &cat, &["location".into()], &mut notes).unwrap();
+        let named = |n: &str| cat.candidates.iter().find(|c| c.name == n).unwrap();
+        let with = |base: &Fit, n: &str| {
+            try_candidate(
+                &fitter,
+                base,
+                named(n),
+                None,
+                Mode::Exact(&others(&fitter, base), None),
+            )
+            .fit
+            .unwrap()
+        };
+        let base = with(&loc, "tool_radius");
+        let fits = Fits::default();
+        let cand = named("drift.EZ0B/seq");
+        let kept = try_candidate(
+            &fitter,
+            &base,
+            cand,
+            None,
+            Mode::Exact(&others(&fitter, &base), Some(&fits)),
+        );
+        assert_eq!(fits.0.lock().unwrap().len(), 1);
+        let round = Round::new(&fitter, &base).unwrap();
+        let screened = try_candidate(&fitter, &base, cand, Some(0.999), Mode::Screen(&round));
+        assert!(screened.fit.is_none());
+        let again = refit(&fitter, &base, screened, &fits);
+        let afresh = with(&base, "drift.EZ0B/seq");
+        for f in [kept.fit.unwrap(), again.fit.unwrap()] {
+            assert_eq!(f.spec.names, afresh.spec.names);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&f.x), bits(&afresh.x));
+            assert_eq!(bits(&f.residuals), bits(&afresh.residuals));
+            assert_eq!(f.rss.to_bits(), afresh.rss.to_bits());
+            assert_eq!(
+                bits(f.cov_unit.as_slice()),
+                bits(afresh.cov_unit.as_slice())
+            );
+        }
+        // Moving on to the next model forgets the fits on this one.
+        fits.keep_on(&afresh);
+        assert!(fits.0.lock().unwrap().is_empty());
+    }
 
     #[test]
     fn canonical_correlation_is_the_cosine_of_the_smallest_angle() {

@@ -17,7 +17,10 @@
 //! with which every rival is told from every other with a power of 0.9 or
 //! more is proposed; `fivecal plan --supplement` writes it.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::catalogue::{self, Candidate};
 use super::fit::{Fit, Fitter, Part, Spec};
@@ -279,132 +282,146 @@ pub fn find(
             p.plan.map_or(Test::SteppedSquare, |pl| pl.test()),
         )
     };
-    let mut tried = 0;
-    for (tilt, c) in candidates(first, &tilts, &cs) {
-        let mut s = Supplement {
-            test: TEST.as_str().to_string(),
-            tilt,
-            c,
-            new_poses: Vec::new(),
-            poses: 0,
-            touches: 0,
-            noise_um: 0.0,
-            power: Vec::new(),
-            plan: None,
-        };
-        // A grid the machine cannot probe (limits, collisions) is not a
-        // candidate.
-        let Ok(plan) = plan_supplement(first, &s) else {
-            continue;
-        };
-        let Ok(nominal) = crate::analyze::preview::nominal_data(&plan) else {
-            continue;
-        };
-        tried += 1;
-        let kin = crate::simulate::plan_kinematics(&plan);
-        let mut all: Vec<Part<'_>> = parts.to_vec();
-        all.push(Part {
-            kin: &kin,
-            data: &nominal,
-            plan: Some(&plan),
-            label: TEST.as_str(),
-        });
-        let noises: Vec<(String, ExpectedNoise, usize)> = all
-            .iter()
-            .map(|p| (p.label.to_string(), expected(p), p.data.obs.len()))
-            .collect();
-        let pooled = ExpectedNoise::pooled(
-            &noises
-                .iter()
-                .map(|(n, e, k)| (n.as_str(), e, *k))
-                .collect::<Vec<_>>(),
-        );
-        // The model's own effects and the rivals, on the joint grids.
-        let cat = catalogue::catalogue(&all);
-        let wanted: Vec<Candidate> = cat
-            .candidates
-            .iter()
-            .filter(|c| {
-                base.names.contains(&c.name) || rivals.iter().any(|r| r.candidate.name == c.name)
-            })
-            .cloned()
-            .collect();
-        let Ok((fitter, _)) = Fitter::new(&all, &wanted) else {
-            continue;
-        };
-        let Some(Effect::Location { symbols }) = base.model.effects.first() else {
-            return Err(NoSupplement::NoLocation);
-        };
-        let mut model = fitter.location(symbols);
-        for n in base.names.iter().skip(1) {
-            let Some(c) = wanted.iter().find(|c| &c.name == n) else {
-                return Err(NoSupplement::NoCounterpart(n.clone()));
+    // Each grid is judged on its own, so they are judged in parallel; the
+    // first in order (fewest poses first) that separates every rival, or
+    // that shows none can, decides, as when they were judged one by one.
+    // A grid the machine can probe counts as tried.
+    let tried = AtomicUsize::new(0);
+    let decided = candidates(first, &tilts, &cs)
+        .into_par_iter()
+        .find_map_first(|(tilt, c)| {
+            let mut s = Supplement {
+                test: TEST.as_str().to_string(),
+                tilt,
+                c,
+                new_poses: Vec::new(),
+                poses: 0,
+                touches: 0,
+                noise_um: 0.0,
+                power: Vec::new(),
+                plan: None,
             };
-            model = fitter
-                .extend(&model, c)
-                .ok_or_else(|| NoSupplement::NotServed(n.clone()))?;
-        }
-        let joint: Vec<(&AmbiguityRival<'_>, &Candidate)> = rivals
-            .iter()
-            .filter_map(|r| {
-                wanted
-                    .iter()
-                    .find(|c| c.name == r.candidate.name)
-                    .map(|c| (r, c))
-            })
-            .collect();
-        if joint.len() < rivals.len() {
-            continue;
-        }
-        let mut power = Vec::new();
-        for (ra, ca) in &joint {
-            let ei = ra.fit.spec.names.len() - 1;
-            let range = ra.fit.spec.model.param_range(ei);
-            let Some(values) = regrid(&ra.candidate.effect, &ra.fit.x[range], &ca.effect) else {
-                return Err(NoSupplement::NotCarried(ca.name.clone()));
+            // A grid the machine cannot probe (limits, collisions) is not a
+            // candidate.
+            let Ok(plan) = plan_supplement(first, &s) else {
+                return None;
             };
-            let signal = fitter
-                .signal(&ca.name, &values)
-                .unwrap_or_else(|| DVector::zeros(fitter.len()));
-            for (rb, cb) in &joint {
-                if rb.candidate.name == ra.candidate.name {
-                    continue;
-                }
-                let Some(with_b) = fitter.extend(&model, cb) else {
-                    continue;
-                };
-                let Some(both) = fitter.extend(&with_b, ca) else {
-                    continue;
-                };
-                let q = span(&fitter, &with_b);
-                let directions = span(&fitter, &both).ncols().saturating_sub(q.ncols());
-                let left = &signal - &q * (q.transpose() * &signal);
-                let lambda = left.norm_squared() / (pooled.um * pooled.um);
-                power.push(Separation {
-                    effect: ca.name.clone(),
-                    against: cb.name.clone(),
-                    directions,
-                    power: stats::power(directions, lambda, alpha),
-                });
-            }
-        }
-        if power.iter().all(|p| p.power >= POWER) {
-            s.new_poses = plan
-                .poses()
+            let Ok(nominal) = crate::analyze::preview::nominal_data(&plan) else {
+                return None;
+            };
+            tried.fetch_add(1, Ordering::Relaxed);
+            let kin = crate::simulate::plan_kinematics(&plan);
+            let mut all: Vec<Part<'_>> = parts.to_vec();
+            all.push(Part {
+                kin: &kin,
+                data: &nominal,
+                plan: Some(&plan),
+                label: TEST.as_str(),
+            });
+            let noises: Vec<(String, ExpectedNoise, usize)> = all
                 .iter()
-                .filter(|p| {
-                    !(tilts.iter().any(|t| (t - p.tilt).abs() < 1e-6)
-                        && cs.iter().any(|c| (c - p.c.rem_euclid(360.0)).abs() < 1e-6))
-                })
-                .map(|p| p.pose.clone())
+                .map(|p| (p.label.to_string(), expected(p), p.data.obs.len()))
                 .collect();
-            s.poses = plan.poses().len();
-            s.touches = nominal.obs.len();
-            s.noise_um = pooled.um;
-            s.power = power;
-            return Ok(s);
-        }
+            let pooled = ExpectedNoise::pooled(
+                &noises
+                    .iter()
+                    .map(|(n, e, k)| (n.as_str(), e, *k))
+                    .collect::<Vec<_>>(),
+            );
+            // The model's own effects and the rivals, on the joint grids.
+            let cat = catalogue::catalogue(&all);
+            let wanted: Vec<Candidate> = cat
+                .candidates
+                .iter()
+                .filter(|c| {
+                    base.names.contains(&c.name)
+                        || rivals.iter().any(|r| r.candidate.name == c.name)
+                })
+                .cloned()
+                .collect();
+            let Ok((fitter, _)) = Fitter::new(&all, &wanted) else {
+                return None;
+            };
+            let Some(Effect::Location { symbols }) = base.model.effects.first() else {
+                return Some(Err(NoSupplement::NoLocation));
+            };
+            let mut model = fitter.location(symbols);
+            for n in base.names.iter().skip(1) {
+                let Some(c) = wanted.iter().find(|c| &c.name == n) else {
+                    return Some(Err(NoSupplement::NoCounterpart(n.clone())));
+                };
+                let Some(with) = fitter.extend(&model, c) else {
+                    return Some(Err(NoSupplement::NotServed(n.clone())));
+                };
+                model = with;
+            }
+            let joint: Vec<(&AmbiguityRival<'_>, &Candidate)> = rivals
+                .iter()
+                .filter_map(|r| {
+                    wanted
+                        .iter()
+                        .find(|c| c.name == r.candidate.name)
+                        .map(|c| (r, c))
+                })
+                .collect();
+            if joint.len() < rivals.len() {
+                return None;
+            }
+            let mut power = Vec::new();
+            for (ra, ca) in &joint {
+                let ei = ra.fit.spec.names.len() - 1;
+                let range = ra.fit.spec.model.param_range(ei);
+                let Some(values) = regrid(&ra.candidate.effect, &ra.fit.x[range], &ca.effect)
+                else {
+                    return Some(Err(NoSupplement::NotCarried(ca.name.clone())));
+                };
+                let signal = fitter
+                    .signal(&ca.name, &values)
+                    .unwrap_or_else(|| DVector::zeros(fitter.len()));
+                for (rb, cb) in &joint {
+                    if rb.candidate.name == ra.candidate.name {
+                        continue;
+                    }
+                    let Some(with_b) = fitter.extend(&model, cb) else {
+                        continue;
+                    };
+                    let Some(both) = fitter.extend(&with_b, ca) else {
+                        continue;
+                    };
+                    let q = span(&fitter, &with_b);
+                    let directions = span(&fitter, &both).ncols().saturating_sub(q.ncols());
+                    let left = &signal - &q * (q.transpose() * &signal);
+                    let lambda = left.norm_squared() / (pooled.um * pooled.um);
+                    power.push(Separation {
+                        effect: ca.name.clone(),
+                        against: cb.name.clone(),
+                        directions,
+                        power: stats::power(directions, lambda, alpha),
+                    });
+                }
+            }
+            if power.iter().all(|p| p.power >= POWER) {
+                s.new_poses = plan
+                    .poses()
+                    .iter()
+                    .filter(|p| {
+                        !(tilts.iter().any(|t| (t - p.tilt).abs() < 1e-6)
+                            && cs.iter().any(|c| (c - p.c.rem_euclid(360.0)).abs() < 1e-6))
+                    })
+                    .map(|p| p.pose.clone())
+                    .collect();
+                s.poses = plan.poses().len();
+                s.touches = nominal.obs.len();
+                s.noise_um = pooled.um;
+                s.power = power;
+                return Some(Ok(s));
+            }
+            None
+        });
+    if let Some(d) = decided {
+        return d;
     }
+    let tried = tried.into_inner();
     Err(if tried == 0 {
         NoSupplement::NothingPlannable
     } else {
