@@ -96,16 +96,12 @@ fn reduce(j: &Mat<f64>, basis: Option<&DMatrix<f64>>) -> Mat<f64> {
         Some(n) => {
             let (m, p) = (j.nrows(), n.ncols());
             let mut out = Mat::<f64>::zeros(m, p);
-            // Column by column on contiguous slices (the sums in the same
-            // order as element by element, so the same bits): a basis is
-            // mostly the zeros between its effects' blocks, skipped.
             for c in 0..p {
-                let oc = out.col_as_slice_mut(c);
                 for k in 0..n.nrows() {
                     let w = n[(k, c)];
                     if w != 0.0 {
-                        for (o, v) in oc.iter_mut().zip(j.col_as_slice(k)) {
-                            *o += v * w;
+                        for r in 0..m {
+                            out[(r, c)] += j[(r, k)] * w;
                         }
                     }
                 }
@@ -124,9 +120,7 @@ struct ScaledSvd {
     rank: usize,
 }
 
-/// The SVD of `jz` with its columns scaled to unit length; `want_u`: the
-/// left singular vectors are needed (a wide design may leave them out).
-fn scaled_svd(jz: &Mat<f64>, rtol: f64, want_u: bool) -> ScaledSvd {
+fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
     let (m, p) = (jz.nrows(), jz.ncols());
     let finite = (0..p).all(|c| (0..m).all(|r| jz[(r, c)].is_finite()));
     if !finite {
@@ -162,7 +156,14 @@ fn scaled_svd(jz: &Mat<f64>, rtol: f64, want_u: bool) -> ScaledSvd {
         }
     }
     if m < p {
-        return wide_svd(&js, scale, rtol, want_u);
+        // Pad with zero rows so that the thin SVD has p singular values.
+        let mut padded = Mat::<f64>::zeros(p, p);
+        for r in 0..m {
+            for c in 0..p {
+                padded[(r, c)] = js[(r, c)];
+            }
+        }
+        js = padded;
     }
     let Ok(svd) = js.thin_svd() else {
         return ScaledSvd {
@@ -179,69 +180,12 @@ fn scaled_svd(jz: &Mat<f64>, rtol: f64, want_u: bool) -> ScaledSvd {
     let rank = s.iter().filter(|&&x| x > rtol * smax && x > 0.0).count();
     let u = svd.U().to_owned();
     let v = svd.V().to_owned();
-    ScaledSvd {
-        scale,
-        u,
-        s,
-        v,
-        rank,
-    }
-}
-
-/// The scaled SVD of a wide design (fewer residuals `m` than directions
-/// `p`: a map with more nodes than the test has points), already scaled.
-/// It has `m` singular values; the other `p - m` are zero, and `V` is made
-/// full so that their directions, the ones no measurement sees, are there.
-/// Padding the design square with zero rows gives the same, at the price of
-/// the SVD of a `p x p` matrix, three times the work for a map's design.
-/// `U` (left singular vectors, at most `m` of them seen) is computed only
-/// when asked for, and padded with zero columns to `p`.
-fn wide_svd(js: &Mat<f64>, scale: Vec<f64>, rtol: f64, want_u: bool) -> ScaledSvd {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::svd::{self, ComputeSvdVectors};
-    let (m, p) = (js.nrows(), js.ncols());
-    let failed = |scale: Vec<f64>| ScaledSvd {
-        scale,
-        u: Mat::zeros(m, p),
-        s: vec![0.0; p],
-        v: Mat::identity(p, p),
-        rank: 0,
-    };
-    let par = faer::get_global_parallelism();
-    let vectors_u = if want_u {
-        ComputeSvdVectors::Thin
+    // Keep only the rows of U that belong to real residuals.
+    let u = if m < p {
+        Mat::from_fn(m, u.ncols(), |r, c| u[(r, c)])
     } else {
-        ComputeSvdVectors::No
+        u
     };
-    let req = svd::svd_scratch::<f64>(
-        m,
-        p,
-        vectors_u,
-        ComputeSvdVectors::Full,
-        par,
-        Default::default(),
-    );
-    let mut buf = MemBuffer::new(req);
-    let mut sd = faer::diag::Diag::<f64>::zeros(m);
-    let mut um = Mat::<f64>::zeros(m, if want_u { m } else { 0 });
-    let mut v = Mat::<f64>::zeros(p, p);
-    let done = svd::svd(
-        js.as_ref(),
-        sd.as_mut(),
-        want_u.then(|| um.as_mut()),
-        Some(v.as_mut()),
-        par,
-        MemStack::new(&mut buf),
-        Default::default(),
-    );
-    if done.is_err() {
-        return failed(scale);
-    }
-    let sc = sd.column_vector();
-    let s: Vec<f64> = (0..p).map(|i| if i < m { sc[i] } else { 0.0 }).collect();
-    let smax = s.first().copied().unwrap_or(0.0);
-    let rank = s.iter().filter(|&&x| x > rtol * smax && x > 0.0).count();
-    let u = Mat::from_fn(m, p, |r, c| if c < um.ncols() { um[(r, c)] } else { 0.0 });
     ScaledSvd {
         scale,
         u,
@@ -332,7 +276,7 @@ pub fn solve_ranked<P: Problem + ?Sized>(
     // Growth factor of the damping after a failed step (adapted damping).
     let mut nu = 2.0;
     'outer: while iterations < opts.max_iter {
-        let mut sv = scaled_svd(&reduce(&jac, basis), opts.rank_rtol, true);
+        let mut sv = scaled_svd(&reduce(&jac, basis), opts.rank_rtol);
         // The rank is decided once, at the start: away from it, the exact
         // model couples unseen directions to seen ones by terms of the
         // order of the parameters, which would otherwise turn a null
@@ -454,7 +398,7 @@ pub(crate) fn design_ranked(
     let n = jac.ncols();
     let jz = reduce(jac, basis);
     let p = jz.ncols();
-    let mut sv = scaled_svd(&jz, rtol, false);
+    let mut sv = scaled_svd(&jz, rtol);
     if let Some(r) = max_rank {
         sv.rank = sv.rank.min(r);
     }
@@ -511,7 +455,7 @@ pub(crate) fn column_basis(
     rtol: f64,
     max_rank: Option<usize>,
 ) -> DMatrix<f64> {
-    let sv = scaled_svd(&reduce(jac, basis), rtol, true);
+    let sv = scaled_svd(&reduce(jac, basis), rtol);
     let rank = max_rank.map_or(sv.rank, |r| sv.rank.min(r));
     DMatrix::from_fn(jac.nrows(), rank, |r, c| sv.u[(r, c)])
 }
@@ -737,58 +681,5 @@ mod tests {
         assert!((&c * &d.null).amax() < 1e-10);
         let gram = d.null.transpose() * &d.null;
         assert!((gram - DMatrix::identity(35, 35)).amax() < 1e-10);
-    }
-
-    /// A wide design (fewer residuals than directions) decomposed as it
-    /// is agrees with the same design padded square with zero rows, the
-    /// computation it replaces: the same rank, singular values to 1e-12 of
-    /// the largest, the same seen and unseen subspaces (their projectors to
-    /// 1e-10), and U S V^T gives the design back.
-    #[test]
-    fn a_wide_design_decomposes_as_the_padded_square_one() {
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, Uniform};
-        let mut rng = rand::rngs::StdRng::seed_from_u64(17);
-        let u = Uniform::new(-1.0, 1.0).unwrap();
-        // 40 residuals, 90 directions, 30 of them seen; a column 100 times
-        // longer than the rest, as a map's node beside an offset.
-        let (m, p, seen) = (40, 90, 30);
-        let a = DMatrix::from_fn(m, seen, |_, _| u.sample(&mut rng));
-        let b = DMatrix::from_fn(seen, p, |_, _| u.sample(&mut rng));
-        let mut j = &a * &b;
-        j.column_mut(7).scale_mut(100.0);
-        let jf = Mat::from_fn(m, p, |r, c| j[(r, c)]);
-        for want_u in [false, true] {
-            let w = scaled_svd(&jf, 1e-9, want_u);
-            let mut padded = Mat::<f64>::zeros(p, p);
-            for r in 0..m {
-                for c in 0..p {
-                    padded[(r, c)] = jf[(r, c)] / w.scale[c];
-                }
-            }
-            let svd = padded.thin_svd().unwrap();
-            let s = svd.S().column_vector();
-            let smax = s[0];
-            let rank = (0..p).filter(|&k| s[k] > 1e-9 * smax).count();
-            assert_eq!((w.rank, rank), (seen, seen));
-            for k in 0..p {
-                assert!((w.s[k] - s[k]).abs() < 1e-12 * smax, "{k}");
-            }
-            let v = to_nalgebra(&svd.V().to_owned());
-            let wv = to_nalgebra(&w.v);
-            let projector = |v: &DMatrix<f64>, cols: std::ops::Range<usize>| {
-                let vs = v.columns(cols.start, cols.len());
-                vs * vs.transpose()
-            };
-            assert!((projector(&wv, 0..seen) - projector(&v, 0..seen)).amax() < 1e-10);
-            assert!((projector(&wv, seen..p) - projector(&v, seen..p)).amax() < 1e-10);
-            if want_u {
-                let wu = to_nalgebra(&w.u);
-                let sv = DMatrix::from_fn(seen, seen, |r, c| if r == c { w.s[r] } else { 0.0 });
-                let back = wu.columns(0, seen) * sv * wv.columns(0, seen).transpose();
-                let js = DMatrix::from_fn(m, p, |r, c| j[(r, c)] / w.scale[c]);
-                assert!((back - js).amax() < 1e-12);
-            }
-        }
     }
 }
