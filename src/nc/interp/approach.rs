@@ -117,8 +117,8 @@ const FLAT_MM: f64 = 0.01;
 const FLAT_DEG: f64 = 0.001;
 
 /// Whether a move from `s` to `e` stays in the XY plane: Z within
-/// [`FLAT_MM`] (program units times `mm`), the rotary axes within
-/// [`FLAT_DEG`]; an axis known at one end only does not.
+/// `FLAT_MM` (program units times `mm`), the rotary axes within
+/// `FLAT_DEG`; an axis known at one end only does not.
 pub fn flat(s: &[Option<f64>; 6], e: &[Option<f64>; 6], mm: f64) -> bool {
     (2..6).all(|i| match (s[i], e[i]) {
         (None, None) => true,
