@@ -639,6 +639,58 @@ fn end_misses(l: &LoadedErrors, program: &str, rewritten: &str, loose: &[usize])
     (tight, wide)
 }
 
+/// What the `APPR`/`DEP` path tests share, on `ac-trunnion` with error
+/// seed `seed`: the rewrite at zero error is byte-identical and changes
+/// nothing; with the errors, only the rotary positioning before X and Y
+/// are known (line 5) is left; the rewrite on the erroneous machine stays
+/// on the intended path within 1 um; every end point lands within 0.1 um
+/// except those of the lines in `wide` (which the control computes from
+/// the written directions), within 1 um; as written, the program misses
+/// by more than 5 um. Returns the rewrite, the number of statements the
+/// zero-error run left as written, and the tip positions the nominal
+/// machine passes through at a line.
+fn appr_dep_on_path(
+    program: &str,
+    seed: u64,
+    wide: &[usize],
+    what: &str,
+) -> (String, usize, impl Fn(usize) -> Vec<[f64; 3]>) {
+    let l = errors("ac-trunnion", seed, 30.0, "");
+    let d = Dialect::Heidenhain;
+    let zero = errors("ac-trunnion", 0, 0.0, "");
+    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
+    assert_eq!(out, program, "zero error must give the same bytes");
+    assert_eq!(s0.changed, 0);
+    let (out, s, _) = compensate(&l, Settings::new(d), program);
+    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
+    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    assert_on_path(
+        &simulate(&nominal, &[], d, Coordinates::Auto, program, 0.01),
+        &simulate(&l.model, &l.theta, d, Coordinates::Auto, &out, 0.1),
+        0.001,
+        what,
+    );
+    let (tight, loose) = end_misses(&l, program, &out, wide);
+    assert!(tight < 1e-4 && loose < 1e-3, "{tight} {loose}");
+    let (before, _) = end_misses(&l, program, program, &[]);
+    assert!(before > 0.005, "{before}");
+    let samples = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0);
+    let at = move |line: usize| -> Vec<[f64; 3]> {
+        samples
+            .iter()
+            .filter(|x| x.line == line)
+            .map(|x| [x.nominal.tip.x, x.nominal.tip.y, x.nominal.tip.z])
+            .collect()
+    };
+    (out, s0.skipped.len(), at)
+}
+
+/// Whether two points agree to 1 nm.
+fn near(p: [f64; 3], q: [f64; 3]) -> bool {
+    (0..3).all(|i| (p[i] - q[i]).abs() < 1e-9)
+}
+
 /// HEIDENHAIN `APPR LT` and `DEP LT` without radius compensation: the
 /// control runs from the start to an auxiliary point `LEN` back along the
 /// first contour element, then tangentially onto it, and leaves the last
@@ -651,17 +703,13 @@ fn end_misses(l: &LoadedErrors, program: &str, rewritten: &str, loose: &[usize])
 #[test]
 fn heidenhain_appr_lt_and_dep_lt_stay_on_the_intended_path() {
     let program = "0 BEGIN PGM APPR MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S4000\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 L X+40 Y-10 Z+2 A-20 C+30 R0 FMAX\n7 L Z-1 F300\n8 APPR LT X+20 Y+0 LEN10 R0 F600\n9 L X+35 Y+15\n10 L X+35 Y+30\n11 DEP LT LEN12.5\n12 L X-10 Y+30 R0 FMAX\n13 APPR LT X+0 Y+20 LEN5 F600\n14 CR X+10 Y+10 R+10 DR+\n15 DEP LT LEN8\n16 L Z+50 R0 FMAX\n17 FUNCTION RESET TCPM\n18 END PGM APPR MM\n";
-    let l = errors("ac-trunnion", 103, 30.0, "");
-    let d = Dialect::Heidenhain;
-    let zero = errors("ac-trunnion", 0, 0.0, "");
-    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
-    assert_eq!(out, program, "zero error must give the same bytes");
-    assert_eq!(s0.changed, 0);
-    assert_eq!(s0.skipped.len(), 1, "{:?}", s0.skipped);
-    let (out, s, _) = compensate(&l, Settings::new(d), program);
-    // Only the rotary positioning before X and Y are known is left.
-    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
-    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    // On the intended path within the tolerance all along; every end point
+    // within 0.1 um, except the ones the control computes from the
+    // written directions (the auxiliary points, the departures' ends),
+    // which the correction's tilt of the plane moves by a fraction of the
+    // tolerance.
+    let (out, zero_skipped, at) = appr_dep_on_path(program, 103, &[9, 12, 14, 16], "appr/dep");
+    assert_eq!(zero_skipped, 1);
     // The approaches keep their form with the first contour point
     // rewritten; the departures are the program's own text.
     for k in [8, 13] {
@@ -674,22 +722,6 @@ fn heidenhain_appr_lt_and_dep_lt_stay_on_the_intended_path() {
     for k in [11, 15] {
         assert_eq!(out.lines().nth(k), program.lines().nth(k));
     }
-    // On the intended path within the tolerance all along; every end point
-    // within 0.1 um, except the ones the control computes from the
-    // written directions (the auxiliary points, the departures' ends),
-    // which the correction's tilt of the plane moves by a fraction of the
-    // tolerance.
-    let nominal = Model::new(l.model.kin.clone(), vec![]);
-    assert_on_path(
-        &simulate(&nominal, &[], d, Coordinates::Auto, program, 0.01),
-        &simulate(&l.model, &l.theta, d, Coordinates::Auto, &out, 0.1),
-        0.001,
-        "appr/dep",
-    );
-    let (tight, wide) = end_misses(&l, program, &out, &[9, 12, 14, 16]);
-    assert!(tight < 1e-4 && wide < 1e-3, "{tight} {wide}");
-    let (before, _) = end_misses(&l, program, program, &[]);
-    assert!(before > 0.005, "{before}");
     // The simulator runs the approach as the control does: on the nominal
     // machine (TCPM: the tip is the program point) the first APPR LT
     // passes through (20, 0) - 10 (1, 1) / sqrt(2), and the line after
@@ -697,16 +729,7 @@ fn heidenhain_appr_lt_and_dep_lt_stay_on_the_intended_path() {
     // through (0, 25), 5 before (0, 20) against the circle's start
     // direction -Y; the departures end 12.5 along +Y from (35, 30) and 8
     // along +X from (10, 10).
-    let samples = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0);
-    let at = |line: usize| -> Vec<[f64; 3]> {
-        samples
-            .iter()
-            .filter(|x| x.line == line)
-            .map(|x| [x.nominal.tip.x, x.nominal.tip.y, x.nominal.tip.z])
-            .collect()
-    };
     let h = 10.0 / 2f64.sqrt();
-    let near = |p: [f64; 3], q: [f64; 3]| (0..3).all(|i| (p[i] - q[i]).abs() < 1e-9);
     let first = at(9);
     assert_eq!(first.len(), 2, "{first:?}");
     assert!(near(first[0], [20.0 - h, -h, -1.0]), "{first:?}");
@@ -729,45 +752,16 @@ fn heidenhain_appr_lt_and_dep_lt_stay_on_the_intended_path() {
 #[test]
 fn heidenhain_appr_lt_under_rr_round_a_profile_stays_on_the_programmed_contour() {
     let program = "0 BEGIN PGM PROFILE MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S3500\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 L X-40 Y-40 Z+2 A-20 C+30 R0 FMAX\n7 L Z-2.5 F300 M3 M8\n8 APPR LT X-30 Y-30 LEN10 RR F300\n9 L X+30\n10 L Y+30\n11 L X-30\n12 L Y-30\n13 DEP LT LEN10 R0\n14 L Z+50 R0 FMAX\n15 M9 M5\n16 FUNCTION RESET TCPM\n17 END PGM PROFILE MM\n";
-    let l = errors("ac-trunnion", 106, 30.0, "");
-    let d = Dialect::Heidenhain;
-    let zero = errors("ac-trunnion", 0, 0.0, "");
-    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
-    assert_eq!(out, program, "zero error must give the same bytes");
-    assert_eq!(s0.changed, 0);
-    let (out, s, _) = compensate(&l, Settings::new(d), program);
-    // Only the rotary positioning before X and Y are known is left.
-    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
-    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    let (out, _, at) = appr_dep_on_path(program, 106, &[9, 14], "profile under RR");
     let (a, b) = (out.lines().nth(8).unwrap(), program.lines().nth(8).unwrap());
     assert!(
         a.starts_with("8 APPR LT X") && a.ends_with(" LEN10 RR F300") && a != b,
         "{a}"
     );
     assert_eq!(out.lines().nth(13), program.lines().nth(13));
-    let nominal = Model::new(l.model.kin.clone(), vec![]);
-    assert_on_path(
-        &simulate(&nominal, &[], d, Coordinates::Auto, program, 0.01),
-        &simulate(&l.model, &l.theta, d, Coordinates::Auto, &out, 0.1),
-        0.001,
-        "profile under RR",
-    );
-    let (tight, wide) = end_misses(&l, program, &out, &[9, 14]);
-    assert!(tight < 1e-4 && wide < 1e-3, "{tight} {wide}");
-    let (before, _) = end_misses(&l, program, program, &[]);
-    assert!(before > 0.005, "{before}");
     // The programmed contour's path on the nominal machine: from PS
     // (-40, -40) to PH (-40, -30), 10 before PA against +X, then to PA;
     // the departure ends 10 on along -Y from (-30, -30).
-    let samples = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0);
-    let at = |line: usize| -> Vec<[f64; 3]> {
-        samples
-            .iter()
-            .filter(|x| x.line == line)
-            .map(|x| [x.nominal.tip.x, x.nominal.tip.y, x.nominal.tip.z])
-            .collect()
-    };
-    let near = |p: [f64; 3], q: [f64; 3]| (0..3).all(|i| (p[i] - q[i]).abs() < 1e-9);
     let appr = at(9);
     assert_eq!(appr.len(), 2, "{appr:?}");
     assert!(near(appr[0], [-40.0, -30.0, -2.5]), "{appr:?}");
@@ -785,15 +779,7 @@ fn heidenhain_appr_lt_under_rr_round_a_profile_stays_on_the_programmed_contour()
 #[test]
 fn heidenhain_appr_ln_and_dep_ln_under_rr_stay_on_the_programmed_contour() {
     let program = "0 BEGIN PGM PROFILN MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S3500\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 L X-45 Y-45 Z+2 A-20 C+30 R0 FMAX\n7 L Z-2.5 F300 M3 M8\n8 APPR LN X-30 Y-30 LEN10 RR F300\n9 L X+30\n10 L Y+30\n11 L X-30\n12 L Y-30\n13 DEP LN LEN10 R0\n14 L X-40 Y+20 RL F300\n15 APPR LN X-20 Y+20 LEN5 RL\n16 CR X-10 Y+10 R+10 DR-\n17 DEP LN LEN8\n18 L Z+50 R0 FMAX\n19 M9 M5\n20 FUNCTION RESET TCPM\n21 END PGM PROFILN MM\n";
-    let l = errors("ac-trunnion", 106, 30.0, "");
-    let d = Dialect::Heidenhain;
-    let zero = errors("ac-trunnion", 0, 0.0, "");
-    let (out, s0, _) = compensate(&zero, Settings::new(d), program);
-    assert_eq!(out, program, "zero error must give the same bytes");
-    assert_eq!(s0.changed, 0);
-    let (out, s, _) = compensate(&l, Settings::new(d), program);
-    assert_eq!(s.skipped.len(), 1, "{:?}\n{out}", s.skipped);
-    assert_eq!(s.skipped[0].1.first, [5], "{:?}", s.skipped);
+    let (out, _, at) = appr_dep_on_path(program, 106, &[9, 14, 16, 18], "appr ln/dep ln");
     for k in [8, 15] {
         let (a, b) = (out.lines().nth(k).unwrap(), program.lines().nth(k).unwrap());
         assert!(
@@ -804,31 +790,11 @@ fn heidenhain_appr_ln_and_dep_ln_under_rr_stay_on_the_programmed_contour() {
     for k in [13, 17] {
         assert_eq!(out.lines().nth(k), program.lines().nth(k));
     }
-    let nominal = Model::new(l.model.kin.clone(), vec![]);
-    assert_on_path(
-        &simulate(&nominal, &[], d, Coordinates::Auto, program, 0.01),
-        &simulate(&l.model, &l.theta, d, Coordinates::Auto, &out, 0.1),
-        0.001,
-        "appr ln/dep ln",
-    );
-    let (tight, wide) = end_misses(&l, program, &out, &[9, 14, 16, 18]);
-    assert!(tight < 1e-4 && wide < 1e-3, "{tight} {wide}");
-    let (before, _) = end_misses(&l, program, program, &[]);
-    assert!(before > 0.005, "{before}");
     // On the nominal machine: the first approach through (-30, -40), right
     // of +X below PA; the departure to (-40, -30), right of -Y. Under RL
     // the second approach through (-20, 25), left of the clockwise
     // circle's start direction +X about (-20, 10); the departure from
     // (-10, 10), where that circle runs along -Y, to its left, (-2, 10).
-    let samples = simulate(&nominal, &[], d, Coordinates::Auto, program, 0.0);
-    let at = |line: usize| -> Vec<[f64; 3]> {
-        samples
-            .iter()
-            .filter(|x| x.line == line)
-            .map(|x| [x.nominal.tip.x, x.nominal.tip.y, x.nominal.tip.z])
-            .collect()
-    };
-    let near = |p: [f64; 3], q: [f64; 3]| (0..3).all(|i| (p[i] - q[i]).abs() < 1e-9);
     let appr = at(9);
     assert_eq!(appr.len(), 2, "{appr:?}");
     assert!(near(appr[0], [-30.0, -40.0, -2.5]), "{appr:?}");
