@@ -1423,18 +1423,12 @@ mod tests {
     use crate::nc::Syntax;
 
     fn block(text: &str) -> Block {
-        let mut b = Block {
-            text: text.as_bytes().to_vec(),
-            line: 1,
-            ..Default::default()
-        };
         Syntax {
             dialect: Dialect::Fanuc,
             strict: false,
         }
-        .parse(&mut b)
-        .unwrap();
-        b
+        .block(text)
+        .unwrap()
     }
 
     /// A change of frame the writer cannot map exactly (one axis of the

@@ -20,6 +20,19 @@ pub struct Syntax {
 }
 
 impl Syntax {
+    /// The block of one line of text (line 1), tokenized: what the unit
+    /// tests of the lexers and the writer start from.
+    #[cfg(test)]
+    pub(crate) fn block(&self, text: &str) -> Result<Block, BlockError> {
+        let mut b = Block {
+            text: text.as_bytes().to_vec(),
+            line: 1,
+            ..Default::default()
+        };
+        self.parse(&mut b)?;
+        Ok(b)
+    }
+
     /// Tokenizes `block.text` into `block.tokens` and `block.segments`.
     pub fn parse(&self, block: &mut Block) -> Result<(), BlockError> {
         block.tokens.clear();

@@ -714,17 +714,11 @@ mod tests {
     use crate::machine::Dialect;
 
     fn parse_str(src: &str, strict: bool) -> Result<Block, BlockError> {
-        let mut b = Block {
-            text: src.as_bytes().to_vec(),
-            line: 1,
-            ..Default::default()
-        };
         Syntax {
             dialect: Dialect::Sinumerik,
             strict,
         }
-        .parse(&mut b)?;
-        Ok(b)
+        .block(src)
     }
 
     fn words(b: &Block) -> Vec<(String, Value, String, bool)> {

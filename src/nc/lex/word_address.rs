@@ -644,13 +644,7 @@ mod tests {
     use super::*;
 
     fn parse_str(src: &str, d: Dialect, strict: bool) -> Result<Block, BlockError> {
-        let mut b = Block {
-            text: src.as_bytes().to_vec(),
-            line: 1,
-            ..Default::default()
-        };
-        Syntax { dialect: d, strict }.parse(&mut b)?;
-        Ok(b)
+        Syntax { dialect: d, strict }.block(src)
     }
 
     fn kinds(b: &Block) -> Vec<String> {
