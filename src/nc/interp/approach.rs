@@ -18,7 +18,6 @@
 //! ends in: neither needs the side of the contour, which only radius
 //! compensation (RL/RR) gives.
 //!
-//!
 //! `APPR LN`/`DEP LN` (TNC7 basic user's manual 81762x-18, "Approach
 //! function APPR LN", "Departure function DEP LN"; TNC 640 user's manual
 //! 5/2013): the line between PH (PN) and the contour is perpendicular to

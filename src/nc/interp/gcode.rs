@@ -250,8 +250,9 @@ impl Interpreter {
             930 => self.feed_mode = FeedMode::InverseTime,
             940 => self.feed_mode = FeedMode::PerMinute,
             950 => self.feed_mode = FeedMode::PerRev,
-            400 => self.radius_comp = false,
-            410 | 420 | 411 | 421 | 412 | 422 => self.radius_comp = true,
+            400 => self.radius_comp = None,
+            410..=412 => self.radius_comp = Some(super::approach::Side::Left),
+            420..=422 => self.radius_comp = Some(super::approach::Side::Right),
             430 | 431 | 432 | 440 => {
                 self.tool_length = true;
                 self.tcp = Tcp::Off;

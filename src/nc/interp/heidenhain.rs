@@ -138,14 +138,13 @@ impl Interpreter {
                 String::from_utf8_lossy(b).trim().to_ascii_uppercase()
             })
             .unwrap_or_default();
-        let side_before = self.hh_comp_side;
+        let side_before = self.radius_comp;
         let (mut mv, skip) = self.hh_move(block, seg, MoveKind::Linear);
         // The side an LN's point lies on: the contour's before a DEP, the
         // one the APPR sets for the contour after it.
-        let side = if dep { side_before } else { self.hh_comp_side };
+        let side = if dep { side_before } else { self.radius_comp };
         if dep {
-            self.radius_comp = false;
-            self.hh_comp_side = None;
+            self.radius_comp = None;
         }
         let mut len = None;
         for (_, w) in block.words(seg) {
@@ -868,15 +867,13 @@ impl Interpreter {
                     _ => self.feed = None,
                 }
             } else if w.addr == Addr::new("RL") || w.addr == Addr::new("RR") {
-                self.radius_comp = true;
-                self.hh_comp_side = Some(if w.addr == Addr::new("RL") {
+                self.radius_comp = Some(if w.addr == Addr::new("RL") {
                     super::approach::Side::Left
                 } else {
                     super::approach::Side::Right
                 });
             } else if w.addr == Addr::new("R0") {
-                self.radius_comp = false;
-                self.hh_comp_side = None;
+                self.radius_comp = None;
             } else if matches!(w.addr.as_letter(), Some(b'U' | b'V' | b'W')) {
                 skip.get_or_insert(Skip::UnknownAxis(w.addr.as_letter().unwrap()));
             }

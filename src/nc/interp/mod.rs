@@ -584,8 +584,10 @@ pub struct Interpreter {
     pub ori_machine: bool,
     /// Whether the shifts are known.
     pub shift_known: bool,
-    /// Cutter radius compensation on (G41/G42, RL/RR).
-    pub radius_comp: bool,
+    /// Cutter radius compensation in force (G41/G42, RL/RR): the side of
+    /// the contour it puts the tool on (a HEIDENHAIN `APPR LN`/`DEP LN`'s
+    /// point lies there); `None` when off (G40, R0).
+    pub radius_comp: Option<approach::Side>,
     /// Last programmed absolute position per axis (X Y Z A B C).
     pub pos: [Option<f64>; 6],
     /// HEIDENHAIN pole (CC) in the XY plane.
@@ -603,9 +605,6 @@ pub struct Interpreter {
     hh_tangent: Option<[f64; 2]>,
     /// HEIDENHAIN: an `APPR LT`/`LN` waiting for the first contour element.
     hh_approach: Option<heidenhain::PendingApproach>,
-    /// HEIDENHAIN: the side of the contour `RL`/`RR` in force puts the
-    /// tool on (an `APPR LN`/`DEP LN`'s point lies there); `None` with R0.
-    hh_comp_side: Option<approach::Side>,
     /// The canned drilling cycle in force (G code x 10), if any.
     pub cycle: Option<u32>,
     /// Its modal hole bottom along the drill axis (program units).
@@ -689,7 +688,7 @@ impl Interpreter {
             frame_rot: Matrix3::identity(),
             ori_machine: false,
             shift_known: true,
-            radius_comp: false,
+            radius_comp: None,
             pos,
             pole: None,
             hh_cycle: None,
@@ -697,7 +696,6 @@ impl Interpreter {
             hh_corner: None,
             hh_tangent: None,
             hh_approach: None,
-            hh_comp_side: None,
             cycle: None,
             cycle_depth: None,
             cycle_r: None,
