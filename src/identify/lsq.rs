@@ -96,12 +96,16 @@ fn reduce(j: &Mat<f64>, basis: Option<&DMatrix<f64>>) -> Mat<f64> {
         Some(n) => {
             let (m, p) = (j.nrows(), n.ncols());
             let mut out = Mat::<f64>::zeros(m, p);
+            // Column by column on contiguous slices (the sums in the same
+            // order as element by element, so the same bits): a basis is
+            // mostly the zeros between its effects' blocks, skipped.
             for c in 0..p {
+                let oc = out.col_as_slice_mut(c);
                 for k in 0..n.nrows() {
                     let w = n[(k, c)];
                     if w != 0.0 {
-                        for r in 0..m {
-                            out[(r, c)] += j[(r, k)] * w;
+                        for (o, v) in oc.iter_mut().zip(j.col_as_slice(k)) {
+                            *o += v * w;
                         }
                     }
                 }
@@ -120,7 +124,9 @@ struct ScaledSvd {
     rank: usize,
 }
 
-fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
+/// The SVD of `jz` with its columns scaled to unit length; `want_u`: the
+/// left singular vectors are needed (a wide design may leave them out).
+fn scaled_svd(jz: &Mat<f64>, rtol: f64, want_u: bool) -> ScaledSvd {
     let (m, p) = (jz.nrows(), jz.ncols());
     let finite = (0..p).all(|c| (0..m).all(|r| jz[(r, c)].is_finite()));
     if !finite {
@@ -156,14 +162,7 @@ fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
         }
     }
     if m < p {
-        // Pad with zero rows so that the thin SVD has p singular values.
-        let mut padded = Mat::<f64>::zeros(p, p);
-        for r in 0..m {
-            for c in 0..p {
-                padded[(r, c)] = js[(r, c)];
-            }
-        }
-        js = padded;
+        return wide_svd(&js, scale, rtol, want_u);
     }
     let Ok(svd) = js.thin_svd() else {
         return ScaledSvd {
@@ -180,12 +179,69 @@ fn scaled_svd(jz: &Mat<f64>, rtol: f64) -> ScaledSvd {
     let rank = s.iter().filter(|&&x| x > rtol * smax && x > 0.0).count();
     let u = svd.U().to_owned();
     let v = svd.V().to_owned();
-    // Keep only the rows of U that belong to real residuals.
-    let u = if m < p {
-        Mat::from_fn(m, u.ncols(), |r, c| u[(r, c)])
-    } else {
-        u
+    ScaledSvd {
+        scale,
+        u,
+        s,
+        v,
+        rank,
+    }
+}
+
+/// The scaled SVD of a wide design (fewer residuals `m` than directions
+/// `p`: a map with more nodes than the test has points), already scaled.
+/// It has `m` singular values; the other `p - m` are zero, and `V` is made
+/// full so that their directions, the ones no measurement sees, are there.
+/// Padding the design square with zero rows gives the same, at the price of
+/// the SVD of a `p x p` matrix, three times the work for a map's design.
+/// `U` (left singular vectors, at most `m` of them seen) is computed only
+/// when asked for, and padded with zero columns to `p`.
+fn wide_svd(js: &Mat<f64>, scale: Vec<f64>, rtol: f64, want_u: bool) -> ScaledSvd {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::svd::{self, ComputeSvdVectors};
+    let (m, p) = (js.nrows(), js.ncols());
+    let failed = |scale: Vec<f64>| ScaledSvd {
+        scale,
+        u: Mat::zeros(m, p),
+        s: vec![0.0; p],
+        v: Mat::identity(p, p),
+        rank: 0,
     };
+    let par = faer::get_global_parallelism();
+    let vectors_u = if want_u {
+        ComputeSvdVectors::Thin
+    } else {
+        ComputeSvdVectors::No
+    };
+    let req = svd::svd_scratch::<f64>(
+        m,
+        p,
+        vectors_u,
+        ComputeSvdVectors::Full,
+        par,
+        Default::default(),
+    );
+    let mut buf = MemBuffer::new(req);
+    let mut sd = faer::diag::Diag::<f64>::zeros(m);
+    let mut um = Mat::<f64>::zeros(m, if want_u { m } else { 0 });
+    let mut v = Mat::<f64>::zeros(p, p);
+    let done = svd::svd(
+        js.as_ref(),
+        sd.as_mut(),
+        want_u.then(|| um.as_mut()),
+        Some(v.as_mut()),
+        par,
+        MemStack::new(&mut buf),
+        Default::default(),
+    );
+    if done.is_err() {
+        return failed(scale);
+    }
+    let sc = sd.column_vector();
+    let s: Vec<f64> = (0..p).map(|i| if i < m { sc[i] } else { 0.0 }).collect();
+    let smax = s.first().copied().unwrap_or(0.0);
+    let rank = s.iter().filter(|&&x| x > rtol * smax && x > 0.0).count();
+    let u = Mat::from_fn(m, p, |r, c| if c < um.ncols() { um[(r, c)] } else { 0.0 });
     ScaledSvd {
         scale,
         u,
@@ -276,7 +332,7 @@ pub fn solve_ranked<P: Problem + ?Sized>(
     // Growth factor of the damping after a failed step (adapted damping).
     let mut nu = 2.0;
     'outer: while iterations < opts.max_iter {
-        let mut sv = scaled_svd(&reduce(&jac, basis), opts.rank_rtol);
+        let mut sv = scaled_svd(&reduce(&jac, basis), opts.rank_rtol, true);
         // The rank is decided once, at the start: away from it, the exact
         // model couples unseen directions to seen ones by terms of the
         // order of the parameters, which would otherwise turn a null
@@ -398,7 +454,7 @@ pub(crate) fn design_ranked(
     let n = jac.ncols();
     let jz = reduce(jac, basis);
     let p = jz.ncols();
-    let mut sv = scaled_svd(&jz, rtol);
+    let mut sv = scaled_svd(&jz, rtol, false);
     if let Some(r) = max_rank {
         sv.rank = sv.rank.min(r);
     }
@@ -455,7 +511,7 @@ pub(crate) fn column_basis(
     rtol: f64,
     max_rank: Option<usize>,
 ) -> DMatrix<f64> {
-    let sv = scaled_svd(&reduce(jac, basis), rtol);
+    let sv = scaled_svd(&reduce(jac, basis), rtol, true);
     let rank = max_rank.map_or(sv.rank, |r| sv.rank.min(r));
     DMatrix::from_fn(jac.nrows(), rank, |r, c| sv.u[(r, c)])
 }
@@ -681,5 +737,85 @@ mod tests {
         assert!((&c * &d.null).amax() < 1e-10);
         let gram = d.null.transpose() * &d.null;
         assert!((gram - DMatrix::identity(35, 35)).amax() < 1e-10);
+    }
+
+    /// A wide design (fewer residuals than parameters, as a map with more
+    /// nodes than the test has points) and rank-deficient below that: the
+    /// covariance is the pseudo-inverse of J^T J, the null directions are
+    /// exact, and a linear fit from zero lands on the minimum-norm
+    /// solution; each against nalgebra's own SVD of the unpadded matrix.
+    #[test]
+    fn a_wide_rank_deficient_design_gives_the_pseudo_inverse_and_the_minimum_norm_fit() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Uniform};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(23);
+        let u = Uniform::new(-1.0, 1.0).unwrap();
+        let (m, n, seen) = (20, 50, 12);
+        let a = DMatrix::from_fn(m, seen, |_, _| u.sample(&mut rng));
+        let b = DMatrix::from_fn(seen, n, |_, _| u.sample(&mut rng));
+        // Columns of very different size, as micrometres beside microradians.
+        let scale = DMatrix::from_fn(n, n, |i, k| {
+            if i == k {
+                10f64.powi((i % 5) as i32 - 2)
+            } else {
+                0.0
+            }
+        });
+        let j = &a * &b * &scale;
+        let jf = Mat::from_fn(m, n, |r, k| j[(r, k)]);
+        let d = design(&jf, None, 1e-9);
+        assert_eq!((d.rank, d.free, d.null.ncols()), (seen, n, n - seen));
+        assert!((&j * &d.null).amax() < 1e-9 * j.amax());
+        let gram = d.null.transpose() * &d.null;
+        assert!((gram - DMatrix::identity(n - seen, n - seen)).amax() < 1e-10);
+        let pinv = (j.transpose() * &j)
+            .pseudo_inverse(1e-9 * (j.transpose() * &j).amax())
+            .unwrap();
+        // Only the seen subspace is compared: the scaled and unscaled
+        // pseudo-inverses differ on the directions the design cannot see.
+        let proj = DMatrix::identity(n, n) - &d.null * d.null.transpose();
+        let (x, y) = (&proj * &d.cov_unit * &proj, &proj * &pinv * &proj);
+        assert!((&x - &y).amax() < 1e-6 * y.amax(), "{}", (&x - &y).amax());
+        struct Linear {
+            j: DMatrix<f64>,
+            y: DVector<f64>,
+        }
+        impl Problem for Linear {
+            fn n_residuals(&self) -> usize {
+                self.j.nrows()
+            }
+            fn n_params(&self) -> usize {
+                self.j.ncols()
+            }
+            fn eval(&self, x: &[f64], r: &mut [f64], jac: Option<&mut Mat<f64>>) {
+                let res = &self.j * DVector::from_column_slice(x) - &self.y;
+                r.copy_from_slice(res.as_slice());
+                if let Some(jac) = jac {
+                    for c in 0..self.j.ncols() {
+                        for i in 0..self.j.nrows() {
+                            jac[(i, c)] = self.j[(i, c)];
+                        }
+                    }
+                }
+            }
+        }
+        let y = DVector::from_fn(m, |_, _| u.sample(&mut rng));
+        let problem = Linear {
+            j: j.clone(),
+            y: y.clone(),
+        };
+        let sol = solve(&problem, &vec![0.0; n], None, &Options::default());
+        let x = DVector::from_column_slice(&sol.x);
+        // The minimum-norm solution in the column-scaled parameters (every
+        // column to unit length), which is what the fit moves along.
+        let norms: Vec<f64> = (0..n).map(|k| j.column(k).norm()).collect();
+        let js = DMatrix::from_fn(m, n, |r, k| j[(r, k)] / norms[k]);
+        let z = js.pseudo_inverse(1e-12).unwrap() * &y;
+        let reference = DVector::from_fn(n, |k, _| z[k] / norms[k]);
+        assert!(
+            (&x - &reference).amax() < 1e-8 * reference.amax(),
+            "{}",
+            (&x - &reference).amax()
+        );
     }
 }

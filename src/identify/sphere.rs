@@ -485,8 +485,24 @@ struct LineProblem<'a> {
 impl LineProblem<'_> {
     fn res(&self, x: &[f64], r: &mut [f64]) {
         let (lt, lc) = model_lines(self.model, x, self.t0, self.span);
-        r[..4].copy_from_slice(&line_gap(&lt, &self.tilt));
-        r[4..].copy_from_slice(&line_gap(&lc, &self.c));
+        // An axis in the head does not move the table: the model's line
+        // for it is then the axis of an identity rotation, a direction
+        // round-off picks, and the fitted one the degenerate arc of centres
+        // the head's errors shift alike. Neither says anything about the
+        // parameters, and fitting one to the other made the estimate hang
+        // on round-off (a different but equally exact SVD moved EA0C on
+        // head-table by 9.6 u).
+        let m = self.model.kin.machine();
+        if m.tilt.on_table {
+            r[..4].copy_from_slice(&line_gap(&lt, &self.tilt));
+        } else {
+            r[..4].fill(0.0);
+        }
+        if m.c.on_table {
+            r[4..].copy_from_slice(&line_gap(&lc, &self.c));
+        } else {
+            r[4..].fill(0.0);
+        }
     }
 }
 
