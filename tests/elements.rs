@@ -927,6 +927,47 @@ fn heidenhain_appr_ct_and_dep_ct_stay_on_the_intended_arcs() {
     }
 }
 
+/// HEIDENHAIN `APPR PLT`, `APPR PLN` and `APPR PCT`: the first contour
+/// point given as `PR`/`PA` around the pole `CC`, as an `LP` gives its
+/// end, the path to it as `LT`, `LN` and `CT`. Byte-identical at zero
+/// error; on the intended path within the tolerance on the erroneous
+/// machine, the approaches rewritten in their own polar words.
+#[test]
+fn heidenhain_polar_approaches_stay_on_the_intended_path() {
+    let program = "0 BEGIN PGM PROFIPOL MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S3500\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 CC X+0 Y+0\n7 L X-40 Y-40 Z+2 A-20 C+30 R0 FMAX\n8 L Z-2.5 F300 M3 M8\n9 APPR PLT PR+30 PA+180 LEN10 RR F300\n10 L X-30 Y-30\n11 L X+30\n12 DEP LT LEN10 R0\n13 L X+40 Y+40 R0 F300\n14 APPR PLN PR+30 PA+90 LEN5 RL\n15 L X-30 Y+30\n16 DEP LN LEN8\n17 L X-50 Y+10 R0 F300\n18 APPR PCT PR+30 PA+180 CCA90 R+10 RR\n19 L X-30 Y-30\n20 DEP CT CCA90 R+10\n21 L Z+50 R0 FMAX\n22 M9 M5\n23 FUNCTION RESET TCPM\n24 END PGM PROFIPOL MM\n";
+    let (out, _, at) = appr_dep_on_path(program, 106, &[10, 13, 15, 17, 19, 21], "polar appr");
+    for (k, kw) in [
+        (9, " APPR PLT PR+"),
+        (14, " APPR PLN PR+"),
+        (18, " APPR PCT PR+"),
+    ] {
+        let (a, b) = (out.lines().nth(k).unwrap(), program.lines().nth(k).unwrap());
+        assert!(a.contains(kw) && !a.contains(" X") && a != b, "{a}");
+    }
+    let z = -2.5;
+    // By hand: PA (-30, 0), the first element along -Y: PH 10 back, at
+    // (-30, 10).
+    let appr = at(10);
+    assert!(near(appr[0], [-30.0, 10.0, z]), "{appr:?}");
+    assert!(near(appr[1], [-30.0, 0.0, z]), "{appr:?}");
+    // PA (0, 30), the first element along -X, RL: PH 5 to its left, below
+    // it, at (0, 25).
+    let appr = at(15);
+    assert!(near(appr[0], [0.0, 25.0, z]), "{appr:?}");
+    assert!(near(appr[1], [0.0, 30.0, z]), "{appr:?}");
+    // PA (-30, 0), along -Y, RR R+10: clockwise about (-40, 0), PA at 0
+    // deg, PH at 90 deg, (-40, 10); the arc between them.
+    let appr = at(19);
+    assert!(near(appr[0], [-40.0, 10.0, z]), "{appr:?}");
+    assert!(near(appr[1], [-30.0, 0.0, z]), "{appr:?}");
+    let arc = after_aux(program, 19, 1.0);
+    assert!(arc.len() > 5, "{arc:?}");
+    for &(u, p) in &arc {
+        let t = (90.0 - 90.0 * u).to_radians();
+        assert!(on_circle(p, [-40.0, 0.0], 10.0, t, z), "{u} {p:?}");
+    }
+}
+
 /// X and Y scale errors bend an `APPR CT`/`DEP CT` as they bend an `LT`:
 /// the arc tangent to the corrected element is not the intended one on
 /// the machine. Both are reported at their line with how far they stray;
@@ -1031,9 +1072,10 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
             "line {line}"
         );
     }
-    // An APPR CT with R0, which the TNC7 refuses, and a DEP LCT, whose
-    // turning direction no manual read gives.
-    let noct = "0 BEGIN PGM NOCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+5 R0 F600\n6 L X+35 Y+15\n7 DEP LCT X+50 Y+20 R5\n8 L Z+50 R0 FMAX\n9 END PGM NOCT MM\n";
+    // An APPR CT with R0, which the TNC7 refuses, a DEP LCT, whose
+    // turning direction no manual read gives, and polar approaches with
+    // no pole or with X/Y or as LCT.
+    let noct = "0 BEGIN PGM NOCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+5 R0 F600\n6 L X+35 Y+15\n7 DEP LCT X+50 Y+20 R5\n8 L Z+50 R0 FMAX\n9 L X+40 Y-10 R0 FMAX\n10 APPR PLT PR+20 PA+0 LEN10 RR\n11 L X+35 Y+15\n12 DEP LT LEN10\n13 CC X+0 Y+0\n14 L X+40 Y-10 R0 FMAX\n15 APPR PLN X+20 PR+20 PA+0 LEN10 RR\n16 L X+35 Y+15\n17 DEP LT LEN10\n18 L X+40 Y-10 R0 FMAX\n19 APPR PLCT PR+20 PA+0 R5 RR\n20 L X+35 Y+15\n21 END PGM NOCT MM\n";
     let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), noct);
     let lines = |what: &str| -> Vec<usize> {
         s.skipped
@@ -1043,8 +1085,10 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
             .collect()
     };
     assert_eq!(lines("a circular approach (APPR CT) with R0"), [6]);
-    assert_eq!(lines("on a line and a tangential arc (LCT)"), [8]);
-    for line in [6, 8] {
+    assert_eq!(lines("on a line and a tangential arc (LCT)"), [8, 20]);
+    assert_eq!(lines("a polar approach without a known pole (CC)"), [11]);
+    assert_eq!(lines("X or Y in a polar approach"), [16]);
+    for line in [6, 8, 11, 16, 20] {
         assert_eq!(
             out.lines().nth(line - 1),
             noct.lines().nth(line - 1),

@@ -1,7 +1,7 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
 //! `CC`, `CR`, polar `LP`/`CP`, the corners `RND`/`CHF` cut between two
 //! lines, the tangential circle `CT`, the approach and departure
-//! `APPR LT|LN|CT`/`DEP LT|LN|CT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! `APPR LT|LN|CT|PLT|PLN|PCT`/`DEP LT|LN|CT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
 //! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
@@ -141,7 +141,34 @@ impl Interpreter {
             })
             .unwrap_or_default();
         let side_before = self.radius_comp;
-        let (mut mv, skip) = self.hh_move(block, seg, MoveKind::Linear);
+        let (mut mv, mut skip) = self.hh_move(block, seg, MoveKind::Linear);
+        // APPR PLT, PLN, PCT: the first contour point in polar coordinates
+        // around the pole CC, read as an LP's end point (TNC7 user's
+        // manual 81762x-16, "Approach functions APPR LT and APPR PLT",
+        // "... APPR LN and APPR PLN", "... APPR CT and APPR PCT": the same
+        // path with a pole defined first), so that it is corrected in its
+        // own polar words as an LP is.
+        let polar = !dep && matches!(path.as_str(), "PLT" | "PLN" | "PCT");
+        let mut polar_why = Ok(());
+        if polar {
+            let (radius, angle, _) = read_polar(block, seg, &mut skip);
+            let (_, end) = polar_end(self.pole, &mv.start, radius, angle, false);
+            polar_why = if mv.words[0].is_some() || mv.words[1].is_some() {
+                Err(
+                    "X or Y in a polar approach (its first contour point is given by PR and PA around the pole CC)",
+                )
+            } else if self.pole.is_none() {
+                Err("a polar approach without a known pole (CC)")
+            } else {
+                Ok(())
+            };
+            mv.end[0] = end[0];
+            mv.end[1] = end[1];
+            mv.polar = Some(super::Polar {
+                radius: radius.map(|x| (x.0, x.2)),
+                angle: angle.map(|x| (x.0, x.2)),
+            });
+        }
         // The side an LN's point lies on: the contour's before a DEP, the
         // one the APPR sets for the contour after it.
         let side = if dep { side_before } else { self.radius_comp };
@@ -168,7 +195,8 @@ impl Interpreter {
             });
         }
         let plane_word = |i: usize| mv.words[i].is_some();
-        let why = match path.as_str() {
+        let path = if polar { &path[1..] } else { path.as_str() };
+        let why = match path {
             "LT" => Ok(Leg::Tangent),
             "LN" => side.map(Leg::Normal).ok_or(
                 "a perpendicular approach or departure (LN) without radius compensation: the control puts its auxiliary or end point on the side of the contour RL/RR picks (TNC 640 user's manual, TNC7 basic user's manual 81762x-18), and with R0 none is picked; the manuals read do not say what the control does then",
@@ -196,14 +224,13 @@ impl Interpreter {
             "LCT" | "PLCT" => Err(
                 "an approach or departure on a line and a tangential arc (LCT): the TNC7 manuals (user's manual 81762x-16, basic user's manual 81762x-18, \"APPR LCT\", \"DEP LCT\") fix the arc by its radius R and its tangency to the contour and to the line, but not which way it turns, and an arc on either side of the contour element fits; fivecal does not guess",
             ),
-            "PLN" => Err("a first contour point in polar coordinates (APPR PLN)"),
-            "PCT" => Err("a first contour point in polar coordinates (APPR PCT)"),
-            "PLT" => Err("a first contour point in polar coordinates (APPR PLT)"),
-            _ => Err("no path type fivecal knows (LT, LN, CT, LCT)"),
+            _ => Err("no path type fivecal knows (LT, LN, CT, LCT, PLT, PLN, PCT, PLCT)"),
         };
         let why = why.and_then(|leg| {
             let len_ok = matches!(len, Some(Ok(v)) if v > 0.0);
-            if self.plane != ArcPlane::Xy {
+            if let Err(why) = polar_why {
+                Err(why)
+            } else if self.plane != ArcPlane::Xy {
                 Err("a working plane other than XY")
             } else if !matches!(leg, Leg::Arc { .. }) && !len_ok {
                 Err("its LEN is not a positive number")
@@ -977,62 +1004,9 @@ impl Interpreter {
                 MoveKind::Linear
             },
         );
-        let mut radius: Option<(usize, f64, bool)> = None;
-        let mut angle: Option<(usize, f64, bool)> = None;
-        let mut cw = None;
-        for (ti, w) in block.words(seg) {
-            let slot = if w.addr == Addr::new("PR") {
-                &mut radius
-            } else if w.addr == Addr::new("PA") {
-                &mut angle
-            } else {
-                if w.addr == Addr::new("DR") {
-                    cw = Some(
-                        block.bytes(w.value_span).is_empty()
-                            && block.text[w.value_span.start as usize - 1] == b'-',
-                    );
-                }
-                continue;
-            };
-            match w.value {
-                Value::Num(v) if v.is_finite() && v.abs() <= crate::limits::MAX_NC_VALUE => {
-                    *slot = Some((ti, v, w.incremental));
-                }
-                Value::Num(_) => {
-                    skip.get_or_insert(Skip::OutOfRange(b'P'));
-                }
-                _ => {
-                    skip.get_or_insert(Skip::Expression);
-                }
-            }
-        }
-        // Where the tool is, in polar coordinates around the pole.
+        let (radius, angle, cw) = read_polar(block, seg, &mut skip);
         let pole = self.pole;
-        let here = match (pole, mv.start[0], mv.start[1]) {
-            (Some(p), Some(x), Some(y)) => Some((
-                (x - p[0]).hypot(y - p[1]),
-                (y - p[1]).atan2(x - p[0]).to_degrees(),
-            )),
-            _ => None,
-        };
-        let r = match radius {
-            _ if circle => here.map(|h| h.0),
-            Some((_, v, false)) => Some(v),
-            Some((_, v, true)) => here.map(|h| h.0 + v),
-            None => here.map(|h| h.0),
-        };
-        let a = match angle {
-            Some((_, v, false)) => Some(v),
-            Some((_, v, true)) => here.map(|h| h.1 + v),
-            None => here.map(|h| h.1),
-        };
-        let end = match (pole, r, a) {
-            (Some(p), Some(r), Some(a)) => {
-                let (s, c) = a.to_radians().sin_cos();
-                [Some(p[0] + r * c), Some(p[1] + r * s)]
-            }
-            _ => [None, None],
-        };
+        let (here, end) = polar_end(pole, &mv.start, radius, angle, circle);
         let cartesian = mv.words[0].is_some() || mv.words[1].is_some();
         mv.end[0] = end[0];
         mv.end[1] = end[1];
@@ -1253,6 +1227,90 @@ pub(super) struct PendingApproach {
     at: [f64; 6],
     len: f64,
     leg: Leg,
+}
+
+/// A polar word: its token, value, and whether it is incremental.
+type PolarWord = Option<(usize, f64, bool)>;
+
+/// The polar words of a block (`PR`/`IPR`, `PA`/`IPA`) and the turning
+/// direction `DR` (clockwise for `DR-`), recording in `skip` why a value
+/// is not known.
+fn read_polar(
+    block: &Block,
+    seg: &Segment,
+    skip: &mut Option<Skip>,
+) -> (PolarWord, PolarWord, Option<bool>) {
+    let mut radius: PolarWord = None;
+    let mut angle: PolarWord = None;
+    let mut cw = None;
+    for (ti, w) in block.words(seg) {
+        let slot = if w.addr == Addr::new("PR") {
+            &mut radius
+        } else if w.addr == Addr::new("PA") {
+            &mut angle
+        } else {
+            if w.addr == Addr::new("DR") {
+                cw = Some(
+                    block.bytes(w.value_span).is_empty()
+                        && block.text[w.value_span.start as usize - 1] == b'-',
+                );
+            }
+            continue;
+        };
+        match w.value {
+            Value::Num(v) if v.is_finite() && v.abs() <= crate::limits::MAX_NC_VALUE => {
+                *slot = Some((ti, v, w.incremental));
+            }
+            Value::Num(_) => {
+                skip.get_or_insert(Skip::OutOfRange(b'P'));
+            }
+            _ => {
+                skip.get_or_insert(Skip::Expression);
+            }
+        }
+    }
+    (radius, angle, cw)
+}
+
+/// Where the tool is in polar coordinates around `pole` (radius, angle
+/// in degrees), from `start`, and the end point (XY) the polar words
+/// `radius` and `angle` name from there: an incremental word counts from
+/// where the tool is, a missing one keeps its value (a `CP`, `circle`,
+/// always keeps the radius).
+#[allow(clippy::type_complexity)]
+fn polar_end(
+    pole: Option<[f64; 2]>,
+    start: &[Option<f64>; 6],
+    radius: PolarWord,
+    angle: PolarWord,
+    circle: bool,
+) -> (Option<(f64, f64)>, [Option<f64>; 2]) {
+    let here = match (pole, start[0], start[1]) {
+        (Some(p), Some(x), Some(y)) => Some((
+            (x - p[0]).hypot(y - p[1]),
+            (y - p[1]).atan2(x - p[0]).to_degrees(),
+        )),
+        _ => None,
+    };
+    let r = match radius {
+        _ if circle => here.map(|h| h.0),
+        Some((_, v, false)) => Some(v),
+        Some((_, v, true)) => here.map(|h| h.0 + v),
+        None => here.map(|h| h.0),
+    };
+    let a = match angle {
+        Some((_, v, false)) => Some(v),
+        Some((_, v, true)) => here.map(|h| h.1 + v),
+        None => here.map(|h| h.1),
+    };
+    let end = match (pole, r, a) {
+        (Some(p), Some(r), Some(a)) => {
+            let (s, c) = a.to_radians().sin_cos();
+            [Some(p[0] + r * c), Some(p[1] + r * s)]
+        }
+        _ => [None, None],
+    };
+    (here, end)
 }
 
 /// Where a move starts and ends in the XY plane, or which axis is not
