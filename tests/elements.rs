@@ -1075,7 +1075,7 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
     // An APPR CT with R0, which the TNC7 refuses, a DEP LCT, whose
     // turning direction no manual read gives, and polar approaches with
     // no pole or with X/Y or as LCT.
-    let noct = "0 BEGIN PGM NOCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+5 R0 F600\n6 L X+35 Y+15\n7 DEP LCT X+50 Y+20 R5\n8 L Z+50 R0 FMAX\n9 L X+40 Y-10 R0 FMAX\n10 APPR PLT PR+20 PA+0 LEN10 RR\n11 L X+35 Y+15\n12 DEP LT LEN10\n13 CC X+0 Y+0\n14 L X+40 Y-10 R0 FMAX\n15 APPR PLN X+20 PR+20 PA+0 LEN10 RR\n16 L X+35 Y+15\n17 DEP LT LEN10\n18 L X+40 Y-10 R0 FMAX\n19 APPR PLCT PR+20 PA+0 R5 RR\n20 L X+35 Y+15\n21 END PGM NOCT MM\n";
+    let noct = "0 BEGIN PGM NOCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+5 R0 F600\n6 L X+35 Y+15\n7 DEP LCT X+50 Y+20 R5\n8 L Z+50 R0 FMAX\n9 L X+40 Y-10 R0 FMAX\n10 APPR PLT PR+20 PA+0 LEN10 RR\n11 L X+35 Y+15\n12 DEP LT LEN10\n13 CC X+0 Y+0\n14 L X+40 Y-10 R0 FMAX\n15 APPR PLN X+20 PR+20 PA+0 LEN10 RR\n16 L X+35 Y+15\n17 DEP LT LEN10\n18 L X+40 Y-10 R0 FMAX\n19 APPR PLCT PR+20 PA+0 R5 RR\n20 L X+35 Y+15\n21 L X+40 Y-10 R0 FMAX\n22 APPR CT X+20 Y+0 ICCA90 R+5 RR\n23 L X+35 Y+15\n24 END PGM NOCT MM\n";
     let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), noct);
     let lines = |what: &str| -> Vec<usize> {
         s.skipped
@@ -1088,7 +1088,8 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
     assert_eq!(lines("on a line and a tangential arc (LCT)"), [8, 20]);
     assert_eq!(lines("a polar approach without a known pole (CC)"), [11]);
     assert_eq!(lines("X or Y in a polar approach"), [16]);
-    for line in [6, 8, 11, 16, 20] {
+    assert_eq!(lines("an incremental ICCA"), [23]);
+    for line in [6, 8, 11, 16, 20, 23] {
         assert_eq!(
             out.lines().nth(line - 1),
             noct.lines().nth(line - 1),

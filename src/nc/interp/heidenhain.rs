@@ -187,8 +187,13 @@ impl Interpreter {
             } else {
                 continue;
             };
+            // An incremental centre angle (ICCA): the manuals read give
+            // the entry but not what it counts from.
+            let inc_cca = w.incremental && w.addr == Addr::new("CCA");
             *slot = Some(match w.value {
-                Value::Num(v) if v.is_finite() && v.abs() * mm <= crate::limits::MAX_NC_VALUE => {
+                Value::Num(v)
+                    if !inc_cca && v.is_finite() && v.abs() * mm <= crate::limits::MAX_NC_VALUE =>
+                {
                     Ok(v)
                 }
                 _ => Err(()),
@@ -218,7 +223,7 @@ impl Interpreter {
                     })
                 }
                 _ => Err(
-                    "its R or CCA is not a number, or gives no arc (R not zero, CCA above 0 and at most 360 deg, TNC7 user's manual 81762x-16)",
+                    "its R or CCA is not a number, or is an incremental ICCA (the manuals read do not say what it counts from), or gives no arc (R not zero, CCA above 0 and at most 360 deg, TNC7 user's manual 81762x-16)",
                 ),
             },
             "LCT" | "PLCT" => Err(
