@@ -804,6 +804,194 @@ fn heidenhain_appr_ln_and_dep_ln_under_rr_stay_on_the_programmed_contour() {
     assert!(near(at(18)[0], [-2.0, 10.0, -2.5]), "{:?}", at(18));
 }
 
+/// The nominal machine's tip positions (TCPM: the program points) along
+/// the leg of an `APPR` (file line `line`) after its auxiliary point,
+/// sampled every `step` mm, with the fraction of the leg each is at: the
+/// samples of that line after the first that ends a leg (PH).
+fn after_aux(program: &str, line: usize, step: f64) -> Vec<(f64, [f64; 3])> {
+    let l = errors("ac-trunnion", 0, 0.0, "");
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let samples = simulate(
+        &nominal,
+        &[],
+        Dialect::Heidenhain,
+        Coordinates::Auto,
+        program,
+        step,
+    );
+    let at: Vec<_> = samples.iter().filter(|x| x.line == line).collect();
+    let ph = at.iter().position(|x| x.fraction == 1.0).unwrap();
+    at[ph + 1..]
+        .iter()
+        .map(|x| {
+            (
+                x.fraction,
+                [x.nominal.tip.x, x.nominal.tip.y, x.nominal.tip.z],
+            )
+        })
+        .collect()
+}
+
+/// Whether `p` lies on the circle about `c` (XY) of radius `r` at the
+/// angle `t` (rad), at depth `z`, to 1 nm.
+fn on_circle(p: [f64; 3], c: [f64; 2], r: f64, t: f64, z: f64) -> bool {
+    near(p, [c[0] + r * t.cos(), c[1] + r * t.sin(), z])
+}
+
+/// HEIDENHAIN `APPR CT`/`DEP CT` under RR and RL: the control runs from
+/// the start to an auxiliary point, then on an arc of radius |R| through
+/// the centre angle CCA tangentially onto the first contour element, and
+/// leaves the last one on such an arc; the arc turns as RL/RR and the
+/// sign of R say (TNC7 user's manuals: RR with R positive clockwise, RL
+/// with R negative clockwise, RL with R positive counter-clockwise).
+/// Round the profile under RR, then onto and off a circle under RL:
+/// byte-identical at zero error; on the intended path, arcs included,
+/// within the tolerance on the erroneous machine; the approaches' first
+/// contour points rewritten, the departures (no coordinate) as written.
+#[test]
+fn heidenhain_appr_ct_and_dep_ct_stay_on_the_intended_arcs() {
+    let program = "0 BEGIN PGM PROFICT MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S3500\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 L X-45 Y-45 Z+2 A-20 C+30 R0 FMAX\n7 L Z-2.5 F300 M3 M8\n8 APPR CT X-30 Y-30 CCA90 R+10 RR F300\n9 L X+30\n10 L Y+30\n11 L X-30\n12 L Y-30\n13 DEP CT CCA90 R+10 F300\n14 L X-10 Y+40 R0 F300\n15 APPR CT X-20 Y+20 CCA60 R-5 RL\n16 CR X-10 Y+10 R+10 DR-\n17 DEP CT CCA120 R+4\n18 L Z+50 R0 FMAX\n19 M9 M5\n20 FUNCTION RESET TCPM\n21 END PGM PROFICT MM\n";
+    let (out, _, at) = appr_dep_on_path(program, 106, &[9, 14, 16, 18], "appr ct/dep ct");
+    for k in [8, 15] {
+        let (a, b) = (out.lines().nth(k).unwrap(), program.lines().nth(k).unwrap());
+        assert!(
+            a.contains(" APPR CT X") && a.contains(" CCA") && a != b,
+            "{a}"
+        );
+    }
+    for k in [13, 17] {
+        assert_eq!(out.lines().nth(k), program.lines().nth(k));
+    }
+    let z = -2.5;
+    let deg = |a: f64| a.to_radians();
+    // By hand. First approach, RR R+10: clockwise; PA (-30, -30), the
+    // first element along +X, so the centre 10 to its right, (-30, -40);
+    // PA at 90 deg about it, PH 90 deg back against a clockwise turn, at
+    // 180 deg: (-40, -40).
+    let appr = at(9);
+    assert_eq!(appr.len(), 2, "{appr:?}");
+    assert!(near(appr[0], [-40.0, -40.0, z]), "{appr:?}");
+    assert!(near(appr[1], [-30.0, -30.0, z]), "{appr:?}");
+    let arc = after_aux(program, 9, 1.0);
+    assert!(arc.len() > 5, "{arc:?}");
+    for &(u, p) in &arc {
+        let t = deg(180.0 - 90.0 * u);
+        assert!(on_circle(p, [-30.0, -40.0], 10.0, t, z), "{u} {p:?}");
+    }
+    // First departure, after the contour under RR, R+10: clockwise; PE
+    // (-30, -30), the last element along -Y, the centre 10 to its right,
+    // (-40, -30); PE at 0 deg, PN at -90 deg: (-40, -40), and the arc
+    // through -45 deg.
+    let dep = at(14);
+    assert!(near(dep[0], [-40.0, -40.0, z]), "{dep:?}");
+    // Second approach, RL R-5: clockwise; PA (-20, 20), the circle after
+    // it starting along +X, the centre 5 to the right, (-20, 15); PA at
+    // 90 deg, PH at 150 deg.
+    let c2 = [-20.0, 15.0];
+    let appr = at(16);
+    assert!(on_circle(appr[0], c2, 5.0, deg(150.0), z), "{appr:?}");
+    assert!(near(appr[1], [-20.0, 20.0, z]), "{appr:?}");
+    for &(u, p) in &after_aux(program, 16, 1.0) {
+        assert!(on_circle(p, c2, 5.0, deg(150.0 - 60.0 * u), z), "{u} {p:?}");
+    }
+    // Second departure, after that circle under RL, R+4:
+    // counter-clockwise; PE (-10, 10), where the circle about (-20, 10)
+    // runs along -Y, the centre 4 to its left, (-6, 10); PE at 180 deg,
+    // PN 120 deg on, at 300 deg.
+    let dep = at(18);
+    assert!(
+        on_circle(dep[0], [-6.0, 10.0], 4.0, deg(300.0), z),
+        "{dep:?}"
+    );
+    // The departure's arc as the simulator runs it.
+    let l = errors("ac-trunnion", 0, 0.0, "");
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let samples = simulate(
+        &nominal,
+        &[],
+        Dialect::Heidenhain,
+        Coordinates::Auto,
+        program,
+        1.0,
+    );
+    let dep: Vec<_> = samples.iter().filter(|x| x.line == 18).collect();
+    assert!(dep.len() > 5);
+    for x in dep {
+        let p = [x.nominal.tip.x, x.nominal.tip.y, x.nominal.tip.z];
+        let t = deg(180.0 + 120.0 * x.fraction);
+        assert!(
+            on_circle(p, [-6.0, 10.0], 4.0, t, z),
+            "{} {p:?}",
+            x.fraction
+        );
+    }
+}
+
+/// HEIDENHAIN `APPR PLT`, `APPR PLN` and `APPR PCT`: the first contour
+/// point given as `PR`/`PA` around the pole `CC`, as an `LP` gives its
+/// end, the path to it as `LT`, `LN` and `CT`. Byte-identical at zero
+/// error; on the intended path within the tolerance on the erroneous
+/// machine, the approaches rewritten in their own polar words.
+#[test]
+fn heidenhain_polar_approaches_stay_on_the_intended_path() {
+    let program = "0 BEGIN PGM PROFIPOL MM\n1 BLK FORM 0.1 Z X-50 Y-50 Z-20\n2 BLK FORM 0.2 X+50 Y+50 Z+0\n3 TOOL CALL 1 Z S3500\n4 L A-20 C+30 R0 FMAX\n5 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n6 CC X+0 Y+0\n7 L X-40 Y-40 Z+2 A-20 C+30 R0 FMAX\n8 L Z-2.5 F300 M3 M8\n9 APPR PLT PR+30 PA+180 LEN10 RR F300\n10 L X-30 Y-30\n11 L X+30\n12 DEP LT LEN10 R0\n13 L X+40 Y+40 R0 F300\n14 APPR PLN PR+30 PA+90 LEN5 RL\n15 L X-30 Y+30\n16 DEP LN LEN8\n17 L X-50 Y+10 R0 F300\n18 APPR PCT PR+30 PA+180 CCA90 R+10 RR\n19 L X-30 Y-30\n20 DEP CT CCA90 R+10\n21 L Z+50 R0 FMAX\n22 M9 M5\n23 FUNCTION RESET TCPM\n24 END PGM PROFIPOL MM\n";
+    let (out, _, at) = appr_dep_on_path(program, 106, &[10, 13, 15, 17, 19, 21], "polar appr");
+    for (k, kw) in [
+        (9, " APPR PLT PR+"),
+        (14, " APPR PLN PR+"),
+        (18, " APPR PCT PR+"),
+    ] {
+        let (a, b) = (out.lines().nth(k).unwrap(), program.lines().nth(k).unwrap());
+        assert!(a.contains(kw) && !a.contains(" X") && a != b, "{a}");
+    }
+    let z = -2.5;
+    // By hand: PA (-30, 0), the first element along -Y: PH 10 back, at
+    // (-30, 10).
+    let appr = at(10);
+    assert!(near(appr[0], [-30.0, 10.0, z]), "{appr:?}");
+    assert!(near(appr[1], [-30.0, 0.0, z]), "{appr:?}");
+    // PA (0, 30), the first element along -X, RL: PH 5 to its left, below
+    // it, at (0, 25).
+    let appr = at(15);
+    assert!(near(appr[0], [0.0, 25.0, z]), "{appr:?}");
+    assert!(near(appr[1], [0.0, 30.0, z]), "{appr:?}");
+    // PA (-30, 0), along -Y, RR R+10: clockwise about (-40, 0), PA at 0
+    // deg, PH at 90 deg, (-40, 10); the arc between them.
+    let appr = at(19);
+    assert!(near(appr[0], [-40.0, 10.0, z]), "{appr:?}");
+    assert!(near(appr[1], [-30.0, 0.0, z]), "{appr:?}");
+    let arc = after_aux(program, 19, 1.0);
+    assert!(arc.len() > 5, "{arc:?}");
+    for &(u, p) in &arc {
+        let t = (90.0 - 90.0 * u).to_radians();
+        assert!(on_circle(p, [-40.0, 0.0], 10.0, t, z), "{u} {p:?}");
+    }
+}
+
+/// X and Y scale errors bend an `APPR CT`/`DEP CT` as they bend an `LT`:
+/// the arc tangent to the corrected element is not the intended one on
+/// the machine. Both are reported at their line with how far they stray;
+/// the departure is left as written.
+#[test]
+fn a_circular_approach_and_departure_that_a_scale_error_bends_are_reported() {
+    let program = "0 BEGIN PGM BENTCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-40 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+30 RR F600\n6 L X+35 Y+15\n7 L X+35 Y+30\n8 DEP CT CCA90 R+30\n9 L Z+50 R0 FMAX\n10 END PGM BENTCT MM\n";
+    let extra = "effects:\n  linear_scale: {EXX: 300.0, EYY: -200.0}\n";
+    let l = errors("ac-trunnion", 108, 30.0, extra);
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    let found = |what: &str| {
+        s.skipped
+            .iter()
+            .find(|(w, _)| w.contains(what))
+            .unwrap_or_else(|| panic!("{what}: {:?}\n{out}", s.skipped))
+            .clone()
+    };
+    let (why, lines) = found("approach (APPR CT): the control's path");
+    assert_eq!(lines.first, [6], "{why}");
+    let (why, lines) = found("the DEP CT the control runs");
+    assert_eq!(lines.first, [9], "{why}");
+    assert_eq!(out.lines().nth(8), program.lines().nth(8));
+}
+
 /// X and Y scale errors bend an `APPR LN`/`DEP LN` as they bend an `LT`:
 /// the point square to the corrected element is not the intended one on
 /// the machine. Both are reported with how far they leave the path.
@@ -827,7 +1015,9 @@ fn a_perpendicular_approach_and_departure_that_a_scale_error_bends_are_reported(
 
 /// What fivecal does not correct of `APPR`/`DEP` is left as written and
 /// reported at its line with the reason: a perpendicular variant with R0
-/// (no side to put its point on), the circular variants, a tool-axis move in the block, and an approach whose first
+/// (no side to put its point on), a `DEP CT` after a contour under R0
+/// and an `APPR CT` with R0 (the arc turns as RL/RR say), the `LCT`
+/// variants (no turning direction in the manuals read), a tool-axis move in the block, and an approach whose first
 /// contour element is a `CT` (which starts in the approach's own
 /// direction); an `APPR LT`/`DEP LT` under RL/RR is corrected as the
 /// programmed contour.
@@ -857,7 +1047,12 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
         lines("perpendicular approach or departure (LN) without radius compensation"),
         [10]
     );
-    assert_eq!(lines("circular approach or departure (CT, LCT)"), [12, 14]);
+    // The DEP CT after a contour under R0: its arc turns as RL/RR say.
+    assert_eq!(
+        lines("a circular departure (DEP CT) after a contour without radius compensation"),
+        [12]
+    );
+    assert_eq!(lines("on a line and a tangential arc (LCT)"), [14]);
     assert_eq!(lines("it moves the tool axis or a rotary axis"), [18]);
     // The line before the last DEP LT starts where the APPR LCT left as
     // written leaves the tool: its direction, and the departure's along
@@ -874,6 +1069,30 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
         assert_eq!(
             out.lines().nth(line - 1),
             program.lines().nth(line - 1),
+            "line {line}"
+        );
+    }
+    // An APPR CT with R0, which the TNC7 refuses, a DEP LCT, whose
+    // turning direction no manual read gives, and polar approaches with
+    // no pole or with X/Y or as LCT.
+    let noct = "0 BEGIN PGM NOCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+5 R0 F600\n6 L X+35 Y+15\n7 DEP LCT X+50 Y+20 R5\n8 L Z+50 R0 FMAX\n9 L X+40 Y-10 R0 FMAX\n10 APPR PLT PR+20 PA+0 LEN10 RR\n11 L X+35 Y+15\n12 DEP LT LEN10\n13 CC X+0 Y+0\n14 L X+40 Y-10 R0 FMAX\n15 APPR PLN X+20 PR+20 PA+0 LEN10 RR\n16 L X+35 Y+15\n17 DEP LT LEN10\n18 L X+40 Y-10 R0 FMAX\n19 APPR PLCT PR+20 PA+0 R5 RR\n20 L X+35 Y+15\n21 L X+40 Y-10 R0 FMAX\n22 APPR CT X+20 Y+0 ICCA90 R+5 RR\n23 L X+35 Y+15\n24 END PGM NOCT MM\n";
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), noct);
+    let lines = |what: &str| -> Vec<usize> {
+        s.skipped
+            .iter()
+            .filter(|(w, _)| w.contains(what))
+            .flat_map(|(_, at)| at.first.clone())
+            .collect()
+    };
+    assert_eq!(lines("a circular approach (APPR CT) with R0"), [6]);
+    assert_eq!(lines("on a line and a tangential arc (LCT)"), [8, 20]);
+    assert_eq!(lines("a polar approach without a known pole (CC)"), [11]);
+    assert_eq!(lines("X or Y in a polar approach"), [16]);
+    assert_eq!(lines("an incremental ICCA"), [23]);
+    for line in [6, 8, 11, 16, 20, 23] {
+        assert_eq!(
+            out.lines().nth(line - 1),
+            noct.lines().nth(line - 1),
             "line {line}"
         );
     }

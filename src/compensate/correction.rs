@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 use super::{CompensateError, Compensator, Solution};
 use crate::kinematics::{Axes, ToolPose};
 use crate::limits::MAX_PIECES;
-use crate::nc::interp::approach::{Leg, departure_end};
+use crate::nc::interp::approach::{Leg, arc_center, departure_end};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, CircleGeo, Path, lerp};
@@ -863,43 +863,47 @@ impl Compensator {
         }))
     }
 
-    /// How far the tip leaves the intended path of an `APPR LT`/`LN` (`want`:
-    /// start, auxiliary point, first contour point, program frame) where
-    /// the control runs the one it builds from the written blocks
-    /// (`written`, likewise), mm: seventeen points along each of its two
-    /// lines. With the rotary axes fixed the correction is a rigid motion,
-    /// which carries the first element's direction, and so the auxiliary
-    /// point `LEN` back along it or square to it, into the intended ones.
+    /// How far the tip leaves the intended path of an `APPR LT`/`LN`/`CT`
+    /// (`want`: start, auxiliary point, first contour point, program
+    /// frame) where the control runs the one it builds from the written
+    /// blocks (`written`, likewise), mm: seventeen points along each of
+    /// its two legs. The second is an arc for `CT` (`arc`: whether it
+    /// turns clockwise, the intended centre and the written one). With the
+    /// rotary axes fixed the correction is a rigid motion, which carries
+    /// the first element's direction, and so the auxiliary point and the
+    /// arc placed from it, into the intended ones.
     pub(super) fn approach_deviation(
         &self,
         f: &Frame,
         want: &[[f64; 6]; 3],
         written: &[[f64; 6]; 3],
+        arc: Option<(bool, [f64; 2], [f64; 2])>,
     ) -> f64 {
-        let leg = |k: usize| {
-            self.path_deviation(
-                f,
-                &Path::Line {
-                    p0: want[k],
-                    p1: want[k + 1],
-                },
-                &Path::Line {
-                    p0: written[k],
-                    p1: written[k + 1],
-                },
-            )
+        let leg = |k: usize, c: Option<(bool, [f64; 2])>, p: &[[f64; 6]; 3]| match c {
+            Some((cw, c)) if k == 1 => Path::Arc {
+                p0: p[1],
+                p1: p[2],
+                geo: ArcGeo::new((0, 1, 2), c, &p[1], &p[2], cw, 0),
+            },
+            _ => Path::Line {
+                p0: p[k],
+                p1: p[k + 1],
+            },
         };
-        leg(0).max(leg(1))
+        let (a, b) = (arc.map(|(cw, c, _)| (cw, c)), arc.map(|(cw, _, c)| (cw, c)));
+        let dev = |k: usize| self.path_deviation(f, &leg(k, a, want), &leg(k, b, written));
+        dev(0).max(dev(1))
     }
 
-    /// A HEIDENHAIN `DEP LT|LN LEN..`: the control leaves the written last
-    /// contour point `emit` along the direction `tangent` the written last
-    /// element ends in (LT) or square to it on the tool's side (LN). The
-    /// block has no word to correct: where the line the control runs
+    /// A HEIDENHAIN `DEP LT|LN LEN..` or `DEP CT CCA.. R..`: the control
+    /// leaves the written last contour point `emit` along the direction
+    /// `tangent` the written last element ends in (LT), square to it on
+    /// the tool's side (LN), or on the arc tangent to it (CT). The
+    /// block has no word to correct: where the path the control runs
     /// stays within the tolerance of the intended one (seventeen points
     /// along both: with the rotary axes fixed the correction is a rigid
-    /// motion, which carries the direction and its square into the
-    /// intended ones) its end is returned, where the written program now
+    /// motion, which carries the direction, its square and the arc
+    /// tangent to it into the intended ones) its end is returned, where the written program now
     /// has the tool; otherwise the reason to report it.
     pub(super) fn plan_departure(
         &self,
@@ -927,11 +931,25 @@ impl Compensator {
         let mut w1 = w0;
         w1[0] = pn[0];
         w1[1] = pn[1];
-        let intended = Path::Line {
-            p0: known(&mv.start),
-            p1: known(&mv.end),
+        let (p0, p1) = (known(&mv.start), known(&mv.end));
+        // A DEP CT's move is its arc; the control's leaves the written
+        // contour's end in the written direction.
+        let (intended, written) = match (mv.kind, arc_center([w0[0], w0[1]], t, leg)) {
+            (MoveKind::Arc(a), Some(c)) => (
+                Path::Arc {
+                    p0,
+                    p1,
+                    geo: ArcGeo::new((0, 1, 2), a.center, &p0, &p1, a.cw, 0),
+                },
+                Path::Arc {
+                    p0: w0,
+                    p1: w1,
+                    geo: ArcGeo::new((0, 1, 2), c, &w0, &w1, a.cw, 0),
+                },
+            ),
+            _ => (Path::Line { p0, p1 }, Path::Line { p0: w0, p1: w1 }),
         };
-        let miss = self.path_deviation(f, &intended, &Path::Line { p0: w0, p1: w1 });
+        let miss = self.path_deviation(f, &intended, &written);
         let tol = self.settings.tolerance;
         if miss > tol {
             return Err(refuse(format!(

@@ -16,7 +16,7 @@ use super::writer::Writer;
 use super::{CompensateError, CoordinateSection, Largest, Lines, Settings, Summary, Vertex};
 use crate::model::{Effect, Model};
 use crate::nc::exec;
-use crate::nc::interp::approach::{Approach, Tangential, approach_aux};
+use crate::nc::interp::approach::{Approach, Leg, Tangential, approach_aux, arc_center};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::{self, Event, Frame, Interpreter, Skip};
 use crate::nc::{Block, Blocks, ReadError, Syntax};
@@ -802,7 +802,7 @@ fn check_corner(
 /// the statement after it, which fixes its auxiliary point, is not a
 /// contour element fivecal corrects.
 fn approach_unchecked() -> String {
-    "approach (APPR LT, LN): its end point is corrected, but its path through the auxiliary point is not checked: the first contour element after it is left as written or not a line or circle in the XY plane"
+    "approach (APPR LT, LN, CT): its end point is corrected, but its path through the auxiliary point is not checked: the first contour element after it is left as written or not a line or circle in the XY plane"
         .to_string()
 }
 
@@ -845,9 +845,10 @@ fn check_approach(
             _ => direction(xy(&s)?, xy(&e)?)?,
         };
         let (ps, pa) = (known(&ps), known(&pa));
-        Some([ps, approach_aux(&pa, d, a.len, a.leg), pa])
+        let arc = arc_center([pa[0], pa[1]], d, a.leg);
+        Some(([ps, approach_aux(&pa, d, a.len, a.leg), pa], arc))
     })();
-    let Some(written) = written else {
+    let Some((written, written_arc)) = written else {
         return Some(format!(
             "approach (APPR {}): its end point is corrected, but its path through the auxiliary point is not checked: the written blocks around it are not known",
             a.leg.name()
@@ -859,7 +860,13 @@ fn check_approach(
     // by at most that much from the straight one followed here.
     let tool_axis = ((written[2][2] - written[0][2]).abs() + (want[2][2] - want[0][2]).abs()) * f.u;
     let tol = c.settings.tolerance;
-    let d = c.approach_deviation(f, &want, &written) + tool_axis;
+    // A CT's arc leg: the intended centre and the one the control
+    // places from the written blocks.
+    let arc = match (a.leg, a.arc, written_arc) {
+        (Leg::Arc { cw, .. }, Some(i), Some(w)) => Some((cw, i, w)),
+        _ => None,
+    };
+    let d = c.approach_deviation(f, &want, &written, arc) + tool_axis;
     (d > tol).then(|| {
         format!(
             "approach (APPR {}): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, more than --tolerance {} um",

@@ -22,7 +22,7 @@ use super::{Coordinates, Largest, Lines};
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
 use crate::model::Model;
-use crate::nc::interp::approach::{Approach, Tangential};
+use crate::nc::interp::approach::{Approach, Leg, Tangential};
 use crate::nc::interp::coordinates::known;
 use crate::nc::interp::corner::{Corner, corner_path};
 use crate::nc::interp::interpolation::{ArcGeo, Path as MovePath};
@@ -376,7 +376,7 @@ impl Simulator {
 
 /// An `APPR LT`/`LN` whose auxiliary point is not known is run as a straight
 /// line to its end.
-const APPROACH_STRAIGHT: &str = "approach (APPR LT, LN) not simulated through its auxiliary point (run as a straight line to its end): the first contour element after it is not a line or circle in the XY plane that is simulated";
+const APPROACH_STRAIGHT: &str = "approach (APPR LT, LN, CT) not simulated through its auxiliary point (run as a straight line to its end): the first contour element after it is not a line or circle in the XY plane that is simulated";
 
 /// A move waiting to be sampled: the next one may cut its end (a
 /// HEIDENHAIN rounding or chamfer) or place its auxiliary point (an
@@ -464,8 +464,9 @@ impl Run<'_, '_> {
         Ok(())
     }
 
-    /// An `APPR LT` held back: run from its start to the auxiliary point
-    /// `a` places, then on to its end; the element after it starts there.
+    /// An `APPR LT`/`LN`/`CT` held back: run from its start to the
+    /// auxiliary point `a` places, then on to its end (round its arc for
+    /// `CT`); the element after it starts there.
     fn approach(&mut self, a: &Approach) -> Result<(), &'static str> {
         let path = match a.path {
             Ok(p) => p,
@@ -495,13 +496,22 @@ impl Run<'_, '_> {
             p1: path[1],
         };
         self.sample(&before);
-        let to_pa = Job {
-            line: before.line,
-            f: before.f,
-            path: MovePath::Line {
+        // A CT's leg to PA is its arc, the others a line.
+        let leg = match (a.leg, a.arc) {
+            (Leg::Arc { cw, .. }, Some(c)) => MovePath::Arc {
+                p0: path[1],
+                p1: path[2],
+                geo: ArcGeo::new((0, 1, 2), c, &path[1], &path[2], cw, 0),
+            },
+            _ => MovePath::Line {
                 p0: path[1],
                 p1: path[2],
             },
+        };
+        let to_pa = Job {
+            line: before.line,
+            f: before.f,
+            path: leg,
             feed: true,
             start_known: before.start_known,
             vector: before.vector,

@@ -1,5 +1,5 @@
-//! HEIDENHAIN `APPR LT` and `DEP LT`: the straight lines tangential to the
-//! contour that the control builds to and from it.
+//! HEIDENHAIN `APPR`/`DEP` `LT`, `LN` and `CT`: the straight lines and
+//! tangential arcs that the control builds to and from the contour.
 //!
 //! Source (read): TNC 640 user's manual, DIN/ISO programming 1/2015,
 //! p. 213, "Important positions for approach and departure", and the
@@ -30,6 +30,22 @@
 //! R0 there is no side, and the manuals read do not say what the control
 //! does; such a block is left as written.
 //!
+//! `APPR CT`/`DEP CT` (TNC7 user's manual 81762x-16, "Approach functions
+//! APPR CT and APPR PCT"; TNC7 basic user's manual 81762x-18, "Approach
+//! function APPR CT", "Departure function DEP CT"): the leg between PH and
+//! PA (PE and PN) is a circular arc of radius |R| through the centre angle
+//! CCA (positive, at most 360 deg), tangent to the contour element where
+//! it meets it. Both manuals give the turning direction by the same
+//! table: RL with R positive counter-clockwise, negative clockwise; RR
+//! with R positive clockwise, negative counter-clockwise. With R0 the
+//! TNC7 stops an `APPR CT` with an error, and for a `DEP CT` after a
+//! contour without RL/RR the table gives no direction: both are left as
+//! written. `APPR LCT`/`DEP LCT` ("Approach function APPR LCT",
+//! "Departure function DEP LCT", same manuals) have an arc tangent to the
+//! contour and to the straight leg, "uniquely defined by the radius R",
+//! but no manual read says which way it turns, and an arc on either side
+//! of the element fits: fivecal leaves them as written.
+//!
 //! Under RL/RR these are the points of the programmed contour (tool
 //! radius zero), which is what fivecal corrects, as it does for every
 //! `L`/`C`/`CR` under RL/RR: the control offsets the corrected contour by
@@ -51,14 +67,25 @@ pub enum Side {
     Right,
 }
 
-/// How the line between the contour and an approach's auxiliary point
+/// How the leg between the contour and an approach's auxiliary point
 /// (a departure's end) meets the contour element.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Leg {
     /// `LT`: along the element's direction.
     Tangent,
     /// `LN`: square to it, on the side radius compensation puts the tool.
     Normal(Side),
+    /// `CT`: a circular arc tangent to the element, of radius `radius`
+    /// (|R|, program units) through `cca` degrees, turning clockwise or
+    /// not as [`clockwise`] says.
+    Arc {
+        /// |R|.
+        radius: f64,
+        /// CCA, degrees.
+        cca: f64,
+        /// Whether the arc turns clockwise.
+        cw: bool,
+    },
 }
 
 impl Leg {
@@ -67,12 +94,50 @@ impl Leg {
         match self {
             Leg::Tangent => "LT",
             Leg::Normal(_) => "LN",
+            Leg::Arc { .. } => "CT",
         }
     }
 }
 
-/// An `APPR LT`/`LN` whose auxiliary point follows from the element after
-/// it, carried by that element's move.
+/// Whether an `APPR CT`/`DEP CT` arc turns clockwise, from the side
+/// radius compensation puts the tool on and the sign of `R` (the table of
+/// the TNC7 user's manuals, module docs): RL turns counter-clockwise with
+/// R positive, RR clockwise, and a negative R turns the other way.
+pub fn clockwise(side: Side, r: f64) -> bool {
+    (side == Side::Right) == (r > 0.0)
+}
+
+/// The centre of a `CT` leg's arc, which meets the contour at `at` (XY)
+/// travelling along the unit direction `dir` there: the radius from it
+/// square to `dir`, on the left of the direction of travel for a
+/// counter-clockwise arc, on the right for a clockwise one. `None` for a
+/// straight leg.
+pub fn arc_center(at: [f64; 2], dir: [f64; 2], leg: Leg) -> Option<[f64; 2]> {
+    let Leg::Arc { radius, cw, .. } = leg else {
+        return None;
+    };
+    let n = normal(dir, if cw { Side::Right } else { Side::Left });
+    Some([at[0] + radius * n[0], at[1] + radius * n[1]])
+}
+
+/// `p` turned about `c` by `angle` radians (counter-clockwise positive).
+fn turned(p: [f64; 2], c: [f64; 2], angle: f64) -> [f64; 2] {
+    let (s, co) = angle.sin_cos();
+    let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+    [c[0] + co * dx - s * dy, c[1] + s * dx + co * dy]
+}
+
+/// The signed angle (radians, counter-clockwise positive) a `CT` leg
+/// turns through along its direction of travel; 0 for a straight leg.
+fn swept(leg: Leg) -> f64 {
+    match leg {
+        Leg::Arc { cca, cw, .. } => cca.to_radians() * if cw { -1.0 } else { 1.0 },
+        _ => 0.0,
+    }
+}
+
+/// An `APPR LT`/`LN`/`CT` whose auxiliary point follows from the element
+/// after it, carried by that element's move.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Approach {
     /// 1-based line of the `APPR` block.
@@ -85,21 +150,26 @@ pub struct Approach {
     /// first contour point PA; program coordinates, absolute), or why
     /// fivecal cannot say.
     pub path: Result<[[f64; 6]; 3], &'static str>,
+    /// For `CT`, the centre (XY) of the arc from PH to PA, which the
+    /// points alone do not fix.
+    pub arc: Option<[f64; 2]>,
 }
 
 /// What an `APPR`/`DEP` block is, on its own move.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Tangential {
-    /// `APPR LT|LN ... LEN..`: its end point PA is written; the line to
-    /// it starts at PH, `len` from PA as `leg` says.
+    /// `APPR LT|LN ... LEN..` or `APPR CT ... CCA.. R..`: its end point
+    /// PA is written; the leg to it starts at PH, placed from PA as `leg`
+    /// says (`len` 0 for `CT`).
     Approach {
         /// `LEN`, program units.
         len: f64,
         /// `LT` or `LN`.
         leg: Leg,
     },
-    /// `DEP LT|LN LEN..`: its end PN is `len` from where the tool is, as
-    /// `leg` says, from the direction the element before ends in.
+    /// `DEP LT|LN LEN..` or `DEP CT CCA.. R..`: its end PN is placed from
+    /// where the tool is, as `leg` says, from the direction the element
+    /// before ends in (`len` 0 for `CT`, whose move is the arc itself).
     Departure {
         /// `LEN`, program units.
         len: f64,
@@ -136,30 +206,47 @@ pub fn normal(dir: [f64; 2], side: Side) -> [f64; 2] {
     }
 }
 
-/// The auxiliary point of an `APPR LT`/`LN`, `len` from the first contour
-/// point `at`: back against the unit direction `dir` the first element
-/// starts in (XY) for `LT`, square to it on the tool's side for `LN`; the
+/// The auxiliary point of an `APPR LT`/`LN`/`CT`, from the first contour
+/// point `at` and the unit direction `dir` the first element starts in
+/// (XY): `len` back against `dir` for `LT`, `len` square to it on the
+/// tool's side for `LN`, and for `CT` where the arc that ends at `at`
+/// along `dir` starts, CCA back round its centre ([`arc_center`]); the
 /// other axes as at `at`.
 pub fn approach_aux(at: &[f64; 6], dir: [f64; 2], len: f64, leg: Leg) -> [f64; 6] {
-    let v = match leg {
-        Leg::Tangent => [-dir[0], -dir[1]],
-        Leg::Normal(side) => normal(dir, side),
+    let xy = match leg {
+        Leg::Tangent => [at[0] - len * dir[0], at[1] - len * dir[1]],
+        Leg::Normal(side) => {
+            let v = normal(dir, side);
+            [at[0] + len * v[0], at[1] + len * v[1]]
+        }
+        Leg::Arc { .. } => match arc_center([at[0], at[1]], dir, leg) {
+            Some(c) => turned([at[0], at[1]], c, -swept(leg)),
+            None => [at[0], at[1]],
+        },
     };
     let mut p = *at;
-    p[0] += len * v[0];
-    p[1] += len * v[1];
+    p[0] = xy[0];
+    p[1] = xy[1];
     p
 }
 
-/// The end point of a `DEP LT`/`LN`, `len` from the last contour point
-/// `at`: on along the unit direction `dir` the last element ends in (XY)
-/// for `LT`, square to it on the tool's side for `LN`.
+/// The end point of a `DEP LT`/`LN`/`CT`, from the last contour point `at`
+/// and the unit direction `dir` the last element ends in (XY): `len` on
+/// along `dir` for `LT`, `len` square to it on the tool's side for `LN`,
+/// and for `CT` CCA on round the centre of the arc that leaves `at` along
+/// `dir` ([`arc_center`]).
 pub fn departure_end(at: [f64; 2], dir: [f64; 2], len: f64, leg: Leg) -> [f64; 2] {
-    let v = match leg {
-        Leg::Tangent => dir,
-        Leg::Normal(side) => normal(dir, side),
-    };
-    [at[0] + len * v[0], at[1] + len * v[1]]
+    match leg {
+        Leg::Tangent => [at[0] + len * dir[0], at[1] + len * dir[1]],
+        Leg::Normal(side) => {
+            let v = normal(dir, side);
+            [at[0] + len * v[0], at[1] + len * v[1]]
+        }
+        Leg::Arc { .. } => match arc_center(at, dir, leg) {
+            Some(c) => turned(at, c, swept(leg)),
+            None => at,
+        },
+    }
 }
 
 /// The direction (XY, unit) a move starts in, if it is a line or a circle
@@ -248,6 +335,84 @@ mod tests {
                     assert!(cross * turn > 0.0, "{side:?} {cross}");
                 }
                 assert_eq!(ph[2..], at[2..]);
+            }
+        }
+    }
+
+    /// The turning direction of `APPR CT`/`DEP CT`, row by row from the
+    /// manuals' table.
+    #[test]
+    fn a_circular_leg_turns_as_the_manuals_table_says() {
+        assert!(!clockwise(Side::Left, 5.0));
+        assert!(clockwise(Side::Left, -5.0));
+        assert!(clockwise(Side::Right, 5.0));
+        assert!(!clockwise(Side::Right, -5.0));
+    }
+
+    /// `CT`: checked against an independent construction over directions
+    /// all round, both turning directions and centre angles up to a full
+    /// circle. The centre lies |R| square to the element at the contour
+    /// point, on the side the arc turns to (by the angle of the direction
+    /// turned +-90 deg); the other end of the arc is that radius turned
+    /// about the centre by CCA, back for an approach, on for a
+    /// departure. Then, finitely: both ends are |R| from the centre, the
+    /// arc meets the element tangentially (the radius there is square to
+    /// it and the arc's own direction of travel is the element's), and
+    /// the arc from one end to the other sweeps CCA.
+    #[test]
+    fn a_circular_leg_is_tangent_to_the_element_and_sweeps_its_centre_angle() {
+        use crate::nc::interp::interpolation::ArcGeo;
+        use crate::nc::interp::tangent::arc_end_direction;
+        let at = [3.0, -7.0, -2.0, 0.0, 10.0, 45.0];
+        let r = 7.5;
+        for k in 0..24 {
+            let a = 0.2 + k as f64 * std::f64::consts::TAU / 24.0;
+            let dir = [a.cos(), a.sin()];
+            for cw in [false, true] {
+                for cca in [10.0, 90.0, 180.0, 270.0, 359.0] {
+                    let leg = Leg::Arc { radius: r, cca, cw };
+                    let turn = if cw { -1.0 } else { 1.0 };
+                    // By hand: the centre, and the angle of the contour
+                    // point about it.
+                    let b = a + turn * std::f64::consts::FRAC_PI_2;
+                    let c = [at[0] + r * b.cos(), at[1] + r * b.sin()];
+                    let t0 = b + std::f64::consts::PI;
+                    let back = t0 - turn * cca.to_radians();
+                    let on = t0 + turn * cca.to_radians();
+                    let ph_want = [c[0] + r * back.cos(), c[1] + r * back.sin()];
+                    let pn_want = [c[0] + r * on.cos(), c[1] + r * on.sin()];
+                    let got = arc_center([at[0], at[1]], dir, leg).unwrap();
+                    assert!((got[0] - c[0]).abs() < 1e-12 && (got[1] - c[1]).abs() < 1e-12);
+                    let ph = approach_aux(&at, dir, 0.0, leg);
+                    let pn = departure_end([at[0], at[1]], dir, 0.0, leg);
+                    assert_eq!(ph[2..], at[2..]);
+                    for (p, q) in [([ph[0], ph[1]], ph_want), (pn, pn_want)] {
+                        assert!(
+                            (p[0] - q[0]).abs() < 1e-12 && (p[1] - q[1]).abs() < 1e-12,
+                            "{cw} {cca}: {p:?} {q:?}"
+                        );
+                        assert!(((p[0] - c[0]).hypot(p[1] - c[1]) - r).abs() < 1e-12);
+                    }
+                    assert!(((at[0] - c[0]).hypot(at[1] - c[1]) - r).abs() < 1e-12);
+                    // Tangent at the contour point, travelling along it.
+                    assert!(((at[0] - c[0]) * dir[0] + (at[1] - c[1]) * dir[1]).abs() < 1e-12);
+                    let d = arc_end_direction(c, [at[0], at[1]], cw).unwrap();
+                    assert!((d[0] - dir[0]).abs() < 1e-12 && (d[1] - dir[1]).abs() < 1e-12);
+                    // The approach's arc from PH to PA, the departure's
+                    // from PE to PN, sweep CCA.
+                    let mut pn6 = at;
+                    pn6[0] = pn[0];
+                    pn6[1] = pn[1];
+                    for (p0, p1) in [(&ph, &at), (&at, &pn6)] {
+                        let geo = ArcGeo::new((0, 1, 2), c, p0, p1, cw, 0);
+                        assert!(
+                            (geo.sweep.abs() - cca.to_radians()).abs() < 1e-9,
+                            "{cw} {cca}: {}",
+                            geo.sweep.to_degrees()
+                        );
+                        assert_eq!(geo.sweep < 0.0, cw);
+                    }
+                }
             }
         }
     }

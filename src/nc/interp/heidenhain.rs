@@ -1,7 +1,7 @@
 //! HEIDENHAIN Klartext semantics: path blocks (`L`, `C` around the pole
 //! `CC`, `CR`, polar `LP`/`CP`, the corners `RND`/`CHF` cut between two
 //! lines, the tangential circle `CT`, the approach and departure
-//! `APPR LT|LN`/`DEP LT|LN`), M functions in any block (M128/M129 TCPM, M91/M92 machine
+//! `APPR LT|LN|CT|PLT|PLN|PCT`/`DEP LT|LN|CT`), M functions in any block (M128/M129 TCPM, M91/M92 machine
 //! coordinates), `BEGIN PGM ... MM|INCH`, the cycles that shift, rotate,
 //! mirror, scale or tilt the coordinate system (7, 8, 10, 11/26, 19, 247),
 //! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
@@ -111,14 +111,16 @@ impl Interpreter {
     /// pilot p. 13: "DEP blocks set the radius compensation to 0"): the
     /// control moves from where the tool is through an auxiliary point it
     /// computes from the block and from the first (last) contour element.
-    /// `APPR LT|LN` and `DEP LT|LN` are followed ([`super::approach`]):
-    /// the `APPR` is a move to its first contour point PA whose path the
-    /// element after it completes, the `DEP` one `LEN` on along the
-    /// element before (LT) or square to it on the tool's side (LN, under
-    /// RL/RR only: with R0 there is no side). Under RL/RR this is the programmed contour's path,
-    /// as for every other element: the control offsets the corrected
-    /// contour by the tool radius, which fivecal does not model. The
-    /// others are kept, with the reason.
+    /// `APPR LT|LN|CT` and `DEP LT|LN|CT` are followed
+    /// ([`super::approach`]): the `APPR` is a move to its first contour
+    /// point PA whose path the element after it completes, the `DEP` one
+    /// `LEN` on along the element before (LT), square to it on the tool's
+    /// side (LN), or round the arc tangent to it (CT; its move is that
+    /// arc). LN and CT need RL/RR, which gives the side and the turning
+    /// direction: with R0 there is none. Under RL/RR this is the
+    /// programmed contour's path, as for every other element: the control
+    /// offsets the corrected contour by the tool radius, which fivecal
+    /// does not model. The others are kept, with the reason.
     fn hh_appr_dep(
         &mut self,
         block: &Block,
@@ -139,49 +141,107 @@ impl Interpreter {
             })
             .unwrap_or_default();
         let side_before = self.radius_comp;
-        let (mut mv, skip) = self.hh_move(block, seg, MoveKind::Linear);
+        let (mut mv, mut skip) = self.hh_move(block, seg, MoveKind::Linear);
+        // APPR PLT, PLN, PCT: the first contour point in polar coordinates
+        // around the pole CC, read as an LP's end point (TNC7 user's
+        // manual 81762x-16, "Approach functions APPR LT and APPR PLT",
+        // "... APPR LN and APPR PLN", "... APPR CT and APPR PCT": the same
+        // path with a pole defined first), so that it is corrected in its
+        // own polar words as an LP is.
+        let polar = !dep && matches!(path.as_str(), "PLT" | "PLN" | "PCT");
+        let mut polar_why = Ok(());
+        if polar {
+            let (radius, angle, _) = read_polar(block, seg, &mut skip);
+            let (_, end) = polar_end(self.pole, &mv.start, radius, angle, false);
+            polar_why = if mv.words[0].is_some() || mv.words[1].is_some() {
+                Err(
+                    "X or Y in a polar approach (its first contour point is given by PR and PA around the pole CC)",
+                )
+            } else if self.pole.is_none() {
+                Err("a polar approach without a known pole (CC)")
+            } else {
+                Ok(())
+            };
+            mv.end[0] = end[0];
+            mv.end[1] = end[1];
+            mv.polar = Some(super::Polar {
+                radius: radius.map(|x| (x.0, x.2)),
+                angle: angle.map(|x| (x.0, x.2)),
+            });
+        }
         // The side an LN's point lies on: the contour's before a DEP, the
         // one the APPR sets for the contour after it.
         let side = if dep { side_before } else { self.radius_comp };
         if dep {
             self.radius_comp = None;
         }
-        let mut len = None;
+        let (mut len, mut radius, mut cca) = (None, None, None);
+        let mm = self.units.mm();
         for (_, w) in block.words(seg) {
-            if w.addr == Addr::new("LEN") {
-                len = Some(match w.value {
-                    Value::Num(v)
-                        if v.is_finite()
-                            && v > 0.0
-                            && v * self.units.mm() <= crate::limits::MAX_NC_VALUE =>
-                    {
-                        Ok(v)
-                    }
-                    _ => Err(()),
-                });
-            }
+            let slot = if w.addr == Addr::new("LEN") {
+                &mut len
+            } else if w.addr == Addr::letter(b'R') {
+                &mut radius
+            } else if w.addr == Addr::new("CCA") {
+                &mut cca
+            } else {
+                continue;
+            };
+            // An incremental centre angle (ICCA): the manuals read give
+            // the entry but not what it counts from.
+            let inc_cca = w.incremental && w.addr == Addr::new("CCA");
+            *slot = Some(match w.value {
+                Value::Num(v)
+                    if !inc_cca && v.is_finite() && v.abs() * mm <= crate::limits::MAX_NC_VALUE =>
+                {
+                    Ok(v)
+                }
+                _ => Err(()),
+            });
         }
         let plane_word = |i: usize| mv.words[i].is_some();
-        let why = match path.as_str() {
+        let path = if polar { &path[1..] } else { path.as_str() };
+        let why = match path {
             "LT" => Ok(Leg::Tangent),
             "LN" => side.map(Leg::Normal).ok_or(
                 "a perpendicular approach or departure (LN) without radius compensation: the control puts its auxiliary or end point on the side of the contour RL/RR picks (TNC 640 user's manual, TNC7 basic user's manual 81762x-18), and with R0 none is picked; the manuals read do not say what the control does then",
             ),
-            "PLN" => Err("a first contour point in polar coordinates (APPR PLN)"),
-            "CT" | "LCT" | "PCT" | "PLCT" => Err(
-                "a circular approach or departure (CT, LCT): fivecal does not follow its arc yet (it turns the way RL/RR and the sign of R say, TNC7 user's manual 81762x-16; with R0 the TNC7 stops with an error message)",
+            "CT" => match (side, radius, cca) {
+                (None, ..) if dep => Err(
+                    "a circular departure (DEP CT) after a contour without radius compensation: the arc turns the way RL/RR and the sign of R say (TNC7 basic user's manual 81762x-18, \"Departure function DEP CT\"), and with R0 there is no RL/RR; the manuals read do not say what the control does then",
+                ),
+                (None, ..) => Err(
+                    "a circular approach (APPR CT) with R0: the TNC7 stops with an error message (TNC7 user's manual 81762x-16, \"Approach functions APPR CT and APPR PCT\")",
+                ),
+                (Some(side), Some(Ok(r)), Some(Ok(a)))
+                    if r != 0.0 && a > 0.0 && a <= 360.0 && r.abs() * mm * a.to_radians() >= 1e-3 =>
+                {
+                    Ok(Leg::Arc {
+                        radius: r.abs(),
+                        cca: a,
+                        cw: super::approach::clockwise(side, r),
+                    })
+                }
+                _ => Err(
+                    "its R or CCA is not a number, or is an incremental ICCA (the manuals read do not say what it counts from), or gives no arc (R not zero, CCA above 0 and at most 360 deg, TNC7 user's manual 81762x-16)",
+                ),
+            },
+            "LCT" | "PLCT" => Err(
+                "an approach or departure on a line and a tangential arc (LCT): the TNC7 manuals (user's manual 81762x-16, basic user's manual 81762x-18, \"APPR LCT\", \"DEP LCT\") fix the arc by its radius R and its tangency to the contour and to the line, but not which way it turns, and an arc on either side of the contour element fits; fivecal does not guess",
             ),
-            "PLT" => Err("a first contour point in polar coordinates (APPR PLT)"),
-            _ => Err("no path type fivecal knows (LT, LN, CT, LCT)"),
+            _ => Err("no path type fivecal knows (LT, LN, CT, LCT, PLT, PLN, PCT, PLCT)"),
         };
         let why = why.and_then(|leg| {
-            if self.plane != ArcPlane::Xy {
+            let len_ok = matches!(len, Some(Ok(v)) if v > 0.0);
+            if let Err(why) = polar_why {
+                Err(why)
+            } else if self.plane != ArcPlane::Xy {
                 Err("a working plane other than XY")
-            } else if !matches!(len, Some(Ok(_))) {
+            } else if !matches!(leg, Leg::Arc { .. }) && !len_ok {
                 Err("its LEN is not a positive number")
             } else if dep && (plane_word(0) || plane_word(1)) {
                 Err(
-                    "X or Y in a DEP LT or LN (its end point is LEN from the last contour point, along the last contour element or square to it)",
+                    "X or Y in a DEP LT, LN or CT (its end point follows from the last contour point and the last contour element)",
                 )
             } else if !super::approach::flat(&mv.start, &mv.end, self.units.mm()) {
                 Err(
@@ -191,18 +251,33 @@ impl Interpreter {
                 Ok(leg)
             }
         });
-        let len = match len {
-            Some(Ok(v)) => v,
+        let len = match (why, len) {
+            (Ok(Leg::Arc { .. }), _) => 0.0,
+            (_, Some(Ok(v))) => v,
             _ => 0.0,
         };
-        // Where the tool ends: a DEP LT or LN LEN from the last contour
-        // point, the others as their words say (a DEP LT, LN or CT names
-        // no end point in the plane).
+        // Where the tool ends: a DEP LT, LN or CT where its leg from the
+        // last contour point ends, the others as their words say (a DEP
+        // LT, LN or CT names no end point in the plane).
         let pe = [mv.start[0], mv.start[1]];
         if dep {
             let end = match (why, pe, tangent) {
                 (Ok(leg), [Some(x), Some(y)], Some(t)) => {
                     let p = super::approach::departure_end([x, y], t, len, leg);
+                    // A DEP CT's move is its arc, which the simulator
+                    // runs and the compensator checks as such.
+                    if let (Some(center), Leg::Arc { cw, .. }) =
+                        (super::approach::arc_center([x, y], t, leg), leg)
+                    {
+                        mv.kind = MoveKind::Arc(Arc {
+                            plane: ArcPlane::Xy,
+                            cw,
+                            center,
+                            turns: 0,
+                            center_words: [None; 3],
+                            radius_word: None,
+                        });
+                    }
                     [Some(p[0]), Some(p[1])]
                 }
                 _ => [None, None],
@@ -265,7 +340,7 @@ impl Interpreter {
         Event::Move(mv)
     }
 
-    /// The statement after an `APPR LT`/`LN`: the first contour element, whose
+    /// The statement after an `APPR LT`/`LN`/`CT`: the first contour element, whose
     /// direction at its start places the auxiliary point; a statement
     /// that moves nothing and sets no element (a pole, M functions) keeps
     /// it waiting. Anything else leaves the approach's path unknown, which
@@ -291,16 +366,21 @@ impl Interpreter {
         let path = if !starts_at_pa {
             Err("the first contour element does not start at its end point")
         } else {
-            super::approach::start_direction(&mv, self.units.mm()).map(|d| {
-                let ph = super::approach::approach_aux(&a.at, d, a.len, a.leg);
-                [a.from, ph, a.at]
-            })
+            super::approach::start_direction(&mv, self.units.mm())
         };
+        let arc = path
+            .ok()
+            .and_then(|d| super::approach::arc_center([a.at[0], a.at[1]], d, a.leg));
+        let path = path.map(|d| {
+            let ph = super::approach::approach_aux(&a.at, d, a.len, a.leg);
+            [a.from, ph, a.at]
+        });
         mv.approach = Some(super::approach::Approach {
             line: a.line,
             len: a.len,
             leg: a.leg,
             path,
+            arc,
         });
         Event::Move(mv)
     }
@@ -929,62 +1009,9 @@ impl Interpreter {
                 MoveKind::Linear
             },
         );
-        let mut radius: Option<(usize, f64, bool)> = None;
-        let mut angle: Option<(usize, f64, bool)> = None;
-        let mut cw = None;
-        for (ti, w) in block.words(seg) {
-            let slot = if w.addr == Addr::new("PR") {
-                &mut radius
-            } else if w.addr == Addr::new("PA") {
-                &mut angle
-            } else {
-                if w.addr == Addr::new("DR") {
-                    cw = Some(
-                        block.bytes(w.value_span).is_empty()
-                            && block.text[w.value_span.start as usize - 1] == b'-',
-                    );
-                }
-                continue;
-            };
-            match w.value {
-                Value::Num(v) if v.is_finite() && v.abs() <= crate::limits::MAX_NC_VALUE => {
-                    *slot = Some((ti, v, w.incremental));
-                }
-                Value::Num(_) => {
-                    skip.get_or_insert(Skip::OutOfRange(b'P'));
-                }
-                _ => {
-                    skip.get_or_insert(Skip::Expression);
-                }
-            }
-        }
-        // Where the tool is, in polar coordinates around the pole.
+        let (radius, angle, cw) = read_polar(block, seg, &mut skip);
         let pole = self.pole;
-        let here = match (pole, mv.start[0], mv.start[1]) {
-            (Some(p), Some(x), Some(y)) => Some((
-                (x - p[0]).hypot(y - p[1]),
-                (y - p[1]).atan2(x - p[0]).to_degrees(),
-            )),
-            _ => None,
-        };
-        let r = match radius {
-            _ if circle => here.map(|h| h.0),
-            Some((_, v, false)) => Some(v),
-            Some((_, v, true)) => here.map(|h| h.0 + v),
-            None => here.map(|h| h.0),
-        };
-        let a = match angle {
-            Some((_, v, false)) => Some(v),
-            Some((_, v, true)) => here.map(|h| h.1 + v),
-            None => here.map(|h| h.1),
-        };
-        let end = match (pole, r, a) {
-            (Some(p), Some(r), Some(a)) => {
-                let (s, c) = a.to_radians().sin_cos();
-                [Some(p[0] + r * c), Some(p[1] + r * s)]
-            }
-            _ => [None, None],
-        };
+        let (here, end) = polar_end(pole, &mv.start, radius, angle, circle);
         let cartesian = mv.words[0].is_some() || mv.words[1].is_some();
         mv.end[0] = end[0];
         mv.end[1] = end[1];
@@ -1195,7 +1222,7 @@ pub(super) struct PendingCorner {
     geo: Result<(super::corner::CornerKind, [f64; 6], [f64; 6]), &'static str>,
 }
 
-/// An `APPR LT`/`LN` waiting for the first contour element: its line, where it
+/// An `APPR LT`/`LN`/`CT` waiting for the first contour element: its line, where it
 /// starts (PS) and its first contour point (PA; program coordinates,
 /// absolute, NaN on an axis the machine does not have), its `LEN` and which of the two.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1205,6 +1232,90 @@ pub(super) struct PendingApproach {
     at: [f64; 6],
     len: f64,
     leg: Leg,
+}
+
+/// A polar word: its token, value, and whether it is incremental.
+type PolarWord = Option<(usize, f64, bool)>;
+
+/// The polar words of a block (`PR`/`IPR`, `PA`/`IPA`) and the turning
+/// direction `DR` (clockwise for `DR-`), recording in `skip` why a value
+/// is not known.
+fn read_polar(
+    block: &Block,
+    seg: &Segment,
+    skip: &mut Option<Skip>,
+) -> (PolarWord, PolarWord, Option<bool>) {
+    let mut radius: PolarWord = None;
+    let mut angle: PolarWord = None;
+    let mut cw = None;
+    for (ti, w) in block.words(seg) {
+        let slot = if w.addr == Addr::new("PR") {
+            &mut radius
+        } else if w.addr == Addr::new("PA") {
+            &mut angle
+        } else {
+            if w.addr == Addr::new("DR") {
+                cw = Some(
+                    block.bytes(w.value_span).is_empty()
+                        && block.text[w.value_span.start as usize - 1] == b'-',
+                );
+            }
+            continue;
+        };
+        match w.value {
+            Value::Num(v) if v.is_finite() && v.abs() <= crate::limits::MAX_NC_VALUE => {
+                *slot = Some((ti, v, w.incremental));
+            }
+            Value::Num(_) => {
+                skip.get_or_insert(Skip::OutOfRange(b'P'));
+            }
+            _ => {
+                skip.get_or_insert(Skip::Expression);
+            }
+        }
+    }
+    (radius, angle, cw)
+}
+
+/// Where the tool is in polar coordinates around `pole` (radius, angle
+/// in degrees), from `start`, and the end point (XY) the polar words
+/// `radius` and `angle` name from there: an incremental word counts from
+/// where the tool is, a missing one keeps its value (a `CP`, `circle`,
+/// always keeps the radius).
+#[allow(clippy::type_complexity)]
+fn polar_end(
+    pole: Option<[f64; 2]>,
+    start: &[Option<f64>; 6],
+    radius: PolarWord,
+    angle: PolarWord,
+    circle: bool,
+) -> (Option<(f64, f64)>, [Option<f64>; 2]) {
+    let here = match (pole, start[0], start[1]) {
+        (Some(p), Some(x), Some(y)) => Some((
+            (x - p[0]).hypot(y - p[1]),
+            (y - p[1]).atan2(x - p[0]).to_degrees(),
+        )),
+        _ => None,
+    };
+    let r = match radius {
+        _ if circle => here.map(|h| h.0),
+        Some((_, v, false)) => Some(v),
+        Some((_, v, true)) => here.map(|h| h.0 + v),
+        None => here.map(|h| h.0),
+    };
+    let a = match angle {
+        Some((_, v, false)) => Some(v),
+        Some((_, v, true)) => here.map(|h| h.1 + v),
+        None => here.map(|h| h.1),
+    };
+    let end = match (pole, r, a) {
+        (Some(p), Some(r), Some(a)) => {
+            let (s, c) = a.to_radians().sin_cos();
+            [Some(p[0] + r * c), Some(p[1] + r * s)]
+        }
+        _ => [None, None],
+    };
+    (here, end)
 }
 
 /// Where a move starts and ends in the XY plane, or which axis is not
