@@ -1277,19 +1277,21 @@ fn read_polar(
     (radius, angle, cw)
 }
 
-/// Where the tool is in polar coordinates around `pole` (radius, angle
-/// in degrees), from `start`, and the end point (XY) the polar words
-/// `radius` and `angle` name from there: an incremental word counts from
-/// where the tool is, a missing one keeps its value (a `CP`, `circle`,
-/// always keeps the radius).
-#[allow(clippy::type_complexity)]
+/// Where the tool is in polar coordinates around the pole (radius, angle
+/// in degrees), when it is known.
+type PolarHere = Option<(f64, f64)>;
+
+/// Where the tool is in polar coordinates around `pole`, from `start`,
+/// and the end point (XY) the polar words `radius` and `angle` name from
+/// there: an incremental word counts from where the tool is, a missing
+/// one keeps its value (a `CP`, `circle`, always keeps the radius).
 fn polar_end(
     pole: Option<[f64; 2]>,
     start: &[Option<f64>; 6],
     radius: PolarWord,
     angle: PolarWord,
     circle: bool,
-) -> (Option<(f64, f64)>, [Option<f64>; 2]) {
+) -> (PolarHere, [Option<f64>; 2]) {
     let here = match (pole, start[0], start[1]) {
         (Some(p), Some(x), Some(y)) => Some((
             (x - p[0]).hypot(y - p[1]),
