@@ -424,6 +424,49 @@ fn sphere_method_on_head_table_does_not_hang_on_round_off() {
     }
 }
 
+/// Under tool-centre-point control, a line after a move left as written
+/// (an unknown G code, an `APPR LN` with R0) starts where that move
+/// leaves the tool, off its intended start: the pieces that follow a line
+/// cannot start anywhere else, and the whole file was refused with "the
+/// move cannot be followed within --tolerance 1 um even in 65536 pieces"
+/// at the line after. Now the line's end point is corrected, the line is
+/// reported with that reason, and every written point reaches its
+/// intended one on the machine with the errors.
+#[test]
+fn a_line_after_a_move_left_as_written_under_tcp_is_reported_not_fatal() {
+    use crate::compensate::{assert_reaches, compensate, errors};
+    use fivecal::compensate::Settings;
+    use fivecal::machine::Dialect;
+    let l = errors("ac-trunnion", 104, 30.0, "");
+    let fanuc = "%\nO1000\nG90 G21 G17 G94 G54\nG43.4 H1\nG0 X40. Y-10. Z2. A-20. C30.\nG1 Z-1. F300\nG1 X20. Y0. G777\nG1 X35. Y15.\nG0 Z50.\nG49\nM30\n%\n";
+    let heidenhain = "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z S4000\n2 FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS\n3 L X+40 Y-10 Z+2 A-20 C+30 R0 FMAX\n4 L Z-1 F300\n5 APPR LN X+20 Y+0 LEN10 R0\n6 L X+35 Y+15\n7 L Z+50 R0 FMAX\n8 END PGM T MM\n";
+    for (d, program, left, after) in [
+        (Dialect::Fanuc, fanuc, 7, 8),
+        (Dialect::Heidenhain, heidenhain, 6, 7),
+    ] {
+        let (out, s, vs) = compensate(&l, Settings::new(d), program);
+        let lines = |what: &str| -> Vec<usize> {
+            s.skipped
+                .iter()
+                .filter(|(w, _)| w.contains(what))
+                .flat_map(|(_, at)| at.first.clone())
+                .collect()
+        };
+        assert_eq!(out.lines().nth(left - 1), program.lines().nth(left - 1));
+        assert_eq!(
+            lines("the line starts where the move before it"),
+            [after],
+            "{d:?}: {:?}",
+            s.skipped
+        );
+        assert_ne!(out.lines().nth(after - 1), program.lines().nth(after - 1));
+        assert!(vs.iter().any(|v| v.line == after), "{d:?}");
+        for v in &vs {
+            assert_reaches(&l, v, &format!("{d:?}"));
+        }
+    }
+}
+
 /// `analyze contour` with an OBJ whose only triangle has three equal
 /// vertices, or a vertex at infinity: refused with the reason, not a panic
 /// in the nearest-triangle search or `inf` in the report.
@@ -2117,10 +2160,18 @@ fn compensate_g52_g51_and_an_r0_arc_are_handled_at_their_own_lines() {
             .iter()
             .map(|(r, l)| (r.as_str(), l.first.clone()))
             .collect::<Vec<_>>(),
-        [(
-            "not compensated: an arc whose radius does not reach its end point",
-            vec![3]
-        )]
+        [
+            (
+                "not compensated: an arc whose radius does not reach its end point",
+                vec![3]
+            ),
+            // The line after it starts where the arc left as written
+            // leaves the tool: its end is corrected, and it is said.
+            (
+                "the line starts where the move before it, left as written, leaves the tool: off its intended start by more than --tolerance; its end point is corrected, the path to it is not within the tolerance",
+                vec![4]
+            )
+        ]
     );
 }
 

@@ -508,6 +508,13 @@ impl Compensator {
                 if self.short_enough(f, &p0, &w0, &pt) {
                     return Ok(WritePlan::End(pt));
                 }
+                // The move before, left as written, leaves the tool off this
+                // line's intended start: no pieces from there follow the
+                // line, but its corrected end puts the program back on the
+                // intended path (the engine reports the line, OFF_START_LINE).
+                if !self.starts_on(f, &p0, &w0) {
+                    return Ok(WritePlan::End(pt));
+                }
                 let path = Path::Line { p0, p1 };
                 let pieces = self.pieces(f, &path, &w0, &pt, 1, vector, ramp, line)?;
                 for (_, p) in &pieces[..pieces.len() - 1] {
@@ -538,7 +545,7 @@ impl Compensator {
     /// Whether the written start `w0` puts the tip on the intended start
     /// `p0` within the tolerance: not so after a move left as written,
     /// whose end the errors move.
-    fn starts_on(&self, f: &Frame, p0: &[f64; 6], w0: &[f64; 6]) -> bool {
+    pub(super) fn starts_on(&self, f: &Frame, p0: &[f64; 6], w0: &[f64; 6]) -> bool {
         let target = self.target(f, &f.model(p0), None);
         (self.actual(f, &f.model(w0)).tip - target.tip).norm() <= self.settings.tolerance
     }
@@ -987,6 +994,11 @@ impl Compensator {
 /// intended start: no arc or lines from there follow the intended path
 /// within the tolerance.
 const OFF_START: &str = "the arc starts where the move before it, left as written, leaves the tool: off its intended start by more than --tolerance, so neither an arc nor lines from there follow it";
+
+/// A line after a move left as written: its end point is corrected (the
+/// program is back on the intended path there), the stretch from where the
+/// move before leaves the tool is not.
+pub(super) const OFF_START_LINE: &str = "the line starts where the move before it, left as written, leaves the tool: off its intended start by more than --tolerance; its end point is corrected, the path to it is not within the tolerance";
 
 /// Size of a correction: X, Y, Z (um, length of the vector) and the
 /// change of tool orientation the rotary corrections make (urad; a C

@@ -357,6 +357,9 @@ struct Pass<'a> {
     uncorrected: IndexMap<String, Lines>,
     /// The last written end point had C held (the next move ramps C).
     last_held: bool,
+    /// The last move was left as written: the next line may start off
+    /// its intended start.
+    after_left: bool,
     /// From the first block with macro logic on: the rest of the program,
     /// read and run first.
     rest: Vec<Block>,
@@ -395,6 +398,7 @@ impl<'a> Pass<'a> {
             unmodelled: IndexMap::new(),
             uncorrected: IndexMap::new(),
             last_held: false,
+            after_left: false,
             rest: Vec::new(),
             last_piece: None,
             last_tangent: None,
@@ -527,6 +531,7 @@ impl<'a> Pass<'a> {
                         let from = writer.emit;
                         match c.plan_departure(&f, &mv, &from, self.last_tangent, len, leg) {
                             Ok(end) => {
+                                self.after_left = false;
                                 // Nothing to write: the control's line from
                                 // the corrected contour is the intended one.
                                 for a in f.axes() {
@@ -534,6 +539,7 @@ impl<'a> Pass<'a> {
                                 }
                             }
                             Err(reason) => {
+                                self.after_left = true;
                                 left.get_or_insert_with(|| reason.clone());
                                 skipped.entry(reason).or_default().push(line);
                                 writer.keep(block, &seg, interp, &before);
@@ -561,6 +567,21 @@ impl<'a> Pass<'a> {
                     };
                     match planned {
                         Ok(plan) => {
+                            // Checked only after a move left as written: a
+                            // forward transform per block otherwise.
+                            let off_start = std::mem::take(&mut self.after_left)
+                                && !appr
+                                && mv.tangential.is_none()
+                                && matches!(mv.kind, interp::MoveKind::Linear)
+                                && f.axes()
+                                    .iter()
+                                    .all(|&a| mv.start[a].is_some() && writer.emit[a].is_some())
+                                && !c.starts_on(&f, &known(&mv.start), &known(&writer.emit));
+                            if off_start {
+                                let why = super::correction::OFF_START_LINE.to_string();
+                                left.get_or_insert_with(|| why.clone());
+                                skipped.entry(why).or_default().push(line);
+                            }
                             for pt in plan_points(&plan) {
                                 record(summary, pt, line);
                             }
@@ -638,6 +659,7 @@ impl<'a> Pass<'a> {
                             self.last_piece = last_piece;
                         }
                         Err(Refusal::Skip(reason)) => {
+                            self.after_left = true;
                             if moves_an_axis(&mv) {
                                 left.get_or_insert_with(|| reason.clone());
                             }
@@ -691,6 +713,7 @@ impl<'a> Pass<'a> {
                     skipped.entry(reason).or_default().push(line);
                 }
                 Event::Skip(s) => {
+                    self.after_left = true;
                     if let Some(at) = self.approach_open.take() {
                         skipped.entry(approach_unchecked()).or_default().push(at);
                     }
@@ -708,6 +731,7 @@ impl<'a> Pass<'a> {
                     *last_held = false;
                 }
                 Event::Quiet => {
+                    self.after_left = true;
                     if let Some(at) = self.approach_open.take() {
                         skipped.entry(approach_unchecked()).or_default().push(at);
                     }
