@@ -467,6 +467,34 @@ fn a_line_after_a_move_left_as_written_under_tcp_is_reported_not_fatal() {
     }
 }
 
+/// A HEIDENHAIN program that turns A and C before `FUNCTION TCPM ... AXIS
+/// POS` (or `M128`) and then moves X, Y and Z only: switching TCPM forgot
+/// the rotary positions, and every move after it was left as written
+/// ("the position of A is not known"). Switching turns no axis; under
+/// AXIS POS and M128 the rotary words stay machine positions, as under
+/// G43.4, so the moves are corrected and reach their intended points.
+#[test]
+fn heidenhain_rotary_positions_set_before_tcpm_stay_known_under_it() {
+    use crate::compensate::{assert_reaches, compensate_checked, errors};
+    use fivecal::compensate::Settings;
+    use fivecal::machine::Dialect;
+    let l = errors("ac-trunnion", 104, 30.0, "");
+    for on in ["FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS", "M128"] {
+        let program = format!(
+            "0 BEGIN PGM T MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 {on}\n4 L X+40 Y-10 Z+2 R0 FMAX\n5 L Z-1 F300\n6 L X+20 Y+0\n7 L Z+50 R0 FMAX\n8 END PGM T MM\n"
+        );
+        let (_, s, vs) = compensate_checked(&l, Settings::new(Dialect::Heidenhain), &program);
+        // Only the rotary positioning itself, before X, Y and Z are known.
+        assert_eq!(s.skipped.len(), 1, "{on}: {:?}", s.skipped);
+        assert_eq!(s.skipped[0].1.first, [3], "{on}: {:?}", s.skipped);
+        assert_eq!((s.motion_blocks, s.corrected_blocks), (5, 4), "{on}");
+        assert_eq!(vs.iter().filter(|v| v.line >= 5).count(), 4, "{on}");
+        for v in &vs {
+            assert_reaches(&l, v, on);
+        }
+    }
+}
+
 /// `analyze contour` with an OBJ whose only triangle has three equal
 /// vertices, or a vertex at infinity: refused with the reason, not a panic
 /// in the nearest-triangle search or `inf` in the report.

@@ -1237,10 +1237,21 @@ impl Interpreter {
         }
     }
 
+    /// Switches tool-centre-point control. The linear words mean another
+    /// place now and are forgotten; the rotary positions are machine
+    /// positions with TCP on (`M128`, `FUNCTION TCPM .. AXIS POS`, a
+    /// machine file's remapped code) or off, and switching turns no axis,
+    /// so they stay known (as under G43.4). Only spatial angles
+    /// (`AXIS SPAT`) give the rotary words another meaning.
     fn set_tcp(&mut self, t: Tcp) {
         if self.tcp != t {
+            let spatial = self.tcp == Tcp::Spatial || t == Tcp::Spatial;
             self.tcp = t;
+            let kept = [self.pos[3], self.pos[4], self.pos[5]];
             self.forget();
+            if !spatial {
+                self.pos[3..].copy_from_slice(&kept);
+            }
         }
     }
 }
