@@ -269,14 +269,7 @@ impl Interpreter {
                     if let (Some(center), Leg::Arc { cw, .. }) =
                         (super::approach::arc_center([x, y], t, leg), leg)
                     {
-                        mv.kind = MoveKind::Arc(Arc {
-                            plane: ArcPlane::Xy,
-                            cw,
-                            center,
-                            turns: 0,
-                            center_words: [None; 3],
-                            radius_word: None,
-                        });
+                        mv.kind = MoveKind::Arc(xy_arc(center, cw, 0));
                     }
                     [Some(p[0]), Some(p[1])]
                 }
@@ -1066,14 +1059,7 @@ impl Interpreter {
                 0
             };
             let _ = a0;
-            mv.kind = MoveKind::Arc(Arc {
-                plane: ArcPlane::Xy,
-                cw,
-                center: p,
-                turns,
-                center_words: [None; 3],
-                radius_word: None,
-            });
+            mv.kind = MoveKind::Arc(xy_arc(p, cw, turns));
         }
         if let Some(s) = skip.or_else(|| self.frame_skip()) {
             return Event::Skip(s);
@@ -1122,14 +1108,7 @@ impl Interpreter {
             Ok(x) => x,
             Err(why) => return Event::Skip(Skip::Tangential(why)),
         };
-        mv.kind = MoveKind::Arc(Arc {
-            plane: ArcPlane::Xy,
-            cw,
-            center,
-            turns: 0,
-            center_words: [None; 3],
-            radius_word: None,
-        });
+        mv.kind = MoveKind::Arc(xy_arc(center, cw, 0));
         mv.tangential = Some(t);
         if let Some(s) = self.frame_skip() {
             return Event::Skip(s);
@@ -1430,4 +1409,18 @@ pub(super) fn tch_probe_number(text: &[u8]) -> Option<u32> {
         .copied()
         .collect();
     std::str::from_utf8(&digits).ok()?.parse().ok()
+}
+
+/// An arc in the XY plane whose centre the control computes (a pole, a
+/// tangent, an approach's arc), so no centre or radius word of the block
+/// names it.
+fn xy_arc(center: [f64; 2], cw: bool, turns: u32) -> Arc {
+    Arc {
+        plane: ArcPlane::Xy,
+        cw,
+        center,
+        turns,
+        center_words: [None; 3],
+        radius_word: None,
+    }
 }
