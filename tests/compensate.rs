@@ -172,6 +172,16 @@ pub(crate) fn compensate_checked(
     compensate(l, settings, program)
 }
 
+/// The first lines of the moves `s` reports with a reason that contains
+/// `what`, in the order of the reasons.
+pub fn reported(s: &Summary, what: &str) -> Vec<usize> {
+    s.skipped
+        .iter()
+        .filter(|(r, _)| r.contains(what))
+        .flat_map(|(_, l)| l.first.clone())
+        .collect()
+}
+
 pub fn compensate(
     l: &LoadedErrors,
     settings: Settings,
@@ -643,12 +653,7 @@ fn expression_and_variable_blocks_are_left_untouched_and_reported() {
             assert_eq!(x, y, "expression block rewritten");
         }
     }
-    let expr: Vec<usize> = s
-        .skipped
-        .iter()
-        .filter(|(r, _)| r.contains("expressions or variables"))
-        .flat_map(|(_, l)| l.first.clone())
-        .collect();
+    let expr = reported(&s, "expressions or variables");
     assert_eq!(expr, vec![5, 6], "{s:?}");
     // The next block names every axis again and is compensated.
     assert_ne!(a[7], b[7]);

@@ -15,7 +15,7 @@ use fivecal::compensate::{Coordinates, Settings, Summary};
 use fivecal::errorfile::LoadedErrors;
 use fivecal::model::Model;
 
-use crate::compensate::{assert_on_path, check_held, compensate, errors, simulate};
+use crate::compensate::{assert_on_path, check_held, compensate, errors, reported, simulate};
 
 /// The end points of `program` on the nominal machine and of `rewritten`
 /// on the erroneous one, pairwise (the rewrite inserts no block here):
@@ -975,21 +975,7 @@ fn heidenhain_polar_approaches_stay_on_the_intended_path() {
 #[test]
 fn a_circular_approach_and_departure_that_a_scale_error_bends_are_reported() {
     let program = "0 BEGIN PGM BENTCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-40 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+30 RR F600\n6 L X+35 Y+15\n7 L X+35 Y+30\n8 DEP CT CCA90 R+30\n9 L Z+50 R0 FMAX\n10 END PGM BENTCT MM\n";
-    let extra = "effects:\n  linear_scale: {EXX: 300.0, EYY: -200.0}\n";
-    let l = errors("ac-trunnion", 108, 30.0, extra);
-    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
-    let found = |what: &str| {
-        s.skipped
-            .iter()
-            .find(|(w, _)| w.contains(what))
-            .unwrap_or_else(|| panic!("{what}: {:?}\n{out}", s.skipped))
-            .clone()
-    };
-    let (why, lines) = found("approach (APPR CT): the control's path");
-    assert_eq!(lines.first, [6], "{why}");
-    let (why, lines) = found("the DEP CT the control runs");
-    assert_eq!(lines.first, [9], "{why}");
-    assert_eq!(out.lines().nth(8), program.lines().nth(8));
+    bent_by_scale(program, 108, "CT");
 }
 
 /// X and Y scale errors bend an `APPR LN`/`DEP LN` as they bend an `LT`:
@@ -1026,13 +1012,7 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
     let program = "0 BEGIN PGM NOAPPR MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR LT X+20 Y+0 LEN10 RR F600\n6 L X+35 Y+15\n7 DEP LT LEN10\n8 L X+40 Y-10 R0 FMAX\n9 APPR LN X+20 Y+0 LEN10 R0\n10 L X+35 Y+15\n11 DEP CT CCA90 R+5\n12 L X+40 Y-10 R0 FMAX\n13 APPR LCT X+20 Y+0 R5 RR\n14 L X+35 Y+15\n15 DEP LT LEN10\n16 L X+40 Y-10 R0 FMAX\n17 APPR LT X+20 Y+0 Z-3 LEN10 R0\n18 L X+35 Y+15\n19 L X+40 Y-10 Z-1 R0 FMAX\n20 APPR LT X+20 Y+0 LEN10 R0\n21 CT X+35 Y+15\n22 L Z+50 R0 FMAX\n23 END PGM NOAPPR MM\n";
     let l = errors("ac-trunnion", 104, 30.0, "");
     let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
-    let lines = |what: &str| -> Vec<usize> {
-        s.skipped
-            .iter()
-            .filter(|(w, _)| w.contains(what))
-            .flat_map(|(_, at)| at.first.clone())
-            .collect()
-    };
+    let lines = |what: &str| reported(&s, what);
     // Under RL/RR an APPR LT and a DEP LT are corrected as the
     // programmed contour, like the elements between them.
     for line in [6, 8] {
@@ -1077,13 +1057,7 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
     // no pole or with X/Y or as LCT.
     let noct = "0 BEGIN PGM NOCT MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR CT X+20 Y+0 CCA90 R+5 R0 F600\n6 L X+35 Y+15\n7 DEP LCT X+50 Y+20 R5\n8 L Z+50 R0 FMAX\n9 L X+40 Y-10 R0 FMAX\n10 APPR PLT PR+20 PA+0 LEN10 RR\n11 L X+35 Y+15\n12 DEP LT LEN10\n13 CC X+0 Y+0\n14 L X+40 Y-10 R0 FMAX\n15 APPR PLN X+20 PR+20 PA+0 LEN10 RR\n16 L X+35 Y+15\n17 DEP LT LEN10\n18 L X+40 Y-10 R0 FMAX\n19 APPR PLCT PR+20 PA+0 R5 RR\n20 L X+35 Y+15\n21 L X+40 Y-10 R0 FMAX\n22 APPR CT X+20 Y+0 ICCA90 R+5 RR\n23 L X+35 Y+15\n24 END PGM NOCT MM\n";
     let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), noct);
-    let lines = |what: &str| -> Vec<usize> {
-        s.skipped
-            .iter()
-            .filter(|(w, _)| w.contains(what))
-            .flat_map(|(_, at)| at.first.clone())
-            .collect()
-    };
+    let lines = |what: &str| reported(&s, what);
     assert_eq!(lines("a circular approach (APPR CT) with R0"), [6]);
     assert_eq!(lines("on a line and a tangential arc (LCT)"), [8, 20]);
     assert_eq!(lines("a polar approach without a known pole (CC)"), [11]);
@@ -1108,6 +1082,31 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
     assert_eq!(at.first, [4]);
 }
 
+/// What the scale-error tests of `APPR`/`DEP` share: `program` (an
+/// approach at line 5 whose first element is line 6, a departure at line
+/// 8) compensated on `ac-trunnion` with error seed `seed` and X and Y
+/// scale errors; the approach is reported at its first element's line and
+/// the departure at its own with how far the path of type `kind` (LT, CT)
+/// strays, and the departure is the program's own text.
+fn bent_by_scale(program: &str, seed: u64, kind: &str) -> (LoadedErrors, String, Summary) {
+    let extra = "effects:\n  linear_scale: {EXX: 300.0, EYY: -200.0}\n";
+    let l = errors("ac-trunnion", seed, 30.0, extra);
+    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
+    let found = |what: &str| {
+        s.skipped
+            .iter()
+            .find(|(w, _)| w.contains(what))
+            .unwrap_or_else(|| panic!("{what}: {:?}\n{out}", s.skipped))
+            .clone()
+    };
+    let (why, lines) = found(&format!("approach (APPR {kind}): the control's path"));
+    assert_eq!(lines.first, [6], "{why}");
+    let (why, lines) = found(&format!("the DEP {kind} the control runs"));
+    assert_eq!(lines.first, [9], "{why}");
+    assert_eq!(out.lines().nth(8), program.lines().nth(8));
+    (l, out, s)
+}
+
 /// X and Y scale errors are no rigid motion: the auxiliary point the
 /// control puts `LEN` back along the corrected first element, and the end
 /// of a `DEP LT` along the corrected last one, are not the intended ones
@@ -1117,25 +1116,16 @@ fn heidenhain_appr_dep_not_corrected_are_reported_with_their_reason() {
 #[test]
 fn an_approach_and_departure_that_a_scale_error_bends_are_reported() {
     let program = "0 BEGIN PGM BENTAPPR MM\n1 TOOL CALL 1 Z S4000\n2 L A-20 C+30 R0 FMAX\n3 L X+40 Y-10 Z+2 R0 FMAX\n4 L Z-1 F300\n5 APPR LT X+20 Y+0 LEN30 R0 F600\n6 L X+35 Y+15\n7 L X+35 Y+30\n8 DEP LT LEN30\n9 L Z+50 R0 FMAX\n10 END PGM BENTAPPR MM\n";
-    let extra = "effects:\n  linear_scale: {EXX: 300.0, EYY: -200.0}\n";
-    let l = errors("ac-trunnion", 105, 30.0, extra);
-    let (out, s, _) = compensate(&l, Settings::new(Dialect::Heidenhain), program);
-    let found = |what: &str| {
-        s.skipped
-            .iter()
-            .find(|(w, _)| w.contains(what))
-            .unwrap_or_else(|| panic!("{what}: {:?}\n{out}", s.skipped))
-            .clone()
-    };
-    let (why, lines) = found("approach (APPR LT): the control's path");
-    assert_eq!(lines.first, [6], "{why}");
-    let (why, lines) = found("the DEP LT the control runs");
-    assert_eq!(lines.first, [9], "{why}");
-    assert_eq!(out.lines().nth(8), program.lines().nth(8));
+    let (l, out, s) = bent_by_scale(program, 105, "LT");
     // The reported deviation is what the simulator finds: the auxiliary
     // point as the control places it on the erroneous machine.
-    let reported: f64 = found("approach (APPR LT): the control's path")
-        .0
+    let why = s
+        .skipped
+        .iter()
+        .find(|(w, _)| w.contains("approach (APPR LT): the control's path"))
+        .map(|(w, _)| w.clone())
+        .unwrap();
+    let reported: f64 = why
         .split("by up to ")
         .nth(1)
         .and_then(|t| t.split(' ').next())

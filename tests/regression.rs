@@ -445,13 +445,7 @@ fn a_line_after_a_move_left_as_written_under_tcp_is_reported_not_fatal() {
         (Dialect::Heidenhain, heidenhain, 6, 7),
     ] {
         let (out, s, vs) = compensate(&l, Settings::new(d), program);
-        let lines = |what: &str| -> Vec<usize> {
-            s.skipped
-                .iter()
-                .filter(|(w, _)| w.contains(what))
-                .flat_map(|(_, at)| at.first.clone())
-                .collect()
-        };
+        let lines = |what: &str| crate::compensate::reported(&s, what);
         assert_eq!(out.lines().nth(left - 1), program.lines().nth(left - 1));
         assert_eq!(
             lines("the line starts where the move before it"),
@@ -2169,12 +2163,7 @@ fn compensate_g52_g51_and_an_r0_arc_are_handled_at_their_own_lines() {
 
     let g51 = "G0 X0. Y0. Z50. B20. C0.\nG51 X0 Y0 P2000\nG1 X20. Y0. Z40. B30. C10. F100.\nG50\nG1 X30. F100.\nM30\n";
     let (out, s, _) = crate::compensate::compensate(&l, settings.clone(), g51);
-    let scaled: Vec<_> = s
-        .skipped
-        .iter()
-        .filter(|(r, _)| r.contains("scaling (G51)"))
-        .flat_map(|(_, l)| l.first.clone())
-        .collect();
+    let scaled = crate::compensate::reported(&s, "scaling (G51)");
     assert_eq!(scaled, [3], "{:?}", s.skipped);
     assert!(
         out.contains("\nG1 X20. Y0. Z40. B30. C10. F100.\n"),

@@ -308,13 +308,7 @@ fn a_cip_leaving_out_k1_in_g90_away_from_z0_is_left_as_written_with_the_reason()
     // does N100 after it. The line after them ends where it should, and
     // is reported: from where N100 leaves the tool to that end, no pieces
     // keep it within the tolerance.
-    let at = |what: &str| -> Vec<usize> {
-        s.skipped
-            .iter()
-            .filter(|(r, _)| r.contains(what))
-            .flat_map(|(_, at)| at.first.clone())
-            .collect()
-    };
+    let at = |what: &str| crate::compensate::reported(&s, what);
     assert_eq!(at("the arc starts where the move before it"), vec![13, 14]);
     assert_eq!(at("the line starts where the move before it"), vec![15]);
     assert_eq!(s.skipped_count(), 4, "{:?}", s.skipped);
