@@ -208,12 +208,27 @@ impl Chain {
         let n = self.factors.len();
         let values: Vec<f64> = self.factors.iter().map(|f| f.value(v)).collect();
         // Rotation of the prefix before each factor (P_{k-1}) and after (P_k).
+        // A factor at zero is the identity and a translation keeps the
+        // rotation, so the product and its matrix change only where they
+        // must (as `eval_prefix` multiplies; the same bits but for the
+        // sign of a zero); each rotation is kept for the pass back.
         let mut pre: Vec<Matrix3<f64>> = Vec::with_capacity(n + 1);
+        let mut turns: Vec<Option<UnitQuaternion<f64>>> = Vec::with_capacity(n);
         let mut acc = Isometry3::identity();
-        pre.push(Matrix3::identity());
+        let mut m = Matrix3::identity();
+        pre.push(m);
         for (f, &x) in self.factors.iter().zip(&values) {
-            acc *= f.iso(x);
-            pre.push(acc.rotation.to_rotation_matrix().into_inner());
+            let mut turn = None;
+            if x != 0.0 {
+                let iso = f.iso(x);
+                acc *= iso;
+                if let ChainOp::R(_) = f.op {
+                    m = acc.rotation.to_rotation_matrix().into_inner();
+                    turn = Some(iso.rotation);
+                }
+            }
+            turns.push(turn);
+            pre.push(m);
         }
         let pose = pose_of(&acc);
         let mut jt = SMatrix::<f64, 3, N_VARS>::zeros();
@@ -243,9 +258,10 @@ impl Chain {
                             ja[(r, i)] += c * da[r];
                         }
                     }
-                    let rot = f.iso(values[k]).rotation;
-                    q = rot * q;
-                    u = rot * u;
+                    if let Some(rot) = turns[k] {
+                        q = rot * q;
+                        u = rot * u;
+                    }
                 }
             }
         }
