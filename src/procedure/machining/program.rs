@@ -5,6 +5,7 @@
 //! point.
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 
 use super::cutter::{Cutter, ToolPart};
 use super::design::{MachiningDesign, PoseDesign};
@@ -165,11 +166,16 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: MachiningDesign) -> Result<Machining
     let ops = toolpath(cfg, &d, safe_z, &poses);
     let run_minutes = estimate_times(m, &mut poses);
 
-    // Provenance of every point, and its place on the piece.
-    let mut points = Vec::new();
-    for pt in &d.points {
-        points.push(provenance(&cutter, &k, &d.poses, &poses, pt, &d)?);
-    }
+    // Provenance of every point, and its place on the piece: each on its
+    // own (what `plan`, and every command that reads a plan, waits for),
+    // the first failing point's error in the points' order.
+    let points = d
+        .points
+        .par_iter()
+        .map(|pt| provenance(&cutter, &k, &d.poses, &poses, pt, &d))
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect::<Result<Vec<_>, _>>()?;
     let piece = piece(&d);
 
     let info = program_info(cfg, &d, safe_z, &safe_why, &poses, run_minutes);
