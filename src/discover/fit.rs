@@ -54,7 +54,7 @@ use faer::Mat;
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
 use super::catalogue::Candidate;
-use crate::identify::forward::{ForwardError, ForwardModel};
+use crate::identify::forward::{ForwardError, ForwardModel, Wanted};
 use crate::identify::global::PLACEMENT_NAMES;
 use crate::identify::global::{Observed, observed};
 use crate::identify::identifiability::{self, Combination, Identifiability};
@@ -431,9 +431,15 @@ impl FitPart<'_> {
             [0.0; 6]
         };
         let nm = theta.len();
+        // Only the columns the fit takes are differentiated: a machining
+        // test's model is the whole catalogue (see `Fitter::own`).
+        let wanted = match &jac {
+            Some((_, cols)) => Wanted::new(fm.model(), |c| cols[c] != UNUSED),
+            None => Wanted::new(fm.model(), |_| false),
+        };
         for (i, row) in self.rows.clone().enumerate() {
             let point = self.data.point(i);
-            let pred = fm.predict(theta, nuisance, point, self.minutes[i])?;
+            let pred = fm.predict_wanted(theta, nuisance, point, self.minutes[i], &wanted)?;
             let fr = face_residual(&rho, &pred.point, &pred.normal, &self.u[i]);
             r[row] = fr.r;
             if let Some((j, cols)) = jac.as_mut() {

@@ -83,6 +83,44 @@ pub trait ForwardModel: Sync {
         point: &PlanPoint,
         minutes: f64,
     ) -> Result<Prediction, ForwardError>;
+    /// [`ForwardModel::predict`] for a caller that uses the derivatives
+    /// with respect to `wanted`'s parameters only: the other columns of
+    /// `d_point` and `d_normal` may be left zero. A fit of a few effects
+    /// with a model that carries a whole catalogue (a machining test, whose
+    /// cuts are built with every effect's breaks) then pays for its own
+    /// columns. The wanted columns are those of `predict`, to the bit.
+    fn predict_wanted(
+        &self,
+        theta: &[f64],
+        nuisance: &[f64],
+        point: &PlanPoint,
+        minutes: f64,
+        wanted: &Wanted,
+    ) -> Result<Prediction, ForwardError> {
+        let _ = wanted;
+        self.predict(theta, nuisance, point, minutes)
+    }
+}
+
+/// The parameters of a model whose derivatives a caller uses
+/// ([`ForwardModel::predict_wanted`]), by column and by effect.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Wanted {
+    /// The wanted parameters' columns, increasing.
+    pub columns: Vec<usize>,
+    /// Per effect of the model, whether any of its parameters is wanted.
+    pub effects: Vec<bool>,
+}
+
+impl Wanted {
+    /// The parameters of `model` for which `used` holds.
+    pub fn new(model: &Model, used: impl Fn(usize) -> bool) -> Wanted {
+        let columns: Vec<usize> = (0..model.n_params()).filter(|&c| used(c)).collect();
+        let effects = (0..model.effects.len())
+            .map(|e| model.param_range(e).any(&used))
+            .collect();
+        Wanted { columns, effects }
+    }
 }
 
 fn check_rigid(model: &Model) -> Result<(), ForwardError> {

@@ -133,6 +133,11 @@ impl Model {
         let mut p = Perturbation::zero();
         for (i, e) in self.effects.iter().enumerate() {
             let o = self.offsets[i];
+            // An effect at zero adds nothing (a catalogue model fitted a
+            // few effects at a time is mostly such effects).
+            if theta[o..self.offsets[i + 1]].iter().all(|&t| t == 0.0) {
+                continue;
+            }
             e.coefficients(&self.symbols, ctx, &mut |slot, k, c| {
                 p.0[slot] += c * theta[o + k]
             });
@@ -152,12 +157,28 @@ impl Model {
         theta: &[f64],
         ctx: &Context,
     ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
+        self.pose_jacobian_of(theta, ctx, None)
+    }
+
+    /// [`Model::pose_jacobian`] with the derivatives of the effects
+    /// `effects` marks only (`None`: all); the other columns are zero. Each
+    /// column is computed on its own, so a marked one is the same to the
+    /// bit either way.
+    pub fn pose_jacobian_of(
+        &self,
+        theta: &[f64],
+        ctx: &Context,
+        effects: Option<&[bool]>,
+    ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
         let p = self.perturbation(theta, ctx);
         let j = self.kin.jacobian(&ctx.axes, &p);
         let n = self.n_params();
         let mut jt = DMatrix::zeros(3, n);
         let mut ja = DMatrix::zeros(3, n);
         for (i, e) in self.effects.iter().enumerate() {
+            if effects.is_some_and(|m| !m[i]) {
+                continue;
+            }
             let o = self.offsets[i];
             e.coefficients(&self.symbols, ctx, &mut |slot, p, c| {
                 for r in 0..3 {

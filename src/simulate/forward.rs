@@ -68,7 +68,7 @@ use super::cutting::{Cutting, actual_cutter};
 use super::machining::LINE_DEPTH;
 use super::probing::Probing;
 use crate::formats::points::PlanPoint;
-use crate::identify::forward::{ForwardError, ForwardModel, Prediction, SETUP_NAMES};
+use crate::identify::forward::{ForwardError, ForwardModel, Prediction, SETUP_NAMES, Wanted};
 use crate::identify::rigid::d6_apply;
 use crate::kinematics::Kinematics;
 use crate::model::Model;
@@ -124,6 +124,8 @@ pub struct MachiningForward {
     radius_grad: Vec<f64>,
     /// Per plan point, the moves that may leave its surface.
     candidates: Vec<Vec<Candidate>>,
+    /// Every parameter (what `predict` differentiates).
+    all: Wanted,
 }
 
 /// A move that may leave a point's surface: the point's generators, and
@@ -209,11 +211,13 @@ impl MachiningForward {
             .iter()
             .map(|pp| candidates_of(&cut, pp))
             .collect();
+        let all = Wanted::new(&cut.model, |_| true);
         Ok(MachiningForward {
             cut,
             index,
             radius_grad,
             candidates,
+            all,
         })
     }
 
@@ -239,6 +243,7 @@ impl MachiningForward {
         pp: &PlannedPoint,
         g: &Candidate,
         offset: f64,
+        wanted: &Wanted,
     ) -> Result<Option<Local>, ForwardError> {
         let cut = &self.cut;
         let model = &cut.model;
@@ -246,7 +251,8 @@ impl MachiningForward {
         let pose = pp.provenance.pose;
         let mv = g.mv;
         // The tool at the generating instant.
-        let (pj, jt, ja) = model.pose_jacobian(theta, &cut.context(pose, mv, g.t, offset));
+        let of = Some(wanted.effects.as_slice());
+        let (pj, jt, ja) = model.pose_jacobian_of(theta, &cut.context(pose, mv, g.t, offset), of);
         // The actual path direction: a chord about the instant within the
         // affine piece (exact on a straight piece, second-order on a bent one).
         let (lo, hi) = cut.piece(pose, mv, g.t);
@@ -260,8 +266,8 @@ impl MachiningForward {
                 mv + 1
             )));
         }
-        let (p1, j1, _) = model.pose_jacobian(theta, &cut.context(pose, mv, t1, offset));
-        let (p2, j2, _) = model.pose_jacobian(theta, &cut.context(pose, mv, t2, offset));
+        let (p1, j1, _) = model.pose_jacobian_of(theta, &cut.context(pose, mv, t1, offset), of);
+        let (p2, j2, _) = model.pose_jacobian_of(theta, &cut.context(pose, mv, t2, offset), of);
         let dr = cut.radius_error(theta);
         let nominal = &cut.plan.cutter;
         let at = Instant {
@@ -270,6 +276,7 @@ impl MachiningForward {
             n: pp.point.n,
             g,
             np: model.n_params(),
+            cols: &wanted.columns,
             tip: pj.pose.tip,
             u: pj.pose.axis,
             v: (p2.pose.tip - p1.pose.tip) / (t2 - t1),
@@ -301,8 +308,10 @@ struct Instant<'a> {
     p: Vector3<f64>,
     n: Vector3<f64>,
     g: &'a Candidate,
-    /// Number of parameters.
+    /// Number of parameters, and those whose derivatives are wanted (the
+    /// other columns stay zero).
     np: usize,
+    cols: &'a [usize],
     /// Tool tip and axis, and their Jacobians.
     tip: Vector3<f64>,
     u: Vector3<f64>,
@@ -325,7 +334,7 @@ impl Instant<'_> {
     /// The Jacobian of a normal turned with the tool axis.
     fn rot_normal(&self, normal: &Vector3<f64>) -> DMatrix<f64> {
         let mut d = DMatrix::zeros(3, self.np);
-        for j in 0..self.np {
+        for &j in self.cols {
             let w = self.u.cross(&col(&self.ja, j));
             set_col(&mut d, j, &w.cross(normal));
         }
@@ -389,7 +398,7 @@ impl Instant<'_> {
         }
         let mut ds = DVector::zeros(np);
         let mut dm = DMatrix::zeros(3, np);
-        for j in 0..np {
+        for &j in self.cols {
             let dw = (col(ja, j).cross(&v) + u.cross(&col(dv, j))) * sign;
             let dmj = (dw - m * m.dot(&dw)) / wn;
             set_col(&mut dm, j, &dmj);
@@ -487,7 +496,7 @@ impl Instant<'_> {
         }
         let fps = fp(s);
         let mut ds = DVector::zeros(np);
-        for j in 0..np {
+        for &j in self.cols {
             let (dtip, du, dvj) = (col(jt, j), col(ja, j), col(dv, j));
             let dbeta = dvj.dot(&u) + v.dot(&du);
             let dvp = dvj - u * dbeta - du * beta;
@@ -543,7 +552,7 @@ impl Instant<'_> {
         let wp = perp(&w);
         let dgs = 2.0 * wp.dot(&n);
         let mut ds = DVector::zeros(np);
-        for j in 0..np {
+        for &j in self.cols {
             let dc = col(jt, j) + u * ra_grad[j] + col(ja, j) * ra;
             let dvh = (col(dv, j) - vh * vh.dot(&col(dv, j))) / vn;
             let dg = 2.0 * (-wp.dot(&dc) - vh.dot(&w) * wp.dot(&dvh)) - 2.0 * ra * ra_grad[j];
@@ -594,7 +603,7 @@ impl Instant<'_> {
             return self.miss(ForwardError::NoIntersection(label.clone()));
         }
         let mut ds = DVector::zeros(np);
-        for j in 0..np {
+        for &j in self.cols {
             let dtip = col(jt, j) + col(dv, j) * tau;
             let dsd = -gq.dot(&dtip) + gu.dot(&col(ja, j)) + gr * ra_grad[j];
             ds[j] = -dsd / den;
@@ -653,11 +662,22 @@ impl ForwardModel for MachiningForward {
     fn predict(
         &self,
         theta: &[f64],
-        _nuisance: &[f64],
+        nuisance: &[f64],
         point: &PlanPoint,
         minutes: f64,
     ) -> Result<Prediction, ForwardError> {
-        self.surfaces(theta, point, minutes)?
+        self.predict_wanted(theta, nuisance, point, minutes, &self.all)
+    }
+
+    fn predict_wanted(
+        &self,
+        theta: &[f64],
+        _nuisance: &[f64],
+        point: &PlanPoint,
+        minutes: f64,
+        wanted: &Wanted,
+    ) -> Result<Prediction, ForwardError> {
+        self.surfaces_wanted(theta, point, minutes, wanted)?
             .into_iter()
             .map(|(_, p)| p)
             .min_by(|a, b| a.offset.total_cmp(&b.offset))
@@ -690,6 +710,18 @@ impl MachiningForward {
         point: &PlanPoint,
         minutes: f64,
     ) -> Result<Vec<(usize, MoveSurface)>, ForwardError> {
+        self.surfaces_wanted(theta, point, minutes, &self.all)
+    }
+
+    /// [`MachiningForward::surfaces`] differentiated by `wanted`'s
+    /// parameters only (see [`ForwardModel::predict_wanted`]).
+    fn surfaces_wanted(
+        &self,
+        theta: &[f64],
+        point: &PlanPoint,
+        minutes: f64,
+        wanted: &Wanted,
+    ) -> Result<Vec<(usize, MoveSurface)>, ForwardError> {
         let i = *self.index.get(&point.label).ok_or_else(|| {
             ForwardError::Other(format!("`{}` is not a point of the plan", point.label))
         })?;
@@ -698,12 +730,12 @@ impl MachiningForward {
         let n = pp.point.n;
         let mut out = Vec::new();
         for g in &self.candidates[i] {
-            let Some(l) = self.local(theta, pp, g, offset)? else {
+            let Some(l) = self.local(theta, pp, g, offset, wanted)? else {
                 continue;
             };
             let np = l.ds.len();
             let mut d_point = DMatrix::zeros(3, np);
-            for j in 0..np {
+            for &j in &wanted.columns {
                 set_col(&mut d_point, j, &(n * l.ds[j]));
             }
             out.push((
