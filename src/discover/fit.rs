@@ -933,28 +933,42 @@ impl<'a> Fitter<'a> {
     /// nothing: the fit would stop far from the minimum.
     pub fn fit(&self, spec: &Spec, start: Option<Vec<f64>>) -> Result<Fit, FitError> {
         let (d, basis, _) = self.design(spec);
-        self.fit_designed(spec, d, &basis, start)
+        self.fit_designed(spec, d, &basis, start, None)
     }
 
     /// [`Fitter::fit`] with `spec`'s design at the nominal machine and its
     /// constraint basis as [`Fitter::design`] made them: a candidate is
     /// fitted with the design its identifiability was judged on, not one
     /// made again (for a map over C, the design costs what its fit does).
+    ///
+    /// `from`: the round whose base `start` is (`spec` that base with
+    /// effects at zero appended), when the fit starts there: its
+    /// linearization is then the fit's first evaluation (the same numbers,
+    /// where every part is machined and so evaluated with the catalogue's
+    /// model either way).
     pub(crate) fn fit_designed(
         &self,
         spec: &Spec,
         d: Design,
         basis: &DMatrix<f64>,
         start: Option<Vec<f64>>,
+        from: Option<&Screen>,
     ) -> Result<Fit, FitError> {
         let p = spec.model.n_params() + self.extra();
         let x0 = start.unwrap_or_else(|| vec![0.0; p]);
         let own = self.own(spec)?;
+        let first = from
+            .filter(|_| own.iter().all(|o| o.fm.is_none()))
+            .map(|screen| {
+                let cols = self.columns(spec);
+                let j = DMatrix::from_fn(self.len(), cols.len(), |r, c| screen.lin.j[(r, cols[c])]);
+                (x0.clone(), screen.lin.r.clone(), j)
+            });
         let problem = SpecProblem {
             fitter: self,
             spec,
             own: &own,
-            last: RefCell::new(None),
+            last: RefCell::new(first),
         };
         // The start must evaluate: a failure there is the fit's; later, a
         // trial that fails is a step the damping shortens.

@@ -662,7 +662,7 @@ fn try_candidate(
                 fitted: true,
             }
         }
-        Mode::Exact(_, fits) => match exact(fitter, base, &model, fits) {
+        Mode::Exact(_, fits) => match exact(fitter, base, &model, fits, None) {
             Ok(f) => Tried {
                 trial: trial(f.rss, f.rank, &f.residuals),
                 fit: Some(f),
@@ -675,19 +675,27 @@ fn try_candidate(
 }
 
 /// The exact fit of `spec` (`base` with one effect appended), from the
-/// base's estimate with the new effect at zero.
+/// base's estimate with the new effect at zero; `screen`: the round of
+/// `base`, whose linearization is where the fit starts.
 fn exact(
     fitter: &Fitter<'_>,
     base: &Fit,
     model: &Designed,
     fits: Option<&Fits>,
+    screen: Option<&fit::Screen>,
 ) -> Result<Fit, FitError> {
     let fit = || {
         let added = model.spec.model.n_params() - base.n;
         let mut start = base.theta().to_vec();
         start.extend(std::iter::repeat_n(0.0, added));
         start.extend_from_slice(&base.x[base.n..]);
-        fitter.fit_designed(&model.spec, model.design.clone(), &model.basis, Some(start))
+        fitter.fit_designed(
+            &model.spec,
+            model.design.clone(),
+            &model.basis,
+            Some(start),
+            screen,
+        )
     };
     match fits {
         Some(kept) => kept.get_or(base, &model.spec, fit),
@@ -697,11 +705,17 @@ fn exact(
 
 /// A screened candidate fitted exactly: the same identifiability, the fit
 /// and the comparison of the iterated fit.
-fn refit(fitter: &Fitter<'_>, base: &Fit, screened: Tried, fits: &Fits) -> Tried {
+fn refit(
+    fitter: &Fitter<'_>,
+    base: &Fit,
+    screened: Tried,
+    fits: &Fits,
+    screen: &fit::Screen,
+) -> Tried {
     let Some(model) = screened.model else {
         return screened;
     };
-    match exact(fitter, base, &model, Some(fits)) {
+    match exact(fitter, base, &model, Some(fits), Some(screen)) {
         Ok(f) => Tried {
             trial: Trial {
                 gap_after: Some(gap::size(&f.residuals)),
@@ -1179,14 +1193,14 @@ impl<'a, 'p> Search<'a, 'p> {
             })
             .collect();
         let m = tried.iter().filter(|t| t.fitted).count();
-        self.refit_near(current, &mut tried, m);
+        self.refit_near(current, &round.screen, &mut tried, m);
         judge(&mut tried, m, opts.alpha);
         Ok(Roundup { pool, tried, m })
     }
 
     /// The screened candidates near significance fitted exactly, in
     /// parallel.
-    fn refit_near(&self, current: &Fit, tried: &mut [Tried], m: usize) {
+    fn refit_near(&self, current: &Fit, screen: &fit::Screen, tried: &mut [Tried], m: usize) {
         let near: Vec<usize> = (0..tried.len())
             .filter(|&i| {
                 tried[i]
@@ -1207,7 +1221,7 @@ impl<'a, 'p> Search<'a, 'p> {
             .collect();
         let iterated: Vec<(usize, Tried)> = screened
             .into_par_iter()
-            .map(|(i, t)| (i, refit(self.fitter, current, t, &self.fits)))
+            .map(|(i, t)| (i, refit(self.fitter, current, t, &self.fits, screen)))
             .collect();
         for (i, t) in iterated {
             tried[i] = t;
@@ -1591,6 +1605,55 @@ fn story_p(p: f64) -> String {
 mod tests {
     use super::*;
 
+    /// A candidate's exact fit that starts from its round's linearization
+    /// (the screened base's residuals and Jacobian, in place of a first
+    /// evaluation) is the fit started by evaluating, to the bit, on the
+    /// worked example's machined piece. A linearization of another base
+    /// changes the fit, so the one given is the one used.
+    #[test]
+    fn a_fit_started_from_the_rounds_linearization_is_the_fit_made_afresh() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/discover");
+        let inputs = Inputs::load(
+            &dir.join("stepped-square.plan.yaml"),
+            &[dir.join("piece.dmo")],
+            &Default::default(),
+        )
+        .unwrap();
+        let parts = [inputs.part()];
+        let cat = catalogue::catalogue(&parts);
+        let (fitter, _) = Fitter::new(&parts, &cat.candidates).unwrap();
+        let mut notes = Vec::new();
+        let loc = start(&fitter, &inputs.kin, &cat, &["location".into()], &mut notes).unwrap();
+        let cand = cat
+            .candidates
+            .iter()
+            .find(|c| c.name == "tool_radius")
+            .unwrap();
+        let afresh = try_candidate(
+            &fitter,
+            &loc,
+            cand,
+            None,
+            Mode::Exact(&others(&fitter, &loc), None),
+        )
+        .fit
+        .unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let started = |screen: &fit::Screen| {
+            let round = Round::new(&fitter, &loc).unwrap();
+            let screened = try_candidate(&fitter, &loc, cand, Some(0.999), Mode::Screen(&round));
+            refit(&fitter, &loc, screened, &Fits::default(), screen)
+                .fit
+                .unwrap()
+        };
+        let round = Round::new(&fitter, &loc).unwrap();
+        let f = started(&round.screen);
+        assert_eq!(bits(&f.x), bits(&afresh.x));
+        assert_eq!(bits(&f.residuals), bits(&afresh.residuals));
+        let other = Round::new(&fitter, &afresh).unwrap();
+        assert_ne!(bits(&started(&other.screen).x), bits(&afresh.x));
+    }
+
     /// A fit the search keeps is the fit made again: a rival fitted beside
     /// the chosen effect (exact, kept) and the same candidate screened on
     /// that model in the next round and refitted give the same bits as a
@@ -1635,7 +1698,7 @@ mod tests {
         let round = Round::new(&fitter, &base).unwrap();
         let screened = try_candidate(&fitter, &base, cand, Some(0.999), Mode::Screen(&round));
         assert!(screened.fit.is_none());
-        let again = refit(&fitter, &base, screened, &fits);
+        let again = refit(&fitter, &base, screened, &fits, &round.screen);
         let afresh = with(&base, "drift.EZ0B/seq");
         for f in [kept.fit.unwrap(), again.fit.unwrap()] {
             assert_eq!(f.spec.names, afresh.spec.names);
