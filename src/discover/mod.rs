@@ -341,6 +341,7 @@ fn refused(name: &str, reason: String) -> Tried {
 /// A candidate's model with the design its identifiability was judged on
 /// (at the nominal machine) and its constraint basis: its fit starts from
 /// them.
+#[derive(Clone)]
 struct Designed {
     spec: Spec,
     design: Design,
@@ -434,8 +435,9 @@ fn others(fitter: &Fitter<'_>, base: &Fit) -> DMatrix<f64> {
 #[derive(Clone, Copy)]
 enum Mode<'a> {
     /// Scored by the update of the round's factorization: one
-    /// Gauss-Newton step from the base's estimate.
-    Screen(&'a Round),
+    /// Gauss-Newton step from the base's estimate; with what the search
+    /// keeps, if anything.
+    Screen(&'a Round, Option<&'a Fits>),
     /// Iterated to convergence; with [`others`] of the base, and the fits
     /// the search keeps, if any.
     Exact(&'a DMatrix<f64>, Option<&'a Fits>),
@@ -445,11 +447,19 @@ enum Mode<'a> {
 /// fitted beside the effect it adds, and the next round, on that model,
 /// fits those candidates again, from the same start with the same design,
 /// to the same bits. Each is keyed by the base's estimate (its bits) and
-/// the names of the model fitted.
+/// the names of the model fitted. Beside them, each candidate's
+/// [`Prepared`] design on a model, keyed by the model's names and the
+/// candidate's.
 #[derive(Default)]
-struct Fits(std::sync::Mutex<std::collections::HashMap<FitKey, Result<Fit, FitError>>>);
+struct Fits(
+    std::sync::Mutex<std::collections::HashMap<FitKey, Result<Fit, FitError>>>,
+    std::sync::Mutex<std::collections::HashMap<DesignKey, Result<Prepared, String>>>,
+);
 
 type FitKey = (Vec<u64>, Vec<String>);
+
+/// A model's names and a candidate's.
+type DesignKey = (Vec<String>, String);
 
 impl Fits {
     fn key(base: &Fit, spec: &Spec) -> FitKey {
@@ -475,14 +485,34 @@ impl Fits {
         f
     }
 
-    /// Forgets the fits on any base but `base` (a map's fit holds
-    /// megabytes).
+    /// `cand` prepared on `base`'s model, by `prepare` unless kept.
+    fn prepared(
+        &self,
+        base: &Fit,
+        cand: &Candidate,
+        prepare: impl FnOnce() -> Result<Prepared, String>,
+    ) -> Result<Prepared, String> {
+        let key = (base.spec.names.clone(), cand.name.clone());
+        if let Some(p) = self.1.lock().expect("not poisoned").get(&key) {
+            return p.clone();
+        }
+        let p = prepare();
+        self.1.lock().expect("not poisoned").insert(key, p.clone());
+        p
+    }
+
+    /// Forgets the fits and designs on any base but `base` (a map's fit
+    /// holds megabytes).
     fn keep_on(&self, base: &Fit) {
         let bits: Vec<u64> = base.x.iter().map(|v| v.to_bits()).collect();
         self.0
             .lock()
             .expect("not poisoned")
             .retain(|k, _| k.0 == bits);
+        self.1
+            .lock()
+            .expect("not poisoned")
+            .retain(|k, _| k.0 == base.spec.names);
     }
 }
 
@@ -497,8 +527,95 @@ fn try_candidate(
     near_alias: Option<f64>,
     mode: Mode<'_>,
 ) -> Tried {
+    let (qa, kept) = match mode {
+        Mode::Screen(round, kept) => (&round.others, kept),
+        Mode::Exact(others, kept) => (others, kept),
+    };
+    let prepared = match kept {
+        Some(k) => k.prepared(base, cand, || prepare(fitter, base, cand, qa)),
+        None => prepare(fitter, base, cand, qa),
+    };
+    let Prepared { model, alongside } = match prepared {
+        Ok(p) => p,
+        Err(why) => return refused(&cand.name, why),
+    };
+    let canonical = alongside.canonical_correlation;
+    let rank_increase = alongside.rank_increase;
+    if let Some(limit) = near_alias
+        && canonical > limit
+    {
+        let with = alongside
+            .largest_correlation
+            .as_ref()
+            .map(|c| {
+                format!(
+                    "; largest correlation {:.4}, {} with {}",
+                    c.value, c.parameter, c.with
+                )
+            })
+            .unwrap_or_default();
+        let mut t = refused(
+            &cand.name,
+            format!(
+                "nearly aliased with the model: canonical correlation {canonical:.5} (limit {limit}){with}: the test cannot separate them"
+            ),
+        );
+        t.trial.alongside = Some(alongside);
+        return t;
+    }
+    let trial = |rss: f64, rank: usize, residuals: &[f64]| Trial {
+        name: cand.name.clone(),
+        verdict: CandidateVerdict::NotSignificant,
+        reason: None,
+        gap_after: Some(gap::size(residuals)),
+        test: Some(stats::compare(fitter.len(), base.rss, base.rank, rss, rank)),
+        p_adjusted: None,
+        alongside: Some(alongside.clone()),
+    };
+    match mode {
+        Mode::Screen(round, _) => {
+            let s = fitter.score(&round.screen, &model.spec, rank_increase);
+            Tried {
+                trial: trial(s.rss, model.design.rank, &s.residuals),
+                fit: None,
+                model: Some(model),
+                fitted: true,
+            }
+        }
+        Mode::Exact(_, fits) => match exact(fitter, base, &model, fits, None) {
+            Ok(f) => Tried {
+                trial: trial(f.rss, f.rank, &f.residuals),
+                fit: Some(f),
+                model: Some(model),
+                fitted: true,
+            },
+            Err(e) => refused(&cand.name, format!("the fit failed ({e})")),
+        },
+    }
+}
+
+/// What trying a candidate on a model finds before any fit: its design
+/// with the combinations the test does not see fixed, and how it stands
+/// alongside the model; or why it is refused. The design is at the
+/// nominal machine, so this depends on the base's model alone, not on its
+/// estimate: a rival tried beside a step's effect is the next round's
+/// candidate on that model, designed once for both.
+#[derive(Clone)]
+struct Prepared {
+    model: Designed,
+    alongside: story::Alongside,
+}
+
+/// [`Prepared`] for `cand` on `base`, or why it is refused; `qa`:
+/// [`others`] of `base`.
+fn prepare(
+    fitter: &Fitter<'_>,
+    base: &Fit,
+    cand: &Candidate,
+    qa: &DMatrix<f64>,
+) -> Result<Prepared, String> {
     let Some(mut spec) = fitter.extend(&base.spec, cand) else {
-        return refused(&cand.name, "the forward model cannot apply it".into());
+        return Err("the forward model cannot apply it".into());
     };
     let ei = spec.names.len() - 1;
     let xr = spec.model.param_range(ei);
@@ -521,14 +638,11 @@ fn try_candidate(
             .filter(|c| cand_names.iter().any(|n| c.contains(n.as_str())))
             .cloned()
             .collect();
-        return refused(
-            &cand.name,
-            if why.is_empty() {
-                "no measurement of this test sees it".to_string()
-            } else {
-                format!("not identifiable alongside the model: {}", why.join("; "))
-            },
-        );
+        return Err(if why.is_empty() {
+            "no measurement of this test sees it".to_string()
+        } else {
+            format!("not identifiable alongside the model: {}", why.join("; "))
+        });
     }
     // Combinations of the candidate's parameters that the test does not
     // see (alone or traded against the model's) are fixed at zero, each
@@ -543,10 +657,7 @@ fn try_candidate(
         let vc = d.null.rows(xr.start, xr.len());
         let m = faer::Mat::<f64>::from_fn(vc.nrows(), vc.ncols(), |i, j| vc[(i, j)]);
         let Ok(svd) = m.thin_svd() else {
-            return refused(
-                &cand.name,
-                "the candidate's unseen combinations could not be computed".to_string(),
-            );
+            return Err("the candidate's unseen combinations could not be computed".to_string());
         };
         let (sv, u) = (svd.S().column_vector(), svd.U());
         for i in 0..sv.nrows() {
@@ -577,10 +688,6 @@ fn try_candidate(
     let zc = ranges[ei].clone();
     let j0 = fitter.jacobian0(&spec);
     let b = j0.columns(xr.start, xr.len()) * basis.view((xr.start, zc.start), (xr.len(), zc.len()));
-    let qa = match mode {
-        Mode::Screen(round) => &round.others,
-        Mode::Exact(others, _) => others,
-    };
     let qb = column_space(&b, 1e-9);
     let canonical = if qa.ncols() == 0 || qb.ncols() == 0 {
         0.0
@@ -616,62 +723,14 @@ fn try_candidate(
         unseen,
         condition: d.condition,
     };
-    if let Some(limit) = near_alias
-        && canonical > limit
-    {
-        let with = alongside
-            .largest_correlation
-            .as_ref()
-            .map(|c| {
-                format!(
-                    "; largest correlation {:.4}, {} with {}",
-                    c.value, c.parameter, c.with
-                )
-            })
-            .unwrap_or_default();
-        let mut t = refused(
-            &cand.name,
-            format!(
-                "nearly aliased with the model: canonical correlation {canonical:.5} (limit {limit}){with}: the test cannot separate them"
-            ),
-        );
-        t.trial.alongside = Some(alongside);
-        return t;
-    }
-    let trial = |rss: f64, rank: usize, residuals: &[f64]| Trial {
-        name: cand.name.clone(),
-        verdict: CandidateVerdict::NotSignificant,
-        reason: None,
-        gap_after: Some(gap::size(residuals)),
-        test: Some(stats::compare(fitter.len(), base.rss, base.rank, rss, rank)),
-        p_adjusted: None,
-        alongside: Some(alongside.clone()),
-    };
-    let model = Designed {
-        spec,
-        design: d,
-        basis,
-    };
-    match mode {
-        Mode::Screen(round) => {
-            let s = fitter.score(&round.screen, &model.spec, rank_increase);
-            Tried {
-                trial: trial(s.rss, model.design.rank, &s.residuals),
-                fit: None,
-                model: Some(model),
-                fitted: true,
-            }
-        }
-        Mode::Exact(_, fits) => match exact(fitter, base, &model, fits, None) {
-            Ok(f) => Tried {
-                trial: trial(f.rss, f.rank, &f.residuals),
-                fit: Some(f),
-                model: Some(model),
-                fitted: true,
-            },
-            Err(e) => refused(&cand.name, format!("the fit failed ({e})")),
+    Ok(Prepared {
+        model: Designed {
+            spec,
+            design: d,
+            basis,
         },
-    }
+        alongside,
+    })
 }
 
 /// The exact fit of `spec` (`base` with one effect appended), from the
@@ -1188,7 +1247,7 @@ impl<'a, 'p> Search<'a, 'p> {
                     current,
                     c,
                     Some(opts.near_alias),
-                    Mode::Screen(&round),
+                    Mode::Screen(&round, Some(&self.fits)),
                 ),
             })
             .collect();
@@ -1641,7 +1700,8 @@ mod tests {
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let started = |screen: &fit::Screen| {
             let round = Round::new(&fitter, &loc).unwrap();
-            let screened = try_candidate(&fitter, &loc, cand, Some(0.999), Mode::Screen(&round));
+            let screened =
+                try_candidate(&fitter, &loc, cand, Some(0.999), Mode::Screen(&round, None));
             refit(&fitter, &loc, screened, &Fits::default(), screen)
                 .fit
                 .unwrap()
@@ -1656,8 +1716,9 @@ mod tests {
 
     /// A fit the search keeps is the fit made again: a rival fitted beside
     /// the chosen effect (exact, kept) and the same candidate screened on
-    /// that model in the next round and refitted give the same bits as a
-    /// fit made afresh, as the worked example's second step has them.
+    /// that model in the next round (with the design kept from the first)
+    /// and refitted give the same bits as a fit made afresh, as the worked
+    /// example's second step has them.
     #[test]
     fn a_kept_fit_is_the_fit_made_again() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/discover");
@@ -1695,9 +1756,18 @@ mod tests {
             Mode::Exact(&others(&fitter, &base), Some(&fits)),
         );
         assert_eq!(fits.0.lock().unwrap().len(), 1);
+        assert_eq!(fits.1.lock().unwrap().len(), 1);
         let round = Round::new(&fitter, &base).unwrap();
-        let screened = try_candidate(&fitter, &base, cand, Some(0.999), Mode::Screen(&round));
+        let screened = try_candidate(
+            &fitter,
+            &base,
+            cand,
+            Some(0.999),
+            Mode::Screen(&round, Some(&fits)),
+        );
         assert!(screened.fit.is_none());
+        // Screened with the design the exact fit made (none made again).
+        assert_eq!(fits.1.lock().unwrap().len(), 1);
         let again = refit(&fitter, &base, screened, &fits, &round.screen);
         let afresh = with(&base, "drift.EZ0B/seq");
         for f in [kept.fit.unwrap(), again.fit.unwrap()] {
