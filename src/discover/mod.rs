@@ -34,6 +34,8 @@ pub mod separate;
 pub mod stats;
 pub mod story;
 
+use std::sync::Arc;
+
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
@@ -316,7 +318,7 @@ struct Tried {
     fit: Option<Fit>,
     /// The model with the candidate, its unseen combinations fixed, and
     /// its design.
-    model: Option<Designed>,
+    model: Option<Arc<Designed>>,
     /// Whether it was fitted (screened or iterated), not refused.
     fitted: bool,
 }
@@ -341,7 +343,6 @@ fn refused(name: &str, reason: String) -> Tried {
 /// A candidate's model with the design its identifiability was judged on
 /// (at the nominal machine) and its constraint basis: its fit starts from
 /// them.
-#[derive(Clone)]
 struct Designed {
     spec: Spec,
     design: Design,
@@ -602,7 +603,7 @@ fn try_candidate(
 /// candidate on that model, designed once for both.
 #[derive(Clone)]
 struct Prepared {
-    model: Designed,
+    model: Arc<Designed>,
     alongside: story::Alongside,
 }
 
@@ -724,11 +725,11 @@ fn prepare(
         condition: d.condition,
     };
     Ok(Prepared {
-        model: Designed {
+        model: Arc::new(Designed {
             spec,
             design: d,
             basis,
-        },
+        }),
         alongside,
     })
 }
