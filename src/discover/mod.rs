@@ -1705,6 +1705,43 @@ mod tests {
     /// changes the fit, so the one given is the one used.
     #[test]
     fn a_fit_started_from_the_rounds_linearization_is_the_fit_made_afresh() {
+        on_the_worked_example(|fitter, cat, loc| {
+            let cand = cat
+                .candidates
+                .iter()
+                .find(|c| c.name == "tool_radius")
+                .unwrap();
+            let afresh = try_candidate(
+                fitter,
+                loc,
+                cand,
+                None,
+                Mode::Exact(&others(fitter, loc), None),
+            )
+            .fit
+            .unwrap();
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let started = |screen: &fit::Screen| {
+                let round = Round::new(fitter, loc).unwrap();
+                let screened =
+                    try_candidate(fitter, loc, cand, Some(0.999), Mode::Screen(&round, None));
+                refit(fitter, loc, screened, &Fits::default(), screen)
+                    .fit
+                    .unwrap()
+            };
+            let round = Round::new(fitter, loc).unwrap();
+            let f = started(&round.screen);
+            assert_eq!(bits(&f.x), bits(&afresh.x));
+            assert_eq!(bits(&f.residuals), bits(&afresh.residuals));
+            let other = Round::new(fitter, &afresh).unwrap();
+            assert_ne!(bits(&started(&other.screen).x), bits(&afresh.x));
+        });
+    }
+
+    /// Runs `f` on the worked example of `examples/discover/` (its
+    /// machined stepped square): the fitter, the catalogue and the fit of
+    /// the location errors alone.
+    fn on_the_worked_example(f: impl FnOnce(&Fitter<'_>, &catalogue::Catalogue, &Fit)) {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/discover");
         let inputs = Inputs::load(
             &dir.join("stepped-square.plan.yaml"),
@@ -1717,35 +1754,7 @@ mod tests {
         let (fitter, _) = Fitter::new(&parts, &cat.candidates).unwrap();
         let mut notes = Vec::new();
         let loc = start(&fitter, &inputs.kin, &cat, &["location".into()], &mut notes).unwrap();
-        let cand = cat
-            .candidates
-            .iter()
-            .find(|c| c.name == "tool_radius")
-            .unwrap();
-        let afresh = try_candidate(
-            &fitter,
-            &loc,
-            cand,
-            None,
-            Mode::Exact(&others(&fitter, &loc), None),
-        )
-        .fit
-        .unwrap();
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        let started = |screen: &fit::Screen| {
-            let round = Round::new(&fitter, &loc).unwrap();
-            let screened =
-                try_candidate(&fitter, &loc, cand, Some(0.999), Mode::Screen(&round, None));
-            refit(&fitter, &loc, screened, &Fits::default(), screen)
-                .fit
-                .unwrap()
-        };
-        let round = Round::new(&fitter, &loc).unwrap();
-        let f = started(&round.screen);
-        assert_eq!(bits(&f.x), bits(&afresh.x));
-        assert_eq!(bits(&f.residuals), bits(&afresh.residuals));
-        let other = Round::new(&fitter, &afresh).unwrap();
-        assert_ne!(bits(&started(&other.screen).x), bits(&afresh.x));
+        f(&fitter, &cat, &loc);
     }
 
     /// The left singular vectors made without the right ones are
@@ -1791,69 +1800,59 @@ mod tests {
     /// example's second step has them.
     #[test]
     fn a_kept_fit_is_the_fit_made_again() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/discover");
-        let inputs = Inputs::load(
-            &dir.join("stepped-square.plan.yaml"),
-            &[dir.join("piece.dmo")],
-            &Default::default(),
-        )
-        .unwrap();
-        let parts = [inputs.part()];
-        let cat = catalogue::catalogue(&parts);
-        let (fitter, _) = Fitter::new(&parts, &cat.candidates).unwrap();
-        let mut notes = Vec::new();
-        let loc = start(&fitter, &inputs.kin, &cat, &["location".into()], &mut notes).unwrap();
-        let named = |n: &str| cat.candidates.iter().find(|c| c.name == n).unwrap();
-        let with = |base: &Fit, n: &str| {
-            try_candidate(
-                &fitter,
-                base,
-                named(n),
+        on_the_worked_example(|fitter, cat, loc| {
+            let named = |n: &str| cat.candidates.iter().find(|c| c.name == n).unwrap();
+            let with = |base: &Fit, n: &str| {
+                try_candidate(
+                    fitter,
+                    base,
+                    named(n),
+                    None,
+                    Mode::Exact(&others(fitter, base), None),
+                )
+                .fit
+                .unwrap()
+            };
+            let base = with(loc, "tool_radius");
+            let fits = Fits::default();
+            let cand = named("drift.EZ0B/seq");
+            let kept = try_candidate(
+                fitter,
+                &base,
+                cand,
                 None,
-                Mode::Exact(&others(&fitter, base), None),
-            )
-            .fit
-            .unwrap()
-        };
-        let base = with(&loc, "tool_radius");
-        let fits = Fits::default();
-        let cand = named("drift.EZ0B/seq");
-        let kept = try_candidate(
-            &fitter,
-            &base,
-            cand,
-            None,
-            Mode::Exact(&others(&fitter, &base), Some(&fits)),
-        );
-        assert_eq!(fits.0.lock().unwrap().len(), 1);
-        assert_eq!(fits.1.lock().unwrap().len(), 1);
-        let round = Round::new(&fitter, &base).unwrap();
-        let screened = try_candidate(
-            &fitter,
-            &base,
-            cand,
-            Some(0.999),
-            Mode::Screen(&round, Some(&fits)),
-        );
-        assert!(screened.fit.is_none());
-        // Screened with the design the exact fit made (none made again).
-        assert_eq!(fits.1.lock().unwrap().len(), 1);
-        let again = refit(&fitter, &base, screened, &fits, &round.screen);
-        let afresh = with(&base, "drift.EZ0B/seq");
-        for f in [kept.fit.unwrap(), again.fit.unwrap()] {
-            assert_eq!(f.spec.names, afresh.spec.names);
-            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&f.x), bits(&afresh.x));
-            assert_eq!(bits(&f.residuals), bits(&afresh.residuals));
-            assert_eq!(f.rss.to_bits(), afresh.rss.to_bits());
-            assert_eq!(
-                bits(f.cov_unit.as_slice()),
-                bits(afresh.cov_unit.as_slice())
+                Mode::Exact(&others(fitter, &base), Some(&fits)),
             );
-        }
-        // Moving on to the next model forgets the fits on this one.
-        fits.keep_on(&afresh);
-        assert!(fits.0.lock().unwrap().is_empty());
+            assert_eq!(fits.0.lock().unwrap().len(), 1);
+            assert_eq!(fits.1.lock().unwrap().len(), 1);
+            let round = Round::new(fitter, &base).unwrap();
+            let screened = try_candidate(
+                fitter,
+                &base,
+                cand,
+                Some(0.999),
+                Mode::Screen(&round, Some(&fits)),
+            );
+            assert!(screened.fit.is_none());
+            // Screened with the design the exact fit made (none made again).
+            assert_eq!(fits.1.lock().unwrap().len(), 1);
+            let again = refit(fitter, &base, screened, &fits, &round.screen);
+            let afresh = with(&base, "drift.EZ0B/seq");
+            for f in [kept.fit.unwrap(), again.fit.unwrap()] {
+                assert_eq!(f.spec.names, afresh.spec.names);
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&f.x), bits(&afresh.x));
+                assert_eq!(bits(&f.residuals), bits(&afresh.residuals));
+                assert_eq!(f.rss.to_bits(), afresh.rss.to_bits());
+                assert_eq!(
+                    bits(f.cov_unit.as_slice()),
+                    bits(afresh.cov_unit.as_slice())
+                );
+            }
+            // Moving on to the next model forgets the fits on this one.
+            fits.keep_on(&afresh);
+            assert!(fits.0.lock().unwrap().is_empty());
+        });
     }
 
     #[test]
