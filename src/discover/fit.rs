@@ -982,7 +982,7 @@ impl<'a> Fitter<'a> {
         let sol = lsq::solve_ranked(&problem, &x0, Some(basis), &opts, Some(d.rank));
         let (r, j) = problem.evaluate(&sol.x)?;
         let jm = Mat::<f64>::from_fn(j.nrows(), j.ncols(), |a, b| j[(a, b)]);
-        let cov = lsq::design_ranked(&jm, Some(basis), self.opts.rank_rtol, Some(d.rank)).cov_unit;
+        let cov = lsq::covariance_ranked(&jm, Some(basis), self.opts.rank_rtol, Some(d.rank));
         Ok(self.finish(spec, sol.x, r, d, cov, sol.converged))
     }
 

@@ -451,6 +451,30 @@ pub(crate) fn design_ranked(
     rtol: f64,
     max_rank: Option<usize>,
 ) -> Design {
+    design_of(jac, basis, rtol, max_rank, true)
+}
+
+/// The unit-noise covariance of [`design_ranked`] alone, for a caller
+/// that has the rest: the null directions' orthonormalisation (a QR of
+/// hundreds of columns for a large map) is left out.
+pub(crate) fn covariance_ranked(
+    jac: &Mat<f64>,
+    basis: Option<&DMatrix<f64>>,
+    rtol: f64,
+    max_rank: Option<usize>,
+) -> DMatrix<f64> {
+    design_of(jac, basis, rtol, max_rank, false).cov_unit
+}
+
+/// [`design_ranked`], with the null directions only when `null` says so
+/// (an empty `null` otherwise).
+fn design_of(
+    jac: &Mat<f64>,
+    basis: Option<&DMatrix<f64>>,
+    rtol: f64,
+    max_rank: Option<usize>,
+    null: bool,
+) -> Design {
     let n = jac.ncols();
     let jz = reduce(jac, basis);
     let p = jz.ncols();
@@ -470,7 +494,7 @@ pub(crate) fn design_ranked(
     // orthonormalised (a QR: hundreds of them for a large map). They are
     // independent, as N has orthonormal columns and D is invertible; a
     // direction that round-off made dependent is dropped.
-    let nz = p - sv.rank;
+    let nz = if null { p - sv.rank } else { 0 };
     let null = if nz == 0 {
         DMatrix::zeros(n, 0)
     } else {
@@ -765,6 +789,12 @@ mod tests {
         let jf = Mat::from_fn(m, n, |r, k| j[(r, k)]);
         let d = design(&jf, None, 1e-9);
         assert_eq!((d.rank, d.free, d.null.ncols()), (seen, n, n - seen));
+        // The covariance alone is the design's, to the bit.
+        let bits = |m: &DMatrix<f64>| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&covariance_ranked(&jf, None, 1e-9, None)),
+            bits(&d.cov_unit)
+        );
         assert!((&j * &d.null).amax() < 1e-9 * j.amax());
         let gram = d.null.transpose() * &d.null;
         assert!((gram - DMatrix::identity(n - seen, n - seen)).amax() < 1e-10);
