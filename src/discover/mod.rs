@@ -350,8 +350,8 @@ struct Designed {
 }
 
 /// The singular values and left singular vectors of `m` (thin), without
-/// the right ones, which the unseen combinations do not need: the same
-/// bits as faer's `thin_svd` gives for them, at less work.
+/// the right ones, which a column space and the unseen combinations do not
+/// need: the same bits as faer's `thin_svd` gives for them, at less work.
 fn left_svd(m: &faer::Mat<f64>) -> Option<(Vec<f64>, faer::Mat<f64>)> {
     use faer::dyn_stack::{MemBuffer, MemStack};
     use faer::linalg::svd::{self, ComputeSvdVectors};
@@ -400,38 +400,13 @@ pub(crate) fn column_space(a: &DMatrix<f64>, rtol: f64) -> DMatrix<f64> {
     // columns (hundreds, and the rows of a supplementary test) is what
     // `separate` waits for, and nalgebra's unblocked SVD takes several
     // times as long. The basis is another of the same span.
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::svd::{self, ComputeSvdVectors};
     let (rows, cols) = a.shape();
     let k = rows.min(cols);
     let m = faer::Mat::<f64>::from_fn(rows, cols, |r, c| a[(r, c)]);
-    let par = faer::get_global_parallelism();
-    let req = svd::svd_scratch::<f64>(
-        rows,
-        cols,
-        ComputeSvdVectors::Thin,
-        ComputeSvdVectors::No,
-        par,
-        Default::default(),
-    );
-    let mut buf = MemBuffer::new(req);
-    let mut s = faer::diag::Diag::<f64>::zeros(k);
-    let mut u = faer::Mat::<f64>::zeros(rows, k);
-    if svd::svd(
-        m.as_ref(),
-        s.as_mut(),
-        Some(u.as_mut()),
-        None,
-        par,
-        MemStack::new(&mut buf),
-        Default::default(),
-    )
-    .is_err()
-    {
+    let Some((s, u)) = left_svd(&m) else {
         // Non-finite columns span nothing to rely on.
         return DMatrix::zeros(rows, 0);
-    }
-    let s = s.column_vector();
+    };
     let smax = (0..k).fold(0.0f64, |a, i| a.max(s[i]));
     let keep: Vec<usize> = (0..k)
         .filter(|&i| s[i] > rtol * smax && smax > 0.0)

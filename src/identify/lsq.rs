@@ -806,33 +806,10 @@ mod tests {
         let proj = DMatrix::identity(n, n) - &d.null * d.null.transpose();
         let (x, y) = (&proj * &d.cov_unit * &proj, &proj * &pinv * &proj);
         assert!((&x - &y).amax() < 1e-6 * y.amax(), "{}", (&x - &y).amax());
-        struct Linear {
-            j: DMatrix<f64>,
-            y: DVector<f64>,
-        }
-        impl Problem for Linear {
-            fn n_residuals(&self) -> usize {
-                self.j.nrows()
-            }
-            fn n_params(&self) -> usize {
-                self.j.ncols()
-            }
-            fn eval(&self, x: &[f64], r: &mut [f64], jac: Option<&mut Mat<f64>>) {
-                let res = &self.j * DVector::from_column_slice(x) - &self.y;
-                r.copy_from_slice(res.as_slice());
-                if let Some(jac) = jac {
-                    for c in 0..self.j.ncols() {
-                        for i in 0..self.j.nrows() {
-                            jac[(i, c)] = self.j[(i, c)];
-                        }
-                    }
-                }
-            }
-        }
         let y = DVector::from_fn(m, |_, _| u.sample(&mut rng));
-        let problem = Linear {
-            j: j.clone(),
-            y: y.clone(),
+        let problem = Lin {
+            a: j.clone(),
+            b: y.clone(),
         };
         let sol = solve(&problem, &vec![0.0; n], None, &Options::default());
         let x = DVector::from_column_slice(&sol.x);
