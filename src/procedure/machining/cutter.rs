@@ -97,7 +97,14 @@ impl Cutter {
         let hz = 0.5 * (self.length - r);
         let dx = rho - w;
         let dz = (zeta - cz).abs() - hz;
-        let outside = (dx.max(0.0)).hypot(dz.max(0.0));
+        // hypot(x, 0) is |x| to the bit: beside or below the core, the
+        // square root is skipped (this runs thousands of times per point).
+        let outside = match (dx > 0.0, dz > 0.0) {
+            (true, true) => dx.hypot(dz),
+            (true, false) => dx,
+            (false, true) => dz,
+            (false, false) => 0.0,
+        };
         let inside = dx.max(dz).min(0.0);
         outside + inside - r
     }
@@ -147,8 +154,9 @@ impl Cutter {
         axis: &Vector3<f64>,
         q: &Vector3<f64>,
     ) -> (f64, f64) {
-        let f = |t: f64| self.signed_distance(&(a + (b - a) * t), axis, q);
-        if (b - a).norm() < 1e-12 {
+        let ab = b - a;
+        let f = |t: f64| self.signed_distance(&(a + ab * t), axis, q);
+        if ab.norm() < 1e-12 {
             return (f(0.0), 0.0);
         }
         let (t, d) = golden_min(f, 0.0, 1.0, 70);
@@ -178,12 +186,50 @@ impl Cutter {
         s_lo: f64,
         s_hi: f64,
     ) -> Option<f64> {
+        self.entry(a, b, axis, q, n, s_lo, s_hi, 0.0)
+    }
+
+    /// [`Cutter::entry_along`] to within `tol`: an `s` inside the swept
+    /// solid and less than `tol` beyond the entry, for callers that only
+    /// compare the entry with thresholds far wider than `tol` (a plan's
+    /// provenance). The search stops at the first point found inside, and
+    /// the bisection once its bracket is narrower than `tol`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn entry_within(
+        &self,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        axis: &Vector3<f64>,
+        q: &Vector3<f64>,
+        n: &Vector3<f64>,
+        s_lo: f64,
+        s_hi: f64,
+        tol: f64,
+    ) -> Option<f64> {
+        self.entry(a, b, axis, q, n, s_lo, s_hi, tol)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn entry(
+        &self,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        axis: &Vector3<f64>,
+        q: &Vector3<f64>,
+        n: &Vector3<f64>,
+        s_lo: f64,
+        s_hi: f64,
+        tol: f64,
+    ) -> Option<f64> {
         let g = |s: f64| self.swept_distance(a, b, axis, &(q + n * s)).0;
         if g(s_lo) <= 0.0 {
             return Some(s_lo);
         }
-        let (s_min, g_min) = golden_min(g, s_lo, s_hi, 70);
-        let (s_min, g_min) = if g(s_hi) < g_min {
+        // Exact: the least value, whose point is inside if any is. Within a
+        // tolerance: any point inside brackets the entry as well.
+        let stop = if tol > 0.0 { 0.0 } else { f64::NEG_INFINITY };
+        let (s_min, g_min) = golden_min_until(g, s_lo, s_hi, 70, stop);
+        let (s_min, g_min) = if g_min > stop && g(s_hi) < g_min {
             (s_hi, g(s_hi))
         } else {
             (s_min, g_min)
@@ -194,6 +240,12 @@ impl Cutter {
         let (mut lo, mut hi) = (s_lo, s_min);
         for _ in 0..80 {
             let mid = 0.5 * (lo + hi);
+            // `lo` is outside and `hi` inside throughout, so a midpoint at
+            // either end would leave both where they are for the remaining
+            // steps: stopping there gives the same bits.
+            if mid == lo || mid == hi || hi - lo < tol {
+                break;
+            }
             if g(mid) > 0.0 {
                 lo = mid;
             } else {
@@ -206,10 +258,28 @@ impl Cutter {
 
 /// Golden-section minimum of a convex function on `[lo, hi]`: (argmin, min).
 fn golden_min<F: Fn(f64) -> f64>(f: F, lo: f64, hi: f64, iters: usize) -> (f64, f64) {
+    golden_min_until(f, lo, hi, iters, f64::NEG_INFINITY)
+}
+
+/// [`golden_min`], returning the first point whose value is at or below
+/// `stop` as soon as it is found.
+fn golden_min_until<F: Fn(f64) -> f64>(
+    f: F,
+    lo: f64,
+    hi: f64,
+    iters: usize,
+    stop: f64,
+) -> (f64, f64) {
     let (mut a, mut b) = (lo, hi);
     let mut c = b - GOLDEN * (b - a);
     let mut d = a + GOLDEN * (b - a);
     let (mut fc, mut fd) = (f(c), f(d));
+    if fc <= stop {
+        return (c, fc);
+    }
+    if fd <= stop {
+        return (d, fd);
+    }
     for _ in 0..iters {
         if fc < fd {
             b = d;
@@ -217,12 +287,18 @@ fn golden_min<F: Fn(f64) -> f64>(f: F, lo: f64, hi: f64, iters: usize) -> (f64, 
             fd = fc;
             c = b - GOLDEN * (b - a);
             fc = f(c);
+            if fc <= stop {
+                return (c, fc);
+            }
         } else {
             a = c;
             c = d;
             fc = fd;
             d = a + GOLDEN * (b - a);
             fd = f(d);
+            if fd <= stop {
+                return (d, fd);
+            }
         }
     }
     if fc < fd { (c, fc) } else { (d, fd) }
@@ -277,6 +353,108 @@ mod tests {
             ball.part_at(&o, &z, &Vector3::new(0.0, 0.0, 0.0)),
             ToolPart::Ball
         );
+    }
+
+    /// Random tools, tilted moves and lines near them (fixed seed), as
+    /// plans and the simulator meet them.
+    fn random_cases(n: usize) -> Vec<(Cutter, [Vector3<f64>; 5])> {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Uniform};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(41);
+        let u = Uniform::new(-1.0, 1.0).unwrap();
+        let mut v = |scale: f64| {
+            Vector3::new(u.sample(&mut rng), u.sample(&mut rng), u.sample(&mut rng)) * scale
+        };
+        (0..n)
+            .map(|i| {
+                let kind = [ToolKind::Flat, ToolKind::Ball, ToolKind::Bull][i % 3];
+                let cutter = tool(kind, Some(1.0));
+                let a = v(3.0);
+                // Every fifth move stands still (a plunge's end).
+                let b = if i % 5 == 0 { a } else { a + v(8.0) };
+                let axis = (Vector3::z() + v(0.5)).normalize();
+                let n = (v(1.0) + Vector3::z() * 0.2).normalize();
+                let q = (a + b) * 0.5 + v(4.0) - n * 9.0;
+                (cutter, [a, b, axis, q, n])
+            })
+            .collect()
+    }
+
+    /// The square root skipped beside or below the core changes no bit.
+    #[test]
+    fn signed_distance_is_the_hypot_formula_to_the_bit() {
+        for (c, [a, _, axis, q, n]) in random_cases(300) {
+            for k in 0..40 {
+                let p = q + n * (0.25 * k as f64);
+                let (rho, zeta) = c.meridian(&a, &axis, &p);
+                let w = c.radius - c.corner;
+                let dx = rho - w;
+                let dz = (zeta - 0.5 * (c.corner + c.length)).abs() - 0.5 * (c.length - c.corner);
+                let want = dx.max(0.0).hypot(dz.max(0.0)) + dx.max(dz).min(0.0) - c.corner;
+                assert_eq!(c.signed_distance(&a, &axis, &p).to_bits(), want.to_bits());
+            }
+        }
+    }
+
+    /// The bisection's early stop (its midpoint at either end of the
+    /// bracket) gives the bits of the full eighty steps.
+    #[test]
+    fn entry_along_is_the_full_search_to_the_bit() {
+        let full = |c: &Cutter, [a, b, axis, q, n]: &[Vector3<f64>; 5]| {
+            let g = |s: f64| c.swept_distance(a, b, axis, &(q + n * s)).0;
+            let (s_lo, s_hi) = (0.0, 12.0);
+            if g(s_lo) <= 0.0 {
+                return Some(s_lo);
+            }
+            let (mut s_min, mut g_min) = golden_min(g, s_lo, s_hi, 70);
+            if g(s_hi) < g_min {
+                (s_min, g_min) = (s_hi, g(s_hi));
+            }
+            if g_min > 0.0 {
+                return None;
+            }
+            let (mut lo, mut hi) = (s_lo, s_min);
+            for _ in 0..80 {
+                let mid = 0.5 * (lo + hi);
+                if g(mid) > 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            Some(hi)
+        };
+        let mut entered = 0;
+        for (c, [a, b, axis, q, n]) in random_cases(200) {
+            let got = c.entry_along(&a, &b, &axis, &q, &n, 0.0, 12.0);
+            let want = full(&c, &[a, b, axis, q, n]);
+            assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits));
+            entered += usize::from(got.is_some_and(|s| s > 0.0));
+        }
+        // Most lines cross the sweep, and start outside it.
+        assert!(entered > 80, "{entered}");
+    }
+
+    /// Within a tolerance, the entry is found inside the sweep, beyond the
+    /// exact entry by less than the tolerance, and a line that misses
+    /// misses.
+    #[test]
+    fn entry_within_is_at_most_its_tolerance_beyond_the_entry() {
+        let tol = 1e-9;
+        let mut misses = 0;
+        for (c, [a, b, axis, q, n]) in random_cases(200) {
+            let exact = c.entry_along(&a, &b, &axis, &q, &n, 0.0, 12.0);
+            let within = c.entry_within(&a, &b, &axis, &q, &n, 0.0, 12.0, tol);
+            match (exact, within) {
+                (Some(s), Some(w)) => {
+                    assert!(w >= s && w - s < tol, "{s} {w}");
+                    assert!(c.swept_distance(&a, &b, &axis, &(q + n * w)).0 <= 0.0);
+                }
+                (None, None) => misses += 1,
+                other => panic!("{other:?}"),
+            }
+        }
+        assert!(misses > 5, "{misses}");
     }
 
     #[test]

@@ -689,7 +689,11 @@ fn provenance(
                     pose.id
                 )));
             }
-            let Some(s) = cutter.entry_along(&a, &b, &u, &pt.p, &pt.n, -reach, reach) else {
+            // Only compared with TOUCH and SEPARATION below: a thousandth
+            // of TOUCH is precision enough.
+            let Some(s) =
+                cutter.entry_within(&a, &b, &u, &pt.p, &pt.n, -reach, reach, 1e-3 * TOUCH)
+            else {
                 continue;
             };
             if s < -TOUCH {
