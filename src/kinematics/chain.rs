@@ -64,6 +64,15 @@ fn half_sin_cos(x: f64) -> (f64, f64) {
     }
 }
 
+/// The per-factor values, prefix rotations and turns of
+/// [`Chain::jacobian`].
+#[derive(Default)]
+struct Scratch {
+    values: Vec<f64>,
+    pre: Vec<Matrix3<f64>>,
+    turns: Vec<Option<UnitQuaternion<f64>>>,
+}
+
 #[derive(Clone, Debug)]
 pub(super) struct Chain {
     factors: Vec<Factor>,
@@ -205,19 +214,30 @@ impl Chain {
     }
 
     pub(super) fn jacobian(&self, v: &[f64; N_VARS]) -> PoseJacobian {
+        // The fits call this for every point of every evaluation: the
+        // buffers are the thread's own, not allocated per call.
+        thread_local! {
+            static SCRATCH: std::cell::RefCell<Scratch> = Default::default();
+        }
+        SCRATCH.with_borrow_mut(|s| self.jacobian_in(v, s))
+    }
+
+    fn jacobian_in(&self, v: &[f64; N_VARS], scratch: &mut Scratch) -> PoseJacobian {
         let n = self.factors.len();
-        let values: Vec<f64> = self.factors.iter().map(|f| f.value(v)).collect();
+        let Scratch { values, pre, turns } = scratch;
+        values.clear();
+        values.extend(self.factors.iter().map(|f| f.value(v)));
         // Rotation of the prefix before each factor (P_{k-1}) and after (P_k).
         // A factor at zero is the identity and a translation keeps the
         // rotation, so the product and its matrix change only where they
         // must (as `eval_prefix` multiplies; the same bits but for the
         // sign of a zero); each rotation is kept for the pass back.
-        let mut pre: Vec<Matrix3<f64>> = Vec::with_capacity(n + 1);
-        let mut turns: Vec<Option<UnitQuaternion<f64>>> = Vec::with_capacity(n);
+        pre.clear();
+        turns.clear();
         let mut acc = Isometry3::identity();
         let mut m = Matrix3::identity();
         pre.push(m);
-        for (f, &x) in self.factors.iter().zip(&values) {
+        for (f, &x) in self.factors.iter().zip(values.iter()) {
             let mut turn = None;
             if x != 0.0 {
                 let iso = f.iso(x);

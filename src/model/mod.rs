@@ -170,11 +170,33 @@ impl Model {
         ctx: &Context,
         effects: Option<&[bool]>,
     ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
+        let n = self.n_params();
+        let mut ja = DMatrix::zeros(3, n);
+        let (j, jt) = self.jacobians_of(theta, ctx, effects, Some(&mut ja));
+        (j, jt, ja)
+    }
+
+    /// [`Model::pose_jacobian_of`] without the tool axis's derivatives (the
+    /// tip's are the same bits).
+    pub fn tip_jacobian_of(
+        &self,
+        theta: &[f64],
+        ctx: &Context,
+        effects: Option<&[bool]>,
+    ) -> (PoseJacobian, DMatrix<f64>) {
+        self.jacobians_of(theta, ctx, effects, None)
+    }
+
+    fn jacobians_of(
+        &self,
+        theta: &[f64],
+        ctx: &Context,
+        effects: Option<&[bool]>,
+        mut ja: Option<&mut DMatrix<f64>>,
+    ) -> (PoseJacobian, DMatrix<f64>) {
         let p = self.perturbation(theta, ctx);
         let j = self.kin.jacobian(&ctx.axes, &p);
-        let n = self.n_params();
-        let mut jt = DMatrix::zeros(3, n);
-        let mut ja = DMatrix::zeros(3, n);
+        let mut jt = DMatrix::zeros(3, self.n_params());
         for (i, e) in self.effects.iter().enumerate() {
             if effects.is_some_and(|m| !m[i]) {
                 continue;
@@ -183,11 +205,15 @@ impl Model {
             e.coefficients(&self.symbols, ctx, &mut |slot, p, c| {
                 for r in 0..3 {
                     jt[(r, o + p)] += c * j.tip[(r, 5 + slot)];
-                    ja[(r, o + p)] += c * j.axis[(r, 5 + slot)];
+                }
+                if let Some(ja) = ja.as_deref_mut() {
+                    for r in 0..3 {
+                        ja[(r, o + p)] += c * j.axis[(r, 5 + slot)];
+                    }
                 }
             });
         }
-        (j, jt, ja)
+        (j, jt)
     }
 
     /// Axis values that put the actual tool at `target` at the given

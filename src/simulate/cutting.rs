@@ -106,7 +106,13 @@ pub struct Cutting {
     pub drifts_in_time: bool,
     /// Straightness errors: the moving axis and its nodes (mm).
     breaks: Vec<(Axis3, Vec<f64>)>,
+    /// Each move's nominal tip at its start and end and its tool axis, by
+    /// pose: the forward model asks for them at every point of every fit.
+    segments: Vec<Vec<Segment>>,
 }
+
+/// A move's nominal tip at its start and at its end, and its tool axis.
+type Segment = (Vector3<f64>, Vector3<f64>, Vector3<f64>);
 
 impl Cutting {
     /// The plan on the machine of `model`.
@@ -124,12 +130,28 @@ impl Cutting {
             }
         }
         let timeline = Timeline::new(&plan);
+        let k = &model.kin;
+        let segments = plan
+            .poses
+            .iter()
+            .map(|pose| {
+                (0..pose.moves.len())
+                    .map(|mv| {
+                        let (a, b) = pose.segment(mv);
+                        let fa = k.forward_nominal(&a);
+                        let fb = k.forward_nominal(&b);
+                        (fa.tip, fb.tip, fa.axis)
+                    })
+                    .collect()
+            })
+            .collect();
         Cutting {
             model,
             plan,
             timeline,
             drifts_in_time,
             breaks,
+            segments,
         }
     }
 
@@ -218,11 +240,7 @@ impl Cutting {
         pose: usize,
         mv: usize,
     ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
-        let k = &self.model.kin;
-        let (a, b) = self.plan.poses[pose].segment(mv);
-        let fa = k.forward_nominal(&a);
-        let fb = k.forward_nominal(&b);
-        (fa.tip, fb.tip, fa.axis)
+        self.segments[pose][mv]
     }
 }
 

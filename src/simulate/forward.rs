@@ -63,6 +63,7 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector, Point3, Vector3};
+use rayon::prelude::*;
 
 use super::cutting::{Cutting, actual_cutter};
 use super::machining::LINE_DEPTH;
@@ -166,6 +167,9 @@ fn candidates_of(cut: &Cutting, pp: &PlannedPoint) -> Vec<Candidate> {
             continue;
         }
         let (a, b, u) = cut.nominal_segment(pose, mi);
+        if !plan.cutter.may_reach(&a, &b, &u, &p, CANDIDATE_REACH) {
+            continue;
+        }
         let (d, t_min) = plan.cutter.swept_distance(&a, &b, &u, &p);
         if d > CANDIDATE_REACH {
             continue;
@@ -208,7 +212,7 @@ impl MachiningForward {
         let candidates = cut
             .plan
             .points
-            .iter()
+            .par_iter()
             .map(|pp| candidates_of(&cut, pp))
             .collect();
         let all = Wanted::new(&cut.model, |_| true);
@@ -266,8 +270,15 @@ impl MachiningForward {
                 mv + 1
             )));
         }
-        let (p1, j1, _) = model.pose_jacobian_of(theta, &cut.context(pose, mv, t1, offset), of);
-        let (p2, j2, _) = model.pose_jacobian_of(theta, &cut.context(pose, mv, t2, offset), of);
+        let (p1, j1) = model.tip_jacobian_of(theta, &cut.context(pose, mv, t1, offset), of);
+        let (p2, j2) = model.tip_jacobian_of(theta, &cut.context(pose, mv, t2, offset), of);
+        // The other columns are zero, as in j1 and j2.
+        let mut dv = DMatrix::zeros(3, model.n_params());
+        for &j in &wanted.columns {
+            for r in 0..3 {
+                dv[(r, j)] = (j2[(r, j)] - j1[(r, j)]) / (t2 - t1);
+            }
+        }
         let dr = cut.radius_error(theta);
         let nominal = &cut.plan.cutter;
         let at = Instant {
@@ -280,7 +291,7 @@ impl MachiningForward {
             tip: pj.pose.tip,
             u: pj.pose.axis,
             v: (p2.pose.tip - p1.pose.tip) / (t2 - t1),
-            dv: (&j2 - &j1) / (t2 - t1),
+            dv,
             jt,
             ja,
             lo,

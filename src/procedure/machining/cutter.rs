@@ -145,6 +145,31 @@ impl Cutter {
         }
     }
 
+    /// Whether the tool swept from tip `a` to tip `b` may come within
+    /// `reach` of `q`: false only where its bounding box, inflated by the
+    /// radius, is further than `reach` away, so that
+    /// [`Cutter::swept_distance`] would exceed `reach` (a cheap test before
+    /// the search).
+    pub(crate) fn may_reach(
+        &self,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+        axis: &Vector3<f64>,
+        q: &Vector3<f64>,
+        reach: f64,
+    ) -> bool {
+        let pts = [a, b, &(a + axis * self.length), &(b + axis * self.length)];
+        let mut lo = *pts[0];
+        let mut hi = *pts[0];
+        for p in pts {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        let r = Vector3::repeat(self.radius + 1e-6);
+        let (lo, hi) = (lo - r, hi + r);
+        (0..3).all(|i| q[i] + reach >= lo[i] && q[i] - reach <= hi[i])
+    }
+
     /// Signed distance from `q` to the tool swept from tip `a` to tip `b`
     /// (constant axis), with the move parameter in [0, 1] where it is least.
     pub(crate) fn swept_distance(
@@ -378,6 +403,25 @@ mod tests {
                 (cutter, [a, b, axis, q, n])
             })
             .collect()
+    }
+
+    /// The box test never rules out a point the sweep comes within reach
+    /// of, and rules out most of those far away.
+    #[test]
+    fn may_reach_rules_out_only_points_out_of_reach() {
+        let reach = 0.15;
+        let (mut out, mut far) = (0, 0);
+        for (c, [a, b, axis, q, n]) in random_cases(200) {
+            for k in 0..30 {
+                let p = q + n * (0.5 * k as f64) + axis.cross(&n) * (0.7 * k as f64);
+                let d = c.swept_distance(&a, &b, &axis, &p).0;
+                let may = c.may_reach(&a, &b, &axis, &p, reach);
+                assert!(may || d > reach, "{d}");
+                far += usize::from(d > reach + 2.0 * c.radius + 1.0);
+                out += usize::from(!may);
+            }
+        }
+        assert!(far > 500 && out > far / 2, "{out} of {far}");
     }
 
     /// The square root skipped beside or below the core changes no bit.

@@ -621,24 +621,6 @@ fn closest_axis_t(
     (bb > 1e-18).then(|| (pa.dot(&ba) / bb).clamp(0.0, 1.0))
 }
 
-/// The swept bounding box of a move, inflated by the tool radius.
-fn swept_box(
-    c: &Cutter,
-    a: &Vector3<f64>,
-    b: &Vector3<f64>,
-    u: &Vector3<f64>,
-) -> (Vector3<f64>, Vector3<f64>) {
-    let pts = [a, b, &(a + u * c.length), &(b + u * c.length)];
-    let mut lo = *pts[0];
-    let mut hi = *pts[0];
-    for p in pts {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
-    let r = Vector3::repeat(c.radius + 1e-6);
-    (lo - r, hi + r)
-}
-
 fn provenance(
     cutter: &Cutter,
     k: &Kinematics,
@@ -670,9 +652,7 @@ fn provenance(
             if mv.rapid {
                 continue;
             }
-            let (lo, hi) = swept_box(cutter, &a, &b, &u);
-            let near = (0..3).all(|i| pt.p[i] + reach >= lo[i] && pt.p[i] - reach <= hi[i]);
-            if !near {
+            if !cutter.may_reach(&a, &b, &u, &pt.p, reach) {
                 continue;
             }
             let (dist, t) = cutter.swept_distance(&a, &b, &u, &pt.p);
