@@ -414,6 +414,46 @@ fn predict_wanted_gives_the_wanted_columns_of_predict_to_the_bit() {
 /// refuses: the simulator's CSV of a stepped square machined on
 /// `head-table` (0.35 um CMM noise, the piece anywhere on the CMM) gives
 /// back the location errors that went in, within 4 standard uncertainties.
+/// The probing forward model follows the probe along its line with the
+/// table's part of the chain multiplied once (and the errors worked out
+/// once when no linear-axis error is at work): every ball centre it meets
+/// is the one worked out afresh, to the bit, with and without linear-axis
+/// errors, on a table-table and a head-table machine.
+#[test]
+fn the_ball_along_a_touch_line_is_the_ball_worked_out_afresh_to_the_bit() {
+    for machine in ["ac-trunnion", "head-table"] {
+        for test in PROBING {
+            let plan = planned(machine, test);
+            let Plan::Probing(p) = &*plan else {
+                unreachable!()
+            };
+            let full = full_truth(&plan);
+            for group in ["location", "maps", "scale", "straightness", "drift-minute"] {
+                let errors = load(&plan, &only(&full, group));
+                let kin = simulate::plan_kinematics(&plan);
+                let model = fivecal::model::Model::new(kin, errors.model.effects.clone());
+                let pr = simulate::probing::Probing::new(model, Arc::new((**p).clone()));
+                let theta = &errors.theta;
+                assert_eq!(
+                    pr.model.varies_with_xyz(theta),
+                    matches!(group, "scale" | "straightness"),
+                    "{group}"
+                );
+                for i in (0..p.plan.touches.len()).step_by(7) {
+                    let ball = pr.ball_line(theta, i, 0.3);
+                    for tau in [-2.0, -0.1, 0.0, 0.4, 3.0] {
+                        assert_eq!(
+                            ball(tau).map(f64::to_bits),
+                            pr.ball(theta, i, tau, 0.3).map(f64::to_bits),
+                            "{machine} {test} {group} touch {i} at {tau}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn analyze_global_recovers_a_head_machine_through_the_forward_model() {
     let plan = planned("head-table", "stepped-square");

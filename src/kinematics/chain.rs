@@ -64,6 +64,27 @@ fn half_sin_cos(x: f64) -> (f64, f64) {
     }
 }
 
+/// The product of a chain's first factors, as a rotation and a translation,
+/// and the index of the next factor.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Partial {
+    rot: UnitQuaternion<f64>,
+    t: Vector3<f64>,
+    next: usize,
+}
+
+impl Partial {
+    pub(super) const START: Partial = Partial {
+        rot: UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(1.0, 0.0, 0.0, 0.0)),
+        t: Vector3::new(0.0, 0.0, 0.0),
+        next: 0,
+    };
+
+    pub(super) fn iso(&self) -> Isometry3<f64> {
+        Isometry3::from_parts(Translation3::from(self.t), self.rot)
+    }
+}
+
 /// The per-factor values, prefix rotations and turns of
 /// [`Chain::jacobian`].
 #[derive(Default)]
@@ -194,13 +215,30 @@ impl Chain {
     }
 
     pub(super) fn eval_prefix(&self, v: &[f64; N_VARS], n: usize) -> Isometry3<f64> {
+        self.advance(Partial::START, v, n).iso()
+    }
+
+    pub(super) fn len(&self) -> usize {
+        self.factors.len()
+    }
+
+    /// Whether the first `n` factors have the same values at `v` and `w`
+    /// (their product is then the same bits).
+    pub(super) fn same_prefix(&self, v: &[f64; N_VARS], w: &[f64; N_VARS], n: usize) -> bool {
+        self.factors[..n]
+            .iter()
+            .all(|f| f.value(v).to_bits() == f.value(w).to_bits())
+    }
+
+    /// `from` multiplied on by the factors from its end up to `to`: the
+    /// same operations, in the same order, as one product from the start.
+    pub(super) fn advance(&self, from: Partial, v: &[f64; N_VARS], to: usize) -> Partial {
         // The product of the factors kept as a rotation and a translation:
         // a translation factor moves the origin along the rotated axis, a
         // rotation factor turns the rotation (no quaternion product with
         // an identity, no rotation of a zero translation).
-        let mut rot = UnitQuaternion::identity();
-        let mut t = Vector3::zeros();
-        for f in &self.factors[..n] {
+        let Partial { mut rot, mut t, .. } = from;
+        for f in &self.factors[from.next..to] {
             let x = f.value(v);
             if x == 0.0 {
                 continue;
@@ -210,7 +248,7 @@ impl Chain {
                 ChainOp::R(_) => rot *= f.iso(x).rotation,
             }
         }
-        Isometry3::from_parts(Translation3::from(t), rot)
+        Partial { rot, t, next: to }
     }
 
     pub(super) fn jacobian(&self, v: &[f64; N_VARS]) -> PoseJacobian {
@@ -386,6 +424,63 @@ mod tests {
             }
             assert!((fast.translation.vector - acc.translation.vector).norm() < 1e-10);
             assert!(fast.rotation.angle_to(&acc.rotation) < 1e-13);
+        }
+    }
+
+    /// A pose from a table part made along the same line (other X Y Z, the
+    /// same table errors) is the pose multiplied afresh, to the bit; with
+    /// the table's errors or rotary positions changed, it is still right
+    /// (the whole chain is multiplied).
+    #[test]
+    fn a_pose_after_a_table_part_is_the_pose_to_the_bit() {
+        use crate::kinematics::{Axes, Kinematics, Perturbation};
+        let mut rng = StdRng::seed_from_u64(29);
+        let u = |rng: &mut StdRng, lo: f64, hi: f64| Uniform::new(lo, hi).unwrap().sample(rng);
+        for (name, _) in crate::machine::BUILTIN {
+            let k = Kinematics::with_gauge_length(&Machine::builtin(name).unwrap(), 120.0);
+            for round in 0..100 {
+                let mut p = Perturbation::zero();
+                for x in p.0.iter_mut() {
+                    *x = u(&mut rng, -50e-6, 50e-6);
+                }
+                let at = |rng: &mut StdRng, tilt: f64, c: f64| {
+                    Axes::new(
+                        u(rng, -400.0, 400.0),
+                        u(rng, -300.0, 300.0),
+                        u(rng, -300.0, 100.0),
+                        tilt,
+                        c,
+                    )
+                };
+                let (tilt, c) = (u(&mut rng, -90.0, 90.0), u(&mut rng, -180.0, 180.0));
+                let part = k.table_part(&at(&mut rng, tilt, c), &p);
+                let mut q = p;
+                // The linear axes' own errors change along a line; every
+                // third round, a table link's error or the rotary position
+                // changes as well.
+                q.0[crate::kinematics::SLOT_LIN] += 1e-6;
+                let (tilt2, c2) = match round % 3 {
+                    0 => (tilt + 1.0, c),
+                    1 => {
+                        q.0[0] += 1e-6;
+                        (tilt, c)
+                    }
+                    _ => (tilt, c),
+                };
+                let axes = at(&mut rng, tilt2, c2);
+                let want = k.forward(&axes, &q);
+                let got = k.forward_after(&part, &axes, &q);
+                assert_eq!(
+                    got.tip.map(f64::to_bits),
+                    want.tip.map(f64::to_bits),
+                    "{name}"
+                );
+                assert_eq!(
+                    got.axis.map(f64::to_bits),
+                    want.axis.map(f64::to_bits),
+                    "{name}"
+                );
+            }
         }
     }
 }

@@ -249,6 +249,33 @@ impl Kinematics {
         pose_of(&iso)
     }
 
+    /// The part of the chain before the linear axes (the turning table's,
+    /// nothing on a head-head machine) at `axes`' rotary positions and
+    /// errors `p`: the same for every X, Y and Z.
+    pub fn table_part(&self, axes: &Axes, p: &Perturbation) -> TablePart {
+        let v = self.vars(axes, p);
+        TablePart {
+            product: self
+                .chain
+                .advance(chain::Partial::START, &v, self.table_factors),
+            vars: v,
+        }
+    }
+
+    /// [`Kinematics::forward`], the same bits, starting from a
+    /// [`TablePart`]: its product is reused where the table's factors have
+    /// the same values (the same rotary positions and the same errors of
+    /// the table's links), and the whole chain multiplied otherwise.
+    pub fn forward_after(&self, part: &TablePart, axes: &Axes, p: &Perturbation) -> ToolPose {
+        let v = self.vars(axes, p);
+        let from = if self.chain.same_prefix(&v, &part.vars, self.table_factors) {
+            part.product
+        } else {
+            chain::Partial::START
+        };
+        pose_of(&self.chain.advance(from, &v, self.chain.len()).iso())
+    }
+
     /// Nominal forward kinematics.
     pub fn forward_nominal(&self, axes: &Axes) -> ToolPose {
         self.forward(axes, &Perturbation::zero())
@@ -287,6 +314,14 @@ impl Kinematics {
         }
         r.rotation * Vector3::z()
     }
+}
+
+/// See [`Kinematics::table_part`].
+#[derive(Clone, Copy, Debug)]
+pub struct TablePart {
+    product: chain::Partial,
+    /// The variables it was made at.
+    vars: [f64; N_VARS],
 }
 
 fn pose_of(iso: &Isometry3<f64>) -> ToolPose {

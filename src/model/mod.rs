@@ -145,6 +145,21 @@ impl Model {
         p
     }
 
+    /// Whether the perturbation at `theta` changes with the linear axes'
+    /// positions: a linear-axis error (scale, squareness, straightness)
+    /// not at zero. Every other effect depends on the rotary positions,
+    /// the time or the approach only.
+    pub fn varies_with_xyz(&self, theta: &[f64]) -> bool {
+        self.effects.iter().enumerate().any(|(i, e)| {
+            matches!(
+                e,
+                Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
+            ) && theta[self.offsets[i]..self.offsets[i + 1]]
+                .iter()
+                .any(|&t| t != 0.0)
+        })
+    }
+
     /// The actual tool pose in W at `ctx.axes`.
     pub fn pose(&self, theta: &[f64], ctx: &Context) -> ToolPose {
         self.kin.forward(&ctx.axes, &self.perturbation(theta, ctx))

@@ -964,15 +964,14 @@ impl ForwardModel for ProbingForward {
             Surf::Sphere { centre, radius } => (c - centre).norm() - radius - r,
         };
         let h = 1e-3;
+        let ball = pr.ball_line(theta, i, offset);
         let slope = |tau: f64| {
-            let c1 = pr.ball(theta, i, tau - h, offset);
-            let c2 = pr.ball(theta, i, tau + h, offset);
+            let c1 = ball(tau - h);
+            let c2 = ball(tau + h);
             (g(&c2) - g(&c1)) / (2.0 * h)
         };
-        let (tau, gp) = contact_search(pr.nominal_tau(i), slope, |tau| {
-            g(&pr.ball(theta, i, tau, offset))
-        })
-        .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))?;
+        let (tau, gp) = contact_search(pr.nominal_tau(i), slope, |tau| g(&ball(tau)))
+            .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))?;
         let (pj, jt, _) = pr.model.pose_jacobian(theta, &pr.context(i, tau, offset));
         let c = pj.pose.tip;
         let mut dg = DVector::zeros(total);

@@ -155,6 +155,33 @@ impl Probing {
         self.model.pose(theta, &self.context(i, tau, offset)).tip
     }
 
+    /// [`Probing::ball`] along touch `i`'s line as a function of `tau`, the
+    /// same bits. Along one line only X, Y and Z change: the table's part
+    /// of the chain is multiplied once, and the errors are worked out once
+    /// unless a linear-axis error is at work, not at every step of the
+    /// contact search.
+    pub fn ball_line<'a>(
+        &'a self,
+        theta: &'a [f64],
+        i: usize,
+        offset: f64,
+    ) -> impl Fn(f64) -> Vector3<f64> + 'a {
+        let kin = &self.model.kin;
+        let varies = self.model.varies_with_xyz(theta);
+        let ctx = self.context(i, 0.0, offset);
+        let p0 = self.model.perturbation(theta, &ctx);
+        let part = kin.table_part(&ctx.axes, &p0);
+        move |tau| {
+            let ctx = self.context(i, tau, offset);
+            let p = if varies {
+                self.model.perturbation(theta, &ctx)
+            } else {
+                p0
+            };
+            kin.forward_after(&part, &ctx.axes, &p).tip
+        }
+    }
+
     /// The probe's pre-travel on touch `i`, mm, and its gradient (mm per
     /// parameter unit).
     pub fn pretravel(&self, theta: &[f64], i: usize) -> (f64, Vec<f64>) {
