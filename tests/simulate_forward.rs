@@ -12,7 +12,7 @@ use fivecal::Dialect;
 use fivecal::errorfile::{ErrorFile, LoadedErrors, Quantity, Values};
 use fivecal::formats::detect::{self, PointSet};
 use fivecal::formats::manifest::TestKind;
-use fivecal::identify::forward::{Prediction, RigidPoseMachining, Wanted};
+use fivecal::identify::forward::{ForwardModel, Prediction, RigidPoseMachining, Wanted};
 use fivecal::identify::sphere::SphereOptions;
 use fivecal::identify::{Method, Setup, data::join};
 use fivecal::post::PostDefinition;
@@ -408,6 +408,48 @@ fn predict_wanted_gives_the_wanted_columns_of_predict_to_the_bit() {
         }
         assert!(nonzero > 0, "{name}: no wanted column moves a point");
     }
+}
+
+/// A machined point's prediction is the deepest of the surfaces the moves
+/// near it leave (the first of equals), to the bit: the forward model finds
+/// each move's offset first and differentiates the deepest alone.
+#[test]
+fn the_prediction_is_the_deepest_surface_to_the_bit() {
+    let mut plans: Vec<(String, Arc<Plan>)> = MACHINES
+        .iter()
+        .flat_map(|m| {
+            MACHINING
+                .iter()
+                .map(move |t| (format!("{m} {t}"), planned(m, t)))
+        })
+        .collect();
+    plans.push((
+        "bull-nose nine-section".into(),
+        Arc::new(bull_nose_nine_section()),
+    ));
+    let mut several = 0;
+    for (name, plan) in &plans {
+        let Plan::Machining(mp) = &**plan else {
+            unreachable!()
+        };
+        let errors = load(plan, &full_truth(plan));
+        let fm = forward::MachiningForward::new(&errors.model, Arc::new((**mp).clone())).unwrap();
+        let minutes = pose_minutes(plan);
+        for p in plan.plan_points().points.iter().step_by(3) {
+            let min = minutes[&p.pose];
+            let got = fm.predict(&errors.theta, &[], p, min).unwrap();
+            let surfaces = fm.surfaces(&errors.theta, p, min).unwrap();
+            several += usize::from(surfaces.len() > 1);
+            let want = surfaces
+                .into_iter()
+                .map(|(_, s)| s)
+                .min_by(|a, b| a.offset.total_cmp(&b.offset))
+                .unwrap()
+                .prediction;
+            assert_eq!(got, want, "{name} {}", p.label);
+        }
+    }
+    assert!(several > 20, "{several}");
 }
 
 /// analyze's global method on a head machine, which the rigid-pose model

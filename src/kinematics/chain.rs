@@ -3,7 +3,8 @@
 use nalgebra::{Isometry3, Matrix3, SMatrix, Translation3, UnitQuaternion, Vector3};
 
 use super::{
-    Kinematics, N_VARS, PoseJacobian, SLOT_LIN, SLOT_TOOL_LENGTH, VAR_C, VAR_TILT, pose_of,
+    Kinematics, N_VARS, PoseJacobian, SLOT_LIN, SLOT_TOOL_LENGTH, ToolPose, VAR_C, VAR_TILT,
+    pose_of,
 };
 use crate::geom::Axis3;
 use crate::machine::{Machine, RotaryAxis, Structure};
@@ -251,6 +252,19 @@ impl Chain {
         Partial { rot, t, next: to }
     }
 
+    /// The pose of [`Chain::jacobian`] without its derivatives: the same
+    /// products of the factors, the same bits.
+    pub(super) fn jacobian_pose(&self, v: &[f64; N_VARS]) -> ToolPose {
+        let mut acc = Isometry3::identity();
+        for f in &self.factors {
+            let x = f.value(v);
+            if x != 0.0 {
+                acc *= f.iso(x);
+            }
+        }
+        pose_of(&acc)
+    }
+
     pub(super) fn jacobian(&self, v: &[f64; N_VARS]) -> PoseJacobian {
         // The fits call this for every point of every evaluation: the
         // buffers are the thread's own, not allocated per call.
@@ -430,7 +444,8 @@ mod tests {
     /// A pose from a table part made along the same line (other X Y Z, the
     /// same table errors) is the pose multiplied afresh, to the bit; with
     /// the table's errors or rotary positions changed, it is still right
-    /// (the whole chain is multiplied).
+    /// (the whole chain is multiplied). The Jacobian's pose without the
+    /// derivatives is its pose to the bit.
     #[test]
     fn a_pose_after_a_table_part_is_the_pose_to_the_bit() {
         use crate::kinematics::{Axes, Kinematics, Perturbation};
@@ -480,6 +495,11 @@ mod tests {
                     want.axis.map(f64::to_bits),
                     "{name}"
                 );
+                // And the pose of the Jacobian, without its derivatives.
+                let want = k.jacobian(&axes, &q).pose;
+                let got = k.jacobian_pose(&axes, &q);
+                assert_eq!(got.tip.map(f64::to_bits), want.tip.map(f64::to_bits));
+                assert_eq!(got.axis.map(f64::to_bits), want.axis.map(f64::to_bits));
             }
         }
     }

@@ -249,6 +249,12 @@ impl Kinematics {
         pose_of(&iso)
     }
 
+    /// The pose of [`Kinematics::jacobian`], the same bits, without the
+    /// derivatives (for a search that differentiates only where it ends).
+    pub fn jacobian_pose(&self, axes: &Axes, p: &Perturbation) -> ToolPose {
+        self.chain.jacobian_pose(&self.vars(axes, p))
+    }
+
     /// The part of the chain before the linear axes (the turning table's,
     /// nothing on a head-head machine) at `axes`' rotary positions and
     /// errors `p`: the same for every X, Y and Z.

@@ -191,6 +191,13 @@ impl Model {
         (j, jt, ja)
     }
 
+    /// The pose of [`Model::pose_jacobian`], the same bits, without any
+    /// derivative.
+    pub fn jacobian_pose(&self, theta: &[f64], ctx: &Context) -> ToolPose {
+        self.kin
+            .jacobian_pose(&ctx.axes, &self.perturbation(theta, ctx))
+    }
+
     /// [`Model::pose_jacobian_of`] without the tool axis's derivatives (the
     /// tip's are the same bits).
     pub fn tip_jacobian_of(

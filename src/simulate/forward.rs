@@ -127,6 +127,8 @@ pub struct MachiningForward {
     candidates: Vec<Vec<Candidate>>,
     /// Every parameter (what `predict` differentiates).
     all: Wanted,
+    /// No parameter (a surface's offset alone).
+    none: Wanted,
 }
 
 /// A move that may leave a point's surface: the point's generators, and
@@ -216,12 +218,14 @@ impl MachiningForward {
             .map(|pp| candidates_of(&cut, pp))
             .collect();
         let all = Wanted::new(&cut.model, |_| true);
+        let none = Wanted::new(&cut.model, |_| false);
         Ok(MachiningForward {
             cut,
             index,
             radius_grad,
             candidates,
             all,
+            none,
         })
     }
 
@@ -254,9 +258,19 @@ impl MachiningForward {
         let label = &pp.point.label;
         let pose = pp.provenance.pose;
         let mv = g.mv;
+        // Without derivatives (an offset only), the poses alone, the same
+        // bits as the Jacobians'.
+        let derivatives = !wanted.columns.is_empty();
+        let none = || DMatrix::zeros(3, 0);
         // The tool at the generating instant.
         let of = Some(wanted.effects.as_slice());
-        let (pj, jt, ja) = model.pose_jacobian_of(theta, &cut.context(pose, mv, g.t, offset), of);
+        let ctx = cut.context(pose, mv, g.t, offset);
+        let (at_g, jt, ja) = if derivatives {
+            let (pj, jt, ja) = model.pose_jacobian_of(theta, &ctx, of);
+            (pj.pose, jt, ja)
+        } else {
+            (model.jacobian_pose(theta, &ctx), none(), none())
+        };
         // The actual path direction: a chord about the instant within the
         // affine piece (exact on a straight piece, second-order on a bent one).
         let (lo, hi) = cut.piece(pose, mv, g.t);
@@ -270,15 +284,25 @@ impl MachiningForward {
                 mv + 1
             )));
         }
-        let (p1, j1) = model.tip_jacobian_of(theta, &cut.context(pose, mv, t1, offset), of);
-        let (p2, j2) = model.tip_jacobian_of(theta, &cut.context(pose, mv, t2, offset), of);
-        // The other columns are zero, as in j1 and j2.
-        let mut dv = DMatrix::zeros(3, model.n_params());
-        for &j in &wanted.columns {
-            for r in 0..3 {
-                dv[(r, j)] = (j2[(r, j)] - j1[(r, j)]) / (t2 - t1);
+        let (ctx1, ctx2) = (
+            cut.context(pose, mv, t1, offset),
+            cut.context(pose, mv, t2, offset),
+        );
+        let (p1, p2, dv) = if derivatives {
+            let (p1, j1) = model.tip_jacobian_of(theta, &ctx1, of);
+            let (p2, j2) = model.tip_jacobian_of(theta, &ctx2, of);
+            // The other columns are zero, as in j1 and j2.
+            let mut dv = DMatrix::zeros(3, model.n_params());
+            for &j in &wanted.columns {
+                for r in 0..3 {
+                    dv[(r, j)] = (j2[(r, j)] - j1[(r, j)]) / (t2 - t1);
+                }
             }
-        }
+            (p1.pose, p2.pose, dv)
+        } else {
+            let p1 = model.jacobian_pose(theta, &ctx1);
+            (p1, model.jacobian_pose(theta, &ctx2), none())
+        };
         let dr = cut.radius_error(theta);
         let nominal = &cut.plan.cutter;
         let at = Instant {
@@ -288,9 +312,9 @@ impl MachiningForward {
             g,
             np: model.n_params(),
             cols: &wanted.columns,
-            tip: pj.pose.tip,
-            u: pj.pose.axis,
-            v: (p2.pose.tip - p1.pose.tip) / (t2 - t1),
+            tip: at_g.tip,
+            u: at_g.axis,
+            v: (p2.tip - p1.tip) / (t2 - t1),
             dv,
             jt,
             ja,
@@ -688,12 +712,31 @@ impl ForwardModel for MachiningForward {
         minutes: f64,
         wanted: &Wanted,
     ) -> Result<Prediction, ForwardError> {
-        self.surfaces_wanted(theta, point, minutes, wanted)?
-            .into_iter()
-            .map(|(_, p)| p)
-            .min_by(|a, b| a.offset.total_cmp(&b.offset))
-            .map(|p| p.prediction)
-            .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))
+        // The deepest surface is the one measured (the first of equals):
+        // each move's offset first, then the derivatives of that move's
+        // surface alone (the same bits as differentiating every move's).
+        let (i, offset) = self.point_of(point, minutes)?;
+        let pp = &self.cut.plan.points[i];
+        let mut deepest: Option<(&Candidate, Local)> = None;
+        for g in &self.candidates[i] {
+            if let Some(l) = self.local(theta, pp, g, offset, &self.none)?
+                && deepest
+                    .as_ref()
+                    .is_none_or(|(_, d)| l.s.total_cmp(&d.s).is_lt())
+            {
+                deepest = Some((g, l));
+            }
+        }
+        let Some((g, l)) = deepest else {
+            return Err(ForwardError::NoIntersection(point.label.clone()));
+        };
+        let l = if wanted.columns.is_empty() {
+            l
+        } else {
+            self.local(theta, pp, g, offset, wanted)?
+                .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))?
+        };
+        Ok(self.surface(pp, l, wanted).prediction)
     }
 }
 
@@ -733,36 +776,44 @@ impl MachiningForward {
         minutes: f64,
         wanted: &Wanted,
     ) -> Result<Vec<(usize, MoveSurface)>, ForwardError> {
-        let i = *self.index.get(&point.label).ok_or_else(|| {
-            ForwardError::Other(format!("`{}` is not a point of the plan", point.label))
-        })?;
+        let (i, offset) = self.point_of(point, minutes)?;
         let pp = &self.cut.plan.points[i];
-        let offset = minutes - self.cut.timeline.mid(pp.provenance.pose);
-        let n = pp.point.n;
         let mut out = Vec::new();
         for g in &self.candidates[i] {
             let Some(l) = self.local(theta, pp, g, offset, wanted)? else {
                 continue;
             };
-            let np = l.ds.len();
-            let mut d_point = DMatrix::zeros(3, np);
-            for &j in &wanted.columns {
-                set_col(&mut d_point, j, &(n * l.ds[j]));
-            }
-            out.push((
-                g.mv,
-                MoveSurface {
-                    offset: l.s,
-                    prediction: Prediction {
-                        point: pp.point.p + n * l.s,
-                        normal: l.normal,
-                        d_point,
-                        d_normal: l.dnormal,
-                    },
-                },
-            ));
+            out.push((g.mv, self.surface(pp, l, wanted)));
         }
         Ok(out)
+    }
+
+    /// The index of `point` in the plan, and the time from its pose's
+    /// middle to `minutes`.
+    fn point_of(&self, point: &PlanPoint, minutes: f64) -> Result<(usize, f64), ForwardError> {
+        let i = *self.index.get(&point.label).ok_or_else(|| {
+            ForwardError::Other(format!("`{}` is not a point of the plan", point.label))
+        })?;
+        let pose = self.cut.plan.points[i].provenance.pose;
+        Ok((i, minutes - self.cut.timeline.mid(pose)))
+    }
+
+    /// The surface a move leaves at a point, from its local contact.
+    fn surface(&self, pp: &PlannedPoint, l: Local, wanted: &Wanted) -> MoveSurface {
+        let n = pp.point.n;
+        let mut d_point = DMatrix::zeros(3, l.ds.len());
+        for &j in &wanted.columns {
+            set_col(&mut d_point, j, &(n * l.ds[j]));
+        }
+        MoveSurface {
+            offset: l.s,
+            prediction: Prediction {
+                point: pp.point.p + n * l.s,
+                normal: l.normal,
+                d_point,
+                d_normal: l.dnormal,
+            },
+        }
     }
 }
 
