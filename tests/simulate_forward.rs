@@ -460,7 +460,8 @@ fn the_prediction_is_the_deepest_surface_to_the_bit() {
 /// table's part of the chain multiplied once (and the errors worked out
 /// once when no linear-axis error is at work): every ball centre it meets
 /// is the one worked out afresh, to the bit, with and without linear-axis
-/// errors, on a table-table and a head-table machine.
+/// errors, on a table-table and a head-table machine. The pre-travel,
+/// worked out from its own effect alone, is the perturbation's.
 #[test]
 fn the_ball_along_a_touch_line_is_the_ball_worked_out_afresh_to_the_bit() {
     for machine in ["ac-trunnion", "head-table"] {
@@ -470,7 +471,14 @@ fn the_ball_along_a_touch_line_is_the_ball_worked_out_afresh_to_the_bit() {
                 unreachable!()
             };
             let full = full_truth(&plan);
-            for group in ["location", "maps", "scale", "straightness", "drift-minute"] {
+            for group in [
+                "location",
+                "maps",
+                "scale",
+                "straightness",
+                "drift-minute",
+                "pretravel",
+            ] {
                 let errors = load(&plan, &only(&full, group));
                 let kin = simulate::plan_kinematics(&plan);
                 let model = fivecal::model::Model::new(kin, errors.model.effects.clone());
@@ -482,6 +490,13 @@ fn the_ball_along_a_touch_line_is_the_ball_worked_out_afresh_to_the_bit() {
                     "{group}"
                 );
                 for i in (0..p.plan.touches.len()).step_by(7) {
+                    // The pre-travel from its own effect's terms is the
+                    // whole perturbation's pre-travel slot.
+                    let whole = pr.model.perturbation(theta, &pr.context(i, 0.0, 0.0));
+                    assert_eq!(
+                        pr.pretravel(theta, i).0.to_bits(),
+                        whole.0[fivecal::kinematics::SLOT_PRETRAVEL].to_bits()
+                    );
                     let ball = pr.ball_line(theta, i, 0.3);
                     for tau in [-2.0, -0.1, 0.0, 0.4, 3.0] {
                         assert_eq!(

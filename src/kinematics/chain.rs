@@ -223,12 +223,15 @@ impl Chain {
         self.factors.len()
     }
 
-    /// Whether the first `n` factors have the same values at `v` and `w`
-    /// (their product is then the same bits).
-    pub(super) fn same_prefix(&self, v: &[f64; N_VARS], w: &[f64; N_VARS], n: usize) -> bool {
-        self.factors[..n]
+    /// The variables the first `n` factors depend on, increasing.
+    pub(super) fn vars_of(&self, n: usize) -> Vec<usize> {
+        let mut vars: Vec<usize> = self.factors[..n]
             .iter()
-            .all(|f| f.value(v).to_bits() == f.value(w).to_bits())
+            .flat_map(|f| f.terms.iter().map(|&(i, _)| i))
+            .collect();
+        vars.sort_unstable();
+        vars.dedup();
+        vars
     }
 
     /// `from` multiplied on by the factors from its end up to `to`: the

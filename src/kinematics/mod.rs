@@ -48,7 +48,7 @@ pub const SLOT_TOOL_LENGTH: usize = 21;
 /// Slot of the tool radius error, mm: positive = larger (machining only).
 pub(crate) const SLOT_TOOL_RADIUS: usize = 22;
 /// Slot of the probe pre-travel along the approach direction, mm (probing only).
-pub(crate) const SLOT_PRETRAVEL: usize = 23;
+pub const SLOT_PRETRAVEL: usize = 23;
 /// Number of perturbation slots.
 pub const N_SLOTS: usize = 24;
 /// Number of chain variables: five axis values then the slots.
@@ -154,6 +154,8 @@ pub struct Kinematics {
     chain: chain::Chain,
     /// Number of leading chain factors that form `rTw^-1`.
     table_factors: usize,
+    /// The variables those factors depend on.
+    table_vars: Vec<usize>,
 }
 
 impl Kinematics {
@@ -167,12 +169,14 @@ impl Kinematics {
     pub fn with_gauge_length(machine: &Machine, gauge_length: f64) -> Kinematics {
         let links = link_infos(machine);
         let (chain, table_factors) = chain::build(machine, gauge_length);
+        let table_vars = chain.vars_of(table_factors);
         Kinematics {
             machine: machine.clone(),
             links,
             gauge_length,
             chain,
             table_factors,
+            table_vars,
         }
     }
 
@@ -274,7 +278,12 @@ impl Kinematics {
     /// the table's links), and the whole chain multiplied otherwise.
     pub fn forward_after(&self, part: &TablePart, axes: &Axes, p: &Perturbation) -> ToolPose {
         let v = self.vars(axes, p);
-        let from = if self.chain.same_prefix(&v, &part.vars, self.table_factors) {
+        // The same variables give the same factors, and the same product.
+        let same = self
+            .table_vars
+            .iter()
+            .all(|&i| v[i].to_bits() == part.vars[i].to_bits());
+        let from = if same {
             part.product
         } else {
             chain::Partial::START

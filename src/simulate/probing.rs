@@ -21,7 +21,7 @@ use super::machining::golden;
 use crate::geom::{self, Axis3};
 use crate::kinematics::{Axes, SLOT_PRETRAVEL};
 use crate::machine::Machine;
-use crate::model::{Context, Model};
+use crate::model::{Context, Effect, Model};
 use crate::procedure::ProbingPlan;
 use crate::procedure::probing::PoseFrame;
 use crate::procedure::probing::ProbedGeometry;
@@ -186,12 +186,25 @@ impl Probing {
     /// parameter unit).
     pub fn pretravel(&self, theta: &[f64], i: usize) -> (f64, Vec<f64>) {
         let ctx = self.context(i, 0.0, 0.0);
-        let v = self.model.perturbation(theta, &ctx).0[SLOT_PRETRAVEL];
-        let mut g = vec![0.0; self.model.n_params()];
-        for (slot, k, c) in self.model.slot_coefficients(&ctx) {
-            if slot == SLOT_PRETRAVEL {
-                g[k] += c;
+        let model = &self.model;
+        let mut v = 0.0;
+        let mut g = vec![0.0; model.n_params()];
+        // Only the pre-travel effect moves the pre-travel slot: its terms
+        // alone, added as the whole perturbation adds them (an effect at
+        // zero adds nothing).
+        for (e, effect) in model.effects.iter().enumerate() {
+            if !matches!(effect, Effect::ProbePretravel) {
+                continue;
             }
+            let range = model.param_range(e);
+            let at_zero = theta[range.clone()].iter().all(|&t| t == 0.0);
+            effect.coefficients(&model.symbols, &ctx, &mut |slot, k, c| {
+                debug_assert_eq!(slot, SLOT_PRETRAVEL);
+                if !at_zero {
+                    v += c * theta[range.start + k];
+                }
+                g[range.start + k] += c;
+            });
         }
         (v, g)
     }
