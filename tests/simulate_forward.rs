@@ -356,18 +356,7 @@ fn forward_jacobian_matches_central_differences_of_itself() {
 /// both machining tests of every machine and the bull-nose nine-section.
 #[test]
 fn predict_wanted_gives_the_wanted_columns_of_predict_to_the_bit() {
-    let mut plans: Vec<(String, Arc<Plan>)> = MACHINES
-        .iter()
-        .flat_map(|m| {
-            MACHINING
-                .iter()
-                .map(move |t| (format!("{m} {t}"), planned(m, t)))
-        })
-        .collect();
-    plans.push((
-        "bull-nose nine-section".into(),
-        Arc::new(bull_nose_nine_section()),
-    ));
+    let plans = machining_plans();
     for (name, plan) in &plans {
         let errors = load(plan, &full_truth(plan));
         let model = &errors.model;
@@ -410,11 +399,8 @@ fn predict_wanted_gives_the_wanted_columns_of_predict_to_the_bit() {
     }
 }
 
-/// A machined point's prediction is the deepest of the surfaces the moves
-/// near it leave (the first of equals), to the bit: the forward model finds
-/// each move's offset first and differentiates the deepest alone.
-#[test]
-fn the_prediction_is_the_deepest_surface_to_the_bit() {
+/// Both machining tests of every machine, and the bull-nose nine-section.
+fn machining_plans() -> Vec<(String, Arc<Plan>)> {
     let mut plans: Vec<(String, Arc<Plan>)> = MACHINES
         .iter()
         .flat_map(|m| {
@@ -427,6 +413,15 @@ fn the_prediction_is_the_deepest_surface_to_the_bit() {
         "bull-nose nine-section".into(),
         Arc::new(bull_nose_nine_section()),
     ));
+    plans
+}
+
+/// A machined point's prediction is the deepest of the surfaces the moves
+/// near it leave (the first of equals), to the bit: the forward model finds
+/// each move's offset first and differentiates the deepest alone.
+#[test]
+fn the_prediction_is_the_deepest_surface_to_the_bit() {
+    let plans = machining_plans();
     let mut several = 0;
     for (name, plan) in &plans {
         let Plan::Machining(mp) = &**plan else {

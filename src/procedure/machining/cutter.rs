@@ -211,31 +211,17 @@ impl Cutter {
         s_lo: f64,
         s_hi: f64,
     ) -> Option<f64> {
-        self.entry(a, b, axis, q, n, s_lo, s_hi, 0.0)
+        self.entry_within(a, b, axis, q, n, s_lo, s_hi, 0.0)
     }
 
     /// [`Cutter::entry_along`] to within `tol`: an `s` inside the swept
     /// solid and less than `tol` beyond the entry, for callers that only
     /// compare the entry with thresholds far wider than `tol` (a plan's
     /// provenance). The search stops at the first point found inside, and
-    /// the bisection once its bracket is narrower than `tol`.
+    /// the bisection once its bracket is narrower than `tol`; `tol = 0`
+    /// is `entry_along`.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn entry_within(
-        &self,
-        a: &Vector3<f64>,
-        b: &Vector3<f64>,
-        axis: &Vector3<f64>,
-        q: &Vector3<f64>,
-        n: &Vector3<f64>,
-        s_lo: f64,
-        s_hi: f64,
-        tol: f64,
-    ) -> Option<f64> {
-        self.entry(a, b, axis, q, n, s_lo, s_hi, tol)
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn entry(
         &self,
         a: &Vector3<f64>,
         b: &Vector3<f64>,
