@@ -461,24 +461,48 @@ enum Mode<'a> {
 /// [`Prepared`] design on a model, keyed by the model's names and the
 /// candidate's.
 #[derive(Default)]
-struct Fits(
-    std::sync::Mutex<std::collections::HashMap<FitKey, Result<Fit, FitError>>>,
-    std::sync::Mutex<std::collections::HashMap<DesignKey, Result<Prepared, String>>>,
-);
+struct Fits {
+    fits: Memo<FitKey, Result<Fit, FitError>>,
+    designs: Memo<DesignKey, Result<Prepared, String>>,
+}
 
 type FitKey = (Vec<u64>, Vec<String>);
 
 /// A model's names and a candidate's.
 type DesignKey = (Vec<String>, String);
 
-impl Fits {
-    fn key(base: &Fit, spec: &Spec) -> FitKey {
-        (
-            base.x.iter().map(|v| v.to_bits()).collect(),
-            spec.names.clone(),
-        )
+/// Values made once per key, shared between the threads of a round.
+struct Memo<K, V>(std::sync::Mutex<std::collections::HashMap<K, V>>);
+
+impl<K, V> Default for Memo<K, V> {
+    fn default() -> Self {
+        Memo(Default::default())
+    }
+}
+
+impl<K: Eq + std::hash::Hash, V: Clone> Memo<K, V> {
+    /// The value kept for `key`, or the one `make` makes (and kept).
+    fn get_or(&self, key: K, make: impl FnOnce() -> V) -> V {
+        if let Some(v) = self.0.lock().expect("not poisoned").get(&key) {
+            return v.clone();
+        }
+        let v = make();
+        self.0.lock().expect("not poisoned").insert(key, v.clone());
+        v
     }
 
+    /// Forgets the values whose key fails `keep`.
+    fn retain(&self, keep: impl Fn(&K) -> bool) {
+        self.0.lock().expect("not poisoned").retain(|k, _| keep(k));
+    }
+
+    #[cfg(test)]
+    fn len(&self) -> usize {
+        self.0.lock().expect("not poisoned").len()
+    }
+}
+
+impl Fits {
     /// The fit of `spec` on `base`, made by `fit` unless kept.
     fn get_or(
         &self,
@@ -486,13 +510,11 @@ impl Fits {
         spec: &Spec,
         fit: impl FnOnce() -> Result<Fit, FitError>,
     ) -> Result<Fit, FitError> {
-        let key = Fits::key(base, spec);
-        if let Some(f) = self.0.lock().expect("not poisoned").get(&key) {
-            return f.clone();
-        }
-        let f = fit();
-        self.0.lock().expect("not poisoned").insert(key, f.clone());
-        f
+        let key = (
+            base.x.iter().map(|v| v.to_bits()).collect(),
+            spec.names.clone(),
+        );
+        self.fits.get_or(key, fit)
     }
 
     /// `cand` prepared on `base`'s model, by `prepare` unless kept.
@@ -503,26 +525,15 @@ impl Fits {
         prepare: impl FnOnce() -> Result<Prepared, String>,
     ) -> Result<Prepared, String> {
         let key = (base.spec.names.clone(), cand.name.clone());
-        if let Some(p) = self.1.lock().expect("not poisoned").get(&key) {
-            return p.clone();
-        }
-        let p = prepare();
-        self.1.lock().expect("not poisoned").insert(key, p.clone());
-        p
+        self.designs.get_or(key, prepare)
     }
 
     /// Forgets the fits and designs on any base but `base` (a map's fit
     /// holds megabytes).
     fn keep_on(&self, base: &Fit) {
         let bits: Vec<u64> = base.x.iter().map(|v| v.to_bits()).collect();
-        self.0
-            .lock()
-            .expect("not poisoned")
-            .retain(|k, _| k.0 == bits);
-        self.1
-            .lock()
-            .expect("not poisoned")
-            .retain(|k, _| k.0 == base.spec.names);
+        self.fits.retain(|k| k.0 == bits);
+        self.designs.retain(|k| k.0 == base.spec.names);
     }
 }
 
@@ -1798,8 +1809,8 @@ mod tests {
                 None,
                 Mode::Exact(&others(fitter, &base), Some(&fits)),
             );
-            assert_eq!(fits.0.lock().unwrap().len(), 1);
-            assert_eq!(fits.1.lock().unwrap().len(), 1);
+            assert_eq!(fits.fits.len(), 1);
+            assert_eq!(fits.designs.len(), 1);
             let round = Round::new(fitter, &base).unwrap();
             let screened = try_candidate(
                 fitter,
@@ -1810,7 +1821,7 @@ mod tests {
             );
             assert!(screened.fit.is_none());
             // Screened with the design the exact fit made (none made again).
-            assert_eq!(fits.1.lock().unwrap().len(), 1);
+            assert_eq!(fits.designs.len(), 1);
             let again = refit(fitter, &base, screened, &fits, &round.screen);
             let afresh = with(&base, "drift.EZ0B/seq");
             for f in [kept.fit.unwrap(), again.fit.unwrap()] {
@@ -1826,7 +1837,7 @@ mod tests {
             }
             // Moving on to the next model forgets the fits on this one.
             fits.keep_on(&afresh);
-            assert!(fits.0.lock().unwrap().is_empty());
+            assert_eq!(fits.fits.len(), 0);
         });
     }
 

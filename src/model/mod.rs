@@ -18,7 +18,9 @@ mod effect;
 use nalgebra::{DMatrix, Vector3};
 
 use crate::kinematics::symbols::SymbolTable;
-use crate::kinematics::{Axes, IkError, Kinematics, Perturbation, PoseJacobian, ToolPose};
+use crate::kinematics::{
+    Axes, IkError, Kinematics, Perturbation, PoseJacobian, SLOT_PRETRAVEL, ToolPose,
+};
 
 pub use effect::PROBE_DIRECTIONS;
 pub use effect::{DriftBasis, Effect, Squareness};
@@ -135,7 +137,7 @@ impl Model {
             let o = self.offsets[i];
             // An effect at zero adds nothing (a catalogue model fitted a
             // few effects at a time is mostly such effects).
-            if theta[o..self.offsets[i + 1]].iter().all(|&t| t == 0.0) {
+            if self.at_zero(theta, i) {
                 continue;
             }
             e.coefficients(&self.symbols, ctx, &mut |slot, k, c| {
@@ -154,10 +156,39 @@ impl Model {
             matches!(
                 e,
                 Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
-            ) && theta[self.offsets[i]..self.offsets[i + 1]]
-                .iter()
-                .any(|&t| t != 0.0)
+            ) && !self.at_zero(theta, i)
         })
+    }
+
+    /// Whether every parameter of effect `i` is zero in `theta`.
+    fn at_zero(&self, theta: &[f64], i: usize) -> bool {
+        theta[self.offsets[i]..self.offsets[i + 1]]
+            .iter()
+            .all(|&t| t == 0.0)
+    }
+
+    /// The probe's pre-travel slot of the perturbation at `ctx`, the same
+    /// bits, and its gradient: the pre-travel effect's own terms alone (no
+    /// other effect moves that slot), not the whole perturbation.
+    pub(crate) fn pretravel(&self, theta: &[f64], ctx: &Context) -> (f64, Vec<f64>) {
+        let mut v = 0.0;
+        let mut g = vec![0.0; self.n_params()];
+        for (i, e) in self.effects.iter().enumerate() {
+            if !matches!(e, Effect::ProbePretravel) {
+                continue;
+            }
+            let o = self.offsets[i];
+            let at_zero = self.at_zero(theta, i);
+            e.coefficients(&self.symbols, ctx, &mut |slot, k, c| {
+                debug_assert_eq!(slot, SLOT_PRETRAVEL);
+                // Added as the perturbation adds them: nothing at zero.
+                if !at_zero {
+                    v += c * theta[o + k];
+                }
+                g[o + k] += c;
+            });
+        }
+        (v, g)
     }
 
     /// The actual tool pose in W at `ctx.axes`.

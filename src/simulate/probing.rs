@@ -19,9 +19,9 @@ use rand::{Rng, RngExt};
 use super::SimError;
 use super::machining::golden;
 use crate::geom::{self, Axis3};
-use crate::kinematics::{Axes, SLOT_PRETRAVEL};
+use crate::kinematics::Axes;
 use crate::machine::Machine;
-use crate::model::{Context, Effect, Model};
+use crate::model::{Context, Model};
 use crate::procedure::ProbingPlan;
 use crate::procedure::probing::PoseFrame;
 use crate::procedure::probing::ProbedGeometry;
@@ -185,28 +185,7 @@ impl Probing {
     /// The probe's pre-travel on touch `i`, mm, and its gradient (mm per
     /// parameter unit).
     pub fn pretravel(&self, theta: &[f64], i: usize) -> (f64, Vec<f64>) {
-        let ctx = self.context(i, 0.0, 0.0);
-        let model = &self.model;
-        let mut v = 0.0;
-        let mut g = vec![0.0; model.n_params()];
-        // Only the pre-travel effect moves the pre-travel slot: its terms
-        // alone, added as the whole perturbation adds them (an effect at
-        // zero adds nothing).
-        for (e, effect) in model.effects.iter().enumerate() {
-            if !matches!(effect, Effect::ProbePretravel) {
-                continue;
-            }
-            let range = model.param_range(e);
-            let at_zero = theta[range.clone()].iter().all(|&t| t == 0.0);
-            effect.coefficients(&model.symbols, &ctx, &mut |slot, k, c| {
-                debug_assert_eq!(slot, SLOT_PRETRAVEL);
-                if !at_zero {
-                    v += c * theta[range.start + k];
-                }
-                g[range.start + k] += c;
-            });
-        }
-        (v, g)
+        self.model.pretravel(theta, &self.context(i, 0.0, 0.0))
     }
 
     /// The commanded X, Y, Z at `tau` along touch `i`'s line: what the
