@@ -4,7 +4,7 @@
 use fivecal::geom::{self, Axis3, d6};
 use fivecal::kinematics::maps::{MapDim, MapGrid};
 use fivecal::kinematics::{IkError, Kinematics, N_VARS, Perturbation, SLOT_LIN, VAR_C, VAR_TILT};
-use fivecal::model::{Context, DriftBasis, Effect, Model, Squareness};
+use fivecal::model::{Context, DriftBasis, Effect, Model, Squareness, Wanted};
 use fivecal::{Axes, ToolPose};
 use nalgebra::{Isometry3, Point3, Vector3};
 use rand::RngExt;
@@ -337,6 +337,49 @@ fn parameter_jacobian_matches_central_differences() {
                         names[i]
                     );
                 }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_few_columns_at_parameters_found_once_are_the_whole_jacobians_columns_to_the_bit() {
+    // What the machining forward model uses: the effects not at zero found
+    // once per parameter vector, and only the columns a fit takes.
+    for (mi, name) in MACHINES.iter().enumerate() {
+        let m = machine(name);
+        let k = Kinematics::new(&m);
+        let mut r = rng(900 + mi as u64);
+        let (model, mut theta) = full_model(&k, &mut r);
+        // Every other effect at zero, as in a catalogue fitted a few at a time.
+        for e in (0..model.effects.len()).step_by(2) {
+            for c in model.param_range(e) {
+                theta[c] = 0.0;
+            }
+        }
+        let wanted = Wanted::new(&model, |c| c % 3 != 1);
+        let at = model.params(&theta);
+        for _ in 0..20 {
+            let ctx = Context {
+                axes: random_axes(&m, &mut r),
+                seq: 5.0,
+                ..Default::default()
+            };
+            let whole = model.perturbation(&theta, &ctx);
+            assert_eq!(model.perturbation_at(&at, &ctx), whole, "{name}");
+            let (pj, jt, ja) = model.pose_jacobian(&theta, &ctx);
+            let (pj_at, jt_at, ja_at) = model.pose_jacobian_at(&at, &ctx, &wanted);
+            let (tj_at, tt_at) = model.tip_jacobian_at(&at, &ctx, &wanted);
+            let pose = model.jacobian_pose_at(&at, &ctx);
+            for (what, got) in [("pose", pj_at.pose), ("tip", tj_at.pose), ("bare", pose)] {
+                assert_eq!(got.tip, pj.pose.tip, "{name}: {what}'s tip");
+                assert_eq!(got.axis, pj.pose.axis, "{name}: {what}'s axis");
+            }
+            assert_eq!(jt_at.ncols(), wanted.columns.len());
+            for (c, &j) in wanted.columns.iter().enumerate() {
+                assert_eq!(jt_at.column(c), jt.column(j), "{name}: tip column {j}");
+                assert_eq!(tt_at.column(c), jt.column(j), "{name}: tip column {j}");
+                assert_eq!(ja_at.column(c), ja.column(j), "{name}: axis column {j}");
             }
         }
     }

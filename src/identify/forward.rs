@@ -20,6 +20,7 @@ use nalgebra::{DMatrix, Point3, Vector3};
 use crate::formats::points::PlanPoint;
 use crate::kinematics::Axes;
 use crate::machine::Structure;
+pub use crate::model::Wanted;
 use crate::model::{Context, Effect, Model};
 
 /// The predicted measurement of one plan point.
@@ -99,27 +100,6 @@ pub trait ForwardModel: Sync {
     ) -> Result<Prediction, ForwardError> {
         let _ = wanted;
         self.predict(theta, nuisance, point, minutes)
-    }
-}
-
-/// The parameters of a model whose derivatives a caller uses
-/// ([`ForwardModel::predict_wanted`]), by column and by effect.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Wanted {
-    /// The wanted parameters' columns, increasing.
-    pub columns: Vec<usize>,
-    /// Per effect of the model, whether any of its parameters is wanted.
-    pub effects: Vec<bool>,
-}
-
-impl Wanted {
-    /// The parameters of `model` for which `used` holds.
-    pub fn new(model: &Model, used: impl Fn(usize) -> bool) -> Wanted {
-        let columns: Vec<usize> = (0..model.n_params()).filter(|&c| used(c)).collect();
-        let effects = (0..model.effects.len())
-            .map(|e| model.param_range(e).any(&used))
-            .collect();
-        Wanted { columns, effects }
     }
 }
 

@@ -49,6 +49,46 @@ impl Context {
     }
 }
 
+/// A parameter vector and the effects it moves ([`Model::params`]).
+#[derive(Clone, Debug)]
+pub struct Params<'a> {
+    /// The parameters.
+    pub theta: &'a [f64],
+    /// The effects not at zero, in order.
+    moving: Vec<usize>,
+}
+
+/// The parameters of a model whose derivatives a caller uses, by column
+/// and by effect (a forward model's `predict_wanted`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Wanted {
+    /// The wanted parameters' columns, increasing.
+    pub columns: Vec<usize>,
+    /// Per effect of the model, whether any of its parameters is wanted.
+    pub effects: Vec<bool>,
+    /// Per parameter, its place in `columns` (`usize::MAX`: not wanted).
+    index: Vec<usize>,
+}
+
+impl Wanted {
+    /// The parameters of `model` for which `used` holds.
+    pub fn new(model: &Model, used: impl Fn(usize) -> bool) -> Wanted {
+        let columns: Vec<usize> = (0..model.n_params()).filter(|&c| used(c)).collect();
+        let effects = (0..model.effects.len())
+            .map(|e| model.param_range(e).any(&used))
+            .collect();
+        let mut index = vec![usize::MAX; model.n_params()];
+        for (k, &c) in columns.iter().enumerate() {
+            index[c] = k;
+        }
+        Wanted {
+            columns,
+            effects,
+            index,
+        }
+    }
+}
+
 /// Kinematics plus effects.
 #[derive(Clone, Debug)]
 pub struct Model {
@@ -133,18 +173,44 @@ impl Model {
     pub fn perturbation(&self, theta: &[f64], ctx: &Context) -> Perturbation {
         debug_assert_eq!(theta.len(), self.n_params());
         let mut p = Perturbation::zero();
-        for (i, e) in self.effects.iter().enumerate() {
-            let o = self.offsets[i];
+        for i in 0..self.effects.len() {
             // An effect at zero adds nothing (a catalogue model fitted a
             // few effects at a time is mostly such effects).
-            if self.at_zero(theta, i) {
-                continue;
+            if !self.at_zero(theta, i) {
+                self.add_effect(i, theta, ctx, &mut p);
             }
-            e.coefficients(&self.symbols, ctx, &mut |slot, k, c| {
-                p.0[slot] += c * theta[o + k]
-            });
         }
         p
+    }
+
+    /// `theta` with the effects not at zero found once, for the many poses
+    /// a forward model evaluates at one parameter vector (looking at every
+    /// effect at every pose cost as much as the perturbations themselves).
+    pub fn params<'a>(&self, theta: &'a [f64]) -> Params<'a> {
+        debug_assert_eq!(theta.len(), self.n_params());
+        Params {
+            theta,
+            moving: (0..self.effects.len())
+                .filter(|&i| !self.at_zero(theta, i))
+                .collect(),
+        }
+    }
+
+    /// [`Model::perturbation`] at `at`, the same bits (the same effects
+    /// added in the same order).
+    pub fn perturbation_at(&self, at: &Params, ctx: &Context) -> Perturbation {
+        let mut p = Perturbation::zero();
+        for &i in &at.moving {
+            self.add_effect(i, at.theta, ctx, &mut p);
+        }
+        p
+    }
+
+    fn add_effect(&self, i: usize, theta: &[f64], ctx: &Context, p: &mut Perturbation) {
+        let o = self.offsets[i];
+        self.effects[i].coefficients(&self.symbols, ctx, &mut |slot, k, c| {
+            p.0[slot] += c * theta[o + k]
+        });
     }
 
     /// Whether the perturbation at `theta` changes with the linear axes'
@@ -203,65 +269,87 @@ impl Model {
         theta: &[f64],
         ctx: &Context,
     ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
-        self.pose_jacobian_of(theta, ctx, None)
-    }
-
-    /// [`Model::pose_jacobian`] with the derivatives of the effects
-    /// `effects` marks only (`None`: all); the other columns are zero. Each
-    /// column is computed on its own, so a marked one is the same to the
-    /// bit either way.
-    pub fn pose_jacobian_of(
-        &self,
-        theta: &[f64],
-        ctx: &Context,
-        effects: Option<&[bool]>,
-    ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
         let n = self.n_params();
         let mut ja = DMatrix::zeros(3, n);
-        let (j, jt) = self.jacobians_of(theta, ctx, effects, Some(&mut ja));
+        let p = self.perturbation(theta, ctx);
+        let (j, jt) = self.jacobians_of(&p, ctx, None, n, |c| c, Some(&mut ja));
         (j, jt, ja)
     }
 
-    /// The pose of [`Model::pose_jacobian`], the same bits, without any
-    /// derivative.
-    pub fn jacobian_pose(&self, theta: &[f64], ctx: &Context) -> ToolPose {
-        self.kin
-            .jacobian_pose(&ctx.axes, &self.perturbation(theta, ctx))
-    }
-
-    /// [`Model::pose_jacobian_of`] without the tool axis's derivatives (the
-    /// tip's are the same bits).
-    pub fn tip_jacobian_of(
+    /// [`Model::pose_jacobian`] at `at` with the derivatives of `wanted`'s
+    /// columns only, in that order (3 x `wanted.columns.len()`). Each column
+    /// is computed on its own, the same bits as `pose_jacobian`'s.
+    pub fn pose_jacobian_at(
         &self,
-        theta: &[f64],
+        at: &Params,
         ctx: &Context,
-        effects: Option<&[bool]>,
-    ) -> (PoseJacobian, DMatrix<f64>) {
-        self.jacobians_of(theta, ctx, effects, None)
+        wanted: &Wanted,
+    ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
+        let n = wanted.columns.len();
+        let mut ja = DMatrix::zeros(3, n);
+        let p = self.perturbation_at(at, ctx);
+        let (j, jt) = self.jacobians_of(
+            &p,
+            ctx,
+            Some(&wanted.effects),
+            n,
+            |c| wanted.index[c],
+            Some(&mut ja),
+        );
+        (j, jt, ja)
     }
 
+    /// The pose of [`Model::pose_jacobian`] at `at`, the same bits, without
+    /// any derivative.
+    pub fn jacobian_pose_at(&self, at: &Params, ctx: &Context) -> ToolPose {
+        self.kin
+            .jacobian_pose(&ctx.axes, &self.perturbation_at(at, ctx))
+    }
+
+    /// [`Model::pose_jacobian_at`] without the tool axis's derivatives (the
+    /// tip's are the same bits).
+    pub fn tip_jacobian_at(
+        &self,
+        at: &Params,
+        ctx: &Context,
+        wanted: &Wanted,
+    ) -> (PoseJacobian, DMatrix<f64>) {
+        let p = self.perturbation_at(at, ctx);
+        let n = wanted.columns.len();
+        self.jacobians_of(&p, ctx, Some(&wanted.effects), n, |c| wanted.index[c], None)
+    }
+
+    /// The chain Jacobian at `p` and the tip's (and, into `ja`, the axis's)
+    /// derivatives with respect to the parameters of the effects `effects`
+    /// marks (`None`: all), parameter `c` in column `column(c)` of `n`
+    /// (none where that is `usize::MAX`).
     fn jacobians_of(
         &self,
-        theta: &[f64],
+        p: &Perturbation,
         ctx: &Context,
         effects: Option<&[bool]>,
+        n: usize,
+        column: impl Fn(usize) -> usize,
         mut ja: Option<&mut DMatrix<f64>>,
     ) -> (PoseJacobian, DMatrix<f64>) {
-        let p = self.perturbation(theta, ctx);
-        let j = self.kin.jacobian(&ctx.axes, &p);
-        let mut jt = DMatrix::zeros(3, self.n_params());
+        let j = self.kin.jacobian(&ctx.axes, p);
+        let mut jt = DMatrix::zeros(3, n);
         for (i, e) in self.effects.iter().enumerate() {
             if effects.is_some_and(|m| !m[i]) {
                 continue;
             }
             let o = self.offsets[i];
             e.coefficients(&self.symbols, ctx, &mut |slot, p, c| {
+                let col = column(o + p);
+                if col == usize::MAX {
+                    return;
+                }
                 for r in 0..3 {
-                    jt[(r, o + p)] += c * j.tip[(r, 5 + slot)];
+                    jt[(r, col)] += c * j.tip[(r, 5 + slot)];
                 }
                 if let Some(ja) = ja.as_deref_mut() {
                     for r in 0..3 {
-                        ja[(r, o + p)] += c * j.axis[(r, 5 + slot)];
+                        ja[(r, col)] += c * j.axis[(r, 5 + slot)];
                     }
                 }
             });

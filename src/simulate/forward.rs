@@ -72,7 +72,7 @@ use crate::formats::points::PlanPoint;
 use crate::identify::forward::{ForwardError, ForwardModel, Prediction, SETUP_NAMES, Wanted};
 use crate::identify::rigid::d6_apply;
 use crate::kinematics::Kinematics;
-use crate::model::Model;
+use crate::model::{Model, Params};
 use crate::procedure::machining::{Cutter, PlannedPoint, ToolPart};
 use crate::procedure::probing::ProbedGeometry;
 use crate::procedure::{MachiningPlan, Plan, ProbingPlan};
@@ -99,7 +99,8 @@ pub fn for_plan(model: &Model, plan: &Plan) -> Result<Box<dyn ForwardModel>, For
 }
 
 /// One generating move's prediction: offset along the nominal normal and
-/// its derivative, the surface normal and its derivative.
+/// its derivative, the surface normal and its derivative (the wanted
+/// columns only, in [`Wanted::columns`]' order).
 struct Local {
     s: f64,
     ds: DVector<f64>,
@@ -247,7 +248,7 @@ impl MachiningForward {
 
     fn local(
         &self,
-        theta: &[f64],
+        at: &AtTheta,
         pp: &PlannedPoint,
         g: &Candidate,
         offset: f64,
@@ -260,16 +261,16 @@ impl MachiningForward {
         let mv = g.mv;
         // Without derivatives (an offset only), the poses alone, the same
         // bits as the Jacobians'.
+        let (dr, at) = (at.dr, &at.params);
         let derivatives = !wanted.columns.is_empty();
         let none = || DMatrix::zeros(3, 0);
         // The tool at the generating instant.
-        let of = Some(wanted.effects.as_slice());
         let ctx = cut.context(pose, mv, g.t, offset);
         let (at_g, jt, ja) = if derivatives {
-            let (pj, jt, ja) = model.pose_jacobian_of(theta, &ctx, of);
+            let (pj, jt, ja) = model.pose_jacobian_at(at, &ctx, wanted);
             (pj.pose, jt, ja)
         } else {
-            (model.jacobian_pose(theta, &ctx), none(), none())
+            (model.jacobian_pose_at(at, &ctx), none(), none())
         };
         // The actual path direction: a chord about the instant within the
         // affine piece (exact on a straight piece, second-order on a bent one).
@@ -289,28 +290,20 @@ impl MachiningForward {
             cut.context(pose, mv, t2, offset),
         );
         let (p1, p2, dv) = if derivatives {
-            let (p1, j1) = model.tip_jacobian_of(theta, &ctx1, of);
-            let (p2, j2) = model.tip_jacobian_of(theta, &ctx2, of);
-            // The other columns are zero, as in j1 and j2.
-            let mut dv = DMatrix::zeros(3, model.n_params());
-            for &j in &wanted.columns {
-                for r in 0..3 {
-                    dv[(r, j)] = (j2[(r, j)] - j1[(r, j)]) / (t2 - t1);
-                }
-            }
+            let (p1, j1) = model.tip_jacobian_at(at, &ctx1, wanted);
+            let (p2, j2) = model.tip_jacobian_at(at, &ctx2, wanted);
+            let dv = (j2 - j1) / (t2 - t1);
             (p1.pose, p2.pose, dv)
         } else {
-            let p1 = model.jacobian_pose(theta, &ctx1);
-            (p1, model.jacobian_pose(theta, &ctx2), none())
+            let p1 = model.jacobian_pose_at(at, &ctx1);
+            (p1, model.jacobian_pose_at(at, &ctx2), none())
         };
-        let dr = cut.radius_error(theta);
         let nominal = &cut.plan.cutter;
         let at = Instant {
             label,
             p: pp.point.p,
             n: pp.point.n,
             g,
-            np: model.n_params(),
             cols: &wanted.columns,
             tip: at_g.tip,
             u: at_g.axis,
@@ -334,6 +327,13 @@ impl MachiningForward {
     }
 }
 
+/// The parameters of a prediction, and what they make of the tool radius
+/// (the same at every pose).
+struct AtTheta<'a> {
+    params: Params<'a>,
+    dr: f64,
+}
+
 /// The tool at a point's generating instant (or a neighbour's), with the
 /// derivatives with respect to the parameters that the intersection of the
 /// point's normal line with the swept tool needs.
@@ -343,9 +343,8 @@ struct Instant<'a> {
     p: Vector3<f64>,
     n: Vector3<f64>,
     g: &'a Candidate,
-    /// Number of parameters, and those whose derivatives are wanted (the
-    /// other columns stay zero).
-    np: usize,
+    /// The parameters whose derivatives are wanted: column `k` of every
+    /// Jacobian here is parameter `cols[k]`'s.
     cols: &'a [usize],
     /// Tool tip and axis, and their Jacobians.
     tip: Vector3<f64>,
@@ -368,10 +367,10 @@ struct Instant<'a> {
 impl Instant<'_> {
     /// The Jacobian of a normal turned with the tool axis.
     fn rot_normal(&self, normal: &Vector3<f64>) -> DMatrix<f64> {
-        let mut d = DMatrix::zeros(3, self.np);
-        for &j in self.cols {
-            let w = self.u.cross(&col(&self.ja, j));
-            set_col(&mut d, j, &w.cross(normal));
+        let mut d = DMatrix::zeros(3, self.cols.len());
+        for k in 0..self.cols.len() {
+            let w = self.u.cross(&col(&self.ja, k));
+            set_col(&mut d, k, &w.cross(normal));
         }
         d
     }
@@ -404,7 +403,6 @@ impl Instant<'_> {
             label,
             p,
             n,
-            np,
             tip,
             u,
             v,
@@ -431,13 +429,13 @@ impl Instant<'_> {
         if !self.on_move((p + n * s - tip).dot(&v) / vv) {
             return Ok(None);
         }
-        let mut ds = DVector::zeros(np);
-        let mut dm = DMatrix::zeros(3, np);
-        for &j in self.cols {
-            let dw = (col(ja, j).cross(&v) + u.cross(&col(dv, j))) * sign;
+        let mut ds = DVector::zeros(self.cols.len());
+        let mut dm = DMatrix::zeros(3, self.cols.len());
+        for (k, &j) in self.cols.iter().enumerate() {
+            let dw = (col(ja, k).cross(&v) + u.cross(&col(dv, k))) * sign;
             let dmj = (dw - m * m.dot(&dw)) / wn;
-            set_col(&mut dm, j, &dmj);
-            ds[j] = (dmj.dot(&(tip - p)) + m.dot(&col(jt, j)) - ra_grad[j] - s * dmj.dot(&n)) / mn;
+            set_col(&mut dm, k, &dmj);
+            ds[k] = (dmj.dot(&(tip - p)) + m.dot(&col(jt, k)) - ra_grad[j] - s * dmj.dot(&n)) / mn;
         }
         Ok(Some(Local {
             s,
@@ -454,7 +452,6 @@ impl Instant<'_> {
             p,
             n,
             g,
-            np,
             tip,
             u,
             v,
@@ -530,9 +527,9 @@ impl Instant<'_> {
             }
         }
         let fps = fp(s);
-        let mut ds = DVector::zeros(np);
-        for &j in self.cols {
-            let (dtip, du, dvj) = (col(jt, j), col(ja, j), col(dv, j));
+        let mut ds = DVector::zeros(self.cols.len());
+        for (c, &j) in self.cols.iter().enumerate() {
+            let (dtip, du, dvj) = (col(jt, c), col(ja, c), col(dv, c));
             let dbeta = dvj.dot(&u) + v.dot(&du);
             let dvp = dvj - u * dbeta - du * beta;
             let dalpha = ev.dot(&dvp);
@@ -545,7 +542,7 @@ impl Instant<'_> {
             if sq > 1e-12 {
                 df += ak * (rf * ra_grad[j] - y * (dew.dot(&x) + ew.dot(&dx))) / sq;
             }
-            ds[j] = -df / fps;
+            ds[c] = -df / fps;
         }
         let edge = if sq > 1e-12 { ak * y / sq } else { 0.0 };
         let normal = (u - ev * k - ew * edge).normalize();
@@ -558,7 +555,6 @@ impl Instant<'_> {
             label,
             p,
             n,
-            np,
             tip,
             u,
             v,
@@ -586,12 +582,12 @@ impl Instant<'_> {
         }
         let wp = perp(&w);
         let dgs = 2.0 * wp.dot(&n);
-        let mut ds = DVector::zeros(np);
-        for &j in self.cols {
-            let dc = col(jt, j) + u * ra_grad[j] + col(ja, j) * ra;
-            let dvh = (col(dv, j) - vh * vh.dot(&col(dv, j))) / vn;
+        let mut ds = DVector::zeros(self.cols.len());
+        for (k, &j) in self.cols.iter().enumerate() {
+            let dc = col(jt, k) + u * ra_grad[j] + col(ja, k) * ra;
+            let dvh = (col(dv, k) - vh * vh.dot(&col(dv, k))) / vn;
             let dg = 2.0 * (-wp.dot(&dc) - vh.dot(&w) * wp.dot(&dvh)) - 2.0 * ra * ra_grad[j];
-            ds[j] = -dg / dgs;
+            ds[k] = -dg / dgs;
         }
         let normal = wp.normalize();
         Ok(self.contact(s, ds, normal))
@@ -605,7 +601,6 @@ impl Instant<'_> {
             p,
             n,
             g,
-            np,
             tip,
             u,
             v,
@@ -637,11 +632,11 @@ impl Instant<'_> {
         if den.abs() < 1e-9 {
             return self.miss(ForwardError::NoIntersection(label.clone()));
         }
-        let mut ds = DVector::zeros(np);
-        for &j in self.cols {
-            let dtip = col(jt, j) + col(dv, j) * tau;
-            let dsd = -gq.dot(&dtip) + gu.dot(&col(ja, j)) + gr * ra_grad[j];
-            ds[j] = -dsd / den;
+        let mut ds = DVector::zeros(self.cols.len());
+        for (k, &j) in self.cols.iter().enumerate() {
+            let dtip = col(jt, k) + col(dv, k) * tau;
+            let dsd = -gq.dot(&dtip) + gu.dot(&col(ja, k)) + gr * ra_grad[j];
+            ds[k] = -dsd / den;
         }
         let normal = -gq;
         Ok(self.contact(s, ds, normal))
@@ -717,9 +712,10 @@ impl ForwardModel for MachiningForward {
         // surface alone (the same bits as differentiating every move's).
         let (i, offset) = self.point_of(point, minutes)?;
         let pp = &self.cut.plan.points[i];
+        let at = self.at(theta);
         let mut deepest: Option<(&Candidate, Local)> = None;
         for g in &self.candidates[i] {
-            if let Some(l) = self.local(theta, pp, g, offset, &self.none)?
+            if let Some(l) = self.local(&at, pp, g, offset, &self.none)?
                 && deepest
                     .as_ref()
                     .is_none_or(|(_, d)| l.s.total_cmp(&d.s).is_lt())
@@ -733,7 +729,7 @@ impl ForwardModel for MachiningForward {
         let l = if wanted.columns.is_empty() {
             l
         } else {
-            self.local(theta, pp, g, offset, wanted)?
+            self.local(&at, pp, g, offset, wanted)?
                 .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))?
         };
         Ok(self.surface(pp, l, wanted).prediction)
@@ -778,14 +774,22 @@ impl MachiningForward {
     ) -> Result<Vec<(usize, MoveSurface)>, ForwardError> {
         let (i, offset) = self.point_of(point, minutes)?;
         let pp = &self.cut.plan.points[i];
+        let at = self.at(theta);
         let mut out = Vec::new();
         for g in &self.candidates[i] {
-            let Some(l) = self.local(theta, pp, g, offset, wanted)? else {
+            let Some(l) = self.local(&at, pp, g, offset, wanted)? else {
                 continue;
             };
             out.push((g.mv, self.surface(pp, l, wanted)));
         }
         Ok(out)
+    }
+
+    fn at<'a>(&self, theta: &'a [f64]) -> AtTheta<'a> {
+        AtTheta {
+            params: self.cut.model.params(theta),
+            dr: self.cut.radius_error(theta),
+        }
     }
 
     /// The index of `point` in the plan, and the time from its pose's
@@ -801,9 +805,12 @@ impl MachiningForward {
     /// The surface a move leaves at a point, from its local contact.
     fn surface(&self, pp: &PlannedPoint, l: Local, wanted: &Wanted) -> MoveSurface {
         let n = pp.point.n;
-        let mut d_point = DMatrix::zeros(3, l.ds.len());
-        for &j in &wanted.columns {
-            set_col(&mut d_point, j, &(n * l.ds[j]));
+        let np = self.cut.model.n_params();
+        // The other columns are zero.
+        let (mut d_point, mut d_normal) = (DMatrix::zeros(3, np), DMatrix::zeros(3, np));
+        for (k, &j) in wanted.columns.iter().enumerate() {
+            set_col(&mut d_point, j, &(n * l.ds[k]));
+            set_col(&mut d_normal, j, &col(&l.dnormal, k));
         }
         MoveSurface {
             offset: l.s,
@@ -811,7 +818,7 @@ impl MachiningForward {
                 point: pp.point.p + n * l.s,
                 normal: l.normal,
                 d_point,
-                d_normal: l.dnormal,
+                d_normal,
             },
         }
     }
