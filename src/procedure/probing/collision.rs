@@ -469,9 +469,8 @@ impl Convex {
 /// it cannot decide within its iterations it answers yes, the safe side).
 fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
     let support = |d: &Vector3<f64>| a.support(d) - b.support(&-d);
-    let mut simplex: Vec<Vector3<f64>> = Vec::with_capacity(4);
     let mut v = support(&Vector3::x());
-    simplex.push(v);
+    let mut simplex = Simplex::of(&[v]);
     for _ in 0..64 {
         let vn = v.norm();
         if vn <= threshold {
@@ -488,13 +487,14 @@ fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
             return vn <= threshold;
         }
         if simplex
+            .points()
             .iter()
             .any(|p| (p - w).norm() <= 1e-12 * (1.0 + w.norm()))
         {
             return vn <= threshold + 1e-9;
         }
         simplex.push(w);
-        let (p, kept) = closest_on_simplex(&simplex);
+        let (p, kept) = closest_on_simplex(simplex.points());
         simplex = kept;
         v = p;
         if v.norm() < 1e-12 {
@@ -504,14 +504,54 @@ fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
     true
 }
 
+/// Up to four points, on the stack: a planned grid runs this test a
+/// million times, and heap simplices cost more than the geometry.
+#[derive(Clone, Copy, Debug)]
+struct Simplex {
+    pts: [Vector3<f64>; 4],
+    len: usize,
+}
+
+impl Simplex {
+    fn of(pts: &[Vector3<f64>]) -> Simplex {
+        let mut s = Simplex {
+            pts: [Vector3::zeros(); 4],
+            len: 0,
+        };
+        for p in pts {
+            s.push(*p);
+        }
+        s
+    }
+
+    fn push(&mut self, p: Vector3<f64>) {
+        self.pts[self.len] = p;
+        self.len += 1;
+    }
+
+    fn points(&self) -> &[Vector3<f64>] {
+        &self.pts[..self.len]
+    }
+
+    /// The points of `s` that `mask` marks, in order.
+    fn subset(s: &[Vector3<f64>], mask: u32) -> Simplex {
+        let mut out = Simplex::of(&[]);
+        for (i, p) in s.iter().enumerate() {
+            if mask & (1 << i) != 0 {
+                out.push(*p);
+            }
+        }
+        out
+    }
+}
+
 /// The point of the convex hull of `s` (up to four points) nearest the
 /// origin, and the smallest subset of `s` whose hull contains it.
-fn closest_on_simplex(s: &[Vector3<f64>]) -> (Vector3<f64>, Vec<Vector3<f64>>) {
+fn closest_on_simplex(s: &[Vector3<f64>]) -> (Vector3<f64>, Simplex) {
     let n = s.len();
     let mut best: Option<(f64, Vector3<f64>, u32)> = None;
     for mask in 1u32..(1 << n) {
-        let idx: Vec<usize> = (0..n).filter(|i| mask & (1 << i) != 0).collect();
-        let Some(p) = affine_closest(&idx.iter().map(|&i| s[i]).collect::<Vec<_>>()) else {
+        let Some(p) = affine_closest(Simplex::subset(s, mask).points()) else {
             continue;
         };
         let d = p.norm();
@@ -520,50 +560,206 @@ fn closest_on_simplex(s: &[Vector3<f64>]) -> (Vector3<f64>, Vec<Vector3<f64>>) {
         }
     }
     let (_, p, mask) = best.expect("single points always qualify");
-    let kept = (0..n)
-        .filter(|i| mask & (1 << i) != 0)
-        .map(|i| s[i])
-        .collect();
-    (p, kept)
+    (p, Simplex::subset(s, mask))
 }
 
 /// The point of the affine hull of `pts` nearest the origin when it lies
 /// inside their convex hull (all barycentric weights >= 0).
 fn affine_closest(pts: &[Vector3<f64>]) -> Option<Vector3<f64>> {
-    let p0 = pts[0];
-    let k = pts.len() - 1;
-    if k == 0 {
-        return Some(p0);
+    // The normal equations of the barycentric weights, k x k for k + 1
+    // points; a fixed size per k keeps them off the heap (nalgebra's
+    // determinant and LU are the same code at every size).
+    macro_rules! closest {
+        ($k:literal, $mat:ty, $vec:ty) => {{
+            let p0 = pts[0];
+            let e: [Vector3<f64>; $k] = std::array::from_fn(|i| pts[i + 1] - p0);
+            let mut g = <$mat>::zeros();
+            let mut rhs = <$vec>::zeros();
+            for i in 0..$k {
+                for j in 0..$k {
+                    g[(i, j)] = e[i].dot(&e[j]);
+                }
+                rhs[i] = -e[i].dot(&p0);
+            }
+            let scale = (0..$k).map(|i| g[(i, i)]).fold(0.0, f64::max);
+            let det = g.determinant();
+            if scale == 0.0 || det.abs() <= 1e-12 * scale.powi($k) {
+                return None;
+            }
+            let mu = g.lu().solve(&rhs)?;
+            let l0 = 1.0 - mu.iter().sum::<f64>();
+            if l0 < -1e-12 || mu.iter().any(|&m| m < -1e-12) {
+                return None;
+            }
+            let mut p = p0;
+            for i in 0..$k {
+                p += e[i] * mu[i];
+            }
+            Some(p)
+        }};
     }
-    let e: Vec<Vector3<f64>> = pts[1..].iter().map(|p| p - p0).collect();
-    let mut g = nalgebra::DMatrix::<f64>::zeros(k, k);
-    let mut rhs = nalgebra::DVector::<f64>::zeros(k);
-    for i in 0..k {
-        for j in 0..k {
-            g[(i, j)] = e[i].dot(&e[j]);
-        }
-        rhs[i] = -e[i].dot(&p0);
+    match pts.len() {
+        1 => Some(pts[0]),
+        2 => closest!(1, nalgebra::Matrix1<f64>, nalgebra::Vector1<f64>),
+        3 => closest!(2, nalgebra::Matrix2<f64>, nalgebra::Vector2<f64>),
+        4 => closest!(3, Matrix3<f64>, Vector3<f64>),
+        n => unreachable!("a simplex in 3-D has at most four points, not {n}"),
     }
-    let scale = (0..k).map(|i| g[(i, i)]).fold(0.0, f64::max);
-    let det = g.determinant();
-    if scale == 0.0 || det.abs() <= 1e-12 * scale.powi(k as i32) {
-        return None;
-    }
-    let mu = g.lu().solve(&rhs)?;
-    let l0 = 1.0 - mu.iter().sum::<f64>();
-    if l0 < -1e-12 || mu.iter().any(|&m| m < -1e-12) {
-        return None;
-    }
-    let mut p = p0;
-    for i in 0..k {
-        p += e[i] * mu[i];
-    }
-    Some(p)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The heap version this module used before, kept as the reference:
+    /// the stack version must take the same decisions to the bit.
+    mod reference {
+        use super::*;
+
+        pub(super) fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
+            let support = |d: &Vector3<f64>| a.support(d) - b.support(&-d);
+            let mut simplex: Vec<Vector3<f64>> = Vec::with_capacity(4);
+            let mut v = support(&Vector3::x());
+            simplex.push(v);
+            for _ in 0..64 {
+                let vn = v.norm();
+                if vn <= threshold {
+                    return true;
+                }
+                let w = support(&-v);
+                let lower = v.dot(&w) / vn;
+                if lower > threshold {
+                    return false;
+                }
+                if vn - lower <= 1e-9 * (1.0 + vn) {
+                    return vn <= threshold;
+                }
+                if simplex
+                    .iter()
+                    .any(|p| (p - w).norm() <= 1e-12 * (1.0 + w.norm()))
+                {
+                    return vn <= threshold + 1e-9;
+                }
+                simplex.push(w);
+                let (p, kept) = closest_on_simplex(&simplex);
+                simplex = kept;
+                v = p;
+                if v.norm() < 1e-12 {
+                    return true;
+                }
+            }
+            true
+        }
+
+        pub(super) fn closest_on_simplex(s: &[Vector3<f64>]) -> (Vector3<f64>, Vec<Vector3<f64>>) {
+            let n = s.len();
+            let mut best: Option<(f64, Vector3<f64>, u32)> = None;
+            for mask in 1u32..(1 << n) {
+                let idx: Vec<usize> = (0..n).filter(|i| mask & (1 << i) != 0).collect();
+                let Some(p) = affine_closest(&idx.iter().map(|&i| s[i]).collect::<Vec<_>>()) else {
+                    continue;
+                };
+                let d = p.norm();
+                if best.as_ref().is_none_or(|b| d < b.0 - 1e-15) {
+                    best = Some((d, p, mask));
+                }
+            }
+            let (_, p, mask) = best.expect("single points always qualify");
+            let kept = (0..n)
+                .filter(|i| mask & (1 << i) != 0)
+                .map(|i| s[i])
+                .collect();
+            (p, kept)
+        }
+
+        fn affine_closest(pts: &[Vector3<f64>]) -> Option<Vector3<f64>> {
+            let p0 = pts[0];
+            let k = pts.len() - 1;
+            if k == 0 {
+                return Some(p0);
+            }
+            let e: Vec<Vector3<f64>> = pts[1..].iter().map(|p| p - p0).collect();
+            let mut g = nalgebra::DMatrix::<f64>::zeros(k, k);
+            let mut rhs = nalgebra::DVector::<f64>::zeros(k);
+            for i in 0..k {
+                for j in 0..k {
+                    g[(i, j)] = e[i].dot(&e[j]);
+                }
+                rhs[i] = -e[i].dot(&p0);
+            }
+            let scale = (0..k).map(|i| g[(i, i)]).fold(0.0, f64::max);
+            let det = g.determinant();
+            if scale == 0.0 || det.abs() <= 1e-12 * scale.powi(k as i32) {
+                return None;
+            }
+            let mu = g.lu().solve(&rhs)?;
+            let l0 = 1.0 - mu.iter().sum::<f64>();
+            if l0 < -1e-12 || mu.iter().any(|&m| m < -1e-12) {
+                return None;
+            }
+            let mut p = p0;
+            for i in 0..k {
+                p += e[i] * mu[i];
+            }
+            Some(p)
+        }
+    }
+
+    #[test]
+    fn the_stack_simplex_decides_as_the_heap_one_did_to_the_bit() {
+        use rand::{RngExt, SeedableRng};
+        let mut r = rand::rngs::StdRng::seed_from_u64(52);
+        let v = |r: &mut rand::rngs::StdRng, s: f64| {
+            Vector3::new(
+                r.random_range(-s..s),
+                r.random_range(-s..s),
+                r.random_range(-s..s),
+            )
+        };
+        let solids = [
+            unit_box(),
+            ConvexSolid::Cylinder {
+                a: Vector3::new(0.0, 0.0, -1.0),
+                b: Vector3::new(0.5, 0.0, 3.0),
+                radius: 2.0,
+            },
+            ConvexSolid::Ball {
+                centre: Vector3::new(1.0, 0.0, 2.0),
+                radius: 1.5,
+            },
+        ];
+        let (mut yes, mut no) = (0, 0);
+        for i in 0..3000 {
+            let a = v(&mut r, 6.0);
+            let shape = if i % 2 == 0 {
+                Convex::Segment(a, a + v(&mut r, 4.0))
+            } else {
+                Convex::Swept {
+                    a,
+                    e1: v(&mut r, 3.0),
+                    e2: v(&mut r, 5.0),
+                }
+            };
+            let t = r.random_range(0.0..2.0);
+            for b in &solids {
+                let got = within(&shape, b, t);
+                assert_eq!(
+                    got,
+                    reference::within(&shape, b, t),
+                    "case {i}: {shape:?}, {t}"
+                );
+                if got { yes += 1 } else { no += 1 }
+            }
+            // The nearest point and the simplex kept, to the bit.
+            let pts: Vec<Vector3<f64>> = (0..1 + i % 4).map(|_| v(&mut r, 3.0)).collect();
+            let (p, kept) = closest_on_simplex(&pts);
+            let (q, kept_ref) = reference::closest_on_simplex(&pts);
+            assert_eq!(p, q, "case {i}");
+            assert_eq!(kept.points(), kept_ref.as_slice(), "case {i}");
+        }
+        // Both answers are exercised.
+        assert!(yes > 1000 && no > 1000, "{yes} within, {no} apart");
+    }
 
     fn unit_box() -> ConvexSolid {
         ConvexSolid::Cuboid {
