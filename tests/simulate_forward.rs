@@ -492,11 +492,19 @@ fn the_ball_along_a_touch_line_is_the_ball_worked_out_afresh_to_the_bit() {
                         pr.pretravel(theta, i).0.to_bits(),
                         whole.0[fivecal::kinematics::SLOT_PRETRAVEL].to_bits()
                     );
-                    let ball = pr.ball_line(theta, i, 0.3);
+                    let line = pr.ball_line(theta, i, 0.3);
                     for tau in [-2.0, -0.1, 0.0, 0.4, 3.0] {
                         assert_eq!(
-                            ball(tau).map(f64::to_bits),
+                            line.ball(tau).map(f64::to_bits),
                             pr.ball(theta, i, tau, 0.3).map(f64::to_bits),
+                            "{machine} {test} {group} touch {i} at {tau}"
+                        );
+                        // And the errors there, which the contact's
+                        // Jacobian is taken with.
+                        let ctx = pr.context(i, tau, 0.3);
+                        assert_eq!(
+                            line.perturbation(&ctx).0.map(f64::to_bits),
+                            pr.model.perturbation(theta, &ctx).0.map(f64::to_bits),
                             "{machine} {test} {group} touch {i} at {tau}"
                         );
                     }

@@ -269,10 +269,19 @@ impl Model {
         theta: &[f64],
         ctx: &Context,
     ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
+        self.pose_jacobian_with(&self.perturbation(theta, ctx), ctx)
+    }
+
+    /// [`Model::pose_jacobian`] where the perturbation `p` at `ctx` is
+    /// known already (the Jacobian does not depend on `theta` otherwise).
+    pub fn pose_jacobian_with(
+        &self,
+        p: &Perturbation,
+        ctx: &Context,
+    ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
         let n = self.n_params();
         let mut ja = DMatrix::zeros(3, n);
-        let p = self.perturbation(theta, ctx);
-        let (j, jt) = self.jacobians_of(&p, ctx, None, n, |c| c, Some(&mut ja));
+        let (j, jt) = self.jacobians_of(p, ctx, None, n, |c| c, Some(&mut ja));
         (j, jt, ja)
     }
 

@@ -1022,7 +1022,8 @@ impl ForwardModel for ProbingForward {
             Surf::Sphere { centre, radius } => (c - centre).norm() - radius - r,
         };
         let h = 1e-3;
-        let ball = pr.ball_line(theta, i, offset);
+        let line = pr.ball_line(theta, i, offset);
+        let ball = |tau: f64| line.ball(tau);
         let slope = |tau: f64| {
             let c1 = ball(tau - h);
             let c2 = ball(tau + h);
@@ -1030,7 +1031,8 @@ impl ForwardModel for ProbingForward {
         };
         let (tau, gp) = contact_search(pr.nominal_tau(i), slope, |tau| g(&ball(tau)))
             .ok_or_else(|| ForwardError::NoIntersection(point.label.clone()))?;
-        let (pj, jt, _) = pr.model.pose_jacobian(theta, &pr.context(i, tau, offset));
+        let ctx = line.context(tau);
+        let (pj, jt, _) = pr.model.pose_jacobian_with(&line.perturbation(&ctx), &ctx);
         let c = pj.pose.tip;
         let mut dg = DVector::zeros(total);
         let normal_w;

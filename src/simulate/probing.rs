@@ -19,7 +19,7 @@ use rand::{Rng, RngExt};
 use super::SimError;
 use super::machining::golden;
 use crate::geom::{self, Axis3};
-use crate::kinematics::Axes;
+use crate::kinematics::{Axes, Perturbation, TablePart};
 use crate::machine::Machine;
 use crate::model::{Context, Model};
 use crate::procedure::ProbingPlan;
@@ -155,30 +155,24 @@ impl Probing {
         self.model.pose(theta, &self.context(i, tau, offset)).tip
     }
 
-    /// [`Probing::ball`] along touch `i`'s line as a function of `tau`, the
-    /// same bits. Along one line only X, Y and Z change: the table's part
-    /// of the chain is multiplied once, and the errors are worked out once
-    /// unless a linear-axis error is at work, not at every step of the
-    /// contact search.
-    pub fn ball_line<'a>(
-        &'a self,
-        theta: &'a [f64],
-        i: usize,
-        offset: f64,
-    ) -> impl Fn(f64) -> Vector3<f64> + 'a {
-        let kin = &self.model.kin;
+    /// Touch `i`'s line for [`Probing::ball`] and the perturbation along
+    /// it, the same bits. Along one line only X, Y and Z change: the
+    /// table's part of the chain is multiplied once, and the errors are
+    /// worked out once unless a linear-axis error is at work, not at every
+    /// step of the contact search.
+    pub fn ball_line<'a>(&'a self, theta: &'a [f64], i: usize, offset: f64) -> BallLine<'a> {
         let varies = self.model.varies_with_xyz(theta);
         let ctx = self.context(i, 0.0, offset);
         let p0 = self.model.perturbation(theta, &ctx);
-        let part = kin.table_part(&ctx.axes, &p0);
-        move |tau| {
-            let ctx = self.context(i, tau, offset);
-            let p = if varies {
-                self.model.perturbation(theta, &ctx)
-            } else {
-                p0
-            };
-            kin.forward_after(&part, &ctx.axes, &p).tip
+        let part = self.model.kin.table_part(&ctx.axes, &p0);
+        BallLine {
+            probing: self,
+            theta,
+            i,
+            offset,
+            varies,
+            p0,
+            part,
         }
     }
 
@@ -206,6 +200,46 @@ impl Probing {
     /// The pose frame of touch `i`.
     pub fn frame(&self, i: usize) -> &PoseFrame {
         &self.frames[self.plan.plan.touches[i].pose]
+    }
+}
+
+/// A touch's line with what stays the same along it ([`Probing::ball_line`]).
+pub struct BallLine<'a> {
+    probing: &'a Probing,
+    theta: &'a [f64],
+    i: usize,
+    offset: f64,
+    /// Whether the errors change along the line (a linear-axis error).
+    varies: bool,
+    /// The errors at the line's start.
+    p0: Perturbation,
+    part: TablePart,
+}
+
+impl BallLine<'_> {
+    /// The context at `tau` along the line.
+    pub fn context(&self, tau: f64) -> Context {
+        self.probing.context(self.i, tau, self.offset)
+    }
+
+    /// The model's perturbation at [`BallLine::context`], the same bits.
+    pub fn perturbation(&self, ctx: &Context) -> Perturbation {
+        if self.varies {
+            self.probing.model.perturbation(self.theta, ctx)
+        } else {
+            self.p0
+        }
+    }
+
+    /// [`Probing::ball`] at `tau`, the same bits.
+    pub fn ball(&self, tau: f64) -> Vector3<f64> {
+        let ctx = self.context(tau);
+        let p = self.perturbation(&ctx);
+        self.probing
+            .model
+            .kin
+            .forward_after(&self.part, &ctx.axes, &p)
+            .tip
     }
 }
 
