@@ -468,6 +468,17 @@ impl Convex {
 /// the Minkowski difference, stopping as soon as the bounds decide; when
 /// it cannot decide within its iterations it answers yes, the safe side).
 fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
+    within_by(a, b, threshold, closest_on_simplex)
+}
+
+/// [`within`] with the simplex step `closest` (the tests pass the heap
+/// version this module had before).
+fn within_by(
+    a: &Convex,
+    b: &ConvexSolid,
+    threshold: f64,
+    closest: impl Fn(&[Vector3<f64>]) -> (Vector3<f64>, Simplex),
+) -> bool {
     let support = |d: &Vector3<f64>| a.support(d) - b.support(&-d);
     let mut v = support(&Vector3::x());
     let mut simplex = Simplex::of(&[v]);
@@ -494,7 +505,7 @@ fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
             return vn <= threshold + 1e-9;
         }
         simplex.push(w);
-        let (p, kept) = closest_on_simplex(simplex.points());
+        let (p, kept) = closest(simplex.points());
         simplex = kept;
         v = p;
         if v.norm() < 1e-12 {
@@ -611,44 +622,17 @@ fn affine_closest(pts: &[Vector3<f64>]) -> Option<Vector3<f64>> {
 mod tests {
     use super::*;
 
-    /// The heap version this module used before, kept as the reference:
-    /// the stack version must take the same decisions to the bit.
+    /// The heap simplex step this module used before, kept as the
+    /// reference: the stack version must take the same decisions to the bit.
     mod reference {
         use super::*;
 
+        /// The GJK loop with the heap simplex step.
         pub(super) fn within(a: &Convex, b: &ConvexSolid, threshold: f64) -> bool {
-            let support = |d: &Vector3<f64>| a.support(d) - b.support(&-d);
-            let mut simplex: Vec<Vector3<f64>> = Vec::with_capacity(4);
-            let mut v = support(&Vector3::x());
-            simplex.push(v);
-            for _ in 0..64 {
-                let vn = v.norm();
-                if vn <= threshold {
-                    return true;
-                }
-                let w = support(&-v);
-                let lower = v.dot(&w) / vn;
-                if lower > threshold {
-                    return false;
-                }
-                if vn - lower <= 1e-9 * (1.0 + vn) {
-                    return vn <= threshold;
-                }
-                if simplex
-                    .iter()
-                    .any(|p| (p - w).norm() <= 1e-12 * (1.0 + w.norm()))
-                {
-                    return vn <= threshold + 1e-9;
-                }
-                simplex.push(w);
-                let (p, kept) = closest_on_simplex(&simplex);
-                simplex = kept;
-                v = p;
-                if v.norm() < 1e-12 {
-                    return true;
-                }
-            }
-            true
+            within_by(a, b, threshold, |s| {
+                let (p, kept) = closest_on_simplex(s);
+                (p, Simplex::of(&kept))
+            })
         }
 
         pub(super) fn closest_on_simplex(s: &[Vector3<f64>]) -> (Vector3<f64>, Vec<Vector3<f64>>) {
