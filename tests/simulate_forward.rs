@@ -584,3 +584,25 @@ fn truth_values(l: &LoadedErrors) -> Vec<(String, f64)> {
         .zip(l.theta.iter().copied())
         .collect()
 }
+
+#[test]
+fn a_turned_zero_column_is_positive_zero_to_the_bit() {
+    // The probing prediction leaves the normal's derivative columns that
+    // no parameter turns at +0 rather than turning them into program
+    // coordinates: the same bits, since the frame's unit quaternion adds
+    // the vector it turns last (+0 + -0 is +0).
+    use rand::RngExt;
+    let mut r = crate::util::rng(61);
+    for _ in 0..2000 {
+        let mut a = || r.random_range(-3.2..3.2);
+        let frame = nalgebra::Isometry3::new(
+            nalgebra::Vector3::new(a(), a(), a()),
+            nalgebra::Vector3::new(a(), a(), a()),
+        );
+        let turned = frame.rotation * nalgebra::Vector3::<f64>::zeros();
+        assert!(
+            turned.iter().all(|x| x.to_bits() == 0),
+            "{frame:?}: {turned:?}"
+        );
+    }
+}

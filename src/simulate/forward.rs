@@ -1072,9 +1072,14 @@ impl ForwardModel for ProbingForward {
             }
             set_col(&mut d_point, j, &(dir * dt));
         }
+        // Only the plane's own columns turn the normal; a rotated zero
+        // column is +0 to the bit (the quaternion adds the column last), so
+        // the others stay as they start.
         let mut d_normal = DMatrix::zeros(3, total);
-        for j in 0..total {
-            set_col(&mut d_normal, j, &frame.dir_to_prog(&col(&dnormal_w, j)));
+        if let Surf::Plane { .. } = surf {
+            for j in np + o..np + o + 6 {
+                set_col(&mut d_normal, j, &frame.dir_to_prog(&col(&dnormal_w, j)));
+            }
         }
         Ok(Prediction {
             point: reported,
