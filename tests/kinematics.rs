@@ -385,6 +385,40 @@ fn a_few_columns_at_parameters_found_once_are_the_whole_jacobians_columns_to_the
     }
 }
 
+#[test]
+fn the_errors_moved_along_the_linear_axes_are_the_errors_there_to_the_bit() {
+    // What a probe's line uses: the errors at one position of X, Y, Z
+    // carried to another by working out the linear-axis errors again.
+    for (mi, name) in MACHINES.iter().enumerate() {
+        let m = machine(name);
+        let k = Kinematics::new(&m);
+        let mut r = rng(950 + mi as u64);
+        let (model, theta) = full_model(&k, &mut r);
+        for _ in 0..50 {
+            let from = Context {
+                axes: random_axes(&m, &mut r),
+                seq: 3.0,
+                minutes: 7.5,
+                ..Default::default()
+            };
+            let to = Context {
+                axes: Axes {
+                    xyz: random_axes(&m, &mut r).xyz,
+                    ..from.axes
+                },
+                ..from
+            };
+            let there = model.perturbation(&theta, &to);
+            let moved = model.perturbation_moved(&theta, &to, &model.perturbation(&theta, &from));
+            assert_eq!(
+                moved.0.map(f64::to_bits),
+                there.0.map(f64::to_bits),
+                "{name}"
+            );
+        }
+    }
+}
+
 /// `rTw` of docs/model.md, written out independently.
 fn spec_rtw(tilt_axis: Axis3, p: &Perturbation, t: f64, c: f64) -> Isometry3<f64> {
     d6(&p.link(0))

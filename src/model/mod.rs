@@ -19,7 +19,7 @@ use nalgebra::{DMatrix, Vector3};
 
 use crate::kinematics::symbols::SymbolTable;
 use crate::kinematics::{
-    Axes, IkError, Kinematics, Perturbation, PoseJacobian, SLOT_PRETRAVEL, ToolPose,
+    Axes, IkError, Kinematics, Perturbation, PoseJacobian, SLOT_LIN, SLOT_PRETRAVEL, ToolPose,
 };
 
 pub use effect::PROBE_DIRECTIONS;
@@ -87,6 +87,16 @@ impl Wanted {
             index,
         }
     }
+}
+
+/// Whether effect `e` depends on the linear axes' positions (a
+/// linear-axis error; it writes the linear slots, which no other effect
+/// writes).
+fn reads_xyz(e: &Effect) -> bool {
+    matches!(
+        e,
+        Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
+    )
 }
 
 /// Kinematics plus effects.
@@ -218,12 +228,32 @@ impl Model {
     /// not at zero. Every other effect depends on the rotary positions,
     /// the time or the approach only.
     pub fn varies_with_xyz(&self, theta: &[f64]) -> bool {
-        self.effects.iter().enumerate().any(|(i, e)| {
-            matches!(
-                e,
-                Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
-            ) && !self.at_zero(theta, i)
-        })
+        self.effects
+            .iter()
+            .enumerate()
+            .any(|(i, e)| reads_xyz(e) && !self.at_zero(theta, i))
+    }
+
+    /// The perturbation at `ctx` from `p`, the one at the same context but
+    /// for the linear axes' positions: the same bits as
+    /// [`Model::perturbation`] at `ctx`. Only the linear-axis errors read
+    /// X, Y and Z, and only they write the linear slots, so those slots
+    /// are worked out again (in the same order, from zero) and the rest
+    /// is kept.
+    pub fn perturbation_moved(
+        &self,
+        theta: &[f64],
+        ctx: &Context,
+        p: &Perturbation,
+    ) -> Perturbation {
+        let mut out = *p;
+        out.0[SLOT_LIN..SLOT_LIN + 3].fill(0.0);
+        for (i, e) in self.effects.iter().enumerate() {
+            if reads_xyz(e) && !self.at_zero(theta, i) {
+                self.add_effect(i, theta, ctx, &mut out);
+            }
+        }
+        out
     }
 
     /// Whether every parameter of effect `i` is zero in `theta`.

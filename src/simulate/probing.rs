@@ -225,7 +225,9 @@ impl BallLine<'_> {
     /// The model's perturbation at [`BallLine::context`], the same bits.
     pub fn perturbation(&self, ctx: &Context) -> Perturbation {
         if self.varies {
-            self.probing.model.perturbation(self.theta, ctx)
+            self.probing
+                .model
+                .perturbation_moved(self.theta, ctx, &self.p0)
         } else {
             self.p0
         }
