@@ -504,6 +504,12 @@ fn within_by(
         {
             return vn <= threshold + 1e-9;
         }
+        if simplex.len == 4 {
+            // The nearest point was inside a tetrahedron: the sets meet
+            // (what is left of `v` is rounding). Space holds no fifth
+            // independent direction.
+            return true;
+        }
         simplex.push(w);
         let (p, kept) = closest(simplex.points());
         simplex = kept;
@@ -751,6 +757,45 @@ mod tests {
             axes: Matrix3::identity(),
             half: Vector3::new(1.0, 2.0, 3.0),
         }
+    }
+
+    #[test]
+    fn overlapping_sets_are_within_a_zero_threshold_and_the_simplex_stops_at_four_points() {
+        // Sets that overlap have distance zero: within at a zero threshold.
+        // The simplex may then enclose the origin, and the search must stop
+        // there rather than grow it past what space holds.
+        use rand::{RngExt, SeedableRng};
+        let mut r = rand::rngs::StdRng::seed_from_u64(53);
+        let mut v = |s: f64| {
+            Vector3::new(
+                r.random_range(-s..s),
+                r.random_range(-s..s),
+                r.random_range(-s..s),
+            )
+        };
+        for i in 0..3000 {
+            // Through the box: from a point inside it, both ways.
+            let inside = v(0.9);
+            let d = v(4.0);
+            let shape = if i % 2 == 0 {
+                Convex::Segment(inside - d, inside + d)
+            } else {
+                Convex::Swept {
+                    a: inside - d,
+                    e1: d * 2.0,
+                    e2: v(3.0),
+                }
+            };
+            for t in [0.0, 1e-12] {
+                assert!(within(&shape, &unit_box(), t), "case {i}: {shape:?} at {t}");
+            }
+        }
+        // A step that keeps four points while what is left of the nearest
+        // point is more than the threshold (rounding far from the origin):
+        // the search stops there, within, rather than take a fifth point.
+        let four = |s: &[Vector3<f64>]| (Vector3::new(1e-6, 0.0, 0.0), Simplex::of(&[s[0]; 4]));
+        let through = Convex::Segment(Vector3::new(-5.0, 0.1, 0.2), Vector3::new(5.0, 0.1, 0.2));
+        assert!(within_by(&through, &unit_box(), 0.0, four));
     }
 
     #[test]
