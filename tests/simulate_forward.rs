@@ -373,7 +373,7 @@ fn predict_wanted_gives_the_wanted_columns_of_predict_to_the_bit() {
                 .unwrap();
             e % 3 == 0
         });
-        assert!(!wanted.columns.is_empty() && wanted.columns.len() < theta.len());
+        assert!(!wanted.columns().is_empty() && wanted.columns().len() < theta.len());
         let minutes = pose_minutes(plan);
         let pts = plan.plan_points();
         let mut nonzero = 0;
@@ -386,7 +386,7 @@ fn predict_wanted_gives_the_wanted_columns_of_predict_to_the_bit() {
             for j in 0..theta.len() {
                 let (a, b) = (all.d_point.column(j), some.d_point.column(j));
                 let (na, nb) = (all.d_normal.column(j), some.d_normal.column(j));
-                if wanted.columns.contains(&j) {
+                if wanted.columns().contains(&j) {
                     assert_eq!(a, b, "{name} {} column {j}", p.label);
                     assert_eq!(na, nb, "{name} {} column {j}", p.label);
                     nonzero += usize::from(a.norm() > 0.0);

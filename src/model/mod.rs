@@ -63,9 +63,9 @@ pub struct Params<'a> {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Wanted {
     /// The wanted parameters' columns, increasing.
-    pub columns: Vec<usize>,
+    columns: Vec<usize>,
     /// Per effect of the model, whether any of its parameters is wanted.
-    pub effects: Vec<bool>,
+    effects: Vec<bool>,
     /// Per parameter, its place in `columns` (`usize::MAX`: not wanted).
     index: Vec<usize>,
 }
@@ -86,6 +86,11 @@ impl Wanted {
             effects,
             index,
         }
+    }
+
+    /// The wanted parameters' columns, increasing.
+    pub fn columns(&self) -> &[usize] {
+        &self.columns
     }
 }
 
@@ -309,9 +314,8 @@ impl Model {
         p: &Perturbation,
         ctx: &Context,
     ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
-        let n = self.n_params();
-        let mut ja = DMatrix::zeros(3, n);
-        let (j, jt) = self.jacobians_of(p, ctx, None, n, |c| c, Some(&mut ja));
+        let mut ja = DMatrix::zeros(3, self.n_params());
+        let (j, jt) = self.jacobians_of(p, ctx, None, Some(&mut ja));
         (j, jt, ja)
     }
 
@@ -324,17 +328,9 @@ impl Model {
         ctx: &Context,
         wanted: &Wanted,
     ) -> (PoseJacobian, DMatrix<f64>, DMatrix<f64>) {
-        let n = wanted.columns.len();
-        let mut ja = DMatrix::zeros(3, n);
+        let mut ja = DMatrix::zeros(3, wanted.columns.len());
         let p = self.perturbation_at(at, ctx);
-        let (j, jt) = self.jacobians_of(
-            &p,
-            ctx,
-            Some(&wanted.effects),
-            n,
-            |c| wanted.index[c],
-            Some(&mut ja),
-        );
+        let (j, jt) = self.jacobians_of(&p, ctx, Some(wanted), Some(&mut ja));
         (j, jt, ja)
     }
 
@@ -354,32 +350,28 @@ impl Model {
         wanted: &Wanted,
     ) -> (PoseJacobian, DMatrix<f64>) {
         let p = self.perturbation_at(at, ctx);
-        let n = wanted.columns.len();
-        self.jacobians_of(&p, ctx, Some(&wanted.effects), n, |c| wanted.index[c], None)
+        self.jacobians_of(&p, ctx, Some(wanted), None)
     }
 
     /// The chain Jacobian at `p` and the tip's (and, into `ja`, the axis's)
-    /// derivatives with respect to the parameters of the effects `effects`
-    /// marks (`None`: all), parameter `c` in column `column(c)` of `n`
-    /// (none where that is `usize::MAX`).
+    /// derivatives with respect to `wanted`'s parameters, in its columns'
+    /// order (`None`: every parameter, in the model's).
     fn jacobians_of(
         &self,
         p: &Perturbation,
         ctx: &Context,
-        effects: Option<&[bool]>,
-        n: usize,
-        column: impl Fn(usize) -> usize,
+        wanted: Option<&Wanted>,
         mut ja: Option<&mut DMatrix<f64>>,
     ) -> (PoseJacobian, DMatrix<f64>) {
         let j = self.kin.jacobian(&ctx.axes, p);
-        let mut jt = DMatrix::zeros(3, n);
+        let mut jt = DMatrix::zeros(3, wanted.map_or(self.n_params(), |w| w.columns.len()));
         for (i, e) in self.effects.iter().enumerate() {
-            if effects.is_some_and(|m| !m[i]) {
+            if wanted.is_some_and(|w| !w.effects[i]) {
                 continue;
             }
             let o = self.offsets[i];
             e.coefficients(&self.symbols, ctx, &mut |slot, p, c| {
-                let col = column(o + p);
+                let col = wanted.map_or(o + p, |w| w.index[o + p]);
                 if col == usize::MAX {
                     return;
                 }

@@ -262,7 +262,7 @@ impl MachiningForward {
         // Without derivatives (an offset only), the poses alone, the same
         // bits as the Jacobians'.
         let (dr, at) = (at.dr, &at.params);
-        let derivatives = !wanted.columns.is_empty();
+        let derivatives = !wanted.columns().is_empty();
         let none = || DMatrix::zeros(3, 0);
         // The tool at the generating instant.
         let ctx = cut.context(pose, mv, g.t, offset);
@@ -304,7 +304,7 @@ impl MachiningForward {
             p: pp.point.p,
             n: pp.point.n,
             g,
-            cols: &wanted.columns,
+            cols: wanted.columns(),
             tip: at_g.tip,
             u: at_g.axis,
             v: (p2.tip - p1.tip) / (t2 - t1),
@@ -726,7 +726,7 @@ impl ForwardModel for MachiningForward {
         let Some((g, l)) = deepest else {
             return Err(ForwardError::NoIntersection(point.label.clone()));
         };
-        let l = if wanted.columns.is_empty() {
+        let l = if wanted.columns().is_empty() {
             l
         } else {
             self.local(&at, pp, g, offset, wanted)?
@@ -808,7 +808,7 @@ impl MachiningForward {
         let np = self.cut.model.n_params();
         // The other columns are zero.
         let (mut d_point, mut d_normal) = (DMatrix::zeros(3, np), DMatrix::zeros(3, np));
-        for (k, &j) in wanted.columns.iter().enumerate() {
+        for (k, &j) in wanted.columns().iter().enumerate() {
             set_col(&mut d_point, j, &(n * l.ds[k]));
             set_col(&mut d_normal, j, &col(&l.dnormal, k));
         }
