@@ -726,7 +726,7 @@ fn prepare(
                 continue;
             }
             let c = d.cov_unit[(i, j)] / (vi * vj).sqrt();
-            if largest.as_ref().is_none_or(|l| c.abs() > l.value.abs()) {
+            if stronger(c, largest.as_ref()) {
                 largest = Some(story::Correlation {
                     parameter: names[i].clone(),
                     with: names[j].clone(),
@@ -751,6 +751,19 @@ fn prepare(
         }),
         alongside,
     })
+}
+
+/// How much stronger (relatively) a correlation must be to be named in
+/// place of one found before it: far above the round-off of the
+/// covariance (parts in 10^13 here), far below the four decimals shown.
+const STRONGER_BY: f64 = 1e-9;
+
+/// Whether correlation `c` is named in place of `best`. Among pairs
+/// equally correlated (the nodes of a map that the test sees alike, the
+/// pre-travels of opposite directions) the first in parameter order is
+/// named, whatever round-off makes of their last bits.
+fn stronger(c: f64, best: Option<&story::Correlation>) -> bool {
+    best.is_none_or(|l| c.abs() > l.value.abs() * (1.0 + STRONGER_BY))
 }
 
 /// The exact fit of `spec` (`base` with one effect appended), from the
@@ -1683,6 +1696,25 @@ fn story_p(p: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pair named as most correlated does not hang on round-off: an
+    /// equal correlation in the last bits (either sign) keeps the first
+    /// pair, a correlation stronger in the ninth digit takes its place.
+    #[test]
+    fn a_tie_in_the_last_bits_keeps_the_first_pair_named() {
+        let first = story::Correlation {
+            parameter: "probe_pretravel.Y+".into(),
+            with: "EY0A".into(),
+            value: -0.0231_f64,
+        };
+        assert!(stronger(0.3, None));
+        for c in [-0.0231 * (1.0 + 1e-13), 0.0231 * (1.0 + 4e-16), -0.0231] {
+            assert!(!stronger(c, Some(&first)), "{c}");
+        }
+        assert!(stronger(-0.0231 * (1.0 + 1e-8), Some(&first)));
+        assert!(stronger(0.0232, Some(&first)));
+        assert!(!stronger(0.0230, Some(&first)));
+    }
 
     /// A candidate's exact fit that starts from its round's linearization
     /// (the screened base's residuals and Jacobian, in place of a first
