@@ -167,6 +167,34 @@ impl Block {
     fn holds(&self, rows: &[(Vec<f64>, Why)]) -> bool {
         self.rows.len() == rows.len() && self.rows.iter().zip(rows).all(|(a, (b, _))| a == b)
     }
+
+    /// This block with `more` rows: the free directions of the old rows
+    /// that the new ones leave free, `B null(R B)`. A map fixes hundreds of
+    /// combinations of its hundreds of values, and the decomposition of
+    /// `R B` (as many columns as were free) is what that costs, where the
+    /// stacked rows' would cost the whole map's.
+    fn extended(&self, more: &[(Vec<f64>, Why)]) -> Arc<Block> {
+        let n = self.basis.nrows();
+        let m = self.basis.ncols();
+        let mut rows = self.rows.clone();
+        rows.extend(more.iter().map(|(r, _)| r.clone()));
+        let basis = if more.is_empty() || m == 0 {
+            self.basis.clone()
+        } else {
+            let r = DMatrix::from_fn(more.len(), n, |i, j| more[i].0[j]);
+            &self.basis * lsq::constraint_basis(&(r * &self.basis))
+        };
+        Arc::new(Block { rows, basis })
+    }
+}
+
+/// An effect's constraints with further rows, and their free directions:
+/// made once, applied to every model the effect is tried on
+/// ([`Spec::apply`]).
+#[derive(Clone, Debug)]
+pub struct Constrained {
+    rows: Vec<(Vec<f64>, Why)>,
+    block: Arc<Block>,
 }
 
 impl Spec {
@@ -188,10 +216,24 @@ impl Spec {
     /// Fixes the combinations `rows` of effect `ei`'s parameters at zero,
     /// each saying why.
     pub(crate) fn constrain(&mut self, ei: usize, rows: Vec<(Vec<f64>, Why)>) {
-        self.constraints[ei].extend(rows);
-        let b = Block::new(self.model.param_range(ei).len(), &self.constraints[ei]);
+        let c = self.constrained(ei, rows);
+        self.apply(ei, &c);
+    }
+
+    /// Effect `ei`'s constraints with `rows` added, for [`Spec::apply`].
+    pub(crate) fn constrained(&self, ei: usize, rows: Vec<(Vec<f64>, Why)>) -> Constrained {
+        let block = self.block(ei).extended(&rows);
+        let mut all = self.constraints[ei].clone();
+        all.extend(rows);
+        Constrained { rows: all, block }
+    }
+
+    /// Sets effect `ei`'s constraints to `c` (made by
+    /// [`Spec::constrained`] on a model with the same effect `ei`).
+    pub(crate) fn apply(&mut self, ei: usize, c: &Constrained) {
+        self.constraints[ei] = c.rows.clone();
         if let Some(slot) = self.blocks.get_mut(ei) {
-            *slot = b;
+            *slot = c.block.clone();
         }
     }
 
@@ -1177,6 +1219,62 @@ pub struct Linearization {
 mod tests {
     use super::*;
     use crate::Machine;
+
+    /// Rows added to a block leave free what the stacked rows leave free
+    /// (the same projector onto the free directions, within round-off),
+    /// with orthonormal directions; whether the added rows lie among the
+    /// free directions (the unseen combinations a design finds) or not,
+    /// and whether they repeat a direction already fixed.
+    #[test]
+    fn rows_added_to_a_block_free_what_the_stacked_rows_free() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let why = || Why::Text("test".into());
+        for (n, first, more, within) in [
+            (12, 2, 3, false),
+            (40, 4, 20, true),
+            (60, 0, 45, true),
+            (30, 5, 6, false),
+        ] {
+            let mut row = |_| {
+                (0..n)
+                    .map(|_| rng.random_range(-1.0..1.0))
+                    .collect::<Vec<f64>>()
+            };
+            let old: Vec<(Vec<f64>, Why)> = (0..first).map(|i| (row(i), why())).collect();
+            let block = Block::new(n, &old);
+            let mut added: Vec<(Vec<f64>, Why)> = (0..more)
+                .map(|i| {
+                    let r = row(i);
+                    if !within {
+                        return (r, why());
+                    }
+                    // Within the free directions, as an unseen combination is.
+                    let v = &block.basis * (block.basis.transpose() * DVector::from_vec(r));
+                    (v.iter().copied().collect(), why())
+                })
+                .collect();
+            // One repeats a fixed direction (or an added one).
+            let again = old.first().or(added.first()).unwrap().0.clone();
+            added.push((again, why()));
+            let ext = block.extended(&added);
+            let mut all = old.clone();
+            all.extend(added.iter().cloned());
+            let stacked = Block::new(n, &all);
+            assert_eq!(
+                ext.basis.ncols(),
+                stacked.basis.ncols(),
+                "{n} {first} {more}"
+            );
+            let p = |b: &DMatrix<f64>| b * b.transpose();
+            assert!((p(&ext.basis) - p(&stacked.basis)).amax() < 1e-10);
+            let gram = ext.basis.transpose() * &ext.basis;
+            assert!(
+                (gram - DMatrix::identity(ext.basis.ncols(), ext.basis.ncols())).amax() < 1e-12
+            );
+            assert!(ext.holds(&all));
+        }
+    }
 
     #[test]
     fn basis_is_block_diagonal_and_respects_each_effects_constraints() {

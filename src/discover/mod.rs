@@ -464,6 +464,8 @@ enum Mode<'a> {
 struct Fits {
     fits: Memo<FitKey, Result<Fit, FitError>>,
     designs: Memo<DesignKey, Result<Prepared, String>>,
+    /// Kept for the whole search: it does not depend on the model.
+    alone: AloneMemo,
 }
 
 type FitKey = (Vec<u64>, Vec<String>);
@@ -553,8 +555,10 @@ fn try_candidate(
         Mode::Exact(others, kept) => (others, kept),
     };
     let prepared = match kept {
-        Some(k) => k.prepared(base, cand, || prepare(fitter, base, cand, qa)),
-        None => prepare(fitter, base, cand, qa),
+        Some(k) => k.prepared(base, cand, || {
+            prepare(fitter, base, cand, qa, Some(&k.alone))
+        }),
+        None => prepare(fitter, base, cand, qa, None),
     };
     let Prepared { model, alongside } = match prepared {
         Ok(p) => p,
@@ -615,6 +619,97 @@ fn try_candidate(
     }
 }
 
+/// The combinations of a candidate's values that the test does not see
+/// even beside the nuisance alone (no model effect to trade against), and
+/// its constraints extended to fix them. They are the same on every model
+/// the candidate is tried on, so they are found once. A C-axis map has
+/// hundreds of values of which the test sees a few dozen combinations:
+/// with the rest fixed first, its design on each round's model has a few
+/// dozen columns where it had hundreds, and only the combinations traded
+/// against the model are left to find there. In exact arithmetic the free
+/// directions, the rank and the fit are those of designing it whole.
+struct Alone {
+    constrained: fit::Constrained,
+    unseen: Vec<Combination>,
+}
+
+/// Candidates with more values than this are designed on their own first
+/// ([`Alone`]); fewer cost little designed whole, in one decomposition.
+const ALONE_ABOVE: usize = 32;
+
+/// [`Alone`] for each candidate, by name.
+type AloneMemo = Memo<String, Result<Option<Arc<Alone>>, String>>;
+
+/// [`Alone`] for `cand` if it has more than `above` values and the test
+/// leaves some combination of them unseen, or why they cannot be found.
+fn seen_alone(
+    fitter: &Fitter<'_>,
+    cand: &Candidate,
+    above: usize,
+) -> Result<Option<Arc<Alone>>, String> {
+    let Some(spec) = fitter.extend(&fitter.location(&[]), cand) else {
+        return Ok(None);
+    };
+    let ei = spec.names.len() - 1;
+    let xr = spec.model.param_range(ei);
+    if xr.len() <= above {
+        return Ok(None);
+    }
+    let names = fitter.names(&spec);
+    let (d, _, _) = fitter.design(&spec);
+    if d.null.ncols() == 0 {
+        return Ok(None);
+    }
+    let (unseen, rows) = unseen_rows(&d.null, xr.clone(), &names[xr])?;
+    if rows.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(Arc::new(Alone {
+        constrained: spec.constrained(ei, rows),
+        unseen,
+    })))
+}
+
+/// The combinations of the parameters `xr` (named `names`) that the null
+/// directions `null` (columns) hold: the column space of their rows, each
+/// as a constraint row fixing it at zero.
+#[allow(clippy::type_complexity)]
+fn unseen_rows(
+    null: &DMatrix<f64>,
+    xr: std::ops::Range<usize>,
+    names: &[String],
+) -> Result<(Vec<Combination>, Vec<(Vec<f64>, Why)>), String> {
+    let named: std::sync::Arc<[String]> = names.to_vec().into();
+    let mut unseen = Vec::new();
+    let mut rows = Vec::new();
+    // The candidate's rows of the null directions: their column space
+    // is what the test does not see of it. faer's thin SVD, since the
+    // C-axis maps make this hundreds by hundreds.
+    let vc = null.rows(xr.start, xr.len());
+    let m = faer::Mat::<f64>::from_fn(vc.nrows(), vc.ncols(), |i, j| vc[(i, j)]);
+    let Some((sv, u)) = left_svd(&m) else {
+        return Err("the candidate's unseen combinations could not be computed".to_string());
+    };
+    for i in 0..sv.len() {
+        if sv[i] > 1e-6 {
+            // A singular vector's sign is arbitrary: the largest
+            // coefficient is made positive, so the name reads the same
+            // whichever solver made it.
+            let mut row: Vec<f64> = (0..u.nrows()).map(|r| u[(r, i)]).collect();
+            let lead = row
+                .iter()
+                .fold(0.0f64, |a, &b| if b.abs() > a.abs() { b } else { a });
+            if lead < 0.0 {
+                row.iter_mut().for_each(|x| *x = -*x);
+            }
+            let what = Combination::new(row.clone(), named.clone());
+            unseen.push(what.clone());
+            rows.push((row, Why::Unseen(what)));
+        }
+    }
+    Ok((unseen, rows))
+}
+
 /// What trying a candidate on a model finds before any fit: its design
 /// with the combinations the test does not see fixed, and how it stands
 /// alongside the model; or why it is refused. The design is at the
@@ -628,12 +723,14 @@ struct Prepared {
 }
 
 /// [`Prepared`] for `cand` on `base`, or why it is refused; `qa`:
-/// [`others`] of `base`.
+/// [`others`] of `base`; `alone`: where [`seen_alone`] is kept, if
+/// anywhere.
 fn prepare(
     fitter: &Fitter<'_>,
     base: &Fit,
     cand: &Candidate,
     qa: &DMatrix<f64>,
+    alone: Option<&AloneMemo>,
 ) -> Result<Prepared, String> {
     let Some(mut spec) = fitter.extend(&base.spec, cand) else {
         return Err("the forward model cannot apply it".into());
@@ -642,6 +739,14 @@ fn prepare(
     let xr = spec.model.param_range(ei);
     let names = fitter.names(&spec);
     let cand_names: Vec<String> = names[xr.clone()].to_vec();
+    let alone = match alone {
+        Some(kept) => kept.get_or(cand.name.clone(), || seen_alone(fitter, cand, ALONE_ABOVE)),
+        None => seen_alone(fitter, cand, ALONE_ABOVE),
+    }?;
+    let alone = alone.as_deref();
+    if let Some(a) = alone {
+        spec.apply(ei, &a.constrained);
+    }
     let (mut d, mut basis, mut ranges) = fitter.design(&spec);
     if d.rank <= base.rank {
         let setup = spec.setup();
@@ -668,35 +773,12 @@ fn prepare(
     // Combinations of the candidate's parameters that the test does not
     // see (alone or traded against the model's) are fixed at zero, each
     // named: what is left is what the test identifies.
-    let mut unseen = Vec::new();
+    let mut unseen = alone.map(|a| a.unseen.clone()).unwrap_or_default();
     let mut rows = Vec::new();
     if d.null.ncols() > 0 {
-        let named: std::sync::Arc<[String]> = cand_names.clone().into();
-        // The candidate's rows of the null directions: their column space
-        // is what the test does not see of it. faer's thin SVD, since the
-        // C-axis maps make this hundreds by hundreds once per candidate.
-        let vc = d.null.rows(xr.start, xr.len());
-        let m = faer::Mat::<f64>::from_fn(vc.nrows(), vc.ncols(), |i, j| vc[(i, j)]);
-        let Some((sv, u)) = left_svd(&m) else {
-            return Err("the candidate's unseen combinations could not be computed".to_string());
-        };
-        for i in 0..sv.len() {
-            if sv[i] > 1e-6 {
-                // A singular vector's sign is arbitrary: the largest
-                // coefficient is made positive, so the name reads the same
-                // whichever solver made it.
-                let mut row: Vec<f64> = (0..u.nrows()).map(|r| u[(r, i)]).collect();
-                let lead = row
-                    .iter()
-                    .fold(0.0f64, |a, &b| if b.abs() > a.abs() { b } else { a });
-                if lead < 0.0 {
-                    row.iter_mut().for_each(|x| *x = -*x);
-                }
-                let what = Combination::new(row.clone(), named.clone());
-                unseen.push(what.clone());
-                rows.push((row, Why::Unseen(what)));
-            }
-        }
+        let (u, r) = unseen_rows(&d.null, xr.clone(), &cand_names)?;
+        unseen.extend(u);
+        rows = r;
     }
     if !rows.is_empty() {
         spec.constrain(ei, rows);
@@ -1767,12 +1849,129 @@ mod tests {
             &Default::default(),
         )
         .unwrap();
+        on(&inputs, f);
+    }
+
+    /// The planner's probed sphere on `ac-trunnion` (49 poses, 242 touches;
+    /// its C-axis maps have 468 values each), on the virtual machine with
+    /// its location errors at zero and the probe's noise.
+    fn on_a_probed_sphere(f: impl FnOnce(&Fitter<'_>, &catalogue::Catalogue, &Fit)) {
+        use crate::formats::manifest::KinematicsMode;
+        use crate::procedure::{PlanConfig, Template, Test};
+        let plan = crate::procedure::plan(&PlanConfig {
+            machine: crate::Machine::builtin("ac-trunnion").unwrap(),
+            template: Template::builtin(Test::ProbeSphere),
+            post: crate::post::PostDefinition::builtin(crate::Dialect::Fanuc),
+            kinematics: KinematicsMode::Post,
+            tool: None,
+        })
+        .unwrap();
+        let kin = crate::simulate::plan_kinematics(&plan);
+        let errors = crate::errorfile::LoadedErrors {
+            model: Model::new(kin, vec![Effect::Location { symbols: vec![0] }]),
+            theta: vec![0.0],
+            u: vec![None],
+            noise: Noise {
+                cmm: None,
+                probe: Some(0.35),
+            },
+            not_identifiable: Vec::new(),
+            fit: None,
+        };
+        let out = crate::simulate::run(&plan, &errors, &Default::default()).unwrap();
+        let inputs =
+            Inputs::from_points(plan, out.points, std::path::Path::new("sphere.csv")).unwrap();
+        on(&inputs, f);
+    }
+
+    fn on(inputs: &Inputs, f: impl FnOnce(&Fitter<'_>, &catalogue::Catalogue, &Fit)) {
         let parts = [inputs.part()];
         let cat = catalogue::catalogue(&parts);
         let (fitter, _) = Fitter::new(&parts, &cat.candidates).unwrap();
         let mut notes = Vec::new();
         let loc = start(&fitter, &inputs.kin, &cat, &["location".into()], &mut notes).unwrap();
         f(&fitter, &cat, &loc);
+    }
+
+    /// A candidate whose unseen combinations are fixed on its own first
+    /// ([`Alone`]) is the candidate designed whole, within round-off: the
+    /// same refusals, rank increase, number of unseen combinations, span
+    /// of free directions, canonical correlation, largest correlation and
+    /// screened fit, on every candidate of the probed sphere that leaves
+    /// something unseen (its maps and pre-travels among them), tried on its
+    /// location model.
+    #[test]
+    fn a_candidate_designed_alone_first_is_the_candidate_designed_whole() {
+        on_a_probed_sphere(|fitter, cat, loc| {
+            let round = Round::new(fitter, loc).unwrap();
+            let qa = &round.others;
+            let (mut compared, mut large) = (0, 0);
+            for cand in &cat.candidates {
+                let alone = seen_alone(fitter, cand, 0).unwrap();
+                if alone.is_none() {
+                    continue;
+                }
+                let with = |a: Option<Arc<Alone>>| {
+                    let memo = AloneMemo::default();
+                    let _ = memo.get_or(cand.name.clone(), || Ok(a));
+                    prepare(fitter, loc, cand, qa, Some(&memo))
+                };
+                let (first, whole) = (with(alone), with(None));
+                let (first, whole) = match (first, whole) {
+                    (Ok(a), Ok(b)) => (a, b),
+                    (Err(a), Err(b)) => {
+                        assert_eq!(a, b, "{}", cand.name);
+                        continue;
+                    }
+                    (a, b) => panic!("{}: {:?} against {:?}", cand.name, a.err(), b.err()),
+                };
+                compared += 1;
+                let (a, b) = (&first.alongside, &whole.alongside);
+                if a.parameters > ALONE_ABOVE {
+                    large += 1;
+                }
+                let name = &cand.name;
+                assert_eq!(a.rank_increase, b.rank_increase, "{name}");
+                assert_eq!(a.unseen.len(), b.unseen.len(), "{name}");
+                assert!(
+                    (a.canonical_correlation - b.canonical_correlation).abs() < 1e-9,
+                    "{name}"
+                );
+                let (ca, cb) = (
+                    a.largest_correlation.as_ref().unwrap(),
+                    b.largest_correlation.as_ref().unwrap(),
+                );
+                assert!((ca.value - cb.value).abs() < 1e-9, "{name}");
+                assert_eq!(
+                    (&ca.parameter, &ca.with),
+                    (&cb.parameter, &cb.with),
+                    "{name}"
+                );
+                // The same free directions: the same projector.
+                let ei = loc.spec.names.len();
+                let proj = |p: &Prepared| {
+                    let (basis, ranges) = p.model.spec.basis(fitter.extra());
+                    let xr = p.model.spec.model.param_range(ei);
+                    let zr = ranges[ei].clone();
+                    let b = basis.view((xr.start, zr.start), (xr.len(), zr.len()));
+                    b * b.transpose()
+                };
+                assert!((proj(&first) - proj(&whole)).amax() < 1e-9, "{name}");
+                let score = |p: &Prepared| {
+                    fitter
+                        .score(&round.screen, &p.model.spec, a.rank_increase)
+                        .rss
+                };
+                let (sa, sb) = (score(&first), score(&whole));
+                assert!((sa - sb).abs() <= 1e-9 * sb.max(1.0), "{name}: {sa} {sb}");
+            }
+            // The six C-axis maps (468 values each) and the pre-travels.
+            assert!(
+                compared >= 7,
+                "only {compared} candidates leave something unseen"
+            );
+            assert!(large >= 6, "only {large} large candidates");
+        });
     }
 
     /// The left singular vectors made without the right ones are
