@@ -192,7 +192,7 @@ impl Block {
 /// made once, applied to every model the effect is tried on
 /// ([`Spec::apply`]).
 #[derive(Clone, Debug)]
-pub struct Constrained {
+pub(crate) struct Constrained {
     rows: Vec<(Vec<f64>, Why)>,
     block: Arc<Block>,
 }

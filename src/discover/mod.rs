@@ -772,7 +772,8 @@ fn prepare(
     }
     // Combinations of the candidate's parameters that the test does not
     // see (alone or traded against the model's) are fixed at zero, each
-    // named: what is left is what the test identifies.
+    // named: what is left is what the test identifies. Those it does not
+    // see alone, if found beforehand, are fixed already.
     let mut unseen = alone.map(|a| a.unseen.clone()).unwrap_or_default();
     let mut rows = Vec::new();
     if d.null.ncols() > 0 {
