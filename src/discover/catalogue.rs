@@ -17,7 +17,7 @@
 use nalgebra::{DVector, Point3};
 
 use super::fit::Part;
-use super::fit::Why;
+use super::fit::{ConstraintRow, Why};
 use crate::formats::manifest::TestKind;
 use crate::geom::Axis3;
 use crate::identify::{Dataset, Setup};
@@ -36,7 +36,7 @@ pub struct Candidate {
     pub effect: Effect,
     /// Defining constraints on the effect's own parameters (rows of
     /// coefficients, one per parameter) and what each says.
-    pub constraints: Vec<(Vec<f64>, Why)>,
+    pub constraints: Vec<ConstraintRow>,
     /// What it is, in words.
     pub description: String,
 }

@@ -110,7 +110,7 @@ pub struct Spec {
     pub names: Vec<String>,
     /// Per effect: constraint rows on its own parameters, with what each
     /// says.
-    pub constraints: Vec<Vec<(Vec<f64>, Why)>>,
+    pub constraints: Vec<Vec<ConstraintRow>>,
     /// Per parameter, its index in the catalogue model.
     full: Vec<usize>,
     /// Per effect, the free directions of its constraints as last computed
@@ -118,6 +118,10 @@ pub struct Spec {
     /// shares them.
     blocks: Vec<Arc<Block>>,
 }
+
+/// A constraint row on an effect's parameters (their combination that is
+/// fixed at zero), with what it says.
+pub type ConstraintRow = (Vec<f64>, Why);
 
 /// What a constraint row says.
 #[derive(Clone, Debug, PartialEq)]
@@ -156,7 +160,7 @@ struct Block {
 }
 
 impl Block {
-    fn new(n: usize, rows: &[(Vec<f64>, Why)]) -> Arc<Block> {
+    fn new(n: usize, rows: &[ConstraintRow]) -> Arc<Block> {
         let c = DMatrix::from_fn(rows.len(), n, |i, j| rows[i].0[j]);
         Arc::new(Block {
             rows: rows.iter().map(|(r, _)| r.clone()).collect(),
@@ -164,7 +168,7 @@ impl Block {
         })
     }
 
-    fn holds(&self, rows: &[(Vec<f64>, Why)]) -> bool {
+    fn holds(&self, rows: &[ConstraintRow]) -> bool {
         self.rows.len() == rows.len() && self.rows.iter().zip(rows).all(|(a, (b, _))| a == b)
     }
 
@@ -173,7 +177,7 @@ impl Block {
     /// combinations of its hundreds of values, and the decomposition of
     /// `R B` (as many columns as were free) is what that costs, where the
     /// stacked rows' would cost the whole map's.
-    fn extended(&self, more: &[(Vec<f64>, Why)]) -> Arc<Block> {
+    fn extended(&self, more: &[ConstraintRow]) -> Arc<Block> {
         let n = self.basis.nrows();
         let m = self.basis.ncols();
         let mut rows = self.rows.clone();
@@ -193,7 +197,7 @@ impl Block {
 /// ([`Spec::apply`]).
 #[derive(Clone, Debug)]
 pub(crate) struct Constrained {
-    rows: Vec<(Vec<f64>, Why)>,
+    rows: Vec<ConstraintRow>,
     block: Arc<Block>,
 }
 
@@ -215,13 +219,13 @@ impl Spec {
 
     /// Fixes the combinations `rows` of effect `ei`'s parameters at zero,
     /// each saying why.
-    pub(crate) fn constrain(&mut self, ei: usize, rows: Vec<(Vec<f64>, Why)>) {
+    pub(crate) fn constrain(&mut self, ei: usize, rows: Vec<ConstraintRow>) {
         let c = self.constrained(ei, rows);
         self.apply(ei, &c);
     }
 
     /// Effect `ei`'s constraints with `rows` added, for [`Spec::apply`].
-    pub(crate) fn constrained(&self, ei: usize, rows: Vec<(Vec<f64>, Why)>) -> Constrained {
+    pub(crate) fn constrained(&self, ei: usize, rows: Vec<ConstraintRow>) -> Constrained {
         let block = self.block(ei).extended(&rows);
         let mut all = self.constraints[ei].clone();
         all.extend(rows);
@@ -1241,9 +1245,9 @@ mod tests {
                     .map(|_| rng.random_range(-1.0..1.0))
                     .collect::<Vec<f64>>()
             };
-            let old: Vec<(Vec<f64>, Why)> = (0..first).map(|i| (row(i), why())).collect();
+            let old: Vec<ConstraintRow> = (0..first).map(|i| (row(i), why())).collect();
             let block = Block::new(n, &old);
-            let mut added: Vec<(Vec<f64>, Why)> = (0..more)
+            let mut added: Vec<ConstraintRow> = (0..more)
                 .map(|i| {
                     let r = row(i);
                     if !within {

@@ -673,12 +673,11 @@ fn seen_alone(
 /// The combinations of the parameters `xr` (named `names`) that the null
 /// directions `null` (columns) hold: the column space of their rows, each
 /// as a constraint row fixing it at zero.
-#[allow(clippy::type_complexity)]
 fn unseen_rows(
     null: &DMatrix<f64>,
     xr: std::ops::Range<usize>,
     names: &[String],
-) -> Result<(Vec<Combination>, Vec<(Vec<f64>, Why)>), String> {
+) -> Result<(Vec<Combination>, Vec<fit::ConstraintRow>), String> {
     let named: std::sync::Arc<[String]> = names.to_vec().into();
     let mut unseen = Vec::new();
     let mut rows = Vec::new();
