@@ -108,12 +108,9 @@ impl Measurement for ThreadCpu {
 }
 
 const BLOCKS: usize = 1_000_000;
-const DISTINCT: usize = 20_000;
 
-/// A 5-axis finishing program (post-side, B/C trunnion): the tip runs a
-/// spiral over a dome with the tool normal to it, 0.2 mm per block; the
-/// distinct blocks are generated once and replayed until `blocks` have been
-/// read.
+/// The dome program of `support/dome.rs`, streamed: its distinct blocks,
+/// generated once, are replayed until `blocks` have been read.
 struct Program {
     lines: Rc<Vec<Vec<u8>>>,
     header: Vec<u8>,
@@ -125,7 +122,7 @@ struct Program {
 
 /// The distinct blocks of the program.
 fn blocks(kin: &Kinematics) -> Rc<Vec<Vec<u8>>> {
-    Rc::new(dome::blocks(kin, DISTINCT))
+    Rc::new(dome::blocks(kin))
 }
 
 impl Program {
@@ -149,7 +146,7 @@ impl Read for Program {
             if self.next >= self.blocks {
                 return Ok(0);
             }
-            &self.lines[self.next % DISTINCT]
+            &self.lines[self.next % dome::DISTINCT]
         };
         let n = out.len().min(src.len() - self.pos);
         out[..n].copy_from_slice(&src[self.pos..self.pos + n]);
@@ -238,7 +235,7 @@ fn bench(c: &mut Criterion<ThreadCpu>) {
     let large = peak_of(|| {
         black_box(rewrite(&comp, Program::new(&lines, BLOCKS)));
     });
-    let table = DISTINCT * 64;
+    let table = dome::DISTINCT * 64;
     println!(
         "peak heap: {} KiB for {} blocks, {} KiB for {} blocks (of which ~{} KiB is the generator's table of distinct blocks)",
         small / 1024,

@@ -20,9 +20,6 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use fivecal::{Kinematics, Machine};
 
-/// Distinct blocks of one turn, as the benchmark replays them.
-const DISTINCT: usize = 20_000;
-
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
     let Some(dir) = args.next().map(PathBuf::from) else {
@@ -37,13 +34,13 @@ fn main() -> anyhow::Result<()> {
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let machine = Machine::builtin("bc-trunnion").context("the built-in bc-trunnion")?;
     let kin = Kinematics::new(&machine);
-    let lines = dome::blocks(&kin, DISTINCT);
+    let lines = dome::blocks(&kin);
     let path = dir.join("dome.nc");
     let file = std::fs::File::create(&path).with_context(|| format!("{}", path.display()))?;
     let mut out = std::io::BufWriter::new(file);
     out.write_all(dome::HEADER)?;
     for k in 0..blocks {
-        out.write_all(&lines[k % DISTINCT])?;
+        out.write_all(&lines[k % dome::DISTINCT])?;
     }
     out.flush()?;
     let errors = dir.join("dome.errors.yaml");

@@ -17,13 +17,16 @@ pub const HEADER: &[u8] =
 /// and a tool-length error of `bc-trunnion`.
 pub const ERRORS: &str = "machine: bc-trunnion\nlocation_errors: {EX0B: 12.0, EZ0B: -25.0, EA0B: 30.0, EC0B: -20.0, EB0B: 15.0, EX(0B)C: 8.0, EY0C: -14.0, EA(0B)C: 22.0}\neffects: {tool_length: 5.0}\n";
 
-/// The `distinct` blocks of one turn of the program (replayed until the
-/// program has as many blocks as it should), each ending in a newline.
-pub fn blocks(kin: &Kinematics, distinct: usize) -> Vec<Vec<u8>> {
+/// Distinct blocks of the spiral; the program replays them until it has
+/// as many blocks as it should.
+pub const DISTINCT: usize = 20_000;
+
+/// The [`DISTINCT`] blocks of the spiral, each ending in a newline.
+pub fn blocks(kin: &Kinematics) -> Vec<Vec<u8>> {
     let nominal = FastChain::nominal(kin);
-    (0..distinct)
+    (0..DISTINCT)
         .map(|i| {
-            let s = i as f64 / distinct as f64;
+            let s = i as f64 / DISTINCT as f64;
             // Spiral on a sphere of radius 60 around (0, 0, -20).
             let polar = 0.15 + 0.9 * s;
             let az = s * 40.0 * std::f64::consts::TAU;
