@@ -592,7 +592,8 @@ fn connect(location: &Location) -> Result<Connection, StoreError> {
             c.busy_timeout(BUSY_TIMEOUT)?;
             // WAL: readers do not block the writer, and a writer killed
             // mid-transaction leaves the committed state intact.
-            let mode: String = c.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))?;
+            let mode: String =
+                retry_busy(|| c.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0)))?;
             if !mode.eq_ignore_ascii_case("wal") {
                 return Err(StoreError::Sql(format!(
                     "the file cannot be put in WAL mode (journal mode {mode})"
@@ -611,6 +612,30 @@ fn connect(location: &Location) -> Result<Connection, StoreError> {
             Ok(Connection::Postgres(Box::new(
                 cfg.connect(postgres::NoTls)?,
             )))
+        }
+    }
+}
+
+/// Runs `f` again while SQLite answers busy, until [`BUSY_TIMEOUT`].
+///
+/// Turning a new file to WAL needs its exclusive lock. When two
+/// connections holding its shared lock both ask for it, SQLite answers
+/// busy at once instead of calling the busy handler (waiting would
+/// deadlock), so two runs creating the store at the same moment need the
+/// loser to let go and try again.
+fn retry_busy<T>(mut f: impl FnMut() -> rusqlite::Result<T>) -> rusqlite::Result<T> {
+    let deadline = std::time::Instant::now() + BUSY_TIMEOUT;
+    let mut pause = Duration::from_millis(2);
+    loop {
+        match f() {
+            Err(rusqlite::Error::SqliteFailure(e, _))
+                if e.code == rusqlite::ErrorCode::DatabaseBusy
+                    && std::time::Instant::now() < deadline =>
+            {
+                std::thread::sleep(pause);
+                pause = (pause * 2).min(Duration::from_millis(100));
+            }
+            r => return r,
         }
     }
 }
