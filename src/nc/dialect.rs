@@ -318,6 +318,10 @@ struct Grams {
     pre: [u64; 1024],
     /// First three bytes of the longer signs, sorted.
     three: Vec<[u8; 3]>,
+    /// Bytes (either case) where [`may_show`] stops to look: a sign's
+    /// first byte, or `(`, `;`, `O`, `:` or `G`. One lookup passes over
+    /// the rest, most of a block.
+    stop: [bool; 256],
 }
 
 impl Grams {
@@ -329,6 +333,7 @@ impl Grams {
                 two: [0; 1024],
                 pre: [0; 1024],
                 three: Vec::new(),
+                stop: [false; 256],
             };
             let set = |bits: &mut [u64; 1024], a: u8, b: u8| {
                 let i = (a as usize) << 8 | b as usize;
@@ -346,6 +351,11 @@ impl Grams {
             }
             g.three.sort_unstable();
             g.three.dedup();
+            for b in 0..=255u8 {
+                let c = b.to_ascii_uppercase();
+                g.stop[b as usize] =
+                    g.first[c as usize] || matches!(c, b'(' | b';' | b'O' | b':' | b'G');
+            }
             g
         })
     }
@@ -377,10 +387,10 @@ fn may_show(text: &[u8]) -> (bool, bool) {
     let mut in_code = true;
     let mut has_g = false;
     for (i, &c) in text.iter().enumerate() {
-        let c = c.to_ascii_uppercase();
-        if !g.first[c as usize] && !matches!(c, b'(' | b';' | b'O' | b':' | b'G') {
+        if !g.stop[c as usize] {
             continue;
         }
+        let c = c.to_ascii_uppercase();
         match c {
             b'(' => return may_show_commented(g, text),
             b';' => in_code = false,

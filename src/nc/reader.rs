@@ -227,7 +227,7 @@ fn read_line<R: BufRead>(input: &mut R, out: &mut Vec<u8>) -> io::Result<usize> 
         if buf.is_empty() {
             return Ok(n);
         }
-        let Some(i) = buf.iter().position(|&c| c == b'\n' || c == b'\r') else {
+        let Some(i) = memchr::memchr2(b'\n', b'\r', buf) else {
             let len = buf.len();
             out.extend_from_slice(buf);
             input.consume(len);

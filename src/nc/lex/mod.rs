@@ -69,7 +69,7 @@ pub(crate) fn split_line_end(s: &[u8]) -> Result<(usize, usize), BlockError> {
         0
     };
     let n = s.len() - le;
-    match s[..n].iter().position(|&c| c == b'\n') {
+    match memchr::memchr(b'\n', &s[..n]) {
         Some(p) => Err(BlockError::new(p, "unexpected line break")),
         None => Ok((n, le)),
     }
