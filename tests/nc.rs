@@ -284,7 +284,7 @@ fn modal_state_along_the_five_axis_fanuc_program() {
         }
     }
     let state = |line: usize| &at[&line].0;
-    let event = |line: usize| at[&line].1;
+    let event = |line: usize| &at[&line].1;
     assert_eq!(state(5).tcp, Tcp::Off);
     assert_eq!(state(6).tcp, Tcp::Axes);
     assert!(matches!(event(7), Event::Move(_)));
@@ -296,7 +296,7 @@ fn modal_state_along_the_five_axis_fanuc_program() {
     assert!(!state(21).absolute);
     assert!(state(23).absolute);
     assert_eq!(state(24).tcp, Tcp::Vector);
-    assert_eq!(event(27), Event::Quiet);
+    assert_eq!(event(27), &Event::Quiet);
     assert_eq!(state(3).work_offset, 540);
 }
 

@@ -515,13 +515,13 @@ impl<'a> Pass<'a> {
             if matches!(event, Event::Move(_) | Event::Skip(_))
                 && !matches!(event, Event::Skip(Skip::Unreadable | Skip::NeverRuns))
             {
-                section(&mut summary.coordinates, interp, line);
+                section(&mut summary.coordinates, interp, &f, line);
             }
             let mut motion_done = false;
-            match event {
+            match &event {
                 Event::Move(mv) => {
                     summary.moves += 1;
-                    moved |= moves_an_axis(&mv);
+                    moved |= moves_an_axis(mv);
                     if let Some(at) = self.approach_open.take()
                         && mv.approach.is_none()
                     {
@@ -529,7 +529,7 @@ impl<'a> Pass<'a> {
                     }
                     if let Some(Tangential::Departure { len, leg }) = mv.appr_dep {
                         let from = writer.emit;
-                        match c.plan_departure(&f, &mv, &from, self.last_tangent, len, leg) {
+                        match c.plan_departure(&f, mv, &from, self.last_tangent, len, leg) {
                             Ok(end) => {
                                 self.after_left = false;
                                 // Nothing to write: the control's line from
@@ -554,16 +554,16 @@ impl<'a> Pass<'a> {
                     }
                     let appr = matches!(mv.appr_dep, Some(Tangential::Approach { .. }));
                     let planned = match mv.tangential {
-                        _ if appr => c.plan_approach(&f, &mv, &writer.emit, *last_held, line),
+                        _ if appr => c.plan_approach(&f, mv, &writer.emit, *last_held, line),
                         Some(_) => c.plan_tangential(
                             &f,
-                            &mv,
+                            mv,
                             &writer.emit,
                             self.last_tangent,
                             *last_held,
                             line,
                         ),
-                        None => c.plan(&f, &mv, &writer.emit, *last_held, line),
+                        None => c.plan(&f, mv, &writer.emit, *last_held, line),
                     };
                     match planned {
                         Ok(plan) => {
@@ -623,10 +623,10 @@ impl<'a> Pass<'a> {
                                     }
                                 };
                             motion_done = writer
-                                .write(block, &seg, &mv, &f, interp, &plan, tool_axis, &mut sink);
+                                .write(block, &seg, mv, &f, interp, &plan, tool_axis, &mut sink);
                             if let Some(corner) = &mv.corner
                                 && let Some(why) =
-                                    check_corner(c, &f, corner, &mv, self.last_piece, first_piece)
+                                    check_corner(c, &f, corner, mv, self.last_piece, first_piece)
                             {
                                 // The path around the corner misses: the
                                 // line that carries it is not corrected.
@@ -638,7 +638,7 @@ impl<'a> Pass<'a> {
                                     c,
                                     &f,
                                     a,
-                                    &mv,
+                                    mv,
                                     &plan,
                                     self.last_piece,
                                     first_piece,
@@ -651,7 +651,7 @@ impl<'a> Pass<'a> {
                             }
                             self.last_tangent = written_direction(
                                 &plan,
-                                &mv,
+                                mv,
                                 self.last_tangent,
                                 first_piece,
                                 last_piece,
@@ -660,7 +660,7 @@ impl<'a> Pass<'a> {
                         }
                         Err(Refusal::Skip(reason)) => {
                             self.after_left = true;
-                            if moves_an_axis(&mv) {
+                            if moves_an_axis(mv) {
                                 left.get_or_insert_with(|| reason.clone());
                             }
                             skipped.entry(reason).or_default().push(line);
@@ -944,10 +944,10 @@ fn moves_an_axis(mv: &interp::Move) -> bool {
             .any(|(s, e)| e.is_some() && s != e)
 }
 
-/// Extends the last section of `sections` to the move at `line`, or
-/// starts one where the coordinates change meaning.
-fn section(sections: &mut Vec<CoordinateSection>, interp: &Interpreter, line: usize) {
-    let meaning = interp.coordinates_meaning();
+/// Extends the last section of `sections` to the move at `line` (`f`: the
+/// frame after it), or starts one where the coordinates change meaning.
+fn section(sections: &mut Vec<CoordinateSection>, interp: &Interpreter, f: &Frame, line: usize) {
+    let meaning = f.meaning();
     match sections.last_mut() {
         Some(s) if s.meaning == meaning => s.lines.1 = line,
         _ => sections.push(CoordinateSection {

@@ -38,6 +38,17 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// What the program's coordinates are in this frame: as the TCP mode
+    /// says, or X Y Z in a tilted working plane.
+    pub(crate) fn meaning(&self) -> &'static str {
+        match self.plane {
+            Some(_) => {
+                "X Y Z in a tilted working plane (3+2: the plane's rotary positions, tool length along the tool)"
+            }
+            None => self.tcp.meaning(),
+        }
+    }
+
     /// Program coordinates to model axes (or, under TCP, tip and rotary
     /// positions).
     pub fn model(&self, p: &[f64; 6]) -> Axes {

@@ -368,13 +368,13 @@ impl Interpreter {
             let ph = super::approach::approach_aux(&a.at, d, a.len, a.leg);
             [a.from, ph, a.at]
         });
-        mv.approach = Some(super::approach::Approach {
+        mv.approach = Some(Box::new(super::approach::Approach {
             line: a.line,
             len: a.len,
             leg: a.leg,
             path,
             arc,
-        });
+        }));
         Event::Move(mv)
     }
 
@@ -450,12 +450,12 @@ impl Interpreter {
                 (Some(s), Some(e)) if s == at => {
                     match super::corner::corner_path(&from, &at, &e, k, self.units.mm()) {
                         Ok(_) => {
-                            mv.corner = Some(super::corner::Corner {
+                            mv.corner = Some(Box::new(super::corner::Corner {
                                 line: c.line,
                                 kind: k,
                                 from,
                                 at,
-                            });
+                            }));
                             return Event::Move(mv);
                         }
                         Err(why) => why,

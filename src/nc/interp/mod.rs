@@ -368,7 +368,7 @@ pub enum MoveKind {
 
 /// One move, in program coordinates (program units, degrees, before the
 /// datum shift).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Move {
     /// Kind.
     pub kind: MoveKind,
@@ -397,7 +397,9 @@ pub struct Move {
     pub drill: Option<Drill>,
     /// HEIDENHAIN `RND`/`CHF` before this line: the controller cuts the
     /// corner between the line before and this one.
-    pub corner: Option<corner::Corner>,
+    /// Boxed, as is `approach`: HEIDENHAIN's alone and rare, they would
+    /// otherwise be a third of every move's bytes copied.
+    pub corner: Option<Box<corner::Corner>>,
     /// HEIDENHAIN `CT`: the arc leaves its start in this unit direction
     /// (XY, program frame), the one the element before it ends in; its
     /// centre follows from it and the end point.
@@ -408,7 +410,7 @@ pub struct Move {
     /// HEIDENHAIN `APPR LT|LN` before this move, the first contour element:
     /// the control's auxiliary point follows from the direction this move
     /// starts in.
-    pub approach: Option<approach::Approach>,
+    pub approach: Option<Box<approach::Approach>>,
 }
 
 /// The polar words of a HEIDENHAIN `LP`/`CP` block: token index and
@@ -466,7 +468,7 @@ impl Move {
 // Events are returned by value once per statement and never stored in bulk,
 // so the large `Move` variant costs nothing a box would save.
 #[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Event {
     /// No motion.
     None,
@@ -779,7 +781,10 @@ impl Interpreter {
         let tcp_before = self.tcp;
         let plane_before = self.working_plane;
         self.tcp_remapped = false;
-        let ev = match self.cfg.settings.dialect {
+        // The move is changed where it lies below: an event is a kilobyte,
+        // and moving it through each step was a tenth of compensate's
+        // copying.
+        let mut ev = match self.cfg.settings.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
             Dialect::Heidenhain => self.heidenhain(block, seg),
             Dialect::Sinumerik => self.sinumerik(block, seg),
@@ -803,22 +808,20 @@ impl Interpreter {
         if matches!(ev, Event::Move(_) | Event::Skip(_)) {
             self.offsets.first_move(self.work_offset);
         }
-        let ev = match ev {
-            Event::Move(mv) if self.tilted => match self.plane_skip(&mv) {
-                Some(why) => Event::Skip(Skip::TiltedPlane(why)),
-                None => Event::Move(mv),
-            },
-            ev => ev,
-        };
-        match ev {
-            Event::Move(mv)
-                if self.tcp == Tcp::Vector
-                    && self.cfg.settings.coordinates != Coordinates::Axes =>
-            {
-                self.resolve_vector(mv)
-            }
-            ev => ev,
+        if self.tilted
+            && let Event::Move(mv) = &ev
+            && let Some(why) = self.plane_skip(mv)
+        {
+            ev = Event::Skip(Skip::TiltedPlane(why));
         }
+        if self.tcp == Tcp::Vector
+            && self.cfg.settings.coordinates != Coordinates::Axes
+            && let Event::Move(mv) = &mut ev
+            && let Err(why) = self.resolve_vector(mv)
+        {
+            ev = Event::Skip(why);
+        }
+        ev
     }
 
     /// The frame the current state puts program coordinates in.
@@ -955,18 +958,7 @@ impl Interpreter {
         None
     }
 
-    /// What the program's coordinates are here: as the TCP mode says, or
-    /// X Y Z in a tilted working plane.
-    pub(crate) fn coordinates_meaning(&self) -> &'static str {
-        match self.frame().plane {
-            Some(_) => {
-                "X Y Z in a tilted working plane (3+2: the plane's rotary positions, tool length along the tool)"
-            }
-            None => self.frame().tcp.meaning(),
-        }
-    }
-
-    /// Why the program's coordinates mean what [`Interpreter::frame`] says
+    /// Why the program's coordinates mean what [`Frame::meaning`] says
     /// here: the flag that forces it, or the code that switched it.
     pub(crate) fn coordinates_why(&self) -> String {
         if let (Some(_), Some(c)) = (self.frame().plane, &self.plane_cause) {
@@ -1048,14 +1040,15 @@ impl Interpreter {
     }
 
     /// G43.5: the controller picks the rotary positions for the programmed
-    /// tool direction, nearest where they were.
-    fn resolve_vector(&mut self, mut mv: Move) -> Event {
+    /// tool direction, nearest where they were (written into `mv`), or
+    /// the move is left as written for the reason returned.
+    fn resolve_vector(&mut self, mv: &mut Move) -> Result<(), Skip> {
         let Some((v, _)) = mv.tool_vector else {
-            return Event::Skip(Skip::NoToolVector);
+            return Err(Skip::NoToolVector);
         };
         let v = Vector3::new(v[0], v[1], v[2]);
         if !(v.norm() > 0.0 && v.iter().all(|x| x.is_finite())) {
-            return Event::Skip(Skip::VectorOutOfReach);
+            return Err(Skip::VectorOutOfReach);
         }
         let v = v.normalize();
         let t = self.cfg.tilt;
@@ -1077,12 +1070,12 @@ impl Interpreter {
                 self.pos[t] = Some(a.tilt);
                 self.pos[5] = Some(a.c);
                 mv.vector = Some(v);
-                Event::Move(mv)
+                Ok(())
             }
             Err(_) => {
                 self.pos[t] = None;
                 self.pos[5] = None;
-                Event::Skip(Skip::VectorOutOfReach)
+                Err(Skip::VectorOutOfReach)
             }
         }
     }

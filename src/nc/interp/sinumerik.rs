@@ -979,8 +979,10 @@ impl Interpreter {
                     vector[2].map(|x| x.0),
                 ],
             ));
-            if self.settings().coordinates != super::Coordinates::Axes {
-                return self.resolve_vector(mv);
+            if self.settings().coordinates != super::Coordinates::Axes
+                && let Err(why) = self.resolve_vector(&mut mv)
+            {
+                return Event::Skip(why);
             }
         }
         Event::Move(mv)
@@ -1213,7 +1215,7 @@ mod tests {
         let t = through(&ev[4]);
         assert_eq!(t.point, [58.0, 22.0, -5.0]);
         assert_eq!(t.incremental, [false, true, false]);
-        let Event::Move(end) = ev[4] else { panic!() };
+        let Event::Move(end) = &ev[4] else { panic!() };
         assert_eq!(&end.end[..3], &[Some(50.0), Some(20.0), Some(-5.0)]);
         // G1 ends the mode.
         assert!(matches!(
