@@ -653,8 +653,8 @@ impl<'a> Pass<'a> {
                                 &plan,
                                 mv,
                                 self.last_tangent,
-                                first_piece,
-                                last_piece,
+                                first_piece.as_ref(),
+                                last_piece.as_ref(),
                             );
                             self.last_piece = last_piece;
                         }
@@ -909,8 +909,8 @@ fn written_direction(
     plan: &WritePlan,
     mv: &interp::Move,
     before: Option<[f64; 2]>,
-    first: Option<Stretch>,
-    last: Option<Stretch>,
+    first: Option<&Stretch>,
+    last: Option<&Stretch>,
 ) -> Option<[f64; 2]> {
     use interp::tangent::{arc_end_direction, direction, tangent_arc};
     let xy = |p: &[Option<f64>; 6]| Some([p[0]?, p[1]?]);
