@@ -258,7 +258,7 @@ impl<R: Read> Read for BoundedLines<R> {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         let n = self.inner.read(buf)?;
         // Line ends and NULs are found a vector at a time: checked byte by
-        // byte this reader took a sixth of the rewrite's reading thread.
+        // byte this reader took a tenth of the rewrite's reading thread.
         let mut rest = &buf[..n];
         while let Some(i) = memchr::memchr3(b'\n', b'\r', 0, rest) {
             self.lengthen(i)?;

@@ -915,7 +915,7 @@ fn written_direction(
     use interp::tangent::{arc_end_direction, direction, tangent_arc};
     let xy = |p: &[Option<f64>; 6]| Some([p[0]?, p[1]?]);
     let (from, to) = last?;
-    let end = xy(&to)?;
+    let end = xy(to)?;
     match (plan, mv.kind) {
         (WritePlan::Arc { center, .. }, interp::MoveKind::Arc(arc))
             if arc.plane == interp::ArcPlane::Xy =>
@@ -928,7 +928,7 @@ fn written_direction(
             arc_end_direction(c, end, cw)
         }
         (WritePlan::End(_), interp::MoveKind::Arc(_)) => None,
-        _ => direction(xy(&from)?, end),
+        _ => direction(xy(from)?, end),
     }
 }
 
