@@ -465,8 +465,9 @@ impl Move {
 }
 
 /// What a statement does.
-// Events are returned by value once per statement and never stored in bulk,
-// so the large `Move` variant costs nothing a box would save.
+// Events are returned by value once per statement and never stored in bulk:
+// a box would be an allocation per statement. What costs is copying one,
+// so the interpreter changes a move where it lies (see `step`).
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Event {
@@ -782,7 +783,7 @@ impl Interpreter {
         let plane_before = self.working_plane;
         self.tcp_remapped = false;
         // The move is changed where it lies below: an event is a kilobyte,
-        // and moving it through each step was a tenth of compensate's
+        // and moving it through each step was a quarter of compensate's
         // copying.
         let mut ev = match self.cfg.settings.dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => self.gcode(block, seg),
