@@ -2284,3 +2284,134 @@ fn store_created_by_two_runs_at_once_opens_in_both() {
         });
     }
 }
+
+#[test]
+fn simulate_samples_a_359_degree_turn_along_its_path_not_its_chord() {
+    // A turn of A from -30 to -359 deg without TCP swings the tip round the
+    // A axis, and ends a degree of turn from where it started. The samples
+    // were spaced by the chord between the ends: about 270 for a path of
+    // 350 mm at a step of 0.01 mm, 1.2 deg apart, so a polyline through them
+    // cut inside the arc by a micrometre and a path check saw the rewrite
+    // leave the path that far.
+    use fivecal::model::Model;
+    let mut machine = crate::util::machine("ac-trunnion");
+    machine.tilt.limits = Some((-360.0, 360.0));
+    let k = fivecal::kinematics::Kinematics::new(&machine);
+    let nominal = Model::new(k, vec![]);
+    let program =
+        "%\nO1000\nG90 G54 G0 X0. Y0. Z160. A-30. C0.\nG1 X0. Z60. A-30. F2122.\nA-359.\nM30\n%\n";
+    let step = 0.1;
+    let samples = crate::compensate::simulate(
+        &nominal,
+        &[],
+        fivecal::Dialect::Fanuc,
+        fivecal::compensate::Coordinates::Auto,
+        program,
+        step,
+    );
+    // The turn's samples, from the end of the line before.
+    let first = samples.iter().position(|s| s.line == 5).unwrap();
+    let turn: Vec<_> = samples[first - 1..]
+        .iter()
+        .filter(|s| s.line >= 4)
+        .collect();
+    let mut length = 0.0;
+    for w in turn.windows(2) {
+        let gap = (w[1].nominal.tip - w[0].nominal.tip).norm();
+        assert!(gap <= step * 1.001, "samples {gap:.4} mm apart");
+        length += gap;
+    }
+    // The circle through three samples gives the arc's length: 329 deg of
+    // it.
+    let n = turn.len();
+    let (a, b, c) = (
+        turn[0].nominal.tip,
+        turn[n / 3].nominal.tip,
+        turn[2 * n / 3].nominal.tip,
+    );
+    let radius =
+        (a - b).norm() * (b - c).norm() * (c - a).norm() / (2.0 * (b - a).cross(&(c - a)).norm());
+    let arc = radius * 329f64.to_radians();
+    assert!(
+        arc > 20.0 && arc > 5.0 * (turn[n - 1].nominal.tip - a).norm(),
+        "{radius}"
+    );
+    assert!(
+        (length - arc).abs() < 1e-3 * arc,
+        "{length} mm sampled, arc {arc} mm"
+    );
+    assert!(turn.len() as f64 >= arc / step, "{} samples", turn.len());
+}
+
+#[test]
+fn compensate_keeps_a_359_degree_a_turn_within_the_tolerance() {
+    // The case left unexplained when the tilt's turns were fixed: a long
+    // turn of A, split into pieces, seemed to leave the intended path by
+    // more than the tolerance. It was the check's samples (see
+    // `simulate_samples_a_359_degree_turn_along_its_path_not_its_chord`).
+    let mut machine = crate::util::machine("ac-trunnion");
+    machine.tilt.limits = Some((-360.0, 360.0));
+    let l = crate::compensate::errors_on(&machine, 3, 5.0, "");
+    for z in [27.0, 60.0, 150.0] {
+        let program = format!(
+            "%\nO1000\nG90 G54 G0 X0. Y0. Z160. A-30. C0.\nG1 X0. Z{z:.1} A-30. F2122.\nA-359.\nM30\n%\n"
+        );
+        let settings = fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
+        let (out, s, _) = crate::compensate::compensate(&l, settings, &program);
+        assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+        assert_eq!(s.subdivided.count, 1, "{out}");
+        // The ends are checked in full: the tool lies along C only at A 0
+        // and -180, which the turn passes mid-move.
+        crate::compensate::check_held(
+            &l,
+            fivecal::Dialect::Fanuc,
+            fivecal::compensate::Coordinates::Auto,
+            &program,
+            &out,
+            0.001,
+            &[],
+            &format!("A -30 to -359 at Z{z}"),
+        );
+    }
+}
+
+/// A FANUC program whose line 7 turns C by `turns` turns at X40 Z50, under
+/// TCP (`G43.4`) or not, the tilt `tilt` at -30 deg.
+fn c_turns_program(tcp: bool, tilt: char, turns: f64) -> String {
+    let c = 360.0 * turns;
+    let tcp = if tcp { "G43.4 H1" } else { "G43 H1" };
+    format!(
+        "%\nO1000\nG90 G21 G17 G94 G54\n{tcp}\nG0 X40. Y0. Z60. {tilt}-30. C0.\nG1 X40. Z50. F2122.\nC{c:.1}\nM30\n%\n"
+    )
+}
+
+#[test]
+fn simulate_samples_a_turn_round_a_still_tip_every_degree() {
+    // Under TCP, C turns twice round a tip that stays where it is: sampled
+    // by the tip's path there was one sample, at the end, and whatever the
+    // errors did on the way was never seen.
+    use fivecal::model::Model;
+    let mut machine = crate::util::machine("bc-trunnion");
+    machine.c.limits = None;
+    let l = crate::compensate::errors_on(&machine, 4, 60.0, "");
+    let nominal = Model::new(l.model.kin.clone(), vec![]);
+    let program = c_turns_program(true, machine.tilt.letter, 2.0);
+    let mut settings = fivecal::compensate::simulate::SimSettings::new(fivecal::Dialect::Fanuc);
+    settings.coordinates = fivecal::compensate::Coordinates::Auto;
+    for (model, theta) in [(&nominal, &[][..]), (&l.model, &l.theta[..])] {
+        let samples =
+            crate::compensate::simulate_with(model, theta, settings.clone(), &program, 0.1);
+        let turn: Vec<_> = samples.iter().filter(|s| s.line == 7).collect();
+        assert_eq!(turn.len(), 720, "{} samples", turn.len());
+        let first = turn[0].nominal.tip;
+        assert!(turn.iter().all(|s| (s.nominal.tip - first).norm() < 1e-9));
+        // On the erroneous machine the samples show the tip moving.
+        if !theta.is_empty() {
+            let spread = turn
+                .iter()
+                .map(|s| (s.actual.tip - turn[0].actual.tip).norm())
+                .fold(0.0, f64::max);
+            assert!(spread > 0.01, "{spread}");
+        }
+    }
+}

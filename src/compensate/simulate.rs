@@ -45,7 +45,8 @@ pub struct SimSettings {
     pub fanuc_integer_unit: Option<f64>,
     /// Rotary positions before the first block, as the user states them.
     pub rotary_start: Vec<(char, f64)>,
-    /// Sampling step along feed moves, mm of tool-tip path (0: end points only).
+    /// Sampling step along feed moves, mm of tool-tip path, and at least a
+    /// sample a degree of turn of a rotary axis (0: end points only).
     pub step: f64,
 }
 
@@ -540,7 +541,11 @@ impl Run<'_, '_> {
                 MovePath::Through { geo, .. } => geo.sweep * geo.r * f.u,
                 _ => (b.tip - a.tip).norm(),
             };
-            ((len / sim.settings.step).ceil() as usize).clamp(1, 100_000)
+            let len = len.max(swept_length(job, |p| sim.poses(f, p, job.vector).0.tip));
+            // And a sample a degree of turn: under TCP the axes may turn
+            // round a tip that hardly moves, and the errors change with them.
+            let by_length = (len / sim.settings.step).ceil();
+            (by_length.max(turn(&p0, &p1).ceil()) as usize).clamp(1, 100_000)
         } else {
             1
         };
@@ -574,6 +579,43 @@ impl Run<'_, '_> {
             (self.sink)(&sample);
         }
     }
+}
+
+/// The largest turn of a rotary axis from `p0` to `p1`, deg.
+fn turn(p0: &[f64; 6], p1: &[f64; 6]) -> f64 {
+    (3..6)
+        .map(|i| (p1[i] - p0[i]).abs())
+        .filter(|d| d.is_finite())
+        .fold(0.0, f64::max)
+}
+
+/// The length of the tip's path where rotary axes turn without TCP, mm (0
+/// for other moves): the tip then swings round the rotary axes, and a long
+/// turn's chord can be far shorter than its path (a 359 deg turn ends a
+/// degree from where it started). Measured through points a degree of turn
+/// apart, which is within 1e-4 of the arc's length.
+fn swept_length(job: &Job, tip: impl Fn(&[f64; 6]) -> Vector3<f64>) -> f64 {
+    if job.f.tcp != Tcp::Off {
+        return 0.0;
+    }
+    let (p0, p1) = match job.path {
+        MovePath::Line { p0, p1 }
+        | MovePath::Arc { p0, p1, .. }
+        | MovePath::Through { p0, p1, .. } => (p0, p1),
+    };
+    let turn = turn(&p0, &p1);
+    if turn <= 1.0 {
+        return 0.0;
+    }
+    let m = (turn.ceil() as usize).min(100_000);
+    let mut prev = tip(&p0);
+    let mut sum = 0.0;
+    for k in 1..=m {
+        let q = tip(&job.path.at(k as f64 / m as f64));
+        sum += (q - prev).norm();
+        prev = q;
+    }
+    sum
 }
 
 /// What a CMM would measure at the nominal surface points `points` on a

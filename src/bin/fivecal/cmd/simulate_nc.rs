@@ -22,8 +22,8 @@ pub struct SimulateNcArgs {
     /// The NC program to run.
     #[arg(long, value_name = "P.nc")]
     program: PathBuf,
-    /// Sample feed moves every STEP mm of tool path as well as at their end
-    /// points.
+    /// Sample feed moves every STEP mm of tool path (and at least every
+    /// degree a rotary axis turns) as well as at their end points.
     #[arg(long, value_name = "MM", default_value_t = 0.0)]
     step: f64,
     /// Write every sample (nominal tip and axis, tip error) as CSV.
