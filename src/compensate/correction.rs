@@ -376,6 +376,22 @@ impl Compensator {
         vector: Option<Vector3<f64>>,
     ) -> f64 {
         let tol = self.settings.tolerance;
+        // Along a piece that turns far, the deviation goes round with the
+        // turn: at the middle of two whole turns of a head's C the tool is
+        // back where it started, and the middle and quarters can all miss
+        // the worst. Such a piece is sampled every 5 deg of turn or less.
+        // Over 20 deg or less the deviation is near a parabola between the
+        // ends, which the middle and quarters find.
+        let turn = (3..6)
+            .map(|a| (w1[a] - w0[a]).abs())
+            .filter(|d| d.is_finite())
+            .fold(0.0, f64::max);
+        if turn > 20.0 {
+            let k = 4 * (turn / 20.0).ceil().min(1e5) as usize;
+            return (1..k)
+                .map(|j| self.deviation(f, path, u0, u1, w0, w1, j as f64 / k as f64, vector))
+                .fold(0.0, f64::max);
+        }
         let mid = self.deviation(f, path, u0, u1, w0, w1, 0.5, vector);
         if mid > tol / 8.0 {
             mid.max(self.deviation(f, path, u0, u1, w0, w1, 0.25, vector))
