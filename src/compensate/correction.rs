@@ -382,10 +382,7 @@ impl Compensator {
         // the worst. Such a piece is sampled every 5 deg of turn or less.
         // Over 20 deg or less the deviation is near a parabola between the
         // ends, which the middle and quarters find.
-        let turn = (3..6)
-            .map(|a| (w1[a] - w0[a]).abs())
-            .filter(|d| d.is_finite())
-            .fold(0.0, f64::max);
+        let turn = super::largest_turn(w0, w1);
         if turn > 20.0 {
             let k = 4 * (turn / 20.0).ceil().min(1e5) as usize;
             return (1..k)

@@ -421,3 +421,13 @@ impl From<std::io::Error> for CompensateError {
         CompensateError::Io(e)
     }
 }
+
+/// The largest turn of a rotary axis between two program points, deg
+/// (shared by the rewrite's path check and `simulate nc`'s sampling, which
+/// both must follow a long turn more closely than its ends show).
+pub(crate) fn largest_turn(p0: &[f64; 6], p1: &[f64; 6]) -> f64 {
+    (3..6)
+        .map(|i| (p1[i] - p0[i]).abs())
+        .filter(|d| d.is_finite())
+        .fold(0.0, f64::max)
+}

@@ -545,7 +545,7 @@ impl Run<'_, '_> {
             // And a sample a degree of turn: under TCP the axes may turn
             // round a tip that hardly moves, and the errors change with them.
             let by_length = (len / sim.settings.step).ceil();
-            (by_length.max(turn(&p0, &p1).ceil()) as usize).clamp(1, 100_000)
+            (by_length.max(super::largest_turn(&p0, &p1).ceil()) as usize).clamp(1, 100_000)
         } else {
             1
         };
@@ -581,14 +581,6 @@ impl Run<'_, '_> {
     }
 }
 
-/// The largest turn of a rotary axis from `p0` to `p1`, deg.
-fn turn(p0: &[f64; 6], p1: &[f64; 6]) -> f64 {
-    (3..6)
-        .map(|i| (p1[i] - p0[i]).abs())
-        .filter(|d| d.is_finite())
-        .fold(0.0, f64::max)
-}
-
 /// The length of the tip's path where rotary axes turn without TCP, mm (0
 /// for other moves): the tip then swings round the rotary axes, and a long
 /// turn's chord can be far shorter than its path (a 359 deg turn ends a
@@ -603,7 +595,7 @@ fn swept_length(job: &Job, tip: impl Fn(&[f64; 6]) -> Vector3<f64>) -> f64 {
         | MovePath::Arc { p0, p1, .. }
         | MovePath::Through { p0, p1, .. } => (p0, p1),
     };
-    let turn = turn(&p0, &p1);
+    let turn = super::largest_turn(&p0, &p1);
     if turn <= 1.0 {
         return 0.0;
     }
