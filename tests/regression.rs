@@ -2449,3 +2449,33 @@ fn simulate_samples_a_turn_round_a_still_tip_every_degree() {
         }
     }
 }
+
+#[test]
+fn compensate_ramps_c_through_the_singularity_a_move_passes_between_exact_ends() {
+    // From a random program: B from -54.6 to 21.9 deg on head-table, C
+    // turning 135 deg. Both ends are far from the tool-along-C singularity
+    // at B = 0, which the move passes. There the exact correction of C
+    // grows without bound, the pieces jumped between it and C held, and
+    // the move was refused ("cannot be followed within --tolerance 1 um
+    // even in 65536 pieces"). C's correction now ramps between the ends',
+    // as where an end is held, and the tip follows the path.
+    let mut machine = crate::util::machine("head-table");
+    machine.c.limits = None;
+    let l = crate::compensate::errors_on(&machine, 3, 40.0, "");
+    let program = "%\nO1000\nG90 G21 G17 G94 G54\nG43 H1\nG0 X-1.579 Y7.928 Z48.645 B-54.557 C-132.599\nG1 X39.018 Y-18.484 Z59.703 B21.947 C-267.700 F1000.\nM30\n%\n";
+    let settings = fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
+    let (out, s, _) = crate::compensate::compensate(&l, settings, program);
+    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
+    assert_eq!(s.subdivided.first, [6], "{out}");
+    assert_eq!(s.held_c.first, [6], "{out}");
+    crate::compensate::check_held(
+        &l,
+        fivecal::Dialect::Fanuc,
+        fivecal::compensate::Coordinates::Auto,
+        program,
+        &out,
+        0.001,
+        &[6],
+        "B through 0 while C turns",
+    );
+}

@@ -435,13 +435,24 @@ impl Compensator {
         // held and exact solutions (which would jump): the correction of C
         // ramps from its value at the start to its value at the end, the
         // tilt is the best for that C and the tip stays exact.
-        let ramp = ramp || end.held.is_some();
+        let mut ramp = ramp || end.held.is_some();
+        let mut saw_held = false;
         let dc0 = w0[5] - path.at(0.0)[5];
         let dc1 = end.written.c - end.nominal.c;
         loop {
             // Checked before the pieces are made: an arc of many turns
             // (LinuxCNC's P word) asks for billions at once.
             if n > MAX_PIECES {
+                // A move that passes the singularity between exact ends (the
+                // tilt through zero while C turns): its pieces jump between
+                // the exact C correction, which grows without bound there,
+                // and C held, which no number of pieces mends. The held
+                // ends' ramp is tried before the move is refused.
+                if saw_held && !ramp {
+                    ramp = true;
+                    n = n0.max(1);
+                    continue;
+                }
                 return Err(CompensateError::Tolerance {
                     path: PathBuf::new(),
                     line,
@@ -468,6 +479,7 @@ impl Compensator {
                     pts.push((u, p));
                 }
             }
+            saw_held |= pts[..n - 1].iter().any(|(_, p)| p.held.is_some());
             let mut worst: f64 = 0.0;
             let mut prev = (0.0, *w0);
             for (u, p) in &pts {

@@ -18,9 +18,14 @@
 //! remaining tool-axis error is at most the orientation error of the
 //! machine there, and it is reported. The rewriter also holds C when the
 //! exact solution's swing would push the correction past its limit while
-//! the held one stays inside. At the other end of the tilt's range, where a
-//! program runs the tilt to its limit and the correction needs a few urad
-//! beyond it, the tilt is held at the limit with the tip exact.
+//! the held one stays inside. Along a move written in pieces, the pieces do
+//! not switch between held and exact solutions, which would jump: where an
+//! end is held, or where the move passes the singularity between exact ends
+//! and exact pieces cannot follow the path, C's correction ramps from the
+//! start's to the end's, with the tilt and the tip as when held. At the
+//! other end of the tilt's range, where a program runs the tilt to its
+//! limit and the correction needs a few urad beyond it, the tilt is held at
+//! the limit with the tip exact.
 
 use nalgebra::Vector3;
 
