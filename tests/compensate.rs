@@ -1460,3 +1460,158 @@ fn random_programs_with_long_turns_stay_within_the_tolerance_or_are_refused() {
     }
     assert!(checked >= 20, "{checked} checked, {refused} refused");
 }
+
+#[test]
+fn random_programs_in_every_dialect_with_incremental_words_stay_within_the_tolerance() {
+    // As the test above, in each dialect's own syntax, with a share of the
+    // moves incremental (G91, `IX`/`IC`, `=IC(..)`), under TCP where the
+    // dialect switches it in the program (G43.4, M128, TRAORI).
+    let mut checked = 0;
+    for d in Dialect::ALL {
+        for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
+            let mut m = machine(name);
+            m.c.limits = None;
+            let (tlo, thi) = m.tilt.limits.unwrap();
+            let (lo, hi) = ((tlo + 1.0).max(-110.0), (thi - 1.0).min(110.0));
+            let tl = m.tilt.letter;
+            for seed in 0..2u64 {
+                let mut r = rng(7000 + seed);
+                let l = errors_on(&m, seed, 40.0, "");
+                let tcp = seed % 2 == 0 && d != Dialect::Linuxcnc;
+                let hh = d == Dialect::Heidenhain;
+                let f = |v: f64| {
+                    if hh {
+                        format!("{v:+.3}")
+                    } else {
+                        format!("{v:.3}")
+                    }
+                };
+                let mut lines: Vec<String> = match d {
+                    Dialect::Fanuc => vec![
+                        "%".into(),
+                        "O1000".into(),
+                        "G90 G21 G17 G94 G54".into(),
+                        if tcp { "G43.4 H1" } else { "G43 H1" }.into(),
+                    ],
+                    Dialect::Linuxcnc => vec!["(random)".into(), "G21 G90 G17 G94 G54 G43".into()],
+                    Dialect::Heidenhain => vec!["BEGIN PGM RND MM".into()],
+                    Dialect::Sinumerik => {
+                        vec!["%_N_RND_MPF".into(), "G17 G90 G710 G94 G54 D1".into()]
+                    }
+                };
+                match d {
+                    Dialect::Heidenhain if tcp => lines.push("M128".into()),
+                    Dialect::Sinumerik if tcp => lines.push("TRAORI".into()),
+                    _ => {}
+                }
+                let round = |v: f64| (v * 1000.0).round() / 1000.0;
+                let (mut t, mut c) = ((tlo + 5.0).max(-60.0).min(thi - 5.0), 10.0);
+                let (mut x, mut y, mut z) = (20.0, 10.0, 80.0);
+                let start = format!("X{} Y{} Z{} {tl}{} C{}", f(x), f(y), f(z), f(t), f(c));
+                lines.push(if hh {
+                    format!("L {start} R0 FMAX")
+                } else {
+                    format!("G0 {start}")
+                });
+                for k in 0..8 {
+                    let nx = round(r.random_range(-40.0..40.0));
+                    let ny = round(r.random_range(-40.0..40.0));
+                    let nz = round(r.random_range(10.0..80.0));
+                    let mut nt = t;
+                    let mut nc = c;
+                    if r.random_range(0.0..1.0) < 0.5 {
+                        nt = round(r.random_range(lo..hi));
+                    }
+                    if r.random_range(0.0..1.0) < 0.6 {
+                        nc = c + round(r.random_range(-200.0..200.0));
+                    }
+                    let inc = r.random_range(0.0..1.0) < 0.4;
+                    let feed = match (k, hh) {
+                        (0, true) => " F1000",
+                        (0, false) => " F1000.",
+                        _ => "",
+                    };
+                    let (dx, dy, dz, dt, dc) = (nx - x, ny - y, nz - z, nt - t, nc - c);
+                    lines.push(match (d, inc) {
+                        (Dialect::Heidenhain, true) => format!(
+                            "L IX{} IY{} IZ{} I{tl}{} IC{} R0{feed}",
+                            f(dx),
+                            f(dy),
+                            f(dz),
+                            f(dt),
+                            f(dc)
+                        ),
+                        (Dialect::Heidenhain, false) => format!(
+                            "L X{} Y{} Z{} {tl}{} C{} R0{feed}",
+                            f(nx),
+                            f(ny),
+                            f(nz),
+                            f(nt),
+                            f(nc)
+                        ),
+                        (Dialect::Sinumerik, true) => format!(
+                            "G1 X=IC({}) Y=IC({}) Z=IC({}) {tl}=IC({}) C=IC({}){feed}",
+                            f(dx),
+                            f(dy),
+                            f(dz),
+                            f(dt),
+                            f(dc)
+                        ),
+                        (_, true) => format!(
+                            "G91 G1 X{} Y{} Z{} {tl}{} C{}{feed}\nG90",
+                            f(dx),
+                            f(dy),
+                            f(dz),
+                            f(dt),
+                            f(dc)
+                        ),
+                        (_, false) => format!(
+                            "G1 X{} Y{} Z{} {tl}{} C{}{feed}",
+                            f(nx),
+                            f(ny),
+                            f(nz),
+                            f(nt),
+                            f(nc)
+                        ),
+                    });
+                    (x, y, z, t, c) = (nx, ny, nz, nt, nc);
+                }
+                match d {
+                    Dialect::Fanuc => lines.extend(["M30".into(), "%".into()]),
+                    Dialect::Linuxcnc => lines.push("M2".into()),
+                    Dialect::Heidenhain => lines.push("END PGM RND MM".into()),
+                    Dialect::Sinumerik => {
+                        if tcp {
+                            lines.push("TRAFOOF".into());
+                        }
+                        lines.push("M30".into());
+                    }
+                }
+                let mut program = lines.join("\n") + "\n";
+                if hh {
+                    program = program
+                        .lines()
+                        .enumerate()
+                        .map(|(i, l)| format!("{i} {l}\n"))
+                        .collect();
+                }
+                let what = format!("{d} {name} seed {seed} tcp={tcp}");
+                let (out, s, _) = compensate(&l, Settings::new(d), &program);
+                assert!(s.skipped.is_empty(), "{what}: {:?}", s.skipped);
+                assert!(s.changed > 0, "{what}");
+                check_held(
+                    &l,
+                    d,
+                    Coordinates::Auto,
+                    &program,
+                    &out,
+                    0.001,
+                    &s.held_c.first,
+                    &what,
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 32);
+}
