@@ -2289,10 +2289,10 @@ fn store_created_by_two_runs_at_once_opens_in_both() {
 fn simulate_samples_a_359_degree_turn_along_its_path_not_its_chord() {
     // A turn of A from -30 to -359 deg without TCP swings the tip round the
     // A axis, and ends a degree of turn from where it started. The samples
-    // were spaced by the chord between the ends: about 270 for a path of
-    // 350 mm at a step of 0.01 mm, 1.2 deg apart, so a polyline through them
-    // cut inside the arc by a micrometre and a path check saw the rewrite
-    // leave the path that far.
+    // were spaced by the chord between the ends (2.7 mm here): about 270
+    // at a step of 0.01 mm on an arc of 29 mm, 1.2 deg apart. A polyline
+    // through them cuts 0.3 um inside the arc, which a path check of the
+    // rewrite counted as leaving the path (1.13 um against a tolerance of 1).
     use fivecal::model::Model;
     let mut machine = crate::util::machine("ac-trunnion");
     machine.tilt.limits = Some((-360.0, 360.0));
