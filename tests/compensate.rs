@@ -1384,23 +1384,33 @@ fn fanuc_g43_5_tool_vectors_are_corrected_tip_and_axis() {
     check_against_simulation(&l, d, Coordinates::Auto, program, &out, 0.001, "G43.5");
 }
 
+/// The machine `name` with C continuous, the range its random tilts are
+/// drawn from (inside the stroke, at most 110 deg either way) and the tilt's
+/// letter.
+fn random_machine(name: &str) -> (Machine, (f64, f64), char) {
+    let mut m = machine(name);
+    m.c.limits = None;
+    let (lo, hi) = m.tilt.limits.unwrap();
+    let range = ((lo + 1.0).max(-110.0), (hi - 1.0).min(110.0));
+    let letter = m.tilt.letter;
+    (m, range, letter)
+}
+
 #[test]
 fn random_programs_with_long_turns_stay_within_the_tolerance_or_are_refused() {
     // Five-axis moves as no CAM post writes them but a shop's hand-made
     // program may: large steps of every axis at once, the tilt through
     // the tool-along-C singularity, C turning up to more than a turn a
-    // block or by whole turns alone, with and without TCP, on the four machine types. Every
-    // rewrite is simulated on the erroneous machine and must reach each
-    // intended end point and stay within 1 um of the intended path; a run
-    // may refuse with its reason instead, never write a wrong program.
+    // block or by whole turns alone, with and without TCP, on the four
+    // machine types. Every rewrite is simulated on the erroneous machine and
+    // must reach each intended end point and stay within 1 um of the
+    // intended path; a run may refuse with its reason instead, never write
+    // a wrong program.
     let mut checked = 0;
     let mut refused = 0;
     for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
-        let mut m = machine(name);
-        m.c.limits = None;
+        let (m, (lo, hi), tl) = random_machine(name);
         let (tlo, thi) = m.tilt.limits.unwrap();
-        let (lo, hi) = ((tlo + 1.0).max(-110.0), (thi - 1.0).min(110.0));
-        let tl = m.tilt.letter;
         for seed in 0..6u64 {
             let mut r = rng(1000 + seed);
             let l = errors_on(&m, seed, 40.0, "");
@@ -1469,11 +1479,8 @@ fn random_programs_in_every_dialect_with_incremental_words_stay_within_the_toler
     let mut checked = 0;
     for d in Dialect::ALL {
         for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
-            let mut m = machine(name);
-            m.c.limits = None;
+            let (m, (lo, hi), tl) = random_machine(name);
             let (tlo, thi) = m.tilt.limits.unwrap();
-            let (lo, hi) = ((tlo + 1.0).max(-110.0), (thi - 1.0).min(110.0));
-            let tl = m.tilt.letter;
             for seed in 0..2u64 {
                 let mut r = rng(7000 + seed);
                 let l = errors_on(&m, seed, 40.0, "");

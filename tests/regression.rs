@@ -2345,12 +2345,14 @@ fn simulate_samples_a_359_degree_turn_along_its_path_not_its_chord() {
 
 /// `program` rewritten for `l` on FANUC: nothing left as written, one move
 /// in pieces, and the rewrite on the erroneous machine reaches every
-/// intended end point and stays within 1 um of the intended path.
+/// intended end point (the tool axis loosely at the `held` lines) and stays
+/// within 1 um of the intended path.
 fn rewritten_in_pieces_within_a_micrometre(
     l: &fivecal::errorfile::LoadedErrors,
     program: &str,
+    held: &[usize],
     what: &str,
-) {
+) -> fivecal::compensate::Summary {
     let settings = fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
     let (out, s, _) = crate::compensate::compensate(l, settings, program);
     assert!(s.skipped.is_empty(), "{what}: {:?}", s.skipped);
@@ -2362,9 +2364,10 @@ fn rewritten_in_pieces_within_a_micrometre(
         program,
         &out,
         0.001,
-        &[],
+        held,
         what,
     );
+    s
 }
 
 #[test]
@@ -2382,7 +2385,12 @@ fn compensate_keeps_a_359_degree_a_turn_within_the_tolerance() {
         );
         // The ends are checked in full: the tool lies along C only at A 0
         // and -180, which the turn passes mid-move.
-        rewritten_in_pieces_within_a_micrometre(&l, &program, &format!("A -30 to -359 at Z{z}"));
+        rewritten_in_pieces_within_a_micrometre(
+            &l,
+            &program,
+            &[],
+            &format!("A -30 to -359 at Z{z}"),
+        );
     }
 }
 
@@ -2414,7 +2422,7 @@ fn compensate_splits_whole_turns_of_c_whose_middle_sample_showed_nothing() {
         for turns in [2.0, 4.0] {
             let program = c_turns_program(tcp, machine.tilt.letter, turns);
             let what = format!("{name} tcp={tcp} {turns} turns");
-            rewritten_in_pieces_within_a_micrometre(&l, &program, &what);
+            rewritten_in_pieces_within_a_micrometre(&l, &program, &[], &what);
         }
     }
 }
@@ -2463,19 +2471,7 @@ fn compensate_ramps_c_through_the_singularity_a_move_passes_between_exact_ends()
     machine.c.limits = None;
     let l = crate::compensate::errors_on(&machine, 3, 40.0, "");
     let program = "%\nO1000\nG90 G21 G17 G94 G54\nG43 H1\nG0 X-1.579 Y7.928 Z48.645 B-54.557 C-132.599\nG1 X39.018 Y-18.484 Z59.703 B21.947 C-267.700 F1000.\nM30\n%\n";
-    let settings = fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
-    let (out, s, _) = crate::compensate::compensate(&l, settings, program);
-    assert!(s.skipped.is_empty(), "{:?}", s.skipped);
-    assert_eq!(s.subdivided.first, [6], "{out}");
-    assert_eq!(s.held_c.first, [6], "{out}");
-    crate::compensate::check_held(
-        &l,
-        fivecal::Dialect::Fanuc,
-        fivecal::compensate::Coordinates::Auto,
-        program,
-        &out,
-        0.001,
-        &[6],
-        "B through 0 while C turns",
-    );
+    let s = rewritten_in_pieces_within_a_micrometre(&l, program, &[6], "B through 0 while C turns");
+    assert_eq!(s.subdivided.first, [6]);
+    assert_eq!(s.held_c.first, [6]);
 }
