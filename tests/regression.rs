@@ -2475,3 +2475,35 @@ fn compensate_ramps_c_through_the_singularity_a_move_passes_between_exact_ends()
     assert_eq!(s.subdivided.first, [6]);
     assert_eq!(s.held_c.first, [6]);
 }
+
+#[test]
+fn compensate_linearizes_an_arc_over_which_c_turns_sixteen_times() {
+    // Whether an arc stays an arc was checked at its sixteenths: with C
+    // turning 16 whole turns over the arc, the tool is back where it
+    // started at each, the arc was kept, and the tip left the path by 46 to
+    // 165 um against a tolerance of 1 um.
+    for (name, tcp) in [("head-head", false), ("bc-trunnion", true)] {
+        let mut machine = crate::util::machine(name);
+        machine.c.limits = None;
+        let l = crate::compensate::errors_on(&machine, 4, 60.0, "");
+        let (t, tl) = (if tcp { "G43.4 H1" } else { "G43 H1" }, machine.tilt.letter);
+        let program = format!(
+            "%\nO1000\nG90 G21 G17 G94 G54\n{t}\nG0 X40. Y0. Z60. {tl}-30. C0.\nG1 X40. Z50. F2122.\nG3 X0. Y40. I-40. J0. C5760.\nM30\n%\n"
+        );
+        let settings = fivecal::compensate::Settings::new(fivecal::Dialect::Fanuc);
+        let (out, s, _) = crate::compensate::compensate(&l, settings, &program);
+        let what = format!("{name} tcp={tcp}");
+        assert!(s.skipped.is_empty(), "{what}: {:?}", s.skipped);
+        assert_eq!(s.linearized.first, [7], "{what}");
+        crate::compensate::check_held(
+            &l,
+            fivecal::Dialect::Fanuc,
+            fivecal::compensate::Coordinates::Auto,
+            &program,
+            &out,
+            0.001,
+            &s.held_c.first,
+            &what,
+        );
+    }
+}

@@ -692,8 +692,12 @@ impl Compensator {
             let spiral = ((wg.rs - wg.re) - (geo.rs - geo.re)).abs() * f.u;
             keep = spiral <= tol && (wg.sweep - geo.sweep).abs() < 0.5;
             if keep {
-                for k in 1..16 {
-                    let u = k as f64 / 16.0;
+                // Sixteen points, or one every 5 deg of turn: a C that turns
+                // whole turns over the arc is back where it started at each
+                // sixteenth once it turns 16 turns.
+                let m = samples_along(super::largest_turn(w0, &pt.program));
+                for k in 1..m {
+                    let u = k as f64 / m as f64;
                     let n = f.model(&geo.at(p0, p1, u));
                     let target = self.target(f, &n, None);
                     let w = f.model(&wg.at(w0, &pt.program, u));
@@ -826,12 +830,13 @@ impl Compensator {
     }
 
     /// The largest tip distance, mm, between the intended path and the
-    /// actual one of the written path (program frame), at seventeen
-    /// points along both.
+    /// actual one of the written path (program frame), at seventeen points
+    /// along both, or one every 5 deg of turn if more.
     fn path_deviation(&self, f: &Frame, intended: &Path, written: &Path) -> f64 {
         let mut worst: f64 = 0.0;
-        for k in 0..=16 {
-            let u = k as f64 / 16.0;
+        let m = samples_along(super::largest_turn(&written.at(0.0), &written.at(1.0)));
+        for k in 0..=m {
+            let u = k as f64 / m as f64;
             let target = self.target(f, &f.model(&intended.at(u)), None);
             let w = f.model(&written.at(u));
             worst = worst.max((self.actual(f, &w).tip - target.tip).norm());
@@ -1043,4 +1048,11 @@ pub(super) fn size(pt: &CorrectedPoint) -> (f64, f64) {
         dc * (1.0 - uz * uz).max(0.0).sqrt()
     };
     (lin_um, dt.max(dc) * 1e6)
+}
+
+/// Intervals a checked arc is cut into: sixteen, or one every 5 deg of
+/// `turn` (deg) if more, so that whole turns of a rotary axis cannot bring
+/// the tool back where it started at every point checked.
+fn samples_along(turn: f64) -> usize {
+    16.max(4 * (turn / 20.0).ceil().min(1e5) as usize)
 }
