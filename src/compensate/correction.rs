@@ -384,7 +384,7 @@ impl Compensator {
         // ends, which the middle and quarters find.
         let turn = super::largest_turn(w0, w1);
         if turn > 20.0 {
-            let k = 4 * (turn / 20.0).ceil().min(1e5) as usize;
+            let k = every_5_deg(turn);
             return (1..k)
                 .map(|j| self.deviation(f, path, u0, u1, w0, w1, j as f64 / k as f64, vector))
                 .fold(0.0, f64::max);
@@ -1050,9 +1050,15 @@ pub(super) fn size(pt: &CorrectedPoint) -> (f64, f64) {
     (lin_um, dt.max(dc) * 1e6)
 }
 
+/// Intervals of at most 5 deg each over a turn of `turn` deg, a multiple of
+/// four (so the quarters are among the points).
+fn every_5_deg(turn: f64) -> usize {
+    4 * (turn / 20.0).ceil().min(1e5) as usize
+}
+
 /// Intervals a checked arc is cut into: sixteen, or one every 5 deg of
 /// `turn` (deg) if more, so that whole turns of a rotary axis cannot bring
 /// the tool back where it started at every point checked.
 fn samples_along(turn: f64) -> usize {
-    16.max(4 * (turn / 20.0).ceil().min(1e5) as usize)
+    16.max(every_5_deg(turn))
 }

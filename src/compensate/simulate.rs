@@ -541,11 +541,17 @@ impl Run<'_, '_> {
                 MovePath::Through { geo, .. } => geo.sweep * geo.r * f.u,
                 _ => (b.tip - a.tip).norm(),
             };
-            let len = len.max(swept_length(job, |p| sim.poses(f, p, job.vector).0.tip));
+            let turn = super::largest_turn(&p0, &p1);
+            let len = match f.tcp {
+                Tcp::Off => len.max(swept_length(&job.path, &p0, turn, |p| {
+                    sim.poses(f, p, job.vector).0.tip
+                })),
+                _ => len,
+            };
             // And a sample a degree of turn: under TCP the axes may turn
             // round a tip that hardly moves, and the errors change with them.
             let by_length = (len / sim.settings.step).ceil();
-            (by_length.max(super::largest_turn(&p0, &p1).ceil()) as usize).clamp(1, 100_000)
+            (by_length.max(turn.ceil()) as usize).clamp(1, 100_000)
         } else {
             1
         };
@@ -581,29 +587,26 @@ impl Run<'_, '_> {
     }
 }
 
-/// The length of the tip's path where rotary axes turn without TCP, mm (0
-/// for other moves): the tip then swings round the rotary axes, and a long
-/// turn's chord can be far shorter than its path (a 359 deg turn ends a
-/// degree from where it started). Measured through points a degree of turn
-/// apart, which is within 1e-4 of the arc's length.
-fn swept_length(job: &Job, tip: impl Fn(&[f64; 6]) -> Vector3<f64>) -> f64 {
-    if job.f.tcp != Tcp::Off {
-        return 0.0;
-    }
-    let (p0, p1) = match job.path {
-        MovePath::Line { p0, p1 }
-        | MovePath::Arc { p0, p1, .. }
-        | MovePath::Through { p0, p1, .. } => (p0, p1),
-    };
-    let turn = super::largest_turn(&p0, &p1);
+/// The length of the tip's path along `path` from `p0`, mm, where rotary
+/// axes turn by `turn` deg without TCP (0 for a turn of a degree or less):
+/// the tip then swings round the rotary axes, and a long turn's chord can be
+/// far shorter than its path (a 359 deg turn ends a degree from where it
+/// started). Measured through points a degree of turn apart, which is
+/// within 1e-4 of the arc's length.
+fn swept_length(
+    path: &MovePath,
+    p0: &[f64; 6],
+    turn: f64,
+    tip: impl Fn(&[f64; 6]) -> Vector3<f64>,
+) -> f64 {
     if turn <= 1.0 {
         return 0.0;
     }
     let m = (turn.ceil() as usize).min(100_000);
-    let mut prev = tip(&p0);
+    let mut prev = tip(p0);
     let mut sum = 0.0;
     for k in 1..=m {
-        let q = tip(&job.path.at(k as f64 / m as f64));
+        let q = tip(&path.at(k as f64 / m as f64));
         sum += (q - prev).norm();
         prev = q;
     }
