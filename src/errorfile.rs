@@ -41,7 +41,7 @@ use crate::limits::{
     MAX_ERROR_UM, MAX_ERROR_URAD, MAX_NOISE_UM, MAX_PRETRAVEL_UM, MAX_SCALE_UM_PER_M,
 };
 use crate::model::{DriftBasis, Effect, Model, PROBE_DIRECTIONS, Squareness};
-use crate::procedure::echo;
+use crate::numbers::echo;
 use crate::source::SourceError;
 
 /// A value with an optional standard uncertainty.

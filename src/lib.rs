@@ -32,6 +32,7 @@ pub mod machine;
 pub mod mesh;
 pub mod model;
 pub mod nc;
+pub mod numbers;
 pub mod placement;
 pub mod post;
 pub mod procedure;

@@ -15,6 +15,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::{csv_lines, parse_finite, valid_label};
+pub(crate) use crate::numbers::fmt_num;
 use crate::source::SourceError;
 
 /// One planned point.
@@ -43,16 +44,6 @@ pub struct PlanPoints {
     pub tilt_letter: char,
     /// The points, in file order.
     pub points: Vec<PlanPoint>,
-}
-
-/// Writes a number without a negative zero, with `decimals` places.
-pub(crate) fn fmt_num(v: f64, decimals: usize) -> String {
-    let s = format!("{v:.decimals$}");
-    if s.starts_with('-') && s[1..].bytes().all(|b| b == b'0' || b == b'.') {
-        s[1..].to_string()
-    } else {
-        s
-    }
 }
 
 fn fmt_angle(v: f64) -> String {

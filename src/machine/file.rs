@@ -7,13 +7,13 @@ use indexmap::IndexMap;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use super::acceptance::AcceptanceLimits;
 use super::{Dialect, MCodes, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
-use crate::conformance::AcceptanceLimits;
 use crate::geom::Axis3;
 use crate::limits::{
     MAX_MACHINE_MM, MAX_PLAN_MM, MIN_PLAN_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN,
 };
-use crate::procedure::echo;
+use crate::numbers::echo;
 use crate::source::SourceError;
 
 /// A machine file as written (see `examples/machines/*.yaml`).

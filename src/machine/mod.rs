@@ -10,6 +10,7 @@
 //! (rotation about Z) and one tilt axis (A about X or B about Y); the
 //! structure says where each of them sits.
 
+pub mod acceptance;
 mod file;
 
 use std::fmt;
@@ -266,7 +267,7 @@ pub struct Machine {
     pub rapid: Rapid,
     /// Acceptance limits per location symbol (the file's optional
     /// `limits:` section; see [`crate::conformance`]).
-    pub limits: crate::conformance::AcceptanceLimits,
+    pub limits: acceptance::AcceptanceLimits,
     /// What the control holds now, per export target and parameter (the
     /// file's optional `controller_parameters:` section; `compensate
     /// --export` prints each change from these, else from the nominal

@@ -240,9 +240,9 @@ impl Mesh {
             let _ = writeln!(
                 s,
                 "v {} {} {}",
-                crate::formats::points::fmt_num(v.x, 6),
-                crate::formats::points::fmt_num(v.y, 6),
-                crate::formats::points::fmt_num(v.z, 6)
+                crate::numbers::fmt_num(v.x, 6),
+                crate::numbers::fmt_num(v.y, 6),
+                crate::numbers::fmt_num(v.z, 6)
             );
         }
         for (tag, fs) in &faces {

@@ -12,19 +12,11 @@
 //! template, the tool and the machine) before they make any, so that a
 //! template built in code rather than read is bounded too.
 
+pub(crate) use crate::numbers::echo;
+
 use crate::limits::{MAX_PLAN_DEG, MAX_PLAN_LIST, MAX_PLAN_MM, MIN_PLAN_MM, PLAN_FEED_MM_PER_MIN};
 use crate::procedure::TemplateSource;
 use crate::source::SourceError;
-
-/// A number as a message echoes it: `1e300` and `1e-9`, not three hundred
-/// digits.
-pub(crate) fn echo(v: f64) -> String {
-    if v.is_finite() && v != 0.0 && !(1e-6..1e9).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
 
 /// The key path as the user reads it: `columns[1].size`.
 fn name(keys: &[&str]) -> String {
