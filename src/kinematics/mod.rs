@@ -29,6 +29,7 @@ mod chain;
 pub mod fast;
 mod inverse;
 pub mod maps;
+pub mod pose_frame;
 pub mod symbols;
 
 use nalgebra::{Isometry3, SMatrix, Vector3};

@@ -33,11 +33,11 @@ use crate::machine::{Dialect, Machine, Tool};
 use crate::post::{PostDefinition, PostError, RenderedProgram};
 use crate::source::SourceError;
 
+pub use crate::formats::manifest::Test;
 pub use load::{LoadError, load};
 pub use machining::MachiningPlan;
 pub use probing::ProbingPlan;
 pub use template::{Template, TemplateSource};
-pub use test::Test;
 
 pub(crate) use bounds::echo;
 pub(crate) use outputs::{push_notes, round, short};

@@ -28,7 +28,7 @@
 //! the approach `-n'`, so the contact point is `b - r n'` with `r` the
 //! ball radius. (On a head machine the reported X, Y, Z are the commanded
 //! ones and the ball sits off them by the head's swing; the reader adds
-//! that offset, [`crate::procedure::probing::PoseFrame::ball_prog`].) A HEIDENHAIN
+//! that offset, [`crate::kinematics::pose_frame::PoseFrame::ball_prog`].) A HEIDENHAIN
 //! log may instead hold contact points already compensated by the
 //! controller (line tag `K`); those are taken as they are.
 //!
@@ -67,8 +67,8 @@ use nom::{IResult, Parser};
 use crate::formats::measured::MeasuredPoint;
 use crate::formats::points::PlanPoints;
 use crate::kinematics::Kinematics;
+use crate::kinematics::pose_frame::PoseFrame;
 use crate::machine::Dialect;
-use crate::procedure::probing::{PoseFrame, ProbingSettings};
 use crate::source::SourceError;
 
 /// How a log line names its touch.
@@ -138,23 +138,7 @@ pub struct ReadOptions {
     /// Policy for repeated touches.
     pub repeats: Repeats,
     /// The test the log must belong to (its header), if known.
-    pub test: Option<crate::procedure::Test>,
-}
-
-impl ReadOptions {
-    /// Options for a plan made with `settings` and a ball of radius
-    /// `ball_radius`: the window is the plan's overtravel and clearance,
-    /// the lateral tolerance 0.1 mm (the controller records a point of the
-    /// commanded line; 0.1 mm leaves room for servo lag at the trigger).
-    pub fn for_plan(settings: &ProbingSettings, ball_radius: f64) -> ReadOptions {
-        ReadOptions {
-            ball_radius,
-            window: (settings.overtravel, settings.clearance),
-            lateral_tolerance: 0.1,
-            repeats: Repeats::KeepLast,
-            test: None,
-        }
-    }
+    pub test: Option<crate::formats::manifest::Test>,
 }
 
 /// A log turned into contact points.

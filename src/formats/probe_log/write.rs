@@ -10,7 +10,7 @@
 //! trigger, in program coordinates (work offset on the W origin at rotary
 //! zero). On a table-table machine that is the ball centre in program
 //! coordinates; on a head machine without TCP the ball sits off it by the
-//! head's swing ([`crate::procedure::probing::PoseFrame::ball_prog`]), which the
+//! head's swing ([`crate::kinematics::pose_frame::PoseFrame::ball_prog`]), which the
 //! reader adds back. A simulator finds it by moving the commanded axes
 //! along the probing move (from [`crate::procedure::probing::Touch::start`] towards
 //! [`crate::procedure::probing::Touch::end`]) until the actual ball meets the actual
@@ -44,8 +44,6 @@ use nalgebra::Vector3;
 
 use super::{Logged, fanuc, heidenhain, linuxcnc, sinumerik};
 use crate::machine::Dialect;
-use crate::post::RenderedProgram;
-use crate::procedure::probing::{Touch, TouchPlan};
 
 /// The control settings that decide a log's exact text.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,22 +80,7 @@ impl LogFormat {
         }
     }
 
-    /// The log a rendered program writes: as [`LogFormat::builtin`], with
-    /// the HEIDENHAIN tag taken from the program's touch format file
-    /// (`"K%D ...` or `"T%D ...`).
-    pub(crate) fn for_program(dialect: Dialect, program: &RenderedProgram) -> LogFormat {
-        let mut f = LogFormat::builtin(dialect);
-        if let Some(a) = program.aux.iter().find(|a| a.name.ends_with("-touch.a")) {
-            if a.text.contains("\"T%") {
-                f.logged = Logged::BallCentre;
-            } else if a.text.contains("\"K%") {
-                f.logged = Logged::Contact;
-            }
-        }
-        f
-    }
-
-    fn eol(&self) -> &'static str {
+    pub(crate) fn eol(&self) -> &'static str {
         if self.crlf { "\r\n" } else { "\n" }
     }
 
@@ -152,42 +135,5 @@ impl LogFormat {
             Dialect::Linuxcnc => linuxcnc::log_line(label, recorded),
             Dialect::Sinumerik => sinumerik::touch_line(index, recorded),
         }
-    }
-
-    /// The line for `touch` of a plan whose probe ball has radius
-    /// `ball_radius`.
-    pub fn touch_line(&self, touch: &Touch, recorded: &Vector3<f64>, ball_radius: f64) -> String {
-        self.line(
-            touch.index,
-            &touch.label,
-            recorded,
-            &touch.normal_prog,
-            ball_radius,
-        )
-    }
-
-    /// A whole run of `plan`: the header, one line per `(touch, recorded
-    /// X, Y, Z)` in the order given (a touch that did not trigger, or was
-    /// skipped, is simply not given), and the footer.
-    pub fn write<'a>(
-        &self,
-        plan: &TouchPlan,
-        recorded: impl IntoIterator<Item = (&'a Touch, Vector3<f64>)>,
-    ) -> String {
-        let eol = self.eol();
-        let mut s = String::new();
-        for l in self.header(plan.test.as_str()) {
-            s.push_str(&l);
-            s.push_str(eol);
-        }
-        for (t, xyz) in recorded {
-            s.push_str(&self.touch_line(t, &xyz, plan.probe.ball_radius));
-            s.push_str(eol);
-        }
-        for l in self.footer() {
-            s.push_str(&l);
-            s.push_str(eol);
-        }
-        s
     }
 }

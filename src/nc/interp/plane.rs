@@ -292,7 +292,7 @@ pub(crate) fn axial(
         return Err("rotary positions of an axis this machine does not have");
     }
     match (abc[tilt - 3], abc[2]) {
-        (Some(t), Some(c)) => Ok(crate::procedure::machining::design::pose_frame(kin, t, c)),
+        (Some(t), Some(c)) => Ok(crate::kinematics::pose_frame::pose_frame(kin, t, c)),
         _ => Err("rotary positions without both of the machine's rotary axes"),
     }
 }

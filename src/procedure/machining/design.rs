@@ -10,8 +10,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::Pass;
 use super::cutter::ToolPart;
 use super::template::{Clearance, CuttingData, ToolChoice};
-use crate::geom::{self, Axis3};
-use crate::kinematics::Kinematics;
+pub(crate) use crate::kinematics::pose_frame::pose_frame;
 use crate::machine::{Machine, Tool};
 use crate::mesh::Cuboid;
 use crate::procedure::short;
@@ -117,45 +116,6 @@ pub(crate) fn check_work_area(
             .into());
     }
     Ok(())
-}
-
-/// The nominal tool frame in W at (tilt, c): columns are the machine's
-/// X, Y and the tool axis as seen from the table. It is the program frame
-/// of a tilted working plane at that pose.
-pub(crate) fn pose_frame(k: &Kinematics, tilt: f64, c: f64) -> Matrix3<f64> {
-    let m = k.machine();
-    let table = k
-        .nominal_table_transform(tilt, c)
-        .rotation
-        .to_rotation_matrix()
-        .into_inner();
-    let mut head = Matrix3::identity();
-    if !m.c.on_table {
-        head *= geom::rot(Axis3::Z, m.c.direction * geom::rad(c))
-            .rotation
-            .to_rotation_matrix()
-            .into_inner();
-    }
-    if !m.tilt.on_table {
-        head *= geom::rot(m.tilt.about, m.tilt.direction * geom::rad(tilt))
-            .rotation
-            .to_rotation_matrix()
-            .into_inner();
-    }
-    clean(table.transpose() * head)
-}
-
-/// Rounds entries within 1e-12 of -1, 0, 1 so that right-angle poses
-/// are exactly axis-aligned.
-fn clean(mut m: Matrix3<f64>) -> Matrix3<f64> {
-    for v in m.iter_mut() {
-        for t in [-1.0, 0.0, 1.0] {
-            if (*v - t).abs() < 1e-12 {
-                *v = t;
-            }
-        }
-    }
-    m
 }
 
 /// Checks a rotary angle against the machine's limits.

@@ -108,9 +108,9 @@
 
 pub mod collision;
 pub mod columns;
+mod log_format;
 mod outputs;
 mod path;
-pub mod pose_frame;
 mod program;
 pub mod setup_mesh;
 pub mod sphere;
@@ -125,8 +125,8 @@ use super::{PlanError, Template};
 use crate::formats::points::{PlanPoint, PlanPoints};
 use crate::kinematics::{Axes, Kinematics};
 
+pub use crate::kinematics::pose_frame::PoseFrame;
 pub use collision::{Checker, Collision, ConvexSolid, Obstacle, ProbePart, ProbeShape};
-pub use pose_frame::PoseFrame;
 pub use program::{
     ProbedColumn, ProbedGeometry, ProbedSphere, ProbingPlan, ProbingPose, log_name, plan,
 };

@@ -4,11 +4,11 @@
 use nalgebra::Vector3;
 
 use super::collision::{Checker, Collision, Obstacle, ProbeShape};
-use super::pose_frame::PoseFrame;
 use super::{
     ControlLimits, LeftOut, ProbingMove, ProbingMoveKind, ProbingSettings, Touch, TouchPlan,
     TouchPose, Waypoint,
 };
+use crate::kinematics::pose_frame::PoseFrame;
 use crate::kinematics::{Axes, Kinematics};
 use crate::machine::Structure;
 use crate::procedure::{PlanError, Test};

@@ -24,13 +24,13 @@ use nalgebra::Vector3;
 
 use super::template::{SpherePattern, SphereTemplate};
 use crate::kinematics::Kinematics;
+use crate::kinematics::pose_frame::PoseFrame;
 use crate::limits::{MAX_PLAN_POINTS, MAX_PLAN_POSES};
 use crate::machine::Machine;
 use crate::procedure::bounds::total;
 use crate::procedure::probing::collision::{ConvexSolid, Obstacle};
 use crate::procedure::probing::columns::design::{probe_shape, table_obstacle};
 use crate::procedure::probing::path::{self, PoseSpec, SurfaceCandidate};
-use crate::procedure::probing::pose_frame::PoseFrame;
 use crate::procedure::probing::{ControlLimits, TouchPlan, pose_id};
 use crate::procedure::{PlanError, Test};
 

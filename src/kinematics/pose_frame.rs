@@ -11,9 +11,14 @@
 //! about the head's pivot (the kinematic chain is affine in X, Y, Z, so this
 //! offset does not depend on where the axes are). Kinematics must be built
 //! with the probe's gauge length ([`Kinematics::with_gauge_length`]).
+//!
+//! [`pose_frame`] is the same pose's nominal tool frame in W: the program
+//! frame of a tilted working plane, which the machining designs write and
+//! the NC interpreter reads back.
 
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 
+use crate::geom::{self, Axis3};
 use crate::kinematics::{Axes, Kinematics};
 
 /// One rotary pose of a machine, for probing.
@@ -103,4 +108,43 @@ impl PoseFrame {
     pub(crate) fn head_offset(&self) -> Vector3<f64> {
         self.head_offset
     }
+}
+
+/// The nominal tool frame in W at (tilt, c): columns are the machine's
+/// X, Y and the tool axis as seen from the table. It is the program frame
+/// of a tilted working plane at that pose.
+pub(crate) fn pose_frame(k: &Kinematics, tilt: f64, c: f64) -> Matrix3<f64> {
+    let m = k.machine();
+    let table = k
+        .nominal_table_transform(tilt, c)
+        .rotation
+        .to_rotation_matrix()
+        .into_inner();
+    let mut head = Matrix3::identity();
+    if !m.c.on_table {
+        head *= geom::rot(Axis3::Z, m.c.direction * geom::rad(c))
+            .rotation
+            .to_rotation_matrix()
+            .into_inner();
+    }
+    if !m.tilt.on_table {
+        head *= geom::rot(m.tilt.about, m.tilt.direction * geom::rad(tilt))
+            .rotation
+            .to_rotation_matrix()
+            .into_inner();
+    }
+    clean(table.transpose() * head)
+}
+
+/// Rounds entries within 1e-12 of -1, 0, 1 so that right-angle poses
+/// are exactly axis-aligned.
+fn clean(mut m: Matrix3<f64>) -> Matrix3<f64> {
+    for v in m.iter_mut() {
+        for t in [-1.0, 0.0, 1.0] {
+            if (*v - t).abs() < 1e-12 {
+                *v = t;
+            }
+        }
+    }
+    m
 }
