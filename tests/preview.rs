@@ -391,7 +391,7 @@ fn a_complete_design_suggests_nothing() {
         plan.machine().clone(),
         fivecal::procedure::Test::ProbeColumns,
     );
-    let none = fivecal::analyze::suggest::suggest(&cfg, &plan, &predicted, None);
+    let none = fivecal::discover::suggest::suggest(&cfg, &plan, &predicted, None);
     assert!(none.found.is_empty() && none.tried.is_empty() && !none.wanted);
 
     let dir = crate::util::tempdir();
@@ -562,7 +562,7 @@ fn the_joint_design_of_one_run_is_its_own() {
     let kin = fivecal::simulate::plan_kinematics(&plan);
     let data = preview::nominal_data(&plan).unwrap();
     let (rows, _) =
-        fivecal::analyze::suggest::joint(&[(&plan, &kin, &data)], predicted.noise.um).unwrap();
+        fivecal::discover::suggest::joint(&[(&plan, &kin, &data)], predicted.noise.um).unwrap();
     for (a, b) in predicted.rows.iter().zip(&rows) {
         assert_eq!(a.symbol, b.symbol);
         match (a.u, b.u) {

@@ -27,7 +27,6 @@ pub mod method;
 pub mod preview;
 pub mod result;
 pub mod series;
-pub mod suggest;
 pub mod uncertainty;
 
 use std::borrow::Cow;

@@ -6,7 +6,7 @@
 //! standard uncertainty each value will have (for the global method the
 //! design's Cramér-Rao bound). `plan` prints the table and writes it into
 //! the setup sheet, and `--require all` refuses a design that leaves a
-//! location error unseen; where it does, [`super::suggest`] names the
+//! location error unseen; where it does, [`crate::discover::suggest`] names the
 //! known changes of the template that would identify more.
 
 use std::fmt::Write as _;

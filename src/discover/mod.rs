@@ -33,6 +33,7 @@ pub mod report;
 pub mod separate;
 pub mod stats;
 pub mod story;
+pub mod suggest;
 
 use std::sync::Arc;
 

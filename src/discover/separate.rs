@@ -213,7 +213,7 @@ fn angles(parts: &[Part<'_>]) -> (Vec<f64>, Vec<f64>) {
 /// steps of 45 to 10 deg over the first test's tilt range (each adding
 /// tilts it does not have), C angles its own (or four) or every 45 or 30
 /// deg. `plan` tries the first of them too, where a design leaves
-/// location errors unidentified ([`crate::analyze::suggest`]).
+/// location errors unidentified ([`crate::discover::suggest`]).
 pub fn candidates(first: &Plan, tilts: &[f64], cs: &[f64]) -> Vec<(Vec<f64>, Vec<f64>)> {
     let m = first.machine();
     let (mut lo, mut hi) = (tilts[0], tilts[tilts.len() - 1]);

@@ -2,7 +2,7 @@
 //! unidentified, a short list of known changes of its template, each a
 //! concrete edit a user can make (more tilt or C angles, another column
 //! position, another sphere height or position, another pose pattern), is
-//! re-planned on the same machine and predicted as [`super::preview`]
+//! re-planned on the same machine and predicted as [`crate::analyze::preview`]
 //! predicts the plan itself. A change the machine cannot do (strokes, the
 //! table, collisions) is refused by the planner and never shown; a change
 //! that loses an error the plan identifies is not a suggestion. What is
@@ -30,7 +30,7 @@ use std::fmt::Write as _;
 use rayon::prelude::*;
 use serde_yaml::{Mapping, Value};
 
-use super::preview::{Preview, PreviewRow, nominal_data, predict};
+use crate::analyze::preview::{Preview, PreviewRow, nominal_data, predict};
 use crate::formats::manifest::{PredictedSymbol, SecondRunEntry, SuggestedChange};
 use crate::identify::Dataset;
 use crate::io::shell_word;

@@ -322,8 +322,8 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
 /// Where a user makes a change `plan` suggests: the template file given,
 /// else a copy of the one this plan used, as written beside the plan (the
 /// built-in one, or the supplement's).
-fn recipe(cfg: &Config, test: Test) -> fivecal::analyze::suggest::Recipe {
-    use fivecal::analyze::suggest::Recipe;
+fn recipe(cfg: &Config, test: Test) -> fivecal::discover::suggest::Recipe {
+    use fivecal::discover::suggest::Recipe;
     match &cfg.template_file {
         Some(p) => Recipe {
             file: p.display().to_string(),
@@ -368,7 +368,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let predicted = fivecal::analyze::preview::predict(&planned, None, None)
         .with_context(|| format!("cannot predict what {} identifies", planned.test()))?;
     // What would identify what the design leaves unidentified.
-    let suggested = fivecal::analyze::suggest::suggest(p, &planned, &predicted, None);
+    let suggested = fivecal::discover::suggest::suggest(p, &planned, &predicted, None);
     let recipe = recipe(&cfg, planned.test());
     if cfg.require_all {
         let missing = predicted.missing();
