@@ -37,8 +37,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::detect::{LengthUnit, MeasuredOptions};
-use super::inventory::{Entry, Inventory, Unread};
+use super::inventory::{Entry, Inventory, LengthUnit, MeasuredOptions, Unread};
 use crate::source::SourceError;
 
 /// Which of the three tables a file is.

@@ -18,8 +18,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::detect::MeasuredOptions;
-use super::inventory::{Entry, Inventory};
+use super::inventory::{Entry, Inventory, MeasuredOptions};
 use super::parse_finite;
 use crate::source::SourceError;
 

@@ -33,6 +33,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
+pub use super::inventory::Nominal;
 use super::inventory::{Entry, Inventory, Unread};
 use super::measured::MeasuredPoint;
 use super::points::fmt_num;
@@ -193,19 +194,6 @@ pub struct FeatureData {
     /// Diameter of a sphere (the size of a circle, cylinder or cone), mm.
     pub diameter: Option<f64>,
     /// 1-based line of the statement.
-    pub line: usize,
-}
-
-/// A nominal point as a measurement file states it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Nominal {
-    /// Label.
-    pub label: String,
-    /// Position in the file's frame, mm.
-    pub p: Vector3<f64>,
-    /// Unit direction (the surface normal the CMM probed along), if given.
-    pub n: Option<Vector3<f64>>,
-    /// 1-based line.
     pub line: usize,
 }
 

@@ -5,12 +5,108 @@
 //! it; the readers of the richer formats (QIF, CALYPSO, tables with a
 //! header) build it first and take the points `analyze` joins from it, so
 //! what `measured` shows is what `analyze` reads.
+//!
+//! It also holds what every reader shares ([`LengthUnit`],
+//! [`MeasuredOptions`], [`PointSet`], [`Nominal`]), so that the readers
+//! and `detect.rs`, which recognizes a file and hands it to one of them,
+//! stand on it rather than on each other.
 
 use nalgebra::Vector3;
 
-use super::detect::PointSet;
-use super::dmis::Nominal;
 use super::measured::MeasuredPoint;
+
+/// A length unit a file may be in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LengthUnit {
+    /// Millimetre.
+    Mm,
+    /// Inch (25.4 mm).
+    Inch,
+}
+
+impl LengthUnit {
+    /// Millimetres per unit.
+    pub fn mm(self) -> f64 {
+        match self {
+            LengthUnit::Mm => 1.0,
+            LengthUnit::Inch => 25.4,
+        }
+    }
+
+    /// Its name as files and messages write it.
+    pub fn name(self) -> &'static str {
+        match self {
+            LengthUnit::Mm => "mm",
+            LengthUnit::Inch => "inch",
+        }
+    }
+
+    /// The unit by name (`mm`, `inch`, `in`).
+    pub fn parse(s: &str) -> Option<LengthUnit> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "mm" | "millimeter" | "millimetre" => Some(LengthUnit::Mm),
+            "in" | "inch" => Some(LengthUnit::Inch),
+            _ => None,
+        }
+    }
+}
+
+/// What the user says about measurement files where the file cannot:
+/// which run of a file with several, the unit of a file that states none,
+/// the encoding of a file not in UTF-8.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeasuredOptions {
+    /// The measurement run to read (1-based) of a file with several.
+    pub run: Option<usize>,
+    /// The length unit of a file that does not state it.
+    pub units: Option<LengthUnit>,
+    /// The encoding of a file not in UTF-8.
+    pub encoding: Option<&'static encoding_rs::Encoding>,
+}
+
+impl MeasuredOptions {
+    /// Millimetres per length unit of a file that states none: the unit
+    /// the user named, else mm (the plain formats' contract); the
+    /// inventory says which.
+    pub(crate) fn unstated_unit_mm(&self, inv: &mut Inventory) -> f64 {
+        match self.units {
+            Some(u) => {
+                inv.units = format!("{} (given with --units; the file states none)", u.name());
+                u.mm()
+            }
+            None => 1.0,
+        }
+    }
+}
+
+/// Points read from one file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointSet {
+    /// The format's name (`dmis`, `csv`, `plain`, ...).
+    pub format: &'static str,
+    /// The points; labels are empty when the format has none.
+    pub points: Vec<MeasuredPoint>,
+    /// Whether the points carry labels.
+    pub labeled: bool,
+    /// Nominal positions the file itself states, by label (DMIS `F(..)`):
+    /// used to check that the file belongs to the plan.
+    pub nominals: Vec<Nominal>,
+    /// Quirks met while reading.
+    pub warnings: Vec<String>,
+}
+
+/// A nominal point as a measurement file states it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Nominal {
+    /// Label.
+    pub label: String,
+    /// Position in the file's frame, mm.
+    pub p: Vector3<f64>,
+    /// Unit direction (the surface normal the CMM probed along), if given.
+    pub n: Option<Vector3<f64>>,
+    /// 1-based line.
+    pub line: usize,
+}
 
 /// One feature, point or characteristic of a measurement file; lengths in
 /// mm whatever the file's unit.

@@ -36,8 +36,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 use roxmltree::{Document, Node};
 
-use super::detect::MeasuredOptions;
-use super::inventory::{Entry, Inventory, Unread};
+use super::inventory::{Entry, Inventory, MeasuredOptions, Unread};
 use crate::source::SourceError;
 
 /// Whether a text is a QIF document.

@@ -16,8 +16,7 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use super::detect::MeasuredOptions;
-use super::inventory::{Entry, Inventory, Unread};
+use super::inventory::{Entry, Inventory, MeasuredOptions, Unread};
 use crate::source::SourceError;
 
 /// The roles a column can have.
