@@ -1,6 +1,6 @@
 //! Postprocessor definitions: the YAML files in `postprocessors/`, embedded
-//! as defaults and overridable by path. Loading compiles every template and
-//! renders it once with sample values, so a typo in a user's definition is
+//! as defaults and overridable by path. Loading (load.rs) compiles every
+//! template here and renders it once with sample values (render.rs), so a typo in a user's definition is
 //! reported at load time as `file:line:column: ...`, pointing into the
 //! template inside the YAML file.
 
@@ -216,51 +216,11 @@ impl std::fmt::Debug for PostDefinition {
     }
 }
 
-/// Built-in definitions: (name, YAML text).
-pub(crate) const BUILTIN: [(&str, &str); 4] = [
-    ("fanuc", include_str!("../../postprocessors/fanuc.yaml")),
-    (
-        "heidenhain",
-        include_str!("../../postprocessors/heidenhain.yaml"),
-    ),
-    (
-        "linuxcnc",
-        include_str!("../../postprocessors/linuxcnc.yaml"),
-    ),
-    (
-        "sinumerik",
-        include_str!("../../postprocessors/sinumerik.yaml"),
-    ),
-];
-
 impl PostDefinition {
-    /// The built-in definition of a dialect.
-    pub fn builtin(dialect: Dialect) -> PostDefinition {
-        let (name, src) = BUILTIN
-            .iter()
-            .find(|(n, _)| *n == dialect.name())
-            .expect("every dialect has a built-in definition");
-        PostDefinition::parse(Path::new(&format!("<built-in {name}>")), src)
-            .expect("built-in postprocessors are valid")
-    }
-
-    /// Loads a definition named on the command line: a built-in dialect
-    /// name means the built-in definition; a file is taken only as a path,
-    /// with a `/` or a `.yaml` extension (as machines are).
-    pub fn load(spec: &str) -> Result<PostDefinition, DefinitionError> {
-        if !crate::machine::is_path_spec(spec) {
-            return match spec.parse::<Dialect>() {
-                Ok(d) => Ok(PostDefinition::builtin(d)),
-                Err(_) => Err(DefinitionError::NotFound(spec.to_string())),
-            };
-        }
-        let path = Path::new(spec);
-        let src = crate::input::read_text(path, "postprocessor", crate::limits::MAX_YAML_BYTES)?;
-        Ok(PostDefinition::parse(path, &src)?)
-    }
-
-    /// Parses and validates a definition's text; `path` is used in errors.
-    pub fn parse(path: &Path, src: &str) -> Result<PostDefinition, SourceError> {
+    /// Parses a definition's text and compiles its templates, without
+    /// rendering them (`PostDefinition::parse`, in load.rs, renders each
+    /// once to check it); `path` is used in errors.
+    pub(super) fn compile(path: &Path, src: &str) -> Result<PostDefinition, SourceError> {
         let f: DefinitionFile = crate::input::parse_yaml(path, src)?;
         let err = |keys: &[&str], msg: String| SourceError::at_key(path, src, keys, msg);
         if f.line_limit < 20 {
@@ -392,19 +352,6 @@ impl PostDefinition {
             spots,
             env: Arc::new(env),
         };
-        // Render every template once with sample values: unknown variables
-        // and filters surface now, with their position, rather than in the
-        // middle of a plan.
-        for (name, ctx) in super::render::sample_contexts(&def) {
-            if def.templates.contains_key(name) {
-                def.render_template(name, ctx)?;
-            }
-        }
-        // The engine's safety rules rest on templates that do what their
-        // names say: a retract moves Z alone, a rapid writes its words, a
-        // rotary index moves no linear axis.
-        super::render::check_motion_templates(&def)
-            .map_err(|(name, msg)| def.error_at(name, msg))?;
         Ok(def)
     }
 

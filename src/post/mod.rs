@@ -39,6 +39,7 @@
 //! should be checked on the target control (`notes/nc-dialects.md` 2.6).
 
 mod definition;
+mod load;
 mod number;
 mod render;
 
