@@ -16,15 +16,47 @@
 
 use nalgebra::{DVector, Point3};
 
-use super::fit::Part;
-use super::fit::{ConstraintRow, Why};
+use super::part::Part;
 use crate::formats::manifest::TestKind;
 use crate::geom::Axis3;
+use crate::identify::identifiability::Combination;
 use crate::identify::{Dataset, Setup};
 use crate::kinematics::Kinematics;
 use crate::kinematics::maps::MapDim;
 use crate::kinematics::symbols::SymbolTable;
 use crate::model::{DriftBasis, Effect, Squareness};
+
+/// A constraint row on an effect's parameters (their combination that is
+/// fixed at zero), with what it says.
+pub type ConstraintRow = (Vec<f64>, Why);
+
+/// What a constraint row says.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Why {
+    /// A defining constraint, in words.
+    Text(String),
+    /// A combination of the effect's parameters the test does not see,
+    /// fixed at zero (named when shown).
+    Unseen(Combination),
+}
+
+/// How the words of a constraint fixing an unseen combination end.
+const UNSEEN: &str = "= 0: this test does not see it";
+
+impl std::fmt::Display for Why {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Why::Text(t) => f.write_str(t),
+            Why::Unseen(c) => write!(f, "{c} {UNSEEN}"),
+        }
+    }
+}
+
+impl From<String> for Why {
+    fn from(t: String) -> Why {
+        Why::Text(t)
+    }
+}
 
 /// One candidate effect.
 #[derive(Clone, Debug, PartialEq)]

@@ -53,11 +53,14 @@ use std::sync::Arc;
 use faer::Mat;
 use nalgebra::{DMatrix, DVector, Isometry3, Vector3};
 
+pub use super::catalogue::{ConstraintRow, Why};
+pub use super::part::Part;
+
 use super::catalogue::Candidate;
 use crate::identify::forward::{ForwardError, ForwardModel, Wanted};
 use crate::identify::global::PLACEMENT_NAMES;
 use crate::identify::global::{Observed, observed};
-use crate::identify::identifiability::{self, Combination, Identifiability};
+use crate::identify::identifiability::{self, Identifiability};
 use crate::identify::lsq::{self, Design};
 use crate::identify::rigid::{d6_um, face_residual};
 use crate::identify::{Dataset, IdentifyError, Setup};
@@ -117,38 +120,6 @@ pub struct Spec {
     /// (and the rows they were computed from): every design of a round
     /// shares them.
     blocks: Vec<Arc<Block>>,
-}
-
-/// A constraint row on an effect's parameters (their combination that is
-/// fixed at zero), with what it says.
-pub type ConstraintRow = (Vec<f64>, Why);
-
-/// What a constraint row says.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Why {
-    /// A defining constraint, in words.
-    Text(String),
-    /// A combination of the effect's parameters the test does not see,
-    /// fixed at zero (named when shown).
-    Unseen(Combination),
-}
-
-/// How the words of a constraint fixing an unseen combination end.
-const UNSEEN: &str = "= 0: this test does not see it";
-
-impl std::fmt::Display for Why {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Why::Text(t) => f.write_str(t),
-            Why::Unseen(c) => write!(f, "{c} {UNSEEN}"),
-        }
-    }
-}
-
-impl From<String> for Why {
-    fn from(t: String) -> Why {
-        Why::Text(t)
-    }
 }
 
 /// The orthonormal basis of the directions an effect's constraint rows
@@ -406,24 +377,6 @@ impl Fit {
             &setup.quality_axes(),
         )
     }
-}
-
-/// One test's measurements in a discovery: a discovery may fit the
-/// measurements of several tests of one machine together (a test and the
-/// supplementary test that separates what the first could not), each with
-/// its own plan, gauge length (tool or probe), forward model and nuisance
-/// (CMM placement, sphere position, setups), sharing the model's
-/// parameters.
-#[derive(Clone, Copy, Debug)]
-pub struct Part<'a> {
-    /// The plan's machine with its tool's or probe's gauge length.
-    pub kin: &'a Kinematics,
-    /// The measurements joined to the plan.
-    pub data: &'a Dataset,
-    /// The plan, when known (else the rigid-pose models serve).
-    pub plan: Option<&'a Plan>,
-    /// Its name in the nuisance names of several parts (the test's).
-    pub label: &'a str,
 }
 
 /// One part as the fitter holds it.

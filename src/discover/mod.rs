@@ -29,6 +29,7 @@ pub mod catalogue;
 pub mod fit;
 pub mod gap;
 pub mod inputs;
+pub mod part;
 pub mod report;
 pub mod separate;
 pub mod stats;
