@@ -7,22 +7,12 @@ use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
-use super::{Export, ExportError, Geometry, Kind, header, listed_lines, not_held_lines, signed};
+use super::{
+    Export, ExportError, Geometry, Kind, Raw, header, listed_lines, not_held_lines, signed,
+};
 use crate::geom::Axis3;
 use crate::kinematics::Kinematics;
 use crate::machine::{Dialect, Machine, Structure};
-
-/// A parameter before its uncertainty and current value are known.
-#[derive(Clone, Debug, PartialEq)]
-pub(super) struct Raw {
-    pub name: String,
-    pub what: String,
-    pub kind: Kind,
-    pub value: f64,
-    pub nominal: f64,
-    /// Entered at the control (false: listed for the machine builder only).
-    pub entered: bool,
-}
 
 const XYZ: [char; 3] = ['X', 'Y', 'Z'];
 

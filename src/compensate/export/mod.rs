@@ -51,6 +51,18 @@ pub enum Kind {
     Angle,
 }
 
+/// A parameter before its uncertainty and current value are known.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Raw {
+    pub name: String,
+    pub what: String,
+    pub kind: Kind,
+    pub value: f64,
+    pub nominal: f64,
+    /// Entered at the control (false: listed for the machine builder only).
+    pub entered: bool,
+}
+
 /// One exported parameter.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Parameter {

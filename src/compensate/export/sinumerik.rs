@@ -26,8 +26,9 @@ use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
-use super::controllers::Raw;
-use super::{Export, ExportError, Geometry, Kind, header, listed_lines, not_held_lines, signed};
+use super::{
+    Export, ExportError, Geometry, Kind, Raw, header, listed_lines, not_held_lines, signed,
+};
 use crate::kinematics::Kinematics;
 use crate::machine::{Machine, RotaryAxis, Structure};
 
