@@ -21,6 +21,7 @@
 pub mod dialect;
 pub mod exec;
 pub mod expr;
+mod g_codes;
 pub mod interp;
 pub mod lex;
 pub mod lexeme;

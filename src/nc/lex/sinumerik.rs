@@ -590,9 +590,7 @@ fn words(lx: &Lexer, b: &mut Block, mut i: usize) -> Result<(Stmt, Option<Span>)
                     return Err(super::too_large(i + 1, &s[i + 1..end]));
                 }
                 let letter = c.to_ascii_uppercase();
-                if letter == b'G'
-                    && !crate::nc::interp::gcode::g_code(lx_.value).is_some_and(known_g)
-                {
+                if letter == b'G' && !crate::nc::g_codes::g_code(lx_.value).is_some_and(known_g) {
                     if lx.syn.strict {
                         return Err(BlockError::new(
                             i,

@@ -11,7 +11,7 @@
 
 use super::Syntax;
 use crate::machine::Dialect;
-use crate::nc::interp::gcode::{g_code, known_g};
+use crate::nc::g_codes::{g_code, known_g};
 use crate::nc::{
     Addr, Block, BlockError, Entry, Flow, Segment, Span, Stmt, TokenKind, Value, Word, expr,
     is_space, lexeme,
