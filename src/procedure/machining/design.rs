@@ -14,7 +14,7 @@ pub(crate) use crate::kinematics::pose_frame::pose_frame;
 use crate::machine::{Machine, Tool};
 use crate::mesh::Cuboid;
 use crate::procedure::short;
-use crate::procedure::{PlanConfig, PlanError, Template, TemplateSource};
+use crate::procedure::{PlanConfig, PlanError, TemplateSource};
 
 /// A continuous cutting path: entered by feed from the clearance plane
 /// above `start` (along the tool axis), left by a rapid lift.
@@ -134,18 +134,6 @@ pub(crate) fn within_limits(m: &Machine, letter: char, angle: f64) -> Result<(),
 /// Pose id `B90C180`, `A-30C270`.
 pub(crate) fn pose_id(letter: char, tilt: f64, c: f64) -> String {
     format!("{letter}{}C{}", short(tilt), short(c))
-}
-
-/// Dispatches to the test's designer.
-pub(crate) fn design(cfg: &PlanConfig, raise: f64) -> Result<MachiningDesign, PlanError> {
-    match &cfg.template {
-        Template::SteppedSquare(t) => super::stepped_square::design::design(cfg, t, raise),
-        Template::NineSection(t) => super::nine_section::design::design(cfg, t, raise),
-        Template::Columns(_) | Template::Sphere(_) => Err(PlanError::Impossible(format!(
-            "{} is a probing test, not a machining test",
-            cfg.test()
-        ))),
-    }
 }
 
 /// Group names of a design's mesh: stock, then the pose ids.

@@ -303,7 +303,7 @@ pub fn plan(cfg: &PlanConfig) -> Result<MachiningPlan, PlanError> {
     };
     let mut raise = 0.0;
     for _ in 0..8 {
-        let design = design::design(cfg, raise)?;
+        let design = design(cfg, raise)?;
         match program::assemble(cfg, design) {
             Err(PlanError::Stroke {
                 axis: 'Z',
@@ -324,6 +324,18 @@ pub fn plan(cfg: &PlanConfig) -> Result<MachiningPlan, PlanError> {
             other => return other,
         }
     }
-    let design = design::design(cfg, raise)?;
+    let design = design(cfg, raise)?;
     program::assemble(cfg, design)
+}
+
+/// Dispatches to the test's designer.
+fn design(cfg: &PlanConfig, raise: f64) -> Result<design::MachiningDesign, PlanError> {
+    match &cfg.template {
+        Template::SteppedSquare(t) => stepped_square::design::design(cfg, t, raise),
+        Template::NineSection(t) => nine_section::design::design(cfg, t, raise),
+        Template::Columns(_) | Template::Sphere(_) => Err(PlanError::Impossible(format!(
+            "{} is a probing test, not a machining test",
+            cfg.test()
+        ))),
+    }
 }
