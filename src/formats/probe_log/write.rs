@@ -39,6 +39,10 @@
 //!
 //! Every log starts with the header line `FIVECAL <test>` (FANUC in
 //! capitals, as DPRNT prints literal text).
+//!
+//! The lines for a plan's touches and a whole run of a plan
+//! (`LogFormat::touch_line`, `LogFormat::write`) stand on the plan, so they
+//! are written beside it, in `procedure/probing/log_format.rs`.
 
 use nalgebra::Vector3;
 
@@ -80,6 +84,7 @@ impl LogFormat {
         }
     }
 
+    /// The line end the control writes.
     pub(crate) fn eol(&self) -> &'static str {
         if self.crlf { "\r\n" } else { "\n" }
     }
