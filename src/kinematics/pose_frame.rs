@@ -12,7 +12,7 @@
 //! offset does not depend on where the axes are). Kinematics must be built
 //! with the probe's gauge length ([`Kinematics::with_gauge_length`]).
 //!
-//! [`pose_frame`] is the same pose's nominal tool frame in W: the program
+//! `pose_frame()` is the same pose's nominal tool frame in W: the program
 //! frame of a tilted working plane, which the machining designs write and
 //! the NC interpreter reads back.
 
