@@ -1,4 +1,4 @@
-//! Contour errors (Jiang et al. 2013 (docs/references.md)): the example part machined by its original
+//! Contour errors (Jiang et al. 2013): the example part machined by its original
 //! and by its compensated program on the virtual machine, measured at 120
 //! points and compared with its model; and `simulate nc` on its own.
 

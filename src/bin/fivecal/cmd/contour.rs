@@ -1,5 +1,5 @@
 //! `fivecal analyze contour`: contour errors of CMM points against a part
-//! model (Jiang et al. 2013 (docs/references.md)): each point's signed distance to the design surface,
+//! model (Jiang et al. 2013): each point's signed distance to the design surface,
 //! with mean, maximum and RMS.
 
 use std::fmt::Write as _;
