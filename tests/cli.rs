@@ -241,6 +241,65 @@ fn machine_new_writes_a_renamed_copy_that_reads_back() {
         .failure();
 }
 
+/// One vocabulary on every command: each command that writes a file or a
+/// directory names it `-o/--out`; no command spells it `--output`; the NC
+/// program is an argument, never `--program`; `--dialect` offers the four
+/// dialects wherever it is taken.
+#[test]
+fn every_command_speaks_one_vocabulary() {
+    let writes_output = [
+        &["plan"][..],
+        &["simulate"],
+        &["simulate", "nc"],
+        &["analyze"],
+        &["analyze", "contour"],
+        &["compensate"],
+        &["discover"],
+        &["verify"],
+        &["history", "export"],
+        &["history", "plot"],
+        &["demo"],
+        &["machine", "new"],
+    ];
+    for path in writes_output {
+        let help = fivecal().args(path).arg("--help").output().unwrap();
+        let help = String::from_utf8_lossy(&help.stdout);
+        assert!(
+            help.contains("-o, --out"),
+            "{path:?} does not name its output -o/--out:\n{help}"
+        );
+        assert!(!help.contains("--output"), "{path:?} still says --output");
+        assert!(!help.contains("--program"), "{path:?} takes --program");
+        if help.contains("--dialect") {
+            assert!(
+                help.contains("fanuc")
+                    && help.contains("heidenhain")
+                    && help.contains("linuxcnc")
+                    && help.contains("sinumerik"),
+                "{path:?}: --dialect without its four values"
+            );
+        }
+    }
+}
+
+/// The spellings of the last release still work, once more, with a note
+/// saying what to write instead.
+#[test]
+fn the_old_output_spelling_still_works_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("old.yaml");
+    let run = fivecal()
+        .args(["machine", "new", "old-spelling", "--output"])
+        .arg(&file)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    assert!(file.exists());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("`--output` is now `-o/--out`"), "{err}");
+}
+
 /// The man page's EXAMPLES are a calibration a user can paste, line by line,
 /// into an empty directory: each line runs, in order, and leaves the files
 /// the next one reads.

@@ -1117,9 +1117,8 @@ fn simulate_nc_program_with_no_move_to_follow_is_refused() {
             "linuxcnc",
             "--errors",
             "e.yaml",
-            "--program",
             "p.ngc",
-            "--output",
+            "--out",
             "s.csv",
         ],
     );

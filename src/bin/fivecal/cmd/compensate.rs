@@ -260,7 +260,7 @@ pub struct CompensateArgs {
     #[arg(value_name = "IN")]
     input: Option<PathBuf>,
     /// The rewritten program (never the input; written only when complete).
-    #[arg(short, long, value_name = "OUT")]
+    #[arg(short = 'o', long = "out", value_name = "OUT")]
     output: Option<PathBuf>,
     #[command(flatten)]
     machine: MachineArgs,

@@ -29,7 +29,7 @@ pub enum MachineCommand {
         #[arg(long, default_value = "bc-trunnion")]
         from: String,
         /// Where to write it (`-`: standard output) [default: NAME.yaml].
-        #[arg(short, long)]
+        #[arg(short = 'o', long = "out")]
         output: Option<std::path::PathBuf>,
     },
 }
@@ -52,7 +52,7 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
                 fivecal::machine::MachineOrigin::File(ref p) => vec![p.as_path()],
                 _ => vec![],
             };
-            fivecal::io::check_outputs(&inputs, &[("--output", &out, fivecal::io::Shape::File)])?;
+            fivecal::io::check_outputs(&inputs, &[("--out", &out, fivecal::io::Shape::File)])?;
             if out.as_os_str() != "-" && out.exists() {
                 anyhow::bail!(
                     "{} exists: a new machine file is not written over another file (give -o)",

@@ -44,7 +44,7 @@ pub struct PlanArgs {
     supplement: Option<PathBuf>,
     /// Controller dialect: fanuc, heidenhain, linuxcnc or sinumerik [default: the
     /// machine file's controller].
-    #[arg(long)]
+    #[arg(long, value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     dialect: Option<String>,
     /// Output directory [default: a directory named after the test, such
     /// as `stepped-square/`].
