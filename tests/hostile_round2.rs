@@ -381,7 +381,7 @@ fn a_store_server_that_never_answers_or_answers_garbage_ends_the_run_in_bounded_
         let out_file = dir.path().join("r.yaml");
         let mut c = bin();
         c.env("FIVECAL_DB", &url)
-            .args(analyze_onto(dir.path(), &out_file, Path::new("x"))[..6].iter())
+            .args(analyze_onto(dir.path(), &out_file, Path::new("x"))[..7].iter())
             .args(["--db-timeout", "1"]);
         let out = within(c, std::time::Duration::from_secs(60));
         let err = String::from_utf8_lossy(&out.stderr);
@@ -541,7 +541,7 @@ fn output_names_up_to_255_characters_are_written() {
         let name = format!("{}.yaml", "r".repeat(len - 5));
         let out_path = dir.path().join(&name);
         let mut args = analyze_onto(&d, &out_path, Path::new("x"));
-        args.truncate(6);
+        args.truncate(7);
         let mut c = bin();
         c.args(&args).arg("--no-record");
         let out = within(c, std::time::Duration::from_secs(120));

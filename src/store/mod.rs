@@ -659,10 +659,28 @@ fn connect(
                     "no store there (reading never creates one)".into(),
                 ));
             }
-            let c = rusqlite::Connection::open_with_flags(
-                path,
-                OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
-            )?;
+            // With no write-ahead log beside it, every committed record is
+            // in the file itself: it is read as immutable, so that not even
+            // the lock and log files SQLite keeps beside a WAL store are
+            // created. With a log (a writer is connected, or one was
+            // killed), the log is read under SQLite's locks, read-only.
+            let mut wal = path.as_os_str().to_owned();
+            wal.push("-wal");
+            let immutable = !Path::new(&wal).exists();
+            let c = if immutable {
+                let uri = format!("file:{}?immutable=1", uri_path(path));
+                rusqlite::Connection::open_with_flags(
+                    uri,
+                    OpenFlags::SQLITE_OPEN_READ_ONLY
+                        | OpenFlags::SQLITE_OPEN_NO_MUTEX
+                        | OpenFlags::SQLITE_OPEN_URI,
+                )?
+            } else {
+                rusqlite::Connection::open_with_flags(
+                    path,
+                    OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+                )?
+            };
             c.busy_timeout(timeout)?;
             Ok(Connection::Sqlite(c))
         }
@@ -711,6 +729,21 @@ fn connect(
             )?)))
         }
     }
+}
+
+/// `path` as the path of an SQLite `file:` URI: absolute, with `%`, `?`
+/// and `#` (and anything not printable ASCII) percent-encoded.
+fn uri_path(path: &Path) -> String {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = String::new();
+    for b in abs.as_os_str().as_encoded_bytes() {
+        match b {
+            b'%' | b'?' | b'#' => out.push_str(&format!("%{b:02X}")),
+            0x21..=0x7e => out.push(*b as char),
+            _ => out.push_str(&format!("%{b:02X}")),
+        }
+    }
+    out
 }
 
 /// Connects and logs in within `timeout`. The client's own connect
