@@ -13,6 +13,11 @@ pub const MAX_YAML_BYTES: u64 = 8 << 20;
 pub const MAX_MEASUREMENT_BYTES: u64 = 256 << 20;
 /// Largest part model read by `analyze contour` (OBJ, glTF, GLB), bytes.
 pub(crate) const MAX_MODEL_BYTES: u64 = 256 << 20;
+/// Most nodes a glTF scene may place (a node shared by several parents
+/// counts once per path to it).
+pub(crate) const MAX_MODEL_NODES: usize = 100_000;
+/// Most vertices a part model may have once its nodes are placed.
+pub(crate) const MAX_MODEL_VERTICES: usize = 20_000_000;
 /// Longest line of a file read line by line (an NC program), bytes.
 pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// Deepest nesting of a YAML document (block levels and brackets
@@ -31,6 +36,9 @@ pub const MAX_EXEC_STATEMENTS: usize = 2_000_000;
 /// subprogram and 5 macro levels, LinuxCNC 10).
 pub const MAX_CALL_DEPTH: usize = 16;
 
+/// Longest message fivecal prints for an error, characters: what it
+/// quotes beyond that is cut.
+pub const MESSAGE_CHARS: usize = 900;
 /// Longest piece of the input an error message echoes, characters (cut
 /// to its first line as well).
 pub(crate) const ECHO_CHARS: usize = 60;

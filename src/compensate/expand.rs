@@ -176,6 +176,20 @@ pub(super) fn flatten<E: From<SourceError>>(
                     continue;
                 };
                 if let Some(v) = wv.value {
+                    // No control takes `X=inf`: a value the logic computes
+                    // beyond every number (R1=EXP(1000)) ends the run here,
+                    // with its line, before it is written.
+                    if !v.is_finite() {
+                        return Err(SourceError::new(
+                            path,
+                            block.line,
+                            0,
+                            format!(
+                                "a word's value computes to {v}, which is not a number a control can take: nothing written"
+                            ),
+                        )
+                        .into());
+                    }
                     edits.replace(w.value_span, |o| literal(o, dialect, w.addr, v));
                 }
             }

@@ -105,6 +105,8 @@ fn main() -> ExitCode {
         eprintln!("{note}");
     }
     clean_up_on_signals();
+    // Every file this run reads is noted, and no output may land on one.
+    fivecal::io::guard_inputs();
     let result = match cli.command {
         Command::Plan(a) => cmd::plan::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
@@ -119,6 +121,12 @@ fn main() -> ExitCode {
         Command::Completions(a) => cmd::docs::completions(a),
         Command::Man => cmd::docs::man(),
     };
+    for p in fivecal::io::stale_removed() {
+        eprintln!(
+            "note: removed {}, left by an earlier run that was killed while writing it",
+            p.display()
+        );
+    }
     match result {
         Ok(()) if fivecal::io::stdout_closed() => ExitCode::from(BROKEN_PIPE),
         Ok(()) => match out::failure() {
@@ -138,7 +146,12 @@ fn main() -> ExitCode {
             if broken_pipe {
                 return ExitCode::from(BROKEN_PIPE);
             }
-            eprintln!("error: {err:#}");
+            // Whatever a message quotes (a name, a rendered template) is
+            // cut: an error never pastes its input.
+            eprintln!(
+                "error: {}",
+                fivecal::source::short_message(&format!("{err:#}"))
+            );
             ExitCode::from(2)
         }
     }

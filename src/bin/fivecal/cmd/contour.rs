@@ -41,6 +41,20 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
         "{}: no measured points",
         args.measured.display()
     );
+    // A coordinate no machine reaches (1e308) would make every statistic
+    // below infinite: refused with its line instead.
+    let max = fivecal::limits::MAX_MACHINE_MM;
+    if let Some(p) = points
+        .iter()
+        .find(|p| !p.p.iter().all(|x| x.is_finite() && x.abs() <= max))
+    {
+        anyhow::bail!(
+            "{}:{}: a coordinate of point `{}` is beyond any machine (each of x, y, z at most {max} mm from the model's origin)",
+            args.measured.display(),
+            p.line,
+            fivecal::source::cut(&p.label)
+        );
+    }
     let surface = Surface::new(&mesh)?;
     let pts: Vec<(String, nalgebra::Vector3<f64>)> = points
         .iter()

@@ -169,8 +169,9 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     let mut outputs = Vec::new();
     outputs.extend(a.out.as_deref().map(|o| ("--out", o, Shape::File)));
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
-    check_outputs(&inputs, &outputs)?;
+    // The store first: it is an input the outputs may not name.
     let record = a.record.validate()?;
+    check_outputs(&inputs, &outputs)?;
     let noise = super::noise_arg(a.noise)?;
     Ok(Config {
         noise,

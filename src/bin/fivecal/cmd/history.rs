@@ -28,6 +28,8 @@ pub struct HistoryCli {
     /// store holds several machines].
     #[arg(long, value_name = "NAME", global = true)]
     machine: Option<String>,
+    #[command(flatten)]
+    timeout: super::record::DbTimeout,
 }
 
 #[derive(Subcommand, Debug)]
@@ -78,7 +80,7 @@ enum Format {
 }
 
 pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
-    let mut store = open_for_reading(cli.db.as_deref())?;
+    let mut store = open_for_reading(cli.db.as_deref(), &cli.timeout)?;
     let machine = cli.machine.as_deref();
     match cli.action.unwrap_or(Action::List) {
         Action::List => {
