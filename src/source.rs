@@ -57,8 +57,41 @@ impl SourceError {
         if let Some(i) = msg.find(" at line ") {
             msg.truncate(i);
         }
-        SourceError::new(path, line, column, msg)
+        SourceError::new(path, line, column, in_users_words(&msg))
     }
+}
+
+/// serde's type names as a user of the file reads them: "expected f64"
+/// says nothing to a machinist, "expected a number" does.
+fn in_users_words(msg: &str) -> String {
+    const WORDS: &[(&str, &str)] = &[
+        ("expected f64", "expected a number"),
+        ("expected f32", "expected a number"),
+        ("expected u8", "expected a whole number"),
+        ("expected u16", "expected a whole number"),
+        ("expected u32", "expected a whole number"),
+        ("expected u64", "expected a whole number"),
+        ("expected usize", "expected a whole number"),
+        ("expected i32", "expected a whole number"),
+        ("expected i64", "expected a whole number"),
+        ("expected a boolean", "expected true or false"),
+    ];
+    let mut out = msg.to_string();
+    for (serde, user) in WORDS {
+        // Only whole words: "expected u8" must not rewrite "expected u80".
+        let mut from = 0;
+        while let Some(i) = out[from..].find(serde) {
+            let at = from + i;
+            let end = at + serde.len();
+            if out[end..].chars().next().is_none_or(|c| !c.is_ascii_alphanumeric()) {
+                out.replace_range(at..end, user);
+                from = at + user.len();
+            } else {
+                from = end;
+            }
+        }
+    }
+    out
 }
 
 impl fmt::Display for SourceError {
@@ -72,7 +105,7 @@ impl fmt::Display for SourceError {
     }
 }
 
-/// `s` as a message quotes it: its first line, at most [`ECHO_CHARS`]
+/// `s` as a message quotes it: its first line, at most `ECHO_CHARS` (60)
 /// characters, `…` where it was cut (a name ten kilobytes long is named,
 /// not printed).
 pub fn cut(s: &str) -> String {
@@ -241,6 +274,26 @@ pub fn locate_yaml_key(src: &str, keys: &[&str]) -> Option<(usize, usize)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A number written as text in a YAML file is reported in the file's
+    /// own terms, at its line and column, not with serde's type name.
+    #[test]
+    fn a_wrong_type_is_named_in_the_user_s_words() {
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct T {
+            size: f64,
+            count: u32,
+        }
+        let src = "size: ten\ncount: 3\n";
+        let e = serde_yaml::from_str::<T>(src).unwrap_err();
+        let err = SourceError::from_yaml(Path::new("t.yaml"), &e);
+        assert!(err.message.contains("expected a number"), "{}", err.message);
+        assert!(!err.message.contains("f64"), "{}", err.message);
+        assert_eq!(err.line, 1);
+        assert_eq!(in_users_words("expected u80"), "expected u80");
+        assert_eq!(in_users_words("expected u32, got"), "expected a whole number, got");
+    }
 
     const DOC: &str = "name: m\nrotary_axes:\n  B: {limits: [-90, 90], direction: 1}\n  C:\n    limits: null\n    direction: -1\ntool:\n  diameter: 8\n";
 

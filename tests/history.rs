@@ -263,6 +263,29 @@ fn history_plot_writes_a_page_with_each_error_over_time() {
     assert!(!svg.contains("NaN"));
 }
 
+/// `history plot --out` naming an existing file is refused with the
+/// option and the file, not with the OS's bare "Not a directory".
+#[test]
+fn history_plot_onto_an_existing_file_names_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("taken.txt");
+    std::fs::write(&file, "mine").unwrap();
+    let err = fivecal()
+        .args(["history", "plot", "--db"])
+        .arg(demo_out().join("history.db"))
+        .arg("--out")
+        .arg(&file)
+        .assert()
+        .failure()
+        .get_output()
+        .stderr
+        .clone();
+    let err = String::from_utf8_lossy(&err);
+    assert!(err.contains("taken.txt") && err.contains("--out"), "{err}");
+    assert!(!err.contains("os error"), "{err}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+}
+
 /// `analyze --limits` decides each symbol with U = 2u: a bound 2u + 0.1
 /// beyond |value| passes, a bound at |value| cannot decide, a bound 2u +
 /// 0.1 inside |value| fails, and the machine fails. A limit on a name that

@@ -323,7 +323,8 @@ pub(crate) fn label_policy(set: &mut PointSet, ctx: &ReadContext<'_>) {
         for p in &mut set.points {
             p.label.clear();
         }
-    } else {
+    } else if known < set.points.len() {
+        // Every point joined by its label is the normal case, not news.
         set.warnings.push(format!(
             "{known} of the file's {} points joined by label",
             set.points.len()

@@ -47,7 +47,9 @@ pub enum ForwardError {
     )]
     UnsupportedEffect(String),
     /// The machine structure is not served.
-    #[error("the rigid-pose model serves table-table machines only, not {0}")]
+    #[error(
+        "the rigid-pose model serves table-table machines only, not {0}: `--method global` serves every structure"
+    )]
     UnsupportedMachine(String),
     /// The normal line of a point does not meet its moved face.
     #[error("the normal line of `{0}` does not meet its face")]

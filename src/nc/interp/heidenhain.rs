@@ -805,8 +805,10 @@ impl Interpreter {
                 if hash || expr || !known_before {
                     self.pos[..3].fill(None);
                 } else {
-                    for i in 0..3 {
-                        self.pos[i] = self.pos[i].map(|p| p - (self.shift[i] - before[i]));
+                    for ((pos, shift), before) in
+                        self.pos[..3].iter_mut().zip(&self.shift).zip(&before)
+                    {
+                        *pos = pos.map(|p| p - (shift - before));
                     }
                 }
                 self.pole = None;

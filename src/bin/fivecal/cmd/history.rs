@@ -123,6 +123,10 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
         Action::Plot { out, limits: l } => {
             let h = machine_history(&mut store, machine)?;
             let limits = limits(&l, &h)?;
+            // Checked before writing, as every command does: an existing
+            // file named as the page's directory is refused with its name
+            // instead of the OS's "Not a directory".
+            fivecal::io::check_outputs(&[], &[("--out", &out, fivecal::io::Shape::Dir)])?;
             let files = history::page::write(&out, &h, &limits)?;
             outln!(
                 "history of {}: {} ({} files)",
