@@ -526,13 +526,14 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     // The export is computed before the program is rewritten: refused (a
     // limit, a stroke, nothing held), the run writes nothing at all.
     let exported = match &cfg.export {
-        Some((d, _)) => Some(export::export(
+        Some((d, _)) => Some(export::export_identified(
             &cfg.errors.model,
             &cfg.errors.theta,
             &cfg.errors.u,
             *d,
             &cfg.errors_path.display().to_string(),
             &cfg.limits,
+            &cfg.errors.not_identifiable,
         )?),
         None => None,
     };
