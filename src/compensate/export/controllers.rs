@@ -7,7 +7,9 @@ use std::fmt::Write as _;
 
 use nalgebra::Vector3;
 
-use super::{Export, ExportError, Geometry, Kind, Raw, header, listed_lines, not_held_lines};
+use super::{
+    Export, ExportError, Geometry, Kind, Raw, after_entering, header, listed_lines, not_held_lines,
+};
 use crate::geom::Axis3;
 use crate::kinematics::Kinematics;
 use crate::machine::{Dialect, Machine, Structure};
@@ -361,6 +363,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 "# Not held by these parameters (positions only); rewrite programs with `fivecal compensate` for them:"
             );
             not_held_lines(&mut s, not_held, "#");
+            s += &after_entering(m, export, "#");
         }
         Dialect::Heidenhain => {
             s += &header(
@@ -415,6 +418,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 "; Not held by the kinematics; rewrite programs with `fivecal compensate` for them:"
             );
             not_held_lines(&mut s, not_held, ";");
+            s += &after_entering(m, export, ";");
         }
         Dialect::Linuxcnc => {
             let kins = trt_kins(m);
@@ -463,6 +467,7 @@ setp {kins}.conventional-directions 1
                 "# trt-kins takes no orientation errors and no zero-point errors of the rotary axes; not held:"
             );
             not_held_lines(&mut s, not_held, "#");
+            s += &after_entering(m, export, "#");
         }
         Dialect::Sinumerik => s += &super::sinumerik::render(m, export, not_held, source),
     }

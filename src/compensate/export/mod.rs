@@ -40,7 +40,7 @@ pub use geometry::{AxisLine, Geometry, geometry};
 use crate::errorfile::NotIdentified;
 use crate::kinematics::symbols::{SymbolTable, Unit};
 use crate::kinematics::{Axes, Kinematics, Perturbation, ToolPose};
-use crate::machine::{Dialect, Machine};
+use crate::machine::{Dialect, Machine, Structure};
 use crate::model::{Context, Effect, Model};
 
 /// What a parameter measures.
@@ -986,6 +986,103 @@ fn header(m: &Machine, export: &Export, title: &str, source: &str, comment: &str
         let _ = writeln!(s, "{comment}   {line}");
     }
     let _ = writeln!(s, "{comment}");
+    s
+}
+
+/// How far the readout that puts the tool tip on a given point moves at
+/// rotary zero when the entered values replace what the control held, mm,
+/// machine axes: what a work offset (or preset) probed before entering is
+/// off by. Only a head's tool-side values move it: at rotary zero a table's
+/// rows place the table where it was, and the SINUMERIK record and the
+/// LinuxCNC pins change nothing there.
+fn zero_shift(m: &Machine, export: &Export) -> nalgebra::Vector3<f64> {
+    let mut out = nalgebra::Vector3::zeros();
+    if m.structure == Structure::TableTable {
+        return out;
+    }
+    for p in export
+        .parameters
+        .iter()
+        .filter(|p| p.entered && p.withheld.is_none())
+    {
+        let axis = match export.dialect {
+            // D -> E (19709-19711) and E -> F (19712-19714).
+            Dialect::Fanuc => p
+                .name
+                .parse::<u32>()
+                .ok()
+                .filter(|n| (19709..=19714).contains(n))
+                .map(|n| ((n - 19709) % 3) as usize),
+            // Tool reference point -> head axis, and the C head's rows on a
+            // head-head; the C table's rows of a head-table are table side.
+            Dialect::Heidenhain => {
+                let table_c = m.structure == Structure::HeadTable && p.name.starts_with("C.");
+                (!table_c)
+                    .then(|| ['X', 'Y', 'Z'].iter().position(|&c| p.name.ends_with(c)))
+                    .flatten()
+            }
+            Dialect::Linuxcnc | Dialect::Sinumerik => None,
+        };
+        if let Some(i) = axis {
+            out[i] += p.change();
+        }
+    }
+    out
+}
+
+/// What to do after entering: the convention assumed, which work offsets
+/// move and by how much at rotary zero, and the check that confirms it.
+fn after_entering(m: &Machine, export: &Export, c: &str) -> String {
+    let t = m.tilt.letter;
+    let convention = match (export.dialect, m.structure) {
+        (Dialect::Fanuc, Structure::TableTable) => format!(
+            "19680 = 12 ({t} master, C slave); the controlled point is the tool tip plus the tool length offset"
+        ),
+        (Dialect::Fanuc, _) => format!(
+            "the controlled point lies on the head's rotary axis (the manual's convention): the readout\n{c}     refers to a point {:.4} mm (the pivot length, 19666) above the spindle gauge point",
+            m.pivot_length
+        ),
+        (Dialect::Heidenhain, _) => {
+            "each Trans row is the step from the element before it to the one after it, in the order of\n{c}     the description from the tool reference point (table-side rows: to be confirmed, above)".replace("{c}", c)
+        }
+        (Dialect::Linuxcnc, _) => {
+            "trt-kins with the tool length on its tool-offset pin; the joints are the spindle gauge point".to_string()
+        }
+        (Dialect::Sinumerik, _) => {
+            "the record type and axis order stated above, chains closed as [IM9] describes them".to_string()
+        }
+    };
+    let shift = zero_shift(m, export) * 1e3;
+    let mut s = String::new();
+    let _ = writeln!(s, "{c}");
+    let _ = writeln!(s, "{c} After entering:");
+    let _ = writeln!(s, "{c}   convention assumed: {convention}");
+    if shift.norm() < 0.005 {
+        let _ = writeln!(
+            s,
+            "{c}   work offsets: nothing moves at rotary zero; work offsets and presets probed before entering stay valid"
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "{c}   work offsets: at rotary zero the readout that puts the tool tip on a point moves by X {} Y {} Z {} um:",
+            signed(shift.x, 2),
+            signed(shift.y, 2),
+            signed(shift.z, 2)
+        );
+        let _ = writeln!(
+            s,
+            "{c}     every work offset (and preset) probed before entering is off by that; probe them again (or add it)"
+        );
+    }
+    let _ = writeln!(
+        s,
+        "{c}   check: probe a short test planned by `fivecal plan`, analyze it, and `fivecal verify` it against this"
+    );
+    let _ = writeln!(
+        s,
+        "{c}     result: the errors held here must come out zero within their u"
+    );
     s
 }
 

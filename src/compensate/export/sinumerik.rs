@@ -377,6 +377,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
         "; Not held by the swivel data record; rewrite programs with `fivecal compensate` for them:"
     );
     not_held_lines(&mut s, not_held, ";");
+    s += &super::after_entering(m, export, ";");
     s += "M30\n";
     s
 }
