@@ -275,7 +275,7 @@ fn the_summary_names_changes_corrections_and_skipped_lines() {
         assert!(text.contains(want), "`{want}` missing from\n{text}");
     }
     let params = std::fs::read_to_string(dir.path().join("out.nc.fanuc.txt")).unwrap();
-    assert!(params.contains("19700 = +0.0300"), "{params}");
+    assert!(params.contains("19700 = +0.03000"), "{params}");
     assert!(params.contains("EA0B = 40.00 urad"), "{params}");
 }
 
@@ -354,11 +354,11 @@ fn linuxcnc_export_refuses_head_machines_and_names_what_trt_kins_cannot_hold() {
         .unwrap();
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(
-        text.contains("setp xyzbc-trt-kins.x-rot-point +0.0420"),
+        text.contains("setp xyzbc-trt-kins.x-rot-point +0.04200"),
         "{text}"
     );
     assert!(
-        text.contains("setp xyzbc-trt-kins.x-offset -0.0120"),
+        text.contains("setp xyzbc-trt-kins.x-offset -0.01200"),
         "{text}"
     );
     assert!(

@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use nalgebra::Vector3;
 
 use super::{
-    Export, ExportError, Geometry, Kind, Raw, header, listed_lines, not_held_lines, signed,
+    Export, ExportError, Geometry, Kind, Raw, after_entering, header, listed_lines, not_held_lines,
 };
 use crate::geom::Axis3;
 use crate::kinematics::Kinematics;
@@ -354,8 +354,8 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 );
             }
             let _ = writeln!(s, "#");
-            for p in &export.parameters {
-                let _ = writeln!(s, "{} = {}", p.name, signed(p.value, 4));
+            for p in export.parameters.iter().filter(|p| p.withheld.is_none()) {
+                let _ = writeln!(s, "{} = {}", p.name, p.written(p.value));
             }
             let _ = writeln!(s, "#");
             let _ = writeln!(
@@ -363,6 +363,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 "# Not held by these parameters (positions only); rewrite programs with `fivecal compensate` for them:"
             );
             not_held_lines(&mut s, not_held, "#");
+            s += &after_entering(m, export, "#");
         }
         Dialect::Heidenhain => {
             s += &header(
@@ -378,20 +379,32 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
 ;   The description runs from the tool reference point; the rows named are the ones before
 ;   MachAxis {t} and MachAxis C. Each change is from the value given as now (see change above):
 ;   if the table holds an earlier calibration the machine file does not list, the changes are wrong.
-;   Check each row against its value now first: a row holding the negative of it describes that
-;   stretch the other way round; SUBTRACT the change there instead.
+; Convention assumed (docs/controllers.md): a Trans row is the step from the element before it to the
+;   element after it, in the order of the description, machine axes, everything at 0 [iTNC 530
+;   technical manual pp. 670, 722: the sequence starts at the tool reference point; its example puts
+;   the head's B axis 250.051 mm above the tool reference point with Trans Z +250.051].
+;   Rows marked (table side) follow the same order, machine datum towards the table; no public source
+;   shows a table-side row whose value fixes its direction: the machine builder must confirm that the
+;   description runs from the machine base towards the table before they are entered.
 ;
 "
             );
-            for p in export.parameters.iter().filter(|p| p.entered) {
+            for p in export
+                .parameters
+                .iter()
+                .filter(|p| p.entered && p.withheld.is_none())
+            {
+                let table_side =
+                    p.what.contains("machine datum") || m.structure == Structure::TableTable;
                 let _ = writeln!(
                     s,
-                    "ADD {} TO {}   ; {} now {}, new {}",
-                    signed(p.change(), 4),
+                    "ADD {} TO {}   ; {} now {}, new {}{}",
+                    p.written(p.change()),
                     p.what,
                     p.name,
-                    signed(p.reference(), 4),
-                    signed(p.value, 4)
+                    p.written(p.reference()),
+                    p.written(p.value),
+                    if table_side { " (table side)" } else { "" }
                 );
             }
             s += ";
@@ -405,6 +418,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
                 "; Not held by the kinematics; rewrite programs with `fivecal compensate` for them:"
             );
             not_held_lines(&mut s, not_held, ";");
+            s += &after_entering(m, export, ";");
         }
         Dialect::Linuxcnc => {
             let kins = trt_kins(m);
@@ -444,8 +458,8 @@ setp {kins}.conventional-directions 1
                     );
                 }
             }
-            for p in &export.parameters {
-                let _ = writeln!(s, "setp {kins}.{} {}", p.name, signed(p.value, 4));
+            for p in export.parameters.iter().filter(|p| p.withheld.is_none()) {
+                let _ = writeln!(s, "setp {kins}.{} {}", p.name, p.written(p.value));
             }
             let _ = writeln!(s, "#");
             let _ = writeln!(
@@ -453,6 +467,7 @@ setp {kins}.conventional-directions 1
                 "# trt-kins takes no orientation errors and no zero-point errors of the rotary axes; not held:"
             );
             not_held_lines(&mut s, not_held, "#");
+            s += &after_entering(m, export, "#");
         }
         Dialect::Sinumerik => s += &super::sinumerik::render(m, export, not_held, source),
     }

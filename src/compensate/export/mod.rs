@@ -37,9 +37,10 @@ use std::fmt::{self, Write as _};
 
 pub use geometry::{AxisLine, Geometry, geometry};
 
-use crate::kinematics::symbols::Unit;
+use crate::errorfile::NotIdentified;
+use crate::kinematics::symbols::{SymbolTable, Unit};
 use crate::kinematics::{Axes, Kinematics, Perturbation, ToolPose};
-use crate::machine::{Dialect, Machine};
+use crate::machine::{Dialect, Machine, Structure};
 use crate::model::{Context, Effect, Model};
 
 /// What a parameter measures.
@@ -94,6 +95,9 @@ pub struct Parameter {
     /// offset another row carries), so its `u` of 0 says nothing measured
     /// and is shown as `fixed`.
     pub fixed: bool,
+    /// Not written: an error it depends on was not identified by the test
+    /// the error file comes from; the control keeps what it holds. Why.
+    pub withheld: Option<String>,
 }
 
 impl Parameter {
@@ -134,10 +138,12 @@ impl Parameter {
         }
     }
 
-    /// The value as written: mm with four decimals, urad with two.
-    fn written(&self, v: f64) -> String {
+    /// The value as written: mm with five decimals (0.01 um, so that a
+    /// value rounded as written moves the tool by well under 0.1 um), urad
+    /// with two.
+    pub(super) fn written(&self, v: f64) -> String {
         match self.kind {
-            Kind::Length => signed(v, 4),
+            Kind::Length => signed(v, MM_DECIMALS),
             Kind::Angle => signed(v, 2),
         }
     }
@@ -154,7 +160,7 @@ impl Parameter {
 
     fn below_resolution(&self, d: f64) -> bool {
         match self.kind {
-            Kind::Length => d.abs() < 0.5e-4,
+            Kind::Length => d.abs() < 0.5e-5,
             Kind::Angle => d.abs() < 0.5e-2,
         }
     }
@@ -204,6 +210,9 @@ impl Limits {
         }
     }
 }
+
+/// Decimals of a length written in mm (0.01 um).
+pub(super) const MM_DECIMALS: usize = 5;
 
 /// `v` with its sign and `decimals` decimals, a value that rounds to zero
 /// written `+0.00..` (never `-0.0000`).
@@ -395,7 +404,9 @@ impl Export {
                 format!("{} {}", signed(p.small(p.change()), 2), p.small_unit()),
                 u,
                 p.what,
-                if p.entered {
+                if p.withheld.is_some() {
+                    " (not written: keep what the control holds)"
+                } else if p.entered {
                     ""
                 } else {
                     " (listed, not entered)"
@@ -473,20 +484,50 @@ pub fn export(
     source: &str,
     limits: &Limits,
 ) -> Result<Export, ExportError> {
+    export_identified(model, theta, u, dialect, source, limits, &[])
+}
+
+/// [`export`] of a result whose test did not identify some errors:
+/// `not_identified` holds the result file's `not_identifiable` entries
+/// (a symbol, or a combination naming symbols, and why). A parameter an
+/// unidentified error moves is not written: the control keeps what it
+/// holds, and the export says so and why (a value computed without that
+/// error would enter the nominal geometry, or a guess, over what the
+/// control holds).
+pub fn export_identified(
+    model: &Model,
+    theta: &[f64],
+    u: &[Option<f64>],
+    dialect: Dialect,
+    source: &str,
+    limits: &Limits,
+    not_identified: &[NotIdentified],
+) -> Result<Export, ExportError> {
     let kin = &model.kin;
     let m = kin.machine();
     let keep = held(model);
     let theta_held = masked(model, theta, &keep, false);
-    let values = |t: &[f64]| {
-        let p = model.perturbation(t, &Context::default());
-        controllers::parameters(
-            kin,
-            &geometry(kin, &p),
-            &geometry(kin, &Perturbation::zero()),
-            dialect,
-        )
+    let nominal_geometry = geometry(kin, &Perturbation::zero());
+    let params = |p: &Perturbation| {
+        controllers::parameters(kin, &geometry(kin, p), &nominal_geometry, dialect)
+    };
+    // A value to enter holds positions only: it is computed from the
+    // position errors alone, so that an error it does not hold (an axis's
+    // orientation, listed as not held) never changes a row the operator
+    // enters. What is only listed for the machine builder (the directions)
+    // comes from every held error.
+    let values = |t: &[f64]| -> Result<Vec<Raw>, ExportError> {
+        let pos = masked(model, t, &keep, true);
+        let entered = params(&model.perturbation(&pos, &Context::default()))?;
+        let all = params(&model.perturbation(t, &Context::default()))?;
+        Ok(entered
+            .into_iter()
+            .zip(all)
+            .map(|(e, a)| if e.entered { e } else { a })
+            .collect())
     };
     let raw = values(&theta_held)?;
+    let unidentified = unidentified_parameters(model, &theta_held, &raw, not_identified, &params)?;
     // Each parameter's u: its derivative by every held symbol (central
     // differences of 1 um or 1 urad; the geometry is smooth and nearly
     // linear at this scale), times that symbol's u.
@@ -541,17 +582,28 @@ pub fn export(
         .into_iter()
         .zip(us)
         .zip(moved)
-        .map(|((r, u), moved)| Parameter {
-            current: current.and_then(|c| c.get(&r.name).copied()),
-            name: r.name,
-            what: r.what,
-            kind: r.kind,
-            value: r.value,
-            nominal: r.nominal,
-            u,
-            entered: r.entered,
-            beyond: None,
-            fixed: !moved,
+        .zip(unidentified)
+        .map(|(((r, u), moved), withheld)| {
+            let current = current.and_then(|c| c.get(&r.name).copied());
+            Parameter {
+                // Kept as the control holds it: no change, nothing to
+                // limit, nothing written.
+                value: if withheld.is_some() {
+                    current.unwrap_or(r.nominal)
+                } else {
+                    r.value
+                },
+                u: if withheld.is_some() { Some(0.0) } else { u },
+                current,
+                name: r.name,
+                what: r.what,
+                kind: r.kind,
+                nominal: r.nominal,
+                entered: r.entered,
+                beyond: None,
+                fixed: !moved,
+                withheld,
+            }
         })
         .collect();
     check_limits(&mut parameters, dialect, limits)?;
@@ -568,6 +620,7 @@ pub fn export(
         &export,
     )?;
     let mut not_held = not_held(model, theta, dialect);
+    not_held.extend(withheld_lines(&export));
     if dialect == Dialect::Sinumerik {
         let g = geometry(kin, &model.perturbation(&theta_held, &Context::default()));
         not_held.extend(sinumerik::tool_tilt(&g));
@@ -589,6 +642,76 @@ pub fn export(
     }
     let text = controllers::render(m, &export, &not_held, source);
     Ok(Export { text, ..export })
+}
+
+/// For each parameter, why it is not written: the names of the errors the
+/// test did not identify that move it (to first order, as for its u), with
+/// the result file's reason. Only a value to enter is withheld.
+fn unidentified_parameters(
+    model: &Model,
+    theta_held: &[f64],
+    raw: &[Raw],
+    not_identified: &[NotIdentified],
+    params: &dyn Fn(&Perturbation) -> Result<Vec<Raw>, ExportError>,
+) -> Result<Vec<Option<String>>, ExportError> {
+    let mut out: Vec<Option<String>> = vec![None; raw.len()];
+    if not_identified.is_empty() {
+        return Ok(out);
+    }
+    let kin = &model.kin;
+    let symbols = SymbolTable::for_kinematics(kin);
+    let base = model.perturbation(
+        &masked(model, theta_held, &held(model), true),
+        &Context::default(),
+    );
+    for s in symbols.location.iter().filter(|s| s.unit == Unit::Um) {
+        let Some(why) = not_identified
+            .iter()
+            .find(|n| names_symbol(&n.symbol, &s.name))
+        else {
+            continue;
+        };
+        // One micrometre of the symbol, in its canonical term.
+        let (slot, coef) = s.canonical;
+        let mut p = base;
+        p.0[slot] += s.unit.scale() / coef;
+        let moved = params(&p)?;
+        for (i, (a, b)) in raw.iter().zip(&moved).enumerate() {
+            if a.entered && (b.value - a.value).abs() > 1e-6 {
+                let line = format!("{} (not identified: {})", s.name, why.reason);
+                out[i] = Some(match out[i].take() {
+                    Some(before) => format!("{before}; {line}"),
+                    None => line,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Whether a `not_identifiable` entry (a symbol, or a combination such as
+/// `EX0B + EZ0B`) names the symbol `name`.
+fn names_symbol(entry: &str, name: &str) -> bool {
+    entry
+        .split(|c: char| c.is_whitespace() || matches!(c, '+' | '-' | '*' | ',' | '='))
+        .any(|word| word == name)
+}
+
+/// The lines of the not-held list for the parameters kept as the control
+/// holds them.
+fn withheld_lines(export: &Export) -> Vec<String> {
+    export
+        .parameters
+        .iter()
+        .filter_map(|p| {
+            p.withheld.as_ref().map(|why| {
+                format!(
+                    "{}: keep what the control holds (not written): it depends on {why}",
+                    p.name
+                )
+            })
+        })
+        .collect()
 }
 
 /// Refuses the first entered parameter beyond `limits` (a change first,
@@ -721,9 +844,9 @@ fn check_strokes(
 }
 
 /// What the error file holds, not zero, that no parameter of `dialect`
-/// holds: the zero points and (but for HEIDENHAIN's list for the machine
-/// builder) the orientations of the axes, maps, drift, linear-axis, tool
-/// and probe errors.
+/// holds: the zero points and the orientations of the axes (HEIDENHAIN
+/// and SINUMERIK list the directions for the machine builder, entered
+/// nowhere), maps, drift, linear-axis, tool and probe errors.
 fn not_held(model: &Model, theta: &[f64], dialect: Dialect) -> Vec<String> {
     let mut out = Vec::new();
     let sym = &model.symbols;
@@ -745,12 +868,21 @@ fn not_held(model: &Model, theta: &[f64], dialect: Dialect) -> Vec<String> {
                             "{} = {v:.2} urad ({}): where the axis reads zero, set at the axis (its reference offset), not in the kinematics",
                             ls.name, ls.description
                         ));
-                    } else if dialect == Dialect::Sinumerik && ls.canonical.0 / 6 < 2 {
-                        // The line of the axis of link 0 or 1: listed as
-                        // its direction v1 or v2; the spindle's (link 2)
-                        // is not held.
-                    } else if dialect != Dialect::Heidenhain {
-                        out.push(format!("{} = {v:.2} urad ({})", ls.name, ls.description));
+                    } else {
+                        // No target enters an orientation: HEIDENHAIN and
+                        // SINUMERIK list the directions for the machine
+                        // builder, which holds nothing at the control.
+                        let listed = match dialect {
+                            Dialect::Heidenhain => "; in the directions listed for the machine builder, not entered",
+                            Dialect::Sinumerik if ls.canonical.0 / 6 < 2 => {
+                                "; in the directions v1, v2 listed for the machine builder, not entered"
+                            }
+                            _ => "",
+                        };
+                        out.push(format!(
+                            "{} = {v:.2} urad ({}{listed})",
+                            ls.name, ls.description
+                        ));
                     }
                 }
             }
@@ -854,6 +986,103 @@ fn header(m: &Machine, export: &Export, title: &str, source: &str, comment: &str
         let _ = writeln!(s, "{comment}   {line}");
     }
     let _ = writeln!(s, "{comment}");
+    s
+}
+
+/// How far the readout that puts the tool tip on a given point moves at
+/// rotary zero when the entered values replace what the control held, mm,
+/// machine axes: what a work offset (or preset) probed before entering is
+/// off by. Only a head's tool-side values move it: at rotary zero a table's
+/// rows place the table where it was, and the SINUMERIK record and the
+/// LinuxCNC pins change nothing there.
+fn zero_shift(m: &Machine, export: &Export) -> nalgebra::Vector3<f64> {
+    let mut out = nalgebra::Vector3::zeros();
+    if m.structure == Structure::TableTable {
+        return out;
+    }
+    for p in export
+        .parameters
+        .iter()
+        .filter(|p| p.entered && p.withheld.is_none())
+    {
+        let axis = match export.dialect {
+            // D -> E (19709-19711) and E -> F (19712-19714).
+            Dialect::Fanuc => p
+                .name
+                .parse::<u32>()
+                .ok()
+                .filter(|n| (19709..=19714).contains(n))
+                .map(|n| ((n - 19709) % 3) as usize),
+            // Tool reference point -> head axis, and the C head's rows on a
+            // head-head; the C table's rows of a head-table are table side.
+            Dialect::Heidenhain => {
+                let table_c = m.structure == Structure::HeadTable && p.name.starts_with("C.");
+                (!table_c)
+                    .then(|| ['X', 'Y', 'Z'].iter().position(|&c| p.name.ends_with(c)))
+                    .flatten()
+            }
+            Dialect::Linuxcnc | Dialect::Sinumerik => None,
+        };
+        if let Some(i) = axis {
+            out[i] += p.change();
+        }
+    }
+    out
+}
+
+/// What to do after entering: the convention assumed, which work offsets
+/// move and by how much at rotary zero, and the check that confirms it.
+fn after_entering(m: &Machine, export: &Export, c: &str) -> String {
+    let t = m.tilt.letter;
+    let convention = match (export.dialect, m.structure) {
+        (Dialect::Fanuc, Structure::TableTable) => format!(
+            "19680 = 12 ({t} master, C slave); the controlled point is the tool tip plus the tool length offset"
+        ),
+        (Dialect::Fanuc, _) => format!(
+            "the controlled point lies on the head's rotary axis (the manual's convention): the readout\n{c}     refers to a point {:.4} mm (the pivot length, 19666) above the spindle gauge point",
+            m.pivot_length
+        ),
+        (Dialect::Heidenhain, _) => {
+            "each Trans row is the step from the element before it to the one after it, in the order of\n{c}     the description from the tool reference point (table-side rows: to be confirmed, above)".replace("{c}", c)
+        }
+        (Dialect::Linuxcnc, _) => {
+            "trt-kins with the tool length on its tool-offset pin; the joints are the spindle gauge point".to_string()
+        }
+        (Dialect::Sinumerik, _) => {
+            "the record type and axis order stated above, chains closed as [IM9] describes them".to_string()
+        }
+    };
+    let shift = zero_shift(m, export) * 1e3;
+    let mut s = String::new();
+    let _ = writeln!(s, "{c}");
+    let _ = writeln!(s, "{c} After entering:");
+    let _ = writeln!(s, "{c}   convention assumed: {convention}");
+    if shift.norm() < 0.005 {
+        let _ = writeln!(
+            s,
+            "{c}   work offsets: nothing moves at rotary zero; work offsets and presets probed before entering stay valid"
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "{c}   work offsets: at rotary zero the readout that puts the tool tip on a point moves by X {} Y {} Z {} um:",
+            signed(shift.x, 2),
+            signed(shift.y, 2),
+            signed(shift.z, 2)
+        );
+        let _ = writeln!(
+            s,
+            "{c}     every work offset (and preset) probed before entering is off by that; probe them again (or add it)"
+        );
+    }
+    let _ = writeln!(
+        s,
+        "{c}   check: probe a short test planned by `fivecal plan`, analyze it, and `fivecal verify` it against this"
+    );
+    let _ = writeln!(
+        s,
+        "{c}     result: the errors held here must come out zero within their u"
+    );
     s
 }
 

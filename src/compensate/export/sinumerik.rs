@@ -162,8 +162,17 @@ pub(super) fn record(m: &Machine, g: &Geometry, gn: &Geometry) -> SwivelRecord {
             let p2n = gn.c.nearest(&m.pivot);
             let p1 = g.tilt.at(it, ga[it] + (p1n - gan)[it]);
             let p2 = g.c.at(2, p2n.z);
+            // The readout refers to the point the slides carry, the
+            // head's pivot less the nominal pivot length: the tool adapter
+            // lies `s` from it at rotary zero (a head's position errors
+            // move the spindle, not the slides). The record keeps l1 = -l2
+            // [S-IM9], which puts the tool adapter at the readout, so the
+            // table's pivot is placed as seen from the tool: `s` across C
+            // is added to l3 and taken from l4 (along C it changes nothing).
+            let s = gn.gauge - ga;
+            let s = Vector3::new(s.x, s.y, 0.0);
             SwivelRecord {
-                l: [ga - p1, p1 - ga, p2, -p2],
+                l: [ga - p1, p1 - ga, p2 + s, -(p2 + s)],
                 v: [tilt * g.tilt.dir, c * g.c.dir],
             }
         }
@@ -224,8 +233,8 @@ fn field(name: &str) -> u32 {
 fn record_number(m: &Machine) -> Result<u32, ExportError> {
     m.sinumerik.map(|s| s.swivel_record).ok_or_else(|| {
         ExportError::Unsupported(format!(
-            "--export sinumerik: the machine file of {} ({}) does not say which swivel data record holds its kinematics: add `sinumerik: {{swivel_record: N}}` (N as in TCARR=N, the record CYCLE800 and CYCLE996 use); nothing written",
-            m.name, m.source
+            "--export sinumerik: the machine file of {} does not say which swivel data record holds its kinematics: add `sinumerik: {{swivel_record: N}}` (N as in TCARR=N, the record CYCLE800 and CYCLE996 use); nothing written",
+            m.name
         ))
     })
 }
@@ -311,7 +320,11 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
         let _ = writeln!(s, ";   v{} ($TC_CARR{f}..{}) = {}", j + 1, f + 2, vec(v, 1));
     }
     let _ = writeln!(s, ";");
-    for p in export.parameters.iter().filter(|p| p.entered) {
+    for p in export
+        .parameters
+        .iter()
+        .filter(|p| p.entered && p.withheld.is_none())
+    {
         let _ = writeln!(s, "{}[{n}]={} ; {}", p.name, number(p.value, 5), p.what);
     }
     let _ = writeln!(s, ";");
@@ -364,6 +377,7 @@ pub(super) fn render(m: &Machine, export: &Export, not_held: &[String], source: 
         "; Not held by the swivel data record; rewrite programs with `fivecal compensate` for them:"
     );
     not_held_lines(&mut s, not_held, ";");
+    s += &super::after_entering(m, export, ";");
     s += "M30\n";
     s
 }

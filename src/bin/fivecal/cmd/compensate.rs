@@ -364,7 +364,9 @@ impl CompensateArgs {
                 "{}: the fit of this result did not converge ({}): its values are no estimate, and nothing is compensated or exported from them. \
                  Analyze the measurements again (another --method, fewer maps) until the verdict is a fit",
                 self.errors.display(),
-                f.stopped.as_deref().unwrap_or("fit: {verdict: not-converged}")
+                f.stopped
+                    .as_deref()
+                    .unwrap_or("fit: {verdict: not-converged}")
             );
         }
         if let Some(f) = errors.misfit()
@@ -549,13 +551,14 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     // The export is computed before the program is rewritten: refused (a
     // limit, a stroke, nothing held), the run writes nothing at all.
     let exported = match &cfg.export {
-        Some((d, _)) => Some(export::export(
+        Some((d, _)) => Some(export::export_identified(
             &cfg.errors.model,
             &cfg.errors.theta,
             &cfg.errors.u,
             *d,
             &cfg.errors_path.display().to_string(),
             &cfg.limits,
+            &cfg.errors.not_identifiable,
         )?),
         None => None,
     };
