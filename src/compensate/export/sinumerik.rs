@@ -224,8 +224,8 @@ fn field(name: &str) -> u32 {
 fn record_number(m: &Machine) -> Result<u32, ExportError> {
     m.sinumerik.map(|s| s.swivel_record).ok_or_else(|| {
         ExportError::Unsupported(format!(
-            "--export sinumerik: the machine file of {} ({}) does not say which swivel data record holds its kinematics: add `sinumerik: {{swivel_record: N}}` (N as in TCARR=N, the record CYCLE800 and CYCLE996 use); nothing written",
-            m.name, m.source
+            "--export sinumerik: the machine file of {} does not say which swivel data record holds its kinematics: add `sinumerik: {{swivel_record: N}}` (N as in TCARR=N, the record CYCLE800 and CYCLE996 use); nothing written",
+            m.name
         ))
     })
 }
