@@ -956,7 +956,14 @@ fn simulate_nine_section_csv_is_the_heights_analyze_reads() {
         );
         String::from_utf8_lossy(&o.stdout).into_owned()
     };
-    run(&["plan", "nine-section", "--out", "p"]);
+    run(&[
+        "plan",
+        "nine-section",
+        "--machine",
+        "bc-trunnion",
+        "--out",
+        "p",
+    ]);
     std::fs::write(
         d.join("t.yaml"),
         "machine: bc-trunnion\nlocation_errors: {EX0B: 10.0, EA0B: 40.0}\n",
@@ -1110,9 +1117,8 @@ fn simulate_nc_program_with_no_move_to_follow_is_refused() {
             "linuxcnc",
             "--errors",
             "e.yaml",
-            "--program",
             "p.ngc",
-            "--output",
+            "--out",
             "s.csv",
         ],
     );

@@ -60,7 +60,7 @@ pub enum NominalFrame {
     Piece(Option<Isometry3<f64>>),
     /// Probing against the nominal points `rTw* p`.
     Probed,
-    /// Probing relative to the reference pose (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)).
+    /// Probing relative to the reference pose (Ibaraki, Iritani & Matsushita 2013).
     Relative {
         /// Index of the reference pose.
         reference: usize,
@@ -591,7 +591,7 @@ fn frame_notes(data: &Dataset, kin: &Kinematics, frame: &NominalFrame) -> Vec<St
                 })
                 .count();
             notes.push(format!(
-                "stage 1 relative to the touches of pose {} (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)): the setup of the pieces cancels{}",
+                "stage 1 relative to the touches of pose {} (Ibaraki, Iritani & Matsushita 2013): the setup of the pieces cancels{}",
                 data.poses[*reference].id,
                 if unused > 0 {
                     format!("; {unused} touches of features not touched there are not used")

@@ -13,8 +13,8 @@
 //! | form of a calibration sphere | the simulator's sphere form error | - | - |
 //!
 //! Not mapped, because the foundation has no effect for them: the periodic
-//! terms of positioning and straightness (0.5 um in Ibaraki & Ota 2014 (docs/references.md)), the angular
-//! errors of the linear axes (25 urad periodic in Ibaraki & Ota 2014 (docs/references.md)) and the
+//! terms of positioning and straightness (0.5 um in Ibaraki & Ota 2014), the angular
+//! errors of the linear axes (25 urad periodic in Ibaraki & Ota 2014) and the
 //! non-systematic positioning error `E_XX,rand` of Ibaraki, Iritani & Matsushita 2013, eq. 19; nor
 //! the influence of the test pieces' surface roughness on probing (1 um per test piece in
 //! Ibaraki, Iritani & Matsushita 2013, table 4), which the table does not say varies per touch or
@@ -38,7 +38,7 @@ use crate::model::{Effect, Squareness};
 pub enum Spread {
     /// Uniform in `[-v, v]` (Ibaraki & Ota 2014: "range for uniform distribution").
     Uniform,
-    /// Normal with standard deviation `v` (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)).
+    /// Normal with standard deviation `v` (Ibaraki, Iritani & Matsushita 2013).
     Normal,
 }
 

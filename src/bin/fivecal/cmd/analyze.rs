@@ -55,7 +55,7 @@ pub struct AnalyzeArgs {
     /// The result: an error file (the identified values with their u, and
     /// what the test cannot identify), or the nine-section statistics, or
     /// with --series the series table.
-    #[arg(long, value_name = "RESULT.yaml", required = true)]
+    #[arg(short, long, value_name = "RESULT.yaml", required = true)]
     out: Option<PathBuf>,
     /// Write the result as JSON instead of YAML.
     #[arg(long)]
