@@ -317,6 +317,12 @@ pub struct FitSection {
     /// Why the verdict is not-converged: which fit stopped.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stopped: Option<String>,
+    /// In noise variances: how much more than a least-squares fit's the
+    /// squared residuals may be at an estimate made another way, as far as
+    /// the method's own u allows (its estimate may lie that far from the
+    /// least-squares one); judged with the noise ([`crate::analyze::goodness`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub allowance: Option<f64>,
 }
 
 /// An error file as written.
@@ -325,6 +331,11 @@ pub struct FitSection {
 pub struct ErrorFile {
     /// The machine it refers to.
     pub machine: String,
+    /// Result files: the test whose measurements it was identified from
+    /// (`stepped-square`, `probe-sphere`, ...), so that results of
+    /// different tests are not compared or trended as one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub test: Option<String>,
     /// Location errors, um / urad.
     #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
     pub location_errors: IndexMap<String, Quantity>,
@@ -905,6 +916,7 @@ impl ErrorFile {
         let sym = &model.symbols;
         let mut f = ErrorFile {
             machine: model.kin.machine().name.clone(),
+            test: None,
             location_errors: IndexMap::new(),
             position_dependent: IndexMap::new(),
             effects: Effects::default(),

@@ -993,6 +993,13 @@ fn sinumerik_export_writes_the_fine_offsets_of_the_machine_file_s_swivel_record(
     assert!(!out.status.success());
     let err = stderr_of(&out);
     assert!(err.contains("sinumerik: {swivel_record: N}"), "{err}");
+    // Named, never pasted: the message once held the whole machine file.
+    assert!(
+        err.contains("built in (bc-trunnion)")
+            && !err.contains("chain:")
+            && err.lines().count() <= 2,
+        "{err}"
+    );
     assert!(!d.join("none.nc").exists() && !d.join("none.nc.sinumerik.MPF").exists());
 
     // A record 0 (TCARR=0 deselects) and an unknown key: the file, line

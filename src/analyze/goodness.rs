@@ -92,12 +92,37 @@ impl ExpectedNoise {
 /// `dof` degrees of freedom against the expected noise. `None` when it
 /// cannot be judged: no degrees of freedom left, or no finite sigma.
 pub fn judge(sigma_um: f64, dof: usize, expected: &ExpectedNoise) -> Option<FitSection> {
+    judge_allowing(sigma_um, dof, expected, &[])
+}
+
+/// [`judge`] for residuals taken at an estimate that is not the
+/// least-squares one: besides the chi-square of the noise, the squared
+/// residuals (in noise variances) carry `sum l_i z_i^2` with independent
+/// standard normal `z_i`, the `allowance` `l_i` being what the method's own
+/// uncertainty allows beyond the least-squares fit's along each direction
+/// ([`super::verdict`]). The sum is judged by its scaled chi-square of the
+/// same mean and variance (Satterthwaite, Welch): exact for no allowance.
+pub fn judge_allowing(
+    sigma_um: f64,
+    dof: usize,
+    expected: &ExpectedNoise,
+    allowance: &[f64],
+) -> Option<FitSection> {
     if dof == 0 || !sigma_um.is_finite() || !(expected.um.is_finite() && expected.um > 0.0) {
         return None;
     }
     let ratio = sigma_um / expected.um;
     let chi2 = dof as f64 * ratio * ratio;
-    let p_value = ChiSquared::new(dof as f64).ok()?.sf(chi2);
+    let extra: f64 = allowance.iter().filter(|l| l.is_finite()).sum();
+    let extra2: f64 = allowance
+        .iter()
+        .filter(|l| l.is_finite())
+        .map(|l| l * l)
+        .sum();
+    let mean = dof as f64 + extra;
+    let var = 2.0 * dof as f64 + 2.0 * extra2;
+    let (g, h) = (var / (2.0 * mean), 2.0 * mean * mean / var);
+    let p_value = ChiSquared::new(h).ok()?.sf(chi2 / g);
     // A chi-square this far out underflows to 0, which is the right answer.
     let p_value = if p_value.is_finite() { p_value } else { 0.0 };
     let verdict = if p_value < MISFIT_SIGNIFICANCE {
@@ -116,6 +141,7 @@ pub fn judge(sigma_um: f64, dof: usize, expected: &ExpectedNoise) -> Option<FitS
         on: None,
         set_aside: Vec::new(),
         stopped: None,
+        allowance: (extra > 0.0).then_some(extra),
     })
 }
 
@@ -250,6 +276,52 @@ mod tests {
         assert!((p.um - 0.1425f64.sqrt()).abs() < 1e-12);
         assert!(p.from.contains("ss 0.300 um") && p.from.contains("300 points"));
         assert_eq!(ExpectedNoise::pooled(&[("ss", &a, 100)]), a);
+    }
+
+    #[test]
+    fn an_allowance_is_judged_by_the_moments_of_the_sum() {
+        // No allowance: the chi-square itself.
+        let plain = judge(0.4, 200, &expected(0.35)).unwrap();
+        let none = judge_allowing(0.4, 200, &expected(0.35), &[]).unwrap();
+        assert_eq!(plain.p_value, none.p_value);
+        // 200 variances of noise and 50 more the method allows along one
+        // direction: the sum has mean 250 and variance 400 + 2 * 2500.
+        // Its 0.999 quantile, by a Monte Carlo of the sum itself, lies
+        // near 250 + 3.1 sqrt(5400) = 478; at a chi-square of 300 the
+        // residuals fit, at 700 they do not.
+        let at = |chi2: f64| (chi2 / 200.0f64).sqrt() * 0.35;
+        let ok = judge_allowing(at(300.0), 200, &expected(0.35), &[50.0]).unwrap();
+        assert_eq!(ok.verdict, FitVerdict::Fits, "{ok:?}");
+        assert_eq!(ok.allowance, Some(50.0));
+        let bad = judge_allowing(at(700.0), 200, &expected(0.35), &[50.0]).unwrap();
+        assert_eq!(bad.verdict, FitVerdict::Misfit, "{bad:?}");
+        // Without the allowance, 300 is already a misfit.
+        assert_eq!(
+            judge(at(300.0), 200, &expected(0.35)).unwrap().verdict,
+            FitVerdict::Misfit
+        );
+        // The moment match against a direct simulation of the sum.
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let mut r = rand::rngs::StdRng::seed_from_u64(7);
+        let mut gauss = || -> f64 { StandardNormal.sample(&mut r) };
+        let n = 20000;
+        let mut above = 0;
+        for _ in 0..n {
+            let mut t = 0.0;
+            for _ in 0..200 {
+                t += gauss().powi(2);
+            }
+            t += 50.0 * gauss().powi(2);
+            if t > 400.0 {
+                above += 1;
+            }
+        }
+        let mc = above as f64 / n as f64;
+        let p = judge_allowing(at(400.0), 200, &expected(0.35), &[50.0])
+            .unwrap()
+            .p_value;
+        assert!((p - mc).abs() < 0.02, "moment match {p}, simulated {mc}");
     }
 
     #[test]

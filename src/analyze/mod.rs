@@ -422,6 +422,7 @@ fn identify_piece(
         study = Some(s);
     }
     let mut file = result::error_file(&est, &u, data.kind);
+    file.test = Some(ctx.test.to_string());
     file.fit = fit.clone();
     Ok(IdentifiedPiece {
         number,

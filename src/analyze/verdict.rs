@@ -18,6 +18,8 @@
 //! `not-converged` whatever its residuals, and `compensate`, its export
 //! and `verify` refuse it.
 
+use nalgebra::DMatrix;
+
 use super::goodness::{self, ExpectedNoise};
 use super::method;
 use crate::errorfile::{FitSection, FitVerdict};
@@ -71,8 +73,14 @@ pub fn judged(
     let m = data.obs.len();
     // The global method fitted every point to the complete model already:
     // its residuals are the verdict's.
-    let (sigma, dof, setup_converged, residuals) = if est.method == Method::Global {
-        (est.sigma_um, est.dof, true, est.residuals.clone())
+    let (sigma, dof, setup_converged, residuals, allowance) = if est.method == Method::Global {
+        (
+            est.sigma_um,
+            est.dof,
+            true,
+            est.residuals.clone(),
+            Vec::new(),
+        )
     } else {
         let fm = match plan {
             Some(p) if method::needs_plan(&setup.model, test) => {
@@ -94,22 +102,16 @@ pub fn judged(
         } else {
             f64::NAN
         };
-        (sigma, j.dof, j.converged, j.residuals)
+        let allowance = allowance(est, &held, &j.information, expected.um);
+        (sigma, j.dof, j.converged, j.residuals, allowance)
     };
-    let stopped = if !est.converged {
-        Some(format!(
+    let stopped = (!est.converged).then(|| {
+        format!(
             "the {} method's fit stopped without converging: its values are no estimate",
             est.method
-        ))
-    } else if !setup_converged {
-        Some(format!(
-            "the fit of the setups to every point at the {} method's estimate stopped without converging",
-            est.method
-        ))
-    } else {
-        None
-    };
-    let judged = goodness::judge(sigma, dof, expected);
+        )
+    });
+    let judged = goodness::judge_allowing(sigma, dof, expected, &allowance);
     let mut f = match (judged, &stopped) {
         (Some(f), _) => f,
         (None, None) => {
@@ -131,18 +133,60 @@ pub fn judged(
             on: None,
             set_aside: Vec::new(),
             stopped: None,
+            allowance: None,
         },
     };
     if stopped.is_some() {
         f.verdict = FitVerdict::NotConverged;
     }
     f.stopped = stopped;
-    f.on = Some(on(m, est.method));
+    // Setups fitted short of their optimum leave residuals larger than
+    // they need be: a fit stays a fit, a misfit says it may be that.
+    f.on = Some(if setup_converged {
+        on(m, est.method)
+    } else {
+        format!(
+            "{} (the fit of the setups to the points stopped before converging: the residuals are at most this large)",
+            on(m, est.method)
+        )
+    });
     f.set_aside = est.set_aside.clone();
     Ok(Verdict {
         fit: Some(f),
         residuals,
     })
+}
+
+/// What a method's own uncertainty allows its squared residuals beyond a
+/// least-squares fit's, in noise variances, direction by direction. Its
+/// estimate of the held parameters lies `d` from the least-squares one,
+/// which adds `d^T I d` (`I`: the points' information on them, the rest
+/// fitted) to the squared residuals. Were the method unbiased with
+/// covariance `C` (its u), `d` would have covariance `C - C_ls`, `C_ls =
+/// sigma^2 I^-1` (the least-squares fit is the efficient one), so the
+/// added sum is `sum l_i z_i^2` with `l_i` the eigenvalues of `I C /
+/// sigma^2` less 1, none below 0. An estimate further off than its u
+/// says is what the verdict then catches; one as far as its u allows is
+/// no misfit.
+fn allowance(est: &Identification, held: &[bool], info: &DMatrix<f64>, sigma: f64) -> Vec<f64> {
+    let idx: Vec<usize> = (0..held.len()).filter(|&i| held[i]).collect();
+    if idx.is_empty() || info.nrows() != idx.len() {
+        return Vec::new();
+    }
+    let c = DMatrix::from_fn(idx.len(), idx.len(), |r, k| est.cov[(idx[r], idx[k])]);
+    // R = C^(1/2); the eigenvalues of R I R / sigma^2 are those of I C /
+    // sigma^2.
+    let e = c.symmetric_eigen();
+    let root = DMatrix::from_diagonal(&e.eigenvalues.map(|v| v.max(0.0).sqrt()));
+    let r = &e.eigenvectors * root * e.eigenvectors.transpose();
+    let s = (&r * info * &r) / (sigma * sigma);
+    let s = (&s + s.transpose()) * 0.5;
+    s.symmetric_eigen()
+        .eigenvalues
+        .iter()
+        .map(|&mu| (mu - 1.0).max(0.0))
+        .filter(|l| l.is_finite())
+        .collect()
 }
 
 /// The factor a method's covariance uncertainties are widened by under a
@@ -178,6 +222,11 @@ pub fn render(f: Option<&FitSection>) -> String {
     if let Some(on) = &f.on {
         s.push_str(&format!("  judged on {on}\n"));
     }
+    if let Some(a) = f.allowance {
+        s.push_str(&format!(
+            "  allowing {a:.1} noise variances for the method's estimate lying as far from the least-squares one as its u says\n"
+        ));
+    }
     for a in &f.set_aside {
         s.push_str(&format!(
             "  set aside from the estimate, judged here with the rest: {a}\n"
@@ -202,6 +251,7 @@ mod tests {
             on: Some(on(120, Method::Sphere)),
             set_aside: vec!["the centres at C = 0, 10 deg".into()],
             stopped: None,
+            allowance: None,
         }
     }
 

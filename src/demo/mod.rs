@@ -183,6 +183,9 @@ pub struct Demo {
     /// The machine before (`analyzed.yaml`) and after the export
     /// (`analyzed.after.yaml`).
     pub verify: Comparison,
+    /// The verdict of the location-only analysis of the piece measured
+    /// after the export (`fivecal verify` refuses it unless it fits).
+    pub fit_verified: Option<crate::errorfile::FitSection>,
     /// The results store the runs were recorded in, and their ids.
     pub store: (PathBuf, Vec<i64>),
 }
@@ -278,7 +281,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
         compensate_stage(out, &machine, &final_path, &truth_path, &mut files)?;
 
     progress(Stage::Verify);
-    let verify = verify_stage(
+    let (verify, fit_verified) = verify_stage(
         cfg,
         &Exported {
             loaded: &loaded,
@@ -289,7 +292,6 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
             final_path: &final_path,
             final_text: &final_text,
             final_file: &final_file,
-            before: &analysis.file,
         },
         (&mut store, &mut ids),
         &mut files,
@@ -298,6 +300,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
 
     Ok(Demo {
         verify,
+        fit_verified,
         store: (store_path, ids),
         rows: rows(&truth, est, &final_est),
         added: added(&discovery, &truth),
@@ -425,7 +428,6 @@ struct Exported<'a> {
     final_path: &'a Path,
     final_text: &'a str,
     final_file: &'a ErrorFile,
-    before: &'a ErrorFile,
 }
 
 /// The verify stage: the discovered location errors exported into the
@@ -437,7 +439,7 @@ fn verify_stage(
     x: &Exported<'_>,
     (store, ids): (&mut Store, &mut Vec<i64>),
     files: &mut Vec<PathBuf>,
-) -> Result<Comparison, DemoError> {
+) -> Result<(Comparison, Option<crate::errorfile::FitSection>), DemoError> {
     let out = &cfg.out;
     let Exported {
         loaded,
@@ -448,7 +450,6 @@ fn verify_stage(
         final_path,
         final_text,
         final_file,
-        before,
     } = *x;
     let e = Stage::Verify;
     // The control takes the discovered location errors as its pivot
@@ -530,13 +531,23 @@ fn verify_stage(
     let analyze::Found::Identified(after) = &outcome_after.found else {
         return Err("the stepped-square test identifies location errors").at(e);
     };
-    let verify = Comparison::new(
-        ("analyzed.yaml", before),
+    // Before: the discovered model, the first result that fits (the
+    // first analysis is a misfit, whose values verify refuses).
+    let before_name = final_path
+        .file_name()
+        .map_or("discovered.yaml".into(), |n| {
+            n.to_string_lossy().to_string()
+        });
+    // The new piece drifts as the first did (the control holds location
+    // errors only): its location-only analysis is judged, and the summary
+    // says whether `fivecal verify` takes it.
+    let verify = Comparison::unjudged(
+        (&before_name, final_file),
         ("analyzed.after.yaml", &after.pieces[0].file),
         None,
     )
     .at(e)?;
-    Ok(verify)
+    Ok((verify, after.pieces[0].fit.clone()))
 }
 
 fn rel(base: &Path, p: &Path) -> PathBuf {
@@ -790,12 +801,25 @@ impl Demo {
             .iter()
             .filter(|c| c.zero_after() == Some(true))
             .count();
-        let _ = writeln!(
-            s,
-            "after exporting the discovered errors to the control and measuring again: {zero} of {} location errors within 2u of zero (fivecal verify --before {d}/analyzed.yaml --after {d}/analyzed.after.yaml)",
-            self.verify.changes.len(),
-            d = self.out.display()
-        );
+        match self.fit_verified.as_ref().filter(|f| !f.verdict.is_fit()) {
+            None => {
+                let _ = writeln!(
+                    s,
+                    "after exporting the discovered errors to the control and measuring again: {zero} of {} location errors within 2u of zero (fivecal verify --before {d}/{} --after {d}/analyzed.after.yaml)",
+                    self.verify.changes.len(),
+                    self.verify.before,
+                    d = self.out.display()
+                );
+            }
+            Some(f) => {
+                let _ = writeln!(
+                    s,
+                    "after exporting the discovered errors to the control and measuring again: the new piece's location-only analysis {} too (the control holds location errors; the drift is still there), so fivecal verify refuses analyzed.after.yaml: discover its model (fivecal discover --plan {d}/plan/stepped-square.plan.yaml --measured {d}/measured.after.dmo) before verifying",
+                    judged(&Some(f.clone())),
+                    d = self.out.display()
+                );
+            }
+        }
         let _ = writeln!(
             s,
             "recorded as records {} in {} (fivecal history --db {})",

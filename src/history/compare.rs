@@ -63,20 +63,50 @@ pub struct Comparison {
     pub verdict_before: Option<ConformanceVerdict>,
 }
 
-/// Two results that cannot be compared: they are of different machines.
+/// Two results that cannot be compared.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error(
-    "{before} is a result of machine `{before_machine}`, {after} of `{after_machine}`: compare results of one machine"
-)]
-pub struct DifferentMachines {
-    /// The first result's name.
-    pub before: String,
-    /// Its machine.
-    pub before_machine: String,
-    /// The second result's name.
-    pub after: String,
-    /// Its machine.
-    pub after_machine: String,
+pub enum NotComparable {
+    /// They are of different machines.
+    #[error(
+        "{before} is a result of machine `{before_machine}`, {after} of `{after_machine}`: compare results of one machine"
+    )]
+    DifferentMachines {
+        /// The first result's name.
+        before: String,
+        /// Its machine.
+        before_machine: String,
+        /// The second result's name.
+        after: String,
+        /// Its machine.
+        after_machine: String,
+    },
+    /// They are of different tests, which see the errors through different
+    /// designs (what one cannot identify the other may, each with its own
+    /// biases): their difference is no change of the machine.
+    #[error(
+        "{before} is a result of the {before_test} test, {after} of the {after_test} test: compare results of one test (measure the compensated machine with the test of the result before)"
+    )]
+    DifferentTests {
+        /// The first result's name.
+        before: String,
+        /// Its test.
+        before_test: String,
+        /// The second result's name.
+        after: String,
+        /// Its test.
+        after_test: String,
+    },
+    /// One of them is no fit: its values are biased by more than their u
+    /// (a misfit) or no estimate at all (not converged).
+    #[error(
+        "{name}: its verdict is {verdict}: its values are not right within their u, so no change can be told from them. Compare results whose verdict is fits"
+    )]
+    NotAFit {
+        /// The result's name.
+        name: String,
+        /// Its verdict.
+        verdict: crate::errorfile::FitVerdict,
+    },
 }
 
 impl Comparison {
@@ -86,15 +116,46 @@ impl Comparison {
         before: (&str, &ErrorFile),
         after: (&str, &ErrorFile),
         limits: Option<&AcceptanceLimits>,
-    ) -> Result<Comparison, DifferentMachines> {
+    ) -> Result<Comparison, NotComparable> {
+        for (name, f) in [before, after] {
+            if let Some(fit) = &f.fit
+                && !fit.verdict.is_fit()
+            {
+                return Err(NotComparable::NotAFit {
+                    name: name.to_string(),
+                    verdict: fit.verdict,
+                });
+            }
+        }
+        Comparison::unjudged(before, after, limits)
+    }
+
+    /// [`Comparison::new`] without refusing results that do not fit: for a
+    /// caller that states each result's verdict beside the comparison (the
+    /// demo). Still refuses results of different machines or tests.
+    pub fn unjudged(
+        before: (&str, &ErrorFile),
+        after: (&str, &ErrorFile),
+        limits: Option<&AcceptanceLimits>,
+    ) -> Result<Comparison, NotComparable> {
         let (bn, b) = before;
         let (an, a) = after;
         if b.machine != a.machine {
-            return Err(DifferentMachines {
+            return Err(NotComparable::DifferentMachines {
                 before: bn.to_string(),
                 before_machine: b.machine.clone(),
                 after: an.to_string(),
                 after_machine: a.machine.clone(),
+            });
+        }
+        if let (Some(bt), Some(at)) = (&b.test, &a.test)
+            && bt != at
+        {
+            return Err(NotComparable::DifferentTests {
+                before: bn.to_string(),
+                before_test: bt.clone(),
+                after: an.to_string(),
+                after_test: at.clone(),
             });
         }
         // The values side by side and the change with its combined u, as
@@ -218,5 +279,47 @@ mod tests {
         assert!(text.contains("1 of 3 errors within"), "{text}");
         let other = file("machine: n\n");
         assert!(Comparison::new(("r1", &b), ("r3", &other), None).is_err());
+    }
+
+    /// A stepped-square result against a probe-sphere one, or a misfit
+    /// against anything: refused, naming both tests or the result.
+    #[test]
+    fn other_tests_and_results_that_do_not_fit_are_refused() {
+        let ss = file(
+            "machine: m\ntest: stepped-square\nlocation_errors: {EX0B: {value: 12.0, u: 0.3}}\n",
+        );
+        let ps =
+            file("machine: m\ntest: probe-sphere\nlocation_errors: {EX0B: {value: 0.2, u: 0.4}}\n");
+        let e = Comparison::new(("ss.yaml", &ss), ("ps.yaml", &ps), None).unwrap_err();
+        assert!(matches!(e, NotComparable::DifferentTests { .. }));
+        assert!(
+            e.to_string().starts_with(
+                "ss.yaml is a result of the stepped-square test, ps.yaml of the probe-sphere test"
+            ),
+            "{e}"
+        );
+        let fit = |verdict: &str| {
+            format!(
+                "fit: {{sigma_um: 2.5, expected_um: 0.35, expected_from: x, ratio: 7.1, dof: 100, p_value: 0.0, verdict: {verdict}}}\n"
+            )
+        };
+        let misfit = file(&format!(
+            "machine: m\ntest: stepped-square\nlocation_errors: {{EX0B: {{value: 0.2, u: 0.4}}}}\n{}",
+            fit("misfit")
+        ));
+        let e = Comparison::new(("ss.yaml", &ss), ("after.yaml", &misfit), None).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("after.yaml: its verdict is misfit"),
+            "{e}"
+        );
+        let stopped = file(&format!("machine: m\n{}", fit("not-converged")));
+        let e = Comparison::new(("stopped.yaml", &stopped), ("ss.yaml", &ss), None).unwrap_err();
+        assert!(e.to_string().contains("not-converged"), "{e}");
+        let fits = file(&format!(
+            "machine: m\ntest: stepped-square\nlocation_errors: {{EX0B: {{value: 0.2, u: 0.4}}}}\n{}",
+            fit("fits")
+        ));
+        assert!(Comparison::new(("ss.yaml", &ss), ("after.yaml", &fits), None).is_ok());
     }
 }

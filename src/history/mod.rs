@@ -47,6 +47,8 @@ pub struct SeriesPoint {
     pub kind: RecordKind,
     /// The result's fit verdict.
     pub fit: Option<FitVerdict>,
+    /// The test the result comes from, when recorded.
+    pub test: Option<String>,
     /// The value.
     pub value: f64,
     /// Its standard uncertainty.
@@ -154,6 +156,7 @@ impl History {
                         at: r.record.measured_at,
                         kind: r.record.kind,
                         fit: r.record.fit,
+                        test: r.record.test.clone(),
                         value: q.value,
                         u: q.u,
                     });
@@ -173,18 +176,43 @@ impl History {
     /// there, so the values before it belong to another machine state),
     /// with an uncertainty.
     pub fn current(&self, s: &SymbolHistory) -> Vec<TrendSample> {
+        self.basis(s).samples
+    }
+
+    /// What a trend of `s` is fitted to: the results since the last export
+    /// with an uncertainty, that fit their measurements (a misfit's or a
+    /// stopped fit's values are biased by more than their u), and of one
+    /// test, the latest result's (another test sees the errors through
+    /// another design, with other biases); and what was left out.
+    pub fn basis(&self, s: &SymbolHistory) -> TrendBasis {
         let after = self.exports.last().map(|e| e.at);
-        s.points
+        let since: Vec<&SeriesPoint> = s
+            .points
             .iter()
             .filter(|p| after.is_none_or(|t| p.at > t))
-            .filter_map(|p| {
-                p.u.filter(|u| *u > 0.0).map(|u| TrendSample {
-                    at: p.at,
-                    value: p.value,
-                    u,
-                })
+            .filter(|p| p.u.is_some_and(|u| u > 0.0))
+            .collect();
+        let fitting: Vec<&SeriesPoint> = since
+            .iter()
+            .copied()
+            .filter(|p| p.fit.is_none_or(FitVerdict::is_fit))
+            .collect();
+        let test = fitting.last().and_then(|p| p.test.clone());
+        let samples: Vec<TrendSample> = fitting
+            .iter()
+            .filter(|p| p.test == test)
+            .map(|p| TrendSample {
+                at: p.at,
+                value: p.value,
+                u: p.u.unwrap_or(0.0),
             })
-            .collect()
+            .collect();
+        TrendBasis {
+            not_fits: since.len() - fitting.len(),
+            other_tests: fitting.len() - samples.len(),
+            samples,
+            test,
+        }
     }
 
     /// The outlook of every series against `limits`.
@@ -194,6 +222,19 @@ impl History {
             .map(|s| (s, trend::outlook(&self.current(s), limits.get(&s.symbol))))
             .collect()
     }
+}
+
+/// The results a trend is fitted to ([`History::basis`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrendBasis {
+    /// The samples, oldest first.
+    pub samples: Vec<TrendSample>,
+    /// Their test (the latest fitting result's), when recorded.
+    pub test: Option<String>,
+    /// Results left out because they did not fit (misfit, not converged).
+    pub not_fits: usize,
+    /// Fitting results left out because they are of another test.
+    pub other_tests: usize,
 }
 
 /// A date-time as printed: minutes, UTC.
@@ -301,10 +342,38 @@ pub fn render_outlooks(h: &History, limits: &AcceptanceLimits) -> String {
         let lim = limits
             .get(sym)
             .map_or(String::new(), |l| format!(" (limit {l} {u})"));
+        let basis = h.basis(series);
+        let mut left = Vec::new();
+        if basis.not_fits > 0 {
+            left.push(format!(
+                "{} that do not fit (misfit or not converged)",
+                basis.not_fits
+            ));
+        }
+        if basis.other_tests > 0 {
+            left.push(format!("{} of other tests", basis.other_tests));
+        }
+        if !left.is_empty() {
+            let _ = writeln!(
+                s,
+                "  {sym:<10} left out: {}{}",
+                left.join(", "),
+                basis
+                    .test
+                    .as_ref()
+                    .map_or(String::new(), |t| format!(" (trend of the {t} results)"))
+            );
+        }
         let _ = match o {
             O::TooFew { n } => writeln!(
                 s,
                 "  {sym:<10} {n} result(s) with u: too few for a trend (3 needed){lim}"
+            ),
+            O::TooShort { n, days } => writeln!(
+                s,
+                "  {sym:<10} {n} results over {:.2} days: too short for a trend ({} day(s) needed){lim}",
+                days,
+                trend::MIN_SPAN_DAYS
             ),
             O::NoTrend { line } => writeln!(
                 s,

@@ -170,6 +170,11 @@ pub enum Forecast {
     },
 }
 
+/// The shortest span of results a trend is fitted over, days: results
+/// taken minutes apart say nothing about a drift per day (three of them
+/// once gave "+20760 um/day").
+pub const MIN_SPAN_DAYS: f64 = 1.0;
+
 /// What the series says.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Outlook {
@@ -177,6 +182,13 @@ pub enum Outlook {
     TooFew {
         /// How many there are.
         n: usize,
+    },
+    /// The results span less than [`MIN_SPAN_DAYS`].
+    TooShort {
+        /// How many there are.
+        n: usize,
+        /// The days from the first to the last.
+        days: f64,
     },
     /// The slope is within its 95 % bound of zero.
     NoTrend {
@@ -197,6 +209,10 @@ pub fn outlook(samples: &[TrendSample], limit: Option<Limit>) -> Outlook {
     let n = samples.len();
     if n < 3 {
         return Outlook::TooFew { n };
+    }
+    let days = days_between(samples[0].at, samples[n - 1].at);
+    if days < MIN_SPAN_DAYS {
+        return Outlook::TooShort { n, days };
     }
     let line = (0..=n - 3)
         .filter_map(|k| TrendLine::fit(&samples[k..]))
@@ -370,6 +386,23 @@ mod tests {
             }
         ));
         assert_eq!(outlook(&fall[..2], None), Outlook::TooFew { n: 2 });
+    }
+
+    /// Three results minutes apart, from 0 to 20 um: no trend is drawn
+    /// from them, however steep (they once made "+20760 um/day").
+    #[test]
+    fn results_minutes_apart_are_too_short_for_a_trend() {
+        let s: Vec<TrendSample> = (0..3)
+            .map(|k| TrendSample {
+                at: add_days(day(0.0), k as f64 * 5.0 / 1440.0).unwrap(),
+                value: 10.0 * k as f64,
+                u: 0.5,
+            })
+            .collect();
+        match outlook(&s, Some(Limit::symmetric(5.0))) {
+            Outlook::TooShort { n: 3, days } => assert!((days - 10.0 / 1440.0).abs() < 1e-9),
+            o => panic!("{o:?}"),
+        }
     }
 
     /// The forecast's u against a Monte Carlo of the fitted line: the

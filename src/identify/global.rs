@@ -342,6 +342,12 @@ pub struct Judged {
     /// Whether the fit of what is not held (nuisance, setup, placement,
     /// what the method does not report) converged.
     pub converged: bool,
+    /// What the points say about the held parameters once everything free
+    /// is fitted: `J_h^T (I - P_f) J_h` (um^2 per unit^2, held parameters
+    /// in model order), the information a least-squares fit of them would
+    /// have. A method's estimate off the least-squares one by `d` adds
+    /// `d^T I d` to the squared residuals.
+    pub information: DMatrix<f64>,
 }
 
 /// Fits every measured point to the complete model `fm`, the model
@@ -410,7 +416,11 @@ pub fn judge_at(
             converged: true,
         }
     } else {
-        lsq::solve_ranked(&problem, &x0, Some(&free), opts, Some(nominal.rank))
+        // Along the directions the free parameters' own design sees at the
+        // nominal machine: the setups of probed pieces have combinations
+        // no touch sees, which a fit would otherwise wander along.
+        let seen = lsq::design(&j0, Some(&free), opts.rank_rtol).rank;
+        lsq::solve_ranked(&problem, &x0, Some(&free), opts, Some(seen))
     };
     if !sol.cost.is_finite() {
         return Err(match problem.error.borrow_mut().take() {
@@ -420,11 +430,34 @@ pub fn judge_at(
             }
         });
     }
+    // The Jacobian at the solution, split into held and free columns.
+    let mut r = vec![0.0; data.obs.len()];
+    let mut j = Mat::<f64>::zeros(data.obs.len(), n + extra);
+    problem.eval(&sol.x, &mut r, Some(&mut j));
+    let j = lsq::to_nalgebra(&j);
+    let held_cols: Vec<usize> = (0..n).filter(|&i| held[i]).collect();
+    let free_cols: Vec<usize> = (0..n + extra).filter(|&i| i >= n || !held[i]).collect();
+    let jh = j.select_columns(&held_cols);
+    let jh_perp = if free_cols.is_empty() {
+        jh
+    } else {
+        let jf = j.select_columns(&free_cols);
+        let svd = jf.svd(true, false);
+        let smax = svd.singular_values.iter().fold(0.0f64, |a, &v| a.max(v));
+        let u = svd.u.expect("U asked for");
+        let keep: Vec<usize> = (0..svd.singular_values.len())
+            .filter(|&k| svd.singular_values[k] > opts.rank_rtol * smax)
+            .collect();
+        let ur = u.select_columns(&keep);
+        let proj = &ur * (ur.transpose() * &jh);
+        jh - proj
+    };
     Ok(Judged {
         residuals: sol.residuals,
         cost: sol.cost,
         dof,
         converged: sol.converged,
+        information: jh_perp.transpose() * &jh_perp,
     })
 }
 

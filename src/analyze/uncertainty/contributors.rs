@@ -15,7 +15,10 @@
 //! Not mapped, because the foundation has no effect for them: the periodic
 //! terms of positioning and straightness (0.5 um in Ibaraki & Ota 2014), the angular
 //! errors of the linear axes (25 urad periodic in Ibaraki & Ota 2014) and the
-//! non-systematic positioning error `E_XX,rand` of Ibaraki, Iritani & Matsushita 2013, eq. 19. They are
+//! non-systematic positioning error `E_XX,rand` of Ibaraki, Iritani & Matsushita 2013, eq. 19; nor
+//! the influence of the test pieces' surface roughness on probing (1 um per test piece in
+//! Ibaraki, Iritani & Matsushita 2013, table 4), which the table does not say varies per touch or
+//! per face, so the preset leaves it out rather than guess. They are
 //! listed in [`Contributors::unmapped`] so a report can say so. The scan of
 //! Ibaraki, Iritani & Matsushita 2013, table 4 gives the linear error as "1 um/mm", which cannot be
 //! right for a machining centre; the preset reads it as 1 um/100 mm.
@@ -129,13 +132,14 @@ impl Contributors {
         }
     }
 
-    /// The contributors of the papers' tables that no foundation effect
-    /// represents (see the module documentation).
+    /// The contributors of the papers' tables the presets leave out (see
+    /// the module documentation); a study prints them as not included.
     pub fn unmapped() -> &'static [&'static str] {
         &[
             "periodic terms of positioning and straightness (Ibaraki & Ota 2014: 0.5 um)",
             "angular errors of the linear axes (Ibaraki & Ota 2014: 25 urad periodic)",
             "non-systematic positioning error E_XX,rand (Ibaraki, Iritani & Matsushita 2013, eq. 19)",
+            "influence of the test pieces' surface roughness on probing (Ibaraki, Iritani & Matsushita 2013, table 4: 1 um per test piece; the table does not say whether it varies per touch or per face, so it is left out rather than guessed)",
         ]
     }
 

@@ -315,8 +315,14 @@ pub struct CompensateArgs {
     /// lacks, so it is refused unless this is given.
     #[arg(long)]
     accept_misfit: bool,
-    /// With --export: the export is recorded in the results store (the
-    /// control was changed), which `fivecal history` marks.
+    /// With --export: the values were entered into the control (now, or
+    /// at --measured-at): the export is recorded in the results store as
+    /// the point where the control was changed, which `fivecal history`
+    /// and `fivecal verify --machine` start from. Without it an export is
+    /// a preview and is not recorded.
+    #[arg(long)]
+    entered: bool,
+    /// With --export --entered: where and what to record.
     #[command(flatten)]
     record: super::record::RecordArgs,
 }
@@ -331,6 +337,7 @@ pub struct Config {
     export: Option<(Dialect, Option<PathBuf>)>,
     limits: export::Limits,
     record: super::record::Recording,
+    entered: bool,
 }
 
 /// `LEN[,ANG]` of --max-change and --max-u: a length in mm and an angle in
@@ -515,6 +522,37 @@ impl CompensateArgs {
                 "{flag} goes with a record, and compensate records only an export (--export): a rewritten program is not recorded"
             );
         }
+        if let Some((Dialect::Sinumerik, _)) = &export
+            && common.machine.sinumerik.is_none()
+        {
+            // Named, never pasted: the file is the user's own.
+            let fix = match &common.machine_origin {
+                MachineOrigin::File(p) => {
+                    format!("add `sinumerik: {{swivel_record: N}}` to {}", p.display())
+                }
+                MachineOrigin::BuiltIn => format!(
+                    "copy it with `fivecal machine new NAME --from {}` and add `sinumerik: {{swivel_record: N}}` to the copy",
+                    common.machine.name
+                ),
+            };
+            bail!(
+                "--export sinumerik: {} ({}) does not say which swivel data record holds its kinematics: {fix} (N as in TCARR=N, the record CYCLE800 and CYCLE996 use); nothing written",
+                common.machine_origin,
+                common.machine.name
+            );
+        }
+        if export.is_none() && self.entered {
+            bail!(
+                "--entered says an export's values were entered into the control: give --export CONTROLLER"
+            );
+        }
+        if !self.entered
+            && let Some(flag) = self.record.first_given()
+        {
+            bail!(
+                "{flag} goes with a record, and an export is recorded only once its values are in the control: add --entered"
+            );
+        }
         // The store first: it is an input the outputs may not name.
         let record = self.record.validate()?;
         check_outputs(&inputs, &outputs)?;
@@ -530,6 +568,7 @@ impl CompensateArgs {
                 u_mrad,
             },
             record,
+            entered: self.entered,
             common,
             errors_path: self.errors,
             errors,
@@ -544,9 +583,10 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     let cfg = args.validate()?;
     // An export changes the control: kept in the store, opened first so an
     // unreachable store stops the run before anything is written.
+    // A preview (no --entered) changes nothing and is not recorded.
     let mut recorder = match &cfg.export {
-        Some(_) => Some(cfg.record.open()?),
-        None => None,
+        Some(_) if cfg.entered => Some(cfg.record.open()?),
+        _ => None,
     };
     // The export is computed before the program is rewritten: refused (a
     // limit, a stroke, nothing held), the run writes nothing at all.
@@ -691,6 +731,11 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
             eprintln!("{s}")
         }
     };
+    if !cfg.entered {
+        note(
+            "not recorded: a preview changes no control; once these values are entered, give the same command with --entered to record the change in the history".to_string(),
+        );
+    }
     let without = exported.without_u();
     if !without.is_empty() {
         note(format!(

@@ -96,8 +96,13 @@ fn from_file(p: &Path) -> anyhow::Result<(String, ErrorFile)> {
 
 fn from_record(r: &Stored) -> anyhow::Result<(String, ErrorFile)> {
     let name = format!("record {} ({})", r.id, r.record.result_name);
-    let f = ErrorFile::parse(Path::new(&name), &r.record.content)
+    let mut f = ErrorFile::parse(Path::new(&name), &r.record.content)
         .with_context(|| format!("record {} is not an error file", r.id))?;
+    // A result written before result files named their test: the
+    // record's.
+    if f.test.is_none() {
+        f.test = r.record.test.clone();
+    }
     Ok((name, f))
 }
 
@@ -117,29 +122,51 @@ fn from_store(
         .filter(|r| r.record.kind != RecordKind::Export && !h.superseded.contains(&r.id))
         .filter(|r| fivecal::history::location_errors(&r.record.content).is_some())
         .collect();
+    // The result after (the latest), and before it the latest of the same
+    // test: another test sees the errors through another design.
+    let same_test = |a: &Stored, b: &Stored| a.record.test == b.record.test;
     let pick = match h.exports.last() {
         Some(e) => {
-            let before = results.iter().rev().find(|r| r.record.measured_at <= e.at);
             let after = results.iter().rev().find(|r| r.record.measured_at > e.at);
-            match (before, after) {
-                (Some(b), Some(a)) => (*b, *a),
-                (None, _) => bail!(
-                    "machine `{machine}`: no result before its last export (record {})",
-                    e.id
-                ),
-                (_, None) => bail!(
+            let Some(after) = after else {
+                bail!(
                     "machine `{machine}`: no result after its last export (record {}): measure the compensated machine first",
                     e.id
+                )
+            };
+            let before = results
+                .iter()
+                .rev()
+                .find(|r| r.record.measured_at <= e.at && same_test(r, after));
+            match before {
+                Some(b) => (*b, *after),
+                None => bail!(
+                    "machine `{machine}`: no result of the {} test before its last export (record {}) to compare record {} with",
+                    after.record.test.as_deref().unwrap_or("same"),
+                    e.id,
+                    after.id
                 ),
             }
         }
-        None => match results.as_slice() {
-            [.., b, a] => (*b, *a),
-            _ => bail!(
-                "machine `{machine}` has {} result(s) with location errors in the store: verify needs two",
-                results.len()
-            ),
-        },
+        None => {
+            let Some(after) = results.last() else {
+                bail!(
+                    "machine `{machine}` has no result with location errors in the store: verify needs two"
+                );
+            };
+            match results[..results.len() - 1]
+                .iter()
+                .rev()
+                .find(|r| same_test(r, after))
+            {
+                Some(b) => (*b, *after),
+                None => bail!(
+                    "machine `{machine}` has no earlier result of the {} test than record {}: verify needs two of one test",
+                    after.record.test.as_deref().unwrap_or("same"),
+                    after.id
+                ),
+            }
+        }
     };
     Ok((from_record(pick.0)?, from_record(pick.1)?))
 }
