@@ -1,8 +1,8 @@
-//! Contour errors (Jiang et al. 2013 (docs/references.md)): the distance of each measured point to the
+//! Contour errors (Jiang et al. 2013): the distance of each measured point to the
 //! design surface of a part model, as `fivecal analyze contour` reports it.
 //!
 //! The model is a triangle mesh read from OBJ (tobj) or glTF/GLB (gltf, with
-//! node transforms applied); the CMM's frame is the model's (Jiang et al. 2013 (docs/references.md)
+//! node transforms applied); the CMM's frame is the model's (Jiang et al. 2013
 //! measured with "the measure base defined as design model base"). Each
 //! point's distance is exact to the mesh: the closest point on the closest
 //! triangle, found through a bounding-volume hierarchy. Its sign comes from

@@ -70,7 +70,7 @@ pub(crate) const TEMPLATE_FUEL: u64 = 100_000;
 
 /// Finest sampling step of `simulate nc --step`, mm.
 pub const MIN_SAMPLE_STEP_MM: f64 = 0.001;
-/// Most samples `simulate nc` keeps for `--output` or `--cmm`.
+/// Most samples `simulate nc` keeps for `-o/--out` or `--cmm`.
 pub const MAX_SAMPLES: usize = 2_000_000;
 /// Finest `compensate --tolerance`, um (below any control's resolution).
 pub const MIN_TOLERANCE_UM: f64 = 0.01;

@@ -11,6 +11,7 @@ mod cli;
 mod compensate;
 mod compensate_cli;
 mod contour;
+mod controller_semantics;
 mod discover;
 mod discover_ambiguity;
 mod discover_cli;

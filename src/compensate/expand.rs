@@ -6,7 +6,9 @@
 //! expression word replaced by the literal value it had then (in the
 //! dialect's own number format); labels, jumps, loops, branches and calls
 //! are dropped; assignments are kept as they run (a cycle definition or a
-//! call may still read a parameter), as are the header, comments and
+//! call may still read a parameter; on LinuxCNC with the value they had
+//! written in, since a subroutine's may read the arguments of a call that
+//! is gone), as are the header, comments and
 //! every block that is not macro logic. HEIDENHAIN blocks are numbered
 //! again in order. Each written block keeps the line of the block it
 //! comes from, so what the rewrite reports names the source line.
@@ -172,25 +174,49 @@ pub(super) fn flatten<E: From<SourceError>>(
                 kept = true;
             }
             for wv in &trace.values[step.values.0 as usize..step.values.1 as usize] {
-                let TokenKind::Word(w) = block.tokens[wv.token as usize].kind else {
-                    continue;
-                };
-                if let Some(v) = wv.value {
-                    // No control takes `X=inf`: a value the logic computes
-                    // beyond every number (R1=EXP(1000)) ends the run here,
-                    // with its line, before it is written.
-                    if !v.is_finite() {
-                        return Err(SourceError::new(
-                            path,
-                            block.line,
-                            0,
-                            format!(
-                                "a word's value computes to {v}, which is not a number a control can take: nothing written"
-                            ),
-                        )
-                        .into());
+                let tok = &block.tokens[wv.token as usize];
+                // No control takes `X=inf`: a value the logic computes
+                // beyond every number (R1=EXP(1000)) ends the run here,
+                // with its line, before it is written.
+                if let Some(v) = wv.value
+                    && !v.is_finite()
+                    && matches!(tok.kind, TokenKind::Word(_) | TokenKind::Expr)
+                {
+                    return Err(SourceError::new(
+                        path,
+                        block.line,
+                        0,
+                        format!(
+                            "a word's value computes to {v}, which is not a number a control can take: nothing written"
+                        ),
+                    )
+                    .into());
+                }
+                match (tok.kind, wv.value) {
+                    (TokenKind::Word(w), Some(v)) => {
+                        edits.replace(w.value_span, |o| literal(o, dialect, w.addr, v));
                     }
-                    edits.replace(w.value_span, |o| literal(o, dialect, w.addr, v));
+                    // A LinuxCNC assignment keeps the value it had: its
+                    // right-hand side may read a call's arguments, which
+                    // the flattened program no longer passes.
+                    (TokenKind::Expr, Some(v)) => {
+                        edits.replace(tok.span, |o| {
+                            lexeme::write(
+                                o,
+                                v,
+                                DECIMALS,
+                                &NumStyle {
+                                    point: true,
+                                    ..NumStyle::default()
+                                },
+                                WriteRules {
+                                    force_point: true,
+                                    force_plus: false,
+                                },
+                            )
+                        });
+                    }
+                    _ => {}
                 }
             }
         }

@@ -8,7 +8,10 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::acceptance::AcceptanceLimits;
-use super::{Dialect, MCodes, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolKind};
+use super::{
+    Dialect, MCodes, Machine, Probe, Rapid, RotaryAxis, Structure, Table, Tool, ToolChange,
+    ToolKind,
+};
 use crate::geom::Axis3;
 use crate::limits::{
     MAX_MACHINE_MM, MAX_PLAN_MM, MIN_PLAN_MM, RAPID_LINEAR_MM_PER_MIN, RAPID_ROTARY_DEG_PER_MIN,
@@ -63,6 +66,10 @@ pub struct MachineFile {
     /// optional (`compensate --integer-unit` overrides it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub integer_unit: Option<IntegerUnit>,
+    /// The axes a tool change may move, optional (default: the linear
+    /// axes and the head's rotary axes, none of the table's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_change: Option<ToolChangeFile>,
     /// Where a SINUMERIK control holds this machine's kinematics,
     /// optional (`compensate --export sinumerik` needs it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -104,6 +111,54 @@ impl IntegerUnit {
             IntegerUnit::TenthUm => 1e-4,
         }
     }
+}
+
+/// `tool_change:` as written: `{moves: [X, Y, Z, B]}`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolChangeFile {
+    /// The axes the machine builder's tool change sequence may move.
+    pub moves: Vec<String>,
+}
+
+/// `tool_change:` validated: each entry X, Y, Z or one of the machine's
+/// rotary axes, none twice; absent, the default for the structure.
+fn tool_change(
+    f: &MachineFile,
+    structure: Structure,
+    tilt: char,
+    err: KeyError<'_>,
+) -> Result<ToolChange, SourceError> {
+    let Some(t) = &f.tool_change else {
+        return Ok(ToolChange::default_for(structure, tilt));
+    };
+    let mut moves = Vec::new();
+    for item in &t.moves {
+        let a = item.trim().to_ascii_uppercase();
+        let letter = match a.as_bytes() {
+            [c] if b"XYZ".contains(c) || *c as char == tilt || *c == b'C' => *c as char,
+            _ => {
+                return Err(err(
+                    &["tool_change", "moves"],
+                    format!(
+                        "`{}` is not an axis of this machine: expected X, Y, Z, {tilt} or C",
+                        item.trim()
+                    ),
+                ));
+            }
+        };
+        if moves.contains(&letter) {
+            return Err(err(
+                &["tool_change", "moves"],
+                format!("{letter} is listed twice"),
+            ));
+        }
+        moves.push(letter);
+    }
+    Ok(ToolChange {
+        moves,
+        stated: true,
+    })
 }
 
 /// The M functions a control has beyond its dialect's standard ones, as
@@ -212,6 +267,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         ));
     }
     let m_codes = m_codes(&f.m_codes, &err)?;
+    let tool_change = tool_change(&f, chain.structure, tilt.letter, &err)?;
     if let Some(sk) = f.sinumerik
         && sk.swivel_record == 0
     {
@@ -239,6 +295,7 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
         controller_parameters: f.controller_parameters,
         m_codes,
         integer_unit: f.integer_unit,
+        tool_change,
         sinumerik: f.sinumerik,
         source: src.to_string(),
     })

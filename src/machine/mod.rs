@@ -232,6 +232,47 @@ pub struct MCodes {
     pub known: Vec<u32>,
 }
 
+/// The axes a tool change may move: what the machine builder's tool change
+/// sequence (FANUC's and LinuxCNC's `M6` macro, HEIDENHAIN's `TOOL CALL`
+/// PLC sequence, SINUMERIK's `M6` cycle) moves before the program takes over
+/// again. Each of them is machine-dependent in the vendors' manuals; an axis
+/// not listed keeps its position across the change.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ToolChange {
+    /// Axis letters (X Y Z and the machine's rotary axes), each at most once.
+    pub moves: Vec<char>,
+    /// Whether the machine file stated the list (else it is the default).
+    pub stated: bool,
+}
+
+impl ToolChange {
+    /// The safe default for a structure: the linear axes (the spindle goes
+    /// to its tool change position) and every rotary axis the head carries
+    /// (a swivel head may be turned upright for the changer); a rotary
+    /// table is not turned by a tool change on the machines the vendors
+    /// describe, so its axes keep their positions.
+    pub fn default_for(structure: Structure, tilt: char) -> ToolChange {
+        let mut moves = vec!['X', 'Y', 'Z'];
+        match structure {
+            Structure::TableTable => {}
+            Structure::HeadTable => moves.push(tilt),
+            Structure::HeadHead => {
+                moves.push(tilt);
+                moves.push('C');
+            }
+        }
+        ToolChange {
+            moves,
+            stated: false,
+        }
+    }
+
+    /// Whether a tool change may move this axis.
+    pub fn moves(&self, axis: char) -> bool {
+        self.moves.contains(&axis)
+    }
+}
+
 /// A validated machine.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Machine {
@@ -278,6 +319,9 @@ pub struct Machine {
     /// How its FANUC control reads an axis word without a decimal point
     /// (the file's optional `integer_unit:`); unknown when absent.
     pub integer_unit: Option<file::IntegerUnit>,
+    /// The axes a tool change may move (the file's optional
+    /// `tool_change: {moves: [..]}`; [`ToolChange::default_for`] else).
+    pub tool_change: ToolChange,
     /// Where a SINUMERIK control holds the kinematics (the file's optional
     /// `sinumerik: {swivel_record: N}`).
     pub sinumerik: Option<file::SinumerikFile>,

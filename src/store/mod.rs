@@ -829,7 +829,10 @@ fn insert(c: &mut dyn Conn, r: &Record) -> Result<i64, StoreError> {
             SqlValue::Real(r.temperature),
             SqlValue::opt_text(r.controller.as_deref()),
             SqlValue::opt_text(r.exported.as_deref()),
-            SqlValue::opt_text(r.fit.map(FitVerdict::name)),
+            // The column's check (schema version 2) knows fits and misfit;
+            // a fit that did not converge is kept as unknown there and
+            // read back from the content, which states it.
+            SqlValue::opt_text(r.fit.filter(|f| *f != FitVerdict::NotConverged).map(FitVerdict::name)),
         ],
     )?;
     let id = rows
@@ -925,11 +928,10 @@ fn select(
                     temperature: r[10].real()?,
                     controller: r[11].text_opt()?,
                     exported: r[12].text_opt()?,
-                    fit: r[13]
-                        .text_opt()?
-                        .map(|s| s.parse())
-                        .transpose()
-                        .map_err(StoreError::Corrupt)?,
+                    fit: match r[13].text_opt()? {
+                        Some(s) => Some(s.parse().map_err(StoreError::Corrupt)?),
+                        None => FitVerdict::of_result(&r[8].text_req("content")?),
+                    },
                     files: files.remove(&id).unwrap_or_default(),
                 },
             })

@@ -97,7 +97,13 @@ fn clean_up_on_signals() {
 const BROKEN_PIPE: u8 = 141;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Earlier releases' spellings (`--output`, `simulate nc --program`)
+    // mapped onto the one vocabulary before clap parses, with a note each.
+    let (args, notes) = cmd::vocabulary::normalize(std::env::args_os());
+    let cli = Cli::parse_from(args);
+    for note in notes {
+        eprintln!("{note}");
+    }
     clean_up_on_signals();
     // Every file this run reads is noted, and no output may land on one.
     fivecal::io::guard_inputs();

@@ -498,6 +498,17 @@ impl Runner<'_, '_> {
             };
             let target = eval::param_ref(self.p.dialect, block.bytes(t.span), &self.store());
             let value = self.eval(&self.p.text(i, e.span));
+            if self.p.dialect == Dialect::Linuxcnc
+                && let Some(at) = toks[k..].iter().position(|t| t.kind == TokenKind::Expr)
+            {
+                // The value the assignment gives, for `--expand` to write:
+                // a flattened program has no call whose arguments (#1..)
+                // the right-hand side may read.
+                self.trace.values.push(WordValue {
+                    token: (from + k + at) as u32,
+                    value: value.as_ref().ok().copied(),
+                });
+            }
             if let Ok((key, _)) = target {
                 sets.push((key, value));
             }
@@ -505,6 +516,25 @@ impl Runner<'_, '_> {
         for (k, v) in sets {
             self.vars.set(k, v);
         }
+    }
+
+    /// Whether statement `i` (a FANUC `IF [..] THEN`) assigns the alarm
+    /// variable #3000.
+    fn raises_alarm(&self, i: usize) -> bool {
+        if self.p.dialect != Dialect::Fanuc {
+            return false;
+        }
+        let block = self.p.block(i);
+        let seg = self.p.seg(i);
+        block.tokens[seg.first as usize..seg.end as usize]
+            .iter()
+            .filter(|t| t.kind == TokenKind::Param)
+            .any(|t| {
+                matches!(
+                    eval::param_ref(self.p.dialect, block.bytes(t.span), &self.store()),
+                    Ok((Key::Num(3000), _))
+                )
+            })
     }
 
     fn step(&mut self, i: usize, entering: bool, taken: &mut bool) -> Result<Flow, RunawayError> {
@@ -538,6 +568,19 @@ impl Runner<'_, '_> {
                 self.assignments(i, self.p.seg(i).first as usize);
                 Flow::Next
             }
+            // `IF [..] THEN #3000 = n`: FANUC's macro alarm (Custom Macro
+            // B, system variable #3000: the control stops in alarm state
+            // with that number). It is a stop, not a jump: where the
+            // condition holds nothing after it runs; where it does not,
+            // the program goes on as if the IF were not there, so a
+            // condition that is not known changes nothing that runs.
+            ExecOp::IfThen(c) if self.raises_alarm(i) => match self.cond(c) {
+                Ok(true) => {
+                    *taken = true;
+                    self.halt(i, "the program raises a macro alarm here (#3000)")
+                }
+                Ok(false) | Err(_) => Flow::Next,
+            },
             ExecOp::IfThen(c) => match self.cond(c) {
                 Ok(true) => {
                     *taken = true;

@@ -69,7 +69,7 @@ impl Interpreter {
                             s.m_codes[s.nm] = Some(m);
                             s.nm += 1;
                         }
-                        self.m_function(m, block.tokens[ti].span.start as usize);
+                        self.m_function(m, block.tokens[ti].span.start as usize, block.line);
                     }
                 }
                 b'P' => {
@@ -115,8 +115,21 @@ impl Interpreter {
             // moves the controlled point along the plane's Z only.
             let kept = self.pos;
             self.forget();
+            // FANUC's G43/G44/G49 offset only the tool-axis coordinate
+            // (tool length compensation along Z, FANUC Series 30i/31i-B
+            // operator's manual B-64484EN, "Tool length compensation"):
+            // X and Y mean the same place before and after. LinuxCNC's
+            // tool table may give a tool X and Y offsets as well, which
+            // G43 applies: there they are not known without the table.
+            let length_only = self.cfg.settings.dialect == Dialect::Fanuc
+                && frame_now.1 != old_frame.1
+                && (frame_now.0, frame_now.2, frame_now.3, frame_now.4)
+                    == (old_frame.0, old_frame.2, old_frame.3, old_frame.4)
+                && frame_now.2 == Tcp::Off
+                && !self.tilted;
             let same = |i: usize| {
                 i >= 3
+                    || (length_only && i < 2)
                     || (frame_now.0 == old_frame.0
                         && frame_now.2 == old_frame.2
                         && self.tilted

@@ -41,15 +41,26 @@ impl Interpreter {
                     // Retract along the tool axis: wherever that ends.
                     140 => self.forget(),
                     // The cycle called here ends at its clearance height.
-                    89 | 99 => cycle_call = true,
+                    // M89 calls it after every positioning block from here
+                    // (modal) until M99 (TNC 640 user's manual, "M
+                    // functions": M89 modal cycle call, M99 blockwise).
+                    89 => {
+                        cycle_call = true;
+                        self.hh_modal_call = true;
+                    }
+                    99 => {
+                        cycle_call = true;
+                        self.hh_modal_call = false;
+                    }
                     _ => {}
                 }
-                self.m_function(m, block.tokens[ti].span.start as usize);
+                self.m_function(m, block.tokens[ti].span.start as usize, block.line);
             }
         }
         if matches!(kind, HhKind::Comment | HhKind::Structure) {
             return Event::None;
         }
+        let cycle_call = cycle_call || (self.hh_modal_call && kind == HhKind::L);
         let line_before = self.hh_line_before.take();
         let pending = self.hh_corner.take();
         let tangent = self.hh_tangent.take();
@@ -494,9 +505,10 @@ impl Interpreter {
                 Event::None
             }
             HhKind::L => {
+                let before = self.pos[2];
                 let ev = self.hh_line(block, seg, m91);
                 if cycle_call {
-                    self.pos[2] = None;
+                    self.after_cycle(before);
                     if matches!(ev, Event::Move(_)) && self.hh_cycle.is_some_and(|c| c.is_hole()) {
                         let at = block.tokens[seg.body as usize].span.start as usize;
                         self.note(
@@ -580,7 +592,23 @@ impl Interpreter {
                 Event::Quiet
             }
             HhKind::ToolCall => {
-                self.forget();
+                // TOOL CALL with a tool: the machine builder's tool change
+                // sequence runs, unless that tool is already in the
+                // spindle; without one (`TOOL CALL S2000`, `TOOL CALL Z
+                // S..`) only the spindle data change.
+                let code = super::code_of(self.cfg.settings.dialect, &block.text);
+                match tool_call_tool(&code) {
+                    CalledTool::None => {}
+                    CalledTool::Named(t) if self.hh_tool.as_deref() == Some(t.as_str()) => {}
+                    CalledTool::Named(t) => {
+                        self.tool_change(block.line);
+                        self.hh_tool = Some(t);
+                    }
+                    CalledTool::Parameter => {
+                        self.tool_change(block.line);
+                        self.hh_tool = None;
+                    }
+                }
                 Event::None
             }
             HhKind::CyclCall => {
@@ -592,7 +620,7 @@ impl Interpreter {
                 } else {
                     // CYCL CALL: the cycle runs where the tool is and
                     // leaves it at a clearance of its own.
-                    self.forget();
+                    self.after_cycle(self.pos[2]);
                     Event::None
                 }
             }
@@ -615,6 +643,26 @@ impl Interpreter {
                 Event::None
             }
             _ => Event::None,
+        }
+    }
+
+    /// Where the machining cycle defined last leaves the tool once a
+    /// `CYCL CALL` or `M99`/`M89` ran it (`z_before`: the tool-axis
+    /// position it started from). The machining cycles move the linear
+    /// axes of the working plane only, never a rotary axis. A drilling
+    /// cycle ends on the hole's axis (X and Y as before) at the height
+    /// [`CycleDef::end_height`] gives; any other leaves X, Y and Z where
+    /// its own parameters put them.
+    fn after_cycle(&mut self, z_before: Option<f64>) {
+        let Some(cycle) = self.hh_cycle else {
+            // No cycle defined: the control's error, nothing moves.
+            return;
+        };
+        self.pole = None;
+        match cycle.end_height(z_before) {
+            Some(z) if self.plane == ArcPlane::Xy => self.pos[2] = Some(z),
+            _ if cycle.ends_on_axis() && self.plane == ArcPlane::Xy => self.pos[2] = None,
+            _ => self.pos[..3].fill(None),
         }
     }
 
@@ -693,15 +741,42 @@ impl Interpreter {
                 self.plane_unmodelled(block.line, at, "a datum shift inside the tilted plane");
             }
             (7, s) if s >= 1 => {
+                let known_before = self.shift_known;
                 if hash {
                     self.shift_known = false;
                 }
+                let before = self.shift;
+                let mut expr = false;
+                let mut absolute = [false; 3];
                 for w in &words {
-                    if let Some(i) = self.axis_index(w.addr).filter(|&i| i < 3)
-                        && let Value::Num(v) = w.value
-                    {
-                        self.shift[i] = v;
+                    if let Some(i) = self.axis_index(w.addr).filter(|&i| i < 3) {
+                        match w.value {
+                            // An incremental value counts from the shift
+                            // last in force, an absolute one from the
+                            // preset (TNC 640 user's manual, cycle 7
+                            // DATUM SHIFT).
+                            Value::Num(v) if w.incremental => self.shift[i] += v,
+                            Value::Num(v) => {
+                                self.shift[i] = v;
+                                absolute[i] = true;
+                            }
+                            _ => {
+                                expr = true;
+                                self.shift_known = false;
+                            }
+                        }
                     }
+                }
+                // An incremental value the words do not carry (`IX+5`
+                // read otherwise) would be taken as absolute: unknown.
+                let code = super::code_of(self.cfg.settings.dialect, &block.text);
+                if code
+                    .windows(2)
+                    .any(|w| w[0] == b'I' && matches!(w[1], b'X' | b'Y' | b'Z'))
+                    && !words.iter().any(|w| w.incremental)
+                {
+                    expr = true;
+                    self.shift_known = false;
                 }
                 // Values written with a space between letter and sign
                 // (`X + 0`) come as text: read them from the raw block.
@@ -720,9 +795,20 @@ impl Interpreter {
                         }
                     }
                 }
-                // The linear positions move with the datum; a rotary axis
-                // keeps its position unless the shift names it.
-                self.pos[..3].fill(None);
+                // The tool stays where it is: its coordinates are the old
+                // ones minus what the datum moved by. A shift from a table
+                // or a parameter is not known, nor then where the tool is.
+                if !hash && !expr && absolute == [true; 3] {
+                    // All three from the preset: known again.
+                    self.shift_known = true;
+                }
+                if hash || expr || !known_before {
+                    self.pos[..3].fill(None);
+                } else {
+                    for i in 0..3 {
+                        self.pos[i] = self.pos[i].map(|p| p - (self.shift[i] - before[i]));
+                    }
+                }
                 self.pole = None;
                 for w in &words {
                     if let Some(i) = self.axis_index(w.addr).filter(|&i| i >= 3) {
@@ -797,6 +883,7 @@ impl Interpreter {
             .into_owned();
         let at = block.tokens[seg.body as usize].span.start as usize;
         let k = super::plane::klartext(&code);
+        self.hh_plane_seq = k.seq;
         let line = block.line;
         match k.plane {
             None => {
@@ -868,8 +955,12 @@ impl Interpreter {
     }
 
     /// `A+Q120`, `B+Q121`, `C+Q122` in a tilted plane: the rotary
-    /// positions the control computed for it (the solution nearest the
-    /// positions before, as without SEQ), when they can be known.
+    /// positions the control computed for it and stored there (TNC 640
+    /// user's manual, "PLANE: automatic positioning": with STAY the
+    /// control only computes the angles, into Q120 to Q122, for a later
+    /// block to move to), when they can be known: the solution whose tilt
+    /// has the sign SEQ+/SEQ- asks for, else the one nearest the
+    /// positions before.
     fn computed_rotary(&self, block: &Block, w: &Word, i: usize) -> Option<f64> {
         let text = block.bytes(w.value_span).to_ascii_uppercase();
         let text = text.strip_prefix(b"+").unwrap_or(&text);
@@ -884,7 +975,10 @@ impl Interpreter {
             &self.cfg.nominal,
             &plane.normal(),
             (self.pos[t], self.pos[5]),
-            super::plane::Choice::Nearest,
+            match self.hh_plane_seq {
+                Some(sign) => super::plane::Choice::Sign { sign, strict: true },
+                None => super::plane::Choice::Nearest,
+            },
         )
         .ok()?;
         match i {
@@ -1334,6 +1428,10 @@ const DEF_ACTIVE: [u32; 12] = [7, 8, 9, 10, 11, 12, 13, 14, 19, 26, 32, 247];
 /// single-lip deep-hole drilling.
 const HOLES: [u32; 9] = [200, 201, 202, 203, 205, 206, 207, 209, 241];
 
+/// The cycles that end at the set-up clearance or the second set-up
+/// clearance above the surface Q203 (see [`CycleDef::end_height`]).
+const ENDS_ABOVE_SURFACE: [u32; 12] = [200, 201, 202, 203, 204, 205, 206, 207, 208, 209, 240, 241];
+
 /// A machining cycle defined by `CYCL DEF`, with the parameters a hole
 /// needs where they are written as numbers.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1346,6 +1444,8 @@ pub struct CycleDef {
     pub depth: Option<f64>,
     /// `Q203`: the surface coordinate.
     pub surface: Option<f64>,
+    /// `Q204`: the second set-up clearance above the surface.
+    pub second_clearance: Option<f64>,
 }
 
 impl CycleDef {
@@ -1388,13 +1488,83 @@ impl CycleDef {
             clearance: q(200),
             depth: q(201),
             surface: q(203),
+            second_clearance: q(204),
         }
+    }
+
+    /// Whether the cycle ends on the axis of the hole it made (the
+    /// drilling, reaming, boring, tapping and centring cycles 1, 200-209,
+    /// 240 and 241).
+    pub fn ends_on_axis(&self) -> bool {
+        self.number == 1 || ENDS_ABOVE_SURFACE.contains(&self.number)
+    }
+
+    /// The tool-axis coordinate the cycle leaves the tool at, when its
+    /// CYCL DEF gives it as numbers: cycles 200-209, 240 and 241 retract
+    /// to the set-up clearance above the surface, or to the second set-up
+    /// clearance when that is the greater ("Q204 only comes into effect if
+    /// its value is greater than the set-up clearance Q200", each cycle's
+    /// run in HEIDENHAIN's cycle programming manuals, TNC 640 / TNC7);
+    /// the old pecking cycle 1 returns to the position it started from
+    /// (`z_before`).
+    pub fn end_height(&self, z_before: Option<f64>) -> Option<f64> {
+        if self.number == 1 {
+            return z_before;
+        }
+        if !ENDS_ABOVE_SURFACE.contains(&self.number) {
+            return None;
+        }
+        let (q200, q203, q204) = (self.clearance?, self.surface?, self.second_clearance?);
+        Some(q203 + q200.max(q204))
     }
 
     /// Whether the cycle drills one hole along the tool axis.
     pub fn is_hole(&self) -> bool {
         HOLES.contains(&self.number)
     }
+}
+
+/// The tool a `TOOL CALL` block names.
+#[derive(Debug, PartialEq, Eq)]
+pub(crate) enum CalledTool {
+    /// None: only the spindle axis, speed, feed or deltas are given.
+    None,
+    /// A number or a quoted name, as written (upper case, a number
+    /// without leading zeros or a fraction of `.0`).
+    Named(String),
+    /// A Q parameter: which tool is not known here.
+    Parameter,
+}
+
+/// The tool of a `TOOL CALL` block (`code`: its text outside comments,
+/// upper case): `TOOL CALL 5 Z S4456`, `TOOL CALL "MILL_D10" Z`,
+/// `TOOL CALL 12.1 Z` (indexed), `TOOL CALL Q5 Z`, `TOOL CALL S2000`.
+pub(crate) fn tool_call_tool(code: &[u8]) -> CalledTool {
+    let text = String::from_utf8_lossy(code);
+    let Some(at) = text.find("TOOL CALL") else {
+        return CalledTool::Parameter;
+    };
+    let rest = text[at + "TOOL CALL".len()..].trim_start();
+    if let Some(name) = rest.strip_prefix('"') {
+        return match name.find('"') {
+            Some(e) => CalledTool::Named(format!("\"{}\"", &name[..e])),
+            None => CalledTool::Parameter,
+        };
+    }
+    let word: String = rest
+        .chars()
+        .take_while(|c| !c.is_whitespace() && *c != '~')
+        .collect();
+    if word.starts_with('Q') {
+        return CalledTool::Parameter;
+    }
+    if word.starts_with(|c: char| c.is_ascii_digit()) {
+        return match word.parse::<f64>() {
+            Ok(v) if v.is_finite() => CalledTool::Named(format!("{v}")),
+            _ => CalledTool::Parameter,
+        };
+    }
+    CalledTool::None
 }
 
 /// The cycle number of a `TCH PROBE n.m` block.

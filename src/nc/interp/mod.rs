@@ -269,6 +269,13 @@ impl std::fmt::Display for Skip {
                 f,
                 "axis value without a decimal point (FANUC reads it in mm or in least input increments by parameter 3401#0; pass --integer-unit or set integer_unit in the machine file)"
             ),
+            // A rotary axis the program never sets stands where the
+            // machine was left: only the user can say where.
+            Skip::PositionUnknown(a @ (b'A' | b'B' | b'C')) => write!(
+                f,
+                "the position of {a} is not known here (not yet programmed: where {a} stands when the program starts is not in the file, give it with --rotary-start {a}=DEG; or forgotten after a jump, call, probe or a tool change that may turn it)",
+                a = *a as char
+            ),
             Skip::PositionUnknown(a) => write!(
                 f,
                 "the position of {} is not known here (not yet programmed, or forgotten after a jump, call, probe or tool change)",
@@ -533,6 +540,8 @@ struct Config {
     kin: Kinematics,
     /// The machine's own M functions.
     m_codes: crate::machine::MCodes,
+    /// The axes a tool change may move (X Y Z A B C).
+    tool_change: [bool; 6],
 }
 
 /// The controller's state along a program.
@@ -637,6 +646,20 @@ pub struct Interpreter {
     pub alarm: Option<Unmodelled>,
     /// A machine-file M function switched TCP in this statement.
     tcp_remapped: bool,
+    /// A tool change (`M6`) in this statement: what it may move is
+    /// forgotten again once the statement's own move is read, since the
+    /// control may run it before or after that move.
+    tool_changed: bool,
+    /// HEIDENHAIN: the tool the last `TOOL CALL` put in the spindle (its
+    /// number or name as written), `None` when not known.
+    pub hh_tool: Option<String>,
+    /// HEIDENHAIN: `M89` is in force (the cycle runs after every
+    /// positioning block).
+    pub hh_modal_call: bool,
+    /// HEIDENHAIN: the SEQ+/SEQ- of the last PLANE block (`None`: none).
+    pub hh_plane_seq: Option<f64>,
+    /// Why the positions were last forgotten by a tool change: its line.
+    pub tool_change_line: Option<usize>,
     /// SINUMERIK block `IF`s open here, innermost last.
     branches: Vec<sinumerik::Branch>,
 }
@@ -654,6 +677,7 @@ impl Interpreter {
             nominal: FastChain::nominal(kin),
             kin: kin.clone(),
             m_codes: m.m_codes.clone(),
+            tool_change: std::array::from_fn(|i| m.tool_change.moves(AXES[i] as char)),
         };
         // A stated start position is where the axis is until the program
         // moves it or forgets it, like any tracked position.
@@ -712,6 +736,11 @@ impl Interpreter {
             unmodelled: None,
             alarm: None,
             tcp_remapped: false,
+            tool_changed: false,
+            hh_tool: None,
+            hh_modal_call: false,
+            hh_plane_seq: None,
+            tool_change_line: None,
             branches: Vec::new(),
         }
     }
@@ -782,6 +811,7 @@ impl Interpreter {
         let tcp_before = self.tcp;
         let plane_before = self.working_plane;
         self.tcp_remapped = false;
+        self.tool_changed = false;
         // The move is changed where it lies below: an event is a kilobyte,
         // and moving it through each step was a quarter of compensate's
         // copying.
@@ -790,6 +820,9 @@ impl Interpreter {
             Dialect::Heidenhain => self.heidenhain(block, seg),
             Dialect::Sinumerik => self.sinumerik(block, seg),
         };
+        if std::mem::take(&mut self.tool_changed) {
+            self.tool_change(block.line);
+        }
         if self.tcp != tcp_before {
             self.tcp_cause = Some(TcpCause {
                 line: block.line,
@@ -984,9 +1017,14 @@ impl Interpreter {
 
     /// An M function: the machine file's TCP codes switch TCP; one that
     /// neither the dialect nor the machine file knows is noted.
-    fn m_function(&mut self, m: u32, offset: usize) {
+    fn m_function(&mut self, m: u32, offset: usize, line: usize) {
         let codes = &self.cfg.m_codes;
-        if codes.tcp_on.contains(&m) {
+        if m == 6 && !codes.tcp_on.contains(&6) && !codes.tcp_off.contains(&6) {
+            // M6 is the tool change in every dialect (HEIDENHAIN's TNC
+            // too, where TOOL CALL is the usual way).
+            self.tool_change(line);
+            self.tool_changed = true;
+        } else if codes.tcp_on.contains(&m) {
             self.tool_length = true;
             self.set_tcp(Tcp::Axes);
             self.tcp_remapped = true;
@@ -1088,6 +1126,21 @@ impl Interpreter {
             self.shift[1] + self.local_shift[1],
             self.shift[2] + self.local_shift[2],
         ]
+    }
+
+    /// A tool change at `line`: the axes the machine file says it may move
+    /// ([`crate::machine::ToolChange`]) are somewhere the program does not
+    /// say afterwards; the others keep their positions.
+    pub(super) fn tool_change(&mut self, line: usize) {
+        for (i, p) in self.pos.iter_mut().enumerate() {
+            if self.cfg.tool_change[i] {
+                *p = None;
+            }
+        }
+        if self.cfg.tool_change[0] || self.cfg.tool_change[1] {
+            self.pole = None;
+        }
+        self.tool_change_line = Some(line);
     }
 
     /// Forgets every tracked position.

@@ -410,10 +410,12 @@ impl Interpreter {
                 b'M' => {
                     if let Value::Num(v) = w.value {
                         let m = v.round() as u32;
-                        self.m_function(m, block.tokens[ti].span.start as usize);
-                        if matches!(m, 6 | 17 | 2 | 30) {
-                            // A tool change moves the axes where the machine
-                            // has its change position.
+                        self.m_function(m, block.tokens[ti].span.start as usize, block.line);
+                        // M6 is the tool change (`m_function`: what the
+                        // machine file says it moves); the subprogram and
+                        // program ends leave the axes where the caller or
+                        // the next program finds them.
+                        if matches!(m, 17 | 2 | 30) {
                             s.call = true;
                         }
                     }

@@ -572,8 +572,10 @@ fn words(lx: &Lexer, b: &mut Block, mut i: usize, seg: &mut Seg) -> Result<usize
                 seg.stmt = Stmt::Assign;
             }
             i = k + len;
-        } else if c.is_ascii_alphabetic() || (!lx.fanuc && (c == b'@' || c == b'^')) {
-            // LinuxCNC's `@` and `^` are the polar distance and angle.
+        } else if c.is_ascii_alphabetic() || (!lx.fanuc && matches!(c, b'@' | b'^' | b'$')) {
+            // LinuxCNC's `@` and `^` are the polar distance and angle,
+            // `$` selects the spindle an M3/M4/M5/S word is for (LinuxCNC
+            // 2.8 and later, G-code reference "Spindle Control"; no axis).
             let letter = c.to_ascii_uppercase();
             let j = lx.spaces(i + 1);
             let (value, style, end) = lx.value(j, letter)?;

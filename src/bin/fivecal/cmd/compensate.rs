@@ -260,7 +260,7 @@ pub struct CompensateArgs {
     #[arg(value_name = "IN")]
     input: Option<PathBuf>,
     /// The rewritten program (never the input; written only when complete).
-    #[arg(short, long, value_name = "OUT")]
+    #[arg(short = 'o', long = "out", value_name = "OUT")]
     output: Option<PathBuf>,
     #[command(flatten)]
     machine: MachineArgs,
@@ -358,6 +358,15 @@ impl CompensateArgs {
     fn validate(self) -> anyhow::Result<Config> {
         let mut common = self.machine.validate()?;
         let errors = load_errors(&self.errors, &common.kin)?;
+        if let Some(f) = errors.not_converged() {
+            // No flag accepts it: values a fit stopped at are no estimate.
+            bail!(
+                "{}: the fit of this result did not converge ({}): its values are no estimate, and nothing is compensated or exported from them. \
+                 Analyze the measurements again (another --method, fewer maps) until the verdict is a fit",
+                self.errors.display(),
+                f.stopped.as_deref().unwrap_or("fit: {verdict: not-converged}")
+            );
+        }
         if let Some(f) = errors.misfit()
             && !self.accept_misfit
         {

@@ -1,5 +1,5 @@
 //! `fivecal analyze contour`: contour errors of CMM points against a part
-//! model (Jiang et al. 2013 (docs/references.md)): each point's signed distance to the design surface,
+//! model (Jiang et al. 2013): each point's signed distance to the design surface,
 //! with mean, maximum and RMS.
 
 use std::fmt::Write as _;
@@ -18,7 +18,7 @@ pub struct ContourArgs {
     #[arg(long, value_name = "CMM.csv")]
     measured: PathBuf,
     /// Write each point's contour error as CSV.
-    #[arg(short, long, value_name = "ERRORS.csv")]
+    #[arg(short = 'o', long = "out", value_name = "ERRORS.csv")]
     output: Option<PathBuf>,
 }
 
@@ -26,7 +26,7 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
     if let Some(o) = &args.output {
         fivecal::io::check_outputs(
             &[&args.model, &args.measured],
-            &[("--output", o, fivecal::io::Shape::File)],
+            &[("--out", o, fivecal::io::Shape::File)],
         )?;
     }
     let mesh = PartMesh::load(&args.model)?;

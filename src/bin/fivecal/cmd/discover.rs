@@ -50,7 +50,7 @@ pub struct DiscoverArgs {
     report: Option<PathBuf>,
     /// Write the final model as an error file (docs/formats.md; JSON if the
     /// name ends in `.json`, else YAML).
-    #[arg(long, value_name = "RESULT.yaml")]
+    #[arg(short, long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,
     /// The instrument's noise per measured point (standard deviation, um)
     /// the final model's fit is judged against, as for `analyze --noise`.

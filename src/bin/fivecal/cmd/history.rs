@@ -48,7 +48,7 @@ enum Action {
         #[arg(long, value_enum, default_value = "csv")]
         format: Format,
         /// The file [default: standard output].
-        #[arg(long, value_name = "FILE")]
+        #[arg(short, long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
     /// Whether each location error drifts, since when, and when it reaches
@@ -58,7 +58,7 @@ enum Action {
     /// verdicts, exports, limits, trend).
     Plot {
         /// The directory of the page (index.html and one SVG per error).
-        #[arg(long, value_name = "DIR")]
+        #[arg(short, long, value_name = "DIR")]
         out: PathBuf,
         #[command(flatten)]
         limits: LimitsArg,

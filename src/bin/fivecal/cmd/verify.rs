@@ -41,7 +41,7 @@ pub struct VerifyArgs {
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
     /// Also write the comparison as YAML (JSON if the name ends in .json).
-    #[arg(long, value_name = "FILE")]
+    #[arg(short, long, value_name = "FILE")]
     out: Option<PathBuf>,
 }
 

@@ -1,0 +1,460 @@
+//! What a controller does with its state at constructs real programs use
+//! (issue 43): each test is a small program in the construct's own syntax,
+//! run through the interpreter `compensate` and `simulate nc` share, and
+//! the positions the controller has afterwards, as its documented
+//! behaviour gives them (sources in docs/nc-semantics.md).
+
+use std::path::Path;
+
+use fivecal::kinematics::Kinematics;
+use fivecal::nc::interp::{Event, Interpreter, InterpreterSettings, Move, Skip};
+use fivecal::nc::{Block, BlockReader, Syntax};
+use fivecal::{Dialect, Machine};
+
+/// The events of `src` in dialect `d` on `machine`, one per statement,
+/// with the line each starts on (HEIDENHAIN: the block number).
+fn run_on(machine: &Machine, src: &str, d: Dialect) -> Vec<(usize, Event)> {
+    let kin = Kinematics::new(machine);
+    let mut m = Interpreter::new(&InterpreterSettings::new(d), &kin);
+    let syn = Syntax {
+        dialect: d,
+        strict: false,
+    };
+    let mut out = Vec::new();
+    let mut r = BlockReader::new(src.as_bytes(), d);
+    let mut b = Block::default();
+    while r.read(&mut b).unwrap() {
+        syn.parse(&mut b).unwrap();
+        let number: String = b
+            .text
+            .iter()
+            .take_while(|c| c.is_ascii_digit())
+            .map(|&c| c as char)
+            .collect();
+        let key = match d {
+            Dialect::Heidenhain => number.parse().unwrap_or(usize::MAX),
+            _ => b.line,
+        };
+        for seg in b.segments.clone() {
+            out.push((key, m.step(&b, &seg)));
+        }
+    }
+    out
+}
+
+fn run(machine: &str, src: &str, d: Dialect) -> Vec<(usize, Event)> {
+    run_on(&Machine::builtin(machine).unwrap(), src, d)
+}
+
+/// The event of the statement on `line` (HEIDENHAIN: block number).
+fn at(events: &[(usize, Event)], line: usize) -> &Event {
+    &events
+        .iter()
+        .find(|(l, _)| *l == line)
+        .unwrap_or_else(|| panic!("no statement on line {line}"))
+        .1
+}
+
+fn mv(events: &[(usize, Event)], line: usize) -> &Move {
+    match at(events, line) {
+        Event::Move(m) => m,
+        other => panic!("line {line} is not a move: {other:?}"),
+    }
+}
+
+/// A built-in machine with a `tool_change:` section added to its file.
+fn with_tool_change(name: &str, moves: &str) -> Machine {
+    let src = Machine::builtin(name).unwrap().source;
+    let src = format!("{src}\ntool_change: {{moves: [{moves}]}}\n");
+    Machine::from_yaml(Path::new("machine.yaml"), &src).unwrap()
+}
+
+mod tool_change {
+    use super::*;
+
+    #[test]
+    fn a_tool_call_keeps_the_table_axes_and_the_same_tool_again_changes_nothing() {
+        // bc-trunnion: B and C turn the table. The second TOOL CALL
+        // changes the tool: the spindle goes to the change position (X Y
+        // Z unknown), the table stays at B+30 C+45. The third calls the
+        // tool already in the spindle with a new speed: nothing moves.
+        let ev = run(
+            "bc-trunnion",
+            "0 BEGIN PGM T MM\n\
+             1 TOOL CALL 1 Z S1000\n\
+             2 L X+0 Y+0 Z+50 B+30 C+45 R0 FMAX\n\
+             3 TOOL CALL 2 Z S2000\n\
+             4 L X+10 Y+10 Z+20 R0 FMAX\n\
+             5 TOOL CALL 2 Z S3000\n\
+             6 L X+20 R0 F100\n\
+             7 TOOL CALL S4000\n\
+             8 L Y+20 R0 F100\n\
+             9 END PGM T MM\n",
+            Dialect::Heidenhain,
+        );
+        let m = mv(&ev, 4);
+        assert_eq!(&m.start[..3], &[None; 3]);
+        assert_eq!((m.start[4], m.start[5]), (Some(30.0), Some(45.0)));
+        assert_eq!(m.end[4], Some(30.0));
+        let m = mv(&ev, 6);
+        assert_eq!(m.start[..3], [Some(10.0), Some(10.0), Some(20.0)]);
+        let m = mv(&ev, 8);
+        assert_eq!(m.start[..3], [Some(20.0), Some(10.0), Some(20.0)]);
+    }
+
+    #[test]
+    fn every_dialect_keeps_the_table_axes_across_m6_and_forgets_the_spindle_s() {
+        for (d, src) in [
+            (
+                Dialect::Fanuc,
+                "G90 G0 X0 Y0 Z50. B30. C45.\nT2 M6\nG0 X10. Y10. Z20.\n",
+            ),
+            (
+                Dialect::Linuxcnc,
+                "G90 G0 X0 Y0 Z50 B30 C45\nT2 M6\nG0 X10 Y10 Z20\n",
+            ),
+            (
+                Dialect::Sinumerik,
+                "G90 G0 X0 Y0 Z50 B30 C45\nT=\"MILL\" M6\nG0 X10 Y10 Z20\n",
+            ),
+        ] {
+            let ev = run("bc-trunnion", src, d);
+            let m = mv(&ev, 3);
+            assert_eq!(&m.start[..3], &[None; 3], "{d}");
+            assert_eq!((m.start[4], m.start[5]), (Some(30.0), Some(45.0)), "{d}");
+        }
+    }
+
+    #[test]
+    fn a_swivel_head_may_be_turned_by_the_change_a_machine_file_says_what_moves() {
+        let src = "G90 G0 X0 Y0 Z50. B30. C45.\nT2 M6\nG0 X10. Y10. Z20.\n";
+        // head-table: B is in the head, C turns the table.
+        let ev = run("head-table", src, Dialect::Fanuc);
+        let m = mv(&ev, 3);
+        assert_eq!((m.start[4], m.start[5]), (None, Some(45.0)));
+        assert_eq!(m.end[4], None);
+        // A machine whose change moves Z only keeps X, Y and the head.
+        let machine = with_tool_change("head-table", "Z");
+        let ev = run_on(&machine, src, Dialect::Fanuc);
+        let m = mv(&ev, 3);
+        assert_eq!(
+            m.start,
+            [Some(0.0), Some(0.0), None, None, Some(30.0), Some(45.0)]
+        );
+        // One that turns the table too forgets it.
+        let machine = with_tool_change("bc-trunnion", "X, Y, Z, B, C");
+        let ev = run_on(&machine, src, Dialect::Fanuc);
+        assert_eq!(mv(&ev, 3).start, [None; 6]);
+    }
+
+    #[test]
+    fn a_machine_file_naming_an_axis_it_lacks_is_refused_at_its_key() {
+        let src = Machine::builtin("bc-trunnion").unwrap().source;
+        let src = format!("{src}\ntool_change: {{moves: [Z, A]}}\n");
+        let e = Machine::from_yaml(Path::new("m.yaml"), &src)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`A` is not an axis of this machine"), "{e}");
+        let src = Machine::builtin("bc-trunnion").unwrap().source;
+        let src = format!("{src}\ntool_change: {{moves: [Z, z]}}\n");
+        let e = Machine::from_yaml(Path::new("m.yaml"), &src)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("Z is listed twice"), "{e}");
+    }
+}
+
+mod cycle_heights {
+    use super::*;
+
+    fn drilling(q200: &str, q204: &str) -> String {
+        format!(
+            "0 BEGIN PGM T MM\n\
+             1 TOOL CALL 1 Z S1000\n\
+             2 L X+0 Y+0 Z+80 B+0 C+0 R0 FMAX\n\
+             3 CYCL DEF 200 DRILLING ~\n\
+             \x20 Q200={q200} ;SET-UP CLEARANCE ~\n\
+             \x20 Q201=-10 ;DEPTH ~\n\
+             \x20 Q206=+150 ;FEED RATE FOR PLNGNG ~\n\
+             \x20 Q202=+5 ;PLUNGING DEPTH ~\n\
+             \x20 Q210=+0 ;DWELL TIME AT TOP ~\n\
+             \x20 Q203=-5 ;SURFACE COORDINATE ~\n\
+             \x20 Q204={q204} ;2ND SET-UP CLEARANCE ~\n\
+             \x20 Q211=+0 ;DWELL TIME AT DEPTH\n\
+             4 L X+10 Y+10 R0 FMAX M99\n\
+             5 L X+20 R0 FMAX\n\
+             6 CYCL CALL\n\
+             7 L Y+20 R0 FMAX\n\
+             8 END PGM T MM\n"
+        )
+    }
+
+    #[test]
+    fn drilling_cycles_end_at_the_greater_clearance_above_the_surface() {
+        // Q203 + Q204 = -5 + 50: the 2nd set-up clearance is the greater.
+        let ev = run("bc-trunnion", &drilling("+2", "+50"), Dialect::Heidenhain);
+        let line = |l| mv(&ev, l).start[..3].to_vec();
+        assert_eq!(line(5), [Some(10.0), Some(10.0), Some(45.0)]);
+        assert_eq!(line(7), [Some(20.0), Some(10.0), Some(45.0)]);
+        // Q204 below Q200 has no effect: Q203 + Q200 = -5 + 2.
+        let ev = run("bc-trunnion", &drilling("+2", "+1"), Dialect::Heidenhain);
+        assert_eq!(mv(&ev, 5).start[2], Some(-3.0));
+        // A Q parameter for the clearance: the height is not known.
+        let ev = run("bc-trunnion", &drilling("+Q5", "+50"), Dialect::Heidenhain);
+        match at(&ev, 5) {
+            Event::Move(m) => assert_eq!(m.end[2], None),
+            other => assert_eq!(other, &Event::Skip(Skip::PositionUnknown(b'Z'))),
+        }
+        // The rotary axes never move in a machining cycle.
+        let ev = run("bc-trunnion", &drilling("+2", "+50"), Dialect::Heidenhain);
+        assert_eq!(mv(&ev, 7).start[4..], [Some(0.0), Some(0.0)]);
+    }
+
+    #[test]
+    fn the_old_pecking_cycle_returns_to_where_it_started_and_m89_calls_after_every_block() {
+        let ev = run(
+            "bc-trunnion",
+            "0 BEGIN PGM T MM\n\
+             1 L X+0 Y+0 Z+2 B+0 C+0 R0 FMAX\n\
+             2 CYCL DEF 1.0 PECKING\n\
+             3 CYCL DEF 1.1 SET UP -2\n\
+             4 CYCL DEF 1.2 DEPTH -20\n\
+             5 CYCL DEF 1.3 PECKG -5\n\
+             6 CYCL DEF 1.4 DWELL 0\n\
+             7 CYCL DEF 1.5 F100\n\
+             8 L X+10 R0 FMAX M89\n\
+             9 L X+20 R0 FMAX\n\
+             10 L X+30 R0 FMAX M99\n\
+             11 L X+40 R0 FMAX\n\
+             12 END PGM T MM\n",
+            Dialect::Heidenhain,
+        );
+        assert_eq!(mv(&ev, 9).start[..3], [Some(10.0), Some(0.0), Some(2.0)]);
+        assert_eq!(mv(&ev, 11).start[..3], [Some(30.0), Some(0.0), Some(2.0)]);
+    }
+
+    #[test]
+    fn a_pocket_cycle_leaves_the_linear_axes_unknown_and_the_rotary_ones_known() {
+        let ev = run(
+            "bc-trunnion",
+            "0 BEGIN PGM T MM\n\
+             1 L X+0 Y+0 Z+20 B+15 C+0 R0 FMAX\n\
+             2 CYCL DEF 251 RECTANGULAR POCKET ~\n\
+             \x20 Q218=+40 ;FIRST SIDE LENGTH ~\n\
+             \x20 Q200=+2 ;SET-UP CLEARANCE ~\n\
+             \x20 Q203=+0 ;SURFACE COORDINATE ~\n\
+             \x20 Q204=+50 ;2ND SET-UP CLEARANCE\n\
+             3 CYCL CALL\n\
+             4 L X+10 Y+10 Z+20 R0 FMAX\n\
+             5 END PGM T MM\n",
+            Dialect::Heidenhain,
+        );
+        let m = mv(&ev, 4);
+        assert_eq!(&m.start[..3], &[None; 3]);
+        assert_eq!(m.start[4], Some(15.0));
+    }
+}
+
+mod tool_length {
+    use super::*;
+
+    #[test]
+    fn fanuc_g43_offsets_only_the_tool_axis_coordinate() {
+        let src = "G90 G0 G54 X10. Y20. B0 C0\nG43 Z50. H1\nG1 Z10. F100.\n";
+        let ev = run("bc-trunnion", src, Dialect::Fanuc);
+        let m = mv(&ev, 2);
+        assert_eq!(m.start[..3], [Some(10.0), Some(20.0), None]);
+        assert_eq!(m.end[..3], [Some(10.0), Some(20.0), Some(50.0)]);
+        // G49 the same way back.
+        let ev = run(
+            "bc-trunnion",
+            "G90 G0 G43 H1 X10. Y20. Z50. B0 C0\nG49 Z100.\n",
+            Dialect::Fanuc,
+        );
+        assert_eq!(mv(&ev, 2).end[..2], [Some(10.0), Some(20.0)]);
+    }
+
+    #[test]
+    fn linuxcnc_g43_may_offset_x_and_y_by_the_tool_table_so_they_are_not_known() {
+        let src = "G90 G0 G54 X10 Y20 B0 C0\nG43 Z50 H1\n";
+        let ev = run("bc-trunnion", src, Dialect::Linuxcnc);
+        let m = mv(&ev, 2);
+        assert_eq!(m.end[..3], [None, None, Some(50.0)]);
+    }
+}
+
+mod datum_shifts {
+    use super::*;
+
+    #[test]
+    fn a_literal_cycle_7_leaves_the_tool_where_it_is_in_the_shifted_coordinates() {
+        let ev = run(
+            "bc-trunnion",
+            "0 BEGIN PGM T MM\n\
+             1 L X+10 Y+20 Z+30 B+0 C+0 R0 FMAX\n\
+             2 CYCL DEF 7.0 DATUM SHIFT\n\
+             3 CYCL DEF 7.1 X+5\n\
+             4 CYCL DEF 7.2 Y+5\n\
+             5 L Z+10 R0 FMAX\n\
+             6 CYCL DEF 7.0 DATUM SHIFT\n\
+             7 CYCL DEF 7.1 X+0 Y+0 Z+0\n\
+             8 L Z+5 R0 FMAX\n\
+             9 CYCL DEF 7.0 DATUM SHIFT\n\
+             10 CYCL DEF 7.1 #3\n\
+             11 L Z+5 R0 FMAX\n\
+             12 END PGM T MM\n",
+            Dialect::Heidenhain,
+        );
+        // X: 10 - 5; Y: 20 - 5.
+        assert_eq!(mv(&ev, 5).start[..3], [Some(5.0), Some(15.0), Some(30.0)]);
+        // Back to no shift: the preset's coordinates again.
+        assert_eq!(mv(&ev, 8).start[..3], [Some(10.0), Some(20.0), Some(10.0)]);
+        // A datum table row: where the tool is in it is not known.
+        assert!(matches!(at(&ev, 11), Event::Skip(_)), "{:?}", at(&ev, 11));
+    }
+
+    #[test]
+    fn fanuc_g52_and_g92_with_numbers_and_the_same_offset_again_keep_the_tool() {
+        let ev = run(
+            "bc-trunnion",
+            "G90 G54 G0 X10. Y20. Z30. B0 C0\nG52 X5. Y5.\nG1 Z10. F100.\nG92 X0 Y0\nG1 Z5.\nG54\nG1 Z4.\n",
+            Dialect::Fanuc,
+        );
+        assert_eq!(mv(&ev, 3).start[..3], [Some(5.0), Some(15.0), Some(30.0)]);
+        assert_eq!(mv(&ev, 5).start[..3], [Some(0.0), Some(0.0), Some(10.0)]);
+        assert_eq!(mv(&ev, 7).start[..3], [Some(0.0), Some(0.0), Some(5.0)]);
+    }
+}
+
+mod plane_stay {
+    use super::*;
+
+    fn stay(seq: &str) -> Vec<(usize, Event)> {
+        run(
+            "bc-trunnion",
+            &format!(
+                "0 BEGIN PGM T MM\n\
+                 1 L X+0 Y+0 Z+100 B+0 C+0 R0 FMAX\n\
+                 2 PLANE SPATIAL SPA+0 SPB+30 SPC+0 STAY {seq}\n\
+                 3 L B+Q121 C+Q122 R0 FMAX\n\
+                 4 L X+0 Y+0 Z+50 R0 FMAX\n\
+                 5 END PGM T MM\n"
+            ),
+            Dialect::Heidenhain,
+        )
+    }
+
+    #[test]
+    fn seq_picks_the_sign_of_the_tilt_the_control_stores_in_q120_to_q122() {
+        // From B0 C0 the nearest solution tilts B positive; SEQ- asks for
+        // the other, C half a turn round.
+        let b = |ev: &[(usize, Event)]| mv(ev, 4).start[4].unwrap();
+        let c = |ev: &[(usize, Event)]| mv(ev, 4).start[5].unwrap();
+        let plus = stay("SEQ+");
+        let minus = stay("SEQ-");
+        assert!((b(&plus) - 30.0).abs() < 1e-6, "{}", b(&plus));
+        assert!((b(&minus) + 30.0).abs() < 1e-6, "{}", b(&minus));
+        assert!(((c(&minus) - c(&plus)).abs() - 180.0).abs() < 1e-6);
+        assert!((b(&stay("")) - 30.0).abs() < 1e-6);
+    }
+}
+
+mod advice {
+    use super::*;
+
+    #[test]
+    fn a_rotary_axis_never_set_names_rotary_start_and_a_linear_one_does_not() {
+        let ev = run("bc-trunnion", "G90 G0 X0 Y0 Z50. C0\n", Dialect::Fanuc);
+        let why = match at(&ev, 1) {
+            Event::Skip(s) => s.to_string(),
+            Event::Move(m) => {
+                assert_eq!(m.end[4], None);
+                Skip::PositionUnknown(b'B').to_string()
+            }
+            other => panic!("{other:?}"),
+        };
+        assert!(why.contains("--rotary-start B=DEG"), "{why}");
+        assert!(
+            !Skip::PositionUnknown(b'Z')
+                .to_string()
+                .contains("--rotary-start")
+        );
+    }
+}
+
+mod small_semantics {
+    use super::*;
+    use crate::compensate::{compensate, errors, reported};
+    use fivecal::compensate::Settings;
+
+    #[test]
+    fn a_fanuc_if_then_3000_is_an_alarm_stop_and_the_moves_after_it_run() {
+        // #5041 (the current position) is not in the file: whether the
+        // alarm fires is not known, but where it does not, the program
+        // runs on unchanged, so the move after it is corrected.
+        let program = "G90 G0 X0 Y0 Z50. B0 C0\nIF [#5041 GT 100.] THEN #3000=1 (TOO FAR)\nG1 X10. F100.\nM30\n";
+        let l = errors("bc-trunnion", 7, 20.0, "");
+        let (out, s, _) = compensate(&l, Settings::new(Dialect::Fanuc), program);
+        assert!(reported(&s, "never runs").is_empty(), "{:?}", s.skipped);
+        assert_ne!(out.lines().nth(2), Some("G1 X10. F100."), "{out}");
+        // A condition that holds: nothing after the alarm runs.
+        let program = "G90 G0 X0 Y0 Z50. B0 C0\n#1=5.\nIF [#1 GT 1.] THEN #3000=1 (TOO FAR)\nG1 X10. F100.\nM30\n";
+        let (out, _, _) = compensate(&l, Settings::new(Dialect::Fanuc), program);
+        assert_eq!(out.lines().nth(3), Some("G1 X10. F100."), "{out}");
+    }
+}
+
+mod spindle_select {
+    use super::*;
+
+    #[test]
+    fn the_linuxcnc_spindle_select_word_is_read_and_moves_nothing() {
+        let ev = run(
+            "bc-trunnion",
+            "G90 G0 X0 Y0 Z50 B0 C0\nM3 $0 S1000\nS2000 $1\nG1 X10 F100\n",
+            Dialect::Linuxcnc,
+        );
+        assert_eq!(at(&ev, 2), &Event::None);
+        assert_eq!(mv(&ev, 4).start[..3], [Some(0.0), Some(0.0), Some(50.0)]);
+    }
+}
+
+mod expand_call_arguments {
+    use super::*;
+    use crate::compensate::{compensate, errors};
+    use fivecal::compensate::Settings;
+
+    /// A program in the form of LinuxCNC's `nc_files/daisy.ngc`: a
+    /// subroutine that keeps its call's argument in a global parameter,
+    /// another that divides by it.
+    const DAISY_LIKE: &str = "o100 sub\n#61=#1\nG0 X0 Y0 Z0 B0 C0\no100 endsub\n\
+        o200 sub\n#2=[#2*#1/#61]\nG1 X#2 Y0 Z0 F[60/#1]\no200 endsub\n\
+        o100 call [64]\no200 call [1] [320]\no200 call [0.5] [640]\nM2\n";
+
+    #[test]
+    fn expand_writes_the_values_of_assignments_so_rs274_runs_the_flattened_program() {
+        let l = errors("bc-trunnion", 3, 10.0, "");
+        let mut s = Settings::new(Dialect::Linuxcnc);
+        s.expand = true;
+        let (out, _, _) = compensate(&l, s, DAISY_LIKE);
+        // The argument is gone with the call: the value it gave stays.
+        assert!(out.contains("#61=64."), "{out}");
+        assert!(!out.contains("#1"), "{out}");
+        let dir = crate::util::tempdir();
+        let path = dir.path().join("flat.ngc");
+        std::fs::write(&path, &out).unwrap();
+        let run = std::process::Command::new("rs274")
+            .env("HOME", dir.path())
+            .arg("-g")
+            .arg(&path)
+            .arg(dir.path().join("flat.canon"))
+            .stdin(std::process::Stdio::null())
+            .output()
+            .expect("LinuxCNC's rs274 (package linuxcnc-uspace) must be installed for this test");
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            run.status.success() && !err.contains("zero"),
+            "{err}\n{out}"
+        );
+    }
+}
