@@ -75,7 +75,7 @@ pub enum OutputError {
     },
     /// The output is a file this run reads (named directly or through
     /// another file).
-    #[error("{} is {what} {}, which this run reads: refusing to write over it (write the output elsewhere)", out.display(), input.display())]
+    #[error("{}: refusing to overwrite input file {}, {what} this run reads (write the output elsewhere)", out.display(), input.display())]
     OutputIsRead {
         /// The output as named.
         out: PathBuf,

@@ -120,18 +120,19 @@ pub fn cut(s: &str) -> String {
 }
 
 /// A whole message as fivecal prints it: at most
-/// [`crate::limits::MESSAGE_CHARS`] characters (a rendered template or a
-/// name of ten kilobytes that reached a message whole is cut there, and
-/// the message says so).
+/// [`crate::limits::MESSAGE_CHARS`] characters. A longer one (a rendered
+/// template or a name of ten kilobytes that reached a message whole) keeps
+/// its start, which names the file and what is wrong, and its end, which
+/// says what to do; the middle is cut, and the message says how much.
 pub fn short_message(msg: &str) -> String {
-    let m = msg;
     let max = crate::limits::MESSAGE_CHARS;
-    if m.chars().count() <= max {
-        return m.to_string();
+    let n = msg.chars().count();
+    if n <= max {
+        return msg.to_string();
     }
-    let mut out: String = m.chars().take(max).collect();
-    out.push_str("… (message cut)");
-    out
+    let head: String = msg.chars().take(max / 2).collect();
+    let tail: String = msg.chars().skip(n - max / 2).collect();
+    format!("{head} … ({} characters cut) … {tail}", n - 2 * (max / 2))
 }
 
 /// The message with every quoted echo of the input (`"..."` as serde

@@ -108,7 +108,7 @@ mod regression {
             let err = refused_with(
                 &[],
                 &analyze_onto(dir.path(), &target, &db),
-                &[name, what, "which this run reads"],
+                &[name, what, "this run reads"],
             );
             assert_eq!(err.matches(name).count(), 2, "both names: {err}");
             assert_eq!(hash(&target), before, "{name} changed");
@@ -593,4 +593,257 @@ fn stale_temporaries_of_a_killed_run_are_removed_and_named_by_the_next_run() {
         "{err}"
     );
     assert!(live.exists(), "a running process's temporary file stays");
+}
+
+/// The tool-tip samples `simulate nc` writes: (nominal tip, actual tip),
+/// mm, in W.
+fn tip_samples(csv: &Path) -> Vec<([f64; 3], [f64; 3])> {
+    std::fs::read_to_string(csv)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("line"))
+        .map(|l| {
+            let f: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            let n = [f[2], f[3], f[4]];
+            (
+                n,
+                [n[0] + f[8] * 1e-3, n[1] + f[9] * 1e-3, n[2] + f[10] * 1e-3],
+            )
+        })
+        .collect()
+}
+
+fn segment_distance(x: &[f64; 3], a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let l = ab.iter().map(|v| v * v).sum::<f64>();
+    let t = if l == 0.0 {
+        0.0
+    } else {
+        ((0..3).map(|k| (x[k] - a[k]) * ab[k]).sum::<f64>() / l).clamp(0.0, 1.0)
+    };
+    (0..3)
+        .map(|k| (a[k] + t * ab[k] - x[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Largest distance, um, of the actual tip path of `compensated` (run on
+/// the machine with the errors) from the intended path of `original` (run
+/// on the nominal machine), both sampled by `simulate nc`, the simulator's
+/// exact model, which the compensator's own path check does not use.
+fn path_deviation_um(dir: &Path, original: &Path, compensated: &Path) -> f64 {
+    let errors = example("analyze/stepped-square/truth.yaml");
+    let sample = |program: &Path, name: &str| {
+        let csv = dir.join(name);
+        let out = bin()
+            .args(["simulate", "nc", "--machine", "bc-trunnion", "--errors"])
+            .arg(&errors)
+            .arg("--program")
+            .arg(program)
+            .args(["--step", "0.02", "-o"])
+            .arg(&csv)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        tip_samples(&csv)
+    };
+    let intended: Vec<[f64; 3]> = sample(original, "intended.csv")
+        .into_iter()
+        .map(|s| s.0)
+        .collect();
+    let actual = sample(compensated, "actual.csv");
+    actual
+        .iter()
+        .map(|(_, x)| {
+            intended
+                .windows(2)
+                .map(|w| segment_distance(x, &w[0], &w[1]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+        * 1e3
+}
+
+mod tolerance_regression {
+    use super::*;
+
+    /// B45 to B-45 while C turns 0 to 90 deg, and B30 to B40 while C turns
+    /// 0 to 90 deg (no crossing of B0).
+    const MOVES: &str = "O1000\nG90 G54 G94\nG0 X10. Y20. Z30. B45. C0.\nG1 X10. Y20. Z30. B-45. C90. F1000.\nG0 B30. C0.\nG1 B40. C90. F1000.\nM30\n";
+
+    /// B30 to B40 while C turns 0 to 90 deg alone (the move through B0
+    /// takes a minute to compensate at these tolerances in a debug build).
+    const NO_CROSSING: &str =
+        "O1000\nG90 G54 G94\nG0 X10. Y20. Z30. B30. C0.\nG1 B40. C90. F1000.\nM30\n";
+
+    fn compensate(dir: &Path, program: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+        let _ = dir;
+        bin()
+            .args(["compensate", "--machine", "bc-trunnion", "--errors"])
+            .arg(example("analyze/stepped-square/truth.yaml"))
+            .arg(program)
+            .arg("-o")
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap()
+    }
+
+    /// `--tolerance 0.01` (and 0.05) with the default 4 decimals in mm:
+    /// the rounding of the words alone moves the tip by more, so the run is
+    /// refused with the smallest tolerance that holds, and nothing is
+    /// written.
+    #[test]
+    fn a_tolerance_finer_than_the_written_decimals_is_refused_with_the_smallest_that_holds() {
+        let dir = tempdir();
+        let program = dir.path().join("cross.nc");
+        std::fs::write(&program, MOVES).unwrap();
+        let out = dir.path().join("out.nc");
+        for t in ["0.01", "0.05"] {
+            let o = compensate(dir.path(), &program, &out, &["--tolerance", t]);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{err}");
+            assert!(
+                err.contains("smallest tolerance that holds is 0.120 um"),
+                "{err}"
+            );
+            assert!(!out.exists());
+        }
+        // The smallest printed is accepted.
+        std::fs::write(&program, NO_CROSSING).unwrap();
+        let o = compensate(dir.path(), &program, &out, &["--tolerance", "0.12"]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+
+    /// The check itself at 0.01 um: with 6 decimals in mm and 8 in degrees
+    /// (rounding 0.001 um), the move is written corrected and the actual
+    /// tip path, simulated independently, stays within 0.01 um of the
+    /// intended one (the 0.0005 um chord error of the 0.02 mm sampling
+    /// included).
+    #[test]
+    fn a_move_reported_within_0_01_um_is_within_0_01_um() {
+        let dir = tempdir();
+        let program = dir.path().join("b30.nc");
+        std::fs::write(&program, NO_CROSSING).unwrap();
+        let out = dir.path().join("out.nc");
+        let o = compensate(
+            dir.path(),
+            &program,
+            &out,
+            &["--tolerance", "0.01", "--decimals", "6,8"],
+        );
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(text.contains("no move left as written"), "{text}");
+        let d = path_deviation_um(dir.path(), &program, &out);
+        assert!(d <= 0.01, "the tip leaves the intended path by {d} um");
+        // The same program not compensated misses by tens of um: the
+        // measure sees a wrong path.
+        let d0 = path_deviation_um(dir.path(), &program, &program);
+        assert!(d0 > 10.0, "{d0}");
+    }
+}
+
+mod non_finite_regression {
+    use super::*;
+
+    fn fails(args: &[std::ffi::OsString], expect: &[&str]) -> String {
+        let out = bin().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        for e in expect {
+            assert!(err.contains(e), "expected `{e}` in {err}");
+        }
+        err
+    }
+
+    /// `--expand` of a SINUMERIK program whose R parameter computes to
+    /// infinity: refused at the line that writes it, nothing written (no
+    /// `G1 X=inf`).
+    #[test]
+    fn expand_with_r1_exp_1000_writes_no_inf() {
+        let dir = tempdir();
+        let p = dir.path().join("inf.mpf");
+        std::fs::write(
+            &p,
+            "%_N_INF_MPF\nG90 G54\nR1=EXP(1000)\nG0 X0 Y0 Z50 B0 C0\nG1 X=R1 F1000\nM30\n",
+        )
+        .unwrap();
+        let out = dir.path().join("out.mpf");
+        let err = fails(
+            &os(&[
+                &"compensate",
+                &"--machine",
+                &"bc-trunnion",
+                &"--errors",
+                &example("analyze/stepped-square/truth.yaml"),
+                &"--expand",
+                &p,
+                &"-o",
+                &out,
+            ]),
+            &["inf.mpf:"],
+        );
+        assert!(!err.contains("X=inf"), "{err}");
+        assert!(!out.exists());
+    }
+
+    /// `analyze contour` with a measured point at 1e308 mm: refused at its
+    /// line instead of statistics of infinity.
+    #[test]
+    fn contour_with_a_1e308_point_is_refused_at_its_line() {
+        let dir = tempdir();
+        let csv = dir.path().join("m.csv");
+        std::fs::write(&csv, "label,x,y,z\np1,0,0,0\np2,1e308,0,0\n").unwrap();
+        let err = fails(
+            &os(&[
+                &"analyze",
+                &"contour",
+                &"--model",
+                &example("analyze/stepped-square/stepped-square.obj"),
+                &"--measured",
+                &csv,
+            ]),
+            &["m.csv:3", "p2", "beyond any machine"],
+        );
+        assert!(!err.contains("inf"), "{err}");
+    }
+
+    /// `verify` of a result whose u is 1e300 um: refused naming the file
+    /// and key, not a change printed with an infinite u.
+    #[test]
+    fn verify_with_u_1e300_is_refused_naming_the_key() {
+        let dir = tempdir();
+        let a = dir.path().join("a.yaml");
+        std::fs::write(
+            &a,
+            "machine: bc-trunnion\nlocation_errors:\n  EX0B: {value: 12.0, u: 1e300}\n",
+        )
+        .unwrap();
+        let b = dir.path().join("b.yaml");
+        std::fs::write(
+            &b,
+            "machine: bc-trunnion\nlocation_errors:\n  EX0B: {value: 2.0, u: 0.5}\n",
+        )
+        .unwrap();
+        let err = fails(
+            &os(&[&"verify", &"--before", &a, &"--after", &b]),
+            &["a.yaml:3", "EX0B", "u 1e300"],
+        );
+        assert!(!err.contains("inf"), "{err}");
+    }
+
+    /// A machine name of 10 KB in a message: the message stays short.
+    #[test]
+    fn a_10_kb_machine_name_is_not_printed_whole() {
+        let name = "m".repeat(10_000);
+        let out = bin().args(["machine", "show", &name]).output().unwrap();
+        assert_eq!(out.status.code(), Some(2));
+        assert!(out.stderr.len() < 1024, "{} bytes", out.stderr.len());
+    }
 }

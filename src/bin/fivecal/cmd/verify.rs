@@ -90,8 +90,36 @@ pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
 }
 
 fn from_file(p: &Path) -> anyhow::Result<(String, ErrorFile)> {
-    let (f, _) = ErrorFile::read(p)?;
+    let (f, src) = ErrorFile::read(p)?;
+    plausible(p, &src, &f)?;
     Ok((p.display().to_string(), f))
+}
+
+/// Refuses a location error whose value or u no machine has (`u: 1e300`):
+/// the comparison would print it, and a change with an infinite u, as a
+/// result. The range is the error files' own (within 10,000 um or urad).
+fn plausible(path: &Path, src: &str, f: &ErrorFile) -> anyhow::Result<()> {
+    let max = fivecal::limits::MAX_ERROR_UM;
+    for (name, q) in &f.location_errors {
+        let bad = |x: f64| !(x.is_finite() && x.abs() <= max);
+        let what = if bad(q.value) {
+            Some(("value", q.value))
+        } else {
+            q.u.filter(|&u| bad(u) || u < 0.0).map(|u| ("u", u))
+        };
+        if let Some((key, x)) = what {
+            return Err(fivecal::source::SourceError::at_key(
+                path,
+                src,
+                &["location_errors", name],
+                format!(
+                    "{name}: {key} {x:e} is beyond any machine (expected a finite number within {max} um or urad)"
+                ),
+            )
+            .into());
+        }
+    }
+    Ok(())
 }
 
 fn from_record(r: &Stored) -> anyhow::Result<(String, ErrorFile)> {
@@ -103,6 +131,7 @@ fn from_record(r: &Stored) -> anyhow::Result<(String, ErrorFile)> {
     if f.test.is_none() {
         f.test = r.record.test.clone();
     }
+    plausible(Path::new(&name), &r.record.content, &f)?;
     Ok((name, f))
 }
 
