@@ -85,8 +85,7 @@ impl LimitsSource {
     /// file with a `chain:` key is read as a machine file and validated as
     /// one).
     pub fn read(path: &Path) -> Result<LimitsSource, SourceError> {
-        let src = std::fs::read_to_string(path)
-            .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read limits file: {e}")))?;
+        let src = crate::input::read_text(path, "limits file", crate::limits::MAX_YAML_BYTES)?;
         let value: serde_yaml::Value =
             serde_yaml::from_str(&src).map_err(|e| SourceError::from_yaml(path, &e))?;
         if value.get("chain").is_some() {

@@ -1,8 +1,8 @@
-//! Contour errors (Jiang et al. 2013 (docs/references.md)): the distance of each measured point to the
+//! Contour errors (Jiang et al. 2013): the distance of each measured point to the
 //! design surface of a part model, as `fivecal analyze contour` reports it.
 //!
 //! The model is a triangle mesh read from OBJ (tobj) or glTF/GLB (gltf, with
-//! node transforms applied); the CMM's frame is the model's (Jiang et al. 2013 (docs/references.md)
+//! node transforms applied); the CMM's frame is the model's (Jiang et al. 2013
 //! measured with "the measure base defined as design model base"). Each
 //! point's distance is exact to the mesh: the closest point on the closest
 //! triangle, found through a bounding-volume hierarchy. Its sign comes from
@@ -189,9 +189,27 @@ impl PartMesh {
             .default_scene()
             .or_else(|| doc.scenes().next())
             .ok_or_else(|| fmt("the model has no scene".into()))?;
+        check_node_graph(&doc).map_err(&fmt)?;
         let mut stack: Vec<(gltf::Node, Matrix4<f64>)> =
             scene.nodes().map(|n| (n, Matrix4::identity())).collect();
+        // A node shared by several parents is placed once per path to it:
+        // a tree of shared nodes 40 levels deep has 2^40 of them.
+        let mut placed = 0usize;
         while let Some((node, parent)) = stack.pop() {
+            placed += 1;
+            if placed > crate::limits::MAX_MODEL_NODES {
+                return Err(fmt(format!(
+                    "the scene places more than {} nodes (node {} and the nodes above it are shared by many parents): not a part model fivecal reads",
+                    crate::limits::MAX_MODEL_NODES,
+                    node.index()
+                )));
+            }
+            if mesh.vertices.len() > crate::limits::MAX_MODEL_VERTICES {
+                return Err(fmt(format!(
+                    "the scene has more than {} vertices once its nodes are placed: not a part model fivecal reads",
+                    crate::limits::MAX_MODEL_VERTICES
+                )));
+            }
             let m = node.transform().matrix();
             let local = Matrix4::from_fn(|r, c| m[c][r] as f64);
             let world = parent * local;
@@ -235,6 +253,52 @@ impl PartMesh {
         }
         Ok(mesh)
     }
+}
+
+/// Refuses a glTF node graph that is not a forest: a node that is its
+/// own child, or a loop of children (glTF 2.0 requires "node hierarchy
+/// must be a set of disjoint strict trees"). Walked without recursion, in
+/// time linear in nodes and children.
+fn check_node_graph(doc: &gltf::Gltf) -> Result<(), String> {
+    let children: Vec<Vec<usize>> = doc
+        .nodes()
+        .map(|n| n.children().map(|c| c.index()).collect())
+        .collect();
+    // 0: not seen, 1: on the current path, 2: done.
+    let mut state = vec![0u8; children.len()];
+    for root in 0..children.len() {
+        if state[root] != 0 {
+            continue;
+        }
+        let mut stack: Vec<(usize, usize)> = vec![(root, 0)];
+        state[root] = 1;
+        while let Some(top) = stack.last_mut() {
+            let (n, k) = *top;
+            if let Some(&c) = children[n].get(k) {
+                top.1 += 1;
+                match state.get(c) {
+                    Some(1) => {
+                        return Err(if c == n {
+                            format!("node {n} is its own child: a node tree must not loop")
+                        } else {
+                            format!(
+                                "node {c} is a child of node {n}, which is below node {c}: a node tree must not loop"
+                            )
+                        });
+                    }
+                    Some(0) => {
+                        state[c] = 1;
+                        stack.push((c, 0));
+                    }
+                    _ => {}
+                }
+            } else {
+                state[n] = 2;
+                stack.pop();
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A model file or a glTF buffer, read within [`crate::limits::MAX_MODEL_BYTES`].

@@ -233,6 +233,10 @@ pub enum FitVerdict {
     Fits,
     /// The residuals are larger: the model misses something.
     Misfit,
+    /// The fit stopped before it converged: its values are no estimate,
+    /// whatever its residuals.
+    #[serde(rename = "not-converged")]
+    NotConverged,
 }
 
 impl FitVerdict {
@@ -241,7 +245,14 @@ impl FitVerdict {
         match self {
             FitVerdict::Fits => "fits",
             FitVerdict::Misfit => "misfit",
+            FitVerdict::NotConverged => "not-converged",
         }
+    }
+
+    /// Whether a result with this verdict may be acted on (compensated,
+    /// exported, compared, trended): only a fit.
+    pub fn is_fit(self) -> bool {
+        self == FitVerdict::Fits
     }
 
     /// The verdict a result file states in `fit: {verdict: ...}`, if any.
@@ -263,8 +274,9 @@ impl std::str::FromStr for FitVerdict {
         match s {
             "fits" => Ok(FitVerdict::Fits),
             "misfit" => Ok(FitVerdict::Misfit),
+            "not-converged" => Ok(FitVerdict::NotConverged),
             _ => Err(format!(
-                "unknown fit verdict `{s}`: expected fits or misfit"
+                "unknown fit verdict `{s}`: expected fits, misfit or not-converged"
             )),
         }
     }
@@ -293,6 +305,18 @@ pub struct FitSection {
     pub p_value: f64,
     /// The verdict.
     pub verdict: FitVerdict,
+    /// What the residuals are: every measured point against the complete
+    /// measurement model at the method's estimate (absent in files written
+    /// before the verdict was computed that way).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub on: Option<String>,
+    /// The data a robust step of the method set aside from its estimate,
+    /// judged here with the rest.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub set_aside: Vec<String>,
+    /// Why the verdict is not-converged: which fit stopped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stopped: Option<String>,
 }
 
 /// An error file as written.
@@ -423,6 +447,13 @@ impl LoadedErrors {
         self.fit
             .as_ref()
             .filter(|f| f.verdict == FitVerdict::Misfit)
+    }
+
+    /// The file's fit, if it says the fit did not converge.
+    pub fn not_converged(&self) -> Option<&FitSection> {
+        self.fit
+            .as_ref()
+            .filter(|f| f.verdict == FitVerdict::NotConverged)
     }
 }
 

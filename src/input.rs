@@ -32,8 +32,18 @@ fn mib(n: u64) -> String {
 }
 
 /// Refuses a path that is not a file that can be read to its end: a
-/// directory, or a character or block device (`/dev/zero` never ends).
+/// directory, a character or block device (`/dev/zero` never ends), a FIFO
+/// or a socket (opening a FIFO nobody writes waits for ever); the file
+/// type is read from its metadata, before anything opens it. A file let
+/// through is noted as an input of the run ([`crate::io::note_input`]),
+/// so that no output of the run lands on it.
 fn check_readable(path: &Path, what: &str) -> Result<(), SourceError> {
+    check_file_type(path, what)?;
+    crate::io::note_input(path, &format!("the {what}"));
+    Ok(())
+}
+
+fn check_file_type(path: &Path, what: &str) -> Result<(), SourceError> {
     let meta = std::fs::metadata(path)
         .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read {what}: {e}")))?;
     if meta.is_dir() {
@@ -54,6 +64,21 @@ fn check_readable(path: &Path, what: &str) -> Result<(), SourceError> {
                 0,
                 0,
                 format!("cannot read {what}: it is a device, not a file"),
+            ));
+        }
+        if t.is_fifo() || t.is_socket() {
+            let kind = if t.is_fifo() {
+                "a FIFO (named pipe)"
+            } else {
+                "a socket"
+            };
+            return Err(SourceError::new(
+                path,
+                0,
+                0,
+                format!(
+                    "cannot read {what}: it is {kind}, not a file (save the data to a file first)"
+                ),
             ));
         }
     }

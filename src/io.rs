@@ -23,6 +23,15 @@
 //! SIGTERM. [`check_outputs`] refuses, before any work, an output that names
 //! an input of the same run or another output (paths compared after
 //! resolving links), and an output of the wrong kind.
+//!
+//! Inputs read through other files (a plan's points, machine and template
+//! copies, a glTF's buffers, the results store) are not on the command
+//! line, so every reader of [`crate::input`] notes the file it opens
+//! ([`note_input`]) once the binary has turned the guard on
+//! ([`guard_inputs`]); every output ([`AtomicOutput`], [`StagedDir`]) is
+//! then refused, before its first byte, when it is one of them: the same
+//! path after resolving links and `..`, or the same device and inode (a
+//! hard link). The message names both the output and the input.
 
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter, Write};
@@ -62,6 +71,17 @@ pub enum OutputError {
         /// The path.
         path: PathBuf,
         /// What the path is and what was expected.
+        what: String,
+    },
+    /// The output is a file this run reads (named directly or through
+    /// another file).
+    #[error("{} is {what} {}, which this run reads: refusing to write over it (write the output elsewhere)", out.display(), input.display())]
+    OutputIsRead {
+        /// The output as named.
+        out: PathBuf,
+        /// The input as it was named when read.
+        input: PathBuf,
+        /// What the input is ("the plan's points file").
         what: String,
     },
     /// Any I/O failure, with the path.
@@ -156,6 +176,92 @@ impl Write for Stdout {
     }
 }
 
+// ----------------------------------------------------------- inputs read
+
+/// A file this run has read.
+#[derive(Clone, Debug)]
+struct ReadInput {
+    /// As it was named.
+    path: PathBuf,
+    /// What it is, for messages.
+    what: String,
+    /// Where it resolves to (links and `..` resolved).
+    real: PathBuf,
+    /// Device and inode, when it exists.
+    id: Option<(u64, u64)>,
+}
+
+static GUARD: AtomicBool = AtomicBool::new(false);
+static INPUTS: Mutex<Vec<ReadInput>> = Mutex::new(Vec::new());
+
+/// Turns on the guard of inputs for this process: from now on every file
+/// read is noted and no output may land on one. The binary turns it on
+/// once; a library user that reads and rewrites the same file in one
+/// process (a test, an editor) leaves it off.
+pub fn guard_inputs() {
+    GUARD.store(true, Ordering::Relaxed);
+}
+
+#[cfg(unix)]
+fn file_id(m: &std::fs::Metadata) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    Some((m.dev(), m.ino()))
+}
+
+#[cfg(not(unix))]
+fn file_id(_: &std::fs::Metadata) -> Option<(u64, u64)> {
+    None
+}
+
+/// Notes that this run reads `path` (`what` names it in messages, "the
+/// plan's points file"); a file that does not exist yet (a new results
+/// store) is noted by its resolved path. Does nothing unless
+/// [`guard_inputs`] was called.
+pub fn note_input(path: &Path, what: &str) {
+    if !GUARD.load(Ordering::Relaxed) || path.as_os_str() == "-" {
+        return;
+    }
+    let input = ReadInput {
+        path: path.to_path_buf(),
+        what: what.to_string(),
+        real: resolved(path),
+        id: std::fs::metadata(path).ok().as_ref().and_then(file_id),
+    };
+    if let Ok(mut v) = INPUTS.lock() {
+        v.push(input);
+    }
+}
+
+/// The input of `inputs` that `out` would write over, if any.
+fn read_input_at(out: &Path, inputs: &[ReadInput]) -> Option<ReadInput> {
+    let real = resolved(out);
+    let id = std::fs::metadata(out).ok().as_ref().and_then(file_id);
+    inputs
+        .iter()
+        .find(|i| i.real == real || (id.is_some() && i.id == id))
+        .cloned()
+}
+
+/// Refuses an output that is a file this run has read (see
+/// [`note_input`]).
+pub fn ensure_not_read(out: &Path) -> Result<(), OutputError> {
+    if !GUARD.load(Ordering::Relaxed) {
+        return Ok(());
+    }
+    let inputs = match INPUTS.lock() {
+        Ok(v) => v.clone(),
+        Err(_) => return Ok(()),
+    };
+    match read_input_at(out, &inputs) {
+        Some(i) => Err(OutputError::OutputIsRead {
+            out: out.to_path_buf(),
+            input: i.path,
+            what: i.what,
+        }),
+        None => Ok(()),
+    }
+}
+
 // ------------------------------------------------------------ temporaries
 
 static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -191,18 +297,104 @@ pub fn remove_temporaries() {
     }
 }
 
-/// A fresh name `.<name>.<unique>.fivecal-tmp` in `dir`, hidden and naming
-/// what it will become (so a leftover after `kill -9` says what it was).
+/// The suffix of every temporary name.
+const TEMP_SUFFIX: &str = ".fivecal-tmp";
+
+/// Longest file name most file systems take, bytes.
+const NAME_MAX: usize = 255;
+
+/// Room a temporary name needs beside the output's name: the dot before
+/// it, `.<pid>-<unique>` (hex, at most 8 + 1 + 16 + 1 + 1 bytes) and the
+/// suffix.
+const TEMP_EXTRA: usize = 1 + 1 + 8 + 1 + 16 + TEMP_SUFFIX.len();
+
+/// The part of an output's name a temporary name keeps: all of it when it
+/// fits, else its start (cut at a character boundary), so that a legal
+/// output name of up to 255 bytes still has a legal temporary name.
+fn temp_stem(name: &str) -> &str {
+    let max = NAME_MAX - TEMP_EXTRA;
+    if name.len() <= max {
+        return name;
+    }
+    let mut end = max;
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    &name[..end]
+}
+
+/// A fresh name `.<name>.<pid>-<unique>.fivecal-tmp` in `dir`, hidden and
+/// naming what it will become (so a leftover after `kill -9` says what it
+/// was, and the next run into the same place finds it by the pid of a run
+/// that is gone); a long `name` is cut so the whole stays within 255 bytes.
 fn temp_name(dir: &Path, name: &str) -> PathBuf {
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     let t = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
+        .map_or(0, |d| d.subsec_nanos() as u64);
     dir.join(format!(
-        ".{name}.{:x}{:x}{n:x}.fivecal-tmp",
+        ".{}.{:x}-{:x}{TEMP_SUFFIX}",
+        temp_stem(name),
         std::process::id(),
-        t
+        (t << 16) ^ n
     ))
+}
+
+static STALE_REMOVED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Whether process `pid` is running (Linux: `/proc/<pid>` exists; where
+/// that cannot be told, every process counts as running).
+fn running(pid: u32) -> bool {
+    if !Path::new("/proc/self").exists() {
+        return true;
+    }
+    Path::new(&format!("/proc/{pid}")).exists()
+}
+
+/// Removes the temporary files (and directories) that a killed run left
+/// in `dir` while writing `name`: those of the same output whose run is no
+/// longer running. Each removal is kept for [`stale_removed`].
+fn remove_stale(dir: &Path, name: &str) {
+    let prefix = format!(".{}.", temp_stem(name));
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file = e.file_name();
+        let Some(f) = file.to_str() else { continue };
+        let Some(middle) = f
+            .strip_prefix(&prefix)
+            .and_then(|r| r.strip_suffix(TEMP_SUFFIX))
+        else {
+            continue;
+        };
+        let Some(pid) = middle
+            .split_once('-')
+            .and_then(|(p, _)| u32::from_str_radix(p, 16).ok())
+        else {
+            continue;
+        };
+        if pid == std::process::id() || running(pid) {
+            continue;
+        }
+        let p = e.path();
+        let gone = if p.is_dir() {
+            std::fs::remove_dir_all(&p)
+        } else {
+            std::fs::remove_file(&p)
+        };
+        if gone.is_ok()
+            && let Ok(mut v) = STALE_REMOVED.lock()
+        {
+            v.push(p);
+        }
+    }
+}
+
+/// The temporary files of killed runs removed so far (the binary names
+/// them on standard error).
+pub fn stale_removed() -> Vec<PathBuf> {
+    STALE_REMOVED.lock().map(|v| v.clone()).unwrap_or_default()
 }
 
 /// Creates a new file that did not exist, mode 0666 less the umask.
@@ -259,12 +451,15 @@ pub(crate) fn classify(flag: &str, path: &Path) -> Result<OutputTarget, OutputEr
     let link = match std::fs::symlink_metadata(path) {
         Ok(m) => m,
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
-            if is_special_location(path) {
+            // Resolved first: `/proc/self/cwd/x` is a file of the working
+            // directory, written through a temporary file like any other.
+            let real = resolved(path);
+            if is_special_location(&real) {
                 return Err(wrong(
                     "does not exist, and fivecal creates no files under /dev or /proc".into(),
                 ));
             }
-            return Ok(OutputTarget::File(path.to_path_buf()));
+            return Ok(OutputTarget::File(real));
         }
         Err(e) => return Err(OutputError::io(path)(e)),
     };
@@ -285,10 +480,15 @@ pub(crate) fn classify(flag: &str, path: &Path) -> Result<OutputTarget, OutputEr
     if meta.is_dir() {
         return Err(wrong("is a directory: expected a file name".into()));
     }
-    if !meta.is_file() || is_special_location(path) {
+    if !meta.is_file() {
         return Ok(OutputTarget::InPlace(path.to_path_buf()));
     }
+    // The real path decides: a regular file reached through `/proc/self/cwd`
+    // is replaced whole, a file that really is under /proc or /dev is not.
     let real = std::fs::canonicalize(path).map_err(OutputError::io(path))?;
+    if is_special_location(&real) {
+        return Ok(OutputTarget::InPlace(path.to_path_buf()));
+    }
     Ok(OutputTarget::File(real))
 }
 
@@ -436,6 +636,9 @@ pub fn check_outputs(
             seen.push((flag, PathBuf::new(), shape, true));
             continue;
         }
+        if shape == Shape::File {
+            ensure_not_read(path)?;
+        }
         let r = resolved(path);
         for i in inputs {
             let ri = resolved(i);
@@ -511,6 +714,7 @@ impl AtomicOutput {
                 Sink::InPlace(BufWriter::with_capacity(1 << 16, f))
             }
             OutputTarget::File(target) => {
+                ensure_not_read(path)?;
                 let dir = match target.parent() {
                     Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
                     _ => PathBuf::from("."),
@@ -518,6 +722,7 @@ impl AtomicOutput {
                 std::fs::create_dir_all(&dir).map_err(&io)?;
                 let mode = std::fs::metadata(&target).ok().map(|m| m.permissions());
                 let name = file_name_of(&target);
+                remove_stale(&dir, &name);
                 let (tmp, file) = loop {
                     let tmp = temp_name(&dir, &name);
                     match create_new(&tmp) {
@@ -637,6 +842,7 @@ impl StagedDir {
             parent
         };
         let name = file_name_of(target);
+        remove_stale(&stage_in, &name);
         let stage = loop {
             let s = temp_name(&stage_in, &name);
             match std::fs::create_dir(&s) {
@@ -680,6 +886,7 @@ impl StagedDir {
                 second: "another".into(),
             });
         }
+        ensure_not_read(&fin)?;
         let p = self.stage.join(name);
         let io = OutputError::io(&fin);
         let mut f = create_new(&p).map_err(&io)?;

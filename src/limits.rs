@@ -13,6 +13,11 @@ pub const MAX_YAML_BYTES: u64 = 8 << 20;
 pub const MAX_MEASUREMENT_BYTES: u64 = 256 << 20;
 /// Largest part model read by `analyze contour` (OBJ, glTF, GLB), bytes.
 pub(crate) const MAX_MODEL_BYTES: u64 = 256 << 20;
+/// Most nodes a glTF scene may place (a node shared by several parents
+/// counts once per path to it).
+pub(crate) const MAX_MODEL_NODES: usize = 100_000;
+/// Most vertices a part model may have once its nodes are placed.
+pub(crate) const MAX_MODEL_VERTICES: usize = 20_000_000;
 /// Longest line of a file read line by line (an NC program), bytes.
 pub const MAX_LINE_BYTES: usize = 1 << 20;
 /// Deepest nesting of a YAML document (block levels and brackets
@@ -31,6 +36,9 @@ pub const MAX_EXEC_STATEMENTS: usize = 2_000_000;
 /// subprogram and 5 macro levels, LinuxCNC 10).
 pub const MAX_CALL_DEPTH: usize = 16;
 
+/// Longest message fivecal prints for an error, characters: what it
+/// quotes beyond that is cut.
+pub const MESSAGE_CHARS: usize = 900;
 /// Longest piece of the input an error message echoes, characters (cut
 /// to its first line as well).
 pub(crate) const ECHO_CHARS: usize = 60;
@@ -62,7 +70,7 @@ pub(crate) const TEMPLATE_FUEL: u64 = 100_000;
 
 /// Finest sampling step of `simulate nc --step`, mm.
 pub const MIN_SAMPLE_STEP_MM: f64 = 0.001;
-/// Most samples `simulate nc` keeps for `--output` or `--cmm`.
+/// Most samples `simulate nc` keeps for `-o/--out` or `--cmm`.
 pub const MAX_SAMPLES: usize = 2_000_000;
 /// Finest `compensate --tolerance`, um (below any control's resolution).
 pub const MIN_TOLERANCE_UM: f64 = 0.01;

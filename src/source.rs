@@ -72,6 +72,35 @@ impl fmt::Display for SourceError {
     }
 }
 
+/// `s` as a message quotes it: its first line, at most [`ECHO_CHARS`]
+/// characters, `…` where it was cut (a name ten kilobytes long is named,
+/// not printed).
+pub fn cut(s: &str) -> String {
+    let first = s.split(['\n', '\r']).next().unwrap_or("");
+    if first.len() < s.len() || first.chars().count() > ECHO_CHARS {
+        let mut out: String = first.chars().take(ECHO_CHARS).collect();
+        out.push('…');
+        out
+    } else {
+        s.to_string()
+    }
+}
+
+/// A whole message as fivecal prints it: at most
+/// [`crate::limits::MESSAGE_CHARS`] characters (a rendered template or a
+/// name of ten kilobytes that reached a message whole is cut there, and
+/// the message says so).
+pub fn short_message(msg: &str) -> String {
+    let m = msg;
+    let max = crate::limits::MESSAGE_CHARS;
+    if m.chars().count() <= max {
+        return m.to_string();
+    }
+    let mut out: String = m.chars().take(max).collect();
+    out.push_str("… (message cut)");
+    out
+}
+
 /// The message with every quoted echo of the input (`"..."` as serde
 /// writes it, `` `...` `` as fivecal does) cut to the first line and
 /// [`ECHO_CHARS`] characters: a file dumped into a string field, or a

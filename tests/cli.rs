@@ -173,6 +173,29 @@ fn completions_offer_test_and_machine_names() {
         .success();
 }
 
+/// `machine new` does not keep the old machine's description: it is printed
+/// in every program header, and "FANUC 31i-like" or another machine's
+/// paper would then label the new machine's programs.
+#[test]
+fn machine_new_replaces_the_old_description() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("my.yaml");
+    fivecal()
+        .args(["machine", "new", "my-mill", "--from", "head-table", "-o"])
+        .arg(&file)
+        .assert()
+        .success();
+    let copy = fivecal::Machine::from_file(&file).unwrap();
+    let original = fivecal::Machine::builtin("head-table").unwrap();
+    assert_ne!(copy.description, original.description);
+    assert!(
+        copy.description
+            .starts_with("my-mill (copied from head-table;"),
+        "{}",
+        copy.description
+    );
+}
+
 /// `machine new` writes a copy under the new name that reads back as the
 /// same machine, never over an existing file.
 #[test]
@@ -216,6 +239,145 @@ fn machine_new_writes_a_renamed_copy_that_reads_back() {
         .args(["machine", "new", "bad name", "-o", "-"])
         .assert()
         .failure();
+}
+
+/// One vocabulary on every command: each command that writes a file or a
+/// directory names it `-o/--out`; no command spells it `--output`; the NC
+/// program is an argument, never `--program`; `--dialect` offers the four
+/// dialects wherever it is taken.
+#[test]
+fn every_command_speaks_one_vocabulary() {
+    let writes_output = [
+        &["plan"][..],
+        &["simulate"],
+        &["simulate", "nc"],
+        &["analyze"],
+        &["analyze", "contour"],
+        &["compensate"],
+        &["discover"],
+        &["verify"],
+        &["history", "export"],
+        &["history", "plot"],
+        &["demo"],
+        &["machine", "new"],
+    ];
+    for path in writes_output {
+        let help = fivecal().args(path).arg("--help").output().unwrap();
+        let help = String::from_utf8_lossy(&help.stdout);
+        assert!(
+            help.contains("-o, --out"),
+            "{path:?} does not name its output -o/--out:\n{help}"
+        );
+        assert!(!help.contains("--output"), "{path:?} still says --output");
+        assert!(!help.contains("--program"), "{path:?} takes --program");
+        if help.contains("--dialect") {
+            assert!(
+                help.contains("fanuc")
+                    && help.contains("heidenhain")
+                    && help.contains("linuxcnc")
+                    && help.contains("sinumerik"),
+                "{path:?}: --dialect without its four values"
+            );
+        }
+    }
+}
+
+/// The spellings of the last release still work, once more, with a note
+/// saying what to write instead.
+#[test]
+fn the_old_output_spelling_still_works_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("old.yaml");
+    let run = fivecal()
+        .args(["machine", "new", "old-spelling", "--output"])
+        .arg(&file)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    assert!(file.exists());
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(err.contains("`--output` is now `-o/--out`"), "{err}");
+}
+
+/// The man page's EXAMPLES are a calibration a user can paste, line by line,
+/// into an empty directory: each line runs, in order, and leaves the files
+/// the next one reads.
+#[test]
+fn man_page_examples_run_in_an_empty_directory() {
+    let out = fivecal()
+        .arg("man")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    let examples = &text[text.find(".SH EXAMPLES").expect("an EXAMPLES section")..];
+    let examples = &examples[..examples[4..].find(".SH ").map_or(examples.len(), |i| i + 4)];
+    let lines: Vec<String> = examples
+        .split(".RS 4\n")
+        .skip(1)
+        .map(|block| {
+            block
+                .lines()
+                .next()
+                .unwrap()
+                .replace("\\-", "-")
+                .replace("\\e", "\\")
+        })
+        .collect();
+    assert!(lines.len() >= 5, "{examples}");
+    let dir = tempfile::tempdir().unwrap();
+    for line in &lines {
+        let (command, redirect) = match line.split_once(" > ") {
+            Some((c, file)) => (c, Some(file.trim())),
+            None => (line.as_str(), None),
+        };
+        let words: Vec<&str> = command.split_whitespace().collect();
+        assert_eq!(words[0], "fivecal", "{line}");
+        let run = fivecal()
+            .current_dir(dir.path())
+            .args(&words[1..])
+            .assert()
+            .success()
+            .get_output()
+            .clone();
+        if let Some(file) = redirect {
+            std::fs::write(dir.path().join(file), &run.stdout).unwrap();
+        }
+    }
+    assert!(dir.path().join("frustum-compensated.nc").exists());
+}
+
+/// Nested subcommands (`simulate nc`, `history plot`, `machine new`) have
+/// their own sections, and every variable the program reads is listed.
+#[test]
+fn man_page_covers_nested_subcommands_and_the_environment() {
+    let out = fivecal()
+        .arg("man")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    for sub in [
+        "SIMULATE NC",
+        "ANALYZE CONTOUR",
+        "HISTORY PLOT",
+        "HISTORY TREND",
+        "MACHINE NEW",
+    ] {
+        assert!(
+            text.contains(&format!(".SH \"FIVECAL {sub}\"")),
+            "no section for {sub}"
+        );
+    }
+    let env = &text[text
+        .find(".SH ENVIRONMENT")
+        .expect("an ENVIRONMENT section")..];
+    assert!(env.contains("FIVECAL_DB"));
 }
 
 #[test]

@@ -1,4 +1,4 @@
-//! Contour errors (Jiang et al. 2013 (docs/references.md)): the example part machined by its original
+//! Contour errors (Jiang et al. 2013): the example part machined by its original
 //! and by its compensated program on the virtual machine, measured at 120
 //! points and compared with its model; and `simulate nc` on its own.
 
@@ -74,7 +74,6 @@ fn the_example_part_shows_contour_errors_shrink_after_compensation() {
                 "head-table",
                 "--errors",
                 "truth.yaml",
-                "--program",
                 program,
                 "--cmm",
                 "cmm-points.csv",
@@ -165,7 +164,6 @@ fn simulate_nc_predicts_the_tool_tip_error_along_a_program() {
             "head-table",
             "--errors",
             "zero.yaml",
-            "--program",
             "frustum.h",
             "--step",
             "1",
@@ -192,7 +190,6 @@ fn simulate_nc_predicts_the_tool_tip_error_along_a_program() {
             "head-table",
             "--errors",
             "shift.yaml",
-            "--program",
             "frustum.h",
             "--step",
             "1",
@@ -230,7 +227,7 @@ fn simulate_nc_predicts_the_tool_tip_error_along_a_program() {
                 "--errors",
                 "shift.yaml",
             ])
-            .args(["--program", "g.nc", "-o", "g.csv"])
+            .args(["g.nc", "-o", "g.csv"])
             .args(extra)
             .output()
             .unwrap()

@@ -339,7 +339,14 @@ effects:
     )
     .unwrap();
     fivecal()
-        .args(["plan", "stepped-square", "--out", &p("ss")])
+        .args([
+            "plan",
+            "stepped-square",
+            "--machine",
+            "bc-trunnion",
+            "--out",
+            &p("ss"),
+        ])
         .assert()
         .success();
     let ss = p("ss/stepped-square.plan.yaml");

@@ -75,6 +75,31 @@ fn every_test_machine_and_method_fits_and_reports_within_4u() {
                         "{test} on {machine}, {method}, seed {seed}: ratio {}",
                         f.ratio
                     );
+                    // The verdict on every point against the complete
+                    // model at the method's estimate fits as well: the
+                    // sphere and two-stage estimates are as good as the
+                    // global one where the model is complete.
+                    let v = fivecal::analyze::verdict::of(
+                        &est,
+                        &setup,
+                        &data,
+                        plan.test(),
+                        Some(&plan),
+                        &expected,
+                    )
+                    .unwrap()
+                    .unwrap();
+                    assert_eq!(
+                        v.verdict,
+                        FitVerdict::Fits,
+                        "{test} on {machine}, {method}, seed {seed}: verdict {v:?}"
+                    );
+                    assert!(
+                        v.ratio > 0.75 && v.ratio < 1.3 && v.ratio >= f.ratio * 0.9,
+                        "{test} on {machine}, {method}, seed {seed}: verdict ratio {} against the method's {}",
+                        v.ratio,
+                        f.ratio
+                    );
                     // And what it reports is right within 4 u; what it
                     // does not report, the result file lists with why.
                     let file = est.error_file(None);

@@ -111,7 +111,6 @@ fn a_closed_standard_output_ends_each_printing_command_quietly_after_its_files_a
                 "bc-trunnion".into(),
                 "--errors".into(),
                 d.join("truth.yaml").into(),
-                "--program".into(),
                 d.join("stepped-square.nc").into(),
             ],
             None,
@@ -382,7 +381,6 @@ fn endless_and_oversized_inputs_end_at_once_with_an_error() {
             d.join("truth.yaml"),
             "--step",
             "1e-9",
-            "--program",
             d.join("stepped-square.nc")
         ],
         &["--step 0.000000001", "at least"],
@@ -396,7 +394,6 @@ fn endless_and_oversized_inputs_end_at_once_with_an_error() {
             "--errors",
             d.join("truth.yaml"),
             "--max-distance=-1",
-            "--program",
             d.join("stepped-square.nc")
         ],
         &["--max-distance -1"],

@@ -211,7 +211,7 @@ fn nine_section_on_ac_trunnion_has_nine_sections_with_section_1_at_zero() {
         "{}",
         t.poses[0].feature
     );
-    // Section 8 at A = -30, C = 270 as in Cubas Brizuela & Yeh 2023 (docs/references.md).
+    // Section 8 at A = -30, C = 270 as in Cubas Brizuela & Yeh 2023.
     assert_eq!((t.poses[7].tilt, t.poses[7].c), (-30.0, 270.0));
     // All nine sections are cut to one nominal height, and each tool
     // leans away from the piece's centre.
@@ -498,7 +498,13 @@ fn templates_postprocessors_and_tools_given_by_path_round_trip() {
     .unwrap();
     let out = dir.path().join("plan");
     fivecal()
-        .args(["plan", "stepped-square", "--template"])
+        .args([
+            "plan",
+            "stepped-square",
+            "--machine",
+            "bc-trunnion",
+            "--template",
+        ])
         .arg(&tpl)
         .arg("--postprocessor")
         .arg(&post)
@@ -809,11 +815,62 @@ fn plan_errors_are_typed() {
 
 // ---------------------------------------------------------------- CLI
 
+/// No silent default machine: a plan is for the machine the user names.
+/// Without `--machine` nothing is written and the message lists the
+/// built-in machines and how to start one's own file.
+#[test]
+fn plan_without_a_machine_is_refused_and_writes_nothing() {
+    let dir = tempdir();
+    let err = fivecal()
+        .current_dir(dir.path())
+        .args(["plan", "stepped-square"])
+        .assert()
+        .failure()
+        .get_output()
+        .stderr
+        .clone();
+    let err = String::from_utf8_lossy(&err);
+    assert!(err.contains("--machine"), "{err}");
+    assert!(
+        err.contains("head-table") && err.contains("machine new"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+/// Without `--out`, the plan's files land in a directory named after the
+/// test, never loose in the current directory.
+#[test]
+fn plan_without_out_writes_into_a_directory_named_after_the_test() {
+    let dir = tempdir();
+    fivecal()
+        .current_dir(dir.path())
+        .args(["plan", "probe-columns", "--machine", "ac-trunnion"])
+        .assert()
+        .success();
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["probe-columns"]);
+    assert!(
+        dir.path()
+            .join("probe-columns/probe-columns.plan.yaml")
+            .exists()
+    );
+}
+
 #[test]
 fn cli_writes_every_output_and_reports_bad_input_with_a_position() {
     let dir = tempdir();
     let out = fivecal()
-        .args(["plan", "stepped-square", "--out"])
+        .args([
+            "plan",
+            "stepped-square",
+            "--machine",
+            "bc-trunnion",
+            "--out",
+        ])
         .arg(dir.path())
         .assert()
         .success()
@@ -856,7 +913,13 @@ fn cli_writes_every_output_and_reports_bad_input_with_a_position() {
     let src = Template::builtin(Test::SteppedSquare).source().text.clone();
     std::fs::write(&bad, src.replace("tilt: auto", "tilt: [0, 95]")).unwrap();
     let err = fivecal()
-        .args(["plan", "stepped-square", "--template"])
+        .args([
+            "plan",
+            "stepped-square",
+            "--machine",
+            "bc-trunnion",
+            "--template",
+        ])
         .arg(&bad)
         .arg("--out")
         .arg(dir.path())

@@ -455,6 +455,8 @@ fn cli_writes_every_probing_output() {
         .args([
             "plan",
             "probe-sphere",
+            "--machine",
+            "bc-trunnion",
             "--dialect",
             "linuxcnc",
             "--template",
@@ -486,13 +488,34 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
             .clone();
         String::from_utf8(out).unwrap()
     };
-    let e = run(&["plan", "probe-columns", "--kinematics", "controller"]);
+    let e = run(&[
+        "plan",
+        "probe-columns",
+        "--machine",
+        "bc-trunnion",
+        "--kinematics",
+        "controller",
+    ]);
     assert!(e.contains("--kinematics controller"), "{e}");
-    let e = run(&["plan", "probe-sphere", "--tool", "machine"]);
+    let e = run(&[
+        "plan",
+        "probe-sphere",
+        "--machine",
+        "bc-trunnion",
+        "--tool",
+        "machine",
+    ]);
     assert!(e.contains("machine file's probe"), "{e}");
     let col = dir.path().join("col.yaml");
     std::fs::write(&col, fivecal::procedure::probing::columns::BUILTIN_TEMPLATE).unwrap();
-    let e = run(&["plan", "probe-sphere", "--template", col.to_str().unwrap()]);
+    let e = run(&[
+        "plan",
+        "probe-sphere",
+        "--machine",
+        "bc-trunnion",
+        "--template",
+        col.to_str().unwrap(),
+    ]);
     assert!(
         e.contains("the template is for test `probe-columns`"),
         "{e}"
@@ -504,7 +527,14 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
             .replace("diameter: 30 ", "diameter: -30 "),
     )
     .unwrap();
-    let e = run(&["plan", "probe-sphere", "--template", bad.to_str().unwrap()]);
+    let e = run(&[
+        "plan",
+        "probe-sphere",
+        "--machine",
+        "bc-trunnion",
+        "--template",
+        bad.to_str().unwrap(),
+    ]);
     assert!(
         e.contains("bad.yaml:9:")
             && e.contains("sphere.diameter must be between 0.001 and 2000 mm")
@@ -536,7 +566,14 @@ fn cli_refuses_what_a_probing_plan_cannot_do() {
     // An output never overwrites an input: the template's own copy.
     let own = dir.path().join("probe-sphere.template.yaml");
     std::fs::write(&own, fivecal::procedure::probing::sphere::BUILTIN_TEMPLATE).unwrap();
-    let e = run(&["plan", "probe-sphere", "--template", own.to_str().unwrap()]);
+    let e = run(&[
+        "plan",
+        "probe-sphere",
+        "--machine",
+        "bc-trunnion",
+        "--template",
+        own.to_str().unwrap(),
+    ]);
     assert!(e.contains("refusing to overwrite input file"), "{e}");
     assert!(!dir.path().join("probe-sphere.plan.yaml").exists());
 }

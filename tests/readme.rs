@@ -181,6 +181,52 @@ fn no_text_cites_documents_outside_the_repository() {
     assert!(help.lines().all(|l| !pattern(l)), "{help}");
 }
 
+/// A citation reads as a citation ("Ibaraki & Ota 2014"), never with a file
+/// path pasted after it as literal text: "(docs/references.md)" leaked into
+/// the README, `--help`, `machine list` and from the machine descriptions
+/// into every NC program header. Links in markdown stay allowed.
+#[test]
+fn no_user_facing_text_pastes_a_docs_path_after_a_citation() {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let leak =
+        |text: &str| text.contains(" (docs/references.md") || text.contains("(docs/references.md,");
+    let mut hits = Vec::new();
+    let mut stack: Vec<std::path::PathBuf> = [
+        "README.md",
+        "src",
+        "templates",
+        "postprocessors",
+        "examples",
+    ]
+    .iter()
+    .map(|p| root.join(p))
+    .collect();
+    while let Some(p) = stack.pop() {
+        if p.is_dir() {
+            for e in std::fs::read_dir(&p).unwrap() {
+                stack.push(e.unwrap().path());
+            }
+        } else if let Ok(text) = std::fs::read_to_string(&p) {
+            for (i, line) in text.lines().enumerate().filter(|(_, l)| leak(l)) {
+                hits.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
+            }
+        }
+    }
+    assert!(hits.is_empty(), "{}", hits.join("\n"));
+    for args in [&["plan", "--help"][..], &["machine", "list"], &["--help"]] {
+        let out = Command::cargo_bin("fivecal")
+            .unwrap()
+            .args(args)
+            .output()
+            .unwrap();
+        let out = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            !leak(&out) && !out.contains("docs/references.md"),
+            "{args:?}: {out}"
+        );
+    }
+}
+
 /// The README's install command is `cargo install --path .` run from the
 /// repository root, and that root's package has the `fivecal` binary it
 /// promises to put on the PATH.

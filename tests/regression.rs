@@ -956,7 +956,14 @@ fn simulate_nine_section_csv_is_the_heights_analyze_reads() {
         );
         String::from_utf8_lossy(&o.stdout).into_owned()
     };
-    run(&["plan", "nine-section", "--out", "p"]);
+    run(&[
+        "plan",
+        "nine-section",
+        "--machine",
+        "bc-trunnion",
+        "--out",
+        "p",
+    ]);
     std::fs::write(
         d.join("t.yaml"),
         "machine: bc-trunnion\nlocation_errors: {EX0B: 10.0, EA0B: 40.0}\n",
@@ -1110,9 +1117,8 @@ fn simulate_nc_program_with_no_move_to_follow_is_refused() {
             "linuxcnc",
             "--errors",
             "e.yaml",
-            "--program",
             "p.ngc",
-            "--output",
+            "--out",
             "s.csv",
         ],
     );
@@ -2506,4 +2512,182 @@ fn compensate_linearizes_an_arc_over_which_c_turns_sixteen_times() {
             &what,
         );
     }
+}
+
+/// `fivecal` with `args` in `dir`, succeeding; its standard output.
+fn fivecal_ok(dir: &Path, args: &[&str]) -> String {
+    let out = crate::cli::fivecal()
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "fivecal {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).to_string()
+}
+
+/// Issue 41, the drifting sphere: `plan probe-sphere --machine
+/// ac-trunnion`, simulated with the location errors of `simulate
+/// --truth-example` plus a thermal drift of EZ0A of 1 um per pose. The
+/// sphere method's per-pose spheres fit each pose as well as the probe
+/// allows, and its robust circle fit set the drifted centres aside, so the
+/// default analysis said `fit: fits (ratio 1.02)` with EZ0A 40 u and EA0A
+/// 105 u from the truth, and `compensate --export` took it. The verdict,
+/// on every touch against the complete model at the sphere method's
+/// estimate, is a misfit (or every value is within 4 u), names what the
+/// circle fit set aside, and the export is refused.
+#[test]
+fn drifting_sphere_is_judged_on_every_touch_not_on_the_centres_left() {
+    let dir = crate::util::tempdir();
+    let d = dir.path();
+    fivecal_ok(
+        d,
+        &["plan", "probe-sphere", "--machine", "ac-trunnion", "--out", "ps"],
+    );
+    let example = fivecal_ok(d, &["simulate", "--truth-example", "--machine", "ac-trunnion"]);
+    let full: serde_yaml::Value = serde_yaml::from_str(&example).unwrap();
+    let mut truth = serde_yaml::Mapping::new();
+    truth.insert("machine".into(), "ac-trunnion".into());
+    truth.insert("location_errors".into(), full["location_errors"].clone());
+    let truth = serde_yaml::to_string(&truth).unwrap()
+        + "effects:\n  thermal_drift:\n    EZ0A: {per: seq, rate: 1.0}\n";
+    std::fs::write(d.join("truth.yaml"), &truth).unwrap();
+    fivecal_ok(
+        d,
+        &[
+            "simulate",
+            "--plan",
+            "ps/probe-sphere.plan.yaml",
+            "--errors",
+            "truth.yaml",
+            "-o",
+            "touches.log",
+        ],
+    );
+    let printed = fivecal_ok(
+        d,
+        &[
+            "analyze",
+            "--plan",
+            "ps/probe-sphere.plan.yaml",
+            "--measured",
+            "touches.log",
+            "--out",
+            "result.yaml",
+        ],
+    );
+    // The verdict comes first.
+    assert!(printed.starts_with("verdict: "), "{printed}");
+    let text = std::fs::read_to_string(d.join("result.yaml")).unwrap();
+    let result: ErrorFile = serde_yaml::from_str(&text).unwrap();
+    let fit = result.fit.as_ref().expect("a verdict");
+    assert!(
+        fit.on.as_deref().is_some_and(|o| o.contains("every one of")),
+        "{fit:?}"
+    );
+    let within_4u = result.location_errors.iter().all(|(name, q)| {
+        let t = full["location_errors"][name.as_str()].as_f64().unwrap_or(0.0);
+        q.u.is_some_and(|u| (q.value - t).abs() < 4.0 * u)
+    });
+    assert!(
+        fit.verdict == fivecal::errorfile::FitVerdict::Misfit || within_4u,
+        "the sphere result fits and is off:\n{text}"
+    );
+    if fit.verdict == fivecal::errorfile::FitVerdict::Misfit {
+        assert!(printed.starts_with("verdict: misfit"), "{printed}");
+        // What the robust circle fit set aside is named in the verdict.
+        assert!(
+            fit.set_aside.iter().any(|s| s.contains("centres at")),
+            "{fit:?}"
+        );
+        let out = crate::cli::fivecal()
+            .current_dir(d)
+            .args([
+                "compensate",
+                "--machine",
+                "ac-trunnion",
+                "--errors",
+                "result.yaml",
+                "--export",
+                "fanuc",
+                "--no-record",
+            ])
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("does not fit"), "{err}");
+    }
+}
+
+/// Issue 41, a fit that stopped is called a fit: on head-table, a
+/// probe-columns analysis printed "the fit stopped after 50 steps without
+/// converging", then `fit: fits`, the result file kept no trace of it, and
+/// `compensate --export fanuc` took its values. Here the global fit is
+/// stopped after one step (the case itself stopped after fifty): the
+/// verdict is not-converged whatever the residuals, the result file says
+/// so, and the export refuses it, naming why.
+#[test]
+fn fit_stopped_before_converging_is_recorded_and_refused_by_the_export() {
+    use fivecal::analyze::goodness::ExpectedNoise;
+    use fivecal::errorfile::FitVerdict;
+    use fivecal::identify::{Setup, global, lsq};
+    let plan = crate::simulate::planned("head-table", "probe-columns");
+    let truth = crate::simulate::truth(&plan, HEAD_TABLE_ERRORS.trim_start_matches("machine: head-table\n"));
+    let out = fivecal::simulate::run(&plan, &truth, &Default::default()).unwrap();
+    let data =
+        fivecal::analyze::uncertainty::simulated::plan_dataset(&plan, "touches.log", out.points)
+            .unwrap();
+    let kin = fivecal::simulate::plan_kinematics(&plan);
+    let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
+    let fm = fivecal::simulate::forward::for_plan(&setup.model, &plan).unwrap();
+    let stopped = lsq::Options {
+        max_iter: 1,
+        ..Default::default()
+    };
+    let est = global::identify(fm.as_ref(), &setup, &data, &stopped).unwrap();
+    assert!(!est.converged, "{}", est.summary());
+    let expected = ExpectedNoise::new(None, data.kind, plan.test());
+    let fit = fivecal::analyze::verdict::of(&est, &setup, &data, plan.test(), Some(&plan), &expected)
+        .unwrap()
+        .unwrap();
+    assert_eq!(fit.verdict, FitVerdict::NotConverged, "{fit:?}");
+    assert!(
+        fivecal::analyze::verdict::render(Some(&fit)).starts_with("verdict: NOT CONVERGED"),
+        "{fit:?}"
+    );
+    let mut file = fivecal::analyze::result::error_file(&est, &est.u(), data.kind);
+    file.fit = Some(fit);
+    let text = file.to_yaml();
+    assert!(text.contains("verdict: not-converged"), "{text}");
+    let dir = crate::util::tempdir();
+    std::fs::write(dir.path().join("result.yaml"), &text).unwrap();
+    let loaded = ErrorFile::load(&dir.path().join("result.yaml"), &kin).unwrap();
+    assert!(loaded.not_converged().is_some());
+    let out = crate::cli::fivecal()
+        .current_dir(dir.path())
+        .args([
+            "compensate",
+            "--machine",
+            "head-table",
+            "--errors",
+            "result.yaml",
+            "--export",
+            "fanuc",
+            "--accept-misfit",
+            "--no-record",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("result.yaml: the fit of this result did not converge"),
+        "{err}"
+    );
+    assert!(out.stdout.is_empty(), "{}", String::from_utf8_lossy(&out.stdout));
 }

@@ -21,6 +21,7 @@ mod fuzz_readers;
 mod goodness;
 mod history;
 mod hostile;
+mod hostile_round2;
 mod identifiability;
 mod identify;
 mod kinematics;

@@ -113,12 +113,26 @@ pub fn judge(sigma_um: f64, dof: usize, expected: &ExpectedNoise) -> Option<FitS
         dof,
         p_value,
         verdict,
+        on: None,
+        set_aside: Vec::new(),
+        stopped: None,
     })
 }
 
-/// The fit of an identification.
+/// The fit of an identification judged by its own residuals (what the
+/// global method and `discover` fit: every point against the complete
+/// model; every other method is judged by [`super::verdict::of`]). A fit
+/// that did not converge is no fit, whatever its residuals.
 pub fn of(est: &Identification, expected: &ExpectedNoise) -> Option<FitSection> {
-    judge(est.sigma_um, est.dof, expected)
+    let mut f = judge(est.sigma_um, est.dof, expected)?;
+    if !est.converged {
+        f.verdict = FitVerdict::NotConverged;
+        f.stopped = Some(format!(
+            "the {} method's fit stopped without converging: its values are no estimate",
+            est.method
+        ));
+    }
+    Some(f)
 }
 
 /// The factor the uncertainties of a result are widened by: the Birge

@@ -15,6 +15,9 @@
 //! - [`preview`]: what a plan will identify, before anything is measured;
 //! - [`goodness`]: whether the model explains the measurements as well as the
 //!   instrument's noise allows, and what a result that does not must say;
+//! - [`verdict`]: that judgement for every method on the raw measurements
+//!   (every point against the complete model at the method's estimate),
+//!   and whether the fit converged;
 //! - [`uncertainty`]: the covariance each method reports and the
 //!   Monte-Carlo study that replaces it on request;
 //! - [`result`]: the result file, every entry of it added in one place;
@@ -28,6 +31,7 @@ pub mod preview;
 pub mod result;
 pub mod series;
 pub mod uncertainty;
+pub mod verdict;
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -177,8 +181,9 @@ pub struct IdentifiedPiece {
     pub u: Vec<Option<f64>>,
     /// The Monte-Carlo study, if asked for.
     pub monte_carlo: Option<Study>,
-    /// How well the model fits the measurements; `None` where nothing is
-    /// left to judge it by (no degrees of freedom).
+    /// The verdict ([`verdict::of`]): how well the model at the method's
+    /// estimate fits every measurement, or that the fit did not converge;
+    /// `None` where nothing is left to judge it by (no degrees of freedom).
     pub fit: Option<crate::errorfile::FitSection>,
     /// The result file.
     pub file: ErrorFile,
@@ -190,6 +195,13 @@ impl IdentifiedPiece {
         self.fit
             .as_ref()
             .filter(|f| f.verdict == crate::errorfile::FitVerdict::Misfit)
+    }
+
+    /// The fit, if it did not converge.
+    pub fn not_converged(&self) -> Option<&crate::errorfile::FitSection> {
+        self.fit
+            .as_ref()
+            .filter(|f| f.verdict == crate::errorfile::FitVerdict::NotConverged)
     }
 }
 
@@ -342,25 +354,37 @@ fn identify_piece(
     number: Option<usize>,
 ) -> Result<IdentifiedPiece, AnalyzeError> {
     let setup = Setup::new(&ctx.kin, &data.poses, &req.maps)?;
-    // The global method on a model the rigid-pose models refuse (a head
-    // machine) or on the sphere test inverts the simulator's forward model,
-    // which needs the plan.
-    let plan = if (method == Method::Global && method::needs_plan(&setup.model, ctx.test))
-        || (method == Method::Sphere && method::rigid_refuses(&setup.model))
-    {
+    // The complete measurement model of a model the rigid-pose models
+    // refuse (a head machine) or of the sphere test is the simulator's
+    // forward model of the plan: the global method inverts it, the sphere
+    // method on a head machine is judged by it, and every method's verdict
+    // is computed with it.
+    let plan = if method::needs_plan(&setup.model, ctx.test) {
         Some(rebuilt(req)?)
     } else {
         None
     };
-    let est = method::identify_with_plan(method, &setup, &data, sphere, plan.as_deref())?;
-    let fit = goodness::of(
+    let mut est = method::identify_with_plan(method, &setup, &data, sphere, plan.as_deref())?;
+    let judged = verdict::judged(
         &est,
+        &setup,
+        &data,
+        ctx.test,
+        plan.as_deref(),
         &goodness::ExpectedNoise::new(req.noise, data.kind, ctx.test),
-    );
-    // The covariance is scaled by the residual variance, so its u already
-    // carries the Birge ratio; a Monte-Carlo study draws at the stated noise
-    // and is widened below.
-    let mut u = est.u();
+    )?;
+    let fit = judged.fit;
+    // The global method's covariance is scaled by the verdict's residual
+    // variance, so its u already carries the Birge ratio; another method's
+    // is scaled by its own residuals and is widened to the verdict's; a
+    // Monte-Carlo study draws at the stated noise and is widened below.
+    let w = verdict::widening(&est, fit.as_ref());
+    let mut u: Vec<Option<f64>> = est.u().into_iter().map(|u| u.map(|u| u * w)).collect();
+    // The residuals shown (the table by pose and face, the report's plots)
+    // are the verdict's: every point against the complete model, where a
+    // method's own (a sphere per pose, a plane per station) hide what its
+    // steps absorbed.
+    est.residuals = judged.residuals;
     let mut study = None;
     if let Some(mc) = &req.monte_carlo {
         let contributors = match &mc.contributors {

@@ -175,6 +175,23 @@ pub(super) fn flatten<E: From<SourceError>>(
             }
             for wv in &trace.values[step.values.0 as usize..step.values.1 as usize] {
                 let tok = &block.tokens[wv.token as usize];
+                // No control takes `X=inf`: a value the logic computes
+                // beyond every number (R1=EXP(1000)) ends the run here,
+                // with its line, before it is written.
+                if let Some(v) = wv.value
+                    && !v.is_finite()
+                    && matches!(tok.kind, TokenKind::Word(_) | TokenKind::Expr)
+                {
+                    return Err(SourceError::new(
+                        path,
+                        block.line,
+                        0,
+                        format!(
+                            "a word's value computes to {v}, which is not a number a control can take: nothing written"
+                        ),
+                    )
+                    .into());
+                }
                 match (tok.kind, wv.value) {
                     (TokenKind::Word(w), Some(v)) => {
                         edits.replace(w.value_span, |o| literal(o, dialect, w.addr, v));

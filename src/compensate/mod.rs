@@ -33,6 +33,7 @@ mod expand;
 pub mod export;
 pub mod simulate;
 mod solver;
+pub mod tolerance;
 mod writer;
 
 use std::fmt;

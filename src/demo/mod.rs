@@ -738,6 +738,7 @@ impl Demo {
                 match f.verdict {
                     crate::errorfile::FitVerdict::Fits => "fits",
                     crate::errorfile::FitVerdict::Misfit => "does NOT fit",
+                    crate::errorfile::FitVerdict::NotConverged => "did NOT converge",
                 },
                 f.sigma_um,
                 f.expected_um,

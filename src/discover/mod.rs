@@ -266,6 +266,8 @@ pub fn identification(f: &Fit, data: &Dataset) -> Identification {
         poses,
         placement,
         notes,
+        converged: f.converged,
+        set_aside: Vec::new(),
     }
 }
 

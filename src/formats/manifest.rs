@@ -293,7 +293,18 @@ impl Manifest {
     /// Reads a manifest file.
     pub fn read(path: &Path) -> Result<Manifest, SourceError> {
         let src = crate::input::read_text(path, "plan manifest", crate::limits::MAX_YAML_BYTES)?;
-        Manifest::parse(path, &src)
+        let m = Manifest::parse(path, &src)?;
+        // The files of the plan are its inputs too, read now or later in
+        // the run: no output of the run may land on one.
+        crate::io::note_input(&m.resolve(path, &m.machine_file), "the plan's machine copy");
+        crate::io::note_input(
+            &m.resolve(path, &m.template_file),
+            "the plan's template copy",
+        );
+        for (role, rel) in &m.files {
+            crate::io::note_input(&m.resolve(path, rel), &format!("the plan's {role} file"));
+        }
+        Ok(m)
     }
 
     /// YAML text.

@@ -48,7 +48,7 @@ pub fn write(
                 u: p.u,
                 verdict: match p.fit {
                     Some(FitVerdict::Fits) => FitMark::Fits,
-                    Some(FitVerdict::Misfit) => FitMark::Misfit,
+                    Some(FitVerdict::Misfit | FitVerdict::NotConverged) => FitMark::Misfit,
                     None => FitMark::Unknown,
                 },
             });

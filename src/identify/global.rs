@@ -311,6 +311,8 @@ fn fit(
         poses,
         placement: placement_iso,
         notes,
+        converged: sol.converged,
+        set_aside: Vec::new(),
     };
     let fitted = Fitted {
         x: sol.x,
@@ -323,4 +325,123 @@ fn fit(
         minutes,
     };
     Ok((id, fitted))
+}
+
+/// The residuals of every measured point against the complete measurement
+/// model `fm` at an estimate another method made: what the verdict of
+/// that method is computed from ([`crate::analyze::verdict`]).
+#[derive(Clone, Debug)]
+pub struct Judged {
+    /// Residual of each observation, um (the dataset's order).
+    pub residuals: Vec<f64>,
+    /// Their sum of squares, um^2.
+    pub cost: f64,
+    /// Degrees of freedom: measured points less the directions the
+    /// complete design sees (as [`identify`] counts them).
+    pub dof: usize,
+    /// Whether the fit of what is not held (nuisance, setup, placement,
+    /// what the method does not report) converged.
+    pub converged: bool,
+}
+
+/// Fits every measured point to the complete model `fm`, the model
+/// parameters marked `held` kept at `theta` (the values a method
+/// reports), everything else free from there: the nuisance of the forward
+/// model (the sphere's or the pieces' setups), a machined piece's CMM
+/// placement, and the parameters the method does not report. The residuals
+/// left are those of the method's estimate, whatever it did inside; for
+/// the global method itself (nothing held that it did not fit) they are
+/// its own.
+pub fn judge_at(
+    fm: &dyn ForwardModel,
+    setup: &Setup,
+    data: &Dataset,
+    theta: &[f64],
+    held: &[bool],
+    opts: &lsq::Options,
+) -> Result<Judged, IdentifyError> {
+    let n = setup.model.n_params();
+    if fm.model().n_params() != n || theta.len() != n || held.len() != n {
+        return Err(IdentifyError::Data(
+            "the estimate's parameters differ from the forward model's".into(),
+        ));
+    }
+    let Observed { p0, u, minutes } = observed(data)?;
+    let placement = p0.is_some();
+    let k = fm.nuisance_names().len();
+    let problem = GlobalProblem {
+        fm,
+        data,
+        u,
+        minutes,
+        placement,
+        n,
+        k,
+        error: RefCell::new(None),
+    };
+    let extra = k + if placement { 6 } else { 0 };
+    let basis = setup.basis(extra);
+    // The degrees of freedom of the complete design, judged at the nominal
+    // machine as the global fit judges them.
+    let zeros = vec![0.0; n + extra];
+    let mut r0 = vec![0.0; data.obs.len()];
+    let mut j0 = Mat::<f64>::zeros(data.obs.len(), n + extra);
+    problem.eval(&zeros, &mut r0, Some(&mut j0));
+    if let Some(e) = problem.error.borrow_mut().take() {
+        return Err(e.into());
+    }
+    let nominal = lsq::design(&j0, Some(&basis), opts.rank_rtol);
+    let dof = data.obs.len().saturating_sub(nominal.rank);
+    // The free directions: those of the constraint basis that leave every
+    // held parameter where it is (the null space of the basis' held rows).
+    let free = held_fixed(&basis, held);
+    let mut x0 = theta.to_vec();
+    x0.extend(std::iter::repeat_n(0.0, extra));
+    let sol = if free.ncols() == 0 {
+        let mut r = vec![0.0; data.obs.len()];
+        problem.eval(&x0, &mut r, None);
+        let cost = r.iter().map(|v| v * v).sum();
+        lsq::LsqSolution {
+            x: x0,
+            residuals: r,
+            jacobian: Mat::zeros(0, 0),
+            cost,
+            iterations: 0,
+            converged: true,
+        }
+    } else {
+        lsq::solve_ranked(&problem, &x0, Some(&free), opts, Some(nominal.rank))
+    };
+    if !sol.cost.is_finite() {
+        return Err(match problem.error.borrow_mut().take() {
+            Some(e) => e.into(),
+            None => IdentifyError::Data(
+                "the residuals at the estimate are not finite numbers".into(),
+            ),
+        });
+    }
+    Ok(Judged {
+        residuals: sol.residuals,
+        cost: sol.cost,
+        dof,
+        converged: sol.converged,
+    })
+}
+
+/// The columns of `basis` (orthonormal) combined so that every row marked
+/// `held` is zero: the directions that move no held parameter.
+fn held_fixed(basis: &DMatrix<f64>, held: &[bool]) -> DMatrix<f64> {
+    let rows: Vec<usize> = (0..held.len()).filter(|&i| held[i]).collect();
+    if rows.is_empty() {
+        return basis.clone();
+    }
+    let h = basis.select_rows(&rows);
+    let q = basis.ncols();
+    let eig = nalgebra::SymmetricEigen::new(h.transpose() * &h);
+    let scale = eig.eigenvalues.iter().fold(1.0f64, |a, &v| a.max(v.abs()));
+    let keep: Vec<usize> = (0..q)
+        .filter(|&c| eig.eigenvalues[c].abs() <= 1e-10 * scale)
+        .collect();
+    let null = eig.eigenvectors.select_columns(&keep);
+    basis * null
 }

@@ -75,6 +75,13 @@ pub struct Identification {
     pub placement: Option<Isometry3<f64>>,
     /// Things the user should know.
     pub notes: Vec<String>,
+    /// Whether every iterative step of the method (its solver, its
+    /// Newton inversion) converged; a fit that stopped is not a fit.
+    pub converged: bool,
+    /// The data a robust step of the method set aside (`the centres at C =
+    /// 0, 10 deg of the C circle`): left out of its estimate, never out of
+    /// its verdict.
+    pub set_aside: Vec<String>,
 }
 
 /// One row of the residual table.
@@ -252,11 +259,17 @@ impl Identification {
     /// A text summary: identifiability, the values with `u`, the residual
     /// level.
     pub fn summary(&self) -> String {
+        self.summary_with(&self.u())
+    }
+
+    /// [`Self::summary`] with the uncertainties `u` reported (a Monte-Carlo
+    /// study's, or the covariance's widened under a misfit), as the result
+    /// file holds them.
+    pub fn summary_with(&self, u: &[Option<f64>]) -> String {
         use std::fmt::Write as _;
         let mut s = self.identifiability.render();
         let names = self.model.param_names();
         let units = self.model.param_units();
-        let u = self.u();
         let _ = writeln!(
             s,
             "method {}: residual sigma {:.3} um ({} degrees of freedom)",

@@ -542,6 +542,17 @@ pub(crate) fn symbols_from_lines(
     t0: f64,
     span: (f64, f64),
 ) -> Vec<f64> {
+    inverse_lines(model, tilt, c, t0, span).0
+}
+
+/// [`symbols_from_lines`], and whether its Newton inversion converged.
+fn inverse_lines(
+    model: &Model,
+    tilt: &Line,
+    c: &Line,
+    t0: f64,
+    span: (f64, f64),
+) -> (Vec<f64>, bool) {
     let p = LineProblem {
         model,
         tilt: *tilt,
@@ -553,7 +564,8 @@ pub(crate) fn symbols_from_lines(
         max_iter: 30,
         ..Default::default()
     };
-    lsq::solve(&p, &vec![0.0; model.n_params()], None, &opts).x
+    let sol = lsq::solve(&p, &vec![0.0; model.n_params()], None, &opts);
+    (sol.x, sol.converged)
 }
 
 /// Options of the sphere method.
@@ -647,6 +659,7 @@ struct FittedLines {
     w_tilt: Vec<f64>,
     w_c: Vec<f64>,
     notes: Vec<String>,
+    set_aside: Vec<String>,
 }
 
 /// Fits the two axis lines to the centres.
@@ -660,6 +673,7 @@ fn lines(
     let tilt_hint = m.tilt.about.unit();
     let c_hint = model.kin.nominal_table_transform(g.t0, 0.0).rotation * Vector3::z();
     let mut notes = Vec::new();
+    let mut set_aside = Vec::new();
     match method {
         CircleMethod::Combinations => {
             let (lt, nt) = combinations_line(&g.tilt, &tilt_hint, &Vector3::zeros())?;
@@ -668,12 +682,22 @@ fn lines(
                 "Cubas Brizuela & Yeh 2023 combinations: {} axis {} of {} three-centre circles admissible, {} kept; C axis {} of {}, {} kept",
                 m.tilt.letter, nt[1], nt[0], nt[2], nc[1], nc[0], nc[2]
             ));
+            for (name, n) in [(m.tilt.letter, nt), ('C', nc)] {
+                if n[2] < n[1] {
+                    set_aside.push(format!(
+                        "{} of the {} admissible three-centre circles of the {name} axis, by the trimming of the combinations",
+                        n[1] - n[2],
+                        n[1]
+                    ));
+                }
+            }
             Some(FittedLines {
                 tilt: lt,
                 c: lc,
                 w_tilt: vec![1.0; g.tilt.centres.len()],
                 w_c: vec![1.0; g.c.centres.len()],
                 notes,
+                set_aside,
             })
         }
         _ => {
@@ -704,6 +728,10 @@ fn lines(
                         "robust fit of the {name} axis set aside the centres at {name} = {} deg as outliers",
                         out.join(", ")
                     ));
+                    set_aside.push(format!(
+                        "the centres at {name} = {} deg, by the robust circle fit of the {name} axis",
+                        out.join(", ")
+                    ));
                 }
             }
             Some(FittedLines {
@@ -718,6 +746,7 @@ fn lines(
                 w_tilt: ct.weights,
                 w_c: cc.weights,
                 notes,
+                set_aside,
             })
         }
     }
@@ -896,7 +925,13 @@ pub fn identify_judged(
     let fitted = lines(&g, model, opts.circle, None)
         .ok_or_else(|| IdentifyError::Data("the centres do not determine a circle".into()))?;
     notes.extend(fitted.notes.iter().cloned());
-    let theta = symbols_from_lines(model, &fitted.tilt, &fitted.c, g.t0, span);
+    let (theta, converged) = inverse_lines(model, &fitted.tilt, &fitted.c, g.t0, span);
+    if !converged {
+        notes.push(
+            "the inversion of the axis lines into location errors stopped without converging"
+                .into(),
+        );
+    }
     let (mut cov, mut cov_unit) = propagate(
         model,
         &g,
@@ -992,6 +1027,8 @@ pub fn identify_judged(
         poses,
         placement: None,
         notes,
+        converged,
+        set_aside: fitted.set_aside.clone(),
     })
 }
 

@@ -60,7 +60,7 @@ pub enum NominalFrame {
     Piece(Option<Isometry3<f64>>),
     /// Probing against the nominal points `rTw* p`.
     Probed,
-    /// Probing relative to the reference pose (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)).
+    /// Probing relative to the reference pose (Ibaraki, Iritani & Matsushita 2013).
     Relative {
         /// Index of the reference pose.
         reference: usize,
@@ -539,7 +539,39 @@ pub fn identify(
         poses: fits,
         placement,
         notes,
+        converged: sol.converged,
+        set_aside: unused_touches(data, kin, &frame),
     })
+}
+
+/// The touches stage 1 cannot use (relative to a reference pose, those of
+/// features not touched there), named for the verdict, which judges them
+/// with the rest.
+fn unused_touches(data: &Dataset, kin: &Kinematics, frame: &NominalFrame) -> Vec<String> {
+    let NominalFrame::Relative { reference, .. } = frame else {
+        return Vec::new();
+    };
+    let unused: Vec<&str> = data
+        .obs
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| {
+            !data.poses[*reference].obs.contains(k) && frame.observation(data, kin, *k).is_none()
+        })
+        .map(|(k, _)| data.point(k).label.as_str())
+        .collect();
+    if unused.is_empty() {
+        Vec::new()
+    } else {
+        let shown = unused.len().min(6);
+        vec![format!(
+            "{} touches of features not touched at the reference pose {}, by stage 1 ({}{})",
+            unused.len(),
+            data.poses[*reference].id,
+            unused[..shown].join(", "),
+            if unused.len() > shown { ", ..." } else { "" }
+        )]
+    }
 }
 
 /// What the frame of stage 1 means for the user: relative to a reference
@@ -559,7 +591,7 @@ fn frame_notes(data: &Dataset, kin: &Kinematics, frame: &NominalFrame) -> Vec<St
                 })
                 .count();
             notes.push(format!(
-                "stage 1 relative to the touches of pose {} (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)): the setup of the pieces cancels{}",
+                "stage 1 relative to the touches of pose {} (Ibaraki, Iritani & Matsushita 2013): the setup of the pieces cancels{}",
                 data.poses[*reference].id,
                 if unused > 0 {
                     format!("; {unused} touches of features not touched there are not used")

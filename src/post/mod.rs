@@ -59,7 +59,7 @@ pub enum Coolant {
     Flood,
     /// Mist.
     Mist,
-    /// Air blow (Ibaraki & Ota 2014 (docs/references.md)).
+    /// Air blow (Ibaraki & Ota 2014).
     Air,
 }
 

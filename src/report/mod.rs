@@ -375,6 +375,9 @@ fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], ma
     let (est, data) = (r.est, r.data);
     let kin = &est.model.kin;
     let mut h = page_start(&r.title);
+    // The page opens with the verdict: whether anything below may be
+    // acted on.
+    fit_section(&mut h, r);
     let _ = writeln!(
         h,
         "<p>Machine <b>{}</b>, method <b>{}</b>, {} points in {} poses from {}.</p>",
@@ -389,7 +392,6 @@ fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], ma
             .collect::<Vec<_>>()
             .join(", "))
     );
-    fit_section(&mut h, r);
     let _ = writeln!(
         h,
         "<h2>What the test identifies</h2>\n<pre>{}</pre>",
@@ -438,14 +440,29 @@ fn fit_section(h: &mut String, r: &ReportInput<'_>) {
             "Residuals {:.3} um against {:.3} um expected ({}): ratio {:.2}, p = {:.1e} over {} degrees of freedom.",
             f.sigma_um, f.expected_um, f.expected_from, f.ratio, f.p_value, f.dof
         );
-        if f.verdict == crate::errorfile::FitVerdict::Misfit {
+        let mut line = line;
+        if let Some(on) = &f.on {
+            line.push_str(&format!(" Judged on {on}."));
+        }
+        for a in &f.set_aside {
+            line.push_str(&format!(
+                " Set aside from the estimate and judged here with the rest: {a}."
+            ));
+        }
+        if f.verdict == crate::errorfile::FitVerdict::NotConverged {
             let _ = writeln!(
                 h,
-                "<div style=\"border:3px solid #c00;background:#fee;padding:8px\"><b>The model does not fit.</b> {} The values are biased by an effect the model lacks (or the stated noise is too small); their u is widened by the ratio, and <code>fivecal compensate</code> refuses this result without <code>--accept-misfit</code>. Run <code>fivecal discover</code> on the same plan and measurements to find the missing effect.</div>",
+                "<div style=\"border:3px solid #c00;background:#fee;padding:8px\"><b>Verdict: the fit did not converge.</b> {} Its values are no estimate: <code>fivecal compensate</code>, its export and <code>fivecal verify</code> refuse this result.</div>",
+                esc(f.stopped.as_deref().unwrap_or("The fit stopped."))
+            );
+        } else if f.verdict == crate::errorfile::FitVerdict::Misfit {
+            let _ = writeln!(
+                h,
+                "<div style=\"border:3px solid #c00;background:#fee;padding:8px\"><b>Verdict: the model does not fit.</b> {} The values are biased by an effect the model lacks (or the stated noise is too small); their u is widened by the ratio, and <code>fivecal compensate</code> refuses this result without <code>--accept-misfit</code>. Run <code>fivecal discover</code> on the same plan and measurements to find the missing effect.</div>",
                 esc(&line)
             );
         } else {
-            let _ = writeln!(h, "<p>The model fits. {}</p>", esc(&line));
+            let _ = writeln!(h, "<p><b>Verdict: the model fits.</b> {}</p>", esc(&line));
         }
     }
 }

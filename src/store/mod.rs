@@ -34,12 +34,23 @@ pub(crate) const TOOL_VERSION: &str = env!("CARGO_PKG_VERSION");
 /// Environment variable naming the store when `--db` is not given.
 pub(crate) const ENV_DB: &str = "FIVECAL_DB";
 
-/// How long a writer waits for another one holding SQLite's write lock.
-const BUSY_TIMEOUT: Duration = Duration::from_secs(60);
+/// How long the store may take by default (`--db-timeout` changes it):
+/// to connect and log in to a PostgreSQL server, to wait for another run
+/// holding SQLite's write lock or a PostgreSQL lock, and for an
+/// unacknowledged write to a server. A server that accepts and never
+/// answers, or answers what is not PostgreSQL, ends the run after this
+/// long with a message naming it.
+pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(30);
 
-/// How long connecting to a PostgreSQL server may take unless the URL sets
-/// `connect_timeout`.
-const CONNECT_TIMEOUT: Duration = Duration::from_secs(15);
+/// What a run does with the store.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    /// Records into it: created when new, its schema brought up to date.
+    ReadWrite,
+    /// Only reads it (history, verify): never created, migrated or
+    /// otherwise changed; SQLite opens the file read-only.
+    ReadOnly,
+}
 
 /// Why the store could not do what was asked.
 #[derive(Debug, thiserror::Error)]
@@ -357,14 +368,22 @@ impl Location {
 
     /// `db` if given, else the `FIVECAL_DB` environment variable, else
     /// the default file.
+    ///
+    /// An SQLite file is noted as an input of the run
+    /// ([`crate::io::note_input`]): no output of the run may land on the
+    /// store it records into or reads.
     pub fn resolve(db: Option<&str>) -> Result<Location, StoreError> {
-        if let Some(d) = db {
-            return Ok(Location::parse(d));
+        let l = match db {
+            Some(d) => Location::parse(d),
+            None => match std::env::var(ENV_DB) {
+                Ok(v) if !v.is_empty() => Location::parse(&v),
+                _ => Location::Sqlite(Location::default_path()?),
+            },
+        };
+        if let Location::Sqlite(p) = &l {
+            crate::io::note_input(p, "the results store");
         }
-        match std::env::var(ENV_DB) {
-            Ok(v) if !v.is_empty() => Ok(Location::parse(&v)),
-            _ => Ok(Location::Sqlite(Location::default_path()?)),
-        }
+        Ok(l)
     }
 }
 
@@ -399,6 +418,9 @@ enum Connection {
 pub struct Store {
     conn: Connection,
     location: Location,
+    /// Its schema version when opened (a read-only store may be older
+    /// than this fivecal: the columns it lacks read as NULL).
+    version: i64,
 }
 
 /// Several records written in one transaction: all land on
@@ -457,21 +479,63 @@ impl Store {
     /// Opens the store at `location`, creating it (and an SQLite file's
     /// directory) when needed and bringing its schema up to date.
     pub fn open(location: &Location) -> Result<Store, StoreError> {
-        Store::open_at_version(location, CURRENT_VERSION)
+        Store::open_with(location, Access::ReadWrite, DEFAULT_TIMEOUT)
+    }
+
+    /// Opens the store at `location` for `access`, waiting at most
+    /// `timeout` to connect and for a lock. Read-only: an SQLite file must
+    /// exist and is opened read-only (a file without fivecal's tables reads
+    /// as an empty store); a store newer than this fivecal is refused.
+    pub fn open_with(
+        location: &Location,
+        access: Access,
+        timeout: Duration,
+    ) -> Result<Store, StoreError> {
+        if access == Access::ReadWrite {
+            return Store::open_migrated(location, CURRENT_VERSION, timeout);
+        }
+        let loc = location.to_string();
+        let conn = connect(location, access, timeout).map_err(|e| at(e, &loc))?;
+        let mut store = Store {
+            conn,
+            location: location.clone(),
+            version: 0,
+        };
+        let found = store.read(schema::version)?;
+        if found > CURRENT_VERSION {
+            return Err(at(
+                StoreError::NewerSchema {
+                    found,
+                    known: CURRENT_VERSION,
+                },
+                &loc,
+            ));
+        }
+        store.version = found;
+        Ok(store)
     }
 
     /// Opens the store migrated only up to schema `version`: the store an
     /// older fivecal left (for tests of the migrations). A store already
     /// beyond `version` stays as it is.
     pub fn open_at_version(location: &Location, version: i64) -> Result<Store, StoreError> {
+        Store::open_migrated(location, version, DEFAULT_TIMEOUT)
+    }
+
+    fn open_migrated(
+        location: &Location,
+        version: i64,
+        timeout: Duration,
+    ) -> Result<Store, StoreError> {
         let loc = location.to_string();
-        let conn = connect(location).map_err(|e| at(e, &loc))?;
+        let conn = connect(location, Access::ReadWrite, timeout).map_err(|e| at(e, &loc))?;
         let mut store = Store {
             conn,
             location: location.clone(),
+            version: 0,
         };
         let now = format_time(Timestamp::now());
-        store.write(|c| schema::migrate(c, version.min(CURRENT_VERSION), &now))?;
+        store.version = store.write(|c| schema::migrate(c, version.min(CURRENT_VERSION), &now))?;
         Ok(store)
     }
 
@@ -514,16 +578,21 @@ impl Store {
     /// Every record, or a machine's, oldest measurement first.
     pub fn list(&mut self, machine: Option<&str>) -> Result<Vec<Stored>, StoreError> {
         let m = machine.map(str::to_string);
-        self.read(move |c| select(c, m.as_deref(), None))
+        let v = self.version;
+        self.read(move |c| select(c, v, m.as_deref(), None))
     }
 
     /// One record.
     pub fn get(&mut self, id: i64) -> Result<Option<Stored>, StoreError> {
-        self.read(move |c| Ok(select(c, None, Some(id))?.into_iter().next()))
+        let v = self.version;
+        self.read(move |c| Ok(select(c, v, None, Some(id))?.into_iter().next()))
     }
 
     /// The machines with records, and how many each has.
     pub fn machines(&mut self) -> Result<Vec<(String, i64)>, StoreError> {
+        if self.version == 0 {
+            return Ok(Vec::new());
+        }
         self.read(|c| {
             c.query(
                 "SELECT machine, COUNT(*) FROM records GROUP BY machine ORDER BY machine",
@@ -577,8 +646,44 @@ impl Store {
     }
 }
 
-fn connect(location: &Location) -> Result<Connection, StoreError> {
+fn connect(
+    location: &Location,
+    access: Access,
+    timeout: Duration,
+) -> Result<Connection, StoreError> {
     match location {
+        Location::Sqlite(path) if access == Access::ReadOnly => {
+            use rusqlite::OpenFlags;
+            if !path.is_file() {
+                return Err(StoreError::Sql(
+                    "no store there (reading never creates one)".into(),
+                ));
+            }
+            // With no write-ahead log beside it, every committed record is
+            // in the file itself: it is read as immutable, so that not even
+            // the lock and log files SQLite keeps beside a WAL store are
+            // created. With a log (a writer is connected, or one was
+            // killed), the log is read under SQLite's locks, read-only.
+            let mut wal = path.as_os_str().to_owned();
+            wal.push("-wal");
+            let immutable = !Path::new(&wal).exists();
+            let c = if immutable {
+                let uri = format!("file:{}?immutable=1", uri_path(path));
+                rusqlite::Connection::open_with_flags(
+                    uri,
+                    OpenFlags::SQLITE_OPEN_READ_ONLY
+                        | OpenFlags::SQLITE_OPEN_NO_MUTEX
+                        | OpenFlags::SQLITE_OPEN_URI,
+                )?
+            } else {
+                rusqlite::Connection::open_with_flags(
+                    path,
+                    OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
+                )?
+            };
+            c.busy_timeout(timeout)?;
+            Ok(Connection::Sqlite(c))
+        }
         Location::Sqlite(path) => {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir).map_err(|e| {
@@ -589,11 +694,12 @@ fn connect(location: &Location) -> Result<Connection, StoreError> {
                 })?;
             }
             let c = rusqlite::Connection::open(path)?;
-            c.busy_timeout(BUSY_TIMEOUT)?;
+            c.busy_timeout(timeout)?;
             // WAL: readers do not block the writer, and a writer killed
             // mid-transaction leaves the committed state intact.
-            let mode: String =
-                retry_busy(|| c.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0)))?;
+            let mode: String = retry_busy(timeout, || {
+                c.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
+            })?;
             if !mode.eq_ignore_ascii_case("wal") {
                 return Err(StoreError::Sql(format!(
                     "the file cannot be put in WAL mode (journal mode {mode})"
@@ -607,24 +713,85 @@ fn connect(location: &Location) -> Result<Connection, StoreError> {
         Location::Postgres(url) => {
             let mut cfg = postgres::Config::from_str(url)?;
             if cfg.get_connect_timeout().is_none() {
-                cfg.connect_timeout(CONNECT_TIMEOUT);
+                cfg.connect_timeout(timeout);
             }
-            Ok(Connection::Postgres(Box::new(
-                cfg.connect(postgres::NoTls)?,
-            )))
+            // A write the server does not acknowledge, and a lock held by
+            // another session, end the statement after `timeout` too.
+            cfg.tcp_user_timeout(timeout);
+            let ms = timeout.as_millis().max(1);
+            let options = match cfg.get_options() {
+                Some(o) => format!("{o} -c lock_timeout={ms}"),
+                None => format!("-c lock_timeout={ms}"),
+            };
+            cfg.options(&options);
+            Ok(Connection::Postgres(Box::new(connect_within(
+                cfg, timeout,
+            )?)))
         }
     }
 }
 
-/// Runs `f` again while SQLite answers busy, until [`BUSY_TIMEOUT`].
+/// `path` as the path of an SQLite `file:` URI: absolute, with `%`, `?`
+/// and `#` (and anything not printable ASCII) percent-encoded.
+fn uri_path(path: &Path) -> String {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut out = String::new();
+    for b in abs.as_os_str().as_encoded_bytes() {
+        match b {
+            b'%' | b'?' | b'#' => out.push_str(&format!("%{b:02X}")),
+            0x21..=0x7e => out.push(*b as char),
+            _ => out.push_str(&format!("%{b:02X}")),
+        }
+    }
+    out
+}
+
+/// Connects and logs in within `timeout`. The client's own connect
+/// timeout covers only the TCP connection: a server that accepts and then
+/// never answers (or answers with bytes that promise a long message) would
+/// hold the login for ever, so the login runs on its own thread and is
+/// given up after `timeout` (the thread ends with the process).
+fn connect_within(
+    cfg: postgres::Config,
+    timeout: Duration,
+) -> Result<postgres::Client, StoreError> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::Builder::new()
+        .name("fivecal-store-connect".into())
+        .spawn(move || {
+            let _ = tx.send(cfg.connect(postgres::NoTls));
+        })
+        .map_err(|e| StoreError::Sql(format!("cannot start the connection: {e}")))?;
+    match rx.recv_timeout(timeout) {
+        Ok(r) => Ok(r?),
+        Err(_) => Err(StoreError::Sql(format!(
+            "no answer from the server within {} s (it accepted the connection but did not log in as PostgreSQL does; --db-timeout SECONDS waits longer)",
+            fmt_secs(timeout)
+        ))),
+    }
+}
+
+fn fmt_secs(d: Duration) -> String {
+    let s = d.as_secs_f64();
+    if s.fract() == 0.0 {
+        format!("{s:.0}")
+    } else {
+        format!("{s}")
+    }
+}
+
+/// Runs `f` again while SQLite answers busy, until `timeout`.
 ///
 /// Turning a new file to WAL needs its exclusive lock. When two
 /// connections holding its shared lock both ask for it, SQLite answers
 /// busy at once instead of calling the busy handler (waiting would
 /// deadlock), so two runs creating the store at the same moment need the
 /// loser to let go and try again.
-fn retry_busy<T>(mut f: impl FnMut() -> rusqlite::Result<T>) -> rusqlite::Result<T> {
-    let deadline = std::time::Instant::now() + BUSY_TIMEOUT;
+fn retry_busy<T>(
+    timeout: Duration,
+    mut f: impl FnMut() -> rusqlite::Result<T>,
+) -> rusqlite::Result<T> {
+    let deadline = std::time::Instant::now() + timeout;
     let mut pause = Duration::from_millis(2);
     loop {
         match f() {
@@ -662,7 +829,10 @@ fn insert(c: &mut dyn Conn, r: &Record) -> Result<i64, StoreError> {
             SqlValue::Real(r.temperature),
             SqlValue::opt_text(r.controller.as_deref()),
             SqlValue::opt_text(r.exported.as_deref()),
-            SqlValue::opt_text(r.fit.map(FitVerdict::name)),
+            // The column's check (schema version 2) knows fits and misfit;
+            // a fit that did not converge is kept as unknown there and
+            // read back from the content, which states it.
+            SqlValue::opt_text(r.fit.filter(|f| *f != FitVerdict::NotConverged).map(FitVerdict::name)),
         ],
     )?;
     let id = rows
@@ -691,16 +861,27 @@ const COLUMNS: &str = "id, machine, kind, test, measured_at, recorded_at, tool_v
 
 fn select(
     c: &mut dyn Conn,
+    version: i64,
     machine: Option<&str>,
     id: Option<i64>,
 ) -> Result<Vec<Stored>, StoreError> {
+    // An empty file read without creating the schema holds no records; a
+    // store of schema 1 has no fit column yet.
+    if version == 0 {
+        return Ok(Vec::new());
+    }
+    let columns = if version < 2 {
+        COLUMNS.replace(", fit", ", NULL AS fit")
+    } else {
+        COLUMNS.to_string()
+    };
     let (filter, params) = match (machine, id) {
         (_, Some(id)) => ("WHERE id = ?", vec![SqlValue::Int(Some(id))]),
         (Some(m), None) => ("WHERE machine = ?", vec![SqlValue::text(m)]),
         (None, None) => ("", vec![]),
     };
     let rows = c.query(
-        &format!("SELECT {COLUMNS} FROM records {filter} ORDER BY measured_at, id"),
+        &format!("SELECT {columns} FROM records {filter} ORDER BY measured_at, id"),
         &params,
     )?;
     let file_rows = c.query(
@@ -747,11 +928,10 @@ fn select(
                     temperature: r[10].real()?,
                     controller: r[11].text_opt()?,
                     exported: r[12].text_opt()?,
-                    fit: r[13]
-                        .text_opt()?
-                        .map(|s| s.parse())
-                        .transpose()
-                        .map_err(StoreError::Corrupt)?,
+                    fit: match r[13].text_opt()? {
+                        Some(s) => Some(s.parse().map_err(StoreError::Corrupt)?),
+                        None => FitVerdict::of_result(&r[8].text_req("content")?),
+                    },
                     files: files.remove(&id).unwrap_or_default(),
                 },
             })

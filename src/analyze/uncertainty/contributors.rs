@@ -13,8 +13,8 @@
 //! | form of a calibration sphere | the simulator's sphere form error | - | - |
 //!
 //! Not mapped, because the foundation has no effect for them: the periodic
-//! terms of positioning and straightness (0.5 um in Ibaraki & Ota 2014 (docs/references.md)), the angular
-//! errors of the linear axes (25 urad periodic in Ibaraki & Ota 2014 (docs/references.md)) and the
+//! terms of positioning and straightness (0.5 um in Ibaraki & Ota 2014), the angular
+//! errors of the linear axes (25 urad periodic in Ibaraki & Ota 2014) and the
 //! non-systematic positioning error `E_XX,rand` of Ibaraki, Iritani & Matsushita 2013, eq. 19. They are
 //! listed in [`Contributors::unmapped`] so a report can say so. The scan of
 //! Ibaraki, Iritani & Matsushita 2013, table 4 gives the linear error as "1 um/mm", which cannot be
@@ -35,7 +35,7 @@ use crate::model::{Effect, Squareness};
 pub enum Spread {
     /// Uniform in `[-v, v]` (Ibaraki & Ota 2014: "range for uniform distribution").
     Uniform,
-    /// Normal with standard deviation `v` (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)).
+    /// Normal with standard deviation `v` (Ibaraki, Iritani & Matsushita 2013).
     Normal,
 }
 

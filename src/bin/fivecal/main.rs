@@ -97,8 +97,16 @@ fn clean_up_on_signals() {
 const BROKEN_PIPE: u8 = 141;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Earlier releases' spellings (`--output`, `simulate nc --program`)
+    // mapped onto the one vocabulary before clap parses, with a note each.
+    let (args, notes) = cmd::vocabulary::normalize(std::env::args_os());
+    let cli = Cli::parse_from(args);
+    for note in notes {
+        eprintln!("{note}");
+    }
     clean_up_on_signals();
+    // Every file this run reads is noted, and no output may land on one.
+    fivecal::io::guard_inputs();
     let result = match cli.command {
         Command::Plan(a) => cmd::plan::run(a),
         Command::Simulate(a) => cmd::simulate::run(a),
@@ -113,6 +121,12 @@ fn main() -> ExitCode {
         Command::Completions(a) => cmd::docs::completions(a),
         Command::Man => cmd::docs::man(),
     };
+    for p in fivecal::io::stale_removed() {
+        eprintln!(
+            "note: removed {}, left by an earlier run that was killed while writing it",
+            p.display()
+        );
+    }
     match result {
         Ok(()) if fivecal::io::stdout_closed() => ExitCode::from(BROKEN_PIPE),
         Ok(()) => match out::failure() {
@@ -132,7 +146,12 @@ fn main() -> ExitCode {
             if broken_pipe {
                 return ExitCode::from(BROKEN_PIPE);
             }
-            eprintln!("error: {err:#}");
+            // Whatever a message quotes (a name, a rendered template) is
+            // cut: an error never pastes its input.
+            eprintln!(
+                "error: {}",
+                fivecal::source::short_message(&format!("{err:#}"))
+            );
             ExitCode::from(2)
         }
     }

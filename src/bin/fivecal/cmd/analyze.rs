@@ -55,7 +55,7 @@ pub struct AnalyzeArgs {
     /// The result: an error file (the identified values with their u, and
     /// what the test cannot identify), or the nine-section statistics, or
     /// with --series the series table.
-    #[arg(long, value_name = "RESULT.yaml", required = true)]
+    #[arg(short, long, value_name = "RESULT.yaml", required = true)]
     out: Option<PathBuf>,
     /// Write the result as JSON instead of YAML.
     #[arg(long)]
@@ -305,23 +305,13 @@ fn print_piece(c: &Config, p: &IdentifiedPiece) {
     if let Some(k) = p.number {
         outln!("== piece {k}: {}", p.name());
     }
+    // The verdict first: it says whether anything below may be acted on.
+    out!("{}", analyze::verdict::render(p.fit.as_ref()));
     if let Some(f) = p.misfit() {
         let next = analyze::goodness::discover_command(&c.request.manifest, &p.data.files);
         outln!("{}\n", analyze::goodness::banner(f, &next));
     }
-    out!("{}", p.est.summary());
-    match &p.fit {
-        Some(f) => outln!(
-            "fit: {} (residuals {:.3} um against {:.3} um expected, {}; ratio {:.2}, p = {:.1e})",
-            f.verdict,
-            f.sigma_um,
-            f.expected_um,
-            f.expected_from,
-            f.ratio,
-            f.p_value
-        ),
-        None => outln!("fit: not judged (no degrees of freedom left)"),
-    }
+    out!("{}", p.est.summary_with(&p.u));
     if let Some(s) = &p.monte_carlo {
         if let Some(w) = &s.warning {
             eprintln!("warning: {w}");

@@ -260,7 +260,7 @@ pub struct CompensateArgs {
     #[arg(value_name = "IN")]
     input: Option<PathBuf>,
     /// The rewritten program (never the input; written only when complete).
-    #[arg(short, long, value_name = "OUT")]
+    #[arg(short = 'o', long = "out", value_name = "OUT")]
     output: Option<PathBuf>,
     #[command(flatten)]
     machine: MachineArgs,
@@ -358,6 +358,15 @@ impl CompensateArgs {
     fn validate(self) -> anyhow::Result<Config> {
         let mut common = self.machine.validate()?;
         let errors = load_errors(&self.errors, &common.kin)?;
+        if let Some(f) = errors.not_converged() {
+            // No flag accepts it: values a fit stopped at are no estimate.
+            bail!(
+                "{}: the fit of this result did not converge ({}): its values are no estimate, and nothing is compensated or exported from them. \
+                 Analyze the measurements again (another --method, fewer maps) until the verdict is a fit",
+                self.errors.display(),
+                f.stopped.as_deref().unwrap_or("fit: {verdict: not-converged}")
+            );
+        }
         if let Some(f) = errors.misfit()
             && !self.accept_misfit
         {
@@ -416,6 +425,19 @@ impl CompensateArgs {
                 }
                 _ => bail!("--decimals `{d}`: expected LIN or LIN,ROT, each 0 to 9"),
             }
+        }
+        // The written decimals round every word: a tolerance finer than
+        // that rounding could be reported met while the tip misses it.
+        let (lin, rot) = (settings.linear_decimals, settings.rotary_decimals);
+        let smallest =
+            fivecal::compensate::tolerance::smallest_tolerance_um(&common.machine, lin, rot);
+        if self.tolerance < smallest {
+            bail!(
+                "--tolerance {}: the words written with {lin} decimals in mm and {rot} in degrees round the tool tip by up to {:.3} um on {}, so the smallest tolerance that holds is {smallest:.3} um (more decimals with --decimals LIN,ROT allow a finer one)",
+                self.tolerance,
+                fivecal::compensate::tolerance::rounding_bound_mm(&common.machine, lin, rot) * 1e3,
+                common.machine.name
+            );
         }
         let export = match &self.export {
             Some(d) => Some((
@@ -484,7 +506,6 @@ impl CompensateArgs {
                 .and_then(|(_, t)| t.as_deref())
                 .map(|t| ("--export-to", t, Shape::File)),
         );
-        check_outputs(&inputs, &outputs)?;
         if export.is_none()
             && let Some(flag) = self.record.first_given()
         {
@@ -492,7 +513,9 @@ impl CompensateArgs {
                 "{flag} goes with a record, and compensate records only an export (--export): a rewritten program is not recorded"
             );
         }
+        // The store first: it is an input the outputs may not name.
         let record = self.record.validate()?;
+        check_outputs(&inputs, &outputs)?;
         let defaults = export::Limits::default();
         let (change_mm, change_mrad) =
             parse_limit("--max-change", &self.max_change, defaults.change_mrad)?;

@@ -1,5 +1,5 @@
 //! `fivecal analyze contour`: contour errors of CMM points against a part
-//! model (Jiang et al. 2013 (docs/references.md)): each point's signed distance to the design surface,
+//! model (Jiang et al. 2013): each point's signed distance to the design surface,
 //! with mean, maximum and RMS.
 
 use std::fmt::Write as _;
@@ -18,7 +18,7 @@ pub struct ContourArgs {
     #[arg(long, value_name = "CMM.csv")]
     measured: PathBuf,
     /// Write each point's contour error as CSV.
-    #[arg(short, long, value_name = "ERRORS.csv")]
+    #[arg(short = 'o', long = "out", value_name = "ERRORS.csv")]
     output: Option<PathBuf>,
 }
 
@@ -26,7 +26,7 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
     if let Some(o) = &args.output {
         fivecal::io::check_outputs(
             &[&args.model, &args.measured],
-            &[("--output", o, fivecal::io::Shape::File)],
+            &[("--out", o, fivecal::io::Shape::File)],
         )?;
     }
     let mesh = PartMesh::load(&args.model)?;
@@ -41,6 +41,20 @@ pub fn run(args: ContourArgs) -> anyhow::Result<()> {
         "{}: no measured points",
         args.measured.display()
     );
+    // A coordinate no machine reaches (1e308) would make every statistic
+    // below infinite: refused with its line instead.
+    let max = fivecal::limits::MAX_MACHINE_MM;
+    if let Some(p) = points
+        .iter()
+        .find(|p| !p.p.iter().all(|x| x.is_finite() && x.abs() <= max))
+    {
+        anyhow::bail!(
+            "{}:{}: a coordinate of point `{}` is beyond any machine (each of x, y, z at most {max} mm from the model's origin)",
+            args.measured.display(),
+            p.line,
+            fivecal::source::cut(&p.label)
+        );
+    }
     let surface = Surface::new(&mesh)?;
     let pts: Vec<(String, nalgebra::Vector3<f64>)> = points
         .iter()

@@ -13,7 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 pub struct DemoArgs {
     /// Where every artefact goes (created if needed; the demo's own files
     /// in it are replaced).
-    #[arg(long, value_name = "DIR", default_value = "fivecal-demo")]
+    #[arg(short, long, value_name = "DIR", default_value = "fivecal-demo")]
     out: PathBuf,
     /// Seed of the simulation (CMM placement and noise).
     #[arg(long, value_name = "N", default_value_t = 1)]

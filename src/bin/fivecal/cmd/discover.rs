@@ -50,7 +50,7 @@ pub struct DiscoverArgs {
     report: Option<PathBuf>,
     /// Write the final model as an error file (docs/formats.md; JSON if the
     /// name ends in `.json`, else YAML).
-    #[arg(long, value_name = "RESULT.yaml")]
+    #[arg(short, long, value_name = "RESULT.yaml")]
     out: Option<PathBuf>,
     /// The instrument's noise per measured point (standard deviation, um)
     /// the final model's fit is judged against, as for `analyze --noise`.
@@ -169,8 +169,9 @@ fn validate(a: DiscoverArgs) -> anyhow::Result<Config> {
     let mut outputs = Vec::new();
     outputs.extend(a.out.as_deref().map(|o| ("--out", o, Shape::File)));
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
-    check_outputs(&inputs, &outputs)?;
+    // The store first: it is an input the outputs may not name.
     let record = a.record.validate()?;
+    check_outputs(&inputs, &outputs)?;
     let noise = super::noise_arg(a.noise)?;
     Ok(Config {
         noise,

@@ -66,12 +66,58 @@ fn with_names(cmd: clap::Command) -> clap::Command {
     walk(cmd, &machines, &tests)
 }
 
+/// The man page's EXAMPLES: one calibration from plan to export on the
+/// built-in example machine, each line a command a user can paste in an
+/// empty directory, in this order (a test runs them).
+pub const EXAMPLES: &[(&str, &str)] = &[
+    (
+        "Run the whole job on the built-in example machine (plan, simulate, analyze, discover, compensate), into demo/:",
+        "fivecal demo --out demo",
+    ),
+    (
+        "Plan the stepped-square machining test for the built-in B/C trunnion in FANUC, into ss/:",
+        "fivecal plan stepped-square --machine bc-trunnion --dialect fanuc --out ss",
+    ),
+    (
+        "Write the commented truth file of a virtual machine with known errors and effects:",
+        "fivecal simulate --truth-example --machine bc-trunnion > truth.yaml",
+    ),
+    (
+        "Machine and measure the test on that virtual machine, as a CMM would (DMIS):",
+        "fivecal simulate --plan ss/stepped-square.plan.yaml --errors truth.yaml --out cmm.dmo",
+    ),
+    (
+        "Identify the location errors with their uncertainty; the verdict comes first, and a misfit names the next command:",
+        "fivecal analyze --plan ss/stepped-square.plan.yaml --measured cmm.dmo --out result.yaml",
+    ),
+    (
+        "Find the effects the model lacks, and what would separate the ones this test cannot tell apart:",
+        "fivecal discover --plan ss/stepped-square.plan.yaml --measured cmm.dmo --out discovered.yaml",
+    ),
+    (
+        "Rewrite an NC program so the errors the demo discovered cancel:",
+        "fivecal compensate --machine bc-trunnion --errors demo/discovered.yaml demo/frustum.nc -o frustum-compensated.nc",
+    ),
+    (
+        "Print the corrected tool-centre-point parameters for a FANUC control:",
+        "fivecal compensate --machine bc-trunnion --errors demo/discovered.yaml --export fanuc",
+    ),
+];
+
+/// The man page's ENVIRONMENT: every variable the program reads.
+const ENVIRONMENT: &[(&str, &str)] = &[(
+    "FIVECAL_DB",
+    "The results store used when --db is not given: a SQLite file path or a postgres:// URL. \
+     Unset: history.db in the user's data directory.",
+)];
+
 pub fn man() -> anyhow::Result<()> {
     let cmd = crate::Cli::command();
     let mut out = fivecal::io::stdout();
     // Not `Man::render`: its SUBCOMMANDS section points to pages such as
-    // fivecal-plan(1) that are never installed. Every subcommand is a
-    // section of this one page instead, as `man git` does it.
+    // fivecal-plan(1) that are never installed. Every subcommand, nested
+    // ones included (`simulate nc`, `history plot`), is a section of this
+    // one page instead, as `man git` does it.
     let man = clap_mangen::Man::new(cmd.clone());
     man.render_title(&mut out)?;
     man.render_name_section(&mut out)?;
@@ -81,12 +127,37 @@ pub fn man() -> anyhow::Result<()> {
     if cmd.get_after_help().is_some() || cmd.get_after_long_help().is_some() {
         man.render_extra_section(&mut out)?;
     }
-    man.render_version_section(&mut out)?;
-    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
-        writeln!(out, ".SH \"FIVECAL {}\"", sub.get_name().to_uppercase())?;
-        clap_mangen::Man::new(sub.clone()).render_description_section(&mut out)?;
-        clap_mangen::Man::new(sub.clone()).render_options_section(&mut out)?;
+    fn sections(out: &mut impl Write, cmd: &clap::Command, path: &str) -> std::io::Result<()> {
+        for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+            let name = format!("{path} {}", sub.get_name().to_uppercase());
+            writeln!(out, ".SH \"{name}\"")?;
+            clap_mangen::Man::new(sub.clone()).render_description_section(out)?;
+            clap_mangen::Man::new(sub.clone()).render_options_section(out)?;
+            sections(out, sub, &name)?;
+        }
+        Ok(())
     }
+    sections(&mut out, &cmd, "FIVECAL")?;
+    writeln!(out, ".SH EXAMPLES")?;
+    for (what, line) in EXAMPLES {
+        writeln!(out, ".PP\n{}\n.PP\n.RS 4\n{}\n.RE", roff(what), roff(line))?;
+    }
+    writeln!(out, ".SH ENVIRONMENT")?;
+    for (name, what) in ENVIRONMENT {
+        writeln!(out, ".TP\n\\fB{name}\\fR\n{}", roff(what))?;
+    }
+    man.render_version_section(&mut out)?;
     out.flush()?;
     Ok(())
+}
+
+/// Text as roff reads it literally: backslashes and hyphens escaped, and no
+/// line starting with a control character.
+fn roff(text: &str) -> String {
+    let escaped = text.replace('\\', "\\e").replace('-', "\\-");
+    if escaped.starts_with('.') || escaped.starts_with('\'') {
+        format!("\\&{escaped}")
+    } else {
+        escaped
+    }
 }

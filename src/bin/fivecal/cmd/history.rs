@@ -28,6 +28,8 @@ pub struct HistoryCli {
     /// store holds several machines].
     #[arg(long, value_name = "NAME", global = true)]
     machine: Option<String>,
+    #[command(flatten)]
+    timeout: super::record::DbTimeout,
 }
 
 #[derive(Subcommand, Debug)]
@@ -46,7 +48,7 @@ enum Action {
         #[arg(long, value_enum, default_value = "csv")]
         format: Format,
         /// The file [default: standard output].
-        #[arg(long, value_name = "FILE")]
+        #[arg(short, long, value_name = "FILE")]
         out: Option<PathBuf>,
     },
     /// Whether each location error drifts, since when, and when it reaches
@@ -56,7 +58,7 @@ enum Action {
     /// verdicts, exports, limits, trend).
     Plot {
         /// The directory of the page (index.html and one SVG per error).
-        #[arg(long, value_name = "DIR")]
+        #[arg(short, long, value_name = "DIR")]
         out: PathBuf,
         #[command(flatten)]
         limits: LimitsArg,
@@ -78,7 +80,7 @@ enum Format {
 }
 
 pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
-    let mut store = open_for_reading(cli.db.as_deref())?;
+    let mut store = open_for_reading(cli.db.as_deref(), &cli.timeout)?;
     let machine = cli.machine.as_deref();
     match cli.action.unwrap_or(Action::List) {
         Action::List => {

@@ -29,7 +29,7 @@ pub enum MachineCommand {
         #[arg(long, default_value = "bc-trunnion")]
         from: String,
         /// Where to write it (`-`: standard output) [default: NAME.yaml].
-        #[arg(short, long)]
+        #[arg(short = 'o', long = "out")]
         output: Option<std::path::PathBuf>,
     },
 }
@@ -52,7 +52,7 @@ pub fn run(cmd: MachineCommand) -> anyhow::Result<()> {
                 fivecal::machine::MachineOrigin::File(ref p) => vec![p.as_path()],
                 _ => vec![],
             };
-            fivecal::io::check_outputs(&inputs, &[("--output", &out, fivecal::io::Shape::File)])?;
+            fivecal::io::check_outputs(&inputs, &[("--out", &out, fivecal::io::Shape::File)])?;
             if out.as_os_str() != "-" && out.exists() {
                 anyhow::bail!(
                     "{} exists: a new machine file is not written over another file (give -o)",
@@ -95,6 +95,12 @@ fn starter(m: &Machine, name: &str, origin: &str) -> anyhow::Result<String> {
         );
     }
     let mut renamed = false;
+    // The old description names the old machine and often its controller
+    // ("FANUC 31i-like"), and it is printed in every program header: a copy
+    // that kept it would label a SINUMERIK program as a FANUC one. Only a
+    // one-line plain description is replaced; any other form is left for the
+    // user (the note below says so).
+    let mut described = false;
     let mut text = format!(
         "# Machine {name}, copied from {} ({origin}) by `fivecal machine new`:\n# check every value against the real machine before use.\n",
         m.name
@@ -103,6 +109,12 @@ fn starter(m: &Machine, name: &str, origin: &str) -> anyhow::Result<String> {
         if !renamed && line.starts_with("name:") {
             text.push_str(&format!("name: {name}\n"));
             renamed = true;
+        } else if !described && is_plain_description(line) {
+            text.push_str(&format!(
+                "description: {name} (copied from {}; describe the real machine and its controller here)\n",
+                m.name
+            ));
+            described = true;
         } else {
             text.push_str(line);
             text.push('\n');
@@ -122,6 +134,22 @@ fn starter(m: &Machine, name: &str, origin: &str) -> anyhow::Result<String> {
         copy.name
     );
     Ok(text)
+}
+
+/// A top-level `description:` line holding a one-line plain scalar (not a
+/// block scalar `|`/`>`, not a quoted string continued on the next line).
+fn is_plain_description(line: &str) -> bool {
+    let Some(value) = line.strip_prefix("description:") else {
+        return false;
+    };
+    let v = value.trim();
+    if v.is_empty() || v.starts_with('|') || v.starts_with('>') {
+        return false;
+    }
+    match v.chars().next() {
+        Some(q @ ('"' | '\'')) => v.len() > 1 && v.ends_with(q),
+        _ => true,
+    }
 }
 
 fn limits(l: Option<(f64, f64)>) -> String {

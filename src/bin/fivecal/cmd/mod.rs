@@ -15,6 +15,7 @@ pub mod record;
 pub mod simulate;
 pub mod simulate_nc;
 pub mod verify;
+pub mod vocabulary;
 
 /// The items of comma-separated list options given once or more
 /// (`--maps EBB(B),EXC(B,C)`): split at the commas outside parentheses, so

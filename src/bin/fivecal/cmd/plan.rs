@@ -26,14 +26,14 @@ enum KinematicsArg {
 
 #[derive(Args, Debug)]
 pub struct PlanArgs {
-    /// The test: stepped-square (Ibaraki & Ota 2014 (docs/references.md)), nine-section (Cubas Brizuela & Yeh 2023 (docs/references.md)),
-    /// probe-columns (Ibaraki, Iritani & Matsushita 2013 (docs/references.md)) or probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023).
+    /// The test: stepped-square (Ibaraki & Ota 2014), nine-section (Cubas Brizuela & Yeh 2023),
+    /// probe-columns (Ibaraki, Iritani & Matsushita 2013) or probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023).
     /// Not needed with --supplement.
     #[arg(required_unless_present = "supplement")]
     test: Option<String>,
     /// Machine file, or a built-in machine (bc-trunnion, ac-trunnion,
-    /// head-table, head-head) [default: bc-trunnion; with --supplement, the
-    /// machine of the first test's plan].
+    /// head-table, head-head). Required: a plan is for one machine [with
+    /// --supplement: the machine of the first test's plan].
     #[arg(long)]
     machine: Option<String>,
     /// Write the supplementary test a `discover` result asks for (its
@@ -44,11 +44,12 @@ pub struct PlanArgs {
     supplement: Option<PathBuf>,
     /// Controller dialect: fanuc, heidenhain, linuxcnc or sinumerik [default: the
     /// machine file's controller].
-    #[arg(long)]
+    #[arg(long, value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     dialect: Option<String>,
-    /// Output directory.
-    #[arg(long, default_value = ".")]
-    out: PathBuf,
+    /// Output directory [default: a directory named after the test, such
+    /// as `stepped-square/`].
+    #[arg(short, long)]
+    out: Option<PathBuf>,
     /// How 3+2 positions are written (machining tests; probing programs
     /// always position the axes themselves) [default: post].
     #[arg(long, value_enum)]
@@ -177,7 +178,16 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
             .machine_file
             .as_ref()
             .map_or(s.machine_name.clone(), |p| p.display().to_string()),
-        (None, None) => "bc-trunnion".to_string(),
+        // No silent default: a program planned for a machine the user did
+        // not name would run on theirs with another's strokes and pivot.
+        (None, None) => bail!(
+            "plan needs --machine: a machine file, or a built-in machine ({}); `fivecal machine new NAME --from bc-trunnion` writes a file to start one's own from",
+            fivecal::machine::BUILTIN
+                .iter()
+                .map(|(n, _)| *n)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     };
     // Flattened: MachineError repeats its cause as its source.
     let (machine, origin) = Machine::resolve(&spec)
@@ -308,7 +318,8 @@ fn config(a: PlanArgs) -> anyhow::Result<Config> {
             },
             tool,
         },
-        out: a.out,
+        // Eleven files land in it: never the current directory unasked.
+        out: a.out.unwrap_or_else(|| PathBuf::from(test.as_str())),
         inputs,
         origin,
         require_all: a.require.is_some(),

@@ -7,7 +7,9 @@
 use anyhow::{Context as _, bail};
 use clap::Args;
 use fivecal::store::runs::RunNotes;
-use fivecal::store::{Location, Record, Store, parse_time};
+use std::time::Duration;
+
+use fivecal::store::{Access, Location, Record, Store, parse_time};
 
 /// Recording into the results store.
 #[derive(Args, Debug, Clone)]
@@ -18,8 +20,10 @@ pub struct RecordArgs {
     #[arg(long, value_name = "PATH|URL")]
     db: Option<String>,
     /// Do not record this run in the results store.
-    #[arg(long, conflicts_with_all = ["db", "note", "temperature", "measured_at"])]
+    #[arg(long, conflicts_with_all = ["db", "db_timeout", "note", "temperature", "measured_at"])]
     no_record: bool,
+    #[command(flatten)]
+    timeout: DbTimeout,
     /// A note kept with the record (why the machine was measured, ...).
     #[arg(long, value_name = "TEXT")]
     note: Option<String>,
@@ -32,9 +36,31 @@ pub struct RecordArgs {
     measured_at: Option<String>,
 }
 
+/// How long the store may take (`--db-timeout`).
+#[derive(Args, Debug, Clone, Default)]
+pub struct DbTimeout {
+    /// Seconds the results store may take to connect, to answer, and to
+    /// let go of a lock another run holds, before the run ends with an
+    /// error naming the store [default: 30].
+    #[arg(long, value_name = "SECONDS", global = true)]
+    db_timeout: Option<f64>,
+}
+
+impl DbTimeout {
+    /// The timeout given, or the default.
+    pub fn get(&self) -> anyhow::Result<Duration> {
+        match self.db_timeout {
+            None => Ok(fivecal::store::DEFAULT_TIMEOUT),
+            Some(s) if s.is_finite() && s > 0.0 && s <= 3600.0 => Ok(Duration::from_secs_f64(s)),
+            Some(s) => bail!("--db-timeout {s}: expected seconds above 0 and at most 3600"),
+        }
+    }
+}
+
 /// Where and what to record, validated.
 pub struct Recording {
     location: Option<Location>,
+    timeout: Duration,
     pub notes: RunNotes,
 }
 
@@ -73,6 +99,7 @@ impl RecordArgs {
         };
         Ok(Recording {
             location,
+            timeout: self.timeout.get()?,
             notes: RunNotes {
                 note: self.note,
                 temperature: self.temperature,
@@ -90,9 +117,11 @@ impl Recording {
     pub fn open(&self) -> anyhow::Result<Recorder> {
         match &self.location {
             None => Ok(Recorder(None)),
-            Some(l) => Ok(Recorder(Some(Store::open(l).with_context(
-                || "cannot open the results store (--no-record runs without it)",
-            )?))),
+            Some(l) => Ok(Recorder(Some(
+                Store::open_with(l, Access::ReadWrite, self.timeout).with_context(
+                    || "cannot open the results store (--no-record runs without it)",
+                )?,
+            ))),
         }
     }
 }
@@ -121,8 +150,9 @@ impl Recorder {
 }
 
 /// The store the history commands read: `--db`, else `$FIVECAL_DB`, else
-/// the default file, which must exist (reading never creates a store).
-pub fn open_for_reading(db: Option<&str>) -> anyhow::Result<Store> {
+/// the default file, which must exist (reading never creates a store). It
+/// is opened read-only: reading it never changes it.
+pub fn open_for_reading(db: Option<&str>, timeout: &DbTimeout) -> anyhow::Result<Store> {
     let l = Location::resolve(db)?;
     if let Location::Sqlite(p) = &l
         && !p.exists()
@@ -132,5 +162,5 @@ pub fn open_for_reading(db: Option<&str>) -> anyhow::Result<Store> {
             p.display()
         );
     }
-    Ok(Store::open(&l)?)
+    Ok(Store::open_with(&l, Access::ReadOnly, timeout.get()?)?)
 }

@@ -20,14 +20,14 @@ pub struct SimulateNcArgs {
     #[arg(long, value_name = "TRUTH.yaml")]
     errors: PathBuf,
     /// The NC program to run.
-    #[arg(long, value_name = "P.nc")]
+    #[arg(value_name = "P.nc")]
     program: PathBuf,
     /// Sample feed moves every STEP mm of tool path (and at least every
     /// degree a rotary axis turns) as well as at their end points.
     #[arg(long, value_name = "MM", default_value_t = 0.0)]
     step: f64,
     /// Write every sample (nominal tip and axis, tip error) as CSV.
-    #[arg(short, long, value_name = "ERRORS.csv")]
+    #[arg(short = 'o', long = "out", value_name = "ERRORS.csv")]
     output: Option<PathBuf>,
     /// Nominal surface points a CMM measures on the part the program cuts
     /// (canonical `label,x,y,z`, in W): with --measured, write what it would
@@ -64,7 +64,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     if let Some(c) = &args.cmm {
         inputs.push(c);
     }
-    let outputs: Vec<_> = [("--output", &args.output), ("--measured", &args.measured)]
+    let outputs: Vec<_> = [("--out", &args.output), ("--measured", &args.measured)]
         .into_iter()
         .filter_map(|(f, p)| Some((f, p.as_deref()?, fivecal::io::Shape::File)))
         .collect();

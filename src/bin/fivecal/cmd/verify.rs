@@ -34,20 +34,35 @@ pub struct VerifyArgs {
     /// history.db in the user's data directory].
     #[arg(long, value_name = "PATH|URL", requires = "machine")]
     db: Option<String>,
+    #[command(flatten)]
+    timeout: super::record::DbTimeout,
     /// Acceptance limits: a limits file or a machine file with a `limits:`
     /// section.
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
     /// Also write the comparison as YAML (JSON if the name ends in .json).
-    #[arg(long, value_name = "FILE")]
+    #[arg(short, long, value_name = "FILE")]
     out: Option<PathBuf>,
 }
 
 pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
+    // The output is checked before anything is read or written: it names
+    // none of the inputs, the results store included.
+    if let Some(out) = &a.out {
+        if a.machine.is_some() {
+            fivecal::store::Location::resolve(a.db.as_deref())?;
+        }
+        let inputs: Vec<&Path> = [&a.before, &a.after, &a.limits]
+            .into_iter()
+            .flatten()
+            .map(PathBuf::as_path)
+            .collect();
+        fivecal::io::check_outputs(&inputs, &[("--out", out, fivecal::io::Shape::File)])?;
+    }
     let limits = a.limits.as_deref().map(LimitsSource::read).transpose()?;
     let ((bn, b), (an, af)) = match (&a.before, &a.after, &a.machine) {
         (Some(b), Some(af), None) => (from_file(b)?, from_file(af)?),
-        (None, None, Some(m)) => from_store(a.db.as_deref(), m)?,
+        (None, None, Some(m)) => from_store(a.db.as_deref(), &a.timeout, m)?,
         _ => bail!("give --before R1 --after R2, or --machine NAME to take both from the store"),
     };
     if let Some(l) = &limits {
@@ -88,8 +103,12 @@ fn from_record(r: &Stored) -> anyhow::Result<(String, ErrorFile)> {
 
 type Pair = ((String, ErrorFile), (String, ErrorFile));
 
-fn from_store(db: Option<&str>, machine: &str) -> anyhow::Result<Pair> {
-    let mut store = open_for_reading(db)?;
+fn from_store(
+    db: Option<&str>,
+    timeout: &super::record::DbTimeout,
+    machine: &str,
+) -> anyhow::Result<Pair> {
+    let mut store = open_for_reading(db, timeout)?;
     let h = machine_history(&mut store, Some(machine))?;
     // Results with location errors, the later result of a measurement.
     let results: Vec<&Stored> = h

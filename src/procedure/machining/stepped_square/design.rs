@@ -1,4 +1,4 @@
-//! The stepped-square test of Ibaraki & Ota 2014 (docs/references.md, figs 2-4):
+//! The stepped-square test of Ibaraki & Ota 2014 (figs 2-4):
 //! at every pose a square step is finished by a straight end mill moving
 //! the linear axes only.
 //!

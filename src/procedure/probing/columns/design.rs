@@ -1,4 +1,4 @@
-//! `probe-columns` (Ibaraki, Iritani & Matsushita 2013 (docs/references.md), section 3 and fig. 2): square columns on the
+//! `probe-columns` (Ibaraki, Iritani & Matsushita 2013, section 3 and fig. 2): square columns on the
 //! rotary table, probed on their top and side faces at every pose of a
 //! tilt x C grid. The reference pose (the first, normally tilt = C = 0)
 //! probes every reference point; the other poses re-probe the same points
