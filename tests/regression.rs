@@ -2546,9 +2546,19 @@ fn drifting_sphere_is_judged_on_every_touch_not_on_the_centres_left() {
     let d = dir.path();
     fivecal_ok(
         d,
-        &["plan", "probe-sphere", "--machine", "ac-trunnion", "--out", "ps"],
+        &[
+            "plan",
+            "probe-sphere",
+            "--machine",
+            "ac-trunnion",
+            "--out",
+            "ps",
+        ],
     );
-    let example = fivecal_ok(d, &["simulate", "--truth-example", "--machine", "ac-trunnion"]);
+    let example = fivecal_ok(
+        d,
+        &["simulate", "--truth-example", "--machine", "ac-trunnion"],
+    );
     let full: serde_yaml::Value = serde_yaml::from_str(&example).unwrap();
     let mut truth = serde_yaml::Mapping::new();
     truth.insert("machine".into(), "ac-trunnion".into());
@@ -2586,11 +2596,15 @@ fn drifting_sphere_is_judged_on_every_touch_not_on_the_centres_left() {
     let result: ErrorFile = serde_yaml::from_str(&text).unwrap();
     let fit = result.fit.as_ref().expect("a verdict");
     assert!(
-        fit.on.as_deref().is_some_and(|o| o.contains("every one of")),
+        fit.on
+            .as_deref()
+            .is_some_and(|o| o.contains("every one of")),
         "{fit:?}"
     );
     let within_4u = result.location_errors.iter().all(|(name, q)| {
-        let t = full["location_errors"][name.as_str()].as_f64().unwrap_or(0.0);
+        let t = full["location_errors"][name.as_str()]
+            .as_f64()
+            .unwrap_or(0.0);
         q.u.is_some_and(|u| (q.value - t).abs() < 4.0 * u)
     });
     assert!(
@@ -2637,7 +2651,10 @@ fn fit_stopped_before_converging_is_recorded_and_refused_by_the_export() {
     use fivecal::errorfile::FitVerdict;
     use fivecal::identify::{Setup, global, lsq};
     let plan = crate::simulate::planned("head-table", "probe-columns");
-    let truth = crate::simulate::truth(&plan, HEAD_TABLE_ERRORS.trim_start_matches("machine: head-table\n"));
+    let truth = crate::simulate::truth(
+        &plan,
+        HEAD_TABLE_ERRORS.trim_start_matches("machine: head-table\n"),
+    );
     let out = fivecal::simulate::run(&plan, &truth, &Default::default()).unwrap();
     let data =
         fivecal::analyze::uncertainty::simulated::plan_dataset(&plan, "touches.log", out.points)
@@ -2652,9 +2669,10 @@ fn fit_stopped_before_converging_is_recorded_and_refused_by_the_export() {
     let est = global::identify(fm.as_ref(), &setup, &data, &stopped).unwrap();
     assert!(!est.converged, "{}", est.summary());
     let expected = ExpectedNoise::new(None, data.kind, plan.test());
-    let fit = fivecal::analyze::verdict::of(&est, &setup, &data, plan.test(), Some(&plan), &expected)
-        .unwrap()
-        .unwrap();
+    let fit =
+        fivecal::analyze::verdict::of(&est, &setup, &data, plan.test(), Some(&plan), &expected)
+            .unwrap()
+            .unwrap();
     assert_eq!(fit.verdict, FitVerdict::NotConverged, "{fit:?}");
     assert!(
         fivecal::analyze::verdict::render(Some(&fit)).starts_with("verdict: NOT CONVERGED"),
@@ -2689,5 +2707,9 @@ fn fit_stopped_before_converging_is_recorded_and_refused_by_the_export() {
         err.contains("result.yaml: the fit of this result did not converge"),
         "{err}"
     );
-    assert!(out.stdout.is_empty(), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(
+        out.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
 }

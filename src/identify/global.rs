@@ -415,9 +415,9 @@ pub fn judge_at(
     if !sol.cost.is_finite() {
         return Err(match problem.error.borrow_mut().take() {
             Some(e) => e.into(),
-            None => IdentifyError::Data(
-                "the residuals at the estimate are not finite numbers".into(),
-            ),
+            None => {
+                IdentifyError::Data("the residuals at the estimate are not finite numbers".into())
+            }
         });
     }
     Ok(Judged {

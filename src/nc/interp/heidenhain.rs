@@ -805,8 +805,9 @@ impl Interpreter {
                 if hash || expr || !known_before {
                     self.pos[..3].fill(None);
                 } else {
-                    for i in 0..3 {
-                        self.pos[i] = self.pos[i].map(|p| p - (self.shift[i] - before[i]));
+                    let moved: [f64; 3] = std::array::from_fn(|i| self.shift[i] - before[i]);
+                    for (p, d) in self.pos.iter_mut().zip(moved) {
+                        *p = p.map(|v| v - d);
                     }
                 }
                 self.pole = None;

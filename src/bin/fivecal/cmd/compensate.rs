@@ -364,7 +364,9 @@ impl CompensateArgs {
                 "{}: the fit of this result did not converge ({}): its values are no estimate, and nothing is compensated or exported from them. \
                  Analyze the measurements again (another --method, fewer maps) until the verdict is a fit",
                 self.errors.display(),
-                f.stopped.as_deref().unwrap_or("fit: {verdict: not-converged}")
+                f.stopped
+                    .as_deref()
+                    .unwrap_or("fit: {verdict: not-converged}")
             );
         }
         if let Some(f) = errors.misfit()
