@@ -805,10 +805,9 @@ impl Interpreter {
                 if hash || expr || !known_before {
                     self.pos[..3].fill(None);
                 } else {
-                    for ((pos, shift), before) in
-                        self.pos[..3].iter_mut().zip(&self.shift).zip(&before)
-                    {
-                        *pos = pos.map(|p| p - (shift - before));
+                    let moved: [f64; 3] = std::array::from_fn(|i| self.shift[i] - before[i]);
+                    for (p, d) in self.pos.iter_mut().zip(moved) {
+                        *p = p.map(|v| v - d);
                     }
                 }
                 self.pole = None;
