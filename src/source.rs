@@ -83,7 +83,11 @@ fn in_users_words(msg: &str) -> String {
         while let Some(i) = out[from..].find(serde) {
             let at = from + i;
             let end = at + serde.len();
-            if out[end..].chars().next().is_none_or(|c| !c.is_ascii_alphanumeric()) {
+            if out[end..]
+                .chars()
+                .next()
+                .is_none_or(|c| !c.is_ascii_alphanumeric())
+            {
                 out.replace_range(at..end, user);
                 from = at + user.len();
             } else {
@@ -293,7 +297,10 @@ mod tests {
         assert!(!err.message.contains("f64"), "{}", err.message);
         assert_eq!(err.line, 1);
         assert_eq!(in_users_words("expected u80"), "expected u80");
-        assert_eq!(in_users_words("expected u32, got"), "expected a whole number, got");
+        assert_eq!(
+            in_users_words("expected u32, got"),
+            "expected a whole number, got"
+        );
     }
 
     const DOC: &str = "name: m\nrotary_axes:\n  B: {limits: [-90, 90], direction: 1}\n  C:\n    limits: null\n    direction: -1\ntool:\n  diameter: 8\n";
