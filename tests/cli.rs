@@ -173,31 +173,10 @@ fn completions_offer_test_and_machine_names() {
         .success();
 }
 
-/// `machine new` does not keep the old machine's description: it is printed
-/// in every program header, and "FANUC 31i-like" or another machine's
-/// paper would then label the new machine's programs.
-#[test]
-fn machine_new_replaces_the_old_description() {
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("my.yaml");
-    fivecal()
-        .args(["machine", "new", "my-mill", "--from", "head-table", "-o"])
-        .arg(&file)
-        .assert()
-        .success();
-    let copy = fivecal::Machine::from_file(&file).unwrap();
-    let original = fivecal::Machine::builtin("head-table").unwrap();
-    assert_ne!(copy.description, original.description);
-    assert!(
-        copy.description
-            .starts_with("my-mill (copied from head-table;"),
-        "{}",
-        copy.description
-    );
-}
-
 /// `machine new` writes a copy under the new name that reads back as the
-/// same machine, never over an existing file.
+/// same machine, never over an existing file. Its description is its own:
+/// the old one is printed in every program header, and "FANUC 31i-like" or
+/// another machine's paper would then label the new machine's programs.
 #[test]
 fn machine_new_writes_a_renamed_copy_that_reads_back() {
     let dir = tempfile::tempdir().unwrap();
@@ -210,6 +189,13 @@ fn machine_new_writes_a_renamed_copy_that_reads_back() {
     let copy = fivecal::Machine::from_file(&file).unwrap();
     let original = fivecal::Machine::builtin("head-table").unwrap();
     assert_eq!(copy.name, "my-mill");
+    assert_ne!(copy.description, original.description);
+    assert!(
+        copy.description
+            .starts_with("my-mill (copied from head-table;"),
+        "{}",
+        copy.description
+    );
     assert_eq!(
         (
             copy.strokes,

@@ -141,35 +141,19 @@ fn no_text_cites_documents_outside_the_repository() {
                 line.contains(&format!("seed 00{d}")) || line.contains(&format!("Seed 00{d}"))
             })
     };
-    let mut hits = Vec::new();
-    let mut stack: Vec<std::path::PathBuf> = [
-        "README.md",
-        "src",
-        "docs",
-        "templates",
-        "postprocessors",
-        "examples",
-        "benches",
-    ]
-    .iter()
-    .map(|p| root.join(p))
-    .collect();
-    while let Some(p) = stack.pop() {
-        if p.is_dir() {
-            for e in std::fs::read_dir(&p).unwrap() {
-                stack.push(e.unwrap().path());
-            }
-            continue;
-        }
-        let Ok(text) = std::fs::read_to_string(&p) else {
-            continue;
-        };
-        for (i, line) in text.lines().enumerate() {
-            if pattern(line) {
-                hits.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
-            }
-        }
-    }
+    let hits = lines_matching(
+        &root,
+        &[
+            "README.md",
+            "src",
+            "docs",
+            "templates",
+            "postprocessors",
+            "examples",
+            "benches",
+        ],
+        pattern,
+    );
     assert!(hits.is_empty(), "{}", hits.join("\n"));
     // The help text as users see it.
     let help = Command::cargo_bin("fivecal")
@@ -190,28 +174,17 @@ fn no_user_facing_text_pastes_a_docs_path_after_a_citation() {
     let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let leak =
         |text: &str| text.contains(" (docs/references.md") || text.contains("(docs/references.md,");
-    let mut hits = Vec::new();
-    let mut stack: Vec<std::path::PathBuf> = [
-        "README.md",
-        "src",
-        "templates",
-        "postprocessors",
-        "examples",
-    ]
-    .iter()
-    .map(|p| root.join(p))
-    .collect();
-    while let Some(p) = stack.pop() {
-        if p.is_dir() {
-            for e in std::fs::read_dir(&p).unwrap() {
-                stack.push(e.unwrap().path());
-            }
-        } else if let Ok(text) = std::fs::read_to_string(&p) {
-            for (i, line) in text.lines().enumerate().filter(|(_, l)| leak(l)) {
-                hits.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
-            }
-        }
-    }
+    let hits = lines_matching(
+        &root,
+        &[
+            "README.md",
+            "src",
+            "templates",
+            "postprocessors",
+            "examples",
+        ],
+        leak,
+    );
     assert!(hits.is_empty(), "{}", hits.join("\n"));
     for args in [&["plan", "--help"][..], &["machine", "list"], &["--help"]] {
         let out = Command::cargo_bin("fivecal")
@@ -225,6 +198,29 @@ fn no_user_facing_text_pastes_a_docs_path_after_a_citation() {
             "{args:?}: {out}"
         );
     }
+}
+
+/// Every line of the text files under `dirs` (relative to `root`) that
+/// `pattern` matches, as `path:line: text`.
+fn lines_matching(
+    root: &std::path::Path,
+    dirs: &[&str],
+    pattern: impl Fn(&str) -> bool,
+) -> Vec<String> {
+    let mut hits = Vec::new();
+    let mut stack: Vec<std::path::PathBuf> = dirs.iter().map(|p| root.join(p)).collect();
+    while let Some(p) = stack.pop() {
+        if p.is_dir() {
+            for e in std::fs::read_dir(&p).unwrap() {
+                stack.push(e.unwrap().path());
+            }
+        } else if let Ok(text) = std::fs::read_to_string(&p) {
+            for (i, line) in text.lines().enumerate().filter(|(_, l)| pattern(l)) {
+                hits.push(format!("{}:{}: {}", p.display(), i + 1, line.trim()));
+            }
+        }
+    }
+    hits
 }
 
 /// The README's install command is `cargo install --path .` run from the
