@@ -273,7 +273,7 @@ impl std::fmt::Display for Skip {
             // machine was left: only the user can say where.
             Skip::PositionUnknown(a @ (b'A' | b'B' | b'C')) => write!(
                 f,
-                "the position of {a} is not known here (not yet programmed: where {a} stands when the program starts is not in the file, give it with --rotary-start {a}=DEG; or forgotten after a jump, call, probe or a tool change that may turn it)",
+                "the position of {a} is not known here (not yet programmed: give its start with --rotary-start {a}=DEG; or forgotten after a jump, call, probe or tool change)",
                 a = *a as char
             ),
             Skip::PositionUnknown(a) => write!(
