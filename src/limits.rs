@@ -36,9 +36,13 @@ pub const MAX_EXEC_STATEMENTS: usize = 2_000_000;
 /// subprogram and 5 macro levels, LinuxCNC 10).
 pub const MAX_CALL_DEPTH: usize = 16;
 
-/// Longest message fivecal prints for an error, characters: what it
-/// quotes beyond that is cut.
+/// Longest line of a message fivecal prints for an error, characters:
+/// what it quotes beyond that is cut.
 pub const MESSAGE_CHARS: usize = 900;
+
+/// Most characters of a whole message (many lines of [`MESSAGE_CHARS`] each).
+pub const MESSAGE_TOTAL_CHARS: usize = 20_000;
+
 /// Longest piece of the input an error message echoes, characters (cut
 /// to its first line as well).
 pub(crate) const ECHO_CHARS: usize = 60;

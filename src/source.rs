@@ -123,13 +123,25 @@ pub fn cut(s: &str) -> String {
     }
 }
 
-/// A whole message as fivecal prints it: at most
-/// [`crate::limits::MESSAGE_CHARS`] characters. A longer one (a rendered
+/// A whole message as fivecal prints it: each line at most
+/// [`crate::limits::MESSAGE_CHARS`] characters, the whole at most
+/// [`crate::limits::MESSAGE_TOTAL_CHARS`]. A longer line (a rendered
 /// template or a name of ten kilobytes that reached a message whole) keeps
 /// its start, which names the file and what is wrong, and its end, which
-/// says what to do; the middle is cut, and the message says how much.
+/// says what to do; the middle is cut, and the message says how much. A
+/// message of many short lines (what a plan would identify, and what would
+/// identify more) is the information asked for, and stays whole up to the
+/// total.
 pub fn short_message(msg: &str) -> String {
-    let max = crate::limits::MESSAGE_CHARS;
+    let lines: Vec<String> = msg
+        .split('\n')
+        .map(|l| cut_middle(l, crate::limits::MESSAGE_CHARS))
+        .collect();
+    cut_middle(&lines.join("\n"), crate::limits::MESSAGE_TOTAL_CHARS)
+}
+
+/// `msg` with its middle cut to keep at most `max` characters.
+fn cut_middle(msg: &str, max: usize) -> String {
     let n = msg.chars().count();
     if n <= max {
         return msg.to_string();

@@ -308,32 +308,39 @@ fn temporary_files_go_after_an_error_and_after_sigterm() {
     assert!(!out.exists());
     assert_eq!(temporaries(dir.path()), Vec::<String>::new());
 
-    // SIGTERM while the program is still coming in through a FIFO: the
-    // temporary output exists, the run is waiting for more input.
-    let fifo = dir.path().join("in.nc");
-    assert!(
-        StdCommand::new("mkfifo")
-            .arg(&fifo)
-            .status()
-            .unwrap()
-            .success()
-    );
+    // SIGTERM while a long program is being rewritten: the temporary
+    // output exists, the run is still writing. (Inputs are regular files:
+    // a FIFO is refused before it is opened, so a long file it is.)
+    let long = dir.path().join("long.nc");
+    let src = std::fs::read_to_string(example("analyze/stepped-square/stepped-square.nc")).unwrap();
+    let lines: Vec<&str> = src.lines().collect();
+    let (body, end) = lines.split_at(lines.len() - 2);
+    let mut text: Vec<&str> = body.to_vec();
+    for _ in 0..100 {
+        text.extend_from_slice(&body[20..]);
+    }
+    text.extend_from_slice(end);
+    std::fs::write(&long, text.join("\n") + "\n").unwrap();
     let mut a = compensate_args(&out);
-    a[5] = fifo.clone().into();
+    a[5] = long.into();
     let mut child = StdCommand::new(assert_cmd::cargo::cargo_bin("fivecal"))
         .args(&a)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let mut w = std::fs::OpenOptions::new().write(true).open(&fifo).unwrap();
-    use std::io::Write as _;
-    writeln!(w, "G0 X0 Y0 Z100").unwrap();
-    w.flush().unwrap();
     // The temporary file appears as soon as the run starts writing; wait
-    // for it by polling, then end the run.
+    // for it by polling (never longer than a minute), then end the run.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     while temporaries(dir.path()).is_empty() {
-        std::thread::sleep(std::time::Duration::from_millis(10));
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the run ended ({status}) before its temporary file was seen");
+        }
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no temporary file within a minute"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
     }
     assert!(
         StdCommand::new("kill")
@@ -343,7 +350,6 @@ fn temporary_files_go_after_an_error_and_after_sigterm() {
             .success()
     );
     let status = child.wait().unwrap();
-    drop(w);
     assert!(!status.success());
     assert!(!out.exists());
     assert_eq!(temporaries(dir.path()), Vec::<String>::new());

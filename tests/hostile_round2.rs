@@ -248,6 +248,9 @@ mod regression {
             &d.join("truth.yaml"),
             &"--export",
             &"fanuc",
+            // Only an export entered at the control is recorded, so only
+            // then does the store come into play.
+            &"--entered",
             &"--db",
             &db,
         ]);

@@ -360,7 +360,15 @@ fn identify_piece(
     // method on a head machine is judged by it, and every method's verdict
     // is computed with it.
     let plan = if method::needs_plan(&setup.model, ctx.test) {
-        Some(rebuilt(req)?)
+        match rebuilt(req) {
+            Ok(p) => Some(p),
+            // A table-table machine's rigid-pose models serve where the
+            // plan cannot be rebuilt (a points file without its template):
+            // the method and its verdict fall back to them, as the study
+            // does, and the plan context's warning says so.
+            Err(_) if !method::rigid_refuses(&setup.model) => None,
+            Err(e) => return Err(e.into()),
+        }
     } else {
         None
     };
