@@ -227,6 +227,18 @@ fn machine_new_writes_a_renamed_copy_that_reads_back() {
         .failure();
 }
 
+/// The man page as `fivecal man` prints it.
+fn man_page() -> String {
+    let out = fivecal()
+        .arg("man")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    String::from_utf8(out).unwrap()
+}
+
 /// One vocabulary on every command: each command that writes a file or a
 /// directory names it `-o/--out`; no command spells it `--output`; the NC
 /// program is an argument, never `--program`; `--dialect` offers the four
@@ -291,14 +303,7 @@ fn the_old_output_spelling_still_works_with_a_note() {
 /// the next one reads.
 #[test]
 fn man_page_examples_run_in_an_empty_directory() {
-    let out = fivecal()
-        .arg("man")
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let text = String::from_utf8(out).unwrap();
+    let text = man_page();
     let examples = &text[text.find(".SH EXAMPLES").expect("an EXAMPLES section")..];
     let examples = &examples[..examples[4..].find(".SH ").map_or(examples.len(), |i| i + 4)];
     let lines: Vec<String> = examples
@@ -340,14 +345,7 @@ fn man_page_examples_run_in_an_empty_directory() {
 /// their own sections, and every variable the program reads is listed.
 #[test]
 fn man_page_covers_nested_subcommands_and_the_environment() {
-    let out = fivecal()
-        .arg("man")
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let text = String::from_utf8(out).unwrap();
+    let text = man_page();
     for sub in [
         "SIMULATE NC",
         "ANALYZE CONTOUR",
@@ -368,14 +366,7 @@ fn man_page_covers_nested_subcommands_and_the_environment() {
 
 #[test]
 fn man_page_has_a_section_per_subcommand() {
-    let out = fivecal()
-        .arg("man")
-        .assert()
-        .success()
-        .get_output()
-        .stdout
-        .clone();
-    let text = String::from_utf8(out).unwrap();
+    let text = man_page();
     assert!(
         text.starts_with(".ie") && text.contains(".TH fivecal 1"),
         "{}",

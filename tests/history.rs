@@ -179,26 +179,22 @@ fn verify_on_the_demo_refuses_misfits_and_other_tests() {
         "machine: bc-trunnion\nlimits:\n  EX0B: 10\n  EX(0B)C: 10\n",
     )
     .unwrap();
-    let err = stderr_of_failure(
-        fivecal()
-            .arg("verify")
-            .arg("--before")
-            .arg(out.join("analyzed.yaml"))
-            .arg("--after")
-            .arg(out.join("analyzed.after.yaml")),
-    );
+    let verify = |before: &str, after: &str| {
+        stderr_of_failure(
+            fivecal()
+                .arg("verify")
+                .arg("--before")
+                .arg(out.join(before))
+                .arg("--after")
+                .arg(out.join(after)),
+        )
+    };
+    let err = verify("analyzed.yaml", "analyzed.after.yaml");
     assert!(
         err.contains("analyzed.yaml: its verdict is misfit"),
         "{err}"
     );
-    let err = stderr_of_failure(
-        fivecal()
-            .arg("verify")
-            .arg("--before")
-            .arg(out.join("discovered.yaml"))
-            .arg("--after")
-            .arg(out.join("analyzed.after.yaml")),
-    );
+    let err = verify("discovered.yaml", "analyzed.after.yaml");
     assert!(
         err.contains("analyzed.after.yaml: its verdict is misfit"),
         "{err}"

@@ -87,6 +87,15 @@ fn empty_store(p: &Path) {
     fivecal::store::Store::open(&fivecal::store::Location::Sqlite(p.to_path_buf())).unwrap();
 }
 
+/// An empty results store `h.db` in `dir` and its hash: each case ends by
+/// checking that the store is byte for byte as it was.
+fn store_in(dir: &Path) -> (PathBuf, Vec<u8>) {
+    let db = dir.join("h.db");
+    empty_store(&db);
+    let before = hash(&db);
+    (db, before)
+}
+
 mod regression {
     use super::*;
 
@@ -122,9 +131,7 @@ mod regression {
     fn analyze_out_onto_the_history_store_is_refused() {
         let dir = tempdir();
         plan_copy(dir.path());
-        let db = dir.path().join("h.db");
-        empty_store(&db);
-        let before = hash(&db);
+        let (db, before) = store_in(dir.path());
         refused_with(
             &[],
             &analyze_onto(dir.path(), &db, &db),
@@ -173,9 +180,7 @@ mod regression {
     #[test]
     fn discover_out_onto_the_history_store_is_refused() {
         let dir = tempdir();
-        let db = dir.path().join("h.db");
-        empty_store(&db);
-        let before = hash(&db);
+        let (db, before) = store_in(dir.path());
         let d = example("discover");
         refused_with(
             &[],
@@ -198,9 +203,7 @@ mod regression {
     #[test]
     fn verify_out_onto_the_history_store_is_refused() {
         let dir = tempdir();
-        let db = dir.path().join("h.db");
-        empty_store(&db);
-        let before = hash(&db);
+        let (db, before) = store_in(dir.path());
         refused_with(
             &[],
             &os(&[
@@ -220,9 +223,7 @@ mod regression {
     #[test]
     fn history_export_out_onto_the_history_store_is_refused() {
         let dir = tempdir();
-        let db = dir.path().join("h.db");
-        empty_store(&db);
-        let before = hash(&db);
+        let (db, before) = store_in(dir.path());
         refused_with(
             &[],
             &os(&[&"history", &"--db", &db, &"export", &"--out", &db]),
@@ -236,9 +237,7 @@ mod regression {
     #[test]
     fn compensate_export_output_onto_the_history_store_is_refused() {
         let dir = tempdir();
-        let db = dir.path().join("h.db");
-        empty_store(&db);
-        let before = hash(&db);
+        let (db, before) = store_in(dir.path());
         let d = example("analyze/stepped-square");
         let base = os(&[
             &"compensate",
