@@ -458,3 +458,201 @@ mod expand_call_arguments {
         );
     }
 }
+
+mod heidenhain_formulas {
+    use super::*;
+    use crate::compensate::{compensate, errors};
+    use fivecal::compensate::Settings;
+
+    fn expanded(program: &str) -> String {
+        let l = errors("bc-trunnion", 5, 20.0, "");
+        let mut s = Settings::new(Dialect::Heidenhain);
+        s.expand = true;
+        compensate(&l, s, program).0
+    }
+
+    /// The Y values of the flattened program's straight lines.
+    fn ys(out: &str) -> Vec<f64> {
+        out.lines()
+            .filter_map(|l| {
+                let k = l.find(" Y")?;
+                let v: String = l[k + 2..]
+                    .trim_start()
+                    .chars()
+                    .take_while(|c| c.is_ascii_digit() || matches!(c, '+' | '-' | '.' | ','))
+                    .collect();
+                v.replace(',', ".").parse().ok()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_decimal_comma_and_abs_without_brackets_are_read_in_a_jump_condition() {
+        // Older TNCs write `2,5`; `ABS Q1` is the formula syntax of the
+        // manuals (`Q4 = ABS Q22`). |-2.5| = 2.5: the jump is taken and
+        // the Y+99 move never runs.
+        let out = expanded(
+            "0 BEGIN PGM T MM\n\
+             1 TOOL CALL 1 Z S1000\n\
+             2 L X+0 Y+0 Z+50 B+0 C+0 R0 FMAX\n\
+             3 Q1 = -2,5\n\
+             4 FN 9: IF +2,5 EQU ABS Q1 GOTO LBL 1\n\
+             5 L Y+99 R0 F100\n\
+             6 LBL 1\n\
+             7 Q2 = SQ 3 - ABS Q1\n\
+             8 L Y+Q2 R0 F100\n\
+             9 END PGM T MM\n",
+        );
+        let ys = ys(&out);
+        assert!(ys.iter().all(|y| (y - 99.0).abs() > 1.0), "{out}");
+        // Q2 = 9 - 2.5 (the function takes the operand after it).
+        assert!(ys.iter().any(|y| (y - 6.5).abs() < 0.1), "{out}");
+    }
+
+    #[test]
+    fn call_lbl_rep_with_a_q_parameter_repeats_the_section_that_many_times() {
+        let out = expanded(
+            "0 BEGIN PGM T MM\n\
+             1 TOOL CALL 1 Z S1000\n\
+             2 L X+0 Y+0 Z+50 B+0 C+0 R0 FMAX\n\
+             3 Q5 = 2\n\
+             4 LBL 1\n\
+             5 L Y+5 R0 F100\n\
+             6 L Y+0 R0 F100\n\
+             7 CALL LBL 1 REP Q5\n\
+             8 END PGM T MM\n",
+        );
+        // Once through, then twice again.
+        let fives = ys(&out).iter().filter(|y| (*y - 5.0).abs() < 0.1).count();
+        assert_eq!(fives, 3, "{out}");
+    }
+}
+
+mod sinumerik_drilling {
+    use super::*;
+
+    #[test]
+    fn mcall_cycle81_drills_after_each_position_and_ends_at_its_retraction_plane() {
+        let ev = run(
+            "bc-trunnion",
+            "G17 G90 G0 X0 Y0 Z50 B0 C0\n\
+             MCALL CYCLE81(10,0,2,-5,)\n\
+             X10 Y10\n\
+             X20 Y20\n\
+             MCALL\n\
+             G0 Z50\n",
+            Dialect::Sinumerik,
+        );
+        let m = mv(&ev, 3);
+        assert_eq!(m.start[..3], [Some(0.0), Some(0.0), Some(50.0)]);
+        assert_eq!(m.end[..3], [Some(10.0), Some(10.0), Some(50.0)]);
+        // The hole at X10 Y10 ends at RTP = 10, on the hole's axis.
+        assert_eq!(mv(&ev, 4).start[..3], [Some(10.0), Some(10.0), Some(10.0)]);
+        assert_eq!(mv(&ev, 6).start[..3], [Some(20.0), Some(20.0), Some(10.0)]);
+        // After MCALL alone no cycle runs: Z 50 stays.
+        assert_eq!(mv(&ev, 6).end[2], Some(50.0));
+    }
+
+    #[test]
+    fn a_retraction_plane_given_by_a_parameter_leaves_z_unknown_and_x_y_known() {
+        let ev = run(
+            "bc-trunnion",
+            "G17 G90 G0 X0 Y0 Z50 B0 C0\n\
+             MCALL CYCLE81(R1,0,2,-5,)\n\
+             X10 Y10\n\
+             X20 Y20\n\
+             MCALL\n",
+            Dialect::Sinumerik,
+        );
+        let m = match at(&ev, 4) {
+            Event::Move(m) => m.start,
+            Event::Skip(_) => return,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(m[..3], [Some(10.0), Some(10.0), None]);
+    }
+
+    #[test]
+    fn a_single_cycle81_call_leaves_the_tool_over_the_hole_at_rtp() {
+        let ev = run(
+            "bc-trunnion",
+            "G17 G90 G0 X10 Y10 Z50 B0 C0\nCYCLE82(5,0,2,-5,,1)\nG0 X20\n",
+            Dialect::Sinumerik,
+        );
+        assert_eq!(at(&ev, 2), &Event::Skip(Skip::CannedCycle));
+        assert_eq!(mv(&ev, 3).start[..3], [Some(10.0), Some(10.0), Some(5.0)]);
+    }
+}
+
+mod radius_compensation {
+    use super::*;
+    use crate::compensate::{compensate, errors, reported};
+    use fivecal::compensate::Settings;
+
+    /// Runs LinuxCNC's `rs274` on `program` with a tool table of tools 1
+    /// to 6 and 15 (the ones `mmount.ngc` loads): its error text, empty
+    /// when it accepts the program.
+    fn rs274_rejects(program: &str) -> String {
+        let dir = crate::util::tempdir();
+        let path = dir.path().join("p.ngc");
+        std::fs::write(&path, program).unwrap();
+        let table = dir.path().join("tool.tbl");
+        std::fs::write(
+            &table,
+            "T1 P1 Z0 D0.25 ;\nT2 P2 Z0 D0.209 ;\nT3 P3 Z0 D0.1406 ;\nT4 P4 Z0 D0.25 ;\n\
+             T5 P5 Z0 D0.5 ;\nT15 P15 Z0 D0.55 ;\nT6 P6 Z0 D0.25 ;\n",
+        )
+        .unwrap();
+        let run = std::process::Command::new("rs274")
+            .env("HOME", dir.path())
+            .arg("-t")
+            .arg(&table)
+            .arg("-g")
+            .arg(&path)
+            .arg(dir.path().join("p.canon"))
+            .stdin(std::process::Stdio::null())
+            .output()
+            .expect("LinuxCNC's rs274 (package linuxcnc-uspace) must be installed for this test");
+        let err = String::from_utf8_lossy(&run.stderr).into_owned()
+            + &String::from_utf8_lossy(&run.stdout);
+        if run.status.success() && !err.contains("gouging") {
+            String::new()
+        } else {
+            err
+        }
+    }
+
+    #[test]
+    fn a_move_along_the_tool_axis_under_g41_is_left_as_written() {
+        // A correction across the retract would be a segment of a few
+        // micrometres the control offsets by the tool radius.
+        let program = "G21 G17 G40 G90\nT5 M6\nG0 X0 Y0 Z10 A0 C0\nG41\nG0 X10 Y0\nG1 Z-1 F100\nG1 X20\nG3 X20 Y10 I0 J5\nG0 Z10\nG40\nG0 X0 Y0\nM2\n";
+        let l = errors("ac-trunnion", 4, 20.0, "");
+        let (out, s, _) = compensate(&l, Settings::new(Dialect::Linuxcnc), program);
+        assert_eq!(
+            reported(&s, "under cutter radius compensation"),
+            vec![6, 9],
+            "{:?}",
+            s.skipped
+        );
+        assert_eq!(out.lines().nth(8), Some("G0 Z10"), "{out}");
+        assert_ne!(out.lines().nth(6), Some("G1 X20"), "{out}");
+        assert_eq!(rs274_rejects(&out), "", "{out}");
+    }
+
+    #[test]
+    fn rs274_runs_the_flattened_mmount_sample_it_runs_as_written() {
+        // LinuxCNC's own sample, installed with rs274: helical hole milling
+        // in a subroutine under G41, called with arguments.
+        let sample = "/usr/share/linuxcnc/ncfiles/mmount.ngc";
+        let program = std::fs::read_to_string(sample)
+            .expect("LinuxCNC's nc_files sample mmount.ngc (package linuxcnc-uspace)");
+        assert_eq!(rs274_rejects(&program), "");
+        let l = errors("ac-trunnion", 8, 20.0, "");
+        let mut s = Settings::new(Dialect::Linuxcnc);
+        s.expand = true;
+        s.rotary_start = vec![('A', 0.0), ('C', 0.0)];
+        let (out, _, _) = compensate(&l, s, &program);
+        assert_eq!(rs274_rejects(&out), "");
+    }
+}

@@ -217,8 +217,8 @@ fn a_value_the_program_does_not_fix_is_never_guessed() {
 
 /// Real programs loop on what only the control knows: LinuxCNC's own
 /// `smartprobe.ngc` repeats `G38.3` while `#5070` (the probe's "touched")
-/// says so, and a HEIDENHAIN sample repeats a section `CALL LBL 1 REPQ13`
-/// times. Neither is a loop without end nor a subprogram calling itself:
+/// says so, and a HEIDENHAIN program may repeat a section `CALL LBL 1 REPQ13`
+/// times with Q13 read from the control (`FN 18`). Neither is a loop without end nor a subprogram calling itself:
 /// following the logic stops there, named, and the run goes on (the
 /// literal moves before it corrected, the file refused for neither).
 #[test]
@@ -233,11 +233,11 @@ fn a_loop_on_the_probe_result_or_a_parametric_repeat_stops_the_logic_not_the_run
     );
     assert_ne!(out.lines().next(), Some("G90 G0 X0 Y0 Z50 A0 C0"), "{out}");
 
-    let repeat = "0 BEGIN PGM T MM\n1 FN 0: Q13 =+3\n2 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n3 LBL 1\n4 L X+5 Y+5 Z+40 R0 F100\n5 CALL LBL 1 REPQ13\n6 L X+0 Y+0 Z+50 R0 FMAX\n7 END PGM T MM\n";
+    let repeat = "0 BEGIN PGM T MM\n1 FN 18: SYSREAD Q13 = ID20 NR1\n2 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n3 LBL 1\n4 L X+5 Y+5 Z+40 R0 F100\n5 CALL LBL 1 REPQ13\n6 L X+0 Y+0 Z+50 R0 FMAX\n7 END PGM T MM\n";
     let (_, s, _) = compensate(&l, settings(Dialect::Heidenhain, false), repeat);
     let why = s.macro_logic.as_deref().unwrap_or_default();
     assert!(
-        why.contains("repeat count that is not a number (`REPQ13`)"),
+        why.contains("the repeat count is not known") && why.contains("Q13"),
         "{why}"
     );
 }

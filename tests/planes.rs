@@ -787,3 +787,54 @@ N250 M30
         );
     }
 }
+
+#[test]
+fn g68_4_puts_its_plane_on_the_plane_in_force() {
+    // G68.2 I90 turns the plane 90 deg about Z with its origin at X10; on
+    // it G68.4 X5 J30 tilts 30 deg about the plane's X with the origin
+    // 5 mm along the plane's X (the workpiece Y): the plane G68.2 X10 Y5
+    // I90 J30 gives at once.
+    let head = "G90 G21 G17\nG0 B30. C-90.\n";
+    let tail = "G53.1\nG43 H1\nG0 X0. Y10. Z0.\nG0 X5. Y0. Z2.\nG69\n";
+    let incremental =
+        format!("{head}G68.2 X10. Y0. Z0. I90. J0. K0.\nG68.4 X5. Y0. Z0. I0. J30. K0.\n{tail}");
+    let direct = format!("{head}G68.2 X10. Y5. Z0. I90. J30. K0.\n{tail}");
+    let a = nominal_ends("bc-trunnion", Dialect::Fanuc, &incremental);
+    let b = nominal_ends("bc-trunnion", Dialect::Fanuc, &direct);
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() >= 2, "{a:?}");
+    for (p, q) in a.iter().zip(&b) {
+        assert!(
+            (p.1 - q.1).norm() < 1e-9 && (p.2 - q.2).norm() < 1e-9,
+            "{p:?} {q:?}"
+        );
+    }
+}
+
+#[test]
+fn g68_4_without_a_plane_g68_3_and_g53_6_are_refused_with_their_kind() {
+    let l = errors("bc-trunnion", 3, 10.0, "");
+    for (d, program, why) in [
+        (
+            Dialect::Fanuc,
+            "G90 G21 G17\nG0 B0. C0.\nG68.4 X5. Y0. Z0. I0. J30. K0.\nG53.1\nG0 X0. Y10. Z0.\n",
+            "the file does not say which",
+        ),
+        (
+            Dialect::Linuxcnc,
+            "G90 G21 G17\nG0 B0 C0\nG68.3 X0 Y0 Z0\nG0 X0 Y10 Z0\n",
+            "not implemented yet",
+        ),
+        (
+            Dialect::Linuxcnc,
+            "G90 G21 G17\nG0 B0 C0\nG68.2 X0 Y0 Z0 I0 J30 K0\nG53.6\nG0 X0 Y10 Z0\n",
+            "not implemented yet",
+        ),
+    ] {
+        let (out, s, _) = compensate(&l, Settings::new(d), program);
+        let last = program.lines().last().unwrap();
+        assert_eq!(out.lines().last(), Some(last), "{program}\n{out}");
+        let notes = format!("{:?}", s);
+        assert!(notes.contains(why), "{program}: {notes}");
+    }
+}

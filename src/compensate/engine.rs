@@ -554,6 +554,9 @@ impl<'a> Pass<'a> {
                     }
                     let appr = matches!(mv.appr_dep, Some(Tangential::Approach { .. }));
                     let planned = match mv.tangential {
+                        _ if along_tool_axis_under_radius_comp(interp, mv) => {
+                            Err(Refusal::Skip(RADIUS_COMP_TOOL_AXIS.to_string()))
+                        }
                         _ if appr => c.plan_approach(&f, mv, &writer.emit, *last_held, line),
                         Some(_) => c.plan_tangential(
                             &f,
@@ -1023,4 +1026,23 @@ fn vertex(
         nominal_program: f.program(&pt.nominal),
         program,
     }
+}
+
+/// Why a move along the tool axis under cutter radius compensation is
+/// left as written.
+const RADIUS_COMP_TOOL_AXIS: &str = "a move along the tool axis under cutter radius compensation (G41/G42, RL/RR): a correction across it would be a contour segment of a few micrometres the control offsets by the tool radius (LinuxCNC stops at it with a gouging error)";
+
+/// Whether `mv` moves along the tool axis only (no word of the working
+/// plane's axes) while cutter radius compensation is on: the control
+/// offsets every segment of the plane sideways by the tool radius, so a
+/// correction that adds a few micrometres across the tool axis makes a
+/// contour segment of its own, one the control cannot offset without
+/// gouging when it turns back (a concave corner).
+fn along_tool_axis_under_radius_comp(interp: &Interpreter, mv: &interp::Move) -> bool {
+    interp.radius_comp.is_some()
+        && interp.plane == interp::ArcPlane::Xy
+        && matches!(mv.kind, interp::MoveKind::Rapid | interp::MoveKind::Linear)
+        && mv.words[0].is_none()
+        && mv.words[1].is_none()
+        && mv.words[2].is_some()
 }

@@ -277,7 +277,20 @@ impl Parser<'_> {
             return self.group();
         }
         if c.is_ascii_digit() || c == b'.' {
-            let Some((lx, n)) = super::super::lexeme::scan(&self.s[self.i..]) else {
+            let rest = &self.s[self.i..];
+            let scanned = match super::super::lexeme::scan(rest) {
+                // Older TNCs write a decimal comma (`Q1 = 2,5`); a HEIDENHAIN
+                // formula has no other use for a comma.
+                Some((_, n))
+                    if self.dialect == Dialect::Heidenhain
+                        && rest.get(n) == Some(&b',')
+                        && rest.get(n + 1).is_some_and(u8::is_ascii_digit) =>
+                {
+                    super::super::lexeme::scan_with(rest, b',')
+                }
+                found => found,
+            };
+            let Some((lx, n)) = scanned else {
                 return self.unknown("a malformed number");
             };
             self.i += n;
@@ -457,6 +470,13 @@ impl Parser<'_> {
         }
         self.ws();
         if self.peek() != Some(self.open()) {
+            if self.dialect == Dialect::Heidenhain && heidenhain_function(&name) {
+                // `Q4 = ABS Q22`, `Q2 = SQ 10 - 3^3`: a function without
+                // brackets takes the operand right after it (HEIDENHAIN's
+                // formula rules: the function is evaluated first).
+                let a = self.unary()?;
+                return self.apply_function(&name, a, None);
+            }
             return self.unknown(&format!("`{name}` is not a value fivecal knows"));
         }
         // Arguments: one, or two separated by `,` (SINUMERIK ATAN2, FANUC
@@ -489,9 +509,14 @@ impl Parser<'_> {
                 self.i = save;
             }
         }
+        self.apply_function(&name, a, b)
+    }
+
+    /// The function `name` of `a` (and `b`, for two-argument arc tangents).
+    fn apply_function(&self, name: &str, a: f64, b: Option<f64>) -> Result<f64, Stop> {
         let deg = f64::to_radians;
         let alarm = |what: &str| Err(Stop::Alarm(format!("{name} of {what}")));
-        let v = match (name.as_str(), b) {
+        let v = match (name, b) {
             ("SIN", None) => deg(a).sin(),
             ("COS", None) => deg(a).cos(),
             ("TAN", None) => deg(a).tan(),
@@ -523,6 +548,30 @@ impl Parser<'_> {
         };
         Ok(v)
     }
+}
+
+/// The one-operand functions of HEIDENHAIN's Q-parameter formulas,
+/// written without brackets as readily as with them (`ABS Q22`).
+fn heidenhain_function(name: &str) -> bool {
+    matches!(
+        name,
+        "SIN"
+            | "COS"
+            | "TAN"
+            | "ASIN"
+            | "ACOS"
+            | "ATAN"
+            | "SQRT"
+            | "SQ"
+            | "ABS"
+            | "INT"
+            | "NEG"
+            | "FRAC"
+            | "SGN"
+            | "LN"
+            | "LOG"
+            | "EXP"
+    )
 }
 
 /// A parameter number from a value (indirect addressing rounds).

@@ -61,20 +61,18 @@ fn call_lbl(rest: &str) -> ExecOp {
         .find_map(|w| find_word(rest, w));
     let (lbl, rep) = match rep_at {
         Some(k) => {
-            let r = rest[k + 3..]
-                .trim()
-                .split(|c: char| !c.is_ascii_digit())
-                .next()
-                .and_then(|d| d.parse::<u32>().ok());
-            match r {
-                Some(r) => (&rest[..k], Some(r)),
-                None => {
-                    return ExecOp::Halt(format!(
-                        "CALL LBL with a repeat count that is not a number (`{}`): how the control reads it is not confirmed",
-                        rest[k..].trim()
-                    ));
-                }
+            // The count: a number or a parameter (`REP 3`, `REP Q5`),
+            // evaluated when the call is reached; what follows a `/` (the
+            // count as the control displays it, `REP 2/2`) is not part of it.
+            let count = rest[k + 3..].trim();
+            let count = count.split('/').next().unwrap_or(count).trim();
+            if count.is_empty() {
+                return ExecOp::Halt(format!(
+                    "CALL LBL with REP but no count (`{}`)",
+                    rest[k..].trim()
+                ));
             }
+            (&rest[..k], Some(count.to_string()))
         }
         None => (rest, None),
     };

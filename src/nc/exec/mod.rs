@@ -120,8 +120,9 @@ pub(crate) enum ExecOp {
         target: JumpTarget,
         args: Vec<String>,
         /// HEIDENHAIN `REP n` on a label before the call: the section is
-        /// run again n times.
-        rep: Option<u32>,
+        /// run again n times; n is an expression (`REP Q5`), read when the
+        /// call is first reached.
+        rep: Option<String>,
     },
     /// The program ends.
     End,
@@ -726,8 +727,8 @@ impl Runner<'_, '_> {
             ExecOp::Call { target, args, rep } => {
                 let target = target.clone();
                 let args = args.clone();
-                let rep = *rep;
-                self.call(i, &target, &args, rep)?
+                let rep = rep.clone();
+                self.call(i, &target, &args, rep.as_deref())?
             }
             ExecOp::End => Flow::Stop,
             ExecOp::Halt(why) => {
@@ -752,7 +753,7 @@ impl Runner<'_, '_> {
         i: usize,
         target: &JumpTarget,
         args: &[String],
-        rep: Option<u32>,
+        rep: Option<&str>,
     ) -> Result<Flow, RunawayError> {
         let label = match self.label(target) {
             Ok(l) => l,
@@ -761,7 +762,25 @@ impl Runner<'_, '_> {
         if let Some(n) = rep {
             // HEIDENHAIN program-section repeat: back to the label n times.
             if let Some(t) = self.p.find(&label, i, Some(false)) {
-                let left = self.counters.entry(i).or_insert(u64::from(n) + 1);
+                if !self.counters.contains_key(&i) {
+                    // The count is read once, when the call is first reached.
+                    let count = match self.eval(n) {
+                        Ok(v) if v >= 0.0 && v.fract() == 0.0 && v < 65536.0 => v as u64,
+                        Ok(v) => {
+                            return Ok(self.halt(
+                                i,
+                                format!(
+                                    "the repeat count {v} is not a whole number from 0 to 65535"
+                                ),
+                            ));
+                        }
+                        Err(e) => {
+                            return Ok(self.halt(i, format!("the repeat count is not known: {e}")));
+                        }
+                    };
+                    self.counters.insert(i, count + 1);
+                }
+                let left = self.counters.get_mut(&i).expect("inserted above");
                 *left -= 1;
                 if *left == 0 {
                     self.counters.remove(&i);

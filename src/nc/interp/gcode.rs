@@ -270,12 +270,26 @@ impl Interpreter {
             2550 => {}
             541 => self.work_offset = 5410,
             540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => self.work_offset = g,
-            683 | 684 => {
+            // G68.3: the plane normal to the tool axis; its X direction
+            // is the machine builder's (FANUC parameters, LinuxCNC's
+            // per-kinematics `kins_calc_virtual_rot_for_g683`).
+            683 => {
                 let at = block.tokens[ti].span.start as usize;
                 self.plane_unmodelled(
                     block.line,
                     at,
-                    "G68.3/G68.4: a plane from the tool axis or incremental",
+                    "G68.3, the plane from the tool axis, not implemented yet: the direction of its X axis is set by the machine's configuration",
+                );
+            }
+            684 => s.g_nonmodal = Some(g),
+            // G53.6: the axes turn to the plane keeping the tool centre
+            // point where it is.
+            536 => {
+                let at = block.tokens[ti].span.start as usize;
+                self.plane_unmodelled(
+                    block.line,
+                    at,
+                    "G53.6, turning to the plane with the tool centre point kept, not implemented yet",
                 );
             }
             680 => self.transformed = Some("coordinate rotation (G68)"),
@@ -417,6 +431,10 @@ impl Interpreter {
             }
             682 => {
                 self.g68_2(block, seg);
+                Event::None
+            }
+            684 => {
+                self.g68_4(block, seg);
                 Event::None
             }
             650 | 660 => {
@@ -569,6 +587,48 @@ impl Interpreter {
             origin: nalgebra::Vector3::new(val(0), val(1), val(2)),
         };
         self.set_plane(Some(super::Tilt::Plane(plane)));
+    }
+
+    /// G68.4: a plane given on the plane in force, in its coordinates
+    /// (FANUC's incremental multi-command; LinuxCNC's remap multiplies the
+    /// plane in force by the one the block gives, read as G68.2 reads it).
+    fn g68_4(&mut self, block: &Block, seg: &Segment) {
+        let line = block.line;
+        let at = g_offset(block, seg, 684);
+        let current = match self.working_plane {
+            Some(Tilt::Plane(w)) if self.tilted => w,
+            // A plane not modelled stays so.
+            Some(Tilt::Unmodelled { .. }) => return,
+            _ => {
+                return self.plane_unmodelled(
+                    line,
+                    at,
+                    "G68.4 with no plane in force: FANUC then reads it as G68.2, LinuxCNC's remap stops with an error, so the file does not say which",
+                );
+            }
+        };
+        let p_form = block.words(seg).any(|(_, w)| {
+            w.addr.as_letter() == Some(b'P')
+                && !matches!(w.value, Value::Num(p) if p == 0.0 || p == 1.0)
+        });
+        if p_form {
+            return self.plane_unmodelled(
+                line,
+                at,
+                "G68.4 over several blocks (P2, P3) or with a P given by a parameter, not implemented yet",
+            );
+        }
+        // The increment is read as G68.2 reads a plane, then put on the
+        // plane in force.
+        self.set_plane(None);
+        self.g68_2(block, seg);
+        if let Some(Tilt::Plane(inc)) = self.working_plane {
+            let plane = super::plane::WorkPlane {
+                rot: current.rot * inc.rot,
+                origin: current.origin + current.rot * inc.origin,
+            };
+            self.set_plane(Some(Tilt::Plane(plane)));
+        }
     }
 
     /// One block of LinuxCNC's G68.2 P2 / P3: its part is kept, and the

@@ -607,6 +607,10 @@ pub struct Interpreter {
     /// HEIDENHAIN: the machining cycle the last `CYCL DEF` defined (what
     /// `CYCL CALL` and `M99` run).
     pub hh_cycle: Option<heidenhain::CycleDef>,
+    /// SINUMERIK: a drilling cycle called modally (`MCALL CYCLE81(..)`)
+    /// after every block that moves, with its retraction plane RTP where
+    /// it is written as a number.
+    pub si_mcall: Option<Option<f64>>,
     /// HEIDENHAIN: the last statement was a straight line with known ends
     /// (start, end), which a `RND`/`CHF` after it may cut.
     hh_line_before: Option<([f64; 6], [f64; 6])>,
@@ -719,6 +723,7 @@ impl Interpreter {
             pos,
             pole: None,
             hh_cycle: None,
+            si_mcall: None,
             hh_line_before: None,
             hh_corner: None,
             hh_tangent: None,

@@ -121,6 +121,20 @@ type Known = (
     nalgebra::Matrix3<f64>,
 );
 
+/// The drilling cycles that end on the hole's axis at their retraction
+/// plane RTP, their first parameter: drilling/centring, drilling/counter-
+/// boring and deep-hole drilling ("retraction to the retraction plane
+/// with G0", SINUMERIK 840D cycles programming guide, CYCLE81-CYCLE83).
+const DRILLING_CYCLES: [&[u8]; 3] = [b"CYCLE81", b"CYCLE82", b"CYCLE83"];
+
+/// RTP, the first parameter of a drilling cycle's list `(RTP, RFP, ...)`,
+/// when it is written as a number.
+fn retraction_plane(args: &str) -> Option<f64> {
+    let inner = args.trim().strip_prefix('(')?;
+    let first = inner.split([',', ')']).next()?.trim();
+    first.parse::<f64>().ok().filter(|v| v.is_finite())
+}
+
 /// What the commands and words of one block say, gathered before
 /// anything moves.
 #[derive(Default)]
@@ -137,6 +151,11 @@ struct SiScan {
     cip: Option<usize>,
     has_axis: bool,
     expr_g: bool,
+    /// The block is an `MCALL`: the cycle named after it is defined for
+    /// the blocks that follow, not run here.
+    mcall: bool,
+    /// A drilling cycle called in this block, with its retraction plane.
+    drill_rtp: Option<f64>,
 }
 
 impl Interpreter {
@@ -318,11 +337,30 @@ impl Interpreter {
                     self.forget();
                 }
                 "MCALL" => {
-                    if args.is_some() || toks[k + 1..].iter().any(|t| t.kind == TokenKind::Keyword)
-                    {
-                        self.transformed = Some("a modal subprogram call (MCALL)");
-                    } else {
-                        self.cancel("a modal subprogram call (MCALL)");
+                    s.mcall = true;
+                    self.cancel("a modal subprogram call (MCALL)");
+                    self.si_mcall = None;
+                    let called = toks[k + 1..]
+                        .iter()
+                        .position(|t| t.kind == TokenKind::Keyword)
+                        .map(|j| k + 1 + j);
+                    let cycle = called.and_then(|j| {
+                        let name = block.bytes(toks[j].span).to_ascii_uppercase();
+                        let args = toks
+                            .get(j + 1)
+                            .filter(|a| a.kind == TokenKind::Text)
+                            .map(|a| String::from_utf8_lossy(block.bytes(a.span)).into_owned());
+                        DRILLING_CYCLES
+                            .contains(&name.as_slice())
+                            .then(|| retraction_plane(args.as_deref().unwrap_or("")))
+                    });
+                    match cycle {
+                        Some(rtp) => self.si_mcall = Some(rtp),
+                        None if args.is_some() || called.is_some() => {
+                            self.transformed = Some("a modal subprogram call (MCALL)");
+                        }
+                        // `MCALL` alone ends the modal call.
+                        None => {}
                     }
                 }
                 // `RPL` belongs to the ROT/AROT before it.
@@ -332,7 +370,14 @@ impl Interpreter {
                     }
                 }
                 n if QUIET_COMMANDS.contains(&n) => {}
-                n if n.starts_with("CYCLE") => s.cycle = true,
+                n if n.starts_with("CYCLE") && !s.mcall => {
+                    s.cycle = true;
+                    if DRILLING_CYCLES.contains(&n.as_bytes()) {
+                        let text = args.map(|a| String::from_utf8_lossy(a).into_owned());
+                        s.drill_rtp = retraction_plane(text.as_deref().unwrap_or(""));
+                    }
+                }
+                n if n.starts_with("CYCLE") => {}
                 _ => {
                     // A subprogram (by name or with a parameter list) or a
                     // command fivecal does not know: where the axes are
@@ -468,7 +513,8 @@ impl Interpreter {
             } else {
                 self.forget_named(block, seg);
             }
-            if s.call {
+            if s.call || self.si_mcall.is_some() {
+                // A modal cycle runs after the machine-coordinate move too.
                 self.forget();
             }
             return if s.has_axis || s.probing {
@@ -481,7 +527,16 @@ impl Interpreter {
             return Event::None;
         }
         if s.cycle {
+            // A drilling cycle ends on the hole's axis at its retraction
+            // plane; any other cycle where its own parameters put it.
+            let xy = [self.pos[0], self.pos[1]];
             self.forget();
+            if let Some(rtp) = s
+                .drill_rtp
+                .filter(|_| self.plane == ArcPlane::Xy && !self.tilted && !s.has_axis && !s.call)
+            {
+                self.pos[..3].copy_from_slice(&[xy[0], xy[1], Some(rtp)]);
+            }
             return Event::Skip(Skip::CannedCycle);
         }
         if s.call {
@@ -502,6 +557,30 @@ impl Interpreter {
             }
             return Event::None;
         }
+        let ev = self.si_path_event(block, seg, s);
+        if let Some(rtp) = self.si_mcall {
+            // The modal drilling cycle drills a hole where this block
+            // ends and goes back to its retraction plane RTP, on the
+            // hole's axis (SINUMERIK cycles manual, CYCLE81-CYCLE83).
+            if self.plane == ArcPlane::Xy && !self.tilted {
+                self.pos[2] = rtp;
+            } else {
+                self.pos[..3].fill(None);
+            }
+            if matches!(ev, Event::Move(_)) {
+                let at = block.tokens[seg.body as usize].span.start as usize;
+                self.note(
+                    at,
+                    "MCALL: the drilling cycle called after this block drills to the depth its own parameters give, which no word of the block moves: the hole is left as the machine drills it",
+                );
+            }
+        }
+        ev
+    }
+
+    /// The event of a block that moves along a path in the motion mode in
+    /// force.
+    fn si_path_event(&mut self, block: &Block, seg: &Segment, s: &SiScan) -> Event {
         match self.motion {
             Some(m @ (Motion::Rapid | Motion::Linear | Motion::ArcCw | Motion::ArcCcw)) => {
                 self.si_move(block, seg, m, s.motion_word, None)
