@@ -234,6 +234,19 @@ mod cycle_heights {
     }
 
     #[test]
+    fn a_cycl_call_ends_the_modal_m89_call() {
+        // M89 is cancelled by M99 or a CYCL CALL block: the L Z+100 after
+        // the CYCL CALL runs no cycle, so Z stays 100.
+        let src = drilling("+2", "+50").replace(
+            "4 L X+10 Y+10 R0 FMAX M99\n5 L X+20 R0 FMAX\n6 CYCL CALL\n7 L Y+20 R0 FMAX\n",
+            "4 L X+10 Y+10 R0 FMAX M89\n5 L X+20 R0 FMAX\n6 CYCL CALL\n7 L Z+100 R0 FMAX\n8 L Y+20 R0 FMAX\n",
+        );
+        let ev = run("bc-trunnion", &src, Dialect::Heidenhain);
+        assert_eq!(mv(&ev, 7).start[..3], [Some(20.0), Some(10.0), Some(45.0)]);
+        assert_eq!(mv(&ev, 8).start[..3], [Some(20.0), Some(10.0), Some(100.0)]);
+    }
+
+    #[test]
     fn a_pocket_cycle_leaves_the_linear_axes_unknown_and_the_rotary_ones_known() {
         let ev = run(
             "bc-trunnion",
@@ -626,7 +639,7 @@ mod radius_compensation {
     fn a_move_along_the_tool_axis_under_g41_is_left_as_written() {
         // A correction across the retract would be a segment of a few
         // micrometres the control offsets by the tool radius.
-        let program = "G21 G17 G40 G90\nT5 M6\nG0 X0 Y0 Z10 A0 C0\nG41\nG0 X10 Y0\nG1 Z-1 F100\nG1 X20\nG3 X20 Y10 I0 J5\nG0 Z10\nG40\nG0 X0 Y0\nM2\n";
+        let program = "G21 G17 G40 G90\nT3 M6\nG0 X0 Y0 Z10 A0 C0\nG41\nG0 X10 Y0\nG1 Z-1 F100\nG1 X20\nG3 X20 Y10 I0 J5\nG0 Z10\nG40\nG0 X0 Y0\nM2\n";
         let l = errors("ac-trunnion", 4, 20.0, "");
         let (out, s, _) = compensate(&l, Settings::new(Dialect::Linuxcnc), program);
         assert_eq!(

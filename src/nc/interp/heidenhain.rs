@@ -42,8 +42,9 @@ impl Interpreter {
                     140 => self.forget(),
                     // The cycle called here ends at its clearance height.
                     // M89 calls it after every positioning block from here
-                    // (modal) until M99 (TNC 640 user's manual, "M
-                    // functions": M89 modal cycle call, M99 blockwise).
+                    // (modal) until M99 or a CYCL CALL (TNC 306/TNC 406
+                    // technical manual, "M-function M89"; there a machine
+                    // parameter, MP7440 bit 1, makes M89 the modal call).
                     89 => {
                         cycle_call = true;
                         self.hh_modal_call = true;
@@ -612,6 +613,9 @@ impl Interpreter {
                 Event::None
             }
             HhKind::CyclCall => {
+                // A CYCL CALL ends a modal M89 call as M99 does (TNC 306/
+                // TNC 406 technical manual, "M-function M89").
+                self.hh_modal_call = false;
                 let pos = block
                     .words(seg)
                     .any(|(_, w)| self.axis_index(w.addr).is_some());
