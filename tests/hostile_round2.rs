@@ -696,9 +696,10 @@ mod tolerance_regression {
     }
 
     /// `--tolerance 0.01` (and 0.05) with the default 4 decimals in mm:
-    /// the rounding of the words alone moves the tip by more, so the run is
-    /// refused with the smallest tolerance that holds, and nothing is
-    /// written.
+    /// the rounding of the words alone moves the tip by more (0.113 um), so
+    /// the run is refused with the smallest tolerance that holds (twice
+    /// that: as much for the path between the written points), and nothing
+    /// is written.
     #[test]
     fn a_tolerance_finer_than_the_written_decimals_is_refused_with_the_smallest_that_holds() {
         let dir = tempdir();
@@ -710,14 +711,14 @@ mod tolerance_regression {
             let err = String::from_utf8_lossy(&o.stderr);
             assert_eq!(o.status.code(), Some(2), "{err}");
             assert!(
-                err.contains("smallest tolerance that holds is 0.120 um"),
+                err.contains("smallest tolerance that holds is 0.230 um"),
                 "{err}"
             );
             assert!(!out.exists());
         }
         // The smallest printed is accepted.
         std::fs::write(&program, NO_CROSSING).unwrap();
-        let o = compensate(dir.path(), &program, &out, &["--tolerance", "0.12"]);
+        let o = compensate(dir.path(), &program, &out, &["--tolerance", "0.23"]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
 

@@ -488,6 +488,10 @@ fn nine_section_heights(
             ctx.test
         )));
     }
+    let planned = ctx.minutes.len();
+    for (p, h) in &heights {
+        check_sections(p, h, planned, &ctx.manifest)?;
+    }
     let stats = heights
         .into_iter()
         .map(|(p, h)| {
@@ -496,6 +500,67 @@ fn nine_section_heights(
         })
         .collect();
     Ok(nine_section_outcome(ctx, stats))
+}
+
+/// Refuses heights that do not cover the plan's sections (one per pose,
+/// numbered from 1 in execution order) exactly: statistics over six of
+/// nine sections, or over sections the plan does not cut, are not the
+/// test's AVG, MAX and RMS.
+fn check_sections(
+    path: &std::path::Path,
+    heights: &[crate::formats::heights::SectionHeight],
+    planned: usize,
+    manifest: &std::path::Path,
+) -> Result<(), AnalyzeError> {
+    /// Section numbers listed in a message before `and N more`.
+    const LISTED: usize = 10;
+    let list = |v: &[String]| {
+        let mut s = v
+            .iter()
+            .take(LISTED)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(", ");
+        if v.len() > LISTED {
+            s += &format!(" and {} more", v.len() - LISTED);
+        }
+        s
+    };
+    if planned == 0 {
+        return Err(AnalyzeError::Plan(format!(
+            "{}: the manifest lists no poses, so the sections {} should cover are not known",
+            manifest.display(),
+            path.display()
+        )));
+    }
+    let extra: Vec<String> = heights
+        .iter()
+        .filter(|h| h.section as usize > planned)
+        .map(|h| format!("{} (line {})", h.section, h.line))
+        .collect();
+    if !extra.is_empty() {
+        return Err(AnalyzeError::Plan(format!(
+            "{}: section{} {} not in the plan, which has {planned} sections (1 to {planned}, {}): heights of another piece or plan?",
+            path.display(),
+            if extra.len() > 1 { "s" } else { "" },
+            list(&extra) + if extra.len() > 1 { " are" } else { " is" },
+            manifest.display()
+        )));
+    }
+    let missing: Vec<String> = (1..=planned as u32)
+        .filter(|k| !heights.iter().any(|h| h.section == *k))
+        .map(|k| k.to_string())
+        .collect();
+    if !missing.is_empty() {
+        return Err(AnalyzeError::Plan(format!(
+            "{}: {} of the plan's {planned} sections are listed; missing section{} {} (a file that lost its last lines?): the nine-section statistics need every section",
+            path.display(),
+            planned - missing.len(),
+            if missing.len() > 1 { "s" } else { "" },
+            list(&missing)
+        )));
+    }
+    Ok(())
 }
 
 /// The nine-section statistics from the CMM's deviations of the nine

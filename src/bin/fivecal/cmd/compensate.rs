@@ -442,7 +442,7 @@ impl CompensateArgs {
             fivecal::compensate::tolerance::smallest_tolerance_um(&common.machine, lin, rot);
         if self.tolerance < smallest {
             bail!(
-                "--tolerance {}: the words written with {lin} decimals in mm and {rot} in degrees round the tool tip by up to {:.3} um on {}, so the smallest tolerance that holds is {smallest:.3} um (more decimals with --decimals LIN,ROT allow a finer one)",
+                "--tolerance {}: the words written with {lin} decimals in mm and {rot} in degrees round the tool tip by up to {:.3} um on {}, so the smallest tolerance that holds is {smallest:.3} um (as much again for the path between the written points; more decimals with --decimals LIN,ROT allow a finer one)",
                 self.tolerance,
                 fivecal::compensate::tolerance::rounding_bound_mm(&common.machine, lin, rot) * 1e3,
                 common.machine.name
