@@ -87,7 +87,7 @@ pub struct AnalyzeArgs {
     /// (no u from fewer runs than asked), naming how many runs were done.
     /// A study that runs longer than 10 s writes a progress line every
     /// 10 s when stderr is not a terminal (a bar when it is).
-    #[arg(long, requires = "mc", value_name = "S")]
+    #[arg(long, requires = "mc", value_name = "S", allow_negative_numbers = true)]
     max_seconds: Option<f64>,
     /// Seed of the Monte-Carlo study.
     #[arg(long, value_name = "SEED", default_value_t = 1)]

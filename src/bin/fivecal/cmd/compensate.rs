@@ -269,11 +269,21 @@ pub struct CompensateArgs {
     errors: PathBuf,
     /// Largest distance of the actual tool-tip path from the intended one
     /// between end points, um; longer moves are subdivided, arcs linearized.
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     tolerance: f64,
     /// Stop with the line named when a correction exceeds this: um for X, Y,
     /// Z, urad for the tool orientation.
-    #[arg(long, value_name = "UM", default_value_t = 500.0)]
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 500.0,
+        allow_negative_numbers = true
+    )]
     max_correction: f64,
     /// Decimals written: LIN[,ROT] (mm, deg) [default: 4,6; more when the
     /// program writes more].
@@ -282,7 +292,12 @@ pub struct CompensateArgs {
     /// Next to the tilt singularity, the largest turn of C accepted for an
     /// exact correction, deg; beyond it C is held and only the tool tip is
     /// corrected exactly.
-    #[arg(long, value_name = "DEG", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     max_c_swing: f64,
     /// Write the program flattened as its macro logic runs (parameters
     /// evaluated, loops, jumps and calls unrolled, every move a literal
