@@ -838,13 +838,15 @@ fn check_corner(
             Skip::AfterCorner(corner.line, "the written lines around it are not known").to_string(),
         );
     };
-    let tol = c.path_tolerance();
+    // The lines around the corner are checked as written (rounded): the
+    // whole tolerance holds for them.
+    let tol = c.settings.tolerance;
     match c.corner_deviation(f, corner, &end, [&a, &p, &b]) {
         Ok(d) if d <= tol => None,
         Ok(d) => Some(format!(
-            "rounding or chamfer: the controller's element between the corrected lines leaves the intended one by up to {:.2} um, {}",
+            "rounding or chamfer: the controller's element between the corrected lines leaves the intended one by up to {:.2} um, more than --tolerance {} um",
             d * 1e3,
-            c.beyond_tolerance()
+            tol * 1e3
         )),
         Err(why) => Some(format!(
             "rounding or chamfer: the controller cannot cut it between the corrected lines ({why})"
@@ -913,7 +915,9 @@ fn check_approach(
     // with the line to it (TNC7) or after it (TNC 640), paths that differ
     // by at most that much from the straight one followed here.
     let tool_axis = ((written[2][2] - written[0][2]).abs() + (want[2][2] - want[0][2]).abs()) * f.u;
-    let tol = c.path_tolerance();
+    // The blocks are checked as written (rounded): the whole tolerance
+    // holds for them.
+    let tol = c.settings.tolerance;
     // A CT's arc leg: the intended centre and the one the control
     // places from the written blocks.
     let arc = match (a.leg, a.arc, written_arc) {
@@ -923,10 +927,10 @@ fn check_approach(
     let d = c.approach_deviation(f, &want, &written, arc) + tool_axis;
     (d > tol).then(|| {
         format!(
-            "approach (APPR {}): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, {}",
+            "approach (APPR {}): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, more than --tolerance {} um",
             a.leg.name(),
             d * 1e3,
-            c.beyond_tolerance()
+            tol * 1e3
         )
     })
 }
