@@ -22,6 +22,7 @@ fn request(dir: &std::path::Path, runs: usize, exact: bool) -> Request {
             runs,
             seed: 1,
             progress: false,
+            max_seconds: None,
         },
         contributors: ContributorChoice::TestDefault,
         exact,

@@ -164,6 +164,7 @@ fn main() {
                 runs,
                 seed: 2026,
                 progress: true,
+                max_seconds: None,
             },
         );
         println!(

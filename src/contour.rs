@@ -131,7 +131,12 @@ impl PartMesh {
         })
         .map_err(|e| MeshError::Format {
             path: path.to_path_buf(),
-            message: format!("not a readable OBJ model: {e}"),
+            message: match obj_fault(&bytes) {
+                Some((line, what)) => {
+                    format!("line {line}: {what} (not a readable OBJ model: {e})")
+                }
+                None => format!("not a readable OBJ model: {e}"),
+            },
         })?;
         let mut mesh = PartMesh::default();
         for m in models {
@@ -780,6 +785,79 @@ pub fn evaluate(
         range,
     };
     (out, summary)
+}
+
+/// The first line of an OBJ file the reader refuses, and why: the OBJ
+/// reader says what is wrong but not where. Vertices, texture coordinates
+/// and normals are counted as they come; a face's index (1-based, or
+/// negative counting back) must name one already given.
+fn obj_fault(bytes: &[u8]) -> Option<(usize, String)> {
+    let text = String::from_utf8_lossy(bytes);
+    let (mut v, mut vt, mut vn) = (0i64, 0i64, 0i64);
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(head) = words.next() else { continue };
+        let rest: Vec<&str> = words.collect();
+        let numbers =
+            |n: usize| rest.len() >= n && rest[..n].iter().all(|w| w.parse::<f32>().is_ok());
+        let quoted = crate::source::cut(line.trim());
+        match head {
+            "v" if !numbers(3) => {
+                return Some((i + 1, format!("`{quoted}`: expected a vertex `v x y z`")));
+            }
+            "vn" if !numbers(3) => {
+                return Some((i + 1, format!("`{quoted}`: expected a normal `vn x y z`")));
+            }
+            "vt" if !numbers(1) => {
+                return Some((
+                    i + 1,
+                    format!("`{quoted}`: expected texture coordinates `vt u v`"),
+                ));
+            }
+            "v" => v += 1,
+            "vn" => vn += 1,
+            "vt" => vt += 1,
+            "f" | "l" => {
+                if head == "f" && rest.len() < 3 {
+                    return Some((
+                        i + 1,
+                        format!("`{quoted}`: a face needs three vertices or more"),
+                    ));
+                }
+                for r in &rest {
+                    for (k, (part, count, what)) in r
+                        .split('/')
+                        .zip([(v, "vertex"), (vt, "texture coordinate"), (vn, "normal")])
+                        .map(|(p, (c, w))| (p, c, w))
+                        .enumerate()
+                    {
+                        if k > 0 && part.is_empty() {
+                            continue;
+                        }
+                        let Ok(n) = part.parse::<i64>() else {
+                            return Some((
+                                i + 1,
+                                format!(
+                                    "`{quoted}`: `{}` is not a {what} index",
+                                    crate::source::cut(r)
+                                ),
+                            ));
+                        };
+                        if n == 0 || n > count || n < -count {
+                            return Some((
+                                i + 1,
+                                format!(
+                                    "`{quoted}`: {what} index {n} names none of the {count} given before it"
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
 }
 
 #[cfg(test)]

@@ -336,6 +336,26 @@ pub fn check_yaml(path: &Path, src: &str) -> Result<(), SourceError> {
         Ok(_) => Ok(()),
         Err(e) => {
             let mut err = SourceError::from_yaml(path, &e);
+            // serde_yaml gives these two no position: the line is found
+            // here, with what was expected.
+            if err.message.contains("more than one document") {
+                let (line, _) = second_document(src).unwrap_or((0, 0));
+                return Err(SourceError::new(
+                    path,
+                    line,
+                    if line > 0 { 1 } else { 0 },
+                    "a second YAML document starts here (`---`): expected one document per file",
+                ));
+            }
+            if err.message.contains("repetition limit exceeded") {
+                let (line, column) = first_alias(src).unwrap_or((0, 0));
+                return Err(SourceError::new(
+                    path,
+                    line,
+                    column,
+                    "the YAML aliases (`*name`) from here on expand beyond the limit of repeated values (an alias bomb?): expected plain keys and values, which fivecal's files need",
+                ));
+            }
             if let Some(key) = err
                 .message
                 .split_once(DUPLICATE)
@@ -348,6 +368,51 @@ pub fn check_yaml(path: &Path, src: &str) -> Result<(), SourceError> {
             Err(err)
         }
     }
+}
+
+/// The line and column of the first document marker after content (the
+/// start of a second document).
+fn second_document(src: &str) -> Option<(usize, usize)> {
+    let mut content = false;
+    for (i, l) in src.lines().enumerate() {
+        let t = l.trim_end();
+        if t == "---" || t.starts_with("--- ") {
+            if content {
+                return Some((i + 1, 1));
+            }
+            continue;
+        }
+        if t == "..." {
+            continue;
+        }
+        let t = t.trim_start();
+        if !t.is_empty() && !t.starts_with('#') {
+            content = true;
+        }
+    }
+    None
+}
+
+/// The line and column of the first alias (`*name` after a space, a `[`,
+/// a `,`, a `:` or a `-`, outside comments), 1-based.
+fn first_alias(src: &str) -> Option<(usize, usize)> {
+    for (i, l) in src.lines().enumerate() {
+        let code = l.split(" #").next().unwrap_or(l);
+        if code.trim_start().starts_with('#') {
+            continue;
+        }
+        let b = code.as_bytes();
+        for (j, &c) in b.iter().enumerate() {
+            if c == b'*'
+                && (j == 0 || matches!(b[j - 1], b' ' | b'[' | b',' | b':' | b'-' | b'\t'))
+                && b.get(j + 1)
+                    .is_some_and(|n| n.is_ascii_alphanumeric() || *n == b'_')
+            {
+                return Some((i + 1, j + 1));
+            }
+        }
+    }
+    None
 }
 
 /// Where nesting (block indentation, compact `- - -` entries and flow

@@ -794,17 +794,29 @@ impl Drop for AtomicOutput {
     }
 }
 
+/// A write error with what was being written and where: `-o /dev/full`
+/// says more than "No space left on device".
+fn writing(path: &Path, e: io::Error) -> io::Error {
+    io::Error::new(
+        e.kind(),
+        format!("cannot write the output {}: {e}", path.display()),
+    )
+}
+
 impl Write for AtomicOutput {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.writer().write(buf)
+        let r = self.writer().write(buf);
+        r.map_err(|e| writing(&self.path, e))
     }
 
     fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
-        self.writer().write_all(buf)
+        let r = self.writer().write_all(buf);
+        r.map_err(|e| writing(&self.path, e))
     }
 
     fn flush(&mut self) -> io::Result<()> {
-        self.writer().flush()
+        let r = self.writer().flush();
+        r.map_err(|e| writing(&self.path, e))
     }
 }
 
@@ -908,28 +920,42 @@ impl StagedDir {
     pub fn commit(mut self) -> Result<Vec<PathBuf>, OutputError> {
         let io = OutputError::io(&self.target);
         if self.exists {
-            // Every file is complete: only renames within one directory
-            // remain.
-            for f in &self.files {
-                let fin = self.target.join(f);
-                if fin.is_dir() {
-                    return Err(OutputError::WrongKind {
-                        flag: "output".into(),
-                        path: fin,
-                        what: "is a directory where the output has a file".into(),
-                    });
-                }
-            }
-            for f in &self.files {
-                std::fs::rename(self.stage.join(f), self.target.join(f)).map_err(&io)?;
-            }
-            std::fs::remove_dir(&self.stage).map_err(&io)?;
+            self.move_files()?;
         } else {
-            std::fs::rename(&self.stage, &self.target).map_err(&io)?;
+            match std::fs::rename(&self.stage, &self.target) {
+                Ok(()) => {}
+                // Another run made the directory meanwhile (two runs into
+                // one directory at once): this run's files join it, as
+                // they would had it been there first.
+                Err(_) if self.target.is_dir() => self.move_files()?,
+                Err(e) => return Err(io(e)),
+            }
         }
         unregister(&self.stage);
         self.committed = true;
         Ok(self.files.iter().map(|f| self.target.join(f)).collect())
+    }
+}
+
+impl StagedDir {
+    /// Moves the staged files into the existing target directory and
+    /// removes the stage. Every file is complete: only renames remain.
+    fn move_files(&self) -> Result<(), OutputError> {
+        let io = OutputError::io(&self.target);
+        for f in &self.files {
+            let fin = self.target.join(f);
+            if fin.is_dir() {
+                return Err(OutputError::WrongKind {
+                    flag: "output".into(),
+                    path: fin,
+                    what: "is a directory where the output has a file".into(),
+                });
+            }
+        }
+        for f in &self.files {
+            std::fs::rename(self.stage.join(f), self.target.join(f)).map_err(&io)?;
+        }
+        std::fs::remove_dir(&self.stage).map_err(&io)
     }
 }
 

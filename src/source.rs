@@ -38,10 +38,16 @@ impl SourceError {
         }
     }
 
-    /// An error located at the YAML key path `keys` in `src` (or at the top
-    /// of the file when the key cannot be found).
+    /// An error located at the YAML key path `keys` in `src` (at the
+    /// nearest key above it the file has, or at the top of the file when
+    /// none is found).
     pub fn at_key(path: &Path, src: &str, keys: &[&str], message: impl Into<String>) -> Self {
-        let (line, column) = locate_yaml_key(src, keys).unwrap_or((0, 0));
+        // A key the file lacks (a bull-nose tool without corner_radius) is
+        // placed at the nearest key above it that the file has.
+        let (line, column) = (1..=keys.len())
+            .rev()
+            .find_map(|n| locate_yaml_key(src, &keys[..n]))
+            .unwrap_or((0, 0));
         SourceError::new(path, line, column, message)
     }
 

@@ -717,15 +717,13 @@ fn sphere_test_on_ac_trunnion_from_the_command_line() {
 #[test]
 fn nine_section_heights_from_the_command_line() {
     let dir = tempdir();
-    let k = Kinematics::new(&machine("ac-trunnion"));
-    let plan = synthetic::stepped_square(&k, &[0.0], &[0.0], 10.0);
-    let manifest = plan_dir(
-        dir.path(),
-        "nine-section",
-        TestKind::Machining,
-        "ac-trunnion",
-        &plan,
-    );
+    let plan_dir = dir.path().join("nine");
+    fivecal()
+        .args(["plan", "nine-section", "--machine", "ac-trunnion", "--out"])
+        .arg(&plan_dir)
+        .assert()
+        .success();
+    let manifest = plan_dir.join("nine-section.plan.yaml");
     let h = dir.path().join("heights.csv");
     std::fs::write(
         &h,

@@ -212,6 +212,7 @@ fn uncertainty_agrees(machine: &str, test: &str, errors: &str, seed: u64, method
             runs: SPREAD_RUNS,
             seed,
             progress: false,
+            max_seconds: None,
         },
     );
     let names = setup.model.param_names();

@@ -696,9 +696,10 @@ mod tolerance_regression {
     }
 
     /// `--tolerance 0.01` (and 0.05) with the default 4 decimals in mm:
-    /// the rounding of the words alone moves the tip by more, so the run is
-    /// refused with the smallest tolerance that holds, and nothing is
-    /// written.
+    /// the rounding of the words alone moves the tip by more (0.113 um), so
+    /// the run is refused with the smallest tolerance that holds (twice
+    /// that: as much for the path between the written points), and nothing
+    /// is written.
     #[test]
     fn a_tolerance_finer_than_the_written_decimals_is_refused_with_the_smallest_that_holds() {
         let dir = tempdir();
@@ -710,14 +711,14 @@ mod tolerance_regression {
             let err = String::from_utf8_lossy(&o.stderr);
             assert_eq!(o.status.code(), Some(2), "{err}");
             assert!(
-                err.contains("smallest tolerance that holds is 0.120 um"),
+                err.contains("smallest tolerance that holds is 0.230 um"),
                 "{err}"
             );
             assert!(!out.exists());
         }
         // The smallest printed is accepted.
         std::fs::write(&program, NO_CROSSING).unwrap();
-        let o = compensate(dir.path(), &program, &out, &["--tolerance", "0.12"]);
+        let o = compensate(dir.path(), &program, &out, &["--tolerance", "0.23"]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
 
@@ -847,5 +848,957 @@ mod non_finite_regression {
         let out = bin().args(["machine", "show", &name]).output().unwrap();
         assert_eq!(out.status.code(), Some(2));
         assert!(out.stderr.len() < 1024, "{} bytes", out.stderr.len());
+    }
+}
+
+/// Runs `fivecal ARGS` in `dir` and expects success; returns stdout.
+fn ok_in(dir: &Path, args: &[&str]) -> String {
+    let o = bin().current_dir(dir).args(args).output().unwrap();
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Runs `fivecal ARGS` in `dir` and expects a refusal (exit 2, no panic)
+/// naming every one of `expect`; returns the message.
+fn refused_in(dir: &Path, args: &[&str], expect: &[&str]) -> String {
+    let o = bin().current_dir(dir).args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for e in expect {
+        assert!(err.contains(e), "{args:?}: expected `{e}` in: {err}");
+    }
+    err
+}
+
+/// Issue 47, item 2: a nine-section measurement that does not match its
+/// plan (9 sections of 5 points on `bc-trunnion`) is refused, naming what
+/// is missing or extra, never averaged.
+mod nine_section_regression {
+    use super::*;
+
+    /// A nine-section plan in `dir/p`, its heights (`h.csv`) and the CMM's
+    /// DMIS output of its points (`m.dmo`), simulated with errors.
+    fn nine_section(dir: &Path) -> (String, String) {
+        ok_in(
+            dir,
+            &[
+                "plan",
+                "nine-section",
+                "--machine",
+                "bc-trunnion",
+                "--out",
+                "p",
+            ],
+        );
+        std::fs::write(
+            dir.join("t.yaml"),
+            "machine: bc-trunnion\nlocation_errors: {EX0B: 10.0, EA0B: 40.0}\n",
+        )
+        .unwrap();
+        for out in ["h.csv", "m.dmo"] {
+            ok_in(
+                dir,
+                &[
+                    "simulate",
+                    "--plan",
+                    "p/nine-section.plan.yaml",
+                    "--errors",
+                    "t.yaml",
+                    "-o",
+                    out,
+                ],
+            );
+        }
+        (
+            std::fs::read_to_string(dir.join("h.csv")).unwrap(),
+            std::fs::read_to_string(dir.join("m.dmo")).unwrap(),
+        )
+    }
+
+    fn analyze(measured: &str) -> Vec<&str> {
+        vec![
+            "analyze",
+            "--plan",
+            "p/nine-section.plan.yaml",
+            "--measured",
+            measured,
+            "--out",
+            "r.yaml",
+            "--no-record",
+        ]
+    }
+
+    /// The DMIS blocks (`OUTPUT/...` and its lines) of `m.dmo` kept where
+    /// `keep(index, label)` says so.
+    fn dmis_keeping(dmo: &str, keep: impl Fn(usize, &str) -> bool) -> String {
+        let mut parts = dmo.split("OUTPUT/");
+        let mut out = parts.next().unwrap().to_string();
+        for (i, b) in parts.enumerate() {
+            let label = b[2..].split(')').next().unwrap();
+            if keep(i, label) {
+                out += "OUTPUT/";
+                out += b;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn nine_section_heights_that_lost_their_last_lines_are_refused_naming_the_missing_sections() {
+        let dir = tempdir();
+        let d = dir.path();
+        let (h, _) = nine_section(d);
+        let lines: Vec<&str> = h.lines().collect();
+        std::fs::write(d.join("h6.csv"), lines[..lines.len() - 3].join("\n")).unwrap();
+        refused_in(
+            d,
+            &analyze("h6.csv"),
+            &[
+                "h6.csv: 6 of the plan's 9 sections are listed",
+                "missing sections 7, 8, 9",
+            ],
+        );
+        assert!(!d.join("r.yaml").exists());
+        // The whole file is analysed.
+        ok_in(d, &analyze("h.csv"));
+    }
+
+    #[test]
+    fn nine_section_heights_of_sections_the_plan_lacks_are_refused_10_11_12_or_1000() {
+        let dir = tempdir();
+        let d = dir.path();
+        let (h, _) = nine_section(d);
+        let mut extra = h.clone();
+        for k in 10..=12 {
+            extra += &format!("{k},-4.0\n");
+        }
+        std::fs::write(d.join("h12.csv"), &extra).unwrap();
+        refused_in(
+            d,
+            &analyze("h12.csv"),
+            &[
+                "h12.csv: sections 10 (line 13), 11 (line 14), 12 (line 15) are not in the plan, which has 9 sections",
+            ],
+        );
+        let mut many = h.clone();
+        for k in 10..=1000 {
+            many += &format!("{k},-4.0\n");
+        }
+        std::fs::write(d.join("h1000.csv"), &many).unwrap();
+        let err = refused_in(
+            d,
+            &analyze("h1000.csv"),
+            &["and 981 more are not in the plan"],
+        );
+        assert!(err.len() < 1024, "{err}");
+    }
+
+    #[test]
+    fn nine_section_heights_of_1e308_or_99999_um_are_refused_at_their_line() {
+        let dir = tempdir();
+        let d = dir.path();
+        let (h, _) = nine_section(d);
+        for v in ["99999", "1e308"] {
+            let bad: String = h
+                .lines()
+                .map(|l| {
+                    if l.starts_with("5,") {
+                        format!("5,{v}\n")
+                    } else {
+                        format!("{l}\n")
+                    }
+                })
+                .collect();
+            std::fs::write(d.join("big.csv"), bad).unwrap();
+            refused_in(
+                d,
+                &analyze("big.csv"),
+                &[
+                    "big.csv:8:3: height",
+                    "of section 5 is beyond the largest error fivecal takes (10000 um)",
+                ],
+            );
+        }
+    }
+
+    #[test]
+    fn a_stepped_square_plan_given_nine_section_heights_is_refused() {
+        let dir = tempdir();
+        let d = dir.path();
+        nine_section(d);
+        plan_copy(d);
+        refused_in(
+            d,
+            &[
+                "analyze",
+                "--plan",
+                "stepped-square.plan.yaml",
+                "--measured",
+                "h.csv",
+                "--out",
+                "r.yaml",
+                "--no-record",
+            ],
+            &[
+                "h.csv: section heights belong to a nine-section plan, this plan is `stepped-square`",
+            ],
+        );
+    }
+
+    #[test]
+    fn a_nine_section_dmis_of_every_other_point_3_points_or_missing_sections_is_refused() {
+        let dir = tempdir();
+        let d = dir.path();
+        let (_, m) = nine_section(d);
+        std::fs::write(d.join("half.dmo"), dmis_keeping(&m, |i, _| i % 2 == 0)).unwrap();
+        refused_in(
+            d,
+            &analyze("half.dmo"),
+            &[
+                "half.dmo: 23 of the plan's 45 points are measured; missing 22",
+                "section 1: 2 of 5",
+                "a nine-section result needs every planned point",
+            ],
+        );
+        std::fs::write(d.join("three.dmo"), dmis_keeping(&m, |i, _| i < 3)).unwrap();
+        refused_in(
+            d,
+            &analyze("three.dmo"),
+            &["three.dmo: 3 of the plan's 45 points are measured; missing 42"],
+        );
+        // The file lost its last sections.
+        std::fs::write(
+            d.join("six.dmo"),
+            dmis_keeping(&m, |_, l| {
+                !["S7", "S8", "S9"].iter().any(|s| l.starts_with(s))
+            }),
+        )
+        .unwrap();
+        refused_in(
+            d,
+            &analyze("six.dmo"),
+            &["missing 15: section 7: 5 of 5, section 8: 5 of 5, section 9: 5 of 5"],
+        );
+        let out = ok_in(d, &analyze("m.dmo"));
+        assert!(out.contains("AVG"), "{out}");
+    }
+
+    /// A point 99999 mm off its nominal: refused at its line, not averaged
+    /// into its section.
+    #[test]
+    fn a_nine_section_dmis_point_far_off_its_nominal_is_refused_at_its_line() {
+        let dir = tempdir();
+        let d = dir.path();
+        let (_, m) = nine_section(d);
+        let line = m.lines().position(|l| l.starts_with("FA(S4-2)=")).unwrap() + 1;
+        let bad: String = m
+            .lines()
+            .map(|l| {
+                if l.starts_with("FA(S4-2)=") {
+                    let f: Vec<&str> = l.split(',').collect();
+                    format!("{},{},{},99999,{}\n", f[0], f[1], f[2], f[4..].join(","))
+                } else {
+                    format!("{l}\n")
+                }
+            })
+            .collect();
+        std::fs::write(d.join("far.dmo"), bad).unwrap();
+        refused_in(
+            d,
+            &analyze("far.dmo"),
+            &[&format!("far.dmo:{line}"), "S4-2"],
+        );
+    }
+}
+
+/// Issue 49, item 4: each error blames the file that is wrong, with its
+/// line (and key), and says what fivecal was doing.
+mod wrong_file_regression {
+    use super::*;
+
+    #[test]
+    fn a_nan_probe_ball_diameter_in_the_plan_file_is_blamed_on_the_plan_file() {
+        let dir = tempdir();
+        let d = dir.path();
+        ok_in(
+            d,
+            &[
+                "plan",
+                "probe-sphere",
+                "--machine",
+                "ac-trunnion",
+                "--out",
+                "p",
+            ],
+        );
+        std::fs::write(
+            d.join("t.yaml"),
+            "machine: ac-trunnion\nlocation_errors: {EX0C: 10.0}\n",
+        )
+        .unwrap();
+        ok_in(
+            d,
+            &[
+                "simulate",
+                "--plan",
+                "p/probe-sphere.plan.yaml",
+                "--errors",
+                "t.yaml",
+                "-o",
+                "log.txt",
+            ],
+        );
+        let manifest = d.join("p/probe-sphere.plan.yaml");
+        let text = std::fs::read_to_string(&manifest).unwrap();
+        let line = text
+            .lines()
+            .position(|l| l.trim_start().starts_with("ball_diameter:"))
+            .unwrap()
+            + 1;
+        let bad = text.replacen("ball_diameter: 6.0", "ball_diameter: .nan", 1);
+        assert_ne!(bad, text);
+        std::fs::write(&manifest, bad).unwrap();
+        let err = refused_in(
+            d,
+            &[
+                "analyze",
+                "--plan",
+                "p/probe-sphere.plan.yaml",
+                "--measured",
+                "log.txt",
+                "--out",
+                "r.yaml",
+                "--no-record",
+            ],
+            &[
+                &format!("p/probe-sphere.plan.yaml:{line}:"),
+                "probe ball_diameter",
+                "NaN",
+            ],
+        );
+        assert!(!err.contains("log.txt"), "{err}");
+    }
+
+    #[test]
+    fn a_plan_points_file_with_rows_missing_is_blamed_on_the_points_file() {
+        let dir = tempdir();
+        let d = dir.path();
+        plan_copy(d);
+        let points = d.join("stepped-square.points.csv");
+        let text = std::fs::read_to_string(&points).unwrap();
+        let kept: Vec<&str> = text
+            .lines()
+            .enumerate()
+            .filter(|(i, _)| !(4..7).contains(i))
+            .map(|(_, l)| l)
+            .collect();
+        std::fs::write(&points, kept.join("\n") + "\n").unwrap();
+        let err = refused_in(
+            d,
+            &[
+                "analyze",
+                "--plan",
+                "stepped-square.plan.yaml",
+                "--measured",
+                "piece1.dmo",
+                "--out",
+                "r.yaml",
+                "--no-record",
+            ],
+            &[
+                "stepped-square.points.csv: the plan's points file lacks 3 points the plan has",
+                "rows were lost",
+            ],
+        );
+        assert!(!err.contains("belongs to a different plan"), "{err}");
+    }
+
+    #[test]
+    fn obj_errors_name_their_line() {
+        let dir = tempdir();
+        let d = dir.path();
+        std::fs::write(d.join("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
+        std::fs::write(d.join("c.csv"), "label,x,y,z\np1,0,0,0\n").unwrap();
+        let args = [
+            "analyze",
+            "contour",
+            "--model",
+            "bad.obj",
+            "--measured",
+            "c.csv",
+        ];
+        refused_in(
+            d,
+            &args,
+            &["bad.obj: line 4: `f 1 2 9`: vertex index 9 names none of the 3 given before it"],
+        );
+        std::fs::write(d.join("bad.obj"), "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        refused_in(
+            d,
+            &args,
+            &["bad.obj: line 2: `v 1 zero 0`: expected a vertex `v x y z`"],
+        );
+    }
+
+    #[test]
+    fn yaml_alias_bombs_name_the_line_of_the_first_alias_and_what_was_expected() {
+        let dir = tempdir();
+        let d = dir.path();
+        let mut bomb =
+            String::from("a: &a [\"x\",\"x\",\"x\",\"x\",\"x\",\"x\",\"x\",\"x\",\"x\"]\n");
+        for (k, prev) in ["b", "c", "d", "e", "f", "g", "h"]
+            .iter()
+            .zip(["a", "b", "c", "d", "e", "f", "g"])
+        {
+            bomb += &format!("{k}: &{k} [{}]\n", vec![format!("*{prev}"); 9].join(","));
+        }
+        std::fs::write(d.join("bomb.yaml"), bomb).unwrap();
+        refused_in(
+            d,
+            &["machine", "show", "bomb.yaml"],
+            &[
+                "bomb.yaml:2:8:",
+                "aliases",
+                "expected plain keys and values",
+            ],
+        );
+    }
+
+    #[test]
+    fn multi_document_yaml_names_the_line_of_the_second_document() {
+        let dir = tempdir();
+        let d = dir.path();
+        std::fs::write(
+            d.join("a.yaml"),
+            "machine: bc-trunnion\nlocation_errors: {EX0B: 1}\n---\nmachine: x\n",
+        )
+        .unwrap();
+        std::fs::write(
+            d.join("b.yaml"),
+            "machine: bc-trunnion\nlocation_errors: {EX0B: 2}\n",
+        )
+        .unwrap();
+        refused_in(
+            d,
+            &["verify", "--before", "a.yaml", "--after", "b.yaml"],
+            &[
+                "a.yaml:3:1: a second YAML document starts here (`---`): expected one document per file",
+            ],
+        );
+    }
+
+    #[test]
+    fn a_bull_nose_tool_without_or_with_a_wrong_corner_radius_names_the_file_line_and_key() {
+        let dir = tempdir();
+        let d = dir.path();
+        let m = std::fs::read_to_string(example("machines/bc-trunnion.yaml")).unwrap();
+        let tool = m.lines().position(|l| l.starts_with("tool:")).unwrap() + 1;
+        let bull = m.replacen("  kind: flat", "  kind: bull", 1);
+        assert_ne!(bull, m);
+        std::fs::write(d.join("m.yaml"), &bull).unwrap();
+        refused_in(
+            d,
+            &["machine", "show", "m.yaml"],
+            &[&format!(
+                "m.yaml:{tool}:1: a bull-nose tool needs corner_radius (mm)"
+            )],
+        );
+        std::fs::write(
+            d.join("m.yaml"),
+            bull.replacen("  kind: bull", "  kind: bull\n  corner_radius: 9", 1),
+        )
+        .unwrap();
+        refused_in(
+            d,
+            &["machine", "show", "m.yaml"],
+            &[&format!(
+                "m.yaml:{}:3: corner_radius must be between 0 and half the diameter",
+                tool + 3
+            )],
+        );
+    }
+
+    #[test]
+    fn the_measurements_cover_1_pose_names_the_file() {
+        let dir = tempdir();
+        let d = dir.path();
+        plan_copy(d);
+        let m = std::fs::read_to_string(d.join("piece1.dmo")).unwrap();
+        let mut parts = m.split("OUTPUT/");
+        let mut one = parts.next().unwrap().to_string();
+        for b in parts.filter(|b| b.starts_with("F(B0C0-")) {
+            one += "OUTPUT/";
+            one += b;
+        }
+        std::fs::write(d.join("one.dmo"), one).unwrap();
+        refused_in(
+            d,
+            &[
+                "analyze",
+                "--plan",
+                "stepped-square.plan.yaml",
+                "--measured",
+                "one.dmo",
+                "--out",
+                "r.yaml",
+                "--no-record",
+            ],
+            &["one.dmo: the measurements cover 1 of the plan's 12 poses (only B0C0)"],
+        );
+    }
+
+    #[test]
+    fn output_to_dev_full_says_what_fivecal_was_writing_and_the_path() {
+        let dir = tempdir();
+        let d = dir.path();
+        std::fs::write(
+            d.join("a.nc"),
+            "O1\nG90 G54\nG0 X0 Y0 Z50 B0 C0\nG1 X10 F100\nM30\n",
+        )
+        .unwrap();
+        let truth = example("analyze/stepped-square/truth.yaml");
+        let truth = truth.to_str().unwrap();
+        refused_in(
+            d,
+            &[
+                "compensate",
+                "--machine",
+                "bc-trunnion",
+                "--errors",
+                truth,
+                "a.nc",
+                "-o",
+                "/dev/full",
+            ],
+            &["cannot write the output /dev/full: No space left on device"],
+        );
+        refused_in(
+            d,
+            &[
+                "simulate",
+                "--plan",
+                plan_copy(d).to_str().unwrap(),
+                "--errors",
+                truth,
+                "-o",
+                "/dev/full",
+            ],
+            &["cannot write /dev/full"],
+        );
+    }
+
+    #[test]
+    fn step_minus_1_is_read_as_a_number_and_refused_with_what_is_expected() {
+        let dir = tempdir();
+        let d = dir.path();
+        std::fs::write(d.join("a.nc"), "O1\nG0 X0 Y0 Z50 B0 C0\nG1 X10 F100\nM30\n").unwrap();
+        let truth = example("analyze/stepped-square/truth.yaml");
+        let err = refused_in(
+            d,
+            &[
+                "simulate",
+                "nc",
+                "--machine",
+                "bc-trunnion",
+                "--errors",
+                truth.to_str().unwrap(),
+                "a.nc",
+                "--step",
+                "-1",
+                "-o",
+                "s.csv",
+            ],
+            &["--step -1: expected 0 (end points only) or a distance of at least 0.001 mm"],
+        );
+        assert!(!err.contains("unexpected argument"), "{err}");
+    }
+
+    /// Runs the same command `n` times at once in `dir`; each must succeed.
+    fn at_once(dir: &Path, n: usize, args: impl Fn(usize) -> Vec<String>) {
+        let children: Vec<_> = (0..n)
+            .map(|i| {
+                bin()
+                    .current_dir(dir)
+                    .args(args(i))
+                    .stdout(std::process::Stdio::null())
+                    .stderr(std::process::Stdio::piped())
+                    .spawn()
+                    .unwrap()
+            })
+            .collect();
+        for c in children {
+            let o = c.wait_with_output().unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        }
+    }
+
+    #[test]
+    fn two_plan_runs_into_one_directory_at_once_both_write_it() {
+        let dir = tempdir();
+        let d = dir.path();
+        at_once(d, 3, |_| {
+            [
+                "plan",
+                "stepped-square",
+                "--machine",
+                "bc-trunnion",
+                "--out",
+                "p",
+            ]
+            .map(String::from)
+            .to_vec()
+        });
+        let names = listing(&d.join("p"));
+        assert!(
+            names.contains(&"stepped-square.plan.yaml".to_string()),
+            "{names:?}"
+        );
+        assert!(
+            !names.iter().any(|n| n.contains("fivecal-tmp")),
+            "{names:?}"
+        );
+        assert!(
+            !listing(d).iter().any(|n| n.contains("fivecal-tmp")),
+            "{:?}",
+            listing(d)
+        );
+    }
+
+    #[test]
+    fn two_report_runs_into_one_report_directory_at_once_both_write_it() {
+        let dir = tempdir();
+        let d = dir.path();
+        plan_copy(d);
+        at_once(d, 2, |i| {
+            [
+                "analyze",
+                "--plan",
+                "stepped-square.plan.yaml",
+                "--measured",
+                "piece1.dmo",
+                "--no-record",
+                "--out",
+                &format!("r{i}.yaml"),
+                "--report",
+                "rep",
+            ]
+            .map(String::from)
+            .to_vec()
+        });
+        assert!(!listing(&d.join("rep")).is_empty());
+        assert!(
+            !listing(d).iter().any(|n| n.contains("fivecal-tmp")),
+            "{:?}",
+            listing(d)
+        );
+    }
+
+    /// Issue 49: a postprocessor template that renders a block of 50 MB is
+    /// refused with a message under 1 KB.
+    #[test]
+    fn a_50_mb_template_render_is_refused_in_a_message_under_1_kb() {
+        let dir = tempdir();
+        let d = dir.path();
+        let post = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("postprocessors/fanuc.yaml"),
+        )
+        .unwrap();
+        let big = post.replacen(
+            "  rapid: \"G0 {{ words }}\"",
+            "  rapid: \"G0 {{ words }}{{ 'X' * 50000000 }}\"",
+            1,
+        );
+        assert_ne!(big, post);
+        std::fs::write(d.join("big.yaml"), big).unwrap();
+        let err = refused_in(
+            d,
+            &[
+                "plan",
+                "stepped-square",
+                "--machine",
+                "bc-trunnion",
+                "--postprocessor",
+                "big.yaml",
+                "--out",
+                "p",
+            ],
+            &["characters cut"],
+        );
+        assert!(err.len() < 1024, "{} bytes", err.len());
+        assert!(!d.join("p").exists());
+    }
+}
+
+/// Issue 47, item 4: a long Monte-Carlo study is bounded by
+/// `--max-seconds` and refused when it outlasts it, naming how far it
+/// came, never a u from fewer runs than asked.
+#[test]
+fn mc_exact_beyond_max_seconds_is_refused_naming_the_runs_done() {
+    let dir = tempdir();
+    let d = dir.path();
+    plan_copy(d);
+    let start = std::time::Instant::now();
+    let err = refused_in(
+        d,
+        &[
+            "analyze",
+            "--plan",
+            "stepped-square.plan.yaml",
+            "--measured",
+            "piece1.dmo",
+            "--out",
+            "r.yaml",
+            "--no-record",
+            "--mc",
+            "100000",
+            "--mc-exact",
+            "--max-seconds",
+            "1",
+        ],
+        &[
+            "the Monte-Carlo study of 100000 runs stopped at --max-seconds 1 with",
+            "a u from fewer runs than asked is not reported",
+        ],
+    );
+    assert!(start.elapsed().as_secs() < 60, "{err}");
+    assert!(!d.join("r.yaml").exists());
+    refused_in(
+        d,
+        &[
+            "analyze",
+            "--plan",
+            "stepped-square.plan.yaml",
+            "--measured",
+            "piece1.dmo",
+            "--out",
+            "r.yaml",
+            "--mc",
+            "10",
+            "--max-seconds",
+            "-1",
+        ],
+        &["--max-seconds -1: expected a time > 0 s"],
+    );
+}
+
+/// Issue 47, "Show": commands fed generated hostile inputs (heights with
+/// absurd, missing, repeated and extra sections; error files with hostile
+/// numbers; NC programs of hostile words) either succeed with finite
+/// outputs or refuse naming the file; the input is never changed, no
+/// temporary file is left, and each run ends within a bound. Few cases per
+/// property, so the suite stays fast.
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+    use proptest::test_runner::{Config, RngSeed, TestRunner};
+
+    fn config(cases: u32, salt: u64) -> Config {
+        Config {
+            cases,
+            rng_seed: RngSeed::Fixed(47 ^ salt),
+            failure_persistence: None,
+            ..Config::default()
+        }
+    }
+
+    /// Numbers as an attacker writes them.
+    const NUMBERS: &[&str] = &[
+        "0", "-5", "3.25", "1e308", "-1e308", "99999", "NaN", "inf", "-inf", "", "abc", "1e-300",
+        "0x10", "1,5", "+7", "-0", "5e3", "10001",
+    ];
+
+    fn number() -> impl Strategy<Value = String> {
+        prop_oneof![
+            proptest::sample::select(NUMBERS).prop_map(String::from),
+            (-2e4f64..2e4).prop_map(|v| format!("{v}")),
+        ]
+    }
+
+    /// Runs one case in `dir`: `args` with `input` written to `name`. The
+    /// run must end within 60 s, exit 0 or 2 (never a panic), leave the
+    /// input as it was and no temporary file; a refusal names `name`, a
+    /// success writes no non-finite number to stdout or `out` that the
+    /// input did not have.
+    fn check(
+        dir: &Path,
+        name: &str,
+        input: &str,
+        args: &[&str],
+        out: Option<&str>,
+    ) -> Result<(), TestCaseError> {
+        let path = dir.join(name);
+        std::fs::write(&path, input).unwrap();
+        if let Some(o) = out {
+            let _ = std::fs::remove_file(dir.join(o));
+        }
+        let before = hash(&path);
+        let mut cmd = bin();
+        cmd.current_dir(dir).args(args);
+        let o = within(cmd, std::time::Duration::from_secs(60));
+        let err = String::from_utf8_lossy(&o.stderr);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        prop_assert!(!err.contains("panicked"), "{err}");
+        match o.status.code() {
+            Some(0) => {
+                // A non-finite word is no result of fivecal's unless the
+                // input had it (a block left as written copies it).
+                let words = |t: &str, bad: &str| {
+                    t.to_ascii_lowercase()
+                        .split(|c: char| !c.is_ascii_alphanumeric())
+                        .filter(|w| *w == bad)
+                        .count()
+                };
+                let written = out
+                    .map(|o| std::fs::read_to_string(dir.join(o)).unwrap_or_default())
+                    .unwrap_or_default();
+                for bad in ["nan", "inf"] {
+                    for text in [stdout.as_ref(), written.as_str()] {
+                        prop_assert!(
+                            words(text, bad) <= words(input, bad),
+                            "{bad} in the output of {args:?}: {text}"
+                        );
+                    }
+                }
+            }
+            Some(2) => prop_assert!(err.contains(name), "a refusal without {name}: {err}"),
+            c => prop_assert!(false, "exit {c:?}: {err}"),
+        }
+        prop_assert_eq!(hash(&path), before, "{} changed", name);
+        let left: Vec<String> = listing(dir)
+            .into_iter()
+            .filter(|n| n.contains("fivecal-tmp"))
+            .collect();
+        prop_assert!(left.is_empty(), "left behind: {left:?}");
+        Ok(())
+    }
+
+    #[test]
+    fn hostile_nine_section_heights_are_computed_finite_or_refused_naming_the_file() {
+        let dir = tempdir();
+        let d = dir.path();
+        ok_in(
+            d,
+            &[
+                "plan",
+                "nine-section",
+                "--machine",
+                "bc-trunnion",
+                "--out",
+                "p",
+            ],
+        );
+        let rows = proptest::collection::vec((0u32..14, number()), 0..14);
+        TestRunner::new(config(10, 1))
+            .run(&rows, |rows| {
+                let mut text = String::from("section,height_um\n1,0\n");
+                for (s, v) in &rows {
+                    text += &format!("{s},{v}\n");
+                }
+                check(
+                    d,
+                    "h.csv",
+                    &text,
+                    &[
+                        "analyze",
+                        "--plan",
+                        "p/nine-section.plan.yaml",
+                        "--measured",
+                        "h.csv",
+                        "--out",
+                        "r.yaml",
+                        "--no-record",
+                    ],
+                    Some("r.yaml"),
+                )
+            })
+            .unwrap();
+    }
+
+    #[test]
+    fn hostile_error_files_are_verified_finite_or_refused_naming_the_file() {
+        let dir = tempdir();
+        let d = dir.path();
+        std::fs::write(
+            d.join("b.yaml"),
+            "machine: bc-trunnion\nlocation_errors:\n  EX0B: {value: 2.0, u: 0.5}\n",
+        )
+        .unwrap();
+        let values = (number(), number(), proptest::bool::ANY);
+        TestRunner::new(config(10, 2))
+            .run(&values, |(v, u, alias)| {
+                let text = if alias {
+                    format!(
+                        "machine: bc-trunnion\nx: &x [{v},{v},{v}]\ny: [*x,*x,*x]\nlocation_errors:\n  EX0B: {{value: {v}, u: {u}}}\n"
+                    )
+                } else {
+                    format!("machine: bc-trunnion\nlocation_errors:\n  EX0B: {{value: {v}, u: {u}}}\n")
+                };
+                check(
+                    d,
+                    "a.yaml",
+                    &text,
+                    &["verify", "--before", "a.yaml", "--after", "b.yaml"],
+                    None,
+                )
+            })
+            .unwrap();
+    }
+
+    #[test]
+    fn hostile_nc_programs_are_compensated_finite_or_refused_naming_the_file() {
+        let dir = tempdir();
+        let d = dir.path();
+        let truth = example("analyze/stepped-square/truth.yaml");
+        let truth = truth.to_str().unwrap().to_string();
+        let word = prop_oneof![
+            proptest::sample::select(&["X", "Y", "Z", "B", "C", "F", "R1="][..])
+                .prop_flat_map(|w| number().prop_map(move |n| format!("{w}{n}"))),
+            proptest::sample::select(
+                &[
+                    "G1",
+                    "G0",
+                    "G2",
+                    "G91",
+                    "M30",
+                    "#1=EXP[1000]",
+                    "(",
+                    "%",
+                    "N"
+                ][..]
+            )
+            .prop_map(String::from),
+        ];
+        let lines = proptest::collection::vec(proptest::collection::vec(word, 1..4), 0..6);
+        TestRunner::new(config(8, 3))
+            .run(&lines, |lines| {
+                let mut text = String::from("O1000\nG90 G54 G94\nG0 X10. Y20. Z30. B0. C0.\n");
+                for l in &lines {
+                    text += &l.join(" ");
+                    text.push('\n');
+                }
+                text += "G1 X20. F500.\nM30\n";
+                check(
+                    d,
+                    "p.nc",
+                    &text,
+                    &[
+                        "compensate",
+                        "--machine",
+                        "bc-trunnion",
+                        "--errors",
+                        &truth,
+                        "p.nc",
+                        "-o",
+                        "out.nc",
+                    ],
+                    Some("out.nc"),
+                )
+            })
+            .unwrap();
     }
 }

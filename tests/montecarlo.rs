@@ -114,6 +114,7 @@ fn spread(lin: &LinearStudy, runs: usize) -> Vec<f64> {
             runs,
             seed: 5,
             progress: false,
+            max_seconds: None,
         },
         n,
         |_, rng| lin.run(rng),

@@ -274,13 +274,96 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
     let method = req.method.unwrap_or(method::default_for(ctx.test));
     method::check(method, ctx.test, ctx.kind, &req.maps)?;
     let measured = ctx.read(&req.measured)?;
+    // What each file measures, by label, kept for the error path below.
+    let labels: Vec<(PathBuf, Vec<(String, usize)>)> = measured
+        .points
+        .iter()
+        .filter(|(_, set)| set.labeled)
+        .map(|(path, set)| {
+            (
+                path.clone(),
+                set.points
+                    .iter()
+                    .map(|m| (m.label.clone(), m.line))
+                    .collect(),
+            )
+        })
+        .collect();
+    let found = find(req, &ctx, method, measured)
+        .map_err(|e| blame_points_file(req, &ctx, &labels).unwrap_or(e))?;
+    Ok(Outcome {
+        warnings: ctx.warnings,
+        found,
+    })
+}
+
+/// Where a measurement names points the plan's points file lacks but the
+/// plan itself (rebuilt from the template and machine copies) has, the
+/// points file lost rows: the error names it, not the measurement. Only
+/// on the error path, so a points file edited by hand still serves.
+fn blame_points_file(
+    req: &Request,
+    ctx: &PlanContext,
+    labels: &[(PathBuf, Vec<(String, usize)>)],
+) -> Option<AnalyzeError> {
+    let points = ctx.points.as_ref()?;
+    let have: std::collections::HashSet<&str> =
+        points.points.iter().map(|p| p.label.as_str()).collect();
+    let unknown: Vec<(&Path, &str, usize)> = labels
+        .iter()
+        .flat_map(|(path, l)| {
+            l.iter()
+                .filter(|(label, _)| !have.contains(label.as_str()))
+                .map(move |(label, line)| (path.as_path(), label.as_str(), *line))
+        })
+        .collect();
+    if unknown.is_empty() {
+        return None;
+    }
+    let plan = rebuilt(req).ok()?;
+    let planned: std::collections::HashSet<String> = plan
+        .plan_points()
+        .points
+        .into_iter()
+        .map(|p| p.label)
+        .collect();
+    let lost: Vec<&(&Path, &str, usize)> = unknown
+        .iter()
+        .filter(|(_, label, _)| planned.contains(*label))
+        .collect();
+    let (path, label, line) = lost.first()?;
+    let file = crate::formats::manifest::Manifest::read(&req.manifest)
+        .ok()
+        .and_then(|m| m.file(&req.manifest, "points"))
+        .map_or_else(
+            || "the plan's points file".to_string(),
+            |p| p.display().to_string(),
+        );
+    Some(AnalyzeError::Plan(format!(
+        "{file}: the plan's points file lacks {} point{} the plan has (rebuilt from its template and machine copies) and the measurement names (first: `{}`, {}:{line}); its {} rows are fewer than the plan's {}: rows were lost or cut from it; restore it or plan again",
+        lost.len(),
+        if lost.len() > 1 { "s" } else { "" },
+        crate::source::cut(label),
+        path.display(),
+        points.points.len(),
+        planned.len()
+    )))
+}
+
+/// The results of the measurements read.
+fn find(
+    req: &Request,
+    ctx: &PlanContext,
+    method: Method,
+    measured: inputs::Measurements,
+) -> Result<Found, AnalyzeError> {
     let found = if !measured.heights.is_empty() {
         if !measured.points.is_empty() {
             return Err(AnalyzeError::Request(
                 "nine-section heights and measured points cannot be analysed together".into(),
             ));
         }
-        Found::NineSection(nine_section_heights(&ctx, measured.heights)?)
+        Found::NineSection(nine_section_heights(ctx, measured.heights)?)
     } else {
         let pieces: Vec<Vec<_>> = if req.series {
             measured.points.into_iter().map(|s| vec![s]).collect()
@@ -288,15 +371,12 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
             vec![measured.points]
         };
         if ctx.test == Test::NineSection {
-            Found::NineSection(nine_section_points(&ctx, &pieces)?)
+            Found::NineSection(nine_section_points(ctx, &pieces)?)
         } else {
-            Found::Identified(identify_pieces(req, &ctx, method, &pieces)?)
+            Found::Identified(identify_pieces(req, ctx, method, &pieces)?)
         }
     };
-    Ok(Outcome {
-        warnings: ctx.warnings,
-        found,
-    })
+    Ok(found)
 }
 
 /// The plan rebuilt from the manifest (or the caller's).
@@ -488,6 +568,10 @@ fn nine_section_heights(
             ctx.test
         )));
     }
+    let planned = ctx.minutes.len();
+    for (p, h) in &heights {
+        check_sections(p, h, planned, &ctx.manifest)?;
+    }
     let stats = heights
         .into_iter()
         .map(|(p, h)| {
@@ -498,6 +582,67 @@ fn nine_section_heights(
     Ok(nine_section_outcome(ctx, stats))
 }
 
+/// Refuses heights that do not cover the plan's sections (one per pose,
+/// numbered from 1 in execution order) exactly: statistics over six of
+/// nine sections, or over sections the plan does not cut, are not the
+/// test's AVG, MAX and RMS.
+fn check_sections(
+    path: &std::path::Path,
+    heights: &[crate::formats::heights::SectionHeight],
+    planned: usize,
+    manifest: &std::path::Path,
+) -> Result<(), AnalyzeError> {
+    /// Section numbers listed in a message before `and N more`.
+    const LISTED: usize = 10;
+    let list = |v: &[String]| {
+        let mut s = v
+            .iter()
+            .take(LISTED)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(", ");
+        if v.len() > LISTED {
+            s += &format!(" and {} more", v.len() - LISTED);
+        }
+        s
+    };
+    if planned == 0 {
+        return Err(AnalyzeError::Plan(format!(
+            "{}: the manifest lists no poses, so the sections {} should cover are not known",
+            manifest.display(),
+            path.display()
+        )));
+    }
+    let extra: Vec<String> = heights
+        .iter()
+        .filter(|h| h.section as usize > planned)
+        .map(|h| format!("{} (line {})", h.section, h.line))
+        .collect();
+    if !extra.is_empty() {
+        return Err(AnalyzeError::Plan(format!(
+            "{}: section{} {} not in the plan, which has {planned} sections (1 to {planned}, {}): heights of another piece or plan?",
+            path.display(),
+            if extra.len() > 1 { "s" } else { "" },
+            list(&extra) + if extra.len() > 1 { " are" } else { " is" },
+            manifest.display()
+        )));
+    }
+    let missing: Vec<String> = (1..=planned as u32)
+        .filter(|k| !heights.iter().any(|h| h.section == *k))
+        .map(|k| k.to_string())
+        .collect();
+    if !missing.is_empty() {
+        return Err(AnalyzeError::Plan(format!(
+            "{}: {} of the plan's {planned} sections are listed; missing section{} {} (a file that lost its last lines?): the nine-section statistics need every section",
+            path.display(),
+            planned - missing.len(),
+            if missing.len() > 1 { "s" } else { "" },
+            list(&missing)
+        )));
+    }
+    Ok(())
+}
+
 /// The nine-section statistics from the CMM's deviations of the nine
 /// sections: heights relative to section 1, one file per piece.
 fn nine_section_points(
@@ -506,7 +651,15 @@ fn nine_section_points(
 ) -> Result<NineSectionOutcome, AnalyzeError> {
     let mut stats = Vec::new();
     for piece in pieces {
-        // Joining checks labels and nominals against the plan.
+        // Every planned point first (a file of a few points is named for
+        // what it lacks), then joining checks labels and nominals against
+        // the plan.
+        if let Some(plan) = &ctx.points {
+            for (path, set) in piece {
+                NineSection::check_coverage(plan, set)
+                    .map_err(|e| AnalyzeError::Plan(format!("{}: {e}", path.display())))?;
+            }
+        }
         let data = ctx.join(piece)?;
         for (path, set) in piece {
             let s = NineSection::from_deviations(&data.plan, set)

@@ -375,7 +375,7 @@ impl Compensator {
         w1: &[f64; 6],
         vector: Option<Vector3<f64>>,
     ) -> f64 {
-        let tol = self.settings.tolerance;
+        let tol = self.path_tolerance();
         // Along a piece that turns far, the deviation goes round with the
         // turn: at the middle of two whole turns of a head's C the tool is
         // back where it started, and the middle and quarters can all miss
@@ -411,7 +411,7 @@ impl Compensator {
         let ends = 1e-4;
         self.solver
             .deviation_bound(&n0, &end.nominal, &w0m, &end.written, ends)
-            <= self.settings.tolerance / 2.0
+            <= self.path_tolerance() / 2.0
     }
 
     /// Pieces (end points) along `path` from the written start `w0` so that
@@ -429,7 +429,7 @@ impl Compensator {
         ramp: bool,
         line: usize,
     ) -> Result<Vec<(f64, CorrectedPoint)>, CompensateError> {
-        let tol = self.settings.tolerance;
+        let tol = self.path_tolerance();
         let mut n = n0.max(1);
         // Where C is held at either end, the pieces do not switch between
         // held and exact solutions (which would jump): the correction of C
@@ -457,8 +457,9 @@ impl Compensator {
                     path: PathBuf::new(),
                     line,
                     what: format!(
-                        "the move cannot be followed within --tolerance {} um even in {MAX_PIECES} pieces",
-                        tol * 1e3,
+                        "the move cannot be followed within --tolerance {} um (of which the written decimals take {:.3} um) even in {MAX_PIECES} pieces",
+                        self.settings.tolerance * 1e3,
+                        self.rounding * 1e3,
                     ),
                 });
             }
@@ -596,7 +597,7 @@ impl Compensator {
         let Path::Through { geo, .. } = *path else {
             unreachable!("a CIP's path")
         };
-        let tol = self.settings.tolerance;
+        let tol = self.path_tolerance();
         let um = geo.through_at / geo.sweep;
         let tip = self.target(f, &f.model(&path.at(um)), None).tip;
         // The rotary positions the written move has at the intermediate
@@ -657,7 +658,7 @@ impl Compensator {
         ramp: bool,
         line: usize,
     ) -> Result<WritePlan, Refusal> {
-        let tol = self.settings.tolerance;
+        let tol = self.path_tolerance();
         let axes = arc.plane.axes();
         let geo = ArcGeo::new(axes, arc.center, p0, p1, arc.cw, arc.turns);
         let rotary_fixed = p0[f.tilt] == p1[f.tilt] && p0[5] == p1[5];
@@ -756,7 +757,7 @@ impl Compensator {
         ramp: bool,
         line: usize,
     ) -> Result<WritePlan, Refusal> {
-        let tol = self.settings.tolerance;
+        let tol = self.path_tolerance();
         let step = if r > tol / 2.0 {
             2.0 * (1.0 - tol / 2.0 / r).clamp(-1.0, 1.0).acos()
         } else {
@@ -817,7 +818,7 @@ impl Compensator {
             })
         });
         if let Some(w) = written
-            && self.path_deviation(f, &intended, &w) <= self.settings.tolerance
+            && self.path_deviation(f, &intended, &w) <= self.path_tolerance()
         {
             let written = f.model(&w1);
             return Ok(WritePlan::End(CorrectedPoint {
@@ -885,12 +886,12 @@ impl Compensator {
             &Path::Line { p0: p1, p1 },
             &Path::Line { p0: w1, p1: w1 },
         );
-        let tol = self.settings.tolerance;
+        let tol = self.path_tolerance();
         if miss > tol {
             return Err(refuse(format!(
-                "with the rotary axes where the block before leaves them, its corrected end lands {:.2} um from the intended one, more than --tolerance {} um",
+                "with the rotary axes where the block before leaves them, its corrected end lands {:.2} um from the intended one, {}",
                 miss * 1e3,
-                tol * 1e3
+                self.beyond_tolerance()
             )));
         }
         Ok(WritePlan::End(CorrectedPoint {
@@ -987,13 +988,13 @@ impl Compensator {
             _ => (Path::Line { p0, p1 }, Path::Line { p0: w0, p1: w1 }),
         };
         let miss = self.path_deviation(f, &intended, &written);
-        let tol = self.settings.tolerance;
+        let tol = self.path_tolerance();
         if miss > tol {
             return Err(refuse(format!(
-                "the DEP {} the control runs from the corrected contour leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+                "the DEP {} the control runs from the corrected contour leaves the intended one by up to {:.2} um, {}",
                 leg.name(),
                 miss * 1e3,
-                tol * 1e3
+                self.beyond_tolerance()
             )));
         }
         Ok(w1)

@@ -27,6 +27,11 @@ use crate::source::SourceError;
 pub struct Compensator {
     pub(super) settings: Settings,
     pub(super) solver: Solver,
+    /// How far the rounding of the written words can move the tool tip,
+    /// mm ([`super::tolerance::rounding_bound_mm`]): every path check holds
+    /// the tolerance less this, so the path of the words as written (not
+    /// only of the unrounded values checked) stays within the tolerance.
+    pub(super) rounding: f64,
     not_compensated: Vec<String>,
 }
 
@@ -34,6 +39,11 @@ impl Compensator {
     /// A rewriter for `model` with parameters `theta` (file units).
     pub fn new(model: &Model, theta: &[f64], settings: Settings) -> Compensator {
         let solver = Solver::new(model, theta, settings.max_c_swing);
+        let rounding = super::tolerance::rounding_bound_mm(
+            model.kin.machine(),
+            settings.linear_decimals,
+            settings.rotary_decimals,
+        );
         let mut not_compensated = Vec::new();
         for e in &model.effects {
             let id = e.id(&model.symbols);
@@ -53,8 +63,28 @@ impl Compensator {
         Compensator {
             settings,
             solver,
+            rounding,
             not_compensated,
         }
+    }
+
+    /// The distance, mm, a checked path may keep from the intended one:
+    /// the tolerance less what the rounding of the written words can add
+    /// (none left when the tolerance is finer than the rounding, which the
+    /// command line refuses).
+    pub(super) fn path_tolerance(&self) -> f64 {
+        (self.settings.tolerance - self.rounding).max(0.0)
+    }
+
+    /// How a message says a checked path missed: the tolerance and the
+    /// rounding it leaves room for.
+    pub(super) fn beyond_tolerance(&self) -> String {
+        format!(
+            "more than the {:.3} um --tolerance {} um leaves beside the {:.3} um the written decimals can round the tip by",
+            self.path_tolerance() * 1e3,
+            self.settings.tolerance * 1e3,
+            self.rounding * 1e3
+        )
     }
 
     /// The settings.
@@ -811,6 +841,8 @@ fn check_corner(
             Skip::AfterCorner(corner.line, "the written lines around it are not known").to_string(),
         );
     };
+    // The lines around the corner are checked as written (rounded): the
+    // whole tolerance holds for them.
     let tol = c.settings.tolerance;
     match c.corner_deviation(f, corner, &end, [&a, &p, &b]) {
         Ok(d) if d <= tol => None,
@@ -886,6 +918,8 @@ fn check_approach(
     // with the line to it (TNC7) or after it (TNC 640), paths that differ
     // by at most that much from the straight one followed here.
     let tool_axis = ((written[2][2] - written[0][2]).abs() + (want[2][2] - want[0][2]).abs()) * f.u;
+    // The blocks are checked as written (rounded): the whole tolerance
+    // holds for them.
     let tol = c.settings.tolerance;
     // A CT's arc leg: the intended centre and the one the control
     // places from the written blocks.

@@ -14,8 +14,12 @@
 //!
 //! with `lever` a bound on the tip's distance from either rotary axis: the
 //! diagonal of the machine's strokes plus its pivot offset, pivot length
-//! and tool length. A tolerance below that is refused with the smallest
-//! one that works, rather than reported as met.
+//! and tool length. Every path check holds the tolerance less that bound
+//! (so the path of the rounded words, not only of the values checked,
+//! stays within it), which leaves the check nothing below the bound; the
+//! smallest tolerance accepted is twice the bound, half for the path
+//! between the written points and half for their rounding. A finer one is
+//! refused with the smallest that works, rather than reported as met.
 
 use crate::machine::Machine;
 
@@ -36,10 +40,11 @@ pub fn rounding_bound_mm(machine: &Machine, linear_decimals: u8, rotary_decimals
 }
 
 /// The smallest tolerance, um, that the written decimals leave room for:
-/// the rounding bound, rounded up to two significant digits (so the number
-/// printed is itself accepted).
+/// twice the rounding bound (as much for the path checked as for the
+/// rounding), rounded up to two significant digits (so the number printed
+/// is itself accepted).
 pub fn smallest_tolerance_um(machine: &Machine, linear_decimals: u8, rotary_decimals: u8) -> f64 {
-    let um = rounding_bound_mm(machine, linear_decimals, rotary_decimals) * 1e3;
+    let um = 2.0 * rounding_bound_mm(machine, linear_decimals, rotary_decimals) * 1e3;
     let step = 10f64.powf(um.log10().floor() - 1.0);
     (um / step).ceil() * step
 }
@@ -68,10 +73,10 @@ mod tests {
         assert!(rounding_bound_mm(&m, 4, 6) > 0.0000866);
         let finer = rounding_bound_mm(&m, 5, 7);
         assert!((finer * 10.0 - rounding_bound_mm(&m, 4, 6)).abs() < 1e-12);
-        // The smallest tolerance printed is at or above the bound, within
-        // one step of its second digit.
+        // The smallest tolerance printed is at or above twice the bound,
+        // within one step of its second digit.
         let s = smallest_tolerance_um(&m, 4, 6);
-        let b = rounding_bound_mm(&m, 4, 6) * 1e3;
+        let b = 2.0 * rounding_bound_mm(&m, 4, 6) * 1e3;
         assert!(s >= b && s <= b * 1.11, "{s} against {b}");
     }
 }

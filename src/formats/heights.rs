@@ -103,6 +103,20 @@ pub fn parse(path: &Path, src: &str) -> Result<Vec<SectionHeight>, SourceError> 
             ));
         }
         let height_um = parse_finite(rec.get(ch)).map_err(|m| at(ch, m))?;
+        // Sections are cut at one nominal depth: what sets them apart is
+        // the machine's errors, which fivecal takes up to MAX_ERROR_UM
+        // (10 mm). A larger height is a wrong unit or line, not a section
+        // to average in.
+        let max = crate::limits::MAX_ERROR_UM;
+        if height_um.abs() > max {
+            return Err(at(
+                ch,
+                format!(
+                    "height {} um of section {section} is beyond the largest error fivecal takes ({max} um): a wrong unit or line?",
+                    crate::numbers::echo(height_um)
+                ),
+            ));
+        }
         out.push(SectionHeight {
             section,
             height_um,

@@ -287,6 +287,29 @@ impl Manifest {
                 ),
             ));
         }
+        // The tool and probe are read by what analyses the plan's
+        // measurements: a NaN ball would surface as a measurement that
+        // matches nothing, blaming the measurement file.
+        if let Some(t) = &m.tool {
+            crate::machine::check_tool(t)
+                .map_err(|(k, msg)| SourceError::at_key(path, src, &["tool", k], msg))?;
+        }
+        if let Some(p) = &m.probe {
+            let max = crate::limits::MAX_MACHINE_MM;
+            for (k, v) in [("ball_diameter", p.ball_diameter), ("length", p.length)] {
+                if !(v.is_finite() && v > 0.0 && v <= max) {
+                    return Err(SourceError::at_key(
+                        path,
+                        src,
+                        &["probe", k],
+                        format!(
+                            "probe {k} must be > 0 and at most {max} mm, got {}",
+                            crate::numbers::echo(v)
+                        ),
+                    ));
+                }
+            }
+        }
         Ok(m)
     }
 

@@ -267,9 +267,32 @@ pub fn initial_placement(data: &Dataset) -> Result<Isometry3<f64>, IdentifyError
 /// Checks the data suit a method (poses, points, test kind).
 pub(crate) fn check_data(data: &Dataset, method: Method) -> Result<(), IdentifyError> {
     if data.poses.len() < 2 {
+        let mut planned: Vec<&str> = Vec::new();
+        for p in &data.plan.points {
+            if !planned.contains(&p.pose.as_str()) {
+                planned.push(&p.pose);
+            }
+        }
+        let files: Vec<String> = data
+            .files
+            .iter()
+            .take(3)
+            .map(|f| f.display().to_string())
+            .collect();
         return Err(IdentifyError::Data(format!(
-            "the measurements cover {} pose(s): identification needs several index angles",
-            data.poses.len()
+            "{}{}: the measurements cover {} of the plan's {} poses{}: identification needs several index angles; measure the other poses",
+            files.join(", "),
+            if data.files.len() > 3 {
+                format!(" and {} more files", data.files.len() - 3)
+            } else {
+                String::new()
+            },
+            data.poses.len(),
+            planned.len(),
+            data.poses.first().map_or(String::new(), |p| format!(
+                " (only {})",
+                crate::source::cut(&p.id)
+            ))
         )));
     }
     if method == Method::Sphere && data.kind != TestKind::Probing {

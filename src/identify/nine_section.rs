@@ -56,6 +56,39 @@ pub enum DeviationError {
         /// The section's pose.
         pose: String,
     },
+    /// Planned points without a measurement: a section's height from part
+    /// of its points (every other one, the file's first lines) is not the
+    /// height the test defines, so nothing is computed.
+    #[error(
+        "{measured} of the plan's {planned} points are measured; missing {}: {by_section}{}; a nine-section result needs every planned point",
+        planned - measured,
+        if first.is_empty() { String::new() } else { format!(" (first: {})", first.join(", ")) }
+    )]
+    Missing {
+        /// Points measured.
+        measured: usize,
+        /// Points planned.
+        planned: usize,
+        /// Missing points by section (`section 7: 24 of 24, ...`).
+        by_section: String,
+        /// The first missing labels.
+        first: Vec<String>,
+    },
+    /// A deviation no machine's errors cut.
+    #[error(
+        "line {line}: `{label}` lies {} um from its nominal along its direction, beyond the largest error fivecal takes ({max} um): a wrong line or unit",
+        crate::numbers::echo(*deviation_um)
+    )]
+    Implausible {
+        /// Line of the measurement file.
+        line: usize,
+        /// The label.
+        label: String,
+        /// The deviation, um.
+        deviation_um: f64,
+        /// The bound, um.
+        max: f64,
+    },
 }
 
 impl NineSection {
@@ -79,6 +112,7 @@ impl NineSection {
         plan: &PlanPoints,
         set: &PointSet,
     ) -> Result<NineSection, DeviationError> {
+        NineSection::check_coverage(plan, set)?;
         let mut poses: Vec<(u32, String)> = Vec::new();
         for p in &plan.points {
             if !poses.iter().any(|q| q.1 == p.pose) {
@@ -106,7 +140,17 @@ impl NineSection {
                 });
             };
             let k = poses.iter().position(|q| q.1 == pp.pose).unwrap_or(0);
-            sums[k].0 += n.dot(&(m.p - p)) * 1e3;
+            let d = n.dot(&(m.p - p)) * 1e3;
+            let max = crate::limits::MAX_ERROR_UM;
+            if !(d.abs() <= max) {
+                return Err(DeviationError::Implausible {
+                    line: m.line,
+                    label: m.label.clone(),
+                    deviation_um: d,
+                    max,
+                });
+            }
+            sums[k].0 += d;
             sums[k].1 += 1;
         }
         if sums[0].1 == 0 {
@@ -126,6 +170,63 @@ impl NineSection {
             })
             .collect();
         Ok(NineSection::new(&heights))
+    }
+
+    /// Refuses a measurement that lacks planned points: a section's height
+    /// from part of its points (every other one, the file's first lines)
+    /// is not the height the test defines. Checked before the points are
+    /// joined, so a file of three points is named for what it lacks.
+    pub(crate) fn check_coverage(plan: &PlanPoints, set: &PointSet) -> Result<(), DeviationError> {
+        // Points joined by position, not label, are checked by the join.
+        if !set.labeled {
+            return Ok(());
+        }
+        let mut poses: Vec<(u32, String)> = Vec::new();
+        for p in &plan.points {
+            if !poses.iter().any(|q| q.1 == p.pose) {
+                poses.push((p.seq, p.pose.clone()));
+            }
+        }
+        poses.sort();
+        // Every planned point must be there (the join refuses labels the
+        // plan does not have and labels measured twice).
+        let measured: std::collections::HashSet<&str> =
+            set.points.iter().map(|m| m.label.as_str()).collect();
+        let missing: Vec<&crate::formats::points::PlanPoint> = plan
+            .points
+            .iter()
+            .filter(|p| !measured.contains(p.label.as_str()))
+            .collect();
+        if !missing.is_empty() {
+            let mut by_section = Vec::new();
+            for (k, (_, pose)) in poses.iter().enumerate() {
+                let planned = plan.points.iter().filter(|p| &p.pose == pose).count();
+                let gone = missing.iter().filter(|p| &p.pose == pose).count();
+                if gone > 0 {
+                    by_section.push(format!("section {}: {gone} of {planned}", k + 1));
+                }
+            }
+            const LISTED: usize = 8;
+            if by_section.len() > LISTED {
+                let more = by_section.len() - LISTED;
+                by_section.truncate(LISTED);
+                by_section.push(format!(
+                    "{more} more section{}",
+                    if more > 1 { "s" } else { "" }
+                ));
+            }
+            return Err(DeviationError::Missing {
+                measured: plan.points.len() - missing.len(),
+                planned: plan.points.len(),
+                by_section: by_section.join(", "),
+                first: missing
+                    .iter()
+                    .take(5)
+                    .map(|p| crate::source::cut(&p.label))
+                    .collect(),
+            });
+        }
+        Ok(())
     }
 
     /// The rate of improvement of each statistic from `before` to `self`,

@@ -341,6 +341,15 @@ pub fn study(
             )
         }
     };
+    if let Some(s) = result.stopped {
+        return Err(format!(
+            "the Monte-Carlo study of {} runs stopped at --max-seconds {} with {} runs done ({:.0} s): a u from fewer runs than asked is not reported; give fewer runs with --mc or more time",
+            opts.runs,
+            opts.max_seconds.unwrap_or(s.seconds),
+            s.done,
+            s.seconds
+        ));
+    }
     if result.runs < 2 {
         return Err(result
             .failed

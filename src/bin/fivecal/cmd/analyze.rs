@@ -83,6 +83,12 @@ pub struct AnalyzeArgs {
     /// hundred runs instead of milliseconds).
     #[arg(long, requires = "mc")]
     mc_exact: bool,
+    /// With --mc: stop the study after this many seconds and refuse it
+    /// (no u from fewer runs than asked), naming how many runs were done.
+    /// A study that runs longer than 10 s writes a progress line every
+    /// 10 s when stderr is not a terminal (a bar when it is).
+    #[arg(long, requires = "mc", value_name = "S", allow_negative_numbers = true)]
+    max_seconds: Option<f64>,
     /// Seed of the Monte-Carlo study.
     #[arg(long, value_name = "SEED", default_value_t = 1)]
     seed: u64,
@@ -178,11 +184,16 @@ fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             "--mc {n}: at most {} runs (the spread of u settles within a few hundred)",
             fivecal::limits::MAX_MC_RUNS
         ),
+        Some(_) if a.max_seconds.is_some_and(|s| !(s.is_finite() && s > 0.0)) => bail!(
+            "--max-seconds {}: expected a time > 0 s",
+            a.max_seconds.unwrap_or_default()
+        ),
         Some(runs) => Some(MonteCarlo {
             options: McOptions {
                 runs,
                 seed: a.seed,
                 progress: true,
+                max_seconds: a.max_seconds,
             },
             contributors,
             exact: a.mc_exact,

@@ -269,11 +269,21 @@ pub struct CompensateArgs {
     errors: PathBuf,
     /// Largest distance of the actual tool-tip path from the intended one
     /// between end points, um; longer moves are subdivided, arcs linearized.
-    #[arg(long, value_name = "UM", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     tolerance: f64,
     /// Stop with the line named when a correction exceeds this: um for X, Y,
     /// Z, urad for the tool orientation.
-    #[arg(long, value_name = "UM", default_value_t = 500.0)]
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 500.0,
+        allow_negative_numbers = true
+    )]
     max_correction: f64,
     /// Decimals written: LIN[,ROT] (mm, deg) [default: 4,6; more when the
     /// program writes more].
@@ -282,7 +292,12 @@ pub struct CompensateArgs {
     /// Next to the tilt singularity, the largest turn of C accepted for an
     /// exact correction, deg; beyond it C is held and only the tool tip is
     /// corrected exactly.
-    #[arg(long, value_name = "DEG", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     max_c_swing: f64,
     /// Write the program flattened as its macro logic runs (parameters
     /// evaluated, loops, jumps and calls unrolled, every move a literal
@@ -442,7 +457,7 @@ impl CompensateArgs {
             fivecal::compensate::tolerance::smallest_tolerance_um(&common.machine, lin, rot);
         if self.tolerance < smallest {
             bail!(
-                "--tolerance {}: the words written with {lin} decimals in mm and {rot} in degrees round the tool tip by up to {:.3} um on {}, so the smallest tolerance that holds is {smallest:.3} um (more decimals with --decimals LIN,ROT allow a finer one)",
+                "--tolerance {}: the words written with {lin} decimals in mm and {rot} in degrees round the tool tip by up to {:.3} um on {}, so the smallest tolerance that holds is {smallest:.3} um (as much again for the path between the written points; more decimals with --decimals LIN,ROT allow a finer one)",
                 self.tolerance,
                 fivecal::compensate::tolerance::rounding_bound_mm(&common.machine, lin, rot) * 1e3,
                 common.machine.name

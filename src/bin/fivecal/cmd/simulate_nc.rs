@@ -24,7 +24,12 @@ pub struct SimulateNcArgs {
     program: PathBuf,
     /// Sample feed moves every STEP mm of tool path (and at least every
     /// degree a rotary axis turns) as well as at their end points.
-    #[arg(long, value_name = "MM", default_value_t = 0.0)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
     step: f64,
     /// Write every sample (nominal tip and axis, tip error) as CSV.
     #[arg(short = 'o', long = "out", value_name = "ERRORS.csv")]
