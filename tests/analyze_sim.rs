@@ -448,6 +448,42 @@ fn sphere_test_simulated_on_ac_trunnion_gives_the_location_errors_of_the_c_and_a
     }
 }
 
+/// Cubas Brizuela & Yeh 2023 (section 3, stage two) form the three-centre circles of each
+/// axis from its own sweep: 36 C centres give C(36, 3) = 7140 circles, 13 A
+/// centres C(13, 3) = 286. The planner measures the pose A = C = 0 once per
+/// sweep (`A0C0` and `A0C0.2`); counting both measurements in both groups
+/// gave 37 and 14 centres (7770 and 364 circles).
+#[test]
+fn sphere_combinations_count_each_pose_in_one_group_as_the_paper_does() {
+    let plan = planned("ac-trunnion", "probe-sphere");
+    let t = truth(&plan, AC_ERRORS);
+    let data = measure(&plan, &t, &options(401));
+    let setup = Setup::new(&simulate::plan_kinematics(&plan), &data.poses, &[]).unwrap();
+    let est = fivecal::analyze::method::identify_with_plan(
+        Method::Sphere,
+        &setup,
+        &data,
+        &SphereOptions {
+            circle: fivecal::identify::sphere::CircleMethod::Combinations,
+            check: None,
+        },
+        Some(&plan),
+    )
+    .unwrap();
+    let note = est
+        .notes
+        .iter()
+        .find(|n| n.contains("combinations"))
+        .unwrap_or_else(|| panic!("no combinations note in {:?}", est.notes));
+    assert!(
+        note.contains("circles admissible")
+            && note.contains(" of 286 ")
+            && note.contains(" of 7140,"),
+        "{note}"
+    );
+    assert!(!note.contains("7770") && !note.contains("364"), "{note}");
+}
+
 // ------------------------------------------------------------ command line
 
 /// `fivecal plan` into `dir`.
@@ -837,4 +873,115 @@ fn a_simulated_file_from_a_different_plan_is_refused() {
         );
         assert!(!out.exists());
     }
+}
+
+/// Issue 41, the sphere test on machines with a head: on head-table the
+/// plan kept a pose (B-90 C0) with a single touch, which the default
+/// sphere method could not fit ("a sphere needs four or more probed
+/// points (1 given)"); on head-head the plan predicted nothing and analyze
+/// printed every error not identifiable. The default method there is the
+/// global fit of every touch: `analyze` runs and identifies exactly what
+/// `plan` said it would, each value within 4 u of the simulated truth.
+fn head_machine_sphere_test_identifies_what_the_plan_said(machine: &str, errors: &str) {
+    let dir = tempdir();
+    let manifest = plan_with_cli(&dir.path().join("plan"), "probe-sphere", machine, None);
+    let m: serde_yaml::Value =
+        serde_yaml::from_str(&std::fs::read_to_string(&manifest).unwrap()).unwrap();
+    let said = &m["identifies"];
+    assert_eq!(said["method"].as_str(), Some("global"), "{said:?}");
+    let planned: Vec<String> = said["symbols"]
+        .as_mapping()
+        .unwrap()
+        .iter()
+        .filter(|(_, v)| v["u"].as_f64().is_some())
+        .map(|(k, _)| k.as_str().unwrap().to_string())
+        .collect();
+    assert!(!planned.is_empty(), "{said:?}");
+    let truth = dir.path().join("truth.yaml");
+    std::fs::write(
+        &truth,
+        format!("machine: {machine}\nlocation_errors:\n{errors}"),
+    )
+    .unwrap();
+    let log = dir.path().join("probe.log");
+    simulate_as(&manifest, &truth, &log, 7, None);
+    let out = dir.path().join("result.yaml");
+    analyze_with_cli(&manifest, &log, &out, &[]).success();
+    let r: serde_yaml::Value =
+        serde_yaml::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let found = r["location_errors"].as_mapping().unwrap();
+    let got: Vec<String> = found
+        .keys()
+        .map(|k| k.as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(got, planned, "{r:?}");
+    let t: serde_yaml::Value =
+        serde_yaml::from_str(&format!("location_errors:\n{errors}")).unwrap();
+    for (k, v) in found {
+        let truth = t["location_errors"][k.as_str().unwrap()]
+            .as_f64()
+            .unwrap_or(0.0);
+        let (value, u) = (v["value"].as_f64().unwrap(), v["u"].as_f64().unwrap());
+        assert!(
+            (value - truth).abs() < 4.0 * u,
+            "{machine} {k:?}: {value} u {u}, truth {truth}"
+        );
+    }
+}
+
+#[test]
+fn head_table_sphere_test_default_analyze_identifies_what_the_plan_said() {
+    head_machine_sphere_test_identifies_what_the_plan_said(
+        "head-table",
+        "  EX0C: 12.0\n  EY0C: -8.0\n  EA0C: 40.0\n  EB0C: -30.0\n  EX0B: 15.0\n  EZ0B: -20.0\n  EA0B: 50.0\n  EC0B: -45.0\n  EB0B: 35.0\n  EA(0B)S: 25.0\n",
+    );
+}
+
+#[test]
+fn head_head_sphere_test_default_analyze_identifies_what_the_plan_said() {
+    head_machine_sphere_test_identifies_what_the_plan_said(
+        "head-head",
+        "  EX0C: 12.0\n  EY0C: -8.0\n  EA0C: 40.0\n  EB0C: -30.0\n  EC0C: 20.0\n  EY0A: 15.0\n  EZ0A: -20.0\n  EB0A: 50.0\n  EA0A: -45.0\n  EB(0A)S: 35.0\n",
+    );
+}
+
+/// Issue 41: `plan probe-sphere --machine head-table --require all`
+/// refused and told the user to copy `req/probe-sphere.machine.yaml`,
+/// which it had not written. One probe length cannot separate the head's
+/// offsets from its tilts; a second run with a longer probe can, so
+/// `--require all` writes both programs, the second beside the first, and
+/// every file the advice names exists.
+#[test]
+fn require_all_on_head_table_writes_the_second_run_the_advice_names() {
+    let dir = tempdir();
+    let out = dir.path().join("req");
+    let a = fivecal()
+        .current_dir(dir.path())
+        .args([
+            "plan",
+            "probe-sphere",
+            "--machine",
+            "head-table",
+            "--require",
+            "all",
+            "--out",
+            "req",
+        ])
+        .assert()
+        .success();
+    let stdout = String::from_utf8(a.get_output().stdout.clone()).unwrap();
+    assert!(stdout.contains("met by two runs"), "{stdout}");
+    for f in [
+        "req/probe-sphere.plan.yaml",
+        "req/probe-sphere.machine.yaml",
+        "req-second/probe-sphere.plan.yaml",
+        "req-second/probe-sphere.machine.yaml",
+    ] {
+        assert!(dir.path().join(f).exists(), "{f} missing:\n{stdout}");
+    }
+    let second =
+        std::fs::read_to_string(dir.path().join("req-second/probe-sphere.machine.yaml")).unwrap();
+    assert!(second.contains("name: head-table"), "{second}");
+    assert!(out.join("probe-sphere.h").exists());
+    assert!(!stdout.contains("moves with itself"), "{stdout}");
 }

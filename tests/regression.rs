@@ -2715,3 +2715,57 @@ fn fit_stopped_before_converging_is_recorded_and_refused_by_the_export() {
         String::from_utf8_lossy(&out.stdout)
     );
 }
+
+/// The nine-section heights respond to the location errors (issue 41: EY0A
+/// moves sections 2-9 by 0.26-0.50 um per um), so the preview's rank is
+/// that of their real sensitivity, 5 of 8 on ac-trunnion, not 0. Checked
+/// against an independent finite difference: the heights simulated with
+/// 2 um of EY0A alone, less those without errors, halved (to 0.01 um per
+/// um: the deepest pass of the raster makes the heights only piecewise
+/// linear).
+#[test]
+fn nine_section_preview_reports_the_rank_of_the_heights_real_sensitivity() {
+    let plan = crate::simulate::planned("ac-trunnion", "nine-section");
+    let p = fivecal::analyze::preview::predict(&plan, None, None).unwrap();
+    assert_eq!(p.rank, (5, 8), "{}", p.render());
+    assert!(p.rows.iter().all(|r| r.u.is_none()), "{}", p.render());
+    let ey = p.rows.iter().find(|r| r.symbol == "EY0A").unwrap();
+    assert!(
+        ey.reason
+            .as_deref()
+            .unwrap()
+            .contains("0.26-0.50 um per um"),
+        "{:?}",
+        ey.reason
+    );
+    let (names, j) = fivecal::analyze::preview::nine_section_sensitivity(&plan).unwrap();
+    let col = names.iter().position(|n| n == "EY0A").unwrap();
+    let heights = |src: &str| -> Vec<f64> {
+        let k = fivecal::simulate::plan_kinematics(&plan);
+        let l = ErrorFile::parse(Path::new("t"), src)
+            .unwrap()
+            .to_model(&k, Path::new("t"), src)
+            .unwrap();
+        let out =
+            fivecal::simulate::run(&plan, &l, &fivecal::simulate::SimOptions::exact()).unwrap();
+        out.heights
+            .unwrap()
+            .iter()
+            .filter(|h| h.section > 1)
+            .map(|h| h.height_um)
+            .collect()
+    };
+    let zero = heights("machine: ac-trunnion\n");
+    let two = heights("machine: ac-trunnion\nlocation_errors: {EY0A: 2.0}\n");
+    assert_eq!(j.nrows(), 8);
+    for (r, (a, b)) in two.iter().zip(&zero).enumerate() {
+        assert!(
+            ((a - b) / 2.0 - j[(r, col)]).abs() < 0.01,
+            "section {}: {} against {}",
+            r + 2,
+            (a - b) / 2.0,
+            j[(r, col)]
+        );
+    }
+    assert!(p.render().contains("design rank 5 of 8"), "{}", p.render());
+}

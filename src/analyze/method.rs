@@ -12,9 +12,15 @@ use crate::model::Model;
 use crate::procedure::{Plan, Test};
 
 /// The method a test is analysed with unless asked otherwise: the sphere
-/// method for the sphere test, the global fit for every other.
-pub fn default_for(test: Test) -> Method {
-    if test == Test::ProbeSphere {
+/// method for the sphere test on a table-table machine (the method of
+/// Cubas Brizuela & Yeh 2023, made for a trunnion whose two axes carry the sphere), the
+/// global fit for every other test and for the sphere test on a machine
+/// with a head: there the sphere does not move on the tilt axis, a pose
+/// the head turns away from it may keep fewer than the four touches a
+/// per-pose sphere needs, and the fit of every touch against the full
+/// model identifies what the per-pose centres cannot.
+pub fn default_for(test: Test, structure: crate::machine::Structure) -> Method {
+    if test == Test::ProbeSphere && structure == crate::machine::Structure::TableTable {
         Method::Sphere
     } else {
         Method::Global

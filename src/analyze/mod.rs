@@ -271,7 +271,9 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
         None => PlanContext::from_manifest(&req.manifest)?,
     };
     ctx.options = req.options;
-    let method = req.method.unwrap_or(method::default_for(ctx.test));
+    let method = req
+        .method
+        .unwrap_or(method::default_for(ctx.test, ctx.kin.machine().structure));
     method::check(method, ctx.test, ctx.kind, &req.maps)?;
     let measured = ctx.read(&req.measured)?;
     // What each file measures, by label, kept for the error path below.
@@ -526,9 +528,9 @@ fn identify_piece(
 /// Why the nine-section test identifies nothing, which its result says
 /// rather than print numbers: it evaluates a machine (before and after a
 /// compensation, say).
-pub(crate) const NINE_SECTION_REASON: &str = "the nine-section test gives section heights, from which no location error can be \
-     separated (it evaluates a machine, it does not calibrate one); identify with the stepped-square, \
-     column or sphere test";
+pub(crate) const NINE_SECTION_REASON: &str = "the nine-section test evaluates a machine, it does not calibrate one: its section heights \
+     mix the location errors (`fivecal plan` shows how), and `analyze` reports their AVG, MAX and RMS to compare \
+     before and after a compensation; identify with the stepped-square, column or sphere test";
 
 fn nine_section_outcome(
     ctx: &PlanContext,

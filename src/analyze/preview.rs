@@ -48,6 +48,10 @@ pub struct Preview {
     pub rows: Vec<PreviewRow>,
     /// Combinations of symbols no measurement of this design sees.
     pub unseen: Vec<String>,
+    /// What the test says of every symbol at once (the nine-section
+    /// test: how its heights respond and why it identifies none), printed
+    /// under the heading.
+    pub summary: Option<String>,
 }
 
 impl Preview {
@@ -74,6 +78,9 @@ impl Preview {
             self.noise.um,
             self.noise.from
         );
+        if let Some(summary) = &self.summary {
+            let _ = writeln!(s, "  {summary}");
+        }
         // One reason for every symbol (the nine-section test) is said once.
         let first = self.rows.first().and_then(|r| r.reason.as_ref());
         if let Some(why) = first
@@ -171,7 +178,7 @@ pub fn predict(
     let test = plan.test();
     let kin = simulate::plan_kinematics(plan);
     let expected = ExpectedNoise::new(noise, plan.kind(), test);
-    let method = method.unwrap_or(method::default_for(test));
+    let method = method.unwrap_or(method::default_for(test, kin.machine().structure));
     method::check(method, test, plan.kind(), &[])?;
     let symbols = crate::kinematics::symbols::SymbolTable::for_kinematics(&kin);
     let nothing = |reason: &str| Preview {
@@ -189,9 +196,10 @@ pub fn predict(
             })
             .collect(),
         unseen: Vec::new(),
+        summary: None,
     };
     if test == Test::NineSection {
-        return Ok(nothing(super::NINE_SECTION_REASON));
+        return nine_section(plan, &symbols, method, expected);
     }
     let data = nominal_data(plan)?;
     let setup = Setup::new(&kin, &data.poses, &[])?;
@@ -251,5 +259,137 @@ pub fn predict(
         rank: (est.identifiability.rank, est.identifiability.free),
         rows,
         unseen,
+        summary: None,
+    })
+}
+
+/// How the nine-section heights respond to each location error: the
+/// heights of sections 2.. (relative to section 1) the simulator gives
+/// with one unit (1 um or 1 urad) of that error alone, exact and without
+/// noise. Columns in the symbol table's order.
+pub fn nine_section_sensitivity(
+    plan: &Plan,
+) -> Result<(Vec<String>, nalgebra::DMatrix<f64>), AnalyzeError> {
+    let kin = simulate::plan_kinematics(plan);
+    let symbols = crate::kinematics::symbols::SymbolTable::for_kinematics(&kin);
+    let name = kin.machine().name.clone();
+    let path = std::path::Path::new("(one unit of one error)");
+    let heights = |body: &str| -> Result<Vec<f64>, AnalyzeError> {
+        let src = format!("machine: {name}\n{body}");
+        let errors = ErrorFile::parse(path, &src)?.to_model(&kin, path, &src)?;
+        let sim = simulate::run(plan, &errors, &SimOptions::exact())
+            .map_err(|e| AnalyzeError::Plan(format!("cannot simulate the plan: {e}")))?;
+        Ok(sim
+            .heights
+            .unwrap_or_default()
+            .iter()
+            .filter(|h| h.section > 1)
+            .map(|h| h.height_um)
+            .collect())
+    };
+    let zero = heights("")?;
+    let mut cols = Vec::new();
+    for l in &symbols.location {
+        let h = heights(&format!("location_errors:\n  {}: 1.0\n", l.name))?;
+        cols.push(h.iter().zip(&zero).map(|(a, b)| a - b).collect::<Vec<_>>());
+    }
+    let rows = zero.len();
+    let j = nalgebra::DMatrix::from_fn(rows, cols.len(), |r, c| {
+        cols[c].get(r).copied().unwrap_or(0.0)
+    });
+    Ok((symbols.location.iter().map(|l| l.name.clone()).collect(), j))
+}
+
+/// The nine-section test's preview: its rank is that of the heights'
+/// real sensitivity to the location errors, and each row says how much
+/// the heights respond to the error; no error is identified, because the
+/// test evaluates a machine (its heights are compared before and after a
+/// compensation), and `analyze` reports AVG, MAX and RMS only.
+fn nine_section(
+    plan: &Plan,
+    symbols: &crate::kinematics::symbols::SymbolTable,
+    method: Method,
+    expected: ExpectedNoise,
+) -> Result<Preview, AnalyzeError> {
+    let (_, j) = nine_section_sensitivity(plan)?;
+    let rank = if j.nrows() == 0 || j.ncols() == 0 {
+        0
+    } else {
+        let sv = j.clone().svd(false, false).singular_values;
+        let top = sv.iter().fold(0.0f64, |a, &b| a.max(b));
+        sv.iter().filter(|&&x| x > top * 1e-6 && x > 1e-9).count()
+    };
+    // An error the heights would determine on their own: its unit vector
+    // lies in the row space of the sensitivity.
+    let alone = |c: usize| -> bool {
+        if rank == 0 {
+            return false;
+        }
+        let svd = j.clone().svd(false, true);
+        let Some(vt) = svd.v_t else { return false };
+        let top = svd.singular_values.iter().fold(0.0f64, |a, &b| a.max(b));
+        let mut inside = 0.0;
+        for (k, sv) in svd.singular_values.iter().enumerate() {
+            if *sv > top * 1e-6 && *sv > 1e-9 {
+                inside += vt[(k, c)] * vt[(k, c)];
+            }
+        }
+        inside > 1.0 - 1e-6
+    };
+    let rows: Vec<PreviewRow> = symbols
+        .location
+        .iter()
+        .enumerate()
+        .map(|(c, l)| {
+            let col = j.column(c);
+            let (lo, hi) = col.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), x| {
+                (lo.min(x.abs()), hi.max(x.abs()))
+            });
+            let reason = if hi < 1e-9 {
+                "the section heights do not respond to it".to_string()
+            } else {
+                let v = |x: f64| {
+                    if x == 0.0 || x >= 0.005 {
+                        format!("{x:.2}")
+                    } else {
+                        format!("{x:.1e}")
+                    }
+                };
+                format!(
+                    "the section heights respond to it ({}-{} um per {}){}",
+                    v(lo),
+                    v(hi),
+                    l.unit,
+                    if alone(c) {
+                        ", and would determine it alone"
+                    } else {
+                        ", together with others"
+                    }
+                )
+            };
+            PreviewRow {
+                symbol: l.name.clone(),
+                unit: l.unit.to_string(),
+                u: None,
+                reason: Some(reason),
+            }
+        })
+        .collect();
+    let responding = rows
+        .iter()
+        .filter(|r| !r.reason.as_deref().unwrap_or("").contains("do not respond"))
+        .count();
+    let summary = format!(
+        "the heights of sections 2-9 respond to {responding} of the {} location errors, in {rank} independent combinations (rank {rank}); {}",
+        rows.len(),
+        super::NINE_SECTION_REASON
+    );
+    Ok(Preview {
+        method,
+        noise: expected,
+        rank: (rank, symbols.location.len()),
+        rows,
+        unseen: Vec::new(),
+        summary: Some(summary),
     })
 }

@@ -214,7 +214,7 @@ impl Recipe {
     }
 
     /// The second run's directory, beside this plan's.
-    fn second_out(&self) -> String {
+    pub fn second_out(&self) -> String {
         match self.out.as_deref().map(|o| o.trim_end_matches('/')) {
             Some(o) if !o.is_empty() && o != "." => format!("{o}-second"),
             _ => "second".into(),
@@ -591,6 +591,17 @@ fn with_probe(machine: &crate::machine::Machine, length: f64) -> Option<crate::m
     crate::machine::Machine::from_yaml(std::path::Path::new(&path), &text).ok()
 }
 
+/// The plan of a suggested second run: `cfg`'s test on its machine with
+/// the second run's probe length, as `plan` writes it for `--require all`.
+pub fn second_run_plan(cfg: &PlanConfig, run: &SecondRun) -> Option<Plan> {
+    let machine = with_probe(&cfg.machine, run.probe_length)?;
+    crate::procedure::plan(&PlanConfig {
+        machine,
+        ..cfg.clone()
+    })
+    .ok()
+}
+
 /// A second run of the plan with another probe length, fitted together
 /// with the plan's: the lengths tried (in words), how many the planner
 /// refused, and the best of those that identify more than the plan alone.
@@ -655,6 +666,7 @@ fn second_runs(
                     rank,
                     rows,
                     unseen: Vec::new(),
+                    summary: None,
                 },
                 poses: second.poses().len(),
                 run_min: second.run_minutes(),

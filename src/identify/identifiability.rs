@@ -132,21 +132,35 @@ impl Identifiability {
     pub fn reason(&self, i: usize) -> String {
         let p = &self.params[i];
         if !p.aliased_with.is_empty() {
-            let list: Vec<String> = p
+            // Its own coefficient: how far the estimate follows the error
+            // (1 for a reported error).
+            let own = p
                 .aliased_with
                 .iter()
-                .map(|(n, c)| {
-                    if *n == p.name {
-                        format!("itself ({c:.3} per unit instead of 1)")
-                    } else {
-                        format!("{n} ({c:+.3} per unit)")
-                    }
-                })
+                .find(|(n, _)| *n == p.name)
+                .map(|x| x.1);
+            let others: Vec<String> = p
+                .aliased_with
+                .iter()
+                .filter(|(n, _)| *n != p.name)
+                .map(|(n, c)| format!("{n} ({c:+.3} per unit)"))
                 .collect();
-            return format!(
-                "the method cannot separate it: its estimate moves with {}",
-                list.join(", ")
-            );
+            let mut why = Vec::new();
+            match own {
+                Some(c) if c.abs() < ALIAS_TOLERANCE => why.push(
+                    "a change of it does not reach the method's estimate (what the method fits, \
+                     such as the sphere method's per-pose centres and axis lines, does not see it)"
+                        .to_string(),
+                ),
+                Some(c) => why.push(format!(
+                    "the method's estimate follows it by {c:.3} per unit instead of one to one"
+                )),
+                None => {}
+            }
+            if !others.is_empty() {
+                why.push(format!("its estimate moves with {}", others.join(", ")));
+            }
+            return format!("the method cannot separate it: {}", why.join("; "));
         }
         match self
             .null_combinations

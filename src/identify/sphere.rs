@@ -620,8 +620,25 @@ fn groups(data: &Dataset, centres: &[Vector3<f64>]) -> Result<Groups, IdentifyEr
             best_c = Some((p.c, same_c));
         }
     }
-    let (t0, c_idx) = best_t.unwrap_or((0.0, Vec::new()));
-    let (_, tilt_idx) = best_c.unwrap_or((0.0, Vec::new()));
+    let (t0, mut c_idx) = best_t.unwrap_or((0.0, Vec::new()));
+    let (_, mut tilt_idx) = best_c.unwrap_or((0.0, Vec::new()));
+    // Each measurement in one group, as Cubas Brizuela & Yeh form their
+    // combinations (36 C centres, 13 tilt centres: 7140 and 286 three-centre
+    // circles): the pose where the sweeps cross is measured once per sweep,
+    // the first measurement goes to the C circle and the later ones to the
+    // tilt arc. Measured only once, it stays in both: without it one of the
+    // two would lack a point.
+    let crossing: Vec<usize> = c_idx
+        .iter()
+        .copied()
+        .filter(|j| tilt_idx.contains(j))
+        .collect();
+    if let Some((&first, later)) = crossing.split_first()
+        && !later.is_empty()
+    {
+        c_idx.retain(|j| !later.contains(j));
+        tilt_idx.retain(|&j| j != first);
+    }
     let letter = data.plan.tilt_letter;
     if c_idx.len() < 3 {
         return Err(IdentifyError::Data(format!(

@@ -65,7 +65,8 @@ pub struct AnalyzeArgs {
     report: Option<PathBuf>,
     /// two-stage (a pose per cut or station, then the errors from the
     /// poses), global (one fit of all points, the default) or sphere (circle
-    /// and plane fits of the sphere centres, the default for probe-sphere).
+    /// and plane fits of the sphere centres, the default for probe-sphere on
+    /// a table-table machine; on a machine with a head the global fit is).
     #[arg(long, value_name = "METHOD")]
     method: Option<String>,
     /// Run a Monte-Carlo uncertainty study of N runs (seeded, parallel): a

@@ -381,18 +381,37 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     // What would identify what the design leaves unidentified.
     let suggested = fivecal::discover::suggest::suggest(p, &planned, &predicted, None);
     let recipe = recipe(&cfg, planned.test());
+    // `--require all` met by two runs analysed together (a second probe
+    // length): both programs are written, the second beside the first.
+    let mut second_run = None;
     if cfg.require_all {
         let missing = predicted.missing();
         if !missing.is_empty() {
-            bail!(
-                "--require all: {} on {} does not identify {} (nothing written):\n{}{}",
-                planned.test(),
-                planned.machine().name,
-                missing.join(", "),
-                predicted.render(),
-                suggested.render(&recipe)
-            );
+            let pair = suggested.found.iter().find_map(|s| {
+                let run = s.second.as_ref()?;
+                if !s.prediction.missing().is_empty() {
+                    return None;
+                }
+                let plan = fivecal::discover::suggest::second_run_plan(p, run)?;
+                Some((run.clone(), plan))
+            });
+            match pair {
+                Some(pair) => second_run = Some(pair),
+                None => bail!(
+                    "--require all: {} on {} does not identify {} (nothing written):\n{}{}\
+                     (the files this advice copies are written beside the plan by the same command without --require all)",
+                    planned.test(),
+                    planned.machine().name,
+                    missing.join(", "),
+                    predicted.render(),
+                    suggested.render(&recipe)
+                ),
+            }
         }
+    }
+    let second_dir = PathBuf::from(recipe.second_out());
+    if second_run.is_some() {
+        fivecal::io::check_outputs(&inputs, &[("--out", &second_dir, fivecal::io::Shape::Dir)])?;
     }
     // The error already names the path and its cause.
     let written = planned
@@ -454,6 +473,28 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     }
     for w in written {
         outln!("wrote {}", w.display());
+    }
+    if let Some((run, second)) = second_run {
+        let alone = fivecal::analyze::preview::predict(&second, None, None)
+            .with_context(|| format!("cannot predict what {} identifies", second.test()))?;
+        let written = second
+            .write_with(
+                &second_dir,
+                second.test().as_str(),
+                &inputs,
+                &alone.markdown(),
+                Some(&alone.manifest_entry()),
+                &[],
+            )
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        outln!(
+            "--require all: met by two runs analysed together; the second, with a {} mm probe, is in {}",
+            run.probe_length,
+            second_dir.display()
+        );
+        for w in written {
+            outln!("wrote {}", w.display());
+        }
     }
     Ok(())
 }
