@@ -597,6 +597,7 @@ fn check_numbers(f: &MachineFile, pivot_length: f64, err: KeyError<'_>) -> Resul
         ));
     }
     check_tool(&f.tool).map_err(|(k, m)| err(&["tool", k], m))?;
+    check_tool_id(f.probe.id.as_deref()).map_err(|m| err(&["probe", "id"], m))?;
     for (k, v) in [
         ("ball_diameter", f.probe.ball_diameter),
         ("length", f.probe.length),
@@ -704,6 +705,30 @@ pub fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
             ));
         }
         _ => {}
+    }
+    check_tool_id(t.id.as_deref()).map_err(|m| ("id", m))
+}
+
+/// Checks a tool-list name: what every control that calls tools by name
+/// accepts (SINUMERIK: up to 32 characters between double quotes; a
+/// HEIDENHAIN tool name up to 32), so a program never calls a tool its
+/// control cannot find by that spelling.
+pub(super) fn check_tool_id(id: Option<&str>) -> Result<(), String> {
+    let Some(id) = id else { return Ok(()) };
+    const MAX: usize = 32;
+    if id.is_empty() || id.len() > MAX {
+        return Err(format!(
+            "a tool-list name (id) has 1 to {MAX} characters, got {}",
+            id.chars().count()
+        ));
+    }
+    if let Some(c) = id
+        .chars()
+        .find(|c| !(c.is_ascii_graphic() || *c == ' ') || *c == '"' || *c == ';')
+    {
+        return Err(format!(
+            "a tool-list name (id) holds printable ASCII characters other than `\"` and `;`, got {c:?}"
+        ));
     }
     Ok(())
 }

@@ -407,11 +407,17 @@ impl<'a> Writer<'a> {
                 };
                 post.push_comment(&mut self.out, name, t)?;
             }
-            Op::ToolCall { number, name, rpm } => {
+            Op::ToolCall {
+                number,
+                name,
+                id,
+                rpm,
+            } => {
                 self.tool_number = *number;
                 let ctx = context! {
                     number => *number,
                     name => post.sanitize_comment(name),
+                    id => id.clone(),
                     rpm => *rpm,
                 };
                 self.write("tool_call", ctx)?;
@@ -888,11 +894,11 @@ pub(super) fn sample_contexts(def: &PostDefinition) -> Vec<(&'static str, Value)
         ("section", context! { text => "sample" }),
         (
             "tool_call",
-            context! { number => 1u32, name => "sample", rpm => Some(1000.0) },
+            context! { number => 1u32, name => "sample", id => Some("SAMPLE_D8"), rpm => Some(1000.0) },
         ),
         (
             "tool_call",
-            context! { number => 1u32, name => "sample", rpm => None::<f64> },
+            context! { number => 1u32, name => "sample", id => None::<String>, rpm => None::<f64> },
         ),
         ("spindle_on", context! { rpm => 1000.0 }),
         ("spindle_off", context! {}),

@@ -296,7 +296,8 @@ pub struct CompensateArgs {
     #[arg(long, value_name = "CONTROLLER", value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     export: Option<String>,
     /// Where --export writes [default: standard output without a program,
-    /// else next to OUT as OUT.<controller>.txt, OUT.sinumerik.MPF].
+    /// else next to OUT as OUT.<controller>.txt, or <OUT's name>_SWIVEL.MPF
+    /// for sinumerik].
     #[arg(long, value_name = "FILE")]
     export_to: Option<PathBuf>,
     /// With --export: refuse (naming it, writing nothing) any parameter
@@ -486,17 +487,9 @@ impl CompensateArgs {
         }
         let export = export.map(|(d, target)| {
             let target = target.or_else(|| {
-                rewrite.as_ref().map(|(_, out)| {
-                    let mut name = out.as_os_str().to_owned();
-                    // A SINUMERIK export is a part program to run.
-                    let ext = if d == Dialect::Sinumerik {
-                        "MPF"
-                    } else {
-                        "txt"
-                    };
-                    name.push(format!(".{d}.{ext}"));
-                    PathBuf::from(name)
-                })
+                rewrite
+                    .as_ref()
+                    .map(|(_, out)| export::default_file(d, out))
             });
             (d, target)
         });
@@ -689,7 +682,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     };
-    let text = &exported.text;
+    let text = &exported.file_text(target.as_deref());
     match target {
         Some(p) => {
             fivecal::io::write_atomic(p, text.as_bytes())?;
