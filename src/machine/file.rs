@@ -257,6 +257,25 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
     let (tilt, c) = rotary_axes(&f, &chain, &err)?;
     let pivot_length = pivot_length(&f, chain.structure, &err)?;
     check_numbers(&f, pivot_length, &err)?;
+    // At rotary zero the spindle stands over the W origin to start every
+    // test: a pivot beyond the X or Y stroke is a typing or sign mistake
+    // that every later message would blame on something else. (Z is not
+    // checked: the tool's length, not the gauge point, reaches down.)
+    for (i, l) in ["X", "Y"].iter().enumerate() {
+        let (lo, hi) = strokes[i];
+        let v = f.pivot[i];
+        if v.is_finite() && !(lo..=hi).contains(&v) {
+            return Err(err(
+                &["pivot"],
+                format!(
+                    "pivot {l} {} mm is outside the {l} stroke [{}, {}] of linear_axes: the spindle can never stand over the W origin; check the pivot's sign and the stroke",
+                    crate::numbers::echo(v),
+                    crate::numbers::echo(lo),
+                    crate::numbers::echo(hi)
+                ),
+            ));
+        }
+    }
 
     // Every output is labelled with this name, and the history keys its
     // results on it: a blank one would file them under nobody.

@@ -182,6 +182,14 @@ impl PostDefinition {
     /// Comment text as this control accepts it.
     pub(crate) fn sanitize_comment(&self, text: &str) -> String {
         let rules = &self.comment;
+        let ok = |c: char| {
+            let allowed = if rules.allowed.is_empty() {
+                (' '..='~').contains(&c)
+            } else {
+                rules.allowed.contains(c)
+            };
+            allowed && !rules.forbidden.contains(c)
+        };
         let mut s: String = text
             .chars()
             .map(|c| {
@@ -190,16 +198,18 @@ impl PostDefinition {
                 } else {
                     c
                 };
-                let ok = if rules.allowed.is_empty() {
-                    (' '..='~').contains(&c)
-                } else {
-                    rules.allowed.contains(c)
-                };
-                if ok && !rules.forbidden.contains(c) {
-                    c
-                } else {
-                    ' '
+                if ok(c) {
+                    return c;
                 }
+                // A separator keeps its meaning where the dialect lets
+                // it: `(A 2013; B 2023)` reads `(A 2013, B 2023)`, not
+                // `(A 2013 B 2023)`.
+                let stand_in = match c {
+                    ';' => ',',
+                    '"' => '\'',
+                    _ => ' ',
+                };
+                if ok(stand_in) { stand_in } else { ' ' }
             })
             .collect();
         while s.contains("  ") {

@@ -15,6 +15,7 @@ use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::io::{Shape, check_outputs};
 use fivecal::machine::MachineOrigin;
 use fivecal::nc::dialect::Detection;
+use fivecal::numbers::count;
 use fivecal::{Dialect, Kinematics, Machine};
 use nalgebra::Vector3;
 
@@ -625,9 +626,9 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
                 // refused by the library), and every one was left as
                 // written: a copy is no compensation.
                 bail!(
-                    "{}: none of its {} moves could be rewritten ({}); nothing written",
+                    "{}: none of its {} could be rewritten ({}); nothing written",
                     input.display(),
-                    summary.moves,
+                    count(summary.moves, "move", "moves"),
                     reasons(&summary.skipped)
                 );
             }
@@ -808,13 +809,13 @@ fn describe(
     }
     let _ = writeln!(
         t,
-        "  {} blocks, {} moves: {} blocks changed, {} blocks added ({} moves subdivided, {} arcs linearized) to stay within {} um",
-        s.blocks,
-        s.moves,
-        s.changed,
-        s.inserted,
-        s.subdivided.len(),
-        s.linearized.len(),
+        "  {}, {}: {}, {} ({}, {}) to stay within {} um",
+        count(s.blocks, "block", "blocks"),
+        count(s.moves, "move", "moves"),
+        count(s.changed, "block changed", "blocks changed"),
+        count(s.inserted, "block added", "blocks added"),
+        count(s.subdivided.len(), "move subdivided", "moves subdivided"),
+        count(s.linearized.len(), "arc linearized", "arcs linearized"),
         cfg.settings.tolerance * 1e3
     );
     let _ = writeln!(
