@@ -902,8 +902,10 @@ fn every_exported_parameter_is_documented_with_its_public_source() {
 /// Issue 19, item 4: `--export sinumerik` end to end. The machine file
 /// names the swivel data record; the export is a part program of fine
 /// offset assignments to that record, beside a rewritten program as
-/// `OUT.sinumerik.MPF`; without the record number, or with a malformed
-/// one, nothing is written and the file is named.
+/// `<NAME>_SWIVEL.MPF` with the `%_N_` lines a control loads a program
+/// by (issue 46: it was `out.nc.sinumerik.MPF` without them); without the
+/// record number, or with a malformed one, nothing is written and the
+/// file is named.
 #[test]
 fn sinumerik_export_writes_the_fine_offsets_of_the_machine_file_s_swivel_record() {
     let dir = tempdir();
@@ -929,7 +931,9 @@ fn sinumerik_export_writes_the_fine_offsets_of_the_machine_file_s_swivel_record(
     assert!(out.status.success(), "{}", stderr_of(&out));
     let text = String::from_utf8(out.stdout.clone()).unwrap();
     assert!(
-        text.starts_with("; fivecal: SINUMERIK swivel data record 2 ($TC_CARR..[2], type P)"),
+        text.starts_with(
+            "%_N_FIVECAL_SWIVEL_MPF\n;$PATH=/_N_MPF_DIR\n; fivecal: SINUMERIK swivel data record 2 ($TC_CARR..[2], type P)"
+        ),
         "{text}"
     );
     // EX0B = 30 um is l2's X, EY0C = -18 um l3's Y; the directions and
@@ -966,13 +970,16 @@ fn sinumerik_export_writes_the_fine_offsets_of_the_machine_file_s_swivel_record(
         .arg(&errs)
         .arg(&prog)
         .arg("-o")
-        .arg(d.join("out.nc"))
+        .arg(d.join("dmu-comp.nc"))
         .args(["--export", "sinumerik"])
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", stderr_of(&out));
-    let mpf = std::fs::read_to_string(d.join("out.nc.sinumerik.MPF")).unwrap();
-    assert_eq!(mpf, text);
+    let mpf = std::fs::read_to_string(d.join("DMU_COMP_SWIVEL.MPF")).unwrap();
+    assert_eq!(
+        mpf,
+        text.replace("%_N_FIVECAL_SWIVEL_MPF", "%_N_DMU_COMP_SWIVEL_MPF")
+    );
 
     // The built-in machine names no record: refused, nothing written.
     let out = fivecal()
@@ -1000,7 +1007,7 @@ fn sinumerik_export_writes_the_fine_offsets_of_the_machine_file_s_swivel_record(
             && err.lines().count() <= 2,
         "{err}"
     );
-    assert!(!d.join("none.nc").exists() && !d.join("none.nc.sinumerik.MPF").exists());
+    assert!(!d.join("none.nc").exists() && !d.join("NONE_SWIVEL.MPF").exists());
 
     // A record 0 (TCARR=0 deselects) and an unknown key: the file, line
     // and what was expected.

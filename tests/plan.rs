@@ -682,6 +682,7 @@ fn a_tool_longer_than_the_clearance_names_its_length_and_the_clearance() {
         corner_radius: None,
         flutes: None,
         number: 1,
+        id: None,
     });
     let e = plan_err(&cfg);
     assert!(

@@ -30,6 +30,7 @@ fn probing_ops() -> Vec<Op> {
         Op::ToolCall {
             number: 99,
             name: "touch probe".into(),
+            id: None,
             rpm: None,
         },
         Op::Retract { z: 150.0 },
@@ -235,6 +236,7 @@ fn the_engine_refuses_a_rotary_index_without_a_retract() {
             Op::ToolCall {
                 number: 1,
                 name: "t".into(),
+                id: None,
                 rpm: Some(1000.0),
             },
             Op::SpindleOn { rpm: 1000.0 },

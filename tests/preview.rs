@@ -326,6 +326,14 @@ fn a_suggested_change_identifies_what_it_claims() {
             let at = words.iter().position(|w| w == "--template").unwrap() + 1;
             assert_eq!(words[at], template.to_str().unwrap(), "{command}");
             words[at] = changed.to_str().unwrap().to_string();
+            // Issue 46 item 8: the command kept its --out, into a directory
+            // of its own (this plan's holds the template it reads).
+            let o = words.iter().position(|w| w == "--out").expect(command);
+            assert!(
+                words[o + 1] == "revised" || words[o + 1].ends_with("-revised"),
+                "{command}"
+            );
+            words.drain(o..o + 2);
             let (second, _) = plan_with(&words, &case.join(format!("second{i}")));
             let id = second.identifies.unwrap();
             let seen = id.symbols.values().filter(|r| r.u.is_some()).count();

@@ -44,6 +44,7 @@ mod probe_plan;
 mod probe_programs;
 mod readme;
 mod regression;
+mod shop_floor;
 mod simulate;
 mod simulate_forward;
 mod simulate_outputs;

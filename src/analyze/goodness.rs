@@ -178,12 +178,17 @@ pub(crate) fn widening(fit: Option<&FitSection>) -> f64 {
 pub fn banner(f: &FitSection, next: &str) -> String {
     format!(
         "THE MODEL DOES NOT FIT: residuals {:.3} um against {:.3} um expected ({}), ratio {:.2}, \
-         p = {:.1e} over {} degrees of freedom.\n\
+         p {} over {} degrees of freedom.\n\
          The values below are biased by an effect the model lacks (or the stated noise is too \
          small); their u is widened by the ratio, and compensate refuses this result without \
          --accept-misfit.\n\
          Find the missing effect with:\n  {next}",
-        f.sigma_um, f.expected_um, f.expected_from, f.ratio, f.p_value, f.dof
+        f.sigma_um,
+        f.expected_um,
+        f.expected_from,
+        f.ratio,
+        crate::numbers::p_value(f.p_value),
+        f.dof
     )
 }
 

@@ -215,8 +215,14 @@ pub fn render(f: Option<&FitSection>) -> String {
             f.stopped.as_deref().unwrap_or("the fit stopped")
         ),
         v => format!(
-            "verdict: {} (residuals {:.3} um against {:.3} um expected, {}; ratio {:.2}, p = {:.1e} over {} degrees of freedom)\n",
-            v, f.sigma_um, f.expected_um, f.expected_from, f.ratio, f.p_value, f.dof
+            "verdict: {} (residuals {:.3} um against {:.3} um expected, {}; ratio {:.2}, p {} over {} degrees of freedom)\n",
+            v,
+            f.sigma_um,
+            f.expected_um,
+            f.expected_from,
+            f.ratio,
+            crate::numbers::p_value(f.p_value),
+            f.dof
         ),
     };
     if let Some(on) = &f.on {

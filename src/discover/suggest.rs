@@ -273,10 +273,21 @@ impl Recipe {
         )
     }
 
+    /// `fivecal plan` again with the changed template, into a directory of
+    /// its own beside this plan's: the template it reads lies in this
+    /// plan's directory, which a new plan may not write over.
     fn command(&self) -> Option<String> {
-        self.command
-            .as_ref()
-            .map(|c| format!("{c} --template {}", shell_word(&self.file)))
+        let out = match self.out.as_deref().map(|o| o.trim_end_matches('/')) {
+            Some(o) if !o.is_empty() && o != "." => format!("{o}-revised"),
+            _ => "revised".into(),
+        };
+        self.command.as_ref().map(|c| {
+            format!(
+                "{c} --template {} --out {}",
+                shell_word(&self.file),
+                shell_word(&out)
+            )
+        })
     }
 
     fn in_file(&self) -> String {

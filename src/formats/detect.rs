@@ -245,6 +245,71 @@ impl Reader for ProbeLog {
         }
         Err(first_error.expect("every dialect was tried"))
     }
+    /// Without its plan, the log as written: each touch line's key and
+    /// logged position, in the first dialect whose reader takes every line.
+    /// Which planned touch a key means, and where its contact point lies,
+    /// only the plan says.
+    fn inventory(
+        &self,
+        path: &Path,
+        src: &str,
+        ctx: &ReadContext<'_>,
+    ) -> Result<Inventory, SourceError> {
+        if probe_context(path, ctx, "a probe log").is_ok() {
+            return Ok(match self.read(path, src, ctx)? {
+                Measurement::Points(set) => Inventory::of_points(&set),
+                Measurement::Heights(_) => unreachable!("a probe log holds points"),
+            });
+        }
+        let mut first_error = None;
+        let mut read = Vec::new();
+        for d in Dialect::ALL {
+            let raw = match d {
+                Dialect::Fanuc => probe_log::fanuc::parse(path, src),
+                Dialect::Heidenhain => probe_log::heidenhain::parse(path, src),
+                Dialect::Linuxcnc => probe_log::linuxcnc::parse_log(path, src),
+                Dialect::Sinumerik => probe_log::sinumerik::parse(path, src),
+            };
+            match raw {
+                Ok(r) if !r.records.is_empty() => read.push((d, r)),
+                Ok(_) => {}
+                Err(e) => {
+                    first_error.get_or_insert(e);
+                }
+            }
+        }
+        let Some((_, raw)) = read.first() else {
+            return Err(first_error.unwrap_or_else(|| {
+                SourceError::new(path, 0, 0, "a probe log without a touch line".to_string())
+            }));
+        };
+        let mut inv = Inventory::new("probe-log");
+        for r in &raw.records {
+            let label = match &r.key {
+                probe_log::TouchKey::Index(i) => format!("T{i}"),
+                probe_log::TouchKey::Label(l) => l.clone(),
+            };
+            let kind = match r.logged {
+                probe_log::Logged::BallCentre => "ball centre",
+                probe_log::Logged::Contact => "contact point",
+            };
+            let mut e = Entry::new(label, kind, r.line);
+            e.actual = Some(r.position);
+            inv.entries.push(e);
+        }
+        for (line, test) in &raw.headers {
+            inv.warnings
+                .push(format!("line {line}: a log of the {test} test"));
+        }
+        // Several dialects write the same touch lines: which control wrote
+        // it, the plan says.
+        let dialects: Vec<String> = read.iter().map(|(d, _)| d.to_string()).collect();
+        inv.warnings.push(format!(
+            "read as a log of {} (the plan's dialect decides); positions as the control logged them, in program coordinates: `fivecal analyze --plan` joins each with its planned touch and turns ball centres into contact points",
+            dialects.join(" or ")
+        ));
+        Ok(inv)
+    }
 }
 
 impl Reader for ProbeFile {

@@ -244,26 +244,64 @@ pub(crate) fn short_time(t: Timestamp) -> String {
 
 /// One line of the listing per record.
 pub fn render_list(records: &[Stored]) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "{:>5}  {:<16}  {:<14} {:<8} {:<16} {:<7} {:>6}  note",
-        "id", "measured (UTC)", "machine", "kind", "test", "fit", "deg C"
-    );
-    for r in records {
-        let c = &r.record;
-        let _ = writeln!(
-            s,
-            "{:>5}  {:<16}  {:<14} {:<8} {:<16} {:<7} {:>6}  {}",
-            r.id,
-            short_time(c.measured_at),
-            c.machine,
-            c.kind,
-            c.test.as_deref().or(c.controller.as_deref()).unwrap_or("-"),
-            c.fit.map_or("-", |f| f.name()),
-            c.temperature.map_or("-".into(), |t| format!("{t:.1}")),
-            c.note.as_deref().unwrap_or("")
-        );
+    let header = [
+        "id",
+        "measured (UTC)",
+        "machine",
+        "kind",
+        "test",
+        "fit",
+        "deg C",
+        "note",
+    ];
+    let rows: Vec<[String; 8]> = records
+        .iter()
+        .map(|r| {
+            let c = &r.record;
+            [
+                r.id.to_string(),
+                short_time(c.measured_at),
+                c.machine.clone(),
+                c.kind.to_string(),
+                c.test
+                    .as_deref()
+                    .or(c.controller.as_deref())
+                    .unwrap_or("-")
+                    .to_string(),
+                c.fit.map_or("-", |f| f.name()).to_string(),
+                c.temperature.map_or("-".into(), |t| format!("{t:.1}")),
+                c.note.as_deref().unwrap_or("").to_string(),
+            ]
+        })
+        .collect();
+    // Each column as wide as its widest entry, so a long machine name or
+    // `not-converged` never pushes the later columns out from under their
+    // headings; numbers right-aligned.
+    let mut width = header.map(|h| h.chars().count());
+    for row in &rows {
+        for (w, v) in width.iter_mut().zip(row) {
+            *w = (*w).max(v.chars().count());
+        }
+    }
+    let line = |cells: [&str; 8]| {
+        let mut l = String::new();
+        for (k, (v, w)) in cells.iter().zip(width).enumerate() {
+            let pad = w - v.chars().count();
+            match k {
+                0 | 6 => l.push_str(&format!("{}{v}", " ".repeat(pad))),
+                7 => l.push_str(v),
+                _ => l.push_str(&format!("{v}{}", " ".repeat(pad))),
+            }
+            if k < 7 {
+                l.push_str("  ");
+            }
+        }
+        l.trim_end().to_string()
+    };
+    let mut s = line(header) + "\n";
+    for row in &rows {
+        s += &line(row.each_ref().map(|v| v.as_str()));
+        s.push('\n');
     }
     s
 }

@@ -106,12 +106,18 @@ pub fn write(
     if !h.superseded.is_empty() {
         let _ = writeln!(
             page,
-            "<p>Records {} measured the same files as a later record and are not plotted: the later result of a measurement counts.</p>",
+            "<p>{} {} measured the same files as a later record and {} not plotted: the later result of a measurement counts.</p>",
+            if h.superseded.len() == 1 {
+                "Record"
+            } else {
+                "Records"
+            },
             h.superseded
                 .iter()
                 .map(|i| i.to_string())
                 .collect::<Vec<_>>()
-                .join(", ")
+                .join(", "),
+            if h.superseded.len() == 1 { "is" } else { "are" }
         );
     }
     let _ = writeln!(

@@ -257,6 +257,25 @@ pub(super) fn parse(path: &Path, src: &str) -> Result<Machine, SourceError> {
     let (tilt, c) = rotary_axes(&f, &chain, &err)?;
     let pivot_length = pivot_length(&f, chain.structure, &err)?;
     check_numbers(&f, pivot_length, &err)?;
+    // At rotary zero the spindle stands over the W origin to start every
+    // test: a pivot beyond the X or Y stroke is a typing or sign mistake
+    // that every later message would blame on something else. (Z is not
+    // checked: the tool's length, not the gauge point, reaches down.)
+    for (i, l) in ["X", "Y"].iter().enumerate() {
+        let (lo, hi) = strokes[i];
+        let v = f.pivot[i];
+        if v.is_finite() && !(lo..=hi).contains(&v) {
+            return Err(err(
+                &["pivot"],
+                format!(
+                    "pivot {l} {} mm is outside the {l} stroke [{}, {}] of linear_axes: the spindle can never stand over the W origin; check the pivot's sign and the stroke",
+                    crate::numbers::echo(v),
+                    crate::numbers::echo(lo),
+                    crate::numbers::echo(hi)
+                ),
+            ));
+        }
+    }
 
     // Every output is labelled with this name, and the history keys its
     // results on it: a blank one would file them under nobody.
@@ -597,6 +616,7 @@ fn check_numbers(f: &MachineFile, pivot_length: f64, err: KeyError<'_>) -> Resul
         ));
     }
     check_tool(&f.tool).map_err(|(k, m)| err(&["tool", k], m))?;
+    check_tool_id(f.probe.id.as_deref()).map_err(|m| err(&["probe", "id"], m))?;
     for (k, v) in [
         ("ball_diameter", f.probe.ball_diameter),
         ("length", f.probe.length),
@@ -704,6 +724,30 @@ pub fn check_tool(t: &Tool) -> Result<(), (&'static str, String)> {
             ));
         }
         _ => {}
+    }
+    check_tool_id(t.id.as_deref()).map_err(|m| ("id", m))
+}
+
+/// Checks a tool-list name: what every control that calls tools by name
+/// accepts (SINUMERIK: up to 32 characters between double quotes; a
+/// HEIDENHAIN tool name up to 32), so a program never calls a tool its
+/// control cannot find by that spelling.
+pub(super) fn check_tool_id(id: Option<&str>) -> Result<(), String> {
+    let Some(id) = id else { return Ok(()) };
+    const MAX: usize = 32;
+    if id.is_empty() || id.len() > MAX {
+        return Err(format!(
+            "a tool-list name (id) has 1 to {MAX} characters, got {}",
+            id.chars().count()
+        ));
+    }
+    if let Some(c) = id
+        .chars()
+        .find(|c| !(c.is_ascii_graphic() || *c == ' ') || *c == '"' || *c == ';')
+    {
+        return Err(format!(
+            "a tool-list name (id) holds printable ASCII characters other than `\"` and `;`, got {c:?}"
+        ));
     }
     Ok(())
 }

@@ -82,6 +82,17 @@ impl Dialect {
     }
 }
 
+impl Dialect {
+    /// The zero point the planned programs select, in the control's own
+    /// words: what the operator sets before the run.
+    pub fn work_offset(self) -> &'static str {
+        match self {
+            Dialect::Heidenhain => "preset 1 (preset table line 1, activated by CYCL DEF 247)",
+            Dialect::Fanuc | Dialect::Linuxcnc | Dialect::Sinumerik => "work offset G54",
+        }
+    }
+}
+
 impl fmt::Display for Dialect {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
@@ -136,6 +147,28 @@ pub struct Tool {
     /// Tool number used in tool calls.
     #[serde(default = "default_tool_number")]
     pub number: u32,
+    /// The tool's name in the control's tool list, for a control that
+    /// calls tools by name (SINUMERIK tool management `T="NAME"`,
+    /// HEIDENHAIN `TOOL CALL "NAME"`); without it the tool is called by
+    /// its number.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<String>,
+}
+
+impl Tool {
+    /// How headers and setup sheets name the tool: `T1`, or `T1 "EM_D8"`
+    /// when the control calls it by name.
+    pub fn label(&self) -> String {
+        tool_label(self.number, self.id.as_deref())
+    }
+}
+
+/// `T<number>`, followed by the tool-list name when there is one.
+fn tool_label(number: u32, id: Option<&str>) -> String {
+    match id {
+        Some(id) => format!("T{number} \"{id}\""),
+        None => format!("T{number}"),
+    }
 }
 
 fn default_tool_number() -> u32 {
@@ -155,6 +188,16 @@ pub struct Probe {
     /// Tool number of the probe.
     #[serde(default = "default_probe_number")]
     pub number: u32,
+    /// The probe's name in the control's tool list (see [`Tool::id`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<String>,
+}
+
+impl Probe {
+    /// How headers and setup sheets name the probe (see [`Tool::label`]).
+    pub fn label(&self) -> String {
+        tool_label(self.number, self.id.as_deref())
+    }
 }
 
 fn default_probe_number() -> u32 {

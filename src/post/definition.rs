@@ -145,6 +145,8 @@ struct DefinitionFile {
     controller: ControllerKinematics,
     #[serde(default)]
     probe_axis_aligned: bool,
+    #[serde(default)]
+    log_limit_kb: Option<f64>,
     templates: IndexMap<String, String>,
 }
 
@@ -198,6 +200,10 @@ pub struct PostDefinition {
     pub controller: ControllerKinematics,
     /// Probe moves must run along one program axis (HEIDENHAIN cycle 0).
     pub probe_axis_aligned: bool,
+    /// The largest probe log the control writes, kB (SINUMERIK: machine
+    /// datum MD11420 LEN_PROTOCOL_FILE); a probing plan whose log would
+    /// pass it is refused.
+    pub log_limit_kb: Option<f64>,
     /// The file it was read from (or `<built-in NAME>`).
     pub path: PathBuf,
     /// Its text, for copying next to a plan.
@@ -240,6 +246,23 @@ impl PostDefinition {
                     f.extension
                 ),
             ));
+        }
+        if let Some(kb) = f.log_limit_kb {
+            if f.dialect != Dialect::Sinumerik {
+                return Err(err(
+                    &["log_limit_kb"],
+                    "log_limit_kb is the size limit of SINUMERIK's protocol files (MD11420); the other dialects' logs have none fivecal checks: remove it".to_string(),
+                ));
+            }
+            if !(kb.is_finite() && (1.0..=1.0e6).contains(&kb)) {
+                return Err(err(
+                    &["log_limit_kb"],
+                    format!(
+                        "log_limit_kb is the control's MD11420 LEN_PROTOCOL_FILE in kB: expected 1 to 1000000, got {}",
+                        crate::numbers::echo(kb)
+                    ),
+                ));
+            }
         }
         if let Some(b) = &f.block_numbers
             && (b.step == 0 || b.max <= b.start)
@@ -328,6 +351,7 @@ impl PostDefinition {
         env.add_filter("feed", fmt(nums.feed));
         env.add_filter("rpm", fmt(nums.speed));
         env.add_filter("sec", fmt(nums.time));
+        env.add_filter("mpf_name", |s: String| super::sinumerik_program_name(&s));
         for (name, text) in &f.templates {
             if let Err(e) = env.add_template_owned(name.clone(), text.clone()) {
                 return Err(template_error(path, &spots[name], text, name, &e));
@@ -346,6 +370,7 @@ impl PostDefinition {
             coolant: f.coolant,
             controller: f.controller,
             probe_axis_aligned: f.probe_axis_aligned,
+            log_limit_kb: f.log_limit_kb,
             path: path.to_path_buf(),
             source: src.to_string(),
             templates: f.templates,

@@ -112,6 +112,9 @@ pub enum Op {
         number: u32,
         /// Free text.
         name: String,
+        /// The tool's name in the control's tool list, when it calls tools
+        /// by name.
+        id: Option<String>,
         /// Spindle speed, rpm (`None` for probes).
         rpm: Option<f64>,
     },
@@ -288,5 +291,54 @@ mod tests {
         let r = m(Axis3::Y, 90.0);
         assert_eq!(euler_spatial(&r), [0.0, 90.0, 0.0]);
         assert_eq!(euler_zxz(&r), [90.0, 90.0, -90.0]);
+    }
+}
+
+/// A SINUMERIK program name made from `stem` (a file name without its
+/// extension): what the control accepts as the `<NAME>` of
+/// `%_N_<NAME>_MPF` and calls by that name alone. Letters, digits and `_`,
+/// upper case; the first two characters letters (or `_` and a letter),
+/// else `FC_` is put in front; at most 24 characters.
+pub fn sinumerik_program_name(stem: &str) -> String {
+    let mut name: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_uppercase()
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let b = name.as_bytes();
+    let callable =
+        b.len() >= 2 && (b[0].is_ascii_alphabetic() || b[0] == b'_') && b[1].is_ascii_alphabetic();
+    if !callable {
+        name.insert_str(0, "FC_");
+    }
+    name.truncate(24);
+    name
+}
+
+#[cfg(test)]
+mod program_name_tests {
+    use super::sinumerik_program_name as name;
+
+    #[test]
+    fn a_file_name_becomes_a_name_the_control_calls() {
+        assert_eq!(name("stepped-square"), "STEPPED_SQUARE");
+        assert_eq!(name("ss comp.2"), "SS_COMP_2");
+        // A name must open with two letters (or `_` and a letter).
+        assert_eq!(name("5ax"), "FC_5AX");
+        assert_eq!(name("a1"), "FC_A1");
+        assert_eq!(name("_ab"), "_AB");
+        assert_eq!(name(""), "FC_");
+        // Non-ASCII letters are not letters to the control.
+        assert_eq!(name("prüfung"), "PR_FUNG");
+        // 24 characters at most.
+        assert_eq!(
+            name("a-very-long-program-name-for-a-part"),
+            "A_VERY_LONG_PROGRAM_NAME"
+        );
     }
 }

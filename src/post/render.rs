@@ -182,6 +182,14 @@ impl PostDefinition {
     /// Comment text as this control accepts it.
     pub(crate) fn sanitize_comment(&self, text: &str) -> String {
         let rules = &self.comment;
+        let ok = |c: char| {
+            let allowed = if rules.allowed.is_empty() {
+                (' '..='~').contains(&c)
+            } else {
+                rules.allowed.contains(c)
+            };
+            allowed && !rules.forbidden.contains(c)
+        };
         let mut s: String = text
             .chars()
             .map(|c| {
@@ -190,16 +198,18 @@ impl PostDefinition {
                 } else {
                     c
                 };
-                let ok = if rules.allowed.is_empty() {
-                    (' '..='~').contains(&c)
-                } else {
-                    rules.allowed.contains(c)
-                };
-                if ok && !rules.forbidden.contains(c) {
-                    c
-                } else {
-                    ' '
+                if ok(c) {
+                    return c;
                 }
+                // A separator keeps its meaning where the dialect lets
+                // it: `(A 2013; B 2023)` reads `(A 2013, B 2023)`, not
+                // `(A 2013 B 2023)`.
+                let stand_in = match c {
+                    ';' => ',',
+                    '"' => '\'',
+                    _ => ' ',
+                };
+                if ok(stand_in) { stand_in } else { ' ' }
             })
             .collect();
         while s.contains("  ") {
@@ -407,11 +417,17 @@ impl<'a> Writer<'a> {
                 };
                 post.push_comment(&mut self.out, name, t)?;
             }
-            Op::ToolCall { number, name, rpm } => {
+            Op::ToolCall {
+                number,
+                name,
+                id,
+                rpm,
+            } => {
                 self.tool_number = *number;
                 let ctx = context! {
                     number => *number,
                     name => post.sanitize_comment(name),
+                    id => id.clone(),
                     rpm => *rpm,
                 };
                 self.write("tool_call", ctx)?;
@@ -888,11 +904,11 @@ pub(super) fn sample_contexts(def: &PostDefinition) -> Vec<(&'static str, Value)
         ("section", context! { text => "sample" }),
         (
             "tool_call",
-            context! { number => 1u32, name => "sample", rpm => Some(1000.0) },
+            context! { number => 1u32, name => "sample", id => Some("SAMPLE_D8"), rpm => Some(1000.0) },
         ),
         (
             "tool_call",
-            context! { number => 1u32, name => "sample", rpm => None::<f64> },
+            context! { number => 1u32, name => "sample", id => None::<String>, rpm => None::<f64> },
         ),
         ("spindle_on", context! { rpm => 1000.0 }),
         ("spindle_off", context! {}),

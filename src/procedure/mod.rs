@@ -40,7 +40,7 @@ pub use probing::ProbingPlan;
 pub use template::{Template, TemplateSource};
 
 pub(crate) use bounds::echo;
-pub(crate) use outputs::{push_notes, round, short};
+pub(crate) use outputs::{capitalised, push_notes, round, short};
 
 /// Everything `plan` needs, validated.
 #[derive(Clone, Debug)]

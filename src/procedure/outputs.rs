@@ -35,6 +35,15 @@ pub(crate) fn short(v: f64) -> String {
 }
 
 /// The setup sheet's closing `## Notes` list, if there are notes.
+/// `s` with its first letter in upper case, to open a sentence.
+pub(crate) fn capitalised(s: &str) -> String {
+    let mut c = s.chars();
+    match c.next() {
+        Some(f) => f.to_uppercase().chain(c).collect(),
+        None => String::new(),
+    }
+}
+
 pub(crate) fn push_notes(s: &mut String, notes: &[String]) {
     use std::fmt::Write as _;
     if notes.is_empty() {

@@ -437,8 +437,13 @@ fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], ma
 fn fit_section(h: &mut String, r: &ReportInput<'_>) {
     if let Some(f) = &r.error_file.fit {
         let line = format!(
-            "Residuals {:.3} um against {:.3} um expected ({}): ratio {:.2}, p = {:.1e} over {} degrees of freedom.",
-            f.sigma_um, f.expected_um, f.expected_from, f.ratio, f.p_value, f.dof
+            "Residuals {:.3} um against {:.3} um expected ({}): ratio {:.2}, p {} over {} degrees of freedom.",
+            f.sigma_um,
+            f.expected_um,
+            f.expected_from,
+            f.ratio,
+            crate::numbers::p_value(f.p_value),
+            f.dof
         );
         let mut line = line;
         if let Some(on) = &f.on {

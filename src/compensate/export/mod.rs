@@ -340,7 +340,45 @@ pub struct Export {
     pub text: String,
 }
 
+/// Where an export goes by default when a rewritten program `program` is
+/// written too: beside it, `<program>.<controller>.txt`; a SINUMERIK
+/// export is a part program of its own, `<NAME>_SWIVEL.MPF` with a name
+/// the control accepts (see [`crate::post::sinumerik_program_name`]).
+pub fn default_file(dialect: Dialect, program: &std::path::Path) -> std::path::PathBuf {
+    if dialect == Dialect::Sinumerik {
+        let stem = program
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let mut name = crate::post::sinumerik_program_name(&stem);
+        name.truncate(24 - "_SWIVEL".len());
+        return program.with_file_name(format!("{name}_SWIVEL.MPF"));
+    }
+    let mut name = program.as_os_str().to_owned();
+    name.push(format!(".{dialect}.txt"));
+    std::path::PathBuf::from(name)
+}
+
 impl Export {
+    /// The text as a file `file` holds it (standard output with `None`):
+    /// a SINUMERIK part program opens with the `%_N_<NAME>_MPF` and
+    /// `;$PATH=/_N_MPF_DIR` lines a control expects of a program loaded
+    /// from outside, its name from the file's.
+    pub fn file_text(&self, file: Option<&std::path::Path>) -> String {
+        if self.dialect != Dialect::Sinumerik {
+            return self.text.clone();
+        }
+        let stem = file
+            .and_then(|f| f.file_stem())
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "FIVECAL_SWIVEL".to_string());
+        format!(
+            "%_N_{}_MPF\n;$PATH=/_N_MPF_DIR\n{}",
+            crate::post::sinumerik_program_name(&stem),
+            self.text
+        )
+    }
+
     /// Whether no entered parameter changes (every change below the
     /// written resolution).
     pub fn changes_nothing(&self) -> bool {

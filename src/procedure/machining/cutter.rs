@@ -328,6 +328,7 @@ mod tests {
             corner_radius: corner,
             flutes: None,
             number: 1,
+            id: None,
         })
     }
 

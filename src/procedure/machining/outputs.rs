@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use super::MachiningPlan;
 use crate::formats::dmis_program::{self, DmisMoves, ProbeTarget};
 use crate::formats::qif_write;
-use crate::procedure::{push_notes, round, short};
+use crate::procedure::{capitalised, push_notes, round, short};
 
 impl MachiningPlan {
     /// The DMIS program measuring every plan point. Each point is reached
@@ -121,8 +121,8 @@ impl MachiningPlan {
         let _ = writeln!(s, "\n## Tool\n");
         let _ = writeln!(
             s,
-            "- T{}: {} ({:?}, D{}{}, gauge length {} mm; set its length offset).",
-            t.number,
+            "- {}: {} ({:?}, D{}{}, gauge length {} mm; set its length offset).",
+            t.label(),
             t.name,
             t.kind,
             short(t.diameter),
@@ -143,7 +143,8 @@ impl MachiningPlan {
         let _ = writeln!(s, "\n## Zero point\n");
         let _ = writeln!(
             s,
-            "- Work offset G54 (HEIDENHAIN preset 1) on the W origin at {letter} = C = 0: the machine file's pivot, spindle gauge point at machine X{} Y{} Z{}. W's axes are parallel to the machine's at rotary zero; Z runs along C.",
+            "- {} on the W origin at {letter} = C = 0: the machine file's pivot, spindle gauge point at machine X{} Y{} Z{}. W's axes are parallel to the machine's at rotary zero; Z runs along C.",
+            capitalised(self.dialect.work_offset()),
             short(m.pivot.x),
             short(m.pivot.y),
             short(m.pivot.z)

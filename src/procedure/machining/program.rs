@@ -421,6 +421,7 @@ fn toolpath(cfg: &PlanConfig, d: &MachiningDesign, safe_z: f64, poses: &[Planned
         Op::ToolCall {
             number: tool.number,
             name: tool.name.clone(),
+            id: tool.id.clone(),
             rpm: Some(d.cutting.spindle),
         },
         Op::SpindleOn {
@@ -574,8 +575,8 @@ fn program_info(
             format!("dialect {}, postprocessor {}", post.dialect, post.name),
             kin_text,
             format!(
-                "tool T{}: {}, {kind} D{} gauge length {} mm, {} rpm, feed {} mm/min",
-                tool.number,
+                "tool {}: {}, {kind} D{} gauge length {} mm, {} rpm, feed {} mm/min",
+                tool.label(),
                 tool.name,
                 short(tool.diameter),
                 short(tool.length),
@@ -583,7 +584,8 @@ fn program_info(
                 short(d.cutting.feed)
             ),
             format!(
-                "zero point: work offset G54 (preset 1) on the W origin at {letter} = C = 0, pivot of the machine file X{} Y{} Z{} (gauge point)",
+                "zero point: {} on the W origin at {letter} = C = 0, pivot of the machine file X{} Y{} Z{} (gauge point)",
+                post.dialect.work_offset(),
                 short(m.pivot.x),
                 short(m.pivot.y),
                 short(m.pivot.z)

@@ -71,8 +71,8 @@ impl ProbingPlan {
         let _ = writeln!(o, "\n## Probe\n");
         let _ = writeln!(
             o,
-            "- T{}: {}, calibrated ball D{}, gauge length {} mm (set its length offset; calibrate its radius and trigger points before the run).",
-            p.number,
+            "- {}: {}, calibrated ball D{}, gauge length {} mm (set its length offset; calibrate its radius and trigger points before the run).",
+            p.label(),
             p.name,
             short(p.ball_diameter),
             short(p.length)
@@ -88,7 +88,8 @@ impl ProbingPlan {
         let _ = writeln!(o, "\n## Zero point\n");
         let _ = writeln!(
             o,
-            "- Work offset G54 (HEIDENHAIN preset 1) on the W origin at {letter} = C = 0: the machine file's pivot, spindle gauge point at machine X{} Y{} Z{}. No TCP, no tilted plane.",
+            "- {} on the W origin at {letter} = C = 0: the machine file's pivot, spindle gauge point at machine X{} Y{} Z{}. No TCP, no tilted plane.",
+            crate::procedure::capitalised(self.dialect.work_offset()),
             short(m.pivot.x),
             short(m.pivot.y),
             short(m.pivot.z)

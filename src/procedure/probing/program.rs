@@ -361,6 +361,7 @@ fn toolpath(plan: &TouchPlan, probe: &Probe, log: &str) -> Vec<Op> {
         Op::ToolCall {
             number: probe.number,
             name: probe.name.clone(),
+            id: probe.id.clone(),
             rpm: None,
         },
         Op::SpindleOff,
@@ -454,6 +455,30 @@ fn stock_box(plan: &TouchPlan) -> (Vector3<f64>, Vector3<f64>) {
     (r(lo), r(hi))
 }
 
+/// The size of the SINUMERIK probe log the program writes, bytes, at
+/// most: its header line and one line per touch, `T<i> X.. Y.. Z..` with
+/// the ball centre at the nominal touch in program coordinates, each
+/// value with all four decimals and a sign, and WRITE's line feed.
+fn sinumerik_log_bytes(plan: &TouchPlan, ball_radius: f64) -> usize {
+    let header = format!("FIVECAL {}\n", plan.test).len();
+    let touches: usize = plan
+        .touches
+        .iter()
+        .map(|t| {
+            let c = t.contact_prog + t.normal_prog * ball_radius;
+            format!(
+                "T{} X{:.4} Y{:.4} Z{:.4}\n",
+                t.index,
+                -c.x.abs(),
+                -c.y.abs(),
+                -c.z.abs()
+            )
+            .len()
+        })
+        .sum();
+    header + touches
+}
+
 /// Counts the left-out touches by kind of reason, for notes.
 fn skipped_notes(plan: &TouchPlan) -> Vec<String> {
     let mut kinds: Vec<(&str, usize, String)> = Vec::new();
@@ -525,6 +550,28 @@ pub fn plan(cfg: &PlanConfig) -> Result<ProbingPlan, PlanError> {
 
     let mut notes = skipped_notes(&plan);
     notes.extend(plan.warnings.iter().cloned());
+    // SINUMERIK's WRITE stops with error 10 (this program's alarm 65001)
+    // once the log passes machine datum MD11420 LEN_PROTOCOL_FILE, in kB:
+    // checked when the postprocessor states it, said when it does not.
+    if post.dialect == Dialect::Sinumerik {
+        let bytes = sinumerik_log_bytes(&plan, m.probe.ball_diameter / 2.0);
+        let kb = (bytes as f64 / 1024.0).ceil();
+        match post.log_limit_kb {
+            Some(limit) if bytes as f64 > limit * 1024.0 => {
+                return Err(PlanError::Impossible(format!(
+                    "the probe log FIVECAL_{} will hold about {kb} kB ({} touches), more than the {limit} kB the postprocessor's log_limit_kb gives for the control's protocol files (MD11420 LEN_PROTOCOL_FILE): WRITE would stop the run with error 10; raise MD11420 to at least {kb} kB and log_limit_kb with it",
+                    log_name(test).to_ascii_uppercase(),
+                    plan.touches.len()
+                )));
+            }
+            Some(_) => {}
+            None => notes.push(format!(
+                "the probe log FIVECAL_{} will hold about {kb} kB ({} touches): WRITE stops the run with error 10 (alarm 65001) when the control's protocol-file size MD11420 LEN_PROTOCOL_FILE is smaller; check it, or give it as log_limit_kb in a copy of the postprocessor to have the plan check it",
+                log_name(test).to_ascii_uppercase(),
+                plan.touches.len()
+            )),
+        }
+    }
     let letter = m.tilt_letter();
     let safe_reason = match m.structure {
         Structure::TableTable => format!(
@@ -559,8 +606,8 @@ pub fn plan(cfg: &PlanConfig) -> Result<ProbingPlan, PlanError> {
         format!("machine {}: {}", m.name, m.description),
         format!("dialect {}, postprocessor {}", post.dialect, post.name),
         format!(
-            "probe T{}: {}, ball D{}, gauge length {} mm; probing feed {} mm/min, positioning {} mm/min",
-            probe.number,
+            "probe {}: {}, ball D{}, gauge length {} mm; probing feed {} mm/min, positioning {} mm/min",
+            probe.label(),
             probe.name,
             short(probe.ball_diameter),
             short(probe.length),
@@ -571,7 +618,8 @@ pub fn plan(cfg: &PlanConfig) -> Result<ProbingPlan, PlanError> {
             "no TCP, no tilted plane: X Y Z {letter} C computed by fivecal from the machine file"
         ),
         format!(
-            "zero point: work offset G54 (preset 1) on the W origin at {letter} = C = 0, pivot of the machine file X{} Y{} Z{} (gauge point)",
+            "zero point: {} on the W origin at {letter} = C = 0, pivot of the machine file X{} Y{} Z{} (gauge point)",
+            post.dialect.work_offset(),
             short(m.pivot.x),
             short(m.pivot.y),
             short(m.pivot.z)

@@ -15,6 +15,7 @@ use fivecal::errorfile::{ErrorFile, LoadedErrors};
 use fivecal::io::{Shape, check_outputs};
 use fivecal::machine::MachineOrigin;
 use fivecal::nc::dialect::Detection;
+use fivecal::numbers::count;
 use fivecal::{Dialect, Kinematics, Machine};
 use nalgebra::Vector3;
 
@@ -311,7 +312,8 @@ pub struct CompensateArgs {
     #[arg(long, value_name = "CONTROLLER", value_parser = ["fanuc", "heidenhain", "linuxcnc", "sinumerik"])]
     export: Option<String>,
     /// Where --export writes [default: standard output without a program,
-    /// else next to OUT as OUT.<controller>.txt, OUT.sinumerik.MPF].
+    /// else next to OUT as OUT.<controller>.txt, or <OUT's name>_SWIVEL.MPF
+    /// for sinumerik].
     #[arg(long, value_name = "FILE")]
     export_to: Option<PathBuf>,
     /// With --export: refuse (naming it, writing nothing) any parameter
@@ -501,17 +503,9 @@ impl CompensateArgs {
         }
         let export = export.map(|(d, target)| {
             let target = target.or_else(|| {
-                rewrite.as_ref().map(|(_, out)| {
-                    let mut name = out.as_os_str().to_owned();
-                    // A SINUMERIK export is a part program to run.
-                    let ext = if d == Dialect::Sinumerik {
-                        "MPF"
-                    } else {
-                        "txt"
-                    };
-                    name.push(format!(".{d}.{ext}"));
-                    PathBuf::from(name)
-                })
+                rewrite
+                    .as_ref()
+                    .map(|(_, out)| export::default_file(d, out))
             });
             (d, target)
         });
@@ -647,9 +641,9 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
                 // refused by the library), and every one was left as
                 // written: a copy is no compensation.
                 bail!(
-                    "{}: none of its {} moves could be rewritten ({}); nothing written",
+                    "{}: none of its {} could be rewritten ({}); nothing written",
                     input.display(),
-                    summary.moves,
+                    count(summary.moves, "move", "moves"),
                     reasons(&summary.skipped)
                 );
             }
@@ -704,7 +698,7 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     };
-    let text = &exported.text;
+    let text = &exported.file_text(target.as_deref());
     match target {
         Some(p) => {
             fivecal::io::write_atomic(p, text.as_bytes())?;
@@ -830,13 +824,13 @@ fn describe(
     }
     let _ = writeln!(
         t,
-        "  {} blocks, {} moves: {} blocks changed, {} blocks added ({} moves subdivided, {} arcs linearized) to stay within {} um",
-        s.blocks,
-        s.moves,
-        s.changed,
-        s.inserted,
-        s.subdivided.len(),
-        s.linearized.len(),
+        "  {}, {}: {}, {} ({}, {}) to stay within {} um",
+        count(s.blocks, "block", "blocks"),
+        count(s.moves, "move", "moves"),
+        count(s.changed, "block changed", "blocks changed"),
+        count(s.inserted, "block added", "blocks added"),
+        count(s.subdivided.len(), "move subdivided", "moves subdivided"),
+        count(s.linearized.len(), "arc linearized", "arcs linearized"),
         cfg.settings.tolerance * 1e3
     );
     let _ = writeln!(

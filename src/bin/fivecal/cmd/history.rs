@@ -4,7 +4,7 @@
 //! drifting toward its limit, and `plot` writes the HTML page with each
 //! error over time. The store is only read, never created here.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand, ValueEnum};
@@ -25,8 +25,9 @@ pub struct HistoryCli {
     #[arg(long, value_name = "PATH|URL", global = true)]
     db: Option<String>,
     /// Only this machine's records [needed for trend and plot when the
-    /// store holds several machines].
-    #[arg(long, value_name = "NAME", global = true)]
+    /// store holds several machines]: a machine file (known by the `name:`
+    /// inside it) or a name.
+    #[arg(long, value_name = "M.yaml|NAME", global = true)]
     machine: Option<String>,
     #[command(flatten)]
     timeout: super::record::DbTimeout,
@@ -81,7 +82,20 @@ enum Format {
 
 pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
     let mut store = open_for_reading(cli.db.as_deref(), &cli.timeout)?;
-    let machine = cli.machine.as_deref();
+    let machine = cli
+        .machine
+        .as_deref()
+        .map(super::record::machine_key)
+        .transpose()?;
+    let machine = machine.as_deref();
+    // A machine file named by --machine is read: no output may land on it.
+    let machine_file: Vec<&Path> = cli
+        .machine
+        .as_deref()
+        .filter(|m| fivecal::machine::is_path_spec(m))
+        .map(Path::new)
+        .into_iter()
+        .collect();
     match cli.action.unwrap_or(Action::List) {
         Action::List => {
             let records = store.list(machine)?;
@@ -109,6 +123,10 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
             };
             match out {
                 Some(p) => {
+                    fivecal::io::check_outputs(
+                        &machine_file,
+                        &[("--out", &p, fivecal::io::Shape::File)],
+                    )?;
                     write_atomic(&p, text.as_bytes())?;
                     outln!("wrote {} records to {}", records.len(), p.display());
                 }
@@ -126,7 +144,7 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
             // Checked before writing, as every command does: an existing
             // file named as the page's directory is refused with its name
             // instead of the OS's "Not a directory".
-            fivecal::io::check_outputs(&[], &[("--out", &out, fivecal::io::Shape::Dir)])?;
+            fivecal::io::check_outputs(&machine_file, &[("--out", &out, fivecal::io::Shape::Dir)])?;
             let files = history::page::write(&out, &h, &limits)?;
             outln!(
                 "history of {}: {} ({} files)",

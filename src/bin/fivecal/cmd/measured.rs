@@ -60,7 +60,8 @@ impl MeasuredFlags {
 #[derive(Args, Debug)]
 pub struct MeasuredArgs {
     /// The measurement file (DMIS output, QIF results, CALYPSO table, CSV,
-    /// point list, nine-section heights).
+    /// point list, nine-section heights, a probe log as the control wrote
+    /// it).
     file: PathBuf,
     /// Print JSON: the file's format, units and runs, and one object per
     /// point with `label`, `nominal`, `actual` and `normal`.

@@ -149,6 +149,18 @@ impl Recorder {
     }
 }
 
+/// The store's name for the machine of `--machine`: a machine file (a
+/// path: a `/` or a `.yaml` extension) is read and named by the `name:`
+/// inside it, as every command that records names it; a built-in or a
+/// stored name is taken as given.
+pub fn machine_key(spec: &str) -> anyhow::Result<String> {
+    if fivecal::machine::is_path_spec(spec) {
+        let (m, _) = fivecal::machine::Machine::resolve(spec)?;
+        return Ok(m.name);
+    }
+    Ok(spec.to_string())
+}
+
 /// The store the history commands read: `--db`, else `$FIVECAL_DB`, else
 /// the default file, which must exist (reading never creates a store). It
 /// is opened read-only: reading it never changes it.

@@ -9,6 +9,7 @@ use anyhow::bail;
 use clap::Args;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
+use fivecal::numbers::count;
 
 use super::compensate::{MachineArgs, load_errors, reasons};
 
@@ -193,10 +194,10 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         outln!("  {n}");
     }
     outln!(
-        "  {} blocks, {} moves, {} samples",
-        summary.blocks,
-        summary.moves,
-        summary.samples
+        "  {}, {}, {}",
+        count(summary.blocks, "block", "blocks"),
+        count(summary.moves, "move", "moves"),
+        count(summary.samples, "sample", "samples")
     );
     if let Some(m) = summary.max_um {
         outln!(

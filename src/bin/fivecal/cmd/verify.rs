@@ -28,7 +28,8 @@ pub struct VerifyArgs {
     after: Option<PathBuf>,
     /// Take both from the results store: this machine's latest result
     /// before its last export and the latest after it.
-    #[arg(long, value_name = "NAME", conflicts_with_all = ["before", "after"])]
+    /// A machine file or a name: a file is known by the `name:` inside it.
+    #[arg(long, value_name = "M.yaml|NAME", conflicts_with_all = ["before", "after"])]
     machine: Option<String>,
     /// The results store (with --machine) [default: $FIVECAL_DB, else
     /// history.db in the user's data directory].
@@ -52,7 +53,12 @@ pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
         if a.machine.is_some() {
             fivecal::store::Location::resolve(a.db.as_deref())?;
         }
-        let inputs: Vec<&Path> = [&a.before, &a.after, &a.limits]
+        let machine_file = a
+            .machine
+            .as_deref()
+            .filter(|m| fivecal::machine::is_path_spec(m))
+            .map(PathBuf::from);
+        let inputs: Vec<&Path> = [&a.before, &a.after, &a.limits, &machine_file]
             .into_iter()
             .flatten()
             .map(PathBuf::as_path)
@@ -62,7 +68,9 @@ pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
     let limits = a.limits.as_deref().map(LimitsSource::read).transpose()?;
     let ((bn, b), (an, af)) = match (&a.before, &a.after, &a.machine) {
         (Some(b), Some(af), None) => (from_file(b)?, from_file(af)?),
-        (None, None, Some(m)) => from_store(a.db.as_deref(), &a.timeout, m)?,
+        (None, None, Some(m)) => {
+            from_store(a.db.as_deref(), &a.timeout, &super::record::machine_key(m)?)?
+        }
         _ => bail!("give --before R1 --after R2, or --machine NAME to take both from the store"),
     };
     if let Some(l) = &limits {

@@ -1,0 +1,426 @@
+//! Files a shop floor uses as they are: SINUMERIK and HEIDENHAIN programs
+//! that call the tool the control's tool list holds, setup sheets in the
+//! control's own words, a probe log that fits the control's protocol
+//! files, and the history commands taking the same `--machine` file as
+//! every other command.
+
+use std::path::{Path, PathBuf};
+
+use crate::cli::fivecal;
+use crate::util::tempdir;
+
+/// `machine new NAME --from bc-trunnion`, with `edit` applied to its text.
+fn machine_file(dir: &Path, name: &str, edit: impl Fn(String) -> String) -> PathBuf {
+    let path = dir.join(format!("{name}.yaml"));
+    fivecal()
+        .args(["machine", "new", name, "-o"])
+        .arg(&path)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(&path, edit(text)).unwrap();
+    path
+}
+
+/// `plan TEST --machine M --dialect D -o DIR/OUT` with `extra`; the run's
+/// output (stdout and stderr) and whether it succeeded.
+fn plan(dir: &Path, test: &str, machine: &Path, dialect: &str, extra: &[&str]) -> (bool, String) {
+    let out = fivecal()
+        .args(["plan", test, "--machine"])
+        .arg(machine)
+        .args(["--dialect", dialect, "-o"])
+        .arg(dir.join(format!("{test}-{dialect}")))
+        .args(extra)
+        .output()
+        .unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (out.status.success(), text)
+}
+
+fn read(dir: &Path, test: &str, dialect: &str, ext: &str) -> String {
+    std::fs::read_to_string(dir.join(format!("{test}-{dialect}/{test}.{ext}"))).unwrap()
+}
+
+/// A tool-list name given to the probe.
+fn with_probe_id(text: String) -> String {
+    text.replace(
+        "  ball_diameter: 6.0\n",
+        "  ball_diameter: 6.0\n  id: TS_PROBE_6\n",
+    )
+}
+
+/// Issue 46 item 3: the SINUMERIK program called the tool by its
+/// description cut to 32 characters (`T="strain-gauge touch probe, 6 mm b"`)
+/// while its header said T99. With tool management the control finds a
+/// tool by its name in the tool list, which the machine file now gives as
+/// `id:`; without it the tool is called by number, as a control without
+/// tool management expects. HEIDENHAIN's TOOL CALL follows the same rule.
+#[test]
+fn a_sinumerik_program_calls_the_tool_list_name_or_the_number_never_the_description() {
+    let dir = tempdir();
+    let d = dir.path();
+    let plain = machine_file(d, "plain", |t| t);
+    assert!(plan(d, "probe-columns", &plain, "sinumerik", &[]).0);
+    let mpf = read(d, "probe-columns", "sinumerik", "mpf");
+    assert!(mpf.contains(" T99 M6\n"), "{mpf}");
+    assert!(!mpf.contains("T=\""), "{mpf}");
+
+    let named = machine_file(d, "named", with_probe_id);
+    let dn = d.join("named");
+    std::fs::create_dir(&dn).unwrap();
+    assert!(plan(&dn, "probe-columns", &named, "sinumerik", &[]).0);
+    let mpf = read(&dn, "probe-columns", "sinumerik", "mpf");
+    assert!(mpf.contains(" T=\"TS_PROBE_6\" M6\n"), "{mpf}");
+    assert!(plan(&dn, "probe-columns", &named, "heidenhain", &[]).0);
+    let h = read(&dn, "probe-columns", "heidenhain", "h");
+    assert!(h.contains(" TOOL CALL \"TS_PROBE_6\" Z\n"), "{h}");
+    // The setup sheet names both, so the operator loads the right tool.
+    let sheet = read(&dn, "probe-columns", "heidenhain", "md");
+    assert!(sheet.contains("- T99 \"TS_PROBE_6\": "), "{sheet}");
+}
+
+/// A name the control cannot hold is refused at the key that gives it.
+#[test]
+fn a_tool_list_name_with_a_quote_or_beyond_32_characters_is_refused_at_its_key() {
+    let dir = tempdir();
+    let d = dir.path();
+    for (i, (id, expected)) in [
+        ("'A\"B'", "`\"`"),
+        (
+            "ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456",
+            "1 to 32 characters, got 33",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let m = machine_file(d, &format!("bad{i}"), |t| {
+            t.replace(
+                "  ball_diameter: 6.0\n",
+                &format!("  ball_diameter: 6.0\n  id: {id}\n"),
+            )
+        });
+        let (ok, text) = plan(d, "probe-columns", &m, "sinumerik", &[]);
+        assert!(!ok, "{text}");
+        assert!(
+            text.contains(&format!("bad{i}.yaml:"))
+                && text.contains("tool-list name (id)")
+                && text.contains(expected),
+            "{text}"
+        );
+    }
+}
+
+/// Issue 46 item 3: the SINUMERIK setup sheet said "Work offset G54
+/// (HEIDENHAIN preset 1)". Each dialect's sheet and header now name the
+/// zero point its program selects.
+#[test]
+fn the_setup_sheet_names_the_zero_point_in_the_dialect_s_words() {
+    let dir = tempdir();
+    let d = dir.path();
+    let m = machine_file(d, "m", |t| t);
+    for (dialect, ext, sheet_says, header_says) in [
+        (
+            "sinumerik",
+            "mpf",
+            "- Work offset G54 on the W origin",
+            "; zero point: work offset G54 on",
+        ),
+        (
+            "fanuc",
+            "nc",
+            "- Work offset G54 on the W origin",
+            "(ZERO POINT: WORK OFFSET G54 ON",
+        ),
+        (
+            "heidenhain",
+            "h",
+            "- Preset 1 (preset table line 1, activated by CYCL DEF 247) on",
+            "; zero point: preset 1 (preset table line 1",
+        ),
+    ] {
+        assert!(plan(d, "stepped-square", &m, dialect, &[]).0);
+        let sheet = read(d, "stepped-square", dialect, "md");
+        assert!(sheet.contains(sheet_says), "{dialect}: {sheet}");
+        assert!(!sheet.contains("HEIDENHAIN preset"), "{dialect}: {sheet}");
+        let program = read(d, "stepped-square", dialect, ext);
+        assert!(program.contains(header_says), "{dialect}: {program}");
+    }
+}
+
+/// The kB of "the probe log FIVECAL_.. will hold about N kB".
+fn stated_kb(text: &str) -> f64 {
+    let at = text.find("will hold about ").expect(text) + "will hold about ".len();
+    text[at..].split(' ').next().unwrap().parse().unwrap()
+}
+
+/// Issue 46 item 3: a probing log of 221-242 touches may pass the size
+/// the control allows its protocol files (MD11420), where WRITE stops the
+/// run with error 10. The plan states the log's size; with the control's
+/// value in the postprocessor (`log_limit_kb`) it refuses a plan whose log
+/// would not fit. The stated size is checked against the log the
+/// simulator writes for the same plan, line for line what the program's
+/// WRITE produces.
+#[test]
+fn the_probe_log_s_size_is_stated_and_a_log_beyond_the_control_s_limit_refused() {
+    let dir = tempdir();
+    let d = dir.path();
+    let m = machine_file(d, "m", |t| t);
+    let (ok, text) = plan(d, "probe-sphere", &m, "sinumerik", &[]);
+    assert!(ok, "{text}");
+    assert!(text.contains("MD11420 LEN_PROTOCOL_FILE"), "{text}");
+    let kb = stated_kb(&text);
+    // The same words on the setup sheet, for the operator.
+    assert!(read(d, "probe-sphere", "sinumerik", "md").contains(&format!("about {kb} kB")));
+
+    let truth = d.join("truth.yaml");
+    let t = fivecal()
+        .args(["simulate", "--truth-example", "--machine"])
+        .arg(&m)
+        .output()
+        .unwrap();
+    std::fs::write(&truth, &t.stdout).unwrap();
+    let log = d.join("sphere.log");
+    fivecal()
+        .args(["simulate", "--plan"])
+        .arg(d.join("probe-sphere-sinumerik/probe-sphere.plan.yaml"))
+        .arg("--errors")
+        .arg(&truth)
+        .arg("-o")
+        .arg(&log)
+        .assert()
+        .success();
+    let bytes = std::fs::metadata(&log).unwrap().len() as f64;
+    // An upper bound (every value with four decimals), not a wild one.
+    assert!(kb * 1024.0 >= bytes, "{kb} kB for {bytes} bytes");
+    assert!(
+        kb <= (1.5 * bytes / 1024.0).ceil() + 1.0,
+        "{kb} kB for {bytes} bytes"
+    );
+
+    // The control's limit in a copy of the postprocessor.
+    let post = |limit: f64| {
+        let p = d.join(format!("sinumerik-{limit}.yaml"));
+        let src = std::fs::read_to_string(d.join("probe-sphere-sinumerik/probe-sphere.post.yaml"))
+            .unwrap();
+        std::fs::write(
+            &p,
+            src.replace("# log_limit_kb: 10", &format!("log_limit_kb: {limit}")),
+        )
+        .unwrap();
+        p
+    };
+    let small = post(kb - 1.0);
+    let (ok, text) = plan(
+        d,
+        "probe-sphere",
+        &m,
+        "sinumerik",
+        &["--postprocessor", small.to_str().unwrap()],
+    );
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains(&format!("about {kb} kB"))
+            && text.contains("error 10")
+            && text.contains(&format!("raise MD11420 to at least {kb} kB")),
+        "{text}"
+    );
+    let large = post(kb);
+    let (ok, text) = plan(
+        d,
+        "probe-sphere",
+        &m,
+        "sinumerik",
+        &["--postprocessor", large.to_str().unwrap()],
+    );
+    assert!(ok, "{text}");
+    assert!(!text.contains("will hold about"), "{text}");
+}
+
+/// `log_limit_kb` is SINUMERIK's; in another dialect's postprocessor it
+/// is refused at its key instead of being silently ignored.
+#[test]
+fn a_log_limit_in_a_postprocessor_of_another_dialect_is_refused() {
+    let dir = tempdir();
+    let d = dir.path();
+    let m = machine_file(d, "m", |t| t);
+    assert!(plan(d, "probe-columns", &m, "fanuc", &[]).0);
+    let src =
+        std::fs::read_to_string(d.join("probe-columns-fanuc/probe-columns.post.yaml")).unwrap();
+    let p = d.join("fanuc-limit.yaml");
+    std::fs::write(&p, format!("log_limit_kb: 10\n{src}")).unwrap();
+    let (ok, text) = plan(
+        d,
+        "probe-columns",
+        &m,
+        "fanuc",
+        &["--postprocessor", p.to_str().unwrap()],
+    );
+    assert!(!ok, "{text}");
+    assert!(
+        text.contains("fanuc-limit.yaml:1:") && text.contains("SINUMERIK's protocol files"),
+        "{text}"
+    );
+}
+
+/// Issue 46 item 2: `verify --machine my-mill.yaml` answered "no records
+/// of machine `my-mill.yaml`": the store keys a machine by the name inside
+/// its file, and `verify` and `history` took only that name. They now take
+/// the file, as plan, simulate, analyze and compensate do.
+#[test]
+fn history_and_verify_take_the_machine_file_the_other_commands_take() {
+    let dir = tempdir();
+    let d = dir.path();
+    let m = machine_file(d, "my-mill", |t| t);
+    let db = d.join("h.db");
+    assert!(plan(d, "probe-columns", &m, "fanuc", &[]).0);
+    let manifest = d.join("probe-columns-fanuc/probe-columns.plan.yaml");
+    let truth = d.join("truth.yaml");
+    let t = fivecal()
+        .args(["simulate", "--truth-example", "--machine"])
+        .arg(&m)
+        .output()
+        .unwrap();
+    std::fs::write(&truth, &t.stdout).unwrap();
+    let log = d.join("pc.log");
+    fivecal()
+        .args(["simulate", "--plan"])
+        .arg(&manifest)
+        .arg("--errors")
+        .arg(&truth)
+        .arg("-o")
+        .arg(&log)
+        .assert()
+        .success();
+    fivecal()
+        .args(["analyze", "--plan"])
+        .arg(&manifest)
+        .arg("--measured")
+        .arg(&log)
+        .arg("-o")
+        .arg(d.join("res"))
+        .arg("--db")
+        .arg(&db)
+        .assert()
+        .success();
+    let list = fivecal()
+        .args(["history", "list", "--machine"])
+        .arg(&m)
+        .arg("--db")
+        .arg(&db)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&list.stdout);
+    assert!(list.status.success(), "{text}");
+    assert!(
+        text.contains("my-mill") && text.contains("probe-columns"),
+        "{text}"
+    );
+    // By name, the same records.
+    let by_name = fivecal()
+        .args(["history", "list", "--machine", "my-mill", "--db"])
+        .arg(&db)
+        .output()
+        .unwrap();
+    assert_eq!(String::from_utf8_lossy(&by_name.stdout), text);
+    // verify looks for the machine's records, not for a machine called
+    // `my-mill.yaml`.
+    let v = fivecal()
+        .args(["verify", "--machine"])
+        .arg(&m)
+        .arg("--db")
+        .arg(&db)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&v.stderr);
+    assert!(!v.status.success());
+    assert!(
+        err.contains("machine `my-mill`") && !err.contains("my-mill.yaml`"),
+        "{err}"
+    );
+    // The machine file is read: no output may land on it.
+    let onto = fivecal()
+        .args(["history", "export", "--machine"])
+        .arg(&m)
+        .arg("--db")
+        .arg(&db)
+        .arg("--out")
+        .arg(&m)
+        .output()
+        .unwrap();
+    assert!(!onto.status.success());
+    assert!(
+        std::fs::read_to_string(&m)
+            .unwrap()
+            .contains("name: my-mill")
+    );
+}
+
+/// Issue 46 item 7: `fivecal measured` refused a probe log although the
+/// README and `--help` say it shows what any measurement file holds.
+/// Without its plan it shows the log as the control wrote it.
+#[test]
+fn measured_shows_a_probe_log_as_the_control_wrote_it() {
+    let dir = tempdir();
+    let log = dir.path().join("columns.log");
+    std::fs::write(
+        &log,
+        "FIVECAL probe-columns\nT1 X10.5 Y0 Z5\nT2 X-10.25 Y1 Z5.0021\n",
+    )
+    .unwrap();
+    let out = fivecal().arg("measured").arg(&log).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("probe-log"), "{text}");
+    assert!(text.contains("T2") && text.contains("-10.25"), "{text}");
+    assert!(text.contains("ball centre"), "{text}");
+    assert!(text.contains("a log of the probe-columns test"), "{text}");
+}
+
+/// Issue 46 item 7: `machine show` accepted a pivot outside the machine's
+/// own X stroke; every later message then blamed something else.
+#[test]
+fn a_pivot_outside_the_x_stroke_is_refused_at_the_pivot() {
+    let dir = tempdir();
+    let m = machine_file(dir.path(), "far", |t| {
+        t.replace("pivot: [0.0, 0.0, -420.0]", "pivot: [400.0, 0.0, -420.0]")
+    });
+    let out = fivecal()
+        .args(["machine", "show"])
+        .arg(&m)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("far.yaml:")
+            && err.contains("pivot X 400 mm is outside the X stroke [-365, 365]"),
+        "{err}"
+    );
+}
+
+/// Issue 46 item 8: HEIDENHAIN comments may not hold `;`, and the header
+/// dropped it: "(Ibaraki, Iritani & Matsushita 2013 Cubas Brizuela & Yeh
+/// 2023)". A separator keeps its meaning as a comma.
+#[test]
+fn a_semicolon_a_comment_may_not_hold_becomes_a_comma() {
+    let dir = tempdir();
+    let d = dir.path();
+    let m = machine_file(d, "m", |t| {
+        t.replace(
+            "\ndescription: m (copied",
+            "\ndescription: m (Smith 2013; Jones 2023) (copied",
+        )
+    });
+    assert!(plan(d, "probe-columns", &m, "heidenhain", &[]).0);
+    let h = read(d, "probe-columns", "heidenhain", "h");
+    assert!(h.contains("(Smith 2013, Jones 2023)"), "{h}");
+}
