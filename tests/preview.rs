@@ -425,19 +425,33 @@ fn a_complete_design_suggests_nothing() {
             "all",
             "--out",
         ])
-        .arg(dir.path().join("refused"))
+        .arg(dir.path().join("both"))
         .output()
         .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8(out.stderr).unwrap();
     // Only a second run with another probe length separates them
-    // (`a_second_run_with_another_probe_frees_the_head_alias`).
+    // (`a_second_run_with_another_probe_frees_the_head_alias`): with
+    // `--require all` plan writes that second run too (issue 41 item 3),
+    // beside the first, each with its machine file.
+    let text = String::from_utf8(out.stdout).unwrap();
     assert!(
-        err.contains("changes that identify more")
-            && err.contains("a second run with a 168 mm probe")
-            && !err.contains("set poses."),
-        "{err}"
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
+    for d in ["both", "both-second"] {
+        assert!(
+            dir.path().join(d).join("probe-columns.plan.yaml").exists()
+                && dir
+                    .path()
+                    .join(d)
+                    .join("probe-columns.machine.yaml")
+                    .exists(),
+            "{d}: {text}"
+        );
+    }
+    let second =
+        std::fs::read_to_string(dir.path().join("both-second/probe-columns.machine.yaml")).unwrap();
+    assert!(second.contains("168"), "{second}");
 }
 
 /// Runs `fivecal` with `words` in `dir` and says what it printed.

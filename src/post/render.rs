@@ -215,7 +215,13 @@ impl PostDefinition {
         while s.contains("  ") {
             s = s.replace("  ", " ");
         }
-        s.trim().to_string()
+        // A stand-in comma after a dropped bracket or at a wrapped line's
+        // end reads as a stray mark: `KINEMATICS , NO TCP`, `110 MM,`.
+        while s.contains(" ,") {
+            s = s.replace(" ,", ",");
+        }
+        let t = s.trim();
+        t.strip_suffix(',').unwrap_or(t).trim_end().to_string()
     }
 
     fn words(&self, t: &Target, last: &mut [Option<String>; 3]) -> (String, [String; 3]) {
