@@ -142,7 +142,7 @@ impl NineSection {
             let k = poses.iter().position(|q| q.1 == pp.pose).unwrap_or(0);
             let d = n.dot(&(m.p - p)) * 1e3;
             let max = crate::limits::MAX_ERROR_UM;
-            if !(d.abs() <= max) {
+            if !d.is_finite() || d.abs() > max {
                 return Err(DeviationError::Implausible {
                     line: m.line,
                     label: m.label.clone(),
