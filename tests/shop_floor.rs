@@ -152,6 +152,28 @@ fn the_setup_sheet_names_the_zero_point_in_the_dialect_s_words() {
     }
 }
 
+/// The probe log `simulate` writes to `log` for the plan `manifest` on
+/// the machine file `m`, with the simulator's own truth example.
+fn simulated_log(m: &Path, manifest: &Path, log: &Path) -> PathBuf {
+    let truth = log.with_extension("truth.yaml");
+    let t = fivecal()
+        .args(["simulate", "--truth-example", "--machine"])
+        .arg(m)
+        .output()
+        .unwrap();
+    std::fs::write(&truth, &t.stdout).unwrap();
+    fivecal()
+        .args(["simulate", "--plan"])
+        .arg(manifest)
+        .arg("--errors")
+        .arg(&truth)
+        .arg("-o")
+        .arg(log)
+        .assert()
+        .success();
+    log.to_path_buf()
+}
+
 /// The kB of "the probe log FIVECAL_.. will hold about N kB".
 fn stated_kb(text: &str) -> f64 {
     let at = text.find("will hold about ").expect(text) + "will hold about ".len();
@@ -177,23 +199,11 @@ fn the_probe_log_s_size_is_stated_and_a_log_beyond_the_control_s_limit_refused()
     // The same words on the setup sheet, for the operator.
     assert!(read(d, "probe-sphere", "sinumerik", "md").contains(&format!("about {kb} kB")));
 
-    let truth = d.join("truth.yaml");
-    let t = fivecal()
-        .args(["simulate", "--truth-example", "--machine"])
-        .arg(&m)
-        .output()
-        .unwrap();
-    std::fs::write(&truth, &t.stdout).unwrap();
-    let log = d.join("sphere.log");
-    fivecal()
-        .args(["simulate", "--plan"])
-        .arg(d.join("probe-sphere-sinumerik/probe-sphere.plan.yaml"))
-        .arg("--errors")
-        .arg(&truth)
-        .arg("-o")
-        .arg(&log)
-        .assert()
-        .success();
+    let log = simulated_log(
+        &m,
+        &d.join("probe-sphere-sinumerik/probe-sphere.plan.yaml"),
+        &d.join("sphere.log"),
+    );
     let bytes = std::fs::metadata(&log).unwrap().len() as f64;
     // An upper bound (every value with four decimals), not a wild one.
     assert!(kb * 1024.0 >= bytes, "{kb} kB for {bytes} bytes");
@@ -279,23 +289,7 @@ fn history_and_verify_take_the_machine_file_the_other_commands_take() {
     let db = d.join("h.db");
     assert!(plan(d, "probe-columns", &m, "fanuc", &[]).0);
     let manifest = d.join("probe-columns-fanuc/probe-columns.plan.yaml");
-    let truth = d.join("truth.yaml");
-    let t = fivecal()
-        .args(["simulate", "--truth-example", "--machine"])
-        .arg(&m)
-        .output()
-        .unwrap();
-    std::fs::write(&truth, &t.stdout).unwrap();
-    let log = d.join("pc.log");
-    fivecal()
-        .args(["simulate", "--plan"])
-        .arg(&manifest)
-        .arg("--errors")
-        .arg(&truth)
-        .arg("-o")
-        .arg(&log)
-        .assert()
-        .success();
+    let log = simulated_log(&m, &manifest, &d.join("pc.log"));
     fivecal()
         .args(["analyze", "--plan"])
         .arg(&manifest)
