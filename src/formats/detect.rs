@@ -71,20 +71,32 @@ pub trait Reader: Sync {
         src: &str,
         ctx: &ReadContext<'_>,
     ) -> Result<Inventory, SourceError> {
-        Ok(match self.read(path, src, ctx)? {
-            Measurement::Points(set) => Inventory::of_points(&set),
-            Measurement::Heights(h) => {
-                let mut inv = Inventory::new(self.name());
-                inv.units = "um (heights)".into();
-                for s in h {
-                    let mut e = Entry::new(format!("section {}", s.section), "height", s.line);
-                    e.value = Some(s.height_um);
-                    inv.entries.push(e);
-                }
-                inv
-            }
-        })
+        inventory_by_reading(self, path, src, ctx)
     }
+}
+
+/// What a file holds as `reader` reads it: the default of
+/// [`Reader::inventory`], and what a reader with an inventory of its own
+/// falls back to.
+fn inventory_by_reading<R: Reader + ?Sized>(
+    reader: &R,
+    path: &Path,
+    src: &str,
+    ctx: &ReadContext<'_>,
+) -> Result<Inventory, SourceError> {
+    Ok(match reader.read(path, src, ctx)? {
+        Measurement::Points(set) => Inventory::of_points(&set),
+        Measurement::Heights(h) => {
+            let mut inv = Inventory::new(reader.name());
+            inv.units = "um (heights)".into();
+            for s in h {
+                let mut e = Entry::new(format!("section {}", s.section), "height", s.line);
+                e.value = Some(s.height_um);
+                inv.entries.push(e);
+            }
+            inv
+        }
+    })
 }
 
 /// The points of the run the options choose, from a file's inventory: a
@@ -256,21 +268,12 @@ impl Reader for ProbeLog {
         ctx: &ReadContext<'_>,
     ) -> Result<Inventory, SourceError> {
         if probe_context(path, ctx, "a probe log").is_ok() {
-            return Ok(match self.read(path, src, ctx)? {
-                Measurement::Points(set) => Inventory::of_points(&set),
-                Measurement::Heights(_) => unreachable!("a probe log holds points"),
-            });
+            return inventory_by_reading(self, path, src, ctx);
         }
         let mut first_error = None;
         let mut read = Vec::new();
         for d in Dialect::ALL {
-            let raw = match d {
-                Dialect::Fanuc => probe_log::fanuc::parse(path, src),
-                Dialect::Heidenhain => probe_log::heidenhain::parse(path, src),
-                Dialect::Linuxcnc => probe_log::linuxcnc::parse_log(path, src),
-                Dialect::Sinumerik => probe_log::sinumerik::parse(path, src),
-            };
-            match raw {
+            match probe_log::parse(d, path, src) {
                 Ok(r) if !r.records.is_empty() => read.push((d, r)),
                 Ok(_) => {}
                 Err(e) => {

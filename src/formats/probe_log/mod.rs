@@ -163,13 +163,18 @@ pub fn read(
     kin: &Kinematics,
     opts: &ReadOptions,
 ) -> Result<ProbeLog, SourceError> {
-    let raw = match dialect {
-        Dialect::Fanuc => fanuc::parse(path, src)?,
-        Dialect::Heidenhain => heidenhain::parse(path, src)?,
-        Dialect::Linuxcnc => linuxcnc::parse_log(path, src)?,
-        Dialect::Sinumerik => sinumerik::parse(path, src)?,
-    };
-    join(path, &raw, plan, kin, opts)
+    join(path, &parse(dialect, path, src)?, plan, kin, opts)
+}
+
+/// Parses a log of `dialect` (for LinuxCNC, the `LOG` file) as written,
+/// before it is joined with a plan.
+pub fn parse(dialect: Dialect, path: &Path, src: &str) -> Result<RawLog, SourceError> {
+    match dialect {
+        Dialect::Fanuc => fanuc::parse(path, src),
+        Dialect::Heidenhain => heidenhain::parse(path, src),
+        Dialect::Linuxcnc => linuxcnc::parse_log(path, src),
+        Dialect::Sinumerik => sinumerik::parse(path, src),
+    }
 }
 
 /// Joins parsed records with the plan and converts them to contact points.
