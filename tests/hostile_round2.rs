@@ -300,10 +300,36 @@ mod regression {
     }
 }
 
-/// Runs `cmd` and waits at most `limit`; a run still going then is killed
-/// and the test fails (a hang is the bug).
+/// The address space every hostile run is held to. A normal run of any
+/// command needs well under a tenth of it; the inputs of issue 47 (a glTF
+/// node tree that loops or shares nodes exponentially, limits read from
+/// `/dev/zero`) asked for 6 GB or more. Past the bound an allocation fails,
+/// the run aborts, and the test fails on its exit status.
+const MEMORY_BOUND_BYTES: u64 = 2 << 30;
+
+/// Runs `cmd` in bounded memory (`MEMORY_BOUND_BYTES` of address space, set
+/// in the child before it runs) and waits at most `limit`; a run still
+/// going then is killed and the test fails (a hang is the bug).
 fn within(mut cmd: std::process::Command, limit: std::time::Duration) -> std::process::Output {
+    use std::os::unix::process::CommandExt;
     use std::process::Stdio;
+    // glibc reserves 64 MB of address space per malloc arena, up to eight
+    // per core: on a many-core runner that alone would fill the bound.
+    cmd.env("MALLOC_ARENA_MAX", "2");
+    // SAFETY: the closure runs in the forked child before exec and only
+    // calls setrlimit, which is async-signal-safe.
+    unsafe {
+        cmd.pre_exec(|| {
+            let bound = libc::rlimit {
+                rlim_cur: MEMORY_BOUND_BYTES as libc::rlim_t,
+                rlim_max: MEMORY_BOUND_BYTES as libc::rlim_t,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &bound) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
     let start = std::time::Instant::now();
     let mut child = cmd
         .stdout(Stdio::piped())
@@ -324,6 +350,19 @@ fn within(mut cmd: std::process::Command, limit: std::time::Duration) -> std::pr
         }
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
+}
+
+/// The bound is in force in every run `within` starts: the shell's own
+/// `ulimit -v` (KiB) reads it back.
+#[test]
+fn hostile_runs_are_held_to_the_memory_bound() {
+    let mut sh = std::process::Command::new("sh");
+    sh.args(["-c", "ulimit -v"]);
+    let out = within(sh, std::time::Duration::from_secs(10));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        (MEMORY_BOUND_BYTES / 1024).to_string()
+    );
 }
 
 fn bin() -> std::process::Command {
