@@ -418,3 +418,97 @@ fn a_semicolon_a_comment_may_not_hold_becomes_a_comma() {
     let h = read(d, "probe-columns", "heidenhain", "h");
     assert!(h.contains("(Smith 2013, Jones 2023)"), "{h}");
 }
+
+/// The RMS and largest figure of one "tool tip from the path" line of
+/// `simulate nc --against`, um.
+fn against_figures(stdout: &str) -> (f64, f64) {
+    let line = stdout
+        .lines()
+        .find(|l| l.contains("tool tip from the path"))
+        .unwrap_or_else(|| panic!("no deviation line in {stdout}"));
+    let after = |key: &str| -> f64 {
+        let rest = &line[line.find(key).unwrap_or_else(|| panic!("{key} in {line}")) + key.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    (after("RMS "), after("max "))
+}
+
+/// Issue 46, item 5: the demo's "33.5 -> 0.1 um" is one command a user can
+/// run. `simulate nc --against` the original measures the program, run on
+/// the machine with the errors, against the path the original asks for on
+/// the nominal machine: on the compensated program it gives the demo's
+/// "compensated" figures, on the original itself its "as written" ones
+/// (to the demo's printed decimal). Without errors the original lies on its
+/// own path (0 um), and the sample CSV carries the deviation per sample.
+#[test]
+fn simulate_nc_against_the_original_gives_the_demo_s_before_and_after() {
+    let dir = tempdir();
+    let demo = dir.path().join("demo");
+    let out = fivecal().args(["demo", "-o"]).arg(&demo).output().unwrap();
+    assert!(out.status.success());
+    let summary = String::from_utf8_lossy(&out.stdout).to_string();
+    let line = summary
+        .lines()
+        .find(|l| l.starts_with("example program frustum.nc"))
+        .unwrap();
+    // "... 33.5 um RMS, 37.2 um max as written; 0.1 um RMS, 0.2 um max compensated"
+    let numbers: Vec<f64> = line
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    let (before, after) = ((numbers[0], numbers[1]), (numbers[2], numbers[3]));
+    assert!(summary.contains("fivecal simulate nc --machine bc-trunnion --errors"));
+    let run = |program: &str, errors: &Path, csv: Option<&Path>| {
+        let mut c = fivecal();
+        c.args(["simulate", "nc", "--machine", "bc-trunnion", "--errors"])
+            .arg(errors)
+            .arg(demo.join(program))
+            .arg("--against")
+            .arg(demo.join("frustum.nc"))
+            .args(["--step", "0.5"]);
+        if let Some(csv) = csv {
+            c.arg("-o").arg(csv);
+        }
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let truth = demo.join("truth.yaml");
+    let close = |got: (f64, f64), want: (f64, f64)| {
+        (got.0 - want.0).abs() <= 0.05 + 1e-9 && (got.1 - want.1).abs() <= 0.05 + 1e-9
+    };
+    let as_written = against_figures(&run("frustum.nc", &truth, None));
+    assert!(
+        close(as_written, before),
+        "{as_written:?} against {before:?}"
+    );
+    let csv = dir.path().join("after.csv");
+    let compensated = against_figures(&run("frustum.compensated.nc", &truth, Some(&csv)));
+    assert!(
+        close(compensated, after),
+        "{compensated:?} against {after:?}"
+    );
+    assert!(compensated.0 < as_written.0 / 10.0);
+    // The CSV's deviation column: its largest value is the largest printed.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let header = text.lines().find(|l| l.starts_with("line,")).unwrap();
+    assert!(header.ends_with(",deviation"), "{header}");
+    let largest = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("line,"))
+        .filter_map(|l| l.rsplit(',').next()?.parse::<f64>().ok())
+        .fold(0.0, f64::max);
+    assert!(
+        (largest - compensated.1).abs() < 0.01,
+        "{largest} against {compensated:?}"
+    );
+    // A machine without errors runs the original on its own path.
+    let zero = dir.path().join("zero.yaml");
+    std::fs::write(
+        &zero,
+        "machine: bc-trunnion\nlocation_errors:\n  EX0B: 0.0\n",
+    )
+    .unwrap();
+    let nominal = against_figures(&run("frustum.nc", &zero, None));
+    assert!(nominal.1 < 1e-3, "{nominal:?}");
+}

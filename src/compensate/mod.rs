@@ -26,6 +26,7 @@
 //! with the line named, and nothing is written. The rewrite streams: one
 //! block is in memory at a time.
 
+pub mod against;
 mod correction;
 mod edit;
 mod engine;

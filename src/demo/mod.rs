@@ -14,10 +14,9 @@ pub mod program;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use nalgebra::Vector3;
-
 use crate::analyze;
-use crate::compensate::simulate::{SimSettings, Simulator};
+use crate::compensate::against::{Follower, IntendedPath};
+use crate::compensate::simulate::{Sample, SimSettings, Simulator};
 use crate::compensate::{AtomicOutput, Compensator, Settings};
 use crate::discover::{self, DiscoverOptions, Discovery, GapSize};
 use crate::errorfile::{ErrorFile, LoadedErrors};
@@ -623,57 +622,44 @@ fn added(d: &Discovery, truth: &LoadedErrors) -> Vec<(String, Vec<FoundValue>)> 
         .collect()
 }
 
-/// The tool-tip path of `program` on the machine of `errors` with
-/// parameters `theta` (`actual`) or on the nominal machine: feed samples
-/// every half millimetre.
-fn tips(
+/// Runs `program` on the machine of `errors` with parameters `theta`,
+/// feed moves sampled every half millimetre, calling `sink` with each
+/// sample.
+fn run_program(
     errors: &LoadedErrors,
     theta: &[f64],
     program: &Path,
-    actual: bool,
-) -> Result<Vec<Vector3<f64>>, String> {
+    sink: &mut dyn FnMut(&Sample),
+) -> Result<(), String> {
     let mut s = SimSettings::new(Dialect::Fanuc);
     s.step = 0.5;
     let sim = Simulator::new(&errors.model, theta, s);
     let text =
         std::fs::read_to_string(program).map_err(|e| format!("{}: {e}", program.display()))?;
-    let mut v = Vec::new();
-    sim.run(program, text.as_bytes(), &mut |x| {
-        // The intended path includes where each feed move starts (the end
-        // of the move before it, a rapid, say).
-        if x.feed || (!actual && x.fraction == 1.0) {
-            v.push(if actual { x.actual.tip } else { x.nominal.tip });
-        }
-    })
-    .map_err(|e| e.to_string())?;
-    Ok(v)
+    sim.run(program, text.as_bytes(), &mut |x| sink(x))
+        .map_err(|e| e.to_string())?;
+    Ok(())
 }
 
-/// The distance of each point of `path` from the polyline `intended`.
-fn deviation(intended: &[Vector3<f64>], path: &[Vector3<f64>]) -> PathError {
-    let mut sum = 0.0;
-    let mut max: f64 = 0.0;
-    for p in path {
-        let mut best = f64::INFINITY;
-        for w in intended.windows(2) {
-            let d = w[1] - w[0];
-            let l2 = d.norm_squared();
-            let t = if l2 > 0.0 {
-                ((p - w[0]).dot(&d) / l2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            best = best.min((w[0] + d * t - p).norm());
-        }
-        let um = best * 1e3;
-        sum += um * um;
-        max = max.max(um);
-    }
-    PathError {
-        rms_um: (sum / path.len().max(1) as f64).sqrt(),
-        max_um: max,
-        samples: path.len(),
-    }
+/// How far `program`, run on the machine of the truth, puts the tool tip
+/// from `intended` (as `simulate nc PROGRAM --against ORIGINAL --step 0.5`
+/// reports it).
+fn deviation(
+    truth: &LoadedErrors,
+    intended: &IntendedPath,
+    program: &Path,
+) -> Result<PathError, String> {
+    let mut f = Follower::new(intended)
+        .ok_or_else(|| format!("{}: no path to follow", program.display()))?;
+    run_program(truth, &truth.theta, program, &mut |x| {
+        f.add(x);
+    })?;
+    let d = f.finish();
+    Ok(PathError {
+        rms_um: d.rms_um,
+        max_um: d.max_um.map_or(0.0, |m| m.value),
+        samples: d.samples,
+    })
 }
 
 /// How far the original and the compensated program put the tool tip from
@@ -684,10 +670,12 @@ fn tip_errors(
     compensated: &Path,
 ) -> Result<(PathError, PathError), String> {
     let zero = vec![0.0; truth.theta.len()];
-    let intended = tips(truth, &zero, original, false)?;
-    let before = tips(truth, &truth.theta, original, true)?;
-    let after = tips(truth, &truth.theta, compensated, true)?;
-    Ok((deviation(&intended, &before), deviation(&intended, &after)))
+    let mut intended = IntendedPath::new();
+    run_program(truth, &zero, original, &mut |x| intended.push(x))?;
+    Ok((
+        deviation(truth, &intended, original)?,
+        deviation(truth, &intended, compensated)?,
+    ))
 }
 
 impl Demo {
@@ -795,6 +783,13 @@ impl Demo {
             self.tip_after.rms_um,
             self.tip_after.max_um
         );
+        let _ = writeln!(
+            s,
+            "  the same figures by hand: fivecal simulate nc --machine {MACHINE} --errors {} {} --against {} --step 0.5 (and the program itself in place of the compensated one)",
+            self.out.join("truth.yaml").display(),
+            self.out.join("frustum.compensated.nc").display(),
+            self.out.join("frustum.nc").display()
+        );
         let zero = self
             .verify
             .changes
@@ -839,30 +834,5 @@ impl Demo {
             self.out.display()
         );
         s
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Distances from an L-shaped path, by hand: beside the first leg, past
-    /// the corner, and on the path.
-    #[test]
-    fn deviation_is_the_distance_to_the_nearest_segment() {
-        let l = [
-            Vector3::new(0.0, 0.0, 0.0),
-            Vector3::new(10.0, 0.0, 0.0),
-            Vector3::new(10.0, 10.0, 0.0),
-        ];
-        let pts = [
-            Vector3::new(5.0, 0.003, 0.0),
-            Vector3::new(10.004, 5.0, 0.0),
-            Vector3::new(10.0, 2.0, 0.0),
-        ];
-        let d = deviation(&l, &pts);
-        assert!((d.max_um - 4.0).abs() < 1e-9, "{d:?}");
-        assert!((d.rms_um - ((9.0 + 16.0) / 3.0f64).sqrt()).abs() < 1e-9);
-        assert_eq!(d.samples, 3);
     }
 }

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::bail;
 use clap::Args;
+use fivecal::compensate::against::{Deviation, Follower, IntendedPath};
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
 use fivecal::numbers::count;
@@ -43,6 +44,13 @@ pub struct SimulateNcArgs {
     /// Where the simulated CMM points go (canonical `label,x,y,z`).
     #[arg(long, value_name = "CMM.csv", requires = "cmm")]
     measured: Option<PathBuf>,
+    /// The program P.nc was made from (the original of a compensated
+    /// program): measure P.nc's tool tip, run on the machine with the
+    /// errors, against the path ORIGINAL.nc asks for on the nominal
+    /// machine, instead of against P.nc's own nominal path. Feed moves are
+    /// sampled every --step mm (0.5 mm when --step is not given).
+    #[arg(long, value_name = "ORIGINAL.nc")]
+    against: Option<PathBuf>,
     /// Largest distance of a CMM point from the tool path, mm.
     #[arg(long, value_name = "MM", default_value_t = 0.5)]
     max_distance: f64,
@@ -67,6 +75,9 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
     inputs.push(&args.errors);
     inputs.push(&args.program);
+    if let Some(a) = &args.against {
+        inputs.push(a);
+    }
     if let Some(c) = &args.cmm {
         inputs.push(c);
     }
@@ -86,33 +97,66 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
+    // Against an original, the path between end points is what is
+    // compared: feed moves are sampled along, never only at their ends.
+    let step = match (&args.against, args.step) {
+        (Some(_), 0.0) => AGAINST_STEP_MM,
+        (_, s) => s,
+    };
+    let settings_for = |dialect| {
+        let mut settings = SimSettings::new(dialect);
+        settings.strict = common.strict;
+        settings.origin = common.origin;
+        settings.coordinates = common.coordinates;
+        settings.fanuc_integer_unit = common.integer_unit;
+        settings.rotary_start = common.rotary_start.clone();
+        settings.step = step;
+        settings
+    };
+    let intended = match &args.against {
+        Some(original) => Some(intended_path(
+            &common,
+            &errors.model,
+            original,
+            &settings_for,
+        )?),
+        None => None,
+    };
+    let mut follower = match &intended {
+        Some((path, _)) => Some(Follower::new(path).ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: its moves make no path to measure against (fewer than two points)",
+                args.against.as_ref().unwrap().display()
+            )
+        })?),
+        None => None,
+    };
     let (detection, file) = common.open_program(&args.program)?;
-    let mut settings = SimSettings::new(detection.dialect);
-    settings.strict = common.strict;
-    settings.origin = common.origin;
-    settings.coordinates = common.coordinates;
-    settings.fanuc_integer_unit = common.integer_unit;
-    settings.rotary_start = common.rotary_start.clone();
-    settings.step = args.step;
-    let sim = Simulator::new(&errors.model, &errors.theta, settings);
+    let sim = Simulator::new(
+        &errors.model,
+        &errors.theta,
+        settings_for(detection.dialect),
+    );
     // Samples are kept only when a CSV or the CMM points need them.
     let keep = args.output.is_some() || cmm_points.is_some();
-    let mut samples: Vec<Sample> = Vec::new();
+    let mut samples: Vec<(Sample, Option<f64>)> = Vec::new();
     let mut too_many = false;
     let summary = sim.run(&args.program, file, &mut |s| {
+        let deviation = follower.as_mut().and_then(|f| f.add(s));
         if keep && !too_many {
             too_many = samples.len() >= fivecal::limits::MAX_SAMPLES;
             if !too_many {
-                samples.push(*s);
+                samples.push((*s, deviation));
             }
         }
     })?;
+    let against: Option<Deviation> = follower.map(Follower::finish);
     if too_many {
         bail!(
             "{}: more than {} samples to keep at --step {} mm: choose a larger --step",
             args.program.display(),
             fivecal::limits::MAX_SAMPLES,
-            args.step
+            step
         );
     }
     if summary.samples == 0 {
@@ -137,8 +181,17 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
             t,
             "# nominal tip x,y,z (mm) and axis i,j,k in W; error = actual - nominal (um, urad)"
         );
-        t.push_str("line,fraction,x,y,z,i,j,k,ex,ey,ez,error,axis_error\n");
-        for s in &samples {
+        t.push_str("line,fraction,x,y,z,i,j,k,ex,ey,ez,error,axis_error");
+        if let Some(a) = &args.against {
+            let _ = write!(
+                t,
+                ",deviation\n# deviation: um of the actual tip from the path {} asks for (feed moves only)\n",
+                a.display()
+            );
+        } else {
+            t.push('\n');
+        }
+        for (s, deviation) in &samples {
             let (n, e) = (&s.nominal, s.error() * 1e3);
             let _ = writeln!(
                 t,
@@ -157,12 +210,22 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
                 e.norm(),
                 s.axis_error() * 1e6
             );
+            if args.against.is_some() {
+                t.pop();
+                match deviation {
+                    Some(d) => {
+                        let _ = writeln!(t, ",{d:.4}");
+                    }
+                    None => t.push_str(",\n"),
+                }
+            }
         }
         fivecal::io::write_atomic(out, t.as_bytes())?;
     }
     if let (Some(points), Some(out)) = (&cmm_points, &args.measured) {
         let pts: Vec<(String, nalgebra::Vector3<f64>)> =
             points.iter().map(|p| (p.label.clone(), p.p)).collect();
+        let samples: Vec<Sample> = samples.iter().map(|(s, _)| *s).collect();
         let got = measure_surface(&samples, &pts, args.max_distance).map_err(anyhow::Error::msg)?;
         let mp: Vec<MeasuredPoint> = got
             .into_iter()
@@ -209,6 +272,32 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
             summary.max_axis_urad
         );
     }
+    if let (Some(d), Some(original), Some((_, skipped))) = (&against, &args.against, &intended) {
+        match d.max_um {
+            Some(m) => outln!(
+                "  tool tip from the path {} asks for on the nominal machine: mean {:.2} um, RMS {:.2} um, max {:.2} um (line {}); tool axis up to {:.1} urad; {} every {} mm",
+                original.display(),
+                d.mean_um,
+                d.rms_um,
+                m.value,
+                m.line,
+                d.max_axis_urad,
+                count(d.samples, "feed sample", "feed samples"),
+                step
+            ),
+            None => outln!(
+                "  no feed move to measure against the path {} asks for",
+                original.display()
+            ),
+        }
+        for (reason, lines) in skipped {
+            outln!(
+                "  not simulated in {}: {reason}: lines {}",
+                original.display(),
+                lines.list()
+            );
+        }
+    }
     for (reason, lines) in &summary.skipped {
         outln!("  not simulated: {reason}: lines {}", lines.list());
     }
@@ -233,4 +322,38 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The step along feed moves, mm, of a run `--against` an original when no
+/// `--step` is given (the demo's).
+const AGAINST_STEP_MM: f64 = 0.5;
+
+/// The path `original` asks for: run on the nominal machine (the model of
+/// the errors with every parameter zero), with the reasons of the moves
+/// that could not be run.
+fn intended_path(
+    common: &super::compensate::Common,
+    model: &fivecal::model::Model,
+    original: &Path,
+    settings_for: &dyn Fn(fivecal::machine::Dialect) -> SimSettings,
+) -> anyhow::Result<(IntendedPath, Vec<(String, fivecal::compensate::Lines)>)> {
+    let (detection, file) = common.open_program(original)?;
+    let zero = vec![0.0; model.n_params()];
+    let sim = Simulator::new(model, &zero, settings_for(detection.dialect));
+    let mut path = IntendedPath::new();
+    let mut too_many = false;
+    let summary = sim.run(original, file, &mut |s| {
+        too_many |= path.len() >= fivecal::limits::MAX_SAMPLES;
+        if !too_many {
+            path.push(s);
+        }
+    })?;
+    if too_many {
+        bail!(
+            "{}: more than {} samples along its path: choose a larger --step",
+            original.display(),
+            fivecal::limits::MAX_SAMPLES
+        );
+    }
+    Ok((path, summary.skipped))
 }
