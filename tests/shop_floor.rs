@@ -512,3 +512,84 @@ fn simulate_nc_against_the_original_gives_the_demo_s_before_and_after() {
     let nominal = against_figures(&run("frustum.nc", &zero, None));
     assert!(nominal.1 < 1e-3, "{nominal:?}");
 }
+
+/// Issue 46, item 7: `--method sphere` on a probe-columns plan is refused
+/// for what it is (a column's touches lie on faces, not on a sphere),
+/// naming the methods that work, before any fit; it used to stop in the
+/// sphere fit with "four or more probed points ... (4 given)".
+#[test]
+fn the_sphere_method_on_a_column_plan_names_the_methods_that_work() {
+    let dir = tempdir();
+    let d = dir.path();
+    fivecal()
+        .current_dir(d)
+        .args([
+            "plan",
+            "probe-columns",
+            "--machine",
+            "bc-trunnion",
+            "-o",
+            "pc",
+        ])
+        .assert()
+        .success();
+    let truth = fivecal()
+        .args(["simulate", "--truth-example"])
+        .output()
+        .unwrap();
+    std::fs::write(d.join("t.yaml"), &truth.stdout).unwrap();
+    fivecal()
+        .current_dir(d)
+        .args([
+            "simulate",
+            "--plan",
+            "pc/probe-columns.plan.yaml",
+            "--errors",
+            "t.yaml",
+        ])
+        .args(["-o", "pc.log"])
+        .assert()
+        .success();
+    let out = fivecal()
+        .current_dir(d)
+        .args([
+            "analyze",
+            "--plan",
+            "pc/probe-columns.plan.yaml",
+            "--measured",
+            "pc.log",
+        ])
+        .args(["--method", "sphere", "--no-record", "-o", "r.yaml"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("needs a probe-sphere plan"), "{err}");
+    assert!(err.contains("global") && err.contains("two-stage"), "{err}");
+    assert!(!err.contains("given"), "{err}");
+    assert!(!d.join("r.yaml").exists());
+}
+
+/// Issue 46, item 7: a Z stroke shrunk to [-200, 0] leaves the safe height
+/// above the spindle's highest position. The refusal says that no tool
+/// fits and that the Z stroke is too short for the piece, not that a 60 mm
+/// tool is longer than a clearance of -20.981 mm.
+#[test]
+fn a_z_stroke_too_short_for_the_piece_is_named_without_a_negative_clearance() {
+    let dir = tempdir();
+    let m = machine_file(dir.path(), "short-z", |t| {
+        t.replace("  Z: [-510, 0]", "  Z: [-200, 0]")
+    });
+    let out = fivecal()
+        .args(["plan", "stepped-square", "--machine"])
+        .arg(&m)
+        .arg("-o")
+        .arg(dir.path().join("ss"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("no tool fits"), "{err}");
+    assert!(err.contains("the Z stroke [-200, 0] is too short"), "{err}");
+    assert!(!err.contains("clearance of -"), "{err}");
+}

@@ -33,6 +33,11 @@ pub enum MethodError {
     /// The sphere method on a machining test.
     #[error("--method sphere needs a probing plan (a calibration sphere); {0} is a machining test")]
     SphereNeedsProbing(Test),
+    /// The sphere method on another probing test.
+    #[error(
+        "--method sphere fits a sphere's centre at each pose and needs a probe-sphere plan; {0} probes planar faces: use the global (default) or two-stage method"
+    )]
+    SphereNeedsSpherePlan(Test),
     /// The two-stage method on the sphere test.
     #[error(
         "--method two-stage fits planar faces at each station; the sphere test's touches lie on a sphere: use the sphere or global method"
@@ -54,6 +59,12 @@ pub fn check(
 ) -> Result<(), MethodError> {
     if method == Method::Sphere && kind != TestKind::Probing {
         return Err(MethodError::SphereNeedsProbing(test));
+    }
+    if method == Method::Sphere && test != Test::ProbeSphere {
+        // A column's touches at one pose lie on its faces, not on a
+        // sphere: a sphere fitted to them says nothing, and the fit's own
+        // refusal ("four or more points ... 4 given") would blame the data.
+        return Err(MethodError::SphereNeedsSpherePlan(test));
     }
     if method == Method::TwoStage && test == Test::ProbeSphere {
         // Its first stage fits each station's touches as points on planar

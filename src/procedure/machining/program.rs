@@ -206,19 +206,34 @@ pub(crate) fn assemble(cfg: &PlanConfig, d: MachiningDesign) -> Result<Machining
 }
 
 /// Refuses a tool longer than the room between the safe height and the
-/// spindle's highest position.
+/// spindle's highest position. Where the safe height is above that
+/// position there is no room at all, whatever the tool: the message says
+/// so instead of quoting a negative clearance.
 fn check_room(m: &Machine, length: f64, safe_z: f64, safe_why: &str) -> Result<(), PlanError> {
     let z_top = m.strokes[2].1 - m.pivot.z;
     let room = z_top - safe_z;
+    let mm = |v: f64| short((v * 1000.0).round() / 1000.0);
+    let top = format!(
+        "the spindle's highest position (gauge point at Z{} in program coordinates, machine Z {}) on {}",
+        mm(z_top),
+        short(m.strokes[2].1),
+        m.name
+    );
+    if room <= 0.0 {
+        return Err(PlanError::Impossible(format!(
+            "the safe height Z{} ({safe_why}) is {} mm above {top}: no tool fits between them; the Z stroke [{}, {}] is too short for this piece on this table (a longer Z stroke or a smaller piece)",
+            mm(safe_z),
+            mm(-room),
+            short(m.strokes[2].0),
+            short(m.strokes[2].1),
+        )));
+    }
     if length > room {
         return Err(PlanError::Impossible(format!(
-            "tool length {} mm is longer than the clearance of {} mm between the safe height Z{} ({safe_why}) and the spindle's highest position (gauge point at Z{} in program coordinates, machine Z {}) on {}",
+            "tool length {} mm is longer than the clearance of {} mm between the safe height Z{} ({safe_why}) and {top} (a shorter tool or a longer Z stroke)",
             short(length),
-            short((room * 1000.0).round() / 1000.0),
-            short((safe_z * 1000.0).round() / 1000.0),
-            short((z_top * 1000.0).round() / 1000.0),
-            short(m.strokes[2].1),
-            m.name
+            mm(room),
+            mm(safe_z),
         )));
     }
     Ok(())
