@@ -2640,6 +2640,101 @@ fn drifting_sphere_is_judged_on_every_touch_not_on_the_centres_left() {
     }
 }
 
+/// The tool's own demo data did not converge: `plan probe-columns`,
+/// `simulate --truth-example`, `analyze` said NOT CONVERGED on bc-trunnion
+/// and head-head. Each column turned about the point between its top and
+/// side touches moves no touch to first order; the exact model sees those
+/// nine turns at 1e-7 of the other directions, above the rounding floor,
+/// so they were counted as identifiable (condition number 2e7) and the
+/// fit slid along them for 96 steps, past its limit of 50. Now the rank
+/// stops at that gap: on all four built-in machines the fit of the full
+/// truth example converges (its verdict is a misfit: the example has
+/// maps, drift and scale the default model lacks), and the fit of the
+/// example's location errors alone fits, every printed value within 3 u
+/// of the truth.
+#[test]
+fn probe_columns_on_the_truth_example_converges_on_every_built_in_machine() {
+    use fivecal::errorfile::FitVerdict;
+    let dir = crate::util::tempdir();
+    let d = dir.path();
+    for machine in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
+        let pc = format!("pc-{machine}");
+        fivecal_ok(
+            d,
+            &["plan", "probe-columns", "--machine", machine, "--out", &pc],
+        );
+        let example = fivecal_ok(d, &["simulate", "--truth-example", "--machine", machine]);
+        let full: serde_yaml::Value = serde_yaml::from_str(&example).unwrap();
+        let mut located = serde_yaml::Mapping::new();
+        located.insert("machine".into(), machine.into());
+        located.insert("location_errors".into(), full["location_errors"].clone());
+        std::fs::write(d.join("full.yaml"), &example).unwrap();
+        std::fs::write(
+            d.join("located.yaml"),
+            serde_yaml::to_string(&located).unwrap(),
+        )
+        .unwrap();
+        let plan = format!("{pc}/probe-columns.plan.yaml");
+        for truth in ["full", "located"] {
+            let log = format!("{truth}-{machine}.log");
+            let result = format!("{truth}-{machine}.yaml");
+            let truth_file = format!("{truth}.yaml");
+            fivecal_ok(
+                d,
+                &[
+                    "simulate",
+                    "--plan",
+                    &plan,
+                    "--errors",
+                    &truth_file,
+                    "-o",
+                    &log,
+                ],
+            );
+            let printed = fivecal_ok(
+                d,
+                &[
+                    "analyze",
+                    "--plan",
+                    &plan,
+                    "--measured",
+                    &log,
+                    "--out",
+                    &result,
+                ],
+            );
+            let what = format!("{machine}, {truth} truth:\n{printed}");
+            assert!(!printed.contains("NOT CONVERGED"), "{what}");
+            assert!(!printed.contains("without converging"), "{what}");
+            let text = std::fs::read_to_string(d.join(&result)).unwrap();
+            let r: ErrorFile = serde_yaml::from_str(&text).unwrap();
+            let fit = r.fit.as_ref().expect("a verdict");
+            if truth == "full" {
+                assert_eq!(fit.verdict, FitVerdict::Misfit, "{what}");
+                continue;
+            }
+            assert_eq!(fit.verdict, FitVerdict::Fits, "{what}");
+            // Three location errors at least on every machine (head-head
+            // sees six of its ten).
+            let reported: Vec<_> = r
+                .location_errors
+                .iter()
+                .filter(|(_, q)| q.u.is_some())
+                .collect();
+            assert!(reported.len() >= 3, "{what}");
+            for (name, q) in reported {
+                let t = full["location_errors"][name.as_str()].as_f64().unwrap();
+                let u = q.u.unwrap();
+                assert!(
+                    (q.value - t).abs() < 3.0 * u,
+                    "{name} = {} u {u} against {t}: {what}",
+                    q.value
+                );
+            }
+        }
+    }
+}
+
 /// Issue 41, a fit that stopped is called a fit: on head-table, a
 /// probe-columns analysis printed "the fit stopped after 50 steps without
 /// converging", then `fit: fits`, the result file kept no trace of it, and

@@ -294,6 +294,12 @@ pub fn combination(coef: &[f64], names: &[String]) -> String {
 /// its pivot scaled to 1; near-zero rows dropped.
 fn rref(mut m: DMatrix<f64>) -> Vec<DVector<f64>> {
     let (rows, cols) = m.shape();
+    // Pivots and entries below this are round-off of the directions given:
+    // a direction the design sees a million times more weakly than the
+    // rest comes with a part of the seen ones of about that size (1e-6),
+    // which as a pivot would mix every unseen combination with every
+    // other.
+    let tol = 1e-5 * m.amax();
     let mut r = 0;
     for c in 0..cols {
         if r == rows {
@@ -302,7 +308,7 @@ fn rref(mut m: DMatrix<f64>) -> Vec<DVector<f64>> {
         let (piv, val) = (r..rows)
             .map(|i| (i, m[(i, c)].abs()))
             .fold((r, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-        if val < 1e-9 {
+        if val < tol.max(1e-9) {
             continue;
         }
         m.swap_rows(r, piv);
@@ -323,7 +329,13 @@ fn rref(mut m: DMatrix<f64>) -> Vec<DVector<f64>> {
         }
         r += 1;
     }
-    (0..r).map(|i| m.row(i).transpose()).collect()
+    (0..r)
+        .map(|i| {
+            m.row(i)
+                .transpose()
+                .map(|v| if v.abs() < tol { 0.0 } else { v })
+        })
+        .collect()
 }
 
 /// Builds the report from the design's analysis.
