@@ -335,11 +335,16 @@ fn nine_section_statistics_reproduce_seed_004_table_4() {
         close(a.avg_um, -0.1111) && close(a.max_um, 3.0) && close(a.rms_um, 1.7321),
         "{a:?}"
     );
-    let r = a.improvement_over(&b);
+    let r = a.improvement_over(&b).map(Option::unwrap);
     assert!(
         (r[0] - 98.88).abs() < 0.005 && (r[1] - 80.0).abs() < 1e-9 && (r[2] - 84.21).abs() < 0.005,
         "{r:?}"
     );
+    // A piece that was flat before has no rate of improvement, rather
+    // than an infinite one.
+    let flat = "section,height_um\n1,0\n2,0\n3,0\n4,0\n5,0\n6,0\n7,0\n8,0\n9,0\n";
+    let f = NineSection::new(&heights::parse(Path::new("f.csv"), flat).unwrap());
+    assert_eq!(a.improvement_over(&f), [None, None, None]);
 }
 
 /// A plan directory as `fivecal plan` writes it: the machine file copy,
@@ -977,9 +982,10 @@ fn nine_section_heights_from_the_cmm_output_of_a_planned_piece() {
         .stdout(predicates::str::contains("AVG"));
     let v: serde_yaml::Value =
         serde_yaml::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
-    let sections = &v["nine_section"][0][1]["sections"];
+    let sections = &v["pieces"][0]["sections"];
     for (i, h) in want.iter().enumerate() {
-        let got = sections[i][1].as_f64().unwrap();
+        assert_eq!(sections[i]["section"].as_u64(), Some(i as u64 + 1));
+        let got = sections[i]["height_um"].as_f64().unwrap();
         // The DMIS file keeps six decimals of a mm: 0.5 nm per coordinate.
         assert!((got - h).abs() < 0.01, "section {}: {got} vs {h}", i + 1);
     }

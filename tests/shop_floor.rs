@@ -593,3 +593,85 @@ fn a_z_stroke_too_short_for_the_piece_is_named_without_a_negative_clearance() {
     assert!(err.contains("the Z stroke [-200, 0] is too short"), "{err}");
     assert!(!err.contains("clearance of -"), "{err}");
 }
+
+/// Issue 46, item 6: a nine-section analysis with `--report` writes its
+/// report (it wrote none, silently), and its result file is flat: its test
+/// and machine by name, each piece's sections as `section`/`height_um`
+/// rows, no nested lists.
+#[test]
+fn a_nine_section_analysis_writes_its_report_and_a_flat_result_file() {
+    let dir = tempdir();
+    let d = dir.path();
+    fivecal()
+        .current_dir(d)
+        .args([
+            "plan",
+            "nine-section",
+            "--machine",
+            "bc-trunnion",
+            "-o",
+            "ns",
+        ])
+        .assert()
+        .success();
+    let truth = fivecal()
+        .args(["simulate", "--truth-example"])
+        .output()
+        .unwrap();
+    std::fs::write(d.join("t.yaml"), &truth.stdout).unwrap();
+    fivecal()
+        .current_dir(d)
+        .args([
+            "simulate",
+            "--plan",
+            "ns/nine-section.plan.yaml",
+            "--errors",
+            "t.yaml",
+        ])
+        .args(["-o", "ns.csv"])
+        .assert()
+        .success();
+    let out = fivecal()
+        .current_dir(d)
+        .args([
+            "analyze",
+            "--plan",
+            "ns/nine-section.plan.yaml",
+            "--measured",
+            "ns.csv",
+        ])
+        .args([
+            "--measured",
+            "ns.csv",
+            "--no-record",
+            "-o",
+            "r.yaml",
+            "--report",
+            "rep",
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("report: "), "{stdout}");
+    let html = std::fs::read_to_string(d.join("rep/index.html")).unwrap();
+    assert!(html.contains("Nine-section test on bc-trunnion"), "{html}");
+    assert!(d.join("rep/heights-1.svg").is_file());
+    let r: serde_yaml::Value =
+        serde_yaml::from_str(&std::fs::read_to_string(d.join("r.yaml")).unwrap()).unwrap();
+    assert_eq!(r["test"].as_str(), Some("nine-section"));
+    assert_eq!(r["machine"].as_str(), Some("bc-trunnion"));
+    let pieces = r["pieces"].as_sequence().unwrap();
+    assert_eq!(pieces.len(), 2);
+    assert_eq!(pieces[0]["measured"].as_str(), Some("ns.csv"));
+    let sections = pieces[0]["sections"].as_sequence().unwrap();
+    assert_eq!(sections.len(), 9);
+    assert_eq!(sections[0]["section"].as_u64(), Some(1));
+    assert!(sections[8]["height_um"].as_f64().unwrap().is_finite());
+    // The same piece twice: no improvement, 0 % (not a division by zero).
+    assert_eq!(r["improvement_percent"]["rms"].as_f64(), Some(0.0));
+}

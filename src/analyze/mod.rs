@@ -236,11 +236,14 @@ pub struct Identified {
 /// The nine-section test's evaluation: section heights, no location error.
 #[derive(Clone, Debug)]
 pub struct NineSectionOutcome {
+    /// The machine's name.
+    pub machine: String,
     /// The statistics of each piece, by file.
     pub stats: Vec<(PathBuf, NineSection)>,
     /// From the first piece to the last, when there are several: the rate
-    /// of improvement of AVG, MAX and RMS, %.
-    pub improvement: Option<[f64; 3]>,
+    /// of improvement of AVG, MAX and RMS, % (`None` for a statistic that
+    /// was zero on the first piece).
+    pub improvement: Option<[Option<f64>; 3]>,
     /// Every location symbol, with why the test cannot identify it.
     pub not_identifiable: Vec<NotIdentified>,
 }
@@ -552,6 +555,7 @@ fn nine_section_outcome(
         })
         .collect();
     NineSectionOutcome {
+        machine: ctx.kin.machine().name.clone(),
         stats,
         improvement,
         not_identifiable,

@@ -51,21 +51,71 @@ fn serialize<T: Serialize>(v: &T, json: bool) -> Result<String, AnalyzeError> {
     text.map_err(|e| AnalyzeError::Plan(format!("cannot write the result: {e}")))
 }
 
-/// The nine-section result file: each piece's statistics, and the symbols
-/// the test cannot identify.
+/// The nine-section result file, flat as every result file: its test and
+/// machine, each piece's section heights and statistics by name, the rate
+/// of improvement from the first piece to the last, and the symbols the
+/// test cannot identify.
 #[derive(Serialize)]
 struct NineSectionEntry<'a> {
-    nine_section: Vec<(String, &'a NineSection)>,
+    test: &'static str,
+    machine: &'a str,
+    pieces: Vec<NineSectionPiece>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    improvement_percent: Option<Improvement>,
     not_identifiable: &'a [NotIdentified],
+}
+
+/// One piece of a nine-section result.
+#[derive(Serialize)]
+struct NineSectionPiece {
+    measured: String,
+    sections: Vec<SectionRow>,
+    avg_um: f64,
+    max_um: f64,
+    rms_um: f64,
+}
+
+/// One section's height.
+#[derive(Serialize)]
+struct SectionRow {
+    section: u32,
+    height_um: f64,
+}
+
+/// The rates of improvement, %; a statistic that was zero on the first
+/// piece has none and is left out.
+#[derive(Serialize)]
+struct Improvement {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    avg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    max: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rms: Option<f64>,
 }
 
 fn nine_section_entry(n: &NineSectionOutcome) -> NineSectionEntry<'_> {
     NineSectionEntry {
-        nine_section: n
+        test: crate::formats::manifest::Test::NineSection.as_str(),
+        machine: &n.machine,
+        pieces: n
             .stats
             .iter()
-            .map(|(p, s)| (p.display().to_string(), s))
+            .map(|(p, s): &(_, NineSection)| NineSectionPiece {
+                measured: p.display().to_string(),
+                sections: s
+                    .sections
+                    .iter()
+                    .map(|&(section, height_um)| SectionRow { section, height_um })
+                    .collect(),
+                avg_um: s.avg_um,
+                max_um: s.max_um,
+                rms_um: s.rms_um,
+            })
             .collect(),
+        improvement_percent: n
+            .improvement
+            .map(|[avg, max, rms]| Improvement { avg, max, rms }),
         not_identifiable: &n.not_identifiable,
     }
 }

@@ -231,8 +231,10 @@ impl NineSection {
 
     /// The rate of improvement of each statistic from `before` to `self`,
     /// percent (Cubas Brizuela & Yeh 2023, table 4: `(|before| - |after|) / |before|`).
-    pub fn improvement_over(&self, before: &NineSection) -> [f64; 3] {
-        let rate = |b: f64, a: f64| (b.abs() - a.abs()) / b.abs() * 100.0;
+    /// A statistic that was zero before has no rate (`None`): the quotient
+    /// would be infinite or not a number.
+    pub fn improvement_over(&self, before: &NineSection) -> [Option<f64>; 3] {
+        let rate = |b: f64, a: f64| (b != 0.0).then(|| (b.abs() - a.abs()) / b.abs() * 100.0);
         [
             rate(before.avg_um, self.avg_um),
             rate(before.max_um, self.max_um),

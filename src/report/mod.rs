@@ -5,6 +5,7 @@
 //! coloured. Every file is written atomically.
 
 pub mod glb;
+pub mod nine_section;
 pub mod plots;
 
 use std::fmt::Write as _;

@@ -381,11 +381,13 @@ fn nine_section(c: &Config, outcome: &Outcome, n: &NineSectionOutcome) -> anyhow
         outln!("{}:\n{}", p.display(), s.render());
     }
     if let Some(r) = n.improvement {
+        let rate =
+            |r: Option<f64>| r.map_or("- (zero on the first)".into(), |r| format!("{r:.2} %"));
         outln!(
-            "rate of improvement from the first to the last: AVG {:.2} %, MAX {:.2} %, RMS {:.2} %",
-            r[0],
-            r[1],
-            r[2]
+            "rate of improvement from the first to the last: AVG {}, MAX {}, RMS {}",
+            rate(r[0]),
+            rate(r[1]),
+            rate(r[2])
         );
     }
     if let Some(first) = n.not_identifiable.first() {
@@ -401,5 +403,13 @@ fn nine_section(c: &Config, outcome: &Outcome, n: &NineSectionOutcome) -> anyhow
     }
     analyze::result::write(outcome, &c.out, c.json)?;
     outln!("wrote {}", c.out.display());
+    if let Some(dir) = &c.report {
+        let files = report::nine_section::write(dir, n)?;
+        outln!(
+            "report: {} ({} files)",
+            dir.join("index.html").display(),
+            files.len()
+        );
+    }
     Ok(())
 }
