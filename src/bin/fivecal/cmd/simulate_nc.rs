@@ -7,11 +7,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::bail;
 use clap::Args;
+use fivecal::compensate::reasons;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
 use fivecal::numbers::count;
 
-use super::compensate::{MachineArgs, load_errors, reasons};
+use crate::config::nc::{MachineArgs, load_errors};
 
 #[derive(Args, Debug)]
 pub struct SimulateNcArgs {
@@ -190,7 +191,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         args.errors.display()
     );
     outln!("  read as {detection}");
-    if let Some(n) = super::compensate::rotary_start_note(&common.rotary_start) {
+    if let Some(n) = fivecal::compensate::rotary_start_note(&common.rotary_start) {
         outln!("  {n}");
     }
     outln!(
