@@ -16,6 +16,11 @@ pub fn run(cli: AnalyzeCli) -> anyhow::Result<()> {
         Some(AnalyzeMode::Contour(a)) => super::contour::run(a),
         None => {
             let c = validate(*cli.args)?;
+            if c.json_stdout {
+                // Standard output is the JSON's: what the run says goes
+                // to standard error.
+                crate::out::to_stderr();
+            }
             let mut recorder = c.record.open()?;
             let outcome = analyze::run(&c.request)?;
             for w in &outcome.warnings {
@@ -26,6 +31,14 @@ pub fn run(cli: AnalyzeCli) -> anyhow::Result<()> {
                 Found::NineSection(n) => nine_section(&c, &outcome, n)?,
             }
             let written = analyze::result::files(&outcome, &c.out, c.json)?;
+            if c.json_stdout {
+                // The result file's content, in JSON whatever the file's
+                // format (with --series, the table; the pieces are files).
+                let files = analyze::result::files(&outcome, &c.out, true)?;
+                if let Some((_, text)) = files.iter().find(|(p, _)| *p == c.out) {
+                    crate::out::json(text)?;
+                }
+            }
             let records = runs::analysis(
                 &outcome,
                 &c.request.manifest,

@@ -51,7 +51,10 @@ pub struct AnalyzeArgs {
     /// with --series the series table.
     #[arg(short, long, value_name = "RESULT.yaml", required = true)]
     out: Option<PathBuf>,
-    /// Write the result as JSON instead of YAML.
+    /// Print the result as JSON on standard output (what the result file
+    /// holds; with --series, the series table), and the rest on standard
+    /// error. The result file's format follows its name: JSON for
+    /// RESULT.json, else YAML.
     #[arg(long)]
     json: bool,
     /// Also write an HTML report with SVG plots and a .glb of the piece.
@@ -136,8 +139,11 @@ pub struct Config {
     pub request: Request,
     /// The result file.
     pub out: PathBuf,
-    /// Whether the result file is JSON.
+    /// Whether the result file is JSON (its name ends in `.json`, or the
+    /// `--json` of earlier releases asks for it).
     pub json: bool,
+    /// `--json`: the result as JSON on standard output.
+    pub json_stdout: bool,
     /// Where the HTML report goes.
     pub report: Option<PathBuf>,
     /// The acceptance limits the result is checked against.
@@ -208,6 +214,21 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     let mut outputs = vec![("--out", out.as_path(), Shape::File)];
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
     check_outputs(&inputs, &outputs)?;
+    // `-o -` puts the result itself on standard output: in JSON with --json.
+    let to_stdout = out.as_os_str() == "-";
+    let named_json = out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if a.json && !named_json && !to_stdout {
+        // Earlier releases' --json chose the file's format; kept one
+        // release more, said once.
+        eprintln!(
+            "note: `--json` now prints the result on standard output, as in every command, and the result file's format follows its name (-o {}.json); {} is written as JSON as before until the next release",
+            out.with_extension("").display(),
+            out.display()
+        );
+    }
+    let json_file = a.json || named_json;
     if a.series && a.measured.len() < 2 {
         bail!("--series needs two or more measured files, one per piece");
     }
@@ -224,7 +245,8 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             ..Request::new(&manifest, a.measured)
         },
         out,
-        json: a.json,
+        json: json_file,
+        json_stdout: a.json && !to_stdout,
         report: a.report,
         limits,
         record,

@@ -34,7 +34,7 @@ pub enum CoordsArg {
 #[derive(Args, Debug)]
 pub struct MachineArgs {
     /// Machine file or built-in name (bc-trunnion, ac-trunnion, head-table, head-head).
-    #[arg(long, value_name = "M.yaml")]
+    #[arg(long, value_name = "M.yaml|NAME")]
     pub machine: String,
     /// Controller dialect of the program [default: what its text shows
     /// (BEGIN PGM, O-numbers, o-words, G43.4, %_N_.._MPF, TRAORI...), then

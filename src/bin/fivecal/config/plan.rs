@@ -35,7 +35,7 @@ pub struct PlanArgs {
     /// Machine file, or a built-in machine (bc-trunnion, ac-trunnion,
     /// head-table, head-head). Required: a plan is for one machine [with
     /// --supplement: the machine of the first test's plan].
-    #[arg(long)]
+    #[arg(long, value_name = "M.yaml|NAME")]
     machine: Option<String>,
     /// Write the supplementary test a `discover` result asks for (its
     /// `ambiguity.supplement`): the probing run whose poses separate the
