@@ -125,10 +125,12 @@ fn completions_know_every_subcommand() {
     fivecal().args(["completions", "tcsh"]).assert().failure();
 }
 
-/// Completions offer the test names after `plan` and the built-in
-/// machines after `--machine`, while the commands still take a file.
+/// Completions offer the test names after `plan`, and files where a file
+/// is meant: after every `--machine` (a file or a built-in name; clap's
+/// completions offer names or files, not both, and a user's own machine is
+/// a file), a postprocessor, a tool, the machine of `machine show`.
 #[test]
-fn completions_offer_test_and_machine_names() {
+fn completions_offer_test_names_and_machine_files() {
     let text = |shell: &str| {
         String::from_utf8(
             fivecal()
@@ -142,22 +144,31 @@ fn completions_offer_test_and_machine_names() {
         .unwrap()
     };
     let fish = text("fish");
-    let plan_machine = fish
-        .lines()
-        .find(|l| l.contains("using_subcommand plan") && l.contains("-l machine"))
-        .unwrap_or_else(|| panic!("{fish}"));
-    let after: String = fish[fish.find(plan_machine).unwrap()..]
-        .lines()
-        .take(5)
-        .collect();
-    for m in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
-        assert!(after.contains(m), "{after}");
+    let machine_lines: Vec<&str> = fish.lines().filter(|l| l.contains("-l machine ")).collect();
+    // plan, simulate, simulate nc, compensate, verify, history and its
+    // subcommands.
+    assert!(machine_lines.len() >= 6, "{fish}");
+    for l in &machine_lines {
+        // `-F`: fish completes files; no list of names (`-a`) takes their
+        // place.
+        assert!(l.ends_with(" -r -F"), "{l}");
     }
+    let plan_postprocessor = fish
+        .lines()
+        .find(|l| l.contains("using_subcommand plan") && l.contains("-l postprocessor"))
+        .unwrap_or_else(|| panic!("{fish}"));
+    assert!(plan_postprocessor.contains(" -F"), "{plan_postprocessor}");
     let zsh = text("zsh");
     assert!(
         zsh.contains("(stepped-square nine-section probe-columns probe-sphere)"),
         "{zsh}"
     );
+    assert!(
+        zsh.contains("--machine=[") && zsh.contains(":_files"),
+        "{zsh}"
+    );
+    let bash = text("bash");
+    assert!(bash.contains("compgen -f"), "{bash}");
     // The parser itself is unchanged: a machine file is a path.
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("m.yaml");
@@ -239,45 +250,226 @@ fn man_page() -> String {
     String::from_utf8(out).unwrap()
 }
 
-/// One vocabulary on every command: each command that writes a file or a
-/// directory names it `-o/--out`; no command spells it `--output`; the NC
-/// program is an argument, never `--program`; `--dialect` offers the four
-/// dialects wherever it is taken.
+/// What one command's `--help` shows of the one vocabulary.
+struct Speaks {
+    /// The subcommand path.
+    path: &'static [&'static str],
+    /// It writes a file or a directory, named `-o, --out`.
+    out: bool,
+    /// It takes a machine, `--machine <M.yaml|NAME>` (a file or a built-in
+    /// name, resolved the same way everywhere).
+    machine: bool,
+    /// It prints a result that `--json` puts on standard output as JSON.
+    json: bool,
+    /// It takes a dialect, `--dialect` with the four values.
+    dialect: bool,
+}
+
+const fn speaks(
+    path: &'static [&'static str],
+    out: bool,
+    machine: bool,
+    json: bool,
+    dialect: bool,
+) -> Speaks {
+    Speaks {
+        path,
+        out,
+        machine,
+        json,
+        dialect,
+    }
+}
+
+/// Every subcommand, with what its options are about.
+const VOCABULARY: &[Speaks] = &[
+    speaks(&["plan"], true, true, false, true),
+    speaks(&["simulate"], true, true, false, false),
+    speaks(&["simulate", "nc"], true, true, false, true),
+    speaks(&["analyze"], true, false, true, false),
+    speaks(&["analyze", "contour"], true, false, false, false),
+    speaks(&["compensate"], true, true, false, true),
+    speaks(&["discover"], true, false, true, false),
+    speaks(&["history"], false, true, false, false),
+    speaks(&["history", "list"], false, true, false, false),
+    speaks(&["history", "show"], false, true, false, false),
+    speaks(&["history", "export"], true, true, true, false),
+    speaks(&["history", "trend"], false, true, false, false),
+    speaks(&["history", "plot"], true, true, false, false),
+    speaks(&["verify"], true, true, false, false),
+    speaks(&["demo"], true, false, false, false),
+    speaks(&["measured"], false, false, true, false),
+    speaks(&["machine"], false, false, false, false),
+    speaks(&["machine", "list"], false, false, false, false),
+    speaks(&["machine", "show"], false, false, false, false),
+    speaks(&["machine", "new"], true, false, false, false),
+    speaks(&["completions"], false, false, false, false),
+    speaks(&["man"], false, false, false, false),
+];
+
+/// A command's `--help`, its lines joined and its runs of blanks made one,
+/// so that a list of values wrapped over two lines reads as one.
+fn help_of(path: &[&str]) -> String {
+    let out = fivecal().args(path).arg("--help").assert().success();
+    let text = String::from_utf8_lossy(&out.get_output().stdout).into_owned();
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+/// One vocabulary on every command, read from each subcommand's `--help`:
+/// every output is `-o/--out` (never `--output`), the NC program an
+/// argument (never `--program`), every machine `--machine <M.yaml|NAME>`,
+/// `--json` the one switch for machine-readable output (no `--format`
+/// offers JSON), and `--dialect` the same four values wherever it is taken.
 #[test]
 fn every_command_speaks_one_vocabulary() {
-    let writes_output = [
-        &["plan"][..],
-        &["simulate"],
-        &["simulate", "nc"],
-        &["analyze"],
-        &["analyze", "contour"],
-        &["compensate"],
-        &["discover"],
-        &["verify"],
-        &["history", "export"],
-        &["history", "plot"],
-        &["demo"],
-        &["machine", "new"],
-    ];
-    for path in writes_output {
-        let help = fivecal().args(path).arg("--help").output().unwrap();
-        let help = String::from_utf8_lossy(&help.stdout);
-        assert!(
+    for s in VOCABULARY {
+        let help = help_of(s.path);
+        let path = s.path;
+        assert_eq!(
             help.contains("-o, --out"),
-            "{path:?} does not name its output -o/--out:\n{help}"
+            s.out,
+            "{path:?}: -o/--out expected {}:\n{help}",
+            s.out
         );
         assert!(!help.contains("--output"), "{path:?} still says --output");
         assert!(!help.contains("--program"), "{path:?} takes --program");
-        if help.contains("--dialect") {
+        assert_eq!(
+            help.contains("--machine"),
+            s.machine,
+            "{path:?}: --machine expected {}",
+            s.machine
+        );
+        if s.machine {
             assert!(
-                help.contains("fanuc")
-                    && help.contains("heidenhain")
-                    && help.contains("linuxcnc")
-                    && help.contains("sinumerik"),
-                "{path:?}: --dialect without its four values"
+                help.contains("--machine <M.yaml|NAME>"),
+                "{path:?}: --machine names its value otherwise:\n{help}"
+            );
+        }
+        assert_eq!(
+            help.contains("--json"),
+            s.json,
+            "{path:?}: --json expected {}",
+            s.json
+        );
+        assert!(
+            !(help.contains("--format") && help.contains("json")),
+            "{path:?}: a --format offers JSON:\n{help}"
+        );
+        assert_eq!(
+            help.contains("--dialect"),
+            s.dialect,
+            "{path:?}: --dialect expected {}",
+            s.dialect
+        );
+        if s.dialect {
+            assert!(
+                help.contains("[possible values: fanuc, heidenhain, linuxcnc, sinumerik]"),
+                "{path:?}: --dialect without its four values:\n{help}"
             );
         }
     }
+}
+
+/// The table above names every subcommand `fivecal --help` and each
+/// command's own `--help` list, so a new command cannot skip the check.
+#[test]
+fn the_vocabulary_table_names_every_subcommand() {
+    fn commands(help: &str) -> Vec<String> {
+        let Some(i) = help.find("Commands:") else {
+            return Vec::new();
+        };
+        help[i..]
+            .lines()
+            .skip(1)
+            .take_while(|l| l.starts_with("  "))
+            // A description wrapped onto the next line is indented further.
+            .filter(|l| !l.starts_with("   "))
+            .filter_map(|l| l.split_whitespace().next())
+            .filter(|c| *c != "help")
+            .map(str::to_string)
+            .collect()
+    }
+    let raw = |path: &[&str]| {
+        let out = fivecal().args(path).arg("--help").assert().success();
+        String::from_utf8_lossy(&out.get_output().stdout).into_owned()
+    };
+    let mut seen = Vec::new();
+    for top in commands(&raw(&[])) {
+        seen.push(vec![top.clone()]);
+        for sub in commands(&raw(&[top.as_str()])) {
+            seen.push(vec![top.clone(), sub]);
+        }
+    }
+    assert!(seen.len() > 15, "{seen:?}");
+    for path in &seen {
+        assert!(
+            VOCABULARY.iter().any(|s| s.path == path.as_slice()),
+            "{path:?} is not in the vocabulary table"
+        );
+    }
+}
+
+/// Where `--json` is the switch, standard output is JSON and nothing else:
+/// what the run says for its user goes to standard error.
+#[test]
+fn json_on_standard_output_is_json_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/analyze/stepped-square");
+    let out = dir.path().join("result.yaml");
+    let run = fivecal()
+        .args(["analyze", "--no-record", "--json", "--plan"])
+        .arg(d.join("stepped-square.plan.yaml"))
+        .arg("--measured")
+        .arg(d.join("piece1.dmo"))
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success()
+        .get_output()
+        .clone();
+    let printed: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert!(printed["location_errors"].is_object(), "{printed}");
+    // The old meaning kept one release: the file is JSON too, with a note.
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(file, printed);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        err.contains("the result file's format follows its name"),
+        "{err}"
+    );
+    assert!(err.contains("wrote "), "{err}");
+}
+
+/// `history export --format json`, the spelling of the last release, is
+/// `--json` now; it still works, with a note.
+#[test]
+fn history_export_format_json_still_works_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    // The demo records its analyses in a store of its own.
+    fivecal()
+        .args(["demo", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success();
+    let db = dir.path().join("history.db");
+    let new = fivecal()
+        .args(["history", "export", "--json", "--db"])
+        .arg(&db)
+        .output()
+        .unwrap();
+    let old = fivecal()
+        .args(["history", "export", "--format", "json", "--db"])
+        .arg(&db)
+        .output()
+        .unwrap();
+    assert!(new.status.success() && old.status.success());
+    let records: serde_json::Value = serde_json::from_slice(&new.stdout).unwrap();
+    assert!(!records.as_array().unwrap().is_empty(), "{records}");
+    assert_eq!(old.stdout, new.stdout);
+    let err = String::from_utf8_lossy(&old.stderr);
+    assert!(err.contains("`--format json` is now `--json`"), "{err}");
 }
 
 /// The spellings of the last release still work, once more, with a note

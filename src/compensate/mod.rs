@@ -32,6 +32,7 @@ mod edit;
 mod engine;
 mod expand;
 pub mod export;
+pub mod report;
 pub mod simulate;
 mod solver;
 pub mod tolerance;
@@ -44,6 +45,7 @@ use nalgebra::Vector3;
 
 pub use crate::io::AtomicOutput;
 pub use engine::Compensator;
+pub use report::{Rewrite, reasons, rotary_start_note};
 pub use solver::{Solution, Solver};
 
 pub use crate::nc::interp::Coordinates;

@@ -9,7 +9,7 @@
 //! commands a user runs by hand (`plan`, `simulate`, `analyze`, `discover`,
 //! `compensate`, `simulate nc`), so the demo is also their end-to-end test.
 
-pub mod program;
+pub(crate) mod program;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -33,7 +33,7 @@ const SAFE_Z: f64 = 120.0;
 
 /// Why the program cannot be written for a machine.
 #[derive(Debug, thiserror::Error)]
-pub enum ProgramError {
+pub(crate) enum ProgramError {
     /// The machine is not a tilting-table machine.
     #[error("the example program is written for table-table machines, not {0}")]
     Structure(String),

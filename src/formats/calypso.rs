@@ -42,7 +42,7 @@ use crate::source::SourceError;
 
 /// Which of the three tables a file is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CalypsoTable {
+pub(crate) enum CalypsoTable {
     /// `_chr.txt`: characteristics.
     Characteristics,
     /// `_fet.txt`: features.
@@ -405,7 +405,11 @@ fn ignored(r: &Reader<'_>, used: &[Option<usize>], inv: &mut Inventory) {
 pub(crate) const HEADER_HOLDS_NO_MEASUREMENT: &str = "a CALYPSO run header (_hdr) holds no measurement: the features and their positions are in the run's _fet table, the characteristics in its _chr table";
 
 /// Reads a CALYPSO table (any of the three) into an inventory.
-pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Inventory, SourceError> {
+pub(crate) fn parse(
+    path: &Path,
+    src: &str,
+    options: &MeasuredOptions,
+) -> Result<Inventory, SourceError> {
     let Some(h) = header(src) else {
         return Err(SourceError::new(
             path,

@@ -59,7 +59,11 @@ pub(crate) fn looks_like_cloud(src: &str) -> bool {
 }
 
 /// Reads a point cloud into an inventory (lengths in mm).
-pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Inventory, SourceError> {
+pub(crate) fn parse(
+    path: &Path,
+    src: &str,
+    options: &MeasuredOptions,
+) -> Result<Inventory, SourceError> {
     let mut inv = Inventory::new("plain");
     let mm = options.unstated_unit_mm(&mut inv);
     // (fields per line, line that set it)

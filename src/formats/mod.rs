@@ -2,8 +2,8 @@
 //! reader turns its format into the canonical meaning of docs/formats.md
 //! and reports bad input as `file:line:column: what was expected`.
 
-pub mod calypso;
-pub mod cloud;
+pub(crate) mod calypso;
+pub(crate) mod cloud;
 pub mod detect;
 pub mod dmis;
 pub mod dmis_program;
@@ -14,9 +14,9 @@ pub mod manifest;
 pub mod measured;
 pub mod points;
 pub mod probe_log;
-pub mod qif;
+pub(crate) mod qif;
 pub mod qif_write;
-pub mod table;
+pub(crate) mod table;
 
 /// How far from 1 the length of a written direction may be: writers round
 /// unit vectors to 4 decimals (a length off by up to about 1e-4), some to

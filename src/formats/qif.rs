@@ -380,7 +380,11 @@ fn is_characteristic(n: &Node<'_, '_>) -> bool {
 }
 
 /// Reads a QIF document into an inventory (lengths in mm).
-pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Inventory, SourceError> {
+pub(crate) fn parse(
+    path: &Path,
+    src: &str,
+    options: &MeasuredOptions,
+) -> Result<Inventory, SourceError> {
     let doc = document(path, src)?;
     let ctx = Ctx { path, doc: &doc };
     let root = doc.root_element();

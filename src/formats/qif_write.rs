@@ -8,7 +8,7 @@
 //! `PointFeatureItem` named by the plan point's label. The ids are fixed by
 //! the point's position in the plan (nominal `2k+2`, item `2k+3`), so a
 //! results file made for the plan refers to the plan's items by the same
-//! ids and names; [`super::qif`] joins its measurements through them. The
+//! ids and names; the QIF reader (`formats::qif`) joins its measurements through them. The
 //! plan orders the measurements by pose (one `MeasureSpecifiedFeatures`
 //! step per cut or station, in execution order); the results hold one
 //! `MeasurementResults` with a `PointFeatureMeasurement` per measured

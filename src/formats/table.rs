@@ -183,7 +183,11 @@ fn number(s: &str, sep: Option<u8>) -> Result<f64, String> {
 }
 
 /// Reads a table with a header into an inventory.
-pub fn parse(path: &Path, src: &str, options: &MeasuredOptions) -> Result<Inventory, SourceError> {
+pub(crate) fn parse(
+    path: &Path,
+    src: &str,
+    options: &MeasuredOptions,
+) -> Result<Inventory, SourceError> {
     let Some((hi, header)) = header_line(src) else {
         return Err(SourceError::new(
             path,

@@ -6,7 +6,7 @@
 //! location symbols plus the requested maps, the maps tied by the papers'
 //! averaging constraints) and one result ([`Identification`]):
 //!
-//! - [`two_stage`]: the papers' own; a 6-DOF pose per cut or station (seed
+//! - `two_stage`: the papers' own; a 6-DOF pose per cut or station (seed
 //!   001 eq. 7-9, Ibaraki, Iritani & Matsushita 2013, eq. 7-10), then the parameters from the poses
 //!   relative to the reference pose (Ibaraki & Ota 2014, eq. 10, Ibaraki, Iritani & Matsushita 2013, eq. 13-17);
 //! - [`global`]: one nonlinear least-squares fit of every point to the exact
@@ -25,10 +25,10 @@ pub mod identifiability;
 pub mod lsq;
 pub mod nine_section;
 pub mod result;
-pub mod rigid;
+pub(crate) mod rigid;
 pub mod sphere;
 pub mod synthetic;
-pub mod two_stage;
+pub(crate) mod two_stage;
 
 use std::fmt;
 use std::str::FromStr;

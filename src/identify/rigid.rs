@@ -83,7 +83,7 @@ fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 /// `q` with normal `n` after the face is moved by `D(rho)` (`rho` in um and
 /// urad): `r = (R n) . (u - t - R q) * 1e3`, with `d r / d rho` (per um and
 /// urad), `d r / d q` and `d r / d n` (per mm and per unit).
-pub struct FaceResidual {
+pub(crate) struct FaceResidual {
     /// The residual, um.
     pub r: f64,
     /// Derivative with respect to the six motion numbers.

@@ -55,7 +55,7 @@ pub(crate) const REFERENCE_NAMES: [&str; 6] = [
 
 /// How stage 1 frames the nominal points (see the module documentation).
 #[derive(Clone, Debug)]
-pub enum NominalFrame {
+pub(crate) enum NominalFrame {
     /// A machined piece in W, placed on the CMM by this placement.
     Piece(Option<Isometry3<f64>>),
     /// Probing against the nominal points `rTw* p`.
@@ -410,7 +410,7 @@ fn weight_rows(info: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 /// Runs both stages.
-pub fn identify(
+pub(crate) fn identify(
     setup: &Setup,
     data: &Dataset,
     opts: &lsq::Options,

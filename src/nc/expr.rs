@@ -22,13 +22,13 @@ use nom::combinator::{opt, recognize};
 use nom::{IResult, Parser};
 
 use super::lexeme;
-pub use crate::limits::MAX_EXPR_DEPTH;
+pub(crate) use crate::limits::MAX_EXPR_DEPTH;
 
 type Res<'a> = IResult<&'a [u8], &'a [u8]>;
 
 /// An expression nested deeper than [`MAX_EXPR_DEPTH`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct TooDeep {
+pub(crate) struct TooDeep {
     /// Byte offset, in the text handed to the parser, of the bracket or
     /// `#` that opens the level too many.
     pub offset: usize,

@@ -27,7 +27,7 @@ pub struct NumStyle {
 
 /// A lexed number: its value and style.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lexeme {
+pub(crate) struct Lexeme {
     /// The value.
     pub value: f64,
     /// The style.
@@ -100,7 +100,7 @@ pub(crate) fn lex_len(s: &[u8]) -> usize {
 
 /// Lexes and reads the number at the start of `s` in one pass: the lexeme
 /// and its length, or `None` (the same acceptance as `lex_len`).
-pub fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
+pub(crate) fn scan(s: &[u8]) -> Option<(Lexeme, usize)> {
     scan_with(s, b'.')
 }
 
@@ -170,7 +170,7 @@ pub(crate) fn scan_with(s: &[u8], sep: u8) -> Option<(Lexeme, usize)> {
 }
 
 /// Reads a numeric lexeme that `lex_len` accepted in full.
-pub fn read(s: &[u8]) -> Lexeme {
+pub(crate) fn read(s: &[u8]) -> Lexeme {
     let mut style = NumStyle::default();
     let mut i = 0;
     let mut neg = false;
@@ -225,7 +225,7 @@ pub fn read(s: &[u8]) -> Lexeme {
 
 /// Dialect rules for writing a rewritten value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct WriteRules {
+pub(crate) struct WriteRules {
     /// Always write a decimal point (FANUC: an integer may be read in
     /// least-input increments).
     pub force_point: bool,
@@ -235,7 +235,13 @@ pub struct WriteRules {
 
 /// Writes `value` rounded to `decimals` digits in the style of `like`,
 /// appending to `out`. Trailing zeros are kept only when `like` had them.
-pub fn write(out: &mut Vec<u8>, value: f64, decimals: u8, like: &NumStyle, rules: WriteRules) {
+pub(crate) fn write(
+    out: &mut Vec<u8>,
+    value: f64,
+    decimals: u8,
+    like: &NumStyle,
+    rules: WriteRules,
+) {
     let d = decimals.min(15) as usize;
     let x = value.abs() * POW10[d];
     if x.is_nan() || x >= 4.0e15 {

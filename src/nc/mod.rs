@@ -10,21 +10,21 @@
 //! block, words with their value lexeme, macro and o-word statements,
 //! expressions. Printing an unchanged block writes its tokens back, so the
 //! text is reproduced byte for byte; a rewrite replaces only the value
-//! lexemes it changes (see [`lexeme`] for how they keep their style).
+//! lexemes it changes (see `lexeme` for how they keep their style).
 //!
-//! One file per dialect does the tokenizing ([`lex`]); [`interp`] is the
+//! One file per dialect does the tokenizing (`lex`); [`interp`] is the
 //! one interpreter `compensate` and `simulate nc` share: what the
 //! controller has in force at each block (units, G90/G91, motion mode,
 //! feed mode, work offset, tool length compensation, TCP, tilted working
 //! plane, datum shifts) and where each move goes.
 
 pub mod dialect;
-pub mod exec;
-pub mod expr;
+pub(crate) mod exec;
+pub(crate) mod expr;
 mod g_codes;
 pub mod interp;
-pub mod lex;
-pub mod lexeme;
+pub(crate) mod lex;
+pub(crate) mod lexeme;
 mod reader;
 
 use std::fmt;

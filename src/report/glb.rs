@@ -34,7 +34,7 @@ pub(crate) fn diverging(t: f64) -> [f32; 3] {
 }
 
 /// Builds the `.glb` bytes. `magnification` multiplies the deviations.
-pub fn glb(points: &[ShownPoint], magnification: f64) -> Vec<u8> {
+pub(crate) fn glb(points: &[ShownPoint], magnification: f64) -> Vec<u8> {
     let max_dev = points
         .iter()
         .fold(0.0f64, |a, p| a.max(p.deviation_um.abs()))

@@ -4,7 +4,7 @@
 //! `.glb` of the measured points with the deviations magnified and
 //! coloured. Every file is written atomically.
 
-pub mod glb;
+pub(crate) mod glb;
 pub mod nine_section;
 pub mod plots;
 

@@ -8,6 +8,7 @@
 #[macro_use]
 mod out;
 mod cmd;
+mod config;
 
 use std::process::ExitCode;
 
@@ -28,13 +29,13 @@ pub struct Cli {
 enum Command {
     /// Write a test as an NC program for a controller, with its nominal
     /// points, a CMM program, a 3-D model of the piece and a setup sheet.
-    Plan(cmd::plan::PlanArgs),
+    Plan(config::plan::PlanArgs),
     /// Run a plan on a virtual machine with known errors and write what a
     /// CMM or the probe would have measured.
     Simulate(cmd::simulate::SimulateCli),
     /// Identify location errors and error maps, with their uncertainty, from
     /// CMM and probe files.
-    Analyze(cmd::analyze::AnalyzeCli),
+    Analyze(config::analyze::AnalyzeCli),
     /// Rewrite NC programs so the identified errors cancel, or export them
     /// as controller parameters.
     ///
@@ -51,10 +52,10 @@ enum Command {
     /// beyond --max-change, a u beyond --max-u and a value that drives an
     /// axis beyond its stroke, naming the parameter; its last line says how
     /// many parameters change, or that none does (exit 0).
-    Compensate(cmd::compensate::CompensateArgs),
+    Compensate(config::compensate::CompensateArgs),
     /// Find where simulation and measurement disagree, name the missing
     /// effect, add it to the model and show the gap shrink.
-    Discover(cmd::discover::DiscoverArgs),
+    Discover(config::discover::DiscoverArgs),
     /// What the results store keeps of a machine: list, show, export, the
     /// trend of each error toward its limit, and a plot over time.
     History(cmd::history::HistoryCli),

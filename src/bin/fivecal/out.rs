@@ -1,6 +1,6 @@
 //! What a run prints for its user. Every command prints through [`out!`] and
 //! [`outln!`]: to standard output, or to standard error when standard output
-//! carries one of the run's outputs (`-o -`). A reader that goes away
+//! carries one of the run's outputs (`-o -`) or its `--json` output. A reader that goes away
 //! (`fivecal analyze ... | head`) ends the printing quietly and the run goes
 //! on to write its files (`fivecal::io::Stdout`); `main` then exits with
 //! 141, the status of a process ended by SIGPIPE, as `yes | head` reports.
@@ -8,14 +8,36 @@
 use std::fmt;
 use std::io::Write as _;
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The first failure to write standard output other than a closed pipe (a
 /// full disk): reported when the run ends.
 static FAILED: Mutex<Option<String>> = Mutex::new(None);
 
+/// Whether standard output carries a command's `--json` output, so that
+/// what it says for its user goes to standard error.
+static JSON_ON_STDOUT: AtomicBool = AtomicBool::new(false);
+
+/// From now on, [`print`] writes to standard error: standard output is
+/// kept for the JSON that [`json`] writes.
+pub fn to_stderr() {
+    JSON_ON_STDOUT.store(true, Ordering::Relaxed);
+}
+
+/// Writes a command's `--json` output to standard output, ending with a
+/// newline.
+pub fn json(text: &str) -> std::io::Result<()> {
+    let mut out = fivecal::io::stdout();
+    out.write_all(text.as_bytes())?;
+    if !text.ends_with('\n') {
+        out.write_all(b"\n")?;
+    }
+    out.flush()
+}
+
 /// Prints formatted text (see the module documentation).
 pub fn print(args: fmt::Arguments<'_>) {
-    if fivecal::io::stdout_claimed() {
+    if fivecal::io::stdout_claimed() || JSON_ON_STDOUT.load(Ordering::Relaxed) {
         eprint!("{args}");
         return;
     }

@@ -404,6 +404,68 @@ impl Export {
             .collect()
     }
 
+    /// The lines that close an export of the error file `errors`: that a
+    /// preview (`entered` false) is not recorded, which parameters have no
+    /// u, and the last, which says how many parameters change from what
+    /// (or that none does), together with `copy`, why a program rewritten
+    /// in the same run is a copy of its input, if it is.
+    pub fn closing_notes(
+        &self,
+        errors: &std::path::Path,
+        entered: bool,
+        copy: Option<String>,
+    ) -> Vec<String> {
+        let d = self.dialect;
+        let mut notes = Vec::new();
+        if !entered {
+            notes.push(
+                "not recorded: a preview changes no control; once these values are entered, give the same command with --entered to record the change in the history".to_string(),
+            );
+        }
+        let without = self.without_u();
+        if !without.is_empty() {
+            notes.push(format!(
+                "note: {} gives no u for what {} depend on: --max-u not checked for them (an analyze result has u; a truth file has none)",
+                errors.display(),
+                without.join(", ")
+            ));
+        }
+        let from = if self.from_current {
+            "what the control holds now (the machine file's controller_parameters)"
+        } else {
+            "the machine file's nominal geometry"
+        };
+        let listed = self.listed_changed();
+        let listed = if listed.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; listed for the machine builder, not entered: {}",
+                listed.join(", ")
+            )
+        };
+        let parameters = if self.changes_nothing() {
+            format!("every {d} parameter to enter equals {from} to the resolution written{listed}")
+        } else {
+            format!(
+                "{} of {} {d} parameters to enter change from {from}: {}{listed}",
+                self.changed().len(),
+                self.parameters.iter().filter(|p| p.entered).count(),
+                self.changed().join(", ")
+            )
+        };
+        match (copy, self.changes_nothing()) {
+            (Some(c), true) => notes.push(format!("nothing changed: {c}, and {parameters}")),
+            (Some(c), false) => {
+                notes.push(parameters);
+                notes.push(format!("program unchanged: {c}"));
+            }
+            (None, true) => notes.push(format!("nothing to change: {parameters}")),
+            (None, false) => notes.push(parameters),
+        }
+        notes
+    }
+
     /// The parameters without an uncertainty (the error file gives no `u`
     /// for a symbol they depend on).
     pub fn without_u(&self) -> Vec<&str> {

@@ -17,7 +17,7 @@ use crate::machine::Dialect;
 /// A parameter: numbered (`#12`, `Q3`, `R7`) or named (`#<x>`, `QL2`,
 /// a SINUMERIK `DEF` name), names in lower case.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
-pub enum Key {
+pub(crate) enum Key {
     /// A numbered parameter.
     Num(i64),
     /// A named one.
@@ -35,7 +35,7 @@ impl std::fmt::Display for Key {
 
 /// Why an expression has no value here.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Stop {
+pub(crate) enum Stop {
     /// Its value is not known from the program (with why).
     Unknown(String),
     /// The controller would raise an alarm (with why).
@@ -52,14 +52,14 @@ impl std::fmt::Display for Stop {
 }
 
 /// Where parameter values come from.
-pub trait Params {
+pub(crate) trait Params {
     /// The value of a parameter, or why it has none.
     fn get(&self, key: &Key) -> Result<f64, Stop>;
 }
 
 /// No parameter has a value: for reading a parameter reference whose
 /// index is a plain number (an assignment's target, a loop variable).
-pub struct NoParams;
+pub(crate) struct NoParams;
 
 impl Params for NoParams {
     fn get(&self, _: &Key) -> Result<f64, Stop> {
@@ -68,7 +68,7 @@ impl Params for NoParams {
 }
 
 /// Evaluates `text` (a whole expression) in `dialect`.
-pub fn eval(dialect: Dialect, text: &[u8], params: &dyn Params) -> Result<f64, Stop> {
+pub(crate) fn eval(dialect: Dialect, text: &[u8], params: &dyn Params) -> Result<f64, Stop> {
     let mut p = Parser {
         s: text,
         i: 0,

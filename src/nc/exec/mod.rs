@@ -16,14 +16,14 @@
 //! [`MAX_CALL_DEPTH`] nested calls): a loop that does not end is an error
 //! at its line, never a hang.
 
-pub mod eval;
+pub(crate) mod eval;
 mod heidenhain;
 mod iso;
 mod sinumerik;
 
 use std::collections::HashMap;
 
-pub use crate::limits::{MAX_CALL_DEPTH, MAX_EXEC_STATEMENTS};
+pub(crate) use crate::limits::{MAX_CALL_DEPTH, MAX_EXEC_STATEMENTS};
 use crate::machine::Dialect;
 use eval::{Key, Params, Stop};
 
@@ -176,7 +176,7 @@ pub(crate) enum JumpTarget {
 
 /// One statement executed.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Executed {
+pub(crate) struct Executed {
     /// Block index in the program.
     pub block: u32,
     /// Statement index in the block.
@@ -191,7 +191,7 @@ pub struct Executed {
 
 /// A word's value in one run of its statement.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WordValue {
+pub(crate) struct WordValue {
     /// Token index of the word in its block.
     pub token: u32,
     /// Its value, or `None` when unknown.
@@ -200,7 +200,7 @@ pub struct WordValue {
 
 /// Where execution stopped before the end, and why.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Halt {
+pub(crate) struct Halt {
     /// 1-based line.
     pub line: usize,
     /// Why.
@@ -209,7 +209,7 @@ pub struct Halt {
 
 /// A program's execution.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Trace {
+pub(crate) struct Trace {
     /// Statements executed, in order.
     pub steps: Vec<Executed>,
     /// Values of the expression words of the steps.
@@ -222,7 +222,7 @@ pub struct Trace {
 
 /// A program whose execution does not end within the bounds.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RunawayError {
+pub(crate) struct RunawayError {
     /// 1-based line of the statement where the bound was reached.
     pub line: usize,
     /// What was exceeded.
@@ -358,7 +358,7 @@ struct Frame {
 }
 
 /// Runs `blocks` (a whole program, in order).
-pub fn run(dialect: Dialect, blocks: &[Block]) -> Result<Trace, RunawayError> {
+pub(crate) fn run(dialect: Dialect, blocks: &[Block]) -> Result<Trace, RunawayError> {
     let p = Program::new(dialect, blocks)?;
     Runner {
         p: &p,
@@ -874,7 +874,7 @@ fn linuxcnc_local(k: &Key) -> bool {
 
 /// What the execution says about one expression word, over all its runs.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Known {
+pub(crate) enum Known {
     /// One value in every run (at least one run, all in the main program).
     Value(f64),
     /// Several runs with different values.

@@ -2,9 +2,9 @@
 //! LinuxCNC (with their macro languages), [`klartext`] for HEIDENHAIN,
 //! [`sinumerik`] for SINUMERIK.
 
-pub mod klartext;
-pub mod sinumerik;
-pub mod word_address;
+pub(crate) mod klartext;
+pub(crate) mod sinumerik;
+pub(crate) mod word_address;
 
 use super::{Block, BlockError};
 use crate::machine::Dialect;

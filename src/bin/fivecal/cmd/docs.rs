@@ -21,22 +21,21 @@ pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The command line with the names a shell should offer: the tests for
-/// `plan`, the built-in machines for every `--machine` (and `machine
-/// show`, `machine new --from`). Only the completions see them: the
-/// commands themselves take any file path as well.
+/// The command line as a shell should complete it: the tests' names for
+/// `plan`, and a file wherever a file is meant, as the commands take one.
+/// A machine (`--machine`, `machine show`, `machine new --from`) is a file
+/// or a built-in name; clap's completions offer either a list of names or
+/// files, never both, so they offer files (`fivecal machine list` names the
+/// built-in machines). So are a postprocessor, a tool and a contributors
+/// file, each a file or a word the option's help names.
 fn with_names(cmd: clap::Command) -> clap::Command {
+    use clap::ValueHint;
     use clap::builder::PossibleValuesParser;
-    let machines: Vec<&'static str> = fivecal::machine::BUILTIN.iter().map(|(n, _)| *n).collect();
     let tests: Vec<&'static str> = fivecal::procedure::Test::ALL
         .iter()
         .map(|t| t.as_str())
         .collect();
-    fn walk(
-        cmd: clap::Command,
-        machines: &[&'static str],
-        tests: &[&'static str],
-    ) -> clap::Command {
+    fn walk(cmd: clap::Command, tests: &[&'static str]) -> clap::Command {
         let name = cmd.get_name().to_string();
         let ids: Vec<String> = cmd
             .get_arguments()
@@ -44,14 +43,17 @@ fn with_names(cmd: clap::Command) -> clap::Command {
             .collect();
         let mut cmd = cmd;
         for id in ids {
-            let names = match (name.as_str(), id.as_str()) {
-                (_, "machine") | ("show", "file") | ("new", "from") => Some(machines),
-                ("plan", "test") => Some(tests),
-                _ => None,
-            };
-            if let Some(n) = names {
-                let n = n.to_vec();
-                cmd = cmd.mut_arg(id, move |a| a.value_parser(PossibleValuesParser::new(n)));
+            match (name.as_str(), id.as_str()) {
+                ("plan", "test") => {
+                    let n = tests.to_vec();
+                    cmd = cmd.mut_arg(id, move |a| a.value_parser(PossibleValuesParser::new(n)));
+                }
+                (_, "machine" | "postprocessor" | "tool" | "contributors")
+                | ("show", "file")
+                | ("new", "from") => {
+                    cmd = cmd.mut_arg(id, |a| a.value_hint(ValueHint::FilePath));
+                }
+                _ => {}
             }
         }
         let subs: Vec<String> = cmd
@@ -59,11 +61,11 @@ fn with_names(cmd: clap::Command) -> clap::Command {
             .map(|s| s.get_name().to_string())
             .collect();
         for s in subs {
-            cmd = cmd.mut_subcommand(s, |sub| walk(sub, machines, tests));
+            cmd = cmd.mut_subcommand(s, |sub| walk(sub, tests));
         }
         cmd
     }
-    walk(cmd, &machines, &tests)
+    walk(cmd, &tests)
 }
 
 /// The man page's EXAMPLES: one calibration from plan to export on the

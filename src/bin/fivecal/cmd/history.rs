@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use fivecal::conformance::{AcceptanceLimits, LimitsSource};
 use fivecal::history::{self, History};
 use fivecal::io::write_atomic;
@@ -45,9 +45,10 @@ enum Action {
     },
     /// Write the records as CSV (one row per record and symbol) or JSON.
     Export {
-        /// csv or json.
-        #[arg(long, value_enum, default_value = "csv")]
-        format: Format,
+        /// Write JSON instead of CSV (also when the --out file's name ends
+        /// in .json).
+        #[arg(long)]
+        json: bool,
         /// The file [default: standard output].
         #[arg(short, long, value_name = "FILE")]
         out: Option<PathBuf>,
@@ -72,12 +73,6 @@ struct LimitsArg {
     /// `limits:` section.
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum Format {
-    Csv,
-    Json,
 }
 
 pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
@@ -115,11 +110,16 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
                 .with_context(|| format!("no record {id} in {}", store.location()))?;
             out!("{}", history::render_record(&r));
         }
-        Action::Export { format, out } => {
+        Action::Export { json, out } => {
             let records = store.list(machine)?;
-            let text = match format {
-                Format::Csv => history::to_csv(&records)?,
-                Format::Json => history::to_json(&records),
+            let named_json = out
+                .as_deref()
+                .and_then(Path::extension)
+                .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+            let text = if json || named_json {
+                history::to_json(&records)
+            } else {
+                history::to_csv(&records)?
             };
             match out {
                 Some(p) => {

@@ -78,7 +78,7 @@ pub struct SimulateArgs {
     #[arg(long)]
     truth_example: bool,
     /// The machine of --truth-example: a built-in name or a machine file.
-    #[arg(long, value_name = "NAME|FILE", default_value = "bc-trunnion")]
+    #[arg(long, value_name = "M.yaml|NAME", default_value = "bc-trunnion")]
     machine: String,
 }
 

@@ -8,11 +8,12 @@ use std::path::{Path, PathBuf};
 use anyhow::bail;
 use clap::Args;
 use fivecal::compensate::against::{Deviation, Follower, IntendedPath};
+use fivecal::compensate::reasons;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
 use fivecal::formats::measured::{self, MeasuredPoint};
 use fivecal::numbers::count;
 
-use super::compensate::{MachineArgs, load_errors, reasons};
+use crate::config::nc::{MachineArgs, load_errors};
 
 #[derive(Args, Debug)]
 pub struct SimulateNcArgs {
@@ -253,7 +254,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         args.errors.display()
     );
     outln!("  read as {detection}");
-    if let Some(n) = super::compensate::rotary_start_note(&common.rotary_start) {
+    if let Some(n) = fivecal::compensate::rotary_start_note(&common.rotary_start) {
         outln!("  {n}");
     }
     outln!(
@@ -332,7 +333,7 @@ const AGAINST_STEP_MM: f64 = 0.5;
 /// the errors with every parameter zero), with the reasons of the moves
 /// that could not be run.
 fn intended_path(
-    common: &super::compensate::Common,
+    common: &crate::config::nc::Common,
     model: &fivecal::model::Model,
     original: &Path,
     settings_for: &dyn Fn(fivecal::machine::Dialect) -> SimSettings,

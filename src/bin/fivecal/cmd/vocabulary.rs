@@ -1,19 +1,37 @@
 //! One command-line vocabulary for every command, and the spellings of
 //! earlier releases mapped onto it. Every output is `-o/--out`, the NC
-//! program is positional wherever one is read; `--output` (compensate,
-//! `simulate nc`, `analyze contour`, `machine new`) and `simulate nc
-//! --program` keep working for one release, each with a note on standard
-//! error saying what to write instead. The rewrite happens once, here, on
-//! the raw arguments, before clap sees them, so that no command carries two
-//! spellings of one concept.
+//! program is positional wherever one is read, and `--json` is the one
+//! switch for machine-readable output; `--output` (compensate, `simulate
+//! nc`, `analyze contour`, `machine new`), `simulate nc --program` and
+//! `history export --format csv|json` keep working for one release, each
+//! with a note on standard error saying what to write instead. The rewrite
+//! happens once, here, on the raw arguments, before clap sees them, so that
+//! no command carries two spellings of one concept. (`analyze --json`,
+//! which chose the result file's format, changed its meaning rather than
+//! its spelling: `config/analyze.rs` keeps the old meaning one release
+//! more, with its note.)
 
 use std::ffi::OsString;
+
+/// What a spelling of an earlier release became.
+#[derive(Clone, Copy)]
+enum Becomes {
+    /// Another option, with the same value.
+    Option(&'static str),
+    /// The value alone, as the command's argument.
+    Positional,
+    /// A switch without a value (`--format json` is `--json`).
+    Switch(&'static str),
+    /// Nothing: the value was the default (`--format csv`).
+    Default,
+}
 
 /// A spelling of an earlier release and what it became.
 struct Deprecated {
     old: &'static str,
-    /// The option it became, or `None` where the value is now positional.
-    new: Option<&'static str>,
+    /// The one value this entry is about (`None`: any value).
+    value: Option<&'static str>,
+    new: Becomes,
     /// The subcommand path the old spelling belonged to (`None`: any).
     only_in: Option<&'static [&'static str]>,
 }
@@ -21,15 +39,50 @@ struct Deprecated {
 const DEPRECATED: &[Deprecated] = &[
     Deprecated {
         old: "--output",
-        new: Some("--out"),
+        value: None,
+        new: Becomes::Option("--out"),
         only_in: None,
     },
     Deprecated {
         old: "--program",
-        new: None,
+        value: None,
+        new: Becomes::Positional,
         only_in: Some(&["simulate", "nc"]),
     },
+    Deprecated {
+        old: "--format",
+        value: Some("json"),
+        new: Becomes::Switch("--json"),
+        only_in: Some(&["history", "export"]),
+    },
+    Deprecated {
+        old: "--format",
+        value: Some("csv"),
+        new: Becomes::Default,
+        only_in: Some(&["history", "export"]),
+    },
 ];
+
+impl Deprecated {
+    /// The note printed when this spelling is met.
+    fn note(&self) -> String {
+        let old = match self.value {
+            Some(v) => format!("{} {v}", self.old),
+            None => self.old.to_string(),
+        };
+        let what = match self.new {
+            Becomes::Option(new) => format!("`{old}` is now `-o/{new}`, as in every command"),
+            Becomes::Positional => format!(
+                "`{old}` is no longer needed: give the program as the argument, as in every command"
+            ),
+            Becomes::Switch(new) => format!("`{old}` is now `{new}`, as in every command"),
+            Becomes::Default => {
+                format!("`{old}` is no longer needed: it is what the command writes without --json")
+            }
+        };
+        format!("note: {what}; the old spelling works until the next release")
+    }
+}
 
 /// `args` (program name first) with every deprecated spelling replaced, and
 /// one note per spelling replaced.
@@ -39,7 +92,8 @@ pub fn normalize(args: impl IntoIterator<Item = OsString>) -> (Vec<OsString>, Ve
     let mut path: Vec<String> = Vec::new();
     let mut in_options = false;
     let mut literal = false;
-    for (i, arg) in args.into_iter().enumerate() {
+    let mut args = args.into_iter().enumerate().peekable();
+    while let Some((i, arg)) = args.next() {
         let Some(text) = arg.to_str().map(str::to_string) else {
             out.push(arg);
             continue;
@@ -60,37 +114,43 @@ pub fn normalize(args: impl IntoIterator<Item = OsString>) -> (Vec<OsString>, Ve
             continue;
         }
         in_options = true;
-        let (flag, value) = match text.split_once('=') {
+        let (flag, inline) = match text.split_once('=') {
             Some((f, v)) if f.starts_with("--") => (f.to_string(), Some(v.to_string())),
             _ => (text.clone(), None),
         };
+        // The value an entry about one value looks at: inline, or the next
+        // argument (taken only when the entry matches).
+        let next = args
+            .peek()
+            .and_then(|(_, a)| a.to_str())
+            .map(str::to_string);
         let hit = DEPRECATED.iter().find(|d| {
             d.old == flag
                 && d.only_in
                     .is_none_or(|p| path.iter().map(String::as_str).eq(p.iter().copied()))
+                && d.value
+                    .is_none_or(|v| inline.as_deref().or(next.as_deref()) == Some(v))
         });
         let Some(d) = hit else {
             out.push(arg);
             continue;
         };
-        let note = match d.new {
-            Some(new) => format!(
-                "note: `{}` is now `-o/{new}`, as in every command; the old spelling works until the next release",
-                d.old
-            ),
-            None => format!(
-                "note: `{}` is no longer needed: give the program as the argument, as in every command; the old spelling works until the next release",
-                d.old
-            ),
-        };
+        let note = d.note();
         if !notes.contains(&note) {
             notes.push(note);
         }
-        match (d.new, value) {
-            (Some(new), Some(v)) => out.push(format!("{new}={v}").into()),
-            (Some(new), None) => out.push(new.into()),
-            (None, Some(v)) => out.push(v.into()),
-            (None, None) => {}
+        if d.value.is_some() && inline.is_none() {
+            // The value was the next argument: it is part of the old
+            // spelling.
+            args.next();
+        }
+        match (d.new, inline) {
+            (Becomes::Option(new), Some(v)) => out.push(format!("{new}={v}").into()),
+            (Becomes::Option(new), None) => out.push(new.into()),
+            (Becomes::Positional, Some(v)) => out.push(v.into()),
+            (Becomes::Positional, None) => {}
+            (Becomes::Switch(new), _) => out.push(new.into()),
+            (Becomes::Default, _) => {}
         }
     }
     (out, notes)
@@ -155,6 +215,38 @@ mod tests {
         assert_eq!(
             norm(&["fivecal", "compensate", "--program", "p.nc"]).0,
             ["fivecal", "compensate", "--program", "p.nc"]
+        );
+    }
+
+    #[test]
+    fn format_json_becomes_the_json_switch_in_history_export_only() {
+        assert_eq!(
+            norm(&[
+                "fivecal", "history", "export", "--format", "json", "-o", "h"
+            ]),
+            (
+                ["fivecal", "history", "export", "--json", "-o", "h"]
+                    .map(String::from)
+                    .to_vec(),
+                1
+            )
+        );
+        assert_eq!(
+            norm(&["fivecal", "history", "export", "--format=csv"]),
+            (
+                ["fivecal", "history", "export"].map(String::from).to_vec(),
+                1
+            )
+        );
+        // simulate's --format names a measurement format: its own word.
+        assert_eq!(
+            norm(&["fivecal", "simulate", "--format", "csv"]),
+            (
+                ["fivecal", "simulate", "--format", "csv"]
+                    .map(String::from)
+                    .to_vec(),
+                0
+            )
         );
     }
 

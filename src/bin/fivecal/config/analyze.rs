@@ -1,0 +1,254 @@
+//! `fivecal analyze`'s options and their validation into one [`Config`]:
+//! the plan and measured files, the method and maps, the Monte-Carlo
+//! study, the series and comparison, the limits, the result file and the
+//! report. The `contour` mode's options are `cmd/contour.rs`'s.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, bail};
+use clap::{Args, Subcommand};
+use fivecal::analyze::{self, ContributorChoice, McOptions, MonteCarlo, Request};
+use fivecal::conformance::LimitsSource;
+use fivecal::identify::Method;
+use fivecal::identify::sphere::CircleMethod;
+use fivecal::io::{Shape, check_outputs};
+
+use crate::cmd::record::Recording;
+
+#[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct AnalyzeCli {
+    #[command(subcommand)]
+    pub mode: Option<AnalyzeMode>,
+    // Boxed: the many options would make `Command` lopsided.
+    #[command(flatten)]
+    pub args: Box<AnalyzeArgs>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum AnalyzeMode {
+    /// Distance of each measured point to the design surface of a part
+    /// model (OBJ or glTF), with mean and maximum.
+    Contour(crate::cmd::contour::ContourArgs),
+}
+
+/// Identify location errors and error maps from measurements of a plan.
+#[derive(Args, Debug)]
+pub struct AnalyzeArgs {
+    /// The plan manifest written by `fivecal plan` (`DIR/<test>.plan.yaml`).
+    #[arg(long, value_name = "PLAN", required = true)]
+    plan: Option<PathBuf>,
+    /// Measurement files: DMIS output, QIF results, ZEISS CALYPSO tables
+    /// (_fet, _chr), CSV `label,x,y,z` or a table naming its columns, probe
+    /// logs, nine-section heights `section,height_um`, or a point cloud `x
+    /// y z [i j k]` (joined by nearest nominal point). The format is
+    /// recognized from the content (`fivecal measured FILE` shows what it
+    /// holds). Several files make one piece unless --series is given.
+    #[arg(long, value_name = "FILE", num_args = 1.., required = true)]
+    measured: Vec<PathBuf>,
+    /// The result: an error file (the identified values with their u, and
+    /// what the test cannot identify), or the nine-section statistics, or
+    /// with --series the series table.
+    #[arg(short, long, value_name = "RESULT.yaml", required = true)]
+    out: Option<PathBuf>,
+    /// Print the result as JSON on standard output (what the result file
+    /// holds; with --series, the series table), and the rest on standard
+    /// error. The result file's format follows its name: JSON for
+    /// RESULT.json, else YAML.
+    #[arg(long)]
+    json: bool,
+    /// Also write an HTML report with SVG plots and a .glb of the piece.
+    #[arg(long, value_name = "DIR")]
+    report: Option<PathBuf>,
+    /// two-stage (a pose per cut or station, then the errors from the
+    /// poses), global (one fit of all points, the default) or sphere (circle
+    /// and plane fits of the sphere centres, the default for probe-sphere on
+    /// a table-table machine; on a machine with a head the global fit is).
+    #[arg(long, value_name = "METHOD")]
+    method: Option<String>,
+    /// Run a Monte-Carlo uncertainty study of N runs (seeded, parallel): a
+    /// machine with the estimated errors plus a draw of the contributors,
+    /// the test measured on it and identified again; the spread becomes the
+    /// reported `u`. Each draw is mapped to the measurements by the
+    /// simulator's forward-model Jacobians and re-identified by the fit's
+    /// first-order response (errors of micrometres keep both linear). (A
+    /// points file whose plan cannot be rebuilt from the manifest falls back
+    /// to the rigid-pose model, and says so.)
+    #[arg(long, value_name = "N")]
+    mc: Option<usize>,
+    /// With --mc: simulate the plan again and fit every run exactly (the
+    /// reference the linearized study is tested against; seconds per
+    /// hundred runs instead of milliseconds).
+    #[arg(long, requires = "mc")]
+    mc_exact: bool,
+    /// With --mc: stop the study after this many seconds and refuse it
+    /// (no u from fewer runs than asked), naming how many runs were done.
+    /// A study that runs longer than 10 s writes a progress line every
+    /// 10 s when stderr is not a terminal (a bar when it is).
+    #[arg(long, requires = "mc", value_name = "S", allow_negative_numbers = true)]
+    max_seconds: Option<f64>,
+    /// Seed of the Monte-Carlo study.
+    #[arg(long, value_name = "SEED", default_value_t = 1)]
+    seed: u64,
+    /// Contributors of the Monte-Carlo study: `seed001` (the machining
+    /// default: Ibaraki & Ota 2014), `seed000` (the probing default:
+    /// Ibaraki, Iritani & Matsushita 2013), `noise` (residual sigma only), or a YAML file with the keys `distribution` (uniform or
+    /// normal), `linear_scale_um_per_m`, `straightness_um`,
+    /// `squareness_urad`, `noise_um`, and optionally `setup_position_um` and
+    /// `setup_orientation_urad` (three numbers each), `pretravel_um`
+    /// (directional pre-travel variation) and `sphere_form_um`.
+    #[arg(long, value_name = "PRESET|FILE")]
+    contributors: Option<String>,
+    /// Error maps to identify with the location errors, comma-separated
+    /// map symbols (`EBB(B),EXC(B,C)`), on the grid of the plan's angles.
+    #[arg(long, value_name = "SYMBOLS")]
+    maps: Vec<String>,
+    /// Each measured file is one piece of a series of the same plan:
+    /// identify each and tabulate how the errors move.
+    #[arg(long)]
+    series: bool,
+    /// An earlier result (e.g. a cold probing run) to compare with.
+    #[arg(long, value_name = "RESULT.yaml")]
+    compare: Option<PathBuf>,
+    /// Sphere method: how the axis lines are fitted to the centres:
+    /// robust (default), least-squares, or combinations (the three-point
+    /// combinations of Cubas Brizuela & Yeh 2023).
+    #[arg(long, value_name = "FIT", default_value = "robust")]
+    circle_fit: String,
+    /// The instrument's noise per measured point (standard deviation, um)
+    /// the fit is judged against [default: 0.35 um for a CMM on a machined
+    /// piece and for an on-machine probe, with the sphere's 0.1 um form
+    /// error added for probe-sphere]. Residuals significantly larger mark
+    /// the result as a misfit, which compensate refuses.
+    #[arg(long, value_name = "UM")]
+    noise: Option<f64>,
+    /// Acceptance limits per location symbol: a limits file or a machine
+    /// file with a `limits:` section. Prints PASS, FAIL or "cannot decide"
+    /// per symbol and for the machine (ISO 14253-1, U = 2u).
+    #[arg(long, value_name = "FILE")]
+    limits: Option<PathBuf>,
+    #[command(flatten)]
+    measured_flags: crate::cmd::measured::MeasuredFlags,
+    #[command(flatten)]
+    record: crate::cmd::record::RecordArgs,
+}
+
+/// The validated configuration of one `analyze` run.
+pub struct Config {
+    /// What the library analyses, and how.
+    pub request: Request,
+    /// The result file.
+    pub out: PathBuf,
+    /// Whether the result file is JSON (its name ends in `.json`, or the
+    /// `--json` of earlier releases asks for it).
+    pub json: bool,
+    /// `--json`: the result as JSON on standard output.
+    pub json_stdout: bool,
+    /// Where the HTML report goes.
+    pub report: Option<PathBuf>,
+    /// The acceptance limits the result is checked against.
+    pub limits: Option<LimitsSource>,
+    /// Where the run is recorded.
+    pub record: Recording,
+}
+
+fn contributors(spec: Option<&str>) -> anyhow::Result<ContributorChoice> {
+    Ok(match spec {
+        None => ContributorChoice::TestDefault,
+        Some("seed001") => ContributorChoice::Given(analyze::Contributors::seed001()),
+        Some("seed000") => ContributorChoice::Given(analyze::Contributors::seed000()),
+        Some("noise") => ContributorChoice::NoiseOnly,
+        Some(path) => {
+            let path = Path::new(path);
+            let src = fivecal::input::read_text(
+                path,
+                "contributors file",
+                fivecal::limits::MAX_YAML_BYTES,
+            )?;
+            ContributorChoice::Given(fivecal::input::parse_yaml(path, &src)?)
+        }
+    })
+}
+
+/// The validated configuration of one `analyze` run.
+pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
+    let manifest = a.plan.context("--plan is required")?;
+    let out = a.out.context("--out is required")?;
+    let method = a
+        .method
+        .as_deref()
+        .map(|m| m.parse::<Method>().map_err(anyhow::Error::msg))
+        .transpose()?;
+    let circle = a
+        .circle_fit
+        .parse::<CircleMethod>()
+        .map_err(anyhow::Error::msg)?;
+    let contributors = contributors(a.contributors.as_deref())?;
+    let limits = a.limits.as_deref().map(LimitsSource::read).transpose()?;
+    let record = a.record.validate()?;
+    let monte_carlo = match a.mc {
+        Some(n @ (0 | 1)) => bail!("--mc {n}: the Monte-Carlo study needs at least 2 runs"),
+        Some(n) if n > fivecal::limits::MAX_MC_RUNS => bail!(
+            "--mc {n}: at most {} runs (the spread of u settles within a few hundred)",
+            fivecal::limits::MAX_MC_RUNS
+        ),
+        Some(_) if a.max_seconds.is_some_and(|s| !(s.is_finite() && s > 0.0)) => bail!(
+            "--max-seconds {}: expected a time > 0 s",
+            a.max_seconds.unwrap_or_default()
+        ),
+        Some(runs) => Some(MonteCarlo {
+            options: McOptions {
+                runs,
+                seed: a.seed,
+                progress: true,
+                max_seconds: a.max_seconds,
+            },
+            contributors,
+            exact: a.mc_exact,
+        }),
+        None => None,
+    };
+    let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
+    inputs.push(&manifest);
+    inputs.extend(a.compare.as_deref());
+    let mut outputs = vec![("--out", out.as_path(), Shape::File)];
+    outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
+    check_outputs(&inputs, &outputs)?;
+    // `-o -` puts the result itself on standard output: in JSON with --json.
+    let to_stdout = out.as_os_str() == "-";
+    let named_json = out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if a.json && !named_json && !to_stdout {
+        // Earlier releases' --json chose the file's format; kept one
+        // release more, said once.
+        eprintln!(
+            "note: `--json` now prints the result on standard output, as in every command, and the result file's format follows its name (-o {}.json); {} is written as JSON as before until the next release",
+            out.with_extension("").display(),
+            out.display()
+        );
+    }
+    let json_file = a.json || named_json;
+    if a.series && a.measured.len() < 2 {
+        bail!("--series needs two or more measured files, one per piece");
+    }
+    Ok(Config {
+        request: Request {
+            method,
+            maps: super::list_items(&a.maps),
+            series: a.series,
+            compare: a.compare,
+            monte_carlo,
+            circle,
+            noise: super::noise_arg(a.noise)?,
+            options: a.measured_flags.options()?,
+            ..Request::new(&manifest, a.measured)
+        },
+        out,
+        json: json_file,
+        json_stdout: a.json && !to_stdout,
+        report: a.report,
+        limits,
+        record,
+    })
+}

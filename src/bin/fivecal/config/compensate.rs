@@ -1,0 +1,359 @@
+//! `fivecal compensate`'s options and their validation into one
+//! [`Config`]: what to rewrite and where, what to export and where, the
+//! tolerance, limits and decimals, and whether an export is recorded. The
+//! machine, error and program options shared with `simulate nc` are
+//! [`super::nc`]'s.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::bail;
+use clap::Args;
+use fivecal::Dialect;
+use fivecal::compensate::{Settings, export};
+use fivecal::errorfile::LoadedErrors;
+use fivecal::io::{Shape, check_outputs};
+use fivecal::machine::MachineOrigin;
+
+use super::DialectArg;
+use super::nc::{Common, MachineArgs, load_errors};
+use crate::cmd::record::{RecordArgs, Recording};
+
+#[derive(Args, Debug)]
+pub struct CompensateArgs {
+    /// NC program to rewrite (optional with --export).
+    #[arg(value_name = "IN")]
+    input: Option<PathBuf>,
+    /// The rewritten program (never the input; written only when complete).
+    #[arg(short = 'o', long = "out", value_name = "OUT")]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    machine: MachineArgs,
+    /// Error file: an `analyze` result (or a truth file).
+    #[arg(long, value_name = "RESULT.yaml")]
+    errors: PathBuf,
+    /// Largest distance of the actual tool-tip path from the intended one
+    /// between end points, um; longer moves are subdivided, arcs linearized.
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    tolerance: f64,
+    /// Stop with the line named when a correction exceeds this: um for X, Y,
+    /// Z, urad for the tool orientation.
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 500.0,
+        allow_negative_numbers = true
+    )]
+    max_correction: f64,
+    /// Decimals written: LIN[,ROT] (mm, deg) [default: 4,6; more when the
+    /// program writes more].
+    #[arg(long, value_name = "LIN,ROT")]
+    decimals: Option<String>,
+    /// Next to the tilt singularity, the largest turn of C accepted for an
+    /// exact correction, deg; beyond it C is held and only the tool tip is
+    /// corrected exactly.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    max_c_swing: f64,
+    /// Write the program flattened as its macro logic runs (parameters
+    /// evaluated, loops, jumps and calls unrolled, every move a literal
+    /// number) and correct that; without it a block that runs several
+    /// times with different values is left as written and reported.
+    #[arg(long)]
+    expand: bool,
+    /// Also write the location errors as the corrected pivot parameters of
+    /// this controller (sinumerik: a part program writing the fine offsets
+    /// of the machine file's swivel data record).
+    #[arg(long, value_name = "CONTROLLER", value_enum)]
+    export: Option<DialectArg>,
+    /// Where --export writes [default: standard output without a program,
+    /// else next to OUT as OUT.<controller>.txt, or <OUT's name>_SWIVEL.MPF
+    /// for sinumerik].
+    #[arg(long, value_name = "FILE")]
+    export_to: Option<PathBuf>,
+    /// With --export: refuse (naming it, writing nothing) any parameter
+    /// that would change by more than this from what the control holds now
+    /// (the machine file's controller_parameters, else its nominal
+    /// geometry): LEN in mm, ANG in mrad for angles.
+    #[arg(long, value_name = "LEN[,ANG]", default_value = "0.1,0.5")]
+    max_change: String,
+    /// With --export: refuse any parameter whose standard uncertainty is
+    /// larger (from the error file's u): LEN in mm, ANG in mrad. A file
+    /// without u (a truth file) is exported with `u not given`.
+    #[arg(long, value_name = "LEN[,ANG]", default_value = "0.01,0.05")]
+    max_u: String,
+    /// Use a result whose model does not fit its measurements (its `fit:`
+    /// verdict is misfit): its values are biased by an effect the model
+    /// lacks, so it is refused unless this is given.
+    #[arg(long)]
+    accept_misfit: bool,
+    /// With --export: the values were entered into the control (now, or
+    /// at --measured-at): the export is recorded in the results store as
+    /// the point where the control was changed, which `fivecal history`
+    /// and `fivecal verify --machine` start from. Without it an export is
+    /// a preview and is not recorded.
+    #[arg(long)]
+    entered: bool,
+    /// With --export --entered: where and what to record.
+    #[command(flatten)]
+    record: RecordArgs,
+}
+
+/// What to do, validated.
+pub struct Config {
+    /// The machine and the program's options.
+    pub common: Common,
+    /// The error file.
+    pub errors_path: PathBuf,
+    /// The error file, read against the machine.
+    pub errors: LoadedErrors,
+    /// The rewrite's settings (the dialect settled when the program is
+    /// opened).
+    pub settings: Settings,
+    /// The program to rewrite and where the rewritten one goes.
+    pub rewrite: Option<(PathBuf, PathBuf)>,
+    /// The controller to export for and the file (`None`: standard output).
+    pub export: Option<(Dialect, Option<PathBuf>)>,
+    /// What an export may change, and with which u.
+    pub limits: export::Limits,
+    /// Where an entered export is recorded.
+    pub record: Recording,
+    /// `--entered`: the export's values are in the control.
+    pub entered: bool,
+}
+
+/// `LEN[,ANG]` of --max-change and --max-u: a length in mm and an angle in
+/// mrad, each > 0 (the angle keeps `default` when not given).
+fn parse_limit(option: &str, s: &str, default: f64) -> anyhow::Result<(f64, f64)> {
+    let parts: Vec<Option<f64>> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v > 0.0)
+        })
+        .collect();
+    match parts.as_slice() {
+        [Some(l)] => Ok((*l, default)),
+        [Some(l), Some(a)] => Ok((*l, *a)),
+        _ => bail!(
+            "{option} `{s}`: expected LEN or LEN,ANG, a length in mm and an angle in mrad, each > 0"
+        ),
+    }
+}
+
+impl CompensateArgs {
+    pub fn validate(self) -> anyhow::Result<Config> {
+        let mut common = self.machine.validate()?;
+        let errors = load_errors(&self.errors, &common.kin)?;
+        if let Some(f) = errors.not_converged() {
+            // No flag accepts it: values a fit stopped at are no estimate.
+            bail!(
+                "{}: the fit of this result did not converge ({}): its values are no estimate, and nothing is compensated or exported from them. \
+                 Analyze the measurements again (another --method, fewer maps) until the verdict is a fit",
+                self.errors.display(),
+                f.stopped
+                    .as_deref()
+                    .unwrap_or("fit: {verdict: not-converged}")
+            );
+        }
+        if let Some(f) = errors.misfit()
+            && !self.accept_misfit
+        {
+            bail!(
+                "{}: the model of this result does not fit its measurements (residuals {:.3} um against {:.3} um expected, ratio {:.2}): \
+                 its values are biased by an effect the model lacks. Find it with `fivecal discover` and compensate with the refined model, \
+                 or give --accept-misfit to use this result anyway",
+                self.errors.display(),
+                f.sigma_um,
+                f.expected_um,
+                f.ratio
+            );
+        }
+        common.inputs.push(self.errors.clone());
+        let min_tol = fivecal::limits::MIN_TOLERANCE_UM;
+        if !(self.tolerance.is_finite() && self.tolerance >= min_tol) {
+            bail!(
+                "--tolerance {}: expected a distance of at least {min_tol} um (finer than any control resolves)",
+                self.tolerance
+            );
+        }
+        if !(self.max_correction.is_finite() && self.max_correction > 0.0) {
+            bail!(
+                "--max-correction {}: expected a limit > 0 um",
+                self.max_correction
+            );
+        }
+        if !(self.max_c_swing.is_finite() && self.max_c_swing >= 0.0) {
+            bail!(
+                "--max-c-swing {}: expected an angle >= 0 deg",
+                self.max_c_swing
+            );
+        }
+        // The program's dialect is settled when it is opened.
+        let mut settings = Settings::new(common.dialect.unwrap_or(common.machine.dialect));
+        settings.strict = common.strict;
+        settings.tolerance = self.tolerance * 1e-3;
+        settings.max_correction = self.max_correction;
+        settings.origin = common.origin;
+        settings.coordinates = common.coordinates;
+        settings.max_c_swing = self.max_c_swing;
+        settings.fanuc_integer_unit = common.integer_unit;
+        settings.rotary_start = common.rotary_start.clone();
+        if self.expand && self.input.is_none() {
+            bail!("--expand flattens an NC program: give the program to rewrite (IN)");
+        }
+        settings.expand = self.expand;
+        if let Some(d) = &self.decimals {
+            let parts: Vec<Option<u8>> =
+                d.split(',').map(|x| x.trim().parse::<u8>().ok()).collect();
+            match parts.as_slice() {
+                [Some(l)] if *l <= 9 => settings.linear_decimals = *l,
+                [Some(l), Some(r)] if *l <= 9 && *r <= 9 => {
+                    settings.linear_decimals = *l;
+                    settings.rotary_decimals = *r;
+                }
+                _ => bail!("--decimals `{d}`: expected LIN or LIN,ROT, each 0 to 9"),
+            }
+        }
+        // The written decimals round every word: a tolerance finer than
+        // that rounding could be reported met while the tip misses it.
+        let (lin, rot) = (settings.linear_decimals, settings.rotary_decimals);
+        let smallest =
+            fivecal::compensate::tolerance::smallest_tolerance_um(&common.machine, lin, rot);
+        if self.tolerance < smallest {
+            bail!(
+                "--tolerance {}: the words written with {lin} decimals in mm and {rot} in degrees round the tool tip by up to {:.3} um on {}, so the smallest tolerance that holds is {smallest:.3} um (as much again for the path between the written points; more decimals with --decimals LIN,ROT allow a finer one)",
+                self.tolerance,
+                fivecal::compensate::tolerance::rounding_bound_mm(&common.machine, lin, rot) * 1e3,
+                common.machine.name
+            );
+        }
+        let export = match &self.export {
+            Some(d) => Some((Dialect::from(*d), self.export_to.clone())),
+            None if self.export_to.is_some() => bail!("--export-to needs --export CONTROLLER"),
+            None => None,
+        };
+        let rewrite = match (self.input, self.output) {
+            (Some(i), Some(o)) => {
+                if !i.exists() {
+                    bail!("cannot read program {}: no such file", i.display());
+                }
+                common.inputs.push(i.clone());
+                Some((i, o))
+            }
+            (Some(i), None) => bail!(
+                "{}: name the rewritten program with -o OUT (the input is never overwritten)",
+                i.display()
+            ),
+            (None, Some(_)) => {
+                bail!("-o names the rewritten program: give the program to rewrite (IN) too")
+            }
+            (None, None) if export.is_some() => None,
+            (None, None) => {
+                bail!("nothing to do: give a program (IN -o OUT) and/or --export CONTROLLER")
+            }
+        };
+        // With a program, the parameters go next to the rewritten one.
+        if export.as_ref().is_some_and(|(_, t)| t.is_none())
+            && rewrite.as_ref().is_some_and(|(_, o)| o.as_os_str() == "-")
+        {
+            bail!(
+                "-o - writes the program to standard output: name the --export parameter file with --export-to FILE"
+            );
+        }
+        let export = export.map(|(d, target)| {
+            let target = target.or_else(|| {
+                rewrite
+                    .as_ref()
+                    .map(|(_, out)| export::default_file(d, out))
+            });
+            (d, target)
+        });
+        // Every output checked before any work: none is an input, none is
+        // another output, each can be written as a file.
+        let inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
+        let mut outputs = Vec::new();
+        outputs.extend(
+            rewrite
+                .as_ref()
+                .map(|(_, o)| ("-o", o.as_path(), Shape::File)),
+        );
+        outputs.extend(
+            export
+                .as_ref()
+                .and_then(|(_, t)| t.as_deref())
+                .map(|t| ("--export-to", t, Shape::File)),
+        );
+        if export.is_none()
+            && let Some(flag) = self.record.first_given()
+        {
+            bail!(
+                "{flag} goes with a record, and compensate records only an export (--export): a rewritten program is not recorded"
+            );
+        }
+        if let Some((Dialect::Sinumerik, _)) = &export
+            && common.machine.sinumerik.is_none()
+        {
+            // Named, never pasted: the file is the user's own.
+            let fix = match &common.machine_origin {
+                MachineOrigin::File(p) => {
+                    format!("add `sinumerik: {{swivel_record: N}}` to {}", p.display())
+                }
+                MachineOrigin::BuiltIn => format!(
+                    "copy it with `fivecal machine new NAME --from {}` and add `sinumerik: {{swivel_record: N}}` to the copy",
+                    common.machine.name
+                ),
+            };
+            bail!(
+                "--export sinumerik: {} ({}) does not say which swivel data record holds its kinematics: {fix} (N as in TCARR=N, the record CYCLE800 and CYCLE996 use); nothing written",
+                common.machine_origin,
+                common.machine.name
+            );
+        }
+        if export.is_none() && self.entered {
+            bail!(
+                "--entered says an export's values were entered into the control: give --export CONTROLLER"
+            );
+        }
+        if !self.entered
+            && let Some(flag) = self.record.first_given()
+        {
+            bail!(
+                "{flag} goes with a record, and an export is recorded only once its values are in the control: add --entered"
+            );
+        }
+        // The store first: it is an input the outputs may not name.
+        let record = self.record.validate()?;
+        check_outputs(&inputs, &outputs)?;
+        let defaults = export::Limits::default();
+        let (change_mm, change_mrad) =
+            parse_limit("--max-change", &self.max_change, defaults.change_mrad)?;
+        let (u_mm, u_mrad) = parse_limit("--max-u", &self.max_u, defaults.u_mrad)?;
+        Ok(Config {
+            limits: export::Limits {
+                change_mm,
+                change_mrad,
+                u_mm,
+                u_mrad,
+            },
+            record,
+            entered: self.entered,
+            common,
+            errors_path: self.errors,
+            errors,
+            settings,
+            rewrite,
+            export,
+        })
+    }
+}
