@@ -33,6 +33,7 @@ mod expand;
 pub mod export;
 pub mod simulate;
 mod solver;
+mod subroutines;
 pub mod tolerance;
 mod writer;
 
@@ -88,6 +89,9 @@ pub struct Settings {
     /// states them (axis letter, deg); see
     /// [`crate::nc::interp::InterpreterSettings::rotary_start`].
     pub rotary_start: Vec<(char, f64)>,
+    /// LinuxCNC: directories to look in, after the program's own, for
+    /// the file `name.ngc` an `o<name> call` runs (its `SUBROUTINE_PATH`).
+    pub subroutine_path: Vec<std::path::PathBuf>,
 }
 
 impl Settings {
@@ -108,6 +112,7 @@ impl Settings {
             fanuc_integer_unit: None,
             expand: false,
             rotary_start: Vec::new(),
+            subroutine_path: Vec::new(),
         }
     }
 }

@@ -93,6 +93,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     settings.coordinates = common.coordinates;
     settings.fanuc_integer_unit = common.integer_unit;
     settings.rotary_start = common.rotary_start.clone();
+    settings.subroutine_path = common.subroutine_path.clone();
     settings.step = args.step;
     let sim = Simulator::new(&errors.model, &errors.theta, settings);
     // Samples are kept only when a CSV or the CMM points need them.
