@@ -12,6 +12,7 @@ use super::correction::{CorrectedPoint, Refusal, WritePlan, size};
 use super::edit::Deferred;
 use super::expand;
 use super::solver::Solver;
+use super::subroutines::{self, Library};
 use super::writer::Writer;
 use super::{CompensateError, CoordinateSection, Largest, Lines, Settings, Summary, Vertex};
 use crate::model::{Effect, Model};
@@ -470,26 +471,37 @@ impl<'a> Pass<'a> {
     fn finish<W: Write>(mut self, output: &mut W) -> Result<Summary, CompensateError> {
         let mut macro_note = None;
         if !self.rest.is_empty() {
-            let rest = std::mem::take(&mut self.rest);
+            let mut rest = std::mem::take(&mut self.rest);
             let syntax = self.c.syntax();
             let path = self.path;
-            let trace = exec::run(syntax.dialect, &rest).map_err(|e| {
+            let lib = subroutines::load(syntax, path, &self.c.settings.subroutine_path, &mut rest)?;
+            let trace = exec::run_with(syntax.dialect, &rest, lib.main).map_err(|e| {
                 CompensateError::Syntax(SourceError::new(path, e.line, 1, e.message))
             })?;
             if self.c.settings.expand {
-                expand::flatten(path, syntax, &rest, &trace, &mut |b| {
+                expand::flatten(path, &lib, syntax, &rest, &trace, &mut |b| {
                     self.process(b, None, &mut Out::Now(output))
                 })?;
             } else {
-                let known = exec::known_words(&trace).unwrap_or_default();
-                for (i, block) in rest.iter().enumerate() {
+                let known = exec::known_words_in(&trace, lib.main).unwrap_or_default();
+                let calls = file_calls(&trace, &rest, &lib);
+                for (i, block) in rest[..lib.main].iter().enumerate() {
                     let (b, why) = expand::substitute(block, i as u32, syntax.dialect, &known);
                     self.process(&b, why.as_deref(), &mut Out::Now(output))?;
+                    for si in 0..block.segments.len() {
+                        if let Some(call) = calls.get(&(i as u32, si as u32)) {
+                            self.follow(block.line, call, &rest, &trace, &lib)?;
+                        }
+                    }
                 }
                 macro_note = trace.halt.map(|h| {
+                    let place = match lib.file_of(h.block) {
+                        Some(f) => format!("line {} of {}", h.line, f.path.display()),
+                        None => format!("line {}", h.line),
+                    };
                     format!(
-                        "the macro logic was followed up to line {}: {}; moves with variables are left as written",
-                        h.line, h.why
+                        "the macro logic was followed up to {place}: {}; moves with variables are left as written",
+                        h.why
                     )
                 });
             }
@@ -509,6 +521,126 @@ impl<'a> Pass<'a> {
         summary.uncorrected_blocks = self.uncorrected.into_iter().collect();
         summary.macro_logic = macro_note;
         Ok(summary)
+    }
+
+    /// After the program's `o<name> call` at `line` into a subroutine
+    /// file: the file's statements as the call ran them, followed by the
+    /// interpreter (the caller's later moves start where they leave the
+    /// tool, with the modal state they leave) but not written, since they
+    /// are another file's; its moves are reported at the call.
+    fn follow(
+        &mut self,
+        line: usize,
+        call: &FileCall,
+        blocks: &[Block],
+        trace: &exec::Trace,
+        lib: &Library,
+    ) -> Result<(), CompensateError> {
+        let file = lib
+            .file_of(trace.steps[call.body.start].block as usize)
+            .expect("a file call's body is in a file");
+        let shown = file.path.display().to_string();
+        let label = &file.label;
+        if !call.once {
+            // The call runs several times (a loop, or a subroutine of the
+            // program's): the interpreter forgot the positions at it.
+            let reason = format!(
+                "moves in the subroutine file {shown} ({label} call, run more than once here): that file's moves, not rewritten in this one (--expand writes them, corrected, into it)"
+            );
+            self.skipped.entry(reason.clone()).or_default().push(line);
+            self.summary.motion_blocks += 1;
+            self.uncorrected.entry(reason).or_default().push(line);
+            return Ok(());
+        }
+        let before = self.interp.clone();
+        let run = expand::Steps {
+            steps: &trace.steps[call.body.clone()],
+            values: &trace.values,
+            main: lib.main,
+            own_lines: true,
+        };
+        let syntax = self.c.syntax();
+        let strict = self.c.settings.strict;
+        let mut moves = 0usize;
+        let mut restores = false;
+        let interp = &mut self.interp;
+        let unmodelled = &mut self.unmodelled;
+        expand::write_steps(&file.path, syntax, blocks, &run, false, &mut |b: &Block| {
+            for seg in &b.segments {
+                restores |= b.words(seg).any(|(_, w)| {
+                    w.addr == crate::nc::Addr::letter(b'M')
+                        && matches!(w.value, crate::nc::Value::Num(m) if m == 72.0 || m == 73.0)
+                });
+                let ev = interp.step(b, seg);
+                let mut notes = IndexMap::new();
+                super::take_unmodelled(interp, b, &file.path, strict, &mut notes)
+                    .map_err(CompensateError::Unmodelled)?;
+                for (what, _) in notes {
+                    unmodelled
+                        .entry(format!("{what} (in {shown})"))
+                        .or_default()
+                        .push(line);
+                }
+                if matches!(ev, Event::Move(_) | Event::Skip(_) | Event::Quiet)
+                    && !matches!(ev, Event::Skip(Skip::NeverRuns))
+                {
+                    moves += 1;
+                }
+            }
+            Ok::<(), CompensateError>(())
+        })?;
+        let mut after = String::new();
+        if restores {
+            // M73 (or M72) gives back the modal state the call found; what
+            // LinuxCNC keeps of the rest is not followed: positions forgotten.
+            *interp = before;
+            interp.forget();
+            after.push_str(
+                "it restores the modal state on return (M72/M73): positions after the call are not known",
+            );
+        } else {
+            let known: Vec<String> = interp::AXES
+                .iter()
+                .zip(&interp.pos)
+                .filter(|(_, p)| p.is_some())
+                .map(|(a, _)| (*a as char).to_string())
+                .collect();
+            after = if known.is_empty() {
+                "no position is known after it".to_string()
+            } else {
+                format!(
+                    "after it the program knows {} where the file leaves {}",
+                    known.join(" "),
+                    if known.len() == 1 { "it" } else { "them" }
+                )
+            };
+        }
+        // What the control is written to start from next: where the
+        // file's moves, as written, leave the tool.
+        self.writer.emit = self.interp.pos;
+        self.after_left = true;
+        self.last_held = false;
+        self.last_piece = None;
+        self.last_tangent = None;
+        self.frame = None;
+        if let Some(at) = self.approach_open.take() {
+            self.skipped
+                .entry(approach_unchecked())
+                .or_default()
+                .push(at);
+        }
+        let reason = format!(
+            "moves in the subroutine file {shown} ({label} call): that file's moves, not rewritten in this one (--expand writes them, corrected, into it); {after}"
+        );
+        if moves > 0 {
+            self.summary.moves += moves;
+            self.skipped.entry(reason.clone()).or_default().push(line);
+            self.summary.motion_blocks += 1;
+            self.uncorrected.entry(reason).or_default().push(line);
+        } else {
+            self.unmodelled.entry(reason).or_default().push(line);
+        }
+        Ok(())
     }
 
     fn process<W: Write>(
@@ -800,6 +932,57 @@ impl<'a> Pass<'a> {
         }
         Ok(())
     }
+}
+
+/// A call of the program into a subroutine file: the statements of the
+/// file's run (up to its return), and whether the call runs once (else
+/// the caller does not follow it).
+struct FileCall {
+    body: std::ops::Range<usize>,
+    once: bool,
+}
+
+/// The program's calls into subroutine files of `lib`, by statement
+/// (block, statement index), as `trace` ran them: the first run of each.
+fn file_calls(
+    trace: &exec::Trace,
+    blocks: &[Block],
+    lib: &Library,
+) -> std::collections::HashMap<(u32, u32), FileCall> {
+    let mut out: std::collections::HashMap<(u32, u32), FileCall> = Default::default();
+    if trace.halt.is_some() || lib.files.is_empty() {
+        return out;
+    }
+    let steps = &trace.steps;
+    for (k, s) in steps.iter().enumerate() {
+        let own = (s.block as usize) < lib.main;
+        let into_file = steps
+            .get(k + 1)
+            .is_some_and(|n| (n.block as usize) >= lib.main);
+        if !own
+            || !into_file
+            || exec::call_label(
+                &blocks[s.block as usize],
+                &blocks[s.block as usize].segments[s.seg as usize],
+            )
+            .is_none()
+        {
+            continue;
+        }
+        // The return is the first statement after it back at the
+        // caller's depth (recorded after each statement ran).
+        let end = steps[k + 1..]
+            .iter()
+            .position(|n| n.depth < s.depth)
+            .map_or(steps.len(), |p| k + 1 + p + 1);
+        out.entry((s.block, s.seg))
+            .and_modify(|c| c.once = false)
+            .or_insert(FileCall {
+                body: k + 1..end,
+                once: true,
+            });
+    }
+    out
 }
 
 /// A stretch the written program moves along: start and end, program

@@ -14,8 +14,9 @@
 //! comes from, so what the rewrite reports names the source line.
 
 use super::edit::Edits;
+use super::subroutines::Library;
 use crate::machine::Dialect;
-use crate::nc::exec::Trace;
+use crate::nc::exec::{Executed, Trace, WordValue};
 use crate::nc::exec::{Known, KnownWords};
 use crate::nc::lexeme::{self, NumStyle, WriteRules};
 use crate::nc::{Block, BlockError, Entry, Flow, HhKind, Segment, Stmt, Syntax, TokenKind, Value};
@@ -25,6 +26,22 @@ use std::path::Path;
 /// Decimals of an expanded literal: 1 nm (and 1 udeg), below any
 /// control's resolution; the rewrite writes its own decimals over them.
 const DECIMALS: u8 = 6;
+
+/// Decimals of an expanded LinuxCNC literal: enough that the text gives
+/// back the value the program computed to 1e-12 mm. LinuxCNC takes an arc
+/// given by its radius only when half its chord is within a relative
+/// 1e-12 of the radius (rs274ngc's `arc_data_r`, `TINY`): a half circle
+/// (`G3 X[..] Y[..] R#<r>`, as LinuxCNC's ngcgui `slot.ngc` writes it)
+/// whose ends were written with 6 decimals no longer reaches.
+const LINUXCNC_DECIMALS: u8 = 12;
+
+/// Decimals of an expanded literal in `dialect`.
+fn decimals(dialect: Dialect) -> u8 {
+    match dialect {
+        Dialect::Linuxcnc => LINUXCNC_DECIMALS,
+        _ => DECIMALS,
+    }
+}
 
 /// Whether a statement is macro logic that an expanded program drops.
 fn dropped(stmt: Stmt) -> bool {
@@ -43,11 +60,18 @@ fn dropped(stmt: Stmt) -> bool {
 }
 
 /// Whether `trace` can be written flattened: it ran to the end of the
-/// program, and every coordinate it needs has a value.
-pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), SourceError> {
+/// program, and every coordinate it needs has a value. An error in a
+/// subroutine file of `lib` names that file.
+pub(super) fn check(
+    path: &Path,
+    lib: &Library,
+    blocks: &[Block],
+    trace: &Trace,
+) -> Result<(), SourceError> {
+    let path_of = |b: usize| lib.file_of(b).map_or(path, |f| f.path.as_path());
     if let Some(h) = &trace.halt {
         return Err(SourceError::new(
-            path,
+            path_of(h.block),
             h.line,
             1,
             format!(
@@ -83,7 +107,7 @@ pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), 
                     .map_or_else(String::new, |(_, w)| format!(": {w}"));
                 let (line, column) = block.locate(w.value_span.start as usize);
                 return Err(SourceError::new(
-                    path,
+                    path_of(s.block as usize),
                     line,
                     column,
                     format!("--expand: the value of {} is not known here{why}", w.addr),
@@ -95,15 +119,52 @@ pub(super) fn check(path: &Path, blocks: &[Block], trace: &Trace) -> Result<(), 
 }
 
 /// Hands `emit` the blocks of `blocks` as `trace` ran them, flattened, one
-/// at a time (a long loop is never all in memory); [`check`] first.
+/// at a time (a long loop is never all in memory); [`check`] first. The
+/// blocks of a subroutine file of `lib` are written where the program
+/// calls it, with the line of the call.
 pub(super) fn flatten<E: From<SourceError>>(
     path: &Path,
+    lib: &Library,
     syntax: Syntax,
     blocks: &[Block],
     trace: &Trace,
     emit: &mut dyn FnMut(&Block) -> Result<(), E>,
 ) -> Result<(), E> {
-    check(path, blocks, trace)?;
+    check(path, lib, blocks, trace)?;
+    let steps = Steps {
+        steps: &trace.steps,
+        values: &trace.values,
+        main: lib.main,
+        own_lines: false,
+    };
+    write_steps(path, syntax, blocks, &steps, true, emit)
+}
+
+/// Statements run, to write flattened.
+pub(super) struct Steps<'a> {
+    /// The statements, in the order they ran.
+    pub steps: &'a [Executed],
+    /// Their words' values ([`Trace::values`]).
+    pub values: &'a [WordValue],
+    /// The program's own blocks; those after are subroutine files'.
+    pub main: usize,
+    /// A file's block keeps its own line (else it takes the line of the
+    /// program's statement that ran last before it: the call).
+    pub own_lines: bool,
+}
+
+/// Hands `emit` the blocks of `blocks` as `run` ran them, flattened (each
+/// word whose value is known written as that value, the others as
+/// written); with `tail`, what follows the last block run (`%`, blank
+/// lines) too.
+pub(super) fn write_steps<E: From<SourceError>>(
+    path: &Path,
+    syntax: Syntax,
+    blocks: &[Block],
+    run: &Steps<'_>,
+    tail: bool,
+    emit: &mut dyn FnMut(&Block) -> Result<(), E>,
+) -> Result<(), E> {
     let dialect = syntax.dialect;
     let eol: &[u8] = blocks.iter().find_map(Block::line_ending).unwrap_or(b"\n");
     let mut number = blocks.iter().find_map(|b| {
@@ -133,8 +194,10 @@ pub(super) fn flatten<E: From<SourceError>>(
     };
     let mut edits = Edits::default();
     let mut k = 0;
-    let steps = &trace.steps;
+    let steps = run.steps;
     let mut last_block = None;
+    // The line of the program's statement that ran last (a call).
+    let mut call_line = None;
     while k < steps.len() {
         // One run of a block: its consecutive statements.
         let b = steps[k].block;
@@ -144,7 +207,17 @@ pub(super) fn flatten<E: From<SourceError>>(
             j += 1;
         }
         let block = &blocks[b as usize];
-        last_block = Some(b as usize);
+        let line = if (b as usize) < run.main || run.own_lines {
+            if (b as usize) < run.main {
+                call_line = Some(block.line);
+            }
+            block.line
+        } else {
+            call_line.unwrap_or(block.line)
+        };
+        if (b as usize) < run.main {
+            last_block = Some(b as usize);
+        }
         edits.clear();
         let mut kept = false;
         for (si, seg) in block.segments.iter().enumerate() {
@@ -173,7 +246,7 @@ pub(super) fn flatten<E: From<SourceError>>(
             if !matches!(seg.stmt, Stmt::Blank) {
                 kept = true;
             }
-            for wv in &trace.values[step.values.0 as usize..step.values.1 as usize] {
+            for wv in &run.values[step.values.0 as usize..step.values.1 as usize] {
                 let tok = &block.tokens[wv.token as usize];
                 // No control takes `X=inf`: a value the logic computes
                 // beyond every number (R1=EXP(1000)) ends the run here,
@@ -184,7 +257,7 @@ pub(super) fn flatten<E: From<SourceError>>(
                 {
                     return Err(SourceError::new(
                         path,
-                        block.line,
+                        line,
                         0,
                         format!(
                             "a word's value computes to {v}, which is not a number a control can take: nothing written"
@@ -204,7 +277,7 @@ pub(super) fn flatten<E: From<SourceError>>(
                             lexeme::write(
                                 o,
                                 v,
-                                DECIMALS,
+                                decimals(dialect),
                                 &NumStyle {
                                     point: true,
                                     ..NumStyle::default()
@@ -237,13 +310,13 @@ pub(super) fn flatten<E: From<SourceError>>(
             edits
                 .write_block(block, &mut text)
                 .expect("writing to memory");
-            out(text, block.line, block.unreadable.as_ref())?;
+            out(text, line, block.unreadable.as_ref())?;
         }
         k = j;
     }
     // What follows the end (`%`, blank lines, comments) is kept.
-    if let Some(last) = last_block {
-        for block in &blocks[last + 1..] {
+    if tail && let Some(last) = last_block {
+        for block in &blocks[last + 1..run.main] {
             if block
                 .segments
                 .iter()
@@ -293,7 +366,7 @@ fn literal(out: &mut Vec<u8>, dialect: Dialect, addr: crate::nc::Addr, v: f64) {
         point: !(code && integral),
         ..NumStyle::default()
     };
-    lexeme::write(out, v, DECIMALS, &style, rules);
+    lexeme::write(out, v, decimals(dialect), &style, rules);
 }
 
 /// The block `text` (from source line `line`) read back; `bad`: the

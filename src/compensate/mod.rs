@@ -35,6 +35,7 @@ pub mod export;
 pub mod report;
 pub mod simulate;
 mod solver;
+mod subroutines;
 pub mod tolerance;
 mod writer;
 
@@ -91,6 +92,9 @@ pub struct Settings {
     /// states them (axis letter, deg); see
     /// [`crate::nc::interp::InterpreterSettings::rotary_start`].
     pub rotary_start: Vec<(char, f64)>,
+    /// LinuxCNC: directories to look in, after the program's own, for
+    /// the file `name.ngc` an `o<name> call` runs (its `SUBROUTINE_PATH`).
+    pub subroutine_path: Vec<std::path::PathBuf>,
 }
 
 impl Settings {
@@ -111,6 +115,7 @@ impl Settings {
             fanuc_integer_unit: None,
             expand: false,
             rotary_start: Vec::new(),
+            subroutine_path: Vec::new(),
         }
     }
 }

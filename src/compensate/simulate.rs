@@ -48,6 +48,9 @@ pub struct SimSettings {
     /// Sampling step along feed moves, mm of tool-tip path, and at least a
     /// sample a degree of turn of a rotary axis (0: end points only).
     pub step: f64,
+    /// LinuxCNC: directories holding the subroutine files `o<name> call`
+    /// runs, after the program's own ([`super::Settings::subroutine_path`]).
+    pub subroutine_path: Vec<std::path::PathBuf>,
 }
 
 impl SimSettings {
@@ -61,6 +64,7 @@ impl SimSettings {
             fanuc_integer_unit: None,
             rotary_start: Vec::new(),
             step: 0.0,
+            subroutine_path: Vec::new(),
         }
     }
 }
@@ -321,15 +325,17 @@ impl Simulator {
         }
         let mut not_followed = None;
         if !rest.is_empty() {
-            let trace = crate::nc::exec::run(syntax.dialect, &rest)
+            let lib =
+                super::subroutines::load(syntax, path, &self.settings.subroutine_path, &mut rest)?;
+            let trace = crate::nc::exec::run_with(syntax.dialect, &rest, lib.main)
                 .map_err(|e| SourceError::new(path, e.line, 1, e.message))?;
-            match super::expand::check(path, &rest, &trace) {
-                Ok(()) => super::expand::flatten(path, syntax, &rest, &trace, &mut process)?,
+            match super::expand::check(path, &lib, &rest, &trace) {
+                Ok(()) => super::expand::flatten(path, &lib, syntax, &rest, &trace, &mut process)?,
                 Err(e) => {
                     // Not followed to the end: in file order, moves with
                     // variables left out.
                     not_followed = Some((e.message.clone(), e.line));
-                    for block in &rest {
+                    for block in &rest[..lib.main] {
                         process(block)?;
                     }
                 }

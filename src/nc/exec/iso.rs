@@ -295,7 +295,7 @@ fn link_chain(p: &mut Program, chain: &[usize], endif: usize) {
 }
 
 /// `o100`, `O0100` -> `o100`; `o<Name >` -> `o<name>`.
-fn oword_label(s: &str) -> String {
+pub(super) fn oword_label(s: &str) -> String {
     let s = s.to_ascii_lowercase();
     if let Some(rest) = s.strip_prefix('o') {
         if rest.starts_with('<') {

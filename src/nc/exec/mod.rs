@@ -6,7 +6,7 @@
 //! `iso.rs` for FANUC Macro B and LinuxCNC o-words, `heidenhain.rs` for Q
 //! parameters, FN and labels, `sinumerik.rs` for R parameters, `DEF`
 //! variables and the structured statements); the loops and branches are
-//! linked to their ends, and [`run`] steps through them from the first
+//! linked to their ends, and [`run_with`] steps through them from the first
 //! statement. The result is a [`Trace`]: every statement executed, in
 //! order, with the values its expression words had. A value the program
 //! does not fix (a system variable, a parameter set elsewhere) is unknown,
@@ -203,6 +203,9 @@ pub(crate) struct WordValue {
 pub(crate) struct Halt {
     /// 1-based line.
     pub line: usize,
+    /// Index of its block in the blocks run (a subroutine file's blocks
+    /// follow the program's: [`run_with`]).
+    pub block: usize,
     /// Why.
     pub why: String,
 }
@@ -286,14 +289,25 @@ pub(crate) struct Program<'a> {
     ops: Vec<ExecOp>,
     /// Label -> statement indices, in order.
     labels: HashMap<String, Vec<usize>>,
+    /// Statements of the program itself; those after are subroutine
+    /// files', reached only by a call.
+    main: usize,
 }
 
 impl<'a> Program<'a> {
-    fn new(dialect: Dialect, blocks: &'a [Block]) -> Result<Program<'a>, RunawayError> {
+    fn new(
+        dialect: Dialect,
+        blocks: &'a [Block],
+        main_blocks: usize,
+    ) -> Result<Program<'a>, RunawayError> {
         let mut at = Vec::new();
+        let mut main = 0;
         for (b, block) in blocks.iter().enumerate() {
             for s in 0..block.segments.len() {
                 at.push((b as u32, s as u32));
+            }
+            if b < main_blocks {
+                main = at.len();
             }
         }
         let mut p = Program {
@@ -302,6 +316,7 @@ impl<'a> Program<'a> {
             at,
             ops: Vec::new(),
             labels: HashMap::new(),
+            main,
         };
         match dialect {
             Dialect::Fanuc | Dialect::Linuxcnc => iso::decode(&mut p)?,
@@ -357,9 +372,16 @@ struct Frame {
     saved: Vec<(Key, Option<Result<f64, String>>)>,
 }
 
-/// Runs `blocks` (a whole program, in order).
-pub(crate) fn run(dialect: Dialect, blocks: &[Block]) -> Result<Trace, RunawayError> {
-    let p = Program::new(dialect, blocks)?;
+/// Runs the program made of the first `main_blocks` of `blocks`; the
+/// blocks after them are subroutine files (LinuxCNC `name.ngc`), whose
+/// `o<name> sub` the program's calls reach, but which never run on
+/// their own: the program ends where its own blocks end.
+pub(crate) fn run_with(
+    dialect: Dialect,
+    blocks: &[Block],
+    main_blocks: usize,
+) -> Result<Trace, RunawayError> {
+    let p = Program::new(dialect, blocks, main_blocks)?;
     Runner {
         p: &p,
         vars: Vars::default(),
@@ -419,6 +441,7 @@ impl Runner<'_, '_> {
     fn halt(&mut self, i: usize, why: impl Into<String>) -> Flow {
         self.trace.halt = Some(Halt {
             line: self.p.line(i),
+            block: self.p.at.get(i).map_or(0, |a| a.0 as usize),
             why: why.into(),
         });
         Flow::Stop
@@ -428,6 +451,10 @@ impl Runner<'_, '_> {
         let mut pc = 0usize;
         let mut executed = 0usize;
         while pc < self.p.ops.len() {
+            // Past the program's own end, only a call runs a file's blocks.
+            if pc >= self.p.main && self.frames.is_empty() {
+                break;
+            }
             executed += 1;
             if executed > MAX_EXEC_STATEMENTS {
                 return Err(RunawayError {
@@ -794,7 +821,13 @@ impl Runner<'_, '_> {
             ));
         }
         let Some(t) = self.p.find(&label, i, None) else {
-            return Ok(self.halt(i, format!("{label} is not in the program")));
+            let why = match subroutine_file(&label) {
+                Some(file) if self.p.dialect == Dialect::Linuxcnc => format!(
+                    "{label} is not a subroutine of this program, and its file {file} was not found beside the program or in a --subroutine-path directory (LinuxCNC runs it from its PROGRAM_PREFIX or SUBROUTINE_PATH): what it does is not in the files given"
+                ),
+                _ => format!("{label} is not in the program"),
+            };
+            return Ok(self.halt(i, why));
         };
         if self.frames.len() >= MAX_CALL_DEPTH {
             return Err(RunawayError {
@@ -864,6 +897,52 @@ impl Runner<'_, '_> {
     }
 }
 
+/// LinuxCNC: the file an `o<name> call` (or `o123 call`) of a subroutine
+/// the program does not define runs: `name.ngc`, the name in lower case
+/// (LinuxCNC's o-code manual, "Calling Files"); `None` for a computed
+/// label (`o[#1] call`).
+pub(crate) fn subroutine_file(label: &str) -> Option<String> {
+    let name = label.strip_prefix('o')?;
+    let name = name
+        .strip_prefix('<')
+        .and_then(|n| n.strip_suffix('>'))
+        .unwrap_or(name);
+    let ok = !name.is_empty()
+        && name
+            .bytes()
+            .all(|c| c.is_ascii_alphanumeric() || c == b'_' || c == b'-' || c == b'.');
+    ok.then(|| format!("{}.ngc", name.to_ascii_lowercase()))
+}
+
+/// LinuxCNC: the o-label a statement calls (`o<name> call [..]`), as the
+/// program's labels are kept (`o<name>`, lower case).
+pub(crate) fn call_label(block: &Block, seg: &super::Segment) -> Option<String> {
+    if seg.stmt != super::Stmt::Flow(super::Flow::Call) {
+        return None;
+    }
+    let mut kw = block
+        .seg_tokens(seg)
+        .iter()
+        .filter(|t| t.kind == TokenKind::Keyword)
+        .map(|t| String::from_utf8_lossy(block.bytes(t.span)).to_ascii_lowercase());
+    let label = kw.next()?;
+    (kw.next()? == "call").then(|| iso::oword_label(&label))
+}
+
+/// LinuxCNC: the o-label a statement opens a subroutine of (`o<name> sub`).
+pub(crate) fn sub_label(block: &Block, seg: &super::Segment) -> Option<String> {
+    if seg.stmt != super::Stmt::Flow(super::Flow::Label) {
+        return None;
+    }
+    let mut kw = block
+        .seg_tokens(seg)
+        .iter()
+        .filter(|t| t.kind == TokenKind::Keyword)
+        .map(|t| String::from_utf8_lossy(block.bytes(t.span)).to_ascii_lowercase());
+    let label = kw.next()?;
+    (kw.next()? == "sub").then(|| iso::oword_label(&label))
+}
+
 /// LinuxCNC: whether a parameter is local to a subroutine call.
 fn linuxcnc_local(k: &Key) -> bool {
     match k {
@@ -898,7 +977,12 @@ pub(crate) struct KnownWords {
 /// expression words, and how each statement is reached. `None` when
 /// execution did not reach the end (a later run of any statement could
 /// not be ruled out).
-pub(crate) fn known_words(trace: &Trace) -> Option<KnownWords> {
+/// Of a program whose first `main_blocks` blocks are its own and the
+/// rest subroutine files ([`run_with`]): a call into a file
+/// is passed straight through, the statement after it reached as if the
+/// call were one statement (the caller follows the file's statements
+/// itself).
+pub(crate) fn known_words_in(trace: &Trace, main_blocks: usize) -> Option<KnownWords> {
     if trace.halt.is_some() {
         return None;
     }
@@ -933,7 +1017,7 @@ pub(crate) fn known_words(trace: &Trace) -> Option<KnownWords> {
         .collect();
     Some(KnownWords {
         words,
-        entries: entries(trace),
+        entries: entries(trace, main_blocks),
     })
 }
 
@@ -943,21 +1027,27 @@ pub(crate) fn known_words(trace: &Trace) -> Option<KnownWords> {
 /// (the statements between, never run, change nothing), otherwise
 /// jumped. Read in the order written with the statements that never run
 /// passed over, a straight statement then has the state it runs with.
-fn entries(trace: &Trace) -> HashMap<(u32, u32), Entry> {
+fn entries(trace: &Trace, main_blocks: usize) -> HashMap<(u32, u32), Entry> {
     let key = |s: &Executed| (s.block, s.seg);
+    let own: Vec<Executed> = trace
+        .steps
+        .iter()
+        .filter(|s| (s.block as usize) < main_blocks)
+        .copied()
+        .collect();
     let mut runs: std::collections::BTreeMap<(u32, u32), usize> = Default::default();
-    for s in &trace.steps {
+    for s in &own {
         *runs.entry(key(s)).or_default() += 1;
     }
     // The statement that ran next after each one, in text order.
     let order: Vec<(u32, u32)> = runs.keys().copied().collect();
     let next: HashMap<(u32, u32), (u32, u32)> = order.windows(2).map(|w| (w[0], w[1])).collect();
     let mut out: HashMap<(u32, u32), Entry> = HashMap::new();
-    for (k, s) in trace.steps.iter().enumerate() {
+    for (k, s) in own.iter().enumerate() {
         let here = key(s);
         let straight = runs[&here] == 1
             && (k == 0 || {
-                let prev = key(&trace.steps[k - 1]);
+                let prev = key(&own[k - 1]);
                 runs[&prev] == 1 && next.get(&prev) == Some(&here)
             });
         let e = out.entry(here).or_insert(Entry::Straight);

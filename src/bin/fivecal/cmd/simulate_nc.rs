@@ -111,6 +111,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         settings.coordinates = common.coordinates;
         settings.fanuc_integer_unit = common.integer_unit;
         settings.rotary_start = common.rotary_start.clone();
+        settings.subroutine_path = common.subroutine_path.clone();
         settings.step = step;
         settings
     };

@@ -209,6 +209,7 @@ impl CompensateArgs {
         settings.max_c_swing = self.max_c_swing;
         settings.fanuc_integer_unit = common.integer_unit;
         settings.rotary_start = common.rotary_start.clone();
+        settings.subroutine_path = common.subroutine_path.clone();
         if self.expand && self.input.is_none() {
             bail!("--expand flattens an NC program: give the program to rewrite (IN)");
         }

@@ -64,6 +64,11 @@ pub struct MachineArgs {
     /// Gauge length of the tool in use, mm [default: the machine file's tool].
     #[arg(long, value_name = "MM")]
     pub tool_length: Option<f64>,
+    /// LinuxCNC: a directory holding the subroutine files `name.ngc` that
+    /// `o<name> call` runs (the control's SUBROUTINE_PATH; repeat for
+    /// several, looked in in order after the program's own directory).
+    #[arg(long, value_name = "DIR")]
+    pub subroutine_path: Vec<PathBuf>,
     /// Reject words and codes fivecal does not know instead of keeping them.
     #[arg(long)]
     pub strict: bool,
@@ -83,6 +88,8 @@ pub struct Common {
     /// `--rotary-start`: (axis letter, deg), each a rotary axis of the
     /// machine at most once, within its stroke.
     pub rotary_start: Vec<(char, f64)>,
+    /// `--subroutine-path` directories, each one that exists.
+    pub subroutine_path: Vec<PathBuf>,
     pub strict: bool,
     /// Input files of the run (never to be overwritten).
     pub inputs: Vec<PathBuf>,
@@ -178,6 +185,14 @@ impl MachineArgs {
             None => machine.integer_unit.map(|u| u.mm()),
         };
         let rotary_start = parse_rotary_start(&self.rotary_start, &machine)?;
+        for d in &self.subroutine_path {
+            if !d.is_dir() {
+                bail!(
+                    "--subroutine-path {}: no such directory (the directory holding the LinuxCNC subroutine files name.ngc that o<name> call runs)",
+                    d.display()
+                );
+            }
+        }
         let mut inputs = Vec::new();
         if let MachineOrigin::File(p) = &machine_origin {
             inputs.push(p.clone());
@@ -195,6 +210,7 @@ impl MachineArgs {
             },
             integer_unit,
             rotary_start,
+            subroutine_path: self.subroutine_path.clone(),
             strict: self.strict,
             inputs,
         })
