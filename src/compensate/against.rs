@@ -20,10 +20,26 @@
 //! looked for from the path's start. Rapids are followed but not measured:
 //! the control does not promise their path.
 
+use std::io::BufRead;
+use std::path::Path;
+
 use nalgebra::Vector3;
 
-use super::Largest;
-use super::simulate::Sample;
+use super::simulate::{Sample, SimSettings, Simulator};
+use super::{Largest, Lines};
+use crate::model::Model;
+use crate::source::SourceError;
+
+/// Why an intended path cannot be had.
+#[derive(Debug, thiserror::Error)]
+pub enum AgainstError {
+    /// The original could not be run.
+    #[error(transparent)]
+    Source(#[from] SourceError),
+    /// More samples than the simulator keeps.
+    #[error("{0}: more than {1} samples along its path: choose a larger --step")]
+    TooManySamples(String, usize),
+}
 
 /// The least arc length, mm, searched on either side of the last match.
 const MIN_REACH_MM: f64 = 0.01;
@@ -55,6 +71,35 @@ impl IntendedPath {
             self.tips.push(s.nominal.tip);
             self.axes.push(s.nominal.axis.normalize());
         }
+    }
+
+    /// The path `program` (read from `input`) asks for: run on the nominal
+    /// machine (`model` with every parameter zero) with `settings`; with the
+    /// reasons of the moves that could not be run, by line.
+    pub fn of_program<R: BufRead>(
+        model: &Model,
+        settings: SimSettings,
+        program: &Path,
+        input: R,
+    ) -> Result<(IntendedPath, Vec<(String, Lines)>), AgainstError> {
+        let zero = vec![0.0; model.n_params()];
+        let sim = Simulator::new(model, &zero, settings);
+        let mut path = IntendedPath::new();
+        let max = crate::limits::MAX_SAMPLES;
+        let mut too_many = false;
+        let summary = sim.run(program, input, &mut |s| {
+            too_many |= path.len() >= max;
+            if !too_many {
+                path.push(s);
+            }
+        })?;
+        if too_many {
+            return Err(AgainstError::TooManySamples(
+                program.display().to_string(),
+                max,
+            ));
+        }
+        Ok((path, summary.skipped))
     }
 
     /// Points of the polyline.

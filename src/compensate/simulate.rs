@@ -619,6 +619,63 @@ fn swept_length(
     sum
 }
 
+/// The samples of a run as `simulate nc -o` writes them: `title` as the
+/// first comment line, then one row per sample (nominal tip and axis in W,
+/// tip error in um, axis error in urad); with `against` (the original a
+/// compensated program was checked against), a last column with each
+/// sample's distance from the original's path, um, empty for a rapid.
+pub fn samples_csv(
+    title: &str,
+    samples: &[(Sample, Option<f64>)],
+    against: Option<&Path>,
+) -> String {
+    use std::fmt::Write as _;
+    let mut t = format!(
+        "# {title}\n# nominal tip x,y,z (mm) and axis i,j,k in W; error = actual - nominal (um, urad)\n"
+    );
+    if let Some(a) = against {
+        let _ = writeln!(
+            t,
+            "# deviation: um of the actual tip from the path {} asks for (feed moves only)",
+            a.display()
+        );
+    }
+    t.push_str("line,fraction,x,y,z,i,j,k,ex,ey,ez,error,axis_error");
+    t.push_str(if against.is_some() {
+        ",deviation\n"
+    } else {
+        "\n"
+    });
+    for (s, deviation) in samples {
+        let (n, e) = (&s.nominal, s.error() * 1e3);
+        let _ = write!(
+            t,
+            "{},{:.4},{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.4},{:.4},{:.4},{:.4},{:.3}",
+            s.line,
+            s.fraction,
+            n.tip.x,
+            n.tip.y,
+            n.tip.z,
+            n.axis.x,
+            n.axis.y,
+            n.axis.z,
+            e.x,
+            e.y,
+            e.z,
+            e.norm(),
+            s.axis_error() * 1e6
+        );
+        match (against, deviation) {
+            (Some(_), Some(d)) => {
+                let _ = writeln!(t, ",{d:.4}");
+            }
+            (Some(_), None) => t.push_str(",\n"),
+            (None, _) => t.push('\n'),
+        }
+    }
+    t
+}
+
 /// What a CMM would measure at the nominal surface points `points` on a
 /// part cut by the tool path `samples` (in order), for a tool that cuts at
 /// its tip with its axis along the surface normal (a ball-end or flat tool

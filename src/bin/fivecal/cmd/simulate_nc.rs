@@ -2,14 +2,13 @@
 //! on a machine with known errors, and what a CMM would measure on a part
 //! cut by it.
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::bail;
 use clap::Args;
 use fivecal::compensate::against::{Deviation, Follower, IntendedPath};
 use fivecal::compensate::reasons;
-use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface};
+use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface, samples_csv};
 use fivecal::formats::measured::{self, MeasuredPoint};
 use fivecal::numbers::count;
 
@@ -116,12 +115,16 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         settings
     };
     let intended = match &args.against {
-        Some(original) => Some(intended_path(
-            &common,
-            &errors.model,
-            original,
-            &settings_for,
-        )?),
+        Some(original) => {
+            let (detection, file) = common.open_program(original)?;
+            let settings = settings_for(detection.dialect);
+            Some(IntendedPath::of_program(
+                &errors.model,
+                settings,
+                original,
+                file,
+            )?)
+        }
         None => None,
     };
     let mut follower = match &intended {
@@ -171,57 +174,13 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(out) = &args.output {
-        let mut t = String::new();
-        let _ = writeln!(
-            t,
-            "# fivecal simulate nc: {} on {} with {}",
+        let title = format!(
+            "fivecal simulate nc: {} on {} with {}",
             args.program.display(),
             common.machine.name,
             args.errors.display()
         );
-        let _ = writeln!(
-            t,
-            "# nominal tip x,y,z (mm) and axis i,j,k in W; error = actual - nominal (um, urad)"
-        );
-        t.push_str("line,fraction,x,y,z,i,j,k,ex,ey,ez,error,axis_error");
-        if let Some(a) = &args.against {
-            let _ = write!(
-                t,
-                ",deviation\n# deviation: um of the actual tip from the path {} asks for (feed moves only)\n",
-                a.display()
-            );
-        } else {
-            t.push('\n');
-        }
-        for (s, deviation) in &samples {
-            let (n, e) = (&s.nominal, s.error() * 1e3);
-            let _ = writeln!(
-                t,
-                "{},{:.4},{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.4},{:.4},{:.4},{:.4},{:.3}",
-                s.line,
-                s.fraction,
-                n.tip.x,
-                n.tip.y,
-                n.tip.z,
-                n.axis.x,
-                n.axis.y,
-                n.axis.z,
-                e.x,
-                e.y,
-                e.z,
-                e.norm(),
-                s.axis_error() * 1e6
-            );
-            if args.against.is_some() {
-                t.pop();
-                match deviation {
-                    Some(d) => {
-                        let _ = writeln!(t, ",{d:.4}");
-                    }
-                    None => t.push_str(",\n"),
-                }
-            }
-        }
+        let t = samples_csv(&title, &samples, args.against.as_deref());
         fivecal::io::write_atomic(out, t.as_bytes())?;
     }
     if let (Some(points), Some(out)) = (&cmm_points, &args.measured) {
@@ -329,33 +288,3 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
 /// The step along feed moves, mm, of a run `--against` an original when no
 /// `--step` is given (the demo's).
 const AGAINST_STEP_MM: f64 = 0.5;
-
-/// The path `original` asks for: run on the nominal machine (the model of
-/// the errors with every parameter zero), with the reasons of the moves
-/// that could not be run.
-fn intended_path(
-    common: &crate::config::nc::Common,
-    model: &fivecal::model::Model,
-    original: &Path,
-    settings_for: &dyn Fn(fivecal::machine::Dialect) -> SimSettings,
-) -> anyhow::Result<(IntendedPath, Vec<(String, fivecal::compensate::Lines)>)> {
-    let (detection, file) = common.open_program(original)?;
-    let zero = vec![0.0; model.n_params()];
-    let sim = Simulator::new(model, &zero, settings_for(detection.dialect));
-    let mut path = IntendedPath::new();
-    let mut too_many = false;
-    let summary = sim.run(original, file, &mut |s| {
-        too_many |= path.len() >= fivecal::limits::MAX_SAMPLES;
-        if !too_many {
-            path.push(s);
-        }
-    })?;
-    if too_many {
-        bail!(
-            "{}: more than {} samples along its path: choose a larger --step",
-            original.display(),
-            fivecal::limits::MAX_SAMPLES
-        );
-    }
-    Ok((path, summary.skipped))
-}
