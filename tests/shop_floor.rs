@@ -513,24 +513,12 @@ fn simulate_nc_against_the_original_gives_the_demo_s_before_and_after() {
     assert!(nominal.1 < 1e-3, "{nominal:?}");
 }
 
-/// Issue 46, item 7: `--method sphere` on a probe-columns plan is refused
-/// for what it is (a column's touches lie on faces, not on a sphere),
-/// naming the methods that work, before any fit; it used to stop in the
-/// sphere fit with "four or more probed points ... (4 given)".
-#[test]
-fn the_sphere_method_on_a_column_plan_names_the_methods_that_work() {
-    let dir = tempdir();
-    let d = dir.path();
+/// `plan TEST --machine bc-trunnion -o PLAN` in `d`, and what the virtual
+/// machine of `simulate --truth-example` makes of it in `d/MEASURED`.
+fn planned_and_measured(d: &Path, test: &str, plan: &str, measured: &str) {
     fivecal()
         .current_dir(d)
-        .args([
-            "plan",
-            "probe-columns",
-            "--machine",
-            "bc-trunnion",
-            "-o",
-            "pc",
-        ])
+        .args(["plan", test, "--machine", "bc-trunnion", "-o", plan])
         .assert()
         .success();
     let truth = fivecal()
@@ -540,16 +528,22 @@ fn the_sphere_method_on_a_column_plan_names_the_methods_that_work() {
     std::fs::write(d.join("t.yaml"), &truth.stdout).unwrap();
     fivecal()
         .current_dir(d)
-        .args([
-            "simulate",
-            "--plan",
-            "pc/probe-columns.plan.yaml",
-            "--errors",
-            "t.yaml",
-        ])
-        .args(["-o", "pc.log"])
+        .args(["simulate", "--plan"])
+        .arg(format!("{plan}/{test}.plan.yaml"))
+        .args(["--errors", "t.yaml", "-o", measured])
         .assert()
         .success();
+}
+
+/// Issue 46, item 7: `--method sphere` on a probe-columns plan is refused
+/// for what it is (a column's touches lie on faces, not on a sphere),
+/// naming the methods that work, before any fit; it used to stop in the
+/// sphere fit with "four or more probed points ... (4 given)".
+#[test]
+fn the_sphere_method_on_a_column_plan_names_the_methods_that_work() {
+    let dir = tempdir();
+    let d = dir.path();
+    planned_and_measured(d, "probe-columns", "pc", "pc.log");
     let out = fivecal()
         .current_dir(d)
         .args([
@@ -602,35 +596,7 @@ fn a_z_stroke_too_short_for_the_piece_is_named_without_a_negative_clearance() {
 fn a_nine_section_analysis_writes_its_report_and_a_flat_result_file() {
     let dir = tempdir();
     let d = dir.path();
-    fivecal()
-        .current_dir(d)
-        .args([
-            "plan",
-            "nine-section",
-            "--machine",
-            "bc-trunnion",
-            "-o",
-            "ns",
-        ])
-        .assert()
-        .success();
-    let truth = fivecal()
-        .args(["simulate", "--truth-example"])
-        .output()
-        .unwrap();
-    std::fs::write(d.join("t.yaml"), &truth.stdout).unwrap();
-    fivecal()
-        .current_dir(d)
-        .args([
-            "simulate",
-            "--plan",
-            "ns/nine-section.plan.yaml",
-            "--errors",
-            "t.yaml",
-        ])
-        .args(["-o", "ns.csv"])
-        .assert()
-        .success();
+    planned_and_measured(d, "nine-section", "ns", "ns.csv");
     let out = fivecal()
         .current_dir(d)
         .args([

@@ -917,21 +917,23 @@ pub(crate) fn subroutine_file(label: &str) -> Option<String> {
 /// LinuxCNC: the o-label a statement calls (`o<name> call [..]`), as the
 /// program's labels are kept (`o<name>`, lower case).
 pub(crate) fn call_label(block: &Block, seg: &super::Segment) -> Option<String> {
-    if seg.stmt != super::Stmt::Flow(super::Flow::Call) {
-        return None;
-    }
-    let mut kw = block
-        .seg_tokens(seg)
-        .iter()
-        .filter(|t| t.kind == TokenKind::Keyword)
-        .map(|t| String::from_utf8_lossy(block.bytes(t.span)).to_ascii_lowercase());
-    let label = kw.next()?;
-    (kw.next()? == "call").then(|| iso::oword_label(&label))
+    o_label(block, seg, super::Flow::Call, "call")
 }
 
 /// LinuxCNC: the o-label a statement opens a subroutine of (`o<name> sub`).
 pub(crate) fn sub_label(block: &Block, seg: &super::Segment) -> Option<String> {
-    if seg.stmt != super::Stmt::Flow(super::Flow::Label) {
+    o_label(block, seg, super::Flow::Label, "sub")
+}
+
+/// The o-label of a statement of kind `flow` whose second keyword is
+/// `keyword` (`o<name> call`, `o<name> sub`).
+fn o_label(
+    block: &Block,
+    seg: &super::Segment,
+    flow: super::Flow,
+    keyword: &str,
+) -> Option<String> {
+    if seg.stmt != super::Stmt::Flow(flow) {
         return None;
     }
     let mut kw = block
@@ -940,7 +942,7 @@ pub(crate) fn sub_label(block: &Block, seg: &super::Segment) -> Option<String> {
         .filter(|t| t.kind == TokenKind::Keyword)
         .map(|t| String::from_utf8_lossy(block.bytes(t.span)).to_ascii_lowercase());
     let label = kw.next()?;
-    (kw.next()? == "sub").then(|| iso::oword_label(&label))
+    (kw.next()? == keyword).then(|| iso::oword_label(&label))
 }
 
 /// LinuxCNC: whether a parameter is local to a subroutine call.
