@@ -744,6 +744,31 @@ mod subroutine_files {
         );
     }
 
+    /// A `side.ngc` that is a FIFO (or a device) is refused by its type,
+    /// naming it, before it is opened: opening a FIFO without a writer
+    /// would wait for ever.
+    #[test]
+    fn a_subroutine_file_that_is_a_fifo_is_refused_without_waiting() {
+        let dir = crate::util::tempdir();
+        let fifo = dir.path().join("side.ngc");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let (tx, rx) = std::sync::mpsc::channel();
+        let path = dir.path().to_path_buf();
+        std::thread::spawn(move || {
+            let r = run_in(&path, MAIN, Settings::new(Dialect::Linuxcnc));
+            let _ = tx.send(r.err().map(|e| e.to_string()));
+        });
+        let err = rx
+            .recv_timeout(std::time::Duration::from_secs(30))
+            .expect("the run waits on the FIFO")
+            .expect("a FIFO subroutine file is refused");
+        assert!(err.contains("side.ngc"), "{err}");
+    }
+
     #[test]
     fn a_subroutine_path_directory_is_looked_in_after_the_programs_own() {
         let dir = crate::util::tempdir();

@@ -99,7 +99,10 @@ pub(super) fn load(
             let Some(name) = subroutine_file(&label) else {
                 continue;
             };
-            let Some(path) = places.iter().map(|d| d.join(&name)).find(|p| p.is_file()) else {
+            // Whatever stands at the name is what LinuxCNC would open: a
+            // FIFO, device or directory there is refused by its type
+            // (`read`), not passed over as missing.
+            let Some(path) = places.iter().map(|d| d.join(&name)).find(|p| p.exists()) else {
                 continue;
             };
             if lib.files.len() >= MAX_FILES {
@@ -137,18 +140,38 @@ pub(super) fn load(
     }
 }
 
-/// Reads the blocks of the file `path` onto `blocks`.
+/// The largest subroutine file read, bytes: its blocks are held in
+/// memory with the program's, unlike the program itself, which streams.
+const MAX_FILE_BYTES: u64 = 16 << 20;
+
+/// Reads the blocks of the file `path` onto `blocks`. As every input: a
+/// FIFO or device is refused by its type before it is opened (a FIFO
+/// without a writer would block the open for ever), a file beyond
+/// [`MAX_FILE_BYTES`] by its size, a line without end at its line.
 fn read(syntax: Syntax, path: &Path, blocks: &mut Vec<Block>) -> Result<(), SourceError> {
-    let input = std::fs::File::open(path)
-        .map_err(|e| SourceError::new(path, 0, 0, format!("cannot read: {e}")))?;
-    let mut reader = Blocks::new(path, std::io::BufReader::new(input), syntax);
+    let what = "LinuxCNC subroutine file";
+    let input = crate::input::open_stream(path, what)?;
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    if size > MAX_FILE_BYTES {
+        return Err(SourceError::new(
+            path,
+            0,
+            0,
+            format!(
+                "{size} bytes, more than the {} MiB read for a {what}",
+                MAX_FILE_BYTES >> 20
+            ),
+        ));
+    }
+    let mut reader = Blocks::new(path, input, syntax);
     let mut block = Block::default();
     loop {
         match reader.next_into(&mut block) {
             Ok(true) => blocks.push(block.clone()),
             Ok(false) => return Ok(()),
             Err(ReadError::Io(e)) => {
-                return Err(SourceError::new(path, 0, 0, format!("cannot read: {e}")));
+                return Err(crate::input::LineError::located(path, &e)
+                    .unwrap_or_else(|| SourceError::new(path, 0, 0, format!("cannot read: {e}"))));
             }
             Err(ReadError::Syntax(e)) => return Err(e),
         }
