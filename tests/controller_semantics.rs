@@ -69,6 +69,45 @@ fn with_tool_change(name: &str, moves: &str) -> Machine {
     Machine::from_yaml(Path::new("machine.yaml"), &src).unwrap()
 }
 
+/// LinuxCNC's `rs274` run on `file` with the INI `ini` (its subroutine
+/// path) and the tool table `table`, stopped after 20 s: the moves of its
+/// canonical output (written to `canon`), or its error. A run that prints
+/// an error, or cannot open a file, has no moves.
+fn rs274_canon_moves(
+    home: &Path,
+    ini: &Path,
+    table: &Path,
+    file: &Path,
+    canon: &Path,
+) -> Result<usize, String> {
+    let run = std::process::Command::new("timeout")
+        .arg("20")
+        .arg("rs274")
+        .env("HOME", home)
+        .arg("-i")
+        .arg(ini)
+        .arg("-t")
+        .arg(table)
+        .arg("-g")
+        .arg(file)
+        .arg(canon)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("LinuxCNC's rs274 (package linuxcnc-uspace) must be installed for this test");
+    let err =
+        String::from_utf8_lossy(&run.stderr).into_owned() + &String::from_utf8_lossy(&run.stdout);
+    if !run.status.success() || err.contains("rror") || err.contains("unable") {
+        return Err(err);
+    }
+    let text = std::fs::read_to_string(canon).unwrap_or_default();
+    Ok(text
+        .lines()
+        .filter(|l| {
+            l.contains("STRAIGHT_TRAVERSE") || l.contains("STRAIGHT_FEED") || l.contains("ARC_FEED")
+        })
+        .count())
+}
+
 mod tool_change {
     use super::*;
 
@@ -847,32 +886,7 @@ mod subroutine_files {
         let ini = dir.join("sub.ini");
         std::fs::write(&ini, format!("[RS274NGC]\nSUBROUTINE_PATH = {path}\n")).unwrap();
         let canon = dir.join(format!("{name}.canon"));
-        let run = std::process::Command::new("rs274")
-            .env("HOME", dir)
-            .arg("-i")
-            .arg(&ini)
-            .arg("-t")
-            .arg(&table)
-            .arg("-g")
-            .arg(&file)
-            .arg(&canon)
-            .stdin(std::process::Stdio::null())
-            .output()
-            .expect("LinuxCNC's rs274 (package linuxcnc-uspace) must be installed for this test");
-        let err = String::from_utf8_lossy(&run.stderr).into_owned()
-            + &String::from_utf8_lossy(&run.stdout);
-        if !run.status.success() || err.contains("rror") {
-            return Err(err);
-        }
-        let text = std::fs::read_to_string(&canon).unwrap_or_default();
-        Ok(text
-            .lines()
-            .filter(|l| {
-                l.contains("STRAIGHT_TRAVERSE")
-                    || l.contains("STRAIGHT_FEED")
-                    || l.contains("ARC_FEED")
-            })
-            .count())
+        super::rs274_canon_moves(dir, &ini, &table, &file, &canon)
     }
 
     #[test]
@@ -956,34 +970,7 @@ mod expand_outputs_rs274_runs {
         .unwrap();
         let canon = dir.join("out.canon");
         let _ = std::fs::remove_file(&canon);
-        let run = std::process::Command::new("timeout")
-            .arg("20")
-            .arg("rs274")
-            .env("HOME", dir)
-            .arg("-i")
-            .arg(&ini)
-            .arg("-t")
-            .arg(&table)
-            .arg("-g")
-            .arg(file)
-            .arg(&canon)
-            .stdin(std::process::Stdio::null())
-            .output()
-            .expect("LinuxCNC's rs274 (package linuxcnc-uspace) must be installed for this test");
-        let err = String::from_utf8_lossy(&run.stderr).into_owned()
-            + &String::from_utf8_lossy(&run.stdout);
-        if !run.status.success() || err.contains("rror") || err.contains("unable") {
-            return Err(err);
-        }
-        let text = std::fs::read_to_string(&canon).unwrap_or_default();
-        Ok(text
-            .lines()
-            .filter(|l| {
-                l.contains("STRAIGHT_TRAVERSE")
-                    || l.contains("STRAIGHT_FEED")
-                    || l.contains("ARC_FEED")
-            })
-            .count())
+        super::rs274_canon_moves(dir, &ini, &table, file, &canon)
     }
 
     #[test]
