@@ -9,6 +9,18 @@
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 
+/// The parameter `t` in 0..1 of the point of segment `a`-`b` nearest `p`
+/// (0 for a segment of no length).
+pub(crate) fn nearest_on_segment(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    let d = b - a;
+    let l2 = d.norm_squared();
+    if l2 > 0.0 {
+        ((p - a).dot(&d) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
 /// Millimetres per micrometre.
 pub(crate) const MM_PER_UM: f64 = 1e-3;
 /// Radians per microradian.

@@ -115,14 +115,8 @@ impl IntendedPath {
     /// Distance, mm, of `p` from segment `i`, and where along it (0..1).
     fn to_segment(&self, i: usize, p: &Vector3<f64>) -> (f64, f64) {
         let (a, b) = (&self.tips[i], &self.tips[i + 1]);
-        let d = b - a;
-        let l2 = d.norm_squared();
-        let t = if l2 > 0.0 {
-            ((p - a).dot(&d) / l2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        ((a + d * t - p).norm(), t)
+        let t = crate::geom::nearest_on_segment(p, a, b);
+        ((a + (b - a) * t - p).norm(), t)
     }
 
     /// The intended tool axis at `t` along segment `i`.

@@ -696,14 +696,8 @@ pub fn measure_surface(
             if !b.feed {
                 continue;
             }
-            let d = b.actual.tip - a.actual.tip;
-            let len2 = d.norm_squared();
-            let t = if len2 > 0.0 {
-                ((q - a.actual.tip).dot(&d) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let p = a.actual.tip + d * t;
+            let t = crate::geom::nearest_on_segment(q, &a.actual.tip, &b.actual.tip);
+            let p = a.actual.tip + (b.actual.tip - a.actual.tip) * t;
             let dist = (p - q).norm();
             if best.is_none_or(|(bd, _, _)| dist < bd) {
                 let axis = (a.actual.axis * (1.0 - t) + b.actual.axis * t).normalize();
