@@ -325,6 +325,70 @@ pub struct FitSection {
     pub allowance: Option<f64>,
 }
 
+/// The `uncertainty:` section of a result: what the `u` beside each value
+/// includes, and how much of it comes from where.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UncertaintySection {
+    /// What the `u` of the values includes, in words: the contributors,
+    /// or why only the measurement noise.
+    pub basis: String,
+    /// The noise per measured point the budget draws, um.
+    pub noise_um: f64,
+    /// The Birge ratio every `u` is widened by because the model does not
+    /// fit (absent when it fits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub widened_by: Option<f64>,
+    /// Contributors of the method's source that the tool cannot draw, so
+    /// no `u` holds them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_included: Vec<String>,
+    /// Per identified parameter (its name as the fit gives it).
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub values: IndexMap<String, ValueUncertainty>,
+}
+
+/// A location error seen, but too loosely to act on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NotUseful {
+    /// The symbol.
+    pub symbol: String,
+    /// Its estimate, um or urad.
+    pub value: f64,
+    /// Its standard uncertainty.
+    pub u: f64,
+    /// The largest useful `u`.
+    pub threshold: f64,
+    /// Where the threshold comes from.
+    pub from: String,
+}
+
+/// One value's uncertainty, explained.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValueUncertainty {
+    /// The `u` reported with the value (k = 1).
+    pub u: f64,
+    /// The `u` from the measurement noise alone: the fit's covariance,
+    /// scaled by its residuals.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u_noise: Option<f64>,
+    /// The largest contributors to `u`, largest first.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub largest: Vec<Share>,
+}
+
+/// One contributor's share of a value's variance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Share {
+    /// The contributor.
+    pub contributor: String,
+    /// Its share of the variance, 0..1.
+    pub share: f64,
+}
+
 /// An error file as written.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -351,6 +415,16 @@ pub struct ErrorFile {
     /// How well the model fitted the measurements (result files).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitSection>,
+    /// What each value's `u` holds (result files): the contributors, and
+    /// per value the noise-only `u` beside the full one with its largest
+    /// contributors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<UncertaintySection>,
+    /// Location errors the test saw, but with a `u` above the usefulness
+    /// threshold (result files): listed here rather than among the values,
+    /// so that nothing exports or compensates them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub seen_not_usefully: Vec<NotUseful>,
     /// `discover` results: the effects the measurements could not tell
     /// apart, none of which the model holds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -922,6 +996,8 @@ impl ErrorFile {
             effects: Effects::default(),
             not_identifiable: Vec::new(),
             fit: None,
+            uncertainty: None,
+            seen_not_usefully: Vec::new(),
             ambiguity: None,
         };
         let q = |i: usize| Quantity {

@@ -513,7 +513,7 @@ pub(crate) fn plan_with_cli(
 
 /// `fivecal simulate` of a plan with a truth file (0.35 um of noise, the
 /// truth's default; the format from the file name).
-fn simulate_with_cli(manifest: &Path, truth: &Path, out: &Path, seed: u64) {
+pub(crate) fn simulate_with_cli(manifest: &Path, truth: &Path, out: &Path, seed: u64) {
     simulate_as(manifest, truth, out, seed, None);
 }
 
@@ -538,7 +538,7 @@ pub(crate) fn simulate_as(
     cmd.assert().success();
 }
 
-fn analyze_with_cli(
+pub(crate) fn analyze_with_cli(
     manifest: &Path,
     measured: &Path,
     out: &Path,
@@ -582,9 +582,17 @@ fn monte_carlo_of_analyze_runs_the_plan_again_on_the_simulator() {
     let mc = ErrorFile::load(&out, &k).unwrap();
     let cov = ErrorFile::load(&plain, &k).unwrap();
     let want = ErrorFile::load(&truth, &k).unwrap();
+    // The plain analysis' u holds every contributor; its noise-only u is
+    // the covariance's, beside it in the `uncertainty:` section.
+    let (plain_file, _) = ErrorFile::read(&plain).unwrap();
+    let noise_only = |name: &str| {
+        plain_file.uncertainty.as_ref().unwrap().values[name]
+            .u_noise
+            .unwrap()
+    };
     assert_eq!(mc.model.param_names(), cov.model.param_names());
     for (i, name) in mc.model.param_names().iter().enumerate() {
-        let (u_mc, u_cov) = (mc.u[i].unwrap(), cov.u[i].unwrap());
+        let (u_mc, u_cov) = (mc.u[i].unwrap(), noise_only(name));
         assert!(
             (u_mc / u_cov - 1.0).abs() < 0.45,
             "{name}: u {u_mc:.3} from the Monte Carlo, {u_cov:.3} from the covariance"
@@ -633,9 +641,18 @@ fn monte_carlo_with_seed_000_contributors_widens_u_beyond_the_noise_for_column_p
             .length,
     );
     let mc = ErrorFile::load(&out, &k).unwrap();
-    let cov = ErrorFile::load(&plain, &k).unwrap();
+    let (plain_file, _) = ErrorFile::read(&plain).unwrap();
+    let explained = plain_file.uncertainty.unwrap();
     for (i, name) in mc.model.param_names().iter().enumerate() {
-        let (u_mc, u_cov) = (mc.u[i].unwrap(), cov.u[i].unwrap());
+        let v = &explained.values[name];
+        let (u_mc, u_cov) = (mc.u[i].unwrap(), v.u_noise.unwrap());
+        // The plain analysis' u holds the same contributors in closed form:
+        // 16 runs know a spread to +-18 %, three standard errors 54 %.
+        assert!(
+            (u_mc / v.u - 1.0).abs() < 0.54,
+            "{name}: Monte Carlo u {u_mc:.3}, closed-form u {:.3}",
+            v.u
+        );
         // 16 runs know a spread to +-18 %; the smallest ratio seen is 4.
         assert!(
             u_mc > 2.0 * u_cov,

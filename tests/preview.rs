@@ -2,16 +2,19 @@
 //! cut or probed, and the uncertainties it predicts are the ones `analyze`
 //! then reports.
 
+use fivecal::analyze::ContributorChoice;
 use fivecal::analyze::preview;
+use fivecal::analyze::usefulness::Usefulness;
 use fivecal::identify::Setup;
 
 use crate::analyze_sim::{identify, measure};
 
 use crate::cli::fivecal;
 
-/// The prediction against an analysis of a simulated run of the same plan
-/// (location errors of a few tens of micrometres, 0.35 um noise): the same
-/// symbols identified, each u within 20 % (the reported u is scaled by the
+/// The prediction of the noise's part of u against an analysis of a
+/// simulated run of the same plan (location errors of a few tens of
+/// micrometres, 0.35 um noise): the same symbols identified, each
+/// noise-only u within 20 % (the covariance's u is scaled by the
 /// residual sigma, which over 100 to 250 points is within about 10 % of
 /// the noise; the covariance's u in turn agrees with the spread of
 /// simulated runs, `analyze_sim`).
@@ -23,7 +26,14 @@ fn plan_predicts_the_symbols_and_u_that_analyze_reports() {
         ("head-table", "probe-sphere"),
     ] {
         let plan = crate::simulate::planned(machine, test);
-        let predicted = preview::predict(&plan, None, None).unwrap();
+        let predicted = preview::predict_with(
+            &plan,
+            None,
+            None,
+            &Usefulness::default(),
+            &ContributorChoice::NoiseOnly,
+        )
+        .unwrap();
         let kin = fivecal::simulate::plan_kinematics(&plan);
         let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
         let data = measure(&plan, &truth, &Default::default());
@@ -144,7 +154,14 @@ fn predicted_u_matches_the_spread_of_200_simulated_runs() {
         ("head-table", "probe-columns"),
     ] {
         let plan = crate::simulate::planned(machine, test);
-        let predicted = preview::predict(&plan, None, None).unwrap();
+        let predicted = preview::predict_with(
+            &plan,
+            None,
+            None,
+            &Usefulness::default(),
+            &ContributorChoice::NoiseOnly,
+        )
+        .unwrap();
         let kin = fivecal::simulate::plan_kinematics(&plan);
         let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
         let runs: Vec<Vec<(String, f64)>> = (0..200u64)
@@ -372,13 +389,23 @@ fn a_suggested_change_identifies_what_it_claims() {
                 let setup = Setup::new(&kin, &data.poses, &[]).unwrap();
                 let method = id.method.parse().unwrap();
                 let est = identify(&plan, &setup, &data, method);
+                // The claim is the changed plan's own prediction (the same
+                // contributors as `plan` prints), and analyze sees each
+                // claimed symbol.
+                let own = preview::predict(&plan, Some(method), None).unwrap();
                 for (symbol, claim) in &s.identifies {
                     let (_, r) = est.get(symbol).unwrap();
-                    let r = r.unwrap_or_else(|| panic!("{test}: analyze does not report {symbol}"));
+                    r.unwrap_or_else(|| panic!("{test}: analyze does not report {symbol}"));
                     let p = claim.u.unwrap();
+                    let r = own
+                        .rows
+                        .iter()
+                        .find(|row| row.symbol == *symbol)
+                        .and_then(|row| row.u)
+                        .unwrap_or_else(|| panic!("{test}: plan does not predict {symbol}"));
                     assert!(
                         (p / r - 1.0).abs() < 0.2,
-                        "{test}: {symbol} claimed u {p:.3}, analyze reports {r:.3}"
+                        "{test}: {symbol} claimed u {p:.3}, the changed plan predicts {r:.3}"
                     );
                 }
             }
@@ -580,7 +607,15 @@ fn a_second_run_with_another_probe_frees_the_head_alias() {
 #[test]
 fn the_joint_design_of_one_run_is_its_own() {
     let plan = crate::simulate::planned("head-table", "probe-columns");
-    let predicted = preview::predict(&plan, Some(fivecal::identify::Method::Global), None).unwrap();
+    // The joint design speaks of the noise alone: so does this prediction.
+    let predicted = preview::predict_with(
+        &plan,
+        Some(fivecal::identify::Method::Global),
+        None,
+        &Usefulness::default(),
+        &ContributorChoice::NoiseOnly,
+    )
+    .unwrap();
     let kin = fivecal::simulate::plan_kinematics(&plan);
     let data = preview::nominal_data(&plan).unwrap();
     let (rows, _) =
@@ -591,6 +626,65 @@ fn the_joint_design_of_one_run_is_its_own() {
             (Some(x), Some(y)) => assert!((x / y - 1.0).abs() < 1e-6, "{}: {x} {y}", a.symbol),
             (None, None) => {}
             (x, y) => panic!("{}: {x:?} against {y:?}", a.symbol),
+        }
+    }
+}
+
+/// The u `plan` prints and the u `analyze` reports are one model: the
+/// test's contributors through the fit's response, at the nominal machine
+/// and at the estimate. On every built-in machine, for the stepped square
+/// and the columns (the global method), each value `analyze` reports from
+/// a simulated run with location errors of tens of micrometres has the u
+/// `plan` predicted within 20 %, and each symbol counted the same way.
+#[test]
+fn plan_and_analyze_report_the_same_full_u_on_every_built_in_machine() {
+    for machine in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
+        for test in ["stepped-square", "probe-columns"] {
+            let plan = crate::simulate::planned(machine, test);
+            let predicted = preview::predict(&plan, None, None).unwrap();
+            let kin = fivecal::simulate::plan_kinematics(&plan);
+            let dir = crate::util::tempdir();
+            let manifest = dir.path().join("plan.yaml");
+            let measured = dir.path().join("measured.csv");
+            let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
+            let sim = fivecal::simulate::run(&plan, &truth, &Default::default()).unwrap();
+            sim.write(fivecal::simulate::Format::Csv, &measured)
+                .unwrap();
+            let outcome = fivecal::analyze::run(&fivecal::analyze::Request {
+                rebuilt: Some((*plan).clone()),
+                ..fivecal::analyze::Request::new(&manifest, vec![measured])
+            })
+            .unwrap();
+            let fivecal::analyze::Found::Identified(id) = outcome.found else {
+                panic!("{test} on {machine}: not identified")
+            };
+            let file = &id.pieces[0].file;
+            let explained = file.uncertainty.as_ref().unwrap();
+            assert!(
+                explained.basis.contains("closed form"),
+                "{}",
+                explained.basis
+            );
+            let mut compared = 0;
+            for row in &predicted.rows {
+                let reported = file.location_errors.get(&row.symbol).and_then(|q| q.u);
+                match (row.u, reported) {
+                    (Some(p), Some(r)) => {
+                        assert!(
+                            (p / r - 1.0).abs() < 0.2,
+                            "{test} on {machine}: {} plan u {p:.3}, analyze u {r:.3}",
+                            row.symbol
+                        );
+                        compared += 1;
+                    }
+                    (None, None) => {}
+                    (p, r) => panic!(
+                        "{test} on {machine}: {} plan {p:?} ({:?}), analyze {r:?}",
+                        row.symbol, row.reason
+                    ),
+                }
+            }
+            assert!(compared >= 2, "{test} on {machine}: {}", predicted.render());
         }
     }
 }

@@ -2864,3 +2864,93 @@ fn nine_section_preview_reports_the_rank_of_the_heights_real_sensitivity() {
     }
     assert!(p.render().contains("design rank 5 of 8"), "{}", p.render());
 }
+
+/// Issue 41: `plan stepped-square --machine head-table` counted EY0C at
+/// u = 47.6 um and EB0B at 203 urad as identified ("identifies 7 of 10").
+/// A value that loose is seen, but not usefully: not counted, and said so
+/// with its u and the threshold; a looser threshold the user sets counts
+/// it again.
+#[test]
+fn a_location_error_seen_at_u_of_tens_of_micrometres_is_not_counted_as_identified() {
+    use fivecal::analyze::usefulness::Usefulness;
+    let plan = crate::simulate::planned("head-table", "stepped-square");
+    let p = fivecal::analyze::preview::predict(&plan, None, None).unwrap();
+    let row = |s: &str| p.rows.iter().find(|r| r.symbol == s).unwrap().clone();
+    for s in ["EY0C", "EX0B", "EB0B"] {
+        let r = row(s);
+        assert!(r.u.is_none(), "{s}: {r:?}");
+        let why = r.reason.unwrap();
+        assert!(
+            why.starts_with("seen, but not usefully: u = "),
+            "{s}: {why}"
+        );
+        assert!(why.contains("--useful-u"), "{s}: {why}");
+    }
+    assert!(
+        p.render().starts_with("identifies 4 of 10"),
+        "{}",
+        p.render()
+    );
+    assert!(p.missing().contains(&"EY0C"));
+    let loose = Usefulness { um: 1e4, urad: 1e5 };
+    let q = fivecal::analyze::preview::predict_useful(&plan, None, None, &loose).unwrap();
+    assert!(
+        q.rows
+            .iter()
+            .find(|r| r.symbol == "EY0C")
+            .unwrap()
+            .u
+            .is_some()
+    );
+    assert!(
+        q.render().starts_with("identifies 7 of 10"),
+        "{}",
+        q.render()
+    );
+}
+
+/// Issue 41: a result's values with u above the threshold are moved out of
+/// `location_errors:` (what compensate and the exports act on) into
+/// `seen_not_usefully:`, with value, u and threshold.
+#[test]
+fn analyze_keeps_a_value_seen_but_not_usefully_out_of_what_compensate_reads() {
+    let dir = crate::util::tempdir();
+    let manifest = crate::analyze_sim::plan_with_cli(
+        &dir.path().join("plan"),
+        "stepped-square",
+        "bc-trunnion",
+        None,
+    );
+    let truth = dir.path().join("truth.yaml");
+    std::fs::write(
+        &truth,
+        format!("machine: bc-trunnion\n{}", crate::analyze_sim::BC_ERRORS),
+    )
+    .unwrap();
+    let measured = dir.path().join("piece.dmo");
+    crate::analyze_sim::simulate_with_cli(&manifest, &truth, &measured, 5);
+    let out = dir.path().join("r.yaml");
+    let a = crate::analyze_sim::analyze_with_cli(
+        &manifest,
+        &measured,
+        &out,
+        &["--useful-u", "1.5,1000"],
+    )
+    .success();
+    let text = String::from_utf8(a.get_output().stdout.clone()).unwrap();
+    assert!(text.contains("seen, but not usefully"), "{text}");
+    let (file, _) = fivecal::errorfile::ErrorFile::read(&out).unwrap();
+    // EZ0B's u on this design is about 1.6 um (scale and straightness of
+    // the linear axes), EX0B's about 1.4 um.
+    let moved: Vec<&str> = file
+        .seen_not_usefully
+        .iter()
+        .map(|n| n.symbol.as_str())
+        .collect();
+    assert!(moved.contains(&"EZ0B"), "{moved:?}");
+    for n in &file.seen_not_usefully {
+        assert!(n.u > n.threshold && n.threshold == 1.5, "{n:?}");
+        assert!(!file.location_errors.contains_key(&n.symbol));
+    }
+    assert!(file.location_errors.contains_key("EX0B"));
+}

@@ -31,6 +31,7 @@ pub mod preview;
 pub mod result;
 pub mod series;
 pub mod uncertainty;
+pub mod usefulness;
 pub mod verdict;
 
 use std::borrow::Cow;
@@ -104,13 +105,48 @@ pub enum ContributorChoice {
     NoiseOnly,
 }
 
+impl ContributorChoice {
+    /// The contributors of a test of `kind`: the test's own table drawn at
+    /// the noise the fit is judged against (`stated_um`), so that the
+    /// budget, a Monte-Carlo study and the verdict speak of one
+    /// instrument; noise only at the fit's residual sigma `sigma_um`.
+    pub fn resolve(&self, kind: TestKind, stated_um: f64, sigma_um: f64) -> Contributors {
+        match self {
+            ContributorChoice::TestDefault => Contributors {
+                noise_um: stated_um,
+                ..match kind {
+                    TestKind::Machining => Contributors::seed001(),
+                    TestKind::Probing => Contributors::seed000(),
+                }
+            },
+            ContributorChoice::Given(c) => c.clone(),
+            ContributorChoice::NoiseOnly => Contributors::noise_only(sigma_um),
+        }
+    }
+
+    /// What the contributors are, in words.
+    pub fn describe(&self, kind: TestKind) -> String {
+        match (self, kind) {
+            (ContributorChoice::TestDefault, TestKind::Machining) => {
+                "the machining test's contributors (Ibaraki & Ota 2014, table 4: linear-axis positioning, straightness and squareness) and the measurement noise".into()
+            }
+            (ContributorChoice::TestDefault, TestKind::Probing) => {
+                "the probing test's contributors (Ibaraki, Iritani & Matsushita 2013, table 4: linear-axis positioning, straightness, squareness and the test pieces' setup) and the measurement noise".into()
+            }
+            (ContributorChoice::Given(_), _) => "the contributors given with --contributors".into(),
+            (ContributorChoice::NoiseOnly, _) => {
+                "the measurement noise only, at the fit's residual sigma (--contributors noise)".into()
+            }
+        }
+    }
+}
+
 /// A Monte-Carlo study asked for.
 #[derive(Clone, Debug)]
 pub struct MonteCarlo {
-    /// Runs, seed, progress bar.
+    /// Runs, seed, progress bar (each run draws the request's
+    /// contributors).
     pub options: McOptions,
-    /// What each run draws.
-    pub contributors: ContributorChoice,
     /// Simulate and identify every run again rather than linearize
     /// ([`uncertainty::linear`]): the reference, slower by orders.
     pub exact: bool,
@@ -135,8 +171,14 @@ pub struct Request {
     pub series: bool,
     /// An earlier result to set beside this one.
     pub compare: Option<PathBuf>,
-    /// A Monte-Carlo study replacing the covariance's uncertainties.
+    /// The contributors every `u` holds (the budget's and a Monte-Carlo
+    /// study's).
+    pub contributors: ContributorChoice,
+    /// A Monte-Carlo study replacing the budget's uncertainties.
     pub monte_carlo: Option<MonteCarlo>,
+    /// The largest `u` a location error may have to count as identified
+    /// (where the machine file gives no acceptance limit).
+    pub usefulness: usefulness::Usefulness,
     /// How the sphere method fits the axis lines.
     pub circle: CircleMethod,
     /// The instrument's noise per measured point, um, that the fit is
@@ -159,7 +201,9 @@ impl Request {
             maps: Vec::new(),
             series: false,
             compare: None,
+            contributors: ContributorChoice::TestDefault,
             monte_carlo: None,
+            usefulness: usefulness::Usefulness::default(),
             circle: CircleMethod::Robust,
             noise: None,
             options: MeasuredOptions::default(),
@@ -478,45 +522,87 @@ fn identify_piece(
     // method's own (a sphere per pose, a plane per station) hide what its
     // steps absorbed.
     est.residuals = judged.residuals;
+    let stated = goodness::ExpectedNoise::new(req.noise, data.kind, ctx.test);
+    let widened = goodness::widening(fit.as_ref());
+    // Under a misfit the points scatter more than the instrument's noise:
+    // the budget's noise is the residuals' then. The systematic
+    // contributors are what they are whatever the fit; a Monte-Carlo
+    // study, which draws at the stated noise, is widened by the ratio.
+    let budget_noise = match fit.as_ref() {
+        Some(f) if widened > 1.0 && f.sigma_um.is_finite() => f.sigma_um.max(stated.um),
+        _ => stated.um,
+    };
+    let contributors = req
+        .contributors
+        .resolve(ctx.kind, budget_noise, est.sigma_um);
+    // The budget and the Monte Carlo run the plan again on the simulator
+    // when the plan can be rebuilt from its manifest (it always can for
+    // what `fivecal plan` wrote); a points file without its template
+    // leaves the Monte Carlo the synthetic model, and the study says so.
+    let study_plan = match &plan {
+        Some(p) => Ok(Cow::Borrowed(&**p)),
+        None => rebuilt(req).map_err(|e| e.to_string()),
+    };
+    let estimate = uncertainty::Estimate {
+        est: &est,
+        setup: &setup,
+        data: &data,
+        sphere: *sphere,
+    };
+    let u_noise = u.clone();
+    // The u printed beside a value holds every contributor the tool knows
+    // for the test: the budget's closed form where the method's response
+    // is linear (the global fit), else the noise alone, and the section
+    // says why.
+    let budget = uncertainty::budget_of(
+        &estimate,
+        study_plan.as_deref().map_err(Clone::clone),
+        contributors.clone(),
+    );
+    if let Ok(b) = &budget {
+        for (i, ui) in u.iter_mut().enumerate() {
+            if est.identifiable(i) {
+                *ui = Some(b.u(i));
+            }
+        }
+    }
     let mut study = None;
     if let Some(mc) = &req.monte_carlo {
-        let contributors = match &mc.contributors {
-            ContributorChoice::TestDefault => match ctx.kind {
-                TestKind::Machining => Contributors::seed001(),
-                TestKind::Probing => Contributors::seed000(),
-            },
-            ContributorChoice::Given(c) => c.clone(),
-            ContributorChoice::NoiseOnly => Contributors::noise_only(est.sigma_um),
-        };
-        // The Monte Carlo runs the plan again on the simulator when the
-        // plan can be rebuilt from its manifest (it always can for what
-        // `fivecal plan` wrote); a points file without its template leaves
-        // the synthetic model, and the study says so.
-        let plan = match &plan {
-            Some(p) => Ok(Cow::Borrowed(&**p)),
-            None => rebuilt(req).map_err(|e| e.to_string()),
-        };
         let s = uncertainty::study(
             &mc.options,
-            contributors,
-            &uncertainty::Estimate {
-                est: &est,
-                setup: &setup,
-                data: &data,
-                sphere: *sphere,
-            },
-            plan.as_deref().map_err(Clone::clone),
+            req.contributors.resolve(ctx.kind, stated.um, est.sigma_um),
+            &estimate,
+            study_plan.as_deref().map_err(Clone::clone),
             mc.exact,
         )
         .map_err(AnalyzeError::MonteCarlo)?;
         let mut s = s;
-        s.widen(goodness::widening(fit.as_ref()));
+        s.widen(widened);
         u = s.u(&est);
         study = Some(s);
+    }
+    let explained = explain(
+        &est,
+        &u,
+        &u_noise,
+        &budget,
+        &req.contributors.describe(ctx.kind),
+        contributors.noise_um,
+        study.as_ref().and_then(|s| s.widened).unwrap_or(1.0),
+        study.as_ref(),
+    );
+    let mut explained = explained;
+    if study.is_none() && budget.is_ok() && budget_noise > stated.um {
+        explained.basis += &format!(
+            "; the noise taken at the residuals' {budget_noise:.3} um, not the stated {:.3} um, as the model does not fit",
+            stated.um
+        );
     }
     let mut file = result::error_file(&est, &u, data.kind);
     file.test = Some(ctx.test.to_string());
     file.fit = fit.clone();
+    file.uncertainty = Some(explained);
+    set_aside_not_useful(&mut file, &est, &req.usefulness);
     Ok(IdentifiedPiece {
         number,
         data,
@@ -526,6 +612,115 @@ fn identify_piece(
         fit,
         file,
     })
+}
+
+/// Moves every location error whose `u` exceeds its usefulness threshold
+/// from the values to `seen_not_usefully:` ([`usefulness`]).
+fn set_aside_not_useful(
+    file: &mut ErrorFile,
+    est: &Identification,
+    useful: &usefulness::Usefulness,
+) {
+    let symbols = &est.model.symbols;
+    let limits = &est.model.kin.machine().limits;
+    let mut out = Vec::new();
+    file.location_errors.retain(|name, q| {
+        let (Some(u), Some(unit)) = (
+            q.u,
+            symbols
+                .location
+                .iter()
+                .find(|l| l.name == *name)
+                .map(|l| l.unit),
+        ) else {
+            return true;
+        };
+        let t = useful.threshold(name, unit, limits);
+        if u <= t.u {
+            return true;
+        }
+        out.push(crate::errorfile::NotUseful {
+            symbol: name.clone(),
+            value: q.value,
+            u,
+            threshold: t.u,
+            from: t.from,
+        });
+        false
+    });
+    file.seen_not_usefully = out;
+}
+
+/// The result's `uncertainty:` section: what the reported `u` holds and,
+/// per identified value, the noise-only `u` beside it with the three
+/// largest contributors of the budget.
+#[allow(clippy::too_many_arguments)]
+fn explain(
+    est: &Identification,
+    u: &[Option<f64>],
+    u_noise: &[Option<f64>],
+    budget: &Result<uncertainty::Budget, String>,
+    contributors: &str,
+    noise_um: f64,
+    widened: f64,
+    study: Option<&Study>,
+) -> crate::errorfile::UncertaintySection {
+    use crate::errorfile::{Share, UncertaintySection, ValueUncertainty};
+    let basis = match (study, budget) {
+        (Some(s), _) => format!(
+            "a Monte-Carlo study of {} runs drawing {contributors}",
+            s.result.runs
+        ),
+        (None, Ok(_)) => format!(
+            "{contributors}, propagated in closed form through the fit's first-order response"
+        ),
+        (None, Err(why)) => format!(
+            "the measurement noise only (the fit's covariance): the other contributors cannot be propagated in closed form here ({why}); `--mc N` draws them"
+        ),
+    };
+    let names = est.model.param_names();
+    let mut values = indexmap::IndexMap::new();
+    for (i, name) in names.iter().enumerate() {
+        let Some(ui) = u[i].filter(|v| v.is_finite()) else {
+            continue;
+        };
+        if !est.identifiable(i) {
+            continue;
+        }
+        let largest = match budget {
+            Ok(b) => b
+                .largest(i, 3)
+                .into_iter()
+                .map(|(g, share)| Share {
+                    contributor: g.name().to_string(),
+                    share,
+                })
+                .collect(),
+            Err(_) => Vec::new(),
+        };
+        values.insert(
+            name.clone(),
+            ValueUncertainty {
+                u: ui,
+                u_noise: u_noise[i].filter(|v| v.is_finite()),
+                largest,
+            },
+        );
+    }
+    UncertaintySection {
+        basis,
+        noise_um,
+        widened_by: (widened > 1.0).then_some(widened),
+        not_included: match (study, budget) {
+            (Some(s), _) => s.not_included.clone(),
+            (None, Ok(_)) => Contributors::unmapped()
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            (None, Err(_)) => Vec::new(),
+        },
+        values,
+    }
 }
 
 /// Why the nine-section test identifies nothing, which its result says

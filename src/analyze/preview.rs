@@ -12,6 +12,7 @@
 use std::fmt::Write as _;
 
 use super::goodness::ExpectedNoise;
+use super::usefulness::Usefulness;
 use super::{AnalyzeError, method};
 use crate::errorfile::ErrorFile;
 use crate::formats::manifest::{Identifies, PredictedSymbol};
@@ -41,6 +42,8 @@ pub struct Preview {
     pub method: Method,
     /// The noise the uncertainties are predicted at.
     pub noise: ExpectedNoise,
+    /// What the predicted `u` holds, in words.
+    pub basis: String,
     /// Rank of the design and its number of free parameters (nuisance
     /// included).
     pub rank: (usize, usize),
@@ -70,13 +73,14 @@ impl Preview {
         let seen = self.rows.iter().filter(|r| r.u.is_some()).count();
         let _ = writeln!(
             s,
-            "identifies {seen} of {} location errors with the {} method (design rank {} of {}); u at {:.3} um noise ({}):",
+            "identifies {seen} of {} location errors with the {} method (design rank {} of {}); u at {:.3} um noise ({}), holding {}:",
             self.rows.len(),
             self.method,
             self.rank.0,
             self.rank.1,
             self.noise.um,
-            self.noise.from
+            self.noise.from,
+            self.basis
         );
         if let Some(summary) = &self.summary {
             let _ = writeln!(s, "  {summary}");
@@ -169,11 +173,43 @@ pub fn nominal_data(plan: &Plan) -> Result<crate::identify::Dataset, AnalyzeErro
 }
 
 /// Predicts what `plan` will identify with `method` (the test's default
-/// when `None`) at the instrument's noise (`noise` um, else its default).
+/// when `None`) at the instrument's noise (`noise` um, else its default),
+/// with the default usefulness thresholds.
 pub fn predict(
     plan: &Plan,
     method: Option<Method>,
     noise: Option<f64>,
+) -> Result<Preview, AnalyzeError> {
+    predict_useful(plan, method, noise, &Usefulness::default())
+}
+
+/// [`predict`] with the thresholds `useful`: a location error whose
+/// predicted `u` is above its threshold is seen, but not usefully, and is
+/// not counted as identified ([`super::usefulness`]).
+pub fn predict_useful(
+    plan: &Plan,
+    method: Option<Method>,
+    noise: Option<f64>,
+    useful: &Usefulness,
+) -> Result<Preview, AnalyzeError> {
+    predict_with(
+        plan,
+        method,
+        noise,
+        useful,
+        &super::ContributorChoice::TestDefault,
+    )
+}
+
+/// [`predict_useful`] with the contributors `choice` (the test's own by
+/// default; [`super::ContributorChoice::NoiseOnly`] predicts the noise's
+/// part alone, at the instrument's noise).
+pub fn predict_with(
+    plan: &Plan,
+    method: Option<Method>,
+    noise: Option<f64>,
+    useful: &Usefulness,
+    choice: &super::ContributorChoice,
 ) -> Result<Preview, AnalyzeError> {
     let test = plan.test();
     let kin = simulate::plan_kinematics(plan);
@@ -184,6 +220,7 @@ pub fn predict(
     let nothing = |reason: &str| Preview {
         method,
         noise: expected.clone(),
+        basis: "nothing: the test identifies no location error".into(),
         rank: (0, symbols.location.len()),
         rows: symbols
             .location
@@ -218,18 +255,50 @@ pub fn predict(
             )));
         }
     };
+    // The same budget `analyze` reports: the test's contributors at the
+    // instrument's noise, through the fit's response at the nominal
+    // machine; the noise alone where the method's response is not linear.
+    let budget = super::uncertainty::budget_of(
+        &super::uncertainty::Estimate {
+            est: &est,
+            setup: &setup,
+            data: &data,
+            sphere,
+        },
+        Ok(plan),
+        choice.resolve(plan.kind(), expected.um, expected.um),
+    );
     let u: Vec<Option<f64>> = (0..est.theta.len())
         .map(|i| {
-            est.identifiable(i)
-                .then(|| est.cov_unit[(i, i)].max(0.0).sqrt() * expected.um)
+            est.identifiable(i).then(|| match &budget {
+                Ok(b) => b.u(i),
+                Err(_) => est.cov_unit[(i, i)].max(0.0).sqrt() * expected.um,
+            })
         })
         .collect();
+    let basis = match &budget {
+        Ok(_) => choice.describe(plan.kind()),
+        Err(why) => format!("the measurement noise only ({why})"),
+    };
     let file = est.error_file(Some(&u));
+    let limits = &kin.machine().limits;
     let rows = symbols
         .location
         .iter()
         .map(|l| {
             let q = file.location_errors.get(&l.name);
+            let t = useful.threshold(&l.name, l.unit, limits);
+            if let Some(u) = q.and_then(|q| q.u).filter(|u| *u > t.u) {
+                return PreviewRow {
+                    symbol: l.name.clone(),
+                    unit: l.unit.to_string(),
+                    u: None,
+                    reason: Some(format!(
+                        "seen, but not usefully: u = {u:.3} {} above {} {} ({})",
+                        l.unit, t.u, l.unit, t.from
+                    )),
+                };
+            }
             PreviewRow {
                 symbol: l.name.clone(),
                 unit: l.unit.to_string(),
@@ -256,6 +325,7 @@ pub fn predict(
     Ok(Preview {
         method,
         noise: expected,
+        basis,
         rank: (est.identifiability.rank, est.identifiability.free),
         rows,
         unseen,
@@ -387,6 +457,7 @@ fn nine_section(
     Ok(Preview {
         method,
         noise: expected,
+        basis: "nothing: the nine-section test evaluates, it does not identify".into(),
         rank: (rank, symbols.location.len()),
         rows,
         unseen: Vec::new(),

@@ -164,3 +164,80 @@ pub fn write(outcome: &Outcome, out: &Path, json: bool) -> Result<Vec<PathBuf>, 
     }
     Ok(files.into_iter().map(|f| f.0).collect())
 }
+
+/// The `uncertainty:` section as `analyze` prints it under the values:
+/// what every `u` holds, then per value the full `u`, the noise-only `u`
+/// and the largest contributors with their share of the variance.
+pub fn render_uncertainty(s: &crate::errorfile::UncertaintySection) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "u (standard uncertainty, k = 1) holds {}; noise {:.3} um per measured point",
+        s.basis, s.noise_um
+    );
+    if let Some(w) = s.widened_by {
+        let _ = writeln!(
+            out,
+            "  every u is widened by the ratio {w:.2}: the model does not fit, and the study drew the stated noise"
+        );
+    }
+    if s.values.is_empty() {
+        return out;
+    }
+    let _ = writeln!(
+        out,
+        "  {:<24} {:>10} {:>14}   largest contributors (share of u^2)",
+        "value", "u", "u noise only"
+    );
+    for (name, v) in &s.values {
+        let largest: Vec<String> = v
+            .largest
+            .iter()
+            .map(|sh| format!("{} {:.0} %", sh.contributor, sh.share * 100.0))
+            .collect();
+        let noise = v.u_noise.map_or("-".to_string(), |x| format!("{x:.3}"));
+        let _ = writeln!(
+            out,
+            "  {:<24} {:>10.3} {:>14}   {}",
+            name,
+            v.u,
+            noise,
+            if largest.is_empty() {
+                "-".to_string()
+            } else {
+                largest.join(", ")
+            }
+        );
+    }
+    for n in &s.not_included {
+        let _ = writeln!(out, "  not included: {n}");
+    }
+    out
+}
+
+/// The location errors seen but not usefully, as `analyze` and `plan`
+/// print them (empty when there are none).
+pub fn render_not_useful(
+    v: &[crate::errorfile::NotUseful],
+    units: &dyn Fn(&str) -> String,
+) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    if v.is_empty() {
+        return out;
+    }
+    let _ = writeln!(
+        out,
+        "seen, but not usefully (u above the threshold: not counted as identified, not exported, not compensated):"
+    );
+    for n in v {
+        let unit = units(&n.symbol);
+        let _ = writeln!(
+            out,
+            "  {:<10} {:>10.3} {unit:<5} u = {:.3} > {:.3} {unit} ({})",
+            n.symbol, n.value, n.u, n.threshold, n.from
+        );
+    }
+    out
+}

@@ -674,6 +674,7 @@ fn second_runs(
                 prediction: Preview {
                     method: crate::identify::Method::Global,
                     noise: now.noise.clone(),
+                    basis: now.basis.clone(),
                     rank,
                     rows,
                     unseen: Vec::new(),

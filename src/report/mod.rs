@@ -480,37 +480,77 @@ fn results_section(h: &mut String, r: &ReportInput<'_>, figs: &[(String, String)
     let est = r.est;
     let names = est.model.param_names();
     let units = est.model.param_units();
+    let explained = r.error_file.uncertainty.as_ref();
     let _ = writeln!(
         h,
-        "<h2>Results</h2>\n<p>Residual standard deviation {:.3} um ({} degrees of freedom). Uncertainties are standard uncertainties (k = 1){}.</p>",
+        "<h2>Results</h2>\n<p>Residual standard deviation {:.3} um ({} degrees of freedom). Uncertainties are standard uncertainties (k = 1); u holds {}.{}</p>",
         est.sigma_um,
         est.dof,
-        match r.mc {
-            Some(mc) => format!(" from a Monte-Carlo study of {} runs", mc.runs),
-            None => " from the residual-scaled covariance".into(),
+        match (explained, r.mc) {
+            (Some(x), _) => esc(&x.basis),
+            (None, Some(mc)) => format!("a Monte-Carlo study of {} runs", mc.runs),
+            (None, None) => "the measurement noise only (the residual-scaled covariance)".into(),
+        },
+        match explained.and_then(|x| x.widened_by) {
+            Some(w) => format!(" Every u is widened by the ratio {w:.2}: the model does not fit."),
+            None => String::new(),
         }
     );
-    h.push_str("<table><tr><th>parameter</th><th>value</th><th>u</th><th>unit</th></tr>\n");
+    h.push_str("<table><tr><th>parameter</th><th>value</th><th>u</th><th>u noise only</th><th>unit</th><th class=l>largest contributors (share of u&sup2;)</th></tr>\n");
     for i in 0..est.theta.len() {
         if est.identifiable(i) {
+            let x = explained.and_then(|x| x.values.get(&names[i]));
+            let largest = x.map_or(String::new(), |x| {
+                x.largest
+                    .iter()
+                    .map(|s| format!("{} {:.0} %", esc(&s.contributor), s.share * 100.0))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            });
             let _ = writeln!(
                 h,
-                "<tr><td class=l>{}</td><td>{:.3}</td><td>{}</td><td class=l>{}</td></tr>",
+                "<tr><td class=l>{}</td><td>{:.3}</td><td>{}</td><td>{}</td><td class=l>{}</td><td class=l>{}</td></tr>",
                 esc(&names[i]),
                 est.theta[i],
                 fmt_opt(r.u[i]),
-                units[i]
+                fmt_opt(x.and_then(|x| x.u_noise)),
+                units[i],
+                largest
             );
         } else {
             let _ = writeln!(
                 h,
-                "<tr><td class=l>{}</td><td>not identifiable</td><td></td><td class=l>{}</td></tr>",
+                "<tr><td class=l>{}</td><td>not identifiable</td><td></td><td></td><td class=l>{}</td><td></td></tr>",
                 esc(&names[i]),
                 units[i]
             );
         }
     }
     h.push_str("</table>\n");
+    if let Some(x) = explained
+        && !x.not_included.is_empty()
+    {
+        h.push_str("<p>Not included in any u (the model has no effect for them):</p><ul>\n");
+        for n in &x.not_included {
+            let _ = writeln!(h, "<li>{}</li>", esc(n));
+        }
+        h.push_str("</ul>\n");
+    }
+    if !r.error_file.seen_not_usefully.is_empty() {
+        h.push_str("<h3>Seen, but not usefully</h3><p>Their u is above the threshold: not counted as identified, not exported, not compensated.</p><ul>\n");
+        for n in &r.error_file.seen_not_usefully {
+            let _ = writeln!(
+                h,
+                "<li><b>{}</b> = {:.3}, u = {:.3} &gt; {:.3} ({})</li>",
+                esc(&n.symbol),
+                n.value,
+                n.u,
+                n.threshold,
+                esc(&n.from)
+            );
+        }
+        h.push_str("</ul>\n");
+    }
     if !r.error_file.not_identifiable.is_empty() {
         h.push_str("<h3>Not identifiable</h3><ul>\n");
         for n in &r.error_file.not_identifiable {

@@ -59,17 +59,17 @@ const FD_STEP_UM: f64 = 0.5;
 
 /// Where the contributors sit among the columns of `S`.
 #[derive(Clone, Debug, Default)]
-struct ColumnLayout {
+pub(super) struct ColumnLayout {
     /// First column of the scale errors of X, Y, Z.
-    scale: Option<usize>,
+    pub(super) scale: Option<usize>,
     /// First column of the squareness errors ([`Squareness::ALL`]).
-    squareness: Option<usize>,
+    pub(super) squareness: Option<usize>,
     /// Per straightness: moving axis, direction, grid nodes, first column.
-    straightness: Vec<(Axis3, Axis3, Vec<f64>, usize)>,
+    pub(super) straightness: Vec<(Axis3, Axis3, Vec<f64>, usize)>,
     /// First column of the six pre-travel values.
-    pretravel: Option<usize>,
+    pub(super) pretravel: Option<usize>,
     /// First column of the pieces' setups (the forward model's nuisance).
-    setup: Option<usize>,
+    pub(super) setup: Option<usize>,
     /// Number of columns.
     len: usize,
 }
@@ -456,6 +456,32 @@ impl LinearStudy {
     /// each contributor column.
     pub fn sensitivity(&self) -> &DMatrix<f64> {
         &self.sensitivity
+    }
+
+    /// `G S`: the estimate's response to each contributor column.
+    pub fn response(&self) -> &DMatrix<f64> {
+        &self.response
+    }
+
+    /// The contributors the study draws.
+    pub fn contributors(&self) -> &Contributors {
+        &self.contributors
+    }
+
+    pub(super) fn layout(&self) -> &ColumnLayout {
+        &self.layout
+    }
+
+    pub(super) fn kinematics(&self) -> &Kinematics {
+        &self.kin
+    }
+
+    pub(super) fn probing(&self) -> Option<&ProbingForward> {
+        self.probing.as_ref()
+    }
+
+    pub(super) fn pieces(&self) -> usize {
+        self.n_pieces
     }
 
     /// The contributor columns of drawn effects (contributor effects with

@@ -15,6 +15,7 @@
 //! the synthetic model otherwise.
 
 pub mod bound;
+pub mod budget;
 pub mod contributors;
 pub mod linear;
 pub mod montecarlo;
@@ -34,6 +35,7 @@ use crate::model::Model;
 
 pub use bound::Bound;
 pub use bound::cramer_rao_bound;
+pub use budget::{Budget, Group};
 pub use contributors::{Contributors, Disturbance};
 pub use montecarlo::{McOptions, McResult};
 
@@ -234,6 +236,26 @@ impl Study {
             }
         }
         u
+    }
+}
+
+/// The uncertainty budget of a global fit's estimate for `plan` (the plan
+/// the measured points describe) with `contributors`, in closed form
+/// ([`budget`]); the reason where there is none: a points file whose plan
+/// cannot be rebuilt, a method whose response is not linear, a
+/// contributor the closed form cannot take.
+pub fn budget_of(
+    e: &Estimate<'_>,
+    plan: Result<&Plan, String>,
+    contributors: Contributors,
+) -> Result<Budget, String> {
+    let plan = simulator_plan(plan, e.data)?;
+    let study = linear::LinearStudy::new(plan, e, contributors).map_err(|e| e.to_string())?;
+    let b = study.budget().map_err(|e| e.to_string())?;
+    if b.variance.iter().all(|v| v.is_finite()) {
+        Ok(b)
+    } else {
+        Err("the budget is not a finite number".into())
     }
 }
 

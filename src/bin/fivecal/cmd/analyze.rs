@@ -118,6 +118,22 @@ fn print_piece(c: &Config, p: &IdentifiedPiece) {
         outln!("{}\n", analyze::goodness::banner(f, &next));
     }
     out!("{}", p.est.summary_with(&p.u));
+    if let Some(u) = &p.file.uncertainty {
+        out!("{}", analyze::result::render_uncertainty(u));
+    }
+    let units = |name: &str| {
+        p.est
+            .model
+            .symbols
+            .location
+            .iter()
+            .find(|l| l.name == name)
+            .map_or(String::new(), |l| l.unit.to_string())
+    };
+    out!(
+        "{}",
+        analyze::result::render_not_useful(&p.file.seen_not_usefully, &units)
+    );
     if let Some(s) = &p.monte_carlo {
         if let Some(w) = &s.warning {
             eprintln!("warning: {w}");
@@ -128,9 +144,6 @@ fn print_piece(c: &Config, p: &IdentifiedPiece) {
             s.seed,
             s.how
         );
-        for n in &s.not_included {
-            outln!("  not included: {n}");
-        }
         if let Some(w) = s.widened {
             outln!(
                 "  u widened by the Birge ratio {w:.2}: the model does not fit, the runs drew only the stated noise"

@@ -122,6 +122,13 @@ pub struct AnalyzeArgs {
     /// the result as a misfit, which compensate refuses.
     #[arg(long, value_name = "UM")]
     noise: Option<f64>,
+    /// The largest u a location error may have to count as identified
+    /// (and be written among the values, exported and compensated): a
+    /// position's in um, an orientation's in urad [default: 10,50]. A
+    /// symbol with an acceptance limit in the machine file is held to
+    /// half the limit's half-width instead (U = 2u inside the limit).
+    #[arg(long, value_name = "UM,URAD")]
+    useful_u: Option<String>,
     /// Acceptance limits per location symbol: a limits file or a machine
     /// file with a `limits:` section. Prints PASS, FAIL or "cannot decide"
     /// per symbol and for the machine (ISO 14253-1, U = 2u).
@@ -203,7 +210,6 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
                 progress: true,
                 max_seconds: a.max_seconds,
             },
-            contributors,
             exact: a.mc_exact,
         }),
         None => None,
@@ -238,9 +244,15 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             maps: super::list_items(&a.maps),
             series: a.series,
             compare: a.compare,
+            contributors,
             monte_carlo,
             circle,
             noise: super::noise_arg(a.noise)?,
+            usefulness: match a.useful_u.as_deref() {
+                Some(s) => analyze::usefulness::Usefulness::parse(s)
+                    .map_err(|e| anyhow::anyhow!("--useful-u {e}"))?,
+                None => analyze::usefulness::Usefulness::default(),
+            },
             options: a.measured_flags.options()?,
             ..Request::new(&manifest, a.measured)
         },
