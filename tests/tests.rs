@@ -8,6 +8,7 @@ mod analyze;
 mod analyze_sim;
 mod architecture;
 mod cli;
+mod cli_json;
 mod compensate;
 mod compensate_cli;
 mod contour;

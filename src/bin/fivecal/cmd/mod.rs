@@ -6,6 +6,7 @@
 
 pub mod analyze;
 pub mod compensate;
+pub mod compensate_json;
 pub mod contour;
 pub mod demo;
 pub mod discover;

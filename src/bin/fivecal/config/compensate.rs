@@ -16,7 +16,7 @@ use fivecal::machine::MachineOrigin;
 
 use super::DialectArg;
 use super::nc::{Common, MachineArgs, load_errors};
-use crate::cmd::record::{RecordArgs, Recording};
+use super::record::{RecordArgs, Recording};
 
 #[derive(Args, Debug)]
 pub struct CompensateArgs {
@@ -105,6 +105,11 @@ pub struct CompensateArgs {
     /// With --export --entered: where and what to record.
     #[command(flatten)]
     record: RecordArgs,
+    /// Print what was done as JSON on standard output: the moves corrected
+    /// and those left as written with the reason, the largest corrections,
+    /// the exported parameters and the files written.
+    #[arg(long)]
+    json: bool,
 }
 
 /// What to do, validated.
@@ -128,6 +133,8 @@ pub struct Config {
     pub record: Recording,
     /// `--entered`: the export's values are in the control.
     pub entered: bool,
+    /// `--json`: what was done, as JSON on standard output.
+    pub json: bool,
 }
 
 /// `LEN[,ANG]` of --max-change and --max-u: a length in mm and an angle in
@@ -272,6 +279,14 @@ impl CompensateArgs {
                 "-o - writes the program to standard output: name the --export parameter file with --export-to FILE"
             );
         }
+        if self.json
+            && (export.as_ref().is_some_and(|(_, t)| t.is_none()) && rewrite.is_none()
+                || rewrite.as_ref().is_some_and(|(_, o)| o.as_os_str() == "-"))
+        {
+            bail!(
+                "--json prints on standard output, and so does the program or the parameters: name their file (-o OUT, --export-to FILE), or leave out --json"
+            );
+        }
         let export = export.map(|(d, target)| {
             let target = target.or_else(|| {
                 rewrite
@@ -349,6 +364,7 @@ impl CompensateArgs {
             },
             record,
             entered: self.entered,
+            json: self.json,
             common,
             errors_path: self.errors,
             errors,

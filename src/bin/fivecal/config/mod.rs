@@ -11,8 +11,12 @@
 pub mod analyze;
 pub mod compensate;
 pub mod discover;
+pub mod history;
 pub mod nc;
 pub mod plan;
+pub mod record;
+pub mod simulate;
+pub mod verify;
 
 use clap::ValueEnum;
 use fivecal::Dialect;

@@ -74,6 +74,11 @@ pub struct PlanArgs {
     /// naming the known changes of the template that would identify more.
     #[arg(long, value_name = "WHAT", value_parser = ["all"])]
     require: Option<String>,
+    /// Print what was planned as JSON on standard output: the test, the
+    /// machine, the counts, what the plan identifies (as the manifest's
+    /// `identifies:`), the notes and the files written.
+    #[arg(long)]
+    json: bool,
 }
 
 /// The validated configuration of one `plan` run.
@@ -88,6 +93,8 @@ pub struct Config {
     pub origin: String,
     /// `--require all`.
     pub require_all: bool,
+    /// `--json`: what was planned, as JSON on standard output.
+    pub json: bool,
     /// The template file given with `--template`.
     template_file: Option<PathBuf>,
     /// Whether the template is the one `--supplement` asked for.
@@ -327,6 +334,7 @@ pub fn config(a: PlanArgs) -> anyhow::Result<Config> {
         inputs,
         origin,
         require_all: a.require.is_some(),
+        json: a.json,
         template_file: a.template.clone(),
         supplement: supplement.is_some(),
         command,
