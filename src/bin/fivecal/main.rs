@@ -64,16 +64,16 @@ enum Command {
     Verify(config::verify::VerifyArgs),
     /// Run the whole job on the built-in example machine: plan, simulate,
     /// analyze, discover and compensate, with a one-screen summary.
-    Demo(cmd::demo::DemoArgs),
+    Demo(config::demo::DemoArgs),
     /// Show what a measurement file holds before any plan is involved: its
     /// format, units, runs, and each feature or point with its nominal,
     /// actual and normal, and what was skipped and why.
-    Measured(cmd::measured::MeasuredArgs),
+    Measured(config::measured::MeasuredArgs),
     /// Inspect machine files.
     #[command(subcommand)]
-    Machine(cmd::machine::MachineCommand),
+    Machine(config::machine::MachineCommand),
     /// Print shell completions for bash, zsh, fish, powershell or elvish.
-    Completions(cmd::docs::CompletionsArgs),
+    Completions(config::completions::CompletionsArgs),
     /// Print the man page (roff) to standard output.
     Man,
 }

@@ -4,14 +4,9 @@
 
 use std::io::Write;
 
-use clap::{Args, CommandFactory};
-use clap_complete::Shell;
+use clap::CommandFactory;
 
-#[derive(Args, Debug)]
-pub struct CompletionsArgs {
-    /// bash, zsh, fish, powershell or elvish.
-    shell: Shell,
-}
+use crate::config::completions::CompletionsArgs;
 
 pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
     let mut cmd = with_names(crate::Cli::command());

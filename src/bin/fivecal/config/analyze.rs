@@ -128,7 +128,7 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
     #[command(flatten)]
-    measured_flags: crate::cmd::measured::MeasuredFlags,
+    measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
     record: super::record::RecordArgs,
 }

@@ -54,7 +54,7 @@ pub struct DiscoverArgs {
     #[arg(long, value_name = "UM")]
     noise: Option<f64>,
     #[command(flatten)]
-    measured_flags: crate::cmd::measured::MeasuredFlags,
+    measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
     record: super::record::RecordArgs,
 }

@@ -10,12 +10,20 @@ use anyhow::bail;
 use clap::{Args, ValueEnum};
 use fivecal::formats::manifest::{KinematicsMode, TestKind};
 use fivecal::io::shell_word;
-use fivecal::machine::{Machine, MachineOrigin, Tool, check_tool};
+use fivecal::machine::{Machine, MachineOrigin};
 use fivecal::post::PostDefinition;
 use fivecal::procedure::{PlanConfig, Template, Test};
-use fivecal::source::SourceError;
 
 use super::DialectArg;
+
+mod recipe;
+mod supplement;
+mod tool;
+
+pub use recipe::recipe;
+
+use supplement::supplementary;
+use tool::parse_tool;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum KinematicsArg {
@@ -104,77 +112,6 @@ pub struct Config {
     command: String,
     /// Its `--machine` argument as written in `command`.
     machine_arg: String,
-}
-
-fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
-    if spec == "machine" {
-        return Ok((machine.tool.clone(), None));
-    }
-    let (path, text, file) = if Path::new(spec).exists() {
-        let p = PathBuf::from(spec);
-        let t = fivecal::input::read_text(&p, "tool file", fivecal::limits::MAX_YAML_BYTES)?;
-        (p.clone(), t, Some(p))
-    } else if spec.trim_start().starts_with('{') {
-        (PathBuf::from("<--tool>"), spec.to_string(), None)
-    } else {
-        bail!(
-            "--tool `{spec}`: expected `machine`, a tool file, or an inline mapping such as '{{name: D6 ball, kind: ball, diameter: 6, length: 50}}'"
-        );
-    };
-    let tool: Tool = fivecal::input::parse_yaml(&path, &text)?;
-    check_tool(&tool).map_err(|(k, m)| SourceError::at_key(&path, &text, &[k], m))?;
-    Ok((tool, file))
-}
-
-/// What `--supplement DISCOVER.yaml` asks for: the supplementary test, and
-/// the first test's machine (a file) and dialect where its plan is found.
-struct Supplementary {
-    file: PathBuf,
-    machine_name: String,
-    supplement: fivecal::errorfile::Supplement,
-    machine_file: Option<PathBuf>,
-    dialect: Option<fivecal::Dialect>,
-}
-
-fn supplementary(path: &Path) -> anyhow::Result<Supplementary> {
-    let (f, _) = fivecal::errorfile::ErrorFile::read(path)?;
-    let Some(a) = f.ambiguity else {
-        bail!(
-            "{}: states no ambiguity, so there is no supplementary test to plan (expected the result of a `discover --out` that stopped on one)",
-            path.display()
-        );
-    };
-    let Some(supplement) = a.supplement else {
-        bail!(
-            "{}: proposes no supplementary test{}",
-            path.display(),
-            a.no_supplement
-                .map(|w| format!(" ({w})"))
-                .unwrap_or_default()
-        );
-    };
-    // The first test's plan, as discover was given it: relative to where
-    // discover ran, or to the result file.
-    let mut machine_file = None;
-    let mut dialect = None;
-    if let Some(plan) = &supplement.plan {
-        let candidates = [
-            PathBuf::from(plan),
-            path.parent().unwrap_or(Path::new(".")).join(plan),
-        ];
-        if let Some(m) = candidates.iter().find(|p| p.exists()) {
-            let manifest = fivecal::formats::manifest::Manifest::read(m)?;
-            machine_file = Some(manifest.resolve(m, &manifest.machine_file));
-            dialect = Some(manifest.dialect);
-        }
-    }
-    Ok(Supplementary {
-        file: path.to_path_buf(),
-        machine_name: f.machine,
-        supplement,
-        machine_file,
-        dialect,
-    })
 }
 
 /// The validated configuration of one `plan` run.
@@ -340,37 +277,4 @@ pub fn config(a: PlanArgs) -> anyhow::Result<Config> {
         command,
         machine_arg: shell_word(&spec),
     })
-}
-
-/// Where a user makes a change `plan` suggests: the template file given,
-/// else a copy of the one this plan used, as written beside the plan (the
-/// built-in one, or the supplement's).
-pub fn recipe(cfg: &Config, test: Test) -> fivecal::discover::suggest::Recipe {
-    use fivecal::discover::suggest::Recipe;
-    match &cfg.template_file {
-        Some(p) => Recipe {
-            file: p.display().to_string(),
-            copy_of: None,
-            command: Some(cfg.command.clone()),
-            out: Some(cfg.out.display().to_string()),
-            machine: Some(cfg.machine_arg.clone()),
-        },
-        None => Recipe {
-            file: format!("my-{test}.yaml"),
-            // The plan writes the template it used beside itself: a user
-            // without the repository's templates/ has that copy.
-            copy_of: Some(format!(
-                "{}, the {} template this plan used, as written beside it",
-                cfg.out.join(format!("{test}.template.yaml")).display(),
-                if cfg.supplement {
-                    "supplementary test's"
-                } else {
-                    "built-in"
-                }
-            )),
-            command: Some(cfg.command.clone()),
-            out: Some(cfg.out.display().to_string()),
-            machine: Some(cfg.machine_arg.clone()),
-        },
-    }
 }
