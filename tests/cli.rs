@@ -495,49 +495,6 @@ fn the_old_output_spelling_still_works_with_a_note() {
     assert!(err.contains("`--output` is now `-o/--out`"), "{err}");
 }
 
-/// The man page's EXAMPLES are a calibration a user can paste, line by line,
-/// into an empty directory: each line runs, in order, and leaves the files
-/// the next one reads.
-#[test]
-fn man_page_examples_run_in_an_empty_directory() {
-    let text = man_page();
-    let examples = &text[text.find(".SH EXAMPLES").expect("an EXAMPLES section")..];
-    let examples = &examples[..examples[4..].find(".SH ").map_or(examples.len(), |i| i + 4)];
-    let lines: Vec<String> = examples
-        .split(".RS 4\n")
-        .skip(1)
-        .map(|block| {
-            block
-                .lines()
-                .next()
-                .unwrap()
-                .replace("\\-", "-")
-                .replace("\\e", "\\")
-        })
-        .collect();
-    assert!(lines.len() >= 5, "{examples}");
-    let dir = tempfile::tempdir().unwrap();
-    for line in &lines {
-        let (command, redirect) = match line.split_once(" > ") {
-            Some((c, file)) => (c, Some(file.trim())),
-            None => (line.as_str(), None),
-        };
-        let words: Vec<&str> = command.split_whitespace().collect();
-        assert_eq!(words[0], "fivecal", "{line}");
-        let run = fivecal()
-            .current_dir(dir.path())
-            .args(&words[1..])
-            .assert()
-            .success()
-            .get_output()
-            .clone();
-        if let Some(file) = redirect {
-            std::fs::write(dir.path().join(file), &run.stdout).unwrap();
-        }
-    }
-    assert!(dir.path().join("frustum-compensated.nc").exists());
-}
-
 /// Nested subcommands (`simulate nc`, `history plot`, `machine new`) have
 /// their own sections, and every variable the program reads is listed.
 #[test]

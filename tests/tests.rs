@@ -17,6 +17,7 @@ mod controller_semantics;
 mod discover;
 mod discover_ambiguity;
 mod discover_cli;
+mod doc_commands;
 mod elements;
 mod errorfile;
 mod fuzz_readers;
