@@ -515,7 +515,50 @@ fn man_page_covers_nested_subcommands_and_the_environment() {
     let env = &text[text
         .find(".SH ENVIRONMENT")
         .expect("an ENVIRONMENT section")..];
-    assert!(env.contains("FIVECAL_DB"));
+    let read = variables_read(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src"));
+    assert!(read.contains(&"FIVECAL_DB".to_string()), "{read:?}");
+    for name in &read {
+        assert!(
+            env.contains(&format!("\\fB{name}\\fR")),
+            "{name} is read but not in ENVIRONMENT"
+        );
+    }
+}
+
+/// Every environment variable the source reads with `env::var` or
+/// `env::var_os`: a literal name, or a `const` of the same file.
+fn variables_read(dir: &std::path::Path) -> Vec<String> {
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            names.extend(variables_read(&path));
+            continue;
+        }
+        if path.extension().is_none_or(|e| e != "rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        for call in ["env::var(", "env::var_os("] {
+            for (i, _) in text.match_indices(call) {
+                let arg = text[i + call.len()..].split(')').next().unwrap().trim();
+                let name = match arg.strip_prefix('"') {
+                    Some(lit) => lit.trim_end_matches('"').to_string(),
+                    None => {
+                        let decl = format!("const {arg}: &str = \"");
+                        let at = text.find(&decl).unwrap_or_else(|| {
+                            panic!("{}: env var {arg} not a literal or const", path.display())
+                        }) + decl.len();
+                        text[at..].split('"').next().unwrap().to_string()
+                    }
+                };
+                if !names.contains(&name) {
+                    names.push(name);
+                }
+            }
+        }
+    }
+    names
 }
 
 #[test]
