@@ -514,18 +514,28 @@ pub fn to_csv(records: &[Stored]) -> Result<String, csv::Error> {
 /// The records as JSON: every field, the files with their hashes, and the
 /// location errors read from the content.
 pub fn to_json(records: &[Stored]) -> String {
-    #[derive(Serialize)]
-    struct Out<'a> {
-        #[serde(flatten)]
-        stored: &'a Stored,
-        location_errors: IndexMap<String, Quantity>,
-    }
-    let out: Vec<Out> = records
-        .iter()
-        .map(|r| Out {
+    let out: Vec<JsonRecord> = records.iter().map(JsonRecord::of).collect();
+    serde_json::to_string_pretty(&out).expect("records serialize") + "\n"
+}
+
+/// One record as [`to_json`] writes each (`history show --json`).
+pub fn record_to_json(record: &Stored) -> String {
+    serde_json::to_string_pretty(&JsonRecord::of(record)).expect("records serialize") + "\n"
+}
+
+/// A record with its location errors read out of its content.
+#[derive(Serialize)]
+struct JsonRecord<'a> {
+    #[serde(flatten)]
+    stored: &'a Stored,
+    location_errors: IndexMap<String, Quantity>,
+}
+
+impl JsonRecord<'_> {
+    fn of(r: &Stored) -> JsonRecord<'_> {
+        JsonRecord {
             stored: r,
             location_errors: location_errors(&r.record.content).unwrap_or_default(),
-        })
-        .collect();
-    serde_json::to_string_pretty(&out).expect("records serialize") + "\n"
+        }
+    }
 }

@@ -32,7 +32,7 @@ enum Command {
     Plan(config::plan::PlanArgs),
     /// Run a plan on a virtual machine with known errors and write what a
     /// CMM or the probe would have measured.
-    Simulate(cmd::simulate::SimulateCli),
+    Simulate(config::simulate::SimulateCli),
     /// Identify location errors and error maps, with their uncertainty, from
     /// CMM and probe files.
     Analyze(config::analyze::AnalyzeCli),
@@ -58,22 +58,22 @@ enum Command {
     Discover(config::discover::DiscoverArgs),
     /// What the results store keeps of a machine: list, show, export, the
     /// trend of each error toward its limit, and a plot over time.
-    History(cmd::history::HistoryCli),
+    History(config::history::HistoryCli),
     /// Compare a machine before and after compensation: the change of
     /// every error with its u, and whether it is within its limits.
-    Verify(cmd::verify::VerifyArgs),
+    Verify(config::verify::VerifyArgs),
     /// Run the whole job on the built-in example machine: plan, simulate,
     /// analyze, discover and compensate, with a one-screen summary.
-    Demo(cmd::demo::DemoArgs),
+    Demo(config::demo::DemoArgs),
     /// Show what a measurement file holds before any plan is involved: its
     /// format, units, runs, and each feature or point with its nominal,
     /// actual and normal, and what was skipped and why.
-    Measured(cmd::measured::MeasuredArgs),
+    Measured(config::measured::MeasuredArgs),
     /// Inspect machine files.
     #[command(subcommand)]
-    Machine(cmd::machine::MachineCommand),
+    Machine(config::machine::MachineCommand),
     /// Print shell completions for bash, zsh, fish, powershell or elvish.
-    Completions(cmd::docs::CompletionsArgs),
+    Completions(config::completions::CompletionsArgs),
     /// Print the man page (roff) to standard output.
     Man,
 }

@@ -65,3 +65,50 @@ macro_rules! outln {
     () => { $crate::out::print(format_args!("\n")) };
     ($($t:tt)*) => { $crate::out::print(format_args!("{}\n", format_args!($($t)*))) };
 }
+
+/// Writes `value` as a command's `--json` output (pretty JSON, one
+/// newline) through [`json`].
+pub fn json_of<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
+    json(&serde_json::to_string_pretty(value)?)?;
+    Ok(())
+}
+
+/// Lines of an NC program grouped under one reason (what was skipped,
+/// left as written, not modelled), as `--json` prints them: the reason in
+/// words, how many lines, and the first of them.
+#[derive(serde::Serialize)]
+pub struct ReasonLines {
+    pub reason: String,
+    pub count: usize,
+    pub lines: Vec<usize>,
+}
+
+impl ReasonLines {
+    /// Each reason with its lines.
+    pub fn all<R: fmt::Display>(groups: &[(R, fivecal::compensate::Lines)]) -> Vec<ReasonLines> {
+        groups
+            .iter()
+            .map(|(r, l)| ReasonLines {
+                reason: r.to_string(),
+                count: l.len(),
+                lines: l.first.clone(),
+            })
+            .collect()
+    }
+}
+
+/// A largest value and the program line it was met on.
+#[derive(serde::Serialize)]
+pub struct AtLine {
+    pub value: f64,
+    pub line: usize,
+}
+
+impl From<fivecal::compensate::Largest> for AtLine {
+    fn from(l: fivecal::compensate::Largest) -> AtLine {
+        AtLine {
+            value: l.value,
+            line: l.line,
+        }
+    }
+}

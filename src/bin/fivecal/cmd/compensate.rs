@@ -7,10 +7,21 @@ use anyhow::{Context as _, bail};
 use fivecal::compensate::{AtomicOutput, Compensator, Rewrite, export, reasons};
 use fivecal::numbers::count;
 
+use super::compensate_json::{Compensated, Exported, Rewritten};
 use crate::config::compensate::{CompensateArgs, Config};
 
 pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
     let cfg = args.validate()?;
+    if cfg.json {
+        // Standard output is the JSON's: what the run says goes to
+        // standard error.
+        crate::out::to_stderr();
+    }
+    let mut report = Compensated {
+        machine: cfg.common.machine.name.clone(),
+        errors: cfg.errors_path.display().to_string(),
+        ..Compensated::default()
+    };
     // An export changes the control: kept in the store, opened first so an
     // unreachable store stops the run before anything is written.
     // A preview (no --entered) changes nothing and is not recorded.
@@ -45,6 +56,8 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         let c = Compensator::new(&cfg.errors.model, &cfg.errors.theta, settings);
         // On any error `out` is dropped: its temporary file goes, nothing is written.
         let summary = c.run(input, file, &mut out)?;
+        report.rewrite = Some(Rewritten::new(&summary, input, output, detection.dialect));
+        report.files.push(output.display().to_string());
         let unchanged = summary.changed == 0 && summary.inserted == 0;
         if let Some(why) = &summary.no_motion {
             // Nothing to correct in it, and nothing wrong with it: a
@@ -113,12 +126,17 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
             }
         }
     }
+    report.unchanged.clone_from(&copy);
     let Some(((d, target), exported)) = cfg.export.as_ref().zip(exported) else {
         if let Some(c) = copy {
             outln!("nothing changed: {c}");
         }
-        return Ok(());
+        return json(&cfg, &report);
     };
+    report.export = Some(Exported::new(&exported, target.as_deref()));
+    report
+        .files
+        .extend(target.iter().map(|t| t.display().to_string()));
     let text = &exported.file_text(target.as_deref());
     match target {
         Some(p) => {
@@ -160,6 +178,14 @@ pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
         } else {
             eprintln!("{n}")
         }
+    }
+    json(&cfg, &report)
+}
+
+/// With `--json`, what was done, on standard output.
+fn json(cfg: &Config, report: &Compensated) -> anyhow::Result<()> {
+    if cfg.json {
+        crate::out::json_of(report)?;
     }
     Ok(())
 }

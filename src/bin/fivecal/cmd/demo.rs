@@ -2,23 +2,12 @@
 //! progress display on a terminal and plain lines otherwise.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use clap::Args;
 use fivecal::demo::{self, DemoConfig, Stage};
 use indicatif::{ProgressBar, ProgressStyle};
 
-#[derive(Args, Debug)]
-pub struct DemoArgs {
-    /// Where every artefact goes (created if needed; the demo's own files
-    /// in it are replaced).
-    #[arg(short, long, value_name = "DIR", default_value = "fivecal-demo")]
-    out: PathBuf,
-    /// Seed of the simulation (CMM placement and noise).
-    #[arg(long, value_name = "N", default_value_t = 1)]
-    seed: u64,
-}
+use crate::config::demo::DemoArgs;
 
 pub fn run(a: DemoArgs) -> anyhow::Result<()> {
     fivecal::io::check_outputs(&[], &[("--out", &a.out, fivecal::io::Shape::Dir)])?;

@@ -4,14 +4,9 @@
 
 use std::io::Write;
 
-use clap::{Args, CommandFactory};
-use clap_complete::Shell;
+use clap::CommandFactory;
 
-#[derive(Args, Debug)]
-pub struct CompletionsArgs {
-    /// bash, zsh, fish, powershell or elvish.
-    shell: Shell,
-}
+use crate::config::completions::CompletionsArgs;
 
 pub fn completions(args: CompletionsArgs) -> anyhow::Result<()> {
     let mut cmd = with_names(crate::Cli::command());
@@ -104,14 +99,34 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "Print the corrected tool-centre-point parameters for a FANUC control:",
         "fivecal compensate --machine bc-trunnion --errors demo/discovered.yaml --export fanuc",
     ),
+    (
+        "Check a compensated program: its tool tip on the machine with the errors, against the path the original asks for on the nominal machine:",
+        "fivecal simulate nc --machine bc-trunnion --errors demo/truth.yaml demo/frustum.compensated.nc --against demo/frustum.nc",
+    ),
+    (
+        "List what the results store keeps of the demo's machine, as JSON on standard output (every command with a result takes --json):",
+        "fivecal history --db demo/history.db --json",
+    ),
 ];
 
-/// The man page's ENVIRONMENT: every variable the program reads.
-const ENVIRONMENT: &[(&str, &str)] = &[(
-    "FIVECAL_DB",
-    "The results store used when --db is not given: a SQLite file path or a postgres:// URL. \
-     Unset: history.db in the user's data directory.",
-)];
+/// The man page's ENVIRONMENT: every variable the program reads, itself
+/// (`FIVECAL_DB`) or through the user's data directory.
+const ENVIRONMENT: &[(&str, &str)] = &[
+    (
+        "FIVECAL_DB",
+        "The results store used when --db is not given: a SQLite file path or a postgres:// URL. \
+         Unset: history.db in the user's data directory.",
+    ),
+    (
+        "XDG_DATA_HOME",
+        "The user's data directory, where the default results store fivecal/history.db lies \
+         (Linux). Unset: $HOME/.local/share.",
+    ),
+    (
+        "HOME",
+        "The user's home directory, under which the data directory lies when XDG_DATA_HOME is unset.",
+    ),
+];
 
 pub fn man() -> anyhow::Result<()> {
     let cmd = crate::Cli::command();

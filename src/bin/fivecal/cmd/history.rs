@@ -4,76 +4,16 @@
 //! drifting toward its limit, and `plot` writes the HTML page with each
 //! error over time. The store is only read, never created here.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context as _, bail};
-use clap::{Args, Subcommand};
 use fivecal::conformance::{AcceptanceLimits, LimitsSource};
 use fivecal::history::{self, History};
 use fivecal::io::write_atomic;
 use fivecal::store::Store;
 
 use super::record::open_for_reading;
-
-/// List, show, export, trend and plot the results kept in the store.
-#[derive(Args, Debug)]
-pub struct HistoryCli {
-    #[command(subcommand)]
-    action: Option<Action>,
-    /// The results store: an SQLite file or a `postgres://` URL [default:
-    /// $FIVECAL_DB, else history.db in the user's data directory].
-    #[arg(long, value_name = "PATH|URL", global = true)]
-    db: Option<String>,
-    /// Only this machine's records [needed for trend and plot when the
-    /// store holds several machines]: a machine file (known by the `name:`
-    /// inside it) or a name.
-    #[arg(long, value_name = "M.yaml|NAME", global = true)]
-    machine: Option<String>,
-    #[command(flatten)]
-    timeout: super::record::DbTimeout,
-}
-
-#[derive(Subcommand, Debug)]
-enum Action {
-    /// List the records, oldest measurement first (the default).
-    List,
-    /// Print one record: its fields, the files it read with their SHA-256,
-    /// and the result as kept.
-    Show {
-        /// The record's id (first column of the list).
-        id: i64,
-    },
-    /// Write the records as CSV (one row per record and symbol) or JSON.
-    Export {
-        /// Write JSON instead of CSV (also when the --out file's name ends
-        /// in .json).
-        #[arg(long)]
-        json: bool,
-        /// The file [default: standard output].
-        #[arg(short, long, value_name = "FILE")]
-        out: Option<PathBuf>,
-    },
-    /// Whether each location error drifts, since when, and when it reaches
-    /// its limit at the current rate (since the last export).
-    Trend(LimitsArg),
-    /// Write an HTML page with each location error over time (u band, fit
-    /// verdicts, exports, limits, trend).
-    Plot {
-        /// The directory of the page (index.html and one SVG per error).
-        #[arg(short, long, value_name = "DIR")]
-        out: PathBuf,
-        #[command(flatten)]
-        limits: LimitsArg,
-    },
-}
-
-#[derive(Args, Debug)]
-struct LimitsArg {
-    /// Acceptance limits: a limits file or a machine file with a
-    /// `limits:` section.
-    #[arg(long, value_name = "FILE")]
-    limits: Option<PathBuf>,
-}
+use crate::config::history::{Action, HistoryCli, LimitsArg};
 
 pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
     let mut store = open_for_reading(cli.db.as_deref(), &cli.timeout)?;
@@ -91,10 +31,26 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
         .map(Path::new)
         .into_iter()
         .collect();
-    match cli.action.unwrap_or(Action::List) {
-        Action::List => {
+    let action = cli.action.unwrap_or(Action::List { json: false });
+    let json = match action {
+        Action::List { json } | Action::Show { json, .. } => json || cli.json,
+        _ if cli.json => bail!(
+            "history --json: the JSON of list (the default) and show; export has its own --json, trend and plot write text and pages"
+        ),
+        _ => false,
+    };
+    if json {
+        // Standard output is the JSON's.
+        crate::out::to_stderr();
+    }
+    match action {
+        Action::List { .. } => {
             let records = store.list(machine)?;
-            if records.is_empty() {
+            if json {
+                // The records as `history export --json` writes them (an
+                // empty list when there are none).
+                crate::out::json(&history::to_json(&records))?;
+            } else if records.is_empty() {
                 outln!(
                     "no records{} in {}",
                     machine.map_or(String::new(), |m| format!(" of machine `{m}`")),
@@ -104,11 +60,16 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
                 out!("{}", history::render_list(&records));
             }
         }
-        Action::Show { id } => {
+        Action::Show { id, .. } => {
             let r = store
                 .get(id)?
                 .with_context(|| format!("no record {id} in {}", store.location()))?;
-            out!("{}", history::render_record(&r));
+            if json {
+                // The one record as the export writes each.
+                crate::out::json(&history::record_to_json(&r))?;
+            } else {
+                out!("{}", history::render_record(&r));
+            }
         }
         Action::Export { json, out } => {
             let records = store.list(machine)?;

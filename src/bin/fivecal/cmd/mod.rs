@@ -1,11 +1,10 @@
 //! One module per subcommand: its `run` turns the command's validated
-//! configuration into library calls and prints. The four commands with
-//! the most options (plan, analyze, discover, compensate) have their
-//! options and validation in `config/`; the others still define their few
-//! options beside their `run`.
+//! configuration into library calls and prints. Every command's options
+//! and their validation are in `config/`.
 
 pub mod analyze;
 pub mod compensate;
+pub mod compensate_json;
 pub mod contour;
 pub mod demo;
 pub mod discover;

@@ -8,13 +8,21 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
+use fivecal::analyze::preview::Preview;
+use fivecal::formats::manifest::Identifies;
 use fivecal::formats::manifest::KinematicsMode;
 use fivecal::procedure::{Plan, plan};
+use serde::Serialize;
 
 use crate::config::plan::{PlanArgs, config, recipe};
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let cfg = config(args)?;
+    if cfg.json {
+        // Standard output is the JSON's: what the run says goes to
+        // standard error.
+        crate::out::to_stderr();
+    }
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
     fivecal::io::check_outputs(&inputs, &[("--out", &cfg.out, fivecal::io::Shape::Dir)])?;
     let p = &cfg.plan;
@@ -121,9 +129,10 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     for n in planned.notes() {
         outln!("note: {n}");
     }
-    for w in written {
+    for w in &written {
         outln!("wrote {}", w.display());
     }
+    let mut report = Planned::new(&planned, &predicted, &written);
     if let Some((run, second)) = second_run {
         let alone = fivecal::analyze::preview::predict(&second, None, None)
             .with_context(|| format!("cannot predict what {} identifies", second.test()))?;
@@ -142,9 +151,90 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             run.probe_length,
             second_dir.display()
         );
-        for w in written {
+        for w in &written {
             outln!("wrote {}", w.display());
         }
+        report.second_run = Some(SecondRun {
+            dir: second_dir.display().to_string(),
+            probe_length_mm: run.probe_length,
+            identifies: alone.manifest_entry(),
+            files: written.iter().map(|w| w.display().to_string()).collect(),
+        });
+    }
+    if cfg.json {
+        crate::out::json_of(&report)?;
     }
     Ok(())
+}
+
+/// What `plan --json` prints.
+#[derive(Serialize)]
+struct Planned {
+    test: String,
+    machine: String,
+    dialect: String,
+    /// Machining tests: how 3+2 positions are written (`post`,
+    /// `controller`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    kinematics: Option<&'static str>,
+    poses: usize,
+    /// Points of the machined piece (machining) or touches (probing).
+    points: usize,
+    run_minutes: f64,
+    /// What the test identifies, as the manifest's `identifies:`.
+    identifies: Identifies,
+    /// The location errors it leaves unidentified.
+    missing: Vec<String>,
+    notes: Vec<String>,
+    files: Vec<String>,
+    /// `--require all` met by a second run with another probe length.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    second_run: Option<SecondRun>,
+}
+
+#[derive(Serialize)]
+struct SecondRun {
+    dir: String,
+    probe_length_mm: f64,
+    identifies: Identifies,
+    files: Vec<String>,
+}
+
+impl Planned {
+    fn new(planned: &Plan, predicted: &Preview, written: &[PathBuf]) -> Planned {
+        let (kinematics, poses, points, run_minutes) = match planned {
+            Plan::Machining(t) => (
+                Some(match t.kinematics {
+                    KinematicsMode::Post => "post",
+                    KinematicsMode::Controller => "controller",
+                }),
+                t.poses.len(),
+                t.points.len(),
+                t.run_minutes,
+            ),
+            Plan::Probing(p) => (
+                None,
+                p.plan.poses.len(),
+                p.plan.touches.len(),
+                p.run_minutes(),
+            ),
+        };
+        Planned {
+            test: planned.test().to_string(),
+            machine: planned.machine().name.clone(),
+            dialect: match planned {
+                Plan::Machining(t) => t.dialect.to_string(),
+                Plan::Probing(p) => p.dialect.to_string(),
+            },
+            kinematics,
+            poses,
+            points,
+            run_minutes,
+            identifies: predicted.manifest_entry(),
+            missing: predicted.missing().iter().map(|s| s.to_string()).collect(),
+            notes: planned.notes().iter().map(|n| n.to_string()).collect(),
+            files: written.iter().map(|w| w.display().to_string()).collect(),
+            second_run: None,
+        }
+    }
 }

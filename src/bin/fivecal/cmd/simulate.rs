@@ -1,148 +1,19 @@
 //! `fivecal simulate` (issue 5): run a plan on the virtual machine and write
-//! what the CMM or the probe would have written. The `nc` mode (issue 7)
+//! what the CMM or the probe would have written. The options are validated
+//! into one configuration in `config/simulate.rs`. The `nc` mode (issue 7)
 //! lives in `simulate_nc.rs`.
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context as _, bail};
-use clap::{Args, Subcommand};
+use anyhow::Context as _;
 use fivecal::ErrorFile;
 use fivecal::formats::manifest::{Manifest, TestKind};
 use fivecal::io::{Shape, check_outputs};
-use fivecal::simulate::{
-    self, Format, NoiseOverrides, Placement, SetupErrors, SimOptions, SimOutput,
-};
+use fivecal::simulate::{self, Format, Placement, SimOptions, SimOutput};
 use fivecal::{Kinematics, Machine};
+use serde::Serialize;
 
-#[derive(Args, Debug)]
-#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
-pub struct SimulateCli {
-    #[command(subcommand)]
-    mode: Option<SimulateMode>,
-    #[command(flatten)]
-    args: SimulateArgs,
-}
-
-#[derive(Subcommand, Debug)]
-enum SimulateMode {
-    /// Predict the tool-tip error along an NC program on a machine with
-    /// known errors.
-    Nc(super::simulate_nc::SimulateNcArgs),
-}
-
-/// Run a plan on a machine whose errors are known (a truth file) and write
-/// what the CMM (machining tests) or the machine's probe (probing tests)
-/// would have measured.
-#[derive(Args, Debug)]
-pub struct SimulateArgs {
-    /// The plan's manifest, as `fivecal plan` wrote it.
-    #[arg(long, value_name = "DIR/TEST.plan.yaml")]
-    plan: Option<PathBuf>,
-    /// The machine's errors: a truth file (docs/formats.md; see
-    /// --truth-example) or a result of `fivecal analyze`.
-    #[arg(long, value_name = "TRUTH.yaml")]
-    errors: Option<PathBuf>,
-    /// The measurement file to write (never one of the inputs).
-    #[arg(long, short, value_name = "FILE")]
-    out: Option<PathBuf>,
-    /// csv (label,x,y,z), dmis (a CMM's DMIS output), qif (a CMM's QIF 3
-    /// results, by the ids and names of the plan's .qif), log (the probe log
-    /// the plan's program makes the control write) or heights (nine-section
-    /// section,height_um). Default: from the file extension (.dmo/.out
-    /// dmis, .qif qif, .log/.txt log, .csv csv, heights for nine-section),
-    /// else csv for a machined piece (heights for nine-section) and log
-    /// for probing.
-    #[arg(long, value_name = "FORMAT")]
-    format: Option<String>,
-    /// Seed of every random draw (placement, setups, noise): the same seed
-    /// writes the same bytes.
-    #[arg(long, value_name = "N", default_value_t = 1)]
-    seed: u64,
-    /// Where the machined piece lies on the CMM: random (any rotation, any
-    /// offset) or aligned (the part frame on W, as the plan's DMIS program
-    /// asks). Default: random for csv, aligned for dmis, qif and heights.
-    #[arg(long, value_name = "random|aligned")]
-    placement: Option<String>,
-    /// Probed pieces exactly at their nominal places (default: each set up
-    /// with a seeded error up to 0.1 mm and 1 mrad).
-    #[arg(long)]
-    nominal_setup: bool,
-    /// No CMM noise, no probe repeatability, a perfect sphere: the machine's
-    /// errors alone.
-    #[arg(long)]
-    no_noise: bool,
-    /// Form error of the calibration sphere, um (largest radial deviation).
-    #[arg(long, value_name = "UM")]
-    sphere_form: Option<f64>,
-    /// Print a commented truth file with every supported effect and exit.
-    #[arg(long)]
-    truth_example: bool,
-    /// The machine of --truth-example: a built-in name or a machine file.
-    #[arg(long, value_name = "M.yaml|NAME", default_value = "bc-trunnion")]
-    machine: String,
-}
-
-/// The validated configuration of one run.
-struct Config {
-    plan_path: PathBuf,
-    errors: PathBuf,
-    out: PathBuf,
-    format: Option<Format>,
-    placement: Option<Placement>,
-    opts: SimOptions,
-}
-
-fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
-    let plan_path = a
-        .plan
-        .context("--plan is required (the plan's DIR/<test>.plan.yaml)")?;
-    let errors = a
-        .errors
-        .context("--errors is required (a truth file; --truth-example prints one)")?;
-    let out = a.out.context("--out is required")?;
-    let format = a
-        .format
-        .as_deref()
-        .map(|f| f.parse::<Format>().map_err(anyhow::Error::msg))
-        .transpose()?;
-    let placement = match a.placement.as_deref() {
-        None => None,
-        Some("random") => Some(Placement::Random),
-        Some("aligned") => Some(Placement::Aligned),
-        Some(other) => bail!("--placement {other}: expected random or aligned"),
-    };
-    let mut opts = SimOptions {
-        seed: a.seed,
-        ..SimOptions::default()
-    };
-    if let Some(f) = a.sphere_form {
-        if !(f.is_finite() && (0.0..=fivecal::limits::MAX_ERROR_UM).contains(&f)) {
-            bail!(
-                "--sphere-form {f}: expected a form error from 0 to {} um",
-                fivecal::limits::MAX_ERROR_UM
-            );
-        }
-        opts.sphere_form_um = f;
-    }
-    if a.nominal_setup {
-        opts.setup = SetupErrors::Nominal;
-    }
-    if a.no_noise {
-        opts.noise = NoiseOverrides {
-            cmm_um: Some(0.0),
-            probe_um: Some(0.0),
-        };
-        opts.sphere_form_um = 0.0;
-    }
-    Ok(Config {
-        plan_path,
-        errors,
-        out,
-        format,
-        placement,
-        opts,
-    })
-}
+use crate::config::simulate::{Config, SimulateCli, SimulateMode, validate};
 
 pub fn run(cli: SimulateCli) -> anyhow::Result<()> {
     match cli.mode {
@@ -174,6 +45,11 @@ fn plan_inputs(manifest_path: &Path) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 fn simulate(c: Config) -> anyhow::Result<()> {
+    if c.json {
+        // Standard output is the JSON's: what the run says goes to
+        // standard error.
+        crate::out::to_stderr();
+    }
     let mut inputs = plan_inputs(&c.plan_path)?;
     inputs.push(c.errors.clone());
     let refs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
@@ -200,7 +76,76 @@ fn simulate(c: Config) -> anyhow::Result<()> {
     })?;
     out.write(format, &c.out)?;
     summary(&out, format, &c.out, &opts);
+    if c.json {
+        crate::out::json_of(&Simulated::new(&out, format, &c.out, &opts))?;
+    }
     Ok(())
+}
+
+/// What `simulate --json` prints: what was simulated and the file written.
+#[derive(Serialize)]
+struct Simulated {
+    test: String,
+    /// `machining` or `probing`.
+    kind: &'static str,
+    machine: String,
+    seed: u64,
+    /// The measurement file's format (csv, dmis, qif, log, heights).
+    format: String,
+    /// Machining: where the piece lay on the CMM (`random`, `aligned`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    placement: Option<&'static str>,
+    /// Points measured (machining) or touches probed (probing).
+    points: usize,
+    /// Probing: pieces set up with seeded errors (0: at their nominal
+    /// places).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    setups_with_errors: Option<usize>,
+    /// Nine-section heights written, um.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    heights: Option<Vec<Height>>,
+    /// The files written.
+    files: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct Height {
+    section: u32,
+    height_um: f64,
+}
+
+impl Simulated {
+    fn new(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) -> Simulated {
+        let probing = out.kind == TestKind::Probing;
+        Simulated {
+            test: out.test.to_string(),
+            kind: if probing { "probing" } else { "machining" },
+            machine: out.machine.clone(),
+            seed: out.seed,
+            format: format.to_string(),
+            placement: (!probing).then_some(match opts.placement {
+                Placement::Aligned => "aligned",
+                Placement::Random => "random",
+                Placement::Given(_) => "given",
+            }),
+            points: out.points.len(),
+            setups_with_errors: probing.then(|| {
+                out.setups
+                    .iter()
+                    .filter(|s| s.1 != nalgebra::Isometry3::identity())
+                    .count()
+            }),
+            heights: out.heights.as_ref().map(|h| {
+                h.iter()
+                    .map(|s| Height {
+                        section: s.section,
+                        height_um: s.height_um,
+                    })
+                    .collect()
+            }),
+            files: vec![path.display().to_string()],
+        }
+    }
 }
 
 fn summary(out: &SimOutput, format: Format, path: &Path, opts: &SimOptions) {

@@ -2,90 +2,28 @@
 //! on a machine with known errors, and what a CMM would measure on a part
 //! cut by it.
 
-use std::path::{Path, PathBuf};
-
 use anyhow::bail;
-use clap::Args;
 use fivecal::compensate::against::{Deviation, Follower, IntendedPath};
 use fivecal::compensate::reasons;
 use fivecal::compensate::simulate::{Sample, SimSettings, Simulator, measure_surface, samples_csv};
 use fivecal::formats::measured::{self, MeasuredPoint};
 use fivecal::numbers::count;
 
-use crate::config::nc::{MachineArgs, load_errors};
+use serde::Serialize;
 
-#[derive(Args, Debug)]
-pub struct SimulateNcArgs {
-    #[command(flatten)]
-    machine: MachineArgs,
-    /// Error file of the machine (a truth file, or an analyze result).
-    #[arg(long, value_name = "TRUTH.yaml")]
-    errors: PathBuf,
-    /// The NC program to run.
-    #[arg(value_name = "P.nc")]
-    program: PathBuf,
-    /// Sample feed moves every STEP mm of tool path (and at least every
-    /// degree a rotary axis turns) as well as at their end points.
-    #[arg(
-        long,
-        value_name = "MM",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    step: f64,
-    /// Write every sample (nominal tip and axis, tip error) as CSV.
-    #[arg(short = 'o', long = "out", value_name = "ERRORS.csv")]
-    output: Option<PathBuf>,
-    /// Nominal surface points a CMM measures on the part the program cuts
-    /// (canonical `label,x,y,z`, in W): with --measured, write what it would
-    /// find (the tool cutting at its tip, normal to the surface).
-    #[arg(long, value_name = "POINTS.csv", requires = "measured")]
-    cmm: Option<PathBuf>,
-    /// Where the simulated CMM points go (canonical `label,x,y,z`).
-    #[arg(long, value_name = "CMM.csv", requires = "cmm")]
-    measured: Option<PathBuf>,
-    /// The program P.nc was made from (the original of a compensated
-    /// program): measure P.nc's tool tip, run on the machine with the
-    /// errors, against the path ORIGINAL.nc asks for on the nominal
-    /// machine, instead of against P.nc's own nominal path. Feed moves are
-    /// sampled every --step mm (0.5 mm when --step is not given).
-    #[arg(long, value_name = "ORIGINAL.nc")]
-    against: Option<PathBuf>,
-    /// Largest distance of a CMM point from the tool path, mm.
-    #[arg(long, value_name = "MM", default_value_t = 0.5)]
-    max_distance: f64,
-}
+use crate::config::nc::load_errors;
+use crate::config::simulate::{NcConfig, SimulateNcArgs};
+use crate::out::{AtLine, ReasonLines};
 
 pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
-    let common = args.machine.validate()?;
+    let args: NcConfig = args.validate()?;
+    if args.json {
+        // Standard output is the JSON's: what the run says goes to
+        // standard error.
+        crate::out::to_stderr();
+    }
+    let common = &args.common;
     let errors = load_errors(&args.errors, &common.kin)?;
-    let min_step = fivecal::limits::MIN_SAMPLE_STEP_MM;
-    if !(args.step.is_finite() && (args.step == 0.0 || args.step >= min_step)) {
-        bail!(
-            "--step {}: expected 0 (end points only) or a distance of at least {min_step} mm",
-            args.step
-        );
-    }
-    if !(args.max_distance.is_finite() && args.max_distance > 0.0) {
-        bail!(
-            "--max-distance {}: expected a distance > 0 mm from the tool path",
-            args.max_distance
-        );
-    }
-    let mut inputs: Vec<&Path> = common.inputs.iter().map(|p| p.as_path()).collect();
-    inputs.push(&args.errors);
-    inputs.push(&args.program);
-    if let Some(a) = &args.against {
-        inputs.push(a);
-    }
-    if let Some(c) = &args.cmm {
-        inputs.push(c);
-    }
-    let outputs: Vec<_> = [("--out", &args.output), ("--measured", &args.measured)]
-        .into_iter()
-        .filter_map(|(f, p)| Some((f, p.as_deref()?, fivecal::io::Shape::File)))
-        .collect();
-    fivecal::io::check_outputs(&inputs, &outputs)?;
     let cmm_points = match &args.cmm {
         Some(p) => {
             let src = fivecal::input::read_text(
@@ -97,12 +35,7 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    // Against an original, the path between end points is what is
-    // compared: feed moves are sampled along, never only at their ends.
-    let step = match (&args.against, args.step) {
-        (Some(_), 0.0) => AGAINST_STEP_MM,
-        (_, s) => s,
-    };
+    let step = args.step;
     let settings_for = |dialect| {
         let mut settings = SimSettings::new(dialect);
         settings.strict = common.strict;
@@ -273,10 +206,47 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     }
     // A machine on which the program runs as on the nominal one: an answer
     // (a compensated program, a perfect machine), but never a silent one.
-    if summary
+    let no_error = summary
         .max_um
-        .is_some_and(|m| m.value < 0.005 && summary.max_axis_urad < 0.05)
-    {
+        .is_some_and(|m| m.value < 0.005 && summary.max_axis_urad < 0.05);
+    if args.json {
+        let against = match (&against, &args.against, &intended) {
+            (Some(d), Some(original), Some((_, skipped))) => Some(AgainstJson {
+                original: original.display().to_string(),
+                samples: d.samples,
+                step_mm: step,
+                mean_um: d.mean_um,
+                rms_um: d.rms_um,
+                max_um: d.max_um.map(AtLine::from),
+                max_axis_urad: d.max_axis_urad,
+                skipped: ReasonLines::all(skipped),
+            }),
+            _ => None,
+        };
+        crate::out::json_of(&SimulatedNc {
+            program: args.program.display().to_string(),
+            machine: common.machine.name.clone(),
+            errors: args.errors.display().to_string(),
+            dialect: detection.dialect.to_string(),
+            blocks: summary.blocks,
+            moves: summary.moves,
+            samples: summary.samples,
+            mean_um: summary.mean_um,
+            rms_um: summary.rms_um,
+            max_um: summary.max_um.map(AtLine::from),
+            max_axis_urad: summary.max_axis_urad,
+            against,
+            skipped: ReasonLines::all(&summary.skipped),
+            unmodelled: ReasonLines::all(&summary.unmodelled),
+            no_error,
+            files: [&args.output, &args.measured]
+                .into_iter()
+                .flatten()
+                .map(|p| p.display().to_string())
+                .collect(),
+        })?;
+    }
+    if no_error {
         outln!(
             "no error: on this machine every sample of the program lies where the nominal machine puts it (within 0.005 um and 0.05 urad): {} moves none of them",
             args.errors.display()
@@ -285,6 +255,44 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The step along feed moves, mm, of a run `--against` an original when no
-/// `--step` is given (the demo's).
-const AGAINST_STEP_MM: f64 = 0.5;
+/// What `simulate nc --json` prints: the tool-tip error along the program
+/// (actual minus where the nominal machine puts the program as written),
+/// and with `--against` the tool tip from the original's path.
+#[derive(Serialize)]
+struct SimulatedNc {
+    program: String,
+    machine: String,
+    errors: String,
+    /// The dialect the program was read in.
+    dialect: String,
+    blocks: usize,
+    moves: usize,
+    samples: usize,
+    mean_um: f64,
+    rms_um: f64,
+    max_um: Option<AtLine>,
+    max_axis_urad: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    against: Option<AgainstJson>,
+    /// Moves not simulated, by reason.
+    skipped: Vec<ReasonLines>,
+    /// Effects of the program the model does not hold, by kind.
+    unmodelled: Vec<ReasonLines>,
+    /// Every sample lies where the nominal machine puts it.
+    no_error: bool,
+    /// The files written (`--out`, `--measured`).
+    files: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct AgainstJson {
+    original: String,
+    samples: usize,
+    step_mm: f64,
+    mean_um: f64,
+    rms_um: f64,
+    max_um: Option<AtLine>,
+    max_axis_urad: f64,
+    /// Moves of the original not simulated, by reason.
+    skipped: Vec<ReasonLines>,
+}

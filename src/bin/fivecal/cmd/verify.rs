@@ -7,7 +7,6 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
-use clap::Args;
 use fivecal::conformance::LimitsSource;
 use fivecal::errorfile::ErrorFile;
 use fivecal::history::compare::Comparison;
@@ -16,37 +15,19 @@ use fivecal::store::{RecordKind, Stored};
 
 use super::history::machine_history;
 use super::record::open_for_reading;
-
-/// Compare a machine before and after compensation.
-#[derive(Args, Debug)]
-pub struct VerifyArgs {
-    /// The result before compensation.
-    #[arg(long, value_name = "RESULT.yaml", requires = "after")]
-    before: Option<PathBuf>,
-    /// The result after compensation.
-    #[arg(long, value_name = "RESULT.yaml", requires = "before")]
-    after: Option<PathBuf>,
-    /// Take both from the results store: this machine's latest result
-    /// before its last export and the latest after it.
-    /// A machine file or a name: a file is known by the `name:` inside it.
-    #[arg(long, value_name = "M.yaml|NAME", conflicts_with_all = ["before", "after"])]
-    machine: Option<String>,
-    /// The results store (with --machine) [default: $FIVECAL_DB, else
-    /// history.db in the user's data directory].
-    #[arg(long, value_name = "PATH|URL", requires = "machine")]
-    db: Option<String>,
-    #[command(flatten)]
-    timeout: super::record::DbTimeout,
-    /// Acceptance limits: a limits file or a machine file with a `limits:`
-    /// section.
-    #[arg(long, value_name = "FILE")]
-    limits: Option<PathBuf>,
-    /// Also write the comparison as YAML (JSON if the name ends in .json).
-    #[arg(short, long, value_name = "FILE")]
-    out: Option<PathBuf>,
-}
+use crate::config::verify::VerifyArgs;
 
 pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
+    if a.json {
+        if a.out.as_deref().is_some_and(|o| o.as_os_str() == "-") {
+            bail!(
+                "--json prints on standard output, and so does `-o -`: name a file, or leave out --json"
+            );
+        }
+        // Standard output is the JSON's: what the run says goes to
+        // standard error.
+        crate::out::to_stderr();
+    }
     // The output is checked before anything is read or written: it names
     // none of the inputs, the results store included.
     if let Some(out) = &a.out {
@@ -78,6 +59,10 @@ pub fn run(a: VerifyArgs) -> anyhow::Result<()> {
     }
     let c = Comparison::new((&bn, &b), (&an, &af), limits.as_ref().map(|l| &l.limits))?;
     out!("{}", c.render());
+    if a.json {
+        // The comparison as the `-o FILE.json` file holds it.
+        crate::out::json_of(&c)?;
+    }
     if let Some(out) = &a.out {
         let mut inputs: Vec<&Path> = [&a.before, &a.after, &a.limits]
             .into_iter()
@@ -147,7 +132,7 @@ type Pair = ((String, ErrorFile), (String, ErrorFile));
 
 fn from_store(
     db: Option<&str>,
-    timeout: &super::record::DbTimeout,
+    timeout: &crate::config::record::DbTimeout,
     machine: &str,
 ) -> anyhow::Result<Pair> {
     let mut store = open_for_reading(db, timeout)?;

@@ -13,7 +13,7 @@ use fivecal::identify::Method;
 use fivecal::identify::sphere::CircleMethod;
 use fivecal::io::{Shape, check_outputs};
 
-use crate::cmd::record::Recording;
+use super::record::Recording;
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -135,9 +135,9 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
     #[command(flatten)]
-    measured_flags: crate::cmd::measured::MeasuredFlags,
+    measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
-    record: crate::cmd::record::RecordArgs,
+    record: super::record::RecordArgs,
 }
 
 /// The validated configuration of one `analyze` run.

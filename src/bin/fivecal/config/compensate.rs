@@ -12,11 +12,15 @@ use fivecal::Dialect;
 use fivecal::compensate::{Settings, export};
 use fivecal::errorfile::LoadedErrors;
 use fivecal::io::{Shape, check_outputs};
-use fivecal::machine::MachineOrigin;
+
+mod export_limits;
+mod settings;
+
+use export_limits::swivel_record_known;
 
 use super::DialectArg;
 use super::nc::{Common, MachineArgs, load_errors};
-use crate::cmd::record::{RecordArgs, Recording};
+use super::record::{RecordArgs, Recording};
 
 #[derive(Args, Debug)]
 pub struct CompensateArgs {
@@ -105,6 +109,11 @@ pub struct CompensateArgs {
     /// With --export --entered: where and what to record.
     #[command(flatten)]
     record: RecordArgs,
+    /// Print what was done as JSON on standard output: the moves corrected
+    /// and those left as written with the reason, the largest corrections,
+    /// the exported parameters and the files written.
+    #[arg(long)]
+    json: bool,
 }
 
 /// What to do, validated.
@@ -128,27 +137,8 @@ pub struct Config {
     pub record: Recording,
     /// `--entered`: the export's values are in the control.
     pub entered: bool,
-}
-
-/// `LEN[,ANG]` of --max-change and --max-u: a length in mm and an angle in
-/// mrad, each > 0 (the angle keeps `default` when not given).
-fn parse_limit(option: &str, s: &str, default: f64) -> anyhow::Result<(f64, f64)> {
-    let parts: Vec<Option<f64>> = s
-        .split(',')
-        .map(|x| {
-            x.trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite() && *v > 0.0)
-        })
-        .collect();
-    match parts.as_slice() {
-        [Some(l)] => Ok((*l, default)),
-        [Some(l), Some(a)] => Ok((*l, *a)),
-        _ => bail!(
-            "{option} `{s}`: expected LEN or LEN,ANG, a length in mm and an angle in mrad, each > 0"
-        ),
-    }
+    /// `--json`: what was done, as JSON on standard output.
+    pub json: bool,
 }
 
 impl CompensateArgs {
@@ -180,65 +170,10 @@ impl CompensateArgs {
             );
         }
         common.inputs.push(self.errors.clone());
-        let min_tol = fivecal::limits::MIN_TOLERANCE_UM;
-        if !(self.tolerance.is_finite() && self.tolerance >= min_tol) {
-            bail!(
-                "--tolerance {}: expected a distance of at least {min_tol} um (finer than any control resolves)",
-                self.tolerance
-            );
-        }
-        if !(self.max_correction.is_finite() && self.max_correction > 0.0) {
-            bail!(
-                "--max-correction {}: expected a limit > 0 um",
-                self.max_correction
-            );
-        }
-        if !(self.max_c_swing.is_finite() && self.max_c_swing >= 0.0) {
-            bail!(
-                "--max-c-swing {}: expected an angle >= 0 deg",
-                self.max_c_swing
-            );
-        }
-        // The program's dialect is settled when it is opened.
-        let mut settings = Settings::new(common.dialect.unwrap_or(common.machine.dialect));
-        settings.strict = common.strict;
-        settings.tolerance = self.tolerance * 1e-3;
-        settings.max_correction = self.max_correction;
-        settings.origin = common.origin;
-        settings.coordinates = common.coordinates;
-        settings.max_c_swing = self.max_c_swing;
-        settings.fanuc_integer_unit = common.integer_unit;
-        settings.rotary_start = common.rotary_start.clone();
-        settings.subroutine_path = common.subroutine_path.clone();
-        if self.expand && self.input.is_none() {
-            bail!("--expand flattens an NC program: give the program to rewrite (IN)");
-        }
-        settings.expand = self.expand;
-        if let Some(d) = &self.decimals {
-            let parts: Vec<Option<u8>> =
-                d.split(',').map(|x| x.trim().parse::<u8>().ok()).collect();
-            match parts.as_slice() {
-                [Some(l)] if *l <= 9 => settings.linear_decimals = *l,
-                [Some(l), Some(r)] if *l <= 9 && *r <= 9 => {
-                    settings.linear_decimals = *l;
-                    settings.rotary_decimals = *r;
-                }
-                _ => bail!("--decimals `{d}`: expected LIN or LIN,ROT, each 0 to 9"),
-            }
-        }
-        // The written decimals round every word: a tolerance finer than
-        // that rounding could be reported met while the tip misses it.
-        let (lin, rot) = (settings.linear_decimals, settings.rotary_decimals);
-        let smallest =
-            fivecal::compensate::tolerance::smallest_tolerance_um(&common.machine, lin, rot);
-        if self.tolerance < smallest {
-            bail!(
-                "--tolerance {}: the words written with {lin} decimals in mm and {rot} in degrees round the tool tip by up to {:.3} um on {}, so the smallest tolerance that holds is {smallest:.3} um (as much again for the path between the written points; more decimals with --decimals LIN,ROT allow a finer one)",
-                self.tolerance,
-                fivecal::compensate::tolerance::rounding_bound_mm(&common.machine, lin, rot) * 1e3,
-                common.machine.name
-            );
-        }
+        let settings = self.settings(&common)?;
+        // Read before the options are taken apart, refused after the
+        // outputs are checked, as before.
+        let limits = self.limits();
         let export = match &self.export {
             Some(d) => Some((Dialect::from(*d), self.export_to.clone())),
             None if self.export_to.is_some() => bail!("--export-to needs --export CONTROLLER"),
@@ -272,6 +207,14 @@ impl CompensateArgs {
                 "-o - writes the program to standard output: name the --export parameter file with --export-to FILE"
             );
         }
+        if self.json
+            && (export.as_ref().is_some_and(|(_, t)| t.is_none()) && rewrite.is_none()
+                || rewrite.as_ref().is_some_and(|(_, o)| o.as_os_str() == "-"))
+        {
+            bail!(
+                "--json prints on standard output, and so does the program or the parameters: name their file (-o OUT, --export-to FILE), or leave out --json"
+            );
+        }
         let export = export.map(|(d, target)| {
             let target = target.or_else(|| {
                 rewrite
@@ -302,24 +245,8 @@ impl CompensateArgs {
                 "{flag} goes with a record, and compensate records only an export (--export): a rewritten program is not recorded"
             );
         }
-        if let Some((Dialect::Sinumerik, _)) = &export
-            && common.machine.sinumerik.is_none()
-        {
-            // Named, never pasted: the file is the user's own.
-            let fix = match &common.machine_origin {
-                MachineOrigin::File(p) => {
-                    format!("add `sinumerik: {{swivel_record: N}}` to {}", p.display())
-                }
-                MachineOrigin::BuiltIn => format!(
-                    "copy it with `fivecal machine new NAME --from {}` and add `sinumerik: {{swivel_record: N}}` to the copy",
-                    common.machine.name
-                ),
-            };
-            bail!(
-                "--export sinumerik: {} ({}) does not say which swivel data record holds its kinematics: {fix} (N as in TCARR=N, the record CYCLE800 and CYCLE996 use); nothing written",
-                common.machine_origin,
-                common.machine.name
-            );
+        if let Some((d, _)) = &export {
+            swivel_record_known(*d, &common)?;
         }
         if export.is_none() && self.entered {
             bail!(
@@ -336,19 +263,12 @@ impl CompensateArgs {
         // The store first: it is an input the outputs may not name.
         let record = self.record.validate()?;
         check_outputs(&inputs, &outputs)?;
-        let defaults = export::Limits::default();
-        let (change_mm, change_mrad) =
-            parse_limit("--max-change", &self.max_change, defaults.change_mrad)?;
-        let (u_mm, u_mrad) = parse_limit("--max-u", &self.max_u, defaults.u_mrad)?;
+        let limits = limits?;
         Ok(Config {
-            limits: export::Limits {
-                change_mm,
-                change_mrad,
-                u_mm,
-                u_mrad,
-            },
+            limits,
             record,
             entered: self.entered,
+            json: self.json,
             common,
             errors_path: self.errors,
             errors,

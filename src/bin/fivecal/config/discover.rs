@@ -11,7 +11,7 @@ use fivecal::discover::DiscoverOptions;
 use fivecal::formats::detect::MeasuredOptions;
 use fivecal::io::{Shape, check_outputs};
 
-use crate::cmd::record::Recording;
+use super::record::Recording;
 
 /// Find where model and measurement disagree, name the missing effect, add
 /// it and show the gap shrink.
@@ -54,9 +54,9 @@ pub struct DiscoverArgs {
     #[arg(long, value_name = "UM")]
     noise: Option<f64>,
     #[command(flatten)]
-    measured_flags: crate::cmd::measured::MeasuredFlags,
+    measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
-    record: crate::cmd::record::RecordArgs,
+    record: super::record::RecordArgs,
 }
 
 /// The tests a discovery fits: each `--plan` with the `--measured` files

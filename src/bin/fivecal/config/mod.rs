@@ -1,18 +1,29 @@
 //! The command line in one place: each command's options as clap reads
-//! them, and their validation into the one configuration the command's
-//! `run` (in `cmd/`) turns into library calls and prints. What several
-//! commands take is defined once here, so that it is spelled and checked
-//! the same way everywhere: the dialect ([`DialectArg`]), the lists of
-//! symbols and effects ([`list_items`]), the instrument's noise
-//! ([`noise_arg`]), the machine and program options of `compensate` and
-//! `simulate nc` ([`nc`]). Earlier releases' spellings are mapped onto this
+//! them (every command's, the small ones included), and their validation
+//! into the one configuration the command's `run` (in `cmd/`) turns into
+//! library calls and prints. What several commands take is defined once
+//! here, so that it is spelled and checked the same way everywhere: the
+//! dialect ([`DialectArg`]), the lists of symbols and effects
+//! ([`list_items`]), the instrument's noise ([`noise_arg`]), the machine
+//! and program options of `compensate` and `simulate nc` ([`nc`]), the
+//! results store ([`record`]), the measurement files' flags
+//! ([`measured`]); `--json` is the one switch for machine-readable output
+//! on standard output. Earlier releases' spellings are mapped onto this
 //! vocabulary before clap sees them (`cmd/vocabulary.rs`).
 
 pub mod analyze;
 pub mod compensate;
+pub mod completions;
+pub mod demo;
 pub mod discover;
+pub mod history;
+pub mod machine;
+pub mod measured;
 pub mod nc;
 pub mod plan;
+pub mod record;
+pub mod simulate;
+pub mod verify;
 
 use clap::ValueEnum;
 use fivecal::Dialect;

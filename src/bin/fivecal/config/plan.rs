@@ -10,12 +10,20 @@ use anyhow::bail;
 use clap::{Args, ValueEnum};
 use fivecal::formats::manifest::{KinematicsMode, TestKind};
 use fivecal::io::shell_word;
-use fivecal::machine::{Machine, MachineOrigin, Tool, check_tool};
+use fivecal::machine::{Machine, MachineOrigin};
 use fivecal::post::PostDefinition;
 use fivecal::procedure::{PlanConfig, Template, Test};
-use fivecal::source::SourceError;
 
 use super::DialectArg;
+
+mod recipe;
+mod supplement;
+mod tool;
+
+pub use recipe::recipe;
+
+use supplement::supplementary;
+use tool::parse_tool;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum KinematicsArg {
@@ -74,6 +82,11 @@ pub struct PlanArgs {
     /// naming the known changes of the template that would identify more.
     #[arg(long, value_name = "WHAT", value_parser = ["all"])]
     require: Option<String>,
+    /// Print what was planned as JSON on standard output: the test, the
+    /// machine, the counts, what the plan identifies (as the manifest's
+    /// `identifies:`), the notes and the files written.
+    #[arg(long)]
+    json: bool,
 }
 
 /// The validated configuration of one `plan` run.
@@ -88,6 +101,8 @@ pub struct Config {
     pub origin: String,
     /// `--require all`.
     pub require_all: bool,
+    /// `--json`: what was planned, as JSON on standard output.
+    pub json: bool,
     /// The template file given with `--template`.
     template_file: Option<PathBuf>,
     /// Whether the template is the one `--supplement` asked for.
@@ -97,77 +112,6 @@ pub struct Config {
     command: String,
     /// Its `--machine` argument as written in `command`.
     machine_arg: String,
-}
-
-fn parse_tool(spec: &str, machine: &Machine) -> anyhow::Result<(Tool, Option<PathBuf>)> {
-    if spec == "machine" {
-        return Ok((machine.tool.clone(), None));
-    }
-    let (path, text, file) = if Path::new(spec).exists() {
-        let p = PathBuf::from(spec);
-        let t = fivecal::input::read_text(&p, "tool file", fivecal::limits::MAX_YAML_BYTES)?;
-        (p.clone(), t, Some(p))
-    } else if spec.trim_start().starts_with('{') {
-        (PathBuf::from("<--tool>"), spec.to_string(), None)
-    } else {
-        bail!(
-            "--tool `{spec}`: expected `machine`, a tool file, or an inline mapping such as '{{name: D6 ball, kind: ball, diameter: 6, length: 50}}'"
-        );
-    };
-    let tool: Tool = fivecal::input::parse_yaml(&path, &text)?;
-    check_tool(&tool).map_err(|(k, m)| SourceError::at_key(&path, &text, &[k], m))?;
-    Ok((tool, file))
-}
-
-/// What `--supplement DISCOVER.yaml` asks for: the supplementary test, and
-/// the first test's machine (a file) and dialect where its plan is found.
-struct Supplementary {
-    file: PathBuf,
-    machine_name: String,
-    supplement: fivecal::errorfile::Supplement,
-    machine_file: Option<PathBuf>,
-    dialect: Option<fivecal::Dialect>,
-}
-
-fn supplementary(path: &Path) -> anyhow::Result<Supplementary> {
-    let (f, _) = fivecal::errorfile::ErrorFile::read(path)?;
-    let Some(a) = f.ambiguity else {
-        bail!(
-            "{}: states no ambiguity, so there is no supplementary test to plan (expected the result of a `discover --out` that stopped on one)",
-            path.display()
-        );
-    };
-    let Some(supplement) = a.supplement else {
-        bail!(
-            "{}: proposes no supplementary test{}",
-            path.display(),
-            a.no_supplement
-                .map(|w| format!(" ({w})"))
-                .unwrap_or_default()
-        );
-    };
-    // The first test's plan, as discover was given it: relative to where
-    // discover ran, or to the result file.
-    let mut machine_file = None;
-    let mut dialect = None;
-    if let Some(plan) = &supplement.plan {
-        let candidates = [
-            PathBuf::from(plan),
-            path.parent().unwrap_or(Path::new(".")).join(plan),
-        ];
-        if let Some(m) = candidates.iter().find(|p| p.exists()) {
-            let manifest = fivecal::formats::manifest::Manifest::read(m)?;
-            machine_file = Some(manifest.resolve(m, &manifest.machine_file));
-            dialect = Some(manifest.dialect);
-        }
-    }
-    Ok(Supplementary {
-        file: path.to_path_buf(),
-        machine_name: f.machine,
-        supplement,
-        machine_file,
-        dialect,
-    })
 }
 
 /// The validated configuration of one `plan` run.
@@ -327,42 +271,10 @@ pub fn config(a: PlanArgs) -> anyhow::Result<Config> {
         inputs,
         origin,
         require_all: a.require.is_some(),
+        json: a.json,
         template_file: a.template.clone(),
         supplement: supplement.is_some(),
         command,
         machine_arg: shell_word(&spec),
     })
-}
-
-/// Where a user makes a change `plan` suggests: the template file given,
-/// else a copy of the one this plan used, as written beside the plan (the
-/// built-in one, or the supplement's).
-pub fn recipe(cfg: &Config, test: Test) -> fivecal::discover::suggest::Recipe {
-    use fivecal::discover::suggest::Recipe;
-    match &cfg.template_file {
-        Some(p) => Recipe {
-            file: p.display().to_string(),
-            copy_of: None,
-            command: Some(cfg.command.clone()),
-            out: Some(cfg.out.display().to_string()),
-            machine: Some(cfg.machine_arg.clone()),
-        },
-        None => Recipe {
-            file: format!("my-{test}.yaml"),
-            // The plan writes the template it used beside itself: a user
-            // without the repository's templates/ has that copy.
-            copy_of: Some(format!(
-                "{}, the {} template this plan used, as written beside it",
-                cfg.out.join(format!("{test}.template.yaml")).display(),
-                if cfg.supplement {
-                    "supplementary test's"
-                } else {
-                    "built-in"
-                }
-            )),
-            command: Some(cfg.command.clone()),
-            out: Some(cfg.out.display().to_string()),
-            machine: Some(cfg.machine_arg.clone()),
-        },
-    }
 }
