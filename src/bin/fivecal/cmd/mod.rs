@@ -5,6 +5,7 @@
 //! options beside their `run`.
 
 pub mod analyze;
+pub mod ball_bar;
 pub mod compensate;
 pub mod contour;
 pub mod demo;

@@ -74,6 +74,10 @@ pub struct SimulateArgs {
     /// Form error of the calibration sphere, um (largest radial deviation).
     #[arg(long, value_name = "UM")]
     sphere_form: Option<f64>,
+    /// Ball-bar plans: radial run-out of the spindle ball, um, and the
+    /// spindle angle of its maximum, deg (`--runout 5,30`).
+    #[arg(long, value_name = "UM[,DEG]")]
+    runout: Option<String>,
     /// Print a commented truth file with every supported effect and exit.
     #[arg(long)]
     truth_example: bool,
@@ -90,6 +94,8 @@ struct Config {
     format: Option<Format>,
     placement: Option<Placement>,
     opts: SimOptions,
+    /// A ball-bar plan's run-out and noise.
+    ball_bar: fivecal::simulate::ball_bar::BallBarOptions,
 }
 
 fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
@@ -134,7 +140,25 @@ fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
         };
         opts.sphere_form_um = 0.0;
     }
+    let mut ball_bar = fivecal::simulate::ball_bar::BallBarOptions {
+        seed: a.seed,
+        noise_um: a.no_noise.then_some(0.0),
+        ..Default::default()
+    };
+    if let Some(r) = &a.runout {
+        let v: Vec<f64> = r
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| anyhow::anyhow!("--runout {r}: expected UM or UM,DEG"))?;
+        match v.as_slice() {
+            [u] => ball_bar.runout_um = *u,
+            [u, p] => (ball_bar.runout_um, ball_bar.runout_phase_deg) = (*u, *p),
+            _ => bail!("--runout {r}: expected UM or UM,DEG"),
+        }
+    }
     Ok(Config {
+        ball_bar,
         plan_path,
         errors,
         out,
@@ -174,6 +198,9 @@ fn plan_inputs(manifest_path: &Path) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 fn simulate(c: Config) -> anyhow::Result<()> {
+    if super::ball_bar::is_ball_bar(&c.plan_path) {
+        return super::ball_bar::simulate(&c.plan_path, &c.errors, &c.out, c.ball_bar);
+    }
     let mut inputs = plan_inputs(&c.plan_path)?;
     inputs.push(c.errors.clone());
     let refs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();

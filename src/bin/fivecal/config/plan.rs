@@ -28,7 +28,8 @@ enum KinematicsArg {
 #[derive(Args, Debug)]
 pub struct PlanArgs {
     /// The test: stepped-square (Ibaraki & Ota 2014), nine-section (Cubas Brizuela & Yeh 2023),
-    /// probe-columns (Ibaraki, Iritani & Matsushita 2013) or probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023).
+    /// probe-columns (Ibaraki, Iritani & Matsushita 2013), probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023)
+    /// or ball-bar (the ball bar under TCP, Jiang et al.; with --bar).
     /// Not needed with --supplement.
     #[arg(required_unless_present = "supplement")]
     test: Option<String>,
@@ -74,6 +75,24 @@ pub struct PlanArgs {
     /// naming the known changes of the template that would identify more.
     #[arg(long, value_name = "WHAT", value_parser = ["all"])]
     require: Option<String>,
+    #[command(flatten)]
+    ball_bar: super::ball_bar::BallBarArgs,
+}
+
+impl PlanArgs {
+    /// `plan ball-bar` (the ball bar under TCP, planned by its own
+    /// configuration in `config/ball_bar.rs`), or the other tests' args.
+    pub fn ball_bar(self) -> Result<anyhow::Result<super::ball_bar::BallBarPlanConfig>, PlanArgs> {
+        if self.test.as_deref() != Some("ball-bar") {
+            return Err(self);
+        }
+        Ok(super::ball_bar::config(
+            self.machine.as_deref(),
+            self.dialect,
+            self.out,
+            self.ball_bar,
+        ))
+    }
 }
 
 /// The validated configuration of one `plan` run.
