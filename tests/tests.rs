@@ -7,6 +7,7 @@ mod util;
 mod analyze;
 mod analyze_sim;
 mod architecture;
+mod ball_bar;
 mod cli;
 mod compensate;
 mod compensate_cli;

@@ -1,5 +1,5 @@
-//! The ball bar under tool-centre-point control (the ball-bar part of seed
-//! 002): its plan file `ball-bar.plan.yaml` and its run files.
+//! The ball bar under tool-centre-point control (the rotary-axis part of Jiang et
+//! al. 2013): its plan file `ball-bar.plan.yaml` and its run files.
 //!
 //! The plan file records, per setup, everything a simulator or an analysis
 //! needs without planning again: which axis is swept, where the spindle
@@ -150,9 +150,12 @@ impl BallBarManifest {
             if s.angles.is_empty() {
                 return Err(at(format!("{}: no angles", s.name)));
             }
-            if !(positive(s.bar_mm) && positive(s.feed_deg_min) && positive(s.gauge_mm))
-                || !(s.dwell_s.is_finite() && s.dwell_s >= 0.0)
-            {
+            let fine = positive(s.bar_mm)
+                && positive(s.feed_deg_min)
+                && positive(s.gauge_mm)
+                && s.dwell_s.is_finite()
+                && s.dwell_s >= 0.0;
+            if !fine {
                 return Err(at(format!(
                     "{}: bar, feed and gauge length must be > 0 and the dwell >= 0",
                     s.name
@@ -171,9 +174,11 @@ impl BallBarManifest {
                 )));
             }
         }
-        if !(m.noise_um.is_finite() && m.noise_um >= 0.0)
-            || !(m.calibration_um.is_finite() && m.calibration_um >= 0.0)
-        {
+        let fine = m.noise_um.is_finite()
+            && m.noise_um >= 0.0
+            && m.calibration_um.is_finite()
+            && m.calibration_um >= 0.0;
+        if !fine {
             return Err(SourceError::at_key(
                 path,
                 src,

@@ -16,7 +16,7 @@ use crate::errorfile::{ErrorFile, LoadedErrors};
 use crate::formats::ball_bar::{BallBarManifest, BallBarRun, Readings, SetupEntry};
 use crate::geom::{self, Axis3};
 use crate::kinematics::pose_frame::PoseFrame;
-use crate::kinematics::{Axes, Kinematics};
+use crate::kinematics::{Axes, Kinematics, Perturbation};
 use crate::machine::Machine;
 use crate::model::Context;
 use crate::source::SourceError;
@@ -92,7 +92,20 @@ pub fn deviation_um(
 ) -> f64 {
     let kin = &truth.model.kin;
     let axes = commanded(kin, setup, i);
-    let tip = truth.model.pose(&truth.theta, &Context::at(axes)).tip;
+    let p = truth.model.perturbation(&truth.theta, &Context::at(axes));
+    deviation_at(kin, &p, setup, i, opts)
+}
+
+/// [`deviation_um`] with the error terms given as the chain's slots.
+pub fn deviation_at(
+    kin: &Kinematics,
+    p: &Perturbation,
+    setup: &SetupEntry,
+    i: usize,
+    opts: &BallBarOptions,
+) -> f64 {
+    let axes = commanded(kin, setup, i);
+    let tip = kin.forward(&axes, p).tip;
     let r = runout_w(
         kin,
         axes.tilt,
@@ -131,9 +144,8 @@ pub fn simulate(
             "noise {noise} um: expected >= 0"
         )));
     }
-    if !(opts.runout_um.is_finite() && (0.0..=1000.0).contains(&opts.runout_um))
-        || !opts.runout_phase_deg.is_finite()
-    {
+    let fine = (0.0..=1000.0).contains(&opts.runout_um) && opts.runout_phase_deg.is_finite();
+    if !fine {
         return Err(BallBarSimError::Option(format!(
             "run-out {} um at {} deg: expected 0 to 1000 um and a finite phase",
             opts.runout_um, opts.runout_phase_deg

@@ -28,14 +28,16 @@ pub fn head_angle_held(tilt: &RotaryAxis) -> Option<f64> {
 }
 
 /// The sweep of an axis: a continuous C a full turn (closing where it
-/// began), a limited axis its range within +-90 deg (the seed's B ran 0 to
-/// -90), at the step.
+/// began), a limited axis from 0 to its farther side, at most 90 deg (the
+/// paper's B ran 0 to -90; one side only, so that a bar across the tilt
+/// can lie on the side the arbor turns away from).
 fn sweep(axis: &RotaryAxis, step: f64) -> Vec<f64> {
     let (lo, hi) = match axis.limits {
         None => (0.0, 360.0),
-        Some((lo, hi)) => (lo.max(-90.0), hi.min(90.0)),
+        Some((lo, hi)) if -lo >= hi => (0.0, lo.max(-90.0)),
+        Some((_, hi)) => (0.0, hi.min(90.0)),
     };
-    let n = ((hi - lo) / step).round().max(1.0) as usize;
+    let n = ((hi - lo).abs() / step).round().max(1.0) as usize;
     let step = (hi - lo) / n as f64;
     (0..=n).map(|i| lo + step * i as f64).collect()
 }
@@ -129,17 +131,30 @@ fn clearance(
 /// height and the same L with different K (they separate the rotation
 /// about Z), a third with another L and high enough for the longest bar
 /// under it (it separates the rotations about X and Y and carries the Z
-/// bar) — the pattern of the seed's (200, 152, 57), (310, 152, 57),
+/// bar) — the pattern of the paper's (200, 152, 57), (310, 152, 57),
 /// (310, 210, 452).
 fn table_positions(req: &BallBarRequest) -> Vec<Vector3<f64>> {
     let r = req.machine.table.radius;
     let s = req.machine.table.surface;
     let h0 = s + req.min_ball_height;
-    let longest = req.bars.iter().cloned().fold(0.0, f64::max);
+    // The highest the ball can be held at rotary zero: the top of the Z
+    // stroke less the arbor, its approach and 5 mm.
+    let top = req.machine.strokes[2].1
+        - req.machine.pivot.z
+        - req.gauge_mm
+        - super::program::APPROACH_MM
+        - 5.0;
+    // The longest bar that fits under it on a post.
+    let under = req
+        .bars
+        .iter()
+        .cloned()
+        .filter(|b| h0 + b <= top)
+        .fold(0.0, f64::max);
     vec![
         Vector3::new(0.35 * r, 0.25 * r, h0),
         Vector3::new(0.55 * r, 0.25 * r, h0),
-        Vector3::new(0.55 * r, 0.35 * r, h0 + longest),
+        Vector3::new(0.55 * r, 0.35 * r, h0 + under),
     ]
 }
 
@@ -161,7 +176,7 @@ pub fn choose_setups(req: &BallBarRequest) -> Result<(Vec<Setup>, Vec<String>), 
     let mut bars = req.bars.clone();
     bars.sort_by(f64::total_cmp);
     bars.dedup();
-    // The C axis first (as the seed), then the tilt axis.
+    // The C axis first (as the paper), then the tilt axis.
     for axis in [&m.c, &m.tilt] {
         let other = if axis.letter == 'C' { &m.tilt } else { &m.c };
         let held = if axis.on_table || axis.letter != 'C' {
@@ -259,7 +274,7 @@ pub fn choose_setups(req: &BallBarRequest) -> Result<(Vec<Setup>, Vec<String>), 
                     order.reverse();
                 }
                 let mut found = None;
-                let mut why = String::new();
+                let mut why: Vec<String> = Vec::new();
                 'search: for &bar in &order {
                     for sign in [1.0, -1.0] {
                         let d = BarDirection {
@@ -268,21 +283,25 @@ pub fn choose_setups(req: &BallBarRequest) -> Result<(Vec<Setup>, Vec<String>), 
                         };
                         let n = mpos - d.unit() * bar;
                         if !on_table(m, &n, req.min_ball_height) {
-                            why = format!(
-                                "no bar of {} mm puts the table ball on the table at least {} mm high",
-                                bars.iter()
-                                    .map(|b| crate::numbers::echo(*b))
-                                    .collect::<Vec<_>>()
-                                    .join(", "),
-                                req.min_ball_height
+                            let w = format!(
+                                "N off the table or under {} mm high on the {} side",
+                                req.min_ball_height,
+                                if sign > 0.0 { '-' } else { '+' }
                             );
+                            if !why.contains(&w) {
+                                why.push(w);
+                            }
                             continue;
                         }
                         let cl = clearance(m, *gauge, &poses, &(-d.unit()));
                         if cl < MIN_BAR_ARBOR_DEG {
-                            why = format!(
-                                "the bar comes within {cl:.0} deg of the arbor (at least {MIN_BAR_ARBOR_DEG} deg needed)"
+                            let w = format!(
+                                "on the {} side the bar comes within {cl:.0} deg of the arbor (at least {MIN_BAR_ARBOR_DEG} deg needed)",
+                                if sign > 0.0 { '-' } else { '+' }
                             );
+                            if !why.contains(&w) {
+                                why.push(w);
+                            }
                             continue;
                         }
                         found = Some((bar, d, n, cl));
@@ -292,9 +311,14 @@ pub fn choose_setups(req: &BallBarRequest) -> Result<(Vec<Setup>, Vec<String>), 
                 let label = ['X', 'Y', 'Z'][dir_axis];
                 let Some((bar, d, n, cl)) = found else {
                     notes.push(format!(
-                        "{}{}-{label}: {group_name}: no bar along {label}: {why}",
+                        "{}{}-{label}: {group_name}: no bar along {label} of {} mm: {}",
                         axis.letter,
-                        gi + 1
+                        gi + 1,
+                        bars.iter()
+                            .map(|b| crate::numbers::echo(*b))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        why.join("; ")
                     ));
                     continue;
                 };

@@ -1,4 +1,4 @@
-//! The ball bar under tool-centre-point control (seed 002, its rotary-axis
+//! The ball bar under tool-centre-point control (Jiang et al. 2013, its rotary-axis
 //! method): each rotary axis is stepped through its range while the
 //! control holds the spindle ball M still on the table frame W (TCP on),
 //! and a telescoping ball bar between M and a ball N fixed on the table
@@ -9,7 +9,7 @@
 //! (rotation centre to ball centre, set by the arbor) with the same three
 //! bar directions. Per angle, each setup gives one equation in the six
 //! error motions of the axis (three translations, three rotations); with
-//! the setups' different lever arms they separate (the seed's eqs. 6-8 and
+//! the setups' different lever arms they separate (the paper's eqs. 6-8 and
 //! 11-14). [`plan`] chooses the setups from the machine's table and strokes
 //! and the bars the user owns (or takes (K, L, H) and S as given), checks
 //! every angle of every setup against the rotary limits and the strokes
@@ -73,7 +73,7 @@ pub struct BallBarRequest {
 }
 
 impl BallBarRequest {
-    /// The defaults: the seed's steps (C: 60 divisions of a turn; tilt 2
+    /// The defaults: the paper's steps (C: 60 divisions of a turn; tilt 2
     /// deg), a QC20-class bar (0.5 um noise, 1 um calibration), a 100 mm
     /// spindle-ball arbor, the table ball at least 40 mm above the table.
     pub fn new(machine: Machine, dialect: Dialect, bars: Vec<f64>) -> BallBarRequest {

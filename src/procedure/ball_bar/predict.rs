@@ -10,7 +10,7 @@
 //! The readings are taken as the bar length minus its calibrated length,
 //! so the table ball's placement on its post is taken as known (the bar
 //! is set between the balls after the spindle ball has been brought onto
-//! M, as the seed does); its error adds to every reading of a run alike.
+//! M, as the paper does); its error adds to every reading of a run alike.
 
 use nalgebra::{DMatrix, Vector3};
 

@@ -81,7 +81,7 @@ pub(super) fn setup_sheet(plan: &BallBarPlan, s: &Setup, program: &Path) -> Stri
          spindle slowly by hand through a full turn. Half the indicator's range is the run-out r; \
          note it and the spindle angle of its maximum. The program orients the spindle (angle 0) \
          before the sweep, so the ball's offset stays where it is and the bar reads it as \
-         r cos(angle - phase) over a turn of the table (the seed's eqs. 10 and 15). Re-seat the \
+         r cos(angle - phase) over a turn of the table (the paper's eqs. 10 and 15). Re-seat the \
          arbor if r exceeds {:.1} um (twice the bar's noise).",
         2.0 * req.noise_um
     );

@@ -16,7 +16,7 @@ use crate::config::plan::{PlanArgs, config, recipe};
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     let args = match args.ball_bar() {
         Ok(cfg) => return super::ball_bar::plan(cfg?),
-        Err(args) => args,
+        Err(args) => *args,
     };
     let cfg = config(args)?;
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();

@@ -21,7 +21,7 @@ pub struct BallBarArgs {
     pub bar: Vec<f64>,
     /// ball-bar: a position (K, L, H) of the spindle ball in W for the
     /// table axes, mm; repeat for each (default: three chosen from the
-    /// table, as the seed's (200,152,57), (310,152,57), (310,210,452)).
+    /// table, as the paper's (200,152,57), (310,152,57), (310,210,452)).
     #[arg(long, value_name = "K,L,H")]
     pub ball: Vec<String>,
     /// ball-bar: lengths S from the head's rotation centre to the spindle

@@ -82,9 +82,11 @@ pub struct PlanArgs {
 impl PlanArgs {
     /// `plan ball-bar` (the ball bar under TCP, planned by its own
     /// configuration in `config/ball_bar.rs`), or the other tests' args.
-    pub fn ball_bar(self) -> Result<anyhow::Result<super::ball_bar::BallBarPlanConfig>, PlanArgs> {
+    pub fn ball_bar(
+        self,
+    ) -> Result<anyhow::Result<super::ball_bar::BallBarPlanConfig>, Box<PlanArgs>> {
         if self.test.as_deref() != Some("ball-bar") {
-            return Err(self);
+            return Err(Box::new(self));
         }
         Ok(super::ball_bar::config(
             self.machine.as_deref(),
