@@ -254,6 +254,29 @@ pub fn choose_setups(req: &BallBarRequest) -> Result<(Vec<Setup>, Vec<String>), 
                     held_run.reason.clone().unwrap_or_default()
                 ));
             }
+            // The approach onto M and the lift off it, along the arbor at
+            // the first and the last angle, must be within the strokes too.
+            let kin = setup_kinematics(m, *gauge);
+            let ends = [0, held_run.angles.len() - 1].map(|i| {
+                let a = held_run.angles[i];
+                let (t, c) = if axis.letter == m.tilt.letter {
+                    (a, held)
+                } else {
+                    (held, a)
+                };
+                let pf = PoseFrame::new(&kin, t, c);
+                let above = mpos + pf.probe_axis_w() * super::program::APPROACH_MM;
+                kin.check_strokes(&pf.commanded(&above))
+                    .map_err(|e| format!("the approach at {} = {a}: {e}", axis.letter))
+            });
+            if let Some(Err(e)) = ends.iter().find(|r| r.is_err()) {
+                notes.push(format!(
+                    "{}{}: {group_name}: not planned: {e}",
+                    axis.letter,
+                    gi + 1
+                ));
+                continue;
+            }
             let poses: Vec<(f64, f64)> = held_run
                 .angles
                 .iter()

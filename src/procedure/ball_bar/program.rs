@@ -318,11 +318,14 @@ pub fn write(req: &BallBarRequest, s: &Setup) -> String {
     }
     let mut text = String::new();
     if d == Dialect::Heidenhain {
-        for (i, l) in o.lines.iter().enumerate() {
+        // Block numbers in order; a cycle's continuation line has none.
+        let mut n = 0;
+        for l in &o.lines {
             if l.starts_with("  ") {
                 let _ = writeln!(text, "{l}");
             } else {
-                let _ = writeln!(text, "{i} {l}");
+                let _ = writeln!(text, "{n} {l}");
+                n += 1;
             }
         }
     } else {
