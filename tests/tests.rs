@@ -7,6 +7,7 @@ mod util;
 mod analyze;
 mod analyze_sim;
 mod architecture;
+mod ball_bar;
 mod cli;
 mod cli_json;
 mod compensate;

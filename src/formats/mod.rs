@@ -2,6 +2,7 @@
 //! reader turns its format into the canonical meaning of docs/formats.md
 //! and reports bad input as `file:line:column: what was expected`.
 
+pub mod ball_bar;
 pub(crate) mod calypso;
 pub(crate) mod cloud;
 pub mod detect;

@@ -16,6 +16,7 @@
 //! manifest `<test>.plan.yaml`, and [`load`] rebuilds the very same plan
 //! from a written manifest.
 
+pub mod ball_bar;
 mod bounds;
 mod load;
 pub mod machining;

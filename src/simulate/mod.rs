@@ -41,6 +41,7 @@
 //! # }
 //! ```
 
+pub mod ball_bar;
 pub mod cmm;
 pub mod cutting;
 pub mod forward;

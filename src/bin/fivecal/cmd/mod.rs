@@ -3,6 +3,7 @@
 //! and their validation are in `config/`.
 
 pub mod analyze;
+pub mod ball_bar;
 pub mod compensate;
 pub mod compensate_json;
 pub mod contour;

@@ -17,6 +17,10 @@ use serde::Serialize;
 use crate::config::plan::{PlanArgs, config, recipe};
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
+    let args = match args.ball_bar() {
+        Ok(cfg) => return super::ball_bar::plan(cfg?),
+        Err(args) => *args,
+    };
     let cfg = config(args)?;
     if cfg.json {
         // Standard output is the JSON's: what the run says goes to

@@ -45,6 +45,9 @@ fn plan_inputs(manifest_path: &Path) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 fn simulate(c: Config) -> anyhow::Result<()> {
+    if super::ball_bar::is_ball_bar(&c.plan_path) {
+        return super::ball_bar::simulate(&c.plan_path, &c.errors, &c.out, c.ball_bar);
+    }
     if c.json {
         // Standard output is the JSON's: what the run says goes to
         // standard error.

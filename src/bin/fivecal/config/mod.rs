@@ -12,6 +12,7 @@
 //! vocabulary before clap sees them (`cmd/vocabulary.rs`).
 
 pub mod analyze;
+pub mod ball_bar;
 pub mod compensate;
 pub mod completions;
 pub mod demo;

@@ -36,7 +36,8 @@ enum KinematicsArg {
 #[derive(Args, Debug)]
 pub struct PlanArgs {
     /// The test: stepped-square (Ibaraki & Ota 2014), nine-section (Cubas Brizuela & Yeh 2023),
-    /// probe-columns (Ibaraki, Iritani & Matsushita 2013) or probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023).
+    /// probe-columns (Ibaraki, Iritani & Matsushita 2013), probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023)
+    /// or ball-bar (the ball bar under TCP, Jiang et al.; with --bar).
     /// Not needed with --supplement.
     #[arg(required_unless_present = "supplement")]
     test: Option<String>,
@@ -87,6 +88,26 @@ pub struct PlanArgs {
     /// `identifies:`), the notes and the files written.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    ball_bar: super::ball_bar::BallBarArgs,
+}
+
+impl PlanArgs {
+    /// `plan ball-bar` (the ball bar under TCP, planned by its own
+    /// configuration in `config/ball_bar.rs`), or the other tests' args.
+    pub fn ball_bar(
+        self,
+    ) -> Result<anyhow::Result<super::ball_bar::BallBarPlanConfig>, Box<PlanArgs>> {
+        if self.test.as_deref() != Some("ball-bar") {
+            return Err(Box::new(self));
+        }
+        Ok(super::ball_bar::config(
+            self.machine.as_deref(),
+            self.dialect,
+            self.out,
+            self.ball_bar,
+        ))
+    }
 }
 
 /// The validated configuration of one `plan` run.

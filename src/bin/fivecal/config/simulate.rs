@@ -74,6 +74,10 @@ pub struct SimulateArgs {
     /// Form error of the calibration sphere, um (largest radial deviation).
     #[arg(long, value_name = "UM")]
     sphere_form: Option<f64>,
+    /// Ball-bar plans: radial run-out of the spindle ball, um, and the
+    /// spindle angle of its maximum, deg (`--runout 5,30`).
+    #[arg(long, value_name = "UM[,DEG]")]
+    runout: Option<String>,
     /// Print what was simulated as JSON on standard output: the test,
     /// machine, seed, format, counts, heights and the file written.
     #[arg(long, conflicts_with = "truth_example")]
@@ -96,6 +100,8 @@ pub struct Config {
     pub opts: SimOptions,
     /// `--json`: what was simulated, as JSON on standard output.
     pub json: bool,
+    /// A ball-bar plan's run-out and noise.
+    pub ball_bar: fivecal::simulate::ball_bar::BallBarOptions,
 }
 
 /// `--json` and `-o -` both want standard output.
@@ -151,6 +157,23 @@ pub fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
         };
         opts.sphere_form_um = 0.0;
     }
+    let mut ball_bar = fivecal::simulate::ball_bar::BallBarOptions {
+        seed: a.seed,
+        noise_um: a.no_noise.then_some(0.0),
+        ..Default::default()
+    };
+    if let Some(r) = &a.runout {
+        let v: Vec<f64> = r
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| anyhow::anyhow!("--runout {r}: expected UM or UM,DEG"))?;
+        match v.as_slice() {
+            [u] => ball_bar.runout_um = *u,
+            [u, p] => (ball_bar.runout_um, ball_bar.runout_phase_deg) = (*u, *p),
+            _ => bail!("--runout {r}: expected UM or UM,DEG"),
+        }
+    }
     Ok(Config {
         plan_path,
         errors,
@@ -159,6 +182,7 @@ pub fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
         placement,
         opts,
         json: a.json,
+        ball_bar,
     })
 }
 
