@@ -566,6 +566,7 @@ impl<'a> Pass<'a> {
             values: &trace.values,
             main: lib.main,
             own_lines: true,
+            as_written: &[],
         };
         let syntax = self.c.syntax();
         let strict = self.c.settings.strict;
