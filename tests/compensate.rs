@@ -1155,7 +1155,7 @@ fn a_sinumerik_program_with_frames_traori_and_cycle800_is_corrected_where_it_can
         .iter()
         .map(|(why, lines)| {
             (
-                why.clone(),
+                why.text.clone(),
                 lines
                     .list()
                     .split(", ")

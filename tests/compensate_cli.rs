@@ -269,7 +269,9 @@ fn the_summary_names_changes_corrections_and_skipped_lines() {
         "um in X, Y, Z (line",
         "urad of tool orientation",
         "1 moves left as written:",
-        "coordinates are expressions or variables: lines 5",
+        // Under the kind of its reason: the value is the caller's.
+        "    the file does not say (only the machine, its operator or the calling program knows",
+        "      coordinates are expressions or variables: lines 5",
         "fanuc parameters written to",
     ] {
         assert!(text.contains(want), "`{want}` missing from\n{text}");

@@ -672,7 +672,7 @@ N140 M30
     let left: Vec<(String, String)> = s
         .skipped
         .iter()
-        .map(|(why, lines)| (why.clone(), lines.list()))
+        .map(|(why, lines)| (why.text.clone(), lines.list()))
         .collect();
     assert!(
         left.iter().any(|(why, lines)| why

@@ -81,7 +81,7 @@ impl IntendedPath {
         settings: SimSettings,
         program: &Path,
         input: R,
-    ) -> Result<(IntendedPath, Vec<(String, Lines)>), AgainstError> {
+    ) -> Result<(IntendedPath, Vec<(super::Reason, Lines)>), AgainstError> {
         let zero = vec![0.0; model.n_params()];
         let sim = Simulator::new(model, &zero, settings);
         let mut path = IntendedPath::new();

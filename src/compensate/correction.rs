@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use nalgebra::Vector3;
 
-use super::{CompensateError, Compensator, Solution};
+use super::{CompensateError, Compensator, Reason, ReasonKind, Solution};
 use crate::kinematics::{Axes, ToolPose};
 use crate::limits::MAX_PIECES;
 use crate::nc::interp::approach::{Leg, arc_center, departure_end};
@@ -69,7 +69,7 @@ pub(super) enum WritePlan {
 #[derive(Debug)]
 pub(super) enum Refusal {
     /// Left as written, with the reason.
-    Skip(String),
+    Skip(Reason),
     /// The run stops.
     Fatal(CompensateError),
 }
@@ -511,7 +511,7 @@ impl Compensator {
         line: usize,
     ) -> Result<WritePlan, Refusal> {
         if let Some(&a) = f.axes().iter().find(|&&a| mv.end[a].is_none()) {
-            return Err(Refusal::Skip(Skip::PositionUnknown(AXES[a]).to_string()));
+            return Err(Refusal::Skip(Skip::PositionUnknown(AXES[a]).into()));
         }
         let vector = mv.vector;
         let p1 = known(&mv.end);
@@ -519,7 +519,9 @@ impl Compensator {
             Some(d) => self.correct_hole(f, &p1, d, emit),
             None => self.correct(f, &p1, vector, None),
         }
-        .map_err(Refusal::Skip)?;
+        // Both fail only where this machine cannot take the pose: no axis
+        // values reach it, or they lie beyond its strokes.
+        .map_err(|why| Refusal::Skip(Reason::new(ReasonKind::OtherMachine, why)))?;
         self.check_limit(&pt, line)?;
         let start_known = f
             .axes()
@@ -555,10 +557,15 @@ impl Compensator {
                 })
             }
             MoveKind::Arc(_) | MoveKind::Through(_) if !start_known => {
-                Err(Refusal::Skip(Skip::PositionUnknown(b'X').to_string()))
+                Err(Refusal::Skip(Skip::PositionUnknown(b'X').into()))
             }
             MoveKind::Arc(_) | MoveKind::Through(_) if !self.starts_on(f, &p0, &w0) => {
-                Err(Refusal::Skip(OFF_START.to_string()))
+                // A path back from where the move before leaves the tool
+                // is not implemented.
+                Err(Refusal::Skip(Reason::new(
+                    ReasonKind::NotImplemented,
+                    OFF_START,
+                )))
             }
             MoveKind::Arc(arc) => self.plan_arc(f, &arc, &p0, &w0, &p1, pt, ramp, line),
             MoveKind::Through(t) => {
@@ -862,18 +869,21 @@ impl Compensator {
         ramp: bool,
         line: usize,
     ) -> Result<WritePlan, Refusal> {
-        let refuse = |why: String| {
-            Refusal::Skip(format!(
-                "approach or departure (APPR/DEP) left as written: {why}"
+        let refuse = |kind, why: String| {
+            Refusal::Skip(Reason::new(
+                kind,
+                format!("approach or departure (APPR/DEP) left as written: {why}"),
             ))
         };
         if f.axes().iter().any(|&a| emit[a].is_none()) {
             return Err(refuse(
+                ReasonKind::Unsaid,
                 "where the written program has the tool before it is not known (the control starts the approach there)".into(),
             ));
         }
         let WritePlan::End(end) = self.plan(f, mv, emit, ramp, line)? else {
             return Err(refuse(
+                ReasonKind::NotImplemented,
                 "its corrected line would have to be written in pieces, which would move the start the control builds the approach from".into(),
             ));
         };
@@ -888,11 +898,14 @@ impl Compensator {
         );
         let tol = self.path_tolerance();
         if miss > tol {
-            return Err(refuse(format!(
-                "with the rotary axes where the block before leaves them, its corrected end lands {:.2} um from the intended one, {}",
-                miss * 1e3,
-                self.beyond_tolerance()
-            )));
+            return Err(refuse(
+                ReasonKind::NotImplemented,
+                format!(
+                    "with the rotary axes where the block before leaves them, its corrected end lands {:.2} um from the intended one, {}",
+                    miss * 1e3,
+                    self.beyond_tolerance()
+                ),
+            ));
         }
         Ok(WritePlan::End(CorrectedPoint {
             written: f.model(&w1),
@@ -951,16 +964,22 @@ impl Compensator {
         tangent: Option<[f64; 2]>,
         len: f64,
         leg: Leg,
-    ) -> Result<[f64; 6], String> {
-        let refuse =
-            |why: String| format!("approach or departure (APPR/DEP) left as written: {why}");
+    ) -> Result<[f64; 6], Reason> {
+        let refuse = |kind, why: String| {
+            Reason::new(
+                kind,
+                format!("approach or departure (APPR/DEP) left as written: {why}"),
+            )
+        };
         let Some(t) = tangent else {
             return Err(refuse(
+                ReasonKind::NotImplemented,
                 "the direction the written contour ends in is not known (the last element before it is left as written or not a line or circle in XY)".into(),
             ));
         };
         if f.axes().iter().any(|&a| emit[a].is_none()) {
             return Err(refuse(
+                ReasonKind::Unsaid,
                 "where the written program has the tool before it is not known".into(),
             ));
         }
@@ -990,12 +1009,15 @@ impl Compensator {
         let miss = self.path_deviation(f, &intended, &written);
         let tol = self.path_tolerance();
         if miss > tol {
-            return Err(refuse(format!(
-                "the DEP {} the control runs from the corrected contour leaves the intended one by up to {:.2} um, {}",
-                leg.name(),
-                miss * 1e3,
-                self.beyond_tolerance()
-            )));
+            return Err(refuse(
+                ReasonKind::NotImplemented,
+                format!(
+                    "the DEP {} the control runs from the corrected contour leaves the intended one by up to {:.2} um, {}",
+                    leg.name(),
+                    miss * 1e3,
+                    self.beyond_tolerance()
+                ),
+            ));
         }
         Ok(w1)
     }

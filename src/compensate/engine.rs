@@ -14,7 +14,10 @@ use super::expand;
 use super::solver::Solver;
 use super::subroutines::{self, Library};
 use super::writer::Writer;
-use super::{CompensateError, CoordinateSection, Largest, Lines, Settings, Summary, Vertex};
+use super::{
+    CompensateError, CoordinateSection, Largest, Lines, Reason, ReasonKind, Settings, Summary,
+    Vertex,
+};
 use crate::model::{Effect, Model};
 use crate::nc::exec;
 use crate::nc::interp::approach::{Approach, Leg, Tangential, approach_aux, arc_center};
@@ -381,7 +384,7 @@ struct Pass<'a> {
     interp: Interpreter,
     writer: Writer,
     summary: Summary,
-    skipped: IndexMap<String, Lines>,
+    skipped: IndexMap<Reason, Lines>,
     unmodelled: IndexMap<String, Lines>,
     /// Motion blocks not corrected, by the reason of their first move
     /// left as written.
@@ -544,12 +547,17 @@ impl<'a> Pass<'a> {
         if !call.once {
             // The call runs several times (a loop, or a subroutine of the
             // program's): the interpreter forgot the positions at it.
-            let reason = format!(
-                "moves in the subroutine file {shown} ({label} call, run more than once here): that file's moves, not rewritten in this one (--expand writes them, corrected, into it)"
+            // Another file's moves: rewriting them in place is not
+            // implemented (--expand writes them into this one).
+            let reason = Reason::new(
+                ReasonKind::NotImplemented,
+                format!(
+                    "moves in the subroutine file {shown} ({label} call, run more than once here): that file's moves, not rewritten in this one (--expand writes them, corrected, into it)"
+                ),
             );
             self.skipped.entry(reason.clone()).or_default().push(line);
             self.summary.motion_blocks += 1;
-            self.uncorrected.entry(reason).or_default().push(line);
+            self.uncorrected.entry(reason.text).or_default().push(line);
             return Ok(());
         }
         let before = self.interp.clone();
@@ -558,6 +566,7 @@ impl<'a> Pass<'a> {
             values: &trace.values,
             main: lib.main,
             own_lines: true,
+            as_written: &[],
         };
         let syntax = self.c.syntax();
         let strict = self.c.settings.strict;
@@ -634,7 +643,10 @@ impl<'a> Pass<'a> {
         );
         if moves > 0 {
             self.summary.moves += moves;
-            self.skipped.entry(reason.clone()).or_default().push(line);
+            self.skipped
+                .entry(Reason::new(ReasonKind::NotImplemented, reason.clone()))
+                .or_default()
+                .push(line);
             self.summary.motion_blocks += 1;
             self.uncorrected.entry(reason).or_default().push(line);
         } else {
@@ -664,6 +676,10 @@ impl<'a> Pass<'a> {
         // (the first move left as written).
         let mut moved = false;
         let mut left: Option<String> = None;
+        // The first reason a block's move is left as written, for its count.
+        let leave = |left: &mut Option<String>, r: &Reason| {
+            left.get_or_insert_with(|| r.text.clone());
+        };
         for si in 0..block.segments.len() {
             let seg = block.segments[si];
             let before = interp.pos;
@@ -702,7 +718,7 @@ impl<'a> Pass<'a> {
                             }
                             Err(reason) => {
                                 self.after_left = true;
-                                left.get_or_insert_with(|| reason.clone());
+                                leave(&mut left, &reason);
                                 skipped.entry(reason).or_default().push(line);
                                 writer.keep(block, &seg, interp, &before);
                                 self.last_tangent = None;
@@ -717,7 +733,12 @@ impl<'a> Pass<'a> {
                     let appr = matches!(mv.appr_dep, Some(Tangential::Approach { .. }));
                     let planned = match mv.tangential {
                         _ if along_tool_axis_under_radius_comp(interp, mv) => {
-                            Err(Refusal::Skip(RADIUS_COMP_TOOL_AXIS.to_string()))
+                            // Not implemented: a correction there would
+                            // need the control's offset path around it.
+                            Err(Refusal::Skip(Reason::new(
+                                ReasonKind::NotImplemented,
+                                RADIUS_COMP_TOOL_AXIS,
+                            )))
                         }
                         _ if appr => c.plan_approach(&f, mv, &writer.emit, *last_held, line),
                         Some(_) => c.plan_tangential(
@@ -743,8 +764,13 @@ impl<'a> Pass<'a> {
                                     .all(|&a| mv.start[a].is_some() && writer.emit[a].is_some())
                                 && !c.starts_on(&f, &known(&mv.start), &known(&writer.emit));
                             if off_start {
-                                let why = super::correction::OFF_START_LINE.to_string();
-                                left.get_or_insert_with(|| why.clone());
+                                // A path back from where the move before
+                                // leaves the tool is not implemented.
+                                let why = Reason::new(
+                                    ReasonKind::NotImplemented,
+                                    super::correction::OFF_START_LINE,
+                                );
+                                leave(&mut left, &why);
                                 skipped.entry(why).or_default().push(line);
                             }
                             for pt in plan_points(&plan) {
@@ -795,7 +821,7 @@ impl<'a> Pass<'a> {
                             {
                                 // The path around the corner misses: the
                                 // line that carries it is not corrected.
-                                left.get_or_insert_with(|| why.clone());
+                                leave(&mut left, &why);
                                 skipped.entry(why).or_default().push(corner.line);
                             }
                             if let Some(a) = &mv.approach
@@ -826,7 +852,7 @@ impl<'a> Pass<'a> {
                         Err(Refusal::Skip(reason)) => {
                             self.after_left = true;
                             if moves_an_axis(mv) {
-                                left.get_or_insert_with(|| reason.clone());
+                                leave(&mut left, &reason);
                             }
                             skipped.entry(reason).or_default().push(line);
                             let from = writer.emit;
@@ -841,7 +867,7 @@ impl<'a> Pass<'a> {
                             if let Some(corner) = &mv.corner {
                                 let why = "the line after it is left as written";
                                 skipped
-                                    .entry(Skip::AfterCorner(corner.line, why).to_string())
+                                    .entry(Skip::AfterCorner(corner.line, why).into())
                                     .or_default()
                                     .push(corner.line);
                             }
@@ -860,7 +886,10 @@ impl<'a> Pass<'a> {
                     });
                     summary.unreadable.push(line);
                     skipped
-                        .entry(format!("{}{why}", Skip::Unreadable))
+                        .entry(Reason::new(
+                            Skip::Unreadable.kind(),
+                            format!("{}{why}", Skip::Unreadable),
+                        ))
                         .or_default()
                         .push(line);
                     writer.keep(block, &seg, interp, &before);
@@ -873,8 +902,8 @@ impl<'a> Pass<'a> {
                     // never passes through it: what it knows is as before.
                     summary.moves += 1;
                     moved = true;
-                    let reason = Skip::NeverRuns.to_string();
-                    left.get_or_insert_with(|| reason.clone());
+                    let reason = Reason::from(Skip::NeverRuns);
+                    leave(&mut left, &reason);
                     skipped.entry(reason).or_default().push(line);
                 }
                 Event::Skip(s) => {
@@ -886,11 +915,14 @@ impl<'a> Pass<'a> {
                     self.last_tangent = None;
                     summary.moves += 1;
                     let reason = match (s, why) {
-                        (Skip::Expression, Some(w)) => w.to_string(),
-                        _ => s.to_string(),
+                        // Values that vary from run to run, or inside a
+                        // call: written in place is not implemented
+                        // (--expand writes each run).
+                        (Skip::Expression, Some(w)) => Reason::new(ReasonKind::NotImplemented, w),
+                        _ => Reason::from(*s),
                     };
                     moved = true;
-                    left.get_or_insert_with(|| reason.clone());
+                    leave(&mut left, &reason);
                     skipped.entry(reason).or_default().push(line);
                     writer.keep(block, &seg, interp, &before);
                     *last_held = false;
@@ -1000,7 +1032,7 @@ fn check_corner(
     mv: &interp::Move,
     before: Option<Stretch>,
     after: Option<Stretch>,
-) -> Option<String> {
+) -> Option<Reason> {
     let fill = |p: &[Option<f64>; 6]| -> Option<[f64; 6]> {
         let mut out = [0.0; 6];
         for i in f.axes() {
@@ -1021,7 +1053,7 @@ fn check_corner(
     };
     let Some(((a, p), b)) = written else {
         return Some(
-            Skip::AfterCorner(corner.line, "the written lines around it are not known").to_string(),
+            Skip::AfterCorner(corner.line, "the written lines around it are not known").into(),
         );
     };
     // The lines around the corner are checked as written (rounded): the
@@ -1029,13 +1061,21 @@ fn check_corner(
     let tol = c.settings.tolerance;
     match c.corner_deviation(f, corner, &end, [&a, &p, &b]) {
         Ok(d) if d <= tol => None,
-        Ok(d) => Some(format!(
-            "rounding or chamfer: the controller's element between the corrected lines leaves the intended one by up to {:.2} um, more than --tolerance {} um",
-            d * 1e3,
-            tol * 1e3
+        // Following the element the controller builds from the corrected
+        // lines (moving them so that it lands) is not implemented.
+        Ok(d) => Some(Reason::new(
+            ReasonKind::NotImplemented,
+            format!(
+                "rounding or chamfer: the controller's element between the corrected lines leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+                d * 1e3,
+                tol * 1e3
+            ),
         )),
-        Err(why) => Some(format!(
-            "rounding or chamfer: the controller cannot cut it between the corrected lines ({why})"
+        Err(why) => Some(Reason::new(
+            ReasonKind::NotImplemented,
+            format!(
+                "rounding or chamfer: the controller cannot cut it between the corrected lines ({why})"
+            ),
         )),
     }
 }
@@ -1043,9 +1083,11 @@ fn check_corner(
 /// Why an `APPR LT`/`LN` written with its end point corrected is reported:
 /// the statement after it, which fixes its auxiliary point, is not a
 /// contour element fivecal corrects.
-fn approach_unchecked() -> String {
-    "approach (APPR LT, LN, CT): its end point is corrected, but its path through the auxiliary point is not checked: the first contour element after it is left as written or not a line or circle in the XY plane"
-        .to_string()
+fn approach_unchecked() -> Reason {
+    Reason::new(
+        ReasonKind::NotImplemented,
+        "approach (APPR LT, LN, CT): its end point is corrected, but its path through the auxiliary point is not checked: the first contour element after it is left as written or not a line or circle in the XY plane",
+    )
 }
 
 /// Whether the control's `APPR LT`/`LN` path, built from the written blocks
@@ -1060,14 +1102,17 @@ fn check_approach(
     plan: &WritePlan,
     before: Option<Stretch>,
     first: Option<Stretch>,
-) -> Option<String> {
+) -> Option<Reason> {
     use interp::tangent::{arc_end_direction, direction};
     let want = match a.path {
         Ok(p) => p,
         Err(why) => {
-            return Some(format!(
-                "approach (APPR {}): its end point is corrected, but its path through the auxiliary point is not checked: {why}",
-                a.leg.name()
+            return Some(Reason::new(
+                crate::nc::interp::kind_of(why),
+                format!(
+                    "approach (APPR {}): its end point is corrected, but its path through the auxiliary point is not checked: {why}",
+                    a.leg.name()
+                ),
             ));
         }
     };
@@ -1091,9 +1136,12 @@ fn check_approach(
         Some(([ps, approach_aux(&pa, d, a.len, a.leg), pa], arc))
     })();
     let Some((written, written_arc)) = written else {
-        return Some(format!(
-            "approach (APPR {}): its end point is corrected, but its path through the auxiliary point is not checked: the written blocks around it are not known",
-            a.leg.name()
+        return Some(Reason::new(
+            ReasonKind::NotImplemented,
+            format!(
+                "approach (APPR {}): its end point is corrected, but its path through the auxiliary point is not checked: the written blocks around it are not known",
+                a.leg.name()
+            ),
         ));
     };
     // The micrometres of tool axis an approach taken as flat moves (a
@@ -1112,11 +1160,14 @@ fn check_approach(
     };
     let d = c.approach_deviation(f, &want, &written, arc) + tool_axis;
     (d > tol).then(|| {
-        format!(
-            "approach (APPR {}): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, more than --tolerance {} um",
-            a.leg.name(),
-            d * 1e3,
-            tol * 1e3
+        Reason::new(
+            ReasonKind::NotImplemented,
+            format!(
+                "approach (APPR {}): the control's path through its auxiliary point from the corrected blocks leaves the intended one by up to {:.2} um, more than --tolerance {} um",
+                a.leg.name(),
+                d * 1e3,
+                tol * 1e3
+            ),
         )
     })
 }

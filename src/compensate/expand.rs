@@ -131,14 +131,92 @@ pub(super) fn flatten<E: From<SourceError>>(
     emit: &mut dyn FnMut(&Block) -> Result<(), E>,
 ) -> Result<(), E> {
     check(path, lib, blocks, trace)?;
+    let profiles = match syntax.dialect {
+        Dialect::Linuxcnc => profile_subs(blocks, lib.main, trace),
+        _ => Vec::new(),
+    };
     let steps = Steps {
         steps: &trace.steps,
         values: &trace.values,
         main: lib.main,
         own_lines: false,
+        as_written: &profiles,
     };
     write_steps(path, syntax, blocks, &steps, true, emit)
 }
+
+/// LinuxCNC's lathe cycles G70, G71 and G72 take the contour they cut
+/// from the subroutine their Q word numbers (`G71 Q100` reads `o100 sub`
+/// ... `o100 endsub`; LinuxCNC's G-code reference, "G70 Finishing
+/// Cycle", "G71 G72 Roughing Cycles"). The cycle reads that definition,
+/// it never calls it, so the run has none of its blocks: the ranges of
+/// blocks of the program's own definitions such a cycle that runs names,
+/// for the flattened program to keep as written where they stand.
+fn profile_subs(blocks: &[Block], main: usize, trace: &Trace) -> Vec<std::ops::Range<usize>> {
+    use crate::nc::Addr;
+    let mut named: Vec<String> = Vec::new();
+    for s in &trace.steps {
+        let Some(block) = blocks
+            .get(s.block as usize)
+            .filter(|_| (s.block as usize) < main)
+        else {
+            continue;
+        };
+        let Some(seg) = block.segments.get(s.seg as usize) else {
+            continue;
+        };
+        let lathe_cycle = block.words(seg).any(|(_, w)| {
+            w.addr == Addr::letter(b'G')
+                && matches!(w.value, Value::Num(g) if [70.0, 71.0, 71.1, 71.2, 72.0, 72.1, 72.2].contains(&g))
+        });
+        if !lathe_cycle {
+            continue;
+        }
+        // The Q word as the run had it (a literal, or an expression's value).
+        for (ti, w) in block.words(seg) {
+            if w.addr != Addr::letter(b'Q') {
+                continue;
+            }
+            let v = match w.value {
+                Value::Num(v) => Some(v),
+                _ => trace.values[s.values.0 as usize..s.values.1 as usize]
+                    .iter()
+                    .find(|wv| wv.token as usize == ti)
+                    .and_then(|wv| wv.value),
+            };
+            if let Some(v) = v.filter(|v| v.fract() == 0.0 && *v >= 0.0 && *v < 1e9) {
+                let label = format!("o{}", v as u64);
+                if !named.contains(&label) {
+                    named.push(label);
+                }
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for label in &named {
+        let opens = |b: &Block| {
+            b.segments
+                .iter()
+                .any(|seg| crate::nc::exec::sub_label(b, seg).as_deref() == Some(label))
+        };
+        let closes = |b: &Block| {
+            b.segments
+                .iter()
+                .any(|seg| crate::nc::exec::endsub_label(b, seg).as_deref() == Some(label))
+        };
+        if let Some(start) = blocks[..main].iter().position(opens)
+            && let Some(len) = blocks[start..main].iter().position(closes)
+        {
+            out.push(start..start + len + 1);
+        }
+    }
+    out.sort_by_key(|r| r.start);
+    out
+}
+
+/// Where [`write_steps`] hands a block's text: its source line, why it
+/// could not be read (if so), and whether it runs.
+type WriteBlock<'a, E> = dyn FnMut(Vec<u8>, usize, Option<&BlockError>, bool) -> Result<(), E> + 'a;
 
 /// Statements run, to write flattened.
 pub(super) struct Steps<'a> {
@@ -151,6 +229,11 @@ pub(super) struct Steps<'a> {
     /// A file's block keeps its own line (else it takes the line of the
     /// program's statement that ran last before it: the call).
     pub own_lines: bool,
+    /// Ranges of the program's own blocks written as they stand, where
+    /// they stand, though they never run (a lathe cycle's profile
+    /// subroutine): marked so that what reads them back knows they do not
+    /// run.
+    pub as_written: &'a [std::ops::Range<usize>],
 }
 
 /// Hands `emit` the blocks of `blocks` as `run` ran them, flattened (each
@@ -179,17 +262,44 @@ pub(super) fn write_steps<E: From<SourceError>>(
     // A block the source could not read stays unreadable as it runs: kept
     // as written, what the controller does after it unknown, as where the
     // program streams (it has no words the logic could fill in).
-    let mut out = |text: Vec<u8>, line: usize, bad: Option<&BlockError>| -> Result<(), E> {
-        if let Some(mut prev) = held.take() {
-            if prev.line_ending().is_none() {
-                let mut t = std::mem::take(&mut prev.text);
-                t.extend_from_slice(eol);
-                let was = prev.unreadable.take();
-                prev = parse(path, syntax, t, prev.line, was.as_ref())?;
+    let mut out =
+        |text: Vec<u8>, line: usize, bad: Option<&BlockError>, runs: bool| -> Result<(), E> {
+            if let Some(mut prev) = held.take() {
+                if prev.line_ending().is_none() {
+                    let mut t = std::mem::take(&mut prev.text);
+                    t.extend_from_slice(eol);
+                    let was = prev.unreadable.take();
+                    let entries: Vec<Entry> = prev.segments.iter().map(|s| s.entry).collect();
+                    prev = parse(path, syntax, t, prev.line, was.as_ref())?;
+                    for (seg, e) in prev.segments.iter_mut().zip(entries) {
+                        seg.entry = e;
+                    }
+                }
+                emit(&prev)?;
             }
-            emit(&prev)?;
+            let mut b = parse(path, syntax, text, line, bad)?;
+            if !runs {
+                for seg in &mut b.segments {
+                    seg.entry = Entry::NotRun;
+                }
+            }
+            held = Some(b);
+            Ok(())
+        };
+    // The blocks written as they stand, each range once, before the first
+    // block after it that runs.
+    let mut as_written = run.as_written.iter().peekable();
+    let mut write_as_written = |before: usize, out: &mut WriteBlock<'_, E>| -> Result<(), E> {
+        while let Some(r) = as_written.next_if(|r| r.start < before) {
+            for block in &blocks[r.clone()] {
+                out(
+                    block.text.clone(),
+                    block.line,
+                    block.unreadable.as_ref(),
+                    false,
+                )?;
+            }
         }
-        held = Some(parse(path, syntax, text, line, bad)?);
         Ok(())
     };
     let mut edits = Edits::default();
@@ -217,6 +327,7 @@ pub(super) fn write_steps<E: From<SourceError>>(
         };
         if (b as usize) < run.main {
             last_block = Some(b as usize);
+            write_as_written(b as usize, &mut out)?;
         }
         edits.clear();
         let mut kept = false;
@@ -310,10 +421,11 @@ pub(super) fn write_steps<E: From<SourceError>>(
             edits
                 .write_block(block, &mut text)
                 .expect("writing to memory");
-            out(text, line, block.unreadable.as_ref())?;
+            out(text, line, block.unreadable.as_ref(), true)?;
         }
         k = j;
     }
+    write_as_written(run.main, &mut out)?;
     // What follows the end (`%`, blank lines, comments) is kept.
     if tail && let Some(last) = last_block {
         for block in &blocks[last + 1..run.main] {
@@ -322,7 +434,12 @@ pub(super) fn write_steps<E: From<SourceError>>(
                 .iter()
                 .all(|s| matches!(s.stmt, Stmt::Blank | Stmt::Percent))
             {
-                out(block.text.clone(), block.line, block.unreadable.as_ref())?;
+                out(
+                    block.text.clone(),
+                    block.line,
+                    block.unreadable.as_ref(),
+                    true,
+                )?;
             }
         }
     }

@@ -46,10 +46,10 @@ use nalgebra::Vector3;
 
 pub use crate::io::AtomicOutput;
 pub use engine::Compensator;
-pub use report::{Rewrite, reasons, rotary_start_note};
+pub use report::{Rewrite, by_kind, reasons, rotary_start_note};
 pub use solver::{Solution, Solver};
 
-pub use crate::nc::interp::Coordinates;
+pub use crate::nc::interp::{Coordinates, ReasonKind};
 
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
@@ -216,6 +216,48 @@ impl PartialEq<Vec<usize>> for Lines {
     }
 }
 
+/// Why moves are left as written: which of the three kinds of reason it
+/// is (the file does not say, not implemented yet, a program for another
+/// machine), and the reason in words.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Reason {
+    /// Which kind.
+    pub kind: ReasonKind,
+    /// What and why, in words.
+    pub text: String,
+}
+
+impl Reason {
+    /// A reason of `kind`.
+    pub fn new(kind: ReasonKind, text: impl Into<String>) -> Reason {
+        Reason {
+            kind,
+            text: text.into(),
+        }
+    }
+}
+
+impl From<crate::nc::interp::Skip> for Reason {
+    fn from(s: crate::nc::interp::Skip) -> Reason {
+        Reason::new(s.kind(), s.to_string())
+    }
+}
+
+/// The words alone; a report names the kind in its heading.
+impl fmt::Display for Reason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.text)
+    }
+}
+
+/// The words, for callers that search them (`reason.contains(..)`).
+impl std::ops::Deref for Reason {
+    type Target = str;
+    fn deref(&self) -> &str {
+        &self.text
+    }
+}
+
 /// The largest correction and where.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Largest {
@@ -245,9 +287,10 @@ pub struct Summary {
     pub largest_linear: Option<Largest>,
     /// Largest correction of the tool orientation by the rotary axes, urad.
     pub largest_rotary: Option<Largest>,
-    /// Moves left as written, grouped by reason, with their lines
-    /// (blocks that could not be read among them, with the column and why).
-    pub skipped: Vec<(String, Lines)>,
+    /// Moves left as written, grouped by reason (each of one of three
+    /// kinds, [`ReasonKind`]), with their lines (blocks that could not be
+    /// read among them, with the column and why).
+    pub skipped: Vec<(Reason, Lines)>,
     /// Lines of blocks that could not be read and were kept as written
     /// (outside `--strict`).
     pub unreadable: Lines,

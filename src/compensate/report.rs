@@ -6,7 +6,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{Lines, Settings, Summary};
+use super::{Lines, Reason, ReasonKind, Settings, Summary};
 use crate::machine::{Machine, MachineOrigin};
 use crate::nc::dialect::Detection;
 use crate::numbers::count;
@@ -27,13 +27,34 @@ pub fn rotary_start_note(start: &[(char, f64)]) -> Option<String> {
     ))
 }
 
-/// Moves left out, by reason: `why: lines 3, 7; why: lines 9`.
-pub fn reasons(skipped: &[(String, Lines)]) -> String {
-    skipped
-        .iter()
-        .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
+/// Moves left out, by kind of reason, then by reason, in one line:
+/// `the file does not say: why: lines 3, 7; why: lines 9 | not
+/// implemented yet: why: lines 12`.
+pub fn reasons(skipped: &[(Reason, Lines)]) -> String {
+    by_kind(skipped)
+        .map(|(kind, of)| {
+            let each: Vec<String> = of
+                .map(|(why, lines)| format!("{why}: lines {}", lines.list()))
+                .collect();
+            format!("{kind}: {}", each.join("; "))
+        })
         .collect::<Vec<_>>()
-        .join("; ")
+        .join(" | ")
+}
+
+/// The reasons of each kind present, kinds in [`ReasonKind::ALL`]'s
+/// order, reasons in the order first met.
+pub fn by_kind(
+    skipped: &[(Reason, Lines)],
+) -> impl Iterator<Item = (ReasonKind, impl Iterator<Item = &(Reason, Lines)>)> {
+    ReasonKind::ALL.into_iter().filter_map(move |kind| {
+        let mut of = skipped
+            .iter()
+            .filter(move |(r, _)| r.kind == kind)
+            .peekable();
+        of.peek()?;
+        Some((kind, of))
+    })
 }
 
 /// One rewrite as its summary names it: which program became which, on
@@ -182,8 +203,11 @@ impl Summary {
                     s.unreadable.len()
                 );
             }
-            for (reason, lines) in &s.skipped {
-                let _ = writeln!(t, "    {reason}: lines {}", lines.list());
+            for (kind, of) in by_kind(&s.skipped) {
+                let _ = writeln!(t, "    {kind} ({}):", kind.advice());
+                for (reason, lines) in of {
+                    let _ = writeln!(t, "      {reason}: lines {}", lines.list());
+                }
             }
         }
         for n in &s.not_compensated {
@@ -206,14 +230,21 @@ mod tests {
     }
 
     #[test]
-    fn reasons_name_each_reason_with_its_lines() {
+    fn reasons_name_each_reason_with_its_lines_under_its_kind() {
         let skipped = vec![
-            ("expression".to_string(), lines(&[3, 7])),
-            ("unknown word".to_string(), lines(&[9])),
+            (
+                Reason::new(ReasonKind::NotImplemented, "unknown word"),
+                lines(&[9]),
+            ),
+            (
+                Reason::new(ReasonKind::Unsaid, "expression"),
+                lines(&[3, 7]),
+            ),
+            (Reason::new(ReasonKind::Unsaid, "table value"), lines(&[11])),
         ];
         assert_eq!(
             reasons(&skipped),
-            "expression: lines 3, 7; unknown word: lines 9"
+            "the file does not say: expression: lines 3, 7; table value: lines 11 | not implemented yet: unknown word: lines 9"
         );
     }
 

@@ -18,7 +18,7 @@ use indexmap::IndexMap;
 use nalgebra::Vector3;
 
 use super::solver::Solver;
-use super::{Coordinates, Largest, Lines};
+use super::{Coordinates, Largest, Lines, Reason, ReasonKind};
 use crate::kinematics::{Axes, ToolPose};
 use crate::machine::Dialect;
 use crate::model::Model;
@@ -119,7 +119,7 @@ pub struct SimSummary {
     /// Largest tool-axis error, urad.
     pub max_axis_urad: f64,
     /// Moves that could not be simulated, by reason, with lines.
-    pub skipped: Vec<(String, Lines)>,
+    pub skipped: Vec<(Reason, Lines)>,
     /// Statements whose effect is not modelled (taken to move nothing).
     pub unmodelled: Vec<(String, Lines)>,
 }
@@ -190,7 +190,7 @@ impl Simulator {
             held: None,
             sink,
         };
-        let mut skipped: IndexMap<String, Lines> = IndexMap::new();
+        let mut skipped: IndexMap<Reason, Lines> = IndexMap::new();
         let mut unmodelled: IndexMap<String, Lines> = IndexMap::new();
         let st = s;
         // An `APPR LT` held back (its line) until the first contour element
@@ -208,20 +208,14 @@ impl Simulator {
                     Event::Skip(Skip::NeverRuns) => continue,
                     Event::Skip(s) => {
                         if let Some(at) = approach_open.take() {
-                            skipped
-                                .entry(APPROACH_STRAIGHT.to_string())
-                                .or_default()
-                                .push(at);
+                            skipped.entry(approach_straight()).or_default().push(at);
                         }
-                        skipped.entry(s.to_string()).or_default().push(block.line);
+                        skipped.entry(s.into()).or_default().push(block.line);
                         continue;
                     }
                     Event::Quiet => {
                         if let Some(at) = approach_open.take() {
-                            skipped
-                                .entry(APPROACH_STRAIGHT.to_string())
-                                .or_default()
-                                .push(at);
+                            skipped.entry(approach_straight()).or_default().push(at);
                         }
                         continue;
                     }
@@ -230,15 +224,12 @@ impl Simulator {
                 if let Some(at) = approach_open.take()
                     && mv.approach.is_none()
                 {
-                    skipped
-                        .entry(APPROACH_STRAIGHT.to_string())
-                        .or_default()
-                        .push(at);
+                    skipped.entry(approach_straight()).or_default().push(at);
                 }
                 let f = interp.frame();
                 if let Some(&a) = f.axes().iter().find(|&&a| mv.end[a].is_none()) {
                     skipped
-                        .entry(Skip::PositionUnknown(AXES[a]).to_string())
+                        .entry(Skip::PositionUnknown(AXES[a]).into())
                         .or_default()
                         .push(block.line);
                     continue;
@@ -281,7 +272,10 @@ impl Simulator {
                     && let Err(why) = run.approach(&a)
                 {
                     skipped
-                        .entry(format!("{APPROACH_STRAIGHT}: {why}"))
+                        .entry(Reason::new(
+                            ReasonKind::NotImplemented,
+                            format!("{APPROACH_STRAIGHT}: {why}"),
+                        ))
                         .or_default()
                         .push(a.line);
                 }
@@ -292,8 +286,11 @@ impl Simulator {
                     Some(c) => {
                         if let Err(why) = run.cut_corner(&c, &mut job) {
                             skipped
-                                .entry(format!(
-                                    "rounding or chamfer not simulated (the corner is run sharp): {why}"
+                                .entry(Reason::new(
+                                    ReasonKind::NotImplemented,
+                                    format!(
+                                        "rounding or chamfer not simulated (the corner is run sharp): {why}"
+                                    ),
                                 ))
                                 .or_default()
                                 .push(c.line);
@@ -344,20 +341,23 @@ impl Simulator {
         // The move held back last (`process` is done with `run`).
         run.flush();
         if let Some(at) = approach_open {
-            skipped
-                .entry(APPROACH_STRAIGHT.to_string())
-                .or_default()
-                .push(at);
+            skipped.entry(approach_straight()).or_default().push(at);
         }
         if let Some((why, line)) = not_followed {
             let why = why.trim_start_matches("--expand ").to_string();
             skipped
-                .entry(format!("the macro logic is not followed: {why}"))
+                // Where the logic stops a value, a jump target or a count
+                // is not in the file (a system variable, a caller's
+                // argument, a label elsewhere).
+                .entry(Reason::new(
+                    ReasonKind::Unsaid,
+                    format!("the macro logic is not followed: {why}"),
+                ))
                 .or_default()
                 .push(line);
         }
         let (mut summary, sum, sum2) = (run.summary, run.sum, run.sum2);
-        let unreadable = Skip::Unreadable.to_string();
+        let unreadable = Reason::from(Skip::Unreadable);
         let skipped_moves: usize = skipped
             .iter()
             .filter(|(k, _)| **k != unreadable)
@@ -383,6 +383,12 @@ impl Simulator {
 
 /// An `APPR LT`/`LN` whose auxiliary point is not known is run as a straight
 /// line to its end.
+/// An approach run straight: how the simulation follows it is not
+/// implemented for the element after it.
+fn approach_straight() -> Reason {
+    Reason::new(ReasonKind::NotImplemented, APPROACH_STRAIGHT)
+}
+
 const APPROACH_STRAIGHT: &str = "approach (APPR LT, LN, CT) not simulated through its auxiliary point (run as a straight line to its end): the first contour element after it is not a line or circle in the XY plane that is simulated";
 
 /// A move waiting to be sampled: the next one may cut its end (a

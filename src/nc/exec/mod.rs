@@ -925,6 +925,11 @@ pub(crate) fn sub_label(block: &Block, seg: &super::Segment) -> Option<String> {
     o_label(block, seg, super::Flow::Label, "sub")
 }
 
+/// LinuxCNC: the o-label a statement ends a subroutine of (`o<name> endsub`).
+pub(crate) fn endsub_label(block: &Block, seg: &super::Segment) -> Option<String> {
+    o_label(block, seg, super::Flow::Return, "endsub")
+}
+
 /// The o-label of a statement of kind `flow` whose second keyword is
 /// `keyword` (`o<name> call`, `o<name> sub`).
 fn o_label(

@@ -4,6 +4,7 @@
 //! positions (dwell, reference return, machine coordinates, probing, data
 //! setting, G52, G92) and the move a block of axis words makes.
 
+use super::ReasonKind;
 use super::offsets::MACHINE_ZERO;
 use super::{
     AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Tilt,
@@ -385,7 +386,10 @@ impl Interpreter {
             }
             None => {
                 self.track_words(block, seg);
-                Event::Skip(Skip::Element("motion without a motion mode"))
+                Event::Skip(Skip::Element(
+                    ReasonKind::Unsaid,
+                    "motion without a motion mode",
+                ))
             }
         }
     }
@@ -900,6 +904,7 @@ impl Interpreter {
                         Some(c) => c,
                         None => {
                             return Event::Skip(skip.unwrap_or(Skip::Element(
+                                ReasonKind::Unsaid,
                                 "an arc whose radius does not reach its end point",
                             )));
                         }
@@ -916,8 +921,9 @@ impl Interpreter {
                     };
                     if !arc_runs([s0, s1], [e0, e1], c, self.units.mm()) {
                         return Event::Skip(skip.unwrap_or(Skip::Element(
+                            ReasonKind::Unsaid,
                             "off-circle arc (its centre I, J, K not as far from the end as from the start)",
-                        )));
+                       ) ));
                     }
                     c
                 };
@@ -994,7 +1000,10 @@ impl Interpreter {
             if let Some(i) = self.axis_index(w.addr) {
                 mv.words[i] = Some(ti);
                 if i >= 3 {
-                    skip.get_or_insert(Skip::Element("a rotary axis word in a canned cycle"));
+                    skip.get_or_insert(Skip::Element(
+                        ReasonKind::NotImplemented,
+                        "a rotary axis word in a canned cycle",
+                    ));
                 }
                 match self.axis_value(&w) {
                     Ok(v) => mv.end[i] = Some(v),
@@ -1033,6 +1042,7 @@ impl Interpreter {
             self.track_words(block, seg);
             self.pos[n] = None;
             return Event::Skip(Skip::Element(
+                ReasonKind::NotImplemented,
                 "a canned cycle in incremental distance (G91)",
             ));
         }
@@ -1071,7 +1081,10 @@ impl Interpreter {
         match repeats {
             Some(Value::Num(k)) if k.round() == 0.0 => {
                 // FANUC K0: the data is stored, no hole is drilled.
-                return Event::Skip(Skip::Element("a canned cycle block with K0/L0 (no hole)"));
+                return Event::Skip(Skip::Element(
+                    ReasonKind::NotImplemented,
+                    "a canned cycle block with K0/L0 (no hole)",
+                ));
             }
             Some(Value::Num(_)) | None => {}
             Some(_) => {
@@ -1079,9 +1092,10 @@ impl Interpreter {
             }
         }
         let Some(r_level) = r else {
-            return Event::Skip(
-                skip.unwrap_or(Skip::Element("a canned cycle without its R level")),
-            );
+            return Event::Skip(skip.unwrap_or(Skip::Element(
+                ReasonKind::Unsaid,
+                "a canned cycle without its R level",
+            )));
         };
         mv.drill = Some(super::Drill {
             axis: n,
@@ -1184,7 +1198,7 @@ pub(crate) fn linuxcnc_polar(
     let at_origin = |x: f64, y: f64| x == 0.0 && y == 0.0 && !origin_ok;
     if let Some(r) = r {
         if at_origin(x, y) {
-            return Err(Skip::Element(AT_ORIGIN));
+            return Err(Skip::Element(ReasonKind::Unsaid, AT_ORIGIN));
         }
         let t = y.atan2(x);
         let r = if incremental { x.hypot(y) + r } else { r };
@@ -1192,7 +1206,7 @@ pub(crate) fn linuxcnc_polar(
     }
     if let Some(a) = a {
         if at_origin(x, y) {
-            return Err(Skip::Element(AT_ORIGIN));
+            return Err(Skip::Element(ReasonKind::Unsaid, AT_ORIGIN));
         }
         let t = if incremental {
             y.atan2(x) + a.to_radians()
@@ -1217,11 +1231,13 @@ impl Interpreter {
     ) -> Result<[f64; 2], Skip> {
         if mv.words[0].is_some() || mv.words[1].is_some() {
             return Err(Skip::Element(
+                ReasonKind::Unsaid,
                 "X or Y with a polar word (@, ^), which LinuxCNC refuses",
             ));
         }
         if self.plane != ArcPlane::Xy {
             return Err(Skip::Element(
+                ReasonKind::Unsaid,
                 "a polar word (@, ^) outside the XY plane (G17), which LinuxCNC refuses",
             ));
         }

@@ -7,6 +7,7 @@
 //! the drilling cycles a `CYCL CALL POS` runs as holes, PLANE and FUNCTION
 //! TCPM, touch probe cycles and program control.
 
+use super::ReasonKind;
 use super::approach::Leg;
 use super::{
     AXES, Arc, ArcPlane, Event, Interpreter, Move, MoveKind, Skip, Tcp, Units, arc_runs,
@@ -553,7 +554,10 @@ impl Interpreter {
             HhKind::Ln => {
                 // A vector line: not rewritten. Follow the Cartesian words.
                 self.track_words(block, seg);
-                Event::Skip(Skip::Element("vector line (LN)"))
+                Event::Skip(Skip::Element(
+                    ReasonKind::NotImplemented,
+                    "vector line (LN)",
+                ))
             }
             // The controller cuts the corner between the line before and
             // the line after: the line after carries it.
@@ -681,34 +685,51 @@ impl Interpreter {
         self.pos = mv.end;
         self.pos[2] = None;
         if mv.words[3..].iter().any(Option::is_some) {
-            skip.get_or_insert(Skip::CycleCall("a rotary axis word in the cycle call"));
+            skip.get_or_insert(Skip::CycleCall(
+                ReasonKind::NotImplemented,
+                "a rotary axis word in the cycle call",
+            ));
         }
         if let Some(s) = skip {
             return Event::Skip(s);
         }
         let Some(cycle) = self.hh_cycle else {
-            return Event::Skip(Skip::CycleCall("no cycle is defined before it"));
+            return Event::Skip(Skip::CycleCall(
+                ReasonKind::Unsaid,
+                "no cycle is defined before it",
+            ));
         };
         if !cycle.is_hole() {
             return Event::Skip(Skip::CycleCall(
+                ReasonKind::NotImplemented,
                 "a cycle other than the drilling cycles 200-203, 205-207, 209 and 241 (its moves are not one hole)",
             ));
         }
         let (Some(q200), Some(q201), Some(q203)) = (cycle.clearance, cycle.depth, cycle.surface)
         else {
             return Event::Skip(Skip::CycleCall(
+                ReasonKind::Unsaid,
                 "the cycle's Q200, Q201 or Q203 is not written as a number in its CYCL DEF",
             ));
         };
         if q201 == 0.0 {
-            return Event::Skip(Skip::CycleCall("the cycle's depth Q201 is 0 (no hole)"));
+            return Event::Skip(Skip::CycleCall(
+                ReasonKind::NotImplemented,
+                "the cycle's depth Q201 is 0 (no hole)",
+            ));
         }
         if self.plane != ArcPlane::Xy {
-            return Event::Skip(Skip::CycleCall("a tool axis other than Z"));
+            return Event::Skip(Skip::CycleCall(
+                ReasonKind::NotImplemented,
+                "a tool axis other than Z",
+            ));
         }
         if mv.words[..3].iter().any(Option::is_none) {
             // The control asks for all three; fivecal does not guess.
-            return Event::Skip(Skip::CycleCall("the call does not name X, Y and Z"));
+            return Event::Skip(Skip::CycleCall(
+                ReasonKind::Unsaid,
+                "the call does not name X, Y and Z",
+            ));
         }
         let Some(z) = mv.end[2] else {
             return Event::Skip(Skip::PositionUnknown(b'Z'));
@@ -1112,15 +1133,21 @@ impl Interpreter {
             return Event::Quiet;
         }
         if cartesian {
-            return Event::Skip(skip.unwrap_or(Skip::Element("X or Y in a polar block")));
+            return Event::Skip(
+                skip.unwrap_or(Skip::Element(ReasonKind::Unsaid, "X or Y in a polar block")),
+            );
         }
         let Some(p) = pole else {
-            return Event::Skip(
-                skip.unwrap_or(Skip::Element("polar element without a known pole (CC)")),
-            );
+            return Event::Skip(skip.unwrap_or(Skip::Element(
+                ReasonKind::Unsaid,
+                "polar element without a known pole (CC)",
+            )));
         };
         if self.plane != ArcPlane::Xy {
-            return Event::Skip(Skip::Element("polar element outside the XY plane"));
+            return Event::Skip(Skip::Element(
+                ReasonKind::NotImplemented,
+                "polar element outside the XY plane",
+            ));
         }
         mv.polar = Some(super::Polar {
             radius: radius.map(|x| (x.0, x.2)),
@@ -1133,7 +1160,10 @@ impl Interpreter {
                 )));
             };
             let Some((_, pa, inc)) = angle else {
-                return Event::Skip(skip.unwrap_or(Skip::Element("polar circle (CP) without PA")));
+                return Event::Skip(skip.unwrap_or(Skip::Element(
+                    ReasonKind::Unsaid,
+                    "polar circle (CP) without PA",
+                )));
             };
             // IPA turns by its own sign unless DR says otherwise; the
             // whole turns of a helix are beyond the end angle.
@@ -1141,6 +1171,7 @@ impl Interpreter {
             let cw = match cw {
                 Some(cw) if inc && sweep != 0.0 && cw != (sweep < 0.0) => {
                     return Event::Skip(Skip::Element(
+                        ReasonKind::Unsaid,
                         "polar circle whose IPA and DR turn opposite ways",
                     ));
                 }
@@ -1148,9 +1179,10 @@ impl Interpreter {
                 None => sweep < 0.0,
             };
             if rs * self.units.mm() < 0.00127 || (inc && sweep == 0.0) {
-                return Event::Skip(
-                    skip.unwrap_or(Skip::Element("polar circle of zero radius or zero angle")),
-                );
+                return Event::Skip(skip.unwrap_or(Skip::Element(
+                    ReasonKind::Unsaid,
+                    "polar circle of zero radius or zero angle",
+                )));
             }
             let turns = if inc {
                 ((sweep.abs() / 360.0 - 1e-9).ceil() as u32).saturating_sub(1)
@@ -1244,7 +1276,10 @@ impl Interpreter {
             Err(s) => return Event::Skip(skip.unwrap_or(s)),
         };
         if mv.words[2].is_some() && self.plane != ArcPlane::Xy {
-            return Event::Skip(Skip::Element("circle outside the XY plane"));
+            return Event::Skip(Skip::Element(
+                ReasonKind::NotImplemented,
+                "circle outside the XY plane",
+            ));
         }
         let cw = cw.unwrap_or(false);
         let center = match kind {
@@ -1252,13 +1287,15 @@ impl Interpreter {
                 Some(p) if arc_runs([s0, s1], [e0, e1], p, self.units.mm()) => p,
                 Some(_) => {
                     return Event::Skip(skip.unwrap_or(Skip::Element(
+                        ReasonKind::Unsaid,
                         "off-circle circle (its end not as far from the pole CC as its start)",
                     )));
                 }
                 None => {
-                    return Event::Skip(
-                        skip.unwrap_or(Skip::Element("circle without a known pole (CC)")),
-                    );
+                    return Event::Skip(skip.unwrap_or(Skip::Element(
+                        ReasonKind::Unsaid,
+                        "circle without a known pole (CC)",
+                    )));
                 }
             },
             _ => match radius {
@@ -1266,11 +1303,16 @@ impl Interpreter {
                     Some(c) => c,
                     None => {
                         return Event::Skip(skip.unwrap_or(Skip::Element(
+                            ReasonKind::Unsaid,
                             "circle whose radius does not reach its end point",
                         )));
                     }
                 },
-                None => return Event::Skip(skip.unwrap_or(Skip::Element("CR without a radius"))),
+                None => {
+                    return Event::Skip(
+                        skip.unwrap_or(Skip::Element(ReasonKind::Unsaid, "CR without a radius")),
+                    );
+                }
             },
         };
         mv.kind = MoveKind::Arc(Arc {

@@ -197,6 +197,64 @@ pub enum Coordinates {
     Tcp,
 }
 
+/// Which of three kinds a reason to leave a move as written is: what a
+/// user can do about each differs. Where the file does not say, only the
+/// user, the machine or the calling program knows (a flag may state it);
+/// what is not implemented yet is fivecal's to add; a program for another
+/// machine is the wrong program, or the wrong machine file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ReasonKind {
+    /// The program leaves it open: a system variable, an operator's table
+    /// value, the caller of a subroutine file, a rotary axis never set, a
+    /// block the controller itself could read in more than one way.
+    Unsaid,
+    /// A construct fivecal does not follow yet.
+    NotImplemented,
+    /// Axes, kinematics or strokes that do not match the machine file.
+    OtherMachine,
+}
+
+impl ReasonKind {
+    /// Every kind, in the order a report lists them.
+    pub const ALL: [ReasonKind; 3] = [
+        ReasonKind::Unsaid,
+        ReasonKind::NotImplemented,
+        ReasonKind::OtherMachine,
+    ];
+
+    /// A stable name for machine-readable output.
+    pub fn key(self) -> &'static str {
+        match self {
+            ReasonKind::Unsaid => "file_does_not_say",
+            ReasonKind::NotImplemented => "not_implemented",
+            ReasonKind::OtherMachine => "other_machine",
+        }
+    }
+
+    /// What a user can do about it, said once under the heading of a report.
+    pub fn advice(self) -> &'static str {
+        match self {
+            ReasonKind::Unsaid => {
+                "only the machine, its operator or the calling program knows; state it where a flag is named"
+            }
+            ReasonKind::NotImplemented => "a construct fivecal does not follow yet",
+            ReasonKind::OtherMachine => {
+                "axes, kinematics or strokes that do not match the machine file"
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for ReasonKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ReasonKind::Unsaid => "the file does not say",
+            ReasonKind::NotImplemented => "not implemented yet",
+            ReasonKind::OtherMachine => "a program for another machine",
+        })
+    }
+}
+
 /// Why a move is left as written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Skip {
@@ -225,8 +283,9 @@ pub enum Skip {
     MacroCall,
     /// Canned cycle positions.
     CannedCycle,
-    /// A HEIDENHAIN cycle call whose hole is not corrected, and why.
-    CycleCall(&'static str),
+    /// A HEIDENHAIN cycle call whose hole is not corrected: which kind of
+    /// reason, and why.
+    CycleCall(ReasonKind, &'static str),
     /// The move after a `RND`/`CHF` (at this line) whose corner fivecal
     /// does not follow, and why.
     AfterCorner(usize, &'static str),
@@ -235,9 +294,11 @@ pub enum Skip {
     ApproachDeparture(&'static str),
     /// A HEIDENHAIN `CT` whose arc fivecal does not follow, and why.
     Tangential(&'static str),
-    /// A contour element, or a form of one, that is not compensated, and
+    /// A contour element, or a form of one, that is not compensated: which
+    /// kind of reason (a form fivecal does not follow, or one the block
+    /// leaves open, such as an arc whose centre is not on its circle), and
     /// what it is.
-    Element(&'static str),
+    Element(ReasonKind, &'static str),
     /// The datum shift is not known (datum table row).
     ShiftUnknown,
     /// G43.5 without a tool direction in the block.
@@ -290,7 +351,7 @@ impl std::fmt::Display for Skip {
                 f,
                 "the element after the rounding or chamfer at line {line}, which fivecal follows only between two straight lines: {why}"
             ),
-            Skip::CycleCall(why) => write!(
+            Skip::CycleCall(_, why) => write!(
                 f,
                 "cycle call position (CYCL CALL POS) left as written: {why}"
             ),
@@ -298,7 +359,7 @@ impl std::fmt::Display for Skip {
                 write!(f, "approach or departure (APPR/DEP) left as written: {why}")
             }
             Skip::Tangential(why) => write!(f, "tangential circle (CT) left as written: {why}"),
-            Skip::Element(what) => write!(f, "not compensated: {what}"),
+            Skip::Element(_, what) => write!(f, "not compensated: {what}"),
             Skip::ShiftUnknown => write!(f, "the datum shift comes from a table (value unknown)"),
             Skip::NoToolVector => write!(f, "tool direction (I J K) not programmed"),
             Skip::VectorOutOfReach => write!(
@@ -322,6 +383,89 @@ impl std::fmt::Display for Skip {
                 "the controller state is unknown after the unreadable block at line {line} (until G90/G91 or BEGIN PGM sets it again)"
             ),
         }
+    }
+}
+
+impl Skip {
+    /// Which kind of reason this is (see [`ReasonKind`]), assigned case by
+    /// case.
+    pub fn kind(&self) -> ReasonKind {
+        use ReasonKind::{NotImplemented, OtherMachine, Unsaid};
+        match self {
+            // A variable's value is in the file only where the macro logic
+            // is followed; what is left is a system variable, a table value
+            // or an argument from a caller.
+            Skip::Expression => Unsaid,
+            Skip::NeverRuns => Unsaid,
+            Skip::UnknownWord => NotImplemented,
+            Skip::UnknownAxis(_) => OtherMachine,
+            // Parameter 3401#0 of the control, not a word of the program.
+            Skip::FanucInteger => Unsaid,
+            // Never programmed (`--rotary-start` states it) or forgotten
+            // where the control's documented behaviour leaves it open.
+            Skip::PositionUnknown(_) => Unsaid,
+            Skip::Transformed(_) => NotImplemented,
+            Skip::TiltedPlane(p) => p.kind(),
+            Skip::TcpSpatial => NotImplemented,
+            // The macro's body is a program in the control's memory, not
+            // in this file.
+            Skip::MacroCall => Unsaid,
+            Skip::CannedCycle => NotImplemented,
+            Skip::CycleCall(kind, _) | Skip::Element(kind, _) => *kind,
+            Skip::AfterCorner(..) => NotImplemented,
+            Skip::ApproachDeparture(why) | Skip::Tangential(why) => kind_of(why),
+            // A datum table row: the operator's value.
+            Skip::ShiftUnknown => Unsaid,
+            Skip::NoToolVector => Unsaid,
+            Skip::VectorOutOfReach => OtherMachine,
+            // No machine's travel: a program written for other units or
+            // another machine.
+            Skip::OutOfRange(_) => OtherMachine,
+            Skip::OffsetUnknown(why) => kind_of(why),
+            // A block fivecal cannot read is one it does not implement (the
+            // control may well run it); what follows it is unknown for the
+            // same reason.
+            Skip::Unreadable | Skip::StateUnknown(_) => NotImplemented,
+        }
+    }
+}
+
+/// The kind of a reason passed on as text from where it was found (an
+/// approach's path, a tangential arc, a plane definition, a work offset):
+/// those the block leaves open and those that do not fit the machine are
+/// named here, every other one is a construct not implemented yet.
+pub(crate) fn kind_of(why: &str) -> ReasonKind {
+    match why {
+        // What the block leaves open, or gives in a form the control
+        // refuses or reads in no single way.
+        "a polar approach without a known pole (CC)"
+        | "X or Y in a polar approach (its first contour point is given by PR and PA around the pole CC)"
+        | "its LEN is not a positive number"
+        | "its end point is where it starts"
+        | "its end point lies on the tangent of the element before it (no circle)"
+        | "a parameter or an expression in G68.2"
+        | "a parameter, an expression or a value without a decimal point in G68.2"
+        | "a parameter or an unreadable value in the plane"
+        | "a zero or unreadable vector"
+        | "the base and normal vectors are not perpendicular"
+        | "the three points lie on a line"
+        | "G68.2 P3 with vectors that are not orthogonal"
+        | "two rotary solutions are equally near the positions before the plane"
+        | "G68.4 with no plane in force: FANUC then reads it as G68.2, LinuxCNC's remap stops with an error, so the file does not say which"
+        | "CYCLE800 with fewer than 14 parameters"
+        | offsets::UNRELATED => ReasonKind::Unsaid,
+        "rotary positions of an axis this machine does not have"
+        | "rotary positions without both of the machine's rotary axes"
+        | "no rotary positions of the machine put the tool along it"
+        | "no solution with the tilt of the requested sign (SEQ)" => ReasonKind::OtherMachine,
+        // G10 sets an offset from what fivecal cannot relate to --origin:
+        // the file does not say where it lies.
+        w if w.starts_with("the external work offset (G10 L2 P0)")
+            || w.starts_with("G10 L2/L20 changed a work offset") =>
+        {
+            ReasonKind::Unsaid
+        }
+        _ => ReasonKind::NotImplemented,
     }
 }
 

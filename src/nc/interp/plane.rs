@@ -107,6 +107,25 @@ pub enum PlaneSkip {
     Tcp,
 }
 
+impl PlaneSkip {
+    /// Which kind of reason this is (see [`super::ReasonKind`]).
+    pub fn kind(&self) -> super::ReasonKind {
+        use super::ReasonKind::{NotImplemented, OtherMachine, Unsaid};
+        match self {
+            PlaneSkip::Unmodelled(_, why) => super::kind_of(why),
+            // STAY, a parameter, or two solutions the program does not
+            // choose between.
+            PlaneSkip::RotaryUnknown => Unsaid,
+            // The program's rotary positions are not the plane's on this
+            // machine's kinematics.
+            PlaneSkip::NotAlong => OtherMachine,
+            PlaneSkip::RotaryMove | PlaneSkip::Tcp => NotImplemented,
+            // The tool length is the control's table value.
+            PlaneSkip::NoToolLength => Unsaid,
+        }
+    }
+}
+
 impl std::fmt::Display for PlaneSkip {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {

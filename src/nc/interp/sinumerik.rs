@@ -15,6 +15,7 @@
 //! (`MEAS=`, `MEAW=`), cycles and subprogram calls (the position is
 //! unknown after them).
 
+use super::ReasonKind;
 use super::interpolation::CircleGeo;
 use super::{
     AXES, Arc, ArcPlane, Event, FeedMode, Interpreter, Motion, Move, MoveKind, Skip, Tcp, Through,
@@ -591,12 +592,16 @@ impl Interpreter {
             Some(Motion::Other) => {
                 self.track_words(block, seg);
                 Event::Skip(Skip::Element(
+                    ReasonKind::NotImplemented,
                     "a CT, POLY, spline, thread or tapping motion",
                 ))
             }
             None => {
                 self.track_words(block, seg);
-                Event::Skip(Skip::Element("motion without a motion mode"))
+                Event::Skip(Skip::Element(
+                    ReasonKind::Unsaid,
+                    "motion without a motion mode",
+                ))
             }
         }
     }
@@ -931,7 +936,10 @@ impl Interpreter {
                 continue;
             }
             if a == Addr::new("AR") {
-                skip.get_or_insert(Skip::Element("an arc by opening angle (AR=)"));
+                skip.get_or_insert(Skip::Element(
+                    ReasonKind::NotImplemented,
+                    "an arc by opening angle (AR=)",
+                ));
                 continue;
             }
             match a.as_letter() {
@@ -989,6 +997,7 @@ impl Interpreter {
                         Some(c) => c,
                         None => {
                             return Event::Skip(skip.unwrap_or(Skip::Element(
+                                ReasonKind::Unsaid,
                                 "an arc whose radius does not reach its end point",
                             )));
                         }
@@ -998,6 +1007,7 @@ impl Interpreter {
                     let abs = [ca.is_some_and(|x| x.2), cb.is_some_and(|x| x.2)];
                     if abs[0] != abs[1] {
                         return Event::Skip(skip.unwrap_or(Skip::Element(
+                            ReasonKind::NotImplemented,
                             "an arc centre given partly =AC() and partly incremental",
                         )));
                     }
@@ -1009,8 +1019,9 @@ impl Interpreter {
                     };
                     if !arc_runs([s0, s1], [e0, e1], c, self.units.mm()) {
                         return Event::Skip(skip.unwrap_or(Skip::Element(
+                            ReasonKind::Unsaid,
                             "off-circle arc (its centre I, J, K not as far from the end as from the start)",
-                        )));
+                       ) ));
                     }
                     c
                 };
@@ -1035,6 +1046,7 @@ impl Interpreter {
             // TRAORI with the tool direction: missing components are zero.
             if self.tcp == Tcp::Off || matches!(mv.kind, MoveKind::Arc(_) | MoveKind::Through(_)) {
                 return Event::Skip(Skip::Element(
+                    ReasonKind::NotImplemented,
                     "a tool vector (A3= B3= C3=) outside TRAORI or on an arc",
                 ));
             }
@@ -1099,7 +1111,7 @@ impl Interpreter {
                 // unexplained where the start is elsewhere (a circle out
                 // of the start's plane): followed only where both agree.
                 None if !self.absolute || s[k] == 0.0 => s[k],
-                None => return Err(Skip::Element(CIP_OMITTED)),
+                None => return Err(Skip::Element(ReasonKind::Unsaid, CIP_OMITTED)),
             };
         }
         let geo = match CircleGeo::through(s, m, e, self.units.mm()) {
@@ -1114,7 +1126,7 @@ impl Interpreter {
                     offset: at as usize,
                     what: format!("CIP: {why}: the control cannot run this block"),
                 });
-                return Err(Skip::Element("a CIP without a circle"));
+                return Err(Skip::Element(ReasonKind::Unsaid, "a CIP without a circle"));
             }
         };
         Ok(Through {

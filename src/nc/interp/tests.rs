@@ -224,7 +224,7 @@ fn off_circle_arcs_are_left_as_written_as_a_control_alarms() {
             d,
         );
         assert!(
-            matches!(ev[1], Event::Skip(Skip::Element(w)) if w.starts_with("off-circle arc")),
+            matches!(ev[1], Event::Skip(Skip::Element(_, w)) if w.starts_with("off-circle arc")),
             "{d}: {:?}",
             ev[1]
         );
@@ -236,7 +236,7 @@ fn off_circle_arcs_are_left_as_written_as_a_control_alarms() {
         Dialect::Heidenhain,
     );
     assert!(
-        matches!(ev[3], Event::Skip(Skip::Element(w)) if w.starts_with("off-circle circle")),
+        matches!(ev[3], Event::Skip(Skip::Element(_, w)) if w.starts_with("off-circle circle")),
         "{:?}",
         ev[3]
     );

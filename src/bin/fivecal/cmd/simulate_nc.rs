@@ -186,14 +186,19 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         }
         for (reason, lines) in skipped {
             outln!(
-                "  not simulated in {}: {reason}: lines {}",
+                "  not simulated in {} ({}): {reason}: lines {}",
                 original.display(),
+                reason.kind,
                 lines.list()
             );
         }
     }
     for (reason, lines) in &summary.skipped {
-        outln!("  not simulated: {reason}: lines {}", lines.list());
+        outln!(
+            "  not simulated ({}): {reason}: lines {}",
+            reason.kind,
+            lines.list()
+        );
     }
     for (what, lines) in &summary.unmodelled {
         outln!("  effect not modelled: {what}: lines {}", lines.list());
