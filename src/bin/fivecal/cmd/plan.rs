@@ -38,7 +38,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             p.post.dialect
         )
     })?;
-    let predicted = fivecal::analyze::preview::predict(&planned, None, None)
+    let predicted = fivecal::analyze::preview::predict_useful(&planned, None, None, &cfg.useful)
         .with_context(|| format!("cannot predict what {} identifies", planned.test()))?;
     // What would identify what the design leaves unidentified.
     let suggested = fivecal::discover::suggest::suggest(p, &planned, &predicted, None);
@@ -138,7 +138,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
     }
     let mut report = Planned::new(&planned, &predicted, &written);
     if let Some((run, second)) = second_run {
-        let alone = fivecal::analyze::preview::predict(&second, None, None)
+        let alone = fivecal::analyze::preview::predict_useful(&second, None, None, &cfg.useful)
             .with_context(|| format!("cannot predict what {} identifies", second.test()))?;
         let written = second
             .write_with(

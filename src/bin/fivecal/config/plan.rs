@@ -83,6 +83,11 @@ pub struct PlanArgs {
     /// naming the known changes of the template that would identify more.
     #[arg(long, value_name = "WHAT", value_parser = ["all"])]
     require: Option<String>,
+    /// The largest u a location error may have to count as identified: a
+    /// position's in um, an orientation's in urad [default: 10,50]; a
+    /// symbol with a limit in the machine file: half its half-width.
+    #[arg(long, value_name = "UM,URAD")]
+    useful_u: Option<String>,
     /// Print what was planned as JSON on standard output: the test, the
     /// machine, the counts, what the plan identifies (as the manifest's
     /// `identifies:`), the notes and the files written.
@@ -122,6 +127,8 @@ pub struct Config {
     pub origin: String,
     /// `--require all`.
     pub require_all: bool,
+    /// `--useful-u`: what counts as identified.
+    pub useful: fivecal::analyze::usefulness::Usefulness,
     /// `--json`: what was planned, as JSON on standard output.
     pub json: bool,
     /// The template file given with `--template`.
@@ -292,6 +299,11 @@ pub fn config(a: PlanArgs) -> anyhow::Result<Config> {
         inputs,
         origin,
         require_all: a.require.is_some(),
+        useful: match a.useful_u.as_deref() {
+            Some(s) => fivecal::analyze::usefulness::Usefulness::parse(s)
+                .map_err(|e| anyhow::anyhow!("--useful-u {e}"))?,
+            None => Default::default(),
+        },
         json: a.json,
         template_file: a.template.clone(),
         supplement: supplement.is_some(),
