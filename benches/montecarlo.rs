@@ -17,6 +17,7 @@ fn request(dir: &std::path::Path, runs: usize, exact: bool) -> Request {
         &dir.join("plan/stepped-square.plan.yaml"),
         vec![dir.join("measured.dmo")],
     );
+    r.contributors = ContributorChoice::TestDefault;
     r.monte_carlo = Some(MonteCarlo {
         options: McOptions {
             runs,
@@ -24,7 +25,6 @@ fn request(dir: &std::path::Path, runs: usize, exact: bool) -> Request {
             progress: false,
             max_seconds: None,
         },
-        contributors: ContributorChoice::TestDefault,
         exact,
     });
     r

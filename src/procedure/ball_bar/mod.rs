@@ -16,7 +16,7 @@
 //! (by fivecal's own inverse kinematics: what the control's TCP will
 //! command), writes one program per setup ([`program`]), a setup sheet per
 //! setup, and predicts what the runs identify and with which uncertainty
-//! ([`predict`]).
+//! ([`mod@predict`]).
 
 mod design;
 pub mod predict;
