@@ -374,7 +374,6 @@ impl Fit {
             self.n,
             &self.names,
             &setup.constraint_names,
-            &setup.quality_axes(),
         )
     }
 }

@@ -759,7 +759,6 @@ fn prepare(
             spec.model.n_params(),
             &names,
             &setup.constraint_names,
-            &[],
         );
         let why: Vec<String> = rep
             .null_combinations
@@ -966,7 +965,6 @@ fn start(
             fitter.len(),
             all.len(),
             &fitter.names(&spec_all),
-            &[],
             &[],
         );
         for &i in all.iter().filter(|i| !kept.contains(i)) {

@@ -281,14 +281,7 @@ fn fit(
     if placement {
         names.extend(PLACEMENT_NAMES.iter().map(|s| s.to_string()));
     }
-    let report = identifiability::report(
-        &nominal,
-        m,
-        n,
-        &names,
-        &setup.constraint_names,
-        &setup.quality_axes(),
-    );
+    let report = identifiability::report(&nominal, m, n, &names, &setup.constraint_names);
     let cov = design.cov_unit.view((0, 0), (n, n)).into_owned() * s2;
     let placement_iso: Option<Isometry3<f64>> = p0.map(|p| p * d6_um(&sol.x[n + k..n + k + 6]));
     if !sol.converged {

@@ -3,41 +3,19 @@
 //! are identifiable, the parameter combinations that change no measurement
 //! (named in symbols of docs/model.md and model terms), the identifiable combinations
 //! of the parameters that are not identifiable alone, the enumeration of
-//! identifiable parameter sets of the LAMDAMAP 2015 paper, section 4, and a pose-quality
-//! figure per rotary axis.
+//! identifiable parameter sets of the LAMDAMAP 2015 paper, section 4.
 //!
-//! **Pose quality.** HEIDENHAIN KinematicsOpt (cycle 451) reports a
-//! dimensionless *valuation number* per rotary axis: how well the measuring
-//! positions determine the machine's changeable transformations. As we
-//! recall its touch-probe cycles manual (the text could not be checked
-//! while writing this), it asks for at least 2, calls 4 or more desirable,
-//! and suggests a larger measuring range or more points when the number is
-//! low; the formula is not published. Ours is defined openly, on that
-//! scale:
-//!
-//! ```text
-//! Q_axis = 1 / max_k sqrt( [(J^T J)^+]_kk )
-//! ```
-//!
-//! over the axis's location symbols `k`, with `J` the design in um per
-//! parameter, angles converted to length at a reference lever of
-//! [`QUALITY_LEVER_MM`] (1 urad = 0.1 um at 100 mm). It is the factor by
-//! which the worst-determined parameter of the axis is more certain than one
-//! probed point: with 1 um of noise per point, that parameter's standard
-//! uncertainty is `1/Q` um (or `1/Q` * 10 urad). It grows with the square
-//! root of the number of points and with the measuring range, as the
-//! valuation number does; 0 means an axis parameter is not identifiable.
-//! (For the sphere method the design's measurements are the sphere
-//! centres, so there the figure is per um of noise of a centre.)
+//! (Earlier releases printed a "pose quality" per rotary axis on the scale
+//! of HEIDENHAIN's valuation number, from the noise alone. Nothing followed
+//! from it, and it read 0.02-0.76 on every machining test against ">= 2
+//! needed": what decides whether a value can be acted on is now its full
+//! `u` against the usefulness threshold, `crate::analyze::usefulness`.)
 
 use std::fmt::Write;
 
 use nalgebra::{DMatrix, DVector};
 
 use super::lsq::Design;
-
-/// Lever at which angles become lengths in the pose-quality figure, mm.
-pub const QUALITY_LEVER_MM: f64 = 100.0;
 
 /// Whether each parameter is identifiable, with its name.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -52,17 +30,6 @@ pub struct ParamStatus {
     /// where the design alone decides.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub aliased_with: Vec<(String, f64)>,
-}
-
-/// The pose-quality figure of one rotary axis.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct AxisQuality {
-    /// Axis letter.
-    pub axis: char,
-    /// The figure (see the module documentation); 0 = not identifiable.
-    pub quality: f64,
-    /// The symbol that limits it.
-    pub worst: String,
 }
 
 /// The identifiability report of one design.
@@ -86,8 +53,6 @@ pub struct Identifiability {
     pub null_combinations: Vec<String>,
     /// Combinations of non-identifiable parameters that are identifiable.
     pub identifiable_combinations: Vec<String>,
-    /// Pose quality per rotary axis.
-    pub pose_quality: Vec<AxisQuality>,
 }
 
 impl Identifiability {
@@ -207,13 +172,6 @@ impl Identifiability {
             if !p.aliased_with.is_empty() {
                 let _ = writeln!(s, "  {}: {}", p.name, self.reason(i));
             }
-        }
-        for q in &self.pose_quality {
-            let _ = writeln!(
-                s,
-                "  pose quality {}: {:.2} (limited by {}; >= 2 needed, >= 4 desirable)",
-                q.axis, q.quality, q.worst
-            );
         }
         s
     }
@@ -342,16 +300,12 @@ fn rref(mut m: DMatrix<f64>) -> Vec<DVector<f64>> {
 ///
 /// `names`: every parameter (the `n_model` model parameters first, then
 /// nuisance; identifiable combinations are sought among model parameters);
-/// `axes`: for the pose-quality figure, each rotary axis with the indices of
-/// its location symbols and whether each is an angle; `length_scale`:
-/// nothing, lengths are um and angles urad.
 pub fn report(
     d: &Design,
     observations: usize,
     n_model: usize,
     names: &[String],
     constraints: &[String],
-    axes: &[(char, Vec<(usize, bool)>)],
 ) -> Identifiability {
     let n = names.len();
     // A parameter is identifiable when no unseen direction moves it.
@@ -393,36 +347,6 @@ pub fn report(
             }
         }
     }
-    let pose_quality = axes
-        .iter()
-        .map(|(axis, syms)| {
-            let mut worst = (String::new(), 0.0f64);
-            let mut unseen = None;
-            for &(k, angle) in syms {
-                if !ident[k] {
-                    unseen = Some(names[k].clone());
-                    continue;
-                }
-                let f = if angle { QUALITY_LEVER_MM * 1e-3 } else { 1.0 };
-                let u = d.cov_unit[(k, k)].max(0.0).sqrt() * f;
-                if u > worst.1 {
-                    worst = (names[k].clone(), u);
-                }
-            }
-            match unseen {
-                Some(name) => AxisQuality {
-                    axis: *axis,
-                    quality: 0.0,
-                    worst: name,
-                },
-                None => AxisQuality {
-                    axis: *axis,
-                    quality: if worst.1 > 0.0 { 1.0 / worst.1 } else { 0.0 },
-                    worst: worst.0,
-                },
-            }
-        })
-        .collect();
     Identifiability {
         observations,
         parameters: n,
@@ -441,7 +365,6 @@ pub fn report(
             .collect(),
         null_combinations,
         identifiable_combinations,
-        pose_quality,
     }
 }
 

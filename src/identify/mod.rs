@@ -39,7 +39,6 @@ use crate::formats::manifest::TestKind;
 use crate::geom::wrap180;
 use crate::kinematics::Kinematics;
 use crate::kinematics::maps::{MapDim, MapGrid};
-use crate::kinematics::symbols::Unit;
 use crate::model::{Effect, Model};
 use crate::placement::{self, PlaneObservation};
 
@@ -216,31 +215,6 @@ impl Setup {
             out[(n + i, b.ncols() + i)] = 1.0;
         }
         out
-    }
-
-    /// For the pose-quality figure: each rotary axis with its location
-    /// symbols (parameter index, is an angle).
-    pub(crate) fn quality_axes(&self) -> Vec<(char, Vec<(usize, bool)>)> {
-        let sym = &self.model.symbols;
-        let mut axes: Vec<(char, Vec<(usize, bool)>)> =
-            vec![(sym.tilt, Vec::new()), ('C', Vec::new())];
-        let Some(e) = self.model.find("location") else {
-            return axes;
-        };
-        let o = self.model.param_range(e).start;
-        if let Effect::Location { symbols } = &self.model.effects[e] {
-            for (k, &s) in symbols.iter().enumerate() {
-                let ls = &sym.location[s];
-                // The axis a symbol belongs to: the one its name ends with
-                // (`EX0B`, `EA(0B)C`, `EY0C`).
-                let axis = ls.name.chars().last().unwrap_or('C');
-                let angle = ls.unit == Unit::Urad;
-                if let Some(a) = axes.iter_mut().find(|a| a.0 == axis) {
-                    a.1.push((o + k, angle));
-                }
-            }
-        }
-        axes
     }
 }
 

@@ -977,14 +977,7 @@ pub fn identify_judged(
                     .iter()
                     .map(|s| s.to_string()),
             );
-            identifiability::report(
-                &design,
-                3 * data.poses.len(),
-                n,
-                &names,
-                &[],
-                &setup.quality_axes(),
-            )
+            identifiability::report(&design, 3 * data.poses.len(), n, &names, &[])
         }
         Some(fm) => {
             if fm.model().n_params() != n {
@@ -995,14 +988,7 @@ pub fn identify_judged(
             let (full, nominal, d_points, nuisance) = full_design(fm, data)?;
             let mut names = model.param_names();
             names.extend(nuisance);
-            let mut report = identifiability::report(
-                &full,
-                data.obs.len(),
-                n,
-                &names,
-                &[],
-                &setup.quality_axes(),
-            );
+            let mut report = identifiability::report(&full, data.obs.len(), n, &names, &[]);
             let sens = sensitivity(
                 model,
                 data,

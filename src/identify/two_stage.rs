@@ -486,14 +486,7 @@ pub(crate) fn identify(
     if k > 0 {
         names.extend(REFERENCE_NAMES.iter().map(|s| s.to_string()));
     }
-    let report = identifiability::report(
-        &nominal,
-        rows,
-        n,
-        &names,
-        &setup.constraint_names,
-        &setup.quality_axes(),
-    );
+    let report = identifiability::report(&nominal, rows, n, &names, &setup.constraint_names);
     let (cov_unit, cov) = match &frame {
         NominalFrame::Relative { reference, .. } => {
             let m = design.cov_unit.view((0, 0), (n, n + k)).into_owned()

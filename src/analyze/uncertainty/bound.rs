@@ -124,14 +124,7 @@ pub fn cramer_rao_bound(
                 .map(|s| s.to_string()),
         );
     }
-    let report = identifiability::report(
-        &nominal,
-        m,
-        n,
-        &names,
-        &setup.constraint_names,
-        &setup.quality_axes(),
-    );
+    let report = identifiability::report(&nominal, m, n, &names, &setup.constraint_names);
     Ok(Bound {
         cov: design.cov_unit.view((0, 0), (n, n)).into_owned() * (sigma_um * sigma_um),
         identifiability: report,
