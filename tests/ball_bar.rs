@@ -24,9 +24,16 @@ fn request(machine: &str, d: Dialect) -> BallBarRequest {
 /// A DMU 100 monoBLOCK-like machine, the seed's: the built-in head-table
 /// (CZFXYB) with a table and strokes of its size.
 fn paper_machine() -> Machine {
-    let src = Machine::builtin("head-table").unwrap().source;
-    let src = src
-        .replace("name: head-table", "name: dmu100-like")
+    let src = paper_machine_yaml("dmu100-like");
+    Machine::from_yaml(std::path::Path::new("dmu100-like.yaml"), &src).unwrap()
+}
+
+/// The machine file of [`paper_machine`], named `name`.
+pub(crate) fn paper_machine_yaml(name: &str) -> String {
+    Machine::builtin("head-table")
+        .unwrap()
+        .source
+        .replace("name: head-table", &format!("name: {name}"))
         .replace("X: [0, 735]", "X: [0, 1300]")
         .replace("Y: [0, 650]", "Y: [0, 1000]")
         .replace("Z: [-560, 0]", "Z: [-1100, 0]")
@@ -34,8 +41,7 @@ fn paper_machine() -> Machine {
             "pivot: [367.5, 325.0, -480.0]",
             "pivot: [650.0, 500.0, -1000.0]",
         )
-        .replace("radius: 300.0", "radius: 500.0");
-    Machine::from_yaml(std::path::Path::new("dmu100-like.yaml"), &src).unwrap()
+        .replace("radius: 300.0", "radius: 500.0")
 }
 
 #[test]

@@ -255,26 +255,7 @@ fn provide(word: &str, dir: &Path) {
         // docs/ball-bar.md: "a machine of the paper's kind", the
         // built-in head-table with a DMU 100 monoBLOCK's table and strokes.
         "my-dmu.yaml" => {
-            let o = fivecal()
-                .args(["machine", "show", "head-table", "--source"])
-                .output()
-                .unwrap();
-            let src = if o.status.success() && !o.stdout.is_empty() {
-                String::from_utf8(o.stdout).unwrap()
-            } else {
-                std::fs::read_to_string(root().join("examples/machines/head-table.yaml")).unwrap()
-            };
-            let src = src
-                .replace("name: head-table", "name: my-dmu")
-                .replace("X: [0, 735]", "X: [0, 1300]")
-                .replace("Y: [0, 650]", "Y: [0, 1000]")
-                .replace("Z: [-560, 0]", "Z: [-1100, 0]")
-                .replace(
-                    "pivot: [367.5, 325.0, -480.0]",
-                    "pivot: [650.0, 500.0, -1000.0]",
-                )
-                .replace("radius: 300.0", "radius: 500.0");
-            std::fs::write(&path, src).unwrap();
+            std::fs::write(&path, crate::ball_bar::paper_machine_yaml("my-dmu")).unwrap();
         }
         // "a truth file": the commented example of the plan's machine.
         "truth.yaml" if dir.join("bb/ball-bar.plan.yaml").exists() => {

@@ -11,6 +11,23 @@ use crate::analyze_sim::{identify, measure};
 
 use crate::cli::fivecal;
 
+/// What `plan` predicts of the noise's part of u alone (the contributors
+/// `--contributors noise` names), with `method` (the test's default when
+/// `None`).
+fn noise_only_prediction(
+    plan: &fivecal::procedure::Plan,
+    method: Option<fivecal::identify::Method>,
+) -> preview::Preview {
+    preview::predict_with(
+        plan,
+        method,
+        None,
+        &Usefulness::default(),
+        &ContributorChoice::NoiseOnly,
+    )
+    .unwrap()
+}
+
 /// The prediction of the noise's part of u against an analysis of a
 /// simulated run of the same plan (location errors of a few tens of
 /// micrometres, 0.35 um noise): the same symbols identified, each
@@ -26,14 +43,7 @@ fn plan_predicts_the_symbols_and_u_that_analyze_reports() {
         ("head-table", "probe-sphere"),
     ] {
         let plan = crate::simulate::planned(machine, test);
-        let predicted = preview::predict_with(
-            &plan,
-            None,
-            None,
-            &Usefulness::default(),
-            &ContributorChoice::NoiseOnly,
-        )
-        .unwrap();
+        let predicted = noise_only_prediction(&plan, None);
         let kin = fivecal::simulate::plan_kinematics(&plan);
         let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
         let data = measure(&plan, &truth, &Default::default());
@@ -154,14 +164,7 @@ fn predicted_u_matches_the_spread_of_200_simulated_runs() {
         ("head-table", "probe-columns"),
     ] {
         let plan = crate::simulate::planned(machine, test);
-        let predicted = preview::predict_with(
-            &plan,
-            None,
-            None,
-            &Usefulness::default(),
-            &ContributorChoice::NoiseOnly,
-        )
-        .unwrap();
+        let predicted = noise_only_prediction(&plan, None);
         let kin = fivecal::simulate::plan_kinematics(&plan);
         let truth = crate::simulate::truth(&plan, &crate::goodness::location_truth(&kin));
         let runs: Vec<Vec<(String, f64)>> = (0..200u64)
@@ -608,14 +611,7 @@ fn a_second_run_with_another_probe_frees_the_head_alias() {
 fn the_joint_design_of_one_run_is_its_own() {
     let plan = crate::simulate::planned("head-table", "probe-columns");
     // The joint design speaks of the noise alone: so does this prediction.
-    let predicted = preview::predict_with(
-        &plan,
-        Some(fivecal::identify::Method::Global),
-        None,
-        &Usefulness::default(),
-        &ContributorChoice::NoiseOnly,
-    )
-    .unwrap();
+    let predicted = noise_only_prediction(&plan, Some(fivecal::identify::Method::Global));
     let kin = fivecal::simulate::plan_kinematics(&plan);
     let data = preview::nominal_data(&plan).unwrap();
     let (rows, _) =
