@@ -248,11 +248,7 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             monte_carlo,
             circle,
             noise: super::noise_arg(a.noise)?,
-            usefulness: match a.useful_u.as_deref() {
-                Some(s) => analyze::usefulness::Usefulness::parse(s)
-                    .map_err(|e| anyhow::anyhow!("--useful-u {e}"))?,
-                None => analyze::usefulness::Usefulness::default(),
-            },
+            usefulness: super::useful_u(a.useful_u.as_deref())?,
             options: a.measured_flags.options()?,
             ..Request::new(&manifest, a.measured)
         },

@@ -97,6 +97,26 @@ pub fn noise_arg(noise: Option<f64>) -> anyhow::Result<Option<f64>> {
     Ok(noise)
 }
 
+/// `--json` and `-o -` both want standard output.
+pub fn json_or_stdout(json: bool, outs: &[Option<&std::path::Path>]) -> anyhow::Result<()> {
+    if json && outs.iter().flatten().any(|p| p.as_os_str() == "-") {
+        anyhow::bail!(
+            "--json prints on standard output, and so does `-o -`: name a file, or leave out --json"
+        );
+    }
+    Ok(())
+}
+
+/// `--useful-u UM,URAD` of plan and analyze: the largest u a location
+/// error may have to count as identified (the defaults when not given).
+pub fn useful_u(arg: Option<&str>) -> anyhow::Result<fivecal::analyze::usefulness::Usefulness> {
+    match arg {
+        Some(s) => fivecal::analyze::usefulness::Usefulness::parse(s)
+            .map_err(|e| anyhow::anyhow!("--useful-u {e}")),
+        None => Ok(Default::default()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

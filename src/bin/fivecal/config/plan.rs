@@ -299,11 +299,7 @@ pub fn config(a: PlanArgs) -> anyhow::Result<Config> {
         inputs,
         origin,
         require_all: a.require.is_some(),
-        useful: match a.useful_u.as_deref() {
-            Some(s) => fivecal::analyze::usefulness::Usefulness::parse(s)
-                .map_err(|e| anyhow::anyhow!("--useful-u {e}"))?,
-            None => Default::default(),
-        },
+        useful: super::useful_u(a.useful_u.as_deref())?,
         json: a.json,
         template_file: a.template.clone(),
         supplement: supplement.is_some(),

@@ -104,16 +104,6 @@ pub struct Config {
     pub ball_bar: fivecal::simulate::ball_bar::BallBarOptions,
 }
 
-/// `--json` and `-o -` both want standard output.
-pub(super) fn json_or_stdout(json: bool, outs: &[Option<&std::path::Path>]) -> anyhow::Result<()> {
-    if json && outs.iter().flatten().any(|p| p.as_os_str() == "-") {
-        bail!(
-            "--json prints on standard output, and so does `-o -`: name a file, or leave out --json"
-        );
-    }
-    Ok(())
-}
-
 pub fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
     let plan_path = a
         .plan
@@ -122,7 +112,7 @@ pub fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
         .errors
         .context("--errors is required (a truth file; --truth-example prints one)")?;
     let out = a.out.context("--out is required")?;
-    json_or_stdout(a.json, &[Some(&out)])?;
+    super::json_or_stdout(a.json, &[Some(&out)])?;
     let format = a
         .format
         .as_deref()
@@ -268,7 +258,7 @@ impl SimulateNcArgs {
                 self.max_distance
             );
         }
-        json_or_stdout(
+        super::json_or_stdout(
             self.json,
             &[self.output.as_deref(), self.measured.as_deref()],
         )?;
