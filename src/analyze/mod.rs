@@ -581,17 +581,15 @@ fn identify_piece(
         u = s.u(&est);
         study = Some(s);
     }
-    let explained = explain(
+    let mut explained = explain(
         &est,
         &u,
         &u_noise,
         &budget,
         &req.contributors.describe(ctx.kind),
         contributors.noise_um,
-        study.as_ref().and_then(|s| s.widened).unwrap_or(1.0),
         study.as_ref(),
     );
-    let mut explained = explained;
     if study.is_none() && budget.is_ok() && budget_noise > stated.um {
         explained.basis += &format!(
             "; the noise taken at the residuals' {budget_noise:.3} um, not the stated {:.3} um, as the model does not fit",
@@ -625,14 +623,11 @@ fn set_aside_not_useful(
     let limits = &est.model.kin.machine().limits;
     let mut out = Vec::new();
     file.location_errors.retain(|name, q| {
-        let (Some(u), Some(unit)) = (
-            q.u,
-            symbols
-                .location
-                .iter()
-                .find(|l| l.name == *name)
-                .map(|l| l.unit),
-        ) else {
+        let unit = symbols
+            .location_index(name)
+            .ok()
+            .map(|k| symbols.location[k].unit);
+        let (Some(u), Some(unit)) = (q.u, unit) else {
             return true;
         };
         let t = useful.threshold(name, unit, limits);
@@ -654,7 +649,6 @@ fn set_aside_not_useful(
 /// The result's `uncertainty:` section: what the reported `u` holds and,
 /// per identified value, the noise-only `u` beside it with the three
 /// largest contributors of the budget.
-#[allow(clippy::too_many_arguments)]
 fn explain(
     est: &Identification,
     u: &[Option<f64>],
@@ -662,7 +656,6 @@ fn explain(
     budget: &Result<uncertainty::Budget, String>,
     contributors: &str,
     noise_um: f64,
-    widened: f64,
     study: Option<&Study>,
 ) -> crate::errorfile::UncertaintySection {
     use crate::errorfile::{Share, UncertaintySection, ValueUncertainty};
@@ -710,7 +703,7 @@ fn explain(
     UncertaintySection {
         basis,
         noise_um,
-        widened_by: (widened > 1.0).then_some(widened),
+        widened_by: study.and_then(|s| s.widened),
         not_included: match (study, budget) {
             (Some(s), _) => s.not_included.clone(),
             (None, Ok(_)) => Contributors::unmapped()

@@ -63,6 +63,11 @@ impl Group {
         Group::Setup,
     ];
 
+    /// Its column in [`Budget::variance`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
     /// The name a report prints.
     pub fn name(self) -> &'static str {
         match self {
@@ -92,8 +97,7 @@ impl Budget {
 
     /// The standard uncertainty parameter `i` has from `group` alone.
     pub fn u_of(&self, i: usize, group: Group) -> f64 {
-        let g = Group::ALL.iter().position(|&x| x == group).unwrap_or(0);
-        self.variance[(i, g)].max(0.0).sqrt()
+        self.variance[(i, group.index())].max(0.0).sqrt()
     }
 
     /// The `n` largest contributors to parameter `i`, largest first, with
@@ -106,8 +110,7 @@ impl Budget {
         }
         let mut v: Vec<(Group, f64)> = Group::ALL
             .iter()
-            .enumerate()
-            .map(|(g, &group)| (group, self.variance[(i, g)] / total))
+            .map(|&group| (group, self.variance[(i, group.index())] / total))
             .filter(|(_, s)| *s >= 0.005)
             .collect();
         v.sort_by(|a, b| b.1.total_cmp(&a.1));
@@ -136,7 +139,7 @@ impl LinearStudy {
         let g = self.gain();
         let n = r.nrows();
         let mut var = DMatrix::zeros(n, Group::ALL.len());
-        let col = |group: Group| Group::ALL.iter().position(|&x| x == group).unwrap_or(0);
+        let col = Group::index;
         // Independent columns with one variance each.
         let mut diagonal = |first: usize, len: usize, v: f64, group: Group| {
             for j in first..first + len {
@@ -254,5 +257,17 @@ impl LinearStudy {
             }
         }
         Ok(Budget { variance: var })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Group;
+
+    #[test]
+    fn each_group_sits_at_its_own_column() {
+        for (k, g) in Group::ALL.iter().enumerate() {
+            assert_eq!(g.index(), k, "{g:?}");
+        }
     }
 }

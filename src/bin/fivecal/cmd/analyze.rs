@@ -121,14 +121,11 @@ fn print_piece(c: &Config, p: &IdentifiedPiece) {
     if let Some(u) = &p.file.uncertainty {
         out!("{}", analyze::result::render_uncertainty(u));
     }
+    let symbols = &p.est.model.symbols;
     let units = |name: &str| {
-        p.est
-            .model
-            .symbols
-            .location
-            .iter()
-            .find(|l| l.name == name)
-            .map_or(String::new(), |l| l.unit.to_string())
+        symbols
+            .location_index(name)
+            .map_or(String::new(), |k| symbols.location[k].unit.to_string())
     };
     out!(
         "{}",
