@@ -377,6 +377,12 @@ pub struct ValueUncertainty {
     /// The largest contributors to `u`, largest first.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub largest: Vec<Share>,
+    /// The part of `u` that varies from one run of the test to the next
+    /// (noise, setup, the probe's pre-travel); the rest (the linear axes'
+    /// errors seen through the design) biases every run on the machine
+    /// alike, so a trend's slope is judged against this part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub u_random: Option<f64>,
 }
 
 /// One contributor's share of a value's variance.

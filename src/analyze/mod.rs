@@ -697,6 +697,12 @@ fn explain(
                 u: ui,
                 u_noise: u_noise[i].filter(|v| v.is_finite()),
                 largest,
+                // Where u is the budget's; a Monte Carlo's spread does not
+                // split by contributor.
+                u_random: match (study, budget) {
+                    (None, Ok(b)) => Some(b.u_random(i)).filter(|v| v.is_finite()),
+                    _ => None,
+                },
             },
         );
     }

@@ -174,10 +174,20 @@ impl Suggestion {
             self.run_min,
             self.gains
                 .iter()
-                .filter_map(|r| Some(format!("{} (u = {:.3} {})", r.symbol, r.u?, r.unit)))
+                .filter_map(|r| Some(format!(
+                    "{} (u {} {:.3} {})",
+                    r.symbol,
+                    if self.second.is_some() { ">=" } else { "=" },
+                    r.u?,
+                    r.unit
+                )))
                 .collect::<Vec<_>>()
                 .join(", ")
-        )
+        ) + if self.second.is_some() {
+            "; from the noise alone, a floor: the test's other contributors are not propagated through two runs fitted together"
+        } else {
+            ""
+        }
     }
 }
 
@@ -540,6 +550,12 @@ pub fn suggest(cfg: &PlanConfig, plan: &Plan, now: &Preview, noise: Option<f64>)
     out
 }
 
+/// What the u of two runs fitted together hold: the noise alone. The
+/// closed-form budget follows one run's fit; through a joint fit the
+/// linear axes' errors (common to both runs) are not propagated, so these
+/// u are floors, and the analysis of the measured runs says the rest.
+pub const JOINT_BASIS: &str = "the measurement noise only, a floor: the test's other contributors are not propagated through two runs fitted together";
+
 /// A run as `discover` takes it: its plan, its kinematics (with its
 /// probe) and its measurements (here the nominal ones, its design).
 pub type Run<'a> = (&'a Plan, &'a Kinematics, &'a Dataset);
@@ -674,7 +690,7 @@ fn second_runs(
                 prediction: Preview {
                     method: crate::identify::Method::Global,
                     noise: now.noise.clone(),
-                    basis: now.basis.clone(),
+                    basis: JOINT_BASIS.into(),
                     rank,
                     rows,
                     unseen: Vec::new(),

@@ -35,6 +35,38 @@ pub fn location_errors(content: &str) -> Option<IndexMap<String, Quantity>> {
         .filter(|v| !v.is_empty())
 }
 
+/// The run-to-run part of each value's `u` a result file states
+/// (`uncertainty: values: SYMBOL: u_random`), by symbol; empty for a file
+/// that does not split its `u` (then all of it is taken as varying from
+/// run to run, which only makes a trend harder to show).
+fn random_parts(content: &str) -> IndexMap<String, f64> {
+    #[derive(Deserialize)]
+    struct Part {
+        #[serde(default)]
+        u_random: Option<f64>,
+    }
+    #[derive(Deserialize)]
+    struct Section {
+        #[serde(default)]
+        values: IndexMap<String, Part>,
+    }
+    #[derive(Deserialize)]
+    struct File {
+        #[serde(default)]
+        uncertainty: Option<Section>,
+    }
+    serde_yaml::from_str::<File>(content)
+        .ok()
+        .and_then(|f| f.uncertainty)
+        .map(|s| {
+            s.values
+                .into_iter()
+                .filter_map(|(k, p)| p.u_random.filter(|u| u.is_finite()).map(|u| (k, u)))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 /// One value of a series.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SeriesPoint {
@@ -53,6 +85,10 @@ pub struct SeriesPoint {
     pub value: f64,
     /// Its standard uncertainty.
     pub u: Option<f64>,
+    /// The part of `u` that varies from run to run, where the result
+    /// states it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u_random: Option<f64>,
 }
 
 fn ser_time<S: serde::Serializer>(t: &Timestamp, s: S) -> Result<S::Ok, S::Error> {
@@ -142,6 +178,7 @@ impl History {
             if superseded.contains(&r.id) {
                 continue;
             }
+            let random = random_parts(&r.record.content);
             for (sym, q) in location_errors(&r.record.content).unwrap_or_default() {
                 series
                     .entry(sym.clone())
@@ -159,6 +196,7 @@ impl History {
                         test: r.record.test.clone(),
                         value: q.value,
                         u: q.u,
+                        u_random: random.get(&sym).copied(),
                     });
             }
         }
@@ -201,10 +239,17 @@ impl History {
         let samples: Vec<TrendSample> = fitting
             .iter()
             .filter(|p| p.test == test)
-            .map(|p| TrendSample {
-                at: p.at,
-                value: p.value,
-                u: p.u.unwrap_or(0.0),
+            .map(|p| {
+                let u = p.u.unwrap_or(0.0);
+                // The line is fitted against what varies from run to run;
+                // the rest moves every value alike.
+                let random = p.u_random.filter(|r| *r > 0.0 && *r <= u).unwrap_or(u);
+                TrendSample {
+                    at: p.at,
+                    value: p.value,
+                    u: random,
+                    u_common: (u * u - random * random).max(0.0).sqrt(),
+                }
             })
             .collect();
         TrendBasis {

@@ -26,15 +26,23 @@ const LINE_ALPHA: f64 = 0.01;
 /// Two-sided level of the slope's significance.
 const SLOPE_LEVEL: f64 = 0.95;
 
-/// One result in time: when, the value and its standard uncertainty.
+/// One result in time: when, the value and its standard uncertainty, split
+/// into the part that varies from one run to the next and the part common
+/// to every run of the test on the machine.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrendSample {
     /// When the machine was measured.
     pub at: Timestamp,
     /// The value (um or urad).
     pub value: f64,
-    /// Its standard uncertainty (> 0).
+    /// The standard uncertainty of what varies from run to run (> 0): the
+    /// instrument's noise and the setup. The line is fitted against it.
     pub u: f64,
+    /// The standard uncertainty common to every run of the test on this
+    /// machine (its linear axes' errors seen through the same design, the
+    /// probe's pre-travel): it moves every value of the series alike, so
+    /// it leaves the slope alone and adds to the line's level.
+    pub u_common: f64,
 }
 
 /// A weighted straight line through samples.
@@ -68,7 +76,11 @@ impl TrendLine {
     /// the last sample. `None` when fewer or when they share one instant.
     pub fn fit(samples: &[TrendSample]) -> Option<TrendLine> {
         let n = samples.len();
-        if n < 3 || samples.iter().any(|s| !(s.u > 0.0 && s.value.is_finite())) {
+        if n < 3
+            || samples
+                .iter()
+                .any(|s| !(s.u > 0.0 && s.value.is_finite() && s.u_common.is_finite()))
+        {
             return None;
         }
         let t0 = samples[n - 1].at;
@@ -101,7 +113,7 @@ impl TrendLine {
             since: samples[0].at,
             at: t0,
             value: a,
-            u_value: (scale * sxx / det).sqrt(),
+            u_value: (scale * sxx / det + samples[n - 1].u_common.powi(2)).sqrt(),
             slope: b,
             u_slope: (scale * sw / det).sqrt(),
             cov: -scale * sx / det,
@@ -274,6 +286,7 @@ mod tests {
                 at: day(x),
                 value: 2.0 + 0.5 * x,
                 u: 0.1,
+                u_common: 0.0,
             })
             .collect();
         let l = TrendLine::fit(&s).unwrap();
@@ -284,6 +297,39 @@ mod tests {
         // At the last sample (x - xbar = 4): var(a) = u^2 (1/n + 16/40).
         assert!((l.u_value - (0.01f64 * (0.2 + 0.4)).sqrt()).abs() < 1e-12);
         assert!(l.significant() && l.is_straight());
+    }
+
+    /// A bias common to every run (the machine's linear axes seen through
+    /// the same design, 2 um here) moves each value alike: the slope and
+    /// its u are those of the run-to-run part alone, the level's u holds
+    /// both. Weighted by the whole u as if independent, the same clear
+    /// drift (0.2 per day against 0.1 of noise) would not count.
+    #[test]
+    fn a_bias_common_to_every_run_leaves_the_slope_alone() {
+        let at = |u_common: f64| -> Vec<TrendSample> {
+            (0..6)
+                .map(|k| TrendSample {
+                    at: day(k as f64),
+                    value: 0.2 * k as f64 + if k % 2 == 0 { 0.05 } else { -0.05 },
+                    u: 0.1,
+                    u_common,
+                })
+                .collect()
+        };
+        let (alone, common) = (
+            TrendLine::fit(&at(0.0)).unwrap(),
+            TrendLine::fit(&at(2.0)).unwrap(),
+        );
+        assert_eq!(common.slope, alone.slope);
+        assert_eq!(common.u_slope, alone.u_slope);
+        assert!((common.u_value.powi(2) - alone.u_value.powi(2) - 4.0).abs() < 1e-12);
+        assert!(common.significant());
+        let whole = (0.1f64.powi(2) + 4.0).sqrt();
+        let as_independent: Vec<TrendSample> = at(0.0)
+            .into_iter()
+            .map(|s| TrendSample { u: whole, ..s })
+            .collect();
+        assert!(!TrendLine::fit(&as_independent).unwrap().significant());
     }
 
     /// Scatter three times the stated u widens the slope's u threefold.
@@ -297,6 +343,7 @@ mod tests {
                 at: day(k as f64),
                 value: 1.0 + e,
                 u: 0.1,
+                u_common: 0.0,
             })
             .collect();
         let l = TrendLine::fit(&s).unwrap();
@@ -316,6 +363,7 @@ mod tests {
                 at: day(k as f64),
                 value: 0.0,
                 u: 0.05,
+                u_common: 0.0,
             })
             .collect();
         for k in 5..9 {
@@ -323,6 +371,7 @@ mod tests {
                 at: day(k as f64),
                 value: (k - 4) as f64,
                 u: 0.05,
+                u_common: 0.0,
             });
         }
         let Outlook::Drifting { line, forecast } = outlook(&s, Some(Limit::symmetric(10.0))) else {
@@ -350,6 +399,7 @@ mod tests {
                 at: day(k as f64 * 7.0),
                 value: v,
                 u: 0.05,
+                u_common: 0.0,
             })
             .collect();
         assert!(matches!(outlook(&flat, None), Outlook::NoTrend { .. }));
@@ -358,6 +408,7 @@ mod tests {
                 at: day(k as f64),
                 value: -2.0 * k as f64,
                 u: 0.1,
+                u_common: 0.0,
             })
             .collect();
         let lim = Limit {
@@ -397,6 +448,7 @@ mod tests {
                 at: add_days(day(0.0), k as f64 * 5.0 / 1440.0).unwrap(),
                 value: 10.0 * k as f64,
                 u: 0.5,
+                u_common: 0.0,
             })
             .collect();
         match outlook(&s, Some(Limit::symmetric(5.0))) {
@@ -424,6 +476,7 @@ mod tests {
                     at: day(x),
                     value: truth(x) + noise.sample(rng),
                     u: 0.2,
+                    u_common: 0.0,
                 })
                 .collect();
             let line = TrendLine::fit(&s).unwrap();
@@ -446,6 +499,7 @@ mod tests {
                 at: day(x),
                 value: truth(x),
                 u: 0.2,
+                u_common: 0.0,
             })
             .collect();
         let Forecast::Reaches { u_days, .. } = forecast(&TrendLine::fit(&exact).unwrap(), lim)

@@ -68,6 +68,14 @@ impl Group {
         self as usize
     }
 
+    /// Whether its draw changes from one run of the test to the next: the
+    /// noise, where a piece or sphere is set up, the probe's pre-travel
+    /// (qualified anew with the probe). The linear axes' errors are the
+    /// machine's own and bias every run of the same design alike.
+    pub fn varies_per_run(self) -> bool {
+        matches!(self, Group::Noise | Group::Pretravel | Group::Setup)
+    }
+
     /// The name a report prints.
     pub fn name(self) -> &'static str {
         match self {
@@ -98,6 +106,17 @@ impl Budget {
     /// The standard uncertainty parameter `i` has from `group` alone.
     pub fn u_of(&self, i: usize, group: Group) -> f64 {
         self.variance[(i, group.index())].max(0.0).sqrt()
+    }
+
+    /// The part of parameter `i`'s `u` that varies from run to run
+    /// ([`Group::varies_per_run`]).
+    pub fn u_random(&self, i: usize) -> f64 {
+        Group::ALL
+            .iter()
+            .filter(|g| g.varies_per_run())
+            .map(|g| self.variance[(i, g.index())].max(0.0))
+            .sum::<f64>()
+            .sqrt()
     }
 
     /// The `n` largest contributors to parameter `i`, largest first, with

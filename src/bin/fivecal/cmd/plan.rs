@@ -151,7 +151,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
             )
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         outln!(
-            "--require all: met by two runs analysed together; the second, with a {} mm probe, is in {}",
+            "--require all: met by two runs analysed together (their u from the noise alone, a floor: analyze or discover of the measured runs states the full u); the second, with a {} mm probe, is in {}",
             run.probe_length,
             second_dir.display()
         );
