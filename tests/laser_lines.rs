@@ -147,10 +147,8 @@ fn every_builtin_machine_and_dialect_plans_within_the_strokes() {
                     }
                 }
                 for i in 0..l.targets.len() {
-                    let s = l.spindle_at(i);
-                    for k in 0..3 {
-                        let (lo, hi) = m.strokes[k];
-                        assert!(s[k] >= lo && s[k] <= hi, "{name} {d} {} target {i}", l.name);
+                    for (v, (lo, hi)) in l.spindle_at(i).iter().zip(m.strokes) {
+                        assert!(*v >= lo && *v <= hi, "{name} {d} {} target {i}", l.name);
                     }
                 }
                 // What the program is, first; a capture at every target in
