@@ -145,7 +145,7 @@ pub fn tabulate(
         };
         if r.run > runs {
             return Err(FiguresError::Incomplete(format!(
-                "line {}: run {} at {} mm, but the plan has {runs} runs",
+                "line {}: run {} at {} mm, but {runs} runs are expected",
                 run.line, r.run, r.target_mm
             )));
         }

@@ -88,8 +88,11 @@ pub fn analyze(plan: &LaserManifest, runs: &[PathBuf]) -> Result<LaserResult, La
             return Err(bad(format!("a second run file of line {}", run.line)));
         }
         let line = &plan.lines[k];
+        // The runs the file holds: an operator may stop early or run more
+        // than planned; the figures say how many they rest on.
+        let runs = run.readings.iter().map(|r| r.run).max().unwrap_or(0);
         let table =
-            iso230_2::tabulate(&run, &line.targets, plan.runs).map_err(|e| bad(e.to_string()))?;
+            iso230_2::tabulate(&run, &line.targets, runs).map_err(|e| bad(e.to_string()))?;
         let figures = iso230_2::figures(&line.name, &line.targets, &table, inst)
             .map_err(|e| bad(e.to_string()))?;
         found.push((

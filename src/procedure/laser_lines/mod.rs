@@ -195,6 +195,19 @@ pub fn plan(req: &LaserRequest) -> Result<LaserPlan, LaserError> {
     let v0 = Vector3::new(volume[0], volume[1], volume[2]);
     let v1 = Vector3::new(volume[3], volume[4], volume[5]);
     let span = v1 - v0;
+    for k in 0..3 {
+        // Targets are kept to the micrometre: a step below 0.1 mm would be
+        // rounded into unequal steps.
+        if span[k] / (req.divisions as f64) < 0.1 {
+            return Err(LaserError::Request(format!(
+                "volume {} .. {} mm along {} in {} divisions: steps below 0.1 mm; a larger volume or fewer divisions",
+                volume[k],
+                volume[k + 3],
+                AXES[k],
+                req.divisions
+            )));
+        }
+    }
     // (name, axis, offset axis)
     let layout: [(&str, usize, Option<usize>); 9] = [
         ("L1", 0, None),

@@ -6,7 +6,8 @@
 //! approaches every target from below (+) with a dwell for the
 //! interferometer's automatic capture, overruns the last target, approaches
 //! every target from above (-) with a dwell, and overruns the first; at the
-//! end it retracts. Coordinates are those of the zero point set on the
+//! end it retracts. The rotary axes stay at zero throughout (a head
+//! machine's spindle vertical). Coordinates are those of the zero point set on the
 //! volume's first corner (X0, Y0, Z0), with no tool length: the spindle's
 //! gauge point, where the reflector (or its bracket) is clamped.
 
@@ -154,7 +155,7 @@ pub fn header(req: &LaserRequest, volume: &[f64; 6], l: &LineEntry) -> Vec<Strin
         _ => v.push("reflector at the spindle gauge point P".into()),
     }
     v.push(format!(
-        "zero point {} on the volume corner X{} Y{} Z{} machine coordinates, no tool length",
+        "zero point {} on the volume corner X{} Y{} Z{} machine coordinates, no tool length, rotary axes at zero",
         req.dialect.work_offset(),
         volume[0],
         volume[1],
@@ -212,8 +213,9 @@ pub fn write(req: &LaserRequest, volume: &[f64; 6], l: &LineEntry) -> String {
             o.block("TOOL CALL 0 Z");
         }
     }
-    o.comment("retract, then above the overrun before the first target");
+    o.comment("retract, the rotary axes to zero, then above the overrun before the first target");
     o.rapid(&[('Z', safe)]);
+    o.rapid(&[(req.machine.tilt.letter, 0.0), ('C', 0.0)]);
     o.rapid(&[('X', before.x), ('Y', before.y)]);
     o.feed(&before, req.feed_mm_min);
     o.feed(&at(0), req.feed_mm_min);

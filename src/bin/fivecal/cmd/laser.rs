@@ -144,6 +144,12 @@ pub fn analyze(c: LaserAnalyzeConfig) -> anyhow::Result<()> {
                 .collect();
             outln!("  environment ({}): {}", l.format, env.join(", "));
         }
+        if l.figures.runs != man.runs {
+            eprintln!(
+                "warning: line {}: {} runs each way in the file, {} planned",
+                l.figures.line, l.figures.runs, man.runs
+            );
+        }
         if l.figures.runs < 5 {
             eprintln!(
                 "warning: line {}: {} runs each way; ISO 230-2 asks five",
