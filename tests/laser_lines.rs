@@ -390,3 +390,68 @@ fn the_readers_name_file_line_and_column() {
         assert!(e.starts_with(want), "{e}\nwanted {want}");
     }
 }
+
+/// Hostile input on the command line: a damaged run file, an option of
+/// the identification, a result naming an input. Each is refused with
+/// exit 2 and a message naming what is wrong, and nothing is written.
+#[test]
+fn analyze_refuses_bad_runs_foreign_options_and_an_output_over_an_input() {
+    let dir = crate::util::tempdir();
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/laser");
+    let plan_file = dir.path().join("small.plan.yaml");
+    std::fs::copy(fixtures.join("small.plan.yaml"), &plan_file).unwrap();
+    let good = fixtures.join("L4.txt");
+    let bad = dir.path().join("L4.txt");
+    let text = std::fs::read_to_string(&good).unwrap();
+    std::fs::write(&bad, text.replacen("0,1,+,0.0000", "0,1,+,zero", 1)).unwrap();
+    let result = dir.path().join("result.yaml");
+    let refused = |args: &[&std::ffi::OsStr], expect: &str| {
+        let o = crate::cli::fivecal().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(expect),
+            "{args:?}: expected `{expect}` in {err}"
+        );
+        assert!(!result.exists());
+    };
+    let os = |s: &str| std::ffi::OsStr::new(s).to_os_string();
+    let run = |extra: &[std::ffi::OsString], measured: &Path, out: &Path| {
+        let mut v = vec![
+            os("analyze"),
+            os("--plan"),
+            plan_file.clone().into_os_string(),
+        ];
+        v.extend(extra.iter().cloned());
+        v.extend([os("-o"), out.as_os_str().to_os_string(), os("--measured")]);
+        v.push(measured.as_os_str().to_os_string());
+        v
+    };
+    let a = run(&[], &bad, &result);
+    refused(
+        &a.iter().map(|s| s.as_os_str()).collect::<Vec<_>>(),
+        "L4.txt:10:7: expected a deviation in um",
+    );
+    let a = run(&[os("--mc"), os("10")], &good, &result);
+    refused(
+        &a.iter().map(|s| s.as_os_str()).collect::<Vec<_>>(),
+        "--mc does not apply to a laser-lines plan",
+    );
+    let a = run(&[], &good, &plan_file);
+    refused(
+        &a.iter().map(|s| s.as_os_str()).collect::<Vec<_>>(),
+        "small.plan.yaml",
+    );
+    // The good file: two runs each way, fewer than ISO 230-2's five.
+    let a = run(&[], &good, &result);
+    let o = crate::cli::fivecal().args(&a).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("ISO 230-2 asks five"));
+    let y: serde_yaml::Value =
+        serde_yaml::from_str(&std::fs::read_to_string(&result).unwrap()).unwrap();
+    assert_eq!(
+        y["lines"][0]["environment"]["compensation"].as_str(),
+        Some("automatic")
+    );
+    assert_eq!(y["not_measured"].as_sequence().unwrap().len(), 9);
+}
