@@ -371,7 +371,7 @@ fn linuxcnc_export_refuses_head_machines_and_names_what_trt_kins_cannot_hold() {
 
 /// `STRAIGHT_TRAVERSE`, `STRAIGHT_FEED` and `ARC_FEED` end points of an
 /// rs274 canonical trace: (X, Y, Z, B, C).
-fn trace(program: &Path) -> Vec<[f64; 5]> {
+pub(crate) fn trace(program: &Path) -> Vec<[f64; 5]> {
     let dir = program.parent().unwrap();
     let canon = dir.join(format!(
         "{}.canon",

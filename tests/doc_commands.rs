@@ -257,8 +257,16 @@ fn provide(word: &str, dir: &Path) {
         "my-dmu.yaml" => {
             std::fs::write(&path, crate::ball_bar::paper_machine_yaml("my-dmu")).unwrap();
         }
+        // docs/laser-lines.md: the paper's machine with machine
+        // coordinates that hold its measuring volume.
+        "my-dmu-laser.yaml" => {
+            std::fs::write(&path, crate::laser_lines::seed_machine_yaml("my-dmu-laser")).unwrap();
+        }
         // "a truth file": the commented example of the plan's machine.
-        "truth.yaml" if dir.join("bb/ball-bar.plan.yaml").exists() => {
+        "truth.yaml"
+            if dir.join("bb/ball-bar.plan.yaml").exists()
+                || dir.join("laser/laser-lines.plan.yaml").exists() =>
+        {
             let o = fivecal()
                 .args(["simulate", "--truth-example", "--machine", "head-table"])
                 .output()

@@ -83,6 +83,16 @@ fn readers() -> Vec<Reader> {
         ("manifest", |p, s| {
             Manifest::parse(p, s).err().and_then(located)
         }),
+        ("laser run", |p, s| {
+            fivecal::formats::laser::LaserRun::parse(p, s)
+                .err()
+                .and_then(located)
+        }),
+        ("laser plan", |p, s| {
+            fivecal::formats::laser::LaserManifest::parse(p, s)
+                .err()
+                .and_then(located)
+        }),
         ("yaml checks", |p, s| {
             fivecal::input::check_yaml(p, s).err().and_then(located)
         }),
@@ -108,6 +118,9 @@ fn seeds() -> Vec<String> {
         "examples/analyze/probe-sphere/PROBE.TXT",
         "examples/machines/bc-trunnion.yaml",
         "postprocessors/heidenhain.yaml",
+        "tests/fixtures/laser/worked-example.rtl",
+        "tests/fixtures/laser/L4.txt",
+        "tests/fixtures/laser/small.plan.yaml",
     ];
     files
         .iter()

@@ -29,6 +29,7 @@ mod hostile_round2;
 mod identifiability;
 mod identify;
 mod kinematics;
+mod laser_lines;
 mod machine;
 mod macros;
 mod measured;

@@ -26,6 +26,8 @@
 
 pub mod goodness;
 pub mod inputs;
+pub mod iso230_2;
+pub mod laser;
 pub mod method;
 pub mod preview;
 pub mod result;

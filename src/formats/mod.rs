@@ -11,6 +11,7 @@ pub mod dmis_program;
 pub mod encoding;
 pub mod heights;
 pub mod inventory;
+pub mod laser;
 pub mod manifest;
 pub mod measured;
 pub mod points;

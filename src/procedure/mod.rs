@@ -18,6 +18,7 @@
 
 pub mod ball_bar;
 mod bounds;
+pub mod laser_lines;
 mod load;
 pub mod machining;
 mod outputs;

@@ -45,6 +45,7 @@ pub mod ball_bar;
 pub mod cmm;
 pub mod cutting;
 pub mod forward;
+pub mod laser;
 pub mod machining;
 pub mod output;
 pub mod probing;

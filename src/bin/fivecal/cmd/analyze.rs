@@ -15,6 +15,9 @@ pub fn run(cli: AnalyzeCli) -> anyhow::Result<()> {
     match cli.mode {
         Some(AnalyzeMode::Contour(a)) => super::contour::run(a),
         None => {
+            if let Some(l) = cli.args.laser_lines() {
+                return super::laser::analyze(l?);
+            }
             let c = validate(*cli.args)?;
             if c.json_stdout {
                 // Standard output is the JSON's: what the run says goes

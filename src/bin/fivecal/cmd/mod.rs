@@ -11,6 +11,7 @@ pub mod demo;
 pub mod discover;
 pub mod docs;
 pub mod history;
+pub mod laser;
 pub mod machine;
 pub mod measured;
 pub mod plan;

@@ -21,6 +21,10 @@ pub fn run(args: PlanArgs) -> anyhow::Result<()> {
         Ok(cfg) => return super::ball_bar::plan(cfg?),
         Err(args) => *args,
     };
+    let args = match args.laser_lines() {
+        Ok(cfg) => return super::laser::plan(cfg?),
+        Err(args) => *args,
+    };
     let cfg = config(args)?;
     if cfg.json {
         // Standard output is the JSON's: what the run says goes to

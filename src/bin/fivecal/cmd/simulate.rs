@@ -48,6 +48,13 @@ fn simulate(c: Config) -> anyhow::Result<()> {
     if super::ball_bar::is_ball_bar(&c.plan_path) {
         return super::ball_bar::simulate(&c.plan_path, &c.errors, &c.out, c.ball_bar);
     }
+    if super::laser::is_laser(&c.plan_path) {
+        let opts = fivecal::simulate::laser::LaserOptions {
+            noise_um: c.ball_bar.noise_um,
+            seed: c.ball_bar.seed,
+        };
+        return super::laser::simulate(&c.plan_path, &c.errors, &c.out, opts);
+    }
     if c.json {
         // Standard output is the JSON's: what the run says goes to
         // standard error.

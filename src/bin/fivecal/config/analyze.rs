@@ -177,6 +177,43 @@ fn contributors(spec: Option<&str>) -> anyhow::Result<ContributorChoice> {
     })
 }
 
+impl AnalyzeArgs {
+    /// `analyze` of a laser-lines plan (its ISO 230-2 figures, see
+    /// `cmd/laser.rs`), when `--plan` is one; the identification's options
+    /// do not apply to it and are refused.
+    pub fn laser_lines(&self) -> Option<anyhow::Result<super::laser::LaserAnalyzeConfig>> {
+        let plan = self.plan.as_ref()?;
+        let src = std::fs::read_to_string(plan).ok()?;
+        if !fivecal::formats::laser::LaserManifest::sniff(&src) {
+            return None;
+        }
+        let given = [
+            ("--method", self.method.is_some()),
+            ("--mc", self.mc.is_some()),
+            ("--maps", !self.maps.is_empty()),
+            ("--series", self.series),
+            ("--compare", self.compare.is_some()),
+            ("--contributors", self.contributors.is_some()),
+            ("--noise", self.noise.is_some()),
+            ("--useful-u", self.useful_u.is_some()),
+            ("--limits", self.limits.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|(_, g)| *g) {
+            return Some(Err(anyhow::anyhow!(
+                "{flag} does not apply to a laser-lines plan ({}): its analysis is the ISO 230-2 figures of each line",
+                plan.display()
+            )));
+        }
+        Some(Ok(super::laser::LaserAnalyzeConfig {
+            plan: plan.clone(),
+            measured: self.measured.clone(),
+            out: self.out.clone()?,
+            json: self.json,
+            report: self.report.clone(),
+        }))
+    }
+}
+
 /// The validated configuration of one `analyze` run.
 pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     let manifest = a.plan.context("--plan is required")?;

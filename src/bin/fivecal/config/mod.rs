@@ -18,6 +18,7 @@ pub mod completions;
 pub mod demo;
 pub mod discover;
 pub mod history;
+pub mod laser;
 pub mod machine;
 pub mod measured;
 pub mod nc;

@@ -37,7 +37,8 @@ enum KinematicsArg {
 pub struct PlanArgs {
     /// The test: stepped-square (Ibaraki & Ota 2014), nine-section (Cubas Brizuela & Yeh 2023),
     /// probe-columns (Ibaraki, Iritani & Matsushita 2013), probe-sphere (the LAMDAMAP 2015 paper; Cubas Brizuela & Yeh 2023)
-    /// or ball-bar (the ball bar under TCP, Jiang et al.; with --bar).
+    /// ball-bar (the ball bar under TCP, Jiang et al.; with --bar) or laser-lines (the laser
+    /// interferometer's ten lines, ISO 230-2 cycles; Jiang et al.).
     /// Not needed with --supplement.
     #[arg(required_unless_present = "supplement")]
     test: Option<String>,
@@ -95,6 +96,8 @@ pub struct PlanArgs {
     json: bool,
     #[command(flatten)]
     ball_bar: super::ball_bar::BallBarArgs,
+    #[command(flatten)]
+    laser: super::laser::LaserArgs,
 }
 
 impl PlanArgs {
@@ -111,6 +114,24 @@ impl PlanArgs {
             self.dialect,
             self.out,
             self.ball_bar,
+        ))
+    }
+}
+
+impl PlanArgs {
+    /// `plan laser-lines` (its own configuration in `config/laser.rs`), or
+    /// the other tests' args.
+    pub fn laser_lines(
+        self,
+    ) -> Result<anyhow::Result<super::laser::LaserPlanConfig>, Box<PlanArgs>> {
+        if self.test.as_deref() != Some("laser-lines") {
+            return Err(Box::new(self));
+        }
+        Ok(super::laser::config(
+            self.machine.as_deref(),
+            self.dialect,
+            self.out,
+            self.laser,
         ))
     }
 }

@@ -1,0 +1,180 @@
+//! `fivecal plan laser-lines`, `fivecal simulate` and `fivecal analyze` on
+//! a laser-lines plan: the laser interferometer's ten lines and their ISO
+//! 230-2 figures (docs/laser-lines.md).
+
+use std::path::Path;
+
+use anyhow::Context as _;
+use fivecal::ErrorFile;
+use fivecal::formats::laser::LaserManifest;
+use fivecal::io::{Shape, check_outputs};
+use fivecal::simulate::laser::{LaserOptions, simulate as simulate_runs};
+
+use crate::config::laser::{LaserAnalyzeConfig, LaserPlanConfig};
+
+/// Plans and writes the ten lines.
+pub fn plan(cfg: LaserPlanConfig) -> anyhow::Result<()> {
+    let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
+    check_outputs(&inputs, &[("--out", &cfg.out, Shape::Dir)])?;
+    let req = &cfg.request;
+    let planned = fivecal::procedure::laser_lines::plan(req).with_context(|| {
+        format!(
+            "cannot plan laser-lines on {} ({})",
+            req.machine.name, req.dialect
+        )
+    })?;
+    let written = planned
+        .write(&cfg.out, &inputs)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let minutes: f64 = planned
+        .lines
+        .iter()
+        .map(|l| planned.seconds(l))
+        .sum::<f64>()
+        / 60.0;
+    outln!(
+        "laser-lines on {}: {} lines, {} targets each, {} runs each way, about {:.0} min of measuring ({} dialect)",
+        req.machine.name,
+        planned.lines.len(),
+        req.divisions + 1,
+        req.runs,
+        minutes,
+        req.dialect
+    );
+    for l in &planned.lines {
+        outln!(
+            "  {:<4} {:<3} from {:.1},{:.1},{:.1} over {} mm, offset by {}",
+            l.name,
+            l.axes,
+            l.start[0],
+            l.start[1],
+            l.start[2],
+            l.targets[l.targets.len() - 1],
+            l.offset_by
+        );
+    }
+    outln!("note: {}", cfg.origin);
+    for n in &planned.notes {
+        outln!("note: {n}");
+    }
+    for w in written {
+        outln!("wrote {}", w.display());
+    }
+    Ok(())
+}
+
+/// Whether the plan file at `path` is a laser-lines plan.
+pub fn is_laser(path: &Path) -> bool {
+    std::fs::read_to_string(path).is_ok_and(|s| LaserManifest::sniff(&s))
+}
+
+/// Writes one run file per line of the plan `plan_path` into `out`.
+pub fn simulate(
+    plan_path: &Path,
+    errors: &Path,
+    out: &Path,
+    opts: LaserOptions,
+) -> anyhow::Result<()> {
+    let man = LaserManifest::read(plan_path)?;
+    let dir = plan_path.parent().unwrap_or(Path::new("."));
+    let machine_path = dir.join(&man.machine_file);
+    let machine_text = fivecal::input::read_text(
+        &machine_path,
+        "laser-lines plan's machine copy",
+        fivecal::limits::MAX_YAML_BYTES,
+    )?;
+    let machine = fivecal::Machine::from_yaml(&machine_path, &machine_text)?;
+    let inputs = [plan_path, errors, machine_path.as_path()];
+    check_outputs(&inputs, &[("--out", out, Shape::Dir)])?;
+    let (truth, src) = ErrorFile::read(errors)?;
+    let runs = simulate_runs(&man, &machine, &truth, errors, &src, &opts).with_context(|| {
+        format!(
+            "cannot simulate {} with the errors of {}",
+            plan_path.display(),
+            errors.display()
+        )
+    })?;
+    let mut stage = fivecal::io::StagedDir::create(out).map_err(|e| anyhow::anyhow!("{e}"))?;
+    for r in &runs {
+        let name = std::path::PathBuf::from(format!("{}.txt", r.line));
+        fivecal::io::ensure_not_input(&out.join(&name), &inputs)
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        stage
+            .write(&name, r.to_text().as_bytes())
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    let written = stage.commit().map_err(|e| anyhow::anyhow!("{e}"))?;
+    outln!(
+        "simulated {} laser lines on {} (seed {}, reading noise {} um)",
+        runs.len(),
+        machine.name,
+        opts.seed,
+        opts.noise_um.unwrap_or(man.reading_u_um)
+    );
+    outln!(
+        "note: the model has no angular error motions and no reversal of the linear axes: the offset lines read what their base line reads (docs/laser-lines.md)"
+    );
+    for w in written {
+        outln!("wrote {}", w.display());
+    }
+    Ok(())
+}
+
+/// The ISO 230-2 figures of each measured line.
+pub fn analyze(c: LaserAnalyzeConfig) -> anyhow::Result<()> {
+    let man = LaserManifest::read(&c.plan)?;
+    let mut inputs: Vec<&Path> = vec![c.plan.as_path()];
+    inputs.extend(c.measured.iter().map(|p| p.as_path()));
+    let mut outs = vec![("--out", c.out.as_path(), Shape::File)];
+    if let Some(r) = &c.report {
+        outs.push(("--report", r.as_path(), Shape::Dir));
+    }
+    check_outputs(&inputs, &outs)?;
+    let result = fivecal::analyze::laser::analyze(&man, &c.measured)?;
+    if c.json {
+        crate::out::to_stderr();
+    }
+    for l in &result.lines {
+        out!("{}", l.figures.render());
+        if !l.environment.is_empty() {
+            let env: Vec<String> = l
+                .environment
+                .iter()
+                .map(|(k, v)| format!("{k} {v}"))
+                .collect();
+            outln!("  environment ({}): {}", l.format, env.join(", "));
+        }
+        if l.figures.runs != man.runs {
+            eprintln!(
+                "warning: line {}: {} runs each way in the file, {} planned",
+                l.figures.line, l.figures.runs, man.runs
+            );
+        }
+        if l.figures.runs < 5 {
+            eprintln!(
+                "warning: line {}: {} runs each way; ISO 230-2 asks five",
+                l.figures.line, l.figures.runs
+            );
+        }
+    }
+    outln!("u: {}", result.uncertainty);
+    if !result.not_measured.is_empty() {
+        outln!("not measured: {}", result.not_measured.join(", "));
+    }
+    let json_file = fivecal::analyze::laser::LaserResult::json_name(&c.out);
+    fivecal::io::write_atomic(&c.out, result.to_text(json_file).as_bytes())
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    outln!("wrote {}", c.out.display());
+    if c.json {
+        crate::out::json(&result.to_text(true))?;
+    }
+    if let Some(dir) = &c.report {
+        let files = fivecal::report::laser::write(dir, &result)?;
+        outln!(
+            "report: {} ({} files)",
+            dir.join("index.html").display(),
+            files.len()
+        );
+    }
+    Ok(())
+}
