@@ -640,21 +640,13 @@ const LAYERS: [(&str, &[&str]); 13] = [
 /// Loops inside a folder that are still there, each with the members of
 /// its loop and why it is not broken yet. The test fails when one of them
 /// changes or goes (then this list shrinks), and on any other loop.
-const KNOWN_FOLDER_LOOPS: [(&str, &[&str], &str); 2] = [
-    (
-        "compensate",
-        &["correction", "engine", "writer"],
-        "one type, Compensator, is defined in engine.rs and has impl blocks in correction.rs \
-         and writer.rs, which also use each other's types",
-    ),
-    (
-        "procedure",
-        &["bounds", "machining", "outputs", "probing", "template"],
-        "Template (template.rs) holds every test's template while both plans hold a Template; \
+const KNOWN_FOLDER_LOOPS: [(&str, &[&str], &str); 1] = [(
+    "procedure",
+    &["bounds", "machining", "outputs", "probing", "template"],
+    "Template (template.rs) holds every test's template while both plans hold a Template; \
          TemplateSource sits with it and bounds.rs checks against it; outputs.rs writes the \
          plans and holds the number helpers they use",
-    ),
-];
+)];
 
 fn top_level_graph() -> Graph {
     folder_graph(library_files(), &[])

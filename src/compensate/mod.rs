@@ -27,6 +27,7 @@
 //! block is in memory at a time.
 
 pub mod against;
+mod compensator;
 mod correction;
 mod edit;
 mod engine;
@@ -45,7 +46,7 @@ use std::path::PathBuf;
 use nalgebra::Vector3;
 
 pub use crate::io::AtomicOutput;
-pub use engine::Compensator;
+pub use compensator::Compensator;
 pub use report::{Rewrite, by_kind, reasons, rotary_start_note};
 pub use solver::{Solution, Solver};
 
