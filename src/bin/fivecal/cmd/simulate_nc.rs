@@ -11,8 +11,7 @@ use fivecal::numbers::count;
 
 use serde::Serialize;
 
-use crate::config::nc::load_errors;
-use crate::config::simulate::{NcConfig, SimulateNcArgs};
+use crate::config::{nc::load_errors, simulate::NcConfig, simulate::SimulateNcArgs};
 use crate::out::{AtLine, ReasonLines};
 
 pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
@@ -24,17 +23,15 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
     }
     let common = &args.common;
     let errors = load_errors(&args.errors, &common.kin)?;
-    let cmm_points = match &args.cmm {
-        Some(p) => {
-            let src = fivecal::input::read_text(
-                p,
-                "points file",
-                fivecal::limits::MAX_MEASUREMENT_BYTES,
-            )?;
-            Some(measured::parse_csv(p, &src)?)
-        }
-        None => None,
-    };
+    let cmm_points = args
+        .cmm
+        .as_ref()
+        .map(|p| -> anyhow::Result<_> {
+            let limit = fivecal::limits::MAX_MEASUREMENT_BYTES;
+            let src = fivecal::input::read_text(p, "points file", limit)?;
+            Ok(measured::parse_csv(p, &src)?)
+        })
+        .transpose()?;
     let step = args.step;
     let settings_for = |dialect| {
         let mut settings = SimSettings::new(dialect);
@@ -47,27 +44,26 @@ pub fn run(args: SimulateNcArgs) -> anyhow::Result<()> {
         settings.step = step;
         settings
     };
-    let intended = match &args.against {
-        Some(original) => {
+    let intended = args
+        .against
+        .as_ref()
+        .map(|original| -> anyhow::Result<_> {
             let (detection, file) = common.open_program(original)?;
             let settings = settings_for(detection.dialect);
-            Some(IntendedPath::of_program(
+            Ok(IntendedPath::of_program(
                 &errors.model,
                 settings,
                 original,
                 file,
             )?)
-        }
-        None => None,
-    };
-    let mut follower = match &intended {
-        Some((path, _)) => Some(Follower::new(path).ok_or_else(|| {
-            anyhow::anyhow!(
-                "{}: its moves make no path to measure against (fewer than two points)",
-                args.against.as_ref().unwrap().display()
-            )
+        })
+        .transpose()?;
+    let mut follower = match (&intended, &args.against) {
+        (Some((path, _)), Some(original)) => Some(Follower::new(path).ok_or_else(|| {
+            let why = "its moves make no path to measure against (fewer than two points)";
+            anyhow::anyhow!("{}: {why}", original.display())
         })?),
-        None => None,
+        _ => None,
     };
     let (detection, file) = common.open_program(&args.program)?;
     let sim = Simulator::new(
