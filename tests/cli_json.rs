@@ -308,7 +308,7 @@ fn history_trend_and_plot_json_say_what_the_text_and_the_page_hold() {
             o => panic!("outlook {o}"),
         };
         assert!(line.contains(words), "{line} against {s}");
-        assert_eq!(s["results"].as_u64().is_some(), true, "{s}");
+        assert!(s["results"].as_u64().is_some(), "{s}");
     }
     assert_eq!(trend["machine"], "bc-trunnion", "{trend}");
 
