@@ -262,10 +262,69 @@ fn history_list_and_show_json_are_the_exports_records() {
             .arg(&db),
     );
     assert_eq!(&show, second);
-    // trend and plot have no JSON: said, not ignored.
+    // export has its own --json: the global one before it is refused,
+    // not ignored.
     fivecal()
-        .args(["history", "--json", "trend", "--db"])
+        .args(["history", "--json", "export", "--db"])
         .arg(&db)
         .assert()
         .failure();
+}
+
+/// `history trend --json` holds what `history trend` prints, one entry per
+/// location error in its order, the outlook in the words of the text;
+/// `history plot --json` names the page and every file it wrote.
+#[test]
+fn history_trend_and_plot_json_say_what_the_text_and_the_page_hold() {
+    let db = demo_file("history.db");
+    let (trend, stderr) = json_run(
+        fivecal()
+            .args(["history", "trend", "--json", "--db"])
+            .arg(&db),
+    );
+    assert!(stderr.is_empty() || !stderr.contains("trends"), "{stderr}");
+    let text = fivecal()
+        .args(["history", "trend", "--db"])
+        .arg(&db)
+        .output()
+        .unwrap();
+    let text = String::from_utf8(text.stdout).unwrap();
+    let symbols = trend["symbols"].as_array().unwrap();
+    assert!(!symbols.is_empty(), "{trend}");
+    let lines: Vec<&str> = text
+        .lines()
+        .skip(1)
+        .filter(|l| !l.contains("left out:"))
+        .collect();
+    assert_eq!(lines.len(), symbols.len(), "{text}\n{trend}");
+    for (s, line) in symbols.iter().zip(&lines) {
+        let name = s["symbol"].as_str().unwrap();
+        assert_eq!(line.split_whitespace().next(), Some(name), "{line}");
+        let words = match s["outlook"].as_str().unwrap() {
+            "too-few" => "too few",
+            "too-short" => "too short",
+            "no-trend" => "no trend",
+            "drifting" => "drift",
+            o => panic!("outlook {o}"),
+        };
+        assert!(line.contains(words), "{line} against {s}");
+        assert!(s["results"].as_u64().is_some(), "{s}");
+    }
+    assert_eq!(trend["machine"], "bc-trunnion", "{trend}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("page");
+    let (plot, _) = json_run(
+        fivecal()
+            .args(["history", "plot", "--json", "--db"])
+            .arg(&db)
+            .arg("-o")
+            .arg(&page),
+    );
+    assert_eq!(plot["page"], page.join("index.html").display().to_string());
+    let files = strings(&plot["files"]);
+    assert_eq!(files.len(), symbols.len() + 1, "{plot}");
+    for f in files {
+        assert!(Path::new(&f).is_file(), "{f}");
+    }
 }

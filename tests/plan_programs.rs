@@ -476,10 +476,18 @@ fn heidenhain_programs_keep_the_rules() {
 #[test]
 fn the_rule_check_catches_a_missing_retract() {
     let t = planned("bc-trunnion", "stepped-square", Dialect::Fanuc);
-    let text = t
-        .program
-        .text
-        .replacen("G0 Z145.\n(POSE B0C90", "G0 Z100.\n(POSE B0C90", 1);
+    // The retract before the second pose (its height follows the riser
+    // the plan chose), lowered to Z100, below the safe height.
+    let p = &t.program.text;
+    let at = p.find("\n(POSE B0C90").unwrap();
+    let retract = &p[p[..at].rfind('\n').unwrap() + 1..at];
+    assert!(retract.contains("G0 Z") && t.safe_z > 100.0, "{retract}");
+    let lowered = format!("{}Z100.", &retract[..retract.find('Z').unwrap()]);
+    let text = p.replacen(
+        &format!("{retract}\n(POSE B0C90"),
+        &format!("{lowered}\n(POSE B0C90"),
+        1,
+    );
     assert_ne!(text, t.program.text);
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         check_rules(&t, &fanuc_blocks(&text), true)

@@ -321,10 +321,19 @@ fn sinumerik_probing_programs_measure_each_touch_along_its_planned_line() {
 fn a_missing_retract_or_a_rotary_out_of_limits_is_caught() {
     let t = machining("bc-trunnion", "stepped-square", None);
     let m = &t.machine;
-    let broken = t
-        .program
-        .text
-        .replacen("G0 Z145\n; pose B90", "; pose B90", 1);
+    // The retract before the first side pose (its height follows the
+    // riser the plan chose), taken out.
+    let p = &t.program.text;
+    let at = p.find("\n; pose B90").unwrap();
+    let retract = &p[p[..at].rfind('\n').unwrap() + 1..at];
+    assert!(retract.contains("G0 Z"), "{retract}");
+    // (its block number stays: the block is left empty)
+    let kept = &retract[..retract.find("G0").unwrap()];
+    let broken = p.replacen(
+        &format!("{retract}\n; pose B90"),
+        &format!("{kept}; pose B90"),
+        1,
+    );
     assert_ne!(broken, t.program.text);
     let e = check_rules(&broken, m, "stepped-square", t.safe_z).unwrap_err();
     assert!(e.contains("not right after a retract"), "{e}");

@@ -240,7 +240,7 @@ pub fn run(cfg: &DemoConfig, progress: &mut dyn FnMut(Stage)) -> Result<Demo, De
     let report_dir = out.join("report");
     for p in crate::report::write(
         &report_dir,
-        &crate::report::ReportInput::for_piece(identified.test.as_str(), analysis),
+        &crate::report::ReportInput::for_piece(identified.test.as_str(), analysis, &manifest_path),
     )
     .at(e)?
     {

@@ -16,7 +16,7 @@ use super::story::{CandidateVerdict, Story};
 use crate::identify::Dataset;
 use crate::io::StagedDir;
 use crate::report::ReportError;
-use crate::report::plots::{self, PlotResult, err};
+use crate::report::plots::{self, PlotResult, TEXT, err, tick};
 
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -43,7 +43,7 @@ pub(crate) fn gap_plot(labels: &[String], rms: &[f64], max: &[f64], sigma: f64) 
             * 1.12
             + 1e-6;
         let mut chart = ChartBuilder::on(&root)
-            .caption("the gap, step by step", ("sans-serif", 18))
+            .caption("the gap, step by step", ("sans-serif", TEXT + 4))
             .margin(12)
             .x_label_area_size(48)
             .y_label_area_size(60)
@@ -61,7 +61,11 @@ pub(crate) fn gap_plot(labels: &[String], rms: &[f64], max: &[f64], sigma: f64) 
                     String::new()
                 }
             })
-            .y_desc("um")
+            .label_style(("sans-serif", TEXT))
+            .axis_desc_style(("sans-serif", TEXT))
+            .y_label_formatter(&tick)
+            .x_desc("after each step of the search")
+            .y_desc("gap, um")
             .draw()
             .map_err(err)?;
         let series = |v: &[f64]| -> Vec<(f64, f64)> {
@@ -98,11 +102,12 @@ pub(crate) fn gap_plot(labels: &[String], rms: &[f64], max: &[f64], sigma: f64) 
                     BLACK.mix(0.5),
                 )))
                 .map_err(err)?
-                .label("final residual sigma")
+                .label("final residual standard deviation")
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
         }
         chart
             .configure_series_labels()
+            .label_font(("sans-serif", TEXT))
             .border_style(BLACK.mix(0.3))
             .background_style(WHITE.mix(0.8))
             .draw()
@@ -157,6 +162,7 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
     ambiguity_section(&mut h, s);
     steps_section(&mut h, s, &value_figs);
     h.push_str("<h2>Residual patterns</h2>\n<div class=grid>\n<figure><img src=\"residuals-before.svg\" alt=\"before\"><figcaption>before: the starting model</figcaption></figure>\n<figure><img src=\"residuals-after.svg\" alt=\"after\"><figcaption>after: the final model</figcaption></figure>\n</div>\n");
+    h.push_str(&crate::report::pose_key(data));
     gap_tables(&mut h, &s.start.gap, &s.end.gap);
     last_round_section(&mut h, s);
     notes_section(&mut h, s, data);
@@ -165,6 +171,15 @@ pub fn write(dir: &Path, d: &Discovery, data: &Dataset) -> Result<Vec<PathBuf>, 
         "<h2>The story as printed</h2>\n<pre>{}</pre>",
         esc(&s.render())
     );
+    let next = if s.ambiguity.is_some() {
+        "The search stopped at an ambiguity: plan the supplementary test it names (<code>fivecal plan --supplement</code>), run and measure it, and run <code>fivecal discover</code> on both runs' measurements.".to_string()
+    } else {
+        format!(
+            "Compensate with the model found: its error file (<code>discover --out</code>) goes to <code>fivecal compensate --machine {m} --errors MODEL.yaml</code> (a part program, or <code>--export</code> to the control); after the change, run the test again and compare with <code>fivecal verify</code>.",
+            m = esc(&s.machine)
+        )
+    };
+    let _ = writeln!(h, "<h2>Next step</h2>\n<p>{next}</p>");
     h.push_str("</body></html>\n");
     put(&mut files, "index.html", h.as_bytes())?;
     Ok(files.commit()?)
@@ -255,7 +270,7 @@ fn html_head(h: &mut String, s: &Story, data: &Dataset) {
     let title = format!("discover: {} on {}", s.test, s.machine);
     let _ = write!(
         h,
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse;margin:0 1em 1em 0}}td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}th{{background:#eee}}td.l{{text-align:left}}pre{{background:#f6f6f6;padding:8px;white-space:pre-wrap}}.grid{{display:flex;flex-wrap:wrap;align-items:flex-start}}.grid img{{width:540px}}</style></head><body>\n<h1>{t}</h1>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse;margin:0 1em 1em 0}}td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}th{{background:#eee}}td.l{{text-align:left}}pre{{background:#f6f6f6;padding:8px;white-space:pre-wrap;overflow-wrap:anywhere}}figure{{margin:0 8px 8px 0}}.key span{{white-space:nowrap;margin-right:8px}}.grid{{display:flex;flex-wrap:wrap;align-items:flex-start}}.grid img{{width:540px}}</style></head><body>\n<h1>{t}</h1>\n",
         t = esc(&title)
     );
     let _ = writeln!(

@@ -6,6 +6,7 @@
 //! compensation ([`compare`]).
 
 pub mod compare;
+mod json;
 pub mod page;
 pub mod trend;
 
@@ -19,6 +20,7 @@ use serde::{Deserialize, Serialize};
 use crate::conformance::{AcceptanceLimits, unit_of};
 use crate::errorfile::Quantity;
 use crate::store::{FileRole, FitVerdict, RecordKind, Stored, format_time};
+pub use json::trends_to_json;
 use trend::{Outlook, TrendSample};
 
 /// The location errors of a result file's text (YAML or JSON), or `None`

@@ -27,8 +27,20 @@ pub fn write(
     let origin: Option<Timestamp> = h.records.iter().map(|r| r.record.measured_at).min();
     let origin = origin.unwrap_or_else(Timestamp::now);
     let x = |t: Timestamp| trend::days_between(origin, t);
+    // A series within a week gets the time on its axis: a date alone
+    // labels every tick of one day's measurements the same.
+    let span = h
+        .records
+        .iter()
+        .map(|r| x(r.record.measured_at))
+        .fold(0.0_f64, f64::max);
+    let (format, x_desc) = if span <= 7.0 {
+        ("%m-%d %H:%M", "date and time (UTC)")
+    } else {
+        ("%Y-%m-%d", "date (UTC)")
+    };
     let label = |d: f64| {
-        trend::add_days(origin, d).map_or(String::new(), |t| t.strftime("%Y-%m-%d").to_string())
+        trend::add_days(origin, d).map_or(String::new(), |t| t.strftime(format).to_string())
     };
     let exports: Vec<f64> = h.exports.iter().map(|e| x(e.at)).collect();
     let outlooks = h.outlooks(limits);
@@ -84,6 +96,7 @@ pub fn write(
             limit: limits.get(&series.symbol).map(|l| (l.lower, l.upper)),
             trend,
             x_label: &label,
+            x_desc,
         })
         .map_err(|e| ReportError::Plot(file.clone(), e))?;
         let p = dir.join(&file);
@@ -150,9 +163,48 @@ pub fn write(
             esc(&c.result_name)
         );
     }
-    page.push_str("</table>\n</body></html>\n");
+    page.push_str("</table>\n");
+    let _ = writeln!(page, "<h2>Next step</h2>\n<p>{}</p>", next_step(&outlooks));
+    page.push_str("</body></html>\n");
     let p = dir.join("index.html");
     write_atomic(&p, page.as_bytes())?;
     files.push(p);
     Ok(files)
+}
+
+/// What to do after reading the page: measure again before the first
+/// trend reaches its limit, else keep the interval.
+fn next_step(outlooks: &[(&super::SymbolHistory, Outlook)]) -> String {
+    let first = outlooks
+        .iter()
+        .filter_map(|(s, o)| match o {
+            Outlook::Drifting {
+                forecast: Forecast::Reaches { at, .. },
+                ..
+            } => Some((*at, &s.symbol)),
+            _ => None,
+        })
+        .min_by_key(|(at, _)| *at);
+    if let Some((s, _)) = outlooks.iter().find(|(_, o)| {
+        matches!(
+            o,
+            Outlook::Drifting {
+                forecast: Forecast::Beyond { .. },
+                ..
+            }
+        )
+    }) {
+        return format!(
+            "{}'s trend is already beyond its acceptance limit: run the test now, export the new result to the control (<code>fivecal compensate --export</code>) and compare before and after with <code>fivecal verify</code>.",
+            esc(&s.symbol)
+        );
+    }
+    match first {
+        Some((at, symbol)) => format!(
+            "{} reaches its acceptance limit about {} (UTC): run the test again before then and export the new result to the control (<code>fivecal compensate --export</code>), then compare before and after with <code>fivecal verify</code>.",
+            esc(symbol),
+            esc(&short_time(at))
+        ),
+        None => "No trend reaches its limit: keep the measurement interval, and record the next result with <code>fivecal analyze</code> (each analysis is recorded unless <code>--no-record</code>); <code>fivecal history trend</code> prints the trends in numbers.".to_string(),
+    }
 }

@@ -128,6 +128,10 @@ pub enum PlanError {
         /// What.
         collision: Box<probing::Collision>,
     },
+    /// The tool holder or spindle nose of a machining test would meet the
+    /// table, the riser or the block.
+    #[error("{0}")]
+    Assembly(Box<machining::assembly::AssemblyCollision>),
     /// The postprocessor could not render the toolpath.
     #[error(transparent)]
     Post(#[from] PostError),

@@ -39,11 +39,15 @@ pub struct ReportInput<'a> {
     pub mc: Option<&'a McResult>,
     /// The error file written.
     pub error_file: &'a ErrorFile,
+    /// The `fivecal discover` command on the same plan and measurements,
+    /// as `analyze` prints it under a misfit.
+    pub discover: String,
 }
 
 impl<'a> ReportInput<'a> {
-    /// The report of an analysed piece of test `test`.
-    pub fn for_piece(test: &str, piece: &'a IdentifiedPiece) -> ReportInput<'a> {
+    /// The report of an analysed piece of test `test`, planned in the
+    /// plan file `manifest`.
+    pub fn for_piece(test: &str, piece: &'a IdentifiedPiece, manifest: &Path) -> ReportInput<'a> {
         ReportInput {
             title: format!("{test}: {}", piece.name()),
             data: &piece.data,
@@ -51,6 +55,7 @@ impl<'a> ReportInput<'a> {
             u: piece.u.clone(),
             mc: piece.monte_carlo.as_ref().map(|s| &s.result),
             error_file: &piece.file,
+            discover: crate::analyze::goodness::discover_command(manifest, &piece.data.files),
         }
     }
 }
@@ -125,7 +130,7 @@ pub(crate) fn magnification(max_dev_um: f64, extent_mm: f64, fraction: f64) -> f
 /// The opening of a report page in the reports' style, up to its `<h1>`.
 pub(crate) fn page_start(title: &str) -> String {
     format!(
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}th{{background:#eee}}td.l{{text-align:left}}pre{{background:#f6f6f6;padding:8px}}.grid{{display:flex;flex-wrap:wrap}}.grid img{{width:540px}}</style></head><body>\n<h1>{t}</h1>\n",
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}th{{background:#eee}}td.l{{text-align:left}}pre{{background:#f6f6f6;padding:8px;white-space:pre-wrap;overflow-wrap:anywhere}}.grid{{display:flex;flex-wrap:wrap}}.grid img{{width:540px}}figure{{margin:0 8px 8px 0}}.key span{{white-space:nowrap;margin-right:8px}}</style></head><body>\n<h1>{t}</h1>\n",
         t = esc(title)
     )
 }
@@ -161,7 +166,13 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         )?
         .as_bytes(),
     )?;
-    put(&mut files, "piece.glb", &glb::glb(&shown, mag))?;
+    let poses: Vec<(String, Vec<usize>)> = r
+        .data
+        .poses
+        .iter()
+        .map(|p| (p.id.clone(), p.obs.clone()))
+        .collect();
+    put(&mut files, "piece.glb", &glb::glb(&shown, mag, &poses))?;
     let h = page(r, &figs, &pose_figs, mag);
     put(&mut files, "index.html", h.as_bytes())?;
     Ok(files.commit()?)
@@ -363,7 +374,7 @@ fn pose_figures(
         put(
             files,
             &file,
-            plot(&file, plots::pose_plot(&title, &views, max_dev))?.as_bytes(),
+            plot(&file, plots::pose_plot(&title, &views, max_dev, mag))?.as_bytes(),
         )?;
         pose_figs.push(file);
     }
@@ -402,12 +413,13 @@ fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], ma
     results_section(&mut h, r, figs);
     let _ = writeln!(
         h,
-        "<h2>Measured deviations, magnified x{mag}</h2>\n<p>Dots: nominal points; circles: measured points with the deviation along the normal magnified (blue: into the material, red: proud). The same in 3-D: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>"
+        "<h2>Measured deviations, magnified x{mag}</h2>\n<p>Dots: nominal points; circles: measured points, their deviation along the surface normal magnified {mag} times (the bar in each plot: that many um, drawn magnified); blue: measured inside the nominal surface, red: outside it. The same in 3-D, one colour per pose: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>"
     );
     for f in pose_figs {
         let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
     }
     h.push_str("</div>\n<h2>Residuals</h2>\n<img src=\"residuals.svg\" alt=\"residuals\">\n");
+    h.push_str(&pose_key(data));
     h.push_str("<table><tr><th>pose</th><th>face</th><th>points</th><th>mean um</th><th>rms um</th><th>max um</th></tr>\n");
     for row in est.residual_table(data) {
         let _ = writeln!(
@@ -430,8 +442,49 @@ fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], ma
         }
         h.push_str("</ul>\n");
     }
+    let _ = writeln!(h, "<h2>Next step</h2>\n<p>{}</p>", next_step(r));
     h.push_str("</body></html>\n");
     h
+}
+
+/// The colour of the `k`-th pose: its dots in the residual plot (the
+/// page's key lists the poses in these colours) and its segments in the
+/// `.glb`.
+pub(crate) fn pose_colour(k: usize) -> (u8, u8, u8) {
+    use plotters::style::{Color as _, Palette as _};
+    let c = plotters::style::Palette99::pick(k).to_rgba();
+    (c.0, c.1, c.2)
+}
+
+/// The residual plot's key: each pose in the colour the plot gives it.
+pub(crate) fn pose_key(data: &Dataset) -> String {
+    let mut h = String::from("<p class=key>Poses: ");
+    for (k, p) in data.poses.iter().enumerate() {
+        let (r, g, b) = pose_colour(k);
+        let _ = write!(
+            h,
+            "<span><b style=\"color:#{r:02x}{g:02x}{b:02x}\">&#9679;</b> {}</span> ",
+            esc(&p.id)
+        );
+    }
+    h.push_str("</p>\n");
+    h
+}
+
+/// What to do with this result, by its fit verdict.
+fn next_step(r: &ReportInput<'_>) -> String {
+    use crate::errorfile::FitVerdict;
+    match r.error_file.fit.as_ref().map(|f| f.verdict) {
+        Some(FitVerdict::NotConverged) => "The values are no estimate. Look at the residual table for a pose or face far off the rest (a mislabelled point, a wrong plan or measurement file), correct it and run <code>fivecal analyze</code> again; if nothing stands out, try another <code>--method</code>.".to_string(),
+        Some(FitVerdict::Misfit) => format!(
+            "Find the effect the model lacks, on the same plan and measurements:<pre>{}</pre>then compensate with the model it finds.",
+            esc(&r.discover)
+        ),
+        _ => format!(
+            "Export the result to the control (<code>fivecal compensate --machine {m} --errors RESULT --export CONTROLLER</code>, RESULT the result file analyze wrote) or compensate part programs with it (<code>fivecal compensate --machine {m} --errors RESULT PART.nc -o PART-comp.nc</code>); after the change, run the test again and compare the two results with <code>fivecal verify</code>.",
+            m = esc(&r.est.model.kin.machine().name)
+        ),
+    }
 }
 
 /// The page's fit verdict, if the result file has one: a warning box when
@@ -465,8 +518,9 @@ fn fit_section(h: &mut String, r: &ReportInput<'_>) {
         } else if f.verdict == crate::errorfile::FitVerdict::Misfit {
             let _ = writeln!(
                 h,
-                "<div style=\"border:3px solid #c00;background:#fee;padding:8px\"><b>Verdict: the model does not fit.</b> {} The values are biased by an effect the model lacks (or the stated noise is too small); their u is widened by the ratio, and <code>fivecal compensate</code> refuses this result without <code>--accept-misfit</code>. Run <code>fivecal discover</code> on the same plan and measurements to find the missing effect.</div>",
-                esc(&line)
+                "<div style=\"border:3px solid #c00;background:#fee;padding:8px\"><b>Verdict: the model does not fit.</b> {} The values are biased by an effect the model lacks (or the stated noise is too small); their u is widened by the ratio, and <code>fivecal compensate</code> refuses this result without <code>--accept-misfit</code>. Find the missing effect with:<pre>{}</pre></div>",
+                esc(&line),
+                esc(&r.discover)
             );
         } else {
             let _ = writeln!(h, "<p><b>Verdict: the model fits.</b> {}</p>", esc(&line));

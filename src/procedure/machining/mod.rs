@@ -64,6 +64,7 @@
 //! against the solid (material below, air above along the normal), against
 //! the generating tool (zero distance) and against the mesh in the tests.
 
+pub mod assembly;
 pub mod cutter;
 pub(crate) mod design;
 pub mod nine_section;
@@ -288,12 +289,12 @@ impl MachiningPlan {
 }
 
 /// Plans a machining test. With `stock.raise` in the template, a piece the
-/// spindle cannot reach low enough within the Z stroke is put on a higher
-/// riser.
+/// spindle cannot reach low enough within the Z stroke, or whose spindle
+/// nose or holder would meet the table, is put on a higher riser.
 pub fn plan(cfg: &PlanConfig) -> Result<MachiningPlan, PlanError> {
-    let (raise_allowed, base) = match &cfg.template {
-        Template::SteppedSquare(t) => (t.stock.raise, t.stock.fixture_height),
-        Template::NineSection(t) => (t.stock.raise, t.stock.fixture_height),
+    let (raise_allowed, base, assembly) = match &cfg.template {
+        Template::SteppedSquare(t) => (t.stock.raise, t.stock.fixture_height, &t.assembly),
+        Template::NineSection(t) => (t.stock.raise, t.stock.fixture_height, &t.assembly),
         Template::Columns(_) | Template::Sphere(_) => {
             return Err(PlanError::Impossible(format!(
                 "{} is a probing test, not a machining test",
@@ -302,9 +303,22 @@ pub fn plan(cfg: &PlanConfig) -> Result<MachiningPlan, PlanError> {
         }
     };
     let mut raise = 0.0;
+    // Why the riser went up: the Z stroke, the spindle nose over the table.
+    let mut why: Vec<String> = Vec::new();
+    let attempt = |raise: f64| -> Result<MachiningPlan, PlanError> {
+        let mut design = design(cfg, raise)?;
+        match assembly {
+            Some((holder, nose)) => assembly::check(&cfg.machine, &design, holder, nose)?,
+            // A template from before the keys existed plans as it did
+            // then, and says what it leaves unchecked.
+            None => design.notes.push(
+                "the template gives no holder: or spindle_nose:, so the tool assembly is not checked against the table, the riser and the block: add them (the built-in template's show the keys) to have it checked".to_string(),
+            ),
+        }
+        program::assemble(cfg, design)
+    };
     for _ in 0..8 {
-        let design = design(cfg, raise)?;
-        match program::assemble(cfg, design) {
+        match attempt(raise) {
             Err(PlanError::Stroke {
                 axis: 'Z',
                 value,
@@ -312,20 +326,37 @@ pub fn plan(cfg: &PlanConfig) -> Result<MachiningPlan, PlanError> {
                 ..
             }) if raise_allowed && value < lo => {
                 raise += ((lo - value) / 5.0).ceil() * 5.0 + 5.0;
+                let r = "the spindle reaches every pose within the Z stroke".to_string();
+                if !why.contains(&r) {
+                    why.push(r);
+                }
+            }
+            Err(PlanError::Assembly(c)) if raise_allowed && c.obstacle == "table" => {
+                raise += (c.shortfall() / 5.0).ceil() * 5.0;
+                let r = format!(
+                    "the {} (diameter {} mm) clears the table at {} = {}",
+                    c.part,
+                    super::short(c.diameter),
+                    c.letter,
+                    super::short(c.tilt)
+                );
+                if !why.contains(&r) {
+                    why.push(r);
+                }
             }
             Ok(mut p) if raise > 0.0 => {
                 p.notes.push(format!(
-                    "the riser is {} mm instead of {} mm, so that the spindle reaches every pose within the Z stroke",
+                    "the riser is {} mm instead of {} mm, so that {}",
                     super::short(base + raise),
-                    super::short(base)
+                    super::short(base),
+                    why.join(" and ")
                 ));
                 return Ok(p);
             }
             other => return other,
         }
     }
-    let design = design(cfg, raise)?;
-    program::assemble(cfg, design)
+    attempt(raise)
 }
 
 /// Dispatches to the test's designer.

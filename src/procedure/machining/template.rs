@@ -75,6 +75,64 @@ pub struct Clearance {
     pub safe: f64,
 }
 
+/// The tool holder: one cylinder from the spindle gauge line towards the
+/// tip, as wide as its widest part.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Holder {
+    /// Diameter, mm.
+    pub diameter: f64,
+    /// Length from the gauge line towards the tip, mm.
+    pub length: f64,
+}
+
+impl Default for Holder {
+    /// A short HSK-A63 (or SK40) chuck seen as one cylinder as wide as
+    /// its 63 mm flange, 35 mm below the gauge line: shorter than every
+    /// built-in tool, so the tool sticks out of it.
+    fn default() -> Self {
+        Holder {
+            diameter: 63.0,
+            length: 35.0,
+        }
+    }
+}
+
+/// The spindle nose: one cylinder from the gauge line away from the tip.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpindleNose {
+    /// Diameter, mm.
+    pub diameter: f64,
+    /// Length modelled beyond the gauge line, mm.
+    pub length: f64,
+}
+
+impl Default for SpindleNose {
+    /// The probing templates' spindle: 120 mm wide, 150 mm modelled (a
+    /// motor spindle for HSK-A63 tools).
+    fn default() -> Self {
+        SpindleNose {
+            diameter: 120.0,
+            length: 150.0,
+        }
+    }
+}
+
+/// Checks the holder and spindle nose of a template (a template giving
+/// one of them gets the default of the other).
+pub(crate) fn check_assembly(
+    src: &TemplateSource,
+    holder: &Holder,
+    nose: &SpindleNose,
+) -> Result<(), SourceError> {
+    length(src, &["holder", "diameter"], holder.diameter)?;
+    length(src, &["holder", "length"], holder.length)?;
+    length(src, &["spindle_nose", "diameter"], nose.diameter)?;
+    length(src, &["spindle_nose", "length"], nose.length)?;
+    Ok(())
+}
+
 pub(crate) fn tool_choice(
     src: &TemplateSource,
     v: &serde_yaml::Value,

@@ -438,6 +438,14 @@ enum Convex {
         e1: Vector3<f64>,
         e2: Vector3<f64>,
     },
+    /// [`Convex::Swept`] grown by a disc of `radius` normal to `e1`: a
+    /// flat-ended cylinder about the segment swept along a straight move.
+    SweptDisc {
+        a: Vector3<f64>,
+        e1: Vector3<f64>,
+        e2: Vector3<f64>,
+        radius: f64,
+    },
 }
 
 impl Convex {
@@ -460,8 +468,71 @@ impl Convex {
                 }
                 p
             }
+            Convex::SweptDisc { a, e1, e2, radius } => {
+                let u = e1.normalize();
+                let radial = d - u * u.dot(d);
+                let n = radial.norm();
+                let disc = if n > 1e-12 {
+                    radial * (radius / n)
+                } else {
+                    Vector3::zeros()
+                };
+                Convex::Swept {
+                    a: *a,
+                    e1: *e1,
+                    e2: *e2,
+                }
+                .support(d)
+                    + disc
+            }
         }
     }
+}
+
+/// Whether the cylinder of `radius` about the segment from `a` to `a + e1`
+/// (flat ends), swept along the straight move `e2`, comes within
+/// `threshold` of `solid`: a tool holder or spindle nose along a cutting
+/// move (the machining tests check theirs with it).
+pub(crate) fn swept_within(
+    a: Vector3<f64>,
+    e1: Vector3<f64>,
+    e2: Vector3<f64>,
+    radius: f64,
+    solid: &ConvexSolid,
+    threshold: f64,
+) -> bool {
+    within(&Convex::SweptDisc { a, e1, e2, radius }, solid, threshold)
+}
+
+/// The distance between the swept cylinder of [`swept_within`] and
+/// `solid`, to within `tol` mm, 0 when they meet: bisection on the
+/// threshold GJK decides, so it inherits its safe side (never larger than
+/// the true distance by more than `tol`).
+pub(crate) fn swept_distance(
+    a: Vector3<f64>,
+    e1: Vector3<f64>,
+    e2: Vector3<f64>,
+    radius: f64,
+    solid: &ConvexSolid,
+    tol: f64,
+) -> f64 {
+    if swept_within(a, e1, e2, radius, solid, 0.0) {
+        return 0.0;
+    }
+    // The centre of the solid's bounding ball lies inside every solid
+    // here (box, ball and cylinder are symmetric about it), so `a` is no
+    // farther than that from the solid.
+    let (centre, _) = solid.bounding_ball();
+    let (mut lo, mut hi) = (0.0, (a - centre).norm());
+    while hi - lo > tol {
+        let mid = 0.5 * (lo + hi);
+        if swept_within(a, e1, e2, radius, solid, mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    hi
 }
 
 /// Whether the distance between `a` and `b` is at most `threshold` (GJK on
@@ -833,6 +904,57 @@ mod tests {
         };
         assert!(!within(&above, &unit_box(), 0.4));
         assert!(within(&above, &unit_box(), 0.6));
+    }
+
+    #[test]
+    fn swept_distance_matches_the_closed_form_of_a_nose_over_a_disc_and_a_holder_above_a_box() {
+        // A horizontal nose of radius 20 with its axis 37 mm above a disc
+        // of radius 125 (top at z = 0), reaching over the rim from x = 107
+        // and swept 20 mm along Y: 37 - 20 = 17 mm between them. Moved
+        // beyond the rim to x = 135 its flat end faces the rim at
+        // (125, 0, 0): the nearest point of the end disc is (135, 0, 17),
+        // hypot(10, 17) away.
+        let disc = ConvexSolid::Cylinder {
+            a: Vector3::new(0.0, 0.0, -50.0),
+            b: Vector3::zeros(),
+            radius: 125.0,
+        };
+        let e1 = Vector3::new(150.0, 0.0, 0.0);
+        let e2 = Vector3::new(0.0, 20.0, 0.0);
+        let over = swept_distance(Vector3::new(107.0, -10.0, 37.0), e1, e2, 20.0, &disc, 1e-6);
+        assert!((over - 17.0).abs() < 1e-5, "{over}");
+        let beyond = swept_distance(Vector3::new(135.0, 0.0, 37.0), e1, e2, 20.0, &disc, 1e-6);
+        assert!((beyond - 10.0_f64.hypot(17.0)).abs() < 1e-5, "{beyond}");
+        assert!(swept_within(
+            Vector3::new(107.0, 0.0, 37.0),
+            e1,
+            e2,
+            20.0,
+            &disc,
+            17.001
+        ));
+        assert!(!swept_within(
+            Vector3::new(107.0, 0.0, 37.0),
+            e1,
+            e2,
+            20.0,
+            &disc,
+            16.999
+        ));
+        let through = swept_distance(Vector3::new(107.0, 0.0, 19.0), e1, e2, 20.0, &disc, 1e-6);
+        assert_eq!(through, 0.0);
+        // A vertical holder of radius 31.5 whose flat end is 20 mm above
+        // the top of a box it overhangs: 20 mm, not the 20 - 31.5 a
+        // rounded end would give.
+        let block = ConvexSolid::Cuboid {
+            centre: Vector3::new(0.0, 0.0, 50.0),
+            axes: Matrix3::identity(),
+            half: Vector3::new(50.0, 50.0, 50.0),
+        };
+        let up = Vector3::new(0.0, 0.0, 35.0);
+        let run = Vector3::new(0.0, -88.4, 0.0);
+        let holder = swept_distance(Vector3::new(44.2, 44.2, 120.0), up, run, 31.5, &block, 1e-6);
+        assert!((holder - 20.0).abs() < 1e-5, "{holder}");
     }
 
     #[test]

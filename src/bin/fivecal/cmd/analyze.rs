@@ -71,7 +71,10 @@ fn identified(c: &Config, outcome: &Outcome, id: &Identified) -> anyhow::Result<
         }
         if let Some(dir) = &c.report {
             let dir = piece.report_dir(dir);
-            let files = report::write(&dir, &ReportInput::for_piece(id.test.as_str(), piece))?;
+            let files = report::write(
+                &dir,
+                &ReportInput::for_piece(id.test.as_str(), piece, &c.request.manifest),
+            )?;
             outln!(
                 "report: {} ({} files)",
                 dir.join("index.html").display(),

@@ -34,8 +34,9 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
     let action = cli.action.unwrap_or(Action::List { json: false });
     let json = match action {
         Action::List { json } | Action::Show { json, .. } => json || cli.json,
+        Action::Trend { json, .. } | Action::Plot { json, .. } => json || cli.json,
         _ if cli.json => bail!(
-            "history --json: the JSON of list (the default) and show; export has its own --json, trend and plot write text and pages"
+            "history --json: the JSON of list (the default), show, trend and plot; export has its own --json"
         ),
         _ => false,
     };
@@ -94,12 +95,16 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
                 None => out!("{text}"),
             }
         }
-        Action::Trend(l) => {
+        Action::Trend { limits: l, .. } => {
             let h = machine_history(&mut store, machine)?;
             let limits = limits(&l, &h)?;
-            out!("{}", history::render_outlooks(&h, &limits));
+            if json {
+                crate::out::json(&history::trends_to_json(&h, &limits))?;
+            } else {
+                out!("{}", history::render_outlooks(&h, &limits));
+            }
         }
-        Action::Plot { out, limits: l } => {
+        Action::Plot { out, limits: l, .. } => {
             let h = machine_history(&mut store, machine)?;
             let limits = limits(&l, &h)?;
             // Checked before writing, as every command does: an existing
@@ -107,6 +112,9 @@ pub fn run(cli: HistoryCli) -> anyhow::Result<()> {
             // instead of the OS's "Not a directory".
             fivecal::io::check_outputs(&machine_file, &[("--out", &out, fivecal::io::Shape::Dir)])?;
             let files = history::page::write(&out, &h, &limits)?;
+            if json {
+                crate::out::json(&plot_json(&h.machine, &out, &files))?;
+            }
             outln!(
                 "history of {}: {} ({} files)",
                 h.machine,
@@ -160,4 +168,20 @@ fn limits(l: &LimitsArg, h: &History) -> anyhow::Result<AcceptanceLimits> {
         );
     }
     Ok(src.limits)
+}
+
+/// `history plot --json`: the machine, the page and every file written.
+fn plot_json(machine: &str, dir: &Path, files: &[std::path::PathBuf]) -> String {
+    #[derive(serde::Serialize)]
+    struct Written<'a> {
+        machine: &'a str,
+        page: String,
+        files: Vec<String>,
+    }
+    let w = Written {
+        machine,
+        page: dir.join("index.html").display().to_string(),
+        files: files.iter().map(|f| f.display().to_string()).collect(),
+    };
+    serde_json::to_string_pretty(&w).expect("paths serialize") + "\n"
 }

@@ -58,7 +58,14 @@ pub enum Action {
     },
     /// Whether each location error drifts, since when, and when it reaches
     /// its limit at the current rate (since the last export).
-    Trend(LimitsArg),
+    Trend {
+        #[command(flatten)]
+        limits: LimitsArg,
+        /// Print the trends as JSON on standard output (one entry per
+        /// location error: outlook, slope and its u, the forecast).
+        #[arg(long)]
+        json: bool,
+    },
     /// Write an HTML page with each location error over time (u band, fit
     /// verdicts, exports, limits, trend).
     Plot {
@@ -67,6 +74,10 @@ pub enum Action {
         out: PathBuf,
         #[command(flatten)]
         limits: LimitsArg,
+        /// Print what was written as JSON on standard output (the
+        /// machine, the page, the files).
+        #[arg(long)]
+        json: bool,
     },
 }
 

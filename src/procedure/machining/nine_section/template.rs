@@ -7,7 +7,8 @@ use serde::Deserialize;
 use crate::machine::ToolKind;
 use crate::procedure::bounds::{angle, count, length, length_or_zero};
 use crate::procedure::machining::template::{
-    Clearance, CuttingData, Stock, ToolChoice, check_common, tool_choice,
+    Clearance, CuttingData, Holder, SpindleNose, Stock, ToolChoice, check_assembly, check_common,
+    tool_choice,
 };
 use crate::procedure::{TemplateSource, Test};
 use crate::source::SourceError;
@@ -42,6 +43,10 @@ pub struct NineSectionTemplate {
     pub cutting: CuttingData,
     /// Clearances.
     pub clearance: Clearance,
+    /// The tool holder and spindle nose, checked against the table, the
+    /// riser and the block; `None` when the template gives neither (a
+    /// template written before they existed plans as it did then).
+    pub assembly: Option<(Holder, SpindleNose)>,
     /// Points per section.
     pub points_per_section: usize,
     /// Margin of the points from the section borders, mm.
@@ -58,6 +63,10 @@ struct NineSectionFile {
     tool: serde_yaml::Value,
     cutting: CuttingData,
     clearance: Clearance,
+    #[serde(default)]
+    holder: Option<Holder>,
+    #[serde(default)]
+    spindle_nose: Option<SpindleNose>,
     points: NinePointsFile,
 }
 
@@ -70,6 +79,9 @@ struct NinePointsFile {
 
 fn check(src: &TemplateSource, t: &NineSectionTemplate) -> Result<(), SourceError> {
     check_common(src, &t.stock, &t.cutting, &t.clearance)?;
+    if let Some((holder, nose)) = &t.assembly {
+        check_assembly(src, holder, nose)?;
+    }
     length(src, &["depth"], t.depth)?;
     length(src, &["cutting", "stepover"], t.cutting.stepover)?;
     if t.sections.len() != 8 {
@@ -122,6 +134,10 @@ impl NineSectionTemplate {
             sections: f.sections,
             cutting: f.cutting,
             clearance: f.clearance,
+            assembly: match (f.holder, f.spindle_nose) {
+                (None, None) => None,
+                (h, n) => Some((h.unwrap_or_default(), n.unwrap_or_default())),
+            },
             points_per_section: f.points.per_section,
             point_margin: f.points.margin,
             source,

@@ -141,7 +141,7 @@ pub(crate) fn design(
         l,
         zb,
         n_top,
-        n_side_max,
+        n_side_max: _,
         ..
     } = layout;
     let size = t.stock.size;
@@ -155,12 +155,6 @@ pub(crate) fn design(
             u32::MAX,
         )
     });
-    if n_side_max > 0 {
-        notes.push(format!(
-            "at {letter} = +-90 the tool axis runs {} mm above the table top at its lowest: the tool holder and spindle nose must be narrower than twice that",
-            short(zb + t.side.bottom_lip + r - m.table.surface)
-        ));
-    }
     Ok(MachiningDesign {
         title: "stepped-square machining test (Ibaraki & Ota 2014)".into(),
         description: format!(

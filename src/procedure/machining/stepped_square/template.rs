@@ -8,7 +8,8 @@ use crate::limits::MAX_PLAN_POINTS;
 use crate::machine::ToolKind;
 use crate::procedure::bounds::{angles, count, echo, length, length_or_zero};
 use crate::procedure::machining::template::{
-    Clearance, CuttingData, Stock, ToolChoice, check_common, tool_choice,
+    Clearance, CuttingData, Holder, SpindleNose, Stock, ToolChoice, check_assembly, check_common,
+    tool_choice,
 };
 use crate::procedure::{TemplateSource, Test};
 use crate::source::SourceError;
@@ -78,6 +79,10 @@ pub struct SteppedSquareTemplate {
     pub cutting: CuttingData,
     /// Clearances.
     pub clearance: Clearance,
+    /// The tool holder and spindle nose, checked against the table, the
+    /// riser and the block; `None` when the template gives neither (a
+    /// template written before they existed plans as it did then).
+    pub assembly: Option<(Holder, SpindleNose)>,
     /// Points.
     pub points: StepPoints,
 }
@@ -93,6 +98,10 @@ struct SteppedSquareFile {
     tool: serde_yaml::Value,
     cutting: CuttingData,
     clearance: Clearance,
+    #[serde(default)]
+    holder: Option<Holder>,
+    #[serde(default)]
+    spindle_nose: Option<SpindleNose>,
     points: StepPoints,
 }
 
@@ -119,6 +128,9 @@ fn tilt_set(src: &TemplateSource, v: &serde_yaml::Value) -> Result<TiltSet, Sour
 
 fn check(src: &TemplateSource, t: &SteppedSquareTemplate) -> Result<(), SourceError> {
     check_common(src, &t.stock, &t.cutting, &t.clearance)?;
+    if let Some((holder, nose)) = &t.assembly {
+        check_assembly(src, holder, nose)?;
+    }
     for (face, s) in [("top", &t.top), ("side", &t.side)] {
         length(src, &[face, "first_size"], s.first_size)?;
         length(src, &[face, "size_increment"], s.size_increment)?;
@@ -199,6 +211,10 @@ impl SteppedSquareTemplate {
             side: f.side,
             cutting: f.cutting,
             clearance: f.clearance,
+            assembly: match (f.holder, f.spindle_nose) {
+                (None, None) => None,
+                (h, n) => Some((h.unwrap_or_default(), n.unwrap_or_default())),
+            },
             points: f.points,
             source,
         };
