@@ -133,3 +133,273 @@ fn every_identified_value_lies_within_3u_of_the_truth_on_every_structure_with_th
         assert!(share > 0.85, "{name}: {share} within 2 u of the noise alone");
     }
 }
+
+/// The seed's eq. 8 solved in closed form at every angle of the C table
+/// of a head-table machine, from the simulated runs of a truth with C
+/// errors only: the bar of setup s reads u_s . dM_s with
+/// dM = -(R d + (R e) x M_s), R the turn of C (the sign of an error of the
+/// table), six unknowns per angle from the seven setups' readings. The
+/// code's total of each C term at each angle (location error plus map)
+/// must be the same numbers.
+#[test]
+fn the_c_tables_six_errors_per_angle_are_the_seeds_eq_8_solved_in_closed_form() {
+    use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+    let (man, m) = small_plan("head-table");
+    let d = Design::new(&man, &m).unwrap();
+    let model = d.model();
+    let sym = &model.symbols;
+    let mut theta = truth_theta(&d, 7);
+    // Only the C table's terms: its location errors and maps.
+    let names = model.param_names();
+    for (k, n) in names.iter().enumerate() {
+        let c_loc = d.location.contains(&k) && n.ends_with('C');
+        if !(c_loc || n.starts_with("map.E") && n.contains("C(C)")) {
+            theta[k] = 0.0;
+        }
+    }
+    let truth =
+        ErrorFile::from_model(model, &theta, &vec![None; theta.len()], &Noise::default());
+    let sim = BallBarOptions {
+        noise_um: Some(0.0),
+        ..BallBarOptions::default()
+    };
+    let runs = runs_of(&man, &m, &truth, &sim);
+    let out = ball_bar::analyze(
+        &man,
+        Path::new("plan.yaml"),
+        &m,
+        &runs,
+        None,
+        &Options::default(),
+    )
+    .unwrap();
+    let c_setups: Vec<_> = man.setups.iter().filter(|s| s.axis == 'C').collect();
+    let total = |slot: usize, angle: f64| -> f64 {
+        // Location error on the slot (a head-table's C symbols are single
+        // terms) plus the map's node.
+        let mut v = 0.0;
+        for l in &sym.location {
+            if l.terms.len() == 1 && l.terms[0].0 == slot {
+                let k = d.location.start
+                    + sym.location.iter().position(|x| x.name == l.name).unwrap();
+                v += out.fit.theta[k] * l.terms[0].1;
+            }
+        }
+        let ms = sym.maps.iter().find(|x| x.slot == slot).unwrap();
+        let at = format!("map.{}@C={}", ms.name, angle.rem_euclid(360.0));
+        let k = names.iter().position(|n| *n == at).unwrap();
+        assert!(out.u[k].is_some(), "{at} unseen");
+        v + out.fit.theta[k]
+    };
+    let mut checked = 0;
+    for (i, &a) in c_setups[0].angles.iter().enumerate() {
+        let r = Rotation3::from_axis_angle(&Vector3::z_axis(), a.to_radians());
+        let mut rows = Vec::new();
+        let mut y = Vec::new();
+        for s in &c_setups {
+            let mm = Vector3::from(s.spindle_ball);
+            let u = (mm - Vector3::from(s.table_ball)).normalize();
+            let mut row = [0.0; 6];
+            for k in 0..3 {
+                let e = Vector3::ith(k, 1.0);
+                // um per um; um per urad (mm lever, 1e-3).
+                row[k] = -u.dot(&(r * e));
+                row[k + 3] = -u.dot(&(r * e).cross(&mm)) * 1e-3;
+            }
+            rows.push(row);
+            let run = &runs.iter().find(|x| x.1.setup == s.name).unwrap().1;
+            y.push(run.at_angles(s).unwrap()[i]);
+        }
+        let j = DMatrix::from_fn(rows.len(), 6, |r, c| rows[r][c]);
+        let sol = j
+            .svd(true, true)
+            .solve(&DVector::from_vec(y), 1e-12)
+            .unwrap();
+        for k in 0..6 {
+            let code = total(k, a);
+            let tol = if k < 3 { 0.01 } else { 0.05 };
+            assert!(
+                (code - sol[k]).abs() < tol,
+                "C = {a}: term {k}: closed form {:.4}, code {code:.4}",
+                sol[k]
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 6 * c_setups[0].angles.len());
+}
+
+/// Without the run-out stated, a spindle ball 4 um off its axis reads as
+/// a turning offset of the C table's line: the location errors it biases
+/// leave their 3 u; stated, it is taken out (the test above).
+#[test]
+fn an_unstated_spindle_ball_run_out_biases_the_c_tables_line_beyond_its_u() {
+    let (man, m) = small_plan("head-table");
+    let d = Design::new(&man, &m).unwrap();
+    let theta = truth_theta(&d, 3);
+    let truth = ErrorFile::from_model(
+        d.model(),
+        &theta,
+        &vec![None; theta.len()],
+        &Noise::default(),
+    );
+    let sim = BallBarOptions {
+        runout_um: 4.0,
+        runout_phase_deg: 40.0,
+        ..BallBarOptions::default()
+    };
+    let runs = runs_of(&man, &m, &truth, &sim);
+    let out = ball_bar::analyze(
+        &man,
+        Path::new("plan.yaml"),
+        &m,
+        &runs,
+        None,
+        &Options::default(),
+    )
+    .unwrap();
+    let want = d.conventional(&theta);
+    let names = d.model().param_names();
+    let worst = (0..theta.len())
+        .filter_map(|k| out.u[k].map(|u| ((out.fit.theta[k] - want[k]).abs() / u, &names[k])))
+        .fold((0.0, &names[0]), |a, b| if b.0 > a.0 { b } else { a });
+    assert!(worst.0 > 3.0, "the run-out went unnoticed: worst {worst:?}");
+}
+
+/// The linear axes' errors of an error file taken out (the seed's eq. 9:
+/// they act at the positions the linear axes take): with them, every
+/// value within 3 u; without, the model misses them.
+#[test]
+fn the_linear_axes_errors_of_an_error_file_are_taken_out_at_the_positions_the_axes_take() {
+    use fivecal::errorfile::Quantity;
+    let (man, m) = small_plan("head-table");
+    let d = Design::new(&man, &m).unwrap();
+    let theta = truth_theta(&d, 5);
+    let mut truth = ErrorFile::from_model(
+        d.model(),
+        &theta,
+        &vec![None; theta.len()],
+        &Noise::default(),
+    );
+    let mut linear = ErrorFile::from_model(
+        &fivecal::model::Model::new(fivecal::Kinematics::new(&m), Vec::new()),
+        &[],
+        &[],
+        &Noise::default(),
+    );
+    for f in [&mut truth, &mut linear] {
+        f.effects
+            .linear_scale
+            .insert("EXX".into(), Quantity::bare(40.0));
+        f.effects
+            .linear_scale
+            .insert("EZZ".into(), Quantity::bare(-30.0));
+        f.effects
+            .squareness
+            .insert("EC(0X)Y".into(), Quantity::bare(25.0));
+    }
+    let runs = runs_of(&man, &m, &truth, &BallBarOptions::default());
+    let src = linear.to_yaml();
+    let with = ball_bar::analyze(
+        &man,
+        Path::new("plan.yaml"),
+        &m,
+        &runs,
+        Some((&linear, Path::new("laser.yaml"), &src)),
+        &Options::default(),
+    )
+    .unwrap();
+    assert!(with.notes.iter().any(|n| n.contains("EXX")), "{:?}", with.notes);
+    let want = d.conventional(&theta);
+    for k in 0..theta.len() {
+        if let Some(u) = with.u[k] {
+            assert!((with.fit.theta[k] - want[k]).abs() <= 3.0 * u);
+        }
+    }
+    let without = ball_bar::analyze(
+        &man,
+        Path::new("plan.yaml"),
+        &m,
+        &runs,
+        None,
+        &Options::default(),
+    )
+    .unwrap();
+    let off = (0..theta.len()).any(|k| {
+        without.u[k].is_some_and(|u| (without.fit.theta[k] - want[k]).abs() > 3.0 * u)
+    });
+    let misfit = without.file.fit.as_ref().unwrap().verdict != fivecal::errorfile::FitVerdict::Fits;
+    assert!(off || misfit, "the linear axes' errors went unnoticed");
+}
+
+/// The whole loop through the binary: plan, simulate with a run-out,
+/// analyze with the run-out stated, a report and the history; the result
+/// is an ordinary error file that `compensate --export` takes.
+#[test]
+fn plan_simulate_analyze_through_the_binary_writes_an_error_file_compensate_exports() {
+    let dir = crate::util::tempdir();
+    let bin = env!("CARGO_BIN_EXE_fivecal");
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(bin)
+            .args(args)
+            .env("FIVECAL_DB", dir.path().join("store.db"))
+            .env("HOME", dir.path())
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let d = dir.path();
+    let p = |s: &str| d.join(s).display().to_string();
+    run(&[
+        "plan", "ball-bar", "--machine", "head-table", "--bar", "100,150,300", "-o", &p("bb"),
+    ]);
+    std::fs::write(
+        d.join("truth.yaml"),
+        "machine: head-table\nlocation_errors: {EX0C: 6.0, EY0C: -4.0, EA0C: 12.0, EB0B: 8.0}\n",
+    )
+    .unwrap();
+    run(&[
+        "simulate", "--plan", &p("bb/ball-bar.plan.yaml"), "--errors", &p("truth.yaml"),
+        "--runout", "3,45", "-o", &p("runs"),
+    ]);
+    let mut args = vec![
+        "analyze".to_string(), "--plan".into(), p("bb/ball-bar.plan.yaml"), "--measured".into(),
+    ];
+    for e in std::fs::read_dir(d.join("runs")).unwrap() {
+        args.push(e.unwrap().path().display().to_string());
+    }
+    args.extend(
+        ["--runout", "3,45", "--report", &p("report"), "-o", &p("result.yaml")]
+            .iter()
+            .map(|s| s.to_string()),
+    );
+    let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    let out = run(&a);
+    // The circularity figures first, then the verdict, what is unseen,
+    // the values.
+    let circ = out.find("circularity per run").unwrap();
+    let verdict = out.find("verdict: fits").unwrap_or_else(|| panic!("{out}"));
+    let values = out.find("location errors").unwrap();
+    assert!(circ < verdict && verdict < values, "{out}");
+    let html = std::fs::read_to_string(d.join("report/index.html")).unwrap();
+    assert!(html.contains("Circularity per run") && html.contains(".svg"));
+    let m = fivecal::Machine::builtin("head-table").unwrap();
+    let loaded = ErrorFile::load(&d.join("result.yaml"), &fivecal::Kinematics::new(&m)).unwrap();
+    let (f, _) = ErrorFile::read(&d.join("result.yaml")).unwrap();
+    assert_eq!(f.test.as_deref(), Some("ball-bar"));
+    assert!(!f.circularity.is_empty() && !f.position_dependent.is_empty());
+    for (name, want) in [("EX0C", 6.0), ("EY0C", -4.0), ("EA0C", 12.0)] {
+        let q = f.location_errors[name];
+        assert!((q.value - want).abs() <= 3.0 * q.u.unwrap(), "{name}: {q:?}");
+    }
+    assert!(loaded.fit.is_some());
+    run(&[
+        "compensate", "--machine", "head-table", "--errors", &p("result.yaml"), "--export",
+        "heidenhain",
+    ]);
+}

@@ -5,6 +5,7 @@
 //! coloured. Every file is written atomically.
 
 pub(crate) mod glb;
+pub mod ball_bar;
 pub mod nine_section;
 pub mod plots;
 

@@ -355,35 +355,39 @@ impl Design {
                 }
             }
         }
-        // What each axis' own sweep sees of its own maps.
-        let own_seen: Vec<bool> = (0..n)
-            .map(|k| {
-                let Some(ax) = self.axis_of_param(k) else { return true };
-                let rs: Vec<usize> = (0..rows.len())
-                    .filter(|&i| self.plan.setups[rows[i].setup].axis == self.axes[ax])
-                    .collect();
-                let cols: Vec<usize> = (0..n).filter(|&c| self.axis_of_param(c) == Some(ax)).collect();
-                let sub = DMatrix::from_fn(rs.len(), cols.len(), |r, c| j[(rs[r], cols[c])]);
-                let null = null_space(&sub, &DMatrix::identity(cols.len(), cols.len()));
-                let at = cols.iter().position(|&c| c == k).expect("k is a column");
-                null.iter().all(|v| v[at].abs() < 1e-6)
-            })
-            .collect();
-        let mut pins = Vec::new();
-        for k in candidates {
-            if !own_seen[k] {
-                continue;
+        // What each axis' own sweep sees of its own maps: once per axis.
+        let mut own_seen = vec![true; n];
+        for ax in 0..self.axes.len() {
+            let rs: Vec<usize> = (0..rows.len())
+                .filter(|&i| self.plan.setups[rows[i].setup].axis == self.axes[ax])
+                .collect();
+            let cols: Vec<usize> = (0..n)
+                .filter(|&c| self.axis_of_param(c) == Some(ax))
+                .collect();
+            let sub = DMatrix::from_fn(rs.len(), cols.len(), |r, c| j[(rs[r], cols[c])]);
+            let null = null_space(&sub, &DMatrix::identity(cols.len(), cols.len()));
+            for (at, &k) in cols.iter().enumerate() {
+                own_seen[k] = null.iter().all(|v| v[at].abs() < 1e-6);
             }
+        }
+        let mut pins: Vec<usize> = Vec::new();
+        // The null directions with the constraints so far: computed again
+        // only when a pin is added.
+        let current = |pins: &[usize]| {
             let mut c: Vec<DVector<f64>> = fixed.to_vec();
-            for &p in &pins {
+            for &p in pins {
                 let mut row = DVector::zeros(n);
                 row[p] = 1.0;
                 c.push(row);
             }
             let cm = DMatrix::from_fn(c.len(), n, |r, q| c[r][q]);
-            let null = null_space(j, &null_basis(&cm, n));
-            if null.iter().any(|v| v[k].abs() > 1e-6) {
+            null_space(j, &null_basis(&cm, n))
+        };
+        let mut null = current(&pins);
+        for k in candidates {
+            if own_seen[k] && null.iter().any(|v| v[k].abs() > 1e-6) {
                 pins.push(k);
+                null = current(&pins);
             }
         }
         pins
