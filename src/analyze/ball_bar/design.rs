@@ -92,6 +92,9 @@ pub struct Design {
     /// The null directions of the design without the convention, in
     /// parameter units (what [`Design::conventional`] moves along).
     pub null: Vec<DVector<f64>>,
+    /// The map nodes the convention pins to zero (the other axis' error
+    /// motion at the angle it held): zero by definition, not measured.
+    pub pinned: Vec<usize>,
 }
 
 /// The angle variable (0 tilt, 1 C) of axis `letter` on `m`.
@@ -171,6 +174,7 @@ impl Design {
             constraints: DMatrix::zeros(0, 0),
             constrained: Vec::new(),
             null: Vec::new(),
+            pinned: Vec::new(),
         };
         d.convention();
         Ok(d)
@@ -277,18 +281,31 @@ impl Design {
         let n = self.n_params();
         let zero = vec![0.0; n];
         let (_, j) = self.jacobian(&rows, &zero, None, &Runout::default());
-        let maps: Vec<usize> = (self.location.end..n).collect();
-        let jm = DMatrix::from_fn(j.nrows(), maps.len(), |r, c| j[(r, maps[c])]);
-        let svd = jm.clone().svd(true, true);
-        let smax = svd.singular_values.max();
         let mut rows_c: Vec<DVector<f64>> = Vec::new();
         let mut constrained = Vec::new();
+        let names = self.model().symbols.location.clone();
         for l in self.location.clone() {
             let jl = j.column(l).into_owned();
             let norm = jl.norm();
-            if norm == 0.0 {
+            // The maps of the location error's own axis: its letter, or
+            // the head's for the spindle's squareness to it (`EA(0B)S`).
+            let name = &names[l - self.location.start].name;
+            let mut letter = name.chars().last().unwrap_or('S');
+            if letter == 'S' {
+                letter = self.tilt;
+            }
+            let Some(ax) = self.axes.iter().position(|&a| a == letter) else {
+                continue;
+            };
+            let maps: Vec<usize> = (self.location.end..n)
+                .filter(|&c| self.axis_of_param(c) == Some(ax))
+                .collect();
+            if norm == 0.0 || maps.is_empty() {
                 continue;
             }
+            let jm = DMatrix::from_fn(j.nrows(), maps.len(), |r, c| j[(r, maps[c])]);
+            let svd = jm.clone().svd(true, true);
+            let smax = svd.singular_values.max();
             let a = svd
                 .solve(&jl, smax * RANK_TOL)
                 .expect("the SVD has both factors");
@@ -309,6 +326,11 @@ impl Design {
             rows_c.push(row);
             constrained.push(k);
         }
+        self.pinned = constrained
+            .iter()
+            .copied()
+            .filter(|k| !self.location.contains(k))
+            .collect();
         self.constraints = DMatrix::from_fn(rows_c.len(), n, |r, c| rows_c[r][c]);
         self.constrained = constrained;
         self.null = null_space(&j, &DMatrix::identity(n, n));

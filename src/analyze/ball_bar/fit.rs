@@ -114,7 +114,11 @@ pub fn fit(d: &Design, rows: &[Reading], known: Option<&KnownLinear>, runout: &R
     let y = DVector::from_iterator(rows.len(), rows.iter().map(|r| r.um));
     let mut theta = vec![0.0; n];
     let (_, j0) = d.jacobian(rows, &theta, None, &Runout::default());
-    let seen = Seen::new(&j0, &d.allowed());
+    let mut seen = Seen::new(&j0, &d.allowed());
+    // A pinned node is zero by the convention: known, as a reference is.
+    for &k in &d.pinned {
+        seen.seen[k] = true;
+    }
     let rank = seen.basis.ncols();
     let mut steps = 0;
     let mut converged = false;

@@ -266,7 +266,7 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             linear_errors: a.linear_errors,
         },
         noise,
-        usefulness.clone(),
+        usefulness,
         &[
             ("--method", a.method.is_some()),
             ("--mc", a.mc.is_some()),
