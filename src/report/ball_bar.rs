@@ -51,7 +51,9 @@ pub fn write(dir: &Path, file: &ErrorFile) -> Result<Vec<PathBuf>, ReportError> 
         h.push_str("</table>\n");
     }
     if !file.location_errors.is_empty() {
-        h.push_str("<h2>Location errors</h2>\n<table><tr><th>symbol</th><th>value</th><th>u</th></tr>\n");
+        h.push_str(
+            "<h2>Location errors</h2>\n<table><tr><th>symbol</th><th>value</th><th>u</th></tr>\n",
+        );
         for (name, q) in &file.location_errors {
             let _ = writeln!(
                 h,
@@ -64,7 +66,9 @@ pub fn write(dir: &Path, file: &ErrorFile) -> Result<Vec<PathBuf>, ReportError> 
         h.push_str("</table>\n");
     }
     if !file.position_dependent.is_empty() {
-        h.push_str("<h2>Error motions over the angle (u as error bars)</h2>\n<div class=\"grid\">\n");
+        h.push_str(
+            "<h2>Error motions over the angle (u as error bars)</h2>\n<div class=\"grid\">\n",
+        );
     }
     for (k, (name, m)) in file.position_dependent.iter().enumerate() {
         let dims: Vec<(&String, &Vec<f64>)> = m.nodes.iter().collect();

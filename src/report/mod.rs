@@ -4,8 +4,8 @@
 //! `.glb` of the measured points with the deviations magnified and
 //! coloured. Every file is written atomically.
 
-pub(crate) mod glb;
 pub mod ball_bar;
+pub(crate) mod glb;
 pub mod nine_section;
 pub mod plots;
 

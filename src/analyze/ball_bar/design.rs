@@ -143,13 +143,19 @@ impl Design {
             for comp in 0..6 {
                 let slot = 6 * link + comp;
                 let Some(mi) = sym.maps.iter().position(|m| m.slot == slot) else {
-                    return Err(format!("the machine has no map symbol for the {letter} axis"));
+                    return Err(format!(
+                        "the machine has no map symbol for the {letter} axis"
+                    ));
                 };
                 let dims = sym.maps[mi]
                     .deps
                     .iter()
                     .map(|&d| {
-                        let n = if d == swept { nodes.clone() } else { vec![held] };
+                        let n = if d == swept {
+                            nodes.clone()
+                        } else {
+                            vec![held]
+                        };
                         MapDim::new(d, &n, d == 1).map_err(|e| format!("{letter}: {e}"))
                     })
                     .collect::<Result<Vec<_>, _>>()?;
@@ -350,14 +356,21 @@ impl Design {
         let m = self.tilt;
         let mut candidates: Vec<usize> = Vec::new();
         for (ai, &a) in self.axes.iter().enumerate() {
-            let setup = self.plan.setups.iter().find(|s| s.axis == a).expect("an axis has setups");
+            let setup = self
+                .plan
+                .setups
+                .iter()
+                .find(|s| s.axis == a)
+                .expect("an axis has setups");
             for (bi, &b) in self.axes.iter().enumerate() {
                 if bi == ai {
                     continue;
                 }
                 let bvar = if b == m { 0 } else { 1 };
                 for (e, eff) in model.effects.iter().enumerate() {
-                    let Effect::Map { grid, .. } = eff else { continue };
+                    let Effect::Map { grid, .. } = eff else {
+                        continue;
+                    };
                     if self.axis_of_effect(e) != Some(bi) {
                         continue;
                     }
@@ -497,9 +510,7 @@ fn null_basis(c: &DMatrix<f64>, n: usize) -> DMatrix<f64> {
 /// translation.
 pub(crate) fn null_space(j: &DMatrix<f64>, basis: &DMatrix<f64>) -> Vec<DVector<f64>> {
     let a = j * basis;
-    let scale: Vec<f64> = (0..a.ncols())
-        .map(|c| a.column(c).norm())
-        .collect();
+    let scale: Vec<f64> = (0..a.ncols()).map(|c| a.column(c).norm()).collect();
     let scale = scaled(&scale);
     let a = DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| {
         if scale[c].is_finite() {
@@ -513,9 +524,7 @@ pub(crate) fn null_space(j: &DMatrix<f64>, basis: &DMatrix<f64>) -> Vec<DVector<
     (0..a.ncols())
         .filter(|&i| eig.eigenvalues[i] <= lmax * RANK_TOL * RANK_TOL)
         .map(|i| {
-            let w = DVector::from_fn(a.ncols(), |r, _| {
-                eig.eigenvectors[(r, i)] / unit(scale[r])
-            });
+            let w = DVector::from_fn(a.ncols(), |r, _| eig.eigenvectors[(r, i)] / unit(scale[r]));
             let t = basis * w;
             let big = t.amax();
             if big > 0.0 { t / big } else { t }

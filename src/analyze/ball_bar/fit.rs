@@ -60,9 +60,7 @@ impl Seen {
         let n = j.nrows().max(allowed.ncols());
         // theta = B S^-1 w: the allowed parameters, columns scaled.
         let a = j * allowed;
-        let scale: Vec<f64> = (0..a.ncols())
-            .map(|c| a.column(c).norm())
-            .collect();
+        let scale: Vec<f64> = (0..a.ncols()).map(|c| a.column(c).norm()).collect();
         let scale = super::design::scaled(&scale);
         // Rows of zeros where the readings are fewer than the parameters,
         // so that V holds every direction, the null ones too.
@@ -131,7 +129,9 @@ pub fn fit(d: &Design, rows: &[Reading], known: Option<&KnownLinear>, runout: &R
         } else {
             let a = &j * &seen.basis;
             let svd = a.svd(true, true);
-            let pinv = svd.pseudo_inverse(0.0).unwrap_or_else(|_| DMatrix::zeros(rank, rows.len()));
+            let pinv = svd
+                .pseudo_inverse(0.0)
+                .unwrap_or_else(|_| DMatrix::zeros(rank, rows.len()));
             &seen.basis * pinv
         };
         if converged || steps == MAX_STEPS {
@@ -150,9 +150,8 @@ pub fn fit(d: &Design, rows: &[Reading], known: Option<&KnownLinear>, runout: &R
 
         // The step against each seen parameter's spread at unit noise:
         // small everywhere, the fit has converged.
-        let small = (0..n).all(|k| {
-            !seen.seen[k] || step[k].abs() <= STEP_TOL * gain.row(k).norm().max(1e-300)
-        });
+        let small = (0..n)
+            .all(|k| !seen.seen[k] || step[k].abs() <= STEP_TOL * gain.row(k).norm().max(1e-300));
         for (t, s) in theta.iter_mut().zip(step.iter()) {
             *t += s;
         }

@@ -30,8 +30,8 @@ use super::AnalyzeError;
 use super::goodness::{self, ExpectedNoise};
 use super::usefulness::Usefulness;
 use crate::errorfile::{
-    ErrorFile, FitSection, FitVerdict, Noise, NotIdentified, Share,
-    UncertaintySection, ValueUncertainty,
+    ErrorFile, FitSection, FitVerdict, Noise, NotIdentified, Share, UncertaintySection,
+    ValueUncertainty,
 };
 use crate::formats::ball_bar::{BallBarManifest, BallBarRun};
 use crate::machine::Machine;
@@ -146,7 +146,9 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
         &req.plan,
         &machine,
         &runs,
-        linear.as_ref().map(|(f, p, s)| (f, p.as_path(), s.as_str())),
+        linear
+            .as_ref()
+            .map(|(f, p, s)| (f, p.as_path(), s.as_str())),
         &req.options,
     )
 }
@@ -402,8 +404,8 @@ impl Budget {
                         .map(|(j, r)| if key(r) == grp { weight(j) } else { 0.0 }),
                 );
                 let s = g * w;
-                for k in 0..n {
-                    var[k] += s[k] * s[k];
+                for (v, x) in var.iter_mut().zip(s.iter()) {
+                    *v += x * x;
                 }
             }
             var
@@ -421,9 +423,7 @@ impl Budget {
             let b = plan.setups[r.setup].bar_mm;
             bars.iter().position(|x| (x - b).abs() < 1e-9).unwrap_or(0)
         };
-        let calibration: Vec<f64> = grouped(&bar_of, &|_| plan.calibration_um)
-            .into_iter()
-            .collect();
+        let calibration = grouped(&bar_of, &|_| plan.calibration_um);
         let placement = grouped(&|r: &Reading| r.setup, &|_| opts.placement_um);
         let ro: Vec<[f64; 2]> = rows.iter().map(|r| d.runout_row(r)).collect();
         let runout: Vec<f64> = {
@@ -444,10 +444,7 @@ impl Budget {
 
     fn total(&self) -> Vec<Option<f64>> {
         (0..self.seen.len())
-            .map(|k| {
-                self.seen[k]
-                    .then(|| self.parts.iter().map(|p| p.1[k]).sum::<f64>().sqrt())
-            })
+            .map(|k| self.seen[k].then(|| self.parts.iter().map(|p| p.1[k]).sum::<f64>().sqrt()))
             .collect()
     }
 
@@ -501,8 +498,7 @@ fn unseen(d: &Design, fit: &Fit) -> Vec<NotIdentified> {
             }
             for (j, other) in names.iter().enumerate() {
                 let s = symbol_of(other).to_string();
-                if j != k && v[j].abs() > 1e-3 * big && !e.2.contains(&s) && s != symbol_of(name)
-                {
+                if j != k && v[j].abs() > 1e-3 * big && !e.2.contains(&s) && s != symbol_of(name) {
                     e.2.push(s);
                 }
             }
@@ -559,8 +555,8 @@ fn result_file(
     let mut values = IndexMap::new();
     for (k, name) in names.iter().enumerate() {
         let sym = symbol_of(name);
-        let written = file.location_errors.contains_key(sym)
-            || file.position_dependent.contains_key(sym);
+        let written =
+            file.location_errors.contains_key(sym) || file.position_dependent.contains_key(sym);
         if let (true, Some(uk)) = (written, u[k]) {
             values.insert(
                 name.clone(),
@@ -650,10 +646,13 @@ impl Outcome {
                 );
             }
         }
-        s.push_str(&super::result::render_not_useful(&f.seen_not_usefully, &|n| {
-            sym.location_index(n)
-                .map_or(String::new(), |k| sym.location[k].unit.to_string())
-        }));
+        s.push_str(&super::result::render_not_useful(
+            &f.seen_not_usefully,
+            &|n| {
+                sym.location_index(n)
+                    .map_or(String::new(), |k| sym.location[k].unit.to_string())
+            },
+        ));
         if !f.position_dependent.is_empty() {
             let _ = writeln!(
                 s,
@@ -689,4 +688,3 @@ fn flat(v: &crate::errorfile::Values) -> Vec<f64> {
         crate::errorfile::Values::Rows(r) => r.iter().flatten().copied().collect(),
     }
 }
-

@@ -126,7 +126,8 @@ pub fn analysis(
     others: &[(&str, bool)],
 ) -> anyhow::Result<Option<fivecal::analyze::ball_bar::Request>> {
     use fivecal::analyze::ball_bar::{Options, Request, Runout};
-    let is_plan = std::fs::read_to_string(plan).is_ok_and(|s| fivecal::analyze::ball_bar::is_plan(&s));
+    let is_plan =
+        std::fs::read_to_string(plan).is_ok_and(|s| fivecal::analyze::ball_bar::is_plan(&s));
     if !is_plan {
         if a.runout.is_some() || a.placement_u.is_some() || a.linear_errors.is_some() {
             bail!(
@@ -137,9 +138,16 @@ pub fn analysis(
         return Ok(None);
     }
     if let Some((name, _)) = others.iter().find(|(_, given)| *given) {
-        bail!("{name} does not apply to a ball-bar plan: its runs are identified by one fit of every reading, with u in closed form");
+        bail!(
+            "{name} does not apply to a ball-bar plan: its runs are identified by one fit of every reading, with u in closed form"
+        );
     }
-    let (um, phase_deg) = a.runout.as_deref().map(runout).transpose()?.unwrap_or((0.0, 0.0));
+    let (um, phase_deg) = a
+        .runout
+        .as_deref()
+        .map(runout)
+        .transpose()?
+        .unwrap_or((0.0, 0.0));
     let mut options = Options {
         runout: Runout { um, phase_deg },
         noise_um: noise,
