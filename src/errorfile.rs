@@ -435,6 +435,30 @@ pub struct ErrorFile {
     /// apart, none of which the model holds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ambiguity: Option<AmbiguitySection>,
+    /// Ball-bar results: each run's circularity figure (ISO 230-4 / ISO
+    /// 10791-6 style), what an acceptance engineer reads first.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub circularity: Vec<Circularity>,
+}
+
+/// One ball-bar run's deviation range: the bar's length deviation over the
+/// sweep, largest minus smallest, with nothing removed (a fixed-length bar
+/// under TCP has no centre to fit: its pivot is the table ball).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Circularity {
+    /// The run's setup (`C1-X`).
+    pub setup: String,
+    /// Largest minus smallest deviation, um.
+    pub range_um: f64,
+    /// Largest deviation, um.
+    pub max_um: f64,
+    /// Smallest deviation, um.
+    pub min_um: f64,
+    /// The range once the spindle ball's stated run-out is taken out of
+    /// each reading, um (absent when no run-out was stated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub range_without_runout_um: Option<f64>,
 }
 
 /// The `ambiguity:` section of a `discover` result: the search stopped
@@ -1005,6 +1029,7 @@ impl ErrorFile {
             uncertainty: None,
             seen_not_usefully: Vec::new(),
             ambiguity: None,
+            circularity: Vec::new(),
         };
         let q = |i: usize| Quantity {
             value: theta[i],

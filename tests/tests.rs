@@ -8,6 +8,7 @@ mod analyze;
 mod analyze_sim;
 mod architecture;
 mod ball_bar;
+mod ball_bar_analyze;
 mod cli;
 mod cli_json;
 mod compensate;

@@ -22,8 +22,11 @@
 //!   Monte-Carlo study that replaces it on request;
 //! - [`result`]: the result file, every entry of it added in one place;
 //! - [`series`]: several pieces side by side, and an earlier result beside
-//!   the new one.
+//!   the new one;
+//! - [`ball_bar`]: the ball bar under TCP, which has its own plan file and
+//!   its own identification (the rotary axes' error motions per angle).
 
+pub mod ball_bar;
 pub mod goodness;
 pub mod inputs;
 pub mod iso230_2;
@@ -602,7 +605,7 @@ fn identify_piece(
     file.test = Some(ctx.test.to_string());
     file.fit = fit.clone();
     file.uncertainty = Some(explained);
-    set_aside_not_useful(&mut file, &est, &req.usefulness);
+    set_aside_not_useful(&mut file, &est.model, &req.usefulness);
     Ok(IdentifiedPiece {
         number,
         data,
@@ -618,11 +621,11 @@ fn identify_piece(
 /// from the values to `seen_not_usefully:` ([`usefulness`]).
 fn set_aside_not_useful(
     file: &mut ErrorFile,
-    est: &Identification,
+    model: &crate::model::Model,
     useful: &usefulness::Usefulness,
 ) {
-    let symbols = &est.model.symbols;
-    let limits = &est.model.kin.machine().limits;
+    let symbols = &model.symbols;
+    let limits = &model.kin.machine().limits;
     let mut out = Vec::new();
     file.location_errors.retain(|name, q| {
         let unit = symbols

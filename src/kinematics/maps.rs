@@ -144,8 +144,9 @@ impl MapGrid {
         self.len() == 0
     }
 
-    /// Node angles of flat index `i`, as (tilt, C) where present.
-    pub(crate) fn node_angles(&self, i: usize) -> Vec<(usize, f64)> {
+    /// Node angles of flat index `i`, as (angle variable: 0 tilt, 1 C;
+    /// degrees) per dimension.
+    pub fn node_angles(&self, i: usize) -> Vec<(usize, f64)> {
         let mut rest = i;
         let mut out = vec![(0, 0.0); self.dims.len()];
         for (k, d) in self.dims.iter().enumerate().rev() {

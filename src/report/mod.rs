@@ -4,6 +4,7 @@
 //! `.glb` of the measured points with the deviations magnified and
 //! coloured. Every file is written atomically.
 
+pub mod ball_bar;
 pub(crate) mod glb;
 pub mod laser;
 pub mod nine_section;

@@ -96,6 +96,28 @@ pub fn analysis(
     }
 }
 
+/// The record of a ball-bar analysis of the plan `manifest` from the runs
+/// `measured`, whose result `file` was written to `result` as `text`.
+pub fn ball_bar(
+    file: &crate::errorfile::ErrorFile,
+    manifest: &Path,
+    measured: &[PathBuf],
+    result: &Path,
+    text: &str,
+    notes: &RunNotes,
+) -> Result<Vec<Record>, StoreError> {
+    let mut r = Record::new(
+        RecordKind::Analyze,
+        &file.machine,
+        &result.display().to_string(),
+        text.to_string(),
+    );
+    r.test = file.test.clone();
+    r.files = hashes(FileRole::Measured, measured)?;
+    r.files.push(FileHash::of(FileRole::Plan, manifest)?);
+    Ok(vec![notes.apply(r)])
+}
+
 /// The record of a `discover` run whose final model was written to
 /// `result` with `text`, from the measured files of the tests whose plan
 /// manifests are `manifests` (one, or several fitted together).

@@ -24,6 +24,9 @@ pub fn run(cli: AnalyzeCli) -> anyhow::Result<()> {
                 // to standard error.
                 crate::out::to_stderr();
             }
+            if let Some(bb) = &c.ball_bar {
+                return super::ball_bar::analyze(&c, bb);
+            }
             let mut recorder = c.record.open()?;
             let outcome = analyze::run(&c.request)?;
             for w in &outcome.warnings {

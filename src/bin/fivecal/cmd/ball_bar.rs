@@ -1,5 +1,6 @@
-//! `fivecal plan ball-bar` and `fivecal simulate` on a ball-bar plan: the
-//! ball bar under tool-centre-point control (docs/ball-bar.md).
+//! `fivecal plan ball-bar`, `fivecal simulate` on a ball-bar plan and
+//! `fivecal analyze` on its runs: the ball bar under tool-centre-point
+//! control (docs/ball-bar.md).
 
 use std::path::Path;
 
@@ -98,4 +99,46 @@ pub fn simulate(
         outln!("wrote {}", w.display());
     }
     Ok(())
+}
+
+/// Identifies the rotary axes' errors from the runs of a ball-bar plan,
+/// prints what it found (the circularity figures first) and writes the
+/// result file, the report and the history record.
+pub fn analyze(
+    c: &crate::config::analyze::Config,
+    req: &fivecal::analyze::ball_bar::Request,
+) -> anyhow::Result<()> {
+    let mut recorder = c.record.open()?;
+    let found = fivecal::analyze::ball_bar::run(req)
+        .with_context(|| format!("cannot analyze the ball-bar runs of {}", req.plan.display()))?;
+    out!("{}", found.render());
+    let text = if c.json {
+        found.file.to_json() + "\n"
+    } else {
+        found.file.to_yaml()
+    };
+    fivecal::io::write_atomic(&c.out, text.as_bytes()).map_err(|e| anyhow::anyhow!("{e}"))?;
+    if c.out.as_os_str() != "-" {
+        outln!("wrote {}", c.out.display());
+    }
+    if c.json_stdout {
+        crate::out::json(&found.file.to_json())?;
+    }
+    if let Some(dir) = &c.report {
+        let files = fivecal::report::ball_bar::write(dir, &found.file)?;
+        outln!(
+            "report: {} ({} files)",
+            dir.join("index.html").display(),
+            files.len()
+        );
+    }
+    let records = fivecal::store::runs::ball_bar(
+        &found.file,
+        &req.plan,
+        &req.runs,
+        &c.out,
+        &text,
+        &c.record.notes,
+    )?;
+    recorder.save(&records, &|s| outln!("{s}"))
 }

@@ -134,6 +134,20 @@ pub struct AnalyzeArgs {
     /// per symbol and for the machine (ISO 14253-1, U = 2u).
     #[arg(long, value_name = "FILE")]
     limits: Option<PathBuf>,
+    /// Ball-bar plans: the spindle ball's run-out as the setup sheet's
+    /// dial-indicator check measured it, um, and the spindle angle of its
+    /// maximum, deg (`--runout 3,45`): taken out of every reading.
+    #[arg(long, value_name = "UM[,DEG]")]
+    runout: Option<String>,
+    /// Ball-bar plans: standard uncertainty of the table ball's centre
+    /// along the bar as set, um [default: 2].
+    #[arg(long, value_name = "UM")]
+    placement_u: Option<f64>,
+    /// Ball-bar plans: an error file whose linear-axis errors (scale,
+    /// squareness, straightness) are taken out of the readings at the
+    /// positions the linear axes take.
+    #[arg(long, value_name = "FILE")]
+    linear_errors: Option<PathBuf>,
     #[command(flatten)]
     measured_flags: super::measured::MeasuredFlags,
     #[command(flatten)]
@@ -155,6 +169,8 @@ pub struct Config {
     pub report: Option<PathBuf>,
     /// The acceptance limits the result is checked against.
     pub limits: Option<LimitsSource>,
+    /// A ball-bar plan's analysis, instead of `request`'s.
+    pub ball_bar: Option<fivecal::analyze::ball_bar::Request>,
     /// Where the run is recorded.
     pub record: Recording,
 }
@@ -254,6 +270,7 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
     inputs.push(&manifest);
     inputs.extend(a.compare.as_deref());
+    inputs.extend(a.linear_errors.as_deref());
     let mut outputs = vec![("--out", out.as_path(), Shape::File)];
     outputs.extend(a.report.as_deref().map(|r| ("--report", r, Shape::Dir)));
     check_outputs(&inputs, &outputs)?;
@@ -275,6 +292,27 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
     if a.series && a.measured.len() < 2 {
         bail!("--series needs two or more measured files, one per piece");
     }
+    let noise = super::noise_arg(a.noise)?;
+    let usefulness = super::useful_u(a.useful_u.as_deref())?;
+    let ball_bar = super::ball_bar::analysis(
+        &manifest,
+        &a.measured,
+        super::ball_bar::BallBarAnalyzeArgs {
+            runout: a.runout,
+            placement_u: a.placement_u,
+            linear_errors: a.linear_errors,
+        },
+        noise,
+        usefulness,
+        &[
+            ("--method", a.method.is_some()),
+            ("--mc", a.mc.is_some()),
+            ("--maps", !a.maps.is_empty()),
+            ("--series", a.series),
+            ("--compare", a.compare.is_some()),
+            ("--limits", a.limits.is_some()),
+        ],
+    )?;
     Ok(Config {
         request: Request {
             method,
@@ -284,8 +322,8 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
             contributors,
             monte_carlo,
             circle,
-            noise: super::noise_arg(a.noise)?,
-            usefulness: super::useful_u(a.useful_u.as_deref())?,
+            noise,
+            usefulness,
             options: a.measured_flags.options()?,
             ..Request::new(&manifest, a.measured)
         },
@@ -294,6 +332,7 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         json_stdout: a.json && !to_stdout,
         report: a.report,
         limits,
+        ball_bar,
         record,
     })
 }

@@ -1,8 +1,8 @@
-//! The options of `fivecal plan ball-bar` (the ball bar under TCP) and of
-//! `fivecal simulate` on a ball-bar plan, validated into the library's
-//! request.
+//! The options of `fivecal plan ball-bar` (the ball bar under TCP), of
+//! `fivecal simulate` on a ball-bar plan and of `fivecal analyze` on its
+//! runs, validated into the library's requests.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::Args;
@@ -89,4 +89,78 @@ pub fn config(
         inputs,
         origin: origin.to_string(),
     })
+}
+
+/// `--runout UM[,DEG]`: the spindle ball's run-out and the spindle angle
+/// of its maximum (0 when not given).
+pub fn runout(r: &str) -> anyhow::Result<(f64, f64)> {
+    let v: Vec<f64> = r
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow::anyhow!("--runout {r}: expected UM or UM,DEG"))?;
+    match v.as_slice() {
+        [u] => Ok((*u, 0.0)),
+        [u, p] => Ok((*u, *p)),
+        _ => bail!("--runout {r}: expected UM or UM,DEG"),
+    }
+}
+
+/// `analyze`'s options that apply to a ball-bar plan only.
+pub struct BallBarAnalyzeArgs {
+    pub runout: Option<String>,
+    pub placement_u: Option<f64>,
+    pub linear_errors: Option<PathBuf>,
+}
+
+/// `analyze` on the plan `plan`: the ball-bar request when it is a
+/// ball-bar plan (refusing the options that do not apply to one, named in
+/// `others` with whether each was given), else `None` (refusing the
+/// ball-bar options).
+pub fn analysis(
+    plan: &Path,
+    runs: &[PathBuf],
+    a: BallBarAnalyzeArgs,
+    noise: Option<f64>,
+    usefulness: fivecal::analyze::usefulness::Usefulness,
+    others: &[(&str, bool)],
+) -> anyhow::Result<Option<fivecal::analyze::ball_bar::Request>> {
+    use fivecal::analyze::ball_bar::{Options, Request, Runout};
+    let is_plan =
+        std::fs::read_to_string(plan).is_ok_and(|s| fivecal::analyze::ball_bar::is_plan(&s));
+    if !is_plan {
+        if a.runout.is_some() || a.placement_u.is_some() || a.linear_errors.is_some() {
+            bail!(
+                "--runout, --placement-u and --linear-errors apply to a ball-bar plan (`fivecal plan ball-bar`); {} is not one",
+                plan.display()
+            );
+        }
+        return Ok(None);
+    }
+    if let Some((name, _)) = others.iter().find(|(_, given)| *given) {
+        bail!(
+            "{name} does not apply to a ball-bar plan: its runs are identified by one fit of every reading, with u in closed form"
+        );
+    }
+    let (um, phase_deg) = a
+        .runout
+        .as_deref()
+        .map(runout)
+        .transpose()?
+        .unwrap_or((0.0, 0.0));
+    let mut options = Options {
+        runout: Runout { um, phase_deg },
+        noise_um: noise,
+        usefulness,
+        ..Options::default()
+    };
+    if let Some(p) = a.placement_u {
+        options.placement_um = p;
+    }
+    Ok(Some(Request {
+        plan: plan.to_path_buf(),
+        runs: runs.to_vec(),
+        linear_errors: a.linear_errors,
+        options,
+    }))
 }

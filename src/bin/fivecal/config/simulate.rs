@@ -153,16 +153,7 @@ pub fn validate(a: SimulateArgs) -> anyhow::Result<Config> {
         ..Default::default()
     };
     if let Some(r) = &a.runout {
-        let v: Vec<f64> = r
-            .split(',')
-            .map(|x| x.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| anyhow::anyhow!("--runout {r}: expected UM or UM,DEG"))?;
-        match v.as_slice() {
-            [u] => ball_bar.runout_um = *u,
-            [u, p] => (ball_bar.runout_um, ball_bar.runout_phase_deg) = (*u, *p),
-            _ => bail!("--runout {r}: expected UM or UM,DEG"),
-        }
+        (ball_bar.runout_um, ball_bar.runout_phase_deg) = super::ball_bar::runout(r)?;
     }
     Ok(Config {
         plan_path,
