@@ -18,6 +18,7 @@
 
 pub mod ball_bar;
 mod bounds;
+mod instrument_nc;
 pub mod laser_lines;
 mod load;
 pub mod machining;

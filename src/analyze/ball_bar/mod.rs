@@ -564,6 +564,9 @@ fn result_file(
                     u: uk,
                     u_noise: budget.noise_only()[k],
                     largest: budget.largest(k),
+                    // Not split: a trend takes all of it as varying from
+                    // run to run, which can only hide a drift.
+                    u_random: None,
                 },
             );
         }

@@ -16,13 +16,10 @@
 //! in inverse-time feed (`G93`), each step taking the time the rotary feed
 //! gives it.
 
-use std::fmt::Write as _;
-
-use nalgebra::Vector3;
-
 use super::{BallBarRequest, Setup, setup_kinematics};
 use crate::kinematics::pose_frame::PoseFrame;
 use crate::machine::Dialect;
+use crate::procedure::instrument_nc::{Out, num};
 
 /// How far above M (along the arbor) the ball approaches and leaves, mm.
 pub const APPROACH_MM: f64 = 30.0;
@@ -83,108 +80,13 @@ fn header(req: &BallBarRequest, s: &Setup) -> Vec<String> {
 }
 
 /// Formats a number with 4 decimals (and a sign for HEIDENHAIN).
-fn num(d: Dialect, v: f64) -> String {
-    let v = if v.abs() < 5e-5 { 0.0 } else { v };
-    match d {
-        Dialect::Heidenhain => format!("{v:+.4}"),
-        _ => format!("{v:.4}"),
-    }
-}
-
-struct Out {
-    d: Dialect,
-    lines: Vec<String>,
-}
-
-impl Out {
-    fn block(&mut self, s: impl Into<String>) {
-        self.lines.push(s.into());
-    }
-
-    fn comment(&mut self, text: &str) {
-        let t: String = text
-            .chars()
-            .map(|c| if "()\";".contains(c) { ' ' } else { c })
-            .collect();
-        let line = match self.d {
-            Dialect::Fanuc => format!("({})", t.to_uppercase()),
-            Dialect::Linuxcnc => format!("({t})"),
-            Dialect::Heidenhain | Dialect::Sinumerik => format!("; {t}"),
-        };
-        self.lines.push(line);
-    }
-
-    fn xyz(&self, p: &Vector3<f64>) -> String {
-        let (x, y, z) = (num(self.d, p.x), num(self.d, p.y), num(self.d, p.z));
-        format!("X{x} Y{y} Z{z}")
-    }
-
-    fn rot(&self, tilt_letter: char, t: f64, c: f64) -> String {
-        format!("{tilt_letter}{} C{}", num(self.d, t), num(self.d, c))
-    }
-
-    fn rapid(&mut self, words: &str) {
-        let b = match self.d {
-            Dialect::Heidenhain => format!("L {words} R0 FMAX"),
-            _ => format!("G0 {words}"),
-        };
-        self.block(b);
-    }
-
-    fn feed(&mut self, words: &str, f: f64) {
-        let b = match self.d {
-            Dialect::Heidenhain => format!("L {words} R0 F{f:.0}"),
-            _ => format!("G1 {words} F{f:.1}"),
-        };
-        self.block(b);
-    }
-
-    fn dwell(&mut self, s: f64) {
-        match self.d {
-            Dialect::Fanuc => self.block(format!("G4 X{s:.3}")),
-            Dialect::Linuxcnc => self.block(format!("G4 P{s:.3}")),
-            Dialect::Sinumerik => self.block(format!("G4 F{s:.3}")),
-            Dialect::Heidenhain => {
-                self.block("CYCL DEF 9.0 DWELL TIME");
-                self.block(format!("CYCL DEF 9.1 DWELL {s:.3}"));
-            }
-        }
-    }
-
-    fn stop(&mut self, text: &str) {
-        match self.d {
-            Dialect::Fanuc => {
-                self.comment(text);
-                self.block("M0");
-            }
-            Dialect::Linuxcnc => {
-                let t: String = text.chars().filter(|c| !"()".contains(*c)).collect();
-                self.block(format!("(MSG,{t})"));
-                self.block("M0");
-            }
-            Dialect::Sinumerik => {
-                let t: String = text.chars().filter(|c| *c != '"').collect();
-                self.block(format!("MSG(\"{t}\")"));
-                self.block("M0");
-            }
-            Dialect::Heidenhain => {
-                self.comment(text);
-                self.block("STOP");
-            }
-        }
-    }
-}
-
 /// The program of setup `s`.
 pub fn write(req: &BallBarRequest, s: &Setup) -> String {
     let d = req.dialect;
     let m = &req.machine;
     let tl = m.tilt.letter;
     let kin = setup_kinematics(m, s.gauge);
-    let mut o = Out {
-        d,
-        lines: Vec::new(),
-    };
+    let mut o = Out::new(d);
     let name = format!("BALL_BAR_{}", s.name.replace('-', "_"));
     match d {
         Dialect::Fanuc => {
@@ -301,37 +203,5 @@ pub fn write(req: &BallBarRequest, s: &Setup) -> String {
     o.comment("retract before the next setup");
     o.rapid(&format!("Z{}", num(d, safe)));
     o.rapid(&o.rot(tl, 0.0, 0.0));
-    match d {
-        Dialect::Fanuc => {
-            o.block("M30");
-            o.block("%");
-        }
-        Dialect::Linuxcnc => {
-            o.block("M2");
-            o.block("%");
-        }
-        Dialect::Sinumerik => o.block("M30"),
-        Dialect::Heidenhain => {
-            o.block("M30");
-            o.block(format!("END PGM {name} MM"));
-        }
-    }
-    let mut text = String::new();
-    if d == Dialect::Heidenhain {
-        // Block numbers in order; a cycle's continuation line has none.
-        let mut n = 0;
-        for l in &o.lines {
-            if l.starts_with("  ") {
-                let _ = writeln!(text, "{l}");
-            } else {
-                let _ = writeln!(text, "{n} {l}");
-                n += 1;
-            }
-        }
-    } else {
-        for l in &o.lines {
-            let _ = writeln!(text, "{l}");
-        }
-    }
-    text
+    o.finish(&name)
 }
