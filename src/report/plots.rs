@@ -27,7 +27,7 @@ const W: u32 = 720;
 const H: u32 = 380;
 
 /// The width the report pages show a plot at, px: two side by side on a
-/// 1100 px page ([`crate::report::page_start`]'s style).
+/// 1100 px page (the report pages' style).
 pub const SHOWN_WIDTH: u32 = 540;
 
 /// Font sizes as plotters takes them: it writes `size / 1.24` px into the
