@@ -589,6 +589,24 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
+/// Writes `files` (names inside `dir`, with their bytes) into `dir` all or
+/// nothing ([`StagedDir`]), refusing before anything is written when one
+/// would land on one of `inputs`.
+pub fn write_dir(
+    dir: &Path,
+    files: &[(PathBuf, Vec<u8>)],
+    inputs: &[&Path],
+) -> Result<Vec<PathBuf>, OutputError> {
+    for (name, _) in files {
+        ensure_not_input(&dir.join(name), inputs)?;
+    }
+    let mut stage = StagedDir::create(dir)?;
+    for (name, bytes) in files {
+        stage.write(name, bytes)?;
+    }
+    stage.commit()
+}
+
 /// Fails when `out` is one of `inputs` (compared after resolving links).
 pub fn ensure_not_input(out: &Path, inputs: &[&Path]) -> Result<(), OutputError> {
     if inputs.iter().any(|i| same_file(out, i)) {

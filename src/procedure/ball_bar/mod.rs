@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use nalgebra::Vector3;
 
 use crate::formats::ball_bar::{BALL_BAR_VERSION, BallBarManifest, SetupEntry};
-use crate::io::{OutputError, StagedDir, ensure_not_input};
+use crate::io::{OutputError, write_dir};
 use crate::kinematics::{Axes, Kinematics};
 use crate::machine::{Dialect, Machine};
 
@@ -345,15 +345,7 @@ impl BallBarPlan {
     /// Writes every output into `dir` (staged: all or nothing), refusing
     /// to overwrite any of `inputs`.
     pub fn write(&self, dir: &Path, inputs: &[&Path]) -> Result<Vec<PathBuf>, OutputError> {
-        let outs = self.outputs();
-        for (p, _) in &outs {
-            ensure_not_input(&dir.join(p), inputs)?;
-        }
-        let mut stage = StagedDir::create(dir)?;
-        for (name, bytes) in &outs {
-            stage.write(name, bytes)?;
-        }
-        stage.commit()
+        write_dir(dir, &self.outputs(), inputs)
     }
 }
 
