@@ -207,10 +207,7 @@ impl BallBarManifest {
 
     /// Whether `src` is a ball-bar plan file (its first key).
     pub fn sniff(src: &str) -> bool {
-        src.lines()
-            .map(str::trim)
-            .find(|l| !l.is_empty() && !l.starts_with('#'))
-            .is_some_and(|l| l.starts_with("fivecal_ball_bar:"))
+        super::first_key_is(src, "fivecal_ball_bar:")
     }
 }
 

@@ -195,10 +195,7 @@ impl LaserManifest {
 
     /// Whether `src` is a laser-lines plan file (its first key).
     pub fn sniff(src: &str) -> bool {
-        src.lines()
-            .map(str::trim)
-            .find(|l| !l.is_empty() && !l.starts_with('#'))
-            .is_some_and(|l| l.starts_with("fivecal_laser_lines:"))
+        super::first_key_is(src, "fivecal_laser_lines:")
     }
 }
 

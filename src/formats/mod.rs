@@ -89,6 +89,16 @@ pub(crate) fn csv_lines(src: &str) -> impl Iterator<Item = CsvLine<'_>> {
     })
 }
 
+/// Whether the first line of `src` that is neither blank nor a comment
+/// starts with `key` (how an instrument plan file names its kind, as
+/// `fivecal_ball_bar: 1`).
+pub(crate) fn first_key_is(src: &str, key: &str) -> bool {
+    src.lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .is_some_and(|l| l.starts_with(key))
+}
+
 /// Parses a finite number or explains what was expected.
 pub(crate) fn parse_finite(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {

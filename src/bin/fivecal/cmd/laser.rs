@@ -94,16 +94,12 @@ pub fn simulate(
             errors.display()
         )
     })?;
-    let mut stage = fivecal::io::StagedDir::create(out).map_err(|e| anyhow::anyhow!("{e}"))?;
-    for r in &runs {
-        let name = std::path::PathBuf::from(format!("{}.txt", r.line));
-        fivecal::io::ensure_not_input(&out.join(&name), &inputs)
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        stage
-            .write(&name, r.to_text().as_bytes())
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-    }
-    let written = stage.commit().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let files: Vec<_> = runs
+        .iter()
+        .map(|r| (format!("{}.txt", r.line).into(), r.to_text().into_bytes()))
+        .collect();
+    let written =
+        fivecal::io::write_dir(out, &files, &inputs).map_err(|e| anyhow::anyhow!("{e}"))?;
     outln!(
         "simulated {} laser lines on {} (seed {}, reading noise {} um)",
         runs.len(),
