@@ -197,7 +197,7 @@ fn machine_new_writes_a_renamed_copy_that_reads_back() {
         .arg(&file)
         .assert()
         .success();
-    let copy = fivecal::Machine::from_file(&file).unwrap();
+    let copy = fivecal::Machine::from_file(&file, "machine file").unwrap();
     let original = fivecal::Machine::builtin("head-table").unwrap();
     assert_eq!(copy.name, "my-mill");
     assert_ne!(copy.description, original.description);
@@ -586,4 +586,61 @@ fn man_page_has_a_section_per_subcommand() {
     // fivecal-plan(1) and the like, which do not exist.
     assert!(!text.contains("(1)"), "the man page cites other pages");
     assert!(text.contains(".SH NAME") && text.contains(".SH SYNOPSIS"));
+}
+
+/// `plan` takes the options of every kind of test on one command line, so
+/// an option of another kind is refused by name, never dropped: a stepped
+/// square planned with `--bar` would not be what the command says.
+#[test]
+fn plan_refuses_the_options_of_another_kind_of_test() {
+    let dir = tempfile::tempdir().unwrap();
+    for (args, flag, owner) in [
+        (
+            vec!["stepped-square", "--bar", "100"],
+            "--bar",
+            "`plan ball-bar`",
+        ),
+        (
+            vec!["probe-sphere", "--volume", "0,0,0,1,1,1"],
+            "--volume",
+            "`plan laser-lines`",
+        ),
+        (
+            vec!["ball-bar", "--bar", "100", "--tool", "machine"],
+            "--tool",
+            "the template tests",
+        ),
+        (
+            vec!["ball-bar", "--bar", "100", "--divisions", "4"],
+            "--divisions",
+            "`plan laser-lines`",
+        ),
+        (
+            vec!["laser-lines", "--require", "all"],
+            "--require",
+            "the template tests",
+        ),
+        (
+            vec!["laser-lines", "--bar-noise", "0.3"],
+            "--bar-noise",
+            "`plan ball-bar`",
+        ),
+    ] {
+        let out = dir.path().join("never");
+        let o = fivecal()
+            .arg("plan")
+            .args(&args)
+            .args(["--machine", "bc-trunnion", "-o"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            err.contains(&format!("{flag} does not apply to `plan {}`", args[0]))
+                && err.contains(owner),
+            "{args:?}: {err}"
+        );
+        assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
 }

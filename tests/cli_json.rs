@@ -328,3 +328,80 @@ fn history_trend_and_plot_json_say_what_the_text_and_the_page_hold() {
         assert!(Path::new(&f).is_file(), "{f}");
     }
 }
+
+/// `plan ball-bar --json`: the setups and readings it printed, every file
+/// it wrote, and per axis what the runs will identify: each of the six
+/// terms with its predicted u, or none where no setup sees it.
+#[test]
+fn plan_ball_bar_json_names_its_files_and_what_each_axis_identifies() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bb");
+    let (v, err) = json_run(
+        fivecal()
+            .args(["plan", "ball-bar", "--machine", "bc-trunnion"])
+            .args(["--bar", "100,150,300", "--json", "-o"])
+            .arg(&out),
+    );
+    assert_eq!(v["test"], "ball-bar");
+    assert_eq!(v["machine"], "bc-trunnion");
+    let human = format!(
+        "ball-bar on bc-trunnion: {} setups, {} readings",
+        v["setups"], v["readings"]
+    );
+    assert!(err.contains(&human), "{human}\n{err}");
+    for f in strings(&v["files"]) {
+        assert!(Path::new(&f).is_file(), "{f}");
+    }
+    let axes = v["axes"].as_array().unwrap();
+    let mut letters: Vec<&str> = axes.iter().map(|a| a["axis"].as_str().unwrap()).collect();
+    letters.sort();
+    assert_eq!(letters, ["B", "C"]);
+    for a in axes {
+        let terms = a["terms"].as_array().unwrap();
+        assert_eq!(terms.len(), 6);
+        for t in terms {
+            // A number where every angle sees the term, else the angles
+            // where none does: never both, never neither.
+            let unseen = t["unseen_at_deg"].as_array().unwrap();
+            assert_eq!(t["u_max"].is_null(), !unseen.is_empty(), "{t}");
+            if let Some(u) = t["u_max"].as_f64() {
+                assert!(u > 0.0 && u.is_finite(), "{t}");
+            }
+        }
+    }
+}
+
+/// `plan laser-lines --json`: ten lines, each with where it starts and how
+/// its offset is made, the files it wrote, and standard output left to the
+/// JSON.
+#[test]
+fn plan_laser_lines_json_lists_the_ten_lines_and_their_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("laser");
+    let (v, err) = json_run(
+        fivecal()
+            .args(["plan", "laser-lines", "--machine", "head-table"])
+            .args(["--divisions", "4", "--runs", "2", "--json", "-o"])
+            .arg(&out),
+    );
+    assert_eq!(v["test"], "laser-lines");
+    assert_eq!(v["targets"], 5);
+    assert_eq!(v["runs"], 2);
+    let lines = v["lines"].as_array().unwrap();
+    let names: Vec<&str> = lines.iter().map(|l| l["name"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        ["L1", "L2", "L3", "L4", "L5", "L6", "L7", "L8", "L9", "L10"]
+    );
+    for l in lines {
+        let by = l["offset_by"].as_str().unwrap();
+        assert!(["none", "axes", "bracket"].contains(&by), "{l}");
+        assert!(l["length_mm"].as_f64().unwrap() > 0.0, "{l}");
+    }
+    assert!(err.contains("laser-lines on head-table: 10 lines"), "{err}");
+    let files = strings(&v["files"]);
+    assert!(files.iter().any(|f| f.ends_with("laser-lines.plan.yaml")));
+    for f in &files {
+        assert!(Path::new(f).is_file(), "{f}");
+    }
+}

@@ -160,9 +160,11 @@ impl PlanContext {
             )));
         }
         let machine =
-            Machine::from_file(&machine_path).map_err(|source| AnalyzeError::Machine {
-                path: machine_path.clone(),
-                source,
+            Machine::from_file(&machine_path, "the plan's machine copy").map_err(|source| {
+                AnalyzeError::Machine {
+                    path: machine_path.clone(),
+                    source,
+                }
             })?;
         let gauge = match manifest.kind {
             TestKind::Machining => manifest

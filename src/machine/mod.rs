@@ -454,9 +454,10 @@ impl Machine {
         })
     }
 
-    /// Reads a machine file at `path` (whatever its name).
-    pub fn from_file(path: &Path) -> Result<Machine, MachineError> {
-        let src = crate::input::read_text(path, "machine file", crate::limits::MAX_YAML_BYTES)?;
+    /// Reads a machine file at `path` (whatever its name); `what` names it
+    /// in a refusal (a plan's machine copy is not the user's machine file).
+    pub fn from_file(path: &Path, what: &str) -> Result<Machine, MachineError> {
+        let src = crate::input::read_text(path, what, crate::limits::MAX_YAML_BYTES)?;
         Machine::from_yaml(path, &src)
     }
 
@@ -477,9 +478,8 @@ impl Machine {
         if !is_path_spec(spec) {
             return Err(MachineError::NotFound(spec.to_string(), builtin_names()));
         }
-        let src = crate::input::read_text(path, "machine file", crate::limits::MAX_YAML_BYTES)?;
         Ok((
-            Machine::from_yaml(path, &src)?,
+            Machine::from_file(path, "machine file")?,
             MachineOrigin::File(path.to_path_buf()),
         ))
     }

@@ -119,15 +119,12 @@ pub fn run(req: &Request) -> Result<Outcome, AnalyzeError> {
     let plan = BallBarManifest::read(&req.plan)?;
     let dir = req.plan.parent().unwrap_or(Path::new("."));
     let machine_path = dir.join(&plan.machine_file);
-    let text = crate::input::read_text(
-        &machine_path,
-        "ball-bar plan's machine copy",
-        crate::limits::MAX_YAML_BYTES,
-    )?;
     let machine =
-        Machine::from_yaml(&machine_path, &text).map_err(|source| AnalyzeError::Machine {
-            path: machine_path.clone(),
-            source,
+        Machine::from_file(&machine_path, "ball-bar plan's machine copy").map_err(|source| {
+            AnalyzeError::Machine {
+                path: machine_path.clone(),
+                source,
+            }
         })?;
     let runs = req
         .runs

@@ -9,11 +9,16 @@ use fivecal::ErrorFile;
 use fivecal::formats::ball_bar::BallBarManifest;
 use fivecal::io::{Shape, check_outputs};
 use fivecal::simulate::ball_bar::{BallBarOptions, simulate as simulate_runs};
+use serde::Serialize;
 
 use crate::config::ball_bar::BallBarPlanConfig;
 
-/// Plans and writes the ball-bar test.
-pub fn plan(cfg: BallBarPlanConfig) -> anyhow::Result<()> {
+/// Plans and writes the ball-bar test; with `json`, what was planned as
+/// JSON on standard output (the rest on standard error).
+pub fn plan(cfg: BallBarPlanConfig, json: bool) -> anyhow::Result<()> {
+    if json {
+        crate::out::to_stderr();
+    }
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
     check_outputs(&inputs, &[("--out", &cfg.out, Shape::Dir)])?;
     let req = &cfg.request;
@@ -39,10 +44,78 @@ pub fn plan(cfg: BallBarPlanConfig) -> anyhow::Result<()> {
     for n in &planned.notes {
         outln!("note: {n}");
     }
-    for w in written {
+    for w in &written {
         outln!("wrote {}", w.display());
     }
+    if json {
+        crate::out::json_of(&PlannedBallBar {
+            test: "ball-bar",
+            machine: &req.machine.name,
+            dialect: req.dialect.to_string(),
+            setups: planned.setups.len(),
+            readings: angles,
+            sigma_um: planned.prediction.sigma_um,
+            axes: planned
+                .prediction
+                .axes
+                .iter()
+                .map(|a| AxisJson {
+                    axis: a.axis,
+                    setups: a.setups,
+                    angles: a.angles.len(),
+                    rank: a.rank,
+                    terms: (0..a.symbols.len())
+                        .map(|k| TermJson {
+                            symbol: &a.symbols[k],
+                            unit: a.units[k],
+                            u_max: a.u_max[k],
+                            unseen_at_deg: &a.unseen_at[k],
+                        })
+                        .collect(),
+                })
+                .collect(),
+            notes: &planned.notes,
+            files: written.iter().map(|w| w.display().to_string()).collect(),
+        })?;
+    }
     Ok(())
+}
+
+/// What `plan ball-bar --json` prints.
+#[derive(Serialize)]
+struct PlannedBallBar<'a> {
+    test: &'static str,
+    machine: &'a str,
+    dialect: String,
+    setups: usize,
+    /// Readings over every setup (one per angle).
+    readings: usize,
+    /// Standard deviation of one reading the prediction used, um.
+    sigma_um: f64,
+    /// What each axis' runs will identify.
+    axes: Vec<AxisJson<'a>>,
+    notes: &'a [String],
+    files: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct AxisJson<'a> {
+    axis: char,
+    setups: usize,
+    angles: usize,
+    /// Rank of the per-angle design, smallest over the sweep (6: every
+    /// term seen).
+    rank: usize,
+    terms: Vec<TermJson<'a>>,
+}
+
+#[derive(Serialize)]
+struct TermJson<'a> {
+    symbol: &'a str,
+    unit: &'static str,
+    /// The largest predicted u over the sweep; null: unseen somewhere.
+    u_max: Option<f64>,
+    unseen_at_deg: &'a [f64],
 }
 
 /// Whether the plan file at `path` is a ball-bar plan.
@@ -61,12 +134,7 @@ pub fn simulate(
     let man = BallBarManifest::read(plan_path)?;
     let dir = plan_path.parent().unwrap_or(Path::new("."));
     let machine_path = dir.join(&man.machine_file);
-    let machine_text = fivecal::input::read_text(
-        &machine_path,
-        "ball-bar plan's machine copy",
-        fivecal::limits::MAX_YAML_BYTES,
-    )?;
-    let machine = fivecal::Machine::from_yaml(&machine_path, &machine_text)?;
+    let machine = fivecal::Machine::from_file(&machine_path, "ball-bar plan's machine copy")?;
     let inputs = [plan_path, errors, machine_path.as_path()];
     check_outputs(&inputs, &[("--out", out, Shape::Dir)])?;
     let (truth, src) = ErrorFile::read(errors)?;

@@ -9,11 +9,16 @@ use fivecal::ErrorFile;
 use fivecal::formats::laser::LaserManifest;
 use fivecal::io::{Shape, check_outputs};
 use fivecal::simulate::laser::{LaserOptions, simulate as simulate_runs};
+use serde::Serialize;
 
 use crate::config::laser::{LaserAnalyzeConfig, LaserPlanConfig};
 
-/// Plans and writes the ten lines.
-pub fn plan(cfg: LaserPlanConfig) -> anyhow::Result<()> {
+/// Plans and writes the ten lines; with `json`, what was planned as JSON
+/// on standard output (the rest on standard error).
+pub fn plan(cfg: LaserPlanConfig, json: bool) -> anyhow::Result<()> {
+    if json {
+        crate::out::to_stderr();
+    }
     let inputs: Vec<&Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
     check_outputs(&inputs, &[("--out", &cfg.out, Shape::Dir)])?;
     let req = &cfg.request;
@@ -57,10 +62,68 @@ pub fn plan(cfg: LaserPlanConfig) -> anyhow::Result<()> {
     for n in &planned.notes {
         outln!("note: {n}");
     }
-    for w in written {
+    for w in &written {
         outln!("wrote {}", w.display());
     }
+    if json {
+        crate::out::json_of(&PlannedLines {
+            test: "laser-lines",
+            machine: &req.machine.name,
+            dialect: req.dialect.to_string(),
+            volume_mm: planned.volume,
+            targets: req.divisions + 1,
+            runs: req.runs,
+            run_minutes: minutes,
+            lines: planned
+                .lines
+                .iter()
+                .map(|l| LineJson {
+                    name: &l.name,
+                    axes: &l.axes,
+                    start_mm: l.start,
+                    direction: l.direction,
+                    length_mm: l.targets[l.targets.len() - 1],
+                    offset_mm: l.offset,
+                    offset_by: &l.offset_by,
+                })
+                .collect(),
+            notes: &planned.notes,
+            files: written.iter().map(|w| w.display().to_string()).collect(),
+        })?;
+    }
     Ok(())
+}
+
+/// What `plan laser-lines --json` prints.
+#[derive(Serialize)]
+struct PlannedLines<'a> {
+    test: &'static str,
+    machine: &'a str,
+    dialect: String,
+    /// X0, Y0, Z0, X1, Y1, Z1, machine coordinates of the measured point.
+    volume_mm: [f64; 6],
+    /// Targets per line.
+    targets: usize,
+    /// Runs in each direction.
+    runs: usize,
+    /// Measuring time of every line together, minutes.
+    run_minutes: f64,
+    lines: Vec<LineJson<'a>>,
+    notes: &'a [String],
+    files: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct LineJson<'a> {
+    name: &'a str,
+    axes: &'a str,
+    start_mm: [f64; 3],
+    direction: [f64; 3],
+    length_mm: f64,
+    /// The measured point's offset from the spindle point P.
+    offset_mm: [f64; 3],
+    /// `none`, `axes` or `bracket`.
+    offset_by: &'a str,
 }
 
 /// Whether the plan file at `path` is a laser-lines plan.
@@ -78,12 +141,7 @@ pub fn simulate(
     let man = LaserManifest::read(plan_path)?;
     let dir = plan_path.parent().unwrap_or(Path::new("."));
     let machine_path = dir.join(&man.machine_file);
-    let machine_text = fivecal::input::read_text(
-        &machine_path,
-        "laser-lines plan's machine copy",
-        fivecal::limits::MAX_YAML_BYTES,
-    )?;
-    let machine = fivecal::Machine::from_yaml(&machine_path, &machine_text)?;
+    let machine = fivecal::Machine::from_file(&machine_path, "laser-lines plan's machine copy")?;
     let inputs = [plan_path, errors, machine_path.as_path()];
     check_outputs(&inputs, &[("--out", out, Shape::Dir)])?;
     let (truth, src) = ErrorFile::read(errors)?;

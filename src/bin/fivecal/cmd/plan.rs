@@ -14,18 +14,14 @@ use fivecal::formats::manifest::KinematicsMode;
 use fivecal::procedure::{Plan, plan};
 use serde::Serialize;
 
-use crate::config::plan::{PlanArgs, config, recipe};
+use crate::config::plan::{PlanArgs, Route, recipe, route};
 
 pub fn run(args: PlanArgs) -> anyhow::Result<()> {
-    let args = match args.ball_bar() {
-        Ok(cfg) => return super::ball_bar::plan(cfg?),
-        Err(args) => *args,
+    let cfg = match route(args)? {
+        Route::Test(cfg) => *cfg,
+        Route::BallBar { cfg, json } => return super::ball_bar::plan(cfg, json),
+        Route::LaserLines { cfg, json } => return super::laser::plan(cfg, json),
     };
-    let args = match args.laser_lines() {
-        Ok(cfg) => return super::laser::plan(cfg?),
-        Err(args) => *args,
-    };
-    let cfg = config(args)?;
     if cfg.json {
         // Standard output is the JSON's: what the run says goes to
         // standard error.

@@ -29,9 +29,25 @@ pub struct BallBarArgs {
     /// and 250).
     #[arg(long, value_name = "MM,MM,..", value_delimiter = ',')]
     pub swing: Vec<f64>,
-    /// ball-bar: standard deviation of one reading of the bar, um.
-    #[arg(long, value_name = "UM", default_value_t = 0.5)]
-    pub bar_noise: f64,
+    /// ball-bar: standard deviation of one reading of the bar, um
+    /// [default: 0.5].
+    #[arg(long, value_name = "UM")]
+    pub bar_noise: Option<f64>,
+}
+
+impl BallBarArgs {
+    /// The options given, by flag, for refusing them on another test.
+    pub fn given(&self) -> Vec<&'static str> {
+        [
+            ("--bar", !self.bar.is_empty()),
+            ("--ball", !self.ball.is_empty()),
+            ("--swing", !self.swing.is_empty()),
+            ("--bar-noise", self.bar_noise.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(f, g)| g.then_some(f))
+        .collect()
+    }
 }
 
 /// The validated `plan ball-bar`.
@@ -82,7 +98,9 @@ pub fn config(
         .collect::<anyhow::Result<_>>()
         .context("bad --ball")?;
     request.swings = a.swing;
-    request.noise_um = a.bar_noise;
+    if let Some(n) = a.bar_noise {
+        request.noise_um = n;
+    }
     Ok(BallBarPlanConfig {
         request,
         out: out.unwrap_or_else(|| PathBuf::from("ball-bar")),

@@ -40,6 +40,24 @@ pub struct LaserArgs {
     pub laser_u: Option<String>,
 }
 
+impl LaserArgs {
+    /// The options given, by flag, for refusing them on another test.
+    pub fn given(&self) -> Vec<&'static str> {
+        [
+            ("--volume", self.volume.is_some()),
+            ("--runs", self.runs.is_some()),
+            ("--divisions", self.divisions.is_some()),
+            ("--overrun", self.overrun.is_some()),
+            ("--dwell", self.dwell.is_some()),
+            ("--bracket", self.bracket.is_some()),
+            ("--laser-u", self.laser_u.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(f, g)| g.then_some(f))
+        .collect()
+    }
+}
+
 /// The validated `plan laser-lines`.
 pub struct LaserPlanConfig {
     pub request: LaserRequest,

@@ -100,39 +100,81 @@ pub struct PlanArgs {
     laser: super::laser::LaserArgs,
 }
 
-impl PlanArgs {
-    /// `plan ball-bar` (the ball bar under TCP, planned by its own
-    /// configuration in `config/ball_bar.rs`), or the other tests' args.
-    pub fn ball_bar(
-        self,
-    ) -> Result<anyhow::Result<super::ball_bar::BallBarPlanConfig>, Box<PlanArgs>> {
-        if self.test.as_deref() != Some("ball-bar") {
-            return Err(Box::new(self));
-        }
-        Ok(super::ball_bar::config(
-            self.machine.as_deref(),
-            self.dialect,
-            self.out,
-            self.ball_bar,
-        ))
-    }
+/// What one `fivecal plan` run plans: a test of the template catalogue,
+/// or one of the instrument tests, which have their own options.
+pub enum Route {
+    /// stepped-square, nine-section, probe-columns, probe-sphere (or the
+    /// test a `--supplement` asks for).
+    Test(Box<Config>),
+    /// The ball bar under TCP (`config/ball_bar.rs`).
+    BallBar {
+        cfg: super::ball_bar::BallBarPlanConfig,
+        json: bool,
+    },
+    /// The laser interferometer's ten lines (`config/laser.rs`).
+    LaserLines {
+        cfg: super::laser::LaserPlanConfig,
+        json: bool,
+    },
 }
 
-impl PlanArgs {
-    /// `plan laser-lines` (its own configuration in `config/laser.rs`), or
-    /// the other tests' args.
-    pub fn laser_lines(
-        self,
-    ) -> Result<anyhow::Result<super::laser::LaserPlanConfig>, Box<PlanArgs>> {
-        if self.test.as_deref() != Some("laser-lines") {
-            return Err(Box::new(self));
+/// `plan`'s options validated into what it runs. An option of another
+/// kind of test is refused by name, never ignored: `--bar` on a stepped
+/// square, or `--template` on the ball bar, would otherwise plan something
+/// other than what the command line says.
+pub fn route(a: PlanArgs) -> anyhow::Result<Route> {
+    let test = a.test.clone().unwrap_or_default();
+    let template_options = [
+        ("--supplement", a.supplement.is_some()),
+        ("--template", a.template.is_some()),
+        ("--postprocessor", a.postprocessor.is_some()),
+        ("--kinematics", a.kinematics.is_some()),
+        ("--tool", a.tool.is_some()),
+        ("--require", a.require.is_some()),
+        ("--useful-u", a.useful_u.is_some()),
+    ];
+    let refuse = |given: &[&str], kind: &str| -> anyhow::Result<()> {
+        match given.first() {
+            Some(flag) => {
+                bail!("{flag} does not apply to `plan {test}`: it is an option of {kind}")
+            }
+            None => Ok(()),
         }
-        Ok(super::laser::config(
-            self.machine.as_deref(),
-            self.dialect,
-            self.out,
-            self.laser,
-        ))
+    };
+    let template_given: Vec<&str> = template_options
+        .iter()
+        .filter(|(_, g)| *g)
+        .map(|(f, _)| *f)
+        .collect();
+    let (bar_given, laser_given) = (a.ball_bar.given(), a.laser.given());
+    match test.as_str() {
+        "ball-bar" => {
+            refuse(
+                &template_given,
+                "the template tests (stepped-square, nine-section, probe-columns, probe-sphere)",
+            )?;
+            refuse(&laser_given, "`plan laser-lines`")?;
+            Ok(Route::BallBar {
+                cfg: super::ball_bar::config(a.machine.as_deref(), a.dialect, a.out, a.ball_bar)?,
+                json: a.json,
+            })
+        }
+        "laser-lines" => {
+            refuse(
+                &template_given,
+                "the template tests (stepped-square, nine-section, probe-columns, probe-sphere)",
+            )?;
+            refuse(&bar_given, "`plan ball-bar`")?;
+            Ok(Route::LaserLines {
+                cfg: super::laser::config(a.machine.as_deref(), a.dialect, a.out, a.laser)?,
+                json: a.json,
+            })
+        }
+        _ => {
+            refuse(&bar_given, "`plan ball-bar`")?;
+            refuse(&laser_given, "`plan laser-lines`")?;
+            Ok(Route::Test(Box::new(config(a)?)))
+        }
     }
 }
 
@@ -163,8 +205,8 @@ pub struct Config {
     machine_arg: String,
 }
 
-/// The validated configuration of one `plan` run.
-pub fn config(a: PlanArgs) -> anyhow::Result<Config> {
+/// The validated configuration of one `plan` run of a template test.
+fn config(a: PlanArgs) -> anyhow::Result<Config> {
     let mut inputs = Vec::new();
     let supplement = a.supplement.as_deref().map(supplementary).transpose()?;
     if let Some(s) = &supplement {
