@@ -7,13 +7,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, bail};
 use clap::{Args, Subcommand};
-use fivecal::analyze::{self, ContributorChoice, McOptions, MonteCarlo, Request};
+use fivecal::analyze::Request;
 use fivecal::conformance::LimitsSource;
 use fivecal::identify::Method;
 use fivecal::identify::sphere::CircleMethod;
 use fivecal::io::{Shape, check_outputs};
 
 use super::record::Recording;
+
+mod uncertainty;
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -175,24 +177,6 @@ pub struct Config {
     pub record: Recording,
 }
 
-fn contributors(spec: Option<&str>) -> anyhow::Result<ContributorChoice> {
-    Ok(match spec {
-        None => ContributorChoice::TestDefault,
-        Some("seed001") => ContributorChoice::Given(analyze::Contributors::seed001()),
-        Some("seed000") => ContributorChoice::Given(analyze::Contributors::seed000()),
-        Some("noise") => ContributorChoice::NoiseOnly,
-        Some(path) => {
-            let path = Path::new(path);
-            let src = fivecal::input::read_text(
-                path,
-                "contributors file",
-                fivecal::limits::MAX_YAML_BYTES,
-            )?;
-            ContributorChoice::Given(fivecal::input::parse_yaml(path, &src)?)
-        }
-    })
-}
-
 impl AnalyzeArgs {
     /// `analyze` of a laser-lines plan (its ISO 230-2 figures, see
     /// `cmd/laser.rs`), when `--plan` is one; the identification's options
@@ -243,30 +227,10 @@ pub fn validate(a: AnalyzeArgs) -> anyhow::Result<Config> {
         .circle_fit
         .parse::<CircleMethod>()
         .map_err(anyhow::Error::msg)?;
-    let contributors = contributors(a.contributors.as_deref())?;
+    let contributors = uncertainty::contributors(a.contributors.as_deref())?;
     let limits = a.limits.as_deref().map(LimitsSource::read).transpose()?;
     let record = a.record.validate()?;
-    let monte_carlo = match a.mc {
-        Some(n @ (0 | 1)) => bail!("--mc {n}: the Monte-Carlo study needs at least 2 runs"),
-        Some(n) if n > fivecal::limits::MAX_MC_RUNS => bail!(
-            "--mc {n}: at most {} runs (the spread of u settles within a few hundred)",
-            fivecal::limits::MAX_MC_RUNS
-        ),
-        Some(_) if a.max_seconds.is_some_and(|s| !(s.is_finite() && s > 0.0)) => bail!(
-            "--max-seconds {}: expected a time > 0 s",
-            a.max_seconds.unwrap_or_default()
-        ),
-        Some(runs) => Some(MonteCarlo {
-            options: McOptions {
-                runs,
-                seed: a.seed,
-                progress: true,
-                max_seconds: a.max_seconds,
-            },
-            exact: a.mc_exact,
-        }),
-        None => None,
-    };
+    let monte_carlo = uncertainty::monte_carlo(a.mc, a.seed, a.max_seconds, a.mc_exact)?;
     let mut inputs: Vec<&Path> = a.measured.iter().map(|p| p.as_path()).collect();
     inputs.push(&manifest);
     inputs.extend(a.compare.as_deref());
