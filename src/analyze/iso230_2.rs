@@ -274,33 +274,27 @@ pub fn figures(
         value_um: ehi - elo,
         u_um: q(&[u_mean, u_mean, u_len(ehi_i, elo_i)]),
     };
+    // A from its two ends: the highest mean + 2 s (direction h at target
+    // hi) and the lowest mean - 2 s (l at lo), each end's mean and s
+    // uncertain, and the laser's length between them.
+    let accuracy = |h: Direction, hi: usize, l: Direction, lo: usize| Figure {
+        value_um: (h.mean_um + 2.0 * h.s_um) - (l.mean_um - 2.0 * l.s_um),
+        u_um: q(&[
+            u_mean,
+            2.0 * u_s(h.s_um),
+            u_mean,
+            2.0 * u_s(l.s_um),
+            u_len(hi, lo),
+        ]),
+    };
     let a_dir = |d: fn(&Target) -> Direction| {
         let hi = argmax(&|t| d(t).mean_um + 2.0 * d(t).s_um);
         let lo = argmin(&|t| d(t).mean_um - 2.0 * d(t).s_um);
-        let (h, l) = (d(&targets[hi]), d(&targets[lo]));
-        Figure {
-            value_um: (h.mean_um + 2.0 * h.s_um) - (l.mean_um - 2.0 * l.s_um),
-            u_um: q(&[
-                u_mean,
-                2.0 * u_s(h.s_um),
-                u_mean,
-                2.0 * u_s(l.s_um),
-                u_len(hi, lo),
-            ]),
-        }
+        accuracy(d(&targets[hi]), hi, d(&targets[lo]), lo)
     };
-    let (ahi, ahi_i, ahd) = both(&|d| d.mean_um + 2.0 * d.s_um, true);
-    let (alo, alo_i, ald) = both(&|d| d.mean_um - 2.0 * d.s_um, false);
-    let a = Figure {
-        value_um: ahi - alo,
-        u_um: q(&[
-            u_mean,
-            2.0 * u_s(ahd.s_um),
-            u_mean,
-            2.0 * u_s(ald.s_um),
-            u_len(ahi_i, alo_i),
-        ]),
-    };
+    let (_, ahi_i, ahd) = both(&|d| d.mean_um + 2.0 * d.s_um, true);
+    let (_, alo_i, ald) = both(&|d| d.mean_um - 2.0 * d.s_um, false);
+    let a = accuracy(ahd, ahi_i, ald, alo_i);
     let r_dir = |d: fn(&Target) -> Direction| {
         let i = argmax(&|t| d(t).s_um);
         let s = d(&targets[i]).s_um;
