@@ -923,7 +923,24 @@ fn head_machine_sphere_test_identifies_what_the_plan_said(machine: &str, errors:
     let log = dir.path().join("probe.log");
     simulate_as(&manifest, &truth, &log, 7, None);
     let out = dir.path().join("result.yaml");
-    analyze_with_cli(&manifest, &log, &out, &[]).success();
+    let report = dir.path().join("report");
+    analyze_with_cli(
+        &manifest,
+        &log,
+        &out,
+        &["--report", report.to_str().unwrap()],
+    )
+    .success();
+    // The report draws the sphere's centre per pose in one plot, not a
+    // plot of a few touches for each of the poses.
+    let drawn: Vec<String> = std::fs::read_dir(&report)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("pose-") || n.starts_with("sphere-"))
+        .collect();
+    assert_eq!(drawn, ["sphere-centres.svg"], "{machine}");
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert!(html.contains("The sphere's centre per pose"), "{machine}");
     let r: serde_yaml::Value =
         serde_yaml::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     let found = r["location_errors"].as_mapping().unwrap();

@@ -40,6 +40,9 @@ pub struct ReportInput<'a> {
     pub mc: Option<&'a McResult>,
     /// The error file written.
     pub error_file: &'a ErrorFile,
+    /// A sphere test: its few touches per pose are drawn as one plot of
+    /// the sphere's centre per pose, not a plot per pose.
+    pub sphere: bool,
     /// The `fivecal discover` command on the same plan and measurements,
     /// as `analyze` prints it under a misfit.
     pub discover: String,
@@ -51,6 +54,7 @@ impl<'a> ReportInput<'a> {
     pub fn for_piece(test: &str, piece: &'a IdentifiedPiece, manifest: &Path) -> ReportInput<'a> {
         ReportInput {
             title: format!("{test}: {}", piece.name()),
+            sphere: test == "probe-sphere",
             data: &piece.data,
             est: &piece.est,
             u: piece.u.clone(),
@@ -156,7 +160,11 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
     figs.extend(map_figures(r, &mut files)?);
     let shown = deviations(r.data, r.est);
     let (max_dev, mag) = shown_magnification(&shown);
-    let pose_figs = pose_figures(r, &shown, max_dev, mag, &mut files)?;
+    let pose_figs = if r.sphere {
+        centre_figure(r.data, &shown, &mut files)?
+    } else {
+        pose_figures(r, &shown, max_dev, mag, &mut files)?
+    };
     let groups = residual_groups(r.data, &r.est.residuals);
     put(
         &mut files,
@@ -382,6 +390,103 @@ fn pose_figures(
     Ok(pose_figs)
 }
 
+/// The sphere's centre at each pose, measured less nominal (um, machine
+/// frame), from its touches' deviations along their normals, or `None`
+/// where the touches do not fix it (fewer than three independent
+/// directions). A touch on a sphere whose centre is off by t deviates by
+/// n . t along its normal n, so t is the least-squares solution of those
+/// equations.
+pub(crate) fn centre_shift(points: &[&ShownPoint]) -> Option<Vector3<f64>> {
+    let mut a = nalgebra::Matrix3::<f64>::zeros();
+    let mut b = Vector3::zeros();
+    for p in points {
+        a += p.normal * p.normal.transpose();
+        b += p.normal * p.deviation_um;
+    }
+    // Every direction seen by a tenth of the touches' weight at least:
+    // a pose probed from one side only leaves the centre open along it.
+    let eig = a.symmetric_eigenvalues();
+    if points.len() < 3 || eig.min() < 0.1 * eig.sum() / 3.0 {
+        return None;
+    }
+    a.cholesky().map(|c| c.solve(&b))
+}
+
+/// The sphere test's deviations: the plot of its centre per pose, and the
+/// poses whose touches do not fix it.
+fn sphere_section(h: &mut String, r: &ReportInput<'_>, figs: &[String]) {
+    let shown = deviations(r.data, r.est);
+    let open: Vec<&str> = r
+        .data
+        .poses
+        .iter()
+        .filter(|p| {
+            let pts: Vec<&ShownPoint> = p.obs.iter().map(|&i| &shown[i]).collect();
+            centre_shift(&pts).is_none()
+        })
+        .map(|p| p.id.as_str())
+        .collect();
+    let first = r.data.poses.first().map_or("", |p| p.id.as_str());
+    let _ = writeln!(
+        h,
+        "<h2>The sphere's centre per pose</h2>\n<p>Each pose's touches on the sphere give where its centre was: measured less nominal, um, along the machine's X, Y and Z, the poses in measuring order (pose 1 is {}). An axis' location error draws the centre round a circle as the axis turns; drift draws it away over time. The touches in 3-D, one colour per pose: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>",
+        esc(first)
+    );
+    for f in figs {
+        let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
+    }
+    if !open.is_empty() {
+        let _ = writeln!(
+            h,
+            "</div>\n<p>Not drawn: {} (their touches do not fix the centre in every direction).</p>\n<div>",
+            esc(&open.join(", "))
+        );
+    }
+}
+
+/// The sphere test's one plot of the sphere's centre per pose (X, Y and Z
+/// of its shift, in measuring order): a sphere's four or five touches per
+/// pose, drawn pose by pose, would be fifty plots of a few dots, while the
+/// centre's path over the poses is what shows an axis' error. Poses whose
+/// touches do not fix the centre are named below the plot.
+fn centre_figure(
+    data: &Dataset,
+    shown: &[ShownPoint],
+    files: &mut StagedDir,
+) -> Result<Vec<String>, ReportError> {
+    let mut rows: Vec<(String, Vec<plots::MapNode>)> = ["X", "Y", "Z"]
+        .iter()
+        .map(|a| (a.to_string(), Vec::new()))
+        .collect();
+    for (k, pose) in data.poses.iter().enumerate() {
+        let pts: Vec<&ShownPoint> = pose.obs.iter().map(|&i| &shown[i]).collect();
+        if let Some(t) = centre_shift(&pts) {
+            for (row, v) in rows.iter_mut().zip(t.iter()) {
+                row.1.push((k as f64 + 1.0, *v, None));
+            }
+        }
+    }
+    if rows[0].1.is_empty() {
+        return Ok(Vec::new());
+    }
+    let file = "sphere-centres.svg";
+    put(
+        files,
+        file,
+        plot(
+            file,
+            plots::map_plot(
+                "sphere centre per pose, measured - nominal",
+                "pose, in measuring order",
+                "um",
+                &rows,
+            ),
+        )?
+        .as_bytes(),
+    )?;
+    Ok(vec![file.to_string()])
+}
+
 /// The report page: what was measured, the fit verdict, what the test
 /// identifies, the results table and plots, the deviations, the residuals
 /// and the notes.
@@ -412,12 +517,16 @@ fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], ma
         esc(&est.identifiability.render())
     );
     results_section(&mut h, r, figs);
-    let _ = writeln!(
-        h,
-        "<h2>Measured deviations, magnified x{mag}</h2>\n<p>Dots: nominal points; circles: measured points, their deviation along the surface normal magnified {mag} times (the bar in each plot: that many um, drawn magnified); blue: measured inside the nominal surface, red: outside it. The same in 3-D, one colour per pose: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>"
-    );
-    for f in pose_figs {
-        let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
+    if r.sphere {
+        sphere_section(&mut h, r, pose_figs);
+    } else {
+        let _ = writeln!(
+            h,
+            "<h2>Measured deviations, magnified x{mag}</h2>\n<p>Dots: nominal points; circles: measured points, their deviation along the surface normal magnified {mag} times (the bar in each plot: that many um, drawn magnified); blue: measured inside the nominal surface, red: outside it. The same in 3-D, one colour per pose: <a href=\"piece.glb\">piece.glb</a>.</p>\n<div class=grid>"
+        );
+        for f in pose_figs {
+            let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
+        }
     }
     h.push_str("</div>\n<h2>Residuals</h2>\n<img src=\"residuals.svg\" alt=\"residuals\">\n");
     h.push_str(&pose_key(data));
@@ -648,6 +757,46 @@ pub(crate) fn residual_groups(data: &Dataset, r: &[f64]) -> Vec<(String, Vec<(us
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn touch(normal: Vector3<f64>, t: &Vector3<f64>) -> ShownPoint {
+        let n = normal.normalize();
+        ShownPoint {
+            nominal: 25.0 * n,
+            normal: n,
+            deviation_um: n.dot(t),
+        }
+    }
+
+    /// A sphere probed at its pole and at four points round its equator,
+    /// 45 deg down, and shifted by t: the touches' deviations along their
+    /// normals give t back. Touches in one plane leave the centre open
+    /// across it, and the pose is not drawn.
+    #[test]
+    fn the_sphere_centre_of_a_pose_is_its_touches_shift() {
+        let t = Vector3::new(3.0, -7.5, 12.0);
+        let normals = [
+            Vector3::new(0.0, 0.0, 1.0),
+            Vector3::new(1.0, 0.0, 1.0),
+            Vector3::new(-1.0, 0.0, 1.0),
+            Vector3::new(0.0, 1.0, 1.0),
+            Vector3::new(0.0, -1.0, 1.0),
+        ];
+        let pts: Vec<ShownPoint> = normals.iter().map(|n| touch(*n, &t)).collect();
+        let refs: Vec<&ShownPoint> = pts.iter().collect();
+        let got = centre_shift(&refs).unwrap();
+        assert!((got - t).norm() < 1e-9, "{got}");
+        let flat: Vec<ShownPoint> = [
+            Vector3::new(1.0, 0.0, 0.0),
+            Vector3::new(0.0, 1.0, 0.0),
+            Vector3::new(-1.0, 0.0, 0.0),
+            Vector3::new(0.0, -1.0, 0.0),
+        ]
+        .iter()
+        .map(|n| touch(*n, &t))
+        .collect();
+        assert!(centre_shift(&flat.iter().collect::<Vec<_>>()).is_none());
+        assert!(centre_shift(&refs[..1]).is_none());
+    }
 
     #[test]
     fn magnification_is_round_and_shows_the_deviation_at_the_fraction() {
