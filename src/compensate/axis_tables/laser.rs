@@ -69,8 +69,8 @@ pub struct LaserTables {
     /// One table per base line found, in X, Y, Z order.
     pub tables: Vec<AxisTable>,
     /// The axes without a base line in the result, each with the line's
-    /// name (`Z: L3`).
-    pub missing: Vec<String>,
+    /// name (`('Z', "L3")`).
+    pub missing: Vec<(char, String)>,
 }
 
 /// Whether `src` is a laser-lines result (its first key).
@@ -114,7 +114,7 @@ pub fn tables(path: &Path, src: &str) -> Result<LaserTables, TableError> {
     let mut missing = Vec::new();
     for (name, axis) in BASE {
         let Some(l) = r.lines.iter().find(|l| l.line == name) else {
-            missing.push(format!("{axis}: {name}"));
+            missing.push((axis, name.to_string()));
             continue;
         };
         let bad = |m: String| -> TableError {

@@ -87,12 +87,15 @@ pub fn files(tables: &[AxisTable]) -> Result<Vec<(PathBuf, String)>, TableError>
     for t in tables {
         let entered = |p: &TablePoint| {
             format!(
-                "actual + {:.6} mm, - {:.6} mm",
+                "{:.6} {:.6}",
                 p.position_mm + p.plus_um * 1e-3,
                 p.position_mm + p.minus_um * 1e-3
             )
         };
-        listing += &t.listing((&format!("in {}", file_name(t.axis)), &entered));
+        listing += &t.listing((
+            &format!("in {}: actual +, actual - (mm)", file_name(t.axis)),
+            &entered,
+        ));
         listing.push('\n');
     }
     out.push((PathBuf::from("axis-tables.txt"), listing));

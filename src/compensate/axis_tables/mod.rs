@@ -214,32 +214,25 @@ pub fn write(
     match dialect {
         Dialect::Linuxcnc => linuxcnc::files(tables),
         Dialect::Sinumerik => sinumerik::files(tables),
-        Dialect::Fanuc => Err(TableError::Refused(
-            "fanuc: the pitch error compensation is not written: its parameters (3620-3627) enter \
+        Dialect::Fanuc => Err(TableError::Refused(format!(
+            "fanuc: the pitch error compensation is not written: its parameters (3620-3624) enter \
              each point as a signed increment from the point before, in the axis's detection unit \
-             and times a magnification, counted from the point of the reference position, and \
-             no public FANUC document consulted settles the sign of a point's increment nor which \
-             interval it applies to; enter the correction column of the table printed above \
-             by hand, following your control's parameter manual (docs/controllers.md)"
-                .into(),
-        )),
-        Dialect::Heidenhain => Err(TableError::Refused(
+             and times a magnification, counted from the point of the reference position, and no \
+             public FANUC document consulted settles the sign of an increment nor the interval it \
+             applies to. {BY_HAND}"
+        ))),
+        Dialect::Heidenhain => Err(TableError::Refused(format!(
             "heidenhain: the compensation tables (*.COM with their *.CMA configuration) are not \
-             written: their layout is described in HEIDENHAIN's technical manual, which is given \
-             to machine builders, and the public material consulted does not settle the sign of \
-             an entry; enter the correction column of the table printed above by hand, as the \
-             machine builder's procedure says (docs/controllers.md)"
-                .into(),
-        )),
+             written: their layout is in HEIDENHAIN's technical manual, given to machine builders, \
+             and the public material consulted does not settle the sign of an entry. {BY_HAND}"
+        ))),
     }
 }
 
-/// The correction an operator enters where a controller takes a value to
-/// add to the commanded position: minus the error, um (the column printed
-/// for a controller whose file fivecal does not write).
-pub fn correction_um(p: &TablePoint) -> (f64, f64) {
-    (-p.plus_um, -p.minus_um)
-}
+/// What a refused controller's message says to do instead.
+const BY_HAND: &str = "Enter the table printed above by hand as your control's manual says: \
+    its values are errors, actual minus commanded position, so a control that takes a correction \
+    to add needs them negated (docs/controllers.md, \"Axis compensation tables\")";
 
 /// The machine-coordinate letter index of `axis` (0 for X).
 pub(crate) fn axis_index(axis: char) -> usize {

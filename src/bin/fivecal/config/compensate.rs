@@ -15,8 +15,10 @@ use fivecal::io::{Shape, check_outputs};
 
 mod export_limits;
 mod settings;
+mod tables;
 
 use export_limits::swivel_record_known;
+pub use tables::TablesConfig;
 
 use super::DialectArg;
 use super::nc::{Common, MachineArgs, load_errors};
@@ -116,6 +118,15 @@ pub struct CompensateArgs {
     json: bool,
 }
 
+/// What `compensate` does: rewrite and/or export from a model's errors,
+/// or write a laser-lines result's axis tables.
+pub enum Job {
+    /// A result or truth file of the model.
+    Model(Box<Config>),
+    /// A laser-lines result's axis compensation tables.
+    Tables(TablesConfig),
+}
+
 /// What to do, validated.
 pub struct Config {
     /// The machine and the program's options.
@@ -142,8 +153,19 @@ pub struct Config {
 }
 
 impl CompensateArgs {
-    pub fn validate(self) -> anyhow::Result<Config> {
-        let mut common = self.machine.validate()?;
+    pub fn validate(self) -> anyhow::Result<Job> {
+        let common = self.machine.validate()?;
+        // A laser-lines result is no model: it goes to the axis tables.
+        let src =
+            fivecal::input::read_text(&self.errors, "error file", fivecal::limits::MAX_YAML_BYTES)
+                .unwrap_or_default();
+        if fivecal::compensate::axis_tables::laser::sniff(&src) {
+            return Ok(Job::Tables(self.tables(common, &src)?));
+        }
+        Ok(Job::Model(Box::new(self.model(common)?)))
+    }
+
+    fn model(self, mut common: Common) -> anyhow::Result<Config> {
         let errors = load_errors(&self.errors, &common.kin)?;
         if let Some(f) = errors.not_converged() {
             // No flag accepts it: values a fit stopped at are no estimate.
