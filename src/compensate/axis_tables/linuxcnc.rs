@@ -5,9 +5,9 @@
 //! `EMCMOT_SET_JOINT_COMP`, control.c's screw compensation):
 //!
 //! - one line per point, three numbers separated by blanks: the nominal
-//!   (commanded) joint position, the actual position reached moving in the
-//!   + direction, the actual position moving in the - direction, all in
-//!   machine units; nominals strictly rising; at most 256 lines;
+//!   (commanded) joint position, the actual position reached moving in
+//!   the positive direction, the actual position moving in the negative
+//!   direction, all in machine units; nominals strictly rising; at most 256 lines;
 //! - the loader converts a type-0 line into trims `nominal - actual` and
 //!   the motion controller adds the trim of the direction of motion,
 //!   interpolated linearly between the nominals and held at the end values
