@@ -7,6 +7,7 @@ mod util;
 mod analyze;
 mod analyze_sim;
 mod architecture;
+mod axis_tables;
 mod ball_bar;
 mod ball_bar_analyze;
 mod cli;

@@ -22,6 +22,15 @@ pub struct LineResult {
     pub format: String,
     /// The axes that moved.
     pub axes: String,
+    /// The measured point at target 0, machine coordinates, mm (the
+    /// plan's; with `direction` it places every target on the machine,
+    /// which an axis compensation table needs).
+    pub start: [f64; 3],
+    /// Unit direction of rising target positions.
+    pub direction: [f64; 3],
+    /// The measured point's offset from the spindle point P, mm (zero on
+    /// the base lines L1, L2, L3).
+    pub offset: [f64; 3],
     /// The environment and its compensation, as the file states them.
     pub environment: IndexMap<String, String>,
     /// The figures.
@@ -38,6 +47,10 @@ pub struct LaserResult {
     pub machine: String,
     /// How the u of each figure was found.
     pub uncertainty: String,
+    /// The plan's standard uncertainty of one reading, um.
+    pub reading_u_um: f64,
+    /// The plan's standard uncertainty of a length, ppm.
+    pub length_u_ppm: f64,
     /// The lines, in the plan's order.
     pub lines: Vec<LineResult>,
     /// The plan's lines without a run file.
@@ -101,6 +114,9 @@ pub fn analyze(plan: &LaserManifest, runs: &[PathBuf]) -> Result<LaserResult, La
                 file: f.clone(),
                 format: run.format.to_string(),
                 axes: line.axes.clone(),
+                start: line.start,
+                direction: line.direction,
+                offset: line.offset,
                 environment: run.environment.iter().cloned().collect(),
                 figures,
             },
@@ -122,6 +138,8 @@ pub fn analyze(plan: &LaserManifest, runs: &[PathBuf]) -> Result<LaserResult, La
             crate::numbers::echo(plan.reading_u_um),
             crate::numbers::echo(plan.length_u_ppm)
         ),
+        reading_u_um: plan.reading_u_um,
+        length_u_ppm: plan.length_u_ppm,
         lines: found.into_iter().map(|(_, r)| r).collect(),
         not_measured,
     })

@@ -27,6 +27,7 @@
 //! block is in memory at a time.
 
 pub mod against;
+pub mod axis_tables;
 mod compensator;
 mod correction;
 mod edit;

@@ -8,10 +8,13 @@ use fivecal::compensate::{AtomicOutput, Compensator, Rewrite, export, reasons};
 use fivecal::numbers::count;
 
 use super::compensate_json::{Compensated, Exported, Rewritten};
-use crate::config::compensate::{CompensateArgs, Config};
+use crate::config::compensate::{CompensateArgs, Config, Job, TablesConfig};
 
 pub fn run(args: CompensateArgs) -> anyhow::Result<()> {
-    let cfg = args.validate()?;
+    let cfg = match args.validate()? {
+        Job::Model(c) => *c,
+        Job::Tables(t) => return tables(&t),
+    };
     if cfg.json {
         // Standard output is the JSON's: what the run says goes to
         // standard error.
@@ -208,4 +211,42 @@ fn describe(
         detection,
         settings: &cfg.settings,
     })
+}
+
+/// Writes a laser-lines result's axis tables for the controller: every
+/// table printed first (also when the controller's format is refused, so
+/// the values can be entered by hand), then the files, all or nothing.
+fn tables(cfg: &TablesConfig) -> anyhow::Result<()> {
+    use fivecal::compensate::axis_tables::{self, TablePoint};
+    let t = &cfg.tables;
+    outln!(
+        "axis tables of {} from {}: positioning error = actual minus commanded, um (k = 1 for u)",
+        t.machine,
+        cfg.errors_path.display()
+    );
+    for (axis, line) in &t.missing {
+        outln!("note: no table for {axis}: its base line {line} is not in the result");
+    }
+    let mean = |p: &TablePoint| format!("{:+.3} u {:.3}", p.mean_um(), p.u_mean_um());
+    for table in &t.tables {
+        for line in table.listing(("mean um", &mean)).lines() {
+            outln!("  {line}");
+        }
+    }
+    let files = axis_tables::write(cfg.dialect, &t.tables, &cfg.limits)?;
+    let inputs: Vec<&std::path::Path> = cfg.inputs.iter().map(|p| p.as_path()).collect();
+    let bytes: Vec<_> = files
+        .into_iter()
+        .map(|(n, s)| (n, s.into_bytes()))
+        .collect();
+    let written =
+        fivecal::io::write_dir(&cfg.out, &bytes, &inputs).map_err(|e| anyhow::anyhow!("{e}"))?;
+    for w in written {
+        outln!("wrote {}", w.display());
+    }
+    outln!(
+        "note: the tables correct the axes as measured; measured with a compensation table active, add them to it (see {})",
+        cfg.out.join("axis-tables.txt").display()
+    );
+    Ok(())
 }

@@ -15,8 +15,10 @@ use fivecal::io::{Shape, check_outputs};
 
 mod export_limits;
 mod settings;
+mod tables;
 
 use export_limits::swivel_record_known;
+pub use tables::TablesConfig;
 
 use super::DialectArg;
 use super::nc::{Common, MachineArgs, load_errors};
@@ -27,12 +29,15 @@ pub struct CompensateArgs {
     /// NC program to rewrite (optional with --export).
     #[arg(value_name = "IN")]
     input: Option<PathBuf>,
-    /// The rewritten program (never the input; written only when complete).
+    /// The rewritten program (never the input; written only when complete);
+    /// with a laser-lines result, the directory of the axis tables.
     #[arg(short = 'o', long = "out", value_name = "OUT")]
     output: Option<PathBuf>,
     #[command(flatten)]
     machine: MachineArgs,
-    /// Error file: an `analyze` result (or a truth file).
+    /// Error file: an `analyze` result (or a truth file); a laser-lines
+    /// result gives the axes' compensation tables (--export CONTROLLER -o
+    /// DIR: linuxcnc COMP_FILEs, the sinumerik LEC table).
     #[arg(long, value_name = "RESULT.yaml")]
     errors: PathBuf,
     /// Largest distance of the actual tool-tip path from the intended one
@@ -75,7 +80,8 @@ pub struct CompensateArgs {
     expand: bool,
     /// Also write the location errors as the corrected pivot parameters of
     /// this controller (sinumerik: a part program writing the fine offsets
-    /// of the machine file's swivel data record).
+    /// of the machine file's swivel data record); from a laser-lines
+    /// result, the axes' compensation tables.
     #[arg(long, value_name = "CONTROLLER", value_enum)]
     export: Option<DialectArg>,
     /// Where --export writes [default: standard output without a program,
@@ -86,12 +92,14 @@ pub struct CompensateArgs {
     /// With --export: refuse (naming it, writing nothing) any parameter
     /// that would change by more than this from what the control holds now
     /// (the machine file's controller_parameters, else its nominal
-    /// geometry): LEN in mm, ANG in mrad for angles.
+    /// geometry): LEN in mm, ANG in mrad for angles. Axis tables: any
+    /// point's error beyond LEN.
     #[arg(long, value_name = "LEN[,ANG]", default_value = "0.1,0.5")]
     max_change: String,
     /// With --export: refuse any parameter whose standard uncertainty is
     /// larger (from the error file's u): LEN in mm, ANG in mrad. A file
-    /// without u (a truth file) is exported with `u not given`.
+    /// without u (a truth file) is exported with `u not given`. Axis
+    /// tables: any point's u beyond LEN.
     #[arg(long, value_name = "LEN[,ANG]", default_value = "0.01,0.05")]
     max_u: String,
     /// Use a result whose model does not fit its measurements (its `fit:`
@@ -114,6 +122,15 @@ pub struct CompensateArgs {
     /// the exported parameters and the files written.
     #[arg(long)]
     json: bool,
+}
+
+/// What `compensate` does: rewrite and/or export from a model's errors,
+/// or write a laser-lines result's axis tables.
+pub enum Job {
+    /// A result or truth file of the model.
+    Model(Box<Config>),
+    /// A laser-lines result's axis compensation tables.
+    Tables(TablesConfig),
 }
 
 /// What to do, validated.
@@ -142,8 +159,19 @@ pub struct Config {
 }
 
 impl CompensateArgs {
-    pub fn validate(self) -> anyhow::Result<Config> {
-        let mut common = self.machine.validate()?;
+    pub fn validate(self) -> anyhow::Result<Job> {
+        let common = self.machine.validate()?;
+        // A laser-lines result is no model: it goes to the axis tables.
+        let src =
+            fivecal::input::read_text(&self.errors, "error file", fivecal::limits::MAX_YAML_BYTES)
+                .unwrap_or_default();
+        if fivecal::compensate::axis_tables::laser::sniff(&src) {
+            return Ok(Job::Tables(self.tables(common, &src)?));
+        }
+        Ok(Job::Model(Box::new(self.model(common)?)))
+    }
+
+    fn model(self, mut common: Common) -> anyhow::Result<Config> {
         let errors = load_errors(&self.errors, &common.kin)?;
         if let Some(f) = errors.not_converged() {
             // No flag accepts it: values a fit stopped at are no estimate.
