@@ -173,6 +173,7 @@ impl Cutting {
             seq: p.seq as f64,
             minutes: self.timeline.at(pose, mv, t) + offset,
             approach: None,
+            ..Default::default()
         }
     }
 
