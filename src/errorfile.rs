@@ -108,7 +108,8 @@ pub enum Values {
 }
 
 impl Values {
-    fn flatten(&self) -> Vec<f64> {
+    /// The values in node order (rows one after the other).
+    pub fn flatten(&self) -> Vec<f64> {
         match self {
             Values::Flat(v) => v.clone(),
             Values::Rows(r) => r.iter().flatten().copied().collect(),

@@ -307,7 +307,7 @@ pub fn identify(
         ),
     ] {
         unseen.push(NotIdentified {
-            symbol: symbol(about, moving),
+            symbol: format!("E{}{}", rot_letter(about), moving.letter()),
             reason: format!(
                 "roll: a turn about the line's own direction has no lever arm along it, no line sees it ({how} measures it)"
             ),
