@@ -302,7 +302,7 @@ fn the_ten_lines_recover_positioning_pitch_and_yaw_within_3_u() {
                 write_atomic(&f, r.to_text().as_bytes()).unwrap();
                 files.push(f);
             }
-            let result = analyze(&man, &machine, &files).unwrap();
+            let result = analyze(&man, Some(&machine), &files).unwrap();
             let id = result.identification.unwrap();
             let claimed: Vec<&str> = id.maps.iter().map(|m| m.symbol.as_str()).collect();
             assert_eq!(
@@ -395,7 +395,7 @@ fn some_lines_give_what_they_determine_and_name_the_rest() {
         write_atomic(&f, r.to_text().as_bytes()).unwrap();
         files.push(f);
     }
-    let id = analyze(&man, &machine, &files)
+    let id = analyze(&man, Some(&machine), &files)
         .unwrap()
         .identification
         .unwrap();
@@ -405,4 +405,96 @@ fn some_lines_give_what_they_determine_and_name_the_rest() {
     for s in ["EAY", "ECY", "EZZ", "EAZ", "EBZ"] {
         assert!(unseen.contains(&s), "{s}: {unseen:?}");
     }
+}
+
+/// The seed's setup through the binary, as docs/laser-lines.md writes it:
+/// the DMU-like CZFXYB machine, the volume (100, -650, -500) .. (900, -50,
+/// -100), 40 divisions (two runs each way to keep the test short). With a
+/// truth holding a pitch of X, `analyze` names the unseen first, then gives
+/// the nine maps, and writes them as an error file beside the result that
+/// reads back on the machine with EBX's end node near the truth's.
+#[test]
+fn the_seeds_setup_identifies_through_the_binary() {
+    let dir = crate::util::tempdir();
+    let bin = env!("CARGO_BIN_EXE_fivecal");
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(bin).args(args).output().unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let s = |p: &Path| p.to_string_lossy().into_owned();
+    let mfile = dir.path().join("my-dmu-laser.yaml");
+    std::fs::write(
+        &mfile,
+        crate::laser_lines::seed_machine_yaml("my-dmu-laser"),
+    )
+    .unwrap();
+    let out = dir.path().join("laser");
+    run(&[
+        "plan",
+        "laser-lines",
+        "--machine",
+        &s(&mfile),
+        "--volume",
+        "100,-650,-500,900,-50,-100",
+        "--runs",
+        "2",
+        "-o",
+        &s(&out),
+    ]);
+    // Program X = machine X - 500 (the pivot): the volume's X runs from
+    // -400 to 400.
+    let truth = dir.path().join("truth.yaml");
+    std::fs::write(
+        &truth,
+        "machine: my-dmu-laser\neffects:\n  angular:\n    EBX: {X: [-400, 400], values: [0.0, 24.0]}\n  positioning:\n    EXX: {X: [-400, 400], values: [0.0, 8.0]}\n",
+    )
+    .unwrap();
+    let plan_file = out.join("laser-lines.plan.yaml");
+    let runs = dir.path().join("runs");
+    run(&[
+        "simulate",
+        "--plan",
+        &s(&plan_file),
+        "--errors",
+        &s(&truth),
+        "-o",
+        &s(&runs),
+    ]);
+    let result = dir.path().join("result.yaml");
+    let mut args: Vec<String> = vec!["analyze".into(), "--plan".into(), s(&plan_file)];
+    args.extend(["-o".into(), s(&result), "--measured".into()]);
+    args.extend((1..=10).map(|k| s(&runs.join(format!("L{k}.txt")))));
+    let text = run(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let unseen_at = text.find("not determined by these lines").unwrap();
+    let first_map = text.find("  EXX over X").unwrap();
+    assert!(unseen_at < first_map, "{text}");
+    for s in ["EAX:", "EYZ:", "EA(0Y)Z:"] {
+        assert!(text[unseen_at..first_map].contains(s), "{s}: {text}");
+    }
+    let errors = dir.path().join("result.errors.yaml");
+    assert!(
+        text.contains(&format!("wrote {}", errors.display())),
+        "{text}"
+    );
+    let src = std::fs::read_to_string(&errors).unwrap();
+    let machine = Machine::from_yaml(&mfile, &std::fs::read_to_string(&mfile).unwrap()).unwrap();
+    let kin = Kinematics::with_gauge_length(&machine, 0.0);
+    let f = ErrorFile::parse(&errors, &src).unwrap();
+    f.to_model(&kin, &errors, &src).unwrap();
+    let ebx = &f.effects.angular["EBX"];
+    let values = ebx.values.flatten();
+    let u = ebx.u.as_ref().unwrap().flatten();
+    let last = values.len() - 1;
+    assert_eq!(values.len(), 41);
+    assert!(
+        (values[last] - 24.0).abs() <= 3.0 * u[last],
+        "EBX {} u {}",
+        values[last],
+        u[last]
+    );
 }

@@ -73,10 +73,11 @@ pub enum LaserAnalyzeError {
     },
 }
 
-/// Analyzes the run files `runs` of the plan `plan` on `machine`.
+/// Analyzes the run files `runs` of the plan `plan` on `machine` (`None`:
+/// the figures alone, no identification).
 pub fn analyze(
     plan: &LaserManifest,
-    machine: &Machine,
+    machine: Option<&Machine>,
     runs: &[PathBuf],
 ) -> Result<LaserResult, LaserAnalyzeError> {
     let inst = Instrument {
@@ -132,7 +133,10 @@ pub fn analyze(
             runs: r.figures.runs,
         })
         .collect();
-    let identification = laser_identify::identify(plan, machine, &measured)?;
+    let identification = match machine {
+        Some(m) => Some(laser_identify::identify(plan, m, &measured)?),
+        None => None,
+    };
     let not_measured = plan
         .lines
         .iter()
@@ -151,7 +155,7 @@ pub fn analyze(
         lines: found.into_iter().map(|(_, r)| r).collect(),
         not_measured,
         linear_errors: None,
-        identification: Some(identification),
+        identification,
     })
 }
 

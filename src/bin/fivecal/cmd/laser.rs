@@ -123,13 +123,26 @@ pub fn analyze(c: LaserAnalyzeConfig) -> anyhow::Result<()> {
     inputs.extend(c.measured.iter().map(|p| p.as_path()));
     let dir = c.plan.parent().unwrap_or(Path::new("."));
     let machine_path = dir.join(&man.machine_file);
-    let machine_text = fivecal::input::read_text(
+    // The identification needs the machine's chain; the figures do not.
+    let machine = fivecal::input::read_text(
         &machine_path,
         "laser-lines plan's machine copy",
         fivecal::limits::MAX_YAML_BYTES,
-    )?;
-    let machine = fivecal::Machine::from_yaml(&machine_path, &machine_text)?;
-    inputs.push(machine_path.as_path());
+    )
+    .map_err(anyhow::Error::from)
+    .and_then(|t| Ok(fivecal::Machine::from_yaml(&machine_path, &t)?));
+    let machine = match machine {
+        Ok(m) => {
+            inputs.push(machine_path.as_path());
+            Some(m)
+        }
+        Err(e) => {
+            eprintln!(
+                "warning: the linear axes' errors are not identified, the plan's machine copy does not read: {e:#}"
+            );
+            None
+        }
+    };
     let errors_out = fivecal::analyze::laser::LaserResult::errors_path(&c.out);
     let mut outs = vec![
         ("--out", c.out.as_path(), Shape::File),
@@ -139,7 +152,7 @@ pub fn analyze(c: LaserAnalyzeConfig) -> anyhow::Result<()> {
         outs.push(("--report", r.as_path(), Shape::Dir));
     }
     check_outputs(&inputs, &outs)?;
-    let mut result = fivecal::analyze::laser::analyze(&man, &machine, &c.measured)?;
+    let mut result = fivecal::analyze::laser::analyze(&man, machine.as_ref(), &c.measured)?;
     if c.json {
         crate::out::to_stderr();
     }
@@ -172,7 +185,7 @@ pub fn analyze(c: LaserAnalyzeConfig) -> anyhow::Result<()> {
     }
     if let Some(id) = &result.identification {
         out!("{}", id.render());
-        let f = id.error_file(&machine.name);
+        let f = id.error_file(&man.machine);
         let text = if fivecal::analyze::laser::LaserResult::json_name(&errors_out) {
             f.to_json() + "\n"
         } else {
