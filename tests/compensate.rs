@@ -467,7 +467,8 @@ fn every_linear_axis_error_together_is_compensated_on_every_machine() {
     for name in ["bc-trunnion", "ac-trunnion", "head-table", "head-head"] {
         let l = errors(name, 11, 20.0, &extra);
         let m = machine(name);
-        for tcp in [false] {
+        {
+            let tcp = false;
             let program = five_axis_program(&m, Dialect::Fanuc, tcp, 24);
             let settings = Settings::new(Dialect::Fanuc);
             let (out, s, vs) = compensate_checked(&l, settings.clone(), &program);
