@@ -17,6 +17,8 @@
 //!   linear_scale: {EXX: 4.0}                       # um/m
 //!   squareness: {EC(0X)Y: 15.0}                    # urad
 //!   straightness: {EYX: {X: [-100, 0, 100], values: [0.0, 2.0, 0.0]}}
+//!   positioning: {EXX: {X: [0, 400, 800], values: [0.0, 3.0, 5.0]}}   # um
+//!   angular: {EBX: {X: [0, 400, 800], values: [0.0, 4.0, -2.0]}}     # urad
 //!   tool_radius: 3.0                               # um
 //!   tool_length: -2.0                              # um
 //!   probe_pretravel: {X+: 1.0, X-: 1.0, Y+: 1.0, Y-: 1.0, Z-: 0.5}
@@ -106,7 +108,8 @@ pub enum Values {
 }
 
 impl Values {
-    fn flatten(&self) -> Vec<f64> {
+    /// The values in node order (rows one after the other).
+    pub fn flatten(&self) -> Vec<f64> {
         match self {
             Values::Flat(v) => v.clone(),
             Values::Rows(r) => r.iter().flatten().copied().collect(),
@@ -192,6 +195,13 @@ pub struct Effects {
     /// EYX, EZX, EXY, EZY, EXZ, EYZ: um at positions along the moving axis.
     #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
     pub straightness: IndexMap<String, MapEntry>,
+    /// EXX, EYY, EZZ: um at positions along the axis.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub positioning: IndexMap<String, MapEntry>,
+    /// EAX .. ECZ (the turn about X, Y, Z as X, Y, Z moves): urad at
+    /// positions along the moving axis.
+    #[serde(default, skip_serializing_if = "IndexMap::is_empty")]
+    pub angular: IndexMap<String, MapEntry>,
     /// Tool radius error, um.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tool_radius: Option<Quantity>,
@@ -834,51 +844,120 @@ impl<'a> ModelBuilder<'a> {
                     ),
                 ));
             };
-            let l = moving.letter().to_string();
-            for k in entry.nodes.keys() {
-                if *k != l {
-                    return Err(self.err(
-                        &keys,
-                        format!(
-                            "{name} runs along {l}; unexpected key `{k}` (expected {l}, values and u)"
-                        ),
-                    ));
-                }
-            }
-            let nodes = entry.nodes.get(&l).ok_or_else(|| {
-                self.err(
-                    &keys,
-                    format!("{name} needs its node positions `{l}: [...]` (mm)"),
-                )
-            })?;
-            let dim = MapDim::new(0, nodes, false)
-                .map_err(|m| self.err(&keys, format!("{name}: {m}")))?;
-            let grid = MapGrid { dims: vec![dim] };
-            let ident = vec![(0..nodes.len()).collect::<Vec<_>>()];
-            let vals = map_values(&entry.values, &[nodes.len()], &ident, |m| {
-                self.err(&keys, format!("{name}: {m}"))
-            })?;
-            let us: Vec<Option<f64>> = match &entry.u {
-                None => vec![None; vals.len()],
-                Some(uv) => map_values(uv, &[nodes.len()], &ident, |m| {
-                    self.err(&keys, format!("{name} u: {m}"))
-                })?
-                .into_iter()
-                .map(Some)
-                .collect(),
-            };
-            for v in vals.iter().chain(us.iter().flatten()) {
-                self.plausible(&keys, name, *v, (MAX_ERROR_UM, "um"))?;
-            }
-            self.theta.extend(vals);
-            self.u.extend(us);
+            let nodes = self.axis_map(&keys, name, entry, moving, (MAX_ERROR_UM, "um"))?;
             self.model.push(Effect::Straightness {
                 moving,
                 direction,
-                nodes: grid.dims[0].nodes.clone(),
+                nodes,
             });
         }
         Ok(())
+    }
+
+    /// `effects.positioning:`, a linear axis's error along itself (um) at
+    /// node positions along it.
+    fn positioning(&mut self, e: &Effects) -> Result<(), SourceError> {
+        for (name, entry) in &e.positioning {
+            let keys = ["effects", "positioning", name.as_str()];
+            let ch: Vec<char> = name.chars().collect();
+            let axis = (ch.len() == 3 && ch[0] == 'E' && ch[1] == ch[2])
+                .then(|| axis_of(ch[1]))
+                .flatten();
+            let Some(axis) = axis else {
+                return Err(self.err(
+                    &keys,
+                    format!("unknown positioning error `{name}`: expected EXX, EYY or EZZ (um)"),
+                ));
+            };
+            let nodes = self.axis_map(&keys, name, entry, axis, (MAX_ERROR_UM, "um"))?;
+            self.model.push(Effect::Positioning { axis, nodes });
+        }
+        Ok(())
+    }
+
+    /// `effects.angular:`, a linear axis's angular error motion (urad) at
+    /// node positions along it: `E<about><moving>` after ISO 230-1.
+    fn angular(&mut self, e: &Effects) -> Result<(), SourceError> {
+        for (name, entry) in &e.angular {
+            let keys = ["effects", "angular", name.as_str()];
+            let ch: Vec<char> = name.chars().collect();
+            let about = |c: char| match c {
+                'A' => Some(Axis3::X),
+                'B' => Some(Axis3::Y),
+                'C' => Some(Axis3::Z),
+                _ => None,
+            };
+            let parsed = (ch.len() == 3 && ch[0] == 'E')
+                .then(|| (about(ch[1]), axis_of(ch[2])))
+                .and_then(|(a, m)| Some((a?, m?)));
+            let Some((about, moving)) = parsed else {
+                return Err(self.err(
+                    &keys,
+                    format!(
+                        "unknown angular error `{name}`: expected E<A|B|C><X|Y|Z>, the turn about X, Y or Z as X, Y or Z moves (EAX, EBX, ECX, EAY, EBY, ECY, EAZ, EBZ, ECZ; urad)"
+                    ),
+                ));
+            };
+            let nodes = self.axis_map(&keys, name, entry, moving, (MAX_ERROR_URAD, "urad"))?;
+            self.model.push(Effect::Angular {
+                about,
+                moving,
+                nodes,
+            });
+        }
+        Ok(())
+    }
+
+    /// A map along the linear axis `moving` (straightness, positioning,
+    /// angular): its nodes checked and returned, its values and u pushed.
+    fn axis_map(
+        &mut self,
+        keys: &[&str],
+        name: &str,
+        entry: &MapEntry,
+        moving: Axis3,
+        limit: (f64, &str),
+    ) -> Result<Vec<f64>, SourceError> {
+        let keys = keys.to_vec();
+        let l = moving.letter().to_string();
+        for k in entry.nodes.keys() {
+            if *k != l {
+                return Err(self.err(
+                    &keys,
+                    format!(
+                        "{name} runs along {l}; unexpected key `{k}` (expected {l}, values and u)"
+                    ),
+                ));
+            }
+        }
+        let nodes = entry.nodes.get(&l).ok_or_else(|| {
+            self.err(
+                &keys,
+                format!("{name} needs its node positions `{l}: [...]` (mm)"),
+            )
+        })?;
+        let dim =
+            MapDim::new(0, nodes, false).map_err(|m| self.err(&keys, format!("{name}: {m}")))?;
+        let grid = MapGrid { dims: vec![dim] };
+        let ident = vec![(0..nodes.len()).collect::<Vec<_>>()];
+        let vals = map_values(&entry.values, &[nodes.len()], &ident, |m| {
+            self.err(&keys, format!("{name}: {m}"))
+        })?;
+        let us: Vec<Option<f64>> = match &entry.u {
+            None => vec![None; vals.len()],
+            Some(uv) => map_values(uv, &[nodes.len()], &ident, |m| {
+                self.err(&keys, format!("{name} u: {m}"))
+            })?
+            .into_iter()
+            .map(Some)
+            .collect(),
+        };
+        for v in vals.iter().chain(us.iter().flatten()) {
+            self.plausible(&keys, name, *v, limit)?;
+        }
+        self.theta.extend(vals);
+        self.u.extend(us);
+        Ok(grid.dims[0].nodes.clone())
     }
 
     /// `effects.tool_radius`, `tool_length` and `probe_pretravel` (one value
@@ -996,6 +1075,8 @@ impl ErrorFile {
         b.linear_scales(e)?;
         b.squareness(e)?;
         b.straightness(e)?;
+        b.positioning(e)?;
+        b.angular(e)?;
         b.tool_and_probe(e)?;
         let noise = b.noise(e)?;
         Ok(LoadedErrors {
@@ -1094,6 +1175,36 @@ impl ErrorFile {
                     let uu: Option<Vec<f64>> = u[r.clone()].iter().copied().collect();
                     f.effects.straightness.insert(
                         format!("E{}{}", direction.letter(), moving.letter()),
+                        MapEntry {
+                            nodes: n,
+                            values: Values::Flat(theta[r.clone()].to_vec()),
+                            u: uu.map(Values::Flat),
+                        },
+                    );
+                }
+                Effect::Positioning { axis, nodes } => {
+                    let mut n = IndexMap::new();
+                    n.insert(axis.letter().to_string(), nodes.clone());
+                    let uu: Option<Vec<f64>> = u[r.clone()].iter().copied().collect();
+                    f.effects.positioning.insert(
+                        format!("E{0}{0}", axis.letter()),
+                        MapEntry {
+                            nodes: n,
+                            values: Values::Flat(theta[r.clone()].to_vec()),
+                            u: uu.map(Values::Flat),
+                        },
+                    );
+                }
+                Effect::Angular {
+                    about,
+                    moving,
+                    nodes,
+                } => {
+                    let mut n = IndexMap::new();
+                    n.insert(moving.letter().to_string(), nodes.clone());
+                    let uu: Option<Vec<f64>> = u[r.clone()].iter().copied().collect();
+                    f.effects.angular.insert(
+                        format!("E{}{}", about.rot_letter(), moving.letter()),
                         MapEntry {
                             nodes: n,
                             values: Values::Flat(theta[r.clone()].to_vec()),

@@ -32,6 +32,7 @@ mod identifiability;
 mod identify;
 mod kinematics;
 mod laser_lines;
+mod linear_axes;
 mod machine;
 mod macros;
 mod measured;

@@ -2,7 +2,8 @@
 //! plan (by the line's name), its readings tabulated at the plan's targets
 //! and the ISO 230-2 figures of [`super::iso230_2`] computed with the
 //! plan's instrument uncertainty; the result file holds them per line with
-//! the environment each file states.
+//! the environment each file states. Then the linear axes' errors the
+//! lines determine ([`super::laser_identify`]).
 
 use std::path::{Path, PathBuf};
 
@@ -10,7 +11,9 @@ use indexmap::IndexMap;
 use serde::Serialize;
 
 use super::iso230_2::{self, Instrument, LineFigures};
+use super::laser_identify::{self, Identification, MeasuredLine};
 use crate::formats::laser::{LaserManifest, LaserRun};
+use crate::machine::Machine;
 use crate::source::SourceError;
 
 /// One line's result.
@@ -55,6 +58,13 @@ pub struct LaserResult {
     pub lines: Vec<LineResult>,
     /// The plan's lines without a run file.
     pub not_measured: Vec<String>,
+    /// The error file of the linear axes' errors the lines determine
+    /// (written beside the result, [`LaserResult::errors_path`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub linear_errors: Option<PathBuf>,
+    /// What the lines determine and what not.
+    #[serde(skip)]
+    pub identification: Option<Identification>,
 }
 
 /// Why the analysis cannot be made.
@@ -63,6 +73,9 @@ pub enum LaserAnalyzeError {
     /// A file that cannot be read.
     #[error(transparent)]
     Source(#[from] SourceError),
+    /// The lines cannot be identified from.
+    #[error(transparent)]
+    Identify(#[from] laser_identify::IdentifyError),
     /// A run that does not fit the plan.
     #[error("{file}: {message}")]
     Plan {
@@ -73,8 +86,13 @@ pub enum LaserAnalyzeError {
     },
 }
 
-/// Analyzes the run files `runs` of the plan `plan`.
-pub fn analyze(plan: &LaserManifest, runs: &[PathBuf]) -> Result<LaserResult, LaserAnalyzeError> {
+/// Analyzes the run files `runs` of the plan `plan` on `machine` (`None`:
+/// the figures alone, no identification).
+pub fn analyze(
+    plan: &LaserManifest,
+    machine: Option<&Machine>,
+    runs: &[PathBuf],
+) -> Result<LaserResult, LaserAnalyzeError> {
     let inst = Instrument {
         reading_u_um: plan.reading_u_um,
         length_u_ppm: plan.length_u_ppm,
@@ -123,6 +141,18 @@ pub fn analyze(plan: &LaserManifest, runs: &[PathBuf]) -> Result<LaserResult, La
         ));
     }
     found.sort_by_key(|(k, _)| *k);
+    let measured: Vec<MeasuredLine> = found
+        .iter()
+        .map(|(k, r)| MeasuredLine {
+            line: &plan.lines[*k],
+            means_um: r.figures.targets.iter().map(|t| t.mean()).collect(),
+            runs: r.figures.runs,
+        })
+        .collect();
+    let identification = match machine {
+        Some(m) => Some(laser_identify::identify(plan, m, &measured)?),
+        None => None,
+    };
     let not_measured = plan
         .lines
         .iter()
@@ -142,6 +172,8 @@ pub fn analyze(plan: &LaserManifest, runs: &[PathBuf]) -> Result<LaserResult, La
         length_u_ppm: plan.length_u_ppm,
         lines: found.into_iter().map(|(_, r)| r).collect(),
         not_measured,
+        linear_errors: None,
+        identification,
     })
 }
 
@@ -153,6 +185,17 @@ impl LaserResult {
         } else {
             serde_yaml::to_string(self).expect("results serialize")
         }
+    }
+
+    /// Where the identified errors go beside the result `out`:
+    /// `laser.yaml` -> `laser.errors.yaml` (`.json` likewise).
+    pub fn errors_path(out: &Path) -> PathBuf {
+        let stem = out
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "laser".into());
+        let ext = if Self::json_name(out) { "json" } else { "yaml" };
+        out.with_file_name(format!("{stem}.errors.{ext}"))
     }
 
     /// Whether the file name asks for JSON.

@@ -31,6 +31,7 @@ pub mod goodness;
 pub mod inputs;
 pub mod iso230_2;
 pub mod laser;
+pub mod laser_identify;
 pub mod method;
 pub mod preview;
 pub mod result;

@@ -2,11 +2,13 @@
 //! on the machine with the identified errors.
 //!
 //! Location errors, a tool-length error and linear-axis errors (scale,
-//! squareness, straightness) leave the rotary link transforms constant, so
+//! squareness, straightness, positioning) leave the rotary link transforms
+//! constant, so
 //! the closed form of [`FastChain`] is exact; linear-axis errors that
 //! depend on X, Y, Z are folded in by a short fixed-point iteration on the
 //! position alone (the orientation does not depend on them). Error maps over
-//! the rotary angles go through the model's own inverse.
+//! the rotary angles, and the linear axes' angular error motions (which turn
+//! the tool axis with X, Y, Z), go through the model's own inverse.
 //!
 //! Next to the tilt singularity (tool axis along C) the exact solution
 //! nearest the nominal axes may need C to turn a long way for a few urad of
@@ -88,16 +90,15 @@ impl Solver {
     pub fn new(model: &Model, theta: &[f64], max_c_swing_deg: f64) -> Solver {
         let kin = model.kin.clone();
         let nominal = FastChain::nominal(&kin);
+        // The linear axes' angular error motions turn the tool axis with
+        // X, Y and Z: the orientation no longer follows from the rotary
+        // axes alone, so they go through the model's own inverse, as the
+        // maps over the rotary angles do.
         let maps = model
             .effects
             .iter()
-            .any(|e| matches!(e, Effect::Map { .. }));
-        let lin_varies = model.effects.iter().any(|e| {
-            matches!(
-                e,
-                Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
-            )
-        });
+            .any(|e| matches!(e, Effect::Map { .. } | Effect::Angular { .. }));
+        let lin_varies = model.effects.iter().any(Effect::is_linear_axis_error);
         let p0 = model.perturbation(theta, &Context::default());
         let eps: f64 = (0..3)
             .flat_map(|l| (3..6).map(move |k| l * 6 + k))

@@ -131,6 +131,7 @@ fn context(point: &PlanPoint, xyz: Vector3<f64>, minutes: f64) -> Context {
         seq: point.seq as f64,
         minutes,
         approach: None,
+        ..Default::default()
     }
 }
 

@@ -35,6 +35,7 @@ fn context(p: &PlanPoint, commanded: Vector3<f64>, minutes: f64) -> Context {
         seq: p.seq as f64,
         minutes,
         approach: None,
+        ..Default::default()
     }
 }
 

@@ -316,6 +316,7 @@ fn rtw(model: &Model, theta: &[f64], tilt: f64, c: f64, seq: u32, minutes: f64) 
         seq: seq as f64,
         minutes,
         approach: None,
+        ..Default::default()
     };
     model
         .kin

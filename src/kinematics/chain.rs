@@ -3,8 +3,8 @@
 use nalgebra::{Isometry3, Matrix3, SMatrix, Translation3, UnitQuaternion, Vector3};
 
 use super::{
-    Kinematics, N_VARS, PoseJacobian, SLOT_LIN, SLOT_TOOL_LENGTH, ToolPose, VAR_C, VAR_TILT,
-    pose_of,
+    Kinematics, N_VARS, PoseJacobian, SLOT_LIN, SLOT_LIN_ROT, SLOT_TOOL_LENGTH, ToolPose, VAR_C,
+    VAR_TILT, pose_of,
 };
 use crate::geom::Axis3;
 use crate::machine::{Machine, RotaryAxis, Structure};
@@ -180,6 +180,17 @@ pub(super) fn build(m: &Machine, gauge_length: f64) -> (Chain, usize) {
             op: ChainOp::T(a),
             c0: 0.0,
             terms: vec![(k, 1.0), (slot(SLOT_LIN + k), 1.0)],
+        });
+    }
+    // The linear axes' angular error motions turn the tool side about the
+    // commanded point (their lever arms to it are in the linear slots, the
+    // turn of what lies beyond it here; docs/model.md). At zero these
+    // factors are skipped, so a machine without them keeps its bits.
+    for (k, &a) in ROT_AXES.iter().enumerate() {
+        f.push(Factor {
+            op: ChainOp::R(a),
+            c0: 0.0,
+            terms: vec![(slot(SLOT_LIN_ROT + k), 1.0)],
         });
     }
     if m.structure != Structure::TableTable {
@@ -365,7 +376,7 @@ impl Chain {
         let lh = m.pivot_length + k.gauge_length();
         match m.structure {
             Structure::TableTable => format!(
-                "rTw  = {} * {} * {} * {}\nrTw* = {} * {}\ntool = Trans(X + ex, Y + ey, Z + ez) * Dz(-dL)\nwq   = rTw^-1 * tool * 0",
+                "rTw  = {} * {} * {} * {}\nrTw* = {} * {}\ntool = Trans(X + ex, Y + ey, Z + ez) * Rx(ea) Ry(eb) Rz(ec) * Dz(-dL)\nwq   = rTw^-1 * tool * 0",
                 link(0),
                 r(&m.tilt, true),
                 link(1),
@@ -374,7 +385,7 @@ impl Chain {
                 r(&m.c, true)
             ),
             Structure::HeadTable => format!(
-                "rTw  = {} * {}\nrTw* = {}\ntool = Trans(X + ex, Y + ey, Z + ez) * Dz({lh}) * {} * {} * {} * Dz(-{lh}) * Dz(-dL)\nwq   = rTw^-1 * tool * 0",
+                "rTw  = {} * {}\nrTw* = {}\ntool = Trans(X + ex, Y + ey, Z + ez) * Rx(ea) Ry(eb) Rz(ec) * Dz({lh}) * {} * {} * {} * Dz(-{lh}) * Dz(-dL)\nwq   = rTw^-1 * tool * 0",
                 link(0),
                 r(&m.c, true),
                 r(&m.c, true),
@@ -383,7 +394,7 @@ impl Chain {
                 link(2)
             ),
             Structure::HeadHead => format!(
-                "rTw  = I (fixed table)\ntool = Trans(X + ex, Y + ey, Z + ez) * Dz({lh}) * {} * {} * {} * {} * {} * Dz(-{lh}) * Dz(-dL)\nwq   = tool * 0",
+                "rTw  = I (fixed table)\ntool = Trans(X + ex, Y + ey, Z + ez) * Rx(ea) Ry(eb) Rz(ec) * Dz({lh}) * {} * {} * {} * {} * {} * Dz(-{lh}) * Dz(-dL)\nwq   = tool * 0",
                 link(0),
                 r(&m.c, false),
                 link(1),

@@ -11,7 +11,7 @@
 //! For a table-table machine it is exactly
 //!
 //! ```text
-//! wq = rTw^-1 * Trans(X, Y, Z) * Tz(-dL) * 0
+//! wq = rTw^-1 * Trans(X, Y, Z) * Rx(ea) Ry(eb) Rz(ec) * Tz(-dL) * 0
 //! rTw = D(dx_TY, ..., c_TY) * R_T(-t) * D(dx_CT, ..., c_CT) * Dc(-c)
 //! ```
 //!
@@ -50,8 +50,12 @@ pub const SLOT_TOOL_LENGTH: usize = 21;
 pub(crate) const SLOT_TOOL_RADIUS: usize = 22;
 /// Slot of the probe pre-travel along the approach direction, mm (probing only).
 pub const SLOT_PRETRAVEL: usize = 23;
+/// Slot of the linear axes' rotation about X (Y, Z follow), rad, machine
+/// frame: the turn of the tool side about the commanded point that the
+/// angular error motions of the linear axes make (docs/model.md).
+pub const SLOT_LIN_ROT: usize = 24;
 /// Number of perturbation slots.
-pub const N_SLOTS: usize = 24;
+pub const N_SLOTS: usize = 27;
 /// Number of chain variables: five axis values then the slots.
 pub const N_VARS: usize = 5 + N_SLOTS;
 /// Variable index of the tilt angle (rad) in Jacobians.
@@ -119,6 +123,15 @@ impl Perturbation {
     /// The linear-axis error vector, mm.
     pub fn linear(&self) -> Vector3<f64> {
         Vector3::new(self.0[SLOT_LIN], self.0[SLOT_LIN + 1], self.0[SLOT_LIN + 2])
+    }
+
+    /// The linear axes' rotation of the tool side, rad (about X, Y, Z).
+    pub fn linear_rotation(&self) -> Vector3<f64> {
+        Vector3::new(
+            self.0[SLOT_LIN_ROT],
+            self.0[SLOT_LIN_ROT + 1],
+            self.0[SLOT_LIN_ROT + 2],
+        )
     }
 }
 
@@ -226,6 +239,9 @@ impl Kinematics {
                 SLOT_TOOL_LENGTH => "tool_length",
                 SLOT_TOOL_RADIUS => "tool_radius",
                 SLOT_PRETRAVEL => "pretravel",
+                24 => "lin_a",
+                25 => "lin_b",
+                26 => "lin_c",
                 _ => return None,
             }
             .to_string(),

@@ -118,6 +118,31 @@ pub struct SymbolTable {
     pub not_identifiable: Vec<(String, String)>,
     /// The machine's tilt-axis letter.
     pub tilt: char,
+    /// Per linear axis (X, Y, Z), which linear axes' positions make the
+    /// lever arm of its angular error motions ([`linear_levers`]).
+    pub levers: [[bool; 3]; 3],
+}
+
+/// For each linear axis L of `chain` (workpiece to tool, `F` the frame),
+/// the linear axes whose program positions are in the lever arm of L's
+/// angular error motions: the tool tip relative to a point of L's carriage.
+/// A tool-side axis (after F) carries the axes after it, so its lever holds
+/// their positions and not its own (the point rides along with L). A
+/// table-side axis carries the workpiece and the table-side axes before it;
+/// relative to its carriage the tip moves with L itself, the table-side
+/// axes between L and F and every tool-side axis: all from L on.
+pub fn linear_levers(chain: &str) -> [[bool; 3]; 3] {
+    let at = |c: char| chain.chars().position(|x| x == c);
+    let f = at('F').unwrap_or(0);
+    let mut out = [[false; 3]; 3];
+    for (l, &lc) in LIN.iter().enumerate() {
+        let Some(i) = at(lc) else { continue };
+        for (m, &mc) in LIN.iter().enumerate() {
+            let Some(j) = at(mc) else { continue };
+            out[l][m] = j > i || (j == i && i < f);
+        }
+    }
+    out
 }
 
 const LIN: [char; 3] = ['X', 'Y', 'Z'];
@@ -148,6 +173,7 @@ impl SymbolTable {
             maps: map_symbols(k),
             not_identifiable: list.rej,
             tilt: m.tilt.letter,
+            levers: linear_levers(&m.chain),
         }
     }
 

@@ -8,7 +8,9 @@ use super::Context;
 use crate::geom::{Axis3, MM_PER_UM, RAD_PER_URAD};
 use crate::kinematics::maps::MapGrid;
 use crate::kinematics::symbols::SymbolTable;
-use crate::kinematics::{SLOT_LIN, SLOT_PRETRAVEL, SLOT_TOOL_LENGTH, SLOT_TOOL_RADIUS};
+use crate::kinematics::{
+    SLOT_LIN, SLOT_LIN_ROT, SLOT_PRETRAVEL, SLOT_TOOL_LENGTH, SLOT_TOOL_RADIUS,
+};
 
 /// What a thermal drift is proportional to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -118,6 +120,32 @@ pub enum Effect {
         /// Node positions, mm, increasing.
         nodes: Vec<f64>,
     },
+    /// Positioning error of one linear axis, um at nodes along it (program
+    /// coordinates, mm), linear in between and constant beyond: moving the
+    /// axis to x displaces it along itself by the map's value there.
+    /// Identifier `positioning.EXX` (`EYY`, `EZZ`).
+    Positioning {
+        /// The axis.
+        axis: Axis3,
+        /// Node positions, mm, increasing.
+        nodes: Vec<f64>,
+    },
+    /// Angular error motion `E<about><moving>` of a linear axis (ISO 230-1:
+    /// `EBX` is the turn about Y as X moves), urad at nodes along the
+    /// moving axis, linear in between and constant beyond: the tool side
+    /// turns relative to the workpiece by the value about `about`, about a
+    /// point of the moving axis's carriage, so the tip moves by
+    /// `eps x lever` with the lever of [`SymbolTable::levers`] plus the
+    /// context's measured offset (docs/model.md). Identifier
+    /// `angular.E<about><moving>`.
+    Angular {
+        /// The axis turned about.
+        about: Axis3,
+        /// The axis that moves.
+        moving: Axis3,
+        /// Node positions, mm, increasing.
+        nodes: Vec<f64>,
+    },
     /// Tool radius error, um (actual minus nominal). Identifier `tool_radius`.
     ToolRadius,
     /// Tool (or probe) length error, um. Identifier `tool_length`.
@@ -148,6 +176,10 @@ impl Effect {
             } => {
                 format!("straightness.E{}{}", direction.letter(), moving.letter())
             }
+            Effect::Positioning { axis, .. } => format!("positioning.E{0}{0}", axis.letter()),
+            Effect::Angular { about, moving, .. } => {
+                format!("angular.E{}{}", about.rot_letter(), moving.letter())
+            }
             Effect::ToolRadius => "tool_radius".into(),
             Effect::ToolLength => "tool_length".into(),
             Effect::ProbePretravel => "probe_pretravel".into(),
@@ -159,7 +191,9 @@ impl Effect {
         match self {
             Effect::Location { symbols } => symbols.len(),
             Effect::Map { grid, .. } => grid.len(),
-            Effect::Straightness { nodes, .. } => nodes.len(),
+            Effect::Straightness { nodes, .. }
+            | Effect::Positioning { nodes, .. }
+            | Effect::Angular { nodes, .. } => nodes.len(),
             Effect::ProbePretravel => PROBE_DIRECTIONS.len(),
             _ => 1,
         }
@@ -214,6 +248,17 @@ impl Effect {
                     )
                 })
                 .collect(),
+            Effect::Positioning {
+                axis: moving,
+                nodes,
+            }
+            | Effect::Angular { moving, nodes, .. } => {
+                let id = self.id(sym);
+                nodes
+                    .iter()
+                    .map(|n| format!("{id}@{}={}", moving.letter(), fmt_angle(*n)))
+                    .collect()
+            }
             Effect::ToolRadius => vec!["tool_radius".into()],
             Effect::ToolLength => vec!["tool_length".into()],
             Effect::ProbePretravel => PROBE_DIRECTIONS
@@ -221,6 +266,19 @@ impl Effect {
                 .map(|d| format!("probe_pretravel.{d}"))
                 .collect(),
         }
+    }
+
+    /// Whether this is an error of the linear axes, which reads their
+    /// positions and writes the linear slots (translation and rotation).
+    pub fn is_linear_axis_error(&self) -> bool {
+        matches!(
+            self,
+            Effect::Scale { .. }
+                | Effect::Squareness { .. }
+                | Effect::Straightness { .. }
+                | Effect::Positioning { .. }
+                | Effect::Angular { .. }
+        )
     }
 
     /// Parameter units.
@@ -237,6 +295,7 @@ impl Effect {
             }
             Effect::Scale { .. } => vec!["um/m".into()],
             Effect::Squareness { .. } => vec!["urad".into()],
+            Effect::Angular { .. } => vec!["urad".into(); n],
             _ => vec!["um".into(); n],
         }
     }
@@ -293,6 +352,43 @@ impl Effect {
                 for (i, w) in crate::kinematics::maps::dim_weights(nodes, false, x) {
                     if w != 0.0 {
                         sink(SLOT_LIN + direction.index(), i, w * MM_PER_UM);
+                    }
+                }
+            }
+            Effect::Positioning { axis, nodes } => {
+                let x = ctx.axes.xyz[axis.index()];
+                for (i, w) in crate::kinematics::maps::dim_weights(nodes, false, x) {
+                    if w != 0.0 {
+                        sink(SLOT_LIN + axis.index(), i, w * MM_PER_UM);
+                    }
+                }
+            }
+            Effect::Angular {
+                about,
+                moving,
+                nodes,
+            } => {
+                // The tip relative to the turning point of the carriage:
+                // the positions the lever holds, the measured point's
+                // offset; what the chain carries beyond the commanded
+                // point (a head's swing) turns with the rotation slot.
+                let mut lever = ctx.measured_offset;
+                for (m, &on) in sym.levers[moving.index()].iter().enumerate() {
+                    if on {
+                        lever[m] += ctx.axes.xyz[m];
+                    }
+                }
+                let arm = about.unit().cross(&lever);
+                let x = ctx.axes.xyz[moving.index()];
+                for (i, w) in crate::kinematics::maps::dim_weights(nodes, false, x) {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    sink(SLOT_LIN_ROT + about.index(), i, w * RAD_PER_URAD);
+                    for k in 0..3 {
+                        if arm[k] != 0.0 {
+                            sink(SLOT_LIN + k, i, w * RAD_PER_URAD * arm[k]);
+                        }
                     }
                 }
             }

@@ -19,7 +19,8 @@ use nalgebra::{DMatrix, Vector3};
 
 use crate::kinematics::symbols::SymbolTable;
 use crate::kinematics::{
-    Axes, IkError, Kinematics, Perturbation, PoseJacobian, SLOT_LIN, SLOT_PRETRAVEL, ToolPose,
+    Axes, IkError, Kinematics, Perturbation, PoseJacobian, SLOT_LIN, SLOT_LIN_ROT, SLOT_PRETRAVEL,
+    ToolPose,
 };
 
 pub use effect::PROBE_DIRECTIONS;
@@ -37,6 +38,13 @@ pub struct Context {
     /// Probing: unit approach direction in the probe's own frame (the
     /// machine frame when the head is at zero); `None` when not probing.
     pub approach: Option<Vector3<f64>>,
+    /// Where the measured point sits from the commanded point, mm, machine
+    /// axes at head zero: a laser's reflector on a spindle bracket. It is
+    /// the part of the lever arm of the linear axes' angular error motions
+    /// ([`Effect::Angular`]) that the chain does not hold. Zero where not
+    /// filled: the lever is taken from the commanded point (the tool tip of
+    /// a compensated tool length), docs/model.md.
+    pub measured_offset: Vector3<f64>,
 }
 
 impl Context {
@@ -98,10 +106,7 @@ impl Wanted {
 /// linear-axis error; it writes the linear slots, which no other effect
 /// writes).
 fn reads_xyz(e: &Effect) -> bool {
-    matches!(
-        e,
-        Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
-    )
+    e.is_linear_axis_error()
 }
 
 /// Kinematics plus effects.
@@ -229,8 +234,8 @@ impl Model {
     }
 
     /// Whether the perturbation at `theta` changes with the linear axes'
-    /// positions: a linear-axis error (scale, squareness, straightness)
-    /// not at zero. Every other effect depends on the rotary positions,
+    /// positions: a linear-axis error (scale, squareness, straightness,
+    /// positioning or angular map) not at zero. Every other effect depends on the rotary positions,
     /// the time or the approach only.
     pub fn varies_with_xyz(&self, theta: &[f64]) -> bool {
         self.effects
@@ -242,9 +247,9 @@ impl Model {
     /// The perturbation at `ctx` from `p`, the one at the same context but
     /// for the linear axes' positions: the same bits as
     /// [`Model::perturbation`] at `ctx`. Only the linear-axis errors read
-    /// X, Y and Z, and only they write the linear slots, so those slots
-    /// are worked out again (in the same order, from zero) and the rest
-    /// is kept.
+    /// X, Y and Z, and only they write the linear slots (translation and
+    /// rotation), so those slots are worked out again (in the same order,
+    /// from zero) and the rest is kept.
     pub fn perturbation_moved(
         &self,
         theta: &[f64],
@@ -253,6 +258,7 @@ impl Model {
     ) -> Perturbation {
         let mut out = *p;
         out.0[SLOT_LIN..SLOT_LIN + 3].fill(0.0);
+        out.0[SLOT_LIN_ROT..SLOT_LIN_ROT + 3].fill(0.0);
         for (i, e) in self.effects.iter().enumerate() {
             if reads_xyz(e) && !self.at_zero(theta, i) {
                 self.add_effect(i, theta, ctx, &mut out);

@@ -104,7 +104,8 @@ pub struct Cutting {
     /// Whether an effect drifts with time (the actual path then bends
     /// within a move).
     pub drifts_in_time: bool,
-    /// Straightness errors: the moving axis and its nodes (mm).
+    /// Maps along the linear axes (straightness, positioning, angular):
+    /// the moving axis and its nodes (mm).
     breaks: Vec<(Axis3, Vec<f64>)>,
     /// Each move's nominal tip at its start and end and its tool axis, by
     /// pose: the forward model asks for them at every point of every fit.
@@ -121,7 +122,12 @@ impl Cutting {
         let mut drifts_in_time = false;
         for e in &model.effects {
             match e {
-                Effect::Straightness { moving, nodes, .. } => breaks.push((*moving, nodes.clone())),
+                Effect::Straightness { moving, nodes, .. }
+                | Effect::Positioning {
+                    axis: moving,
+                    nodes,
+                }
+                | Effect::Angular { moving, nodes, .. } => breaks.push((*moving, nodes.clone())),
                 Effect::Drift {
                     basis: DriftBasis::Minute,
                     ..
@@ -173,6 +179,7 @@ impl Cutting {
             seq: p.seq as f64,
             minutes: self.timeline.at(pose, mv, t) + offset,
             approach: None,
+            ..Default::default()
         }
     }
 

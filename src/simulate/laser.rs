@@ -4,13 +4,14 @@
 //! displacement of the measured point along the line, set to zero at
 //! target 0 of the first + approach, with its reading noise.
 //!
-//! What the model holds of a linear axis is its scale, its straightness
-//! maps and the squarenesses (docs/model.md); it has no angular error
-//! motions of the linear axes (pitch, yaw, roll) and no reversal
-//! (backlash), so on the virtual machine the offset lines read what their
-//! base line reads and the reversal value is the noise's. The rotary axes'
-//! location errors at zero shift every target alike and cancel with the
-//! zero at target 0.
+//! The model's linear-axis errors all act (docs/model.md): scale,
+//! positioning maps, straightness, squareness and the angular error
+//! motions, whose lever arm to the measured point runs through the
+//! machine's chain and, on a bracket line, the bracket's offset; so an
+//! offset line reads its base line plus the axis's pitch or yaw times the
+//! offset. The model has no reversal (backlash): the reversal value is the
+//! noise's. The rotary axes' location errors at zero shift every target
+//! alike and cancel with the zero at target 0.
 
 use nalgebra::Vector3;
 use rand::SeedableRng;
@@ -19,7 +20,8 @@ use rand_distr::{Distribution, Normal};
 
 use crate::errorfile::{ErrorFile, LoadedErrors};
 use crate::formats::laser::{LaserManifest, LaserRun, LineEntry, Reading};
-use crate::kinematics::{Axes, Kinematics};
+use crate::kinematics::Axes;
+use crate::kinematics::Kinematics;
 use crate::machine::Machine;
 use crate::model::Context;
 use crate::source::SourceError;
@@ -54,20 +56,33 @@ pub enum LaserSimError {
     Option(String),
 }
 
+/// The context of `line`'s target `i`: the gauge point in program
+/// coordinates, the reflector's bracket as the measured offset.
+pub fn line_context(machine: &Machine, line: &LineEntry, i: usize) -> Context {
+    let spindle = Vector3::from(line.spindle_at(i));
+    let measured_offset = if line.offset_by == "bracket" {
+        Vector3::from(line.offset)
+    } else {
+        Vector3::zeros()
+    };
+    Context {
+        axes: Axes {
+            xyz: spindle - machine.pivot,
+            tilt: 0.0,
+            c: 0.0,
+        },
+        measured_offset,
+        ..Default::default()
+    }
+}
+
 /// The displacement of the measured point of `line` at target `i` from
 /// where it is commanded, mm, in W (machine axes at rotary zero).
 pub fn displacement(truth: &LoadedErrors, line: &LineEntry, i: usize) -> Vector3<f64> {
     let kin = &truth.model.kin;
-    let m = kin.machine();
-    let spindle = Vector3::from(line.spindle_at(i));
-    // Program coordinates of the gauge point: machine less the pivot.
-    let axes = Axes {
-        xyz: spindle - m.pivot,
-        tilt: 0.0,
-        c: 0.0,
-    };
-    let p = truth.model.perturbation(&truth.theta, &Context::at(axes));
-    kin.forward(&axes, &p).tip - kin.forward_nominal(&axes).tip
+    let ctx = line_context(kin.machine(), line, i);
+    let p = truth.model.perturbation(&truth.theta, &ctx);
+    kin.forward(&ctx.axes, &p).tip - kin.forward_nominal(&ctx.axes).tip
 }
 
 /// The reading of `line` at target `i` without noise, um: the displacement

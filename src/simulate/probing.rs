@@ -147,6 +147,7 @@ impl Probing {
             seq: p.seq as f64,
             minutes: self.plan.run_time.touch_min[i] + offset,
             approach: Some(self.approach(i)),
+            ..Default::default()
         }
     }
 

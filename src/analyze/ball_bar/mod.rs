@@ -35,7 +35,6 @@ use crate::errorfile::{
 };
 use crate::formats::ball_bar::{BallBarManifest, BallBarRun};
 use crate::machine::Machine;
-use crate::model::Effect;
 use crate::source::SourceError;
 
 pub use design::{Design, KnownLinear, Reading, Runout};
@@ -337,12 +336,7 @@ fn known_linear(
         let kin = crate::kinematics::Kinematics::with_gauge_length(machine, g);
         let loaded = f.to_model(&kin, path, src)?;
         let keep: Vec<usize> = (0..loaded.model.effects.len())
-            .filter(|&i| {
-                matches!(
-                    loaded.model.effects[i],
-                    Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. }
-                )
-            })
+            .filter(|&i| loaded.model.effects[i].is_linear_axis_error())
             .collect();
         theta = keep
             .iter()
@@ -357,7 +351,7 @@ fn known_linear(
     let names = models[0].param_names();
     notes.push(if names.is_empty() {
         format!(
-            "{} holds no linear-axis error (scale, squareness, straightness): nothing taken out",
+            "{} holds no linear-axis error (scale, squareness, straightness, positioning, angular): nothing taken out",
             path.display()
         )
     } else {

@@ -166,7 +166,7 @@ pub fn simulate(
         opts.noise_um.unwrap_or(man.reading_u_um)
     );
     outln!(
-        "note: the model has no angular error motions and no reversal of the linear axes: the offset lines read what their base line reads (docs/laser-lines.md)"
+        "note: the model has no reversal of the linear axes: the reversal value is the noise's (docs/laser-lines.md)"
     );
     for w in written {
         outln!("wrote {}", w.display());
@@ -179,12 +179,38 @@ pub fn analyze(c: LaserAnalyzeConfig) -> anyhow::Result<()> {
     let man = LaserManifest::read(&c.plan)?;
     let mut inputs: Vec<&Path> = vec![c.plan.as_path()];
     inputs.extend(c.measured.iter().map(|p| p.as_path()));
-    let mut outs = vec![("--out", c.out.as_path(), Shape::File)];
+    let dir = c.plan.parent().unwrap_or(Path::new("."));
+    let machine_path = dir.join(&man.machine_file);
+    // The identification needs the machine's chain; the figures do not.
+    let machine = fivecal::input::read_text(
+        &machine_path,
+        "laser-lines plan's machine copy",
+        fivecal::limits::MAX_YAML_BYTES,
+    )
+    .map_err(anyhow::Error::from)
+    .and_then(|t| Ok(fivecal::Machine::from_yaml(&machine_path, &t)?));
+    let machine = match machine {
+        Ok(m) => {
+            inputs.push(machine_path.as_path());
+            Some(m)
+        }
+        Err(e) => {
+            eprintln!(
+                "warning: the linear axes' errors are not identified, the plan's machine copy does not read: {e:#}"
+            );
+            None
+        }
+    };
+    let errors_out = fivecal::analyze::laser::LaserResult::errors_path(&c.out);
+    let mut outs = vec![
+        ("--out", c.out.as_path(), Shape::File),
+        ("--out (its errors file)", errors_out.as_path(), Shape::File),
+    ];
     if let Some(r) = &c.report {
         outs.push(("--report", r.as_path(), Shape::Dir));
     }
     check_outputs(&inputs, &outs)?;
-    let result = fivecal::analyze::laser::analyze(&man, &c.measured)?;
+    let mut result = fivecal::analyze::laser::analyze(&man, machine.as_ref(), &c.measured)?;
     if c.json {
         crate::out::to_stderr();
     }
@@ -214,6 +240,22 @@ pub fn analyze(c: LaserAnalyzeConfig) -> anyhow::Result<()> {
     outln!("u: {}", result.uncertainty);
     if !result.not_measured.is_empty() {
         outln!("not measured: {}", result.not_measured.join(", "));
+    }
+    if let Some(id) = &result.identification {
+        out!("{}", id.render());
+        let f = id.error_file(&man.machine);
+        let text = if fivecal::analyze::laser::LaserResult::json_name(&errors_out) {
+            f.to_json() + "\n"
+        } else {
+            f.to_yaml()
+        };
+        fivecal::io::write_atomic(&errors_out, text.as_bytes())
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        outln!(
+            "wrote {} (the linear axes' errors, an error file)",
+            errors_out.display()
+        );
+        result.linear_errors = Some(errors_out.clone());
     }
     let json_file = fivecal::analyze::laser::LaserResult::json_name(&c.out);
     fivecal::io::write_atomic(&c.out, result.to_text(json_file).as_bytes())
