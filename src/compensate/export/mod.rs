@@ -994,12 +994,18 @@ fn not_held(model: &Model, theta: &[f64], dialect: Dialect) -> Vec<String> {
                         "an error map over the rotary angles (not even its value at rotary zero is in the parameters)"
                     }
                     Effect::Drift { .. } => "a thermal drift",
-                    Effect::Scale { .. } | Effect::Squareness { .. } | Effect::Straightness { .. } => {
+                    Effect::Scale { .. }
+                    | Effect::Squareness { .. }
+                    | Effect::Straightness { .. }
+                    | Effect::Positioning { .. }
+                    | Effect::Angular { .. } => {
                         "a linear-axis error (the controller's pitch and straightness compensation holds it, not the pivot data)"
                     }
                     Effect::ToolLength => "a tool length error (the tool table holds it)",
                     Effect::ToolRadius => "a tool radius error (the tool table holds it)",
-                    _ => "a probing effect",
+                    Effect::ProbePretravel => "a probing effect",
+                    // The arms above the match take these.
+                    Effect::Location { .. } => "a location error",
                 }
             )),
         }
