@@ -10,7 +10,7 @@
 //! ([`linuxcnc`]: the joint's `COMP_FILE`, [`sinumerik`]: the leadscrew
 //! error compensation's `$AA_ENC_COMP` table). FANUC's pitch error
 //! compensation and HEIDENHAIN's compensation tables are refused by
-//! [`write`] with what to enter by hand: their public documentation does
+//! [`write()`] with what to enter by hand: their public documentation does
 //! not settle their layout and sign well enough to write them.
 //!
 //! The sign is what every writer has to get right: a table holds either
