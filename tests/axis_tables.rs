@@ -484,48 +484,21 @@ fn a_result_without_a_base_line_or_with_an_offset_one_is_refused_by_name() {
 #[test]
 fn simulate_analyze_export_corrects_the_truths_scales_for_linuxcnc_and_sinumerik() {
     let dir = crate::util::tempdir();
-    let bin = env!("CARGO_BIN_EXE_fivecal");
-    let run = |args: &[&str]| {
-        let o = std::process::Command::new(bin).args(args).output().unwrap();
-        assert!(
-            o.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        String::from_utf8_lossy(&o.stdout).into_owned()
-    };
-    let s = |p: &Path| p.to_string_lossy().into_owned();
-    let plan = dir.path().join("plan");
-    run(&[
-        "plan",
-        "laser-lines",
-        "--machine",
-        "bc-trunnion",
-        "--divisions",
-        "8",
-        "--runs",
-        "2",
-        "-o",
-        &s(&plan),
-    ]);
-    let truth = dir.path().join("truth.yaml");
-    std::fs::write(
-        &truth,
+    let (plan_file, runs) = crate::laser_lines::simulated_lines(
+        dir.path(),
+        &[
+            "--machine",
+            "bc-trunnion",
+            "--divisions",
+            "8",
+            "--runs",
+            "2",
+        ],
         "machine: bc-trunnion\nlocation_errors: {}\neffects:\n  linear_scale: {EXX: 40.0, EYY: -25.0, EZZ: 15.0}\n",
-    )
-    .unwrap();
-    let runs = dir.path().join("runs");
-    let plan_file = plan.join("laser-lines.plan.yaml");
-    run(&[
-        "simulate",
-        "--plan",
-        &s(&plan_file),
-        "--errors",
-        &s(&truth),
-        "--no-noise",
-        "-o",
-        &s(&runs),
-    ]);
+        &["--no-noise"],
+    );
+    let run = |args: &[&str]| crate::laser_lines::fivecal_ok(args);
+    let s = |p: &Path| p.to_string_lossy().into_owned();
     let result = dir.path().join("laser.yaml");
     let mut args = vec![
         "analyze".to_string(),
@@ -599,7 +572,7 @@ fn simulate_analyze_export_corrects_the_truths_scales_for_linuxcnc_and_sinumerik
     }
     // FANUC: refused, nothing written, the table printed for entering by hand.
     let fa = dir.path().join("fa");
-    let o = std::process::Command::new(bin)
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_fivecal"))
         .args([
             "compensate",
             "--machine",

@@ -273,49 +273,68 @@ fn every_linuxcnc_program_runs_through_rs274_to_the_planned_targets() {
     }
 }
 
+/// Runs the binary with `args`, which must succeed: its standard output.
+pub(crate) fn fivecal_ok<S: AsRef<std::ffi::OsStr> + std::fmt::Debug>(args: &[S]) -> String {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_fivecal"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The ten lines through the binary: `plan laser-lines` with `plan_args`
+/// (the machine among them) into `dir/plan`, then `simulate` of the error
+/// file `truth_yaml` (with `sim_args`, such as `--no-noise`) into
+/// `dir/runs`. The plan file and the runs' directory.
+pub(crate) fn simulated_lines(
+    dir: &Path,
+    plan_args: &[&str],
+    truth_yaml: &str,
+    sim_args: &[&str],
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    let plan = dir.join("plan");
+    let mut args = vec![
+        "plan".as_ref(),
+        "laser-lines".as_ref(),
+        "-o".as_ref(),
+        plan.as_os_str(),
+    ];
+    args.extend(plan_args.iter().map(std::ffi::OsStr::new));
+    fivecal_ok(&args);
+    let truth = dir.join("truth.yaml");
+    std::fs::write(&truth, truth_yaml).unwrap();
+    let plan_file = plan.join("laser-lines.plan.yaml");
+    let runs = dir.join("runs");
+    let mut args = vec![
+        "simulate".as_ref(),
+        "--plan".as_ref(),
+        plan_file.as_os_str(),
+        "--errors".as_ref(),
+        truth.as_os_str(),
+        "-o".as_ref(),
+        runs.as_os_str(),
+    ];
+    args.extend(sim_args.iter().map(std::ffi::OsStr::new));
+    fivecal_ok(&args);
+    (plan_file, runs)
+}
+
 #[test]
 fn simulate_then_analyze_finds_the_truths_scale_on_each_line() {
     let dir = crate::util::tempdir();
-    let bin = env!("CARGO_BIN_EXE_fivecal");
-    let out = dir.path().join("plan");
-    let run = |args: &[&str]| {
-        let o = std::process::Command::new(bin).args(args).output().unwrap();
-        assert!(
-            o.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        String::from_utf8_lossy(&o.stdout).into_owned()
-    };
-    let s = |p: &Path| p.to_string_lossy().into_owned();
-    run(&[
-        "plan",
-        "laser-lines",
-        "--machine",
-        "bc-trunnion",
-        "--dialect",
-        "fanuc",
-        "-o",
-        &s(&out),
-    ]);
-    let truth = dir.path().join("truth.yaml");
-    std::fs::write(
-        &truth,
+    let (plan_file, runs) = simulated_lines(
+        dir.path(),
+        &["--machine", "bc-trunnion", "--dialect", "fanuc"],
         "machine: bc-trunnion\nlocation_errors: {}\neffects:\n  linear_scale: {EXX: 10.0, EYY: -6.0, EZZ: 4.0}\n",
-    )
-    .unwrap();
-    let runs = dir.path().join("runs");
-    let plan_file = out.join("laser-lines.plan.yaml");
-    run(&[
-        "simulate",
-        "--plan",
-        &s(&plan_file),
-        "--errors",
-        &s(&truth),
-        "--no-noise",
-        "-o",
-        &s(&runs),
-    ]);
+        &["--no-noise"],
+    );
+    let run = |args: &[&str]| fivecal_ok(args);
+    let s = |p: &Path| p.to_string_lossy().into_owned();
     let result = dir.path().join("result.yaml");
     let report = dir.path().join("report");
     let mut args: Vec<String> = ["analyze", "--plan"].map(String::from).to_vec();

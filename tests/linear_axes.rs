@@ -416,55 +416,29 @@ fn some_lines_give_what_they_determine_and_name_the_rest() {
 #[test]
 fn the_seeds_setup_identifies_through_the_binary() {
     let dir = crate::util::tempdir();
-    let bin = env!("CARGO_BIN_EXE_fivecal");
-    let run = |args: &[&str]| {
-        let o = std::process::Command::new(bin).args(args).output().unwrap();
-        assert!(
-            o.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        String::from_utf8_lossy(&o.stdout).into_owned()
-    };
-    let s = |p: &Path| p.to_string_lossy().into_owned();
     let mfile = dir.path().join("my-dmu-laser.yaml");
     std::fs::write(
         &mfile,
         crate::laser_lines::seed_machine_yaml("my-dmu-laser"),
     )
     .unwrap();
-    let out = dir.path().join("laser");
-    run(&[
-        "plan",
-        "laser-lines",
-        "--machine",
-        &s(&mfile),
-        "--volume",
-        "100,-650,-500,900,-50,-100",
-        "--runs",
-        "2",
-        "-o",
-        &s(&out),
-    ]);
     // Program X = machine X - 500 (the pivot): the volume's X runs from
     // -400 to 400.
-    let truth = dir.path().join("truth.yaml");
-    std::fs::write(
-        &truth,
+    let (plan_file, runs) = crate::laser_lines::simulated_lines(
+        dir.path(),
+        &[
+            "--machine",
+            mfile.to_str().unwrap(),
+            "--volume",
+            "100,-650,-500,900,-50,-100",
+            "--runs",
+            "2",
+        ],
         "machine: my-dmu-laser\neffects:\n  angular:\n    EBX: {X: [-400, 400], values: [0.0, 24.0]}\n  positioning:\n    EXX: {X: [-400, 400], values: [0.0, 8.0]}\n",
-    )
-    .unwrap();
-    let plan_file = out.join("laser-lines.plan.yaml");
-    let runs = dir.path().join("runs");
-    run(&[
-        "simulate",
-        "--plan",
-        &s(&plan_file),
-        "--errors",
-        &s(&truth),
-        "-o",
-        &s(&runs),
-    ]);
+        &[],
+    );
+    let run = |args: &[&str]| crate::laser_lines::fivecal_ok(args);
+    let s = |p: &Path| p.to_string_lossy().into_owned();
     let result = dir.path().join("result.yaml");
     let mut args: Vec<String> = vec!["analyze".into(), "--plan".into(), s(&plan_file)];
     args.extend(["-o".into(), s(&result), "--measured".into()]);
