@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-use super::plots::{PlotResult, err};
+use super::plots::{Legible as _, PlotResult, err};
 use super::{ReportError, esc, page_start, plot, put};
 use crate::analyze::iso230_2::{Direction, LineFigures, Target};
 use crate::analyze::laser::LaserResult;
@@ -46,6 +46,7 @@ pub fn line_plot(f: &LineFigures) -> PlotResult {
             .map_err(err)?;
         chart
             .configure_mesh()
+            .legible()
             .x_desc("target position, mm")
             .y_desc("deviation, um")
             .draw()

@@ -160,10 +160,13 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
     figs.extend(map_figures(r, &mut files)?);
     let shown = deviations(r.data, r.est);
     let (max_dev, mag) = shown_magnification(&shown);
-    let pose_figs = if r.sphere {
+    let (pose_figs, unfixed) = if r.sphere {
         centre_figure(r.data, &shown, &mut files)?
     } else {
-        pose_figures(r, &shown, max_dev, mag, &mut files)?
+        (
+            pose_figures(r, &shown, max_dev, mag, &mut files)?,
+            Vec::new(),
+        )
     };
     let groups = residual_groups(r.data, &r.est.residuals);
     put(
@@ -182,7 +185,7 @@ pub fn write(dir: &Path, r: &ReportInput<'_>) -> Result<Vec<PathBuf>, ReportErro
         .map(|p| (p.id.clone(), p.obs.clone()))
         .collect();
     put(&mut files, "piece.glb", &glb::glb(&shown, mag, &poses))?;
-    let h = page(r, &figs, &pose_figs, mag);
+    let h = page(r, &figs, &pose_figs, &unfixed, mag);
     put(&mut files, "index.html", h.as_bytes())?;
     Ok(files.commit()?)
 }
@@ -413,19 +416,8 @@ pub(crate) fn centre_shift(points: &[&ShownPoint]) -> Option<Vector3<f64>> {
 }
 
 /// The sphere test's deviations: the plot of its centre per pose, and the
-/// poses whose touches do not fix it.
-fn sphere_section(h: &mut String, r: &ReportInput<'_>, figs: &[String]) {
-    let shown = deviations(r.data, r.est);
-    let open: Vec<&str> = r
-        .data
-        .poses
-        .iter()
-        .filter(|p| {
-            let pts: Vec<&ShownPoint> = p.obs.iter().map(|&i| &shown[i]).collect();
-            centre_shift(&pts).is_none()
-        })
-        .map(|p| p.id.as_str())
-        .collect();
+/// poses whose touches do not fix it (`unfixed`).
+fn sphere_section(h: &mut String, r: &ReportInput<'_>, figs: &[String], unfixed: &[String]) {
     let first = r.data.poses.first().map_or("", |p| p.id.as_str());
     let _ = writeln!(
         h,
@@ -435,11 +427,11 @@ fn sphere_section(h: &mut String, r: &ReportInput<'_>, figs: &[String]) {
     for f in figs {
         let _ = writeln!(h, "<img src=\"{f}\" alt=\"{f}\">");
     }
-    if !open.is_empty() {
+    if !unfixed.is_empty() {
         let _ = writeln!(
             h,
             "</div>\n<p>Not drawn: {} (their touches do not fix the centre in every direction).</p>\n<div>",
-            esc(&open.join(", "))
+            esc(&unfixed.join(", "))
         );
     }
 }
@@ -453,21 +445,25 @@ fn centre_figure(
     data: &Dataset,
     shown: &[ShownPoint],
     files: &mut StagedDir,
-) -> Result<Vec<String>, ReportError> {
+) -> Result<(Vec<String>, Vec<String>), ReportError> {
+    let mut unfixed = Vec::new();
     let mut rows: Vec<(String, Vec<plots::MapNode>)> = ["X", "Y", "Z"]
         .iter()
         .map(|a| (a.to_string(), Vec::new()))
         .collect();
     for (k, pose) in data.poses.iter().enumerate() {
         let pts: Vec<&ShownPoint> = pose.obs.iter().map(|&i| &shown[i]).collect();
-        if let Some(t) = centre_shift(&pts) {
-            for (row, v) in rows.iter_mut().zip(t.iter()) {
-                row.1.push((k as f64 + 1.0, *v, None));
+        match centre_shift(&pts) {
+            Some(t) => {
+                for (row, v) in rows.iter_mut().zip(t.iter()) {
+                    row.1.push((k as f64 + 1.0, *v, None));
+                }
             }
+            None => unfixed.push(pose.id.clone()),
         }
     }
     if rows[0].1.is_empty() {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), unfixed));
     }
     let file = "sphere-centres.svg";
     put(
@@ -484,13 +480,19 @@ fn centre_figure(
         )?
         .as_bytes(),
     )?;
-    Ok(vec![file.to_string()])
+    Ok((vec![file.to_string()], unfixed))
 }
 
 /// The report page: what was measured, the fit verdict, what the test
 /// identifies, the results table and plots, the deviations, the residuals
 /// and the notes.
-fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], mag: f64) -> String {
+fn page(
+    r: &ReportInput<'_>,
+    figs: &[(String, String)],
+    pose_figs: &[String],
+    unfixed: &[String],
+    mag: f64,
+) -> String {
     let (est, data) = (r.est, r.data);
     let kin = &est.model.kin;
     let mut h = page_start(&r.title);
@@ -518,7 +520,7 @@ fn page(r: &ReportInput<'_>, figs: &[(String, String)], pose_figs: &[String], ma
     );
     results_section(&mut h, r, figs);
     if r.sphere {
-        sphere_section(&mut h, r, pose_figs);
+        sphere_section(&mut h, r, pose_figs, unfixed);
     } else {
         let _ = writeln!(
             h,

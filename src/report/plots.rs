@@ -10,6 +10,21 @@ use plotters::prelude::*;
 #[error("{0}")]
 pub struct DrawError(String);
 
+/// The mesh's tick labels and axis descriptions at the pages' text size.
+pub(crate) trait Legible {
+    /// Sets both text styles.
+    fn legible(&mut self) -> &mut Self;
+}
+
+impl<X: plotters::coord::ranged1d::Ranged, Y: plotters::coord::ranged1d::Ranged, DB: DrawingBackend>
+    Legible for plotters::chart::MeshStyle<'_, '_, X, Y, DB>
+{
+    fn legible(&mut self) -> &mut Self {
+        self.label_style(("sans-serif", TEXT))
+            .axis_desc_style(("sans-serif", TEXT))
+    }
+}
+
 /// A drawn figure's SVG text.
 pub(crate) type PlotResult = Result<String, DrawError>;
 
@@ -92,8 +107,7 @@ pub(crate) fn values_with_bars(
         let names: Vec<String> = items.iter().map(|i| i.0.clone()).collect();
         chart
             .configure_mesh()
-            .label_style(("sans-serif", TEXT))
-            .axis_desc_style(("sans-serif", TEXT))
+            .legible()
             .x_labels(n)
             .x_label_formatter(&|x| {
                 let i = x.round();
@@ -167,8 +181,7 @@ pub(crate) fn map_plot(
             .map_err(err)?;
         chart
             .configure_mesh()
-            .label_style(("sans-serif", TEXT))
-            .axis_desc_style(("sans-serif", TEXT))
+            .legible()
             .x_desc(x_desc)
             .y_label_formatter(&tick)
             .y_desc(unit)
@@ -245,8 +258,7 @@ pub(crate) fn residual_plot(groups: &[(String, Vec<(usize, f64)>)], sigma: f64) 
             .map_err(err)?;
         chart
             .configure_mesh()
-            .label_style(("sans-serif", TEXT))
-            .axis_desc_style(("sans-serif", TEXT))
+            .legible()
             .x_label_formatter(&tick)
             .y_label_formatter(&tick)
             .x_desc("point number, grouped by pose (colours: the key below)")
@@ -369,8 +381,7 @@ pub(crate) fn pose_plot(
                 .map_err(err)?;
             chart
                 .configure_mesh()
-                .label_style(("sans-serif", TEXT))
-                .axis_desc_style(("sans-serif", TEXT))
+                .legible()
                 .x_label_formatter(&tick)
                 .y_label_formatter(&tick)
                 .x_desc("mm")
@@ -560,8 +571,7 @@ pub(crate) fn time_series(p: &TimeSeries<'_>) -> PlotResult {
             .map_err(err)?;
         chart
             .configure_mesh()
-            .label_style(("sans-serif", TEXT))
-            .axis_desc_style(("sans-serif", TEXT))
+            .legible()
             .x_labels(5)
             .x_label_formatter(&|x| (p.x_label)(*x))
             .y_label_formatter(&tick)
